@@ -1,0 +1,163 @@
+"""Scenario and scenario-matrix config models (pydantic), defined once and reused by YAML, API and CLI.
+
+Every model forbids unknown keys, so an unsupported key is reported by name instead of being
+silently ignored (the reference ignored e.g. ``groups``). Free-form data goes in ``metadata``.
+Defaults are the reference (robot_sf) defaults; units in brackets.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from core.maps.model import MapDef, Point, WaitRule
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class SimulationConfig(_Strict):
+    """Crowd and episode settings of one scenario (YAML ``simulation_config``)."""
+
+    dt: float = Field(default=0.1, gt=0, le=1.0)  #: simulation step [s]
+    max_episode_steps: int = Field(default=2000, ge=1, le=100_000)  #: horizon: exactly this many steps, then timeout
+    ped_density: float = Field(default=0.01, ge=0, le=2.0)  #: peds per m^2 of spawnable area (route length x 3 m + crowded zones)
+    difficulty: int = Field(default=0, ge=0)  #: accepted for reference compatibility; density is set directly
+    max_peds_per_group: int = Field(default=3, ge=1, le=20)
+    peds_speed_mult: float = Field(default=1.3, gt=0)  #: desired speed = mult x spawn speed (0.5 m/s) -> 0.65 m/s
+    ped_speed_tier: Literal["reference", "slow", "typical", "brisk"] = "reference"  #: realistic tiers ~1.3 m/s
+    ped_radius: float = Field(default=0.4, gt=0)  #: collision radius [m]
+    goal_radius: float = Field(default=1.0, ge=0)  #: robot goal tolerance = robot radius + this [m]
+    route_spawn_distribution: Literal["cluster", "spread"] = "cluster"
+    route_spawn_jitter_frac: float = Field(default=0.0, ge=0, le=1)
+    route_spawn_seed: int | None = None  #: default: the episode seed
+    pedestrian_integration_scheme: Literal["semi_implicit_euler", "explicit_euler"] = "semi_implicit_euler"
+    zone_sampling: Literal["triangle", "full"] = "triangle"  #: triangle = the reference's half-rectangle reading
+    peds_have_obstacle_forces: bool = True
+    peds_have_robot_repulsion: bool = True
+    population_size: int | None = Field(default=None, ge=0, le=5000)  #: force an exact route+zone ped count
+
+
+class RobotConfig(_Strict):
+    """Robot kinematics (YAML ``robot_config``; ``{}`` = the reference's differential drive)."""
+
+    type: Literal["differential_drive", "holonomic"] = "differential_drive"
+    radius: float = Field(default=1.0, gt=0)  #: [m]
+    max_linear_speed: float = Field(default=2.0, gt=0)  #: [m/s]
+    max_angular_speed: float = Field(default=1.0, gt=0)  #: [rad/s]
+    max_linear_accel: float = Field(default=1.0, gt=0)  #: [m/s^2]
+    max_linear_decel: float | None = Field(default=None, gt=0)  #: [m/s^2]; None = max_linear_accel
+    max_angular_accel: float = Field(default=1.0, gt=0)  #: [rad/s^2]
+    wheel_radius: float = Field(default=0.05, gt=0)  #: [m] (reference compatibility; unused by our kinematics)
+    interaxis_length: float = Field(default=0.3, gt=0)  #: [m] (reference compatibility; unused)
+    allow_backwards: bool = False
+    actuation: Literal["tracking", "reference_lag"] = "tracking"  #: see core.sim.robot
+
+    @model_validator(mode="before")
+    @classmethod
+    def _aliases(cls, data: Any) -> Any:
+        if isinstance(data, dict):
+            data = dict(data)
+            if "model" in data and "type" not in data:
+                data["type"] = data.pop("model")
+            alias = {"diff": "differential_drive", "omni": "holonomic"}
+            if data.get("type") in alias:
+                data["type"] = alias[data["type"]]
+        return data
+
+    @property
+    def decel(self) -> float:
+        return self.max_linear_decel if self.max_linear_decel is not None else self.max_linear_accel
+
+
+class SinglePedestrianOverride(_Strict):
+    """Scenario-level override of a map's single pedestrian, matched by ``id`` (which must exist)."""
+
+    id: str
+    start: Point | None = None
+    goal: Point | None = None
+    trajectory: tuple[Point, ...] | None = None
+    speed_m_s: float | None = Field(default=None, ge=0)
+    wait_at: tuple[WaitRule, ...] | None = None
+    start_delay_s: float | None = Field(default=None, ge=0)
+    note: str | None = None
+
+
+class Scenario(_Strict):
+    """One scenario entry of a matrix: a map plus crowd, robot and seed settings."""
+
+    name: str = Field(min_length=1)
+    map_file: str | None = None
+    map_id: str | None = None
+    simulation_config: SimulationConfig = SimulationConfig()
+    robot_config: RobotConfig = RobotConfig()
+    single_pedestrians: tuple[SinglePedestrianOverride, ...] = ()
+    metadata: dict[str, Any] = Field(default_factory=dict)
+    seeds: tuple[int, ...] = (0,)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _scenario_id_alias(cls, data: Any) -> Any:
+        if isinstance(data, dict) and "scenario_id" in data and "name" not in data:
+            data = dict(data)
+            data["name"] = data.pop("scenario_id")
+        return data
+
+    @model_validator(mode="after")
+    def _has_map(self) -> Scenario:
+        if not self.map_file and not self.map_id:
+            raise ValueError("a scenario needs map_file or map_id")
+        return self
+
+    @property
+    def archetype(self) -> str:
+        """Family name for aggregation (metadata.archetype, else the name without its density suffix)."""
+        if self.metadata.get("archetype"):
+            return str(self.metadata["archetype"])
+        for suffix in ("_low", "_medium", "_high"):
+            if self.name.endswith(suffix):
+                return self.name[: -len(suffix)]
+        return self.name
+
+    @property
+    def density_label(self) -> str | None:
+        d = self.metadata.get("density")
+        return str(d) if d is not None else None
+
+
+class ResolvedScenario(BaseModel):
+    """A scenario with its map loaded and its single-pedestrian overrides applied: what the simulator runs."""
+
+    model_config = ConfigDict(frozen=True, arbitrary_types_allowed=True)
+
+    scenario: Scenario
+    map: MapDef
+    map_sha256: str | None = None  #: checksum of the map source file, for provenance
+
+    @property
+    def name(self) -> str:
+        return self.scenario.name
+
+
+class ScenarioMatrix(BaseModel):
+    """A loaded matrix: resolved scenarios in file order, plus where it came from."""
+
+    model_config = ConfigDict(frozen=True)
+
+    source: str
+    scenarios: tuple[ResolvedScenario, ...]
+    metadata: dict[str, Any] = Field(default_factory=dict)
+
+    def get(self, name: str) -> ResolvedScenario:
+        for s in self.scenarios:
+            if s.name == name:
+                return s
+        from core.errors import NotFoundError
+
+        raise NotFoundError(f"{self.source}: no scenario named {name!r} (have: {', '.join(self.names)})")
+
+    @property
+    def names(self) -> list[str]:
+        return [s.name for s in self.scenarios]

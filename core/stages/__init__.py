@@ -1,0 +1,1 @@
+"""Pipeline stages: each is ``run_<stage>(config, ctx) -> result`` over a validated config."""

@@ -1,0 +1,37 @@
+"""Shared fixtures. Tests read ../shared only through FORESIGHT_SHARED (default: ../shared next to the repo)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def shared_root() -> Path:
+    """The shared material folder: $FORESIGHT_SHARED, else ../shared beside the repository."""
+    return Path(os.environ.get("FORESIGHT_SHARED", REPO.parent / "shared")).resolve()
+
+
+@pytest.fixture(scope="session")
+def shared_dir() -> Path:
+    root = shared_root()
+    if not (root / "reference").is_dir():
+        msg = f"shared material not found at {root} (set FORESIGHT_SHARED)"
+        if os.environ.get("CI") == "true":
+            pytest.fail(msg)
+        pytest.skip(msg)
+    return root
+
+
+@pytest.fixture(scope="session")
+def reference_dir(shared_dir: Path) -> Path:
+    """The reference system's classic matrix files (robot_sf)."""
+    return shared_dir / "reference" / "robot_sf"
+
+
+@pytest.fixture(scope="session")
+def reference_matrix_path(reference_dir: Path) -> Path:
+    return reference_dir / "configs" / "scenarios" / "classic_interactions.yaml"
