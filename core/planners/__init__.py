@@ -1,0 +1,1 @@
+"""Robot controllers behind one protocol: goal-seeking, baselines and the predictive planner."""
