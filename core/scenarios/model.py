@@ -38,6 +38,7 @@ class SimulationConfig(_Strict):
     peds_have_obstacle_forces: bool = True
     peds_have_robot_repulsion: bool = True
     population_size: int | None = Field(default=None, ge=0, le=5000)  #: force an exact route+zone ped count
+    groups: float | None = Field(default=None, ge=0, le=1)  #: reference group_crossing share; read by no physics (like the reference)
 
 
 class RobotConfig(_Strict):
