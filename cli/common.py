@@ -1,0 +1,73 @@
+"""Helpers shared by the CLI's stage commands: local (in-process) execution, output, spec building."""
+
+from __future__ import annotations
+
+import json
+import sys
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel, ValidationError
+
+from core.errors import ConfigError
+from core.stages.context import StageContext
+from core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
+
+LOCAL_BUNDLE = "local"
+
+
+def matrix_ref(path: str) -> tuple[str, str, dict[str, Path]]:
+    """Turn a user's matrix path into (bundle id, bundle-relative path, local bundle roots).
+
+    A matrix inside the project's configs/ is the builtin bundle; any other file is a local bundle
+    rooted at its folder (runs in-process; the service needs it uploaded as a bundle).
+    """
+    p = Path(path).expanduser().resolve()
+    if not p.is_file():
+        raise ConfigError("matrix file not found", source=path)
+    try:
+        return BUILTIN_BUNDLE, p.relative_to(BUILTIN_CONFIG_ROOT).as_posix(), {BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT}
+    except ValueError:
+        return LOCAL_BUNDLE, p.name, {LOCAL_BUNDLE: p.parent, BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT}
+
+
+def build_config(model: type[BaseModel], values: dict[str, Any]) -> Any:
+    """Validate CLI values into the stage's config model; errors become one readable ConfigError."""
+    try:
+        return model.model_validate({k: v for k, v in values.items() if v is not None})
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        field = ".".join(str(x) for x in first["loc"]) or "spec"
+        raise ConfigError(first["msg"], source="command line", item=field) from None
+
+
+def local_context(workdir: Path | None, bundles: dict[str, Path], *, quiet: bool) -> StageContext:
+    """A StageContext for in-process runs, with a progress line on stderr unless quiet."""
+    from core.errors import NotFoundError
+
+    def resolve_bundle(ident: str) -> Path:
+        if ident not in bundles:
+            raise NotFoundError(f"unknown bundle id {ident!r} (in-process runs know {sorted(bundles)})")
+        return bundles[ident]
+
+    def progress(fraction: float, message: str) -> None:
+        if not quiet:
+            bar = "#" * int(30 * fraction)
+            print(f"\r[{bar:<30}] {100 * fraction:5.1f}% {message[:60]:<60}", end="", file=sys.stderr, flush=True)
+            if fraction >= 1.0:
+                print(file=sys.stderr)
+
+    root = workdir or Path(tempfile.mkdtemp(prefix="foresight-"))
+    root.mkdir(parents=True, exist_ok=True)
+    return StageContext(workdir=root, progress=progress, resolve_bundle=resolve_bundle)
+
+
+def emit(obj: Any, as_json: bool, text: Callable[[Any], str]) -> None:
+    """Print a result as JSON (for scripts) or as human text."""
+    if as_json:
+        data = obj.model_dump(mode="json") if isinstance(obj, BaseModel) else obj
+        print(json.dumps(data, indent=2))
+    else:
+        print(text(obj))

@@ -1,0 +1,37 @@
+"""Typed references used in stage configs: ids and bundle-relative paths, never server paths."""
+
+from __future__ import annotations
+
+from pathlib import Path, PurePosixPath
+from typing import Annotated
+
+from pydantic import AfterValidator, Field
+
+#: The project's own configs/ folder, registered by the service as bundle "builtin".
+BUILTIN_BUNDLE = "builtin"
+BUILTIN_CONFIG_ROOT = Path(__file__).resolve().parent.parent.parent / "configs"
+
+
+def _relative(value: str) -> str:
+    p = PurePosixPath(value.replace("\\", "/"))
+    if not p.parts:
+        raise ValueError("path is empty")
+    if p.is_absolute() or ".." in p.parts or value.startswith("~") or ":" in p.parts[0]:
+        raise ValueError(f"{value!r} must be a path relative to its bundle root, without '..'")
+    return p.as_posix()
+
+
+#: A path inside a config bundle (relative, no '..'): e.g. "scenarios/classic_interactions.yaml".
+BundlePath = Annotated[str, Field(min_length=1, max_length=500), AfterValidator(_relative)]
+
+#: An id of a stored object (bundle, dataset, model, job): letters, digits, '.', '_', '-', ':'.
+Ident = Annotated[str, Field(min_length=1, max_length=200, pattern=r"^[A-Za-z0-9][A-Za-z0-9._:\-]*$")]
+
+
+def resolve_in_bundle(root: Path, rel: str) -> Path:
+    """Join a bundle-relative path to its root and check it stays inside (symlinks resolved)."""
+    root = root.resolve()
+    path = (root / rel).resolve()
+    if path != root and root not in path.parents:
+        raise ValueError(f"{rel!r} escapes its bundle")
+    return path

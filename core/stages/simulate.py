@@ -1,0 +1,89 @@
+"""Stage `simulate`: run episodes of a scenario matrix with a simple controller, render and summarise.
+
+It is the simulator demo and the smallest end-to-end slice of the service (one spec, one job,
+JSON back). Heavier stages (collect, evaluate, campaign) follow the same shape.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from core.errors import ConfigError
+from core.stages.context import StageContext
+from core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident, resolve_in_bundle
+from core.version import code_version
+
+
+class SimulateConfig(BaseModel):
+    """Which episodes to run: scenarios of a matrix (default all) x seeds (default each scenario's first)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    bundle: Ident = BUILTIN_BUNDLE
+    matrix: BundlePath = "scenarios/classic_interactions.yaml"
+    scenarios: list[str] | None = Field(default=None, max_length=1000)
+    seeds: list[int] | None = Field(default=None, max_length=1000)
+    planner: Literal["goal"] = "goal"
+    render: bool = True
+
+
+class EpisodeSummary(BaseModel):
+    scenario: str
+    seed: int
+    outcome: str
+    steps: int
+    pedestrians: int
+    min_distance: float | None  #: closest robot-pedestrian centre distance [m]; None without pedestrians
+    wall_s: float
+    render: str | None = None  #: artifact name of the PNG
+
+
+class SimulateResult(BaseModel):
+    episodes: list[EpisodeSummary]
+    outcomes: dict[str, int]
+    code_version: str
+
+
+def run_simulate(config: SimulateConfig, ctx: StageContext) -> SimulateResult:
+    from core.planners.goal import GoalSeeking
+    from core.scenarios.loader import load_matrix
+    from core.sim.episode import run_episode
+
+    matrix_path = resolve_in_bundle(ctx.resolve_bundle(config.bundle), config.matrix)
+    matrix = load_matrix(matrix_path)
+    names = config.scenarios or matrix.names
+    jobs = []
+    for name in names:
+        scenario = matrix.get(name)
+        for seed in config.seeds or scenario.scenario.seeds[:1]:
+            jobs.append((scenario, seed))
+    if not jobs:
+        raise ConfigError("no episodes selected", source=config.matrix)
+    episodes = []
+    for i, (scenario, seed) in enumerate(jobs):
+        ctx.check_cancelled()
+        ctx.progress(i / len(jobs), f"{scenario.name} seed {seed}")
+        result = run_episode(scenario, seed, GoalSeeking())
+        render_name = None
+        if config.render:
+            from core.render import render_trace
+
+            render_name = f"renders/{scenario.name}--{seed}.png"
+            render_trace(result.trace, scenario.map, ctx.artifact(render_name), title=f"{scenario.name} seed {seed}")
+        episodes.append(
+            EpisodeSummary(
+                scenario=scenario.name, seed=seed, outcome=result.outcome, steps=result.steps,
+                pedestrians=int(result.trace.ped_ids.shape[1]), min_distance=result.min_distance,
+                wall_s=result.wall_s, render=render_name,
+            )
+        )
+    ctx.progress(1.0, "done")
+    outcomes: dict[str, int] = {}
+    for e in episodes:
+        outcomes[e.outcome] = outcomes.get(e.outcome, 0) + 1
+    out = SimulateResult(episodes=episodes, outcomes=outcomes, code_version=code_version())
+    ctx.artifact("simulate.json").write_text(json.dumps(out.model_dump(), indent=2))
+    return out
