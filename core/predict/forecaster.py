@@ -1,0 +1,108 @@
+"""Forecasters: what the planner calls. They keep live histories from Observations and return
+world-frame forecasts on their time base.
+
+Usage per episode: ``reset()``, then on every simulator step ``observe(obs)`` followed by
+``forecast()`` (or ``update(obs)`` for both).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from core.predict.features import ego_to_world, extract_features
+from core.predict.history import LiveHistory
+from core.predict.predictor import ConstantVelocityPredictor, Predictor
+from core.predict.timebase import TimeBase
+from core.sim.observation import Observation
+
+
+@dataclass(frozen=True)
+class Forecast:
+    ped_ids: np.ndarray  #: (N,) int64 true pedestrian ids (those present now)
+    positions: np.ndarray  #: (N, T, 2) world frame [m] at ``times``
+    times: np.ndarray  #: (T,) seconds ahead of the observation's time [s]
+    source: str  #: which predictor made it ("constant_velocity", "learned:<name>", "learned+cv_far:<name>")
+    timebase: TimeBase
+
+
+@runtime_checkable
+class Forecaster(Protocol):
+    timebase: TimeBase
+
+    def reset(self) -> None: ...
+
+    def observe(self, obs: Observation) -> None: ...
+
+    def forecast(self) -> Forecast: ...
+
+    def update(self, obs: Observation) -> Forecast: ...
+
+
+class _PredictorForecaster:
+    """Runs a Predictor on the live window's N nearest pedestrians; farther ones (if any) get CV."""
+
+    def __init__(self, predictor: Predictor, max_agents: int | None, source: str):
+        self.predictor = predictor
+        self.timebase = predictor.timebase
+        self.max_agents = max_agents
+        self.source = source
+        self.history = LiveHistory(self.timebase)
+        self._cv = ConstantVelocityPredictor(self.timebase)
+
+    def reset(self) -> None:
+        self.history.reset()
+
+    def observe(self, obs: Observation) -> None:
+        self.history.observe(obs)
+
+    def update(self, obs: Observation) -> Forecast:
+        self.observe(obs)
+        return self.forecast()
+
+    def forecast(self) -> Forecast:
+        window = self.history.window()
+        feats = extract_features(window, self.timebase, None)  # all present, closest first
+        n = len(feats.ped_ids)
+        ego = np.zeros((n, self.timebase.horizon, 2), dtype=np.float32)
+        source = self.source
+        if n:
+            k = n if self.max_agents is None else min(n, self.max_agents)
+            near = _pad(feats.features[:k], feats.mask[:k], self.max_agents)
+            ego[:k] = self.predictor.predict(near[0][None], near[1][None])[0, :k]
+            if k < n:
+                ego[k:] = self._cv.predict(feats.features[None, k:], feats.mask[None, k:])[0]
+                source = source.replace("learned:", "learned+cv_far:")
+        world = ego_to_world(ego, feats.origin, feats.heading)
+        return Forecast(feats.ped_ids.copy(), world, self.timebase.times, source, self.timebase)
+
+
+def _pad(features: np.ndarray, mask: np.ndarray, slots: int | None) -> tuple[np.ndarray, np.ndarray]:
+    """Zero-pad (k, F)/(k,) to the predictor's slot count so it sees the shapes it was trained on."""
+    if slots is None or len(mask) == slots:
+        return features, mask
+    f = np.zeros((slots, features.shape[1]), dtype=features.dtype)
+    m = np.zeros(slots, dtype=mask.dtype)
+    f[: len(mask)], m[: len(mask)] = features, mask
+    return f, m
+
+
+class ConstantVelocityForecaster(_PredictorForecaster):
+    """Every present pedestrian continues at its last observed (backward-difference) velocity."""
+
+    def __init__(self, timebase: TimeBase):
+        super().__init__(ConstantVelocityPredictor(timebase), None, "constant_velocity")
+
+
+class LearnedForecaster(_PredictorForecaster):
+    """A learned Predictor (its own time base and slot count) on the nearest pedestrians.
+
+    Pedestrians beyond the model's ``max_agents`` nearest get constant velocity, and ``source``
+    says so (``learned+cv_far:<name>``); nothing falls back silently.
+    """
+
+    def __init__(self, predictor: Predictor, max_agents: int | None = None):
+        slots = max_agents if max_agents is not None else getattr(predictor, "max_agents", None)
+        super().__init__(predictor, slots, f"learned:{predictor.name}")
