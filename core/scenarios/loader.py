@@ -285,7 +285,7 @@ class _MapResolver:
                 source=entry.file,
                 item=scenario.name,
             )
-        self._registry = MapRegistry.load(path)
+        self._registry = MapRegistry(path)
         return self._registry
 
 
