@@ -1,0 +1,134 @@
+"""ETH/UCY import (leave-one-scene-out folds) into the common dataset format.
+
+Protocol (``shared/docs/prediction-real-data.md``): a sample is one pedestrian (the focal one)
+present in H + T consecutive annotated frames (frame step 10 = 0.4 s; a frame gap breaks a
+track), sliding by one frame. Neighbours are the other pedestrians present at the current frame,
+with whatever part of the observed history they have (valid flags; never future data). Frame
+convention ``focal_pedestrian``: the focal pedestrian's current position and last observed
+displacement place the frame (observed steps only). Only the focal slot carries targets, so
+ADE/FDE over ``target_mask`` are the benchmark's per-window numbers.
+
+Leakage rules enforced here: the fold's test scene never appears in its train/val files; velocities
+are backward differences (``extract_features``); the full H-step history of the focal pedestrian is
+required.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+
+from core.errors import ConfigError, NotFoundError
+from core.predict.dataset import Dataset, DatasetMeta, EpisodeRecord
+from core.predict.features import Window, extract_features, gather_history, world_to_ego
+from core.predict.mixing import dataset_from_episodes
+from core.predict.samples import SampleArrays
+from core.predict.timebase import ETHUCY_TIMEBASE, TimeBase
+
+FOLDS = ("eth", "hotel", "univ", "zara1", "zara2")
+#: scene-file prefixes of each fold's held-out scene; they must never be in that fold's train/val
+TEST_SCENES = {"eth": ("biwi_eth",), "hotel": ("biwi_hotel",), "univ": ("students001", "students003"),
+               "zara1": ("crowds_zara01",), "zara2": ("crowds_zara02",)}
+FRAME_STEP = 10  #: frame-index units per annotation
+FRAME_DT = 0.4  #: seconds per annotation [s]
+
+
+def read_scene(path: Path) -> np.ndarray:
+    """(R, 4) rows frame, ped_id, x, y [m] of a tab/space separated file."""
+    try:
+        rows = np.loadtxt(path, dtype=np.float64, ndmin=2)
+    except ValueError as exc:
+        raise ConfigError(f"not an ETH/UCY file (frame ped_id x y): {exc}", source=path) from None
+    if rows.shape[1] != 4 or not np.isfinite(rows).all():
+        raise ConfigError(f"expected 4 finite columns, got shape {rows.shape}", source=path)
+    return rows
+
+
+def _stride(timebase: TimeBase) -> int:
+    k = round(timebase.dt / FRAME_DT)
+    if k < 1 or abs(k * FRAME_DT - timebase.dt) > 1e-6:
+        raise ConfigError(f"ETH/UCY is annotated every {FRAME_DT} s; time base dt {timebase.dt} is not a multiple",
+                          item="timebase.dt")
+    return k
+
+
+def focal_windows(rows: np.ndarray, span: int) -> Iterator[tuple[int, np.ndarray]]:
+    """(ped id, (span,) frame numbers) of every run of ``span`` consecutive annotated frames."""
+    for pid in np.unique(rows[:, 1]):
+        frames = np.sort(rows[rows[:, 1] == pid, 0].astype(np.int64))
+        gaps = np.diff(frames) != FRAME_STEP
+        breaks = np.concatenate([[0], np.cumsum(gaps)])  # run label per frame
+        for i in range(len(frames) - span + 1):
+            if breaks[i] == breaks[i + span - 1]:
+                yield int(pid), frames[i : i + span]
+
+
+def scene_samples(rows: np.ndarray, timebase: TimeBase, max_agents: int) -> SampleArrays:
+    """All focal-pedestrian windows of one scene file, on ``timebase``."""
+    k = _stride(timebase)
+    H, T = timebase.history, timebase.horizon
+    span = (H + T - 1) * k + 1
+    by_frame = {int(f): (rows[rows[:, 0] == f, 1].astype(np.int64), rows[rows[:, 0] == f, 2:4])
+                for f in np.unique(rows[:, 0])}
+    out = {n: [] for n in ("state", "target", "mask", "target_mask")}
+    for pid, frames in focal_windows(rows, span):
+        grid = frames[::k]  # H + T grid points
+        obs = [by_frame[int(f)] for f in grid[:H]]
+        ids = obs[-1][0]
+        ids = np.concatenate([[pid], ids[ids != pid]])
+        hist, valid = gather_history([o[0] for o in obs], [o[1] for o in obs], 1, H, ids)
+        d = hist[0, -1] - hist[0, -2] if H > 1 else np.zeros(2)
+        heading = float(np.arctan2(d[1], d[0])) if np.hypot(*d) > 1e-9 else 0.0
+        w = Window(np.array([*hist[0, -1], heading]), np.zeros(2), None, ids, hist, valid)
+        f = extract_features(w, timebase, max_agents)
+        future = np.array([by_frame[int(g)][1][by_frame[int(g)][0] == pid][0] for g in grid[H:]])
+        target = np.zeros((max_agents, T, 2), np.float32)
+        tmask = np.zeros((max_agents, T), np.float32)
+        target[0], tmask[0] = world_to_ego(future, f.origin, f.heading), 1.0
+        for name, value in (("state", f.features), ("mask", f.mask), ("target", target), ("target_mask", tmask)):
+            out[name].append(value)
+    n = len(out["state"])
+    if not n:
+        return SampleArrays(np.zeros((0, max_agents, 5 * H + 5), np.float32), np.zeros((0, max_agents, T, 2), np.float32),
+                            np.zeros((0, max_agents), np.float32), np.zeros((0, max_agents, T), np.float32),
+                            np.zeros(0, np.int64))
+    return SampleArrays(np.stack(out["state"]), np.stack(out["target"]), np.stack(out["mask"]),
+                        np.stack(out["target_mask"]), np.arange(n, dtype=np.int64))
+
+
+def fold_files(root: Path, fold: str) -> dict[str, list[Path]]:
+    """{split: files} of a fold folder, after checking that no test scene leaks into train/val."""
+    if fold not in FOLDS:
+        raise ConfigError(f"unknown fold {fold!r}; expected one of {', '.join(FOLDS)}", source=root, item="fold")
+    base = Path(root) / fold
+    if not base.is_dir():
+        raise NotFoundError(f"ETH/UCY fold folder {base} does not exist")
+    files = {s: sorted((base / s).glob("*.txt")) for s in ("train", "val", "test")}
+    for split in ("train", "val"):
+        for path in files[split]:
+            if path.name.startswith(TEST_SCENES[fold]):
+                raise ConfigError(f"test scene {path.stem} of fold {fold} appears in its {split} split (leakage)",
+                                  source=path, item=split)
+    for path in files["test"]:
+        if not path.name.startswith(TEST_SCENES[fold]):
+            raise ConfigError(f"{path.name} is not fold {fold}'s test scene", source=path, item="test")
+    return files
+
+
+def import_fold(root: Path, fold: str, timebase: TimeBase = ETHUCY_TIMEBASE, max_agents: int = 12,
+                splits: tuple[str, ...] = ("train", "val", "test")) -> Dataset:
+    """One dataset with the fold's train, val and test files as episodes of those splits."""
+    files = fold_files(root, fold)
+    episodes = []
+    for split in splits:
+        for path in files[split]:
+            rec = EpisodeRecord(scenario=f"{split}/{path.stem}", seed=None, split=split, role="real")
+            episodes.append((rec, scene_samples(read_scene(path), timebase, max_agents)))
+    meta = DatasetMeta(timebase=timebase, max_agents=max_agents, frame_convention="focal_pedestrian",
+                       source="real", episodes=[],
+                       generator={"kind": "ethucy", "fold": fold, "splits": list(splits),
+                                  "files": {s: [p.name for p in files[s]] for s in splits},
+                                  "frame_step": FRAME_STEP, "frame_dt": FRAME_DT, "max_agents": max_agents})
+    return dataset_from_episodes(episodes, meta)

@@ -1,0 +1,71 @@
+"""Dataset summary statistics and fail-fast checks against degenerate data.
+
+A dataset with no active targets, constant targets or pedestrians that never move trains a model
+that looks perfect (zero loss) and predicts nothing; these checks stop it before training.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from core.errors import ConfigError
+from core.predict.features import current_index
+
+
+@dataclass(frozen=True)
+class QualityLimits:
+    min_samples: int = 64
+    min_active_target_ratio: float = 0.02  #: fraction of active slots' future steps with a target
+    min_target_std: float = 1e-6  #: [m]
+    min_mean_displacement: float = 1e-3  #: mean |target[T-1] - current position| [m]
+
+
+def summarize(ds) -> dict[str, Any]:
+    """Counts, active ratios and displacement statistics (over the whole dataset and per split)."""
+    active = float(ds.mask.sum())
+    disp = _final_displacements(ds)
+    per_split = {s: int(len(ds.split_indices(s))) for s in ("train", "val", "test")}
+    eps = {s: sum(1 for e in ds.meta.episodes if e.split == s) for s in ("train", "val", "test")}
+    return {
+        "samples": len(ds),
+        "episodes": len(ds.meta.episodes),
+        "samples_per_split": per_split,
+        "episodes_per_split": eps,
+        "active_agent_ratio": float(ds.mask.mean()) if len(ds) else 0.0,
+        "active_target_ratio": float(ds.target_mask.sum() / (active * ds.target_mask.shape[-1])) if active else 0.0,
+        "target_std_m": float(ds.target[ds.target_mask > 0].std()) if ds.target_mask.any() else 0.0,
+        "final_displacement_m": {
+            "mean": float(disp.mean()) if len(disp) else 0.0,
+            "p50": float(np.percentile(disp, 50)) if len(disp) else 0.0,
+            "p95": float(np.percentile(disp, 95)) if len(disp) else 0.0,
+        },
+    }
+
+
+def _final_displacements(ds) -> np.ndarray:
+    """|target at the last step - current position| [m] of slots whose last target exists."""
+    px = current_index(ds.meta.timebase.history, "px")
+    valid = ds.target_mask[..., -1] > 0
+    return np.linalg.norm(ds.target[..., -1, :][valid] - ds.state[..., px : px + 2][valid], axis=-1)
+
+
+def check_quality(ds, source: str, limits: QualityLimits | None = None) -> dict[str, Any]:
+    """Return the summary, or raise ConfigError naming the first degenerate property."""
+    limits = limits or QualityLimits()
+    s = summarize(ds)
+    problems = [
+        (s["samples"] < limits.min_samples, "samples", f"only {s['samples']} samples (< {limits.min_samples})"),
+        (s["active_target_ratio"] <= limits.min_active_target_ratio, "target_mask",
+         f"active target ratio {s['active_target_ratio']:.4f} <= {limits.min_active_target_ratio}: no usable targets"),
+        (s["target_std_m"] <= limits.min_target_std, "target",
+         f"targets are constant (std {s['target_std_m']:.2e} m)"),
+        (s["final_displacement_m"]["mean"] <= limits.min_mean_displacement, "target",
+         f"pedestrians do not move (mean displacement {s['final_displacement_m']['mean']:.2e} m)"),
+    ]
+    for bad, item, message in problems:
+        if bad:
+            raise ConfigError(f"degenerate dataset: {message}", source=source, item=item)
+    return s

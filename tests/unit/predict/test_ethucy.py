@@ -1,0 +1,61 @@
+import numpy as np
+import pytest
+
+from core.errors import ConfigError
+from core.predict.ethucy import focal_windows, fold_files, import_fold, scene_samples
+from core.predict.features import feature_names
+from core.predict.metrics import evaluate_predictor
+from core.predict.predictor import ConstantVelocityPredictor
+from core.predict.timebase import ETHUCY_TIMEBASE, TimeBase
+
+
+def _scene(tracks):
+    rows = [(f, pid, x, y) for pid, pts in tracks.items() for f, x, y in pts]
+    return np.array(rows, dtype=float)
+
+
+def test_windows_need_consecutive_frames():
+    pts = [(f * 10, f * 0.5, 0.0) for f in range(25) if f != 12]  # gap at frame 120
+    assert [w[1][0] for w in focal_windows(_scene({1: pts}), 5)] == [0, 10, 20, 30, 40, 50, 60, 70, 130, 140, 150, 160, 170, 180, 190, 200]
+
+
+def test_observed_only_frame_and_backward_velocity():
+    tb = TimeBase(0.4, 3, 2)
+    # focal walks +x 0.4 m/step, then turns to +y in the FUTURE: the frame must not see the turn
+    focal = [(0, 0.0, 0.0), (10, 0.4, 0.0), (20, 0.8, 0.0), (30, 0.8, 0.4), (40, 0.8, 0.8)]
+    neighbour = [(20, 2.0, 1.0), (30, 9.0, 9.0)]  # only at the current frame: partial history
+    s = scene_samples(_scene({1: focal, 2: neighbour}), tb, max_agents=3)
+    assert len(s) == 1
+    names = feature_names(3)
+    f = dict(zip(names, s.state[0, 0], strict=True))
+    assert f["vx[0]"] == pytest.approx(1.0) and f["vy[0]"] == pytest.approx(0.0)  # (0.8-0.4)/0.4, not central
+    assert f["px[-2]"] == pytest.approx(-0.8) and f["valid[-2]"] == 1
+    nb = dict(zip(names, s.state[0, 1], strict=True))
+    assert (nb["px[0]"], nb["py[0]"], nb["valid[-1]"], nb["vx[0]"]) == pytest.approx((1.2, 1.0, 0.0, 0.0))
+    np.testing.assert_allclose(s.target[0, 0], [[0.0, 0.4], [0.0, 0.8]], atol=1e-6)
+    assert s.target_mask[0].tolist() == [[1, 1], [0, 0], [0, 0]]
+    assert not s.state[0, 0, -5:].any()  # no robot: ego channels zero
+
+
+def test_short_history_is_not_padded():
+    tb = TimeBase(0.4, 3, 2)
+    focal = [(0, 0.0, 0.0), (10, 0.4, 0.0), (20, 0.8, 0.0), (30, 1.2, 0.0)]  # 4 < H+T = 5 frames
+    assert len(scene_samples(_scene({1: focal}), tb, 2)) == 0
+
+
+def test_test_scene_leak_is_refused(tmp_path):
+    for split in ("train", "val", "test"):
+        (tmp_path / "zara1" / split).mkdir(parents=True)
+    (tmp_path / "zara1" / "test" / "crowds_zara01.txt").write_text("0\t1\t0\t0\n")
+    (tmp_path / "zara1" / "train" / "crowds_zara01_train.txt").write_text("0\t1\t0\t0\n")
+    with pytest.raises(ConfigError, match="leakage"):
+        fold_files(tmp_path, "zara1")
+    with pytest.raises(ConfigError, match="unknown fold"):
+        fold_files(tmp_path, "nowhere")
+
+
+def test_cv_reproduces_reference_on_hotel(shared_dir):
+    ds = import_fold(shared_dir / "reference" / "ethucy", "hotel", splits=("test",))
+    r = evaluate_predictor(ConstantVelocityPredictor(ETHUCY_TIMEBASE), ds, "test")
+    assert r["samples"] == 1197
+    assert r["ade"] == pytest.approx(0.32, abs=0.01) and r["fde"] == pytest.approx(0.61, abs=0.01)
