@@ -1,0 +1,111 @@
+"""Episode picture: the map, the robot's path coloured by time, faded pedestrian tracks, start,
+goal and the collision point.
+
+Reads only the Trace contract of docs/architecture.md (``robot`` (T+1, 5), ``ped_ids`` (T+1, N)
+with -1 for an empty slot, ``ped_pos`` (T+1, N, 2), ``dt``), so a hand-built trace renders too.
+A preallocated trace may say how far it got with an integer ``steps`` attribute; rows beyond it
+(or non-finite robot rows) are not drawn.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.collections import LineCollection
+from matplotlib.patches import Circle
+
+from core.maps.model import MapDef
+from core.render.figure import map_axes, save
+from core.render.map_view import draw_map
+
+ROBOT_CMAP = "viridis"
+PED_COLOUR = "tab:brown"  #: distinct from the blue ped routes
+COLLISION_COLOUR = "red"
+
+
+def recorded_states(trace: Any) -> int:
+    """Number of recorded states (T+1): ``steps + 1`` when the trace says, else the finite robot rows."""
+    robot = np.asarray(trace.robot, dtype=float)
+    steps = getattr(trace, "steps", None)
+    if isinstance(steps, int | np.integer) and 0 <= steps < len(robot):
+        return int(steps) + 1
+    finite = np.all(np.isfinite(robot[:, :2]), axis=1)
+    return int(np.argmin(finite)) if not finite.all() else len(robot)
+
+
+def ped_segments(ped_ids: np.ndarray, ped_pos: np.ndarray) -> np.ndarray:
+    """Track pieces (S, 2, 2) [m] between consecutive states of the same pedestrian in the same slot.
+
+    A respawned pedestrian has a new id, so no segment jumps from its old to its new position.
+    """
+    ids = np.asarray(ped_ids)
+    pos = np.asarray(ped_pos, dtype=float)
+    if ids.shape[0] < 2 or ids.shape[1] == 0:
+        return np.zeros((0, 2, 2))
+    same = (ids[1:] == ids[:-1]) & (ids[1:] >= 0)
+    t, slot = np.nonzero(same)
+    return np.stack([pos[t, slot], pos[t + 1, slot]], axis=1)
+
+
+def _draw_robot_path(ax: Axes, xy: np.ndarray, dt: float) -> LineCollection | None:
+    if len(xy) < 2:
+        return None
+    segs = np.stack([xy[:-1], xy[1:]], axis=1)
+    lc = LineCollection(segs, cmap=ROBOT_CMAP, linewidths=2.5, zorder=6)
+    lc.set_array(np.arange(len(segs)) * dt)
+    ax.add_collection(lc)
+    return lc
+
+
+def _collision_xy(robot_xy: np.ndarray, step: int | None, point: Any) -> np.ndarray | None:
+    if point is not None:
+        return np.asarray(point, dtype=float).reshape(2)
+    if step is not None and len(robot_xy):
+        return robot_xy[min(max(int(step), 0), len(robot_xy) - 1)]
+    return None
+
+
+def render_trace(
+    trace: Any,
+    mapdef: MapDef,
+    path: str | Path,
+    *,
+    title: str | None = None,
+    collision_step: int | None = None,
+    collision_point: Any = None,
+    goal: Any = None,
+    robot_radius: float = 1.0,
+) -> Path:
+    """Write the episode picture to ``path`` (.png or .svg); returns the path.
+
+    ``collision_step``/``collision_point`` default to the trace's attributes of those names when
+    present; ``goal`` [m] to the trace's ``goal``. ``robot_radius`` [m] sizes the collision circle.
+    """
+    n = recorded_states(trace)
+    robot_xy = np.asarray(trace.robot, dtype=float)[:n, :2]
+    dt = float(trace.dt)
+    collision_step = collision_step if collision_step is not None else getattr(trace, "collision_step", None)
+    collision_point = collision_point if collision_point is not None else getattr(trace, "collision_point", None)
+    goal = goal if goal is not None else getattr(trace, "goal", None)
+
+    fig, ax = map_axes(mapdef, title=title, extra_width_in=2.6)
+    draw_map(ax, mapdef, routes=True, legend=False)
+    segs = ped_segments(np.asarray(trace.ped_ids)[:n], np.asarray(trace.ped_pos)[:n])
+    if len(segs):
+        ax.add_collection(LineCollection(segs, colors=PED_COLOUR, linewidths=0.8, alpha=0.5, zorder=5, label="pedestrians"))
+    lc = _draw_robot_path(ax, robot_xy, dt)
+    if lc is not None:
+        fig.colorbar(lc, ax=ax, label="time [s]", fraction=0.04, pad=0.02)
+    if len(robot_xy):
+        ax.plot(*robot_xy[0], "o", color="tab:green", ms=9, mec="black", zorder=7, label="start")
+    if goal is not None:
+        ax.plot(*np.asarray(goal, dtype=float).reshape(2), "*", color="tab:red", ms=14, mec="black", zorder=7, label="goal")
+    hit = _collision_xy(robot_xy, collision_step, collision_point)
+    if hit is not None:
+        ax.add_patch(Circle(tuple(hit), robot_radius, fill=False, ec=COLLISION_COLOUR, lw=1.5, zorder=8))
+        ax.plot(*hit, "x", color=COLLISION_COLOUR, ms=14, mew=3, zorder=9, label="collision")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.15, 1.0), fontsize=7, frameon=False)
+    return save(fig, path)
