@@ -1,0 +1,184 @@
+"""Goal updates of the crowd each step: route following with respawn, crowded zones, scripted single peds.
+
+Each behaviour checks its trigger with a few vectorised operations per step and only drops into
+Python for the (rare) groups whose trigger fired: a waypoint reached, a respawn, a wait ending.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from core.maps.model import MapDef, SinglePedestrian
+from core.sim.population import Population
+from core.sim.zones import Validator, sample_free
+
+
+class CrowdArrays:
+    """The mutable pedestrian state shared by the behaviours and the integrator (named views, no copies)."""
+
+    def __init__(self, pop: Population):
+        self.pos = pop.pos.copy()  #: (N, 2) [m]
+        self.vel = pop.vel.copy()  #: (N, 2) [m/s]
+        self.goal = pop.goal.copy()  #: (N, 2) [m]
+        self.vmax = pop.vmax.copy()  #: (N,) [m/s]
+        self.group = pop.group  #: (N,) group index
+        self.group_size = pop.group_size  #: (G,)
+        self.ids = np.arange(len(self.pos), dtype=np.int64)  #: (N,) true ids; respawns get new ones
+        self.next_id = len(self.pos)
+
+    def centroids(self) -> np.ndarray:
+        """Group centroids (G, 2) [m]."""
+        g = len(self.group_size)
+        out = np.empty((g, 2))
+        out[:, 0] = np.bincount(self.group, weights=self.pos[:, 0], minlength=g) / self.group_size
+        out[:, 1] = np.bincount(self.group, weights=self.pos[:, 1], minlength=g) / self.group_size
+        return out
+
+    def renew_ids(self, rows: np.ndarray) -> None:
+        self.ids[rows] = np.arange(self.next_id, self.next_id + len(rows))
+        self.next_id += len(rows)
+
+
+class RouteFollowing:
+    """Group-centroid navigator over each route; at the last waypoint the group respawns at the route's start."""
+
+    def __init__(self, pop: Population, map_def: MapDef, threshold: float, zone_mode: str):
+        self.routes = map_def.ped_routes
+        self.spawn_zones = map_def.ped_spawn_zones
+        kmax = max((len(r.waypoints) for r in self.routes), default=1)
+        self.table = np.zeros((len(self.routes), kmax, 2))  #: (R, Kmax, 2) padded waypoints
+        self.last = np.array([len(r.waypoints) - 1 for r in self.routes], dtype=np.intp)  #: (R,)
+        for i, r in enumerate(self.routes):
+            self.table[i, : len(r.waypoints)] = r.waypoints
+        self.groups = pop.route_groups  #: (Gr,)
+        self.route = pop.route_of_group  #: (Gr,)
+        self.wp = pop.route_wp.copy()  #: (Gr,)
+        self.members = [np.nonzero(pop.group == g)[0] for g in self.groups]
+        self.end = self.table[self.route, self.last[self.route]]  #: (Gr, 2) constant
+        self.thr2 = threshold**2
+        self.zone_mode = zone_mode
+
+    def step(self, crowd: CrowdArrays, centroids: np.ndarray, rng: np.random.Generator, valid: Validator) -> None:
+        if len(self.groups) == 0:
+            return
+        c = centroids[self.groups]
+        at_end = ((c - self.end) ** 2).sum(axis=1) <= self.thr2
+        cur = self.table[self.route, self.wp]
+        near = (((c - cur) ** 2).sum(axis=1) <= self.thr2) & ~at_end
+        if near.any():
+            for k in np.nonzero(near)[0]:
+                self.wp[k] = min(self.wp[k] + 1, self.last[self.route[k]])
+                crowd.goal[self.members[k]] = self.table[self.route[k], self.wp[k]]
+        if at_end.any():
+            for k in np.nonzero(at_end)[0]:
+                self._respawn(k, crowd, rng, valid)
+
+    def _respawn(self, k: int, crowd: CrowdArrays, rng: np.random.Generator, valid: Validator) -> None:
+        """New positions in the route's spawn zone, goal = first waypoint, new ids; velocities kept (reference)."""
+        route = self.routes[self.route[k]]
+        rows = self.members[k]
+        crowd.pos[rows] = sample_free(self.spawn_zones[route.spawn_id], len(rows), rng, self.zone_mode, valid)
+        self.wp[k] = 0
+        crowd.goal[rows] = self.table[self.route[k], 0]
+        crowd.renew_ids(rows)
+
+
+class CrowdedZones:
+    """Groups wander inside their zone: a new goal in the zone whenever the centroid comes within the threshold."""
+
+    def __init__(self, pop: Population, map_def: MapDef, threshold: float, zone_mode: str, always_valid: Validator):
+        self.zones = map_def.ped_crowded_zones
+        self.groups = pop.zone_groups
+        self.zone = pop.zone_of_group
+        self.members = [np.nonzero(pop.group == g)[0] for g in self.groups]
+        self.first = np.array([m[0] for m in self.members], dtype=np.intp)  #: (Gz,) a member row per group
+        self.thr2 = threshold**2
+        self.zone_mode = zone_mode
+        self.valid = always_valid
+
+    def step(self, crowd: CrowdArrays, centroids: np.ndarray, rng: np.random.Generator) -> None:
+        if len(self.groups) == 0:
+            return
+        reached = ((centroids[self.groups] - crowd.goal[self.first]) ** 2).sum(axis=1) <= self.thr2
+        for k in np.nonzero(reached)[0]:
+            g = sample_free(self.zones[self.zone[k]], 1, rng, self.zone_mode, self.valid)[0]
+            crowd.goal[self.members[k]] = g
+
+
+class SingleScripts:
+    """Scripted pedestrians: start delay, goal or trajectory (0.2 m waypoint threshold) with timed waits.
+
+    Event-driven: per step only a timer check and a distance check against the watched waypoints.
+    Phases per ped: DELAY (held at start), MOVE (towards trajectory waypoint ``index``), WAIT (held at
+    it), DONE (goal set for good; the desired force brakes there, no respawn).
+    """
+
+    NEVER = np.iinfo(np.int64).max
+    DELAY, MOVE, WAIT, DONE = range(4)
+
+    def __init__(self, singles: list[SinglePedestrian], first_row: int, dt: float, threshold: float):
+        self.singles = singles
+        self.rows = np.arange(first_row, first_row + len(singles))
+        m = len(singles)
+        self.dt = dt
+        self.thr2 = threshold**2
+        self.phase = np.full(m, self.DONE)  #: (M,)
+        self.target = np.zeros((m, 2))  #: (M, 2) current trajectory waypoint [m]
+        self.wake = np.full(m, self.NEVER, dtype=np.int64)  #: (M,) step at which a delay/wait ends
+        self.index = np.zeros(m, dtype=np.intp)  #: (M,) current trajectory waypoint index
+        self.waits = [{w.waypoint_index: w.wait_s for w in sp.wait_at} for sp in singles]
+        for k, sp in enumerate(singles):
+            if sp.start_delay_s > 0:
+                self.phase[k] = self.DELAY
+                self.wake[k] = self._steps(sp.start_delay_s)
+            elif sp.goal is None and sp.trajectory:
+                self._move(k, 0, None)
+
+    def _steps(self, seconds: float) -> int:
+        return int(round(seconds / self.dt))
+
+    def _move(self, k: int, index: int, crowd: CrowdArrays | None) -> None:
+        """Head for trajectory waypoint ``index``, or finish when the trajectory is exhausted."""
+        traj = self.singles[k].trajectory
+        if index >= len(traj):
+            self.phase[k] = self.DONE
+            return
+        self.phase[k], self.index[k] = self.MOVE, index
+        self.target[k] = traj[index]
+        if crowd is not None:
+            crowd.goal[self.rows[k]] = traj[index]
+
+    def step(self, crowd: CrowdArrays, step: int) -> None:
+        if len(self.rows) == 0:
+            return
+        woke = self.wake <= step
+        if woke.any():
+            for k in np.nonzero(woke)[0]:
+                self.wake[k] = self.NEVER
+                self._wake(k, crowd)
+        moving = self.phase == self.MOVE
+        if moving.any():
+            d2 = ((crowd.pos[self.rows] - self.target) ** 2).sum(axis=1)
+            for k in np.nonzero(moving & (d2 <= self.thr2))[0]:
+                self._reached(k, crowd, step)
+
+    def _wake(self, k: int, crowd: CrowdArrays) -> None:
+        sp = self.singles[k]
+        if self.phase[k] == self.WAIT:
+            self._move(k, int(self.index[k]) + 1, crowd)
+        elif sp.goal is not None:
+            crowd.goal[self.rows[k]] = sp.goal
+            self.phase[k] = self.DONE
+        else:
+            self._move(k, 0, crowd)
+
+    def _reached(self, k: int, crowd: CrowdArrays, step: int) -> None:
+        wait = self.waits[k].get(int(self.index[k]), 0.0)
+        if wait > 0:
+            row = self.rows[k]
+            crowd.goal[row] = crowd.pos[row]
+            crowd.vel[row] = 0.0
+            self.phase[k] = self.WAIT
+            self.wake[k] = step + self._steps(wait)
+        else:
+            self._move(k, int(self.index[k]) + 1, crowd)

@@ -1,0 +1,104 @@
+"""One crowd step: sum the social-force terms, integrate with a per-ped speed cap, keep peds out of walls.
+
+Per-episode constants (intra-group pairs, the neighbour cutoff, segment arrays) are computed once
+at construction so that a step is a short sequence of fused array operations.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from core.sim import forces
+from core.sim.behaviours import CrowdArrays
+from core.sim.geometry import SegmentSet
+from core.sim.neighbours import all_pairs, cell_pairs
+from core.sim.params import CrowdParams, ForceParams
+from core.sim.walls import constrain_moves
+
+
+def _group_pairs(group: np.ndarray, size: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Ordered same-group pairs (i, j), i != j, as two int arrays (groups never change members)."""
+    rows = np.nonzero(size[group] >= 2)[0]
+    if len(rows) == 0:
+        return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
+    i, j = np.meshgrid(rows, rows, indexing="ij")
+    same = (group[i] == group[j]) & (i != j)
+    return i[same], j[same]
+
+
+class CrowdDynamics:
+    """Forces and integration for a fixed set of N pedestrians on one static map."""
+
+    def __init__(
+        self, crowd: CrowdArrays, walls: SegmentSet, params: ForceParams, crowd_params: CrowdParams, *,
+        dt: float, robot_radius: float, obstacle_forces: bool, robot_repulsion: bool, semi_implicit: bool,
+    ):
+        self.c = crowd
+        self.walls = walls
+        self.p = params
+        self.cp = crowd_params
+        self.dt = dt
+        self.robot_radius = robot_radius
+        self.obstacle_forces = obstacle_forces and len(walls) > 0
+        self.robot_repulsion = robot_repulsion
+        self.semi_implicit = semi_implicit
+        n = len(crowd.pos)
+        self.n = n
+        self.cutoff = params.social_cutoff(float(crowd.vmax.max()) if n else 0.0)  #: ped-ped cutoff [m]
+        self.dense = n <= crowd_params.dense_pair_limit
+        self.gi, self.gj = _group_pairs(crowd.group, crowd.group_size)
+        self.has_groups = bool((crowd.group_size >= 2).any())
+        self.wall_constraint = crowd_params.wall_constraint and len(walls) > 0
+
+    def pairs(self) -> tuple[np.ndarray, np.ndarray]:
+        """Candidate neighbour pairs for the ped-ped force (all pairs, or a cell list for large crowds)."""
+        return all_pairs(self.n) if self.dense else cell_pairs(self.c.pos, self.cutoff)
+
+    def total_force(self, robot_xy: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """Sum of all active terms (N, 2) [m/s^2], plus each ped's wall clearance (N,) when computed."""
+        c, p = self.c, self.p
+        f = forces.desired_force(c.pos, c.vel, c.goal, c.vmax, p)
+        i, j = self.pairs()
+        f += forces.social_force(c.pos, c.vel, i, j, p, self.cutoff)
+        clearance = None
+        if self.obstacle_forces:
+            off, dist = self.walls.offsets(c.pos)
+            f += forces.obstacle_force_from_offsets(off, dist, p)
+            clearance = dist.min(axis=1)
+        if self.has_groups:
+            f += forces.group_coherence_force(c.pos, c.group, c.group_size, p)
+            f += forces.group_repulsion_force(c.pos, self.gi, self.gj, p)
+            f += forces.group_gaze_force(c.pos, c.goal, c.group, c.group_size, p)
+        if self.robot_repulsion:
+            f += forces.robot_force(c.pos, robot_xy, self.robot_radius, p)
+        return f, clearance
+
+    def step(self, robot_xy: np.ndarray) -> None:
+        """Advance all pedestrians by dt (robot at its pose before it moves, as the reference)."""
+        if self.n == 0:
+            return
+        c = self.c
+        f, clearance = self.total_force(robot_xy)
+        v = c.vel + self.dt * f
+        speed = np.sqrt(v[:, 0] ** 2 + v[:, 1] ** 2)
+        scale = np.where(speed > c.vmax, c.vmax / np.where(speed > 0, speed, 1.0), 1.0)
+        v *= scale[:, None]
+        new = c.pos + self.dt * (v if self.semi_implicit else c.vel)
+        if self.wall_constraint:
+            new, v = self._constrain(new, v, clearance)
+        c.pos, c.vel = new, v
+
+    def _constrain(self, new: np.ndarray, v: np.ndarray, clearance: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """Apply the wall constraint to the peds that could reach a segment in this step."""
+        c = self.c
+        move = new - c.pos
+        reach = np.sqrt(move[:, 0] ** 2 + move[:, 1] ** 2)
+        if clearance is None:
+            clearance = self.walls.distance(c.pos)
+        near = np.nonzero(clearance <= reach + 2 * self.cp.wall_clearance)[0]
+        if len(near) == 0:
+            return new, v
+        fixed, fv = constrain_moves(self.walls, c.pos[near], new[near], v[near], self.cp.wall_clearance)
+        new[near] = fixed
+        v[near] = fv
+        return new, v

@@ -1,0 +1,103 @@
+"""Static geometry of one map as precomputed arrays: segments, polygon tests and distance queries.
+
+Built once per episode (the map never changes), so every per-step query is a handful of fused
+numpy operations over (N, S) arrays. Segments are obstacle edges plus the four map bounds, as in
+the reference (pedestrians feel both, the robot collides with both).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from core.maps.model import MapDef
+
+
+class SegmentSet:
+    """Segments (S, 4) x1, y1, x2, y2 [m] with their start points, direction vectors and 1/|d|^2."""
+
+    def __init__(self, segments: np.ndarray):
+        self.segments = np.ascontiguousarray(segments, dtype=float).reshape(-1, 4)
+        self.start = self.segments[:, :2].copy()  #: (S, 2)
+        self.dir = self.segments[:, 2:] - self.start  #: (S, 2)
+        len2 = np.einsum("sk,sk->s", self.dir, self.dir)
+        self.inv_len2 = np.where(len2 > 0, 1.0 / np.where(len2 > 0, len2, 1.0), 0.0)  #: (S,)
+
+    def __len__(self) -> int:
+        return len(self.segments)
+
+    def offsets(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Vectors from the nearest point of each segment to each point, (..., S, 2), and their lengths (..., S).
+
+        The foot of the perpendicular when it falls inside the segment, else the nearer endpoint
+        (the reference's rule); degenerate segments reduce to their point.
+        """
+        rel = points[..., None, :] - self.start  # (..., S, 2)
+        t = np.clip((rel[..., 0] * self.dir[:, 0] + rel[..., 1] * self.dir[:, 1]) * self.inv_len2, 0.0, 1.0)
+        off = rel - t[..., None] * self.dir
+        return off, np.sqrt(off[..., 0] ** 2 + off[..., 1] ** 2)
+
+    def distance(self, points: np.ndarray) -> np.ndarray:
+        """Distance [m] from each point (..., 2) to the nearest segment, shape (...)."""
+        points = np.asarray(points, dtype=float)
+        if len(self.segments) == 0:
+            return np.full(points.shape[:-1], np.inf)
+        return self.offsets(points)[1].min(axis=-1)
+
+    def crossings(self, p: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Where the moves p -> q (K, 2) cross a segment: fraction t (K, S) along the move (inf = none) and hit mask.
+
+        A move crosses when it starts strictly on one side of the segment's line and ends on the
+        other side or on it, and the segment's end points lie on both sides of the move's line.
+        """
+        r = q - p  # (K, 2)
+        rel = p[:, None, :] - self.start  # (K, S, 2)
+        d = self.dir
+        side_p = d[:, 0] * rel[..., 1] - d[:, 1] * rel[..., 0]  # (K, S)
+        rel_q = rel + r[:, None, :]
+        side_q = d[:, 0] * rel_q[..., 1] - d[:, 1] * rel_q[..., 0]
+        # segment end points relative to the move's line
+        a = r[:, None, 0] * (-rel[..., 1]) - r[:, None, 1] * (-rel[..., 0])
+        b = r[:, None, 0] * (d[:, 1] - rel[..., 1]) - r[:, None, 1] * (d[:, 0] - rel[..., 0])
+        hit = (side_p != 0) & (side_p * side_q <= 0) & (a * b <= 0)
+        denom = side_p - side_q
+        t = np.where(hit, side_p / np.where(denom != 0, denom, 1.0), np.inf)
+        return t, hit
+
+
+def points_in_polygons(points: np.ndarray, polygons: list[np.ndarray]) -> np.ndarray:
+    """Even-odd test: True where a point (K, 2) lies inside any polygon (list of (V, 2) arrays), shape (K,)."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    inside_any = np.zeros(len(points), dtype=bool)
+    x, y = points[:, 0:1], points[:, 1:2]
+    for poly in polygons:
+        x1, y1 = poly[:, 0], poly[:, 1]
+        x2, y2 = np.roll(x1, -1), np.roll(y1, -1)
+        straddle = (y1 > y) != (y2 > y)  # (K, V)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x_cross = x1 + (y - y1) * (x2 - x1) / (y2 - y1)
+        inside = (straddle & (x < x_cross)).sum(axis=1) % 2 == 1
+        inside_any |= inside
+    return inside_any
+
+
+class StaticMap:
+    """The ``StaticGeometry`` of observations plus what the simulator needs: polygons and bounds."""
+
+    def __init__(self, map_def: MapDef):
+        self.width = float(map_def.width)
+        self.height = float(map_def.height)
+        self.polygons = [np.asarray(p, dtype=float) for p in map_def.obstacles]
+        self.segments = np.ascontiguousarray(map_def.all_segments, dtype=float)  #: (S, 4) obstacles + bounds
+        self.walls = SegmentSet(self.segments)
+        # obstacle edges only (the bounding box test covers the bounds cheaply)
+        self.obstacle_walls = SegmentSet(map_def.obstacle_segments)
+
+    def distance(self, points: np.ndarray) -> np.ndarray:
+        """Distance [m] from each point (..., 2) to the nearest obstacle edge or map bound, shape (...)."""
+        return self.walls.distance(points)
+
+    def inside_obstacle(self, points: np.ndarray) -> np.ndarray:
+        """True where a point (K, 2) is inside an obstacle polygon or outside the map, shape (K,)."""
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        out = (points[:, 0] < 0) | (points[:, 0] > self.width) | (points[:, 1] < 0) | (points[:, 1] > self.height)
+        return out | points_in_polygons(points, self.polygons)

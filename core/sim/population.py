@@ -1,0 +1,239 @@
+"""The initial crowd of an episode: how many pedestrians, in which groups, where and how fast (reference §1.3-1.4).
+
+Row order is the reference's: crowded-zone peds, then route peds, then single peds. Every group
+(single peds are groups of one) gets a group index; behaviours address groups through these indices.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from core.errors import ConfigError
+from core.maps.model import MapDef, SinglePedestrian
+from core.scenarios.model import SimulationConfig
+from core.sim.params import TIER_MEANS, CrowdParams
+from core.sim.zones import RouteGeometry, Validator, sample_free, sample_zone
+
+
+@dataclass
+class Population:
+    """Initial pedestrian arrays (N rows) and the group bookkeeping the behaviours need."""
+
+    pos: np.ndarray  #: (N, 2) [m]
+    vel: np.ndarray  #: (N, 2) [m/s]
+    goal: np.ndarray  #: (N, 2) [m]
+    vmax: np.ndarray  #: (N,) desired = maximum speed [m/s]
+    group: np.ndarray  #: (N,) group index
+    group_size: np.ndarray  #: (G,) float, members per group
+    route_groups: np.ndarray  #: (Gr,) group indices following routes
+    route_of_group: np.ndarray  #: (Gr,) route index into the map's ped routes
+    route_wp: np.ndarray  #: (Gr,) index of the waypoint each route group heads for
+    zone_groups: np.ndarray  #: (Gz,) group indices in crowded zones
+    zone_of_group: np.ndarray  #: (Gz,) crowded-zone index
+    singles: list[SinglePedestrian] = field(default_factory=list)  #: scripted peds, rows N - len(singles) ...
+
+    @property
+    def n(self) -> int:
+        return len(self.pos)
+
+
+def population_counts(map_def: MapDef, cfg: SimulationConfig, crowd: CrowdParams) -> tuple[int, int]:
+    """(zone peds, route peds) from density: ceil(zone area x density), ceil(route length x width x density)."""
+    has_zones, has_routes = bool(map_def.ped_crowded_zones), bool(map_def.ped_routes)
+    if cfg.population_size is not None:
+        total = cfg.population_size
+        if has_zones and has_routes:
+            return total // 2, total - total // 2
+        if has_zones:
+            return total, 0
+        if has_routes or total == 0:
+            return 0, total
+        raise ConfigError(f"population_size {total} needs ped routes or crowded zones in map {map_def.name!r}")
+    area = sum(z.area for z in map_def.ped_crowded_zones)
+    length = sum(r.length for r in map_def.ped_routes)
+    return math.ceil(area * cfg.ped_density), math.ceil(length * crowd.sidewalk_width * cfg.ped_density)
+
+
+def group_sizes(n: int, max_size: int, rng: np.random.Generator, decay: float) -> list[int]:
+    """Group sizes summing to n, drawn i.i.d. with P(k) ~ decay^(k - 1); the last group is truncated."""
+    if n <= 0:
+        return []
+    p = decay ** np.arange(max_size)
+    p /= p.sum()
+    draws = rng.choice(np.arange(1, max_size + 1), size=n, p=p)  # n draws always suffice
+    sizes, total = [], 0
+    for k in draws:
+        k = int(min(k, n - total))
+        sizes.append(k)
+        total += k
+        if total == n:
+            break
+    return sizes
+
+
+def desired_speeds(n: int, cfg: SimulationConfig, crowd: CrowdParams, rng: np.random.Generator) -> np.ndarray:
+    """Per-ped desired speed (n,) [m/s]: peds_speed_mult x spawn speed, or a clipped normal speed tier."""
+    if cfg.ped_speed_tier == "reference":
+        return np.full(n, cfg.peds_speed_mult * crowd.spawn_speed)
+    v = rng.normal(TIER_MEANS[cfg.ped_speed_tier], crowd.tier_std, size=n)
+    return np.clip(v, *crowd.tier_clip)
+
+
+def _rows(parts: list[np.ndarray]) -> np.ndarray:
+    """Stack (k, 2) blocks and (2,) rows into one (N, 2) float array (empty -> (0, 2))."""
+    return np.concatenate([np.reshape(p, (-1, 2)) for p in parts]) if parts else np.zeros((0, 2))
+
+
+def _toward(points: np.ndarray, goal: np.ndarray, speed: np.ndarray) -> np.ndarray:
+    """Velocities (K, 2) of magnitude speed (K,) from the points' centroid towards goal."""
+    d = goal - points.mean(axis=0)
+    n = float(np.hypot(*d))
+    e = d / n if n > 0 else np.zeros(2)
+    return speed[:, None] * e
+
+
+def _cluster_members(
+    anchor: np.ndarray, k: int, rng: np.random.Generator, crowd: CrowdParams, valid: Validator
+) -> np.ndarray | None:
+    """k points around an anchor, world-axis normal offsets shrinking with failed attempts (None = give up)."""
+    members: list[np.ndarray] = []
+    max_attempts = 50 * k
+    for attempt in range(max_attempts):
+        scale = max(0.2, 1.0 - attempt / max_attempts)
+        off = np.clip(rng.normal(0.0, crowd.cluster_std * scale, 2), -crowd.cluster_clip, crowd.cluster_clip)
+        cand = anchor + off
+        if valid(cand[None])[0]:
+            members.append(cand)
+            if len(members) == k:
+                return np.asarray(members)
+    return None
+
+
+def _route_anchors(
+    sizes: list[int], routes: list[RouteGeometry], cfg: SimulationConfig, rng: np.random.Generator
+) -> list[tuple[int, float]]:
+    """(route, arc offset) per group: length-weighted routes; uniform (cluster) or evenly spaced (spread) offsets."""
+    lengths = np.array([r.length for r in routes])
+    p = lengths / lengths.sum()
+    choice = rng.choice(len(routes), size=len(sizes), p=p)
+    if cfg.route_spawn_distribution == "cluster":
+        return [(int(r), float(rng.uniform(0, routes[r].length))) for r in choice]
+    out: list[tuple[int, float]] = [(0, 0.0)] * len(sizes)
+    for r in range(len(routes)):
+        members = np.nonzero(choice == r)[0]
+        if len(members) == 0:
+            continue
+        spacing = routes[r].length / len(members)
+        jitter = rng.uniform(-1, 1, size=len(members)) * cfg.route_spawn_jitter_frac * spacing
+        for k, g in enumerate(members):
+            out[g] = (r, float(np.clip((k + 0.5) * spacing + jitter[k], 0, routes[r].length)))
+    return out
+
+
+def spawn_route_groups(
+    sizes: list[int], routes: list[RouteGeometry], cfg: SimulationConfig, crowd: CrowdParams,
+    rng: np.random.Generator, valid: Validator,
+) -> list[tuple[np.ndarray, int, int]]:
+    """Per group: member positions (k, 2), route index, index of the waypoint ending the anchor's section."""
+    out = []
+    anchors = _route_anchors(sizes, routes, cfg, rng)
+    for k, (r, s) in zip(sizes, anchors, strict=True):
+        for _ in range(5):
+            anchor, section = routes[r].point_at(s)
+            members = _cluster_members(anchor, k, rng, crowd, valid)
+            if members is not None:
+                out.append((members, r, section + 1))
+                break
+            s = float(rng.uniform(0, routes[r].length))
+        else:
+            raise ConfigError(f"could not place a group of {k} along ped route {r} (obstacles or robot in the way)")
+    return out
+
+
+def single_start(sp: SinglePedestrian) -> tuple[np.ndarray, np.ndarray]:
+    """Initial goal and spawn velocity of a scripted pedestrian (reference §1.4)."""
+    start = np.asarray(sp.start, dtype=float)
+    target = None
+    if sp.start_delay_s <= 0:
+        if sp.goal is not None:
+            target = np.asarray(sp.goal, dtype=float)
+        elif sp.trajectory:
+            target = np.asarray(sp.trajectory[0], dtype=float)
+    if target is None:
+        return start, np.zeros(2)
+    d = target - start
+    n = float(np.hypot(*d))
+    return target, (sp.speed_m_s * d / n if n > 0 else np.zeros(2))
+
+
+def build_population(
+    map_def: MapDef, cfg: SimulationConfig, crowd: CrowdParams,
+    rng: np.random.Generator, spread_rng: np.random.Generator, valid: Validator,
+) -> Population:
+    """Spawn the whole crowd: crowded-zone groups, route groups, then single peds.
+
+    ``valid`` rejects candidate points (inside obstacles, or too close to the robot's start);
+    ``spread_rng`` drives route placement in ``spread`` mode (the reference's route_spawn_seed).
+    """
+    n_zone, n_route = population_counts(map_def, cfg, crowd)
+    zone_sizes = group_sizes(n_zone, cfg.max_peds_per_group, rng, crowd.group_size_decay)
+    pos, goal, group, zone_of_group = [], [], [], []
+    gidx = 0
+    if zone_sizes:
+        zones = map_def.ped_crowded_zones
+        areas = np.array([z.area for z in zones])
+        for k in zone_sizes:
+            z = int(rng.choice(len(zones), p=areas / areas.sum()))
+            pos.append(sample_free(zones[z], k, rng, cfg.zone_sampling, valid, what="crowded zone"))
+            goal.append(np.repeat(sample_free(zones[z], 1, rng, cfg.zone_sampling, valid), k, axis=0))
+            group += [gidx] * k
+            zone_of_group.append(z)
+            gidx += 1
+    zone_groups = np.arange(gidx)
+    route_sizes = group_sizes(n_route, cfg.max_peds_per_group, rng, crowd.group_size_decay)
+    routes = [RouteGeometry(r) for r in map_def.ped_routes]
+    placement_rng = spread_rng if cfg.route_spawn_distribution == "spread" else rng
+    placed = spawn_route_groups(route_sizes, routes, cfg, crowd, placement_rng, valid) if route_sizes else []
+    route_of_group, route_wp = [], []
+    for members, r, wp in placed:
+        pos.append(members)
+        goal.append(np.repeat(routes[r].points[wp][None], len(members), axis=0))
+        group += [gidx] * len(members)
+        route_of_group.append(r)
+        route_wp.append(wp)
+        gidx += 1
+    route_groups = np.arange(len(zone_groups), gidx)
+    n_crowd = sum(len(p) for p in pos)
+    vmax = desired_speeds(n_crowd, cfg, crowd, rng)
+    vel = np.zeros((n_crowd, 2))
+    start = 0
+    for p, g in zip(pos, goal, strict=True):
+        sl = slice(start, start + len(p))
+        vel[sl] = _toward(p, g[0], vmax[sl] / cfg.peds_speed_mult)
+        start += len(p)
+    singles = list(map_def.single_pedestrians)
+    s_pos, s_goal, s_vel = [], [], []
+    for sp in singles:
+        tgt, v0 = single_start(sp)
+        s_pos.append(np.asarray(sp.start, dtype=float))
+        s_goal.append(tgt)
+        s_vel.append(v0)
+        group.append(gidx)
+        gidx += 1
+    # the reference's bug fix: a single ped's desired speed is its scripted speed, even when it spawns at rest
+    s_vmax = np.array([cfg.peds_speed_mult * sp.speed_m_s for sp in singles])
+    group_arr = np.asarray(group, dtype=np.intp)
+    return Population(
+        pos=_rows([*pos, *s_pos]), vel=np.concatenate([vel, _rows(s_vel)]),
+        goal=_rows([*goal, *s_goal]), vmax=np.concatenate([vmax, s_vmax]),
+        group=group_arr, group_size=np.bincount(group_arr, minlength=gidx).astype(float),
+        route_groups=route_groups, route_of_group=np.asarray(route_of_group, dtype=np.intp),
+        route_wp=np.asarray(route_wp, dtype=np.intp), zone_groups=zone_groups,
+        zone_of_group=np.asarray(zone_of_group, dtype=np.intp), singles=singles,
+    )
+
+
+__all__ = ["Population", "build_population", "population_counts", "group_sizes", "sample_zone"]

@@ -1,0 +1,171 @@
+"""The simulator: reset a resolved scenario with a seed, then step it with (v, omega) commands.
+
+Order of one step (reference §1.6, §10.1): pedestrian behaviours (goal updates, respawns) ->
+pedestrian forces with the robot at its old pose -> pedestrian integration -> robot kinematics ->
+waypoint update -> collision, goal and timeout checks on the new positions -> trace row ->
+observation. All randomness comes from generators spawned from
+``SeedSequence([seed, stable hash of the scenario name])``; no global RNG is touched, so the same
+(scenario, seed, commands) gives a bit-identical trace.
+"""
+
+from __future__ import annotations
+
+import hashlib
+
+import numpy as np
+
+from core.errors import CoreError
+from core.scenarios.model import ResolvedScenario
+from core.sim.behaviours import CrowdArrays, CrowdedZones, RouteFollowing, SingleScripts
+from core.sim.collision import ped_contact, static_contact
+from core.sim.crowd import CrowdDynamics
+from core.sim.geometry import StaticMap
+from core.sim.navigation import RobotRoute, sample_robot_route
+from core.sim.observation import Events, Observation
+from core.sim.params import CrowdParams, ForceParams
+from core.sim.population import build_population
+from core.sim.robot import RobotLimits, robot_step
+from core.sim.trace import Trace
+from core.version import code_version
+
+_NO_EVENT = Events()
+
+
+def stable_hash(text: str) -> int:
+    """A 64-bit hash of a string that is the same in every process (unlike ``hash``)."""
+    return int.from_bytes(hashlib.sha256(text.encode()).digest()[:8], "little")
+
+
+def episode_generators(name: str, seed: int, n: int) -> list[np.random.Generator]:
+    """n independent generators for one (scenario, seed) episode."""
+    ss = np.random.SeedSequence([int(seed) & 0xFFFFFFFFFFFFFFFF, stable_hash(name)])
+    return [np.random.Generator(np.random.PCG64(s)) for s in ss.spawn(n)]
+
+
+class Simulator:
+    """Social-force crowd plus one robot on a static map; ``reset`` then ``step`` until ``Events.done``."""
+
+    def __init__(self, force_params: ForceParams | None = None, crowd_params: CrowdParams | None = None):
+        self.force_params = force_params or ForceParams()
+        self.crowd_params = crowd_params or CrowdParams()
+        self._static_cache: tuple[object, StaticMap] | None = None
+        self._trace: Trace | None = None
+        self.done = True
+
+    @property
+    def trace(self) -> Trace:
+        if self._trace is None:
+            raise CoreError("no episode yet: call reset() first")
+        return self._trace
+
+    def _static(self, scenario: ResolvedScenario) -> StaticMap:
+        if self._static_cache is None or self._static_cache[0] is not scenario.map:
+            self._static_cache = (scenario.map, StaticMap(scenario.map))
+        return self._static_cache[1]
+
+    def reset(self, scenario: ResolvedScenario, seed: int, *, max_steps: int | None = None) -> Observation:
+        """Start an episode: robot route, crowd, empty trace; returns the observation at step 0."""
+        cfg, rcfg, map_def = scenario.scenario.simulation_config, scenario.scenario.robot_config, scenario.map
+        self.scenario, self.seed, self.cfg = scenario, int(seed), cfg
+        self.static = self._static(scenario)
+        self.dt = cfg.dt
+        self.horizon = int(max_steps if max_steps is not None else cfg.max_episode_steps)
+        self.limits = RobotLimits.from_config(rcfg)
+        self.limits_dict = self.limits.as_dict()
+        self.ped_radius = cfg.ped_radius
+        robot_rng, pop_rng, spread_rng, self.rng = episode_generators(scenario.name, seed, 4)
+        if cfg.route_spawn_seed is not None:
+            spread_rng = episode_generators(scenario.name, cfg.route_spawn_seed, 4)[2]
+        self.clear = self.limits.radius + cfg.ped_radius + self.crowd_params.robot_spawn_margin
+        singles = np.array([sp.start for sp in map_def.single_pedestrians], dtype=float).reshape(-1, 2)
+        self.route: RobotRoute = sample_robot_route(
+            map_def, robot_rng, self.limits.radius + cfg.goal_radius, cfg.zone_sampling,
+            lambda pts: self._free(pts, singles),
+        )
+        self.route.waypoints.flags.writeable = False
+        self.robot = np.array([*self.route.start, self.route.heading, 0.0, 0.0])
+        pop = build_population(map_def, cfg, self.crowd_params, pop_rng, spread_rng,
+                               lambda pts: self._free(pts, self.robot[None, :2]))
+        self._build_crowd(pop, map_def)
+        self._trace = Trace(self.horizon, pop.n, dt=self.dt, scenario=scenario.name, seed=seed,
+                            meta={"code_version": code_version(), "map": map_def.name, "n_peds": pop.n})
+        self.t = 0
+        self.done = False
+        self.min_ped_distance = np.inf
+        self._record()
+        return self._observation()
+
+    def _free(self, pts: np.ndarray, avoid: np.ndarray) -> np.ndarray:
+        """Accept points outside obstacles and farther than collision distance + margin from ``avoid`` (K, 2)."""
+        ok = ~self.static.inside_obstacle(pts)
+        if len(avoid):
+            d2 = ((pts[:, None, :] - avoid[None, :, :]) ** 2).sum(axis=2).min(axis=1)
+            ok &= d2 > self.clear**2
+        return ok
+
+    def _build_crowd(self, pop, map_def) -> None:
+        cfg, cp = self.cfg, self.crowd_params
+        self.crowd = CrowdArrays(pop)
+        self.routes = RouteFollowing(pop, map_def, cp.route_threshold, cfg.zone_sampling)
+        self.zones = CrowdedZones(pop, map_def, cp.route_threshold, cfg.zone_sampling,
+                                  lambda pts: ~self.static.inside_obstacle(pts))
+        self.singles = SingleScripts(pop.singles, pop.n - len(pop.singles), self.dt, cp.single_threshold)
+        self.has_groups = len(self.routes.groups) + len(self.zones.groups) > 0
+        self.dynamics = CrowdDynamics(
+            self.crowd, self.static.walls, self.force_params, cp, dt=self.dt, robot_radius=self.limits.radius,
+            obstacle_forces=cfg.peds_have_obstacle_forces, robot_repulsion=cfg.peds_have_robot_repulsion,
+            semi_implicit=cfg.pedestrian_integration_scheme == "semi_implicit_euler",
+        )
+
+    def step(self, command) -> tuple[Observation, Events]:
+        """Apply one command ((v [m/s], omega [rad/s]); (vx, vy) for a holonomic robot) for dt."""
+        if self.done:
+            raise CoreError("the episode is over (or was never started): call reset()")
+        cmd = np.asarray(command, dtype=float).reshape(2)
+        if self.has_groups:
+            cent = self.crowd.centroids()
+            self.routes.step(self.crowd, cent, self.rng, lambda pts: self._free(pts, self.robot[None, :2]))
+            self.zones.step(self.crowd, cent, self.rng)
+        self.singles.step(self.crowd, self.t)
+        self.dynamics.step(self.robot[:2])
+        self.robot = robot_step(self.robot, cmd, self.limits, self.dt)
+        reached = self.route.advance(self.robot)
+        self._trace.record_command(self.t, cmd)
+        self.t += 1
+        self._record()
+        events = self._events(reached)
+        if events.done:
+            self.done = True
+            self._trace.outcome = events.outcome or ""
+        return self._observation(), events
+
+    def _events(self, reached: bool) -> Events:
+        xy = self.robot[:2]
+        contact, dmin = ped_contact(xy, self.limits.radius, self.crowd.pos, self.ped_radius)
+        self.min_ped_distance = min(self.min_ped_distance, dmin)
+        if contact is None:
+            contact = static_contact(xy, self.limits.radius, self.static.walls, self.static.width, self.static.height)
+        if contact is not None:
+            tr = self._trace
+            tr.collision_step, tr.collision_kind, tr.collision_point = self.t, contact.kind, contact.point
+            return Events(collision=contact.kind)
+        if reached:
+            return Events(goal_reached=True)
+        if self.t >= self.horizon:
+            return Events(timeout=True)
+        return _NO_EVENT
+
+    def _record(self) -> None:
+        c = self.crowd
+        self._trace.record_state(self.t, self.robot, c.ids, c.pos, c.vel)
+
+    def _observation(self) -> Observation:
+        robot, ids, pos, vel = self._trace.row(self.t)
+        route = self.route
+        return Observation(
+            step=self.t, time=self.t * self.dt, dt=self.dt, robot_pose=robot[:3], robot_velocity=robot[3:],
+            robot_radius=self.limits.radius, waypoint=route.waypoints[route.index], goal=route.waypoints[-1],
+            route=route.waypoints[route.index:], goal_tolerance=route.tolerance, ped_ids=ids,
+            ped_positions=pos, ped_velocities=vel, ped_radius=self.ped_radius, static=self.static,
+            robot_limits=self.limits_dict,
+        )
