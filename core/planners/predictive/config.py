@@ -1,0 +1,209 @@
+"""Typed configuration of the predictive planner, and the mapping from the reference planner grid.
+
+Every distance is a *margin on top of the true collision geometry* (robot radius + pedestrian
+radius from the observation, robot radius vs. static edges): the reference planned with 0.25 m
+radii against a 1.0 m robot, which is why its clearance terms were blind to real contacts.
+Speeds are ratios of the robot's own limits, so one config serves every robot.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from core.errors import ConfigError
+
+
+class _Frozen(BaseModel):
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+
+class SamplingConfig(_Frozen):
+    """Candidate commands of the first segment, sampled directly in (v, omega)."""
+
+    speed_ratios: tuple[float, ...] = (0.0, 0.25, 0.5, 0.75, 1.0)  #: of the robot's max linear speed
+    turn_rate_count: int = Field(default=9, ge=3, le=41)  #: evenly spaced turn rates over [-w_max, w_max]
+    turn_rates: tuple[float, ...] = ()  #: extra turn rates [rad/s], clipped to +-w_max
+    near_field_distance: float = Field(default=2.5, ge=0)  #: predicted clearance [m] that densifies the set
+    near_field_turn_rate_count: int = Field(default=15, ge=3, le=61)
+    near_field_turn_rates: tuple[float, ...] = ()  #: extra near-field turn rates [rad/s]
+    near_field_speed_ratios: tuple[float, ...] = (0.1, 0.2, 0.35)
+    near_field_speed_cap: float = Field(default=1.0, gt=0, le=1)  #: speed ratio cap inside the near field
+
+    @model_validator(mode="after")
+    def _ratios_in_range(self) -> SamplingConfig:
+        for name in ("speed_ratios", "near_field_speed_ratios"):
+            bad = [r for r in getattr(self, name) if not 0.0 <= r <= 1.0]
+            if bad:
+                raise ValueError(f"{name} must lie in [0, 1] (no reverse driving), got {bad}")
+        return self
+
+
+class SearchConfig(_Frozen):
+    """Beam search over piecewise-constant command sequences on the forecast's time grid."""
+
+    segments_s: tuple[float, ...] = (0.6, 0.8)  #: durations of segments 1..S-1 [s]; the last lasts to the horizon
+    extra_horizon_s: float = Field(default=0.0, ge=0, le=5)  #: extend the forecast at constant velocity [s]
+    beam_width: int = Field(default=6, ge=1, le=64)
+    branch_speed_ratios: tuple[float, ...] = (0.0, 0.5, 1.0)  #: later-segment speeds, ratios of max speed
+    branch_turn_rate_count: int = Field(default=5, ge=1, le=21)  #: later-segment turn rates over +-w_max
+    adaptive_horizon: bool = False  #: lengthen the horizon by ``horizon_boost_s`` in the near field
+    horizon_boost_s: float = Field(default=0.0, ge=0, le=5)
+    ped_range: float = Field(default=12.0, gt=0)  #: ignore pedestrians farther than this plus travel range [m]
+
+
+class SafetyConfig(_Frozen):
+    """Margins [m] added to the true radii; ``growth`` widens them with the forecast age."""
+
+    extra_robot_margin: float = Field(default=0.0, ge=0)  #: added to the robot radius for pedestrians
+    extra_ped_margin: float = Field(default=0.0, ge=0)  #: added to the pedestrian radius
+    collision_margin: float = Field(default=0.15, ge=0)  #: inside it a step counts as a (predicted) collision
+    margin_growth: float = Field(default=0.15, ge=0)  #: uncertainty growth of the margins [m/s of forecast age]
+    near_distance: float = Field(default=0.7, ge=0)  #: near-miss band beyond the collision distance
+    ttc_distance: float = Field(default=0.4, ge=0)  #: a step inside it ends the time to collision
+    hard_clearance_distance: float = Field(default=0.3, ge=0)
+    progress_risk_distance: float = Field(default=0.8, ge=0)
+    speed_clearance_gain: float = Field(default=0.0, ge=0)  #: extra margin per robot speed [m per m/s]
+    static_margin: float = Field(default=0.05, ge=0)  #: hard: rollouts closer to an edge are infeasible
+    static_soft_distance: float = Field(default=0.4, ge=0)  #: soft clearance band beyond the hard margin
+    discount: float = Field(default=0.9, gt=0, le=1)  #: per forecast step weight of pedestrian terms
+    static_field_resolution: float = Field(default=0.1, ge=0, le=0.5)  #: [m]; 0 = exact distance queries
+
+
+class WeightsConfig(_Frozen):
+    """Cost weights (lower cost is better); see ``core.planners.predictive.cost`` for the terms."""
+
+    goal: float = Field(default=4.0, ge=0)  #: per metre of route progress
+    collision: float = Field(default=60.0, ge=0)
+    near_miss: float = Field(default=2.0, ge=0)
+    ttc: float = Field(default=6.0, ge=0)
+    progress_risk: float = Field(default=3.0, ge=0)
+    hard_clearance: float = Field(default=20.0, ge=0)
+    static: float = Field(default=3.0, ge=0)  #: soft static clearance
+    static_collision: float = Field(default=1000.0, ge=0)  #: per infeasible (too close to an edge) step
+    velocity: float = Field(default=0.0, ge=0)
+    turn: float = Field(default=0.1, ge=0)
+    smoothness: float = Field(default=0.3, ge=0)  #: change of the first command from the last one
+    heading: float = Field(default=0.5, ge=0)  #: terminal heading error to the route direction
+
+
+class PredictivePlannerConfig(_Frozen):
+    """The predictive planner's full configuration; ``resolved()`` and ``config_hash()`` identify a run."""
+
+    max_speed_ratio: float = Field(default=1.0, gt=0, le=1)  #: of the robot's max linear speed
+    sampling: SamplingConfig = SamplingConfig()
+    search: SearchConfig = SearchConfig()
+    safety: SafetyConfig = SafetyConfig()
+    weights: WeightsConfig = WeightsConfig()
+
+    def resolved(self) -> dict[str, Any]:
+        """Every key, defaults expanded (JSON types), for provenance and key-by-key A/B comparison."""
+        return self.model_dump(mode="json")
+
+    def config_hash(self) -> str:
+        """sha256 of the canonical JSON of :meth:`resolved`."""
+        text = json.dumps(self.resolved(), sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode()).hexdigest()
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any] | None, source: str | None = None) -> PredictivePlannerConfig:
+        """Validate a nested dict (YAML/API body); unknown keys are a ConfigError naming them."""
+        try:
+            return cls.model_validate(data or {})
+        except ValidationError as exc:
+            err = exc.errors()[0]
+            item = ".".join(str(p) for p in err["loc"])
+            raise ConfigError(f"{err['msg']} ({len(exc.errors())} error(s))", source=source, item=item) from None
+
+    @classmethod
+    def from_reference_grid(
+        cls, params: dict[str, Any], base: PredictivePlannerConfig | None = None, source: str | None = None
+    ) -> PredictivePlannerConfig:
+        """Map one reference grid variant's ``params`` onto ``base`` (default: our defaults).
+
+        See :data:`REFERENCE_KEY_MAP`; an unmappable key is a ConfigError naming it.
+        """
+        data = (base or cls()).model_dump()
+        for key, value in params.items():
+            rule = REFERENCE_KEY_MAP.get(key)
+            if rule is None:
+                raise ConfigError(
+                    f"reference planner key {key!r} has no mapping (mapped keys: {', '.join(sorted(REFERENCE_KEY_MAP))})",
+                    source=source, item=key,
+                )
+            section, field, kind, ref_value = rule
+            target = data[section] if section else data
+            target[field] = _map_value(key, value, kind, ref_value, target[field], source)
+        return cls.from_dict(data, source=source)
+
+
+#: Reference rollout time over which a heading delta is taken as a turn rate [s]. The reference divided by
+#: its 0.2 s rollout step, so every delta >= 0.24 rad saturated (three distinct rates, pipeline notes §3.3);
+#: we read a delta as the heading change over one second, which keeps the deltas distinct.
+HEADING_DELTA_TIME_S = 1.0
+#: Reference rollout step [s]: its horizon boost was counted in these steps.
+REFERENCE_ROLLOUT_DT = 0.2
+
+# key -> (section, field, kind, reference camera-ready value)
+# kinds: "ratio"  ours = our default * value / reference value (keeps our scale, moves emphasis alike);
+#        "delta"  ours = our default + (value - reference value) (distances: shift our margins alike), >= 0;
+#        "margin" extra safety margin = max(0, value - reference value) (radius keys; true radii always apply);
+#        "same"   taken as is (dimensionless ratios / gains / flags with the same meaning);
+#        "turn"   heading deltas [rad] -> turn rates delta / HEADING_DELTA_TIME_S [rad/s];
+#        "steps"  reference rollout steps -> seconds.
+REFERENCE_KEY_MAP: dict[str, tuple[str | None, str, str, float | None]] = {
+    "predictive_goal_weight": ("weights", "goal", "ratio", 6.0),
+    "predictive_collision_weight": ("weights", "collision", "ratio", 0.5),
+    "predictive_near_miss_weight": ("weights", "near_miss", "ratio", 0.10),
+    "predictive_ttc_weight": ("weights", "ttc", "ratio", 0.30),
+    "predictive_progress_risk_weight": ("weights", "progress_risk", "ratio", 2.2),
+    "predictive_hard_clearance_weight": ("weights", "hard_clearance", "ratio", 3.0),
+    "predictive_velocity_weight": ("weights", "velocity", "ratio", 0.01),
+    "predictive_turn_weight": ("weights", "turn", "ratio", 0.01),
+    # the reference meant its occupancy term for static obstacles (it read the pedestrian channel by mistake)
+    "occupancy_weight": ("weights", "static", "ratio", 0.25),
+    "predictive_ttc_distance": ("safety", "ttc_distance", "delta", 0.9),
+    "predictive_progress_risk_distance": ("safety", "progress_risk_distance", "delta", 1.3),
+    "predictive_hard_clearance_distance": ("safety", "hard_clearance_distance", "delta", 0.8),
+    "predictive_safe_distance": ("safety", "collision_margin", "delta", 0.35),
+    "predictive_near_distance": ("safety", "near_distance", "delta", 0.7),
+    "predictive_robot_radius": ("safety", "extra_robot_margin", "margin", 0.25),
+    "predictive_pedestrian_radius": ("safety", "extra_ped_margin", "margin", 0.25),
+    "predictive_speed_clearance_gain": ("safety", "speed_clearance_gain", "same", None),
+    "predictive_candidate_speeds": ("sampling", "speed_ratios", "same", None),
+    "predictive_candidate_heading_deltas": ("sampling", "turn_rates", "turn", None),
+    "predictive_near_field_distance": ("sampling", "near_field_distance", "delta", 2.6),
+    "predictive_near_field_speed_cap": ("sampling", "near_field_speed_cap", "same", None),
+    "predictive_near_field_speed_samples": ("sampling", "near_field_speed_ratios", "same", None),
+    "predictive_near_field_heading_deltas": ("sampling", "near_field_turn_rates", "turn", None),
+    "predictive_adaptive_horizon_enabled": ("search", "adaptive_horizon", "same", None),
+    "predictive_horizon_boost_steps": ("search", "horizon_boost_s", "steps", None),
+    "predictive_beam_width": ("search", "beam_width", "same", None),
+}
+
+
+def _map_value(key: str, value: Any, kind: str, ref: float | None, ours: Any, source: str | None) -> Any:
+    """Translate one reference value into our field's value (see the kinds above)."""
+    try:
+        if kind == "same":
+            return tuple(float(v) for v in value) if isinstance(value, list | tuple) else value
+        if kind == "turn":
+            return tuple(float(d) / HEADING_DELTA_TIME_S for d in value)
+        if kind == "steps":
+            return float(value) * REFERENCE_ROLLOUT_DT
+        v = float(value)
+        if not math.isfinite(v):
+            raise ValueError("not finite")
+        if kind == "ratio":
+            return float(ours) * v / float(ref)
+        if kind == "delta":
+            return max(0.0, float(ours) + v - float(ref))
+        if kind == "margin":
+            return max(0.0, v - float(ref))
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(f"cannot map value {value!r}: {exc}", source=source, item=key) from None
+    raise AssertionError(f"unknown mapping kind {kind!r}")

@@ -1,0 +1,164 @@
+"""The predictive planner: forecast -> (v, omega) candidates -> beam search over rollouts -> best command.
+
+One decision: one batched forecaster call; first-segment candidates (dense in the near field)
+rolled out with the simulator's kinematics and held to the horizon; the best ``beam_width``
+sequences are extended segment by segment with a coarser command set; the first command of the
+cheapest sequence seen is returned. Braking (0, 0) is always a candidate, so the robot can wait.
+Deterministic: no randomness, stable sorts.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from core.errors import ConfigError
+from core.planners.base import EpisodeInfo
+from core.planners.predictive import cost as C
+from core.planners.predictive.config import PredictivePlannerConfig
+from core.planners.predictive.rollout import eval_steps, extend_forecast, rollout
+from core.planners.predictive.sampling import branch_commands, first_candidates
+from core.predict.forecaster import Forecaster
+from core.sim.observation import Observation
+from core.sim.robot import RobotLimits
+
+
+class PredictivePlanner:
+    """Planner protocol implementation; ``forecaster`` supplies the pedestrian forecasts (cv or learned)."""
+
+    name = "predictive"
+
+    def __init__(self, config: PredictivePlannerConfig | None, forecaster: Forecaster):
+        self.config = config or PredictivePlannerConfig()
+        self.forecaster = forecaster
+        self._diag: dict[str, Any] | None = None
+        self._prev = np.zeros(2)
+        self._static: C.StaticClearance | None = None
+        self._limits: RobotLimits | None = None
+
+    def reset(self, info: EpisodeInfo) -> None:
+        self.forecaster.timebase.stride(info.dt)  # ConfigError unless the forecast grid is whole sim steps
+        robot = info.scenario.scenario.robot_config
+        if robot.type != "differential_drive":
+            raise ConfigError(f"the predictive planner drives a differential-drive robot, not {robot.type!r}",
+                              item="robot_config.type")
+        self.forecaster.reset()
+        self._limits = RobotLimits.from_config(robot)
+        self._prev = np.zeros(2)
+        self._diag = None
+
+    @property
+    def diagnostics(self) -> dict[str, Any] | None:
+        return self._diag
+
+    def plan(self, obs: Observation) -> tuple[float, float]:
+        if self._limits is None:
+            raise RuntimeError("PredictivePlanner.plan() called before reset(info)")
+        t0 = time.perf_counter()
+        self.forecaster.observe(obs)
+        fc = self.forecaster.forecast()
+        scene, near, extra = self._scene(obs, fc.positions, fc.times)
+        best_cmds, best_terms, best_total, n_eval = self._search(obs, scene, near)
+        v, w = float(best_cmds[0, 0]), float(best_cmds[0, 1])
+        self._prev = np.array([v, w])
+        self._diag = {
+            "command": (v, w),
+            "sequence": _segments(best_cmds),
+            "cost": float(best_total),
+            "terms": {k: float(val) for k, val in best_terms.items()},
+            "near_field": near,
+            "candidates_evaluated": n_eval,
+            "forecast_source": fc.source,
+            "forecast_extended_steps": extra,
+            "predictions": {"ped_ids": fc.ped_ids, "positions": fc.positions, "times": fc.times},
+            "plan_ms": (time.perf_counter() - t0) * 1e3,
+        }
+        return v, w
+
+    # -- decision pieces -------------------------------------------------------------------------
+    def _scene(self, obs: Observation, positions: np.ndarray, times: np.ndarray) -> tuple[C.Scene, bool, int]:
+        cfg = self.config
+        limits = self._limits
+        p0 = obs.robot_pose[:2]
+        contact = obs.robot_radius + obs.ped_radius + cfg.safety.extra_robot_margin + cfg.safety.extra_ped_margin
+        fut = np.asarray(positions, dtype=float).reshape(-1, len(times), 2)
+        if len(fut):
+            reach = np.linalg.norm(fut - p0, axis=-1).min(axis=1)
+            fut = fut[reach <= cfg.search.ped_range]
+        near = bool(len(fut)) and float(np.linalg.norm(fut - p0, axis=-1).min()) - contact <= cfg.sampling.near_field_distance
+        dt_f = float(times[1] - times[0]) if len(times) > 1 else float(times[0])
+        extra_s = cfg.search.extra_horizon_s + (cfg.search.horizon_boost_s if cfg.search.adaptive_horizon and near else 0.0)
+        extra = int(round(extra_s / dt_f))
+        fut, times = extend_forecast(fut, np.asarray(times, dtype=float), extra)
+        scene = C.Scene(
+            ped_future=fut, times=times, contact=contact, robot_radius=obs.robot_radius,
+            route=C.RoutePotential(obs.route, switch_radius=obs.goal_tolerance, goal_tolerance=obs.goal_tolerance),
+            static=self._static_field(obs), start=np.asarray(obs.robot_pose, dtype=float),
+            prev_command=self._prev, max_speed=limits.v_max, max_turn_rate=limits.w_max,
+        )
+        return scene, near, extra
+
+    def _static_field(self, obs: Observation) -> C.StaticClearance:
+        """One distance field per static geometry object (the simulator keeps one per map)."""
+        if self._static is None or self._static.static is not obs.static:
+            self._static = C.StaticClearance(obs.static, self.config.safety.static_field_resolution)
+        return self._static
+
+    def _search(self, obs: Observation, scene: C.Scene, near: bool) -> tuple[np.ndarray, dict, float, int]:
+        """Beam search; returns the best sequence's commands (S, 2), its terms, its cost and #evaluations."""
+        cfg = self.config
+        limits = self._limits
+        sim_dt = obs.dt
+        idx = eval_steps(scene.times, sim_dt)
+        S = int(idx[-1]) + 1
+        bounds = _boundaries(cfg.search.segments_s, sim_dt, S)
+        state0 = np.concatenate([obs.robot_pose, obs.robot_velocity]).astype(float)
+        first = first_candidates(cfg.sampling, limits, cfg.max_speed_ratio, near)
+        cmds = np.repeat(first[:, None, :], S, axis=1)  # (C, S, 2)
+        states = rollout(np.repeat(state0[None], len(first), axis=0), cmds, limits, sim_dt)
+        total, terms = C.evaluate(C.Rollouts(states, idx, cmds), scene, cfg)
+        pool = (cmds, states, total, terms)
+        n_eval = len(first)
+        branch = branch_commands(cfg.search, limits, cfg.max_speed_ratio)
+        for b in bounds:
+            keep = np.argsort(pool[2], kind="stable")[: cfg.search.beam_width]
+            p_cmds, p_states = pool[0][keep], pool[1][keep]
+            M = len(branch)
+            new_cmds = np.repeat(p_cmds, M, axis=0)
+            new_cmds[:, b:] = np.tile(branch, (len(keep), 1))[:, None, :]
+            tail = rollout(np.repeat(p_states[:, b - 1], M, axis=0), new_cmds[:, b:], limits, sim_dt)
+            new_states = np.concatenate([np.repeat(p_states[:, :b], M, axis=0), tail], axis=1)
+            t_new, terms_new = C.evaluate(C.Rollouts(new_states, idx, new_cmds), scene, cfg)
+            n_eval += len(new_cmds)
+            pool = _merge(pool, (new_cmds, new_states, t_new, terms_new))
+        best = int(np.argmin(pool[2]))
+        return pool[0][best], {k: v[best] for k, v in pool[3].items()}, float(pool[2][best]), n_eval
+
+
+def _boundaries(segments_s: tuple[float, ...], sim_dt: float, S: int) -> list[int]:
+    """Simulator-step indices where segments 2.. start (strictly inside the horizon)."""
+    out, acc = [], 0
+    for d in segments_s:
+        acc += max(1, int(round(d / sim_dt)))
+        if acc >= S:
+            break
+        out.append(acc)
+    if not out and segments_s:
+        raise ConfigError(f"segments {segments_s} s leave no second segment inside the {S * sim_dt:.1f} s horizon",
+                          item="search.segments_s")
+    return out
+
+
+def _merge(a: tuple, b: tuple) -> tuple:
+    """Concatenate two evaluated pools (commands, states, totals, terms)."""
+    terms = {k: np.concatenate([a[3][k], b[3][k]]) for k in a[3]}
+    return (np.concatenate([a[0], b[0]]), np.concatenate([a[1], b[1]]), np.concatenate([a[2], b[2]]), terms)
+
+
+def _segments(cmds: np.ndarray) -> list[tuple[int, float, float]]:
+    """Run-length encoding of a command sequence: (steps, v, omega) per constant segment."""
+    change = np.flatnonzero(np.any(np.diff(cmds, axis=0) != 0, axis=1)) + 1
+    starts = np.concatenate([[0], change, [len(cmds)]])
+    return [(int(e - s), float(cmds[s, 0]), float(cmds[s, 1])) for s, e in zip(starts[:-1], starts[1:], strict=True)]

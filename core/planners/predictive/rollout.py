@@ -1,0 +1,49 @@
+"""Roll candidate command sequences out with the simulator's own robot kinematics.
+
+The planner never re-implements the robot: every rollout step is ``core.sim.robot``'s vectorised
+step with the episode's limits and simulator dt, so a rollout is exactly what the simulator would
+do with the same commands. Costs are then read at the simulator steps that coincide with the
+forecast's times (``eval_index``), so robot and pedestrians are compared at the same instants.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from core.errors import ConfigError
+from core.sim.robot import RobotLimits, unicycle_step
+
+
+def eval_steps(times: np.ndarray, sim_dt: float) -> np.ndarray:
+    """Simulator step index (0-based, into the rollout) of each forecast time (K,); they must coincide."""
+    k = np.rint(times / sim_dt).astype(np.int64)
+    if np.any(np.abs(k * sim_dt - times) > 1e-6) or np.any(k < 1):
+        raise ConfigError(
+            f"forecast times {times.tolist()} are not whole simulator steps of {sim_dt} s", item="forecast.times"
+        )
+    return k - 1
+
+
+def rollout(state0: np.ndarray, commands: np.ndarray, limits: RobotLimits, dt: float) -> np.ndarray:
+    """States (B, n, 5) after each of n steps from ``state0`` (B, 5) under ``commands`` (B, n, 2)."""
+    n = commands.shape[1]
+    out = np.empty(commands.shape[:2] + (5,))
+    s = state0
+    for k in range(n):
+        s = unicycle_step(s, commands[:, k], limits, dt)
+        out[:, k] = s
+    return out
+
+
+def extend_forecast(positions: np.ndarray, times: np.ndarray, extra_steps: int) -> tuple[np.ndarray, np.ndarray]:
+    """Append ``extra_steps`` on the same grid at each pedestrian's final forecast velocity: (N, K+e, 2), (K+e,)."""
+    if extra_steps <= 0:
+        return positions, times
+    dt = times[1] - times[0] if len(times) > 1 else times[0]
+    if len(times) > 1:
+        vel = (positions[:, -1] - positions[:, -2]) / dt
+    else:
+        vel = np.zeros_like(positions[:, -1])
+    k = np.arange(1, extra_steps + 1) * dt
+    ext = positions[:, -1:, :] + k[None, :, None] * vel[:, None, :]
+    return np.concatenate([positions, ext], axis=1), np.concatenate([times, times[-1] + k])

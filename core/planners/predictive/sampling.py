@@ -1,0 +1,53 @@
+"""Candidate commands sampled directly in (v [m/s], omega [rad/s]).
+
+The reference sampled heading deltas and divided by its 0.2 s rollout step, so nearly every delta
+saturated at the turn-rate limit and the "lattice" held three turn rates. Sampling omega itself
+gives as many distinct turn rates as asked for; the near field (a pedestrian predicted within
+``near_field_distance`` of contact) adds finer turn rates and slow speeds, because that is where a
+small steering difference decides between a near miss and a collision.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from core.planners.predictive.config import SamplingConfig, SearchConfig
+from core.sim.robot import RobotLimits
+
+
+def turn_rate_grid(count: int, max_turn_rate: float, extra: tuple[float, ...] = ()) -> np.ndarray:
+    """``count`` evenly spaced turn rates over [-w_max, w_max] (0 included for odd counts) plus ``extra``, clipped, unique."""
+    grid = np.linspace(-max_turn_rate, max_turn_rate, count)
+    rates = np.concatenate([grid, np.clip(np.asarray(extra, dtype=float), -max_turn_rate, max_turn_rate)])
+    return np.unique(np.round(rates, 6))
+
+
+def _product(speeds: np.ndarray, rates: np.ndarray) -> np.ndarray:
+    v, w = np.meshgrid(np.unique(np.round(speeds, 6)), rates, indexing="ij")
+    return np.stack([v.ravel(), w.ravel()], axis=1)
+
+
+def first_candidates(cfg: SamplingConfig, limits: RobotLimits, speed_ratio: float, near_field: bool) -> np.ndarray:
+    """(C, 2) first-segment commands, sorted by (v, omega); always contains the braking command (0, 0).
+
+    ``speed_ratio`` caps every speed (the config's max_speed_ratio); inside the near field the cap
+    is also ``near_field_speed_cap`` and the slow speeds and finer turn rates are added.
+    """
+    cap = min(speed_ratio, cfg.near_field_speed_cap) if near_field else speed_ratio
+    ratios = list(cfg.speed_ratios) + (list(cfg.near_field_speed_ratios) if near_field else [])
+    speeds = np.minimum(np.asarray(ratios, dtype=float), cap) * limits.v_max
+    rates = turn_rate_grid(cfg.turn_rate_count, limits.w_max, cfg.turn_rates)
+    if near_field:
+        near = turn_rate_grid(cfg.near_field_turn_rate_count, limits.w_max, cfg.near_field_turn_rates)
+        rates = np.unique(np.concatenate([rates, near]))
+    cands = np.vstack([_product(speeds, rates), [[0.0, 0.0]]])
+    return np.unique(cands, axis=0)
+
+
+def branch_commands(cfg: SearchConfig, limits: RobotLimits, speed_ratio: float) -> np.ndarray:
+    """(M, 2) commands tried for every later segment of a beam entry (a coarser set; braking included)."""
+    speeds = np.minimum(np.asarray(cfg.branch_speed_ratios, dtype=float), speed_ratio) * limits.v_max
+    count = cfg.branch_turn_rate_count
+    rates = turn_rate_grid(count, limits.w_max) if count > 1 else np.zeros(1)
+    cands = np.vstack([_product(speeds, rates), [[0.0, 0.0]]])
+    return np.unique(cands, axis=0)
