@@ -84,3 +84,28 @@ def braking(x_brake: float, stop_x: float, ped_x: float, hold_steps: int = 20) -
     vs += [0.0] * hold_steps
     xy = np.column_stack([xs, np.zeros(len(xs))])
     return make_trace(xy, [still((ped_x, 0.0), len(xs) - 1)], v=np.asarray(vs), heading=np.zeros(len(xs)))
+
+
+def provenance(scenario: str = "s_low", seed: int = 0, **kw):
+    from core.evaluation.record import Provenance
+
+    base = dict(scenario=scenario, archetype=scenario.rsplit("_", 1)[0], density=scenario.rsplit("_", 1)[-1],
+                seed=seed, planner="predictive", planner_config_hash="abc123", model_id="cv",
+                checkpoint_sha256="cv", code_version="0.1.0+test", dt=DT, horizon=1000)
+    base.update(kw)
+    return Provenance(**base)
+
+
+def record(scenario: str = "s_low", seed: int = 0, outcome: str = "success", *, ped_y: float = 2.0,
+           speed: float = 1.0, **prov):
+    """A record of a straight 10 m run past a standing pedestrian ``ped_y`` metres off the path."""
+    from core.evaluation.record import build_record
+
+    steps = int(round(10.0 / speed / DT))
+    if outcome == "collision_pedestrian":  # stop at contact: centre distance = radii
+        gap = np.sqrt(max((R_ROBOT + R_PED) ** 2 - ped_y**2, 0.0))
+        steps = int(np.ceil((5.0 - gap) / speed / DT - 1e-9))
+    tr = make_trace(straight(0.0, speed, steps), [still((5.0, ped_y), steps)])
+    kind = {"collision_pedestrian": "pedestrian", "collision_static": "static"}.get(outcome)
+    return build_record(tr, geometry(goal=(10.0, 0.0)), outcome=outcome, provenance=provenance(scenario, seed, **prov),
+                        collision_kind=kind, collision_step=steps if kind else None, plan_ms=[1.0, 2.0, 3.0])
