@@ -62,8 +62,5 @@ def sample_robot_route(
         if exit_ is not None:
             point, k = exit_
             waypoints = np.vstack([point[None], waypoints[k + 1 :]])
-    if len(waypoints) >= 2:
-        d = waypoints[1] - waypoints[0]
-    else:
-        d = waypoints[0] - start
+    d = waypoints[1] - waypoints[0] if len(waypoints) >= 2 else waypoints[0] - start
     return RobotRoute(start=start, heading=float(np.arctan2(d[1], d[0])), waypoints=waypoints, tolerance=tolerance)

@@ -1,0 +1,61 @@
+"""Goal-seeking controller: drive at the current route waypoint; the data-collection robot.
+
+It ignores pedestrians on purpose (collected crowds should react to a robot that does not plan
+around them); optional Gaussian command noise, from its own generator seeded by the episode seed,
+diversifies the robot's paths across episodes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from core.planners.base import EpisodeInfo
+from core.sim.observation import Observation
+
+
+@dataclass(frozen=True)
+class GoalSeekingConfig:
+    speed: float = 1.0  #: cruise speed [m/s]
+    turn_gain: float = 1.5  #: turn rate per heading error [1/s]
+    max_turn_rate: float = 1.0  #: [rad/s]
+    slow_angle: float = np.pi / 2  #: heading error at which the commanded speed reaches zero [rad]
+    noise_v: float = 0.0  #: std of additive speed noise [m/s]
+    noise_w: float = 0.0  #: std of additive turn-rate noise [rad/s]
+
+
+class GoalSeeking:
+    """Proportional heading control towards ``obs.waypoint``; slows down linearly with the heading error."""
+
+    name = "goal"
+
+    def __init__(self, config: GoalSeekingConfig | None = None, **overrides: float):
+        base = config or GoalSeekingConfig()
+        self.config = GoalSeekingConfig(**{**base.__dict__, **overrides})
+        self._rng = np.random.default_rng(0)
+        self._last: dict[str, Any] | None = None
+
+    def reset(self, info: EpisodeInfo) -> None:
+        # own stream, independent of the simulator's generators for the same seed
+        self._rng = np.random.default_rng([int(info.seed), 0x60A1])
+        self._last = None
+
+    def plan(self, obs: Observation) -> tuple[float, float]:
+        c = self.config
+        x, y, th = obs.robot_pose
+        dx, dy = obs.waypoint[0] - x, obs.waypoint[1] - y
+        err = (np.arctan2(dy, dx) - th + np.pi) % (2 * np.pi) - np.pi
+        w = float(np.clip(c.turn_gain * err, -c.max_turn_rate, c.max_turn_rate))
+        v = float(c.speed * max(0.0, 1.0 - abs(err) / c.slow_angle))
+        if c.noise_v > 0 or c.noise_w > 0:
+            nv, nw = self._rng.normal(0.0, 1.0, 2)
+            v = max(0.0, v + c.noise_v * nv)
+            w = w + c.noise_w * nw
+        self._last = {"heading_error": float(err), "v": v, "w": w}
+        return v, w
+
+    @property
+    def diagnostics(self) -> dict[str, Any] | None:
+        return self._last

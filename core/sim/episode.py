@@ -1,0 +1,59 @@
+"""The single episode loop (reset -> plan -> step) shared by data collection and evaluation."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from core.planners.base import EpisodeInfo, Planner
+from core.scenarios.model import ResolvedScenario
+from core.sim.observation import Events, Observation
+from core.sim.simulator import Simulator
+from core.sim.trace import Trace
+
+StepHook = Callable[[Observation, tuple[float, float], Events, Any], None]  #: (obs after step, command, events, diagnostics)
+
+
+@dataclass
+class EpisodeResult:
+    scenario: str
+    seed: int
+    outcome: str  #: success | collision_pedestrian | collision_static | timeout
+    steps: int
+    trace: Trace
+    min_ped_distance: float  #: smallest robot-ped centre distance over the episode [m] (inf without peds)
+    min_ped_clearance: float  #: the same minus both radii [m]; <= 0 means contact
+    wall_time_s: float  #: reset + loop [s]
+    plan_time_s: float  #: time spent inside planner.plan [s]
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def run_episode(
+    scenario: ResolvedScenario, seed: int, planner: Planner, *, max_steps: int | None = None,
+    simulator: Simulator | None = None, on_step: StepHook | None = None, info_extra: dict[str, Any] | None = None,
+) -> EpisodeResult:
+    """Run one episode to its end (collision, goal or exactly ``max_steps``/max_episode_steps steps)."""
+    t0 = time.perf_counter()
+    sim = simulator or Simulator()
+    obs = sim.reset(scenario, seed, max_steps=max_steps)
+    planner.reset(EpisodeInfo(scenario=scenario, seed=int(seed), dt=sim.dt, robot_radius=sim.limits.radius,
+                              ped_radius=sim.ped_radius, extra=dict(info_extra or {})))
+    plan_time = 0.0
+    while True:
+        tp = time.perf_counter()
+        cmd = planner.plan(obs)
+        plan_time += time.perf_counter() - tp
+        obs, events = sim.step(cmd)
+        if on_step is not None:
+            on_step(obs, cmd, events, planner.diagnostics)
+        if events.done:
+            break
+    trace = sim.trace
+    return EpisodeResult(
+        scenario=scenario.name, seed=int(seed), outcome=trace.outcome, steps=trace.steps, trace=trace,
+        min_ped_distance=float(sim.min_ped_distance),
+        min_ped_clearance=float(sim.min_ped_distance - sim.limits.radius - sim.ped_radius),
+        wall_time_s=time.perf_counter() - t0, plan_time_s=plan_time,
+    )
