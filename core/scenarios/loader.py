@@ -79,6 +79,8 @@ def validation_message(err: ValidationError, prefix: str = "") -> str:
             msg = "unsupported key"
         else:
             msg = str(e["msg"]).removeprefix("Value error, ")
+            if isinstance(e.get("input"), int | float | str | bool | None) and e["type"] != "missing":
+                msg += f" (got {e['input']!r})"
         lines.append(f"{loc}: {msg}" if loc else msg)
     return "; ".join(lines)
 
@@ -262,6 +264,7 @@ class _MapResolver:
         rel = Path(scenario.map_file)
         tried = [rel] if rel.is_absolute() else [self.root / rel, entry.file.parent / rel]
         tried += [] if rel.is_absolute() else [sp / rel for sp in entry.search_paths]
+        tried = list(dict.fromkeys(tried))
         for candidate in tried:
             if candidate.is_file():
                 return candidate.resolve()
