@@ -12,7 +12,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from core.errors import ConfigError
 from core.scenarios.loader import read_yaml, validation_message
@@ -21,12 +21,22 @@ from core.scenarios.model import ScenarioMatrix
 Seed = Annotated[int, Field(strict=True, ge=0)]
 
 
+def _unique(seeds: tuple[int, ...]) -> tuple[int, ...]:
+    dup = sorted({s for s in seeds if seeds.count(s) > 1})
+    if dup:
+        raise ValueError(f"seeds listed twice: {dup}")
+    return seeds
+
+
+SeedList = Annotated[tuple[Seed, ...], Field(min_length=1), AfterValidator(_unique)]
+
+
 class SeedManifest(BaseModel):
     """Scenario name -> ordered seed list; iteration order is file order."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    seeds: dict[str, tuple[Seed, ...]]
+    seeds: dict[str, SeedList]
     description: str | None = None
     source: str | None = None  #: file it was read from (for error messages and provenance)
 
@@ -36,17 +46,6 @@ class SeedManifest(BaseModel):
         if isinstance(data, dict) and not isinstance(data.get("seeds"), dict):
             return {"seeds": data}
         return data
-
-    @field_validator("seeds")
-    @classmethod
-    def _non_empty_unique(cls, v: dict[str, tuple[int, ...]]) -> dict[str, tuple[int, ...]]:
-        for name, seeds in v.items():
-            if not seeds:
-                raise ValueError(f"{name}: the seed list is empty")
-            dup = sorted({s for s in seeds if seeds.count(s) > 1})
-            if dup:
-                raise ValueError(f"{name}: seeds listed twice: {dup}")
-        return v
 
     @classmethod
     def from_data(cls, data: Any, *, source: str | Path | None = None, matrix: ScenarioMatrix | None = None) -> SeedManifest:
