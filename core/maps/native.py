@@ -86,7 +86,7 @@ class _Reader:
             x, y, w, h = self.rect(value, f"{item}.rect")
             return ((x, y), (x + w, y), (x + w, y + h), (x, y + h))
         pts = list(self.points(value, f"{item}.polygon", 3))
-        if len(pts) > 3 and pts[0] == pts[-1]:
+        if pts[0] == pts[-1]:
             pts.pop()  # a closed ring written with its first vertex repeated
         if len(pts) < 3:
             raise self.fail(f"{item}.polygon", "a polygon needs at least 3 distinct vertices")
