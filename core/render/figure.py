@@ -41,7 +41,9 @@ def save(fig: Figure, path: str | Path) -> Path:
     p = Path(path)
     fmt = FORMATS.get(p.suffix.lower())
     if fmt is None:
-        raise ConfigError(f"unsupported picture format {p.suffix!r}; use one of {sorted(FORMATS)}", source=p, item="path")
+        raise ConfigError(
+            f"unsupported picture format {p.suffix!r}; use one of {sorted(FORMATS)}", source=p, item="path"
+        )
     p.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
     fig.savefig(p, format=fmt)

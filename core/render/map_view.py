@@ -59,11 +59,20 @@ def draw_map(ax: Axes, mapdef: MapDef, *, routes: bool = True, legend: bool = Tr
     """Draw the static scene onto ``ax`` (already framed by ``figure.map_axes``)."""
     ax.add_patch(Rectangle((0, 0), mapdef.width, mapdef.height, fill=False, lw=2, ec="black", zorder=1))
     for poly in mapdef.obstacles:
-        ax.add_patch(Polygon(np.asarray(poly, dtype=float), closed=True, fc=OBSTACLE_COLOUR, ec="black", zorder=2))
+        ax.add_patch(
+            Polygon(np.asarray(poly, dtype=float), closed=True, fc=OBSTACLE_COLOUR, ec="black", zorder=2)
+        )
     for field, (colour, label) in ZONE_STYLE.items():
         for i, zone in enumerate(getattr(mapdef, field)):
             ax.add_patch(
-                Polygon(zone_polygon(zone), closed=True, fc=colour, ec=colour, alpha=0.3, label=label if i == 0 else None)
+                Polygon(
+                    zone_polygon(zone),
+                    closed=True,
+                    fc=colour,
+                    ec=colour,
+                    alpha=0.3,
+                    label=label if i == 0 else None,
+                )
             )
     if routes:
         for i, r in enumerate(mapdef.ped_routes):

@@ -88,21 +88,33 @@ def render_trace(
     robot_xy = np.asarray(trace.robot, dtype=float)[:n, :2]
     dt = float(trace.dt)
     collision_step = collision_step if collision_step is not None else getattr(trace, "collision_step", None)
-    collision_point = collision_point if collision_point is not None else getattr(trace, "collision_point", None)
+    collision_point = (
+        collision_point if collision_point is not None else getattr(trace, "collision_point", None)
+    )
     goal = goal if goal is not None else getattr(trace, "goal", None)
 
     fig, ax = map_axes(mapdef, title=title, extra_width_in=2.6)
     draw_map(ax, mapdef, routes=True, legend=False)
     segs = ped_segments(np.asarray(trace.ped_ids)[:n], np.asarray(trace.ped_pos)[:n])
     if len(segs):
-        ax.add_collection(LineCollection(segs, colors=PED_COLOUR, linewidths=0.8, alpha=0.5, zorder=5, label="pedestrians"))
+        ax.add_collection(
+            LineCollection(segs, colors=PED_COLOUR, linewidths=0.8, alpha=0.5, zorder=5, label="pedestrians")
+        )
     lc = _draw_robot_path(ax, robot_xy, dt)
     if lc is not None:
         fig.colorbar(lc, ax=ax, label="time [s]", fraction=0.04, pad=0.02)
     if len(robot_xy):
         ax.plot(*robot_xy[0], "o", color="tab:green", ms=9, mec="black", zorder=7, label="start")
     if goal is not None:
-        ax.plot(*np.asarray(goal, dtype=float).reshape(2), "*", color="tab:red", ms=14, mec="black", zorder=7, label="goal")
+        ax.plot(
+            *np.asarray(goal, dtype=float).reshape(2),
+            "*",
+            color="tab:red",
+            ms=14,
+            mec="black",
+            zorder=7,
+            label="goal",
+        )
     hit = _collision_xy(robot_xy, collision_step, collision_point)
     if hit is not None:
         ax.add_patch(Circle(tuple(hit), robot_radius, fill=False, ec=COLLISION_COLOUR, lw=1.5, zorder=8))

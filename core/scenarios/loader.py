@@ -142,7 +142,9 @@ def _parse_spec(data: Any, source: Path, *, is_root: bool) -> _FileSpec:
         spec = _FileSpec.model_validate(data)
     except ValidationError as err:
         loc = err.errors()[0]["loc"]
-        raise ConfigError(validation_message(err), source=source, item=str(loc[0]) if loc else "manifest") from err
+        raise ConfigError(
+            validation_message(err), source=source, item=str(loc[0]) if loc else "manifest"
+        ) from err
     if not is_root:
         for key in _ROOT_ONLY:
             if key in spec.model_fields_set:
@@ -150,7 +152,9 @@ def _parse_spec(data: Any, source: Path, *, is_root: bool) -> _FileSpec:
     return spec
 
 
-def _expand(path: Path, spec: _FileSpec, chain: tuple[Path, ...], search: tuple[Path, ...]) -> tuple[list[_Entry], dict]:
+def _expand(
+    path: Path, spec: _FileSpec, chain: tuple[Path, ...], search: tuple[Path, ...]
+) -> tuple[list[_Entry], dict]:
     """Entries of ``path`` and its includes (includes first), plus the informational notes of each file."""
     search = search + tuple((path.parent / p).resolve() for p in spec.map_search_paths)
     entries: list[_Entry] = []
@@ -169,7 +173,9 @@ def _expand(path: Path, spec: _FileSpec, chain: tuple[Path, ...], search: tuple[
         notes.update(sub_notes)
     for i, raw in enumerate(spec.scenarios):
         if not isinstance(raw, dict):
-            raise ConfigError(f"a scenario must be a mapping, got {type(raw).__name__}", source=path, item=f"scenarios[{i}]")
+            raise ConfigError(
+                f"a scenario must be a mapping, got {type(raw).__name__}", source=path, item=f"scenarios[{i}]"
+            )
         entries.append(_Entry(raw, path, i, search))
     return entries, notes
 
@@ -204,7 +210,9 @@ def _select(entries: list[_Entry], spec: _FileSpec, source: Path) -> list[_Entry
     by_name = _check_names(entries)
     for name in spec.scenario_overrides_by_name:
         if name.casefold() not in by_name:
-            raise ConfigError("scenario_overrides_by_name names an unknown scenario", source=source, item=name)
+            raise ConfigError(
+                "scenario_overrides_by_name names an unknown scenario", source=source, item=name
+            )
     for key in ("name", "scenario_id"):
         if key in spec.scenario_overrides or any(key in o for o in spec.scenario_overrides_by_name.values()):
             raise ConfigError("overrides may not rename scenarios", source=source, item=key)
@@ -259,7 +267,9 @@ class _MapResolver:
             try:
                 return Path(registry.resolve(scenario.map_id)).resolve()
             except NotFoundError as err:
-                raise ConfigError(f"map_id {scenario.map_id!r}: {err}", source=entry.file, item=scenario.name) from err
+                raise ConfigError(
+                    f"map_id {scenario.map_id!r}: {err}", source=entry.file, item=scenario.name
+                ) from err
         assert scenario.map_file is not None  # Scenario guarantees map_file or map_id
         rel = Path(scenario.map_file)
         tried = [rel] if rel.is_absolute() else [self.root / rel, entry.file.parent / rel]
@@ -279,7 +289,9 @@ class _MapResolver:
             return self._registry
         path: Path | None = Path(self.registry_arg) if self.registry_arg is not None else None
         if path is None:
-            candidates = [c for sp in entry.search_paths for c in (sp.parent / _REGISTRY_NAME, sp / _REGISTRY_NAME)]
+            candidates = [
+                c for sp in entry.search_paths for c in (sp.parent / _REGISTRY_NAME, sp / _REGISTRY_NAME)
+            ]
             path = next((c for c in candidates if c.is_file()), None)
         if path is None:
             raise ConfigError(
@@ -312,7 +324,9 @@ def apply_single_pedestrians(
         item = f"{scenario}.single_pedestrians[{ov.id}]"
         if ov.id not in peds:
             have = ", ".join(peds) or "none"
-            raise ConfigError(f"the map has no single pedestrian {ov.id!r} (has: {have})", source=source, item=item)
+            raise ConfigError(
+                f"the map has no single pedestrian {ov.id!r} (has: {have})", source=source, item=item
+            )
         changes: dict[str, Any] = {}
         for field in ov.model_fields_set - {"id"}:
             value = getattr(ov, field)
@@ -345,7 +359,9 @@ def matrix_from_data(
     scenarios = [(e, _validate_scenario(e, spec)) for e in entries]  # validate all, resolve the chosen
     if spec.select_scenarios is not None:
         order = {n.casefold(): i for i, n in enumerate(spec.select_scenarios)}
-        scenarios = sorted((p for p in scenarios if id(p[0]) in chosen), key=lambda p: order[p[0].raw_name.casefold()])
+        scenarios = sorted(
+            (p for p in scenarios if id(p[0]) in chosen), key=lambda p: order[p[0].raw_name.casefold()]
+        )
     registry = map_registry
     if registry is None and spec.map_registry is not None:
         registry = root.parent / spec.map_registry
@@ -353,7 +369,9 @@ def matrix_from_data(
     resolved = []
     for entry, scenario in scenarios:
         mapdef, sha = resolver.load(scenario, entry)
-        mapdef = apply_single_pedestrians(mapdef, scenario.single_pedestrians, source=entry.file, scenario=scenario.name)
+        mapdef = apply_single_pedestrians(
+            mapdef, scenario.single_pedestrians, source=entry.file, scenario=scenario.name
+        )
         resolved.append(ResolvedScenario(scenario=scenario, map=mapdef, map_sha256=sha))
     metadata = dict(spec.metadata)
     if notes:
@@ -373,4 +391,6 @@ def load_matrix(
     ``map_registry`` (a registry file or a loaded :class:`MapRegistry`) overrides the manifest's.
     """
     p = Path(path).resolve()
-    return matrix_from_data(read_yaml(p), source=p, apply_transforms=apply_transforms, map_registry=map_registry)
+    return matrix_from_data(
+        read_yaml(p), source=p, apply_transforms=apply_transforms, map_registry=map_registry
+    )

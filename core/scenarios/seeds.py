@@ -48,10 +48,14 @@ class SeedManifest(BaseModel):
         return data
 
     @classmethod
-    def from_data(cls, data: Any, *, source: str | Path | None = None, matrix: ScenarioMatrix | None = None) -> SeedManifest:
+    def from_data(
+        cls, data: Any, *, source: str | Path | None = None, matrix: ScenarioMatrix | None = None
+    ) -> SeedManifest:
         """Validate parsed data (file content or an inline dict); errors name the source and the scenario."""
         if not isinstance(data, dict) or not data:
-            raise ConfigError("a seed manifest must be a non-empty mapping of scenario name -> seeds", source=source)
+            raise ConfigError(
+                "a seed manifest must be a non-empty mapping of scenario name -> seeds", source=source
+            )
         try:
             manifest = cls.model_validate(data)
         except ValidationError as err:

@@ -44,7 +44,15 @@ def mapdef() -> MapDef:
 
 def _trace(steps: int = 60) -> _Trace:
     t = np.arange(steps + 1)
-    robot = np.column_stack([2 + 0.2 * t, np.full(steps + 1, 10.0), np.zeros(steps + 1), np.full(steps + 1, 2.0), np.zeros(steps + 1)])
+    robot = np.column_stack(
+        [
+            2 + 0.2 * t,
+            np.full(steps + 1, 10.0),
+            np.zeros(steps + 1),
+            np.full(steps + 1, 2.0),
+            np.zeros(steps + 1),
+        ]
+    )
     ids = np.tile(np.array([0, 1], dtype=np.int64), (steps + 1, 1))
     ids[30:, 1] = 2  # slot 1 respawns with a new id
     ids[:5, 0] = -1  # slot 0 empty at first

@@ -12,11 +12,15 @@ from core.maps.io import file_sha256
 
 def write(path: Path, data: Any) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(data if isinstance(data, str) else yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+    path.write_text(
+        data if isinstance(data, str) else yaml.safe_dump(data, sort_keys=False), encoding="utf-8"
+    )
     return path
 
 
-def tiny_map(name: str = "tiny", *, singles: tuple[str, ...] = ("s1",), route_spawn: int = 0) -> dict[str, Any]:
+def tiny_map(
+    name: str = "tiny", *, singles: tuple[str, ...] = ("s1",), route_spawn: int = 0
+) -> dict[str, Any]:
     """A 20 x 10 m foresight.map/1 document with one obstacle, one route of each kind and single peds."""
     return {
         "format": "foresight.map/1",
@@ -30,7 +34,9 @@ def tiny_map(name: str = "tiny", *, singles: tuple[str, ...] = ("s1",), route_sp
         "ped_spawn_zones": [{"rect": [9, 8, 2, 1]}],
         "ped_goal_zones": [{"rect": [9, 3, 2, 1]}],
         "ped_routes": [{"spawn": route_spawn, "goal": 0, "waypoints": [[10, 8.5], [10, 3.5]]}],
-        "single_pedestrians": [{"id": s, "start": [5, 2], "goal": [15, 2], "speed_m_s": 0.5} for s in singles],
+        "single_pedestrians": [
+            {"id": s, "start": [5, 2], "goal": [15, 2], "speed_m_s": 0.5} for s in singles
+        ],
     }
 
 
@@ -45,10 +51,12 @@ def registry(path: Path, rows: dict[str, Path], *, sha: dict[str, str] | None = 
     maps = []
     for map_id, file in rows.items():
         digest = (sha or {}).get(map_id) or file_sha256(file)
-        maps.append({
-            "map_id": map_id,
-            "path": str(file.relative_to(path.parent)),
-            "source_sha256": digest,
-            "capabilities": {"robot_runtime": True},
-        })
+        maps.append(
+            {
+                "map_id": map_id,
+                "path": str(file.relative_to(path.parent)),
+                "source_sha256": digest,
+                "capabilities": {"robot_runtime": True},
+            }
+        )
     return write(path, {"version": 2, "schema": "robot_sf.map_catalog.v2", "maps": maps})

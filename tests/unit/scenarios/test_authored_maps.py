@@ -21,8 +21,17 @@ REPO = Path(__file__).resolve().parents[3]
 MAPS = REPO / "configs" / "maps"
 MATRIX = REPO / "configs" / "scenarios" / "classic_interactions.yaml"
 ARCHETYPES = [
-    "crossing", "cross_trap", "head_on_corridor", "overtaking", "bottleneck", "doorway",
-    "merging", "t_intersection", "group_crossing", "station_platform", "urban_crossing",
+    "crossing",
+    "cross_trap",
+    "head_on_corridor",
+    "overtaking",
+    "bottleneck",
+    "doorway",
+    "merging",
+    "t_intersection",
+    "group_crossing",
+    "station_platform",
+    "urban_crossing",
 ]
 DENSITIES = {"low": 0.02, "medium": 0.05, "high": 0.08}
 ROBOT_ZONE_CLEARANCE = 1.5  #: robot radius 1.0 plus margin [m]
@@ -38,8 +47,10 @@ def matrix() -> ScenarioMatrix:
 
 
 def _sample_polyline(points: np.ndarray, step: float = 0.1) -> np.ndarray:
-    pieces = [a + np.linspace(0.0, 1.0, max(2, math.ceil(np.linalg.norm(b - a) / step)))[:, None] * (b - a)
-              for a, b in zip(points[:-1], points[1:], strict=True)]
+    pieces = [
+        a + np.linspace(0.0, 1.0, max(2, math.ceil(np.linalg.norm(b - a) / step)))[:, None] * (b - a)
+        for a, b in zip(points[:-1], points[1:], strict=True)
+    ]
     return np.vstack(pieces)
 
 
@@ -124,7 +135,9 @@ def test_pedestrians_start_and_walk_outside_obstacles(path: Path) -> None:
 def test_pedestrian_routes_conflict_with_the_robot_route(path: Path) -> None:
     m = load_map(path)
     robot = np.vstack([_sample_polyline(r.array) for r in m.robot_routes])
-    gaps = [np.linalg.norm(robot[:, None] - _sample_polyline(r.array)[None], axis=2).min() for r in m.ped_routes]
+    gaps = [
+        np.linalg.norm(robot[:, None] - _sample_polyline(r.array)[None], axis=2).min() for r in m.ped_routes
+    ]
     assert max(gaps) <= 3.0  # every stream passes through or right beside the robot's route
     assert min(gaps) <= 1.0  # at least one on a collision course (robot + ped radius = 1.4 m)
     length = sum(r.length for r in m.ped_routes)

@@ -29,7 +29,9 @@ def test_includes_come_first_recursively_with_all_aliases(root: Path) -> None:
     write(root / "sub" / "b.yaml", {"include": ["c.yaml"], "scenarios": [scenario("b1")]})
     write(root / "sub" / "c.yaml", {"scenarios": [scenario("c1")]})
     write(root / "sub" / "d.yaml", {"scenario_files": [], "scenarios": [scenario("d1")]})
-    path = write(root / "m.yaml", {"includes": ["a.yaml", "sub/b.yaml", "sub/d.yaml"], "scenarios": [scenario("r1")]})
+    path = write(
+        root / "m.yaml", {"includes": ["a.yaml", "sub/b.yaml", "sub/d.yaml"], "scenarios": [scenario("r1")]}
+    )
     m = load_matrix(path)
     assert m.names == ["a1", "a2", "c1", "b1", "d1", "r1"]
     assert m.source == str(path.resolve())
@@ -40,11 +42,14 @@ def test_map_file_lookup_order_root_then_declaring_file_then_search_paths(root: 
     write(root / "sub" / "tiny.yaml", tiny_map("sub_tiny"))
     write(root / "sub" / "only_sub.yaml", tiny_map("only_sub"))
     write(root / "maps" / "searched.yaml", tiny_map("searched"))
-    write(root / "sub" / "s.yaml", [
-        scenario("from_root"),
-        scenario("from_declaring", map_file="only_sub.yaml"),
-        scenario("from_search_path", map_file="searched.yaml"),
-    ])
+    write(
+        root / "sub" / "s.yaml",
+        [
+            scenario("from_root"),
+            scenario("from_declaring", map_file="only_sub.yaml"),
+            scenario("from_search_path", map_file="searched.yaml"),
+        ],
+    )
     path = write(root / "m.yaml", {"includes": ["sub/s.yaml"], "map_search_paths": ["maps"]})
     m = load_matrix(path)
     assert [m.get(n).map.name for n in m.names] == ["tiny", "only_sub", "searched"]
@@ -52,7 +57,10 @@ def test_map_file_lookup_order_root_then_declaring_file_then_search_paths(root: 
 
 def test_map_search_paths_of_an_included_file_are_relative_to_it(root: Path) -> None:
     write(root / "sub" / "maps" / "deep.yaml", tiny_map("deep"))
-    write(root / "sub" / "s.yaml", {"map_search_paths": ["maps"], "scenarios": [scenario("x", map_file="deep.yaml")]})
+    write(
+        root / "sub" / "s.yaml",
+        {"map_search_paths": ["maps"], "scenarios": [scenario("x", map_file="deep.yaml")]},
+    )
     m = load_matrix(write(root / "m.yaml", {"includes": ["sub/s.yaml"]}))
     assert m.get("x").map.name == "deep"
 
@@ -72,18 +80,24 @@ def test_map_id_through_registry_argument_key_or_discovery(root: Path) -> None:
 
 
 def test_select_and_overrides(root: Path) -> None:
-    path = write(root / "m.yaml", {
-        "select_scenarios": ["C", "a"],
-        "scenario_overrides": {"simulation_config": {"max_episode_steps": 123}, "metadata": {"suite": "t"}},
-        "scenario_overrides_by_name": {"A": {"seeds": [7, 8], "simulation_config": {"ped_density": 0.1}}},
-        "seeds": [5],
-        "metadata": {"owner": "tests"},
-        "scenarios": [
-            scenario("a", metadata={"archetype": "x"}),
-            scenario("b"),
-            scenario("c", seeds=[1, 2, 3]),
-        ],
-    })
+    path = write(
+        root / "m.yaml",
+        {
+            "select_scenarios": ["C", "a"],
+            "scenario_overrides": {
+                "simulation_config": {"max_episode_steps": 123},
+                "metadata": {"suite": "t"},
+            },
+            "scenario_overrides_by_name": {"A": {"seeds": [7, 8], "simulation_config": {"ped_density": 0.1}}},
+            "seeds": [5],
+            "metadata": {"owner": "tests"},
+            "scenarios": [
+                scenario("a", metadata={"archetype": "x"}),
+                scenario("b"),
+                scenario("c", seeds=[1, 2, 3]),
+            ],
+        },
+    )
     m = load_matrix(path)
     assert m.names == ["c", "a"]
     a, c = m.get("a").scenario, m.get("c").scenario
@@ -97,7 +111,14 @@ def test_select_and_overrides(root: Path) -> None:
 
 
 def test_single_pedestrian_overrides_by_id(root: Path) -> None:
-    sp = [{"id": "s1", "goal": None, "trajectory": [[6, 2], [12, 2]], "wait_at": [{"waypoint_index": 1, "wait_s": 2.0}]}]
+    sp = [
+        {
+            "id": "s1",
+            "goal": None,
+            "trajectory": [[6, 2], [12, 2]],
+            "wait_at": [{"waypoint_index": 1, "wait_s": 2.0}],
+        }
+    ]
     m = load_matrix(write(root / "m.yaml", [scenario("x", single_pedestrians=sp)]))
     p = m.get("x").map.single_pedestrian("s1")
     assert p.goal is None and p.trajectory == ((6.0, 2.0), (12.0, 2.0)) and p.wait_at[0].wait_s == 2.0
@@ -131,7 +152,9 @@ def test_unknown_route_zone_index_in_a_map(root: Path) -> None:
 
 
 def test_unknown_single_pedestrian_id(root: Path) -> None:
-    err = _raises(write(root / "m.yaml", [scenario("x", single_pedestrians=[{"id": "ghost", "speed_m_s": 1.0}])]))
+    err = _raises(
+        write(root / "m.yaml", [scenario("x", single_pedestrians=[{"id": "ghost", "speed_m_s": 1.0}])])
+    )
     assert (Path(err.source).name, err.item) == ("m.yaml", "x.single_pedestrians[ghost]")
     assert "s1" in str(err)  # lists the ids the map has
 

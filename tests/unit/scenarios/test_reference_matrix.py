@@ -48,7 +48,9 @@ def test_twenty_three_scenarios_in_file_order(matrix: ScenarioMatrix) -> None:
 
 
 @pytest.mark.parametrize("name, map_name, density, steps, seed0", EXPECTED, ids=[e[0] for e in EXPECTED])
-def test_scenario_values(matrix: ScenarioMatrix, name: str, map_name: str, density: float, steps: int, seed0: int) -> None:
+def test_scenario_values(
+    matrix: ScenarioMatrix, name: str, map_name: str, density: float, steps: int, seed0: int
+) -> None:
     s = matrix.get(name)
     sim = s.scenario.simulation_config
     assert s.map.name == map_name
@@ -67,7 +69,11 @@ def test_cross_trap_map_id_resolves_to_classic_crossing_svg(matrix: ScenarioMatr
 
 def test_reference_specific_settings(matrix: ScenarioMatrix) -> None:
     doorway = matrix.get("classic_doorway_low").scenario.simulation_config
-    assert (doorway.route_spawn_distribution, doorway.route_spawn_jitter_frac, doorway.max_peds_per_group) == ("spread", 0.2, 1)
+    assert (
+        doorway.route_spawn_distribution,
+        doorway.route_spawn_jitter_frac,
+        doorway.max_peds_per_group,
+    ) == ("spread", 0.2, 1)
     assert matrix.get("classic_group_crossing_low").scenario.simulation_config.groups == 0.5
     assert matrix.get("classic_cross_trap_low").scenario.archetype == "cross_trap"
     assert matrix.get("classic_cross_trap_low").scenario.density_label == "low"
@@ -75,7 +81,16 @@ def test_reference_specific_settings(matrix: ScenarioMatrix) -> None:
 
 def test_single_pedestrian_overrides_are_applied_by_id(matrix: ScenarioMatrix) -> None:
     realworld = matrix.get("classic_realworld_double_bottleneck_high").map
-    assert sorted(p.id for p in realworld.single_pedestrians) == ["l1", "l2", "l3", "l4", "r1", "r2", "r3", "r4"]
+    assert sorted(p.id for p in realworld.single_pedestrians) == [
+        "l1",
+        "l2",
+        "l3",
+        "l4",
+        "r1",
+        "r2",
+        "r3",
+        "r4",
+    ]
     assert all(p.speed_m_s == 0.7 for p in realworld.single_pedestrians)
     assert realworld.single_pedestrian("l1").start == (10.0, 9.0)
     assert realworld.single_pedestrian("r4").goal == (10.0, 10.5)
@@ -88,7 +103,9 @@ def test_single_pedestrian_overrides_are_applied_by_id(matrix: ScenarioMatrix) -
 
 
 def test_bottleneck_markers_come_from_the_map(matrix: ScenarioMatrix) -> None:
-    counts = [len(matrix.get(f"classic_bottleneck_{d}").map.single_pedestrians) for d in ("low", "medium", "high")]
+    counts = [
+        len(matrix.get(f"classic_bottleneck_{d}").map.single_pedestrians) for d in ("low", "medium", "high")
+    ]
     assert counts == [0, 1, 3]
 
 
