@@ -39,9 +39,10 @@ def ring_self_intersects(ring: Sequence[Point]) -> bool:
 def _on_segment(p: Point, a: Point, b: Point) -> bool:
     if abs(_cross(a, b, p)) > EPS * max(1.0, abs(b[0] - a[0]) + abs(b[1] - a[1])):
         return False
-    return min(a[0], b[0]) - EPS <= p[0] <= max(a[0], b[0]) + EPS and min(a[1], b[1]) - EPS <= p[1] <= max(
-        a[1], b[1]
-    ) + EPS
+    return (
+        min(a[0], b[0]) - EPS <= p[0] <= max(a[0], b[0]) + EPS
+        and min(a[1], b[1]) - EPS <= p[1] <= max(a[1], b[1]) + EPS
+    )
 
 
 def point_strictly_inside(p: Point, ring: Sequence[Point]) -> bool:

@@ -46,7 +46,9 @@ def load_map(path: str | Path, *, apply_transforms: bool = False) -> MapDef:
     """
     suffix = Path(path).suffix.lower()
     if suffix not in SVG_SUFFIXES | YAML_SUFFIXES:
-        raise ConfigError(f"unknown map file type {suffix!r}; expected .svg, .yaml or .yml", source=path, item="path")
+        raise ConfigError(
+            f"unknown map file type {suffix!r}; expected .svg, .yaml or .yml", source=path, item="path"
+        )
     resolved, mtime_ns, size = _stat(path)
     return _load_cached(resolved, mtime_ns, size, apply_transforms and suffix in SVG_SUFFIXES)
 

@@ -19,9 +19,25 @@ from core.errors import ConfigError
 from core.maps.model import MapDef, Point, Route, SinglePedestrian, Zone
 
 FORMAT = "foresight.map/1"
-ZONE_FIELDS = ("robot_spawn_zones", "robot_goal_zones", "ped_spawn_zones", "ped_goal_zones", "ped_crowded_zones")
+ZONE_FIELDS = (
+    "robot_spawn_zones",
+    "robot_goal_zones",
+    "ped_spawn_zones",
+    "ped_goal_zones",
+    "ped_crowded_zones",
+)
 ROUTE_FIELDS = {"robot_routes": "robot", "ped_routes": "ped"}
-TOP_KEYS = {"format", "name", "width", "height", "obstacles", "single_pedestrians", "pois", *ZONE_FIELDS, *ROUTE_FIELDS}
+TOP_KEYS = {
+    "format",
+    "name",
+    "width",
+    "height",
+    "obstacles",
+    "single_pedestrians",
+    "pois",
+    *ZONE_FIELDS,
+    *ROUTE_FIELDS,
+}
 PED_KEYS = {"id", "start", "goal", "trajectory", "speed_m_s", "wait_at", "start_delay_s", "note"}
 
 
@@ -139,14 +155,19 @@ def map_from_dict(doc: Any, *, source: str, default_name: str = "map") -> MapDef
         fields[key] = r.number(doc[key], key)
         if fields[key] <= 0:
             raise r.fail(key, f"must be positive, got {fields[key]}")
-    fields["obstacles"] = tuple(r.obstacle(o, f"obstacles[{i}]") for i, o in enumerate(_list(r, doc, "obstacles")))
+    fields["obstacles"] = tuple(
+        r.obstacle(o, f"obstacles[{i}]") for i, o in enumerate(_list(r, doc, "obstacles"))
+    )
     for key in ZONE_FIELDS:
         fields[key] = tuple(r.zone(z, f"{key}[{i}]") for i, z in enumerate(_list(r, doc, key)))
     for key, who in ROUTE_FIELDS.items():
         n_spawn, n_goal = len(fields[f"{who}_spawn_zones"]), len(fields[f"{who}_goal_zones"])
-        fields[key] = tuple(r.route(v, f"{key}[{i}]", n_spawn, n_goal) for i, v in enumerate(_list(r, doc, key)))
+        fields[key] = tuple(
+            r.route(v, f"{key}[{i}]", n_spawn, n_goal) for i, v in enumerate(_list(r, doc, key))
+        )
     fields["single_pedestrians"] = tuple(
-        r.single_pedestrian(p, f"single_pedestrians[{i}]") for i, p in enumerate(_list(r, doc, "single_pedestrians"))
+        r.single_pedestrian(p, f"single_pedestrians[{i}]")
+        for i, p in enumerate(_list(r, doc, "single_pedestrians"))
     )
     pois = doc.get("pois") or {}
     if not isinstance(pois, dict):
@@ -193,7 +214,13 @@ def _obstacle_doc(poly: tuple[Point, ...]) -> dict[str, Any]:
     if len(poly) == 4:
         (x, y), (bx, _), (_, cy), _ = poly
         w, h = bx - x, cy - y
-        if w > 0 and h > 0 and x + w == bx and y + h == cy and poly == ((x, y), (x + w, y), (x + w, y + h), (x, y + h)):
+        if (
+            w > 0
+            and h > 0
+            and x + w == bx
+            and y + h == cy
+            and poly == ((x, y), (x + w, y), (x + w, y + h), (x, y + h))
+        ):
             return {"rect": [x, y, w, h]}
     return {"polygon": [_pt(p) for p in poly]}
 

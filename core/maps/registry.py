@@ -69,7 +69,10 @@ class MapRegistry:
         if not isinstance(doc, dict):
             raise self._error("expected a mapping with version, schema and maps", "document")
         if doc.get("version") not in SUPPORTED_VERSIONS:
-            raise self._error(f"unsupported version {doc.get('version')!r}; supported: {sorted(SUPPORTED_VERSIONS)}", "version")
+            raise self._error(
+                f"unsupported version {doc.get('version')!r}; supported: {sorted(SUPPORTED_VERSIONS)}",
+                "version",
+            )
         if doc.get("schema") != SCHEMA:
             raise self._error(f"unsupported schema {doc.get('schema')!r}; expected {SCHEMA}", "schema")
         return doc
@@ -123,14 +126,19 @@ class MapRegistry:
             actual = file_sha256(e.path)
             if actual != e.source_sha256:
                 raise self._error(
-                    f"checksum mismatch for {e.path}: expected sha256 {e.source_sha256}, actual {actual}", map_id
+                    f"checksum mismatch for {e.path}: expected sha256 {e.source_sha256}, actual {actual}",
+                    map_id,
                 )
         if required_capability is not None and e.capabilities.get(required_capability) is not True:
             raise self._error(f"map lacks capability {required_capability!r} (has {e.capabilities})", map_id)
         return e.path
 
     def load(
-        self, map_id: str, required_capability: str | None = DEFAULT_CAPABILITY, *, apply_transforms: bool = False
+        self,
+        map_id: str,
+        required_capability: str | None = DEFAULT_CAPABILITY,
+        *,
+        apply_transforms: bool = False,
     ) -> MapDef:
         """Resolve and load a map by id."""
         return load_map(self.resolve(map_id, required_capability), apply_transforms=apply_transforms)

@@ -150,7 +150,9 @@ class _Importer:
             try:
                 own = svgtransform.parse_transform(elem.get("transform"))
             except svgtransform.TransformError as exc:
-                raise self.error(str(exc), f"<{_local(elem.tag)} id={elem.get('id', '')!r}> transform") from exc
+                raise self.error(
+                    str(exc), f"<{_local(elem.tag)} id={elem.get('id', '')!r}> transform"
+                ) from exc
             matrix = svgtransform.compose(matrix, own)
         tag = _local(elem.tag) if isinstance(elem.tag, str) else None
         if tag in self.elements:
@@ -266,9 +268,11 @@ class _Importer:
             elif label == "crowded_zone":
                 self._crowded_path(el)
             elif label.startswith("semantic_boundary_"):
-                name, _, flags = label[len("semantic_boundary_"):].partition("__")
+                name, _, flags = label[len("semantic_boundary_") :].partition("__")
                 self.report.semantic_boundaries.append(
-                    SemanticBoundary(name, tuple(f for f in flags.split("__") if f), tuple(self._path_points(el)))
+                    SemanticBoundary(
+                        name, tuple(f for f in flags.split("__") if f), tuple(self._path_points(el))
+                    )
                 )
             else:
                 log.debug("%s: ignoring path %s", self.source, el.describe())
@@ -279,7 +283,9 @@ class _Importer:
             mine = [el for w, el in route_paths if w == who]
             if route_only and mine:
                 setattr(self.report, f"{who}_route_only_mode", True)
-                self.report.limitation_codes.add(PED_ROUTE_ONLY_MODE if who == "ped" else ROBOT_ROUTE_ONLY_MODE)
+                self.report.limitation_codes.add(
+                    PED_ROUTE_ONLY_MODE if who == "ped" else ROBOT_ROUTE_ONLY_MODE
+                )
             for el in mine:
                 self.routes[who].append(self._route(who, el, route_only))
                 self._check_commands(el)
@@ -289,7 +295,9 @@ class _Importer:
         if len(pts) > 1 and pts[0] == pts[-1]:
             pts.pop()  # stored open: last != first
         if len(pts) < 3:
-            raise self.error(f"obstacle path has {len(pts)} distinct vertices, expected at least 3", el.describe())
+            raise self.error(
+                f"obstacle path has {len(pts)} distinct vertices, expected at least 3", el.describe()
+            )
         if geometry.ring_self_intersects(pts):
             self.warn(f"{el.describe()}: obstacle polygon intersects itself; kept as drawn (not repaired)")
         self.obstacles.append(tuple(pts))
@@ -332,7 +340,9 @@ class _Importer:
             edge = ROUTE_ONLY_ZONE_EDGE
         else:
             edge = INDEX_FALLBACK_ZONE_EDGE
-            self.warn(f"{el.describe()}: {kind} index {index} out of range ({n_explicit} zones); synthetic zone used")
+            self.warn(
+                f"{el.describe()}: {kind} index {index} out of range ({n_explicit} zones); synthetic zone used"
+            )
         x, y = anchor
         zones.append(Zone(corners=((x, y), (x + edge, y), (x + edge, y + edge))))
         self.report.synthetic_zones[kind] += 1
@@ -424,12 +434,20 @@ class _Importer:
         z = {k: tuple(v.assembled) for k, v in self.zones.items()}
         try:
             return MapDef(
-                name=name, width=self.width, height=self.height, obstacles=tuple(self.obstacles),
-                robot_spawn_zones=z["robot_spawn_zone"], robot_goal_zones=z["robot_goal_zone"],
+                name=name,
+                width=self.width,
+                height=self.height,
+                obstacles=tuple(self.obstacles),
+                robot_spawn_zones=z["robot_spawn_zone"],
+                robot_goal_zones=z["robot_goal_zone"],
                 robot_routes=tuple(self.routes["robot"]),
-                ped_spawn_zones=z["ped_spawn_zone"], ped_goal_zones=z["ped_goal_zone"],
-                ped_routes=tuple(self.routes["ped"]), ped_crowded_zones=tuple(self.crowded),
-                single_pedestrians=tuple(peds), pois=self.pois, source=self.source,
+                ped_spawn_zones=z["ped_spawn_zone"],
+                ped_goal_zones=z["ped_goal_zone"],
+                ped_routes=tuple(self.routes["ped"]),
+                ped_crowded_zones=tuple(self.crowded),
+                single_pedestrians=tuple(peds),
+                pois=self.pois,
+                source=self.source,
             )
         except ValidationError as exc:
             raise self.error(f"map is not valid: {exc.errors()[0]['msg']}", name) from exc

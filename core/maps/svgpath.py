@@ -114,10 +114,12 @@ def _cubic(pen: _Pen, p1: Point, p2: Point, p3: Point) -> None:
         s = i / n
         u = 1.0 - s
         w = (u**3, 3 * u * u * s, 3 * u * s * s, s**3)
-        pen.add((
-            w[0] * p0[0] + w[1] * p1[0] + w[2] * p2[0] + w[3] * p3[0],
-            w[0] * p0[1] + w[1] * p1[1] + w[2] * p2[1] + w[3] * p3[1],
-        ))
+        pen.add(
+            (
+                w[0] * p0[0] + w[1] * p1[0] + w[2] * p2[0] + w[3] * p3[0],
+                w[0] * p0[1] + w[1] * p1[1] + w[2] * p2[1] + w[3] * p3[1],
+            )
+        )
     pen.current, pen.cubic_ctrl, pen.quad_ctrl = p3, p2, None
 
 
@@ -127,7 +129,12 @@ def _quadratic(pen: _Pen, p1: Point, p2: Point) -> None:
     for i in range(1, n + 1):
         s = i / n
         u = 1.0 - s
-        pen.add((u * u * p0[0] + 2 * u * s * p1[0] + s * s * p2[0], u * u * p0[1] + 2 * u * s * p1[1] + s * s * p2[1]))
+        pen.add(
+            (
+                u * u * p0[0] + 2 * u * s * p1[0] + s * s * p2[0],
+                u * u * p0[1] + 2 * u * s * p1[1] + s * s * p2[1],
+            )
+        )
     pen.current, pen.quad_ctrl, pen.cubic_ctrl = p2, p1, None
 
 
@@ -176,8 +183,12 @@ def _arc(pen: _Pen, rx: float, ry: float, rot_deg: float, large: bool, sweep: bo
     cos_p, sin_p = math.cos(phi), math.sin(phi)
     for i in range(1, n):
         a = theta + delta * i / n
-        pen.add((cx + cos_p * rx * math.cos(a) - sin_p * ry * math.sin(a),
-                 cy + sin_p * rx * math.cos(a) + cos_p * ry * math.sin(a)))
+        pen.add(
+            (
+                cx + cos_p * rx * math.cos(a) - sin_p * ry * math.sin(a),
+                cy + sin_p * rx * math.cos(a) + cos_p * ry * math.sin(a),
+            )
+        )
     pen.add(end)  # exact end point, no floating-point drift
 
 
@@ -228,8 +239,15 @@ def _do_a(pen: _Pen, t: _Tokens, rel: bool) -> None:
 
 
 _HANDLERS: dict[str, Callable[[_Pen, _Tokens, bool], None]] = {
-    "m": _do_m, "l": _do_l, "h": _do_h, "v": _do_v, "c": _do_c,
-    "s": _do_s, "q": _do_q, "t": _do_t, "a": _do_a,
+    "m": _do_m,
+    "l": _do_l,
+    "h": _do_h,
+    "v": _do_v,
+    "c": _do_c,
+    "s": _do_s,
+    "q": _do_q,
+    "t": _do_t,
+    "a": _do_a,
 }
 
 

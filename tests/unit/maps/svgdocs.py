@@ -33,4 +33,8 @@ def circle(label: str, cx: float, cy: float, extra: str = "") -> str:
 
 
 #: Robot spawn and goal zones plus a robot route: the smallest runnable body.
-ROBOT = rect("robot_spawn_zone", 1, 1) + rect("robot_goal_zone", 17, 8) + path("robot_route_0_0", "M 1.5 1.5 L 17.5 8.5")
+ROBOT = (
+    rect("robot_spawn_zone", 1, 1)
+    + rect("robot_goal_zone", 17, 8)
+    + path("robot_route_0_0", "M 1.5 1.5 L 17.5 8.5")
+)

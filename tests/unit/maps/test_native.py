@@ -53,7 +53,9 @@ def test_architecture_example_loads(tmp_path):
 
 def rich_map() -> MapDef:
     return MapDef(
-        name="rich", width=12.5, height=7.25,
+        name="rich",
+        width=12.5,
+        height=7.25,
         obstacles=(
             ((0.5, 0.25), (1.5, 0.25), (1.5, 0.75), (0.5, 0.75)),
             ((5, 5), (6, 5.5), (5.2, 6.1), (4.9, 5.4)),
@@ -69,7 +71,10 @@ def rich_map() -> MapDef:
         single_pedestrians=(
             SinglePedestrian(id="a", start=(1, 6), goal=(11, 6), speed_m_s=0.8, note="cuts across"),
             SinglePedestrian(
-                id="b", start=(2, 2), trajectory=((3, 3), (4, 2)), start_delay_s=1.5,
+                id="b",
+                start=(2, 2),
+                trajectory=((3, 3), (4, 2)),
+                start_delay_s=1.5,
                 wait_at=(WaitRule(waypoint_index=1, wait_s=2.0, note="waits"),),
             ),
         ),
@@ -111,13 +116,33 @@ def test_name_defaults_to_file_stem(tmp_path):
         ("height: 30", "height: -1", "height", "positive"),
         ("width: 40\n", "", "width", "missing"),
         ("{rect: [2, 13, 3, 4]}", "{rect: [2, 13, 3]}", "robot_spawn_zones[0].rect", r"\[x, y, w, h\]"),
-        ("{rect: [2, 13, 3, 4]}", "{rect: [2, 13, 3, 4], corners: []}", "robot_spawn_zones[0]", "exactly one"),
+        (
+            "{rect: [2, 13, 3, 4]}",
+            "{rect: [2, 13, 3, 4], corners: []}",
+            "robot_spawn_zones[0]",
+            "exactly one",
+        ),
         ("{rect: [2, 13, 3, 4]}", "{circle: 3}", "robot_spawn_zones[0]", "unknown key"),
         ("[[26, 0], [40, 0], [40, 10]]", "[[26, 0], [40, 0]]", "obstacles[1].polygon", "at least 3"),
         ("[[26, 0], [40, 0], [40, 10]]", "[[26, 0], [40, 0], [26, 0]]", "obstacles[1].polygon", "distinct"),
-        ("[[26, 0], [40, 0], [40, 10]]", "[[26, 0], [40, yes], [40, 10]]", "obstacles[1].polygon[1]", "number"),
-        ("ped_routes: [{spawn: 0, goal: 0,", "ped_routes: [{spawn: 0, goal: 3,", "ped_routes[0].goal", "out of range"),
-        ("ped_routes: [{spawn: 0, goal: 0,", "ped_routes: [{spawn: 0, goal: 0, speed: 1,", "ped_routes[0]", "unknown key"),
+        (
+            "[[26, 0], [40, 0], [40, 10]]",
+            "[[26, 0], [40, yes], [40, 10]]",
+            "obstacles[1].polygon[1]",
+            "number",
+        ),
+        (
+            "ped_routes: [{spawn: 0, goal: 0,",
+            "ped_routes: [{spawn: 0, goal: 3,",
+            "ped_routes[0].goal",
+            "out of range",
+        ),
+        (
+            "ped_routes: [{spawn: 0, goal: 0,",
+            "ped_routes: [{spawn: 0, goal: 0, speed: 1,",
+            "ped_routes[0]",
+            "unknown key",
+        ),
         ("waypoints: [[20, 2], [20, 28]]", "waypoints: [[20, 2]]", "ped_routes[0].waypoints", "at least 2"),
         ("speed_m_s: 0.5}", "speed_m_s: -1}", "single_pedestrians[0].speed_m_s", "greater than or equal"),
         ("speed_m_s: 0.5}", "speed_m_s: 0.5, mood: happy}", "single_pedestrians[0]", "unknown key"),

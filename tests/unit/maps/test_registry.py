@@ -28,7 +28,12 @@ def own_registry(tmp_path: Path, rows: list[dict], **header) -> Path:
 
 
 def row(map_id: str, path: str, sha: str | None, **caps: bool) -> dict:
-    return {"map_id": map_id, "path": path, "source_sha256": sha, "capabilities": {"robot_runtime": True, **caps}}
+    return {
+        "map_id": map_id,
+        "path": path,
+        "source_sha256": sha,
+        "capabilities": {"robot_runtime": True, **caps},
+    }
 
 
 def test_reference_registry_header_and_rows(reference_registry: MapRegistry):
@@ -78,10 +83,15 @@ def test_own_registry_capability_and_relative_paths(tmp_path: Path):
     (tmp_path / "maps").mkdir()
     svg = write_svg(tmp_path / "maps", ROBOT, name="yard.svg")
     sha = io.file_sha256(svg)
-    reg = MapRegistry(own_registry(tmp_path, [
-        row("yard", "maps/yard.svg", sha, pedestrian_runtime=False),
-        row("yard_unpinned", "maps/yard.svg", None),
-    ]))
+    reg = MapRegistry(
+        own_registry(
+            tmp_path,
+            [
+                row("yard", "maps/yard.svg", sha, pedestrian_runtime=False),
+                row("yard_unpinned", "maps/yard.svg", None),
+            ],
+        )
+    )
     assert reg.ids() == ["yard", "yard_unpinned"]
     assert reg.resolve("yard") == svg.resolve()
     assert reg.resolve("yard_unpinned") == svg.resolve()
@@ -100,7 +110,12 @@ def test_own_registry_capability_and_relative_paths(tmp_path: Path):
         ({}, [{"path": "a.svg"}], "maps[0]", "missing or empty map_id"),
         ({}, [row("a", "a.svg", None), row("a", "b.svg", None)], "maps[1]", "duplicate map id 'a'"),
         ({}, [row("a", "a.svg", "abc")], "a.source_sha256", "not a hex SHA-256"),
-        ({}, [{"map_id": "a", "path": "a.svg", "capabilities": {"robot_runtime": "yes"}}], "a.capabilities", "true/false"),
+        (
+            {},
+            [{"map_id": "a", "path": "a.svg", "capabilities": {"robot_runtime": "yes"}}],
+            "a.capabilities",
+            "true/false",
+        ),
     ],
 )
 def test_bad_registry_names_file_and_item(tmp_path: Path, header, rows, item, pattern):

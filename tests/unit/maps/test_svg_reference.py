@@ -11,31 +11,79 @@ import yaml
 from core.maps.svg import read_svg
 
 CLASSIC = [
-    "classic_bottleneck", "classic_bottleneck_medium", "classic_bottleneck_high", "classic_crossing",
-    "classic_doorway", "classic_group_crossing", "classic_head_on_corridor", "classic_merging",
-    "classic_overtaking", "classic_realworld_bottleneck", "classic_station_platform",
-    "classic_t_intersection", "classic_urban_crossing",
+    "classic_bottleneck",
+    "classic_bottleneck_medium",
+    "classic_bottleneck_high",
+    "classic_crossing",
+    "classic_doorway",
+    "classic_group_crossing",
+    "classic_head_on_corridor",
+    "classic_merging",
+    "classic_overtaking",
+    "classic_realworld_bottleneck",
+    "classic_station_platform",
+    "classic_t_intersection",
+    "classic_urban_crossing",
 ]
 ALL_SVGS = [*CLASSIC, "issue_5303_classic_group_crossing_medium_v2"]
 #: Registry rows whose SVG is among the copied files (classic_cross_trap reads classic_crossing.svg).
 REGISTRY_IDS = [*ALL_SVGS, "classic_cross_trap"]
 
-BOTTLENECK = ((40, 40), (17.9, 29.45, 4, 4), (18.02, 5.87, 4, 4), [(20, 29.2), (20, 21.5), (20, 10.7)], [14.71])
+BOTTLENECK = (
+    (40, 40),
+    (17.9, 29.45, 4, 4),
+    (18.02, 5.87, 4, 4),
+    [(20, 29.2), (20, 21.5), (20, 10.7)],
+    [14.71],
+)
 #: svg -> ((W, H), robot spawn rect, robot goal rect, robot route points or their count, ped route lengths [m], single ped ids)
 FACTS = {
     "classic_bottleneck": (*BOTTLENECK, []),
     "classic_bottleneck_medium": (*BOTTLENECK, ["h1"]),
     "classic_bottleneck_high": (*BOTTLENECK, ["h1", "h2", "h3"]),
     "classic_crossing": ((40, 40), (4, 4, 4, 4), (32, 32, 4, 4), [(10.7, 21.1), (18.9, 29.5)], [49.78], []),
-    "classic_doorway": ((44, 28), (26.9, 13.64, 4, 4), (14.44, 9.41, 4, 4), [(26.5, 15.4), (18.7, 12.5)], [35.78], []),
-    "classic_group_crossing": ((40, 40), (8.91, 17.96, 4, 4), (27.63, 18.21, 4, 4), [(15.0, 20.1), (26.8, 20.3)], [9.40], []),
-    "classic_head_on_corridor": ((32, 40), (12.32, 2.82, 4, 4), (17.11, 33.04, 4, 4), [(14.3, 8.3), (19.2, 31.8)], [23.95], []),
+    "classic_doorway": (
+        (44, 28),
+        (26.9, 13.64, 4, 4),
+        (14.44, 9.41, 4, 4),
+        [(26.5, 15.4), (18.7, 12.5)],
+        [35.78],
+        [],
+    ),
+    "classic_group_crossing": (
+        (40, 40),
+        (8.91, 17.96, 4, 4),
+        (27.63, 18.21, 4, 4),
+        [(15.0, 20.1), (26.8, 20.3)],
+        [9.40],
+        [],
+    ),
+    "classic_head_on_corridor": (
+        (32, 40),
+        (12.32, 2.82, 4, 4),
+        (17.11, 33.04, 4, 4),
+        [(14.3, 8.3), (19.2, 31.8)],
+        [23.95],
+        [],
+    ),
     "classic_merging": ((44, 40), (6, 6, 4, 4), (34, 32, 4, 4), 8, [56.12], []),
     "classic_overtaking": ((60, 27.69), (14.4, 3.61, 4.62, 4.62), (40.84, 21.29, 4.62, 4.62), 4, [39.52], []),
     "classic_realworld_bottleneck": (
-        (60, 30), (4, 13.5, 3, 3), (53, 13.5, 3, 3), 6, [46, 46], ["l1", "l2", "l3", "l4", "r1", "r2", "r3", "r4"]
+        (60, 30),
+        (4, 13.5, 3, 3),
+        (53, 13.5, 3, 3),
+        6,
+        [46, 46],
+        ["l1", "l2", "l3", "l4", "r1", "r2", "r3", "r4"],
     ),
-    "classic_station_platform": ((84, 28), (2, 3, 4, 3), (77, 21, 4, 3), 9, [72, 72], ["p1", "p2", "p3", "p4"]),
+    "classic_station_platform": (
+        (84, 28),
+        (2, 3, 4, 3),
+        (77, 21, 4, 3),
+        9,
+        [72, 72],
+        ["p1", "p2", "p3", "p4"],
+    ),
     "classic_t_intersection": ((44, 40), (20.61, 31.84, 4, 4), (34.89, 16.78, 4, 4), 3, [18.42], []),
     "classic_urban_crossing": ((50, 50), (7, 23, 4, 4), (39, 23, 4, 4), [(11, 25), (39, 25)], [28.0], []),
 }
@@ -82,8 +130,13 @@ def test_parser_metadata_matches_registry(svg_dir: Path, registry_rows, map_id: 
     m = result.map  # the counts are also what the map holds
     assert len(m.obstacles) == expected["obstacle_count"]
     assert len(m.robot_routes) == expected["robot_routes"] and len(m.ped_routes) == expected["ped_routes"]
-    assert len(m.ped_spawn_zones) == expected["parsed_ped_spawn_zones"] + expected["synthetic_ped_spawn_zones"]
-    assert len(m.robot_goal_zones) == expected["parsed_robot_goal_zones"] + expected["synthetic_robot_goal_zones"]
+    assert (
+        len(m.ped_spawn_zones) == expected["parsed_ped_spawn_zones"] + expected["synthetic_ped_spawn_zones"]
+    )
+    assert (
+        len(m.robot_goal_zones)
+        == expected["parsed_robot_goal_zones"] + expected["synthetic_robot_goal_zones"]
+    )
     assert len(m.single_pedestrians) == expected["single_pedestrian_definitions"]
 
 
@@ -117,7 +170,10 @@ def test_cross_trap_is_route_only_with_plus_obstacle(svg_dir: Path):
     assert (x, y) == pytest.approx((3.1, 2.7), abs=0.05)
     assert spawn.corners == ((x, y), (x + 1.0, y), (x + 1.0, y + 1.0))  # 1 m route-only triangle
     assert goal.corners[0] == m.ped_routes[0].waypoints[-1]
-    boxes = {(min(p[0] for p in o), min(p[1] for p in o), max(p[0] for p in o), max(p[1] for p in o)) for o in m.obstacles}
+    boxes = {
+        (min(p[0] for p in o), min(p[1] for p in o), max(p[0] for p in o), max(p[1] for p in o))
+        for o in m.obstacles
+    }
     assert {(19, 12, 21, 28), (12, 19, 28, 21)} <= boxes
 
 
@@ -137,7 +193,9 @@ def test_urban_crossing_ped_route_is_route_only_at_x25(svg_dir: Path):
     assert result.map.pois == {}
 
 
-@pytest.mark.parametrize("name", ["classic_bottleneck", "classic_bottleneck_medium", "classic_bottleneck_high"])
+@pytest.mark.parametrize(
+    "name", ["classic_bottleneck", "classic_bottleneck_medium", "classic_bottleneck_high"]
+)
 def test_transform_option_moves_bottleneck_pedestrians(svg_dir: Path, name: str):
     raw = read_svg(svg_dir / f"{name}.svg").map
     drawn = read_svg(svg_dir / f"{name}.svg", apply_transforms=True).map

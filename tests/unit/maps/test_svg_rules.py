@@ -54,10 +54,20 @@ def test_labels_fall_back_to_id_and_unknown_labels_are_ignored():
 
 
 def test_zone_lists_follow_explicit_indices_then_fill_gaps():
-    body = ROBOT + "".join(
-        rect(label, x, 0)
-        for label, x in [("ped_spawn_zone_2", 2), ("ped_spawn_zone", 10), ("ped_spawn_zone_0", 0), ("ped_spawn_zone", 11)]
-    ) + rect("ped_goal_zone", 5, 5) + path("ped_route_2_0", "M 2 0 L 5 5")
+    body = (
+        ROBOT
+        + "".join(
+            rect(label, x, 0)
+            for label, x in [
+                ("ped_spawn_zone_2", 2),
+                ("ped_spawn_zone", 10),
+                ("ped_spawn_zone_0", 0),
+                ("ped_spawn_zone", 11),
+            ]
+        )
+        + rect("ped_goal_zone", 5, 5)
+        + path("ped_route_2_0", "M 2 0 L 5 5")
+    )
     m = imp(body).map
     assert [z.corners[0][0] for z in m.ped_spawn_zones] == [0, 10, 2, 11]
     assert m.ped_routes[0].spawn_id == 2
@@ -78,7 +88,12 @@ def test_route_indices_are_the_first_two_integers():
 
 def test_route_label_with_one_integer_is_an_error():
     with pytest.raises(ConfigError, match=r"t\.svg.*ped_route_3.*one integer"):
-        imp(ROBOT + rect("ped_spawn_zone", 0, 0) + rect("ped_goal_zone", 5, 5) + path("ped_route_3", "M 0 0 L 1 1"))
+        imp(
+            ROBOT
+            + rect("ped_spawn_zone", 0, 0)
+            + rect("ped_goal_zone", 5, 5)
+            + path("ped_route_3", "M 0 0 L 1 1")
+        )
 
 
 def test_route_only_mode_makes_one_metre_zones_at_route_ends():
@@ -88,7 +103,11 @@ def test_route_only_mode_makes_one_metre_zones_at_route_ends():
     assert m.ped_goal_zones[0].corners == ((8, 9), (9, 9), (9, 10))
     assert [(x.spawn_id, x.goal_id) for x in m.ped_routes] == [(0, 0), (1, 1)]  # one zone pair per route
     meta = r.report.parser_metadata()
-    assert meta["ped_route_only_mode"] and meta["synthetic_ped_spawn_zones"] == 2 and meta["parsed_ped_spawn_zones"] == 0
+    assert (
+        meta["ped_route_only_mode"]
+        and meta["synthetic_ped_spawn_zones"] == 2
+        and meta["parsed_ped_spawn_zones"] == 0
+    )
     assert meta["parser_limitation_codes"] == [PED_ROUTE_ONLY_MODE]
 
 
@@ -100,7 +119,12 @@ def test_robot_route_only_mode():
 
 
 def test_out_of_range_index_gets_a_tenth_metre_zone_and_a_warning():
-    body = ROBOT + rect("ped_spawn_zone", 0, 0) + rect("ped_goal_zone", 5, 5) + path("ped_route_0_4", "M 0 0 L 6 6")
+    body = (
+        ROBOT
+        + rect("ped_spawn_zone", 0, 0)
+        + rect("ped_goal_zone", 5, 5)
+        + path("ped_route_0_4", "M 0 0 L 6 6")
+    )
     r = imp(body)
     (route,) = r.map.ped_routes
     assert route.goal_id == 1
@@ -111,10 +135,17 @@ def test_out_of_range_index_gets_a_tenth_metre_zone_and_a_warning():
 
 
 def test_synthetic_robot_routes_between_zone_centres():
-    body = rect("robot_spawn_zone", 0, 0, 3, 3) + rect("robot_goal_zone", 9, 0, 3, 3) + rect("robot_goal_zone", 0, 6, 3, 3)
+    body = (
+        rect("robot_spawn_zone", 0, 0, 3, 3)
+        + rect("robot_goal_zone", 9, 0, 3, 3)
+        + rect("robot_goal_zone", 0, 6, 3, 3)
+    )
     r = imp(body)
     assert [(x.spawn_id, x.goal_id) for x in r.map.robot_routes] == [(0, 0), (0, 1)]
-    assert r.map.robot_routes[0].waypoints == ((2.0, 1.0), (11.0, 1.0))  # mean of 3 corners: (x + 2w/3, y + h/3)
+    assert r.map.robot_routes[0].waypoints == (
+        (2.0, 1.0),
+        (11.0, 1.0),
+    )  # mean of 3 corners: (x + 2w/3, y + h/3)
     assert r.report.synthetic_robot_routes == 2
 
 
@@ -138,7 +169,10 @@ def test_crowded_zones_from_rect_and_three_point_path():
     body = ROBOT + rect("ped_crowded_zone", 2, 2, 3, 1) + path("crowded_zone", "M 0 0 L 2 0 L 2 2 Z")
     body += path("crowded_zone", "M 0 0 L 2 0 L 2 2 L 0 2")
     r = imp(body)
-    assert [z.corners for z in r.map.ped_crowded_zones] == [((2, 2), (5, 2), (5, 3)), ((0, 0), (2, 0), (2, 2))]
+    assert [z.corners for z in r.map.ped_crowded_zones] == [
+        ((2, 2), (5, 2), (5, 3)),
+        ((0, 0), (2, 0), (2, 2)),
+    ]
     assert any("exactly 3 points" in w for w in r.report.warnings)
 
 
@@ -156,23 +190,36 @@ def test_single_pedestrians_and_pois():
     body += circle("single_ped_s_start", 6, 6)  # goal optional
     body += '<circle class="poi marker" id="poi_door" cx="7" cy="8" r="1"/>' + circle("poi", 2, 2, 'id="c9"')
     r = imp(body)
-    assert [(p.id, p.start, p.goal) for p in r.map.single_pedestrians] == [("a_b", (1, 2), (3, 4)), ("s", (6, 6), None)]
+    assert [(p.id, p.start, p.goal) for p in r.map.single_pedestrians] == [
+        ("a_b", (1, 2), (3, 4)),
+        ("s", (6, 6), None),
+    ]
     assert r.map.pois == {"poi_door": (7, 8), "c9": (2, 2)}
     meta = r.report.parser_metadata()
-    assert (meta["single_ped_start_markers"], meta["single_ped_goal_markers"], meta["single_pedestrian_definitions"]) == (2, 2, 2)
+    assert (
+        meta["single_ped_start_markers"],
+        meta["single_ped_goal_markers"],
+        meta["single_pedestrian_definitions"],
+    ) == (2, 2, 2)
 
 
 def test_circle_label_falls_back_to_class_then_id():
-    body = ROBOT + '<circle id="single_ped_q_start" cx="1" cy="1" r="1"/>' + '<circle class="single_ped_q_goal" cx="2" cy="2" r="1"/>'
+    body = (
+        ROBOT
+        + '<circle id="single_ped_q_start" cx="1" cy="1" r="1"/>'
+        + '<circle class="single_ped_q_goal" cx="2" cy="2" r="1"/>'
+    )
     (p,) = imp(body).map.single_pedestrians
     assert (p.start, p.goal) == ((1, 1), (2, 2))
 
 
 def test_transforms_ignored_by_default_and_applied_on_request():
     body = (
-        rect("robot_spawn_zone", 0, 0) + rect("robot_goal_zone", 5, 5)
+        rect("robot_spawn_zone", 0, 0)
+        + rect("robot_goal_zone", 5, 5)
         + '<g transform="translate(10,0)"><g transform="rotate(90)">'
-        + path("robot_route_0_0", "M 1 0 L 2 0") + rect("obstacle", 0, 0, 2, 1, 'transform="scale(2)"')
+        + path("robot_route_0_0", "M 1 0 L 2 0")
+        + rect("obstacle", 0, 0, 2, 1, 'transform="scale(2)"')
         + "</g></g>"
     )
     raw, drawn = imp(body).map, imp(body, apply_transforms=True).map
@@ -210,7 +257,10 @@ def test_bound_rect_is_counted():
     [
         (ROBOT + rect("obstacle", 0, 0, "x", 1), r"<rect.*width='x'"),
         (ROBOT + path("obstacle", "M 0 0 L 1"), r"obstacle.*path data"),
-        (rect("robot_spawn_zone", 0, 0) + rect("robot_goal_zone", 5, 5) + path("robot_route_0_0", "M 1 1"), "route has 1 distinct"),
+        (
+            rect("robot_spawn_zone", 0, 0) + rect("robot_goal_zone", 5, 5) + path("robot_route_0_0", "M 1 1"),
+            "route has 1 distinct",
+        ),
     ],
 )
 def test_bad_elements_name_the_element(body, pattern):

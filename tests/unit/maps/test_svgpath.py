@@ -27,7 +27,10 @@ def shifted(points, dx, dy):
         ("M 0 0 H 5 V 3 h -2 v 1", [(0, 0), (5, 0), (5, 3), (3, 3), (3, 4)]),
         ("M 0 0 H 1 2 3", [(0, 0), (1, 0), (2, 0), (3, 0)]),  # repeated parameters
         ("M 0 0 L 4 0 L 4 3 Z", [(0, 0), (4, 0), (4, 3), (0, 0)]),
-        ("M0 0L4 0L4 3z m 1 1 l 1 0", [(0, 0), (4, 0), (4, 3), (0, 0), (1, 1), (2, 1)]),  # after z: from start
+        (
+            "M0 0L4 0L4 3z m 1 1 l 1 0",
+            [(0, 0), (4, 0), (4, 3), (0, 0), (1, 1), (2, 1)],
+        ),  # after z: from start
         ("M1e1-2L.5.5", [(10, -2), (0.5, 0.5)]),  # exponents, glued signs and decimals
         ("M 0 0 L 0 0 L 1 1 L 1 1", [(0, 0), (1, 1)]),  # duplicates dropped
         ("", []),
