@@ -60,11 +60,14 @@ def _draw_robot_path(ax: Axes, xy: np.ndarray, dt: float) -> LineCollection | No
     return lc
 
 
-def _collision_xy(robot_xy: np.ndarray, step: int | None, point: Any) -> np.ndarray | None:
+def _collision_xy(robot_xy: np.ndarray, step: Any, point: Any) -> np.ndarray | None:
+    """Where to draw the collision mark; ``core.sim.trace.Trace`` says "none" with step -1 and a NaN point."""
     if point is not None:
-        return np.asarray(point, dtype=float).reshape(2)
-    if step is not None and len(robot_xy):
-        return robot_xy[min(max(int(step), 0), len(robot_xy) - 1)]
+        xy = np.asarray(point, dtype=float).reshape(2)
+        if np.all(np.isfinite(xy)):
+            return xy
+    if step is not None and int(step) >= 0 and len(robot_xy):
+        return robot_xy[min(int(step), len(robot_xy) - 1)]
     return None
 
 

@@ -14,7 +14,8 @@ Reading it the way the reference (robot_sf) does, but with every key checked:
   ``map_registry`` argument, else the root manifest's ``map_registry:`` key (relative to the
   manifest), else the first ``registry.yaml`` found in the parent folder of a search path or in
   the search path itself (the reference layout: maps in ``maps/svg_maps``, registry in
-  ``maps/registry.yaml``).
+  ``maps/registry.yaml``). As in the reference, a map loaded by id is named by its id (so
+  ``classic_cross_trap`` stays distinct from ``classic_crossing``, which it is read from).
 - Root manifest only: ``select_scenarios`` (ordered, case-insensitive), ``scenario_overrides``
   (deep-merged into every scenario), ``scenario_overrides_by_name``, ``map_registry``,
   ``metadata`` (kept on the matrix) and ``seeds`` (default seed list for scenarios without one).

@@ -120,3 +120,22 @@ def test_recorded_states_honours_steps_and_nan_padding() -> None:
     assert recorded_states(tr) == 7
     tr.steps = 3  # type: ignore[attr-defined]
     assert recorded_states(tr) == 4
+
+
+def test_renders_a_simulator_trace_without_collision(tmp_path: Path, mapdef: MapDef) -> None:
+    """core.sim.trace.Trace marks "no collision" with step -1 and a NaN point: no red mark at the start."""
+    from core.sim.trace import Trace
+
+    src = _trace(20)
+    tr = Trace(50, 2, dt=0.1)
+    for t in range(21):
+        tr.record_state(t, src.robot[t], src.ped_ids[t], src.ped_pos[t], src.ped_vel[t])
+    assert (tr.collision_step, np.isnan(tr.collision_point).all()) == (-1, True)
+    none = _assert_picture(render_trace(tr, mapdef, tmp_path / "none.png"))
+    tr.collision_step, tr.collision_point = 15, src.robot[15, :2].copy()
+    hit = _assert_picture(render_trace(tr, mapdef, tmp_path / "hit.png"))
+
+    def red(img: np.ndarray) -> int:
+        return int(((img[..., 0] > 0.8) & (img[..., 1] < 0.2) & (img[..., 2] < 0.2)).sum())
+
+    assert red(hit) > red(none) + 50
