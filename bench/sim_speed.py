@@ -21,8 +21,8 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
 from core.maps.model import MapDef, Route, Zone  # noqa: E402
-from core.planners.goal import GoalSeeking  # noqa: E402
 from core.planners.base import EpisodeInfo  # noqa: E402
+from core.planners.goal import GoalSeeking  # noqa: E402
 from core.scenarios.model import ResolvedScenario, Scenario, SimulationConfig  # noqa: E402
 from core.sim.simulator import Simulator  # noqa: E402
 

@@ -11,7 +11,7 @@ import numpy as np
 from core.sim import forces
 from core.sim.behaviours import CrowdArrays
 from core.sim.geometry import SegmentSet
-from core.sim.neighbours import all_pairs, cell_pairs
+from core.sim.neighbours import cell_pairs
 from core.sim.params import CrowdParams, ForceParams
 from core.sim.walls import constrain_moves
 
@@ -48,11 +48,12 @@ class CrowdDynamics:
         self.dense = n <= crowd_params.dense_pair_limit
         self.gi, self.gj = _group_pairs(crowd.group, crowd.group_size)
         self.has_groups = bool((crowd.group_size >= 2).any())
+        self.member_n = crowd.group_size[crowd.group]  #: (N,) size of each ped's group
         self.wall_constraint = crowd_params.wall_constraint and len(walls) > 0
 
-    def pairs(self) -> tuple[np.ndarray, np.ndarray]:
-        """Candidate neighbour pairs for the ped-ped force (all pairs, or a cell list for large crowds)."""
-        return all_pairs(self.n) if self.dense else cell_pairs(self.c.pos, self.cutoff)
+    def pairs(self) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """Candidate neighbour pairs for the ped-ped force: None = all pairs (dense), else a cell list."""
+        return (None, None) if self.dense else cell_pairs(self.c.pos, self.cutoff)
 
     def total_force(self, robot_xy: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         """Sum of all active terms (N, 2) [m/s^2], plus each ped's wall clearance (N,) when computed."""
@@ -62,13 +63,13 @@ class CrowdDynamics:
         f += forces.social_force(c.pos, c.vel, i, j, p, self.cutoff)
         clearance = None
         if self.obstacle_forces:
-            off, dist = self.walls.offsets(c.pos)
-            f += forces.obstacle_force_from_offsets(off, dist, p)
-            clearance = dist.min(axis=1)
+            fo, clearance = forces.obstacle_force(c.pos, self.walls, p)
+            f += fo
         if self.has_groups:
-            f += forces.group_coherence_force(c.pos, c.group, c.group_size, p)
+            cent = forces.group_centroids(c.pos, c.group, c.group_size)[c.group]
+            f += forces.group_coherence_force(c.pos, cent, self.member_n, p)
             f += forces.group_repulsion_force(c.pos, self.gi, self.gj, p)
-            f += forces.group_gaze_force(c.pos, c.goal, c.group, c.group_size, p)
+            f += forces.group_gaze_force(c.pos, c.goal, cent, self.member_n, p)
         if self.robot_repulsion:
             f += forces.robot_force(c.pos, robot_xy, self.robot_radius, p)
         return f, clearance

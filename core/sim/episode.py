@@ -7,6 +7,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from core.planners.base import EpisodeInfo, Planner
 from core.scenarios.model import ResolvedScenario
 from core.sim.observation import Events, Observation
@@ -23,10 +25,10 @@ class EpisodeResult:
     outcome: str  #: success | collision_pedestrian | collision_static | timeout
     steps: int
     trace: Trace
-    min_ped_distance: float  #: smallest robot-ped centre distance over the episode [m] (inf without peds)
-    min_ped_clearance: float  #: the same minus both radii [m]; <= 0 means contact
-    wall_time_s: float  #: reset + loop [s]
-    plan_time_s: float  #: time spent inside planner.plan [s]
+    min_distance: float | None  #: smallest robot-ped centre distance over the episode [m]; None without peds
+    min_clearance: float | None  #: the same minus both radii [m]; <= 0 means contact
+    wall_s: float  #: reset + loop [s]
+    plan_s: float  #: time spent inside planner.plan [s]
     extra: dict[str, Any] = field(default_factory=dict)
 
 
@@ -51,9 +53,9 @@ def run_episode(
         if events.done:
             break
     trace = sim.trace
+    dmin = float(sim.min_ped_distance) if np.isfinite(sim.min_ped_distance) else None
     return EpisodeResult(
         scenario=scenario.name, seed=int(seed), outcome=trace.outcome, steps=trace.steps, trace=trace,
-        min_ped_distance=float(sim.min_ped_distance),
-        min_ped_clearance=float(sim.min_ped_distance - sim.limits.radius - sim.ped_radius),
-        wall_time_s=time.perf_counter() - t0, plan_time_s=plan_time,
+        min_distance=dmin, min_clearance=None if dmin is None else dmin - sim.limits.radius - sim.ped_radius,
+        wall_s=time.perf_counter() - t0, plan_s=plan_time,
     )

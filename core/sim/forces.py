@@ -36,67 +36,87 @@ def desired_force(pos: np.ndarray, vel: np.ndarray, goal: np.ndarray, vmax: np.n
     return p.desired_factor * (target - vel) / p.relaxation_time
 
 
-def social_force(
-    pos: np.ndarray, vel: np.ndarray, i: np.ndarray, j: np.ndarray, p: ForceParams, cutoff: float
-) -> np.ndarray:
-    """Moussaid ped-ped force summed over ordered pairs (i, j), i != j, with centre distance <= cutoff.
+def _moussaid(rx, ry, dvx, dvy, p: ForceParams, cutoff: float) -> tuple[np.ndarray, np.ndarray]:
+    """Moussaid pair forces (x, y components) from x_i - x_j and v_j - v_i, any matching shapes.
 
-    Reproduces the reference kernel including its unwrapped angle difference theta (unless
-    ``social_wrap_theta``), so a neighbour whose interaction direction straddles the +-pi cut is
-    nearly ignored, as in robot_sf.
+    A pair with zero distance (including i == j on a dense grid) contributes exactly zero,
+    because its interaction direction t is the zero vector.
     """
-    n = len(pos)
-    if len(i) == 0:
-        return np.zeros((n, 2))
-    r = pos[i] - pos[j]
-    e, d = _unit(r)
-    w = p.social_lambda * (vel[j] - vel[i]) + e
-    t, w_norm = _unit(w)
-    b = p.social_gamma * w_norm + 1e-8
-    theta = np.arctan2(t[:, 1], t[:, 0]) - np.arctan2(e[:, 1], e[:, 0])
+    d = np.sqrt(rx * rx + ry * ry)
+    inv = 1.0 / np.where(d > 0, d, 1.0)
+    ex, ey = rx * inv, ry * inv
+    wx = p.social_lambda * dvx + ex
+    wy = p.social_lambda * dvy + ey
+    wn = np.sqrt(wx * wx + wy * wy)
+    winv = 1.0 / np.where(wn > 0, wn, 1.0)
+    tx, ty = wx * winv, wy * winv
+    b = p.social_gamma * wn + 1e-8
+    theta = np.arctan2(ty, tx) - np.arctan2(ey, ex)
     if p.social_wrap_theta:
         theta = (theta + np.pi) % (2 * np.pi) - np.pi
-    base = -d / b
-    bt = b * theta
-    decel = np.exp(base - (p.social_n_prime * bt) ** 2)
-    side = np.exp(base - (p.social_n * bt) ** 2) * np.where(theta >= 0, -1.0, 1.0)
-    side = np.where(d <= cutoff, side, 0.0)
-    decel = np.where(d <= cutoff, decel, 0.0)
-    f = np.empty_like(r)
-    f[:, 0] = decel * t[:, 0] - side * t[:, 1]
-    f[:, 1] = decel * t[:, 1] + side * t[:, 0]
-    return p.social_factor * _accumulate(i, f, n)
+    base = np.where(d <= cutoff, -d / b, -np.inf)  # beyond the cutoff both exponentials vanish
+    bt2 = (b * theta) ** 2
+    decel = np.exp(base - p.social_n_prime**2 * bt2)
+    side = np.exp(base - p.social_n**2 * bt2) * np.where(theta >= 0, -1.0, 1.0)
+    return decel * tx - side * ty, decel * ty + side * tx
 
 
-def obstacle_force_from_offsets(off: np.ndarray, dist: np.ndarray, p: ForceParams) -> np.ndarray:
-    """Obstacle force from precomputed offsets (N, S, 2) and distances (N, S): sum of factor (x - c) / s^4."""
-    s = np.maximum(dist - p.obstacle_offset, 1e-5)
-    k = p.obstacle_factor / s**4
-    return np.einsum("ns,nsk->nk", k, off)
-
-
-def obstacle_force(pos: np.ndarray, walls: SegmentSet, p: ForceParams) -> np.ndarray:
-    """Repulsion from every segment (obstacle edges and map bounds), no distance cutoff (as the reference)."""
-    if len(walls) == 0:
-        return np.zeros_like(pos)
-    off, dist = walls.offsets(pos)
-    return obstacle_force_from_offsets(off, dist, p)
-
-
-def group_coherence_force(
-    pos: np.ndarray, group: np.ndarray, size: np.ndarray, p: ForceParams
+def social_force(
+    pos: np.ndarray, vel: np.ndarray, i: np.ndarray | None, j: np.ndarray | None, p: ForceParams, cutoff: float
 ) -> np.ndarray:
-    """Pull each member towards its group centroid once it is farther than (n - 1) / 2 [m] (pedsim variant).
+    """Moussaid ped-ped force: factor * sum over neighbours j with centre distance <= cutoff.
 
-    ``group`` (N,) is each ped's group index, ``size`` (G,) the group sizes; singletons feel nothing.
+    ``i, j`` are ordered candidate pairs (i != j); None means all pairs, computed on the dense
+    (N, N) grid without index gathers (faster for small crowds). Reproduces the reference kernel
+    including its unwrapped angle difference theta (unless ``social_wrap_theta``), so a neighbour
+    whose interaction direction straddles the +-pi cut is nearly ignored, as in robot_sf.
     """
+    n = len(pos)
+    out = np.zeros((n, 2))
+    if n < 2:
+        return out
+    x, y, vx, vy = pos[:, 0], pos[:, 1], vel[:, 0], vel[:, 1]
+    if i is None:
+        fx, fy = _moussaid(x[:, None] - x, y[:, None] - y, vx - vx[:, None], vy - vy[:, None], p, cutoff)
+        out[:, 0] = fx.sum(axis=1)
+        out[:, 1] = fy.sum(axis=1)
+    elif len(i):
+        fx, fy = _moussaid(x[i] - x[j], y[i] - y[j], vx[j] - vx[i], vy[j] - vy[i], p, cutoff)
+        out[:, 0] = np.bincount(i, weights=fx, minlength=n)
+        out[:, 1] = np.bincount(i, weights=fy, minlength=n)
+    return p.social_factor * out
+
+
+def obstacle_force(pos: np.ndarray, walls: SegmentSet, p: ForceParams) -> tuple[np.ndarray, np.ndarray]:
+    """Repulsion factor (x - c) / (|x - c| - offset)^4 summed over every segment (obstacle edges and map
+    bounds, no distance cutoff, as the reference); also returns each ped's distance to the nearest segment (N,)."""
+    if len(walls) == 0:
+        return np.zeros_like(pos), np.full(len(pos), np.inf)
+    ox, oy, dist = walls.offset_components(pos)
+    k = p.obstacle_factor / np.maximum(dist - p.obstacle_offset, 1e-5) ** 4
+    out = np.empty_like(pos)
+    out[:, 0] = (k * ox).sum(axis=1)
+    out[:, 1] = (k * oy).sum(axis=1)
+    return out, dist.min(axis=1)
+
+
+def group_centroids(pos: np.ndarray, group: np.ndarray, size: np.ndarray) -> np.ndarray:
+    """Group centroids (G, 2) [m] of ``group`` (N,) indices with member counts ``size`` (G,)."""
     g = len(size)
-    cx = np.bincount(group, weights=pos[:, 0], minlength=g) / size
-    cy = np.bincount(group, weights=pos[:, 1], minlength=g) / size
-    u = np.stack([cx[group] - pos[:, 0], cy[group] - pos[:, 1]], axis=1)
-    thr = (size[group] - 1) / 2.0
+    out = np.empty((g, 2))
+    out[:, 0] = np.bincount(group, weights=pos[:, 0], minlength=g) / size
+    out[:, 1] = np.bincount(group, weights=pos[:, 1], minlength=g) / size
+    return out
+
+
+def group_coherence_force(pos: np.ndarray, centroid: np.ndarray, n: np.ndarray, p: ForceParams) -> np.ndarray:
+    """Pull members towards their group centroid once farther than (n - 1) / 2 [m] (pedsim variant).
+
+    ``centroid`` (N, 2) is each ped's group centroid, ``n`` (N,) its group size; singletons feel nothing.
+    """
+    u = centroid - pos
     dist = np.sqrt(u[:, 0] ** 2 + u[:, 1] ** 2)
-    return p.group_coherence_factor * u * ((np.tanh(dist - thr) + 1.0) / 2.0)[:, None]
+    return p.group_coherence_factor * u * ((np.tanh(dist - (n - 1) / 2.0) + 1.0) / 2.0)[:, None]
 
 
 def group_repulsion_force(pos: np.ndarray, i: np.ndarray, j: np.ndarray, p: ForceParams) -> np.ndarray:
@@ -110,19 +130,17 @@ def group_repulsion_force(pos: np.ndarray, i: np.ndarray, j: np.ndarray, p: Forc
 
 
 def group_gaze_force(
-    pos: np.ndarray, goal: np.ndarray, group: np.ndarray, size: np.ndarray, p: ForceParams
+    pos: np.ndarray, goal: np.ndarray, centroid: np.ndarray, n: np.ndarray, p: ForceParams
 ) -> np.ndarray:
-    """Turn members towards the centroid of the others: e_i |c' - x_i| (e_i . g) / d_i (pedsim variant)."""
-    g = len(size)
-    sx = np.bincount(group, weights=pos[:, 0], minlength=g)
-    sy = np.bincount(group, weights=pos[:, 1], minlength=g)
-    others = np.maximum(size[group] - 1, 1)[:, None]
-    rel = np.stack([sx[group], sy[group]], axis=1)
-    rel = (rel - pos) / others - pos  # centroid of the others minus x_i
+    """Turn members towards the centroid c' of the others: e_i |c' - x_i| (e_i . g) / d_i (pedsim variant).
+
+    ``centroid`` (N, 2) and ``n`` (N,) are each ped's full group centroid and size; groups of one feel nothing.
+    """
+    rel = (centroid * n[:, None] - pos) / np.maximum(n - 1, 1)[:, None] - pos  # c' - x_i
     gdir, glen = _unit(rel)
     e, d = _unit(goal - pos)
-    active = (size[group] >= 2) & (d > 1e-6)
-    k = np.where(active, glen * np.einsum("nk,nk->n", e, gdir) / np.where(active, d, 1.0), 0.0)
+    active = (n >= 2) & (d > 1e-6)
+    k = np.where(active, glen * (e[:, 0] * gdir[:, 0] + e[:, 1] * gdir[:, 1]) / np.where(active, d, 1.0), 0.0)
     return p.group_gaze_factor * e * k[:, None]
 
 

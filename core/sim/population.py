@@ -13,7 +13,7 @@ import numpy as np
 
 from core.errors import ConfigError
 from core.maps.model import MapDef, SinglePedestrian
-from core.scenarios.model import SimulationConfig
+from core.scenarios.model import ResolvedScenario, SimulationConfig
 from core.sim.params import TIER_MEANS, CrowdParams
 from core.sim.zones import RouteGeometry, Validator, sample_free, sample_zone
 
@@ -55,6 +55,12 @@ def population_counts(map_def: MapDef, cfg: SimulationConfig, crowd: CrowdParams
     area = sum(z.area for z in map_def.ped_crowded_zones)
     length = sum(r.length for r in map_def.ped_routes)
     return math.ceil(area * cfg.ped_density), math.ceil(length * crowd.sidewalk_width * cfg.ped_density)
+
+
+def pedestrian_count(scenario: ResolvedScenario, crowd: CrowdParams | None = None) -> int:
+    """How many pedestrians an episode of this scenario has (zone + route + single peds; fixed over the episode)."""
+    n_zone, n_route = population_counts(scenario.map, scenario.scenario.simulation_config, crowd or CrowdParams())
+    return n_zone + n_route + len(scenario.map.single_pedestrians)
 
 
 def group_sizes(n: int, max_size: int, rng: np.random.Generator, decay: float) -> list[int]:
@@ -236,4 +242,4 @@ def build_population(
     )
 
 
-__all__ = ["Population", "build_population", "population_counts", "group_sizes", "sample_zone"]
+__all__ = ["Population", "build_population", "pedestrian_count", "population_counts", "group_sizes", "sample_zone"]

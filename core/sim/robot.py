@@ -56,6 +56,11 @@ def wrap_angle(a: np.ndarray | float) -> np.ndarray | float:
     return (a + np.pi) % (2 * np.pi) - np.pi
 
 
+def _clip(a, lo: float, hi: float):
+    """np.clip without its Python-level dispatch overhead (matters for the single robot state)."""
+    return np.minimum(np.maximum(a, lo), hi)
+
+
 def unicycle_step(state: np.ndarray, cmd: np.ndarray, limits: RobotLimits, dt: float) -> np.ndarray:
     """Advance differential-drive states (..., 5) under commands (..., 2) = (v, omega) by dt; returns new (..., 5).
 
@@ -66,28 +71,48 @@ def unicycle_step(state: np.ndarray, cmd: np.ndarray, limits: RobotLimits, dt: f
     """
     state = np.asarray(state, dtype=float)
     cmd = np.asarray(cmd, dtype=float)
+    if state.ndim == 1 and cmd.ndim == 1:
+        return _unicycle_one(state, cmd, limits, dt)
     v, w = state[..., V], state[..., W]
     if limits.actuation == "reference_lag":
-        dv = dt * np.clip(cmd[..., 0] - v, -limits.decel, limits.accel)
-        dw = dt * np.clip(cmd[..., 1] - w, -limits.alpha, limits.alpha)
+        dv = dt * _clip(cmd[..., 0] - v, -limits.decel, limits.accel)
+        dw = dt * _clip(cmd[..., 1] - w, -limits.alpha, limits.alpha)
     else:
-        target_v = np.clip(cmd[..., 0], limits.v_min, limits.v_max)
-        target_w = np.clip(cmd[..., 1], -limits.w_max, limits.w_max)
-        dv = np.clip(target_v - v, -limits.decel * dt, limits.accel * dt)
-        dw = np.clip(target_w - w, -limits.alpha * dt, limits.alpha * dt)
-    v2 = np.clip(v + dv, limits.v_min, limits.v_max)
-    w2 = np.clip(w + dw, -limits.w_max, limits.w_max)
+        dv = _clip(_clip(cmd[..., 0], limits.v_min, limits.v_max) - v, -limits.decel * dt, limits.accel * dt)
+        dw = _clip(_clip(cmd[..., 1], -limits.w_max, limits.w_max) - w, -limits.alpha * dt, limits.alpha * dt)
+    v2 = _clip(v + dv, limits.v_min, limits.v_max)
+    w2 = _clip(w + dw, -limits.w_max, limits.w_max)
     th = state[..., TH]
     th2 = th + 0.5 * (w + w2) * dt
     mid = 0.5 * (th + th2)
     dist = 0.5 * (v + v2) * dt
-    out = np.empty(np.broadcast_shapes(state.shape, cmd.shape[:-1] + (5,)))
+    out = np.empty(state.shape if state.shape[:-1] == cmd.shape[:-1] else np.broadcast_shapes(state.shape, cmd.shape[:-1] + (5,)))
     out[..., X] = state[..., X] + dist * np.cos(mid)
     out[..., Y] = state[..., Y] + dist * np.sin(mid)
     out[..., TH] = wrap_angle(th2)
     out[..., V] = v2
     out[..., W] = w2
     return out
+
+
+def _unicycle_one(state: np.ndarray, cmd: np.ndarray, limits: RobotLimits, dt: float) -> np.ndarray:
+    """``unicycle_step`` for one (5,) state in Python floats: the same IEEE operations in the same order
+    (numpy's cos/sin on scalars use the array loops), ~10x faster than 0-d array arithmetic."""
+    x, y, th, v, w = (float(c) for c in state)
+    cv, cw = float(cmd[0]), float(cmd[1])
+    if limits.actuation == "reference_lag":
+        dv = dt * min(max(cv - v, -limits.decel), limits.accel)
+        dw = dt * min(max(cw - w, -limits.alpha), limits.alpha)
+    else:
+        dv = min(max(min(max(cv, limits.v_min), limits.v_max) - v, -limits.decel * dt), limits.accel * dt)
+        dw = min(max(min(max(cw, -limits.w_max), limits.w_max) - w, -limits.alpha * dt), limits.alpha * dt)
+    v2 = min(max(v + dv, limits.v_min), limits.v_max)
+    w2 = min(max(w + dw, -limits.w_max), limits.w_max)
+    th2 = th + 0.5 * (w + w2) * dt
+    mid = 0.5 * (th + th2)
+    dist = 0.5 * (v + v2) * dt
+    return np.array([x + dist * float(np.cos(mid)), y + dist * float(np.sin(mid)),
+                     (th2 + np.pi) % (2 * np.pi) - np.pi, v2, w2])
 
 
 def holonomic_step(state: np.ndarray, cmd: np.ndarray, limits: RobotLimits, dt: float) -> np.ndarray:
