@@ -116,6 +116,7 @@ class _Importer:
         self.obstacles: list[tuple[Point, ...]] = []
         self.crowded: list[Zone] = []
         self.routes: dict[str, list[Route]] = {"robot": [], "ped": []}
+        self.pois: dict[str, Point] = {}
 
     def error(self, message: str, item: str | None = None) -> ConfigError:
         return ConfigError(message, source=self.source, item=item)
