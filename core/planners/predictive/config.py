@@ -71,6 +71,8 @@ class SafetyConfig(_Frozen):
     static_margin: float = Field(default=0.05, ge=0)  #: hard: rollouts closer to an edge are infeasible
     static_soft_distance: float = Field(default=0.4, ge=0)  #: soft clearance band beyond the hard margin
     discount: float = Field(default=0.9, gt=0, le=1)  #: per forecast step weight of pedestrian terms
+    passive_floor: float = Field(default=0.25, ge=0, le=1)  #: weight of ped terms while the robot stands still
+    passive_speed: float = Field(default=0.3, gt=0)  #: robot speed [m/s] from which ped terms count fully
     static_field_resolution: float = Field(default=0.1, ge=0, le=0.5)  #: [m]; 0 = exact distance queries
 
 

@@ -134,16 +134,21 @@ def pedestrian_terms(pos: np.ndarray, speed: np.ndarray, scene: Scene, cfg: Pred
     s = cfg.safety
     if scene.ped_future.shape[0] == 0:
         z = np.zeros(B)
-        return {"collision": z, "near_miss": z, "ttc": z, "min_clearance": np.full(B, np.inf)}
+        return {"collision": z, "near_miss": z, "ttc": z, "hard_clearance": z, "min_clearance": np.full(B, np.inf)}
     diff = pos[:, None, :, :] - scene.ped_future[None]  # (B, N, K, 2)
     clear = np.sqrt(diff[..., 0] ** 2 + diff[..., 1] ** 2) - scene.contact  # (B, N, K)
     margin = s.collision_margin + s.margin_growth * scene.times + s.speed_clearance_gain * speed  # (B, K)
     w = s.discount ** np.arange(len(scene.times))  # (K,)
-    m = margin[:, None, :]
-    collision = (np.maximum(0.0, m - clear) * w).sum(axis=(1, 2))
-    near = (np.maximum(0.0, m + s.near_distance - clear) * w).sum(axis=(1, 2))
-    ttc = (np.maximum(0.0, m + s.ttc_distance - clear) / scene.times).sum(axis=(1, 2))
-    return {"collision": collision, "near_miss": near, "ttc": ttc, "min_clearance": clear.min(axis=(1, 2))}
+    # passive safety: a pedestrian predicted to walk into a robot standing still is discounted, because
+    # pedestrians avoid a standing robot while constant-velocity forecasts cannot; without it the robot flees
+    resp = s.passive_floor + (1.0 - s.passive_floor) * np.minimum(1.0, speed / s.passive_speed)  # (B, K)
+    m, wk = margin[:, None, :], (resp * w)[:, None, :]
+    collision = (np.maximum(0.0, m - clear) * wk).sum(axis=(1, 2))
+    near = (np.maximum(0.0, m + s.near_distance - clear) * wk).sum(axis=(1, 2))
+    ttc = (np.maximum(0.0, m + s.ttc_distance - clear) * (resp / scene.times)[:, None, :]).sum(axis=(1, 2))
+    hard = (np.maximum(0.0, s.hard_clearance_distance - clear) * resp[:, None, :]).max(axis=(1, 2))
+    return {"collision": collision, "near_miss": near, "ttc": ttc, "hard_clearance": hard,
+            "min_clearance": clear.min(axis=(1, 2))}
 
 
 def evaluate(roll: Rollouts, scene: Scene, cfg: PredictivePlannerConfig) -> tuple[np.ndarray, dict[str, np.ndarray]]:
@@ -157,7 +162,6 @@ def evaluate(roll: Rollouts, scene: Scene, cfg: PredictivePlannerConfig) -> tupl
     min_c = terms.pop("min_clearance")
     terms["progress"] = progress
     terms["progress_risk"] = np.maximum(0.0, progress) * np.maximum(0.0, s.progress_risk_distance - min_c)
-    terms["hard_clearance"] = np.maximum(0.0, s.hard_clearance_distance - min_c)
     sc = scene.static(st[..., :2]) - scene.robot_radius  # (B, S)
     terms["static_collision"] = (sc < s.static_margin).sum(axis=1).astype(float)
     terms["static"] = np.maximum(0.0, s.static_margin + s.static_soft_distance - sc).mean(axis=1)

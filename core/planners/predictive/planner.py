@@ -77,6 +77,17 @@ class PredictivePlanner:
         }
         return v, w
 
+    def score_commands(self, obs: Observation, commands: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """Cost (B,) and terms of constant commands (B, 2) held over the horizon (tests, diagnostics)."""
+        self.forecaster.observe(obs)
+        fc = self.forecaster.forecast()
+        scene, _, _ = self._scene(obs, fc.positions, fc.times)
+        idx = eval_steps(scene.times, obs.dt)
+        cmds = np.repeat(np.asarray(commands, dtype=float)[:, None, :], int(idx[-1]) + 1, axis=1)
+        state0 = np.concatenate([obs.robot_pose, obs.robot_velocity]).astype(float)
+        states = rollout(np.repeat(state0[None], len(cmds), axis=0), cmds, self._limits, obs.dt)
+        return C.evaluate(C.Rollouts(states, idx, cmds), scene, self.config)
+
     # -- decision pieces -------------------------------------------------------------------------
     def _scene(self, obs: Observation, positions: np.ndarray, times: np.ndarray) -> tuple[C.Scene, bool, int]:
         cfg = self.config

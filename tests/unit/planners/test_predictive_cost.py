@@ -1,0 +1,93 @@
+"""Cost terms and candidates of the predictive planner on hand-built situations."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from core.planners.predictive.config import PredictivePlannerConfig, SamplingConfig
+from core.planners.predictive.cost import RoutePotential
+from core.planners.predictive.planner import PredictivePlanner
+from core.planners.predictive.sampling import first_candidates
+from core.predict.forecaster import ConstantVelocityForecaster
+from core.predict.timebase import PLANNER_TIMEBASE
+from core.sim.robot import RobotLimits
+from tests.unit.planners.scenes import corridor_map, info_for, observation
+
+
+def _planner(map_def, config=None) -> PredictivePlanner:
+    p = PredictivePlanner(config, ConstantVelocityForecaster(PLANNER_TIMEBASE))
+    p.reset(info_for(map_def))
+    return p
+
+
+def test_candidates_span_distinct_turn_rates():
+    cands = first_candidates(SamplingConfig(), RobotLimits(), 1.0, near_field=False)
+    rates = np.unique(cands[:, 1])
+    assert len(rates) == 9 and rates.min() == pytest.approx(-1.0) and rates.max() == pytest.approx(1.0)
+    assert np.all(np.diff(rates) > 0.2)  # evenly spread, not collapsed onto the limits
+    assert [0.0, 0.0] in cands.tolist()  # braking is always available
+    assert cands[:, 0].max() == pytest.approx(2.0)
+
+
+def test_near_field_densifies_turn_rates_and_speeds():
+    far = first_candidates(SamplingConfig(), RobotLimits(), 1.0, near_field=False)
+    near = first_candidates(SamplingConfig(near_field_speed_cap=0.5), RobotLimits(), 1.0, near_field=True)
+    assert len(np.unique(near[:, 1])) > len(np.unique(far[:, 1]))
+    assert len(np.unique(near[:, 0])) > len(np.unique(far[:, 0]))
+    assert near[:, 0].max() == pytest.approx(1.0)  # near-field speed cap 0.5 of 2 m/s
+
+
+def test_pedestrian_on_straight_path_makes_straight_costlier():
+    m = corridor_map()
+    cmds = np.array([[1.5, 0.0], [1.5, 0.6]])
+    free = _planner(m).score_commands(observation(m), cmds)[0]
+    blocked_total, terms = _planner(m).score_commands(observation(m, peds=[(8.5, 10.0)]), cmds)
+    assert free[0] < free[1]  # without the pedestrian, straight is best
+    assert blocked_total[0] > blocked_total[1]  # with it, swerving is cheaper
+    assert terms["collision"][0] > 0 and terms["collision"][0] > terms["collision"][1]
+
+
+def test_collision_uses_true_radii():
+    """A pedestrian 1.3 m beside the straight path (within r_robot + r_ped = 1.4 m) is a predicted collision."""
+    m = corridor_map()
+    terms = _planner(m).score_commands(observation(m, peds=[(8.0, 11.3)]), np.array([[1.5, 0.0]]))[1]
+    assert terms["collision"][0] > 0
+
+
+def test_wall_ahead_is_penalised():
+    wall = ((9.0, 0.0), (10.0, 0.0), (10.0, 20.0), (9.0, 20.0))  # blocks the corridor 3 m ahead
+    m = corridor_map(obstacles=(wall,))
+    total, terms = _planner(m).score_commands(observation(m), np.array([[2.0, 0.0], [0.0, 0.0]]))
+    assert terms["static_collision"][0] > 0 and terms["static_collision"][1] == 0
+    assert total[0] > total[1]
+
+
+def test_route_progress_follows_waypoints():
+    """Around a corner, moving toward the next waypoint counts as progress, cutting straight to the goal does not."""
+    route = np.array([[10.0, 10.0], [10.0, 20.0]])
+    pot = RoutePotential(route, switch_radius=2.0, goal_tolerance=2.0)
+    start = pot.start(np.array([0.0, 10.0]))
+    along = pot(np.array([[[5.0, 10.0]]]))[0][0, 0]
+    cut = pot(np.array([[[3.5, 13.5]]]))[0][0, 0]  # ~5 m closer to the goal in a straight line
+    assert start - along == pytest.approx(5.0)
+    assert along < cut
+
+
+def test_goal_inside_tolerance_has_zero_potential():
+    pot = RoutePotential(np.array([[10.0, 10.0], [20.0, 10.0]]), switch_radius=2.0, goal_tolerance=2.0)
+    phi = pot(np.array([[[5.0, 10.0], [18.5, 10.0], [25.0, 10.0]]]))[0][0]
+    assert phi[1] == 0.0 and phi[2] == 0.0 and phi[0] > 0
+
+
+def test_static_field_never_overestimates_clearance():
+    wall = ((9.0, 0.0), (10.0, 0.0), (10.0, 20.0), (9.0, 20.0))
+    m = corridor_map(obstacles=(wall,))
+    p = _planner(m, PredictivePlannerConfig())
+    obs = observation(m)
+    field = p._static_field(obs)
+    pts = np.random.default_rng(0).uniform([0, 0], [30, 20], size=(500, 2))
+    exact = obs.static.distance(pts)
+    approx = field(pts)
+    assert np.all(approx <= exact + 1e-9) and np.all(exact - approx < 0.2)
+    assert field(np.array([[-1.0, 5.0]]))[0] < 0  # outside the map
