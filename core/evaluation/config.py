@@ -1,0 +1,100 @@
+"""Stage configs of the evaluation engine (evaluate, diagnose, campaign), defined once for YAML, API and CLI.
+
+Inputs are named by bundle id + bundle-relative path and by model id, never by server paths.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from core.evaluation.aggregate import BootstrapConfig
+from core.evaluation.gates import ClosedLoopGateConfig, EvaluationGateConfig
+from core.evaluation.metrics import MetricsConfig
+from core.evaluation.plannerspec import PlannerSpec
+from core.evaluation.taxonomy import TaxonomyConfig
+from core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident
+
+StartMethod = Literal["spawn", "fork", "forkserver"]
+
+
+class _Config(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class EpisodeSelection(_Config):
+    """Which episodes: scenarios of a matrix x seeds (the matrix's own, N per scenario, or a seed manifest)."""
+
+    bundle: Ident = BUILTIN_BUNDLE
+    matrix: BundlePath = "scenarios/classic_interactions.yaml"
+    scenarios: list[str] | None = Field(default=None, max_length=1000)  #: default: every scenario
+    seeds_per_scenario: int | None = Field(default=None, ge=1, le=1000)  #: own seeds, extended by max+1, max+2 ...
+    seed_manifest: BundlePath | None = None  #: only these (scenario, seed) pairs
+    max_steps: int | None = Field(default=None, ge=1, le=100_000)  #: horizon override (smoke runs); default: the scenario's
+
+    @model_validator(mode="after")
+    def _one_seed_source(self) -> EpisodeSelection:
+        if self.seed_manifest is not None and self.seeds_per_scenario is not None:
+            raise ValueError("give seeds_per_scenario or seed_manifest, not both")
+        return self
+
+
+class EvaluationConfig(EpisodeSelection):
+    planner: PlannerSpec = PlannerSpec()
+    metrics: MetricsConfig = MetricsConfig()
+    taxonomy: TaxonomyConfig = TaxonomyConfig()
+    gate: EvaluationGateConfig = EvaluationGateConfig()
+    bootstrap: BootstrapConfig = BootstrapConfig()
+    start_method: StartMethod = "spawn"  #: worker processes (results do not depend on it)
+
+
+class DiagnosticsConfig(_Config):
+    """Hard-seed diagnostics: every (scenario, seed) of a seed manifest, traced step by step."""
+
+    bundle: Ident = BUILTIN_BUNDLE
+    matrix: BundlePath = "scenarios/classic_interactions.yaml"
+    seed_manifest: BundlePath
+    max_steps: int | None = Field(default=None, ge=1, le=100_000)
+    planner: PlannerSpec = PlannerSpec()
+    metrics: MetricsConfig = MetricsConfig()
+    taxonomy: TaxonomyConfig = TaxonomyConfig()
+    render: bool = True  #: a PNG per seed
+    max_predicted_peds: int = Field(default=8, ge=0, le=200)  #: per-step predicted-vs-actual for the nearest N peds
+
+
+class GridVariant(_Config):
+    """One planner-grid variant: reference keys (``params``, mapped by the planner) and/or our keys (``config``)."""
+
+    name: str = Field(min_length=1, max_length=200)
+    params: dict[str, Any] = Field(default_factory=dict)
+    config: dict[str, Any] = Field(default_factory=dict)
+
+
+class CampaignConfig(_Config):
+    """Checkpoints x planner-grid variants, each on a hard suite (seed manifest) and a global suite (matrix)."""
+
+    bundle: Ident = BUILTIN_BUNDLE
+    matrix: BundlePath = "scenarios/classic_interactions.yaml"
+    seed_manifest: BundlePath  #: the hard suite: an evaluation manifest, never the training one
+    grid: BundlePath | None = None  #: planner-grid YAML (``variants: [{name, params}]``)
+    variants: list[GridVariant] | None = Field(default=None, max_length=200)  #: inline grid (instead of ``grid``)
+    checkpoints: list[str] = Field(default_factory=lambda: ["cv"], min_length=1, max_length=50)  #: model ids or "cv"
+    planner: PlannerSpec = PlannerSpec()  #: base predictive config the variants modify
+    seeds_per_scenario: int | None = Field(default=None, ge=1, le=1000)  #: global suite seeds
+    max_steps: int | None = Field(default=None, ge=1, le=100_000)
+    gate: ClosedLoopGateConfig | None = None
+    metrics: MetricsConfig = MetricsConfig()
+    taxonomy: TaxonomyConfig = TaxonomyConfig()
+    bootstrap: BootstrapConfig = BootstrapConfig()
+    start_method: StartMethod = "spawn"
+
+    @model_validator(mode="after")
+    def _grid(self) -> CampaignConfig:
+        if (self.grid is None) == (self.variants is None):
+            raise ValueError("give exactly one of grid (a file) or variants (inline)")
+        if self.planner.name != "predictive":
+            raise ValueError("campaigns vary the predictive planner")
+        if len(set(self.checkpoints)) != len(self.checkpoints):
+            raise ValueError("checkpoints listed twice")
+        return self

@@ -1,0 +1,238 @@
+"""Stage ``evaluate``: (scenario x seed x planner config) episodes in parallel processes, records, aggregates.
+
+Every episode depends only on (scenario, seed, resolved planner config): each worker builds a fresh
+planner per episode and results are put back in job order, so the output is identical whatever the
+worker count. Workers are plain ``multiprocessing`` processes (spawn by default: safe with torch).
+"""
+
+from __future__ import annotations
+
+import json
+import multiprocessing as mp
+import os
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel
+
+from core.errors import ConfigError
+from core.evaluation.aggregate import Aggregates, aggregate, summarise
+from core.evaluation.config import EpisodeSelection, EvaluationConfig
+from core.evaluation.episode import run_one
+from core.evaluation.gates import GateResult, evaluation_gate
+from core.evaluation.integrity import IntegrityReport, check_integrity
+from core.evaluation.metrics import MetricsConfig
+from core.evaluation.plannerspec import ResolvedPlanner, preflight, resolve_planner
+from core.evaluation.record import EpisodeRecord
+from core.evaluation.taxonomy import TaxonomyConfig
+from core.scenarios.model import ScenarioMatrix
+from core.stages.context import StageContext
+from core.stages.refs import resolve_in_bundle
+from core.version import code_version
+
+
+@dataclass(frozen=True)
+class Job:
+    index: int
+    scenario: str
+    seed: int
+    planner: ResolvedPlanner
+
+
+@dataclass(frozen=True)
+class EpisodeSettings:
+    """Shared by every job of a run (sent once to each worker)."""
+
+    matrix_path: str
+    max_steps: int | None
+    metrics: MetricsConfig
+    taxonomy: TaxonomyConfig
+
+
+# ------------------------------------------------------------------------------ episode selection
+
+
+def expand_seeds(own: tuple[int, ...], n: int | None) -> list[int]:
+    """The scenario's own seeds, or the first ``n`` of them extended by max+1, max+2, ... (a superset)."""
+    seeds = list(own)
+    if n is None:
+        return seeds
+    nxt = max(seeds, default=-1) + 1
+    while len(seeds) < n:
+        seeds.append(nxt)
+        nxt += 1
+    return seeds[:n]
+
+
+def bundle_file(ctx: StageContext, bundle: str, rel: str) -> Path:
+    try:
+        return resolve_in_bundle(ctx.resolve_bundle(bundle), rel)
+    except ValueError as exc:
+        raise ConfigError(str(exc), source=rel) from None
+
+
+def load_selection(sel: EpisodeSelection, ctx: StageContext) -> tuple[Path, ScenarioMatrix, list[tuple[str, int]]]:
+    """(matrix path, matrix, [(scenario, seed), ...] in matrix order) of an episode selection."""
+    from core.scenarios.loader import load_matrix
+    from core.scenarios.seeds import load_seed_manifest
+
+    path = bundle_file(ctx, sel.bundle, sel.matrix)
+    matrix = load_matrix(path)
+    names = matrix.names if sel.scenarios is None else [matrix.get(n).name for n in sel.scenarios]
+    if sel.seed_manifest is not None:
+        manifest = load_seed_manifest(bundle_file(ctx, sel.bundle, sel.seed_manifest), matrix)
+        pairs = [(s, seed) for s, seed in manifest.pairs() if s in names]
+    else:
+        pairs = [(n, seed) for n in names for seed in expand_seeds(matrix.get(n).scenario.seeds, sel.seeds_per_scenario)]
+    if not pairs:
+        raise ConfigError("no episodes selected", source=sel.matrix)
+    return path, matrix, pairs
+
+
+# ------------------------------------------------------------------------------ workers
+
+_WORKER: dict[str, Any] = {}
+
+
+def _init_pool_worker(settings: EpisodeSettings) -> None:
+    os.environ.setdefault("OMP_NUM_THREADS", "1")  # one thread per worker process (set before torch loads)
+    os.environ.setdefault("MKL_NUM_THREADS", "1")
+    _init_worker(settings)
+
+
+def _init_worker(settings: EpisodeSettings, matrix: ScenarioMatrix | None = None) -> None:
+    from core.scenarios.loader import load_matrix
+    from core.sim.simulator import Simulator
+
+    _WORKER.update(settings=settings, matrix=matrix or load_matrix(settings.matrix_path), sim=Simulator())
+
+
+def _run_job(job: Job) -> tuple[int, EpisodeRecord]:
+    s: EpisodeSettings = _WORKER["settings"]
+    run = run_one(_WORKER["matrix"].get(job.scenario), job.seed, job.planner, max_steps=s.max_steps,
+                  metrics_cfg=s.metrics, taxonomy_cfg=s.taxonomy, simulator=_WORKER["sim"])
+    return job.index, run.record
+
+
+def run_jobs(
+    jobs: list[Job], settings: EpisodeSettings, ctx: StageContext, *, matrix: ScenarioMatrix | None = None,
+    start_method: str = "spawn", on_record: Callable[[int, int, EpisodeRecord], None] | None = None,
+) -> list[EpisodeRecord]:
+    """Run every job (in-process with one worker, else a process pool); records in job order."""
+    out: list[EpisodeRecord | None] = [None] * len(jobs)
+    workers = max(1, min(int(ctx.workers or 1), len(jobs)))
+
+    def collect(results: Iterable[tuple[int, EpisodeRecord]]) -> None:
+        for done, (i, rec) in enumerate(results, start=1):
+            out[i] = rec
+            if on_record is not None:
+                on_record(done, len(jobs), rec)
+            ctx.check_cancelled()
+
+    by_index = {job.index: pos for pos, job in enumerate(jobs)}
+    local = [Job(by_index[j.index], j.scenario, j.seed, j.planner) for j in jobs]
+    if workers == 1:
+        _init_worker(settings, matrix)
+        collect(_run_job(j) for j in local)
+    else:
+        pool_ctx = mp.get_context(start_method)
+        with pool_ctx.Pool(workers, initializer=_init_pool_worker, initargs=(settings,)) as pool:
+            collect(pool.imap_unordered(_run_job, local, chunksize=1))
+    return [r for r in out if r is not None]
+
+
+# ------------------------------------------------------------------------------ the stage
+
+
+class PlannerProvenance(BaseModel):
+    name: str
+    variant: str | None
+    config: dict[str, Any]  #: fully resolved planner config (every key)
+    config_hash: str
+    model_id: str
+    checkpoint_sha256: str
+
+
+def planner_provenance(rp: ResolvedPlanner) -> PlannerProvenance:
+    return PlannerProvenance(name=rp.name, variant=rp.variant, config=rp.config, config_hash=rp.config_hash,
+                             model_id=rp.model_id, checkpoint_sha256=rp.checkpoint_sha256)
+
+
+class EvaluationResult(BaseModel):
+    status: Literal["passed", "failed_gate", "failed_integrity"]
+    exit_code: int  #: 0 passed, 2 gate or integrity failure
+    success_rate: float | None
+    collision_rate: float | None
+    episodes: int
+    planner: PlannerProvenance
+    code_version: str
+    bundle: str
+    matrix: str
+    seed_source: str  #: "matrix", "N per scenario" or the seed manifest
+    horizon: str  #: "scenario" or the override
+    workers: int
+    aggregates: Aggregates
+    taxonomy: dict[str, int]
+    taxonomy_config: TaxonomyConfig
+    metrics_config: MetricsConfig
+    integrity: IntegrityReport
+    gate: GateResult
+    artifacts: dict[str, str]
+    wall_s: float
+
+
+def seed_source(sel: EpisodeSelection) -> str:
+    if sel.seed_manifest:
+        return f"manifest {sel.seed_manifest}"
+    return f"{sel.seeds_per_scenario} per scenario" if sel.seeds_per_scenario else "matrix"
+
+
+def write_records(path: Path, records: list[EpisodeRecord]) -> None:
+    with open(path, "w") as f:
+        for r in records:
+            f.write(json.dumps(r.model_dump(mode="json")) + "\n")
+
+
+def read_records(path: Path) -> list[EpisodeRecord]:
+    return [EpisodeRecord.model_validate_json(line) for line in Path(path).read_text().splitlines() if line.strip()]
+
+
+def run_evaluation(config: EvaluationConfig, ctx: StageContext) -> EvaluationResult:
+    """Evaluate one planner config on a matrix; writes evaluation.json and episodes.jsonl under ctx.workdir."""
+    t0 = time.perf_counter()
+    path, matrix, pairs = load_selection(config, ctx)
+    rp = resolve_planner(config.planner, ctx)
+    preflight(rp, [matrix.get(name) for name in dict.fromkeys(s for s, _ in pairs)])
+    jobs = [Job(i, s, seed, rp) for i, (s, seed) in enumerate(pairs)]
+    settings = EpisodeSettings(str(path), config.max_steps, config.metrics, config.taxonomy)
+    ctx.progress(0.0, f"{len(jobs)} episodes, {rp.label}")
+
+    def progress(done: int, total: int, rec: EpisodeRecord) -> None:
+        ctx.progress(done / total, f"{rec.scenario} seed {rec.seed}: {rec.outcome}")
+
+    records = run_jobs(jobs, settings, ctx, matrix=matrix, start_method=config.start_method, on_record=progress)
+    result = evaluation_result(config, records, pairs, rp, ctx, time.perf_counter() - t0)
+    write_records(ctx.artifact("episodes.jsonl"), records)
+    ctx.artifact("evaluation.json").write_text(json.dumps(result.model_dump(mode="json"), indent=2))
+    return result
+
+
+def evaluation_result(config: EvaluationConfig, records: list[EpisodeRecord], pairs: list[tuple[str, int]],
+                      rp: ResolvedPlanner, ctx: StageContext, wall_s: float) -> EvaluationResult:
+    integrity = check_integrity(records, expected=pairs)
+    summary = summarise(records, config.bootstrap)
+    gate = evaluation_gate(summary, integrity, config.gate)
+    status = "passed" if gate.passed else ("failed_integrity" if not integrity.ok else "failed_gate")
+    aggs = aggregate(records, config.bootstrap)
+    return EvaluationResult(
+        status=status, exit_code=gate.exit_code, success_rate=summary.success.rate,
+        collision_rate=summary.collision.rate, episodes=len(records), planner=planner_provenance(rp),
+        code_version=code_version(), bundle=config.bundle, matrix=config.matrix, seed_source=seed_source(config),
+        horizon=str(config.max_steps) if config.max_steps else "scenario", workers=int(ctx.workers or 1),
+        aggregates=aggs, taxonomy=aggs.overall.taxonomy, taxonomy_config=config.taxonomy,
+        metrics_config=config.metrics, integrity=integrity, gate=gate,
+        artifacts={"summary": "evaluation.json", "episodes": "episodes.jsonl"}, wall_s=wall_s,
+    )

@@ -1,0 +1,86 @@
+"""The evaluation stage end to end on a tiny slice of our own matrix (short horizon)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from core.errors import ConfigError, NotFoundError
+from core.evaluation.config import EvaluationConfig
+from core.evaluation.runner import expand_seeds, read_records, run_evaluation
+from core.stages.context import Cancelled, StageContext
+from core.stages.refs import BUILTIN_CONFIG_ROOT
+
+
+def _ctx(tmp: Path, workers: int = 1, **kw) -> StageContext:
+    tmp.mkdir(parents=True, exist_ok=True)
+    return StageContext(workdir=tmp, resolve_bundle=lambda _b: BUILTIN_CONFIG_ROOT, workers=workers, **kw)
+
+
+def _config(**kw) -> EvaluationConfig:
+    base = dict(scenarios=["crossing_low", "head_on_corridor_high"], seeds_per_scenario=2, max_steps=40,
+                planner={"name": "goal"})
+    base.update(kw)
+    return EvaluationConfig.model_validate(base)
+
+
+def test_expand_seeds_is_a_superset_of_the_matrix_seeds() -> None:
+    assert expand_seeds((101, 102, 103), None) == [101, 102, 103]
+    assert expand_seeds((101, 102, 103), 5) == [101, 102, 103, 104, 105]
+    assert expand_seeds((101, 102, 103), 2) == [101, 102]
+
+
+def test_results_identical_with_one_and_two_workers(tmp_path: Path) -> None:
+    one = run_evaluation(_config(), _ctx(tmp_path / "w1", 1))
+    two = run_evaluation(_config(), _ctx(tmp_path / "w2", 2))
+    r1 = read_records(tmp_path / "w1" / "episodes.jsonl")
+    r2 = read_records(tmp_path / "w2" / "episodes.jsonl")
+    assert len(r1) == 4
+    assert [r.comparable() for r in r1] == [r.comparable() for r in r2]
+    assert one.success_rate == two.success_rate and one.taxonomy == two.taxonomy
+
+
+def test_evaluation_artifacts_and_provenance(tmp_path: Path) -> None:
+    seen: list[float] = []
+    ctx = _ctx(tmp_path, progress=lambda f, m: seen.append(f))
+    res = run_evaluation(_config(), ctx)
+    data = json.loads((tmp_path / "evaluation.json").read_text())
+    assert {"success_rate", "collision_rate", "status", "exit_code", "gate", "integrity"} <= set(data)
+    assert data["planner"]["config"] and data["planner"]["config_hash"] == res.planner.config_hash
+    assert data["taxonomy_config"]["freeze_min_s"] == 3.0
+    recs = read_records(tmp_path / "episodes.jsonl")
+    assert len(recs) == res.episodes == 4
+    assert [(r.scenario, r.seed) for r in recs] == sorted({(r.scenario, r.seed) for r in recs},
+                                                           key=lambda p: (p[0] != "crossing_low", p[1]))
+    assert all(r.provenance.horizon == 40 and r.provenance.model_id == "none" for r in recs)
+    assert res.integrity.ok
+    assert seen[-1] == 1.0
+    assert res.exit_code in (0, 2) and (res.exit_code == 0) == res.gate.passed
+
+
+def test_cancellation_stops_the_run(tmp_path: Path) -> None:
+    with pytest.raises(Cancelled):
+        run_evaluation(_config(), _ctx(tmp_path, is_cancelled=lambda: True))
+
+
+def test_unknown_model_fails_before_any_episode(tmp_path: Path) -> None:
+    ctx = _ctx(tmp_path)  # no model store: every id is unknown
+    with pytest.raises(NotFoundError):
+        run_evaluation(_config(planner={"name": "predictive", "model": "nope"}), ctx)
+    assert not (tmp_path / "episodes.jsonl").exists()
+
+
+def test_unreadable_checkpoint_fails_before_any_episode(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.pt"
+    bad.write_bytes(b"not a checkpoint")
+    ctx = _ctx(tmp_path / "run", resolve_model=lambda _i: bad)
+    with pytest.raises(ConfigError):
+        run_evaluation(_config(planner={"name": "predictive", "model": "m1"}), ctx)
+    assert not (tmp_path / "run" / "episodes.jsonl").exists()
+
+
+def test_bad_planner_key_is_a_config_error(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError):
+        run_evaluation(_config(planner={"name": "predictive", "model": "cv", "config": {"nope": 1}}), _ctx(tmp_path))
