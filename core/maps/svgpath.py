@@ -25,6 +25,7 @@ _TOKEN = re.compile(
     r"(?P<cmd>[MmLlHhVvCcSsQqTtAaZz])|(?P<num>[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)|(?P<sep>[\s,]+)|(?P<bad>.)"
 )
 COMMAND_LETTERS = frozenset("MmLlHhVvCcSsQqTtAaZz")
+_NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
 
 
 class PathDataError(ValueError):
@@ -70,7 +71,10 @@ class _Tokens:
             raise PathDataError(f"expected an arc flag 0 or 1 at token {self.i}")
         tok = self.tokens[self.i]
         if len(tok) > 1:
-            self.tokens[self.i] = tok[1:]
+            rest = tok[1:]
+            if _NUMBER.fullmatch(rest) is None:
+                raise PathDataError(f"expected an arc flag 0 or 1, got {tok!r}")
+            self.tokens[self.i] = rest
         else:
             self.i += 1
         return tok[0] == "1"

@@ -110,7 +110,9 @@ def test_segment_count_is_clamped():
     assert len(parse_path("M 0 0 C 0 500 500 500 500 0")) == 257
 
 
-@pytest.mark.parametrize("d", ["M 0", "X 1 2", "1 2 L 3 4", "M 0 0 A 1 1 0 2 1 3 3", "M 0 0 L 1 1 #"])
+@pytest.mark.parametrize(
+    "d", ["M 0", "X 1 2", "1 2 L 3 4", "M 0 0 A 1 1 0 2 1 3 3", "M 0 0 L 1 1 #", "M 0 0 A 1 1 0 1e3 1 2 0"]
+)
 def test_malformed_data_raises(d):
     with pytest.raises(PathDataError):
         parse_path(d)
