@@ -60,6 +60,15 @@ def _draw_robot_path(ax: Axes, xy: np.ndarray, dt: float) -> LineCollection | No
     return lc
 
 
+def _draw_peds_at(ax: Axes, trace: Any, t: int, radius: float = 0.4) -> None:
+    """Pedestrians as circles [m] at state ``t`` (the collision, else the last state)."""
+    ids = np.asarray(trace.ped_ids)
+    if t >= len(ids) or ids.shape[1] == 0:
+        return
+    for xy in np.asarray(trace.ped_pos, dtype=float)[t][ids[t] >= 0]:
+        ax.add_patch(Circle(tuple(xy), radius, fc=PED_COLOUR, ec="black", lw=0.5, alpha=0.8, zorder=7))
+
+
 def _collision_xy(robot_xy: np.ndarray, step: Any, point: Any) -> np.ndarray | None:
     """Where to draw the collision mark; ``core.sim.trace.Trace`` says "none" with step -1 and a NaN point."""
     if point is not None:
@@ -81,11 +90,13 @@ def render_trace(
     collision_point: Any = None,
     goal: Any = None,
     robot_radius: float = 1.0,
+    ped_radius: float = 0.4,
 ) -> Path:
     """Write the episode picture to ``path`` (.png or .svg); returns the path.
 
     ``collision_step``/``collision_point`` default to the trace's attributes of those names when
-    present; ``goal`` [m] to the trace's ``goal``. ``robot_radius`` [m] sizes the collision circle.
+    present; ``goal`` [m] to the trace's ``goal``. ``robot_radius`` [m] sizes the collision circle,
+    ``ped_radius`` [m] the pedestrians drawn at the collision step (else at the last state).
     """
     n = recorded_states(trace)
     robot_xy = np.asarray(trace.robot, dtype=float)[:n, :2]
@@ -101,8 +112,10 @@ def render_trace(
     segs = ped_segments(np.asarray(trace.ped_ids)[:n], np.asarray(trace.ped_pos)[:n])
     if len(segs):
         ax.add_collection(
-            LineCollection(segs, colors=PED_COLOUR, linewidths=0.8, alpha=0.5, zorder=5, label="pedestrians")
+            LineCollection(segs, colors=PED_COLOUR, linewidths=1.0, alpha=0.5, zorder=5, label="pedestrians")
         )
+    shown = n - 1 if collision_step is None or int(collision_step) < 0 else min(int(collision_step), n - 1)
+    _draw_peds_at(ax, trace, shown, ped_radius)
     lc = _draw_robot_path(ax, robot_xy, dt)
     if lc is not None:
         fig.colorbar(lc, ax=ax, label="time [s]", fraction=0.04, pad=0.02)
