@@ -69,7 +69,7 @@ def run_simulate(config: SimulateConfig, ctx: StageContext) -> SimulateResult:
         result = run_episode(scenario, seed, GoalSeeking())
         render_name = None
         if config.render:
-            from core.render import render_trace
+            from core.render.trace import render_trace
 
             render_name = f"renders/{scenario.name}--{seed}.png"
             render_trace(result.trace, scenario.map, ctx.artifact(render_name), title=f"{scenario.name} seed {seed}")
