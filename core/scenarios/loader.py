@@ -266,7 +266,7 @@ class _MapResolver:
         if scenario.map_id:
             registry = self._find_registry(entry, scenario)
             try:
-                return Path(registry.resolve(scenario.map_id)).resolve()
+                return Path(registry.resolve(scenario.map_id, scenario.required_map_profile)).resolve()
             except NotFoundError as err:
                 raise ConfigError(
                     f"map_id {scenario.map_id!r}: {err}", source=entry.file, item=scenario.name

@@ -97,6 +97,7 @@ class Scenario(_Strict):
     single_pedestrians: tuple[SinglePedestrianOverride, ...] = ()
     metadata: dict[str, Any] = Field(default_factory=dict)
     seeds: tuple[int, ...] = (0,)
+    required_map_profile: str = "robot_runtime"  #: registry capability a map_id must have (reference key)
 
     @model_validator(mode="before")
     @classmethod

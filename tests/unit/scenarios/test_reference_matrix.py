@@ -6,7 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from core.scenarios.loader import load_matrix
+from core.errors import ConfigError
+from core.scenarios.loader import load_matrix, matrix_from_data
 from core.scenarios.model import ScenarioMatrix
 from core.scenarios.seeds import load_seed_manifest
 
@@ -119,3 +120,42 @@ def test_hard_seed_manifest_against_reference_matrix(reference_dir: Path, matrix
         ("classic_cross_trap_medium", 102),
     ]
     assert manifest.seeds["classic_group_crossing_high"] == (171,)
+
+
+def test_excluded_alias_file_loads_with_its_evaluation_notes(reference_dir: Path) -> None:
+    m = load_matrix(reference_dir / "configs/scenarios/archetypes/classic_crossing.yaml")
+    assert m.names == ["classic_crossing_low", "classic_crossing_medium", "classic_crossing_high"]
+    (notes,) = m.metadata["file_notes"].values()
+    assert notes["evaluation"] == "excluded"
+
+
+def test_density_index_is_not_a_matrix(reference_dir: Path) -> None:
+    with pytest.raises(ConfigError) as info:
+        load_matrix(reference_dir / "configs/scenarios/archetypes/classic_density_tier_index.yaml")
+    assert Path(info.value.source).name == "classic_density_tier_index.yaml"
+    assert "unsupported key" in info.value.detail
+
+
+def test_apply_transforms_reaches_the_svg_importer(reference_matrix_path: Path) -> None:
+    inline = {
+        "includes": ["archetypes/classic_bottleneck.yaml"],
+        "map_search_paths": ["../../maps/svg_maps"],
+        "select_scenarios": ["classic_bottleneck_low"],
+    }
+    raw = matrix_from_data(inline, source=reference_matrix_path)
+    drawn = matrix_from_data(inline, source=reference_matrix_path, apply_transforms=True)
+    assert raw.names == drawn.names == ["classic_bottleneck_low"]
+    a, b = raw.scenarios[0].map.ped_routes[0].array, drawn.scenarios[0].map.ped_routes[0].array
+    assert a.shape == b.shape and not (a == b).all()  # the pedestrian group's translate is applied
+
+
+def test_required_map_profile_is_checked(reference_matrix_path: Path) -> None:
+    inline = {
+        "map_search_paths": ["../../maps/svg_maps"],
+        "scenarios": [
+            {"name": "x", "map_id": "classic_cross_trap", "required_map_profile": "no_such_capability"}
+        ],
+    }
+    with pytest.raises(ConfigError) as info:
+        matrix_from_data(inline, source=reference_matrix_path)
+    assert info.value.item == "classic_cross_trap" and "capability" in info.value.detail
