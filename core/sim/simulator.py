@@ -86,6 +86,7 @@ class Simulator:
         self.robot = np.array([*self.route.start, self.route.heading, 0.0, 0.0])
         pop = build_population(map_def, cfg, self.crowd_params, pop_rng, spread_rng,
                                lambda pts: self._free(pts, self.robot[None, :2]))
+        pop.pos = self.static.push_off_edges(pop.pos, 2 * self.crowd_params.wall_clearance)
         self._build_crowd(pop, map_def)
         self._trace = Trace(self.horizon, pop.n, dt=self.dt, scenario=scenario.name, seed=seed,
                             meta={"code_version": code_version(), "map": map_def.name, "n_peds": pop.n})
