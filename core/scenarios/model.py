@@ -7,7 +7,7 @@ Defaults are the reference (robot_sf) defaults; units in brackets.
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
@@ -96,7 +96,7 @@ class Scenario(_Strict):
     robot_config: RobotConfig = RobotConfig()
     single_pedestrians: tuple[SinglePedestrianOverride, ...] = ()
     metadata: dict[str, Any] = Field(default_factory=dict)
-    seeds: tuple[int, ...] = (0,)
+    seeds: tuple[Annotated[int, Field(ge=0, le=2**32 - 1)], ...] = Field(default=(0,), min_length=1)
     required_map_profile: str = "robot_runtime"  #: registry capability a map_id must have (reference key)
 
     @model_validator(mode="before")
