@@ -16,6 +16,7 @@ from core.errors import CoreError
 #: command sets ``func(args) -> int`` as its handler.
 COMMAND_MODULES = [
     "cli.sim",
+    "cli.maps",
 ]
 
 

@@ -142,3 +142,29 @@ class MapRegistry:
     ) -> MapDef:
         """Resolve and load a map by id."""
         return load_map(self.resolve(map_id, required_capability), apply_transforms=apply_transforms)
+
+
+def refresh_checksums(path: str | Path, *, write: bool = True) -> dict[str, tuple[str | None, str]]:
+    """Recompute every row's ``source_sha256`` after maps were edited; returns {map_id: (old, new)} for changed rows.
+
+    The file is rewritten textually (old hash -> new hash) so its comments and layout survive.
+    """
+    registry = MapRegistry(path)
+    changed: dict[str, tuple[str | None, str]] = {}
+    text = registry.path.read_text(encoding="utf-8")
+    for map_id in registry.ids():
+        e = registry.entry(map_id)
+        if not e.path.is_file():
+            raise ConfigError(f"map file {e.path} does not exist", source=registry.path, item=map_id)
+        new = file_sha256(e.path)
+        if new == e.source_sha256:
+            continue
+        if e.source_sha256 is None or text.count(e.source_sha256) != 1:
+            raise ConfigError("cannot update the checksum in place (missing or repeated hash)", source=path, item=map_id)
+        text = text.replace(e.source_sha256, new)
+        changed[map_id] = (e.source_sha256, new)
+    if write and changed:
+        tmp = registry.path.with_suffix(".tmp")
+        tmp.write_text(text, encoding="utf-8")
+        tmp.replace(registry.path)
+    return changed

@@ -1,0 +1,76 @@
+"""The simulator-facing CLI commands, run in-process through cli.main.main (exit codes and --json output)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+from cli.main import main
+
+REPO = Path(__file__).resolve().parents[3]
+OUR_MATRIX = REPO / "configs" / "scenarios" / "classic_interactions.yaml"
+
+
+def _json(capsys) -> object:
+    return json.loads(capsys.readouterr().out)
+
+
+def test_scenarios_list_reference_matrix(reference_matrix_path: Path, capsys) -> None:
+    assert main(["scenarios", "list", "--matrix", str(reference_matrix_path), "--json"]) == 0
+    rows = _json(capsys)
+    assert len(rows) == 23
+    trap = next(r for r in rows if r["name"] == "classic_cross_trap_high")
+    assert (trap["pedestrians"], trap["horizon"], trap["seeds"]) == (12, 600, [101, 102, 103])
+
+
+def test_scenarios_list_our_matrix_text(capsys) -> None:
+    assert main(["scenarios", "list", "--matrix", str(OUR_MATRIX)]) == 0
+    out = capsys.readouterr().out
+    assert "33 scenarios" in out and "doorway_high" in out
+
+
+def test_sim_run_json_and_render(reference_matrix_path: Path, tmp_path: Path, capsys) -> None:
+    png = tmp_path / "ep.png"
+    args = ["sim", "run", "--matrix", str(reference_matrix_path), "--scenario", "classic_doorway_low", "--seed", "141"]
+    assert main([*args, "--render", str(png), "--json", "--local"]) == 0
+    first = _json(capsys)
+    assert first["outcome"] in {"success", "collision_pedestrian", "collision_static", "timeout"}
+    assert 0 < first["steps"] <= 500 and first["pedestrians"] == 3
+    assert png.stat().st_size > 10_000
+    assert main([*args, "--json"]) == 0
+    again = _json(capsys)
+    assert (again["outcome"], again["steps"], again["min_distance"]) == (first["outcome"], first["steps"], first["min_distance"])
+
+
+def test_sim_run_unknown_scenario_is_one_line_error(reference_matrix_path: Path, capsys) -> None:
+    rc = main(["sim", "run", "--matrix", str(reference_matrix_path), "--scenario", "nope", "--seed", "1"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 1 and len(err) == 1 and "nope" in err[0]
+
+
+def test_missing_matrix_names_the_file(capsys) -> None:
+    assert main(["scenarios", "list", "--matrix", "/no/such/matrix.yaml"]) == 1
+    assert "/no/such/matrix.yaml" in capsys.readouterr().err
+
+
+def test_maps_convert_round_trip(reference_dir: Path, tmp_path: Path, capsys) -> None:
+    out = tmp_path / "doorway.yaml"
+    svg = reference_dir / "maps" / "svg_maps" / "classic_doorway.svg"
+    assert main(["maps", "convert", str(svg), "-o", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["maps", "show", str(out), "--json"]) == 0
+    info = _json(capsys)
+    assert (info["width"], info["height"], info["ped_routes"]) == (44.0, 28.0, [35.78])
+
+
+def test_maps_rehash_updates_a_stale_registry(tmp_path: Path, capsys) -> None:
+    root = tmp_path / "maps"
+    shutil.copytree(REPO / "configs" / "maps", root)
+    edited = root / "doorway.yaml"
+    edited.write_text(edited.read_text() + "\n# edited\n")
+    assert main(["maps", "rehash", str(root / "registry.yaml"), "--check", "--json"]) == 1
+    assert list(_json(capsys)) == ["doorway"]
+    assert main(["maps", "rehash", str(root / "registry.yaml")]) == 0
+    capsys.readouterr()
+    assert main(["maps", "rehash", str(root / "registry.yaml"), "--check"]) == 0
