@@ -17,7 +17,7 @@ import numpy as np
 from core.errors import CoreError
 from core.scenarios.model import ResolvedScenario
 from core.sim.behaviours import CrowdArrays, CrowdedZones, RouteFollowing, SingleScripts
-from core.sim.collision import ped_contact, static_contact
+from core.sim.collision import StaticChecker, ped_contact
 from core.sim.crowd import CrowdDynamics
 from core.sim.geometry import StaticMap
 from core.sim.navigation import RobotRoute, sample_robot_route
@@ -90,6 +90,7 @@ class Simulator:
         self._build_crowd(pop, map_def)
         self._trace = Trace(self.horizon, pop.n, dt=self.dt, scenario=scenario.name, seed=seed,
                             meta={"code_version": code_version(), "map": map_def.name, "n_peds": pop.n})
+        self.static_check = StaticChecker(self.static.walls, self.static.width, self.static.height, self.limits.radius)
         self.t = 0
         self.done = False
         self.min_ped_distance = np.inf
@@ -145,7 +146,7 @@ class Simulator:
         contact, dmin = ped_contact(xy, self.limits.radius, self.crowd.pos, self.ped_radius)
         self.min_ped_distance = min(self.min_ped_distance, dmin)
         if contact is None:
-            contact = static_contact(xy, self.limits.radius, self.static.walls, self.static.width, self.static.height)
+            contact = self.static_check.check(xy)
         if contact is not None:
             tr = self._trace
             tr.collision_step, tr.collision_kind, tr.collision_point = self.t, contact.kind, contact.point

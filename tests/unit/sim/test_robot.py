@@ -9,9 +9,10 @@ from core.scenarios.model import RobotConfig
 from core.sim.robot import RobotLimits, holonomic_step, unicycle_step
 
 DT = 0.1
+DEFAULT = RobotLimits()
 
 
-def drive(cmd, steps, limits=RobotLimits(), state=None):
+def drive(cmd, steps, limits=DEFAULT, state=None):
     s = np.zeros(5) if state is None else np.asarray(state, dtype=float)
     out = [s]
     for _ in range(steps):
