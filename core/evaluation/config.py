@@ -49,18 +49,15 @@ class EvaluationConfig(EpisodeSelection):
     start_method: StartMethod = "spawn"  #: worker processes (results do not depend on it)
 
 
-class DiagnosticsConfig(_Config):
+class DiagnosticsConfig(EpisodeSelection):
     """Hard-seed diagnostics: every (scenario, seed) of a seed manifest, traced step by step."""
 
-    bundle: Ident = BUILTIN_BUNDLE
-    matrix: BundlePath = "scenarios/classic_interactions.yaml"
-    seed_manifest: BundlePath
-    max_steps: int | None = Field(default=None, ge=1, le=100_000)
+    seed_manifest: BundlePath  #: required here
     planner: PlannerSpec = PlannerSpec()
     metrics: MetricsConfig = MetricsConfig()
     taxonomy: TaxonomyConfig = TaxonomyConfig()
     render: bool = True  #: a PNG per seed
-    max_predicted_peds: int = Field(default=8, ge=0, le=200)  #: per-step predicted-vs-actual for the nearest N peds
+    max_predicted_peds: int = Field(default=4, ge=0, le=200)  #: per-step predicted-vs-actual for the nearest N peds
 
 
 class GridVariant(_Config):
@@ -80,6 +77,7 @@ class CampaignConfig(_Config):
     grid: BundlePath | None = None  #: planner-grid YAML (``variants: [{name, params}]``)
     variants: list[GridVariant] | None = Field(default=None, max_length=200)  #: inline grid (instead of ``grid``)
     checkpoints: list[str] = Field(default_factory=lambda: ["cv"], min_length=1, max_length=50)  #: model ids or "cv"
+    scenarios: list[str] | None = Field(default=None, max_length=1000)  #: global suite scenarios (default: all)
     planner: PlannerSpec = PlannerSpec()  #: base predictive config the variants modify
     seeds_per_scenario: int | None = Field(default=None, ge=1, le=1000)  #: global suite seeds
     max_steps: int | None = Field(default=None, ge=1, le=100_000)

@@ -1,0 +1,248 @@
+"""Stage ``campaign``: checkpoints x planner-grid variants, each on a hard suite and a global suite.
+
+Ranking is the reference's (code) order: descending lexicographic on (hard success, global success, hard
+clearance, global clearance, global average speed); cells with integrity violations rank last. Each
+finished cell is written to ``cells/`` with a fingerprint of everything that determines it, so a
+resumed campaign skips finished cells. The optional closed-loop gate compares the best cell with the
+baseline variant on the same checkpoint; a failing gate is a result with exit code 2.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import re
+import time
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from core.errors import ConfigError
+from core.evaluation.aggregate import SuiteSummary, summarise
+from core.evaluation.config import CampaignConfig, EpisodeSelection, GridVariant
+from core.evaluation.gates import GATE_FAILED_EXIT, ClosedLoopGateResult, closed_loop_gate
+from core.evaluation.integrity import IntegrityReport, check_integrity
+from core.evaluation.plannerspec import PlannerSpec, ResolvedPlanner, preflight, resolve_planner
+from core.evaluation.runner import (
+    EpisodeSettings,
+    Job,
+    PlannerProvenance,
+    bundle_file,
+    load_selection,
+    planner_provenance,
+    read_records,
+    run_jobs,
+    write_records,
+)
+from core.scenarios.model import ScenarioMatrix
+from core.stages.context import StageContext
+from core.version import code_version
+
+CELL_FORMAT = "foresight.campaign_cell/1"
+
+
+class CellResult(BaseModel):
+    """One checkpoint x variant: both suites' summaries and integrity (written to cells/<key>.json)."""
+
+    model_config = ConfigDict(serialize_by_alias=True, validate_by_name=True, validate_by_alias=True)
+
+    format: str = CELL_FORMAT
+    key: str
+    fingerprint: str
+    checkpoint: str
+    variant: str
+    planner: PlannerProvenance
+    hard: SuiteSummary
+    global_: SuiteSummary = Field(alias="global")
+    integrity: IntegrityReport
+    ranking_key: list[float]
+    episodes_file: str
+
+
+class CampaignResult(BaseModel):
+    status: Literal["completed", "passed", "failed_gate"]  #: completed = no gate configured
+    exit_code: int
+    best: CellResult | None
+    ranked: list[CellResult]
+    gate: ClosedLoopGateResult | None
+    cells_run: int
+    cells_resumed: int
+    matrix: str
+    seed_manifest: str
+    grid: str
+    horizon: str
+    hard_episodes: int
+    global_episodes: int
+    code_version: str
+    artifacts: dict[str, str]
+    wall_s: float
+
+
+def load_variants(config: CampaignConfig, ctx: StageContext) -> list[GridVariant]:
+    if config.variants is not None:
+        variants, source = config.variants, "variants"
+    else:
+        from core.scenarios.loader import read_yaml
+
+        source = config.grid or "grid"
+        data = read_yaml(bundle_file(ctx, config.bundle, source))
+        if not isinstance(data, dict) or not isinstance(data.get("variants"), list):
+            raise ConfigError("a planner grid needs a 'variants' list", source=source)
+        try:
+            variants = [GridVariant.model_validate(v) for v in data["variants"]]
+        except ValidationError as exc:
+            raise ConfigError(exc.errors()[0]["msg"], source=source, item="variants") from None
+    names = [v.name for v in variants]
+    if not names or len(set(names)) != len(names):
+        raise ConfigError("variant names must be unique and at least one", source=source, item="variants")
+    return variants
+
+
+def ranking_key(hard: SuiteSummary, glob: SuiteSummary, integrity_ok: bool) -> list[float]:
+    def val(x: float | None) -> float:
+        return float("-inf") if x is None else float(x)
+
+    return [1.0 if integrity_ok else 0.0, val(hard.success.rate), val(glob.success.rate),
+            val(hard.mean_min_clearance.mean), val(glob.mean_min_clearance.mean), val(glob.mean_avg_speed.mean)]
+
+
+def rank(cells: list[CellResult]) -> list[CellResult]:
+    """Descending lexicographic on the ranking key; ties keep grid order (stable sort)."""
+    return sorted(cells, key=lambda c: tuple(c.ranking_key), reverse=True)
+
+
+def _cell_key(checkpoint: str, variant: str) -> str:
+    return re.sub(r"[^A-Za-z0-9._-]+", "_", f"{variant}__{checkpoint}")[:150]
+
+
+def _fingerprint(rp: ResolvedPlanner, config: CampaignConfig, hard: list, glob: list) -> str:
+    data = {
+        "config_hash": rp.config_hash, "model": rp.model_id, "checkpoint": rp.checkpoint_sha256,
+        "bundle": config.bundle, "matrix": config.matrix, "hard": hard, "global": glob, "max_steps": config.max_steps,
+        "metrics": config.metrics.model_dump(), "taxonomy": config.taxonomy.model_dump(),
+        "bootstrap": config.bootstrap.model_dump(), "code": code_version(),
+    }
+    return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()
+
+
+def _spec(config: CampaignConfig, variant: GridVariant, checkpoint: str) -> PlannerSpec:
+    base = config.planner
+    return PlannerSpec(name="predictive", config={**base.config, **variant.config},
+                       reference_params={**(base.reference_params or {}), **variant.params} or None,
+                       variant=variant.name, model=checkpoint)
+
+
+def _load_cell(ctx: StageContext, key: str, fingerprint: str) -> CellResult | None:
+    path = ctx.workdir / "cells" / f"{key}.json"
+    if not path.is_file():
+        return None
+    try:
+        cell = CellResult.model_validate_json(path.read_text())
+    except ValidationError:
+        return None  # a cell file from another version: run the cell again
+    return cell if cell.fingerprint == fingerprint else None
+
+
+def _run_cell(config: CampaignConfig, ctx: StageContext, matrix: ScenarioMatrix, settings: EpisodeSettings,
+              rp: ResolvedPlanner, hard: list[tuple[str, int]], glob: list[tuple[str, int]],
+              key: str, fingerprint: str, checkpoint: str) -> CellResult:
+    union = list(dict.fromkeys([*glob, *hard]))  # a hard episode also in the global suite runs once
+    jobs = [Job(i, s, seed, rp) for i, (s, seed) in enumerate(union)]
+    records = run_jobs(jobs, settings, ctx, matrix=matrix, start_method=config.start_method)
+    by_pair = {(r.scenario, r.seed): r for r in records}
+    hard_recs, glob_recs = [by_pair[p] for p in hard], [by_pair[p] for p in glob]
+    integrity = check_integrity(records, expected=union)
+    hs, gs = summarise(hard_recs, config.bootstrap), summarise(glob_recs, config.bootstrap)
+    episodes = f"cells/{key}.jsonl"
+    write_records(ctx.artifact(episodes), records)
+    cell = CellResult(key=key, fingerprint=fingerprint, checkpoint=checkpoint, variant=rp.variant or rp.name,
+                      planner=planner_provenance(rp), hard=hs, global_=gs, integrity=integrity,
+                      ranking_key=ranking_key(hs, gs, integrity.ok), episodes_file=episodes)
+    ctx.artifact(f"cells/{key}.json").write_text(cell.model_dump_json(indent=2))
+    return cell
+
+
+def _gate(config: CampaignConfig, best: CellResult, cells: list[CellResult]) -> ClosedLoopGateResult | None:
+    if config.gate is None:
+        return None
+    base = next(c for c in cells if c.variant == config.gate.baseline_variant and c.checkpoint == best.checkpoint)
+    return closed_loop_gate((best.key, best.hard, best.global_), (base.key, base.hard, base.global_), config.gate)
+
+
+def run_campaign(config: CampaignConfig, ctx: StageContext) -> CampaignResult:
+    """Run (or resume) every cell, rank, gate; writes campaign_summary.json and campaign_report.md."""
+    t0 = time.perf_counter()
+    sel = dict(bundle=config.bundle, matrix=config.matrix, max_steps=config.max_steps)
+    path, matrix, hard = load_selection(EpisodeSelection(**sel, seed_manifest=config.seed_manifest), ctx)
+    _, _, glob = load_selection(
+        EpisodeSelection(**sel, scenarios=config.scenarios, seeds_per_scenario=config.seeds_per_scenario), ctx)
+    variants = load_variants(config, ctx)
+    if config.gate and config.gate.baseline_variant not in {v.name for v in variants}:
+        raise ConfigError(f"baseline variant {config.gate.baseline_variant!r} is not in the grid", item="gate")
+    cells_rp = [(ck, resolve_planner(_spec(config, v, ck), ctx)) for ck in config.checkpoints for v in variants]
+    preflight(cells_rp[0][1], [matrix.get(s) for s in dict.fromkeys(s for s, _ in [*glob, *hard])])
+    settings = EpisodeSettings(str(path), config.max_steps, config.metrics, config.taxonomy)
+    cells: list[CellResult] = []
+    ran = 0
+    for i, (ck, rp) in enumerate(cells_rp):
+        ctx.check_cancelled()
+        key = _cell_key(ck, rp.variant or rp.name)
+        fp = _fingerprint(rp, config, hard, glob)
+        cell = _load_cell(ctx, key, fp)
+        ctx.progress(i / len(cells_rp), f"{key}: {'resumed' if cell else 'running'}")
+        if cell is None:
+            cell = _run_cell(config, ctx, matrix, settings, rp, hard, glob, key, fp, ck)
+            ran += 1
+        cells.append(cell)
+    ctx.progress(1.0, "done")
+    ranked = rank(cells)
+    gate = _gate(config, ranked[0], cells)
+    status = "completed" if gate is None else ("passed" if gate.passed else "failed_gate")
+    result = CampaignResult(
+        status=status, exit_code=0 if gate is None or gate.passed else GATE_FAILED_EXIT, best=ranked[0],
+        ranked=ranked, gate=gate, cells_run=ran, cells_resumed=len(cells) - ran, matrix=config.matrix,
+        seed_manifest=config.seed_manifest, grid=config.grid or "inline", horizon=str(config.max_steps or "scenario"),
+        hard_episodes=len(hard), global_episodes=len(glob), code_version=code_version(),
+        artifacts={"summary": "campaign_summary.json", "report": "campaign_report.md", "cells": "cells/"},
+        wall_s=time.perf_counter() - t0,
+    )
+    ctx.artifact("campaign_summary.json").write_text(result.model_dump_json(indent=2))
+    ctx.artifact("campaign_report.md").write_text(report(result))
+    return result
+
+
+def _pct(x: float | None) -> str:
+    return "-" if x is None else f"{100 * x:.1f}%"
+
+
+def _m(x: float | None) -> str:
+    return "-" if x is None else f"{x:.2f}"
+
+
+def report(res: CampaignResult) -> str:
+    lines = ["# Planner campaign", ""]
+    if res.best:
+        b = res.best
+        lines += [f"Best: **{b.variant}** with checkpoint `{b.checkpoint}` (config {b.planner.config_hash[:12]}): "
+                  f"hard success {_pct(b.hard.success.rate)}, global success {_pct(b.global_.success.rate)}.", ""]
+    lines += [f"Hard suite {res.hard_episodes} episodes ({res.seed_manifest}), global suite {res.global_episodes} "
+              f"episodes ({res.matrix}), horizon {res.horizon}. Cells run {res.cells_run}, resumed {res.cells_resumed}.",
+              "", "| rank | variant | checkpoint | hard success | global success | hard clearance [m] | "
+              "global clearance [m] | global speed [m/s] | global collisions | integrity |",
+              "|---|---|---|---|---|---|---|---|---|---|"]
+    for i, c in enumerate(res.ranked, start=1):
+        lines.append(f"| {i} | {c.variant} | {c.checkpoint} | {_pct(c.hard.success.rate)} | "
+                     f"{_pct(c.global_.success.rate)} | {_m(c.hard.mean_min_clearance.mean)} | "
+                     f"{_m(c.global_.mean_min_clearance.mean)} | {_m(c.global_.mean_avg_speed.mean)} | "
+                     f"{_pct(c.global_.collision.rate)} | {'ok' if c.integrity.ok else 'VIOLATIONS'} |")
+    lines.append("")
+    if res.gate is None:
+        lines.append("No closed-loop gate configured.")
+    else:
+        g = res.gate
+        lines += [f"Closed-loop gate vs `{g.baseline}`: **{'passed' if g.passed else 'FAILED'}**", ""]
+        lines += [f"- {c.name}: {'ok' if c.passed else 'FAIL'} (value {_m(c.value)}, threshold {_m(c.threshold)})"
+                  for c in g.checks]
+        delta = ", ".join(f"{k} {v:+d}" for k, v in g.hard_taxonomy.delta.items() if v)
+        lines.append(f"- hard-suite taxonomy delta vs baseline: {delta or 'none'}")
+    return "\n".join(lines) + "\n"

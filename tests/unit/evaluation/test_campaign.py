@@ -1,0 +1,113 @@
+"""Campaign ranking order, resume (finished cells are not run again), gate pass/fail as results."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+from core.errors import ConfigError
+from core.evaluation.aggregate import BootstrapConfig, summarise
+from core.evaluation.campaign import CellResult, rank, ranking_key, run_campaign
+from core.evaluation.config import CampaignConfig
+from core.evaluation.integrity import check_integrity
+from core.evaluation.runner import PlannerProvenance
+from core.stages.context import StageContext
+from core.stages.refs import BUILTIN_CONFIG_ROOT
+
+from .traces import record
+
+BOOT = BootstrapConfig(samples=50)
+
+
+def _cell(name: str, hard: list, glob: list, ok: bool = True) -> CellResult:
+    h, g = summarise(hard, BOOT), summarise(glob, BOOT)
+    prov = PlannerProvenance(name="predictive", variant=name, config={}, config_hash="h", model_id="cv",
+                             checkpoint_sha256="cv")
+    return CellResult(key=name, fingerprint="f", checkpoint="cv", variant=name, planner=prov, hard=h, global_=g,
+                      integrity=check_integrity([]), ranking_key=ranking_key(h, g, ok), episodes_file="x")
+
+
+def test_ranking_is_lexicographic_in_the_reference_order() -> None:
+    ok, fail = record("a_low", 1), record("a_low", 1, "timeout", speed=0.5)
+    near, far = record("a_low", 1, ped_y=1.0), record("a_low", 1, ped_y=3.0)
+    slow = record("a_low", 1, ped_y=3.0, speed=0.5)
+    cells = [
+        _cell("global_only", [fail], [ok, ok]),         # worse hard success, better global
+        _cell("hard_best", [ok], [ok, fail]),           # hard success dominates
+        _cell("hard_best_close", [near], [ok, fail]),   # same successes, lower hard clearance
+        _cell("hard_best_far", [far], [ok, fail]),      # same, higher hard clearance
+        _cell("far_slow", [far], [ok, slow]),           # ...
+        _cell("broken", [ok], [ok, ok], ok=False),      # integrity violations rank last
+    ]
+    order = [c.variant for c in rank(cells)]
+    assert order == ["far_slow", "hard_best_far", "hard_best", "hard_best_close", "global_only", "broken"]
+
+
+def test_global_speed_breaks_the_last_tie() -> None:
+    fast, slow = record("a_low", 1, ped_y=3.0), record("a_low", 1, ped_y=3.0, speed=0.5)
+    cells = [_cell("slow", [fast], [slow]), _cell("fast", [fast], [fast])]
+    assert [c.variant for c in rank(cells)] == ["fast", "slow"]
+
+
+@pytest.fixture()
+def bundle(tmp_path: Path) -> Path:
+    root = tmp_path / "bundle"
+    shutil.copytree(BUILTIN_CONFIG_ROOT, root)
+    (root / "hard.yaml").write_text("crossing_high: [3]\n")
+    return root
+
+
+def _config(**kw) -> CampaignConfig:
+    base = dict(bundle="t", seed_manifest="hard.yaml", scenarios=["crossing_low", "head_on_corridor_high"],
+                seeds_per_scenario=1, max_steps=15, checkpoints=["cv"],
+                variants=[{"name": "base", "config": {}}, {"name": "careful", "config": {"max_speed_ratio": 0.5}}])
+    base.update(kw)
+    return CampaignConfig.model_validate(base)
+
+
+def _ctx(root: Path, work: Path) -> StageContext:
+    work.mkdir(parents=True, exist_ok=True)
+    return StageContext(workdir=work, resolve_bundle=lambda _b: root)
+
+
+def test_campaign_runs_ranks_and_resumes(bundle: Path, tmp_path: Path) -> None:
+    work = tmp_path / "run"
+    first = run_campaign(_config(), _ctx(bundle, work))
+    assert (first.cells_run, first.cells_resumed) == (2, 0)
+    assert first.hard_episodes == 1 and first.global_episodes == 2
+    summary = json.loads((work / "campaign_summary.json").read_text())
+    assert summary["best"]["variant"] == first.ranked[0].variant
+    assert "global" in summary["ranked"][0] and summary["ranked"][0]["planner"]["config"]
+    assert (work / "campaign_report.md").read_text().startswith("# Planner campaign")
+    again = run_campaign(_config(), _ctx(bundle, work))
+    assert (again.cells_run, again.cells_resumed) == (0, 2)
+    assert [c.model_dump() for c in again.ranked] == [c.model_dump() for c in first.ranked]
+    changed = _config(variants=[{"name": "base", "config": {}}, {"name": "careful", "config": {"max_speed_ratio": 0.4}}])
+    third = run_campaign(changed, _ctx(bundle, work))
+    assert (third.cells_run, third.cells_resumed) == (1, 1)  # only the changed variant runs again
+
+
+def test_gate_pass_and_fail_are_results(bundle: Path, tmp_path: Path) -> None:
+    work = tmp_path / "run"
+    ok = run_campaign(_config(gate={"baseline_variant": "base", "max_clearance_regression": 100.0}),
+                      _ctx(bundle, work))
+    assert ok.status == "passed" and ok.exit_code == 0 and ok.gate is not None
+    # demanding +50 points of global success over the baseline cannot pass: a result with exit code 2
+    bad = run_campaign(_config(gate={"baseline_variant": "base", "min_global_success_delta": 0.5}),
+                       _ctx(bundle, work))
+    assert bad.status == "failed_gate" and bad.exit_code == 2
+    assert bad.cells_resumed == 2  # the gate is re-evaluated on finished cells
+    data = json.loads((work / "campaign_summary.json").read_text())
+    assert data["gate"]["passed"] is False and data["status"] == "failed_gate"
+
+
+def test_unknown_baseline_and_bad_grid_fail_before_running(bundle: Path, tmp_path: Path) -> None:
+    with pytest.raises(ConfigError):
+        run_campaign(_config(gate={"baseline_variant": "nope"}), _ctx(bundle, tmp_path / "a"))
+    (bundle / "grid.yaml").write_text("variants:\n  - name: x\n    params: {predictive_unknown_key: 1}\n")
+    with pytest.raises(ConfigError):
+        run_campaign(_config(variants=None, grid="grid.yaml"), _ctx(bundle, tmp_path / "b"))
+    assert not (tmp_path / "b" / "cells").exists()
