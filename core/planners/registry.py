@@ -32,9 +32,12 @@ def make_planner(name: str, config: dict[str, Any] | None = None, *, model: Any 
 
         return SocialForcePlanner(_validate(SocialForceConfig, config, name))
     if name == "goal":
-        from core.planners import goal
+        from core.planners.goal import GoalSeeking
 
-        return goal.make(config) if hasattr(goal, "make") else goal.GoalPlanner(**(config or {}))
+        try:
+            return GoalSeeking(**(config or {}))
+        except TypeError as exc:
+            raise ConfigError(str(exc), item="goal") from None
     raise NotFoundError(f"unknown planner {name!r} (known: {', '.join(PLANNER_NAMES)})")
 
 

@@ -61,18 +61,18 @@ class SafetyConfig(_Frozen):
 
     extra_robot_margin: float = Field(default=0.0, ge=0)  #: added to the robot radius for pedestrians
     extra_ped_margin: float = Field(default=0.0, ge=0)  #: added to the pedestrian radius
-    collision_margin: float = Field(default=0.15, ge=0)  #: inside it a step counts as a (predicted) collision
-    margin_growth: float = Field(default=0.15, ge=0)  #: uncertainty growth of the margins [m/s of forecast age]
-    near_distance: float = Field(default=0.7, ge=0)  #: near-miss band beyond the collision distance
+    collision_margin: float = Field(default=0.1, ge=0)  #: inside it a step counts as a (predicted) collision
+    margin_growth: float = Field(default=0.1, ge=0)  #: uncertainty growth of the margins [m/s of forecast age]
+    near_distance: float = Field(default=0.5, ge=0)  #: near-miss band beyond the collision distance
     ttc_distance: float = Field(default=0.4, ge=0)  #: a step inside it ends the time to collision
     hard_clearance_distance: float = Field(default=0.3, ge=0)
     progress_risk_distance: float = Field(default=0.8, ge=0)
-    speed_clearance_gain: float = Field(default=0.0, ge=0)  #: extra margin per robot speed [m per m/s]
+    speed_clearance_gain: float = Field(default=0.25, ge=0)  #: extra margin per robot speed [m per m/s]
     static_margin: float = Field(default=0.05, ge=0)  #: hard: rollouts closer to an edge are infeasible
     static_soft_distance: float = Field(default=0.4, ge=0)  #: soft clearance band beyond the hard margin
     discount: float = Field(default=0.9, gt=0, le=1)  #: per forecast step weight of pedestrian terms
-    passive_floor: float = Field(default=0.25, ge=0, le=1)  #: weight of ped terms while the robot stands still
-    passive_speed: float = Field(default=0.3, gt=0)  #: robot speed [m/s] from which ped terms count fully
+    passive_floor: float = Field(default=0.15, ge=0, le=1)  #: weight of ped terms while the robot stands still
+    passive_speed: float = Field(default=0.6, gt=0)  #: robot speed [m/s] from which ped terms count fully
     static_field_resolution: float = Field(default=0.1, ge=0, le=0.5)  #: [m]; 0 = exact distance queries
 
 
