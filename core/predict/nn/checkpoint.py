@@ -1,0 +1,107 @@
+"""Checkpoints: one dict holding everything needed to rebuild and trust a model.
+
+Keys: ``format``, ``model_config``, ``model`` (state dict), ``timebase``, ``feature_schema``
+({names, frame_convention}), ``dataset`` ({id, sha256, source, config_hash}), ``metrics``, ``epoch``,
+``code_version``, and for resuming ``optimizer`` and ``train_state``. Loading rebuilds the model
+from the file alone and refuses a file whose format, feature layout or time base does not match.
+"""
+
+from __future__ import annotations
+
+import pickle
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from core.errors import ConfigError, NotFoundError
+from core.predict.features import feature_names
+from core.predict.nn.model import ModelConfig, TrajectoryModel
+from core.predict.predictor import check_batch
+from core.predict.timebase import TimeBase
+from core.version import code_version
+
+FORMAT = "foresight.predict.checkpoint/1"
+REQUIRED = ("format", "model_config", "model", "timebase", "feature_schema", "dataset", "metrics", "epoch",
+            "code_version")
+
+
+def make_checkpoint(model: TrajectoryModel, timebase: TimeBase, frame_convention: str, dataset: dict[str, Any],
+                    metrics: dict[str, Any], epoch: int, **extra: Any) -> dict[str, Any]:
+    return {
+        "format": FORMAT, "model_config": model.config.to_dict(), "model": model.state_dict(),
+        "timebase": timebase.to_dict(),
+        "feature_schema": {"names": feature_names(timebase.history), "frame_convention": frame_convention},
+        "dataset": dataset, "metrics": metrics, "epoch": epoch, "code_version": code_version(), **extra,
+    }
+
+
+def save_checkpoint(payload: dict[str, Any], path: Path) -> None:
+    """Atomic write (temp file + rename), so an interrupted save never leaves a half file."""
+    path = Path(path)
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    torch.save(payload, tmp)
+    tmp.replace(path)
+
+
+def read_checkpoint(path: Path) -> dict[str, Any]:
+    path = Path(path)
+    if not path.is_file():
+        raise NotFoundError(f"checkpoint {path} does not exist")
+    try:
+        payload = torch.load(path, map_location="cpu", weights_only=True)
+    except (RuntimeError, OSError, EOFError, ValueError, pickle.UnpicklingError) as exc:
+        raise ConfigError(f"not a readable checkpoint ({exc})", source=path) from None
+    if not isinstance(payload, dict) or payload.get("format") != FORMAT:
+        raise ConfigError(f"not a {FORMAT} checkpoint", source=path, item="format")
+    missing = [k for k in REQUIRED if k not in payload]
+    if missing:
+        raise ConfigError(f"checkpoint lacks {', '.join(missing)}", source=path, item=missing[0])
+    return payload
+
+
+class TorchPredictor:
+    """A trained model behind the :class:`core.predict.predictor.Predictor` interface (numpy in/out)."""
+
+    def __init__(self, model: TrajectoryModel, timebase: TimeBase, name: str, frame_convention: str = "robot",
+                 max_agents: int | None = None, threads: int | None = None):
+        self.model = model.eval()
+        self.timebase = timebase
+        self.name = name
+        self.frame_convention = frame_convention
+        self.max_agents = max_agents
+        if threads:
+            torch.set_num_threads(threads)
+
+    def predict(self, features: np.ndarray, mask: np.ndarray) -> np.ndarray:
+        check_batch(np.asarray(features), np.asarray(mask), self.timebase, self.name)
+        with torch.inference_mode():
+            out = self.model(torch.as_tensor(features, dtype=torch.float32), torch.as_tensor(mask, dtype=torch.float32))
+        return out.numpy()
+
+
+def load_predictor(path: Path, expect_timebase: TimeBase | None = None, name: str | None = None) -> TorchPredictor:
+    """Rebuild the model from the checkpoint alone; ``expect_timebase`` makes a mismatch an error."""
+    payload = read_checkpoint(path)
+    timebase = TimeBase.from_dict(payload["timebase"], source=str(path))
+    if expect_timebase is not None:
+        expect_timebase.require_same(timebase, what=f"checkpoint {path}", source=str(path))
+    schema = payload["feature_schema"]
+    if schema.get("names") != feature_names(timebase.history):
+        raise ConfigError("feature schema differs from this code's feature extraction; retrain the model",
+                          source=path, item="feature_schema")
+    try:
+        config = ModelConfig(**payload["model_config"])
+    except TypeError as exc:
+        raise ConfigError(f"bad model_config ({exc})", source=path, item="model_config") from None
+    if (config.history, config.horizon) != (timebase.history, timebase.horizon) or abs(config.dt - timebase.dt) > 1e-9:
+        raise ConfigError("model_config disagrees with the checkpoint's time base", source=path, item="model_config")
+    model = TrajectoryModel(config)
+    try:
+        model.load_state_dict(payload["model"], strict=True)
+    except RuntimeError as exc:
+        raise ConfigError(f"weights do not fit model_config ({str(exc).splitlines()[0]})", source=path,
+                          item="model") from None
+    max_agents = payload.get("dataset", {}).get("max_agents")
+    return TorchPredictor(model, timebase, name or Path(path).stem, schema.get("frame_convention", "robot"), max_agents)

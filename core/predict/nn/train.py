@@ -1,0 +1,165 @@
+"""Training the graph predictor: a linear ``train()`` in the nanoGPT spirit.
+
+Data come from one dataset file, split by episode (recorded in the dataset). Each epoch: one pass
+over shuffled training samples (order seeded by (seed, epoch), so a resumed run repeats the same
+batches), then validation loss/ADE/FDE, ``checkpoints/last.pt`` (with optimizer state, for resume),
+optional proxy evaluation through a callback, and selection. The selected model is written to
+``model.pt``; ``training_summary.json`` records history, selection, gates and dataset statistics.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from core.predict.dataset import Dataset, file_sha256, load_dataset
+from core.predict.metrics import ade_fde
+from core.predict.nn.checkpoint import make_checkpoint, read_checkpoint, save_checkpoint
+from core.predict.nn.model import ModelConfig, TrajectoryModel, masked_ade_fde, masked_smooth_l1
+from core.predict.nn.selection import Selection
+from core.predict.predictor import ConstantVelocityPredictor
+from core.predict.quality import check_quality, summarize
+from core.predict.train_config import TrainConfig, TrainResult
+from core.stages.context import StageContext
+from core.version import code_version
+
+#: proxy evaluation: checkpoint path -> {"success": rate in [0, 1], "clearance": mean min distance [m]}
+ProxyCallback = Callable[[Path], dict[str, float]]
+
+
+def resolve_dataset_path(ref: str, ctx: StageContext) -> Path:
+    path = Path(ref)
+    return path if path.suffix == ".npz" and path.is_file() else ctx.resolve_dataset(ref)
+
+
+def _tensors(ds: Dataset, index: np.ndarray) -> dict[str, torch.Tensor]:
+    return {k: torch.from_numpy(np.ascontiguousarray(getattr(ds, k)[index])) for k in
+            ("state", "mask", "target", "target_mask")}
+
+
+def evaluate(model: TrajectoryModel, data: dict[str, torch.Tensor], beta: float, batch: int = 2048) -> dict[str, float]:
+    """Loss, ADE, FDE over a whole split (sums over valid points, not means of batch means)."""
+    model.eval()
+    loss_sum = err = pts = ferr = fin = 0.0
+    with torch.inference_mode():
+        for i in range(0, len(data["state"]), batch):
+            b = {k: v[i:i + batch] for k, v in data.items()}
+            pred = model(b["state"], b["mask"])
+            loss_sum += float(masked_smooth_l1(pred, b["target"], b["target_mask"], beta)) * float(b["target_mask"].sum())
+            e, p, fe, f = masked_ade_fde(pred, b["target"], b["target_mask"])
+            err, pts, ferr, fin = err + float(e), pts + float(p), ferr + float(fe), fin + float(f)
+    return {"loss": loss_sum / max(pts, 1.0), "ade": err / max(pts, 1.0), "fde": ferr / max(fin, 1.0)}
+
+
+def train_epoch(model, opt, data: dict[str, torch.Tensor], config: TrainConfig, epoch: int) -> dict[str, float]:
+    model.train()
+    gen = torch.Generator().manual_seed(config.seed * 1_000_003 + epoch)
+    order = torch.randperm(len(data["state"]), generator=gen)
+    loss_sum = err = pts = ferr = fin = 0.0
+    for i in range(0, len(order), config.batch_size):
+        idx = order[i:i + config.batch_size]
+        b = {k: v[idx] for k, v in data.items()}
+        pred = model(b["state"], b["mask"])
+        loss = masked_smooth_l1(pred, b["target"], b["target_mask"], config.loss_beta)
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        torch.nn.utils.clip_grad_norm_(model.parameters(), config.grad_clip, error_if_nonfinite=True)
+        opt.step()
+        with torch.no_grad():
+            e, p, fe, f = masked_ade_fde(pred, b["target"], b["target_mask"])
+        n = float(b["target_mask"].sum())
+        loss_sum, err, pts, ferr, fin = loss_sum + float(loss.detach()) * n, err + float(e), pts + float(p), ferr + float(fe), fin + float(f)
+    return {"loss": loss_sum / max(pts, 1.0), "ade": err / max(pts, 1.0), "fde": ferr / max(fin, 1.0)}
+
+
+def cv_metrics(ds: Dataset, index: np.ndarray) -> dict[str, float]:
+    pred = ConstantVelocityPredictor(ds.meta.timebase).predict(ds.state[index], ds.mask[index])
+    r = ade_fde(pred, ds.target[index], ds.target_mask[index])
+    return {"ade": r["ade"], "fde": r["fde"]}
+
+
+def gates(config: TrainConfig, best: dict[str, Any], cv: dict[str, float]) -> dict[str, Any]:
+    g = config.gates
+    checks = {
+        "val_ade_below_limit": best["val_ade"] <= g.max_val_ade,
+        "val_fde_below_limit": best["val_fde"] <= g.max_val_fde,
+        "val_ade_below_cv": (best["val_ade"] < cv["ade"]) or not g.require_beat_cv,
+        "val_fde_below_cv": (best["val_fde"] < cv["fde"]) or not g.require_beat_cv,
+    }
+    return {"limits": g.model_dump(), "cv": cv, "checks": checks, "passed": all(checks.values())}
+
+
+def run_train(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | None = None) -> TrainResult:
+    """Train on ``config.dataset``; resume from ``checkpoints/last.pt`` in the work dir when present."""
+    started = time.time()
+    torch.set_num_threads(config.threads)
+    ds_path = resolve_dataset_path(config.dataset, ctx)
+    ds = load_dataset(ds_path)
+    stats = summarize(ds) if config.allow_degenerate else check_quality(ds, str(ds_path))
+    tr_idx, va_idx = ds.split_indices("train"), ds.split_indices(config.val_split)
+    train_data, val_data = _tensors(ds, tr_idx), _tensors(ds, va_idx)
+    cv = cv_metrics(ds, va_idx)
+    tb = ds.meta.timebase
+    mcfg = ModelConfig(tb.history, tb.horizon, tb.dt, config.hidden, config.blocks)
+    with torch.random.fork_rng():
+        torch.manual_seed(config.seed)
+        model = TrajectoryModel(mcfg)
+    opt = torch.optim.AdamW(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
+    dataset_info = {"id": config.dataset, "sha256": file_sha256(ds_path), "source": ds.meta.source,
+                    "config_hash": ds.meta.generator_config_hash, "max_agents": ds.meta.max_agents,
+                    "frame_convention": ds.meta.frame_convention, "lineage": ds.meta.lineage}
+    history, selection, start = [], Selection(proxy_enabled=proxy is not None and config.proxy_every > 0), 1
+    last_path = ctx.artifact("checkpoints/last.pt")
+    if config.resume and last_path.is_file():
+        state = read_checkpoint(last_path)
+        model.load_state_dict(state["model"])
+        opt.load_state_dict(state["optimizer"])
+        history, start = state["train_state"]["history"], state["epoch"] + 1
+        selection = Selection.from_dict(state["train_state"]["selection"])
+        ctx.log(f"resumed after epoch {state['epoch']}")
+    for epoch in range(start, config.epochs + 1):
+        ctx.check_cancelled()
+        t0 = time.time()
+        tr = train_epoch(model, opt, train_data, config, epoch)
+        t1 = time.time()
+        va = evaluate(model, val_data, config.loss_beta)
+        rec = {"epoch": epoch, **{f"train_{k}": v for k, v in tr.items()}, **{f"val_{k}": v for k, v in va.items()},
+               "cv_val_ade": cv["ade"], "cv_val_fde": cv["fde"], "train_runtime_s": t1 - t0,
+               "val_runtime_s": time.time() - t1, "train_samples": len(tr_idx), "val_samples": len(va_idx)}
+        payload = make_checkpoint(model, tb, ds.meta.frame_convention, dataset_info,
+                                  {k: rec[k] for k in ("val_loss", "val_ade", "val_fde")}, epoch)
+        if selection.proxy_enabled and epoch % config.proxy_every == 0:
+            path = ctx.artifact(f"proxy_checkpoints/epoch_{epoch:04d}.pt")
+            save_checkpoint(payload, path)
+            rec["proxy"] = dict(proxy(path))
+            payload["metrics"]["proxy"] = rec["proxy"]
+        history.append(rec)
+        if selection.offer(rec):
+            save_checkpoint({**payload, "selection": selection.to_dict()}, ctx.artifact("model.pt"))
+        save_checkpoint({**payload, "optimizer": opt.state_dict(),
+                         "train_state": {"history": history, "selection": selection.to_dict()}}, last_path)
+        ctx.progress(epoch / config.epochs, f"epoch {epoch}: val ade {va['ade']:.3f} fde {va['fde']:.3f}")
+    return _finish(config, ctx, history, selection, cv, stats, dataset_info, started)
+
+
+def _finish(config, ctx, history, selection, cv, stats, dataset_info, started) -> TrainResult:
+    best = selection.best
+    gate = gates(config, best, cv)
+    summary = {
+        "artifact_role": "predictive_training_summary", "config": config.model_dump(), "dataset": dataset_info,
+        "dataset_stats": stats, "cv_val": cv, "history": history, "best": best,
+        "selection": selection.to_dict(), "selection_mode": selection.mode, "quality_gates": gate,
+        "checkpoint": str(ctx.artifact("model.pt")), "total_runtime_s": time.time() - started,
+        "code_version": code_version(),
+    }
+    path = ctx.artifact("training_summary.json")
+    path.write_text(json.dumps(summary, indent=2, default=float))
+    return TrainResult(checkpoint=str(ctx.artifact("model.pt")), summary=str(path), best_epoch=best["epoch"],
+                       val_ade=best["val_ade"], val_fde=best["val_fde"], cv_val_ade=cv["ade"], cv_val_fde=cv["fde"],
+                       selection_mode=selection.mode, gates_passed=gate["passed"])

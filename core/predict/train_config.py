@@ -1,0 +1,66 @@
+"""Pydantic configs and results of the prediction stages (defined once: YAML, API bodies, CLI)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from core.errors import ConfigError
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class GateConfig(_Strict):
+    max_val_ade: float = Field(default=1.0, gt=0)  #: [m]
+    max_val_fde: float = Field(default=1.8, gt=0)  #: [m]
+    require_beat_cv: bool = True  #: best val ADE and FDE must be below constant velocity's on the same split
+
+
+class TrainConfig(_Strict):
+    dataset: str  #: dataset id (resolved by the context) or a local .npz path
+    epochs: int = Field(default=30, ge=1, le=10_000)
+    batch_size: int = Field(default=256, ge=1)
+    lr: float = Field(default=2e-3, gt=0)
+    weight_decay: float = Field(default=1e-4, ge=0)
+    seed: int = 0
+    hidden: int = Field(default=64, ge=4, le=1024)  #: model width h
+    blocks: int = Field(default=2, ge=0, le=8)  #: K message-passing blocks
+    loss_beta: float = Field(default=0.2, gt=0)  #: SmoothL1 beta [m]
+    grad_clip: float = Field(default=1.0, gt=0)
+    threads: int = Field(default=1, ge=1, le=64)  #: torch intra-op threads (1: small matmuls gain little from more, and shared cores thrash)
+    val_split: str = "val"  #: which recorded split validates (val; test only for held-out checks)
+    proxy_every: int = Field(default=0, ge=0)  #: epochs between proxy evaluations (0 = off)
+    resume: bool = True  #: continue from checkpoints/last.pt in the work dir when present
+    allow_degenerate: bool = False  #: skip the fail-fast dataset checks (recorded in the summary)
+    gates: GateConfig = GateConfig()
+
+
+class TrainResult(BaseModel):
+    checkpoint: str
+    summary: str
+    best_epoch: int
+    val_ade: float
+    val_fde: float
+    cv_val_ade: float
+    cv_val_fde: float
+    selection_mode: str
+    gates_passed: bool
+
+
+def load_config(path: Path, model: type[BaseModel], key: str | None = None) -> BaseModel:
+    """Read a YAML file (optionally one top-level ``key`` of it) into ``model``; errors name file and field."""
+    try:
+        data = yaml.safe_load(Path(path).read_text())
+    except (OSError, yaml.YAMLError) as exc:
+        raise ConfigError(f"cannot read YAML ({exc})", source=path) from None
+    if key is not None:
+        data = (data or {}).get(key)
+    try:
+        return model.model_validate(data)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        raise ConfigError(err["msg"], source=path, item=".".join(str(p) for p in err["loc"])) from None

@@ -1,0 +1,80 @@
+import json
+
+import pytest
+import torch
+
+from core.errors import ConfigError
+from core.predict.nn.checkpoint import read_checkpoint
+from core.predict.nn.selection import Selection
+from core.predict.nn.train import run_train
+from core.predict.train_config import TrainConfig, load_config
+from core.stages.context import StageContext
+
+FAST = dict(epochs=4, batch_size=64, hidden=16, blocks=1, lr=3e-3, threads=1)
+
+
+def test_short_training_learns_and_writes_complete_summary(tmp_path, curving_dataset):
+    res = run_train(TrainConfig(dataset=str(curving_dataset), **FAST), StageContext(workdir=tmp_path))
+    summary = json.loads((tmp_path / "training_summary.json").read_text())
+    hist = summary["history"]
+    assert len(hist) == 4 and hist[-1]["train_loss"] < hist[0]["train_loss"]
+    assert res.val_ade < res.cv_val_ade  # arcs: learnable beyond constant velocity
+    for key in ("best", "selection", "quality_gates", "dataset_stats", "dataset", "cv_val", "total_runtime_s",
+                "code_version", "config"):
+        assert key in summary
+    assert summary["quality_gates"]["checks"]["val_ade_below_cv"] is True
+    assert summary["dataset"]["sha256"] and summary["selection_mode"] == "val_loss"
+    ckpt = read_checkpoint(tmp_path / "model.pt")
+    assert ckpt["epoch"] == res.best_epoch and ckpt["dataset"]["source"] == "sim"
+
+
+def test_resume_after_interruption_matches_uninterrupted(tmp_path, curving_dataset):
+    full = tmp_path / "full"
+    part = tmp_path / "part"
+    full.mkdir(), part.mkdir()
+    run_train(TrainConfig(dataset=str(curving_dataset), **FAST), StageContext(workdir=full))
+    run_train(TrainConfig(dataset=str(curving_dataset), **{**FAST, "epochs": 2}), StageContext(workdir=part))
+    logs = []
+    run_train(TrainConfig(dataset=str(curving_dataset), **FAST), StageContext(workdir=part, log=logs.append))
+    assert logs == ["resumed after epoch 2"]
+    a, b = read_checkpoint(full / "checkpoints/last.pt"), read_checkpoint(part / "checkpoints/last.pt")
+    for k in a["model"]:
+        torch.testing.assert_close(a["model"][k], b["model"][k])
+    assert len(b["train_state"]["history"]) == 4
+
+
+def test_proxy_callback_drives_selection(tmp_path, curving_dataset):
+    calls = []
+
+    def proxy(path):
+        calls.append(path.name)
+        return {"success": 0.5 if "0002" in path.name else 0.2, "clearance": 0.4}
+
+    res = run_train(TrainConfig(dataset=str(curving_dataset), proxy_every=2, **FAST), StageContext(workdir=tmp_path),
+                    proxy=proxy)
+    assert calls == ["epoch_0002.pt", "epoch_0004.pt"]
+    assert res.selection_mode == "proxy" and res.best_epoch == 2
+
+
+def test_selection_order():
+    s = Selection(proxy_enabled=True)
+    assert s.offer({"epoch": 1, "val_loss": 1.0}) and s.mode == "val_loss_fallback"
+    assert s.offer({"epoch": 2, "val_loss": 2.0, "proxy": {"success": 0.1, "clearance": 0.3}})
+    assert not s.offer({"epoch": 3, "val_loss": 0.1})  # val loss no longer replaces a proxy pick
+    assert s.offer({"epoch": 4, "val_loss": 3.0, "proxy": {"success": 0.1, "clearance": 0.5}})
+    assert s.offer({"epoch": 5, "val_loss": 2.0, "proxy": {"success": 0.1, "clearance": 0.5}})
+    assert not s.offer({"epoch": 6, "val_loss": 0.5, "proxy": {"success": 0.0, "clearance": 9.0}})
+    assert s.best["epoch"] == 5
+
+
+def test_gate_failure_is_reported(tmp_path, curving_dataset):
+    cfg = TrainConfig(dataset=str(curving_dataset), **{**FAST, "epochs": 1}, gates={"max_val_ade": 0.001})
+    res = run_train(cfg, StageContext(workdir=tmp_path))
+    assert not res.gates_passed
+    assert json.loads((tmp_path / "training_summary.json").read_text())["quality_gates"]["checks"]["val_ade_below_limit"] is False
+
+
+def test_bad_config_file_names_field(tmp_path):
+    (tmp_path / "t.yaml").write_text("train:\n  dataset: x.npz\n  epochs: -1\n")
+    with pytest.raises(ConfigError, match=r"t.yaml.*epochs"):
+        load_config(tmp_path / "t.yaml", TrainConfig, key="train")
