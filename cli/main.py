@@ -17,6 +17,7 @@ from core.errors import CoreError
 COMMAND_MODULES = [
     "cli.sim",
     "cli.maps",
+    "cli.evaluate",
 ]
 
 

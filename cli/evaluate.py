@@ -1,0 +1,212 @@
+"""`foresight evaluate`, `foresight diagnose` and `foresight campaign` (in-process; ``--local`` always works).
+
+They build the same stage configs the service accepts. Files given on the command line (matrix, seed
+manifest, planner grid) become one local bundle rooted at their common folder (or the builtin bundle
+when they all live in the project's configs/); a checkpoint path becomes model id ``file:<name>``.
+Exit codes: 0 passed, 2 failing gate or integrity (a result, summary written), 1 error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from cli.common import build_config, emit, local_context
+from core.errors import ConfigError, NotFoundError
+from core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
+
+PLANNERS = ("predictive", "orca", "social_force", "goal")
+LOCAL_BUNDLE = "local"
+
+
+def _common(p: argparse.ArgumentParser, *, planner: bool = True) -> None:
+    p.add_argument("--matrix", required=True, help="scenario matrix YAML")
+    if planner:
+        p.add_argument("--planner", default="predictive", help="planner name (predictive|orca|social_force|goal) "
+                       "or a planner YAML ({name, config, reference_params} or a predictive config)")
+        p.add_argument("--model", help="model id, checkpoint path, or cv (predictive planner)")
+    p.add_argument("--max-steps", type=int, help="horizon override for smoke runs (default: each scenario's)")
+    p.add_argument("--out", help="work folder for the artifacts (default: a new temporary folder)")
+    p.add_argument("--workers", type=int, default=1, help="parallel episode processes")
+    p.add_argument("--local", action="store_true", help="run in-process (the default until a server is used)")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    ev = sub.add_parser("evaluate", help="evaluate a planner on a scenario matrix")
+    _common(ev)
+    ev.add_argument("--seeds-per-scenario", type=int, help="N seeds per scenario (default: the matrix's own)")
+    ev.add_argument("--seeds", help="seed manifest YAML: only these (scenario, seed) episodes")
+    ev.add_argument("--scenarios", help="comma-separated scenario names (default: all)")
+    ev.add_argument("--min-success", type=float, help="evaluation gate success floor (default 0.3)")
+    ev.set_defaults(func=evaluate_cmd)
+
+    dg = sub.add_parser("diagnose", help="hard-seed diagnostics: trace every seed of a manifest")
+    _common(dg)
+    dg.add_argument("--seeds", required=True, help="seed manifest YAML")
+    dg.add_argument("--no-render", action="store_true", help="skip the PNG per seed")
+    dg.set_defaults(func=diagnose_cmd)
+
+    cp = sub.add_parser("campaign", help="checkpoints x planner-grid variants on a hard and a global suite")
+    _common(cp, planner=False)
+    cp.add_argument("--seeds", required=True, help="hard-suite seed manifest YAML (an evaluation manifest)")
+    cp.add_argument("--grid", required=True, help="planner grid YAML (variants: [{name, params}])")
+    cp.add_argument("--checkpoints", nargs="+", default=["cv"], help="model ids, checkpoint paths, or cv")
+    cp.add_argument("--baseline", help="baseline variant name for the closed-loop gate")
+    cp.add_argument("--seeds-per-scenario", type=int, help="global suite: N seeds per scenario")
+    cp.add_argument("--scenarios", help="global suite: comma-separated scenario names (default: all)")
+    cp.set_defaults(func=campaign_cmd)
+
+
+# ------------------------------------------------------------------------------ resolution helpers
+
+
+def bundle_of(*files: str | None) -> tuple[str, list[str], dict[str, Path]]:
+    """(bundle id, bundle-relative paths, bundle roots) for command-line files."""
+    paths = []
+    for f in files:
+        if f is None:
+            paths.append(None)
+            continue
+        p = Path(f).expanduser().resolve()
+        if not p.is_file():
+            raise ConfigError("file not found", source=f)
+        paths.append(p)
+    real = [p for p in paths if p is not None]
+    roots = {BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT}
+    if all(BUILTIN_CONFIG_ROOT in p.parents for p in real):
+        bundle, root = BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
+    else:
+        bundle, root = LOCAL_BUNDLE, Path(os.path.commonpath([str(p.parent) for p in real]))
+        roots[LOCAL_BUNDLE] = root
+    return bundle, [p.relative_to(root).as_posix() if p else None for p in paths], roots
+
+
+class ModelArgs:
+    """Maps --model/--checkpoints values to model ids; checkpoint paths become ``file:<name>`` ids."""
+
+    def __init__(self) -> None:
+        self.files: dict[str, Path] = {}
+
+    def ident(self, value: str | None) -> str | None:
+        if value is None or value == "cv":
+            return value
+        p = Path(value).expanduser()
+        if p.is_file():
+            ident = f"file:{p.name}"
+            self.files[ident] = p.resolve()
+            return ident
+        return value
+
+    def resolve(self, ident: str) -> Path:
+        if ident in self.files:
+            return self.files[ident]
+        raise NotFoundError(f"unknown model id {ident!r}: in-process runs take a checkpoint path or cv")
+
+
+def planner_spec(value: str, model: str | None) -> dict[str, Any]:
+    if value in PLANNERS:
+        spec: dict[str, Any] = {"name": value}
+    else:
+        from core.scenarios.loader import read_yaml
+
+        data = read_yaml(Path(value))
+        if not isinstance(data, dict):
+            raise ConfigError("a planner file must be a mapping", source=value)
+        spec = dict(data) if "name" in data else {"name": "predictive", "config": data}
+    if model is not None:
+        spec["model"] = model
+    return spec
+
+
+def _context(args: argparse.Namespace, roots: dict[str, Path], models: ModelArgs):
+    out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix=f"foresight-{args.command}-"))
+    ctx = local_context(out, roots, quiet=args.json)
+    ctx.resolve_model = models.resolve
+    ctx.workers = max(1, int(args.workers))
+    return ctx
+
+
+def _names(value: str | None) -> list[str] | None:
+    return [s.strip() for s in value.split(",") if s.strip()] if value else None
+
+
+# ------------------------------------------------------------------------------ commands
+
+
+def evaluate_cmd(args: argparse.Namespace) -> int:
+    from core.evaluation.config import EvaluationConfig
+    from core.evaluation.runner import run_evaluation
+
+    bundle, (matrix, seeds), roots = bundle_of(args.matrix, args.seeds)
+    models = ModelArgs()
+    values: dict[str, Any] = {
+        "bundle": bundle, "matrix": matrix, "seed_manifest": seeds, "scenarios": _names(args.scenarios),
+        "seeds_per_scenario": args.seeds_per_scenario, "max_steps": args.max_steps,
+        "planner": planner_spec(args.planner, models.ident(args.model)),
+    }
+    if args.min_success is not None:
+        values["gate"] = {"min_success_rate": args.min_success}
+    config = build_config(EvaluationConfig, values)
+    ctx = _context(args, roots, models)
+    result = run_evaluation(config, ctx)
+    emit(result, args.json, lambda r: _evaluation_text(r, ctx.workdir))
+    return result.exit_code
+
+
+def _evaluation_text(r: Any, out: Path) -> str:
+    def pct(x: Any) -> str:
+        return "-" if x is None else f"{100 * x:5.1f}%"
+
+    lines = [f"{r.planner.variant or r.planner.name} (config {r.planner.config_hash[:12]}, model {r.planner.model_id}): "
+             f"{r.episodes} episodes, success {pct(r.success_rate)}, collisions {pct(r.collision_rate)}", "",
+             f"{'family':<36} {'n':>4} {'success':>8} {'collision':>9} {'clearance':>9}"]
+    for g in r.aggregates.per_family:
+        clr = g.means["min_clearance"].mean
+        lines.append(f"{g.key:<36} {g.episodes:>4} {pct(g.rates['success'].rate):>8} "
+                     f"{pct(g.rates['collision'].rate):>9} {'-' if clr is None else f'{clr:.2f}':>9}")
+    fails = ", ".join(f"{k} {v}" for k, v in r.taxonomy.items() if v) or "none"
+    lines += ["", f"failures: {fails}", f"gate: {r.status}"]
+    lines += [f"  {c.name}: {'ok' if c.passed else 'FAIL'} ({c.value} vs {c.threshold}) {c.detail}".rstrip()
+              for c in r.gate.checks]
+    lines.append(f"artifacts in {out.resolve()}")
+    return "\n".join(lines)
+
+
+def diagnose_cmd(args: argparse.Namespace) -> int:
+    from core.evaluation.config import DiagnosticsConfig
+    from core.evaluation.diagnostics import report, run_diagnostics
+
+    bundle, (matrix, seeds), roots = bundle_of(args.matrix, args.seeds)
+    models = ModelArgs()
+    config = build_config(DiagnosticsConfig, {
+        "bundle": bundle, "matrix": matrix, "seed_manifest": seeds, "max_steps": args.max_steps,
+        "planner": planner_spec(args.planner, models.ident(args.model)), "render": not args.no_render,
+    })
+    ctx = _context(args, roots, models)
+    result = run_diagnostics(config, ctx)
+    emit(result, args.json, lambda r: report(r) + f"\nartifacts in {ctx.workdir.resolve()}")
+    return 0
+
+
+def campaign_cmd(args: argparse.Namespace) -> int:
+    from core.evaluation.campaign import report, run_campaign
+    from core.evaluation.config import CampaignConfig
+
+    bundle, (matrix, seeds, grid), roots = bundle_of(args.matrix, args.seeds, args.grid)
+    models = ModelArgs()
+    values: dict[str, Any] = {
+        "bundle": bundle, "matrix": matrix, "seed_manifest": seeds, "grid": grid,
+        "checkpoints": [models.ident(c) for c in args.checkpoints], "max_steps": args.max_steps,
+        "seeds_per_scenario": args.seeds_per_scenario, "scenarios": _names(args.scenarios),
+    }
+    if args.baseline:
+        values["gate"] = {"baseline_variant": args.baseline}
+    config = build_config(CampaignConfig, values)
+    ctx = _context(args, roots, models)
+    result = run_campaign(config, ctx)
+    emit(result, args.json, lambda r: report(r) + f"\nartifacts in {ctx.workdir.resolve()}")
+    return result.exit_code
