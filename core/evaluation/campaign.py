@@ -30,7 +30,6 @@ from core.evaluation.runner import (
     bundle_file,
     load_selection,
     planner_provenance,
-    read_records,
     run_jobs,
     write_records,
 )

@@ -12,7 +12,13 @@ from typing import Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from core.evaluation.metrics import Derived, no_progress_mask, sign_change_steps, time_to_collision, window_steps
+from core.evaluation.metrics import (
+    Derived,
+    no_progress_mask,
+    sign_change_steps,
+    time_to_collision,
+    window_steps,
+)
 
 Label = Literal[
     "collision_pedestrian_robot_fault",

@@ -5,7 +5,12 @@ from __future__ import annotations
 import pytest
 
 from core.evaluation.aggregate import BootstrapConfig, aggregate, summarise
-from core.evaluation.gates import ClosedLoopGateConfig, EvaluationGateConfig, closed_loop_gate, evaluation_gate
+from core.evaluation.gates import (
+    ClosedLoopGateConfig,
+    EvaluationGateConfig,
+    closed_loop_gate,
+    evaluation_gate,
+)
 from core.evaluation.integrity import check_integrity
 
 from .traces import record
