@@ -17,6 +17,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
 from core.render.figure import DPI, save
 
@@ -126,6 +127,7 @@ def taxonomy_bars(groups: Mapping[str, Mapping[str, int]], path: str | Path, *, 
     ax.set_yticks(np.arange(len(keys)), keys, fontsize=7)
     ax.set_ylim(len(keys) - 0.5, -0.5)
     ax.set_xlim(0, max(1.0, float(left.max(initial=0.0))) * 1.12)
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_xlabel("failed episodes")
     ax.set_title(title, fontsize=10)
     if labels:
