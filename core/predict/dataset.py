@@ -153,3 +153,9 @@ def file_sha256(path: Path) -> str:
         for chunk in iter(lambda: fh.read(1 << 20), b""):
             h.update(chunk)
     return h.hexdigest()
+
+
+def resolve_dataset_path(ref: str, ctx) -> Path:
+    """A local ``.npz`` path as given, else a dataset id resolved by the stage context."""
+    path = Path(ref)
+    return path if path.suffix == ".npz" and path.is_file() else ctx.resolve_dataset(ref)

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from core.predict.dataset import Dataset, file_sha256, load_dataset
+from core.predict.dataset import Dataset, file_sha256, load_dataset, resolve_dataset_path
 from core.predict.metrics import ade_fde
 from core.predict.nn.checkpoint import make_checkpoint, read_checkpoint, save_checkpoint
 from core.predict.nn.model import ModelConfig, TrajectoryModel, masked_ade_fde, masked_smooth_l1
@@ -31,11 +31,6 @@ from core.version import code_version
 
 #: proxy evaluation: checkpoint path -> {"success": rate in [0, 1], "clearance": mean min distance [m]}
 ProxyCallback = Callable[[Path], dict[str, float]]
-
-
-def resolve_dataset_path(ref: str, ctx: StageContext) -> Path:
-    path = Path(ref)
-    return path if path.suffix == ".npz" and path.is_file() else ctx.resolve_dataset(ref)
 
 
 def _tensors(ds: Dataset, index: np.ndarray) -> dict[str, torch.Tensor]:

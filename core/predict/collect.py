@@ -1,0 +1,177 @@
+"""Stages ``collect`` and ``mix``: roll out episodes, cut them into samples, write datasets.
+
+Base collection = every selected scenario × ``seeds_per_scenario`` seeds derived from
+``base_seed`` (scenario i gets base_seed + i·100000 + k, deterministic); hard-case collection =
+the (scenario, seed) pairs of a TRAINING seed manifest (never the evaluation manifest). The
+driving policy is selectable (goal-seeking, goal-seeking with noise, or any registered planner),
+so the data can cover the states the planner itself visits. Episodes are split train/val here,
+before any oversampling.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from core.errors import ConfigError
+from core.planners.base import EpisodeInfo
+from core.predict.dataset import (
+    DatasetMeta,
+    EpisodeRecord,
+    config_hash,
+    file_sha256,
+    load_dataset,
+    resolve_dataset_path,
+    save_dataset,
+)
+from core.predict.mixing import assign_splits, dataset_from_episodes, mix_datasets
+from core.predict.quality import check_quality
+from core.predict.samples import samples_from_trace
+from core.predict.timebase import PLANNER_TIMEBASE, TimeBase
+from core.sim.observation import Observation
+from core.stages.context import StageContext
+from core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident, resolve_in_bundle
+
+
+class TimeBaseSpec(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    dt: float = Field(default=PLANNER_TIMEBASE.dt, gt=0)  #: [s]
+    history: int = Field(default=PLANNER_TIMEBASE.history, ge=1)
+    horizon: int = Field(default=PLANNER_TIMEBASE.horizon, ge=1)
+
+    def build(self) -> TimeBase:
+        return TimeBase(self.dt, self.history, self.horizon)
+
+
+class CollectConfig(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    bundle: Ident = BUILTIN_BUNDLE
+    matrix: BundlePath = "scenarios/classic_interactions.yaml"
+    scenarios: list[str] | None = None  #: default: all of the matrix (base mode)
+    seeds_per_scenario: int = Field(default=4, ge=1, le=10_000)
+    base_seed: int = Field(default=1000, ge=0)
+    hard_seeds: BundlePath | None = None  #: training seed manifest -> hard-case mode
+    policy: Literal["goal", "goal_noisy", "planner"] = "goal"
+    planner: dict[str, Any] | None = None  #: {name, config, model: "cv" | model id} when policy = planner
+    timebase: TimeBaseSpec = TimeBaseSpec()
+    max_agents: int = Field(default=12, ge=1, le=256)
+    max_steps: int | None = Field(default=300, ge=1)  #: cap on episode length
+    sample_every: int | None = Field(default=None, ge=1)  #: simulator steps between samples (default: stride)
+    val_fraction: float = Field(default=0.2, ge=0, lt=1)
+    split_seed: int = 0
+    output: str = "dataset.npz"
+    check_quality: bool = True
+
+
+class CollectResult(BaseModel):
+    dataset: str  #: artifact path of the .npz
+    sha256: str
+    summary: dict[str, Any]
+    outcomes: dict[str, int]
+
+
+class _Recorder:
+    """Wraps the driving policy and records the waypoint it was shown at every step."""
+
+    def __init__(self, inner):
+        self.inner, self.name, self.waypoints = inner, getattr(inner, "name", "policy"), {}
+
+    def reset(self, info: EpisodeInfo) -> None:
+        self.waypoints = {}
+        self.inner.reset(info)
+
+    def plan(self, obs: Observation) -> tuple[float, float]:
+        self.waypoints[obs.step] = np.asarray(obs.waypoint, float).copy()
+        return self.inner.plan(obs)
+
+    @property
+    def diagnostics(self):
+        return self.inner.diagnostics
+
+    def waypoint_array(self, steps: int) -> np.ndarray:
+        """(steps + 1, 2); the final post-step row (never a sample's step) repeats the last seen."""
+        last = self.waypoints[max(self.waypoints)]
+        return np.stack([self.waypoints.get(t, last) for t in range(steps + 1)])
+
+
+def _policy(config: CollectConfig, ctx: StageContext):
+    from core.planners.goal import GoalSeeking
+
+    if config.policy == "goal":
+        return GoalSeeking()
+    if config.policy == "goal_noisy":
+        return GoalSeeking(noise_v=0.15, noise_w=0.3)
+    from core.planners.registry import make_planner
+
+    spec = dict(config.planner or {})
+    if "name" not in spec:
+        raise ConfigError("policy 'planner' needs planner.name", item="planner.name")
+    model = spec.get("model")
+    if model not in (None, "cv"):
+        from core.predict.nn.checkpoint import load_predictor
+
+        model = load_predictor(ctx.resolve_model(model))
+    return make_planner(spec["name"], spec.get("config"), model=model)
+
+
+def episode_list(config: CollectConfig, matrix, manifest_path=None) -> list[tuple[Any, int, str]]:
+    """(scenario, seed, role) of every episode to collect."""
+    if manifest_path is not None:
+        from core.scenarios.seeds import load_seed_manifest
+
+        manifest = load_seed_manifest(manifest_path, matrix)
+        return [(matrix.get(name), seed, "hardcase") for name, seed in manifest.pairs()]
+    names = config.scenarios or matrix.names
+    return [(matrix.get(n), config.base_seed + i * 100_000 + k, "base")
+            for i, n in enumerate(names) for k in range(config.seeds_per_scenario)]
+
+
+def run_collect(config: CollectConfig, ctx: StageContext) -> CollectResult:
+    from core.scenarios.loader import load_matrix
+    from core.sim.episode import run_episode
+
+    root = ctx.resolve_bundle(config.bundle)
+    matrix = load_matrix(resolve_in_bundle(root, config.matrix))
+    manifest = resolve_in_bundle(root, config.hard_seeds) if config.hard_seeds else None
+    jobs = episode_list(config, matrix, manifest)
+    timebase = config.timebase.build()
+    splits = assign_splits(len(jobs), config.val_fraction, config.split_seed)
+    recorder = _Recorder(_policy(config, ctx))
+    episodes, outcomes = [], {}
+    for i, (scenario, seed, role) in enumerate(jobs):
+        ctx.check_cancelled()
+        ctx.progress(i / len(jobs), f"{scenario.name} seed {seed}")
+        result = run_episode(scenario, seed, recorder, max_steps=config.max_steps)
+        outcomes[result.outcome] = outcomes.get(result.outcome, 0) + 1
+        samples = samples_from_trace(result.trace, timebase, config.max_agents,
+                                     recorder.waypoint_array(result.trace.steps), config.sample_every)
+        episodes.append((EpisodeRecord(scenario.name, int(seed), splits[i], role), samples))
+    generator = {"stage": "collect", **config.model_dump(mode="json")}
+    meta = DatasetMeta(timebase, config.max_agents, "robot", "sim", [], generator=generator)
+    ds = dataset_from_episodes(episodes, meta)
+    path = ctx.artifact(config.output)
+    if config.check_quality:
+        check_quality(ds, str(path))
+    record = save_dataset(ds, path)
+    ctx.progress(1.0, f"{len(ds)} samples from {len(jobs)} episodes")
+    return CollectResult(dataset=config.output, sha256=record["sha256"], summary=record["summary"], outcomes=outcomes)
+
+
+class MixConfig(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    base: str  #: dataset id or local .npz path
+    hardcase: str
+    hardcase_repeat: int = Field(default=3, ge=1, le=100)
+    output: str = "mixed.npz"
+
+
+def run_mix(config: MixConfig, ctx: StageContext) -> CollectResult:
+    paths = {k: resolve_dataset_path(getattr(config, k), ctx) for k in ("base", "hardcase")}
+    base, hard = load_dataset(paths["base"]), load_dataset(paths["hardcase"])
+    mixed = mix_datasets(base, hard, config.hardcase_repeat, source=config.output)
+    mixed.meta.lineage = [{"role": k, "id": getattr(config, k), "sha256": file_sha256(p)} for k, p in paths.items()]
+    mixed.meta.generator_config_hash = config_hash(mixed.meta.generator)
+    record = save_dataset(mixed, ctx.artifact(config.output))
+    return CollectResult(dataset=config.output, sha256=record["sha256"], summary=record["summary"], outcomes={})
