@@ -37,12 +37,12 @@ MIN_FRAME_MS = 40  #: browsers play shorter GIF frame delays far slower than ask
 Forecast = tuple[np.ndarray, np.ndarray]
 
 
-def _floats(x: Any) -> np.ndarray:
+def as_floats(x: Any) -> np.ndarray:
     """JSON lists with ``null`` for non-finite numbers -> float array with NaN."""
     if isinstance(x, np.ndarray):
         return x.astype(float)
     if isinstance(x, list | tuple):
-        return np.array([_floats(v) for v in x], dtype=float) if x else np.zeros((0,))
+        return np.array([as_floats(v) for v in x], dtype=float) if x else np.zeros((0,))
     return np.asarray(np.nan if x is None else x, dtype=float)
 
 
@@ -53,7 +53,7 @@ def _from_step_dicts(steps: Iterable[Mapping[str, Any]]) -> dict[int, Forecast]:
         rows = [r for r in rows if r.get("predicted")]
         if rows:
             ids = np.array([int(r["ped_id"]) for r in rows], dtype=np.int64)
-            out[int(s["step"])] = ids, np.stack([_floats(r["predicted"]).reshape(-1, 2) for r in rows])
+            out[int(s["step"])] = ids, np.stack([as_floats(r["predicted"]).reshape(-1, 2) for r in rows])
     return out
 
 
@@ -70,12 +70,12 @@ def prediction_steps(source: Any) -> dict[int, Forecast]:
         out = {}
         for step, v in source.items():
             ids, pos = (v["ped_ids"], v["positions"]) if isinstance(v, Mapping) else (v[0], v[1])
-            out[int(step)] = np.asarray(ids, dtype=np.int64).reshape(-1), _floats(pos).reshape(-1, *_floats(pos).shape[-2:])
+            out[int(step)] = np.asarray(ids, dtype=np.int64).reshape(-1), as_floats(pos).reshape(-1, *as_floats(pos).shape[-2:])
         return out
     items = list(source)
     if items and isinstance(items[0], Mapping):
         return _from_step_dicts(items)
-    return {int(it[0]): (np.asarray(it[1], dtype=np.int64).reshape(-1), _floats(it[2])) for it in items}
+    return {int(it[0]): (np.asarray(it[1], dtype=np.int64).reshape(-1), as_floats(it[2])) for it in items}
 
 
 def frame_steps(n_states: int, max_frames: int, keep: Iterable[int] = ()) -> np.ndarray:
