@@ -36,22 +36,37 @@ def desired_force(pos: np.ndarray, vel: np.ndarray, goal: np.ndarray, vmax: np.n
     return (p.desired_factor / p.relaxation_time) * (g * speed[:, None] - vel)
 
 
-def _moussaid(rx, ry, dvx, dvy, p: ForceParams, cutoff: float | None) -> tuple[np.ndarray, np.ndarray]:
-    """Moussaid pair forces (x, y components) from x_i - x_j and v_j - v_i, any matching shapes.
+def as_complex(xy: np.ndarray) -> np.ndarray:
+    """An (N, 2) float array as (N,) complex x + iy: one array operation then handles both components."""
+    xy = np.ascontiguousarray(xy, dtype=float)
+    return xy.view(np.complex128)[:, 0]
+
+
+def as_xy(z: np.ndarray) -> np.ndarray:
+    """(N,) complex back to a new (N, 2) float array."""
+    return np.ascontiguousarray(z).view(float).reshape(-1, 2).copy()
+
+
+def _norm(z: np.ndarray) -> np.ndarray:
+    """|z|: one hypot call for small arrays (op count dominates), sqrt(re^2 + im^2) for large ones (faster per element)."""
+    if z.size <= 4096:
+        return np.abs(z)
+    return np.sqrt(z.real * z.real + z.imag * z.imag)
+
+
+def _moussaid(r: np.ndarray, dv: np.ndarray, p: ForceParams, cutoff: float | None) -> np.ndarray:
+    """Moussaid pair forces (complex) from r = x_i - x_j and dv = v_j - v_i (complex), any matching shapes.
 
     A pair with zero distance (including i == j on a dense grid) contributes exactly zero,
     because its interaction direction t is the zero vector. ``cutoff`` None = no pair is beyond it.
-    Written for few array operations: each costs ~1 µs however small the crowd.
+    Complex numbers keep the operation count low: each costs ~1 µs however small the crowd.
     """
-    d = np.sqrt(rx * rx + ry * ry)
-    ds = np.maximum(d, 1e-300)  # e = r / d is the zero vector for coincident peds
-    wx = p.social_lambda * dvx + rx / ds
-    wy = p.social_lambda * dvy + ry / ds
-    wn = np.sqrt(wx * wx + wy * wy)
-    ws = np.maximum(wn, 1e-300)
-    tx, ty = wx / ws, wy / ws
+    d = _norm(r)
+    w = p.social_lambda * dv + r * (1.0 / np.maximum(d, 1e-300))  # e = r / d (zero for coincident peds)
+    wn = _norm(w)
+    t = w * (1.0 / np.maximum(wn, 1e-300))
     b = p.social_gamma * wn + 1e-8
-    theta = np.arctan2(wy, wx) - np.arctan2(ry, rx)  # atan2 is scale-free: the angles of t and e
+    theta = np.arctan2(w.imag, w.real) - np.arctan2(r.imag, r.real)  # angles of t and e
     if p.social_wrap_theta:
         theta = (theta + np.pi) % (2 * np.pi) - np.pi
     base = -d / b
@@ -60,8 +75,8 @@ def _moussaid(rx, ry, dvx, dvy, p: ForceParams, cutoff: float | None) -> tuple[n
     bt2 = np.square(b * theta)
     decel = np.exp(base - p.social_n_prime**2 * bt2)
     side = np.exp(base - p.social_n**2 * bt2)
-    side = np.where(theta >= 0, -side, side)
-    return decel * tx - side * ty, decel * ty + side * tx
+    # f = decel t + (-s) side n(t), n(t) = (-t_y, t_x) = i t, s = +1 for theta >= 0
+    return t * (decel + 1j * np.where(theta >= 0, -side, side))
 
 
 def social_force(
@@ -75,19 +90,17 @@ def social_force(
     whose interaction direction straddles the +-pi cut is nearly ignored, as in robot_sf.
     """
     n = len(pos)
-    out = np.zeros((n, 2))
     if n < 2:
-        return out
-    x, y, vx, vy = pos[:, 0], pos[:, 1], vel[:, 0], vel[:, 1]
+        return np.zeros((n, 2))
+    z, v = as_complex(pos), as_complex(vel)
     if i is None:
-        fx, fy = _moussaid(x[:, None] - x, y[:, None] - y, vx - vx[:, None], vy - vy[:, None], p, cutoff)
-        out[:, 0] = fx.sum(axis=1)
-        out[:, 1] = fy.sum(axis=1)
+        f = _moussaid(z[:, None] - z, v - v[:, None], p, cutoff).sum(axis=1)
     elif len(i):
-        fx, fy = _moussaid(x[i] - x[j], y[i] - y[j], vx[j] - vx[i], vy[j] - vy[i], p, cutoff)
-        out[:, 0] = np.bincount(i, weights=fx, minlength=n)
-        out[:, 1] = np.bincount(i, weights=fy, minlength=n)
-    return p.social_factor * out
+        fp = _moussaid(z[i] - z[j], v[j] - v[i], p, cutoff)
+        f = np.bincount(i, weights=fp.real, minlength=n) + 1j * np.bincount(i, weights=fp.imag, minlength=n)
+    else:
+        return np.zeros((n, 2))
+    return as_xy(p.social_factor * f)
 
 
 def obstacle_force(pos: np.ndarray, walls: SegmentSet, p: ForceParams) -> tuple[np.ndarray, np.ndarray]:
@@ -95,14 +108,10 @@ def obstacle_force(pos: np.ndarray, walls: SegmentSet, p: ForceParams) -> tuple[
     bounds, no distance cutoff, as the reference); also returns each ped's distance to the nearest segment (N,)."""
     if len(walls) == 0:
         return np.zeros_like(pos), np.full(len(pos), np.inf)
-    ox, oy, dist = walls.offset_components(pos)
+    off, dist = walls.complex_offsets(as_complex(pos))
     s = dist - p.obstacle_offset if p.obstacle_offset <= 0 else np.maximum(dist - p.obstacle_offset, 1e-5)
     s2 = s * s
-    k = p.obstacle_factor / (s2 * s2)
-    out = np.empty_like(pos)
-    out[:, 0] = (k * ox).sum(axis=1)
-    out[:, 1] = (k * oy).sum(axis=1)
-    return out, dist.min(axis=1)
+    return as_xy((p.obstacle_factor * off / (s2 * s2)).sum(axis=1)), dist.min(axis=1)
 
 
 def group_centroids(pos: np.ndarray, group: np.ndarray, size: np.ndarray) -> np.ndarray:

@@ -21,6 +21,9 @@ class SegmentSet:
         self.dir = self.segments[:, 2:] - self.start  #: (S, 2)
         len2 = np.einsum("sk,sk->s", self.dir, self.dir)
         self.inv_len2 = np.where(len2 > 0, 1.0 / np.where(len2 > 0, len2, 1.0), 0.0)  #: (S,)
+        self.zstart = self.start[:, 0] + 1j * self.start[:, 1]  #: (S,) complex start points
+        self.zdir = self.dir[:, 0] + 1j * self.dir[:, 1]  #: (S,) complex directions
+        self.zdir_conj = np.conj(self.zdir)
 
     def __len__(self) -> int:
         return len(self.segments)
@@ -35,6 +38,13 @@ class SegmentSet:
         t = np.minimum(np.maximum((rel[..., 0] * self.dir[:, 0] + rel[..., 1] * self.dir[:, 1]) * self.inv_len2, 0.0), 1.0)
         off = rel - t[..., None] * self.dir
         return off, np.sqrt(off[..., 0] ** 2 + off[..., 1] ** 2)
+
+    def complex_offsets(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``offsets`` for points given as complex x + iy (N,): offsets (N, S) complex and lengths (N, S)."""
+        rel = z[:, None] - self.zstart
+        t = np.minimum(np.maximum((rel * self.zdir_conj).real * self.inv_len2, 0.0), 1.0)
+        off = rel - t * self.zdir
+        return off, np.abs(off)
 
     def offset_components(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``offsets`` for points (N, 2) as separate x and y components (N, S) plus lengths (N, S): fewer temporaries."""

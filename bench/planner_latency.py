@@ -1,0 +1,100 @@
+"""Predictive planner decision time: ms per ``plan`` call with 4, 16 and 50 pedestrians, cv and learned.
+
+Closed loop in the simulator on an open map with two pillars and exactly N pedestrians (crowded
+zone over the whole map, so pedestrians stay around the robot), the predictive planner driving.
+Only ``plan`` is timed (forecaster call included); the first decisions of each episode warm up
+caches (static distance field) and are reported separately as ``first_ms``. An episode that ends is
+reset and stepping continues until ``--decisions`` decisions were timed. Targets: p50 <= 2 ms and
+p95 <= 5 ms at 16 pedestrians. ``--json`` prints ONE JSON object with ``entries``
+[{pedestrians, predictor, p50_ms, p95_ms, ...}]; the learned model needs ``--checkpoint``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO))
+
+from core.maps.model import MapDef, Route, Zone  # noqa: E402
+from core.planners.base import EpisodeInfo  # noqa: E402
+from core.planners.registry import make_planner  # noqa: E402
+from core.scenarios.model import ResolvedScenario, Scenario, SimulationConfig  # noqa: E402
+from core.sim.simulator import Simulator  # noqa: E402
+
+
+def scenario(n: int) -> ResolvedScenario:
+    """A 30 x 20 m map, two pillars, a robot route across it and exactly ``n`` pedestrians over the map."""
+    m = MapDef(
+        name=f"latency_{n}", width=30.0, height=20.0,
+        obstacles=(((10, 6), (12, 6), (12, 8), (10, 8)), ((18, 12), (20, 12), (20, 14), (18, 14))),
+        robot_spawn_zones=(Zone.from_rect(1, 9, 2, 2),), robot_goal_zones=(Zone.from_rect(27, 9, 2, 2),),
+        robot_routes=(Route(spawn_id=0, goal_id=0, waypoints=((2, 10), (28, 10))),),
+        ped_crowded_zones=(Zone.from_rect(3, 2, 24, 16),),
+    )
+    sim = SimulationConfig(population_size=n, max_episode_steps=400, max_peds_per_group=1)
+    return ResolvedScenario(scenario=Scenario(name=f"latency_{n}", map_id=m.name, simulation_config=sim), map=m)
+
+
+def measure(n: int, model, decisions: int, seed: int = 0) -> dict:
+    """Time ``decisions`` plan() calls (after the first of each episode) with n pedestrians."""
+    scen = scenario(n)
+    planner = make_planner("predictive", None, model=model)
+    sim = Simulator()
+    times: list[float] = []
+    first: list[float] = []
+    peds: list[int] = []
+    while len(times) < decisions:
+        obs = sim.reset(scen, seed)
+        planner.reset(EpisodeInfo(scenario=scen, seed=seed, dt=sim.dt, robot_radius=sim.limits.radius,
+                                  ped_radius=sim.ped_radius))
+        seed += 1
+        k = 0
+        while len(times) < decisions:
+            t0 = time.perf_counter()
+            cmd = planner.plan(obs)
+            (first if k == 0 else times).append(time.perf_counter() - t0)
+            peds.append(len(obs.ped_ids))
+            k += 1
+            obs, ev = sim.step(cmd)
+            if ev.done:
+                break
+    ms = np.asarray(times) * 1e3
+    return {
+        "pedestrians": n, "predictor": planner.diagnostics["forecast_source"].split(":")[0],
+        "p50_ms": round(float(np.percentile(ms, 50)), 3), "p95_ms": round(float(np.percentile(ms, 95)), 3),
+        "mean_ms": round(float(ms.mean()), 3), "first_ms": round(float(np.max(first)) * 1e3, 3),
+        "decisions": len(ms), "observed_pedestrians": int(np.median(peds)),
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--json", action="store_true")
+    ap.add_argument("--pedestrians", type=int, nargs="+", default=[4, 16, 50])
+    ap.add_argument("--decisions", type=int, default=400)
+    ap.add_argument("--checkpoint", type=Path, help="learned model checkpoint (adds predictor 'learned')")
+    args = ap.parse_args()
+    models: list = ["cv"]
+    if args.checkpoint:
+        from core.predict.nn.checkpoint import load_predictor
+
+        models.append(load_predictor(args.checkpoint))
+    entries = [measure(n, model, args.decisions) for model in models for n in args.pedestrians]
+    result = {"benchmark": "planner_latency", "targets": {"pedestrians": 16, "p50_ms": 2.0, "p95_ms": 5.0},
+              "entries": entries}
+    if args.json:
+        print(json.dumps(result))
+    else:
+        for e in entries:
+            print(f"{e['predictor']:>18} {e['pedestrians']:>3} peds  p50 {e['p50_ms']:.2f} ms  p95 {e['p95_ms']:.2f} ms")
+
+
+if __name__ == "__main__":
+    main()
