@@ -1,0 +1,169 @@
+"""Prediction commands, in-process (``--local`` is accepted and is the default):
+``predict-eval``, ``dataset import-ethucy``, ``collect``, ``mix`` and ``train``.
+
+They build the same stage configs as the service (core.predict.*); files given here are local paths.
+Exit codes: 0 ok, 2 training gates failed (summary written), 1 error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+from pathlib import Path
+
+from cli.common import build_config, emit, local_context, matrix_ref
+from core.errors import ConfigError
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    pe = sub.add_parser("predict-eval", help="ADE/FDE of a predictor on ETH/UCY folds or a dataset")
+    who = pe.add_mutually_exclusive_group(required=True)
+    who.add_argument("--model", help="checkpoint path, model id, or cv")
+    who.add_argument("--train", action="store_true", help="train the default model (or --config) per fold first")
+    pe.add_argument("--config", help="training config YAML (its 'train' mapping, or the whole file)")
+    data = pe.add_mutually_exclusive_group(required=True)
+    data.add_argument("--ethucy", help="ETH/UCY root folder with <fold>/train|val|test")
+    data.add_argument("--dataset", help="dataset .npz (scored on its test split, else val)")
+    pe.add_argument("--fold", help="one fold (eth|hotel|univ|zara1|zara2); default all")
+    _outputs(pe)
+    pe.set_defaults(func=predict_eval_cmd)
+
+    ds = sub.add_parser("dataset", help="prediction datasets")
+    dsub = ds.add_subparsers(dest="dataset_command", required=True)
+    im = dsub.add_parser("import-ethucy", help="import one ETH/UCY fold as a dataset (.npz + .json)")
+    im.add_argument("--ethucy", required=True, help="ETH/UCY root folder")
+    im.add_argument("--fold", required=True)
+    im.add_argument("--max-agents", type=int, default=12)
+    im.add_argument("--output", required=True, help="output .npz path")
+    im.add_argument("--json", action="store_true")
+    im.set_defaults(func=import_cmd)
+
+    co = sub.add_parser("collect", help="roll out episodes and write a prediction dataset")
+    co.add_argument("--matrix", default=None, help="scenario matrix YAML (default: builtin classic matrix)")
+    co.add_argument("--hard-seeds", help="TRAINING seed manifest YAML (hard-case collection)")
+    co.add_argument("--scenarios", help="comma-separated scenario names (base collection)")
+    co.add_argument("--seeds-per-scenario", type=int)
+    co.add_argument("--base-seed", type=int)
+    co.add_argument("--policy", choices=["goal", "goal_noisy"])
+    co.add_argument("--max-steps", type=int)
+    co.add_argument("--max-agents", type=int)
+    _outputs(co)
+    co.set_defaults(func=collect_cmd)
+
+    mx = sub.add_parser("mix", help="base + hard-case dataset, hard-case training rows oversampled")
+    mx.add_argument("--base", required=True)
+    mx.add_argument("--hardcase", required=True)
+    mx.add_argument("--repeat", type=int, default=3)
+    _outputs(mx)
+    mx.set_defaults(func=mix_cmd)
+
+    tr = sub.add_parser("train", help="train the trajectory predictor on a dataset")
+    tr.add_argument("--dataset", help="dataset .npz (overrides the config's)")
+    tr.add_argument("--config", help="training config YAML (its 'train' mapping, or the whole file)")
+    tr.add_argument("--epochs", type=int)
+    tr.add_argument("--threads", type=int)
+    _outputs(tr)
+    tr.set_defaults(func=train_cmd)
+
+
+def _outputs(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--out", help="work folder (default: a new temporary folder)")
+    p.add_argument("--local", action="store_true", help="run in-process (the default)")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+
+
+def _ctx(args: argparse.Namespace, bundles: dict[str, Path] | None = None):
+    out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix=f"foresight-{args.command}-"))
+    return local_context(out, bundles or {}, quiet=args.json)
+
+
+def _train_values(path: str | None) -> dict:
+    if path is None:
+        return {}
+    from core.scenarios.loader import read_yaml
+
+    data = read_yaml(Path(path))
+    if not isinstance(data, dict):
+        raise ConfigError("a training config must be a mapping", source=path)
+    return dict(data.get("train", data))
+
+
+def predict_eval_cmd(args: argparse.Namespace) -> int:
+    from core.predict.evaluation import PredictEvalConfig, run_predict_eval
+
+    train = None
+    if args.train:
+        train = {k: v for k, v in _train_values(args.config).items() if k != "dataset"}
+    config = build_config(PredictEvalConfig, {
+        "model": args.model, "train": train, "ethucy": args.ethucy, "dataset": args.dataset,
+        "folds": [args.fold] if args.fold else None})
+    result = run_predict_eval(config, _ctx(args))
+    if args.json:
+        emit({"folds": {k: v.model_dump() for k, v in result.folds.items()}, "average": result.average.model_dump(),
+              "cv_average": result.cv_average.model_dump()}, True, str)
+        return 0
+    lines = [f"{'fold':<10}{'samples':>9}{'ADE':>8}{'FDE':>8}{'CV ADE':>9}{'CV FDE':>9}"]
+    for name, f in result.folds.items():
+        lines.append(f"{name:<10}{f.samples:>9}{f.ade:>8.3f}{f.fde:>8.3f}{f.cv_ade:>9.3f}{f.cv_fde:>9.3f}")
+    a, c = result.average, result.cv_average
+    lines.append(f"{'average':<10}{'':>9}{a.ade:>8.3f}{a.fde:>8.3f}{c.ade:>9.3f}{c.fde:>9.3f}")
+    print("\n".join(lines))
+    return 0
+
+
+def import_cmd(args: argparse.Namespace) -> int:
+    from core.predict.dataset import save_dataset
+    from core.predict.ethucy import import_fold
+
+    record = save_dataset(import_fold(Path(args.ethucy), args.fold, max_agents=args.max_agents), Path(args.output))
+    emit(record["summary"], args.json, lambda s: f"{args.output}: {s['samples']} samples {s['samples_per_split']}")
+    return 0
+
+
+def collect_cmd(args: argparse.Namespace) -> int:
+    from core.predict.collect import CollectConfig, run_collect
+
+    values = {"scenarios": args.scenarios.split(",") if args.scenarios else None,
+              "seeds_per_scenario": args.seeds_per_scenario, "base_seed": args.base_seed, "policy": args.policy,
+              "max_steps": args.max_steps, "max_agents": args.max_agents}
+    bundles = {}
+    if args.matrix or args.hard_seeds:
+        from cli.evaluate import bundle_of
+
+        bundle, rel, bundles = bundle_of(args.matrix or str(_builtin_matrix()), args.hard_seeds)
+        values.update(bundle=bundle, matrix=rel[0], hard_seeds=rel[1])
+    else:
+        bundles = matrix_ref(str(_builtin_matrix()))[2]
+    result = run_collect(build_config(CollectConfig, values), _ctx(args, bundles))
+    emit(result, args.json, lambda r: f"{Path(args.out or '.') / r.dataset}: {r.summary['samples']} samples, "
+         f"outcomes {r.outcomes}")
+    return 0
+
+
+def _builtin_matrix() -> Path:
+    from core.stages.refs import BUILTIN_CONFIG_ROOT
+
+    return BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml"
+
+
+def mix_cmd(args: argparse.Namespace) -> int:
+    from core.predict.collect import MixConfig, run_mix
+
+    config = build_config(MixConfig, {"base": args.base, "hardcase": args.hardcase, "hardcase_repeat": args.repeat})
+    result = run_mix(config, _ctx(args))
+    emit(result, args.json, lambda r: f"{r.dataset}: {r.summary['samples']} samples")
+    return 0
+
+
+def train_cmd(args: argparse.Namespace) -> int:
+    from core.predict.nn.train import run_train
+    from core.predict.train_config import TrainConfig
+
+    overrides = {"dataset": args.dataset, "epochs": args.epochs, "threads": args.threads}
+    values = {**_train_values(args.config), **{k: v for k, v in overrides.items() if v is not None}}
+    if values.get("dataset") is None:
+        raise ConfigError("no dataset: give --dataset or a config with train.dataset", source=args.config)
+    result = run_train(build_config(TrainConfig, values), _ctx(args))
+    emit(result, args.json, lambda r: f"{r.checkpoint}: epoch {r.best_epoch} val ADE {r.val_ade:.3f} FDE "
+         f"{r.val_fde:.3f} (CV {r.cv_val_ade:.3f}/{r.cv_val_fde:.3f}), gates {'passed' if r.gates_passed else 'FAILED'}")
+    return 0 if result.gates_passed else 2

@@ -1,0 +1,108 @@
+"""Stage ``predict_eval``: ADE/FDE of a predictor (constant velocity, a checkpoint, or a model trained
+per fold) on ETH/UCY leave-one-scene-out folds or on a dataset's held-out split, always next to
+constant velocity on the same samples."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from core.errors import ConfigError
+from core.predict.dataset import Dataset, load_dataset, resolve_dataset_path, save_dataset
+from core.predict.ethucy import FOLDS, import_fold
+from core.predict.metrics import evaluate_predictor
+from core.predict.predictor import ConstantVelocityPredictor
+from core.predict.timebase import ETHUCY_TIMEBASE
+from core.stages.context import StageContext
+
+
+class PredictEvalConfig(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    model: str | None = None  #: "cv", a checkpoint path or a model id
+    train: dict[str, Any] | None = None  #: TrainConfig fields (without dataset): train one model per fold
+    ethucy: str | None = None  #: ETH/UCY root holding <fold>/train|val|test
+    folds: list[str] | None = None  #: default: all five
+    dataset: str | None = None  #: dataset id or .npz path (instead of ethucy)
+    split: str = "test"  #: held-out split of ``dataset`` (falls back to val when it has no test episodes)
+    max_agents: int = Field(default=12, ge=1)  #: slots per ETH/UCY sample
+
+    @model_validator(mode="after")
+    def _one_each(self) -> PredictEvalConfig:
+        if (self.model is None) == (self.train is None):
+            raise ValueError("give exactly one of model (cv | checkpoint) and train")
+        if (self.ethucy is None) == (self.dataset is None):
+            raise ValueError("give exactly one of ethucy and dataset")
+        return self
+
+
+class Score(BaseModel):
+    ade: float  #: [m]
+    fde: float  #: [m]
+
+
+class FoldScore(Score):
+    samples: int
+    split: str  #: the split scored
+    cv_ade: float
+    cv_fde: float
+    predictor: str
+
+
+class PredictEvalResult(BaseModel):
+    folds: dict[str, FoldScore]
+    average: Score
+    cv_average: Score
+
+
+def _predictor(config: PredictEvalConfig, ds: Dataset, ctx: StageContext, name: str):
+    if config.model == "cv":
+        return ConstantVelocityPredictor(ds.meta.timebase)
+    if config.model is not None:
+        from core.predict.nn.checkpoint import load_predictor
+
+        path = Path(config.model) if Path(config.model).is_file() else ctx.resolve_model(config.model)
+        return load_predictor(path, expect_timebase=ds.meta.timebase)
+    from core.predict.nn.checkpoint import load_predictor
+    from core.predict.nn.train import run_train
+    from core.predict.train_config import TrainConfig
+
+    data_path = ctx.artifact(f"{name}/dataset.npz")
+    save_dataset(ds, data_path)
+    sub = StageContext(workdir=ctx.artifact(f"{name}/train/.keep").parent, log=ctx.log,
+                       is_cancelled=ctx.is_cancelled, progress=lambda f, m: ctx.progress(f, f"{name}: {m}"))
+    result = run_train(TrainConfig(**{**config.train, "dataset": str(data_path)}), sub)
+    return load_predictor(Path(result.checkpoint), expect_timebase=ds.meta.timebase)
+
+
+def _score(config: PredictEvalConfig, ds: Dataset, split: str, ctx: StageContext, name: str) -> FoldScore:
+    if not len(ds.split_indices(split)):
+        raise ConfigError(f"no samples in split {split!r}", source=name, item="split")
+    predictor = _predictor(config, ds, ctx, name)
+    r = evaluate_predictor(predictor, ds, split)
+    cv = evaluate_predictor(ConstantVelocityPredictor(ds.meta.timebase), ds, split)
+    return FoldScore(ade=r["ade"], fde=r["fde"], samples=r["samples"], split=split, cv_ade=cv["ade"], cv_fde=cv["fde"],
+                     predictor=getattr(predictor, "name", "model"))
+
+
+def run_predict_eval(config: PredictEvalConfig, ctx: StageContext) -> PredictEvalResult:
+    folds: dict[str, FoldScore] = {}
+    if config.ethucy is not None:
+        names = config.folds or list(FOLDS)
+        splits = ("test",) if config.train is None else ("train", "val", "test")
+        for i, fold in enumerate(names):
+            ctx.check_cancelled()
+            ctx.progress(i / len(names), f"fold {fold}")
+            ds = import_fold(Path(config.ethucy), fold, ETHUCY_TIMEBASE, config.max_agents, splits)
+            folds[fold] = _score(config, ds, "test", ctx, fold)
+    else:
+        path = resolve_dataset_path(config.dataset, ctx)
+        ds = load_dataset(path)
+        split = config.split if len(ds.split_indices(config.split)) or config.split != "test" else "val"
+        folds[Path(path).stem] = _score(config, ds, split, ctx, Path(path).stem)
+    ctx.progress(1.0, "done")
+    mean = lambda key: float(np.mean([getattr(f, key) for f in folds.values()]))  # noqa: E731
+    return PredictEvalResult(folds=folds, average=Score(ade=mean("ade"), fde=mean("fde")),
+                             cv_average=Score(ade=mean("cv_ade"), fde=mean("cv_fde")))

@@ -1,0 +1,31 @@
+import json
+
+import pytest
+
+from cli.main import main
+
+
+def test_predict_eval_cv_on_one_fold(shared_dir, capsys):
+    rc = main(["predict-eval", "--model", "cv", "--ethucy", str(shared_dir / "reference" / "ethucy"),
+               "--fold", "zara1", "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert rc == 0 and set(out) >= {"folds", "average"}
+    assert out["folds"]["zara1"]["ade"] == pytest.approx(0.43, abs=0.01)
+    assert set(out["average"]) == {"ade", "fde"}
+
+
+def test_train_then_eval_on_dataset(tmp_path, curving_dataset, capsys):
+    (tmp_path / "t.yaml").write_text("train:\n  epochs: 2\n  hidden: 8\n  blocks: 1\n  batch_size: 64\n")
+    rc = main(["train", "--dataset", str(curving_dataset), "--config", str(tmp_path / "t.yaml"),
+               "--out", str(tmp_path / "run"), "--json"])
+    res = json.loads(capsys.readouterr().out)
+    assert rc in (0, 2) and res["best_epoch"] in (1, 2)
+    rc = main(["predict-eval", "--model", res["checkpoint"], "--dataset", str(curving_dataset), "--json",
+               "--out", str(tmp_path / "ev")])
+    out = json.loads(capsys.readouterr().out)
+    assert rc == 0 and out["folds"]["arcs"]["split"] == "val"
+
+
+def test_bad_input_is_one_line_error(tmp_path, capsys):
+    rc = main(["predict-eval", "--model", "cv", "--ethucy", str(tmp_path), "--fold", "nowhere"])
+    assert rc == 1 and "unknown fold" in capsys.readouterr().err
