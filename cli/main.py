@@ -18,6 +18,7 @@ COMMAND_MODULES = [
     "cli.sim",
     "cli.maps",
     "cli.evaluate",
+    "cli.predict",
 ]
 
 
