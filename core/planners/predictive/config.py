@@ -29,7 +29,7 @@ class SamplingConfig(_Frozen):
     turn_rate_count: int = Field(default=9, ge=3, le=41)  #: evenly spaced turn rates over [-w_max, w_max]
     turn_rates: tuple[float, ...] = ()  #: extra turn rates [rad/s], clipped to +-w_max
     near_field_distance: float = Field(default=2.5, ge=0)  #: predicted clearance [m] that densifies the set
-    near_field_turn_rate_count: int = Field(default=15, ge=3, le=61)
+    near_field_turn_rate_count: int = Field(default=17, ge=3, le=61)
     near_field_turn_rates: tuple[float, ...] = ()  #: extra near-field turn rates [rad/s]
     near_field_speed_ratios: tuple[float, ...] = (0.1, 0.2, 0.35)
     near_field_speed_cap: float = Field(default=1.0, gt=0, le=1)  #: speed ratio cap inside the near field
@@ -46,14 +46,13 @@ class SamplingConfig(_Frozen):
 class SearchConfig(_Frozen):
     """Beam search over piecewise-constant command sequences on the forecast's time grid."""
 
-    segments_s: tuple[float, ...] = (0.6, 0.8)  #: durations of segments 1..S-1 [s]; the last lasts to the horizon
+    segments_s: tuple[float, ...] = (0.8,)  #: durations of segments 1..S-1 [s]; the last lasts to the horizon
     extra_horizon_s: float = Field(default=0.0, ge=0, le=5)  #: extend the forecast at constant velocity [s]
     beam_width: int = Field(default=6, ge=1, le=64)
     branch_speed_ratios: tuple[float, ...] = (0.0, 0.5, 1.0)  #: later-segment speeds, ratios of max speed
     branch_turn_rate_count: int = Field(default=5, ge=1, le=21)  #: later-segment turn rates over +-w_max
     adaptive_horizon: bool = False  #: lengthen the horizon by ``horizon_boost_s`` in the near field
     horizon_boost_s: float = Field(default=0.0, ge=0, le=5)
-    ped_range: float = Field(default=12.0, gt=0)  #: ignore pedestrians farther than this plus travel range [m]
 
 
 class SafetyConfig(_Frozen):

@@ -11,6 +11,8 @@ the route around obstacles between it and the goal.
 
 from __future__ import annotations
 
+import math
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -42,26 +44,30 @@ class RoutePotential:
         self.goal_tolerance = goal_tolerance
 
     def __call__(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Potential (B, T) [m] and the active waypoint (B, T, 2) along rollouts ``pts`` (B, T, 2).
+        """Potential (B, T) [m] along rollouts ``pts`` (B, T, 2), and the active waypoint (B, 2) at their end.
 
         Zero from the first step inside the goal tolerance on (the episode ends there, whichever
         waypoint is active, as in the simulator).
         """
-        d = np.linalg.norm(pts[:, :, None, :] - self.waypoints, axis=-1)  # (B, T, J)
+        x, y = pts[..., 0], pts[..., 1]
+        d = [np.sqrt((x - wx) ** 2 + (y - wy) ** 2) for wx, wy in self.waypoints]  # J x (B, T)
+        phi = d[0] + self.after[0]
         idx = np.zeros(pts.shape[:2], dtype=np.int64)
         reached = np.ones(pts.shape[:2], dtype=bool)
-        for j in range(len(self.waypoints) - 1):
-            reached = np.logical_or.accumulate(reached & (d[..., j] <= self.switch_radius), axis=1)
+        for j in range(1, len(d)):
+            reached = np.logical_or.accumulate(reached & (d[j - 1] <= self.switch_radius), axis=1)
+            phi = np.where(reached, d[j] + self.after[j], phi)
             idx += reached
-        dj = np.take_along_axis(d, idx[..., None], axis=-1)[..., 0]
-        d_goal = np.linalg.norm(pts - self.goal, axis=-1)
-        done = np.logical_or.accumulate(d_goal <= self.goal_tolerance, axis=1)
-        phi = np.where(done, 0.0, dj + self.after[idx])
-        return phi, self.waypoints[idx]
+        gx, gy = self.goal
+        done = np.logical_or.accumulate((x - gx) ** 2 + (y - gy) ** 2 <= self.goal_tolerance**2, axis=1)
+        return np.where(done, 0.0, phi), self.waypoints[idx[:, -1]]
 
     def start(self, p0: np.ndarray) -> float:
         """Potential at the current position (the active waypoint is the observation's)."""
-        return float(self(np.asarray(p0, dtype=float).reshape(1, 1, 2))[0][0, 0])
+        x, y = float(p0[0]), float(p0[1])
+        if math.hypot(x - self.goal[0], y - self.goal[1]) <= self.goal_tolerance:
+            return 0.0
+        return math.hypot(x - self.waypoints[0, 0], y - self.waypoints[0, 1]) + float(self.after[0])
 
 
 class StaticClearance:
@@ -78,10 +84,7 @@ class StaticClearance:
         self.width, self.height = float(static.width), float(static.height)
         self.resolution = resolution
         if resolution > 0:
-            nx = int(np.ceil(self.width / resolution)) + 1
-            ny = int(np.ceil(self.height / resolution)) + 1
-            gx, gy = np.meshgrid(np.arange(nx) * resolution, np.arange(ny) * resolution, indexing="ij")
-            self.field = np.asarray(static.distance(np.stack([gx, gy], axis=-1)), dtype=float)  # (nx, ny)
+            self.field = _distance_field(static, resolution)
             self.bound = resolution / np.sqrt(2.0)
 
     def __call__(self, pts: np.ndarray) -> np.ndarray:
@@ -103,6 +106,27 @@ class StaticClearance:
                 + (f[i, j + 1] * (1 - ax) + f[i + 1, j + 1] * ax) * ay)
 
 
+_FIELDS: OrderedDict[tuple, np.ndarray] = OrderedDict()  # per-process cache: maps repeat across episodes
+
+
+def _distance_field(static: StaticGeometry, resolution: float) -> np.ndarray:
+    """static.distance on the grid i*resolution, j*resolution over the map, (nx, ny), cached by geometry content."""
+    segs = np.ascontiguousarray(static.segments, dtype=float)
+    key = (segs.tobytes(), float(static.width), float(static.height), resolution)
+    if key in _FIELDS:
+        _FIELDS.move_to_end(key)
+        return _FIELDS[key]
+    nx = int(np.ceil(static.width / resolution)) + 1
+    ny = int(np.ceil(static.height / resolution)) + 1
+    gx, gy = np.meshgrid(np.arange(nx) * resolution, np.arange(ny) * resolution, indexing="ij")
+    pts = np.stack([gx, gy], axis=-1)
+    field = np.concatenate([np.asarray(static.distance(row), dtype=float)[None] for row in pts])  # row-wise: bounded memory
+    _FIELDS[key] = field
+    while len(_FIELDS) > 16:
+        _FIELDS.popitem(last=False)
+    return field
+
+
 @dataclass(frozen=True)
 class Scene:
     """Everything one decision's costs need besides the rollouts."""
@@ -112,6 +136,7 @@ class Scene:
     contact: float  #: centre distance of contact: robot radius + ped radius + extra margins [m]
     robot_radius: float  #: true robot radius [m] (static clearance)
     route: RoutePotential
+    phi0: float  #: route potential at the robot's position now [m]
     static: StaticClearance
     start: np.ndarray  #: (3,) x, y, heading now
     prev_command: np.ndarray  #: (2,) last command (v, omega)
@@ -129,55 +154,71 @@ class Rollouts:
 
 
 def pedestrian_terms(pos: np.ndarray, speed: np.ndarray, scene: Scene, cfg: PredictivePlannerConfig) -> dict[str, np.ndarray]:
-    """Collision, near-miss, TTC and clearance terms, each (B,), from robot positions (B, K, 2) at forecast times."""
+    """Collision, near-miss, TTC and hard-clearance terms (B,) and the minimum clearance (B,) [m].
+
+    ``pos`` (B, K, 2) and ``speed`` (B, K) are the robot's at the forecast times. Margins grow with
+    forecast age and robot speed; every term is weighted by the robot's "responsibility": a
+    pedestrian predicted to walk into a robot standing still is discounted (passive safety),
+    because pedestrians avoid a standing robot while a constant-velocity forecast cannot, and
+    without the discount the robot flees in front of them.
+    """
     B = pos.shape[0]
     s = cfg.safety
-    if scene.ped_future.shape[0] == 0:
+    fut = scene.ped_future
+    if fut.shape[0] == 0:
         z = np.zeros(B)
         return {"collision": z, "near_miss": z, "ttc": z, "hard_clearance": z, "min_clearance": np.full(B, np.inf)}
-    diff = pos[:, None, :, :] - scene.ped_future[None]  # (B, N, K, 2)
-    clear = np.sqrt(diff[..., 0] ** 2 + diff[..., 1] ** 2) - scene.contact  # (B, N, K)
+    dx = pos[:, None, :, 0] - fut[None, :, :, 0]  # (B, N, K)
+    dy = pos[:, None, :, 1] - fut[None, :, :, 1]
+    clear = np.sqrt(dx * dx + dy * dy)
+    clear -= scene.contact
     margin = s.collision_margin + s.margin_growth * scene.times + s.speed_clearance_gain * speed  # (B, K)
-    w = s.discount ** np.arange(len(scene.times))  # (K,)
-    # passive safety: a pedestrian predicted to walk into a robot standing still is discounted, because
-    # pedestrians avoid a standing robot while constant-velocity forecasts cannot; without it the robot flees
     resp = s.passive_floor + (1.0 - s.passive_floor) * np.minimum(1.0, speed / s.passive_speed)  # (B, K)
-    m, wk = margin[:, None, :], (resp * w)[:, None, :]
-    collision = (np.maximum(0.0, m - clear) * wk).sum(axis=(1, 2))
-    near = (np.maximum(0.0, m + s.near_distance - clear) * wk).sum(axis=(1, 2))
-    ttc = (np.maximum(0.0, m + s.ttc_distance - clear) * (resp / scene.times)[:, None, :]).sum(axis=(1, 2))
-    hard = (np.maximum(0.0, s.hard_clearance_distance - clear) * resp[:, None, :]).max(axis=(1, 2))
+    wk = resp * (s.discount ** np.arange(len(scene.times)))  # (B, K)
+    excess = margin[:, None, :] - clear  # (B, N, K): > 0 inside the collision margin
+    collision = np.einsum("bnk,bk->b", np.maximum(excess, 0.0), wk)
+    near = np.einsum("bnk,bk->b", np.maximum(excess + s.near_distance, 0.0), wk)
+    ttc = np.einsum("bnk,bk->b", np.maximum(excess + s.ttc_distance, 0.0), resp / scene.times)
+    hard = (np.maximum(s.hard_clearance_distance - clear, 0.0) * resp[:, None, :]).max(axis=(1, 2))
     return {"collision": collision, "near_miss": near, "ttc": ttc, "hard_clearance": hard,
             "min_clearance": clear.min(axis=(1, 2))}
 
 
+def influence_range(cfg: PredictivePlannerConfig, horizon_s: float, max_speed: float) -> float:
+    """Clearance [m] beyond which a pedestrian adds exactly zero to every pedestrian term."""
+    s = cfg.safety
+    margin = s.collision_margin + s.margin_growth * horizon_s + s.speed_clearance_gain * max_speed
+    return margin + max(s.near_distance, s.ttc_distance, s.hard_clearance_distance, s.progress_risk_distance)
+
+
 def evaluate(roll: Rollouts, scene: Scene, cfg: PredictivePlannerConfig) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """Total cost (B,) and every term (B,) for the rollouts; ``progress`` is in metres (counted negatively)."""
+    """Total cost (B,) and every term (B,) for the rollouts; ``progress`` is in metres (counted negatively).
+
+    Everything is read at the forecast times; static clearance too (the robot moves at most
+    v_max * dt_forecast = 0.4 m between them, covered by ``static_margin`` plus the field's bound).
+    """
     s, wt = cfg.safety, cfg.weights
-    st = roll.states
-    ev = st[:, roll.eval_index]  # (B, K, 5)
-    terms = pedestrian_terms(ev[..., :2], np.abs(ev[..., 3]), scene, cfg)
-    phi, target = scene.route(st[..., :2])
-    progress = scene.route.start(scene.start[:2]) - phi[:, -1]
+    ev = roll.states[:, roll.eval_index]  # (B, K, 5)
+    pos = ev[..., :2]
+    speed = np.abs(ev[..., 3])
+    terms = pedestrian_terms(pos, speed, scene, cfg)
+    phi, target = scene.route(pos)
+    progress = scene.phi0 - phi[:, -1]
     min_c = terms.pop("min_clearance")
     terms["progress"] = progress
     terms["progress_risk"] = np.maximum(0.0, progress) * np.maximum(0.0, s.progress_risk_distance - min_c)
-    sc = scene.static(st[..., :2]) - scene.robot_radius  # (B, S)
+    sc = scene.static(pos) - scene.robot_radius  # (B, K)
     terms["static_collision"] = (sc < s.static_margin).sum(axis=1).astype(float)
     terms["static"] = np.maximum(0.0, s.static_margin + s.static_soft_distance - sc).mean(axis=1)
-    cmd = roll.commands
+    cmd = roll.commands[:, roll.eval_index]  # (B, K, 2)
     terms["velocity"] = np.abs(cmd[..., 0]).mean(axis=1) / scene.max_speed
     terms["turn"] = np.abs(cmd[..., 1]).mean(axis=1) / scene.max_turn_rate
-    dv = (cmd[:, 0] - scene.prev_command) / np.array([scene.max_speed, scene.max_turn_rate])
-    terms["smoothness"] = np.abs(dv).sum(axis=1)
-    end = st[:, -1]
-    bearing = np.arctan2(target[:, -1, 1] - end[:, 1], target[:, -1, 0] - end[:, 0])
-    terms["heading"] = np.abs(np.angle(np.exp(1j * (bearing - end[:, 2])))) / np.pi
-    total = (
-        -wt.goal * terms["progress"] + wt.collision * terms["collision"] + wt.near_miss * terms["near_miss"]
-        + wt.ttc * terms["ttc"] + wt.progress_risk * terms["progress_risk"]
-        + wt.hard_clearance * terms["hard_clearance"] + wt.static * terms["static"]
-        + wt.static_collision * terms["static_collision"] + wt.velocity * terms["velocity"]
-        + wt.turn * terms["turn"] + wt.smoothness * terms["smoothness"] + wt.heading * terms["heading"]
-    )
+    terms["smoothness"] = (np.abs(roll.commands[:, 0, 0] - scene.prev_command[0]) / scene.max_speed
+                           + np.abs(roll.commands[:, 0, 1] - scene.prev_command[1]) / scene.max_turn_rate)
+    end = ev[:, -1]
+    bearing = np.arctan2(target[:, 1] - end[:, 1], target[:, 0] - end[:, 0])
+    terms["heading"] = np.abs((bearing - end[:, 2] + np.pi) % (2 * np.pi) - np.pi) / np.pi
+    total = -wt.goal * terms["progress"]
+    for name in TERMS[1:]:
+        total = total + getattr(wt, name) * terms[name]
     return total, terms

@@ -46,6 +46,7 @@ class PredictivePlanner:
                               item="robot_config.type")
         self.forecaster.reset()
         self._limits = RobotLimits.from_config(robot)
+        self._cands: dict[bool | None, np.ndarray] = {}
         self._prev = np.zeros(2)
         self._diag = None
 
@@ -90,26 +91,37 @@ class PredictivePlanner:
 
     # -- decision pieces -------------------------------------------------------------------------
     def _scene(self, obs: Observation, positions: np.ndarray, times: np.ndarray) -> tuple[C.Scene, bool, int]:
-        cfg = self.config
-        limits = self._limits
+        cfg, limits = self.config, self._limits
         p0 = obs.robot_pose[:2]
         contact = obs.robot_radius + obs.ped_radius + cfg.safety.extra_robot_margin + cfg.safety.extra_ped_margin
+        times = np.asarray(times, dtype=float)
         fut = np.asarray(positions, dtype=float).reshape(-1, len(times), 2)
-        if len(fut):
-            reach = np.linalg.norm(fut - p0, axis=-1).min(axis=1)
-            fut = fut[reach <= cfg.search.ped_range]
-        near = bool(len(fut)) and float(np.linalg.norm(fut - p0, axis=-1).min()) - contact <= cfg.sampling.near_field_distance
+        dist = np.sqrt(((fut - p0) ** 2).sum(axis=-1))  # (N, K) to the robot's current position
+        near = bool(dist.size) and float(dist.min()) - contact <= cfg.sampling.near_field_distance
         dt_f = float(times[1] - times[0]) if len(times) > 1 else float(times[0])
         extra_s = cfg.search.extra_horizon_s + (cfg.search.horizon_boost_s if cfg.search.adaptive_horizon and near else 0.0)
         extra = int(round(extra_s / dt_f))
-        fut, times = extend_forecast(fut, np.asarray(times, dtype=float), extra)
+        fut, times = extend_forecast(fut, times, extra)
+        if len(fut):  # exact culling: pedestrians no rollout can bring within any term's range
+            if extra:
+                dist = np.sqrt(((fut - p0) ** 2).sum(axis=-1))
+            gap = dist - contact - _reach(float(obs.robot_velocity[0]), limits, times)
+            fut = fut[gap.min(axis=1) <= C.influence_range(cfg, float(times[-1]), limits.v_max)]
+        route = C.RoutePotential(obs.route, switch_radius=obs.goal_tolerance, goal_tolerance=obs.goal_tolerance)
         scene = C.Scene(
-            ped_future=fut, times=times, contact=contact, robot_radius=obs.robot_radius,
-            route=C.RoutePotential(obs.route, switch_radius=obs.goal_tolerance, goal_tolerance=obs.goal_tolerance),
-            static=self._static_field(obs), start=np.asarray(obs.robot_pose, dtype=float),
+            ped_future=fut, times=times, contact=contact, robot_radius=obs.robot_radius, route=route,
+            phi0=route.start(p0), static=self._static_field(obs), start=np.asarray(obs.robot_pose, dtype=float),
             prev_command=self._prev, max_speed=limits.v_max, max_turn_rate=limits.w_max,
         )
         return scene, near, extra
+
+    def _candidates(self, near: bool | None) -> np.ndarray:
+        """First-segment commands (near field or not), or the later-segment set for ``None``; cached per episode."""
+        if near not in self._cands:
+            cfg = self.config
+            self._cands[near] = (branch_commands(cfg.search, self._limits, cfg.max_speed_ratio) if near is None
+                                 else first_candidates(cfg.sampling, self._limits, cfg.max_speed_ratio, near))
+        return self._cands[near]
 
     def _static_field(self, obs: Observation) -> C.StaticClearance:
         """One distance field per static geometry object (the simulator keeps one per map)."""
@@ -126,13 +138,13 @@ class PredictivePlanner:
         S = int(idx[-1]) + 1
         bounds = _boundaries(cfg.search.segments_s, sim_dt, S)
         state0 = np.concatenate([obs.robot_pose, obs.robot_velocity]).astype(float)
-        first = first_candidates(cfg.sampling, limits, cfg.max_speed_ratio, near)
+        first = self._candidates(near)
         cmds = np.repeat(first[:, None, :], S, axis=1)  # (C, S, 2)
         states = rollout(np.repeat(state0[None], len(first), axis=0), cmds, limits, sim_dt)
         total, terms = C.evaluate(C.Rollouts(states, idx, cmds), scene, cfg)
         pool = (cmds, states, total, terms)
         n_eval = len(first)
-        branch = branch_commands(cfg.search, limits, cfg.max_speed_ratio)
+        branch = self._candidates(None)
         for b in bounds:
             keep = np.argsort(pool[2], kind="stable")[: cfg.search.beam_width]
             p_cmds, p_states = pool[0][keep], pool[1][keep]
@@ -146,6 +158,13 @@ class PredictivePlanner:
             pool = _merge(pool, (new_cmds, new_states, t_new, terms_new))
         best = int(np.argmin(pool[2]))
         return pool[0][best], {k: v[best] for k, v in pool[3].items()}, float(pool[2][best]), n_eval
+
+
+def _reach(v0: float, limits: RobotLimits, times: np.ndarray) -> np.ndarray:
+    """Farthest the robot can travel [m] by each time (K,) from speed v0 under its acceleration and speed limits."""
+    t_acc = max(0.0, limits.v_max - v0) / limits.accel
+    ta = np.minimum(times, t_acc)
+    return v0 * ta + 0.5 * limits.accel * ta**2 + limits.v_max * np.maximum(0.0, times - t_acc)
 
 
 def _boundaries(segments_s: tuple[float, ...], sim_dt: float, S: int) -> list[int]:
