@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from core.maps.model import MapDef, SinglePedestrian
+from core.sim.forces import group_centroids
 from core.sim.population import Population
 from core.sim.zones import Validator, sample_free
 
@@ -28,11 +29,7 @@ class CrowdArrays:
 
     def centroids(self) -> np.ndarray:
         """Group centroids (G, 2) [m]."""
-        g = len(self.group_size)
-        out = np.empty((g, 2))
-        out[:, 0] = np.bincount(self.group, weights=self.pos[:, 0], minlength=g) / self.group_size
-        out[:, 1] = np.bincount(self.group, weights=self.pos[:, 1], minlength=g) / self.group_size
-        return out
+        return group_centroids(self.pos, self.group, self.group_size)
 
     def renew_ids(self, rows: np.ndarray) -> None:
         self.ids[rows] = np.arange(self.next_id, self.next_id + len(rows))
@@ -58,9 +55,10 @@ class RouteFollowing:
         self.thr2 = threshold**2
         self.zone_mode = zone_mode
 
-    def step(self, crowd: CrowdArrays, centroids: np.ndarray, rng: np.random.Generator, valid: Validator) -> None:
+    def step(self, crowd: CrowdArrays, centroids: np.ndarray, rng: np.random.Generator, valid: Validator) -> bool:
+        """Advance navigators and respawn finished groups; True when positions changed (a respawn)."""
         if len(self.groups) == 0:
-            return
+            return False
         c = centroids[self.groups]
         at_end = ((c - self.end) ** 2).sum(axis=1) <= self.thr2
         cur = self.table[self.route, self.wp]
@@ -72,6 +70,8 @@ class RouteFollowing:
         if at_end.any():
             for k in np.nonzero(at_end)[0]:
                 self._respawn(k, crowd, rng, valid)
+            return True
+        return False
 
     def _respawn(self, k: int, crowd: CrowdArrays, rng: np.random.Generator, valid: Validator) -> None:
         """New positions in the route's spawn zone, goal = first waypoint, new ids; velocities kept (reference)."""
@@ -133,6 +133,9 @@ class SingleScripts:
                 self.wake[k] = self._steps(sp.start_delay_s)
             elif sp.goal is None and sp.trajectory:
                 self._move(k, 0, None)
+        self.next_wake, self.any_moving = self.NEVER, False
+        if m:
+            self._refresh()
 
     def _steps(self, seconds: float) -> int:
         return int(round(seconds / self.dt))
@@ -151,16 +154,23 @@ class SingleScripts:
     def step(self, crowd: CrowdArrays, step: int) -> None:
         if len(self.rows) == 0:
             return
-        woke = self.wake <= step
-        if woke.any():
-            for k in np.nonzero(woke)[0]:
+        if step >= self.next_wake:
+            for k in np.nonzero(self.wake <= step)[0]:
                 self.wake[k] = self.NEVER
                 self._wake(k, crowd)
-        moving = self.phase == self.MOVE
-        if moving.any():
+            self._refresh()
+        if self.any_moving:
             d2 = ((crowd.pos[self.rows] - self.target) ** 2).sum(axis=1)
-            for k in np.nonzero(moving & (d2 <= self.thr2))[0]:
-                self._reached(k, crowd, step)
+            hits = np.nonzero((self.phase == self.MOVE) & (d2 <= self.thr2))[0]
+            if len(hits):
+                for k in hits:
+                    self._reached(k, crowd, step)
+                self._refresh()
+
+    def _refresh(self) -> None:
+        """Cache the earliest wake-up step and whether any target is watched (checked every step)."""
+        self.next_wake = int(self.wake.min())
+        self.any_moving = bool((self.phase == self.MOVE).any())
 
     def _wake(self, k: int, crowd: CrowdArrays) -> None:
         sp = self.singles[k]

@@ -50,13 +50,21 @@ class CrowdDynamics:
         self.has_groups = bool((crowd.group_size >= 2).any())
         self.member_n = crowd.group_size[crowd.group]  #: (N,) size of each ped's group
         self.wall_constraint = crowd_params.wall_constraint and len(walls) > 0
+        # a ped moves at most vmax dt per step (speeds are capped), so only peds this close to a
+        # segment can reach it: a per-episode bound saves computing every move's length
+        self.reach = crowd.vmax * dt + 2 * crowd_params.wall_clearance  #: (N,) [m]
 
     def pairs(self) -> tuple[np.ndarray | None, np.ndarray | None]:
         """Candidate neighbour pairs for the ped-ped force: None = all pairs (dense), else a cell list."""
         return (None, None) if self.dense else cell_pairs(self.c.pos, self.cutoff)
 
-    def total_force(self, robot_xy: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
-        """Sum of all active terms (N, 2) [m/s^2], plus each ped's wall clearance (N,) when computed."""
+    def total_force(
+        self, robot_xy: np.ndarray, centroids: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray | None]:
+        """Sum of all active terms (N, 2) [m/s^2], plus each ped's wall clearance (N,) when computed.
+
+        ``centroids`` (G, 2): group centroids of the current positions when the caller has them.
+        """
         c, p = self.c, self.p
         f = forces.desired_force(c.pos, c.vel, c.goal, c.vmax, p)
         i, j = self.pairs()
@@ -66,7 +74,9 @@ class CrowdDynamics:
             fo, clearance = forces.obstacle_force(c.pos, self.walls, p)
             f += fo
         if self.has_groups:
-            cent = forces.group_centroids(c.pos, c.group, c.group_size)[c.group]
+            if centroids is None:
+                centroids = forces.group_centroids(c.pos, c.group, c.group_size)
+            cent = centroids[c.group]
             f += forces.group_coherence_force(c.pos, cent, self.member_n, p)
             f += forces.group_repulsion_force(c.pos, self.gi, self.gj, p)
             f += forces.group_gaze_force(c.pos, c.goal, cent, self.member_n, p)
@@ -74,12 +84,12 @@ class CrowdDynamics:
             f += forces.robot_force(c.pos, robot_xy, self.robot_radius, p)
         return f, clearance
 
-    def step(self, robot_xy: np.ndarray) -> None:
+    def step(self, robot_xy: np.ndarray, centroids: np.ndarray | None = None) -> None:
         """Advance all pedestrians by dt (robot at its pose before it moves, as the reference)."""
         if self.n == 0:
             return
         c = self.c
-        f, clearance = self.total_force(robot_xy)
+        f, clearance = self.total_force(robot_xy, centroids)
         v = c.vel + self.dt * f
         speed = np.sqrt(v[:, 0] ** 2 + v[:, 1] ** 2)
         scale = np.where(speed > c.vmax, c.vmax / np.where(speed > 0, speed, 1.0), 1.0)
@@ -92,13 +102,12 @@ class CrowdDynamics:
     def _constrain(self, new: np.ndarray, v: np.ndarray, clearance: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
         """Apply the wall constraint to the peds that could reach a segment in this step."""
         c = self.c
-        move = new - c.pos
-        reach = np.sqrt(move[:, 0] ** 2 + move[:, 1] ** 2)
         if clearance is None:
             clearance = self.walls.distance(c.pos)
-        near = np.nonzero(clearance <= reach + 2 * self.cp.wall_clearance)[0]
-        if len(near) == 0:
+        close = clearance <= self.reach
+        if not close.any():
             return new, v
+        near = np.nonzero(close)[0]
         fixed, fv = constrain_moves(self.walls, c.pos[near], new[near], v[near], self.cp.wall_clearance)
         new[near] = fixed
         v[near] = fv

@@ -124,12 +124,14 @@ class Simulator:
         if self.done:
             raise CoreError("the episode is over (or was never started): call reset()")
         cmd = np.asarray(command, dtype=float).reshape(2)
+        cent = None
         if self.has_groups:
             cent = self.crowd.centroids()
-            self.routes.step(self.crowd, cent, self.rng, lambda pts: self._free(pts, self.robot[None, :2]))
-            self.zones.step(self.crowd, cent, self.rng)
+            if self.routes.step(self.crowd, cent, self.rng, lambda pts: self._free(pts, self.robot[None, :2])):
+                cent = None  # a group respawned: positions changed
+            self.zones.step(self.crowd, cent if cent is not None else self.crowd.centroids(), self.rng)
         self.singles.step(self.crowd, self.t)
-        self.dynamics.step(self.robot[:2])
+        self.dynamics.step(self.robot[:2], cent)
         self.robot = robot_step(self.robot, cmd, self.limits, self.dt)
         reached = self.route.advance(self.robot)
         self._trace.record_command(self.t, cmd)
