@@ -1,0 +1,1 @@
+"""Database layer: table models, engine/session set-up, and the job-queue SQL."""

@@ -1,0 +1,394 @@
+"""Every job-queue statement, one named function per operation.
+
+Each state transition is one guarded ``UPDATE ... WHERE status IN (...)``: a transition that finds no row
+in the expected state changes nothing and raises (:class:`Conflict` for callers, :class:`LeaseLost` for a
+worker whose lease was taken over). Worker transitions are also guarded by ``lease_owner`` and the attempt
+number, so a worker that lost its lease (it stalled and the job was claimed again) can never finish,
+fail or release the newer attempt: a job's result is written once.
+
+The claim is a single ``UPDATE ... WHERE id = (SELECT ... LIMIT 1) AND status = 'queued' RETURNING``:
+atomic under SQLite's single writer (``BEGIN IMMEDIATE``), and on PostgreSQL the inner select takes
+``FOR UPDATE SKIP LOCKED`` so concurrent claimers pass over each other's rows instead of waiting.
+"""
+
+from __future__ import annotations
+
+import time
+import uuid
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+from sqlalchemy import Connection, Engine, delete, func, insert, select, update
+from sqlalchemy.exc import IntegrityError
+
+from api.db.models import FINISHED, Artifact, Job, JobEvent, JobStatus, Worker
+from api.db.session import write_tx
+
+jobs = Job.__table__
+events = JobEvent.__table__
+workers = Worker.__table__
+artifacts = Artifact.__table__
+
+QUEUED, RUNNING = JobStatus.queued.value, JobStatus.running.value
+SUCCEEDED, FAILED, CANCELLED = JobStatus.succeeded.value, JobStatus.failed.value, JobStatus.cancelled.value
+FINISHED_VALUES = tuple(s.value for s in FINISHED)
+
+
+class QueueError(Exception):
+    """A job-queue operation could not be done."""
+
+    def __init__(self, message: str | None = None):
+        super().__init__(message or (self.__doc__ or "").strip())
+
+
+class JobNotFound(QueueError):
+    """No job with this id."""
+
+
+class Conflict(QueueError):
+    """The job is not in a state that allows this operation."""
+
+
+class IdempotencyConflict(Conflict):
+    """This idempotency key was already used for a different spec."""
+
+
+class LeaseLost(QueueError):
+    """This worker no longer holds the job's lease (it expired and the job was claimed again, or cancelled)."""
+
+
+def new_id() -> str:
+    return uuid.uuid4().hex
+
+
+def _add_event(conn: Connection, job_id: str, type_: str, message: str = "", progress: float | None = None) -> None:
+    conn.execute(insert(events).values(job_id=job_id, at=time.time(), type=type_, message=message, progress=progress))
+
+
+def _get(conn: Connection, job_id: str) -> dict[str, Any]:
+    row = conn.execute(select(jobs).where(jobs.c.id == job_id)).mappings().first()
+    if row is None:
+        raise JobNotFound(f"no job with id {job_id!r}")
+    return dict(row)
+
+
+# ---------------------------------------------------------------------------------------------- submission
+
+
+def submit(
+    engine: Engine,
+    *,
+    kind: str,
+    spec: dict[str, Any],
+    priority: int = 0,
+    timeout_s: float | None = None,
+    max_attempts: int = 3,
+    idempotency_key: str | None = None,
+    parent_id: str | None = None,
+) -> tuple[dict[str, Any], bool]:
+    """Queue a job; returns ``(job, created)``. A known idempotency key returns its job (``created`` False)."""
+    if idempotency_key is not None:
+        existing = find_by_key(engine, idempotency_key)
+        if existing is not None:
+            return _same_submission(existing, kind, spec), False
+    now = time.time()
+    row = dict(
+        id=new_id(), kind=kind, spec=spec, status=QUEUED, priority=priority, attempts=0,
+        max_attempts=max_attempts, timeout_s=timeout_s, idempotency_key=idempotency_key, parent_id=parent_id,
+        cancel_requested=False, progress=0.0, message="", created_at=now,
+    )  # fmt: skip
+    try:
+        with write_tx(engine) as conn:
+            conn.execute(insert(jobs).values(**row))
+            _add_event(conn, row["id"], "status", QUEUED)
+    except IntegrityError:
+        existing = find_by_key(engine, idempotency_key) if idempotency_key else None
+        if existing is None:
+            raise
+        return _same_submission(existing, kind, spec), False  # a concurrent submission with the same key won
+    with engine.connect() as conn:
+        return _get(conn, row["id"]), True
+
+
+def _same_submission(job: dict[str, Any], kind: str, spec: dict[str, Any]) -> dict[str, Any]:
+    if job["kind"] != kind or job["spec"] != spec:
+        raise IdempotencyConflict(
+            f"idempotency key {job['idempotency_key']!r} was used for job {job['id']} with a different spec"
+        )
+    return job
+
+
+def find_by_key(engine: Engine, key: str) -> dict[str, Any] | None:
+    with engine.connect() as conn:
+        row = conn.execute(select(jobs).where(jobs.c.idempotency_key == key)).mappings().first()
+    return dict(row) if row else None
+
+
+# ------------------------------------------------------------------------------------------ worker side
+
+
+def claim(engine: Engine, worker_id: str, kinds: Sequence[str], lease_s: float) -> dict[str, Any] | None:
+    """Take the highest-priority, oldest queued job of one of ``kinds``; None when there is none."""
+    now = time.time()
+    candidate = (
+        select(jobs.c.id)
+        .where(jobs.c.status == QUEUED, jobs.c.kind.in_(list(kinds)))
+        .order_by(jobs.c.priority.desc(), jobs.c.created_at, jobs.c.id)
+        .limit(1)
+    )
+    if engine.dialect.name == "postgresql":
+        candidate = candidate.with_for_update(skip_locked=True)
+    stmt = (
+        update(jobs)
+        .where(jobs.c.id == candidate.scalar_subquery(), jobs.c.status == QUEUED)
+        .values(
+            status=RUNNING, lease_owner=worker_id, lease_expires_at=now + lease_s, attempts=jobs.c.attempts + 1,
+            started_at=now, progress=0.0, message="",
+        )  # fmt: skip
+        .returning(*jobs.c)
+    )
+    with write_tx(engine) as conn:
+        row = conn.execute(stmt).mappings().first()
+        if row is None:
+            return None
+        _add_event(conn, row["id"], "status", f"{RUNNING} (attempt {row['attempts']}, worker {worker_id})")
+    return dict(row)
+
+
+def _held(job_id: str, owner: str, attempt: int):  # noqa: ANN202
+    return (jobs.c.id == job_id, jobs.c.status == RUNNING, jobs.c.lease_owner == owner, jobs.c.attempts == attempt)
+
+
+def heartbeat(
+    engine: Engine, worker_id: str, held: Iterable[str], lease_s: float
+) -> tuple[set[str], set[str]]:
+    """Renew the worker's heartbeat and the leases of the jobs it holds.
+
+    Returns ``(cancel_requested, lost)``: held jobs whose cancellation was asked for, and held jobs this
+    worker no longer owns.
+    """
+    held = list(held)
+    now = time.time()
+    with write_tx(engine) as conn:
+        conn.execute(update(workers).where(workers.c.id == worker_id).values(heartbeat_at=now))
+        if not held:
+            return set(), set()
+        rows = conn.execute(
+            update(jobs)
+            .where(jobs.c.id.in_(held), jobs.c.status == RUNNING, jobs.c.lease_owner == worker_id)
+            .values(lease_expires_at=now + lease_s)
+            .returning(jobs.c.id, jobs.c.cancel_requested)
+        ).all()
+    owned = {r.id for r in rows}
+    return {r.id for r in rows if r.cancel_requested}, set(held) - owned
+
+
+def report_progress(engine: Engine, job_id: str, owner: str, attempt: int, fraction: float, message: str) -> None:
+    with write_tx(engine) as conn:
+        n = conn.execute(update(jobs).where(*_held(job_id, owner, attempt)).values(progress=fraction, message=message))
+        if n.rowcount:
+            _add_event(conn, job_id, "progress", message, fraction)
+
+
+def log(engine: Engine, job_id: str, message: str) -> None:
+    with write_tx(engine) as conn:
+        _add_event(conn, job_id, "log", message)
+
+
+def finish(
+    engine: Engine,
+    job_id: str,
+    owner: str,
+    attempt: int,
+    result: dict[str, Any],
+    new_artifacts: Sequence[dict[str, Any]] = (),
+) -> None:
+    """Mark a held job succeeded, storing its result summary and artifact records in the same transaction."""
+    now = time.time()
+    with write_tx(engine) as conn:
+        n = conn.execute(
+            update(jobs)
+            .where(*_held(job_id, owner, attempt))
+            .values(status=SUCCEEDED, result=result, progress=1.0, finished_at=now, lease_expires_at=None)
+        )
+        if n.rowcount == 0:
+            raise LeaseLost(f"job {job_id}: lease lost before finishing (attempt {attempt})")
+        conn.execute(delete(artifacts).where(artifacts.c.job_id == job_id))  # a previous attempt's records
+        for art in new_artifacts:
+            conn.execute(insert(artifacts).values(job_id=job_id, created_at=now, **art))
+        _add_event(conn, job_id, "status", SUCCEEDED, 1.0)
+
+
+def fail_or_retry(
+    engine: Engine, job_id: str, owner: str, attempt: int, error_type: str, message: str, *, retry: bool
+) -> str:
+    """Fail a held job, or queue it again when ``retry`` and attempts remain; returns the new status."""
+    now = time.time()
+    with write_tx(engine) as conn:
+        job = conn.execute(select(jobs.c.max_attempts).where(*_held(job_id, owner, attempt))).first()
+        if job is None:
+            raise LeaseLost(f"job {job_id}: lease lost before failing (attempt {attempt})")
+        again = retry and attempt < job.max_attempts
+        values: dict[str, Any] = dict(error_type=error_type, error_message=message, lease_expires_at=None)
+        if again:
+            values.update(status=QUEUED, lease_owner=None)
+        else:
+            values.update(status=FAILED, finished_at=now)
+        conn.execute(update(jobs).where(*_held(job_id, owner, attempt)).values(**values))
+        status = QUEUED if again else FAILED
+        _add_event(conn, job_id, "status", f"{status}: {error_type}: {message}")
+    return status
+
+
+def mark_cancelled(engine: Engine, job_id: str, owner: str, attempt: int) -> None:
+    """A held job stopped because its cancellation was requested."""
+    with write_tx(engine) as conn:
+        n = conn.execute(
+            update(jobs)
+            .where(*_held(job_id, owner, attempt))
+            .values(status=CANCELLED, finished_at=time.time(), lease_expires_at=None)
+        )
+        if n.rowcount == 0:
+            raise LeaseLost(f"job {job_id}: lease lost before cancelling (attempt {attempt})")
+        _add_event(conn, job_id, "status", CANCELLED)
+
+
+def release(engine: Engine, job_id: str, owner: str, attempt: int) -> None:
+    """Give a held job back to the queue without counting the attempt (worker shutting down)."""
+    with write_tx(engine) as conn:
+        n = conn.execute(
+            update(jobs)
+            .where(*_held(job_id, owner, attempt))
+            .values(status=QUEUED, lease_owner=None, lease_expires_at=None, attempts=jobs.c.attempts - 1)
+        )
+        if n.rowcount == 0:
+            raise LeaseLost(f"job {job_id}: lease lost before releasing (attempt {attempt})")
+        _add_event(conn, job_id, "status", f"{QUEUED} (released by worker {owner})")
+
+
+def reap_stale(engine: Engine, now: float | None = None) -> dict[str, int]:
+    """Jobs whose lease expired (their worker died): queue them again, or fail them past their attempts.
+
+    A job whose cancellation was requested is cancelled instead.
+    """
+    now = time.time() if now is None else now
+    expired = (jobs.c.status == RUNNING, jobs.c.lease_expires_at < now)
+    done = dict(finished_at=now, lease_expires_at=None)
+    with write_tx(engine) as conn:
+        cancelled = conn.execute(
+            update(jobs).where(*expired, jobs.c.cancel_requested).values(status=CANCELLED, **done).returning(jobs.c.id)
+        ).scalars().all()
+        failed = conn.execute(
+            update(jobs)
+            .where(*expired, jobs.c.attempts >= jobs.c.max_attempts)
+            .values(status=FAILED, error_type="LeaseExpired",
+                    error_message="the worker stopped heartbeating and no attempts remain", **done)
+            .returning(jobs.c.id)
+        ).scalars().all()  # fmt: skip
+        requeued = conn.execute(
+            update(jobs)
+            .where(*expired)
+            .values(status=QUEUED, lease_owner=None, lease_expires_at=None, error_type="LeaseExpired",
+                    error_message="the worker stopped heartbeating; queued again")
+            .returning(jobs.c.id)
+        ).scalars().all()  # fmt: skip
+        for ids, message in ((cancelled, CANCELLED), (failed, f"{FAILED}: lease expired"), (requeued, f"{QUEUED}: lease expired")):
+            for job_id in ids:
+                _add_event(conn, job_id, "status", message)
+    return {"cancelled": len(cancelled), "failed": len(failed), "requeued": len(requeued)}
+
+
+def register_worker(engine: Engine, worker_id: str, host: str, pid: int, concurrency: int, kinds: list[str]) -> None:
+    now = time.time()
+    with write_tx(engine) as conn:
+        conn.execute(
+            insert(workers).values(id=worker_id, host=host, pid=pid, concurrency=concurrency, kinds=kinds,
+                                   started_at=now, heartbeat_at=now)
+        )  # fmt: skip
+
+
+def stop_worker(engine: Engine, worker_id: str) -> None:
+    with write_tx(engine) as conn:
+        conn.execute(update(workers).where(workers.c.id == worker_id).values(stopped_at=time.time()))
+
+
+def prune_workers(engine: Engine, older_than_s: float = 86400.0) -> int:
+    """Forget workers that stopped (or went silent) more than ``older_than_s`` ago."""
+    with write_tx(engine) as conn:
+        return conn.execute(delete(workers).where(workers.c.heartbeat_at < time.time() - older_than_s)).rowcount
+
+
+# ------------------------------------------------------------------------------------------ caller side
+
+
+def request_cancel(engine: Engine, job_id: str) -> str:
+    """Cancel a queued job at once, or flag a running one for its worker; returns the resulting status."""
+    now = time.time()
+    with write_tx(engine) as conn:
+        n = conn.execute(
+            update(jobs).where(jobs.c.id == job_id, jobs.c.status == QUEUED)
+            .values(status=CANCELLED, cancel_requested=True, finished_at=now)
+        ).rowcount  # fmt: skip
+        if n:
+            _add_event(conn, job_id, "status", CANCELLED)
+            return CANCELLED
+        n = conn.execute(
+            update(jobs).where(jobs.c.id == job_id, jobs.c.status == RUNNING).values(cancel_requested=True)
+        ).rowcount
+        if n:
+            _add_event(conn, job_id, "log", "cancellation requested")
+            return RUNNING
+        job = _get(conn, job_id)
+    raise Conflict(f"job {job_id} is already {job['status']}; only queued or running jobs can be cancelled")
+
+
+def retry(engine: Engine, job_id: str) -> None:
+    """Queue a failed or cancelled job again, with a fresh attempt count."""
+    with write_tx(engine) as conn:
+        n = conn.execute(
+            update(jobs)
+            .where(jobs.c.id == job_id, jobs.c.status.in_((FAILED, CANCELLED)))
+            .values(status=QUEUED, attempts=0, cancel_requested=False, lease_owner=None, lease_expires_at=None,
+                    progress=0.0, message="", error_type=None, error_message=None, finished_at=None)
+        ).rowcount  # fmt: skip
+        if n:
+            _add_event(conn, job_id, "status", f"{QUEUED} (retry)")
+            return
+        job = _get(conn, job_id)
+    raise Conflict(f"job {job_id} is {job['status']}; only failed or cancelled jobs can be retried")
+
+
+def delete_job(engine: Engine, job_id: str) -> list[dict[str, Any]]:
+    """Delete a finished job with its events; returns its artifact records (also deleted) for file clean-up."""
+    with write_tx(engine) as conn:
+        arts = [dict(r) for r in conn.execute(select(artifacts).where(artifacts.c.job_id == job_id)).mappings()]
+        conn.execute(delete(events).where(events.c.job_id == job_id))
+        conn.execute(delete(artifacts).where(artifacts.c.job_id == job_id))
+        n = conn.execute(delete(jobs).where(jobs.c.id == job_id, jobs.c.status.in_(FINISHED_VALUES))).rowcount
+        if n == 0:
+            job = _get(conn, job_id)
+            raise Conflict(f"job {job_id} is {job['status']}; only finished jobs can be deleted (cancel it first)")
+    return arts
+
+
+def get_job(engine: Engine, job_id: str) -> dict[str, Any]:
+    with engine.connect() as conn:
+        return _get(conn, job_id)
+
+
+def events_after(engine: Engine, job_id: str, after_id: int, limit: int = 500) -> list[dict[str, Any]]:
+    with engine.connect() as conn:
+        rows = conn.execute(
+            select(events).where(events.c.job_id == job_id, events.c.id > after_id).order_by(events.c.id).limit(limit)
+        ).mappings()
+        return [dict(r) for r in rows]
+
+
+def depth(engine: Engine) -> dict[str, dict[str, int]]:
+    """Job counts per kind and status."""
+    with engine.connect() as conn:
+        rows = conn.execute(select(jobs.c.kind, jobs.c.status, func.count()).group_by(jobs.c.kind, jobs.c.status))
+        out: dict[str, dict[str, int]] = {}
+        for kind, status, count in rows:
+            out.setdefault(kind, {})[status] = count
+    return out

@@ -1,0 +1,63 @@
+"""Dependencies shared by the routers, as ``Annotated`` aliases: a handler's signature says what it needs."""
+
+from __future__ import annotations
+
+import secrets
+from typing import Annotated
+
+from fastapi import Depends, HTTPException, Request, status
+from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
+from sqlalchemy import Engine
+from sqlalchemy.orm import Session
+
+from api.db.session import session_factory
+from api.registry import Resolver
+from api.settings import Settings
+
+_bearer = HTTPBearer(auto_error=False, description="FORESIGHT_API_TOKEN")
+
+
+def get_settings(request: Request) -> Settings:
+    return request.app.state.settings
+
+
+def get_engine(request: Request) -> Engine:
+    return request.app.state.engine
+
+
+def get_session(request: Request):  # noqa: ANN201
+    with request.app.state.sessions() as session:
+        yield session
+
+
+def get_resolver(request: Request) -> Resolver:
+    return request.app.state.resolver
+
+
+def _check_token(request: Request, credentials: HTTPAuthorizationCredentials | None) -> None:
+    if credentials is None:
+        raise HTTPException(
+            status.HTTP_401_UNAUTHORIZED, "missing bearer token (Authorization: Bearer <FORESIGHT_API_TOKEN>)",
+            headers={"WWW-Authenticate": "Bearer"},
+        )  # fmt: skip
+    if not secrets.compare_digest(credentials.credentials.encode(), request.app.state.token.encode()):
+        raise HTTPException(status.HTTP_403_FORBIDDEN, "invalid bearer token")
+
+
+def require_write(request: Request, credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)]) -> None:
+    _check_token(request, credentials)
+
+
+def require_read(request: Request, credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)]) -> None:
+    if request.app.state.settings.read_requires_token:
+        _check_token(request, credentials)
+
+
+SettingsDep = Annotated[Settings, Depends(get_settings)]
+EngineDep = Annotated[Engine, Depends(get_engine)]
+SessionDep = Annotated[Session, Depends(get_session)]
+ResolverDep = Annotated[Resolver, Depends(get_resolver)]
+WriteAuth = Depends(require_write)
+ReadAuth = Depends(require_read)
+
+__all__ = ["EngineDep", "ReadAuth", "ResolverDep", "SessionDep", "SettingsDep", "WriteAuth", "session_factory"]

@@ -1,0 +1,52 @@
+"""Domain errors → HTTP status codes, always with a JSON body ``{"detail": ...}``."""
+
+from __future__ import annotations
+
+import logging
+
+from fastapi import FastAPI, Request
+from fastapi.responses import JSONResponse
+
+from api.db import queue
+from api.db.session import NotMigratedError
+from api.store import UnsafePath
+from core.errors import ConfigError, CoreError, NotFoundError
+
+logger = logging.getLogger(__name__)
+
+
+def _json(code: int, detail: object) -> JSONResponse:
+    return JSONResponse({"detail": detail}, status_code=code)
+
+
+def install(app: FastAPI) -> None:
+    @app.exception_handler(ConfigError)
+    async def _config(_: Request, exc: ConfigError) -> JSONResponse:
+        loc = [p for p in ("body", exc.source, exc.item) if p]
+        return _json(422, [{"loc": loc, "msg": exc.detail, "type": "config_error"}])
+
+    @app.exception_handler(UnsafePath)
+    async def _unsafe(_: Request, exc: UnsafePath) -> JSONResponse:
+        return _json(422, [{"loc": ["path"], "msg": str(exc), "type": "unsafe_path"}])
+
+    @app.exception_handler(NotFoundError)
+    @app.exception_handler(queue.JobNotFound)
+    async def _not_found(_: Request, exc: Exception) -> JSONResponse:
+        return _json(404, str(exc))
+
+    @app.exception_handler(queue.Conflict)
+    async def _conflict(_: Request, exc: queue.Conflict) -> JSONResponse:
+        return _json(409, str(exc))
+
+    @app.exception_handler(NotMigratedError)
+    async def _not_migrated(_: Request, exc: NotMigratedError) -> JSONResponse:
+        return _json(503, str(exc))
+
+    @app.exception_handler(CoreError)
+    async def _core(_: Request, exc: CoreError) -> JSONResponse:
+        return _json(422, str(exc))
+
+    @app.exception_handler(Exception)
+    async def _internal(request: Request, exc: Exception) -> JSONResponse:
+        logger.exception("unhandled error on %s %s", request.method, request.url.path)
+        return _json(500, f"internal error ({type(exc).__name__}); see the server log")

@@ -1,0 +1,286 @@
+"""Config bundles and the model registry: start-up registration, upload validation, id resolution.
+
+Specs name their inputs by id; :class:`Resolver` turns ids into local paths for a worker's StageContext,
+verifying model checksums on the way.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import logging
+import re
+import tarfile
+import tempfile
+import time
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import yaml
+from sqlalchemy import Engine, select
+
+from api import store
+from api.db.models import Bundle, Dataset, Model, ModelStatus
+from api.db.session import session_factory
+from api.settings import REPO_ROOT, Settings
+from core.errors import ConfigError, CoreError, NotFoundError
+
+logger = logging.getLogger(__name__)
+
+BUILTIN_BUNDLE = "builtin"
+BUNDLE_SUFFIXES = {".yaml", ".yml", ".svg", ".json", ".txt", ".md"}
+MAX_BUNDLE_FILES = 2000
+MAX_BUNDLE_BYTES = 50 * 1024 * 1024  #: [bytes] unpacked size limit of an uploaded bundle
+IDENT = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._:\-]{0,199}$")
+
+
+def bundle_files(root: Path) -> list[str]:
+    return sorted(p.relative_to(root).as_posix() for p in root.rglob("*") if p.is_file() and p.suffix in BUNDLE_SUFFIXES)
+
+
+def matrix_files(root: Path, files: list[str]) -> list[str]:
+    """The scenario matrices of a bundle: YAML files with ``scenarios`` or ``includes`` at the top level
+    that no other such file includes (included files are parts of a matrix, not matrices)."""
+    candidates: dict[str, Any] = {}
+    for name in files:
+        if not name.endswith((".yaml", ".yml")):
+            continue
+        try:
+            data = yaml.safe_load((root / name).read_text())
+        except (yaml.YAMLError, UnicodeDecodeError):
+            continue
+        if isinstance(data, dict) and ("includes" in data or "scenarios" in data):
+            candidates[name] = data
+    included = set()
+    for name, data in candidates.items():
+        for inc in data.get("includes") or []:
+            if isinstance(inc, str):
+                target = (root / name).parent.joinpath(inc).resolve()
+                if root.resolve() in target.parents:
+                    included.add(target.relative_to(root.resolve()).as_posix())
+    return [name for name in candidates if name not in included]
+
+
+def _put_bundle(engine: Engine, ident: str, source: str, root: Path, stored_root: str, sha: str | None) -> None:
+    files = bundle_files(root)
+    with session_factory(engine).begin() as session:
+        row = session.get(Bundle, ident)
+        if row is None:
+            row = Bundle(id=ident, created_at=time.time())
+            session.add(row)
+        row.source, row.root, row.files, row.scenarios, row.sha256 = (
+            source, stored_root, files, matrix_files(root, files), sha,
+        )  # fmt: skip
+
+
+def sync_bundles(engine: Engine, settings: Settings) -> list[str]:
+    """Register the project's configs/ as ``builtin`` and each extra config root under its folder name."""
+    names = []
+    roots = [(BUILTIN_BUNDLE, "project", settings.project_configs)]
+    roots += [(d.name, "config_dir", d) for d in settings.extra_config_dirs]
+    for ident, source, root in roots:
+        if not root.is_dir():
+            logger.warning("config root %s is missing; bundle %s not registered", root, ident)
+            continue
+        _put_bundle(engine, ident, source, root.resolve(), str(root.resolve()), None)
+        names.append(ident)
+    return names
+
+
+def load_shipped_models(engine: Engine, settings: Settings) -> list[str]:
+    """Register ``model/registry.yaml`` entries as read-only models (path relative to the repository)."""
+    path = settings.model_registry
+    if not path.is_file():
+        return []
+    data = yaml.safe_load(path.read_text()) or {}
+    entries = data.get("models", []) if isinstance(data, dict) else []
+    names = []
+    with session_factory(engine).begin() as session:
+        for i, entry in enumerate(entries):
+            if not isinstance(entry, dict) or not {"id", "path", "sha256"} <= entry.keys():
+                raise ConfigError("each model needs id, path and sha256", source=path, item=str(i))
+            row = session.get(Model, entry["id"])
+            if row is not None and not row.read_only:
+                logger.warning("shipped model %s shadowed by a registered model of that id", entry["id"])
+                continue
+            if row is None:
+                row = Model(id=entry["id"], created_at=time.time())
+                session.add(row)
+            row.checkpoint = store.check_relative(str(entry["path"]))
+            row.sha256, row.read_only = str(entry["sha256"]), True
+            row.status = entry.get("status", ModelStatus.promoted.value)
+            row.provenance = str(entry.get("provenance", ""))
+            row.time_base, row.lineage = entry.get("time_base", {}), entry.get("lineage", {})
+            row.training, row.metrics, row.tags = entry.get("training", {}), entry.get("metrics", {}), entry.get("tags", [])
+            names.append(entry["id"])
+    return names
+
+
+def export_models(rows: list[Model]) -> str:
+    """Registry entries in the schema of ``model/registry.yaml``."""
+    models = [
+        {"id": m.id, "path": m.checkpoint, "sha256": m.sha256, "status": m.status, "provenance": m.provenance,
+         "time_base": m.time_base, "lineage": m.lineage, "training": m.training, "metrics": m.metrics, "tags": m.tags}
+        for m in rows
+    ]  # fmt: skip
+    return yaml.safe_dump({"models": models}, sort_keys=False)
+
+
+# ------------------------------------------------------------------------------------------ upload
+
+
+def _members(data: bytes) -> list[tuple[str, bytes]]:
+    """(name, content) of the regular files in a zip or tar archive; unsafe names are refused."""
+    out: list[tuple[str, bytes]] = []
+    total = 0
+    if zipfile.is_zipfile(io.BytesIO(data)):
+        with zipfile.ZipFile(io.BytesIO(data)) as archive:
+            infos = [i for i in archive.infolist() if not i.is_dir()]
+            for info in infos[: MAX_BUNDLE_FILES + 1]:
+                total += info.file_size
+                if total > MAX_BUNDLE_BYTES:
+                    raise ConfigError(f"bundle unpacks to more than {MAX_BUNDLE_BYTES} bytes", source="upload")
+                out.append((info.filename, archive.read(info)))
+    else:
+        try:
+            archive = tarfile.open(fileobj=io.BytesIO(data), mode="r:*")
+        except tarfile.TarError:
+            raise ConfigError("not a zip or tar archive", source="upload") from None
+        with archive:
+            for info in archive.getmembers()[: MAX_BUNDLE_FILES + 1]:
+                if info.isdir():
+                    continue
+                if not info.isfile():
+                    raise ConfigError("links and special files are not allowed", source="upload", item=info.name)
+                total += info.size
+                if total > MAX_BUNDLE_BYTES:
+                    raise ConfigError(f"bundle unpacks to more than {MAX_BUNDLE_BYTES} bytes", source="upload")
+                out.append((info.name, archive.extractfile(info).read()))
+    if len(out) > MAX_BUNDLE_FILES:
+        raise ConfigError(f"more than {MAX_BUNDLE_FILES} files", source="upload")
+    return out
+
+
+def _check_yaml_refs(value: Any, file: str, root: Path, where: str = "") -> None:
+    """Path-like strings in a bundle YAML must stay inside the bundle (relative, resolved under root)."""
+    if isinstance(value, dict):
+        for k, v in value.items():
+            _check_yaml_refs(v, file, root, f"{where}.{k}" if where else str(k))
+    elif isinstance(value, list):
+        for i, v in enumerate(value):
+            _check_yaml_refs(v, file, root, f"{where}[{i}]")
+    elif isinstance(value, str) and ("/" in value or "\\" in value or value.endswith((".yaml", ".yml", ".svg"))):
+        if value.startswith(("/", "\\", "~")) or re.match(r"^[A-Za-z]:[\\/]", value):
+            raise ConfigError(f"absolute path {value!r} not allowed", source=file, item=where)
+        target = (root / file).parent.joinpath(value).resolve()
+        if target != root and root not in target.parents:
+            raise ConfigError(f"path {value!r} leaves the bundle", source=file, item=where)
+
+
+def save_upload(engine: Engine, settings: Settings, ident: str, data: bytes) -> Bundle:
+    """Validate an uploaded zip/tar bundle and store it under ``bundles/<id>``; ConfigError when invalid."""
+    from core.scenarios.loader import load_matrix
+
+    if not IDENT.match(ident) or ident == BUILTIN_BUNDLE:
+        raise ConfigError("bundle id must be letters, digits, '.', '_', '-', ':' (not 'builtin')", item="name")
+    members = _members(data)
+    if not members:
+        raise ConfigError("the archive holds no files", source="upload")
+    with tempfile.TemporaryDirectory(prefix="bundle-") as tmp:
+        root = Path(tmp).resolve()
+        for name, content in members:
+            try:
+                rel = store.check_relative(name)
+            except store.UnsafePath as exc:
+                raise ConfigError(str(exc), source="upload", item=name) from None
+            if Path(rel).suffix not in BUNDLE_SUFFIXES:
+                raise ConfigError(f"file type not allowed (allowed: {sorted(BUNDLE_SUFFIXES)})", source="upload", item=rel)
+            store.write_atomic(store.resolve_under(root, rel), content)
+        files = bundle_files(root)
+        for rel in files:
+            if rel.endswith((".yaml", ".yml")):
+                try:
+                    _check_yaml_refs(yaml.safe_load((root / rel).read_text()), rel, root)
+                except (yaml.YAMLError, UnicodeDecodeError) as exc:
+                    raise ConfigError(f"not valid YAML: {exc}", source=rel) from None
+        matrices = matrix_files(root, files)
+        if not matrices:
+            raise ConfigError("no scenario matrix (a YAML file with 'scenarios' or 'includes')", source="upload")
+        for rel in matrices:
+            try:
+                load_matrix(root / rel)
+            except CoreError as exc:
+                raise ConfigError(str(exc), source=rel) from None
+        stored = f"bundles/{ident}"
+        dest = store.resolve_under(settings.store_root, stored)
+        if dest.exists():
+            raise FileExistsError(ident)
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        staging = Path(tempfile.mkdtemp(prefix=f".{ident}.", dir=dest.parent))
+        for rel in files:
+            store.write_atomic(staging / rel, (root / rel).read_bytes())
+        staging.rename(dest)
+    _put_bundle(engine, ident, "upload", dest, stored, hashlib.sha256(data).hexdigest())
+    with session_factory(engine)() as session:
+        return session.get(Bundle, ident)
+
+
+# ------------------------------------------------------------------------------------------ resolution
+
+
+class Resolver:
+    """Ids → local paths, for a StageContext (``resolve_bundle``, ``resolve_dataset``, ``resolve_model``)."""
+
+    def __init__(self, settings: Settings, engine: Engine):
+        self.settings = settings
+        self.sessions = session_factory(engine)
+        self._verified: dict[str, tuple[float, int]] = {}
+
+    def bundle_root(self, row: Bundle) -> Path:
+        if row.source == "upload":
+            return store.resolve_under(self.settings.store_root, row.root)
+        return Path(row.root)
+
+    def bundle(self, ident: str) -> Path:
+        with self.sessions() as session:
+            row = session.get(Bundle, ident)
+        if row is None:
+            raise NotFoundError(f"unknown bundle id {ident!r}")
+        return self.bundle_root(row)
+
+    def dataset(self, ident: str) -> Path:
+        with self.sessions() as session:
+            row = session.get(Dataset, ident)
+        if row is None:
+            raise NotFoundError(f"unknown dataset id {ident!r}")
+        return store.resolve_under(self.settings.store_root, row.path)
+
+    def model_path(self, row: Model) -> Path:
+        if row.read_only:
+            return store.resolve_under(REPO_ROOT, row.checkpoint)
+        return store.resolve_under(self.settings.store_root, row.checkpoint)
+
+    def model(self, ident: str) -> Path:
+        """The checkpoint of a registered model, after checking its sha256."""
+        with self.sessions() as session:
+            row = session.get(Model, ident)
+        if row is None:
+            raise NotFoundError(f"unknown model id {ident!r}")
+        path = self.model_path(row)
+        if not path.is_file():
+            raise NotFoundError(f"model {ident!r}: checkpoint {row.checkpoint} is missing")
+        stat = path.stat()
+        if self._verified.get(ident) != (stat.st_mtime, stat.st_size):
+            if store.sha256_file(path) != row.sha256:
+                raise CoreError(f"model {ident!r}: checkpoint {row.checkpoint} does not match its sha256")
+            self._verified[ident] = (stat.st_mtime, stat.st_size)
+        return path
+
+
+def models_using(engine: Engine, model_id: str) -> list[str]:
+    """Ids of records that use a model (evaluations)."""
+    from api.db.models import Evaluation
+
+    with session_factory(engine)() as session:
+        return list(session.scalars(select(Evaluation.id).where(Evaluation.model_id == model_id)))

@@ -1,0 +1,82 @@
+"""Config bundles: the project's configs (``builtin``), extra config roots, and uploaded archives."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from fastapi import APIRouter, Query, Request, status
+from sqlalchemy import select
+
+from api.db import queue
+from api.db.models import Bundle
+from api.deps import EngineDep, ReadAuth, ResolverDep, SessionDep, SettingsDep, WriteAuth
+from api.registry import MAX_BUNDLE_BYTES, save_upload
+from api.schemas import BundlePublic, BundlesPublic, Ident, ScenarioPublic
+from core.errors import ConfigError
+
+router = APIRouter(prefix="/bundles", tags=["bundles"])
+
+
+def _get(session: SessionDep, bundle_id: str) -> Bundle:
+    row = session.get(Bundle, bundle_id)
+    if row is None:
+        raise queue.JobNotFound(f"no bundle with id {bundle_id!r}")
+    return row
+
+
+@router.get("", dependencies=[ReadAuth])
+def read_bundles(session: SessionDep) -> BundlesPublic:
+    """Registered config bundles."""
+    rows = list(session.scalars(select(Bundle).order_by(Bundle.id)))
+    return BundlesPublic(data=[BundlePublic.model_validate(b) for b in rows], count=len(rows))
+
+
+@router.post("", status_code=status.HTTP_201_CREATED, dependencies=[WriteAuth],
+             openapi_extra={"requestBody": {"required": True, "content": {
+                 "application/zip": {"schema": {"type": "string", "format": "binary"}},
+                 "application/x-tar": {"schema": {"type": "string", "format": "binary"}},
+                 "application/gzip": {"schema": {"type": "string", "format": "binary"}}}}})  # fmt: skip
+async def create_bundle(
+    request: Request, engine: EngineDep, settings: SettingsDep, session: SessionDep,
+    name: Annotated[Ident, Query(description="bundle id")],
+) -> BundlePublic:  # fmt: skip
+    """Upload a zip or tar of YAML files and maps (the raw archive is the body); validated before it is stored."""
+    if session.get(Bundle, name) is not None:
+        raise queue.Conflict(f"a bundle with id {name!r} already exists")
+    declared = int(request.headers.get("content-length") or 0)
+    if declared > MAX_BUNDLE_BYTES:
+        raise ConfigError(f"archive larger than {MAX_BUNDLE_BYTES} bytes", source="upload")
+    data = bytearray()
+    async for chunk in request.stream():
+        data += chunk
+        if len(data) > MAX_BUNDLE_BYTES:
+            raise ConfigError(f"archive larger than {MAX_BUNDLE_BYTES} bytes", source="upload")
+    from starlette.concurrency import run_in_threadpool
+
+    try:
+        row = await run_in_threadpool(save_upload, engine, settings, name, bytes(data))
+    except FileExistsError:
+        raise queue.Conflict(f"a bundle with id {name!r} already exists") from None
+    return BundlePublic.model_validate(row)
+
+
+@router.get("/{bundle_id}", dependencies=[ReadAuth])
+def read_bundle(bundle_id: Ident, session: SessionDep) -> BundlePublic:
+    """One bundle: its files and scenario matrices."""
+    return BundlePublic.model_validate(_get(session, bundle_id))
+
+
+@router.get("/{bundle_id}/scenarios", dependencies=[ReadAuth])
+def read_bundle_scenarios(bundle_id: Ident, session: SessionDep, resolver: ResolverDep) -> list[ScenarioPublic]:
+    """The scenarios of every matrix in the bundle."""
+    from core.scenarios.loader import load_matrix
+
+    row = _get(session, bundle_id)
+    root = resolver.bundle_root(row)
+    out = []
+    for rel in row.scenarios:
+        matrix = load_matrix(root / rel)
+        for s in matrix.scenarios:
+            out.append(ScenarioPublic(matrix=rel, name=s.name, map=s.map.name,
+                                      archetype=s.scenario.archetype, seeds=list(s.scenario.seeds)))  # fmt: skip
+    return out

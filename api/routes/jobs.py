@@ -1,0 +1,195 @@
+"""Jobs: submit, list, read, follow (server-sent events), cancel, retry, delete, download artifacts."""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Iterator
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Header, Query, Request, Response, status
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import FileResponse, StreamingResponse
+from sqlalchemy import func, select
+
+from api import store
+from api.db import queue
+from api.db.models import Dataset, JobStatus, Model
+from api.deps import EngineDep, ReadAuth, SettingsDep, WriteAuth
+from api.schemas import Ident, JobCreate, JobPublic, JobsPublic, KindPublic, job_public
+from worker.kinds import KINDS
+
+router = APIRouter(prefix="/jobs", tags=["jobs"])
+
+MAX_SPEC_BYTES = 1 << 20  #: [bytes] request body limit of a submission
+SSE_POLL_S = 0.3  #: [s] event polling interval of a stream
+
+
+def unsafe_paths(value: Any, loc: tuple = ()) -> list[dict[str, Any]]:
+    """Validation errors for every spec string that is an absolute path or climbs out with '..'."""
+    if isinstance(value, dict):
+        return [e for k, v in value.items() for e in unsafe_paths(v, (*loc, k))]
+    if isinstance(value, list):
+        return [e for i, v in enumerate(value) for e in unsafe_paths(v, (*loc, i))]
+    if isinstance(value, str) and store.looks_unsafe(value):
+        msg = "server paths are not allowed in specs: name inputs by id or by a path relative to their bundle"
+        return [{"loc": ("body", "spec", *loc), "msg": msg, "type": "value_error.unsafe_path", "input": value}]
+    return []
+
+
+@router.get("/kinds", dependencies=[ReadAuth])
+def read_job_kinds() -> list[KindPublic]:
+    """The job kinds this server accepts, with their spec schemas."""
+    return [KindPublic(kind=k.name, description=k.description, spec_schema=k.spec.model_json_schema()) for k in KINDS.values()]
+
+
+@router.post("", status_code=status.HTTP_201_CREATED, dependencies=[WriteAuth], responses={200: {"model": JobPublic}})
+def create_job(
+    body: JobCreate, engine: EngineDep, settings: SettingsDep, response: Response,
+    content_length: Annotated[int | None, Header(include_in_schema=False)] = None,
+) -> JobPublic:  # fmt: skip
+    """Queue a job (201); a known idempotency key returns its job (200)."""
+    if content_length is not None and content_length > MAX_SPEC_BYTES:
+        raise RequestValidationError([{"loc": ("body",), "msg": "request body too large", "type": "too_large"}])
+    spec = body.spec.model_dump(mode="json")
+    errors = unsafe_paths(spec)
+    if errors:
+        raise RequestValidationError(errors)
+    if body.parent_id is not None:
+        queue.get_job(engine, body.parent_id)  # 404 when unknown
+    job, created = queue.submit(
+        engine, kind=spec["kind"], spec=spec, priority=body.priority, timeout_s=body.timeout_s,
+        max_attempts=body.max_attempts or settings.max_attempts, idempotency_key=body.idempotency_key,
+        parent_id=body.parent_id,
+    )  # fmt: skip
+    if not created:
+        response.status_code = status.HTTP_200_OK
+    return job_public(job)
+
+
+@router.get("", dependencies=[ReadAuth])
+def read_jobs(
+    engine: EngineDep,
+    status_: Annotated[list[JobStatus] | None, Query(alias="status")] = None,
+    kind: Annotated[list[str] | None, Query(max_length=50)] = None,
+    parent_id: Ident | None = None,
+    limit: Annotated[int, Query(ge=1, le=500)] = 50,
+    offset: Annotated[int, Query(ge=0, le=10_000_000)] = 0,
+) -> JobsPublic:
+    """Jobs, newest first, filtered by status, kind and parent."""
+    jobs = queue.jobs
+    where = []
+    if status_:
+        where.append(jobs.c.status.in_([s.value for s in status_]))
+    if kind:
+        where.append(jobs.c.kind.in_(kind))
+    if parent_id:
+        where.append(jobs.c.parent_id == parent_id)
+    with engine.connect() as conn:
+        count = conn.execute(select(func.count()).select_from(jobs).where(*where)).scalar_one()
+        rows = conn.execute(
+            select(jobs).where(*where).order_by(jobs.c.created_at.desc(), jobs.c.id).limit(limit).offset(offset)
+        ).mappings()
+        data = [job_public(dict(r)) for r in rows]
+    return JobsPublic(data=data, count=count, limit=limit, offset=offset)
+
+
+@router.get("/{job_id}", dependencies=[ReadAuth])
+def read_job(job_id: Ident, engine: EngineDep) -> JobPublic:
+    """One job: status, progress, timestamps, error, result summary, artifacts and children."""
+    jobs, arts = queue.jobs, queue.artifacts
+    with engine.connect() as conn:
+        row = conn.execute(select(jobs).where(jobs.c.id == job_id)).mappings().first()
+        if row is None:
+            raise queue.JobNotFound(f"no job with id {job_id!r}")
+        artifacts = [dict(a) for a in conn.execute(select(arts).where(arts.c.job_id == job_id).order_by(arts.c.name)).mappings()]
+        children = list(conn.execute(select(jobs.c.id).where(jobs.c.parent_id == job_id)).scalars())
+    return job_public(dict(row), artifacts, children)
+
+
+def _sse(engine: Any, job_id: str, after: int) -> Iterator[str]:
+    """Events as SSE frames until the job is finished and its events are drained."""
+    last_ping = time.monotonic()
+    while True:
+        batch = queue.events_after(engine, job_id, after)
+        for ev in batch:
+            after = ev["id"]
+            data = {"type": ev["type"], "at": ev["at"], "message": ev["message"], "progress": ev["progress"]}
+            yield f"id: {ev['id']}\nevent: {ev['type']}\ndata: {json.dumps(data)}\n\n"
+        if batch:
+            continue
+        try:
+            job = queue.get_job(engine, job_id)
+        except queue.JobNotFound:
+            return
+        if job["status"] not in (queue.QUEUED, queue.RUNNING) and not queue.events_after(engine, job_id, after, 1):
+            yield f"event: end\ndata: {json.dumps({'status': job['status']})}\n\n"
+            return
+        if time.monotonic() - last_ping > 15:
+            last_ping = time.monotonic()
+            yield ": keep-alive\n\n"
+        time.sleep(SSE_POLL_S)
+
+
+@router.get("/{job_id}/events", dependencies=[ReadAuth], response_class=StreamingResponse,
+            responses={200: {"content": {"text/event-stream": {}}}})  # fmt: skip
+def read_job_events(
+    job_id: Ident, engine: EngineDep,
+    last_event_id: Annotated[int | None, Header(ge=0)] = None,
+    after: Annotated[int, Query(ge=0)] = 0,
+) -> StreamingResponse:  # fmt: skip
+    """Progress, log and status lines as server-sent events; ends with an ``end`` event."""
+    queue.get_job(engine, job_id)
+    start = last_event_id if last_event_id is not None else after
+    return StreamingResponse(_sse(engine, job_id, start), media_type="text/event-stream",
+                             headers={"Cache-Control": "no-cache"})  # fmt: skip
+
+
+@router.post("/{job_id}/cancel", dependencies=[WriteAuth])
+def cancel_job(job_id: Ident, engine: EngineDep) -> JobPublic:
+    """Cancel a queued job, or ask a running job's worker to stop it (409 when already finished)."""
+    queue.request_cancel(engine, job_id)
+    return job_public(queue.get_job(engine, job_id))
+
+
+@router.post("/{job_id}/retry", dependencies=[WriteAuth])
+def retry_job(job_id: Ident, engine: EngineDep) -> JobPublic:
+    """Queue a failed or cancelled job again (409 otherwise)."""
+    queue.retry(engine, job_id)
+    return job_public(queue.get_job(engine, job_id))
+
+
+@router.delete("/{job_id}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[WriteAuth])
+def delete_job(job_id: Ident, engine: EngineDep, settings: SettingsDep) -> Response:
+    """Delete a finished job and its artifacts, keeping files that a model or dataset record uses."""
+    with engine.connect() as conn:
+        used = set(conn.execute(select(Model.checkpoint).where(Model.job_id == job_id)).scalars())
+        used |= set(conn.execute(select(Dataset.path).where(Dataset.job_id == job_id)).scalars())
+    for art in queue.delete_job(engine, job_id):
+        if art["path"] not in used:
+            store.resolve_under(settings.store_root, art["path"]).unlink(missing_ok=True)
+    folder = store.resolve_under(settings.store_root, store.job_dir(settings.store_root, job_id))
+    if folder.is_dir():
+        for sub in sorted((p for p in folder.rglob("*") if p.is_dir()), reverse=True):
+            if not any(sub.iterdir()):
+                sub.rmdir()
+        if not any(folder.iterdir()):
+            folder.rmdir()
+    return Response(status_code=status.HTTP_204_NO_CONTENT)
+
+
+@router.get("/{job_id}/artifacts/{name:path}", dependencies=[ReadAuth], response_class=FileResponse,
+            responses={200: {"content": {"application/octet-stream": {}}}})  # fmt: skip
+def read_job_artifact(job_id: Ident, name: str, engine: EngineDep, settings: SettingsDep, request: Request) -> FileResponse:
+    """Download one artifact of a job."""
+    clean = store.check_relative(name)  # 422 for absolute names and '..'
+    arts = queue.artifacts
+    with engine.connect() as conn:
+        row = conn.execute(select(arts).where(arts.c.job_id == job_id, arts.c.name == clean)).mappings().first()
+    if row is None:
+        queue.get_job(engine, job_id)
+        raise queue.JobNotFound(f"job {job_id} has no artifact {clean!r}")
+    path = store.resolve_under(settings.store_root, row["path"])
+    if not path.is_file():
+        raise queue.JobNotFound(f"artifact {clean!r} of job {job_id} is missing from the store")
+    return FileResponse(path, filename=path.name)

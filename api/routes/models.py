@@ -1,0 +1,115 @@
+"""The model registry: list, register a job's checkpoint, read, promote, delete."""
+
+from __future__ import annotations
+
+import time
+from typing import Annotated
+
+from fastapi import APIRouter, Query, Response, status
+from fastapi.responses import PlainTextResponse
+from sqlalchemy import select, update
+from sqlalchemy.exc import IntegrityError
+
+from api import store
+from api.db import queue
+from api.db.models import Artifact, Model, ModelStatus
+from api.deps import EngineDep, ReadAuth, SessionDep, WriteAuth
+from api.registry import export_models, models_using
+from api.schemas import Ident, ModelCreate, ModelPromote, ModelPublic, ModelsPublic
+
+router = APIRouter(prefix="/models", tags=["models"])
+
+
+def _get(session: SessionDep, model_id: str) -> Model:
+    row = session.get(Model, model_id)
+    if row is None:
+        raise queue.JobNotFound(f"no model with id {model_id!r}")
+    return row
+
+
+@router.get("", dependencies=[ReadAuth])
+def read_models(
+    session: SessionDep,
+    status_: Annotated[ModelStatus | None, Query(alias="status")] = None,
+    tag: Annotated[str | None, Query(max_length=100)] = None,
+) -> ModelsPublic:
+    """Registry entries (shipped read-only entries included), filtered by status or tag."""
+    stmt = select(Model).order_by(Model.created_at, Model.id)
+    if status_ is not None:
+        stmt = stmt.where(Model.status == status_.value)
+    rows = [m for m in session.scalars(stmt) if tag is None or tag in m.tags]
+    return ModelsPublic(data=[ModelPublic.model_validate(m) for m in rows], count=len(rows))
+
+
+@router.get("/export", dependencies=[ReadAuth], response_class=PlainTextResponse)
+def export_registry(session: SessionDep) -> PlainTextResponse:
+    """Models registered at run time, in the schema of ``model/registry.yaml``."""
+    rows = list(session.scalars(select(Model).where(Model.read_only.is_(False)).order_by(Model.created_at)))
+    return PlainTextResponse(export_models(rows), media_type="application/yaml")
+
+
+@router.post("", status_code=status.HTTP_201_CREATED, dependencies=[WriteAuth])
+def create_model(body: ModelCreate, session: SessionDep, engine: EngineDep) -> ModelPublic:
+    """Register a checkpoint artifact of a succeeded job (409 for a duplicate id)."""
+    if session.get(Model, body.id) is not None:
+        raise queue.Conflict(f"a model with id {body.id!r} already exists")
+    job = queue.get_job(engine, body.job_id)
+    if job["status"] != queue.SUCCEEDED:
+        raise queue.Conflict(f"job {body.job_id} is {job['status']}; register checkpoints of succeeded jobs")
+    name = store.check_relative(body.artifact)
+    art = session.scalars(select(Artifact).where(Artifact.job_id == body.job_id, Artifact.name == name)).first()
+    if art is None:
+        raise queue.JobNotFound(f"job {body.job_id} has no artifact {name!r}")
+    row = Model(
+        id=body.id, status=body.status, checkpoint=art.path, sha256=art.sha256, time_base=body.time_base,
+        lineage=body.lineage, training=body.training, metrics=body.metrics, tags=body.tags,
+        provenance=body.provenance or f"job {body.job_id}", read_only=False, job_id=body.job_id,
+        created_at=time.time(),
+    )  # fmt: skip
+    session.add(row)
+    try:
+        session.commit()
+    except IntegrityError:
+        session.rollback()
+        raise queue.Conflict(f"a model with id {body.id!r} already exists") from None
+    return ModelPublic.model_validate(row)
+
+
+@router.get("/{model_id}", dependencies=[ReadAuth])
+def read_model(model_id: Ident, session: SessionDep) -> ModelPublic:
+    """One registry entry."""
+    return ModelPublic.model_validate(_get(session, model_id))
+
+
+@router.post("/{model_id}/promote", dependencies=[WriteAuth])
+def promote_model(model_id: Ident, session: SessionDep, body: ModelPromote | None = None) -> ModelPublic:
+    """Promote a model; promoting to ``default`` demotes the previous default to ``promoted``."""
+    target = (body or ModelPromote()).to
+    row = _get(session, model_id)
+    if row.read_only:
+        raise queue.Conflict(f"model {model_id} is shipped (model/registry.yaml); change its status there")
+    if target == ModelStatus.default.value:
+        session.execute(
+            update(Model).where(Model.status == ModelStatus.default.value, Model.id != model_id)
+            .values(status=ModelStatus.promoted.value)
+        )  # fmt: skip
+    row.status = target
+    session.commit()
+    return ModelPublic.model_validate(row)
+
+
+@router.delete("/{model_id}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[WriteAuth])
+def delete_model(model_id: Ident, session: SessionDep, engine: EngineDep) -> Response:
+    """Delete a registered model (409 for shipped or default models and models that records use)."""
+    row = _get(session, model_id)
+    if row.read_only:
+        raise queue.Conflict(f"model {model_id} is shipped (model/registry.yaml) and read-only")
+    if row.status == ModelStatus.default.value:
+        raise queue.Conflict(f"model {model_id} is the default; promote another model to default first")
+    users = models_using(engine, model_id)
+    if users:
+        raise queue.Conflict(f"model {model_id} is used by evaluations {users[:10]}")
+    session.delete(row)
+    session.commit()
+    return Response(status_code=status.HTTP_204_NO_CONTENT)
+

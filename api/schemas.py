@@ -1,0 +1,232 @@
+"""Request and response bodies, one family per resource (``XCreate`` in, ``XPublic`` out, ``XsPublic`` lists)."""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime
+from typing import Annotated, Any, Literal, Union
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from worker.kinds import KINDS
+
+Ident = Annotated[str, Field(min_length=1, max_length=200, pattern=r"^[A-Za-z0-9][A-Za-z0-9._:\-]*$")]
+
+
+def iso(ts: float | None) -> datetime | None:
+    return datetime.fromtimestamp(ts, UTC) if ts is not None else None
+
+
+def _job_spec_type() -> Any:
+    specs = tuple(kind.spec for kind in KINDS.values())
+    if len(specs) == 1:
+        return specs[0]
+    return Annotated[Union[specs], Field(discriminator="kind")]  # noqa: UP007 (a runtime tuple of models)
+
+
+JobSpec = _job_spec_type()
+
+
+# Jobs
+class JobCreate(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    spec: JobSpec  # type: ignore[valid-type]
+    priority: int = Field(0, ge=-1000, le=1000, description="higher runs first")
+    timeout_s: float | None = Field(None, gt=0, le=7 * 86400, description="[s] limit of one attempt")
+    max_attempts: int | None = Field(None, ge=1, le=20, description="claims before a lost job fails")
+    idempotency_key: str | None = Field(None, min_length=1, max_length=200, pattern=r"^[\x21-\x7e]+$")
+    parent_id: Ident | None = None
+
+
+class ArtifactPublic(BaseModel):
+    name: str
+    size: int
+    sha256: str
+    url: str
+
+
+class JobError(BaseModel):
+    type: str
+    message: str
+
+
+class JobPublic(BaseModel):
+    id: str
+    kind: str
+    status: str
+    spec: dict[str, Any]
+    priority: int
+    attempts: int
+    max_attempts: int
+    timeout_s: float | None
+    idempotency_key: str | None
+    parent_id: str | None
+    cancel_requested: bool
+    progress: float
+    message: str
+    error: JobError | None
+    result: dict[str, Any] | None
+    worker: str | None
+    created_at: datetime
+    started_at: datetime | None
+    finished_at: datetime | None
+    artifacts: list[ArtifactPublic] | None = None
+    children: list[str] | None = None
+
+
+class JobsPublic(BaseModel):
+    data: list[JobPublic]
+    count: int
+    limit: int
+    offset: int
+
+
+def job_public(row: dict[str, Any], artifacts: list[dict] | None = None, children: list[str] | None = None) -> JobPublic:
+    error = JobError(type=row["error_type"], message=row["error_message"] or "") if row["error_type"] else None
+    arts = None
+    if artifacts is not None:
+        arts = [
+            ArtifactPublic(name=a["name"], size=a["size"], sha256=a["sha256"], url=f"/v1/jobs/{row['id']}/artifacts/{a['name']}")
+            for a in artifacts
+        ]
+    return JobPublic(
+        id=row["id"], kind=row["kind"], status=row["status"], spec=row["spec"], priority=row["priority"],
+        attempts=row["attempts"], max_attempts=row["max_attempts"], timeout_s=row["timeout_s"],
+        idempotency_key=row["idempotency_key"], parent_id=row["parent_id"], cancel_requested=row["cancel_requested"],
+        progress=row["progress"], message=row["message"], error=error, result=row["result"],
+        worker=row["lease_owner"], created_at=iso(row["created_at"]), started_at=iso(row["started_at"]),
+        finished_at=iso(row["finished_at"]), artifacts=arts, children=children,
+    )  # fmt: skip
+
+
+# Workers and queue
+class WorkerPublic(BaseModel):
+    id: str
+    host: str
+    pid: int
+    concurrency: int
+    kinds: list[str]
+    started_at: datetime
+    heartbeat_at: datetime
+    jobs: list[str]
+
+
+class WorkersPublic(BaseModel):
+    data: list[WorkerPublic]
+    count: int
+    queue: dict[str, dict[str, int]] = Field(description="job counts per kind and status")
+
+
+class KindPublic(BaseModel):
+    kind: str
+    description: str
+    spec_schema: dict[str, Any]
+
+
+# Models
+class ModelCreate(BaseModel):
+    """Register a checkpoint that a finished job wrote as a model (status candidate unless said)."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    id: Ident
+    job_id: Ident
+    artifact: str = Field(min_length=1, max_length=500, description="artifact name in that job")
+    status: Literal["candidate", "promoted"] = "candidate"
+    time_base: dict[str, Any] = Field(default_factory=dict)
+    lineage: dict[str, Any] = Field(default_factory=dict)
+    training: dict[str, Any] = Field(default_factory=dict)
+    metrics: dict[str, Any] = Field(default_factory=dict)
+    tags: list[Annotated[str, Field(max_length=100)]] = Field(default_factory=list, max_length=50)
+    provenance: str = Field("", max_length=5000)
+
+
+class ModelPromote(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    to: Literal["promoted", "default"] = "promoted"
+
+
+class ModelPublic(BaseModel):
+    model_config = ConfigDict(from_attributes=True)
+
+    id: str
+    status: str
+    checkpoint: str
+    sha256: str
+    time_base: dict[str, Any]
+    lineage: dict[str, Any]
+    training: dict[str, Any]
+    metrics: dict[str, Any]
+    tags: list[str]
+    provenance: str
+    read_only: bool
+    job_id: str | None
+
+
+class ModelsPublic(BaseModel):
+    data: list[ModelPublic]
+    count: int
+
+
+# Bundles
+class BundlePublic(BaseModel):
+    model_config = ConfigDict(from_attributes=True)
+
+    id: str
+    source: str
+    files: list[str]
+    scenarios: list[str] = Field(description="scenario matrix files in the bundle")
+    sha256: str | None
+
+
+class BundlesPublic(BaseModel):
+    data: list[BundlePublic]
+    count: int
+
+
+class ScenarioPublic(BaseModel):
+    matrix: str
+    name: str
+    map: str
+    archetype: str | None
+    seeds: list[int]
+
+
+# Results
+class DatasetPublic(BaseModel):
+    model_config = ConfigDict(from_attributes=True)
+
+    id: str
+    job_id: str | None
+    sha256: str | None
+    summary: dict[str, Any]
+
+
+class EvaluationPublic(BaseModel):
+    model_config = ConfigDict(from_attributes=True)
+
+    id: str
+    job_id: str | None
+    model_id: str | None
+    bundle_id: str | None
+    config: dict[str, Any]
+    metrics: dict[str, Any]
+    per_scenario: list[Any]
+    taxonomy: list[dict[str, Any]] = Field(default_factory=list)
+
+
+class CampaignPublic(BaseModel):
+    id: str
+    job_id: str | None
+    config: dict[str, Any]
+    best: dict[str, Any] | None
+    cells: list[dict[str, Any]]
+    gates: list[dict[str, Any]]
+
+
+class Health(BaseModel):
+    status: str
+    database: str
+    revision: str
+    kinds: list[str]

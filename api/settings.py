@@ -1,0 +1,92 @@
+"""Service settings: one pydantic-settings object, read from ``FORESIGHT_*`` environment variables.
+
+Built by whoever starts a component (the app factory, the worker, the CLI), never at import.
+"""
+
+from __future__ import annotations
+
+import os
+import secrets
+from pathlib import Path
+
+from pydantic import Field, field_validator
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+REPO_ROOT = Path(__file__).resolve().parent.parent
+TOKEN_FILE = "api-token"
+
+
+class Settings(BaseSettings):
+    """Everything the API server, the worker and the CLI client need to know about their environment."""
+
+    model_config = SettingsConfigDict(env_prefix="FORESIGHT_", extra="ignore")
+
+    #: folder for the embedded SQLite database, the default artifact store and the generated token
+    data_dir: Path = Path(".foresight")
+    #: SQLAlchemy URL; empty means ``sqlite:///<data_dir>/foresight.db``
+    database_url: str = ""
+    #: artifact root; empty means ``<data_dir>/store``
+    store: Path | None = None
+    #: bearer token for write endpoints; empty means a generated one kept in ``<data_dir>/api-token``
+    api_token: str = ""
+    #: base URL the CLI client talks to
+    api_url: str = "http://127.0.0.1:8000"
+    #: extra config roots registered as bundles at start-up (``os.pathsep``-separated in the environment)
+    config_dirs: str = ""
+    #: close the read endpoints too (they are open by default)
+    read_requires_token: bool = False
+    #: shipped model registry (YAML), loaded read-only at start-up
+    model_registry: Path = REPO_ROOT / "model" / "registry.yaml"
+    #: project config root registered under relative names at start-up
+    project_configs: Path = REPO_ROOT / "configs"
+
+    lease_s: float = Field(30.0, gt=0)  #: [s] a claimed job's lease; renewed by heartbeats
+    heartbeat_s: float = Field(1.0, gt=0)  #: [s] worker heartbeat and cancel-poll interval
+    poll_s: float = Field(0.2, gt=0)  #: [s] idle worker's queue polling interval
+    max_attempts: int = Field(3, ge=1, le=100)  #: default claims per job before a lost lease fails it
+    shutdown_grace_s: float = Field(10.0, ge=0)  #: [s] a stopping worker waits this long before releasing jobs
+    sqlite_busy_timeout_ms: int = Field(30000, ge=0)  #: [ms]
+
+    @field_validator("api_url")
+    @classmethod
+    def _strip_slash(cls, value: str) -> str:
+        return value.rstrip("/")
+
+    @property
+    def resolved_database_url(self) -> str:
+        return self.database_url or f"sqlite:///{(self.data_dir / 'foresight.db').resolve()}"
+
+    @property
+    def store_root(self) -> Path:
+        return (self.store or self.data_dir / "store").resolve()
+
+    @property
+    def extra_config_dirs(self) -> list[Path]:
+        return [Path(p) for p in self.config_dirs.split(os.pathsep) if p.strip()]
+
+    def token_file(self) -> Path:
+        return self.data_dir / TOKEN_FILE
+
+    def server_token(self) -> str:
+        """The write token: the configured one, else the data dir's generated one (created on first use)."""
+        if self.api_token:
+            return self.api_token
+        path = self.token_file()
+        if path.is_file():
+            return path.read_text().strip()
+        path.parent.mkdir(parents=True, exist_ok=True)
+        token = secrets.token_urlsafe(24)
+        try:
+            fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+        except FileExistsError:  # another process created it first: use theirs
+            return path.read_text().strip()
+        with os.fdopen(fd, "w") as handle:
+            handle.write(token + "\n")
+        return token
+
+    def client_token(self) -> str | None:
+        """The token a local client sends: the configured one, else the data dir's file if present."""
+        if self.api_token:
+            return self.api_token
+        path = self.token_file()
+        return path.read_text().strip() if path.is_file() else None

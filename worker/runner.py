@@ -1,0 +1,203 @@
+"""The job worker: claims jobs, runs their stage in a slot thread, heartbeats, finishes.
+
+Life cycle (as procrastinate's): register a worker row; N slot threads each loop claim → run → finish;
+one heartbeat thread renews the worker row and the leases of held jobs every ``heartbeat_s``, learns
+about cancellation requests (so a cancel is noticed within about ``heartbeat_s`` + one stage step),
+enforces job timeouts, and reaps jobs whose worker died. Stages run in-process in threads and stop
+cooperatively through ``ctx.check_cancelled()``; a stage that needs CPU parallelism uses ``ctx.workers``.
+
+Stopping (SIGTERM): no new claims; running jobs get ``shutdown_grace_s`` to finish, then are asked to stop
+and are released to the queue (their attempt is not counted). A second stop request releases at once.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import socket
+import threading
+import time
+import uuid
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from sqlalchemy import Engine
+
+from api import store
+from api.db import queue
+from api.registry import Resolver
+from api.settings import Settings
+from core.errors import CoreError
+from core.stages.context import Cancelled, StageContext
+from worker.kinds import KINDS
+from worker.retry import decide_retry
+
+logger = logging.getLogger(__name__)
+
+PROGRESS_EVERY_S = 0.25  #: [s] at most one progress write per job this often (the last one always lands)
+
+
+@dataclass
+class Held:
+    """A job this worker is running, and why it should stop, if it should."""
+
+    job: dict[str, Any]
+    deadline: float | None
+    cancel_requested: bool = False
+    timed_out: bool = False
+    shutdown: bool = False
+    lost: bool = False
+    last_progress: float = field(default=0.0)
+
+    def should_stop(self) -> bool:
+        if self.deadline is not None and time.time() > self.deadline:
+            self.timed_out = True
+        return self.cancel_requested or self.timed_out or self.shutdown or self.lost
+
+
+class JobWorker:
+    def __init__(self, settings: Settings, engine: Engine, *, concurrency: int = 1, kinds: list[str] | None = None):
+        self.settings = settings
+        self.engine = engine
+        self.concurrency = concurrency
+        self.kinds = kinds or sorted(KINDS)
+        unknown = set(self.kinds) - set(KINDS)
+        if unknown:
+            raise CoreError(f"unknown job kinds {sorted(unknown)}; known: {sorted(KINDS)}")
+        self.id = f"{socket.gethostname()}-{os.getpid()}-{uuid.uuid4().hex[:6]}"
+        self.resolver = Resolver(settings, engine)
+        self._held: dict[str, Held] = {}
+        self._lock = threading.Lock()
+        self._stopping = threading.Event()
+        self._beat_stop = threading.Event()
+        self._stop_requests = 0
+        self.completed = 0  #: jobs this worker ended (any final status)
+
+    # ------------------------------------------------------------------ life cycle
+    def run(self) -> None:
+        """Run until :meth:`stop`; returns once every slot has ended."""
+        queue.register_worker(self.engine, self.id, socket.gethostname(), os.getpid(), self.concurrency, self.kinds)
+        logger.info("worker started", extra={"action": "start_worker", "worker": self.id})
+        beat = threading.Thread(target=self._heartbeat_loop, name="heartbeat", daemon=True)
+        beat.start()
+        slots = [threading.Thread(target=self._slot_loop, name=f"slot-{i}", daemon=True) for i in range(self.concurrency)]
+        for t in slots:
+            t.start()
+        self._stopping.wait()
+        deadline = time.time() + self.settings.shutdown_grace_s
+        while any(t.is_alive() for t in slots) and time.time() < deadline and self._stop_requests < 2:
+            time.sleep(0.05)
+        with self._lock:
+            for held in self._held.values():
+                held.shutdown = True
+        for t in slots:
+            t.join(timeout=5.0)
+        self._beat_stop.set()
+        beat.join(timeout=5.0)
+        queue.stop_worker(self.engine, self.id)
+        logger.info("worker stopped", extra={"action": "stop_worker", "worker": self.id})
+
+    def stop(self) -> None:
+        """Ask the worker to stop (signal-handler safe); a second call releases running jobs at once."""
+        self._stop_requests += 1
+        self._stopping.set()
+
+    # ------------------------------------------------------------------ loops
+    def _slot_loop(self) -> None:
+        while not self._stopping.is_set():
+            try:
+                job = queue.claim(self.engine, self.id, self.kinds, self.settings.lease_s)
+            except Exception:  # the database is briefly unavailable: back off, keep the worker alive
+                logger.exception("claim failed", extra={"action": "claim_failed"})
+                self._stopping.wait(1.0)
+                continue
+            if job is None:
+                self._stopping.wait(self.settings.poll_s)
+                continue
+            self._run(job)
+
+    def _heartbeat_loop(self) -> None:
+        reap_every = max(self.settings.heartbeat_s, self.settings.lease_s / 4)
+        next_reap = 0.0
+        while not self._beat_stop.wait(self.settings.heartbeat_s):
+            try:
+                with self._lock:
+                    held_ids = list(self._held)
+                cancel, lost = queue.heartbeat(self.engine, self.id, held_ids, self.settings.lease_s)
+                with self._lock:
+                    for job_id in cancel & self._held.keys():
+                        self._held[job_id].cancel_requested = True
+                    for job_id in lost & self._held.keys():
+                        self._held[job_id].lost = True
+                if time.time() >= next_reap:
+                    reaped = queue.reap_stale(self.engine)
+                    if any(reaped.values()):
+                        logger.warning("reaped jobs of dead workers: %s", reaped, extra={"action": "reap"})
+                    next_reap = time.time() + reap_every
+            except Exception:
+                logger.exception("heartbeat failed", extra={"action": "heartbeat_failed"})
+
+    # ------------------------------------------------------------------ one job
+    def _run(self, job: dict[str, Any]) -> None:
+        timeout = job["timeout_s"]
+        held = Held(job, deadline=time.time() + timeout if timeout else None)
+        with self._lock:
+            self._held[job["id"]] = held
+        try:
+            self._execute(held)
+        except queue.LeaseLost as exc:
+            logger.warning("%s", exc, extra={"action": "lease_lost", "job": job["id"]})
+        except Exception:  # recording the outcome failed (database down): the lease expires, the job is reaped
+            logger.exception("could not record the outcome of job %s", job["id"], extra={"action": "record_failed"})
+        finally:
+            with self._lock:
+                self._held.pop(job["id"], None)
+            self.completed += 1
+
+    def _execute(self, held: Held) -> None:
+        job = held.job
+        args = (self.engine, job["id"], self.id, job["attempts"])
+        kind = KINDS[job["kind"]]
+        workdir_rel = store.job_dir(self.settings.store_root, job["id"])
+        try:
+            spec = kind.spec.model_validate(job["spec"])
+            ctx = self._context(held, store.resolve_under(self.settings.store_root, workdir_rel))
+            result = kind.run(spec, ctx)
+        except Cancelled:
+            if held.lost:
+                raise queue.LeaseLost(f"job {job['id']}: lease lost while running") from None
+            if held.cancel_requested:
+                queue.mark_cancelled(*args)
+            elif held.timed_out:
+                queue.fail_or_retry(*args, "Timeout", f"the job ran longer than {job['timeout_s']} s", retry=False)
+            else:
+                queue.release(*args)
+            return
+        except Exception as exc:
+            logger.info("job %s failed: %r", job["id"], exc, extra={"action": "job_failed", "job": job["id"]})
+            queue.fail_or_retry(*args, type(exc).__name__, str(exc), retry=decide_retry(exc))
+            return
+        artifacts = store.scan(self.settings.store_root, workdir_rel)
+        queue.finish(*args, result, artifacts)
+
+    def _context(self, held: Held, workdir: Path) -> StageContext:
+        job = held.job
+
+        def progress(fraction: float, message: str) -> None:
+            now = time.time()
+            if fraction < 1.0 and now - held.last_progress < PROGRESS_EVERY_S:
+                return
+            held.last_progress = now
+            queue.report_progress(self.engine, job["id"], self.id, job["attempts"], float(fraction), message[:2000])
+
+        workdir.mkdir(parents=True, exist_ok=True)
+        return StageContext(
+            workdir=workdir,
+            progress=progress,
+            log=lambda message: queue.log(self.engine, job["id"], message[:2000]),
+            is_cancelled=held.should_stop,
+            resolve_dataset=self.resolver.dataset,
+            resolve_model=self.resolver.model,
+            resolve_bundle=self.resolver.bundle,
+        )
