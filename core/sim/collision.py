@@ -1,10 +1,12 @@
 """Robot collision checks of one step (reference §4): pedestrians, static segments, leaving the map.
 
-Why numpy and not pymunk: one disc against S segments and N discs is two short array
-expressions (about 10 µs for the classic maps); a pymunk ``shape_query`` on a static space costs
-about the same per call but needs the pedestrian bodies re-synced every step, and its contact
-test is inflated by collision slop, so it would not reproduce the reference's exact
-"distance <= r_robot + r_ped" rule. Discrete checks at dt, no sweeping, as the reference.
+Where pymunk and where numpy (measured with pymunk 7.3 on classic_station_platform, 26 peds, 32
+segments): the robot against static segments uses a pymunk space (one nearest-shape query,
+4.4 µs, vs 21.8 µs for numpy against all segments; see ``StaticChecker``); the robot against
+pedestrians is one numpy distance expression (8 µs for 26 peds), since pymunk would need every
+pedestrian body re-synced each step (114 µs for 26 bodies incl. a space step). Batch distance
+queries for planners (``StaticMap.distance`` over thousands of points) stay numpy. Discrete
+checks at dt, no sweeping, as the reference.
 """
 
 from __future__ import annotations
@@ -12,8 +14,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import pymunk
 
-from core.sim.geometry import SegmentSet
+from core.sim.geometry import SegmentSet, StaticMap
 from core.sim.observation import CollisionKind
 
 
@@ -36,30 +39,40 @@ def ped_contact(xy: np.ndarray, radius: float, ped_pos: np.ndarray, ped_radius: 
 
 
 class StaticChecker:
-    """``static_contact`` that skips the segment test while the robot cannot have reached a segment.
+    """Robot disc against the static segments, exact, and cheap when nothing is near.
 
-    After each full test it keeps the slack (distance to the nearest segment minus the radius) and
-    spends it by the distance travelled; the test is exact, just not repeated needlessly.
+    A pymunk space holding the segments answers "nearest segment within a radius" through its
+    bounding-box tree: 4.4 µs per query against 21.8 µs for the numpy disc-vs-all-segments test on
+    classic_station_platform (32 segments, measured). After each query the slack (distance to the
+    nearest segment minus the radius) is spent by the distance travelled, and no query is made while
+    slack remains, so open stretches cost nothing; corridors, where the robot stays near walls, pay
+    the pymunk price. The contact rule itself is the reference's: distance <= radius, inclusive.
     """
 
-    def __init__(self, walls: SegmentSet, width: float, height: float, radius: float):
-        self.walls, self.width, self.height, self.radius = walls, width, height, radius
+    LOOKAHEAD = 2.0  #: query radius beyond the robot radius [m]; a miss proves this much slack
+
+    def __init__(self, static: StaticMap, radius: float):
+        self.walls, self.width, self.height, self.radius = static.walls, static.width, static.height, radius
+        self.space = static.pymunk_space  # built once per map
+        self.filter = pymunk.ShapeFilter()
         self.slack = -1.0
-        self.last = np.zeros(2)
+        self.last = (0.0, 0.0)
 
     def check(self, xy: np.ndarray) -> Contact | None:
         x, y = float(xy[0]), float(xy[1])
         self.slack -= ((x - self.last[0]) ** 2 + (y - self.last[1]) ** 2) ** 0.5
-        self.last = np.array([x, y])
+        self.last = (x, y)
         if not (0.0 <= x <= self.width and 0.0 <= y <= self.height):
             return Contact("out_of_bounds", np.array([x, y]))
         if self.slack > 0 or len(self.walls) == 0:
             return None
-        ox, oy, dist = self.walls.offset_components(self.last[None])
-        k = int(np.argmin(dist[0]))
-        self.slack = float(dist[0, k]) - self.radius
+        hit = self.space.point_query_nearest((x, y), self.radius + self.LOOKAHEAD, self.filter)
+        if hit is None:
+            self.slack = self.LOOKAHEAD
+            return None
+        self.slack = hit.distance - self.radius
         if self.slack <= 0:
-            return Contact("static", self.last - np.array([ox[0, k], oy[0, k]]))
+            return Contact("static", np.array([hit.point.x, hit.point.y]))
         return None
 
 

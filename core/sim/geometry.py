@@ -7,7 +7,10 @@ the reference (pedestrians feel both, the robot collides with both).
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
+import pymunk
 
 from core.maps.model import MapDef
 
@@ -115,6 +118,14 @@ class StaticMap:
     def distance(self, points: np.ndarray) -> np.ndarray:
         """Distance [m] from each point (..., 2) to the nearest obstacle edge or map bound, shape (...)."""
         return self.walls.distance(points)
+
+    @functools.cached_property
+    def pymunk_space(self) -> pymunk.Space:
+        """A static pymunk space of all segments, for fast single-disc queries (see ``core.sim.collision``)."""
+        space = pymunk.Space()
+        for x1, y1, x2, y2 in self.segments:
+            space.add(pymunk.Segment(space.static_body, (x1, y1), (x2, y2), 0.0))
+        return space
 
     def push_off_edges(self, points: np.ndarray, clearance: float) -> np.ndarray:
         """Points (K, 2) closer than ``clearance`` to a segment moved to that distance, onto its free side.

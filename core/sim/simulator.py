@@ -90,7 +90,7 @@ class Simulator:
         self._build_crowd(pop, map_def)
         self._trace = Trace(self.horizon, pop.n, dt=self.dt, scenario=scenario.name, seed=seed,
                             meta={"code_version": code_version(), "map": map_def.name, "n_peds": pop.n})
-        self.static_check = StaticChecker(self.static.walls, self.static.width, self.static.height, self.limits.radius)
+        self.static_check = StaticChecker(self.static, self.limits.radius)
         self.t = 0
         self.done = False
         self.min_ped_distance = np.inf

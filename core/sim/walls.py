@@ -9,9 +9,9 @@ would still cross some segment (corners) falls back to no slide, then to staying
 induction a pedestrian that starts outside all obstacles stays outside (and inside the map).
 
 Why numpy and not pymunk: only pedestrians within one step's travel of a wall need the test, so
-the common case is one comparison; a pymunk space would have to own the pedestrian bodies and its
-solver would replace the social-force integration (different dynamics, and ~40 µs/step of Python
-call overhead even for a handful of bodies, measured with pymunk 7.3).
+the common case is one comparison (~2 µs); a pymunk space would have to own the pedestrian bodies,
+its solver would replace the social-force integration (different dynamics), and syncing 26 bodies
+plus one space step already costs 114 µs (measured, pymunk 7.3).
 """
 
 from __future__ import annotations

@@ -81,3 +81,27 @@ def test_goal_reached_within_tolerance():
     sim, obs, ev = drive_until_done(scenario(m))
     assert ev.goal_reached and ev.outcome == "success"
     assert np.hypot(*(obs.robot_pose[:2] - obs.goal)) <= 2.0
+
+
+def test_pymunk_checker_agrees_with_the_numpy_rule():
+    from core.maps.model import MapDef
+    from core.sim.collision import StaticChecker
+    from core.sim.geometry import StaticMap
+
+    m = MapDef(name="m", width=20, height=20, obstacles=(((5, 5), (9, 5), (7, 9)), ((12, 2), (18, 2), (18, 6), (12, 6))))
+    st = StaticMap(m)
+    rng = np.random.default_rng(0)
+    pts = rng.uniform(-0.5, 20.5, (3000, 2))
+    for p in pts:
+        checker = StaticChecker(st, 1.0)  # fresh: no slack carried over
+        a = checker.check(p)
+        b = static_contact(p, 1.0, st.walls, 20, 20)
+        assert (a is None) == (b is None)
+        if a is not None:
+            assert a.kind == b.kind and np.allclose(a.point, b.point)
+    # along a path the slack shortcut never misses a contact
+    checker = StaticChecker(st, 1.0)
+    path = np.stack([np.linspace(1.5, 18.5, 400), np.full(400, 3.0)], axis=1)
+    got = [checker.check(p) is not None for p in path]
+    want = [static_contact(p, 1.0, st.walls, 20, 20) is not None for p in path]
+    assert got == want
