@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from core.render.charts import Estimate, ab_chart, rate_bars, ranking_chart, taxonomy_bars, training_curves
+from core.render.charts import Estimate, ab_chart, ranking_chart, rate_bars, taxonomy_bars, training_curves
 
 from .data import assert_picture, training
 

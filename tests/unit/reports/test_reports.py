@@ -1,0 +1,199 @@
+"""Each report writes its figures, Markdown and a self-contained HTML page with every section and the numbers."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from core.reports.campaign import write_campaign_report
+from core.reports.compare import rate_delta, write_comparison_report
+from core.reports.diagnostics import write_diagnostics_report
+from core.reports.evaluation import write_evaluation_report
+from core.reports.pipeline import (
+    PipelineSummary,
+    StageEntry,
+    best_from_campaign,
+    gate_entry,
+    write_pipeline_report,
+)
+from core.reports.training import write_training_report
+
+from . import data
+from .scenes import predictions, small_map, trace
+
+
+def _read(paths: list[Path]) -> tuple[str, str]:
+    md = next(p for p in paths if p.name == "report.md").read_text()
+    page = next(p for p in paths if p.name == "report.html").read_text()
+    data.assert_page(page)
+    for p in paths:
+        if p.suffix in (".png", ".gif"):
+            data.assert_picture(p)
+    return md, page
+
+
+def _sections(md: str, page: str, names: list[str]) -> None:
+    for name in names:
+        assert f"## {name}" in md, name
+        assert f">{name}</h2>" in page, name
+
+
+def _images_exist(page: str, root: Path) -> list[str]:
+    import re
+
+    srcs = re.findall(r'<img src="([^"]+)"', page)
+    for s in srcs:
+        assert not s.startswith("/") and (root / s).is_file(), s
+    return srcs
+
+
+EVAL_SECTIONS = ["Summary", "Quality gate", "Integrity", "Success and collisions per scenario", "Per family",
+                 "Per family and density", "Failure taxonomy", "Failed episodes", "Metrics", "Artifacts"]
+
+
+def test_evaluation_report(tmp_path: Path) -> None:
+    res = data.evaluation(failures=True)
+    (tmp_path / "evaluation.json").write_text(json.dumps(res))
+    paths = write_evaluation_report(tmp_path / "evaluation.json", tmp_path)
+    md, page = _read(paths)
+    _sections(md, page, EVAL_SECTIONS)
+    srcs = _images_exist(page, tmp_path)
+    assert {"figures/success_per_scenario.png", "figures/success_per_family.png",
+            "figures/taxonomy_per_family.png"} <= set(srcs)
+    assert "success 70.0%" in md and "collision 10.0%" in md and "(7/10)" in md
+    assert "| head_on_corridor_high | 5 | 60.0% [" in md and "1200, 1204" in md
+    assert "| timeout_freeze | 1 |" in md and "freeze_min_s = 3.0" in md
+    assert "`m-7`" in md and "FAILED" in md and "| success_rate | FAIL | 0.700 | 0.800 |" in md
+
+
+def test_evaluation_without_failures_keeps_its_sections(tmp_path: Path) -> None:
+    md, page = _read(write_evaluation_report(data.evaluation(failures=False), tmp_path))
+    _sections(md, page, EVAL_SECTIONS)
+    assert "No failed episodes" in md and "Every episode succeeded" in md
+    assert not (tmp_path / "figures" / "taxonomy_per_family.png").exists()
+    assert "success 100.0%" in md and "PASSED" in md
+
+
+def test_campaign_report(tmp_path: Path) -> None:
+    md, page = _read(write_campaign_report(data.campaign(gate_passed=False), tmp_path))
+    _sections(md, page, ["Summary", "Ranking", "Hard-suite failure taxonomy", "Closed-loop gate", "Artifacts"])
+    assert set(_images_exist(page, tmp_path)) == {"figures/campaign_ranking.png", "figures/campaign_taxonomy.png"}
+    assert "Best: **careful @ cv**" in md and "hard success 75.0%" in md and "global success 85.0%" in md
+    assert "| 1 | careful | cv | 75.0% [" in md and "| 3 | fast | cv | 25.0% [" in md
+    assert "**FAILED**" in md and "New failure mechanisms on the hard suite: timeout_freeze." in md
+    assert "| timeout_freeze | 1 | 0 | +1 |" in md and "cells/careful__cv.jsonl" in md
+
+
+def test_campaign_without_gate(tmp_path: Path) -> None:
+    res = data.campaign()
+    res["gate"], res["status"] = None, "completed"
+    md, _ = _read(write_campaign_report(res, tmp_path))
+    assert "## Closed-loop gate" in md and "No closed-loop gate configured" in md
+
+
+def test_training_report(tmp_path: Path) -> None:
+    md, page = _read(write_training_report(data.training(proxy=True), tmp_path))
+    _sections(md, page, ["Summary", "Training curves", "Training gate", "Dataset", "Epochs"])
+    assert _images_exist(page, tmp_path) == ["figures/training_curves.png"]
+    assert "Selected epoch **6** of 6 by proxy" in md and "0.267 m" in md and "0.410 m" in md
+    assert "| val_ade_below_cv | ok | 0.267 | 0.410 |" in md and "| samples | 4321 |" in md
+    assert "proxy success per epoch" in md and "| 6 | 0.0833 |" in md
+
+
+def test_comparison_report(tmp_path: Path) -> None:
+    a, b = data.evaluation(failures=True), data.evaluation(failures=False)
+    b["planner"] = dict(b["planner"], variant="fast")
+    md, page = _read(write_comparison_report(a, b, tmp_path, labels=("careful", "fast")))
+    _sections(md, page, ["Runs", "Metric deltas", "Per-scenario success", "Failure taxonomy", "Verdict"])
+    assert _images_exist(page, tmp_path) == ["figures/ab_comparison.png"]
+    assert "| success | 70.0% [" in md and "+30.00 pp [" in md
+    assert "| crossing_low | 80.0% [" in md and "| timeout_freeze | 1 | 0 | -1 |" in md
+
+
+def test_newcombe_interval_of_a_rate_delta() -> None:
+    a, b = data.rate_d(5, 10), data.rate_d(9, 10)  # Wilson [0.2366, 0.7634] and [0.5958, 0.9821]
+    d = rate_delta(a, b)
+    assert d.value == pytest.approx(0.4)
+    # Newcombe's hybrid score: d -/+ sqrt of the squared inner/outer Wilson half-widths
+    assert d.low == pytest.approx(0.4 - ((0.9 - 0.5958) ** 2 + (0.7634 - 0.5) ** 2) ** 0.5, abs=1e-3)
+    assert d.high == pytest.approx(0.4 + ((0.9821 - 0.9) ** 2 + (0.5 - 0.2366) ** 2) ** 0.5, abs=1e-3)
+    assert d.low < 0 < d.high  # 5/10 vs 9/10 is not a clear difference
+    assert rate_delta(data.rate_d(0, 0), data.rate_d(1, 2)).value is None
+
+
+def test_pipeline_summary_with_a_failing_gate(tmp_path: Path) -> None:
+    camp = data.campaign(gate_passed=False)
+    summary = PipelineSummary(
+        name="quickstart", status="failed_gate", exit_code=2,
+        stages=[StageEntry(name="train", status="completed", wall_s=40.0, headline="val ADE 0.27 m",
+                           report="train/report.html"),
+                StageEntry(name="campaign", status="failed_gate", wall_s=99.0, report="campaign/report.html",
+                           artifacts={"summary": "campaign/campaign_summary.json"}),
+                StageEntry(name="promote", status="skipped")],
+        gates=[gate_entry("training", data.training()["quality_gates"]), gate_entry("closed_loop", camp["gate"]),
+               gate_entry("evaluation", None)],
+        best=best_from_campaign(camp), promoted_model=None, promotion="closed-loop gate failed: not promoted",
+        artifacts={"pipeline.json": "pipeline.json"})
+    md, page = _read(write_pipeline_report(summary.model_dump(), tmp_path, campaign=camp, training=data.training()))
+    _sections(md, page, ["Verdict", "Stages", "Gates", "Best campaign variant", "Promoted model", "Training curves",
+                         "Artifacts"])
+    assert len(_images_exist(page, tmp_path)) == 2
+    assert "Status **failed_gate** (exit code 2)" in md and "**FAILED** (closed_loop)" in md
+    assert "| hard | 75.0% | 0.45 |" in md and "| global | 85.0% | 0.65 |" in md and "**careful**" in md
+    assert "No model was promoted." in md and "not evaluated" in md and "val_ade_below_cv" in md
+    assert "[campaign: report](campaign/report.html)" in md
+
+
+def _diagnostics(tmp_path: Path) -> dict:
+    """A diagnostics run of one collided seed (trace JSON with predictions) and one solved seed (no trace)."""
+    tr = trace()
+    steps = []
+    preds = {s: (ids, pos) for s, ids, pos, _ in predictions()}
+    for t in range(tr.steps):
+        rows = []
+        if t in preds:
+            ids, pos = preds[t]
+            rows = [{"ped_id": int(i), "times": [0.4] * 8, "predicted": p.tolist(),
+                     "actual": [None] * 7 + [[1.0, 2.0]]} for i, p in zip(ids, pos, strict=True)]
+        steps.append({"step": t, "robot": tr.robot[t].tolist(), "min_distance": 2.0 - t / 60,
+                      "predicted_vs_actual": rows})
+    record = {"taxonomy": {"critical_step": 40}, "safety": {"first_collision_step": 40},
+              "collision_point": [14.0, 10.0]}
+    (tmp_path / "diagnostics").mkdir(parents=True)
+    (tmp_path / "diagnostics/trace_crossing_high_3.json").write_text(
+        json.dumps({"scenario": "crossing_high", "seed": 3, "dt": 0.1, "record": record, "steps": steps}))
+    seed = {"scenario": "crossing_high", "seed": 3, "outcome": "collision_pedestrian", "steps": 40,
+            "label": "collision_pedestrian_robot_fault", "tags": ["late_reaction"], "first_collision_step": 40,
+            "min_distance": 1.3, "min_clearance": -0.1, "mean_command_v": 1.1, "max_command_v": 1.5,
+            "plan_ms_mean": 3.2, "prediction_ade": 0.45, "trace": "diagnostics/trace_crossing_high_3.json"}
+    solved = {"scenario": "crossing_low", "seed": 7, "outcome": "success", "steps": 90, "label": None, "tags": [],
+              "first_collision_step": None, "min_distance": 2.0, "min_clearance": 0.8, "mean_command_v": 1.0,
+              "max_command_v": 1.2, "plan_ms_mean": 3.0, "prediction_ade": None, "trace": "missing.json"}
+    return {"episodes": 2, "solved": 1, "outcomes": {"collision_pedestrian": 1, "success": 1},
+            "taxonomy": data.taxonomy(collision_pedestrian_robot_fault=1), "taxonomy_config": {},
+            "seeds": [seed, solved], "code_version": "0.1.0+test", "artifacts": {"summary": "diagnostics.json"},
+            "planner": {"name": "predictive", "variant": None, "config_hash": "c0ffee", "model_id": "m-7"}, "wall_s": 3.0}
+
+
+def test_diagnostics_report_with_moment_and_replay(tmp_path: Path) -> None:
+    res = _diagnostics(tmp_path)
+    paths = write_diagnostics_report(res, tmp_path, maps={"crossing_high": small_map()},
+                                     traces={("crossing_high", 3): trace()})
+    md, page = _read(paths)
+    _sections(md, page, ["Summary", "Failure taxonomy", "Hard seeds", "Episodes", "Artifacts"])
+    assert "### crossing_high seed 3: collision_pedestrian" in md and "### crossing_low seed 7: success" in md
+    srcs = _images_exist(page, tmp_path)
+    assert {"figures/diagnostics_taxonomy.png", "figures/moment_crossing_high_3.png",
+            "diagnostics/replay_crossing_high_3.gif"} <= set(srcs)
+    assert "Solved **1/2**" in md and "| crossing_high | 3 | collision_pedestrian | collision_pedestrian_robot_fault |" in md
+    assert "min clearance -0.10 m" in md and "No per-step trace stored" in md and "No replay" in md
+
+
+def test_diagnostics_report_links_an_existing_replay(tmp_path: Path) -> None:
+    res = _diagnostics(tmp_path)
+    (tmp_path / "diagnostics/crossing_high_3.gif").write_bytes(b"GIF89a")
+    md = write_diagnostics_report(res, tmp_path)[-2].read_text()
+    assert "![Animated replay (GIF) with predicted pedestrian futures](diagnostics/crossing_high_3.gif)" in md
+    assert "moment_crossing_high_3.png" in md  # drawn from the trace JSON alone, without a map
