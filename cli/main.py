@@ -16,6 +16,9 @@ from core.errors import CoreError
 #: command sets ``func(args) -> int`` as its handler.
 COMMAND_MODULES = [
     "cli.sim",
+    "cli.server",
+    "cli.jobs",
+    "cli.models",
     "cli.maps",
     "cli.evaluate",
     "cli.predict",

@@ -1,0 +1,200 @@
+"""Client commands for jobs: `foresight submit` and `foresight jobs ls|show|cancel|retry|wait|logs|delete|download`."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from cli.client import Client, add_connection_args
+from core.errors import ConfigError
+
+FINISHED = {"succeeded", "failed", "cancelled"}
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    submit = sub.add_parser("submit", help="submit a job spec to the server")
+    submit.add_argument("kind", help="job kind (see GET /v1/jobs/kinds)")
+    submit.add_argument("-f", "--file", help="spec YAML/JSON ('-' for stdin; default: an empty spec)")
+    submit.add_argument("--priority", type=int, default=0)
+    submit.add_argument("--timeout", type=float, help="[s] run time limit")
+    submit.add_argument("--key", help="idempotency key: resubmitting with it returns the same job")
+    submit.add_argument("--wait", action="store_true", help="follow the job with a progress bar until it ends")
+    submit.add_argument("--json", action="store_true")
+    add_connection_args(submit)
+    submit.set_defaults(func=cmd_submit)
+
+    jobs = sub.add_parser("jobs", help="list, inspect and control jobs").add_subparsers(dest="action", required=True)
+    ls = jobs.add_parser("ls", help="list jobs, newest first")
+    ls.add_argument("--status", action="append", help="filter (repeatable)")
+    ls.add_argument("--kind", action="append", help="filter (repeatable)")
+    ls.add_argument("--limit", type=int, default=20)
+    ls.add_argument("--offset", type=int, default=0)
+    ls.add_argument("--json", action="store_true")
+    ls.set_defaults(func=cmd_ls)
+    for name, func, text in (
+        ("show", cmd_show, "a job's status, result and artifacts"),
+        ("cancel", cmd_cancel, "cancel a queued or running job"),
+        ("retry", cmd_retry, "queue a failed or cancelled job again"),
+        ("delete", cmd_delete, "delete a finished job and its artifacts"),
+        ("wait", cmd_wait, "wait for a job to end (exit 0 only if it succeeded)"),
+        ("logs", cmd_logs, "print a job's progress and log lines (follows until it ends)"),
+    ):
+        p = jobs.add_parser(name, help=text)
+        p.add_argument("job_id")
+        p.add_argument("--json", action="store_true")
+        p.set_defaults(func=func)
+        if name == "wait":
+            p.add_argument("--timeout", type=float, help="[s] give up after this long (exit 2)")
+            p.add_argument("--quiet", action="store_true", help="no progress bar")
+    dl = jobs.add_parser("download", help="download an artifact of a job")
+    dl.add_argument("job_id")
+    dl.add_argument("name")
+    dl.add_argument("-o", "--output", help="file to write (default: the artifact's base name)")
+    dl.set_defaults(func=cmd_download)
+    for p in jobs.choices.values():
+        add_connection_args(p)
+
+
+def read_spec(path: str | None) -> dict[str, Any]:
+    if path is None:
+        return {}
+    try:
+        text = sys.stdin.read() if path == "-" else Path(path).read_text()
+        data = yaml.safe_load(text) or {}
+    except OSError as exc:
+        raise ConfigError(f"cannot read spec: {exc.strerror}", source=path) from None
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"not valid YAML: {exc}", source=path) from None
+    if not isinstance(data, dict):
+        raise ConfigError("a spec is a mapping of fields", source=path)
+    return data
+
+
+def _print(obj: Any, as_json: bool, text: str) -> None:
+    print(json.dumps(obj, indent=2) if as_json else text)
+
+
+def _line(job: dict[str, Any]) -> str:
+    err = f"  {job['error']['type']}: {job['error']['message'][:80]}" if job.get("error") else ""
+    return f"{job['id']}  {job['kind']:<10} {job['status']:<10} {100 * job['progress']:5.1f}%  {job['created_at'][:19]}{err}"
+
+
+def cmd_submit(args: argparse.Namespace) -> int:
+    client = Client.from_args(args)
+    spec = read_spec(args.file)
+    if spec.get("kind", args.kind) != args.kind:
+        raise ConfigError(f"spec says kind {spec['kind']!r} but {args.kind!r} was given", source=args.file, item="kind")
+    body: dict[str, Any] = {"spec": {**spec, "kind": args.kind}, "priority": args.priority}
+    if args.timeout is not None:
+        body["timeout_s"] = args.timeout
+    if args.key:
+        body["idempotency_key"] = args.key
+    job = client.post("/v1/jobs", json=body)
+    if not args.wait:
+        _print(job, args.json, job["id"])
+        return 0
+    if not args.json:
+        print(f"submitted {job['id']}", file=sys.stderr)
+    return follow(client, job["id"], as_json=args.json, quiet=args.json)
+
+
+def follow(client: Client, job_id: str, *, as_json: bool, quiet: bool, timeout: float | None = None) -> int:
+    """Poll a job until it ends, with a progress bar on stderr; exit code 0 if it succeeded."""
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    deadline = time.monotonic() + timeout if timeout else None
+    console = Console(stderr=True)
+    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>5.1f}%"),
+                  TimeElapsedColumn(), TextColumn("{task.fields[message]}"), console=console,
+                  disable=quiet, transient=False) as bar:  # fmt: skip
+        task = bar.add_task(job_id[:12], total=1.0, message="")
+        while True:
+            job = client.get(f"/v1/jobs/{job_id}")
+            bar.update(task, completed=job["progress"], message=f"{job['status']} {job['message'][:50]}")
+            if job["status"] in FINISHED:
+                break
+            if deadline is not None and time.monotonic() > deadline:
+                _print(job, as_json, f"still {job['status']} after {timeout} s")
+                return 2
+            time.sleep(0.5)
+    _print(job, as_json, _line(job))
+    return 0 if job["status"] == "succeeded" else 1
+
+
+def cmd_ls(args: argparse.Namespace) -> int:
+    params: dict[str, Any] = {"limit": args.limit, "offset": args.offset}
+    if args.status:
+        params["status"] = args.status
+    if args.kind:
+        params["kind"] = args.kind
+    page = Client.from_args(args).get("/v1/jobs", params=params)
+    lines = [_line(j) for j in page["data"]]
+    lines.append(f"{len(page['data'])} of {page['count']} jobs")
+    _print(page, args.json, "\n".join(lines))
+    return 0
+
+
+def cmd_show(args: argparse.Namespace) -> int:
+    job = Client.from_args(args).get(f"/v1/jobs/{args.job_id}")
+    text = [_line(job)]
+    if job.get("result") is not None:
+        text.append("result: " + json.dumps(job["result"])[:2000])
+    text += [f"artifact: {a['name']} ({a['size']} bytes)" for a in job.get("artifacts") or []]
+    _print(job, args.json, "\n".join(text))
+    return 0
+
+
+def cmd_cancel(args: argparse.Namespace) -> int:
+    job = Client.from_args(args).post(f"/v1/jobs/{args.job_id}/cancel")
+    _print(job, args.json, _line(job) + ("  (cancellation requested)" if job["status"] == "running" else ""))
+    return 0
+
+
+def cmd_retry(args: argparse.Namespace) -> int:
+    job = Client.from_args(args).post(f"/v1/jobs/{args.job_id}/retry")
+    _print(job, args.json, _line(job))
+    return 0
+
+
+def cmd_delete(args: argparse.Namespace) -> int:
+    Client.from_args(args).delete(f"/v1/jobs/{args.job_id}")
+    _print({"deleted": args.job_id}, args.json, f"deleted {args.job_id}")
+    return 0
+
+
+def cmd_wait(args: argparse.Namespace) -> int:
+    return follow(Client.from_args(args), args.job_id, as_json=args.json, quiet=args.quiet or args.json,
+                  timeout=args.timeout)  # fmt: skip
+
+
+def cmd_logs(args: argparse.Namespace) -> int:
+    for event, data in Client.from_args(args).events(args.job_id):
+        if args.json:
+            print(json.dumps({"event": event, **data}), flush=True)
+        elif event == "end":
+            print(f"-- job ended: {data['status']}", flush=True)
+        else:
+            stamp = time.strftime("%H:%M:%S", time.localtime(data["at"]))
+            pct = f" {100 * data['progress']:5.1f}%" if data.get("progress") is not None else ""
+            print(f"{stamp} {event:<8}{pct} {data['message']}", flush=True)
+    return 0
+
+
+def cmd_download(args: argparse.Namespace) -> int:
+    client = Client.from_args(args)
+    response = client.http.get(f"/v1/jobs/{args.job_id}/artifacts/{args.name}")
+    if response.status_code >= 400:
+        from cli.client import ApiError
+
+        raise ApiError(response.status_code, response.json().get("detail"))
+    out = Path(args.output or Path(args.name).name)
+    out.write_bytes(response.content)
+    print(out)
+    return 0

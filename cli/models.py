@@ -1,0 +1,131 @@
+"""Client commands for the registries: `foresight models ls|show|register|promote|delete|export` and
+`foresight bundles ls|upload` (config bundles are the other registry)."""
+
+from __future__ import annotations
+
+import argparse
+import io
+import json
+import tarfile
+from pathlib import Path
+
+from cli.client import Client, add_connection_args
+from core.errors import ConfigError
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    models = sub.add_parser("models", help="the model registry").add_subparsers(dest="action", required=True)
+    ls = models.add_parser("ls", help="list registered models")
+    ls.add_argument("--status")
+    ls.add_argument("--tag")
+    ls.set_defaults(func=cmd_ls)
+    show = models.add_parser("show", help="one registry entry")
+    show.add_argument("model_id")
+    show.set_defaults(func=cmd_show)
+    reg = models.add_parser("register", help="register a checkpoint artifact of a succeeded job")
+    reg.add_argument("model_id")
+    reg.add_argument("--job", required=True, help="job id")
+    reg.add_argument("--artifact", required=True, help="artifact name in that job")
+    reg.add_argument("--tag", action="append", default=[])
+    reg.set_defaults(func=cmd_register)
+    promote = models.add_parser("promote", help="promote a model (or make it the default)")
+    promote.add_argument("model_id")
+    promote.add_argument("--default", action="store_true")
+    promote.set_defaults(func=cmd_promote)
+    delete = models.add_parser("delete", help="delete a registered model")
+    delete.add_argument("model_id")
+    delete.set_defaults(func=cmd_delete)
+    export = models.add_parser("export", help="write run-time models in the model/registry.yaml schema")
+    export.add_argument("-o", "--output", help="file (default: stdout)")
+    export.set_defaults(func=cmd_export)
+
+    bundles = sub.add_parser("bundles", help="config bundles").add_subparsers(dest="action", required=True)
+    bls = bundles.add_parser("ls", help="list config bundles")
+    bls.set_defaults(func=cmd_bundles_ls)
+    up = bundles.add_parser("upload", help="upload a folder or a zip/tar archive as a bundle")
+    up.add_argument("name", help="bundle id")
+    up.add_argument("path", help="folder (packed as tar.gz) or archive file")
+    up.set_defaults(func=cmd_bundles_upload)
+    for group in (models, bundles):
+        for p in group.choices.values():
+            add_connection_args(p)
+            if "--json" not in p._option_string_actions:
+                p.add_argument("--json", action="store_true")
+
+
+def _out(obj, as_json: bool, text: str) -> None:  # noqa: ANN001
+    print(json.dumps(obj, indent=2) if as_json else text)
+
+
+def _line(m: dict) -> str:
+    return f"{m['id']:<30} {m['status']:<10} {m['sha256'][:12]}  {'read-only' if m['read_only'] else m.get('job_id') or ''}"
+
+
+def cmd_ls(args: argparse.Namespace) -> int:
+    params = {k: v for k, v in (("status", args.status), ("tag", args.tag)) if v}
+    page = Client.from_args(args).get("/v1/models", params=params)
+    _out(page, args.json, "\n".join([_line(m) for m in page["data"]] + [f"{page['count']} models"]))
+    return 0
+
+
+def cmd_show(args: argparse.Namespace) -> int:
+    model = Client.from_args(args).get(f"/v1/models/{args.model_id}")
+    _out(model, args.json, json.dumps(model, indent=2))
+    return 0
+
+
+def cmd_register(args: argparse.Namespace) -> int:
+    body = {"id": args.model_id, "job_id": args.job, "artifact": args.artifact, "tags": args.tag}
+    model = Client.from_args(args).post("/v1/models", json=body)
+    _out(model, args.json, _line(model))
+    return 0
+
+
+def cmd_promote(args: argparse.Namespace) -> int:
+    body = {"to": "default" if args.default else "promoted"}
+    model = Client.from_args(args).post(f"/v1/models/{args.model_id}/promote", json=body)
+    _out(model, args.json, _line(model))
+    return 0
+
+
+def cmd_delete(args: argparse.Namespace) -> int:
+    Client.from_args(args).delete(f"/v1/models/{args.model_id}")
+    _out({"deleted": args.model_id}, args.json, f"deleted {args.model_id}")
+    return 0
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    text = Client.from_args(args).get("/v1/models/export")
+    if args.output:
+        Path(args.output).write_text(text)
+    else:
+        print(text, end="")
+    return 0
+
+
+def cmd_bundles_ls(args: argparse.Namespace) -> int:
+    page = Client.from_args(args).get("/v1/bundles")
+    lines = [f"{b['id']:<30} {b['source']:<10} {len(b['files']):>4} files  {', '.join(b['scenarios'])}" for b in page["data"]]
+    _out(page, args.json, "\n".join(lines))
+    return 0
+
+
+def pack(path: Path) -> tuple[bytes, str]:
+    """A folder as a tar.gz (its contents at the archive root), or an archive file as is."""
+    if path.is_file():
+        return path.read_bytes(), "application/zip" if path.suffix == ".zip" else "application/x-tar"
+    if not path.is_dir():
+        raise ConfigError("no such file or folder", source=path)
+    buf = io.BytesIO()
+    with tarfile.open(fileobj=buf, mode="w:gz") as tar:
+        for f in sorted(p for p in path.rglob("*") if p.is_file()):
+            tar.add(f, arcname=f.relative_to(path).as_posix())
+    return buf.getvalue(), "application/gzip"
+
+
+def cmd_bundles_upload(args: argparse.Namespace) -> int:
+    data, ctype = pack(Path(args.path))
+    bundle = Client.from_args(args).post("/v1/bundles", params={"name": args.name}, content=data,
+                                         headers={"Content-Type": ctype})  # fmt: skip
+    _out(bundle, args.json, f"{bundle['id']}: {len(bundle['files'])} files, matrices {bundle['scenarios']}")
+    return 0

@@ -1,0 +1,107 @@
+"""Server-side commands: `foresight up`, `serve`, `worker`, `db upgrade`."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import signal
+import subprocess
+import sys
+
+from api.settings import Settings
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    up = sub.add_parser("up", help="migrate the database, then run the API server and a worker")
+    _server_args(up)
+    up.add_argument("--concurrency", type=int, default=1, help="worker job slots (default 1)")
+    up.set_defaults(func=cmd_up)
+
+    serve = sub.add_parser("serve", help="run the API server (the database must be migrated)")
+    _server_args(serve)
+    serve.set_defaults(func=cmd_serve)
+
+    worker = sub.add_parser("worker", help="run a job worker (the database must be migrated)")
+    worker.add_argument("--concurrency", type=int, default=1, help="jobs run at once (threads; default 1)")
+    worker.add_argument("--kinds", help="comma-separated job kinds to take (default: all)")
+    worker.set_defaults(func=cmd_worker)
+
+    db = sub.add_parser("db", help="database administration").add_subparsers(dest="action", required=True)
+    upgrade = db.add_parser("upgrade", help="migrate the database to the latest schema")
+    upgrade.add_argument("--revision", default="head")
+    upgrade.set_defaults(func=cmd_db_upgrade)
+
+
+def _server_args(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--host", default="127.0.0.1")
+    parser.add_argument("--port", type=int, default=8000)
+    parser.add_argument("--log-level", default="warning")
+
+
+def _logging(level: str = "info") -> None:
+    logging.basicConfig(level=level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+
+
+def cmd_db_upgrade(args: argparse.Namespace) -> int:
+    from api.db.session import upgrade
+
+    settings = Settings()
+    upgrade(settings.resolved_database_url, args.revision)
+    print(f"database {settings.resolved_database_url} at {args.revision}", file=sys.stderr)
+    return 0
+
+
+def _serve(settings: Settings, args: argparse.Namespace) -> None:
+    import uvicorn
+
+    from api.main import create_app
+
+    app = create_app(settings)
+    print(f"foresight API on http://{args.host}:{args.port} (store {settings.store_root})", file=sys.stderr)
+    uvicorn.run(app, host=args.host, port=args.port, log_level=args.log_level, access_log=False)
+
+
+def cmd_serve(args: argparse.Namespace) -> int:
+    _logging(args.log_level)
+    _serve(Settings(), args)
+    return 0
+
+
+def cmd_worker(args: argparse.Namespace) -> int:
+    from api.db.session import check_migrated, make_engine
+    from worker.runner import JobWorker
+
+    _logging()
+    settings = Settings()
+    engine = make_engine(settings.resolved_database_url, busy_timeout_ms=settings.sqlite_busy_timeout_ms)
+    check_migrated(engine)
+    kinds = [k.strip() for k in args.kinds.split(",")] if args.kinds else None
+    worker = JobWorker(settings, engine, concurrency=max(1, args.concurrency), kinds=kinds)
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(sig, lambda *_: worker.stop())
+    print(f"foresight worker {worker.id}: {args.concurrency} slot(s), kinds {worker.kinds}", file=sys.stderr)
+    worker.run()
+    return 0
+
+
+def cmd_up(args: argparse.Namespace) -> int:
+    """Migrate, start a worker process, serve in this one; stopping the server stops the worker."""
+    from api.db.session import upgrade
+
+    _logging(args.log_level)
+    settings = Settings()
+    upgrade(settings.resolved_database_url)
+    settings.server_token()  # create the data dir's token before the client needs it
+    worker = subprocess.Popen(
+        [sys.executable, "-m", "cli.main", "worker", "--concurrency", str(args.concurrency)], env=os.environ.copy()
+    )
+    try:
+        _serve(settings, args)
+    finally:
+        worker.send_signal(signal.SIGTERM)
+        try:
+            worker.wait(timeout=settings.shutdown_grace_s + 10)
+        except subprocess.TimeoutExpired:
+            worker.kill()
+    return 0
