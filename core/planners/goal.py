@@ -46,6 +46,8 @@ class GoalSeeking:
         c = self.config
         x, y, th = obs.robot_pose
         dx, dy = obs.waypoint[0] - x, obs.waypoint[1] - y
+        if obs.robot_limits.get("holonomic", 0.0):
+            return self._holonomic(dx, dy)
         err = (np.arctan2(dy, dx) - th + np.pi) % (2 * np.pi) - np.pi
         w = float(np.clip(c.turn_gain * err, -c.max_turn_rate, c.max_turn_rate))
         v = float(c.speed * max(0.0, 1.0 - abs(err) / c.slow_angle))
@@ -55,6 +57,16 @@ class GoalSeeking:
             w = w + c.noise_w * nw
         self._last = {"heading_error": float(err), "v": v, "w": w}
         return v, w
+
+    def _holonomic(self, dx: float, dy: float) -> tuple[float, float]:
+        """A holonomic robot takes a world-frame velocity (vx, vy): head straight for the waypoint."""
+        n = float(np.hypot(dx, dy))
+        scale = self.config.speed / n if n > 0 else 0.0
+        vx, vy = dx * scale, dy * scale
+        if self.config.noise_v > 0:
+            vx, vy = (vx, vy) + self.config.noise_v * self._rng.normal(0.0, 1.0, 2)
+        self._last = {"vx": float(vx), "vy": float(vy)}
+        return float(vx), float(vy)
 
     @property
     def diagnostics(self) -> dict[str, Any] | None:

@@ -67,20 +67,28 @@ class RouteFollowing:
             for k in np.nonzero(near)[0]:
                 self.wp[k] = min(self.wp[k] + 1, self.last[self.route[k]])
                 crowd.goal[self.members[k]] = self.table[self.route[k], self.wp[k]]
+        moved = False
         if at_end.any():
             for k in np.nonzero(at_end)[0]:
-                self._respawn(k, crowd, rng, valid)
-            return True
-        return False
+                moved |= self._respawn(k, crowd, rng, valid)
+        return moved
 
-    def _respawn(self, k: int, crowd: CrowdArrays, rng: np.random.Generator, valid: Validator) -> None:
-        """New positions in the route's spawn zone, goal = first waypoint, new ids; velocities kept (reference)."""
+    def _respawn(self, k: int, crowd: CrowdArrays, rng: np.random.Generator, valid: Validator) -> bool:
+        """New positions in the route's spawn zone, goal = first waypoint, new ids; velocities kept (reference).
+
+        When the zone has no room (the robot stands in it), the group waits at the route's end and
+        tries again next step instead of spawning onto the robot. Returns whether it respawned.
+        """
         route = self.routes[self.route[k]]
         rows = self.members[k]
-        crowd.pos[rows] = sample_free(self.spawn_zones[route.spawn_id], len(rows), rng, self.zone_mode, valid)
+        pts = sample_free(self.spawn_zones[route.spawn_id], len(rows), rng, self.zone_mode, valid, required=False)
+        if pts is None:
+            return False
+        crowd.pos[rows] = pts
         self.wp[k] = 0
         crowd.goal[rows] = self.table[self.route[k], 0]
         crowd.renew_ids(rows)
+        return True
 
 
 class CrowdedZones:

@@ -47,8 +47,10 @@ class RobotLimits:
         )
 
     def as_dict(self) -> dict[str, float]:
-        """Numeric limits for ``Observation.robot_limits``."""
-        return {k: v for k, v in asdict(self).items() if isinstance(v, float)}
+        """Numeric limits for ``Observation.robot_limits``; ``holonomic`` 1.0 means commands are (vx, vy)."""
+        out = {k: v for k, v in asdict(self).items() if isinstance(v, float)}
+        out["holonomic"] = 1.0 if self.kind == "holonomic" else 0.0
+        return out
 
 
 def wrap_angle(a: np.ndarray | float) -> np.ndarray | float:

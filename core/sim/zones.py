@@ -27,13 +27,19 @@ def sample_zone(zone: Zone, n: int, rng: np.random.Generator, mode: str = "trian
 
 
 def sample_free(
-    zone: Zone, n: int, rng: np.random.Generator, mode: str, valid: Validator, *, what: str = "zone"
-) -> np.ndarray:
-    """n accepted points (n, 2) in a zone, drawn in batches of max(2n, 4), at most 20n (>= 40) draws."""
+    zone: Zone, n: int, rng: np.random.Generator, mode: str, valid: Validator, *, what: str = "zone",
+    required: bool = True,
+) -> np.ndarray | None:
+    """n accepted points (n, 2) in a zone, drawn in batches of max(2n, 4), at most 20n (>= 40) draws.
+
+    When the budget runs out: ConfigError if ``required``, else None.
+    """
     out: list[np.ndarray] = []
     have, drawn, budget = 0, 0, max(20 * n, 40)
     while have < n:
         if drawn >= budget:
+            if not required:
+                return None
             raise ConfigError(f"could not place {n} points in {what} {zone.corners} (obstacles or robot in the way)")
         batch = max(2 * n, 4)
         cand = sample_zone(zone, batch, rng, mode)

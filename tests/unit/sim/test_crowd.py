@@ -121,3 +121,19 @@ def test_crowded_zone_peds_stay_in_their_zone():
     pos = sim.trace.ped_pos.reshape(-1, 2)
     assert pos.shape[0] == 301 * 12
     assert (pos[:, 0] > 18).all() and (pos[:, 0] < 32).all() and (pos[:, 1] > 8).all() and (pos[:, 1] < 22).all()
+
+
+def test_a_group_waits_at_the_route_end_while_its_spawn_zone_is_blocked():
+    sim = Simulator()
+    sim.reset(scenario(street_map(), ped_density=0.08), 0)
+    routes, crowd = sim.routes, sim.crowd
+    k = 0
+    rows = routes.members[k]
+    crowd.pos[rows] = routes.end[k]  # the whole group arrived at its route's last waypoint
+    before_ids, before_pos = crowd.ids.copy(), crowd.pos.copy()
+    blocked = lambda pts: np.zeros(len(pts), dtype=bool)  # noqa: E731 (e.g. the robot fills the zone)
+    assert routes.step(crowd, crowd.centroids(), sim.rng, blocked) is False
+    assert np.array_equal(crowd.ids, before_ids) and np.array_equal(crowd.pos, before_pos)
+    free = lambda pts: np.ones(len(pts), dtype=bool)  # noqa: E731
+    assert routes.step(crowd, crowd.centroids(), sim.rng, free) is True
+    assert (crowd.ids[rows] >= len(crowd.ids)).all()  # respawned with fresh ids

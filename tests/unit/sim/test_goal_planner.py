@@ -1,0 +1,51 @@
+"""The goal-seeking controller: steering, slowing for turns, seeded noise, holonomic commands."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from core.planners.base import EpisodeInfo, Planner
+from core.planners.goal import GoalSeeking
+from core.scenarios.model import RobotConfig
+from core.sim.episode import run_episode
+from core.sim.simulator import Simulator
+
+from .scenes import open_map, scenario
+
+
+def _info(scen, seed=0):
+    return EpisodeInfo(scenario=scen, seed=seed, dt=0.1, robot_radius=1.0, ped_radius=0.4)
+
+
+def test_steers_towards_the_waypoint_and_slows_for_sharp_turns():
+    scen = scenario(open_map())
+    obs = Simulator().reset(scen, 0)
+    g = GoalSeeking()
+    assert isinstance(g, Planner)
+    g.reset(_info(scen))
+    v, w = g.plan(obs)
+    err = g.diagnostics["heading_error"]
+    assert abs(err) < 0.5  # the route runs roughly along the initial heading
+    assert v == pytest.approx(1.0 - abs(err) / (np.pi / 2)) and w == pytest.approx(1.5 * err)
+    behind = obs.__class__(**{**obs.__dict__, "waypoint": obs.robot_pose[:2] - [5.0, 0.0]})
+    v, w = g.plan(behind)
+    assert v == 0.0 and abs(w) == pytest.approx(1.0)
+    assert g.diagnostics["heading_error"] == pytest.approx(np.pi, abs=1e-6)
+
+
+def test_reaches_the_goal_on_an_open_map():
+    r = run_episode(scenario(open_map(), max_episode_steps=600), 0, GoalSeeking())
+    assert r.outcome == "success"
+
+
+def test_noise_is_seeded_by_the_episode():
+    scen = scenario(open_map(), max_episode_steps=40)
+    runs = [run_episode(scen, s, GoalSeeking(noise_v=0.2, noise_w=0.3)).trace.command for s in (1, 1, 2)]
+    assert np.array_equal(runs[0], runs[1]) and not np.array_equal(runs[0], runs[2])
+
+
+def test_holonomic_robot_gets_world_velocities():
+    scen = scenario(open_map(), robot=RobotConfig(type="holonomic"), max_episode_steps=600)
+    r = run_episode(scen, 0, GoalSeeking())
+    assert r.outcome == "success"
