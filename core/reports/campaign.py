@@ -13,6 +13,7 @@ from typing import Any
 from core.render.charts import ranking_chart, taxonomy_bars
 from core.reports.common import (
     as_dict,
+    existing,
     figure_path,
     fmt,
     gate_rows,
@@ -23,6 +24,7 @@ from core.reports.common import (
     rate_text,
     verdict,
 )
+from core.reports.compare import add_comparison
 from core.reports.document import Document
 
 
@@ -101,6 +103,45 @@ def _gate(doc: Document, res: Mapping[str, Any], cells: list[Mapping[str, Any]])
         doc.text(f"New failure mechanisms on the hard suite: {', '.join(tax['new_labels'])}.")
 
 
+def _ab_pair(res: Mapping[str, Any], cells: list[Mapping[str, Any]]) -> tuple[Mapping, Mapping] | None:
+    """(A, B) = (gate baseline, gate candidate), else (rank 2, rank 1); None with fewer than two cells."""
+    by_key = {c.get("key"): c for c in cells}
+    gate = res.get("gate") or {}
+    base, cand = by_key.get(gate.get("baseline")), by_key.get(gate.get("candidate"))
+    if base is not None and cand is not None and base is not cand:
+        return base, cand
+    return (cells[1], cells[0]) if len(cells) >= 2 else None
+
+
+def cell_run(workdir: Path, cell: Mapping[str, Any], bootstrap_samples: int = 500) -> dict[str, Any] | None:
+    """An evaluation-like dict of a cell's episodes (hard and global suites together), from its episodes file."""
+    if not existing(workdir, cell.get("episodes_file")):
+        return None
+    from core.evaluation.aggregate import BootstrapConfig, aggregate
+    from core.evaluation.runner import read_records
+
+    records = read_records(workdir / cell["episodes_file"])
+    aggs = aggregate(records, BootstrapConfig(samples=bootstrap_samples))
+    return {"planner": cell.get("planner") or {}, "episodes": len(records), "taxonomy": aggs.overall.taxonomy,
+            "aggregates": aggs.model_dump(mode="json")}
+
+
+def _ab(doc: Document, workdir: Path, res: Mapping[str, Any], cells: list[Mapping[str, Any]]) -> None:
+    pair = _ab_pair(res, cells)
+    doc.section("A/B: " + (f"{cell_name(pair[1])} vs {cell_name(pair[0])}" if pair else "best vs baseline"))
+    if pair is None:
+        doc.note("A single cell: nothing to compare.")
+        return
+    runs = [cell_run(workdir, c) for c in pair]
+    if runs[0] is None or runs[1] is None:
+        doc.note("The cells' episode files are not in this folder: no per-scenario comparison.")
+        return
+    doc.text("Every episode of each cell (hard and global suites together); deltas are "
+             f"{cell_name(pair[1])} - {cell_name(pair[0])}.")
+    add_comparison(doc, runs[0], runs[1], workdir, (cell_name(pair[0]), cell_name(pair[1])), level=3,
+                   figure="campaign_ab.png")
+
+
 def build_campaign_document(res: Mapping[str, Any], workdir: Path) -> Document:
     cells = list(res.get("ranked") or [])
     doc = Document("Planner campaign")
@@ -122,6 +163,7 @@ def build_campaign_document(res: Mapping[str, Any], workdir: Path) -> Document:
     _ranking(doc, workdir, cells)
     _taxonomy(doc, workdir, cells)
     _gate(doc, res, cells)
+    _ab(doc, workdir, res, cells)
     doc.section("Artifacts")
     links = [(f"{k}: {v}", v) for k, v in (res.get("artifacts") or {}).items()]
     links += [(f"episodes of {cell_name(c)}", c["episodes_file"]) for c in cells if c.get("episodes_file")]

@@ -73,9 +73,19 @@ def _name(res: Mapping[str, Any], fallback: str) -> str:
 
 def build_comparison_document(a: Mapping[str, Any], b: Mapping[str, Any], workdir: Path,
                               labels: tuple[str, str]) -> Document:
+    doc = Document(f"A/B comparison: {labels[0]} vs {labels[1]}")
+    add_comparison(doc, a, b, workdir, labels)
+    return doc
+
+
+def add_comparison(doc: Document, a: Mapping[str, Any], b: Mapping[str, Any], workdir: Path,
+                   labels: tuple[str, str], *, level: int = 2, figure: str = "ab_comparison.png") -> None:
+    """Append the comparison sections (runs, metric deltas, per-scenario success, taxonomy, verdict) to ``doc``.
+
+    ``a``/``b``: evaluation-like dicts (``planner``, ``episodes``, ``aggregates``, ``taxonomy``).
+    """
     la, lb = labels
-    doc = Document(f"A/B comparison: {la} vs {lb}")
-    doc.section("Runs")
+    doc.section("Runs", level)
     doc.table(["", la, lb], [
         ["planner", _name(a, la), _name(b, lb)],
         ["config hash", str((a.get("planner") or {}).get("config_hash", "-"))[:12],
@@ -93,25 +103,25 @@ def build_comparison_document(a: Mapping[str, Any], b: Mapping[str, Any], workdi
              for k, label in MEAN_KEYS.items()}
     sa, sb = _scenarios(a), _scenarios(b)
     names = list(dict.fromkeys([*sa, *sb]))
-    path, rel = figure_path(workdir, "ab_comparison.png")
+    path, rel = figure_path(workdir, figure)
     ab_chart(rates, means, names, [rate_est((sa.get(n) or {}).get("rates", {}).get("success")) for n in names],
              [rate_est((sb.get(n) or {}).get("rates", {}).get("success")) for n in names], path, labels=labels,
              title=f"{lb} - {la}")
-    doc.section("Metric deltas")
+    doc.section("Metric deltas", level)
     doc.image(rel, f"Deltas {lb} - {la} with 95 % intervals, and per-scenario success side by side")
     doc.table(["metric", la, lb, f"delta {lb} - {la} [95 % interval]"],
               [[k, rate_text((oa.get("rates") or {}).get(k)), rate_text((ob.get("rates") or {}).get(k)),
                 _delta_text(rates[k], 100, " pp")] for k in RATE_KEYS]
               + [[label, mean_text((oa.get("means") or {}).get(k)), mean_text((ob.get("means") or {}).get(k)),
                   _delta_text(means[label])] for k, label in MEAN_KEYS.items()])
-    doc.section("Per-scenario success")
+    doc.section("Per-scenario success", level)
     doc.table(["scenario", la, lb, "delta [pp]"],
               [[n, rate_text((sa.get(n) or {}).get("rates", {}).get("success")),
                 rate_text((sb.get(n) or {}).get("rates", {}).get("success")),
                 _delta_text(rate_delta((sa.get(n) or {}).get("rates", {}).get("success"),
                                        (sb.get(n) or {}).get("rates", {}).get("success")), 100, " pp")]
                for n in names])
-    doc.section("Failure taxonomy")
+    doc.section("Failure taxonomy", level)
     ta, tb = a.get("taxonomy") or {}, b.get("taxonomy") or {}
     labels_all = [k for k in dict.fromkeys([*ta, *tb]) if ta.get(k, 0) or tb.get(k, 0)]
     if labels_all:
@@ -119,7 +129,7 @@ def build_comparison_document(a: Mapping[str, Any], b: Mapping[str, Any], workdi
                   [[k, ta.get(k, 0), tb.get(k, 0), f"{tb.get(k, 0) - ta.get(k, 0):+d}"] for k in labels_all])
     else:
         doc.note("Neither run had a failed episode.")
-    doc.section("Verdict")
+    doc.section("Verdict", level)
     sa_rate, sb_rate = (oa.get("rates") or {}).get("success"), (ob.get("rates") or {}).get("success")
     d = rates["success"]
     sig = d.value is not None and d.low is not None and d.high is not None and (d.low > 0 or d.high < 0)
@@ -127,7 +137,6 @@ def build_comparison_document(a: Mapping[str, Any], b: Mapping[str, Any], workdi
              f"delta {_delta_text(d, 100, ' pp')}, "
              + ("the interval excludes 0." if sig else "the interval includes 0 (no clear difference at this sample size).")
              + f" Clearance delta {fmt(means['min clearance [m]'].value, 2, ' m')}.")
-    return doc
 
 
 def write_comparison_report(a: Any, b: Any, workdir: str | Path, *, labels: tuple[str, str] = ("A", "B"),

@@ -4,18 +4,20 @@ horizon), so a change of the evaluation's result models that the reports cannot 
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import pytest
 
 from core.evaluation.config import EvaluationConfig
 from core.evaluation.runner import EvaluationResult, run_evaluation
+from core.reports.campaign import write_campaign_report
 from core.reports.compare import write_comparison_report
 from core.reports.evaluation import write_evaluation_report
 from core.stages.context import StageContext
 from core.stages.refs import BUILTIN_CONFIG_ROOT
 
-from .data import assert_page, assert_picture
+from .data import assert_page, assert_picture, campaign
 
 
 @pytest.fixture(scope="module")
@@ -57,3 +59,20 @@ def test_ab_of_a_run_against_itself_has_zero_deltas(evaluated: tuple[EvaluationR
     write_comparison_report(res, json.loads(res.model_dump_json()), tmp_path, labels=("run", "same run"))
     md = (tmp_path / "report.md").read_text()
     assert "delta +0.00 pp" in md and "interval includes 0" in md and "Warning" not in md
+
+
+def test_campaign_ab_from_cell_episode_files(evaluated: tuple[EvaluationResult, Path], tmp_path: Path) -> None:
+    _, work = evaluated
+    camp = campaign(gate_passed=True)
+    (tmp_path / "cells").mkdir()
+    for c in camp["ranked"]:
+        shutil.copy(work / "episodes.jsonl", tmp_path / c["episodes_file"])
+    md = next(p for p in write_campaign_report(camp, tmp_path) if p.name == "report.md").read_text()
+    assert "## A/B: careful @ cv vs base @ cv" in md and "### Per-scenario success" in md
+    assert "![" in md and "figures/campaign_ab.png" in md and (tmp_path / "figures/campaign_ab.png").is_file()
+    assert "| crossing_low |" in md and "delta +0.00 pp" in md
+
+
+def test_campaign_ab_without_episode_files_says_so(tmp_path: Path) -> None:
+    md = next(p for p in write_campaign_report(campaign(), tmp_path) if p.name == "report.md").read_text()
+    assert "## A/B: careful @ cv vs base @ cv" in md and "episode files are not in this folder" in md
