@@ -197,3 +197,16 @@ def test_diagnostics_report_links_an_existing_replay(tmp_path: Path) -> None:
     md = write_diagnostics_report(res, tmp_path)[-2].read_text()
     assert "![Animated replay (GIF) with predicted pedestrian futures](diagnostics/crossing_high_3.gif)" in md
     assert "moment_crossing_high_3.png" in md  # drawn from the trace JSON alone, without a map
+
+
+def test_stage_dispatch(tmp_path: Path) -> None:
+    from core.errors import ConfigError
+    from core.reports.stage import write_stage_report
+
+    (tmp_path / "training_summary.json").write_text(json.dumps(data.training()))
+    train_result = {"checkpoint": "model.pt", "summary": "training_summary.json", "best_epoch": 6}
+    paths = write_stage_report("train", train_result, tmp_path)
+    assert (tmp_path / "figures/training_curves.png") in paths and "Selected epoch **6**" in paths[-2].read_text()
+    assert write_stage_report("evaluate", data.evaluation(), tmp_path / "e")[-1] == tmp_path / "e" / "report.html"
+    with pytest.raises(ConfigError):
+        write_stage_report("collect", {}, tmp_path)

@@ -1,0 +1,54 @@
+"""One call for the service: the report of a finished stage by its kind, so the worker needs no per-kind code.
+
+A report is a by-product: the worker writes it after storing the stage result, and a report that fails is
+logged, never turned into a failed job (the result stands on its own).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from core.errors import ConfigError
+from core.reports.campaign import write_campaign_report
+from core.reports.common import as_dict
+from core.reports.diagnostics import write_diagnostics_report
+from core.reports.evaluation import write_evaluation_report
+from core.reports.pipeline import write_pipeline_report
+from core.reports.training import write_training_report
+
+REPORTERS: dict[str, Callable[..., list[Path]]] = {
+    "evaluate": write_evaluation_report,
+    "diagnose": write_diagnostics_report,
+    "campaign": write_campaign_report,
+    "train": write_training_report,
+    "pipeline": write_pipeline_report,
+}
+
+
+def _training_summary(result: Any, workdir: Path) -> Any:
+    """A ``TrainResult`` names its summary file; the training report needs that file's content."""
+    data = as_dict(result)
+    if "history" in data or not data.get("summary"):
+        return data
+    path = Path(data["summary"])
+    path = path if path.is_absolute() else workdir / path
+    if not path.is_file():
+        raise ConfigError("training summary file not found", source=path)
+    return path
+
+
+def write_stage_report(kind: str, result: Any, workdir: str | Path, **options: Any) -> list[Path]:
+    """Write the report of a ``kind`` stage's ``result`` under ``workdir``; returns the written paths.
+
+    ``options`` go to the kind's writer (e.g. ``maps`` for diagnostics, ``campaign``/``training`` for a
+    pipeline). Unknown kinds raise :class:`ConfigError`.
+    """
+    workdir = Path(workdir)
+    writer = REPORTERS.get(kind)
+    if writer is None:
+        raise ConfigError(f"no report for stage kind {kind!r}; known: {sorted(REPORTERS)}", item="kind")
+    if kind == "train":
+        result = _training_summary(result, workdir)
+    return writer(result, workdir, **options)
