@@ -86,16 +86,28 @@ def approach_speed(d: Derived, t: int, slot: int) -> float:
 
 
 def _avoidance_start(d: Derived, t: int, slot: int, cfg: TaxonomyConfig) -> int:
-    """State where the robot began avoiding the event at ``t``: its approach speed peaked (``t`` if it never slowed)."""
+    """State where the robot began avoiding the event at ``t`` (``t`` if it never did).
+
+    Avoiding = the robot's own velocity change reduces its speed toward the pedestrian (braking or
+    turning away); changes of the line of sight caused by the pedestrian do not count. The final
+    stretch before ``t`` without any increase is taken, and avoidance began at its first reduction.
+    """
     pid = d.ped_ids[t, slot]
     first = max(0, t - window_steps(cfg.reaction_lookback_s, d.dt))
     same = d.ped_ids[first : t + 1, slot] == pid
     first = first + int(np.flatnonzero(same)[0]) if same.any() else t
     los = d.ped_pos[first : t + 1, slot] - d.pos[first : t + 1]
     unit = los / np.maximum(np.linalg.norm(los, axis=1, keepdims=True), 1e-9)
-    app = np.einsum("ti,ti->t", d.vel[first : t + 1], unit)
-    peak = app.size - 1 - int(np.argmax(app[::-1]))  # last time the robot closed in fastest
-    return first + peak if app[peak] - app[-1] >= cfg.reaction_min_decrease else t
+    proj = np.einsum("ti,ti->t", np.diff(d.vel[first : t + 1], axis=0), unit[:-1])  # own approach change per step
+    eps = 1e-9
+    k = proj.size
+    while k > 0 and proj[k - 1] <= eps:
+        k -= 1
+    tail = proj[k:]
+    reducing = np.flatnonzero(tail < -eps)
+    if reducing.size == 0 or -tail[reducing].sum() < cfg.reaction_min_decrease:
+        return t
+    return first + k + int(reducing[0])
 
 
 def _late_reaction(d: Derived, t: int, slot: int, cfg: TaxonomyConfig, radius: float) -> bool:

@@ -137,3 +137,32 @@ def test_config_rejects_unknown_keys() -> None:
     with pytest.raises(ValueError):
         TaxonomyConfig(freeze_seconds=2)  # type: ignore[call-arg]
     assert DT == 0.1
+
+
+def _swerve(turn_at: int, w: float, dur: int, n: int = 80):
+    """Unicycle at 1 m/s toward a pedestrian standing at (5, 0), turning left at ``w`` for ``dur`` steps."""
+    x = y = h = 0.0
+    rows = [(0.0, 0.0, 0.0, 1.0, 0.0)]
+    for k in range(n):
+        om = w if turn_at <= k < turn_at + dur else 0.0
+        h += om * DT
+        x, y = x + np.cos(h) * DT, y + np.sin(h) * DT
+        rows.append((x, y, h, 1.0, om))
+    a = np.array(rows)
+    return make_trace(a[:, :2], [still((5.0, 0.0), n)], heading=a[:, 2], v=a[:, 3], omega=a[:, 4])
+
+
+def test_early_swerve_is_not_late_but_a_last_moment_swerve_is() -> None:
+    early = _classify(_swerve(10, 0.3, 6), "timeout")  # turning began with TTC 3.4 s
+    late = _classify(_swerve(36, 1.0, 8), "timeout")  # turning began with TTC 0.8 s
+    assert "near_miss" in early.tags and "late_reaction" not in early.tags
+    assert {"near_miss", "late_reaction"} <= set(late.tags)
+
+
+def test_crossing_pedestrian_changing_the_line_of_sight_is_not_avoidance() -> None:
+    # the robot keeps 1 m/s straight on; a pedestrian crosses its path and they collide
+    robot, ped = straight(0.0, 1.0, 60), np.column_stack([np.full(61, 5.0), 4.5 - 0.1 * np.arange(61)])
+    contact = int(np.flatnonzero(np.linalg.norm(robot - ped, axis=1) <= R_ROBOT + R_PED)[0])
+    tr = make_trace(robot[: contact + 1], [ped[: contact + 1]])
+    res = _classify(tr, "collision_pedestrian", collision_step=contact)
+    assert "late_reaction" in res.tags
