@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import logging
+import math
+from typing import Any
 
 from fastapi import FastAPI, Request
+from fastapi.encoders import jsonable_encoder
+from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 
 from api.db import queue
@@ -19,7 +23,22 @@ def _json(code: int, detail: object) -> JSONResponse:
     return JSONResponse({"detail": detail}, status_code=code)
 
 
+def _finite(value: Any) -> Any:
+    """JSON-safe copy: NaN and infinities (echoed inputs) become strings."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_finite(v) for v in value]
+    return value
+
+
 def install(app: FastAPI) -> None:
+    @app.exception_handler(RequestValidationError)
+    async def _validation(_: Request, exc: RequestValidationError) -> JSONResponse:
+        return _json(422, _finite(jsonable_encoder(exc.errors())))
+
     @app.exception_handler(ConfigError)
     async def _config(_: Request, exc: ConfigError) -> JSONResponse:
         loc = [p for p in ("body", exc.source, exc.item) if p]
