@@ -39,6 +39,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     im.set_defaults(func=import_cmd)
 
     co = sub.add_parser("collect", help="roll out episodes and write a prediction dataset")
+    co.add_argument("--config", help="YAML whose 'collect' mapping holds CollectConfig fields (flags override)")
     co.add_argument("--matrix", default=None, help="scenario matrix YAML (default: builtin classic matrix)")
     co.add_argument("--hard-seeds", help="TRAINING seed manifest YAML (hard-case collection)")
     co.add_argument("--scenarios", help="comma-separated scenario names (base collection)")
@@ -77,15 +78,20 @@ def _ctx(args: argparse.Namespace, bundles: dict[str, Path] | None = None):
     return local_context(out, bundles or {}, quiet=args.json)
 
 
-def _train_values(path: str | None) -> dict:
+def _section(path: str | None, key: str) -> dict:
+    """The ``key`` mapping of a YAML file (or the whole file when it has no such key)."""
     if path is None:
         return {}
     from core.scenarios.loader import read_yaml
 
     data = read_yaml(Path(path))
-    if not isinstance(data, dict):
-        raise ConfigError("a training config must be a mapping", source=path)
-    return dict(data.get("train", data))
+    if not isinstance(data, dict) or not isinstance(data.get(key, data), dict):
+        raise ConfigError(f"expected a mapping (optionally under {key!r})", source=path, item=key)
+    return dict(data.get(key, data))
+
+
+def _train_values(path: str | None) -> dict:
+    return _section(path, "train")
 
 
 def predict_eval_cmd(args: argparse.Namespace) -> int:
@@ -123,10 +129,10 @@ def import_cmd(args: argparse.Namespace) -> int:
 def collect_cmd(args: argparse.Namespace) -> int:
     from core.predict.collect import CollectConfig, run_collect
 
-    values = {"scenarios": args.scenarios.split(",") if args.scenarios else None,
-              "seeds_per_scenario": args.seeds_per_scenario, "base_seed": args.base_seed, "policy": args.policy,
-              "max_steps": args.max_steps, "max_agents": args.max_agents}
-    bundles = {}
+    flags = {"scenarios": args.scenarios.split(",") if args.scenarios else None,
+             "seeds_per_scenario": args.seeds_per_scenario, "base_seed": args.base_seed, "policy": args.policy,
+             "max_steps": args.max_steps, "max_agents": args.max_agents}
+    values = {**_section(args.config, "collect"), **{k: v for k, v in flags.items() if v is not None}}
     if args.matrix or args.hard_seeds:
         from cli.evaluate import bundle_of
 

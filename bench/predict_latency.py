@@ -1,0 +1,55 @@
+"""Latency of one prediction for one batch of 16 pedestrians (the planner's per-step call), median ms.
+
+Target: <= 0.5 ms. Usage: python bench/predict_latency.py [--json] [--threads 1] [--peds 16] [--model PATH]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import time
+
+import numpy as np
+import torch
+
+from core.predict.features import feature_dim
+from core.predict.nn.checkpoint import TorchPredictor, load_predictor
+from core.predict.nn.model import ModelConfig, TrajectoryModel
+from core.predict.timebase import PLANNER_TIMEBASE
+from core.predict.train_config import TrainConfig
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--json", action="store_true")
+    ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--peds", type=int, default=16)
+    ap.add_argument("--repeats", type=int, default=2000)
+    ap.add_argument("--model", help="checkpoint (default: an untrained model of the default size)")
+    args = ap.parse_args()
+    torch.set_num_threads(args.threads)
+    if args.model:
+        predictor = load_predictor(args.model)
+    else:
+        tb = PLANNER_TIMEBASE
+        cfg = ModelConfig(tb.history, tb.horizon, tb.dt, TrainConfig.model_fields["hidden"].default,
+                          TrainConfig.model_fields["blocks"].default)
+        predictor = TorchPredictor(TrajectoryModel(cfg), tb, "default-size")
+    rng = np.random.default_rng(0)
+    x = rng.normal(size=(1, args.peds, feature_dim(predictor.timebase.history))).astype(np.float32)
+    m = np.ones((1, args.peds), np.float32)
+    for _ in range(100):
+        predictor.predict(x, m)
+    times = []
+    for _ in range(args.repeats):
+        t0 = time.perf_counter()
+        predictor.predict(x, m)
+        times.append((time.perf_counter() - t0) * 1e3)
+    out = {"median_ms": statistics.median(times), "p90_ms": float(np.percentile(times, 90)), "peds": args.peds,
+           "threads": args.threads, "target_ms": 0.5}
+    print(json.dumps(out, indent=2) if args.json else f"median {out['median_ms']:.3f} ms (p90 {out['p90_ms']:.3f})")
+
+
+if __name__ == "__main__":
+    main()
