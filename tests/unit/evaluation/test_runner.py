@@ -84,3 +84,38 @@ def test_unreadable_checkpoint_fails_before_any_episode(tmp_path: Path) -> None:
 def test_bad_planner_key_is_a_config_error(tmp_path: Path) -> None:
     with pytest.raises(ConfigError):
         run_evaluation(_config(planner={"name": "predictive", "model": "cv", "config": {"nope": 1}}), _ctx(tmp_path))
+
+
+def _checkpoint(path: Path) -> Path:
+    from core.predict.nn.checkpoint import make_checkpoint, save_checkpoint
+    from core.predict.nn.model import ModelConfig, TrajectoryModel
+    from core.predict.timebase import PLANNER_TIMEBASE as TB
+
+    model = TrajectoryModel(ModelConfig(history=TB.history, horizon=TB.horizon, dt=TB.dt, hidden=8, blocks=1))
+    save_checkpoint(make_checkpoint(model, TB, "robot", {"id": "test"}, {}, 0), path)
+    return path
+
+
+def test_learned_model_provenance_and_no_fallback(tmp_path: Path) -> None:
+    from core.evaluation.plannerspec import sha256_file
+
+    ckpt = _checkpoint(tmp_path / "m.pt")
+    ctx = _ctx(tmp_path / "run", resolve_model=lambda _i: ckpt)
+    cfg = _config(scenarios=["crossing_high"], seeds_per_scenario=1, max_steps=8,
+                  planner={"name": "predictive", "model": "m1"})
+    res = run_evaluation(cfg, ctx)
+    (rec,) = read_records(tmp_path / "run" / "episodes.jsonl")
+    assert rec.provenance.model_id == "m1" and rec.provenance.checkpoint_sha256 == sha256_file(ckpt)
+    assert rec.provenance.fallback is None and res.integrity.ok
+    assert res.planner.model_id == "m1"
+
+
+def test_fallback_to_constant_velocity_is_flagged() -> None:
+    from core.evaluation.episode import fallback_of
+    from core.evaluation.plannerspec import ResolvedPlanner
+
+    learned = ResolvedPlanner("predictive", None, {}, "h", "m1", "sha", model_path="/x.pt")
+    cv = ResolvedPlanner("predictive", None, {}, "h", "cv", "cv")
+    assert fallback_of(learned, {"learned:m", "constant_velocity"})
+    assert fallback_of(learned, {"learned+cv_far:m"}) is None  # far pedestrians on cv is declared, not silent
+    assert fallback_of(cv, {"constant_velocity"}) is None
