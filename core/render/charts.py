@@ -106,7 +106,7 @@ def rate_bars(labels: Sequence[str], series: Mapping[str, Sequence[Estimate]], p
     ax.set_xlim(0, 1)
     ax.set_xlabel(xlabel)
     ax.set_title(title, fontsize=10)
-    ax.legend(loc="lower right", fontsize=7)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
     return save(fig, path)
 
 
@@ -152,7 +152,7 @@ def ranking_chart(names: Sequence[str], hard: Sequence[Estimate], glob: Sequence
         ax.text(1.03, y, note, va="center", fontsize=7)
     ax.set_xlabel("success rate (95 % Wilson interval)")
     ax.set_title(title, fontsize=10)
-    ax.legend(loc="lower right", fontsize=7)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
     return save(fig, path)
 
 
@@ -187,7 +187,7 @@ def ab_chart(rate_deltas: Mapping[str, Estimate], mean_deltas: Mapping[str, Esti
     _hbars(ax_scen, scenarios, {labels[0]: a, labels[1]: b}, ("tab:gray", "tab:blue"))
     ax_scen.set_xlim(0, 1)
     ax_scen.set_xlabel("success rate per scenario (95 % Wilson interval)")
-    ax_scen.legend(loc="lower right", fontsize=7)
+    ax_scen.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
     if title:
         fig.suptitle(title, fontsize=10)
     return save(fig, path)

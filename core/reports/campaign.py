@@ -39,7 +39,7 @@ def cell_name(cell: Mapping[str, Any]) -> str:
 
 
 def _clearances(cell: Mapping[str, Any]) -> str:
-    return (f"clearance {fmt((cell.get('hard') or {}).get('mean_min_clearance', {}).get('mean'))} / "
+    return (f"clr {fmt((cell.get('hard') or {}).get('mean_min_clearance', {}).get('mean'))} / "
             f"{fmt(glob_suite(cell).get('mean_min_clearance', {}).get('mean'))} m")
 
 
