@@ -175,6 +175,33 @@ def single_start(sp: SinglePedestrian) -> tuple[np.ndarray, np.ndarray]:
     return target, (sp.speed_m_s * d / n if n > 0 else np.zeros(2))
 
 
+def _zone_groups(
+    sizes: list[int], map_def: MapDef, cfg: SimulationConfig, rng: np.random.Generator, valid: Validator
+) -> list[tuple[np.ndarray, np.ndarray, int]]:
+    """Per crowded-zone group: member positions (k, 2), shared goal (2,), zone index (area-weighted choice)."""
+    zones = map_def.ped_crowded_zones
+    if not sizes:
+        return []
+    areas = np.array([z.area for z in zones])
+    out = []
+    for k in sizes:
+        z = int(rng.choice(len(zones), p=areas / areas.sum()))
+        members = sample_free(zones[z], k, rng, cfg.zone_sampling, valid, what="crowded zone")
+        out.append((members, sample_free(zones[z], 1, rng, cfg.zone_sampling, valid)[0], z))
+    return out
+
+
+def _crowd_velocities(blocks: list[tuple[np.ndarray, np.ndarray]], vmax: np.ndarray, mult: float) -> np.ndarray:
+    """Spawn velocities (N, 2): each group heads for its goal at desired speed / peds_speed_mult (0.5 m/s reference)."""
+    vel = np.zeros((len(vmax), 2))
+    start = 0
+    for members, goal in blocks:
+        sl = slice(start, start + len(members))
+        vel[sl] = _toward(members, goal, vmax[sl] / mult)
+        start += len(members)
+    return vel
+
+
 def build_population(
     map_def: MapDef, cfg: SimulationConfig, crowd: CrowdParams,
     rng: np.random.Generator, spread_rng: np.random.Generator, valid: Validator,
@@ -185,60 +212,30 @@ def build_population(
     ``spread_rng`` drives route placement in ``spread`` mode (the reference's route_spawn_seed).
     """
     n_zone, n_route = population_counts(map_def, cfg, crowd)
-    zone_sizes = group_sizes(n_zone, cfg.max_peds_per_group, rng, crowd.group_size_decay)
-    pos, goal, group, zone_of_group = [], [], [], []
-    gidx = 0
-    if zone_sizes:
-        zones = map_def.ped_crowded_zones
-        areas = np.array([z.area for z in zones])
-        for k in zone_sizes:
-            z = int(rng.choice(len(zones), p=areas / areas.sum()))
-            pos.append(sample_free(zones[z], k, rng, cfg.zone_sampling, valid, what="crowded zone"))
-            goal.append(np.repeat(sample_free(zones[z], 1, rng, cfg.zone_sampling, valid), k, axis=0))
-            group += [gidx] * k
-            zone_of_group.append(z)
-            gidx += 1
-    zone_groups = np.arange(gidx)
+    zoned = _zone_groups(group_sizes(n_zone, cfg.max_peds_per_group, rng, crowd.group_size_decay), map_def, cfg, rng, valid)
     route_sizes = group_sizes(n_route, cfg.max_peds_per_group, rng, crowd.group_size_decay)
     routes = [RouteGeometry(r) for r in map_def.ped_routes]
     placement_rng = spread_rng if cfg.route_spawn_distribution == "spread" else rng
     placed = spawn_route_groups(route_sizes, routes, cfg, crowd, placement_rng, valid) if route_sizes else []
-    route_of_group, route_wp = [], []
-    for members, r, wp in placed:
-        pos.append(members)
-        goal.append(np.repeat(routes[r].points[wp][None], len(members), axis=0))
-        group += [gidx] * len(members)
-        route_of_group.append(r)
-        route_wp.append(wp)
-        gidx += 1
-    route_groups = np.arange(len(zone_groups), gidx)
-    n_crowd = sum(len(p) for p in pos)
+    blocks = [(m, g) for m, g, _ in zoned] + [(m, routes[r].points[wp]) for m, r, wp in placed]
+    n_crowd = sum(len(m) for m, _ in blocks)
     vmax = desired_speeds(n_crowd, cfg, crowd, rng)
-    vel = np.zeros((n_crowd, 2))
-    start = 0
-    for p, g in zip(pos, goal, strict=True):
-        sl = slice(start, start + len(p))
-        vel[sl] = _toward(p, g[0], vmax[sl] / cfg.peds_speed_mult)
-        start += len(p)
+    vel = _crowd_velocities(blocks, vmax, cfg.peds_speed_mult)
     singles = list(map_def.single_pedestrians)
-    s_pos, s_goal, s_vel = [], [], []
-    for sp in singles:
-        tgt, v0 = single_start(sp)
-        s_pos.append(np.asarray(sp.start, dtype=float))
-        s_goal.append(tgt)
-        s_vel.append(v0)
-        group.append(gidx)
-        gidx += 1
+    starts = [single_start(sp) for sp in singles]
     # the reference's bug fix: a single ped's desired speed is its scripted speed, even when it spawns at rest
     s_vmax = np.array([cfg.peds_speed_mult * sp.speed_m_s for sp in singles])
-    group_arr = np.asarray(group, dtype=np.intp)
+    sizes = [len(m) for m, _ in blocks] + [1] * len(singles)
+    group_arr = np.repeat(np.arange(len(sizes)), sizes).astype(np.intp)
     return Population(
-        pos=_rows([*pos, *s_pos]), vel=np.concatenate([vel, _rows(s_vel)]),
-        goal=_rows([*goal, *s_goal]), vmax=np.concatenate([vmax, s_vmax]),
-        group=group_arr, group_size=np.bincount(group_arr, minlength=gidx).astype(float),
-        route_groups=route_groups, route_of_group=np.asarray(route_of_group, dtype=np.intp),
-        route_wp=np.asarray(route_wp, dtype=np.intp), zone_groups=zone_groups,
-        zone_of_group=np.asarray(zone_of_group, dtype=np.intp), singles=singles,
+        pos=_rows([m for m, _ in blocks] + [sp.start for sp in singles]),
+        vel=np.concatenate([vel, _rows([v for _, v in starts])]),
+        goal=_rows([np.repeat(np.reshape(g, (1, 2)), len(m), axis=0) for m, g in blocks] + [t for t, _ in starts]),
+        vmax=np.concatenate([vmax, s_vmax]),
+        group=group_arr, group_size=np.asarray(sizes, dtype=float),
+        route_groups=np.arange(len(zoned), len(blocks)), route_of_group=np.array([r for _, r, _ in placed], dtype=np.intp),
+        route_wp=np.array([wp for _, _, wp in placed], dtype=np.intp), zone_groups=np.arange(len(zoned)),
+        zone_of_group=np.array([z for _, _, z in zoned], dtype=np.intp), singles=singles,
     )
 
 
