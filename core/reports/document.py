@@ -127,7 +127,7 @@ class Document:
         if kind == "image":
             src, caption = data  # type: ignore[misc]
             src_attr = html.escape(src, quote=True)
-            return (f'<figure><a href="{src_attr}"><img src="{src_attr}" alt="{html.escape(caption, quote=True)}">'
+            return (f'<figure><a href="{src_attr}"><img src="{src_attr}" loading="lazy" alt="{html.escape(caption, quote=True)}">'
                     f"</a><figcaption>{inline_html(caption)}</figcaption></figure>")
         if kind == "links":
             return "<ul>" + "".join(f'<li><a href="{html.escape(h, quote=True)}">{inline_html(label)}</a></li>'
