@@ -22,7 +22,7 @@ from core.evaluation.aggregate import SuiteSummary, summarise
 from core.evaluation.config import CampaignConfig, EpisodeSelection, GridVariant
 from core.evaluation.gates import GATE_FAILED_EXIT, ClosedLoopGateResult, closed_loop_gate
 from core.evaluation.integrity import IntegrityReport, check_integrity
-from core.evaluation.plannerspec import PlannerSpec, ResolvedPlanner, preflight, resolve_planner
+from core.evaluation.plannerspec import PlannerSpec, ResolvedPlanner, config_diff, preflight, resolve_planner
 from core.evaluation.runner import (
     EpisodeSettings,
     Job,
@@ -64,6 +64,7 @@ class CampaignResult(BaseModel):
     best: CellResult | None
     ranked: list[CellResult]
     gate: ClosedLoopGateResult | None
+    best_vs_reference: dict[str, list]  #: resolved-config keys where the best differs from the baseline (or first) cell
     cells_run: int
     cells_resumed: int
     matrix: str
@@ -196,10 +197,13 @@ def run_campaign(config: CampaignConfig, ctx: StageContext) -> CampaignResult:
     ctx.progress(1.0, "done")
     ranked = rank(cells)
     gate = _gate(config, ranked[0], cells)
+    ref = next((c for c in cells if config.gate and c.variant == config.gate.baseline_variant
+                and c.checkpoint == ranked[0].checkpoint), cells[0])
+    diff = config_diff(ranked[0].planner.config, ref.planner.config)
     status = "completed" if gate is None else ("passed" if gate.passed else "failed_gate")
     result = CampaignResult(
         status=status, exit_code=0 if gate is None or gate.passed else GATE_FAILED_EXIT, best=ranked[0],
-        ranked=ranked, gate=gate, cells_run=ran, cells_resumed=len(cells) - ran, matrix=config.matrix,
+        ranked=ranked, gate=gate, best_vs_reference={k: list(v) for k, v in diff.items()}, cells_run=ran, cells_resumed=len(cells) - ran, matrix=config.matrix,
         seed_manifest=config.seed_manifest, grid=config.grid or "inline", horizon=str(config.max_steps or "scenario"),
         hard_episodes=len(hard), global_episodes=len(glob), code_version=code_version(),
         artifacts={"summary": "campaign_summary.json", "report": "campaign_report.md", "cells": "cells/"},
@@ -224,6 +228,9 @@ def report(res: CampaignResult) -> str:
         b = res.best
         lines += [f"Best: **{b.variant}** with checkpoint `{b.checkpoint}` (config {b.planner.config_hash[:12]}): "
                   f"hard success {_pct(b.hard.success.rate)}, global success {_pct(b.global_.success.rate)}.", ""]
+        if res.best_vs_reference:
+            lines += ["Best vs reference cell, resolved config keys (best, reference): "
+                      + "; ".join(f"`{k}` {v[0]} vs {v[1]}" for k, v in res.best_vs_reference.items()), ""]
     lines += [f"Hard suite {res.hard_episodes} episodes ({res.seed_manifest}), global suite {res.global_episodes} "
               f"episodes ({res.matrix}), horizon {res.horizon}. Cells run {res.cells_run}, resumed {res.cells_resumed}.",
               "", "| rank | variant | checkpoint | hard success | global success | hard clearance [m] | "

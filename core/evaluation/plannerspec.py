@@ -161,3 +161,16 @@ def preflight(rp: ResolvedPlanner, scenarios: list[ResolvedScenario]) -> None:
         seen.add(cfg.dt)
         build_planner(rp).reset(EpisodeInfo(scenario=sc, seed=0, dt=cfg.dt, robot_radius=sc.scenario.robot_config.radius,
                                             ped_radius=cfg.ped_radius))
+
+
+def config_diff(a: dict[str, Any], b: dict[str, Any], prefix: str = "") -> dict[str, tuple[Any, Any]]:
+    """Key-by-key differences of two resolved configs: dotted key -> (a value, b value); None = key absent."""
+    out: dict[str, tuple[Any, Any]] = {}
+    for key in list(dict.fromkeys([*a, *b])):
+        va, vb = a.get(key), b.get(key)
+        path = f"{prefix}{key}"
+        if isinstance(va, dict) and isinstance(vb, dict):
+            out.update(config_diff(va, vb, path + "."))
+        elif va != vb:
+            out[path] = (va, vb)
+    return out

@@ -111,3 +111,11 @@ def test_unknown_baseline_and_bad_grid_fail_before_running(bundle: Path, tmp_pat
     with pytest.raises(ConfigError):
         run_campaign(_config(variants=None, grid="grid.yaml"), _ctx(bundle, tmp_path / "b"))
     assert not (tmp_path / "b" / "cells").exists()
+
+
+def test_config_diff_is_key_by_key() -> None:
+    from core.evaluation.plannerspec import config_diff
+
+    a = {"w": {"goal": 1.0, "ttc": 0.3}, "speed": 1.0, "only_a": 1}
+    b = {"w": {"goal": 1.0, "ttc": 0.5}, "speed": 1.0}
+    assert config_diff(a, b) == {"w.ttc": (0.3, 0.5), "only_a": (1, None)}
