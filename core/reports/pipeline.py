@@ -86,6 +86,29 @@ def best_from_campaign(result: Any) -> BestVariant | None:
                        global_clearance=(glob.get("mean_min_clearance") or {}).get("mean"))
 
 
+def headline(kind: str, result: Any) -> str:
+    """One line of a stage result's key numbers, for :attr:`StageEntry.headline` (empty for unknown kinds)."""
+    r = as_dict(result)
+    if kind == "evaluate":
+        return (f"success {pct(r.get('success_rate'))}, collision {pct(r.get('collision_rate'))} over "
+                f"{r.get('episodes', '?')} episodes; gate {verdict((r.get('gate') or {}).get('passed'))}")
+    if kind == "diagnose":
+        return f"solved {r.get('solved', '?')}/{r.get('episodes', '?')} hard seeds"
+    if kind == "campaign":
+        b = best_from_campaign(r)
+        return "no cells" if b is None else (
+            f"best {b.variant}: hard success {pct(b.hard_success)}, global {pct(b.global_success)}, "
+            f"clearance {fmt(b.hard_clearance)} / {fmt(b.global_clearance)} m")
+    if kind == "train":
+        best = r.get("best") or {}
+        ade, fde = r.get("val_ade", best.get("val_ade")), r.get("val_fde", best.get("val_fde"))
+        cv_ade = r.get("cv_val_ade", (r.get("cv_val") or {}).get("ade"))
+        cv_fde = r.get("cv_val_fde", (r.get("cv_val") or {}).get("fde"))
+        return (f"val ADE {fmt(ade, 3)} m (CV {fmt(cv_ade, 3)}), FDE {fmt(fde, 3)} m (CV {fmt(cv_fde, 3)}), "
+                f"epoch {r.get('best_epoch', best.get('epoch', '?'))}")
+    return ""
+
+
 def _stages(doc: Document, s: PipelineSummary) -> None:
     doc.section("Stages")
     doc.table(["stage", "status", "time [s]", "result", "report", "job"],

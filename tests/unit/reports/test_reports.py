@@ -210,3 +210,14 @@ def test_stage_dispatch(tmp_path: Path) -> None:
     assert write_stage_report("evaluate", data.evaluation(), tmp_path / "e")[-1] == tmp_path / "e" / "report.html"
     with pytest.raises(ConfigError):
         write_stage_report("collect", {}, tmp_path)
+
+
+def test_stage_headlines() -> None:
+    from core.reports.pipeline import headline
+
+    assert headline("evaluate", data.evaluation()) == "success 70.0%, collision 10.0% over 10 episodes; gate FAILED"
+    assert headline("campaign", data.campaign()).startswith("best careful: hard success 75.0%, global 85.0%")
+    assert headline("train", data.training()) == "val ADE 0.267 m (CV 0.410), FDE 0.533 m (CV 0.930), epoch 6"
+    assert headline("train", {"val_ade": 0.3, "val_fde": 0.6, "cv_val_ade": 0.4, "cv_val_fde": 0.9,
+                              "best_epoch": 3}).startswith("val ADE 0.300 m (CV 0.400)")
+    assert headline("diagnose", {"solved": 2, "episodes": 5}) == "solved 2/5 hard seeds" and headline("x", {}) == ""
