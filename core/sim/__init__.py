@@ -17,7 +17,9 @@ differences:
 - ``ped_speed_tier`` slow/typical/brisk draws desired speeds from N(0.65|1.3|1.6, 0.2) clipped to
   [0.1, 3.0] m/s (the reference clips at 0); scripted peds keep 1.3 x their scripted speed;
 - no pedestrian spawns (or respawns) within r_robot + r_ped + 0.5 m of the robot; the robot's
-  start keeps the same distance from scripted peds; a group whose spawn zone is blocked waits;
+  start keeps the same distance from scripted peds and, where its zone allows, does not touch a
+  wall (robot_sf starts some head-on corridor / T-intersection episodes in collision); a group
+  whose spawn zone is blocked waits;
 - the ped-ped force ignores neighbours beyond a cutoff chosen so that each ignored neighbour
   contributes < 0.01 m/s^2 (8.3 m at 0.65 m/s; the reference uses 20 m);
 - the robot is commanded by (v, omega) targets tracked within its acceleration limits

@@ -39,12 +39,13 @@ class RobotRoute:
 
 
 def sample_robot_route(
-    map_def: MapDef, rng: np.random.Generator, tolerance: float, zone_mode: str, valid: Validator
+    map_def: MapDef, rng: np.random.Generator, tolerance: float, zone_mode: str,
+    start_ok: Validator, goal_ok: Validator, start_fallback: Validator | None = None,
 ) -> RobotRoute:
     """Pick a spawn id uniformly, a route of that spawn uniformly, then start and goal points in its zones.
 
-    Maps without robot routes but with spawn and goal zones get straight routes between zone
-    centres (the importer may already have synthesised them).
+    ``start_ok``/``goal_ok`` accept candidate points; when no start passes ``start_ok`` within the
+    sampling budget, ``start_fallback`` (if given) is used instead of failing.
     """
     routes = list(map_def.robot_routes)
     if not routes:
@@ -53,8 +54,12 @@ def sample_robot_route(
     sid = spawn_ids[int(rng.integers(len(spawn_ids)))]
     candidates = [r for r in routes if r.spawn_id == sid]
     route = candidates[int(rng.integers(len(candidates)))]
-    start = sample_free(map_def.robot_spawn_zones[route.spawn_id], 1, rng, zone_mode, valid, what="robot spawn zone")[0]
-    goal = sample_free(map_def.robot_goal_zones[route.goal_id], 1, rng, zone_mode, valid, what="robot goal zone")[0]
+    zone = map_def.robot_spawn_zones[route.spawn_id]
+    start = sample_free(zone, 1, rng, zone_mode, start_ok, required=start_fallback is None, what="robot spawn zone")
+    if start is None:
+        start = sample_free(zone, 1, rng, zone_mode, start_fallback, what="robot spawn zone")
+    start = start[0]
+    goal = sample_free(map_def.robot_goal_zones[route.goal_id], 1, rng, zone_mode, goal_ok, what="robot goal zone")[0]
     waypoints = np.vstack([np.asarray(route.waypoints, dtype=float), goal[None]])
     if np.hypot(*(waypoints[0] - start)) <= tolerance:
         # spawn hand-off: first target = where the route leaves the tolerance circle around the start

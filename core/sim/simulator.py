@@ -78,9 +78,12 @@ class Simulator:
             spread_rng = episode_generators(scenario.name, cfg.route_spawn_seed, 4)[2]
         self.clear = self.limits.radius + cfg.ped_radius + self.crowd_params.robot_spawn_margin
         singles = np.array([sp.start for sp in map_def.single_pedestrians], dtype=float).reshape(-1, 2)
+        # the robot starts clear of scripted peds and, where the zone allows, not touching a wall
         self.route: RobotRoute = sample_robot_route(
             map_def, robot_rng, self.limits.radius + cfg.goal_radius, cfg.zone_sampling,
-            lambda pts: self._free(pts, singles),
+            start_ok=lambda pts: self._free(pts, singles) & (self.static.distance(pts) > self.limits.radius),
+            goal_ok=lambda pts: ~self.static.inside_obstacle(pts),
+            start_fallback=lambda pts: self._free(pts, singles),
         )
         self.route.waypoints.flags.writeable = False
         self.robot = np.array([*self.route.start, self.route.heading, 0.0, 0.0])

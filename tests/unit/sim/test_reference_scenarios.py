@@ -58,3 +58,13 @@ def test_reference_step_one_collisions_do_not_happen(matrix, name, seed):
     assert d.min() > 1.4 + 0.5 - 1e-9
     _, ev = sim.step((0.0, 0.0))
     assert ev.collision is None
+
+
+@pytest.mark.parametrize("name", ["classic_head_on_corridor_medium", "classic_t_intersection_low"])
+def test_robot_never_starts_touching_a_wall(matrix, name):
+    # robot_sf samples such starts (its spawn zones reach within 1 m of walls): step-1 static collisions
+    s = matrix.get(name)
+    sim = Simulator()
+    for seed in range(30):
+        obs = sim.reset(s, seed)
+        assert obs.static.distance(obs.robot_pose[None, :2])[0] > obs.robot_radius
