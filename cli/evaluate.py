@@ -60,6 +60,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     cp.add_argument("--scenarios", help="global suite: comma-separated scenario names (default: all)")
     cp.set_defaults(func=campaign_cmd)
 
+    cm = sub.add_parser("compare", help="evaluations side by side per family (is a baseline better anywhere?)")
+    cm.add_argument("runs", nargs="+", help="evaluation work folders (with episodes.jsonl), optionally LABEL=FOLDER")
+    cm.add_argument("--reference", help="label of the planner under test (default: the first run)")
+    cm.add_argument("--json", action="store_true")
+    cm.set_defaults(func=compare_cmd)
+
 
 # ------------------------------------------------------------------------------ resolution helpers
 
@@ -210,3 +216,19 @@ def campaign_cmd(args: argparse.Namespace) -> int:
     result = run_campaign(config, ctx)
     emit(result, args.json, lambda r: report(r) + f"\nartifacts in {ctx.workdir.resolve()}")
     return result.exit_code
+
+
+def compare_cmd(args: argparse.Namespace) -> int:
+    from core.evaluation.compare import compare, load_run, table
+
+    runs = {}
+    for item in args.runs:
+        label, _, folder = item.rpartition("=")
+        name, records = load_run(Path(folder))
+        label = label or name
+        if label in runs:
+            raise ConfigError(f"two runs are labelled {label!r}; name them LABEL=FOLDER", source="command line")
+        runs[label] = records
+    result = compare(runs, args.reference or next(iter(runs)))
+    emit(result, args.json, table)
+    return 0

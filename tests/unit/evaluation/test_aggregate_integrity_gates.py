@@ -102,3 +102,16 @@ def test_closed_loop_gate() -> None:
     tax = closed_loop_gate(("cand", summarise(worse, BOOT), summarise(good, BOOT)),
                            ("base", summarise(good, BOOT), summarise(good, BOOT)), strict)
     assert [c.name for c in tax.checks if not c.passed] == ["hard_new_failure_labels"]
+
+
+def test_compare_flags_families_where_a_baseline_is_better() -> None:
+    from core.evaluation.compare import compare
+
+    ours = [record("cross_low", 1), record("cross_low", 2, "timeout", speed=0.5), record("door_low", 1)]
+    orca = [record("cross_low", 1), record("cross_low", 2), record("door_low", 1, "timeout", speed=0.5)]
+    crash = [record("cross_low", 1), record("cross_low", 2, "collision_pedestrian", ped_y=0.0), record("door_low", 1)]
+    c = compare({"predictive": ours, "orca": orca, "goal": crash}, reference="predictive")
+    assert c.families_where_a_baseline_is_better == ["cross"]
+    assert c.families[0].better_than_reference == ["orca"]  # goal: same success, more collisions
+    with pytest.raises(ValueError):
+        compare({"predictive": ours, "orca": orca[:2]}, reference="predictive")
