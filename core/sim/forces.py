@@ -156,7 +156,7 @@ def group_gaze_force(
     # e |c'| (e . c'/|c'|) / d = g (g . c') / d^3: one square root instead of two normalisations
     active = (n >= 2) & (d2 > 1e-12)
     dot = g[:, 0] * rel[:, 0] + g[:, 1] * rel[:, 1]
-    k = np.where(active, dot / np.maximum(d2, 1e-300) ** 1.5, 0.0)
+    k = np.where(active, dot / np.maximum(d2, 1e-12) ** 1.5, 0.0)
     return p.group_gaze_factor * g * k[:, None]
 
 
@@ -168,5 +168,5 @@ def robot_force(pos: np.ndarray, robot_xy: np.ndarray, robot_radius: float, p: F
     active = (d2 <= cut * cut) & (d2 > 0)
     if not active.any():
         return np.zeros_like(pos)
-    k = np.where(active, p.robot_factor / np.maximum(d2, 1e-300) ** 2, 0.0)  # unit(r) / d^3 = r / d^4
+    k = np.where(active, p.robot_factor / np.maximum(d2, 1e-12) ** 2, 0.0)  # unit(r) / d^3 = r / d^4
     return r * k[:, None]
