@@ -76,6 +76,7 @@ class CampaignResult(BaseModel):
     code_version: str
     artifacts: dict[str, str]
     wall_s: float
+    config: dict  #: the stage config as given (with defaults)
 
 
 def load_variants(config: CampaignConfig, ctx: StageContext) -> list[GridVariant]:
@@ -207,7 +208,7 @@ def run_campaign(config: CampaignConfig, ctx: StageContext) -> CampaignResult:
         seed_manifest=config.seed_manifest, grid=config.grid or "inline", horizon=str(config.max_steps or "scenario"),
         hard_episodes=len(hard), global_episodes=len(glob), code_version=code_version(),
         artifacts={"summary": "campaign_summary.json", "report": "campaign_report.md", "cells": "cells/"},
-        wall_s=time.perf_counter() - t0,
+        wall_s=time.perf_counter() - t0, config=config.model_dump(mode="json"),
     )
     ctx.artifact("campaign_summary.json").write_text(result.model_dump_json(indent=2))
     ctx.artifact("campaign_report.md").write_text(report(result))

@@ -54,6 +54,7 @@ class DiagnosticsResult(BaseModel):
     code_version: str
     artifacts: dict[str, str]
     wall_s: float
+    config: dict  #: the stage config as given (with defaults)
 
 
 def jsonable(x: Any, digits: int = 4) -> Any:
@@ -165,6 +166,7 @@ def run_diagnostics(config: DiagnosticsConfig, ctx: StageContext) -> Diagnostics
         taxonomy=count_labels([s.label for s in seeds]), taxonomy_config=config.taxonomy, seeds=seeds,
         planner=planner_provenance(rp), code_version=code_version(),
         artifacts={"summary": "diagnostics.json", "report": "diagnostics_report.md"}, wall_s=time.perf_counter() - t0,
+        config=config.model_dump(mode="json"),
     )
     ctx.artifact("diagnostics.json").write_text(json.dumps(result.model_dump(mode="json"), indent=2))
     ctx.artifact("diagnostics_report.md").write_text(report(result))

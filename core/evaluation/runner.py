@@ -182,6 +182,7 @@ class EvaluationResult(BaseModel):
     gate: GateResult
     artifacts: dict[str, str]
     wall_s: float
+    config: dict[str, Any]  #: the stage config as given (with defaults), for re-running
 
 
 def seed_source(sel: EpisodeSelection) -> str:
@@ -235,4 +236,5 @@ def evaluation_result(config: EvaluationConfig, records: list[EpisodeRecord], pa
         aggregates=aggs, taxonomy=aggs.overall.taxonomy, taxonomy_config=config.taxonomy,
         metrics_config=config.metrics, integrity=integrity, gate=gate,
         artifacts={"summary": "evaluation.json", "episodes": "episodes.jsonl"}, wall_s=wall_s,
+        config=config.model_dump(mode="json"),
     )
