@@ -137,6 +137,7 @@ class Scene:
     robot_radius: float  #: true robot radius [m] (static clearance)
     route: RoutePotential
     phi0: float  #: route potential at the robot's position now [m]
+    assertiveness: float  #: 0..1 after a stall (already applied to ``contact``)
     static: StaticClearance
     start: np.ndarray  #: (3,) x, y, heading now
     prev_command: np.ndarray  #: (2,) last command (v, omega)
@@ -168,10 +169,7 @@ def pedestrian_terms(pos: np.ndarray, speed: np.ndarray, scene: Scene, cfg: Pred
     if fut.shape[0] == 0:
         z = np.zeros(B)
         return {"collision": z, "near_miss": z, "ttc": z, "hard_clearance": z, "min_clearance": np.full(B, np.inf)}
-    dx = pos[:, None, :, 0] - fut[None, :, :, 0]  # (B, N, K)
-    dy = pos[:, None, :, 1] - fut[None, :, :, 1]
-    clear = np.sqrt(dx * dx + dy * dy)
-    clear -= scene.contact
+    clear = _reactive_clearance(pos, fut, scene, s.yield_speed, s.yield_range)  # (B, N, K)
     margin = s.collision_margin + s.margin_growth * scene.times + s.speed_clearance_gain * speed  # (B, K)
     resp = s.passive_floor + (1.0 - s.passive_floor) * np.minimum(1.0, speed / s.passive_speed)  # (B, K)
     wk = resp * (s.discount ** np.arange(len(scene.times)))  # (B, K)
@@ -182,6 +180,34 @@ def pedestrian_terms(pos: np.ndarray, speed: np.ndarray, scene: Scene, cfg: Pred
     hard = (np.maximum(s.hard_clearance_distance - clear, 0.0) * resp[:, None, :]).max(axis=(1, 2))
     return {"collision": collision, "near_miss": near, "ttc": ttc, "hard_clearance": hard,
             "min_clearance": clear.min(axis=(1, 2))}
+
+
+def _reactive_clearance(pos: np.ndarray, fut: np.ndarray, scene: Scene, speed: float, reach: float) -> np.ndarray:
+    """Clearance (B, N, K) [m] between each rollout and each forecast pedestrian, who steps away from the robot.
+
+    Pedestrians are repelled by a robot closing in (the crowd model's robot force; people do the
+    same), which a forecast made without the robot's plan cannot know: within ``reach`` metres of
+    contact a pedestrian is displaced away from the rolled-out robot at up to ``speed`` m/s,
+    linearly more the closer it is. The displacement accumulates along the forecast steps, so a
+    robot that edges toward a pedestrian is predicted to make room, a fast one still collides.
+    """
+    B, K = pos.shape[0], pos.shape[1]
+    dx = pos[:, None, :, 0] - fut[None, :, :, 0]  # (B, N, K) robot minus pedestrian
+    dy = pos[:, None, :, 1] - fut[None, :, :, 1]
+    if speed <= 0 or reach <= 0:
+        return np.sqrt(dx * dx + dy * dy) - scene.contact
+    steps = np.diff(np.concatenate([[0.0], scene.times]))  # (K,)
+    ox = np.zeros((B, fut.shape[0]))  # accumulated pedestrian displacement
+    oy = np.zeros_like(ox)
+    clear = np.empty(dx.shape)
+    for k in range(K):
+        ex, ey = dx[..., k] - ox, dy[..., k] - oy
+        d = np.sqrt(ex * ex + ey * ey)
+        clear[..., k] = d - scene.contact
+        push = speed * steps[k] * np.clip(1.0 - clear[..., k] / reach, 0.0, 1.0) / np.maximum(d, 1e-6)
+        ox -= push * ex
+        oy -= push * ey
+    return clear
 
 
 def influence_range(cfg: PredictivePlannerConfig, horizon_s: float, max_speed: float) -> float:

@@ -45,6 +45,7 @@ class PredictivePlanner:
             raise ConfigError(f"the predictive planner drives a differential-drive robot, not {robot.type!r}",
                               item="robot_config.type")
         self.forecaster.reset()
+        self._best_phi, self._best_time = np.inf, 0.0
         self._limits = RobotLimits.from_config(robot)
         self._cands: dict[bool | None, np.ndarray] = {}
         self._prev = np.zeros(2)
@@ -70,6 +71,7 @@ class PredictivePlanner:
             "cost": float(best_total),
             "terms": {k: float(val) for k, val in best_terms.items()},
             "near_field": near,
+            "assertiveness": scene.assertiveness,
             "candidates_evaluated": n_eval,
             "forecast_source": fc.source,
             "forecast_extended_steps": extra,
@@ -93,7 +95,11 @@ class PredictivePlanner:
     def _scene(self, obs: Observation, positions: np.ndarray, times: np.ndarray) -> tuple[C.Scene, bool, int]:
         cfg, limits = self.config, self._limits
         p0 = obs.robot_pose[:2]
-        contact = obs.robot_radius + obs.ped_radius + cfg.safety.extra_robot_margin + cfg.safety.extra_ped_margin
+        route = C.RoutePotential(obs.route, switch_radius=obs.goal_tolerance, goal_tolerance=obs.goal_tolerance)
+        phi0 = route.start(p0)
+        assertive = self._assertiveness(phi0, obs.time)
+        contact = (obs.robot_radius + obs.ped_radius + cfg.safety.extra_robot_margin + cfg.safety.extra_ped_margin
+                   - assertive * cfg.safety.yield_distance)
         times = np.asarray(times, dtype=float)
         fut = np.asarray(positions, dtype=float).reshape(-1, len(times), 2)
         dist = np.sqrt(((fut - p0) ** 2).sum(axis=-1))  # (N, K) to the robot's current position
@@ -107,13 +113,24 @@ class PredictivePlanner:
                 dist = np.sqrt(((fut - p0) ** 2).sum(axis=-1))
             gap = dist - contact - _reach(float(obs.robot_velocity[0]), limits, times)
             fut = fut[gap.min(axis=1) <= C.influence_range(cfg, float(times[-1]), limits.v_max)]
-        route = C.RoutePotential(obs.route, switch_radius=obs.goal_tolerance, goal_tolerance=obs.goal_tolerance)
         scene = C.Scene(
             ped_future=fut, times=times, contact=contact, robot_radius=obs.robot_radius, route=route,
-            phi0=route.start(p0), static=self._static_field(obs), start=np.asarray(obs.robot_pose, dtype=float),
+            phi0=phi0, assertiveness=assertive, static=self._static_field(obs), start=np.asarray(obs.robot_pose, dtype=float),
             prev_command=self._prev, max_speed=limits.v_max, max_turn_rate=limits.w_max,
         )
         return scene, near, extra
+
+    def _assertiveness(self, phi0: float, now: float) -> float:
+        """0..1, growing once the robot made no route progress for ``stall_after_s``.
+
+        A robot that waits for pedestrians who wait for it (doorways, corridors) stalls forever;
+        pedestrians yield to a robot that edges forward (they are repelled by it), so after a stall
+        the pedestrian terms assume contact ``yield_distance`` closer, ramping up over ``stall_ramp_s``.
+        """
+        s = self.config.safety
+        if phi0 < self._best_phi - s.stall_progress or not np.isfinite(self._best_phi):
+            self._best_phi, self._best_time = phi0, now
+        return float(np.clip((now - self._best_time - s.stall_after_s) / s.stall_ramp_s, 0.0, 1.0))
 
     def _candidates(self, near: bool | None) -> np.ndarray:
         """First-segment commands (near field or not), or the later-segment set for ``None``; cached per episode."""
