@@ -24,10 +24,18 @@ class GoalSeekingConfig:
     slow_angle: float = np.pi / 2  #: heading error at which the commanded speed reaches zero [rad]
     noise_v: float = 0.0  #: std of additive speed noise [m/s]
     noise_w: float = 0.0  #: std of additive turn-rate noise [rad/s]
+    corner_reach: float = 0.6  #: keep steering to a passed waypoint until this close [m]; 0 = off
 
 
 class GoalSeeking:
-    """Proportional heading control towards ``obs.waypoint``; slows down linearly with the heading error."""
+    """Proportional heading control towards the route waypoint; slows down linearly with the heading error.
+
+    The simulator advances ``obs.waypoint`` as soon as the robot is within 2 m of it, so steering
+    straight at the new one cuts every corner by up to 2 m, which puts the 1 m robot into the wall
+    of a turning corridor. With ``corner_reach`` > 0 the controller keeps heading for the waypoint
+    just passed until within that distance (on the 23 reference scenarios x 3 seeds: static
+    collisions 31 -> 0 of 69, successes 20 -> 47).
+    """
 
     name = "goal"
 
@@ -36,16 +44,29 @@ class GoalSeeking:
         self.config = GoalSeekingConfig(**{**base.__dict__, **overrides})
         self._rng = np.random.default_rng(0)
         self._last: dict[str, Any] | None = None
+        self._target: np.ndarray | None = None
 
     def reset(self, info: EpisodeInfo) -> None:
         # own stream, independent of the simulator's generators for the same seed
         self._rng = np.random.default_rng([int(info.seed), 0x60A1])
         self._last = None
+        self._target = None
+
+    def _steer_point(self, obs: Observation) -> np.ndarray:
+        """The waypoint to head for: the one just passed until within ``corner_reach``, else the current one."""
+        wp = np.asarray(obs.waypoint, dtype=float)
+        held = self._target
+        holding = self.config.corner_reach > 0 and held is not None and not np.array_equal(held, wp)
+        if holding and np.hypot(*(obs.robot_pose[:2] - held)) > self.config.corner_reach:
+            return held
+        self._target = wp.copy()
+        return wp
 
     def plan(self, obs: Observation) -> tuple[float, float]:
         c = self.config
         x, y, th = obs.robot_pose
-        dx, dy = obs.waypoint[0] - x, obs.waypoint[1] - y
+        target = self._steer_point(obs)
+        dx, dy = target[0] - x, target[1] - y
         if obs.robot_limits.get("holonomic", 0.0):
             return self._holonomic(dx, dy)
         err = (np.arctan2(dy, dx) - th + np.pi) % (2 * np.pi) - np.pi
