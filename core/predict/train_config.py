@@ -8,6 +8,7 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from core.errors import ConfigError
+from core.predict.proxy import ProxySpec
 
 
 class _Strict(BaseModel):
@@ -34,6 +35,7 @@ class TrainConfig(_Strict):
     threads: int = Field(default=1, ge=1, le=64)  #: torch intra-op threads (1: small matmuls gain little from more, and shared cores thrash)
     val_split: str = "val"  #: which recorded split validates (val; test only for held-out checks)
     proxy_every: int = Field(default=0, ge=0)  #: epochs between proxy evaluations (0 = off)
+    proxy: ProxySpec | None = None  #: closed-loop proxy episodes (training hard seeds) when proxy_every > 0
     resume: bool = True  #: continue from checkpoints/last.pt in the work dir when present
     allow_degenerate: bool = False  #: skip the fail-fast dataset checks (recorded in the summary)
     gates: GateConfig = GateConfig()

@@ -94,6 +94,10 @@ def run_train(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | Non
     """Train on ``config.dataset``; resume from ``checkpoints/last.pt`` in the work dir when present."""
     started = time.time()
     torch.set_num_threads(config.threads)
+    if proxy is None and config.proxy is not None and config.proxy_every > 0:
+        from core.predict.proxy import evaluation_proxy
+
+        proxy = evaluation_proxy(config.proxy, ctx)
     ds_path = resolve_dataset_path(config.dataset, ctx)
     ds = load_dataset(ds_path)
     stats = summarize(ds) if config.allow_degenerate else check_quality(ds, str(ds_path))

@@ -78,3 +78,15 @@ def test_bad_config_file_names_field(tmp_path):
     (tmp_path / "t.yaml").write_text("train:\n  dataset: x.npz\n  epochs: -1\n")
     with pytest.raises(ConfigError, match=r"t.yaml.*epochs"):
         load_config(tmp_path / "t.yaml", TrainConfig, key="train")
+
+
+def test_proxy_wired_to_the_evaluation_engine(tmp_path, curving_dataset):
+    from core.stages.refs import BUILTIN_CONFIG_ROOT
+
+    cfg = TrainConfig(dataset=str(curving_dataset), proxy_every=1,
+                      proxy={"scenarios": ["crossing_low"], "seeds_per_scenario": 1, "max_steps": 20},
+                      **{**FAST, "epochs": 1})
+    res = run_train(cfg, StageContext(workdir=tmp_path, resolve_bundle=lambda ident: BUILTIN_CONFIG_ROOT))
+    summary = json.loads((tmp_path / "training_summary.json").read_text())
+    proxy = summary["selection"]["proxy_history"][0]
+    assert res.selection_mode == "proxy" and proxy["episodes"] == 1.0 and 0.0 <= proxy["success"] <= 1.0

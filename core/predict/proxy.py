@@ -1,0 +1,52 @@
+"""Closed-loop proxy for checkpoint selection: the predictive planner with a candidate checkpoint on a
+TRAINING hard-seed set (never the evaluation manifest), run through the evaluation engine.
+
+``evaluation_proxy(spec, ctx)`` returns the callback ``run_train`` takes: checkpoint path ->
+{success, clearance} (success rate, mean minimum clearance [m]).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from core.stages.context import StageContext
+from core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident
+
+
+class ProxySpec(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    bundle: Ident = BUILTIN_BUNDLE
+    matrix: BundlePath = "scenarios/classic_interactions.yaml"
+    seed_manifest: BundlePath | None = None  #: TRAINING hard seeds (>= 30 episodes so rates separate checkpoints)
+    scenarios: list[str] | None = None  #: with seeds_per_scenario when there is no manifest
+    seeds_per_scenario: int | None = Field(default=None, ge=1)
+    max_steps: int | None = Field(default=None, ge=1)
+    planner_config: dict[str, Any] = Field(default_factory=dict)  #: predictive planner config (defaults fill the rest)
+
+
+CANDIDATE = "proxy-candidate"
+
+
+def evaluation_proxy(spec: ProxySpec, ctx: StageContext):
+    """A callback running one evaluation per candidate checkpoint under ``proxy_eval/<name>/``."""
+    from core.evaluation.config import EvaluationConfig
+    from core.evaluation.runner import run_evaluation
+
+    def proxy(path: Path) -> dict[str, float]:
+        sub = StageContext(workdir=ctx.artifact(f"proxy_eval/{Path(path).stem}/result.json").parent,
+                           resolve_bundle=ctx.resolve_bundle, resolve_model=lambda ident: Path(path),
+                           is_cancelled=ctx.is_cancelled, log=ctx.log, workers=ctx.workers)
+        config = EvaluationConfig(
+            bundle=spec.bundle, matrix=spec.matrix, seed_manifest=spec.seed_manifest, scenarios=spec.scenarios,
+            seeds_per_scenario=spec.seeds_per_scenario, max_steps=spec.max_steps,
+            planner={"name": "predictive", "config": spec.planner_config, "model": CANDIDATE})
+        overall = run_evaluation(config, sub).aggregates.overall
+        clearance = overall.means["min_clearance"].mean
+        return {"success": float(overall.rates["success"].rate or 0.0),
+                "clearance": float(clearance) if clearance is not None else float("-inf"),
+                "episodes": float(overall.episodes)}
+
+    return proxy

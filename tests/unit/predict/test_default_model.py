@@ -1,0 +1,43 @@
+"""The shipped default predictor (model/registry.yaml) loads on the planner time base and beats
+constant velocity on held-out simulator episodes (seeds outside its training range)."""
+
+from pathlib import Path
+
+import pytest
+import yaml
+
+from core.predict.collect import CollectConfig, run_collect
+from core.predict.dataset import load_dataset
+from core.predict.metrics import evaluate_predictor
+from core.predict.nn.checkpoint import load_predictor
+from core.predict.predictor import ConstantVelocityPredictor
+from core.predict.timebase import PLANNER_TIMEBASE
+from core.stages.context import StageContext
+from core.stages.refs import BUILTIN_CONFIG_ROOT
+
+REPO = Path(__file__).resolve().parents[3]
+HELD_OUT_SEED = 7_000_000  #: far from the training base seeds (1000 + i * 100000 + k)
+
+
+def _default_entry() -> dict | None:
+    path = REPO / "model" / "registry.yaml"
+    if not path.is_file():
+        return None
+    models = (yaml.safe_load(path.read_text()) or {}).get("models", [])
+    return next((m for m in models if "default" in m.get("tags", []) and "predictor" in m.get("tags", [])), None)
+
+
+def test_default_model_beats_cv_on_held_out_episodes(tmp_path):
+    entry = _default_entry()
+    if entry is None:
+        pytest.skip("no default predictor listed in model/registry.yaml yet")
+    predictor = load_predictor(REPO / entry["path"], expect_timebase=PLANNER_TIMEBASE)
+    cfg = CollectConfig(scenarios=["crossing_medium", "head_on_corridor_medium", "bottleneck_high",
+                                   "station_platform_medium", "merging_medium", "urban_crossing_high"],
+                        seeds_per_scenario=1, base_seed=HELD_OUT_SEED, max_steps=200, val_fraction=0.0,
+                        check_quality=False)
+    res = run_collect(cfg, StageContext(workdir=tmp_path, resolve_bundle=lambda ident: BUILTIN_CONFIG_ROOT))
+    ds = load_dataset(tmp_path / res.dataset)
+    learned = evaluate_predictor(predictor, ds)
+    cv = evaluate_predictor(ConstantVelocityPredictor(PLANNER_TIMEBASE), ds)
+    assert learned["ade"] < cv["ade"] and learned["fde"] < cv["fde"]
