@@ -55,7 +55,7 @@ class CrowdDynamics:
         self.reach = crowd.vmax * dt + 2 * crowd_params.wall_clearance  #: (N,) [m]
 
     def pairs(self) -> tuple[np.ndarray | None, np.ndarray | None]:
-        """Candidate neighbour pairs for the ped-ped force: None = all pairs (dense), else a cell list."""
+        """Neighbour pairs for the ped-ped force: None = all pairs (dense, masked by the cutoff), else the cell list's."""
         return (None, None) if self.dense else cell_pairs(self.c.pos, self.cutoff)
 
     def total_force(
@@ -68,7 +68,7 @@ class CrowdDynamics:
         c, p = self.c, self.p
         f = forces.desired_force(c.pos, c.vel, c.goal, c.vmax, p)
         i, j = self.pairs()
-        f += forces.social_force(c.pos, c.vel, i, j, p, self.cutoff)
+        f += forces.social_force(c.pos, c.vel, i, j, p, self.cutoff if i is None else None)
         clearance = None
         if self.obstacle_forces:
             fo, clearance = forces.obstacle_force(c.pos, self.walls, p)

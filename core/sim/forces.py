@@ -80,9 +80,10 @@ def _moussaid(r: np.ndarray, dv: np.ndarray, p: ForceParams, cutoff: float | Non
 
 
 def social_force(
-    pos: np.ndarray, vel: np.ndarray, i: np.ndarray | None, j: np.ndarray | None, p: ForceParams, cutoff: float
+    pos: np.ndarray, vel: np.ndarray, i: np.ndarray | None, j: np.ndarray | None, p: ForceParams,
+    cutoff: float | None,
 ) -> np.ndarray:
-    """Moussaid ped-ped force: factor * sum over neighbours j with centre distance <= cutoff.
+    """Moussaid ped-ped force: factor * sum over neighbours j with centre distance <= cutoff (None: all given).
 
     ``i, j`` are ordered candidate pairs (i != j); None means all pairs, computed on the dense
     (N, N) grid without index gathers (faster for small crowds). Reproduces the reference kernel

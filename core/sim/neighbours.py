@@ -2,8 +2,8 @@
 
 The cell list hashes positions into square cells of side ``cutoff``, sorts once, and finds for
 each pedestrian the contiguous runs of the three cell columns around it with ``searchsorted``:
-no Python loop over pedestrians, O(N log N + pairs). Pairs it returns may be farther than the
-cutoff (the kernels mask by distance), but it never misses a pair within it.
+no Python loop over pedestrians, O(N log N + pairs). It returns exactly the pairs within the
+cutoff, so the force kernel runs on neighbours only.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ def all_pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def cell_pairs(pos: np.ndarray, cutoff: float) -> tuple[np.ndarray, np.ndarray]:
-    """Ordered candidate pairs (i, j), i != j, covering every pair with centre distance <= cutoff."""
+    """All ordered pairs (i, j), i != j, with centre distance <= cutoff [m], as two int arrays."""
     n = len(pos)
     if n < 2:
         return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
@@ -48,5 +48,6 @@ def cell_pairs(pos: np.ndarray, cutoff: float) -> tuple[np.ndarray, np.ndarray]:
         seconds.append(order[starts + np.arange(total)])
     i = np.concatenate(firsts)
     j = np.concatenate(seconds)
-    keep = i != j
+    d = pos[i] - pos[j]
+    keep = (d[:, 0] ** 2 + d[:, 1] ** 2 <= cutoff * cutoff) & (i != j)  # ~35% of the 3 x 3 cell candidates
     return i[keep], j[keep]
