@@ -144,7 +144,7 @@ def _members(data: bytes) -> list[tuple[str, bytes]]:
                 out.append((info.filename, archive.read(info)))
     else:
         try:
-            archive = tarfile.open(fileobj=io.BytesIO(data), mode="r:*")
+            archive = tarfile.open(fileobj=io.BytesIO(data), mode="r:*")  # noqa: SIM115 (closed below)
         except tarfile.TarError:
             raise ConfigError("not a zip or tar archive", source="upload") from None
         with archive:

@@ -179,6 +179,8 @@ class JobWorker:
             queue.fail_or_retry(*args, type(exc).__name__, str(exc), retry=decide_retry(exc))
             return
         artifacts = store.scan(self.settings.store_root, workdir_rel)
+        if not artifacts:
+            _remove_empty(store.resolve_under(self.settings.store_root, workdir_rel))
         queue.finish(*args, result, artifacts)
 
     def _context(self, held: Held, workdir: Path) -> StageContext:
@@ -201,3 +203,12 @@ class JobWorker:
             resolve_model=self.resolver.model,
             resolve_bundle=self.resolver.bundle,
         )
+
+
+def _remove_empty(folder: Path) -> None:
+    """Remove a job folder that holds no files (empty sub-folders included)."""
+    for sub in sorted((p for p in folder.rglob("*") if p.is_dir()), reverse=True):
+        if not any(sub.iterdir()):
+            sub.rmdir()
+    if folder.is_dir() and not any(folder.iterdir()):
+        folder.rmdir()

@@ -37,7 +37,7 @@ class Base(DeclarativeBase):
     type_annotation_map = {dict[str, Any]: JSON, list[Any]: JSON}
 
 
-class JobStatus(str, enum.Enum):
+class JobStatus(enum.StrEnum):
     queued = "queued"
     running = "running"
     succeeded = "succeeded"
@@ -151,7 +151,7 @@ class Dataset(Base):
     created_at: Mapped[float] = mapped_column(Float)
 
 
-class ModelStatus(str, enum.Enum):
+class ModelStatus(enum.StrEnum):
     candidate = "candidate"
     promoted = "promoted"
     default = "default"

@@ -2,7 +2,7 @@
 episodes, failure taxonomies, campaigns and their cells, gate results.
 
 Revision ID: 34a956e6a963
-Revises: 
+Revises:
 Create Date: 2026-11-22 12:00:54.806821
 """
 

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import time
 
+import pytest
+
 from api.db import queue
 
 
@@ -72,10 +74,8 @@ def test_lost_lease_is_abandoned_and_the_job_finished_once(engine, start_worker)
     start_worker()
     job = _wait(engine, job_id, {"succeeded"})
     assert job["attempts"] == 2
-    try:
+    with pytest.raises(queue.LeaseLost):
         queue.finish(engine, job_id, "stalled-worker", stale["attempts"], {"dup": True})
-    except queue.LeaseLost:
-        pass
     assert queue.get_job(engine, job_id)["result"] == {"slept_s": 0.1}
 
 
