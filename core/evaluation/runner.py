@@ -117,6 +117,12 @@ def _run_job(job: Job) -> tuple[int, EpisodeRecord]:
     return job.index, run.record
 
 
+def expected_cost(matrix: ScenarioMatrix, name: str, max_steps: int | None) -> float:
+    """Rough episode cost for scheduling: horizon x (1 + crowd density in peds per 100 m^2)."""
+    cfg = matrix.get(name).scenario.simulation_config
+    return (max_steps or cfg.max_episode_steps) * (1.0 + 100.0 * cfg.ped_density)
+
+
 def run_jobs(
     jobs: list[Job], settings: EpisodeSettings, ctx: StageContext, *, matrix: ScenarioMatrix | None = None,
     start_method: str = "spawn", on_record: Callable[[int, int, EpisodeRecord], None] | None = None,
@@ -132,8 +138,9 @@ def run_jobs(
                 on_record(done, len(jobs), rec)
             ctx.check_cancelled()
 
-    by_index = {job.index: pos for pos, job in enumerate(jobs)}
-    local = [Job(by_index[j.index], j.scenario, j.seed, j.planner) for j in jobs]
+    local = [Job(pos, j.scenario, j.seed, j.planner) for pos, j in enumerate(jobs)]
+    if matrix is not None and workers > 1:  # longest first: less idle tail; output order is by index anyway
+        local.sort(key=lambda j: -expected_cost(matrix, j.scenario, settings.max_steps))
     if workers == 1:
         _init_worker(settings, matrix)
         collect(_run_job(j) for j in local)
