@@ -1,6 +1,32 @@
 """Evaluation engine: metrics, failure taxonomy, aggregates, the parallel runner, diagnostics, campaigns, gates.
 
-Stage entry points (each ``run_<stage>(config, ctx) -> result``):
-``runner.run_evaluation``, ``diagnostics.run_diagnostics``, ``campaign.run_campaign``.
+Stage entry points (each ``run_<stage>(config, ctx) -> result``, exported lazily so that importing a
+small module such as ``core.evaluation.stats`` does not load the simulator):
+``run_evaluation(EvaluationConfig)``, ``run_diagnostics(DiagnosticsConfig)``, ``run_campaign(CampaignConfig)``.
 Definitions follow the shared metrics-and-taxonomy.md.
 """
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_EXPORTS = {
+    "EvaluationConfig": "core.evaluation.config",
+    "DiagnosticsConfig": "core.evaluation.config",
+    "CampaignConfig": "core.evaluation.config",
+    "run_evaluation": "core.evaluation.runner",
+    "EvaluationResult": "core.evaluation.runner",
+    "run_diagnostics": "core.evaluation.diagnostics",
+    "DiagnosticsResult": "core.evaluation.diagnostics",
+    "run_campaign": "core.evaluation.campaign",
+    "CampaignResult": "core.evaluation.campaign",
+}
+
+__all__ = list(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    if name in _EXPORTS:
+        return getattr(importlib.import_module(_EXPORTS[name]), name)
+    raise AttributeError(f"module 'core.evaluation' has no attribute {name!r}")

@@ -94,8 +94,8 @@ def _predictive_config(spec: PlannerSpec) -> dict[str, Any]:
 
 
 @cache
-def load_model(path: str) -> Any:
-    """Load a checkpoint into a predictor once per process (imports torch only here)."""
+def load_model(path: str, sha256: str) -> Any:
+    """Load a checkpoint into a predictor once per process and file content (imports torch only here)."""
     from core.predict.nn.checkpoint import load_predictor
 
     try:
@@ -114,7 +114,7 @@ def build_planner(rp: ResolvedPlanner) -> Planner:
         return GoalSeeking(**rp.config)
     model = None
     if rp.name == "predictive":
-        model = load_model(rp.model_path) if rp.model_path else CV
+        model = load_model(rp.model_path, rp.checkpoint_sha256) if rp.model_path else CV
     return make_planner(rp.name, rp.config, model=model)
 
 
@@ -128,8 +128,11 @@ def _model(spec: PlannerSpec, ctx: StageContext) -> tuple[str, str, str | None]:
         return CV, CV, None
     ident = spec.model or DEFAULT_MODEL
     path = Path(ctx.resolve_model(ident))
-    load_model(str(path))  # ConfigError / NotFoundError here stops the run before any episode
-    return ident, sha256_file(path), str(path)
+    if not path.is_file():
+        raise ConfigError("checkpoint file not found", source=path, item=ident)
+    sha = sha256_file(path)
+    load_model(str(path), sha)  # ConfigError / NotFoundError here stops the run before any episode
+    return ident, sha, str(path)
 
 
 def resolve_planner(spec: PlannerSpec, ctx: StageContext) -> ResolvedPlanner:
