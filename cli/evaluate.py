@@ -91,8 +91,15 @@ def bundle_of(*files: str | None) -> tuple[str, list[str], dict[str, Path]]:
     return bundle, [p.relative_to(root).as_posix() if p else None for p in paths], roots
 
 
+MODEL_REGISTRY = BUILTIN_CONFIG_ROOT.parent / "model" / "registry.yaml"
+
+
 class ModelArgs:
-    """Maps --model/--checkpoints values to model ids; checkpoint paths become ``file:<name>`` ids."""
+    """Maps --model/--checkpoints values to model ids for in-process runs.
+
+    A checkpoint path becomes id ``file:<name>``; other ids are looked up in model/registry.yaml
+    (checksum verified); no --model for the predictive planner means the registry's default predictor.
+    """
 
     def __init__(self) -> None:
         self.files: dict[str, Path] = {}
@@ -107,13 +114,40 @@ class ModelArgs:
             return ident
         return value
 
+    @staticmethod
+    def registry() -> list[dict[str, Any]]:
+        from core.scenarios.loader import read_yaml
+
+        if not MODEL_REGISTRY.is_file():
+            return []
+        data = read_yaml(MODEL_REGISTRY) or {}
+        return [m for m in data.get("models", []) if isinstance(m, dict)] if isinstance(data, dict) else []
+
+    def default(self) -> str:
+        entry = next((m for m in self.registry() if {"default", "predictor"} <= set(m.get("tags", []))), None)
+        if entry is None:
+            raise ConfigError("no default predictor in model/registry.yaml: pass --model ID|PATH|cv",
+                              source="command line", item="model")
+        return str(entry["id"])
+
     def resolve(self, ident: str) -> Path:
+        from core.evaluation.plannerspec import sha256_file
+
         if ident in self.files:
             return self.files[ident]
-        raise NotFoundError(f"unknown model id {ident!r}: in-process runs take a checkpoint path or cv")
+        entry = next((m for m in self.registry() if m.get("id") == ident), None)
+        if entry is None:
+            raise NotFoundError(f"unknown model id {ident!r} (not in model/registry.yaml; or pass a checkpoint path)")
+        path = (MODEL_REGISTRY.parent.parent / str(entry["path"])).resolve()
+        if not path.is_file():
+            raise NotFoundError(f"model {ident!r}: checkpoint {entry['path']} is missing")
+        if entry.get("sha256") and sha256_file(path) != entry["sha256"]:
+            raise ConfigError(f"checkpoint {entry['path']} does not match its sha256", source=MODEL_REGISTRY,
+                              item=ident)
+        return path
 
 
-def planner_spec(value: str, model: str | None) -> dict[str, Any]:
+def planner_spec(value: str, model: str | None, models: ModelArgs) -> dict[str, Any]:
     if value in PLANNERS:
         spec: dict[str, Any] = {"name": value}
     else:
@@ -124,7 +158,9 @@ def planner_spec(value: str, model: str | None) -> dict[str, Any]:
             raise ConfigError("a planner file must be a mapping", source=value)
         spec = dict(data) if "name" in data else {"name": "predictive", "config": data}
     if model is not None:
-        spec["model"] = model
+        spec["model"] = models.ident(model)
+    elif spec.get("name", "predictive") == "predictive" and "model" not in spec:
+        spec["model"] = models.default()
     return spec
 
 
@@ -152,7 +188,7 @@ def evaluate_cmd(args: argparse.Namespace) -> int:
     values: dict[str, Any] = {
         "bundle": bundle, "matrix": matrix, "seed_manifest": seeds, "scenarios": _names(args.scenarios),
         "seeds_per_scenario": args.seeds_per_scenario, "max_steps": args.max_steps,
-        "planner": planner_spec(args.planner, models.ident(args.model)),
+        "planner": planner_spec(args.planner, args.model, models),
     }
     if args.min_success is not None:
         values["gate"] = {"min_success_rate": args.min_success}
@@ -190,7 +226,7 @@ def diagnose_cmd(args: argparse.Namespace) -> int:
     models = ModelArgs()
     config = build_config(DiagnosticsConfig, {
         "bundle": bundle, "matrix": matrix, "seed_manifest": seeds, "max_steps": args.max_steps,
-        "planner": planner_spec(args.planner, models.ident(args.model)), "render": not args.no_render,
+        "planner": planner_spec(args.planner, args.model, models), "render": not args.no_render,
     })
     ctx = _context(args, roots, models)
     result = run_diagnostics(config, ctx)
