@@ -5,7 +5,7 @@ from __future__ import annotations
 from fastapi import FastAPI
 from fastapi.routing import APIRoute
 
-from api import errors
+from api import errors, web
 from api.db.session import check_migrated, make_engine, session_factory
 from api.registry import Resolver, load_shipped_models, sync_bundles
 from api.routes import bundles, jobs, models, ops, results
@@ -43,4 +43,5 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(ops.router)
     for module in (jobs, models, bundles, results):
         app.include_router(module.router, prefix="/v1")
+    web.install(app)  # the dashboard: /ui pages over the same store
     return app

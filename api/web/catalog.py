@@ -1,0 +1,118 @@
+"""Dashboard pages of the records: model registry, results (evaluations, campaigns, other reports), bundles."""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Depends, Query, Request
+from fastapi.responses import FileResponse, HTMLResponse
+from sqlalchemy import select
+
+from api import store
+from api.db import queue
+from api.db.models import Bundle, Campaign, Evaluation, Model
+from api.web import files, previews
+from api.web.auth import PageNotFound, read_access
+from api.web.render import page
+
+router = APIRouter(prefix="/ui", include_in_schema=False, dependencies=[Depends(read_access)])
+RESULT_KINDS = {"evaluate": "Evaluations", "campaign": "Campaigns", "diagnose": "Diagnostics",
+                "pipeline": "Pipelines", "train": "Training"}  # fmt: skip
+HEADLINE = ("status", "success_rate", "collision_rate", "episodes", "best", "exit_code")
+RESULT_LIMIT = 200
+
+
+@router.get("/models")
+def models_page(request: Request) -> HTMLResponse:
+    """The registry: status, lineage, metrics, provenance; promote buttons for run-time entries."""
+    with request.app.state.sessions() as session:
+        rows = list(session.scalars(select(Model).order_by(Model.created_at, Model.id)))
+    return page(request, "models.html", title="Models", nav="models", models=rows)
+
+
+def _headline(result: dict[str, Any] | None) -> dict[str, Any]:
+    result = result or {}
+    out = {k: result[k] for k in HEADLINE if k in result and not isinstance(result[k], dict | list)}
+    if isinstance(result.get("best"), dict):
+        out["best"] = result["best"].get("name") or result["best"].get("variant") or "yes"
+    return out
+
+
+@router.get("/results")
+def results_page(request: Request) -> HTMLResponse:
+    """Finished stage jobs by kind, with their headline numbers, records and report pages."""
+    jobs = queue.jobs
+    with request.app.state.engine.connect() as conn:
+        rows = conn.execute(
+            select(jobs.c.id, jobs.c.kind, jobs.c.status, jobs.c.result, jobs.c.finished_at, jobs.c.created_at)
+            .where(jobs.c.kind.in_(list(RESULT_KINDS)), jobs.c.status.in_([queue.SUCCEEDED, queue.FAILED]))
+            .order_by(jobs.c.created_at.desc()).limit(RESULT_LIMIT)
+        ).mappings().all()  # fmt: skip
+    with request.app.state.sessions() as session:
+        records: dict[str, list[str]] = defaultdict(list)
+        for table in (Evaluation, Campaign):
+            for ident, job_id in session.execute(select(table.id, table.job_id)):
+                records[job_id].append(ident)
+    sections: dict[str, list[dict[str, Any]]] = {title: [] for title in RESULT_KINDS.values()}
+    for row in rows:
+        sections[RESULT_KINDS[row["kind"]]].append(dict(
+            row, headline=_headline(row["result"]), records=records.get(row["id"], []),
+            report=files.report_of(request, row["id"]),
+        ))  # fmt: skip
+    return page(request, "results.html", title="Results", nav="results", sections=sections)
+
+
+def _bundle(request: Request, bundle_id: str) -> Bundle:
+    with request.app.state.sessions() as session:
+        row = session.get(Bundle, bundle_id)
+    if row is None:
+        raise PageNotFound(f"no bundle with id {bundle_id}")
+    return row
+
+
+@router.get("/bundles")
+def bundles_page(request: Request) -> HTMLResponse:
+    with request.app.state.sessions() as session:
+        rows = list(session.scalars(select(Bundle).order_by(Bundle.id)))
+    return page(request, "bundles.html", title="Bundles", nav="bundles", bundles=rows)
+
+
+@router.get("/bundles/{bundle_id}")
+def bundle_page(request: Request, bundle_id: str) -> HTMLResponse:
+    """A bundle's files and scenario matrices."""
+    return page(request, "bundle.html", title=f"Bundle {bundle_id}", nav="bundles", bundle=_bundle(request, bundle_id))
+
+
+def _matrix(request: Request, bundle_id: str, matrix: str):  # noqa: ANN202
+    row = _bundle(request, bundle_id)
+    if matrix not in row.scenarios:
+        raise PageNotFound(f"bundle {bundle_id} has no scenario matrix {matrix}")
+    root = request.app.state.resolver.bundle_root(row)
+    return row, previews.load_matrix_cached(store.resolve_under(root, matrix))
+
+
+MatrixQuery = Annotated[str, Query(min_length=1, max_length=500)]
+
+
+@router.get("/bundles/{bundle_id}/matrix")
+def matrix_page(request: Request, bundle_id: str, path: MatrixQuery) -> HTMLResponse:
+    """A scenario matrix: its scenarios grouped by map, with a preview of each map."""
+    row, matrix = _matrix(request, bundle_id, path)
+    by_map: dict[str, list[Any]] = {}
+    for s in matrix.scenarios:
+        by_map.setdefault(s.map.name, []).append(s)
+    return page(request, "matrix.html", title=f"{bundle_id}: {path}", nav="bundles", bundle=row, path=path,
+                matrix=matrix, by_map=by_map)  # fmt: skip
+
+
+@router.get("/bundles/{bundle_id}/preview.png")
+def map_preview(request: Request, bundle_id: str, path: MatrixQuery, scenario: MatrixQuery) -> FileResponse:
+    """PNG of a scenario's map (drawn once, then cached under the store root)."""
+    _, matrix = _matrix(request, bundle_id, path)
+    try:
+        resolved = matrix.get(scenario)
+    except Exception:
+        raise PageNotFound(f"matrix {path} has no scenario {scenario}") from None
+    png = previews.preview(request.app.state.settings.store_root, resolved.map)
+    return FileResponse(png, media_type="image/png", headers={"Cache-Control": "max-age=3600"})

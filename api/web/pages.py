@@ -1,0 +1,102 @@
+"""Dashboard pages of the jobs: the list (live rows), one job (summary, log stream, report, artifacts)."""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Depends, Query, Request
+from fastapi.responses import HTMLResponse, RedirectResponse
+from sqlalchemy import func, select
+
+from api.db import queue
+from api.db.models import JobStatus
+from api.web import catalog, files
+from api.web.auth import PageNotFound, read_access
+from api.web.render import page
+from worker.kinds import KINDS
+
+router = APIRouter(include_in_schema=False)
+pages = APIRouter(prefix="/ui", include_in_schema=False, dependencies=[Depends(read_access)])
+PAGE_SIZE = 50
+
+StatusFilter = Annotated[list[JobStatus] | None, Query(alias="status")]
+KindFilter = Annotated[list[str] | None, Query(max_length=50)]
+
+
+@router.get("/")
+def read_root() -> RedirectResponse:
+    return RedirectResponse("/ui/jobs", status_code=307)
+
+
+def _jobs(request: Request, status: list[JobStatus] | None, kind: list[str] | None, offset: int) -> dict[str, Any]:
+    jobs = queue.jobs
+    where = []
+    if status:
+        where.append(jobs.c.status.in_([s.value for s in status]))
+    if kind:
+        where.append(jobs.c.kind.in_(kind))
+    with request.app.state.engine.connect() as conn:
+        count = conn.execute(select(func.count()).select_from(jobs).where(*where)).scalar_one()
+        rows = conn.execute(
+            select(jobs).where(*where).order_by(jobs.c.created_at.desc(), jobs.c.id).limit(PAGE_SIZE).offset(offset)
+        ).mappings()
+        data = [dict(r) for r in rows]
+    for job in data:
+        job["report"] = files.report_of(request, job["id"]) if job["status"] == queue.SUCCEEDED else None
+    return {"jobs": data, "count": count, "offset": offset, "page_size": PAGE_SIZE}
+
+
+@pages.get("/jobs")
+def jobs_page(
+    request: Request, status: StatusFilter = None, kind: KindFilter = None, offset: Annotated[int, Query(ge=0)] = 0
+) -> HTMLResponse:
+    """All jobs, newest first, filtered by status and kind; rows refresh themselves."""
+    query = request.url.query
+    return page(
+        request, "jobs.html", title="Jobs", nav="jobs", statuses=[s.value for s in JobStatus], kinds=sorted(KINDS),
+        selected_status=[s.value for s in status or []], selected_kind=kind or [],
+        rows_url="/ui/jobs/rows" + (f"?{query}" if query else ""), **_jobs(request, status, kind, offset),
+    )  # fmt: skip
+
+
+@pages.get("/jobs/rows")
+def jobs_rows(
+    request: Request, status: StatusFilter = None, kind: KindFilter = None, offset: Annotated[int, Query(ge=0)] = 0
+) -> HTMLResponse:
+    """The table body of the jobs page (polled by the page)."""
+    return page(request, "_job_rows.html", **_jobs(request, status, kind, offset))
+
+
+def _job(request: Request, job_id: str) -> dict[str, Any]:
+    engine = request.app.state.engine
+    try:
+        job = queue.get_job(engine, job_id)
+    except queue.JobNotFound:
+        raise PageNotFound(f"no job with id {job_id}") from None
+    arts = queue.artifacts
+    jobs = queue.jobs
+    with engine.connect() as conn:
+        job["artifacts"] = [dict(a) for a in conn.execute(select(arts).where(arts.c.job_id == job_id).order_by(arts.c.name)).mappings()]
+        job["children"] = [dict(r) for r in conn.execute(
+            select(jobs.c.id, jobs.c.kind, jobs.c.status, jobs.c.progress).where(jobs.c.parent_id == job_id)
+            .order_by(jobs.c.created_at)).mappings()]  # fmt: skip
+    job["report"] = files.report_of(request, job_id)
+    return job
+
+
+@pages.get("/jobs/{job_id}")
+def job_page(request: Request, job_id: str) -> HTMLResponse:
+    """One job: summary, error, spec, result, live log, report, artifacts, children."""
+    job = _job(request, job_id)
+    return page(request, "job.html", title=f"Job {job_id}", nav="jobs", job=job)
+
+
+@pages.get("/jobs/{job_id}/summary")
+def job_summary(request: Request, job_id: str) -> HTMLResponse:
+    """The summary block of a job's page (refreshed on status changes)."""
+    return page(request, "_job_summary.html", job=_job(request, job_id))
+
+
+router.include_router(pages)
+router.include_router(catalog.router)
+router.include_router(files.router)
