@@ -30,6 +30,11 @@ def get_session(request: Request):  # noqa: ANN201
         yield session
 
 
+def get_write_session(request: Request):  # noqa: ANN201
+    with request.app.state.write_sessions() as session:
+        yield session
+
+
 def get_resolver(request: Request) -> Resolver:
     return request.app.state.resolver
 
@@ -56,8 +61,9 @@ def require_read(request: Request, credentials: Annotated[HTTPAuthorizationCrede
 SettingsDep = Annotated[Settings, Depends(get_settings)]
 EngineDep = Annotated[Engine, Depends(get_engine)]
 SessionDep = Annotated[Session, Depends(get_session)]
+WriteSessionDep = Annotated[Session, Depends(get_write_session)]
 ResolverDep = Annotated[Resolver, Depends(get_resolver)]
 WriteAuth = Depends(require_write)
 ReadAuth = Depends(require_read)
 
-__all__ = ["EngineDep", "ReadAuth", "ResolverDep", "SessionDep", "SettingsDep", "WriteAuth", "session_factory"]
+__all__ = ["EngineDep", "ReadAuth", "ResolverDep", "SessionDep", "SettingsDep", "WriteAuth", "WriteSessionDep", "session_factory"]

@@ -36,6 +36,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.settings = settings
     app.state.engine = engine
     app.state.sessions = session_factory(engine)
+    app.state.write_sessions = session_factory(engine, write=True)
     app.state.resolver = Resolver(settings, engine)
     app.state.token = settings.server_token()
     app.state.revision = revision

@@ -64,7 +64,7 @@ def matrix_files(root: Path, files: list[str]) -> list[str]:
 
 def _put_bundle(engine: Engine, ident: str, source: str, root: Path, stored_root: str, sha: str | None) -> None:
     files = bundle_files(root)
-    with session_factory(engine).begin() as session:
+    with session_factory(engine, write=True).begin() as session:
         row = session.get(Bundle, ident)
         if row is None:
             row = Bundle(id=ident, created_at=time.time())
@@ -96,7 +96,7 @@ def load_shipped_models(engine: Engine, settings: Settings) -> list[str]:
     data = yaml.safe_load(path.read_text()) or {}
     entries = data.get("models", []) if isinstance(data, dict) else []
     names = []
-    with session_factory(engine).begin() as session:
+    with session_factory(engine, write=True).begin() as session:
         for i, entry in enumerate(entries):
             if not isinstance(entry, dict) or not {"id", "path", "sha256"} <= entry.keys():
                 raise ConfigError("each model needs id, path and sha256", source=path, item=str(i))

@@ -59,6 +59,10 @@ def _serve(settings: Settings, args: argparse.Namespace) -> None:
 
     app = create_app(settings)
     print(f"foresight API on http://{args.host}:{args.port} (store {settings.store_root})", file=sys.stderr)
+    # uvicorn shuts down gracefully on SIGTERM/SIGINT, then re-raises the signal to the handler that was
+    # installed before it: make that one return, so that callers' clean-up runs and the exit code is 0.
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(sig, lambda *_: None)
     uvicorn.run(app, host=args.host, port=args.port, log_level=args.log_level, access_log=False)
 
 

@@ -70,7 +70,11 @@ def write_tx(engine: Engine) -> Iterator[Connection]:
             yield conn
 
 
-def session_factory(engine: Engine) -> sessionmaker[Session]:
+def session_factory(engine: Engine, *, write: bool = False) -> sessionmaker[Session]:
+    """ORM sessions; ``write`` sessions take ``BEGIN IMMEDIATE`` on SQLite (a read-then-write transaction
+    would otherwise fail at once with "database is locked" when another process wrote since its read)."""
+    if write and is_sqlite(engine):
+        engine = engine.execution_options(**{_IMMEDIATE: True})
     return sessionmaker(engine, expire_on_commit=False)
 
 

@@ -13,7 +13,7 @@ from sqlalchemy.exc import IntegrityError
 from api import store
 from api.db import queue
 from api.db.models import Artifact, Model, ModelStatus
-from api.deps import EngineDep, ReadAuth, SessionDep, WriteAuth
+from api.deps import EngineDep, ReadAuth, SessionDep, WriteAuth, WriteSessionDep
 from api.registry import export_models, models_using
 from api.schemas import Ident, ModelCreate, ModelPromote, ModelPublic, ModelsPublic
 
@@ -49,7 +49,7 @@ def export_registry(session: SessionDep) -> PlainTextResponse:
 
 
 @router.post("", status_code=status.HTTP_201_CREATED, dependencies=[WriteAuth])
-def create_model(body: ModelCreate, session: SessionDep, engine: EngineDep) -> ModelPublic:
+def create_model(body: ModelCreate, session: WriteSessionDep, engine: EngineDep) -> ModelPublic:
     """Register a checkpoint artifact of a succeeded job (409 for a duplicate id)."""
     if session.get(Model, body.id) is not None:
         raise queue.Conflict(f"a model with id {body.id!r} already exists")
@@ -82,7 +82,7 @@ def read_model(model_id: Ident, session: SessionDep) -> ModelPublic:
 
 
 @router.post("/{model_id}/promote", dependencies=[WriteAuth])
-def promote_model(model_id: Ident, session: SessionDep, body: ModelPromote | None = None) -> ModelPublic:
+def promote_model(model_id: Ident, session: WriteSessionDep, body: ModelPromote | None = None) -> ModelPublic:
     """Promote a model; promoting to ``default`` demotes the previous default to ``promoted``."""
     target = (body or ModelPromote()).to
     row = _get(session, model_id)
@@ -99,7 +99,7 @@ def promote_model(model_id: Ident, session: SessionDep, body: ModelPromote | Non
 
 
 @router.delete("/{model_id}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[WriteAuth])
-def delete_model(model_id: Ident, session: SessionDep, engine: EngineDep) -> Response:
+def delete_model(model_id: Ident, session: WriteSessionDep, engine: EngineDep) -> Response:
     """Delete a registered model (409 for shipped or default models and models that records use)."""
     row = _get(session, model_id)
     if row.read_only:

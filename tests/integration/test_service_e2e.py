@@ -1,0 +1,110 @@
+"""End to end through `foresight up` (migrate + server + worker) and the CLI client."""
+
+from __future__ import annotations
+
+import json
+import signal
+import time
+
+from .service import Service
+
+
+def _wait(client, job_id: str, timeout: float = 90) -> dict:  # noqa: ANN001
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        job = client.get(f"/v1/jobs/{job_id}").json()
+        if job["status"] in ("succeeded", "failed", "cancelled"):
+            return job
+        time.sleep(0.2)
+    raise AssertionError(f"job {job_id} did not finish: {job}")
+
+
+def test_up_submit_follow_and_read_back(service: Service) -> None:
+    service.serve("up", "--concurrency", "2")
+    spec = service.tmp / "spec.yaml"
+    spec.write_text("seconds: 0.6\nsteps: 3\nartifact: out/hello.txt\n")
+
+    done = json.loads(service.cli("submit", "sleep", "-f", str(spec), "--wait", "--json").stdout)
+    assert done["status"] == "succeeded" and done["result"] == {"slept_s": 0.6}
+    shown = json.loads(service.cli("jobs", "show", done["id"], "--json").stdout)
+    assert [a["name"] for a in shown["artifacts"]] == ["out/hello.txt"]
+    logs = service.cli("jobs", "logs", done["id"]).stdout
+    assert "step 3/3" in logs and "job ended: succeeded" in logs
+    listed = json.loads(service.cli("jobs", "ls", "--json").stdout)
+    assert listed["count"] == 1
+    out = service.tmp / "hello.txt"
+    service.cli("jobs", "download", done["id"], "out/hello.txt", "-o", str(out))
+    assert out.read_text().startswith("slept")
+
+    # a failing job: exit 1 and the error in the record
+    bad = service.tmp / "fail.yaml"
+    bad.write_text("fail: on purpose\n")
+    failed = service.cli("submit", "sleep", "-f", str(bad), "--wait", "--json", check=False)
+    assert failed.returncode == 1 and json.loads(failed.stdout)["error"]["type"] == "RuntimeError"
+    # invalid input: one readable line, nothing stored
+    neg = service.tmp / "neg.yaml"
+    neg.write_text("seconds: -1\n")
+    refused = service.cli("submit", "sleep", "-f", str(neg), check=False)
+    assert refused.returncode == 1 and "HTTP 422" in refused.stderr and "seconds" in refused.stderr
+    assert len(refused.stderr.strip().splitlines()) == 1
+
+    with service.client() as client:
+        # a simulate stage job: one episode of the builtin matrix, read back as JSON
+        body = {"spec": {"kind": "simulate", "scenarios": ["crossing_low"], "seeds": [1000], "render": False}}
+        sim = client.post("/v1/jobs", json=body)
+        assert sim.status_code == 201, sim.text
+        result = _wait(client, sim.json()["id"])
+        assert result["status"] == "succeeded", result
+        assert result["result"]["episodes"][0]["scenario"] == "crossing_low"
+        summary = client.get(f"/v1/jobs/{result['id']}/artifacts/simulate.json")
+        assert summary.status_code == 200 and summary.json()["episodes"][0]["seed"] == 1000
+
+        # the registry: register the first job's artifact, promote it, read it back
+        reg = client.post("/v1/models", json={"id": "demo-model", "job_id": done["id"], "artifact": "out/hello.txt"})
+        assert reg.status_code == 201, reg.text
+        assert client.post("/v1/models", json={"id": "demo-model", "job_id": done["id"], "artifact": "out/hello.txt"}).status_code == 409
+        assert client.post("/v1/models/demo-model/promote", json={"to": "default"}).json()["status"] == "default"
+        assert client.delete("/v1/models/demo-model").status_code == 409
+        models = json.loads(service.cli("models", "ls", "--json").stdout)
+        assert [m["id"] for m in models["data"]] == ["demo-model"]
+        assert "demo-model" in service.cli("models", "export").stdout
+
+        workers = client.get("/v1/workers").json()
+        assert workers["count"] == 1 and workers["data"][0]["concurrency"] == 2
+        assert workers["queue"]["sleep"] == {"succeeded": 1, "failed": 1}
+
+    up = service.procs[0]
+    up.send_signal(signal.SIGTERM)
+    assert up.wait(timeout=30) == 0
+    with service.client() as _:
+        pass
+    from api.db.session import make_engine
+
+    engine = make_engine(f"sqlite:///{service.tmp / 'data' / 'foresight.db'}")
+    with engine.connect() as conn:
+        stopped = conn.exec_driver_sql("SELECT stopped_at FROM workers").scalars().all()
+    assert stopped and all(s is not None for s in stopped)  # the worker child was stopped cleanly
+
+
+def test_cancel_and_retry_through_the_cli(service: Service) -> None:
+    service.migrate()
+    service.serve()
+    service.worker()
+    spec = service.tmp / "long.yaml"
+    spec.write_text("seconds: 60\nsteps: 600\n")
+    job_id = service.cli("submit", "sleep", "-f", str(spec)).stdout.strip()
+    with service.client() as client:
+        deadline = time.time() + 30
+        while client.get(f"/v1/jobs/{job_id}").json()["status"] != "running" and time.time() < deadline:
+            time.sleep(0.1)
+        t0 = time.time()
+        service.cli("jobs", "cancel", job_id)
+        assert _wait(client, job_id, timeout=10)["status"] == "cancelled"
+        assert time.time() - t0 < 4.0  # noticed within ~2 s (+ the CLI's start-up)
+        again = json.loads(service.cli("jobs", "retry", job_id, "--json").stdout)
+        assert again["status"] == "queued"
+        service.cli("jobs", "cancel", job_id)
+        waited = service.cli("jobs", "wait", job_id, "--json", check=False)
+        assert waited.returncode == 1 and json.loads(waited.stdout)["status"] == "cancelled"
+        service.cli("jobs", "delete", job_id)
+        assert client.get(f"/v1/jobs/{job_id}").status_code == 404
