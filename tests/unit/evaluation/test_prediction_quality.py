@@ -16,7 +16,10 @@ class _Trace:
         self.steps = steps
 
 
-def _forecast(tr, step: int, offset: float, times=np.array([0.2, 0.4, 0.6])):
+TIMES = np.array([0.2, 0.4, 0.6])
+
+
+def _forecast(tr, step: int, offset: float, times=TIMES):
     ids = tr.ped_ids[step]
     pos = tr.ped_pos[step][:, None, :] + tr.ped_vel[step][:, None, :] * times[None, :, None] + [offset, 0.0]
     return step, ids.copy(), pos, times
