@@ -108,10 +108,6 @@ def build_planner(rp: ResolvedPlanner) -> Planner:
     """A fresh planner for one episode (the loaded model is shared, it is stateless)."""
     from core.planners.registry import make_planner
 
-    if rp.name == "goal":  # the registry's goal branch builds no GoalSeeking; construct it directly
-        from core.planners.goal import GoalSeeking
-
-        return GoalSeeking(**rp.config)
     model = None
     if rp.name == "predictive":
         model = load_model(rp.model_path, rp.checkpoint_sha256) if rp.model_path else CV
@@ -141,10 +137,6 @@ def resolve_planner(spec: PlannerSpec, ctx: StageContext) -> ResolvedPlanner:
                           item="planner.reference_params")
     if spec.name == "predictive":
         resolved = _predictive_config(spec)
-    elif spec.name == "goal":
-        from core.planners.goal import GoalSeeking
-
-        resolved = _dump_config(GoalSeeking(**spec.config).config)
     else:
         from core.planners.registry import make_planner
 
