@@ -118,10 +118,12 @@ def predict_eval_cmd(args: argparse.Namespace) -> int:
 
 
 def import_cmd(args: argparse.Namespace) -> int:
-    from core.predict.dataset import save_dataset
-    from core.predict.ethucy import import_fold
+    from core.predict.ethucy import ImportEthucyConfig, run_import_ethucy
 
-    record = save_dataset(import_fold(Path(args.ethucy), args.fold, max_agents=args.max_agents), Path(args.output))
+    out = Path(args.output).resolve()
+    config = build_config(ImportEthucyConfig, {"root": str(Path(args.ethucy).resolve()), "fold": args.fold,
+                                               "max_agents": args.max_agents, "output": out.name})
+    record = run_import_ethucy(config, local_context(out.parent, {}, quiet=True))
     emit(record["summary"], args.json, lambda s: f"{args.output}: {s['samples']} samples {s['samples_per_split']}")
     return 0
 

@@ -17,15 +17,18 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 
 from core.errors import ConfigError, NotFoundError
-from core.predict.dataset import Dataset, DatasetMeta, EpisodeRecord
+from core.predict.dataset import Dataset, DatasetMeta, EpisodeRecord, save_dataset
 from core.predict.features import Window, extract_features, gather_history, world_to_ego
 from core.predict.mixing import dataset_from_episodes
 from core.predict.samples import SampleArrays
 from core.predict.timebase import ETHUCY_TIMEBASE, TimeBase
+from core.stages.context import StageContext
 
 FOLDS = ("eth", "hotel", "univ", "zara1", "zara2")
 #: scene-file prefixes of each fold's held-out scene; they must never be in that fold's train/val
@@ -132,3 +135,22 @@ def import_fold(root: Path, fold: str, timebase: TimeBase = ETHUCY_TIMEBASE, max
                                   "files": {s: [p.name for p in files[s]] for s in splits},
                                   "frame_step": FRAME_STEP, "frame_dt": FRAME_DT, "max_agents": max_agents})
     return dataset_from_episodes(episodes, meta)
+
+
+class ImportEthucyConfig(BaseModel):
+    """Stage ``import_ethucy``: one fold of an ETH/UCY folder on the worker's disk -> a dataset artifact."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    root: str  #: folder holding <fold>/train|val|test (e.g. shared/reference/ethucy)
+    fold: str
+    max_agents: int = Field(default=12, ge=1, le=256)
+    output: str = "dataset.npz"
+
+
+def run_import_ethucy(config: ImportEthucyConfig, ctx: StageContext) -> dict[str, Any]:
+    """Write the fold's dataset (train/val/test episodes) and return its record (path, sha256, meta, summary)."""
+    ctx.progress(0.0, f"importing fold {config.fold}")
+    ds = import_fold(Path(config.root), config.fold, ETHUCY_TIMEBASE, config.max_agents)
+    record = save_dataset(ds, ctx.artifact(config.output))
+    ctx.progress(1.0, f"{len(ds)} samples")
+    return {**record, "path": config.output}

@@ -29,3 +29,16 @@ def test_train_then_eval_on_dataset(tmp_path, curving_dataset, capsys):
 def test_bad_input_is_one_line_error(tmp_path, capsys):
     rc = main(["predict-eval", "--model", "cv", "--ethucy", str(tmp_path), "--fold", "nowhere"])
     assert rc == 1 and "unknown fold" in capsys.readouterr().err
+
+
+def test_import_ethucy_command(tmp_path, capsys):
+    root = tmp_path / "ethucy"
+    rows = "\n".join(f"{f * 10}\t1\t{0.4 * f:.2f}\t0.0" for f in range(25))
+    for split, name in (("train", "crowds_zara02_train.txt"), ("val", "crowds_zara02_val.txt"),
+                        ("test", "crowds_zara01.txt")):
+        (root / "zara1" / split).mkdir(parents=True)
+        (root / "zara1" / split / name).write_text(rows + "\n")
+    rc = main(["dataset", "import-ethucy", "--ethucy", str(root), "--fold", "zara1", "--output",
+               str(tmp_path / "z.npz"), "--json"])
+    summary = json.loads(capsys.readouterr().out)
+    assert rc == 0 and summary["samples_per_split"] == {"train": 6, "val": 6, "test": 6}
