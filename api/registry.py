@@ -29,6 +29,7 @@ from core.errors import ConfigError, CoreError, NotFoundError
 logger = logging.getLogger(__name__)
 
 BUILTIN_BUNDLE = "builtin"
+DEFAULT_MODEL = "default"
 BUNDLE_SUFFIXES = {".yaml", ".yml", ".svg", ".json", ".txt", ".md"}
 MAX_BUNDLE_FILES = 2000
 MAX_BUNDLE_BYTES = 50 * 1024 * 1024  #: [bytes] unpacked size limit of an uploaded bundle
@@ -109,7 +110,8 @@ def load_shipped_models(engine: Engine, settings: Settings) -> list[str]:
                 session.add(row)
             row.checkpoint = store.check_relative(str(entry["path"]))
             row.sha256, row.read_only = str(entry["sha256"]), True
-            row.status = entry.get("status", ModelStatus.promoted.value)
+            tags = entry.get("tags", [])
+            row.status = entry.get("status", ModelStatus.default.value if "default" in tags else ModelStatus.promoted.value)
             row.provenance = str(entry.get("provenance", ""))
             row.time_base, row.lineage = entry.get("time_base", {}), entry.get("lineage", {})
             row.training, row.metrics, row.tags = entry.get("training", {}), entry.get("metrics", {}), entry.get("tags", [])
@@ -262,9 +264,15 @@ class Resolver:
         return store.resolve_under(self.settings.store_root, row.checkpoint)
 
     def model(self, ident: str) -> Path:
-        """The checkpoint of a registered model, after checking its sha256."""
+        """The checkpoint of a registered model, after checking its sha256; ``default`` names the default
+        model (status default, else a shipped entry tagged default)."""
         with self.sessions() as session:
             row = session.get(Model, ident)
+            if row is None and ident == DEFAULT_MODEL:
+                rows = list(session.scalars(select(Model).order_by(Model.read_only, Model.created_at)))
+                row = next((m for m in rows if m.status == ModelStatus.default.value), None) or next(
+                    (m for m in rows if m.read_only and "default" in m.tags), None
+                )
         if row is None:
             raise NotFoundError(f"unknown model id {ident!r}")
         path = self.model_path(row)

@@ -2,13 +2,14 @@
 
 A spec model is a pydantic model with a ``kind: Literal[...]`` field (the API's discriminated union is built
 from this table). A runner is ``run(spec, ctx: StageContext) -> dict`` (a JSON-able result summary);
-artifacts are whatever it writes under ``ctx.workdir``. Adding a kind is one :func:`register` call; the
+artifacts are whatever it writes under ``ctx.workdir``; an optional recorder stores result rows. Adding a kind is one :func:`register` call; the
 stage kinds are registered as their core modules exist (core imports stay inside the runners).
 """
 
 from __future__ import annotations
 
 import importlib
+import importlib.util
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -17,6 +18,8 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, create_model
 
 from core.stages.context import StageContext
+from worker import records
+from worker.records import Recorder
 
 
 @dataclass(frozen=True)
@@ -25,6 +28,8 @@ class JobKind:
     spec: type[BaseModel]
     run: Callable[[Any, StageContext], dict[str, Any]]
     description: str = ""
+    #: writes the result's records (datasets, evaluations, ...) in the transaction that finishes the job
+    record: Recorder | None = None
 
 
 KINDS: dict[str, JobKind] = {}
@@ -67,28 +72,51 @@ def run_sleep(spec: SleepSpec, ctx: StageContext) -> dict[str, Any]:
 register(JobKind("sleep", SleepSpec, run_sleep, "diagnostic: sleep, report progress, optionally fail"))
 
 
-def _stage_kind(name: str, module: str, config: str, function: str, description: str) -> None:
-    """Register a core stage ``module.function(config, ctx)`` as a kind, when that module exists."""
+def _stage_kind(
+    name: str, config_ref: str, stage_ref: str, description: str, record: Recorder | None = None
+) -> None:
+    """Register the core stage ``stage_ref`` ("module:function") with its config ``config_ref`` as a kind.
+
+    Only the config's module is imported here (the API needs the spec model); the stage's module (which may
+    import torch) is imported when a worker runs the job. Stages that have not landed are skipped.
+    """
+    config_module, config_name = config_ref.split(":")
+    stage_module, stage_name = stage_ref.split(":")
     try:
-        mod = importlib.import_module(module)
+        config_model = getattr(importlib.import_module(config_module), config_name, None)
+        stage_found = importlib.util.find_spec(stage_module) is not None
     except ModuleNotFoundError as exc:
-        if exc.name and module.startswith(exc.name):
-            return  # that stage has not landed yet
+        if exc.name and config_module.startswith(exc.name):
+            return
         raise
-    config_model, stage = getattr(mod, config, None), getattr(mod, function, None)
-    if config_model is None or stage is None:
-        return  # the module exists but its stage entry point has not landed yet
+    if config_model is None or not stage_found:
+        return
     spec = create_model(
         f"{name.title().replace('_', '')}Spec", __base__=config_model, kind=(Literal[name], name)  # type: ignore[valid-type]
     )
 
     def run(spec_obj: BaseModel, ctx: StageContext) -> dict[str, Any]:
+        stage = getattr(importlib.import_module(stage_module), stage_name)
         config_obj = config_model.model_validate(spec_obj.model_dump(exclude={"kind"}))
         result = stage(config_obj, ctx)
-        return result.model_dump(mode="json") if isinstance(result, BaseModel) else dict(result or {})
+        return result.model_dump(mode="json", by_alias=True) if isinstance(result, BaseModel) else dict(result or {})
 
-    register(JobKind(name, spec, run, description))
+    register(JobKind(name, spec, run, description, record))
 
 
-_stage_kind("evaluate", "core.evaluation", "EvaluationConfig", "run_evaluation", "evaluate a planner on a bundle")
-_stage_kind("simulate", "core.stages.simulate", "SimulateConfig", "run_simulate", "run episodes of a scenario matrix")
+_stage_kind("simulate", "core.stages.simulate:SimulateConfig", "core.stages.simulate:run_simulate",
+            "run episodes of a scenario matrix with a simple controller")
+_stage_kind("collect", "core.predict.collect:CollectConfig", "core.predict.collect:run_collect",
+            "roll out episodes into a prediction dataset (base, or hard-case with a seed manifest)", records.dataset)
+_stage_kind("mix", "core.predict.collect:MixConfig", "core.predict.collect:run_mix",
+            "mix a base and a hard-case dataset", records.dataset)
+_stage_kind("train", "core.predict.train_config:TrainConfig", "core.predict.nn.train:run_train",
+            "train the trajectory predictor")
+_stage_kind("predict_eval", "core.predict.evaluation:PredictEvalConfig", "core.predict.evaluation:run_predict_eval",
+            "ADE/FDE of a predictor on a dataset or ETH/UCY fold")
+_stage_kind("evaluate", "core.evaluation.config:EvaluationConfig", "core.evaluation.runner:run_evaluation",
+            "evaluate a planner on a scenario matrix", records.evaluation)
+_stage_kind("diagnose", "core.evaluation.config:DiagnosticsConfig", "core.evaluation.diagnostics:run_diagnostics",
+            "hard-seed diagnostics: trace every seed of a manifest")
+_stage_kind("campaign", "core.evaluation.config:CampaignConfig", "core.evaluation.campaign:run_campaign",
+            "checkpoints x planner-grid variants with quality gates", records.campaign)

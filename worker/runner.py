@@ -12,6 +12,7 @@ and are released to the queue (their attempt is not counted). A second stop requ
 
 from __future__ import annotations
 
+import functools
 import logging
 import os
 import socket
@@ -181,7 +182,10 @@ class JobWorker:
         artifacts = store.scan(self.settings.store_root, workdir_rel)
         if not artifacts:
             _remove_empty(store.resolve_under(self.settings.store_root, workdir_rel))
-        queue.finish(*args, result, artifacts)
+        record = None
+        if kind.record is not None:
+            record = functools.partial(_record, kind.record, job=job, result=result, job_dir=workdir_rel)
+        queue.finish(*args, result, artifacts, record)
 
     def _context(self, held: Held, workdir: Path) -> StageContext:
         job = held.job
@@ -212,3 +216,7 @@ def _remove_empty(folder: Path) -> None:
             sub.rmdir()
     if folder.is_dir() and not any(folder.iterdir()):
         folder.rmdir()
+
+
+def _record(recorder, conn, *, job, result, job_dir) -> None:  # noqa: ANN001
+    recorder(conn, job, result, job_dir)

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import time
 import uuid
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
 from sqlalchemy import (
@@ -233,8 +233,10 @@ def finish(
     attempt: int,
     result: dict[str, Any],
     new_artifacts: Sequence[dict[str, Any]] = (),
+    record: Callable[[Connection], None] | None = None,
 ) -> None:
-    """Mark a held job succeeded, storing its result summary and artifact records in the same transaction."""
+    """Mark a held job succeeded, storing its result summary, artifact records and (through ``record``) its
+    result rows in the same transaction."""
     now = time.time()
     with write_tx(engine) as conn:
         n = conn.execute(_FINISH_SQL, {"id": job_id, "owner": owner, "attempt": attempt, "result": result, "now": now})
@@ -244,6 +246,8 @@ def finish(
             conn.execute(delete(artifacts).where(artifacts.c.job_id == job_id))  # a previous attempt's records
         if new_artifacts:
             conn.execute(insert(artifacts), [{"job_id": job_id, "created_at": now, **art} for art in new_artifacts])
+        if record is not None:
+            record(conn)
         _add_event(conn, job_id, "status", SUCCEEDED, 1.0)
 
 

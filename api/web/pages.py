@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from typing import Annotated, Any
+from urllib.parse import urlencode
 
 from fastapi import APIRouter, Depends, Query, Request
 from fastapi.responses import HTMLResponse, RedirectResponse
@@ -43,7 +44,8 @@ def _jobs(request: Request, status: list[JobStatus] | None, kind: list[str] | No
         data = [dict(r) for r in rows]
     for job in data:
         job["report"] = files.report_of(request, job["id"]) if job["status"] == queue.SUCCEEDED else None
-    return {"jobs": data, "count": count, "offset": offset, "page_size": PAGE_SIZE}
+    filters = urlencode([("status", s.value) for s in status or []] + [("kind", k) for k in kind or []])
+    return {"jobs": data, "count": count, "offset": offset, "page_size": PAGE_SIZE, "filters": filters}
 
 
 @pages.get("/jobs")

@@ -59,6 +59,15 @@ def test_up_submit_follow_and_read_back(service: Service) -> None:
         summary = client.get(f"/v1/jobs/{result['id']}/artifacts/simulate.json")
         assert summary.status_code == 200 and summary.json()["episodes"][0]["seed"] == 1000
 
+        # an evaluation: submitted over HTTP, run by the worker, read back as JSON (with its taxonomy)
+        body = {"spec": {"kind": "evaluate", "scenarios": ["crossing_low"], "seeds_per_scenario": 1, "max_steps": 50,
+                         "planner": {"name": "goal"}}}
+        ev = _wait(client, client.post("/v1/jobs", json=body).json()["id"])
+        assert ev["status"] == "succeeded", ev
+        evaluation = client.get(f"/v1/evaluations/{ev['id']}").json()
+        assert evaluation["metrics"]["episodes"] == 1 and evaluation["bundle_id"] == "builtin"
+        assert evaluation["per_scenario"][0]["key"] == "crossing_low"
+
         # the registry: register the first job's artifact, promote it, read it back
         reg = client.post("/v1/models", json={"id": "demo-model", "job_id": done["id"], "artifact": "out/hello.txt"})
         assert reg.status_code == 201, reg.text

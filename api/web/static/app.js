@@ -90,7 +90,7 @@
     el.disabled = true;
     try {
       const out = await post(el.dataset.url, el.dataset.body);
-      flash((el.textContent || "done").trim() + ": " + (out.status || "ok"));
+      flash((out.id ? out.id.substring(0, 12) + ": " : "") + (el.dataset.done || out.status || "done"));
       await refresh();
     } catch (e) {
       flash(String(e.message || e), true);
