@@ -9,27 +9,46 @@ from __future__ import annotations
 import numpy as np
 
 from core.maps.model import MapDef, SinglePedestrian
-from core.sim.forces import group_centroids
+from core.sim.forces import as_complex, as_xy, group_centroids
 from core.sim.population import Population
 from core.sim.zones import Validator, sample_free
 
 
 class CrowdArrays:
-    """The mutable pedestrian state shared by the behaviours and the integrator (named views, no copies)."""
+    """The mutable pedestrian state shared by the behaviours and the integrator.
+
+    Stored as complex x + iy arrays (N,) for the force kernels; ``pos``/``vel``/``goal`` are
+    writable (N, 2) float views of the same memory, so updates through either are seen by both.
+    """
 
     def __init__(self, pop: Population):
-        self.pos = pop.pos.copy()  #: (N, 2) [m]
-        self.vel = pop.vel.copy()  #: (N, 2) [m/s]
-        self.goal = pop.goal.copy()  #: (N, 2) [m]
+        self.z = as_complex(pop.pos).copy()  #: (N,) complex positions [m]
+        self.zv = as_complex(pop.vel).copy()  #: (N,) complex velocities [m/s]
+        self.zgoal = as_complex(pop.goal).copy()  #: (N,) complex goals [m]
         self.vmax = pop.vmax.copy()  #: (N,) [m/s]
         self.group = pop.group  #: (N,) group index
         self.group_size = pop.group_size  #: (G,)
         self.ids = np.arange(len(self.pos), dtype=np.int64)  #: (N,) true ids; respawns get new ones
         self.next_id = len(self.pos)
 
+    @property
+    def pos(self) -> np.ndarray:
+        """(N, 2) [m], a view of ``z``."""
+        return as_xy(self.z)
+
+    @property
+    def vel(self) -> np.ndarray:
+        """(N, 2) [m/s], a view of ``zv``."""
+        return as_xy(self.zv)
+
+    @property
+    def goal(self) -> np.ndarray:
+        """(N, 2) [m], a view of ``zgoal``."""
+        return as_xy(self.zgoal)
+
     def centroids(self) -> np.ndarray:
-        """Group centroids (G, 2) [m]."""
-        return group_centroids(self.pos, self.group, self.group_size)
+        """Group centroids (G,) complex [m]."""
+        return group_centroids(self.z, self.group, self.group_size)
 
     def renew_ids(self, rows: np.ndarray) -> None:
         self.ids[rows] = np.arange(self.next_id, self.next_id + len(rows))
@@ -59,7 +78,7 @@ class RouteFollowing:
         """Advance navigators and respawn finished groups; True when positions changed (a respawn)."""
         if len(self.groups) == 0:
             return False
-        c = centroids[self.groups]
+        c = as_xy(centroids)[self.groups]
         at_end = ((c - self.end) ** 2).sum(axis=1) <= self.thr2
         cur = self.table[self.route, self.wp]
         near = (((c - cur) ** 2).sum(axis=1) <= self.thr2) & ~at_end
@@ -107,7 +126,7 @@ class CrowdedZones:
     def step(self, crowd: CrowdArrays, centroids: np.ndarray, rng: np.random.Generator) -> None:
         if len(self.groups) == 0:
             return
-        reached = ((centroids[self.groups] - crowd.goal[self.first]) ** 2).sum(axis=1) <= self.thr2
+        reached = ((as_xy(centroids)[self.groups] - crowd.goal[self.first]) ** 2).sum(axis=1) <= self.thr2
         for k in np.nonzero(reached)[0]:
             g = sample_free(self.zones[self.zone[k]], 1, rng, self.zone_mode, self.valid)[0]
             crowd.goal[self.members[k]] = g

@@ -10,6 +10,7 @@ import numpy as np
 
 from core.sim import forces
 from core.sim.behaviours import CrowdArrays
+from core.sim.forces import as_complex, as_xy
 from core.sim.geometry import SegmentSet
 from core.sim.neighbours import cell_pairs
 from core.sim.params import CrowdParams, ForceParams
@@ -59,56 +60,56 @@ class CrowdDynamics:
         return (None, None) if self.dense else cell_pairs(self.c.pos, self.cutoff)
 
     def total_force(
-        self, robot_xy: np.ndarray, centroids: np.ndarray | None = None
+        self, robot: complex, centroids: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray | None]:
-        """Sum of all active terms (N, 2) [m/s^2], plus each ped's wall clearance (N,) when computed.
+        """Sum of all active terms (N,) complex [m/s^2], plus each ped's wall clearance (N,) when computed.
 
-        ``centroids`` (G, 2): group centroids of the current positions when the caller has them.
+        ``robot``: the robot centre x + iy [m]; ``centroids`` (G,) complex: group centroids of the
+        current positions when the caller has them.
         """
         c, p = self.c, self.p
-        f = forces.desired_force(c.pos, c.vel, c.goal, c.vmax, p)
+        f = forces.desired_force(c.z, c.zv, c.zgoal, c.vmax, p)
         i, j = self.pairs()
-        f += forces.social_force(c.pos, c.vel, i, j, p, self.cutoff if i is None else None)
+        f += forces.social_force(c.z, c.zv, i, j, p, self.cutoff if i is None else None)
         clearance = None
         if self.obstacle_forces:
-            fo, clearance = forces.obstacle_force(c.pos, self.walls, p)
+            fo, clearance = forces.obstacle_force(c.z, self.walls, p)
             f += fo
         if self.has_groups:
             if centroids is None:
-                centroids = forces.group_centroids(c.pos, c.group, c.group_size)
+                centroids = forces.group_centroids(c.z, c.group, c.group_size)
             cent = centroids[c.group]
-            f += forces.group_coherence_force(c.pos, cent, self.member_n, p)
-            f += forces.group_repulsion_force(c.pos, self.gi, self.gj, p)
-            f += forces.group_gaze_force(c.pos, c.goal, cent, self.member_n, p)
+            f += forces.group_coherence_force(c.z, cent, self.member_n, p)
+            f += forces.group_repulsion_force(c.z, self.gi, self.gj, p)
+            f += forces.group_gaze_force(c.z, c.zgoal, cent, self.member_n, p)
         if self.robot_repulsion:
-            f += forces.robot_force(c.pos, robot_xy, self.robot_radius, p)
+            f += forces.robot_force(c.z, robot, self.robot_radius, p)
         return f, clearance
 
-    def step(self, robot_xy: np.ndarray, centroids: np.ndarray | None = None) -> None:
+    def step(self, robot: complex, centroids: np.ndarray | None = None) -> None:
         """Advance all pedestrians by dt (robot at its pose before it moves, as the reference)."""
         if self.n == 0:
             return
         c = self.c
-        f, clearance = self.total_force(robot_xy, centroids)
-        v = c.vel + self.dt * f
-        speed = np.sqrt(v[:, 0] ** 2 + v[:, 1] ** 2)
-        scale = np.where(speed > c.vmax, c.vmax / np.where(speed > 0, speed, 1.0), 1.0)
-        v *= scale[:, None]
-        new = c.pos + self.dt * (v if self.semi_implicit else c.vel)
+        f, clearance = self.total_force(robot, centroids)
+        v = c.zv + self.dt * f
+        speed = forces.norm(v)
+        v *= np.where(speed > c.vmax, c.vmax / np.maximum(speed, 1e-300), 1.0)  # per-ped speed cap
+        new = c.z + self.dt * (v if self.semi_implicit else c.zv)
         if self.wall_constraint:
-            new, v = self._constrain(new, v, clearance)
-        c.pos, c.vel = new, v
+            self._constrain(new, v, clearance)
+        c.z[:] = new
+        c.zv[:] = v
 
-    def _constrain(self, new: np.ndarray, v: np.ndarray, clearance: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-        """Apply the wall constraint to the peds that could reach a segment in this step."""
+    def _constrain(self, new: np.ndarray, v: np.ndarray, clearance: np.ndarray | None) -> None:
+        """Apply the wall constraint (in place on ``new``, ``v``) to the peds that could reach a segment."""
         c = self.c
         if clearance is None:
             clearance = self.walls.distance(c.pos)
         close = clearance <= self.reach
         if not close.any():
-            return new, v
+            return
         near = np.nonzero(close)[0]
-        fixed, fv = constrain_moves(self.walls, c.pos[near], new[near], v[near], self.cp.wall_clearance)
-        new[near] = fixed
-        v[near] = fv
-        return new, v
+        fixed, fv = constrain_moves(self.walls, c.pos[near], as_xy(new[near]), as_xy(v[near]), self.cp.wall_clearance)
+        new[near] = as_complex(fixed)
+        v[near] = as_complex(fv)

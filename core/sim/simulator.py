@@ -134,7 +134,7 @@ class Simulator:
                 cent = None  # a group respawned: positions changed
             self.zones.step(self.crowd, cent if cent is not None else self.crowd.centroids(), self.rng)
         self.singles.step(self.crowd, self.t)
-        self.dynamics.step(self.robot[:2], cent)
+        self.dynamics.step(complex(self.robot[0], self.robot[1]), cent)
         self.robot = robot_step(self.robot, cmd, self.limits, self.dt)
         reached = self.route.advance(self.robot)
         self._trace.record_command(self.t, cmd)
