@@ -15,6 +15,7 @@ from api.db.models import Bundle, Campaign, Evaluation, Model
 from api.web import files, previews
 from api.web.auth import PageNotFound, read_access
 from api.web.render import page
+from core.errors import NotFoundError
 
 router = APIRouter(prefix="/ui", include_in_schema=False, dependencies=[Depends(read_access)])
 RESULT_KINDS = {"evaluate": "Evaluations", "campaign": "Campaigns", "diagnose": "Diagnostics",
@@ -112,7 +113,7 @@ def map_preview(request: Request, bundle_id: str, path: MatrixQuery, scenario: M
     _, matrix = _matrix(request, bundle_id, path)
     try:
         resolved = matrix.get(scenario)
-    except Exception:
+    except NotFoundError:
         raise PageNotFound(f"matrix {path} has no scenario {scenario}") from None
     png = previews.preview(request.app.state.settings.store_root, resolved.map)
     return FileResponse(png, media_type="image/png", headers={"Cache-Control": "max-age=3600"})

@@ -1,0 +1,85 @@
+"""A real `foresight up` (API server + worker process) on a temp SQLite file and store, for browser tests."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import httpx
+
+REPO = Path(__file__).resolve().parents[2]
+TOKEN = "e2e-dashboard-token"
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class Up:
+    """``python -m cli.main up`` in its own process group; :meth:`stop` ends it (and its worker)."""
+
+    def __init__(self, tmp: Path, concurrency: int = 2):
+        self.tmp = tmp
+        self.port = free_port()
+        self.url = f"http://127.0.0.1:{self.port}"
+        self.log_path = tmp / "foresight-up.log"
+        self.env = {
+            **os.environ,
+            "FORESIGHT_DATA_DIR": str(tmp / "data"),
+            "FORESIGHT_API_TOKEN": TOKEN,
+            "FORESIGHT_HEARTBEAT_S": "0.3",
+            "FORESIGHT_POLL_S": "0.05",
+            "FORESIGHT_SHUTDOWN_GRACE_S": "1",
+            "PYTHONUNBUFFERED": "1",
+        }
+        self.env.pop("FORESIGHT_DATABASE_URL", None)
+        self.env.pop("FORESIGHT_STORE", None)
+        self.env.pop("FORESIGHT_READ_REQUIRES_TOKEN", None)
+        self.concurrency = concurrency
+        self.proc: subprocess.Popen | None = None
+
+    def start(self, timeout_s: float = 60.0) -> Up:
+        log = self.log_path.open("w")
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "cli.main", "up", "--host", "127.0.0.1", "--port", str(self.port),
+             "--concurrency", str(self.concurrency)],
+            env=self.env, cwd=REPO, stdout=log, stderr=subprocess.STDOUT, start_new_session=True,
+        )  # fmt: skip
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            if self.proc.poll() is not None:
+                raise AssertionError(f"foresight up exited with {self.proc.returncode}:\n{self.log()}")
+            try:
+                if httpx.get(f"{self.url}/healthz", timeout=2).status_code == 200:
+                    workers = httpx.get(f"{self.url}/v1/workers", timeout=2).json()
+                    if workers["count"] >= 1:
+                        return self
+            except httpx.HTTPError:
+                pass
+            time.sleep(0.3)
+        self.stop()
+        raise AssertionError(f"foresight up not ready (server and worker) within {timeout_s} s:\n{self.log()}")
+
+    def client(self) -> httpx.Client:
+        return httpx.Client(base_url=self.url, headers={"Authorization": f"Bearer {TOKEN}"}, timeout=30)
+
+    def log(self) -> str:
+        return self.log_path.read_text()[-6000:] if self.log_path.is_file() else ""
+
+    def stop(self) -> None:
+        """SIGINT (uvicorn's graceful stop, which stops the worker), then the process group if it lingers."""
+        if self.proc is None or self.proc.poll() is not None:
+            return
+        self.proc.send_signal(signal.SIGINT)
+        try:
+            self.proc.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            os.killpg(self.proc.pid, signal.SIGKILL)
+            self.proc.wait(timeout=10)

@@ -1,0 +1,174 @@
+"""The dashboard in a real browser: `foresight up` on a temp store, Debian's Chromium driven by Playwright.
+
+Follows an evaluation job in the jobs page until it succeeds, opens its report page and checks that its
+figures loaded, cancels and retries jobs through the page's buttons (the token is asked for once), and
+saves screenshots under ``out/screenshots/`` (``FORESIGHT_SCREENSHOT_DIR`` overrides).
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from tests.e2e.service import REPO, TOKEN, Up
+
+CHROMIUM = Path("/usr/bin/chromium")
+CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                 "--disable-component-update", "--disable-sync", "--no-first-run"]  # fmt: skip
+JOB_TIMEOUT_S = 90.0
+#: a small real evaluation: goal planner, 2 scenarios x 1 seed, short horizon
+EVALUATE = {"kind": "evaluate", "planner": {"name": "goal"}, "scenarios": ["crossing_low", "head_on_corridor_low"],
+            "seeds_per_scenario": 1, "max_steps": 60}  # fmt: skip
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def chromium() -> Path:
+    if not CHROMIUM.is_file():
+        msg = f"{CHROMIUM} not found: the dashboard test needs Debian's Chromium (apt-get install chromium)"
+        if os.environ.get("CI") == "true":
+            pytest.fail(msg)
+        pytest.skip(msg)
+    return CHROMIUM
+
+
+@pytest.fixture(scope="module")
+def service(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Up]:
+    up = Up(tmp_path_factory.mktemp("dashboard")).start()
+    try:
+        yield up
+    finally:
+        up.stop()
+
+
+@pytest.fixture
+def page(chromium: Path) -> Iterator:  # noqa: ANN401 (playwright's Page)
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=str(chromium), args=CHROMIUM_ARGS, headless=True)
+        try:
+            context = browser.new_context(viewport={"width": 1280, "height": 900})
+            yield context.new_page()
+        finally:
+            browser.close()
+
+
+def screenshot_dir() -> Path:
+    folder = Path(os.environ.get("FORESIGHT_SCREENSHOT_DIR") or REPO / "out" / "screenshots")
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
+def _row_status(page, job_id: str) -> str | None:  # noqa: ANN001
+    return page.get_attribute(f'tr[data-job="{job_id}"]', "data-status", timeout=5000)
+
+
+def _wait_row(page, job_id: str, statuses: set[str], timeout_s: float = JOB_TIMEOUT_S, up: Up | None = None) -> str:  # noqa: ANN001
+    """Wait until the jobs page (which refreshes its rows itself) shows the job in one of ``statuses``."""
+    deadline = time.monotonic() + timeout_s
+    status = None
+    while time.monotonic() < deadline:
+        status = _row_status(page, job_id)
+        if status in statuses:
+            return status
+        page.wait_for_timeout(300)
+    raise AssertionError(f"job {job_id} still {status} on the jobs page after {timeout_s} s\n{up.log() if up else ''}")
+
+
+def test_dashboard_follows_a_job_to_its_report(service: Up, page, capsys: pytest.CaptureFixture) -> None:  # noqa: ANN001
+    dialogs: list[str] = []
+
+    def on_dialog(dialog) -> None:  # noqa: ANN001
+        dialogs.append(dialog.type)
+        if dialog.type == "prompt":
+            dialog.accept(TOKEN)
+        else:
+            dialog.accept()
+
+    page.on("dialog", on_dialog)
+    api = service.client()
+    kinds = api.get("/healthz").json()["kinds"]
+    assert "evaluate" in kinds, f"the server offers no 'evaluate' jobs (kinds {kinds}); the dashboard test needs one"
+
+    page.goto(f"{service.url}/")
+    assert page.url.endswith("/ui/jobs")
+
+    def submit(spec: dict, priority: int = 0) -> str:
+        resp = api.post("/v1/jobs", json={"spec": spec, "priority": priority})
+        assert resp.status_code == 201, resp.text
+        return resp.json()["id"]
+
+    failing = submit({"kind": "sleep", "seconds": 0.3, "steps": 2, "fail": "planned failure"}, priority=20)
+    evaluation = submit(EVALUATE, priority=10)
+    long_sleep = submit({"kind": "sleep", "seconds": 120, "steps": 240})
+
+    # live rows: the new jobs appear without a reload; the failing one ends failed
+    _wait_row(page, failing, {"failed"}, 30, service)
+    first_run = api.get(f"/v1/jobs/{failing}").json()["started_at"]
+
+    # retry through the page: the first write asks for the token (prompt), which the page keeps
+    page.click(f'tr[data-job="{failing}"] button[data-action="post"]')
+    deadline = time.monotonic() + 30
+    while api.get(f"/v1/jobs/{failing}").json()["started_at"] == first_run and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert api.get(f"/v1/jobs/{failing}").json()["started_at"] != first_run, "retry did not run the job again"
+    assert dialogs.count("prompt") == 1
+    assert page.evaluate("sessionStorage.getItem('foresight-token')") == TOKEN
+
+    # cancel through the page (a confirm dialog, no second token prompt)
+    _wait_row(page, long_sleep, {"queued", "running"}, 10, service)
+    page.click(f'tr[data-job="{long_sleep}"] button[data-action="post"]')
+    _wait_row(page, long_sleep, {"cancelled"}, 30, service)
+    assert dialogs.count("prompt") == 1 and "confirm" in dialogs
+
+    # the evaluation: followed in the jobs page until it succeeds, then its report link
+    status = _wait_row(page, evaluation, {"succeeded", "failed", "cancelled"}, JOB_TIMEOUT_S, service)
+    assert status == "succeeded", api.get(f"/v1/jobs/{evaluation}").json()["error"]
+    shots = screenshot_dir()
+    page.screenshot(path=str(shots / "dashboard-jobs.png"), full_page=True)
+
+    page.click(f'tr[data-job="{evaluation}"] a[href="/ui/jobs/{evaluation}"]')
+    page.wait_for_selector("#report-link", timeout=10_000)
+    page.wait_for_function("document.getElementById('job-log').dataset.ended === 'succeeded'", timeout=20_000)
+    assert "succeeded" in page.inner_text("#job-log")
+    assert page.locator("a", has_text="evaluation.json").count() == 1  # artifacts with links
+    page.screenshot(path=str(shots / "dashboard-job.png"), full_page=True)
+
+    report_url = page.get_attribute("#report-link", "href")
+    assert report_url == f"/ui/jobs/{evaluation}/files/report.html"
+    page.goto(service.url + report_url)
+    page.wait_for_load_state("load")
+    for img in page.locator("img").all():
+        img.scroll_into_view_if_needed()  # figures are lazy-loaded
+    page.wait_for_function("[...document.images].every(i => i.complete)", timeout=15_000)
+    sizes = page.evaluate("[...document.images].map(i => [i.getAttribute('src'), i.naturalWidth])")
+    assert sizes, "the report page shows no figures"
+    assert all(width > 0 for _, width in sizes), f"figures that did not load: {sizes}"
+    assert any(src.startswith("figures/") for src, _ in sizes)
+    path = shots / "dashboard-report.png"
+    page.screenshot(path=str(path), full_page=True)
+
+    # the results page lists the evaluation with its report
+    page.goto(f"{service.url}/ui/results")
+    assert page.locator(f'a[href="{report_url}"]').count() == 1
+
+    with capsys.disabled():
+        print(f"\ndashboard screenshots: {shots / 'dashboard-jobs.png'}, {shots / 'dashboard-job.png'}, {path}")
+
+
+def test_dashboard_map_previews_and_models(service: Up, page) -> None:  # noqa: ANN001
+    page.goto(f"{service.url}/ui/bundles")
+    page.click("text=scenarios/classic_interactions.yaml")
+    first = page.locator("figure.map img").first
+    first.wait_for(timeout=10_000)
+    page.wait_for_function("document.querySelector('figure.map img').complete "
+                           "&& document.querySelector('figure.map img').naturalWidth > 0", timeout=30_000)  # fmt: skip
+    page.screenshot(path=str(screenshot_dir() / "dashboard-matrix.png"))
+    page.goto(f"{service.url}/ui/models")
+    assert page.locator("h1", has_text="Models").count() == 1
