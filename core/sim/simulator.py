@@ -11,6 +11,7 @@ observation. All randomness comes from generators spawned from
 from __future__ import annotations
 
 import hashlib
+import math
 
 import numpy as np
 
@@ -127,6 +128,8 @@ class Simulator:
         if self.done:
             raise CoreError("the episode is over (or was never started): call reset()")
         cmd = np.asarray(command, dtype=float).reshape(2)
+        if not (math.isfinite(cmd[0]) and math.isfinite(cmd[1])):
+            raise CoreError(f"non-finite command {tuple(cmd)} at step {self.t} of {self.scenario.name}")
         cent = None
         if self.has_groups:
             cent = self.crowd.centroids()

@@ -80,3 +80,10 @@ def test_run_episode_result():
     assert r.steps <= 50 and r.outcome in ("success", "collision_pedestrian", "collision_static", "timeout")
     assert r.min_distance is not None and r.min_clearance == pytest.approx(r.min_distance - 1.4)
     assert r.wall_s > 0 and r.trace.ped_pos.shape == (r.steps + 1, r.trace.ped_ids.shape[1], 2)
+
+
+def test_non_finite_command_is_refused():
+    sim = Simulator()
+    sim.reset(STREET, 0)
+    with pytest.raises(Exception, match="non-finite command"):
+        sim.step((float("nan"), 0.0))
