@@ -95,7 +95,7 @@ class WeightsConfig(_Frozen):
     velocity: float = Field(default=0.0, ge=0)
     turn: float = Field(default=0.1, ge=0)
     smoothness: float = Field(default=0.3, ge=0)  #: change of the first command from the last one
-    heading: float = Field(default=0.5, ge=0)  #: terminal heading error to the route direction
+    heading: float = Field(default=1.0, ge=0)  #: mean heading error to the active waypoint over the horizon
 
 
 class PredictivePlannerConfig(_Frozen):

@@ -241,9 +241,9 @@ def evaluate(roll: Rollouts, scene: Scene, cfg: PredictivePlannerConfig) -> tupl
     terms["turn"] = np.abs(cmd[..., 1]).mean(axis=1) / scene.max_turn_rate
     terms["smoothness"] = (np.abs(roll.commands[:, 0, 0] - scene.prev_command[0]) / scene.max_speed
                            + np.abs(roll.commands[:, 0, 1] - scene.prev_command[1]) / scene.max_turn_rate)
-    end = ev[:, -1]
-    bearing = np.arctan2(target[:, 1] - end[:, 1], target[:, 0] - end[:, 0])
-    terms["heading"] = np.abs((bearing - end[:, 2] + np.pi) % (2 * np.pi) - np.pi) / np.pi
+    # mean (not terminal) heading error: a terminal error lets every decision postpone turning in place
+    bearing = np.arctan2(target[:, None, 1] - pos[..., 1], target[:, None, 0] - pos[..., 0])  # (B, K)
+    terms["heading"] = np.abs((bearing - ev[..., 2] + np.pi) % (2 * np.pi) - np.pi).mean(axis=1) / np.pi
     total = -wt.goal * terms["progress"]
     for name in TERMS[1:]:
         total = total + getattr(wt, name) * terms[name]
