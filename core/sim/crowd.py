@@ -19,12 +19,14 @@ from core.sim.walls import constrain_moves
 
 def _group_pairs(group: np.ndarray, size: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Ordered same-group pairs (i, j), i != j, as two int arrays (groups never change members)."""
-    rows = np.nonzero(size[group] >= 2)[0]
-    if len(rows) == 0:
-        return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
-    i, j = np.meshgrid(rows, rows, indexing="ij")
-    same = (group[i] == group[j]) & (i != j)
-    return i[same], j[same]
+    firsts, seconds = [np.zeros(0, dtype=np.intp)], [np.zeros(0, dtype=np.intp)]
+    for g in np.nonzero(size >= 2)[0]:
+        rows = np.nonzero(group == g)[0]
+        i, j = np.meshgrid(rows, rows, indexing="ij")
+        keep = i != j
+        firsts.append(i[keep])
+        seconds.append(j[keep])
+    return np.concatenate(firsts), np.concatenate(seconds)
 
 
 class CrowdDynamics:
