@@ -30,6 +30,7 @@ class Up:
         self.port = free_port()
         self.url = f"http://127.0.0.1:{self.port}"
         self.log_path = tmp / "foresight-up.log"
+        self.store = tmp / "data" / "store"  #: the default artifact store of the data dir
         self.env = {
             **os.environ,
             "FORESIGHT_DATA_DIR": str(tmp / "data"),

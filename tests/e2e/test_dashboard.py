@@ -130,6 +130,11 @@ def test_dashboard_follows_a_job_to_its_report(service: Up, page, capsys: pytest
     # the evaluation: followed in the jobs page until it succeeds, then its report link
     status = _wait_row(page, evaluation, {"succeeded", "failed", "cancelled"}, JOB_TIMEOUT_S, service)
     assert status == "succeeded", api.get(f"/v1/jobs/{evaluation}").json()["error"]
+    report_file = service.store / "jobs" / evaluation / "report.html"
+    assert report_file.is_file(), (
+        f"the worker wrote no report for the evaluate job ({report_file} missing): the worker is expected to call "
+        "core.reports.stage.write_stage_report(kind, result, workdir) after a stage succeeds"
+    )  # fmt: skip
     shots = screenshot_dir()
     page.screenshot(path=str(shots / "dashboard-jobs.png"), full_page=True)
 
