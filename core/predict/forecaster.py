@@ -12,6 +12,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from core.errors import ConfigError
 from core.predict.features import ego_to_world, extract_features
 from core.predict.history import LiveHistory
 from core.predict.predictor import ConstantVelocityPredictor, Predictor
@@ -104,5 +105,9 @@ class LearnedForecaster(_PredictorForecaster):
     """
 
     def __init__(self, predictor: Predictor, max_agents: int | None = None):
+        frame = getattr(predictor, "frame_convention", "robot")
+        if frame != "robot":
+            raise ConfigError(f"model {predictor.name!r} was trained in the {frame!r} frame; the planner feeds "
+                              "robot-frame features (train it on simulator data)", item="model")
         slots = max_agents if max_agents is not None else getattr(predictor, "max_agents", None)
         super().__init__(predictor, slots, f"learned:{predictor.name}")

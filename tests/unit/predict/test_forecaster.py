@@ -70,3 +70,10 @@ def test_learned_forecaster_uses_nearest_and_labels_far_cv():
 def test_empty_scene():
     fc = ConstantVelocityForecaster(PLANNER_TIMEBASE).update(make_obs(0, (0, 0, 0), [], np.zeros((0, 2))))
     assert fc.positions.shape == (0, 12, 2)
+
+
+def test_learned_forecaster_refuses_focal_frame_models():
+    p = ConstantVelocityPredictor(PLANNER_TIMEBASE)
+    p.frame_convention = "focal_pedestrian"
+    with pytest.raises(ConfigError, match="focal_pedestrian"):
+        LearnedForecaster(p)
