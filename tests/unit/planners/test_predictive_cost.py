@@ -91,3 +91,27 @@ def test_static_field_never_overestimates_clearance():
     approx = field(pts)
     assert np.all(approx <= exact + 1e-9) and np.all(exact - approx < 0.2)
     assert field(np.array([[-1.0, 5.0]]))[0] < 0  # outside the map
+
+
+def test_pedestrians_are_predicted_to_make_room_for_a_slow_robot():
+    """The reactive clearance lets a pedestrian step away from an edging robot, not from a fast one."""
+    m = corridor_map()
+    obs = observation(m, velocity=(0.0, 0.0), peds=[(6.5, 10.0)])  # 0.1 m beyond the 1.4 m contact distance
+    creep = np.array([[0.3, 0.0]])
+    rigid = PredictivePlannerConfig.from_dict({"safety": {"yield_speed": 0.0}})
+    t_rigid = _planner(m, rigid).score_commands(obs, creep)[1]
+    t_react = _planner(m).score_commands(obs, creep)[1]
+    assert t_react["collision"][0] < t_rigid["collision"][0]
+    fast = _planner(m).score_commands(observation(m, velocity=(2.0, 0.0), peds=[(9.0, 10.0)]), np.array([[2.0, 0.0]]))[1]
+    assert fast["collision"][0] > 0
+
+
+def test_assertiveness_grows_only_while_stalled():
+    m = corridor_map()
+    p = _planner(m)
+    s = p.config.safety
+    assert p._assertiveness(10.0, 0.0) == 0.0
+    assert p._assertiveness(10.0, s.stall_after_s) == 0.0
+    assert p._assertiveness(9.9, s.stall_after_s + s.stall_ramp_s / 2) == pytest.approx(0.5)
+    assert p._assertiveness(9.9, s.stall_after_s + 2 * s.stall_ramp_s) == 1.0
+    assert p._assertiveness(9.0, 20.0) == 0.0  # progress resets the stall clock
