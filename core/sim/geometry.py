@@ -112,8 +112,10 @@ class StaticMap:
         self.polygons = [np.asarray(p, dtype=float) for p in map_def.obstacles]
         self.segments = np.ascontiguousarray(map_def.all_segments, dtype=float)  #: (S, 4) obstacles + bounds
         self.walls = SegmentSet(self.segments)
-        # obstacle edges only (the bounding box test covers the bounds cheaply)
-        self.obstacle_walls = SegmentSet(map_def.obstacle_segments)
+        # polygon edges (E, 4) for the even-odd test, each polygon's edges contiguous from poly_start
+        rings = [np.hstack([p, np.roll(p, -1, axis=0)]) for p in self.polygons]
+        self._edges = np.vstack(rings) if rings else np.zeros((0, 4))
+        self._poly_start = np.cumsum([0] + [len(r) for r in rings[:-1]]).astype(np.intp)
 
     def distance(self, points: np.ndarray) -> np.ndarray:
         """Distance [m] from each point (..., 2) to the nearest obstacle edge or map bound, shape (...)."""
@@ -155,4 +157,13 @@ class StaticMap:
         """True where a point (K, 2) is inside an obstacle polygon or outside the map, shape (K,)."""
         points = np.asarray(points, dtype=float).reshape(-1, 2)
         out = (points[:, 0] < 0) | (points[:, 0] > self.width) | (points[:, 1] < 0) | (points[:, 1] > self.height)
-        return out | points_in_polygons(points, self.polygons)
+        if len(self._edges) == 0:
+            return out
+        x, y = points[:, 0:1], points[:, 1:2]
+        x1, y1, x2, y2 = self._edges.T
+        straddle = (y1 > y) != (y2 > y)  # (K, E)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x_cross = x1 + (y - y1) * (x2 - x1) / (y2 - y1)
+        hits = (straddle & (x < x_cross)).astype(np.intp)
+        per_polygon = np.add.reduceat(hits, self._poly_start, axis=1)  # (K, P) crossings per polygon
+        return out | (per_polygon % 2 == 1).any(axis=1)
