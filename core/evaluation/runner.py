@@ -141,7 +141,10 @@ def run_jobs(
     local = [Job(pos, j.scenario, j.seed, j.planner) for pos, j in enumerate(jobs)]
     if matrix is not None and workers > 1:  # longest first: less idle tail; output order is by index anyway
         local.sort(key=lambda j: -expected_cost(matrix, j.scenario, settings.max_steps))
-    if workers == 1:
+    ctx.check_cancelled()
+    # a learned model runs in worker processes even with one worker: one torch thread each, so the
+    # numbers (and hence trajectories) do not depend on the worker count
+    if workers == 1 and not any(j.planner.learned for j in jobs):
         _init_worker(settings, matrix)
         collect(_run_job(j) for j in local)
     else:
