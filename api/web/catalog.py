@@ -51,10 +51,10 @@ def results_page(request: Request) -> HTMLResponse:
             .order_by(jobs.c.created_at.desc()).limit(RESULT_LIMIT)
         ).mappings().all()  # fmt: skip
     with request.app.state.sessions() as session:
-        records: dict[str, list[str]] = defaultdict(list)
-        for table in (Evaluation, Campaign):
+        records: dict[str, list[tuple[str, str]]] = defaultdict(list)
+        for table, route in ((Evaluation, "evaluations"), (Campaign, "campaigns")):
             for ident, job_id in session.execute(select(table.id, table.job_id)):
-                records[job_id].append(ident)
+                records[job_id].append((ident, f"/v1/{route}/{ident}"))
     sections: dict[str, list[dict[str, Any]]] = {title: [] for title in RESULT_KINDS.values()}
     for row in rows:
         sections[RESULT_KINDS[row["kind"]]].append(dict(

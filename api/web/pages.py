@@ -25,6 +25,7 @@ KindFilter = Annotated[list[str] | None, Query(max_length=50)]
 
 
 @router.get("/")
+@router.get("/ui")
 def read_root() -> RedirectResponse:
     return RedirectResponse("/ui/jobs", status_code=307)
 

@@ -25,7 +25,7 @@ def free_port() -> int:
 class Up:
     """``python -m cli.main up`` in its own process group; :meth:`stop` ends it (and its worker)."""
 
-    def __init__(self, tmp: Path, concurrency: int = 2):
+    def __init__(self, tmp: Path, concurrency: int = 2, read_requires_token: bool = False):
         self.tmp = tmp
         self.port = free_port()
         self.url = f"http://127.0.0.1:{self.port}"
@@ -42,7 +42,7 @@ class Up:
         }
         self.env.pop("FORESIGHT_DATABASE_URL", None)
         self.env.pop("FORESIGHT_STORE", None)
-        self.env.pop("FORESIGHT_READ_REQUIRES_TOKEN", None)
+        self.env["FORESIGHT_READ_REQUIRES_TOKEN"] = "true" if read_requires_token else "false"
         self.concurrency = concurrency
         self.proc: subprocess.Popen | None = None
 
@@ -59,7 +59,7 @@ class Up:
                 raise AssertionError(f"foresight up exited with {self.proc.returncode}:\n{self.log()}")
             try:
                 if httpx.get(f"{self.url}/healthz", timeout=2).status_code == 200:
-                    workers = httpx.get(f"{self.url}/v1/workers", timeout=2).json()
+                    workers = self.client().get("/v1/workers", timeout=2).json()
                     if workers["count"] >= 1:
                         return self
             except httpx.HTTPError:

@@ -175,5 +175,59 @@ def test_dashboard_map_previews_and_models(service: Up, page) -> None:  # noqa: 
     page.wait_for_function("document.querySelector('figure.map img').complete "
                            "&& document.querySelector('figure.map img').naturalWidth > 0", timeout=30_000)  # fmt: skip
     page.screenshot(path=str(screenshot_dir() / "dashboard-matrix.png"))
+    # a registered model (any succeeded job's artifact will do): promote it, then make it the default
+    api = service.client()
+    job = api.post("/v1/jobs", json={"spec": {"kind": "sleep", "artifact": "model.pt"}}).json()["id"]
+    deadline = time.monotonic() + 30
+    while api.get(f"/v1/jobs/{job}").json()["status"] != "succeeded" and time.monotonic() < deadline:
+        time.sleep(0.2)
+    model = {"id": "e2e-model", "job_id": job, "artifact": "model.pt", "metrics": {"ade": 0.31},
+             "lineage": {"datasets": ["base-e2e"]}}  # fmt: skip
+    assert api.post("/v1/models", json=model).status_code == 201
+    page.on("dialog", lambda dialog: dialog.accept(TOKEN) if dialog.type == "prompt" else dialog.accept())
     page.goto(f"{service.url}/ui/models")
-    assert page.locator("h1", has_text="Models").count() == 1
+    row = 'tr[data-model="e2e-model"]'
+    assert page.inner_text(f"{row} .status") == "candidate"
+    page.click(f"{row} button:text('promote')")
+    page.wait_for_function(f"document.querySelector('{row} .status').textContent === 'promoted'", timeout=10_000)
+    page.click(f"{row} button:text('make default')")
+    page.wait_for_function(f"document.querySelector('{row} .status').textContent === 'default'", timeout=10_000)
+    assert api.get("/v1/models/e2e-model").json()["status"] == "default"
+    page.screenshot(path=str(screenshot_dir() / "dashboard-models.png"), full_page=True)
+    page.goto(f"{service.url}/ui/results")
+    page.screenshot(path=str(screenshot_dir() / "dashboard-results.png"), full_page=True)
+
+
+@pytest.fixture(scope="module")
+def closed_service(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Up]:
+    up = Up(tmp_path_factory.mktemp("dashboard-closed"), concurrency=1, read_requires_token=True).start()
+    try:
+        yield up
+    finally:
+        up.stop()
+
+
+def test_closed_reads_ask_for_the_token_then_stream(closed_service: Up, page) -> None:  # noqa: ANN001
+    answers = ["wrong-token", TOKEN]
+    page.on("dialog", lambda dialog: dialog.accept(answers.pop(0)) if dialog.type == "prompt" else dialog.accept())
+    resp = page.goto(f"{closed_service.url}/ui/jobs")
+    assert resp.status == 401 and page.locator("h1", has_text="Token required").count() == 1
+
+    page.click('[data-action="token-reload"]')  # a wrong token: the page asks again
+    page.wait_for_load_state("load")
+    assert page.locator("h1", has_text="Token required").count() == 1
+    page.click('[data-action="token-reload"]')
+    page.wait_for_selector("#job-rows")
+    assert page.locator("h1", has_text="Jobs").count() == 1
+
+    api = closed_service.client()
+    job = api.post("/v1/jobs", json={"spec": {"kind": "sleep", "seconds": 2.5, "steps": 10}}).json()["id"]
+    _wait_row(page, job, {"queued", "running"}, 15, closed_service)  # rows refresh with the cookie
+    page.click(f'tr[data-job="{job}"] a[href="/ui/jobs/{job}"]')
+    page.wait_for_selector("#job-log")
+    # the event stream (sent with the token header) follows the job; at its end the page reloads itself
+    page.wait_for_function("document.querySelector('#job-summary').dataset.final === '1'", timeout=30_000)
+    page.wait_for_function("document.getElementById('job-log').dataset.ended === 'succeeded'", timeout=15_000)
+    log = page.inner_text("#job-log")
+    assert "step 10/10" in log and "succeeded" in log
+    assert page.locator("#job-summary .status", has_text="succeeded").count() == 1

@@ -81,7 +81,8 @@
     const el = ev.target.closest("[data-action]");
     if (!el) return;
     const action = el.dataset.action;
-    if (action === "token-reload") {
+    if (action === "token-reload") {  // on the token page the kept token (if any) was refused: ask anew
+      clearToken();
       if (token(true)) location.reload();
       return;
     }
