@@ -27,7 +27,7 @@ test: install browser
 	$(PY) -m pytest -q
 
 demo: install
-	$(VENV)/bin/foresight demo
+	$(VENV)/bin/foresight sim demo
 
 lint: install
 	$(VENV)/bin/ruff check .

@@ -1,4 +1,4 @@
-"""`foresight scenarios list`, `foresight sim run` and the simulator `demo`."""
+"""`foresight scenarios list`, `foresight sim run` and `foresight sim demo`."""
 
 from __future__ import annotations
 
@@ -28,7 +28,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     run.add_argument("--json", action="store_true")
     run.set_defaults(func=sim_run)
 
-    demo = sub.add_parser("demo", help="simulator demo: a few classic episodes, rendered and summarised")
+    demo = sim.add_parser("demo", help="simulator demo: a few classic episodes, rendered and summarised")
     demo.add_argument("--out", default="out/demo", help="folder for renders and the summary")
     demo.add_argument("--json", action="store_true")
     demo.set_defaults(func=demo_run)
