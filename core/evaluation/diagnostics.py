@@ -16,10 +16,18 @@ import numpy as np
 from pydantic import BaseModel
 
 from core.evaluation.config import DiagnosticsConfig
-from core.evaluation.episode import EpisodeRun, run_one
+from core.evaluation.episode import EpisodeRun
 from core.evaluation.metrics import derive
 from core.evaluation.plannerspec import preflight, resolve_planner
-from core.evaluation.runner import PlannerProvenance, load_selection, planner_provenance
+from core.evaluation.record import EpisodeRecord
+from core.evaluation.runner import (
+    EpisodeSettings,
+    Job,
+    PlannerProvenance,
+    load_selection,
+    planner_provenance,
+    run_jobs,
+)
 from core.evaluation.taxonomy import TaxonomyConfig, count_labels
 from core.stages.context import StageContext
 from core.version import code_version
@@ -134,29 +142,35 @@ def _summary(run: EpisodeRun, trace_name: str, render_name: str | None) -> SeedS
     )
 
 
+def _write_seed(run: EpisodeRun, scenario: Any, config: DiagnosticsConfig, ctx: StageContext) -> SeedSummary:
+    name, seed = run.record.scenario, run.record.seed
+    trace_name = f"diagnostics/trace_{name}_{seed}.json"
+    ctx.artifact(trace_name).write_text(json.dumps({
+        "scenario": name, "seed": seed, "horizon": run.geometry.horizon, "dt": run.trace.dt,
+        "record": run.record.model_dump(mode="json"), "steps": step_trace(run, config.max_predicted_peds),
+    }))
+    render = None
+    if config.render:
+        render = _render(run, scenario, ctx, f"diagnostics/{name}_{seed}.png",
+                         f"{name} seed {seed}: {run.record.outcome} ({run.record.taxonomy.label or 'solved'})")
+    return _summary(run, trace_name, render)
+
+
 def run_diagnostics(config: DiagnosticsConfig, ctx: StageContext) -> DiagnosticsResult:
     """Trace every (scenario, seed) of the manifest; writes traces, PNGs, a summary JSON and a report."""
     t0 = time.perf_counter()
-    _, matrix, pairs = load_selection(config, ctx)
+    path, matrix, pairs = load_selection(config, ctx)
     rp = resolve_planner(config.planner, ctx)
     preflight(rp, [matrix.get(s) for s in dict.fromkeys(s for s, _ in pairs)])
-    seeds: list[SeedSummary] = []
-    for i, (name, seed) in enumerate(pairs):
-        ctx.check_cancelled()
-        ctx.progress(i / len(pairs), f"{name} seed {seed}")
-        scenario = matrix.get(name)
-        run = run_one(scenario, seed, rp, max_steps=config.max_steps, metrics_cfg=config.metrics,
-                      taxonomy_cfg=config.taxonomy, keep_diagnostics=True)
-        trace_name = f"diagnostics/trace_{name}_{seed}.json"
-        ctx.artifact(trace_name).write_text(json.dumps({
-            "scenario": name, "seed": seed, "horizon": run.geometry.horizon, "dt": run.trace.dt,
-            "record": run.record.model_dump(mode="json"), "steps": step_trace(run, config.max_predicted_peds),
-        }))
-        render = None
-        if config.render:
-            render = _render(run, scenario, ctx, f"diagnostics/{name}_{seed}.png",
-                             f"{name} seed {seed}: {run.record.outcome} ({run.record.taxonomy.label or 'solved'})")
-        seeds.append(_summary(run, trace_name, render))
+    settings = EpisodeSettings(str(path), config.max_steps, config.metrics, config.taxonomy, keep_diagnostics=True)
+    jobs = [Job(i, name, seed, rp) for i, (name, seed) in enumerate(pairs)]
+
+    def progress(done: int, total: int, rec: EpisodeRecord) -> None:
+        ctx.progress(0.9 * done / total, f"{rec.scenario} seed {rec.seed}: {rec.outcome}")
+
+    # the same runner as evaluations (worker processes for learned models), so a seed behaves identically
+    runs: list[EpisodeRun] = run_jobs(jobs, settings, ctx, matrix=matrix, on_record=progress)
+    seeds = [_write_seed(run, matrix.get(run.record.scenario), config, ctx) for run in runs]
     ctx.progress(1.0, "done")
     outcomes: dict[str, int] = {}
     for s in seeds:

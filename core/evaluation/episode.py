@@ -79,7 +79,7 @@ class RecordingPlanner:
         if "forecast_source" in diag:
             self.log.sources.add(str(diag["forecast_source"]))
         pred = diag.get("predictions")
-        if pred is not None and (self.keep or step % PREDICTION_STRIDE == 0):
+        if pred is not None and step % PREDICTION_STRIDE == 0:  # the same sample in evaluations and diagnostics
             self.log.predictions.append((step, np.asarray(pred["ped_ids"]), np.asarray(pred["positions"]),
                                          np.asarray(pred["times"])))
 

@@ -21,7 +21,7 @@ from pydantic import BaseModel
 from core.errors import ConfigError
 from core.evaluation.aggregate import Aggregates, aggregate, summarise
 from core.evaluation.config import EpisodeSelection, EvaluationConfig
-from core.evaluation.episode import run_one
+from core.evaluation.episode import EpisodeRun, run_one
 from core.evaluation.gates import GateResult, evaluation_gate
 from core.evaluation.integrity import IntegrityReport, check_integrity
 from core.evaluation.metrics import MetricsConfig
@@ -50,6 +50,7 @@ class EpisodeSettings:
     max_steps: int | None
     metrics: MetricsConfig
     taxonomy: TaxonomyConfig
+    keep_diagnostics: bool = False  #: return whole EpisodeRuns (trace + per-step planner log), not records
 
 
 # ------------------------------------------------------------------------------ episode selection
@@ -110,11 +111,12 @@ def _init_worker(settings: EpisodeSettings, matrix: ScenarioMatrix | None = None
     _WORKER.update(settings=settings, matrix=matrix or load_matrix(settings.matrix_path), sim=Simulator())
 
 
-def _run_job(job: Job) -> tuple[int, EpisodeRecord]:
+def _run_job(job: Job) -> tuple[int, Any]:
     s: EpisodeSettings = _WORKER["settings"]
     run = run_one(_WORKER["matrix"].get(job.scenario), job.seed, job.planner, max_steps=s.max_steps,
-                  metrics_cfg=s.metrics, taxonomy_cfg=s.taxonomy, simulator=_WORKER["sim"])
-    return job.index, run.record
+                  metrics_cfg=s.metrics, taxonomy_cfg=s.taxonomy, keep_diagnostics=s.keep_diagnostics,
+                  simulator=_WORKER["sim"])
+    return job.index, (run if s.keep_diagnostics else run.record)
 
 
 def expected_cost(matrix: ScenarioMatrix, name: str, max_steps: int | None) -> float:
@@ -126,16 +128,19 @@ def expected_cost(matrix: ScenarioMatrix, name: str, max_steps: int | None) -> f
 def run_jobs(
     jobs: list[Job], settings: EpisodeSettings, ctx: StageContext, *, matrix: ScenarioMatrix | None = None,
     start_method: str = "spawn", on_record: Callable[[int, int, EpisodeRecord], None] | None = None,
-) -> list[EpisodeRecord]:
-    """Run every job (in-process with one worker, else a process pool); records in job order."""
-    out: list[EpisodeRecord | None] = [None] * len(jobs)
+) -> list[Any]:
+    """Run every job (in-process with one worker, else a process pool); results in job order.
+
+    Results are EpisodeRecords, or EpisodeRuns when ``settings.keep_diagnostics``.
+    """
+    out: list[Any] = [None] * len(jobs)
     workers = max(1, min(int(ctx.workers or 1), len(jobs)))
 
-    def collect(results: Iterable[tuple[int, EpisodeRecord]]) -> None:
-        for done, (i, rec) in enumerate(results, start=1):
-            out[i] = rec
+    def collect(results: Iterable[tuple[int, Any]]) -> None:
+        for done, (i, item) in enumerate(results, start=1):
+            out[i] = item
             if on_record is not None:
-                on_record(done, len(jobs), rec)
+                on_record(done, len(jobs), item.record if isinstance(item, EpisodeRun) else item)
             ctx.check_cancelled()
 
     local = [Job(pos, j.scenario, j.seed, j.planner) for pos, j in enumerate(jobs)]

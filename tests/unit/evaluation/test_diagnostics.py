@@ -32,6 +32,18 @@ def test_diagnostics_of_a_manifest(tmp_path: Path) -> None:
     assert {"cost", "terms", "command"} <= set(step["chosen"])
     pva = step["predicted_vs_actual"]
     assert pva and len(pva[0]["predicted"]) == len(pva[0]["times"]) == len(pva[0]["actual"])
+    # the seed behaves exactly as in an evaluation of the same manifest
+    from core.evaluation.config import EvaluationConfig
+    from core.evaluation.record import EpisodeRecord
+    from core.evaluation.runner import read_records, run_evaluation
+
+    ev = tmp_path / "ev"
+    ev.mkdir()
+    run_evaluation(EvaluationConfig(bundle="t", seed_manifest="hard.yaml", max_steps=20,
+                                    planner={"name": "predictive", "model": "cv"}),
+                   StageContext(workdir=ev, resolve_bundle=lambda _b: root, workers=2))
+    (evaluated,) = read_records(ev / "episodes.jsonl")
+    assert EpisodeRecord.model_validate(trace["record"]).comparable() == evaluated.comparable()
     summary = json.loads((work / "diagnostics.json").read_text())
     assert summary["taxonomy"]["timeout_slow_progress"] == 1 and summary["planner"]["config_hash"]
     assert "| crossing_high | 3 | timeout |" in (work / "diagnostics_report.md").read_text()
