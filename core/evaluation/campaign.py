@@ -181,7 +181,9 @@ def run_campaign(config: CampaignConfig, ctx: StageContext) -> CampaignResult:
     if config.gate and config.gate.baseline_variant not in {v.name for v in variants}:
         raise ConfigError(f"baseline variant {config.gate.baseline_variant!r} is not in the grid", item="gate")
     cells_rp = [(ck, resolve_planner(_spec(config, v, ck), ctx)) for ck in config.checkpoints for v in variants]
-    preflight(cells_rp[0][1], [matrix.get(s) for s in dict.fromkeys(s for s, _ in [*glob, *hard])])
+    scenarios = [matrix.get(s) for s in dict.fromkeys(s for s, _ in [*glob, *hard])]
+    for rp in {rp.model_id: rp for _, rp in cells_rp}.values():  # every checkpoint fits before any episode
+        preflight(rp, scenarios)
     settings = EpisodeSettings(str(path), config.max_steps, config.metrics, config.taxonomy)
     cells: list[CellResult] = []
     ran = 0
