@@ -16,12 +16,15 @@ from api.settings import Settings
 
 _bearer = HTTPBearer(auto_error=False, description="FORESIGHT_API_TOKEN")
 
+# The small dependencies are ``async``: FastAPI runs a sync dependency in the thread pool, a hand-off that
+# cost more than the dependency itself on every request.
 
-def get_settings(request: Request) -> Settings:
+
+async def get_settings(request: Request) -> Settings:
     return request.app.state.settings
 
 
-def get_engine(request: Request) -> Engine:
+async def get_engine(request: Request) -> Engine:
     return request.app.state.engine
 
 
@@ -35,7 +38,7 @@ def get_write_session(request: Request):  # noqa: ANN201
         yield session
 
 
-def get_resolver(request: Request) -> Resolver:
+async def get_resolver(request: Request) -> Resolver:
     return request.app.state.resolver
 
 
@@ -49,11 +52,11 @@ def _check_token(request: Request, credentials: HTTPAuthorizationCredentials | N
         raise HTTPException(status.HTTP_403_FORBIDDEN, "invalid bearer token")
 
 
-def require_write(request: Request, credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)]) -> None:
+async def require_write(request: Request, credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)]) -> None:
     _check_token(request, credentials)
 
 
-def require_read(request: Request, credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)]) -> None:
+async def require_read(request: Request, credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)]) -> None:
     if request.app.state.settings.read_requires_token:
         _check_token(request, credentials)
 

@@ -30,6 +30,8 @@ class JobKind:
     description: str = ""
     #: writes the result's records (datasets, evaluations, ...) in the transaction that finishes the job
     record: Recorder | None = None
+    #: create ``ctx.workdir`` before the run (stages write into it); False: only ``ctx.artifact`` creates it
+    make_workdir: bool = True
 
 
 KINDS: dict[str, JobKind] = {}
@@ -69,7 +71,7 @@ def run_sleep(spec: SleepSpec, ctx: StageContext) -> dict[str, Any]:
     return {"slept_s": spec.seconds}
 
 
-register(JobKind("sleep", SleepSpec, run_sleep, "diagnostic: sleep, report progress, optionally fail"))
+register(JobKind("sleep", SleepSpec, run_sleep, "diagnostic: sleep, report progress, optionally fail", make_workdir=False))
 
 
 def _stage_kind(

@@ -106,13 +106,15 @@ class JobWorker:
 
     # ------------------------------------------------------------------ loops
     def _slot_loop(self) -> None:
+        busy = False
         while not self._stopping.is_set():
             try:
-                job = queue.claim(self.engine, self.id, self.kinds, self.settings.lease_s)
+                job = queue.claim(self.engine, self.id, self.kinds, self.settings.lease_s, peek=not busy)
             except Exception:  # the database is briefly unavailable: back off, keep the worker alive
                 logger.exception("claim failed", extra={"action": "claim_failed"})
                 self._stopping.wait(1.0)
                 continue
+            busy = job is not None
             if job is None:
                 self._stopping.wait(self.settings.poll_s)
                 continue
@@ -163,7 +165,10 @@ class JobWorker:
         workdir_rel = store.job_dir(self.settings.store_root, job["id"])
         try:
             spec = kind.spec.model_validate(job["spec"])
-            ctx = self._context(held, store.resolve_under(self.settings.store_root, workdir_rel))
+            workdir = store.resolve_under(self.settings.store_root, workdir_rel)
+            if kind.make_workdir:
+                workdir.mkdir(parents=True, exist_ok=True)
+            ctx = self._context(held, workdir)
             result = kind.run(spec, ctx)
         except Cancelled:
             if held.lost:
@@ -180,7 +185,7 @@ class JobWorker:
             queue.fail_or_retry(*args, type(exc).__name__, str(exc), retry=decide_retry(exc))
             return
         artifacts = store.scan(self.settings.store_root, workdir_rel)
-        if not artifacts:
+        if not artifacts and kind.make_workdir:
             _remove_empty(store.resolve_under(self.settings.store_root, workdir_rel))
         record = None
         if kind.record is not None:
@@ -197,7 +202,6 @@ class JobWorker:
             held.last_progress = now
             queue.report_progress(self.engine, job["id"], self.id, job["attempts"], float(fraction), message[:2000])
 
-        workdir.mkdir(parents=True, exist_ok=True)
         return StageContext(
             workdir=workdir,
             progress=progress,

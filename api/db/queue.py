@@ -60,6 +60,13 @@ _CLAIM_SQL = {
     lock: text(_CLAIM.format(lock=lock)).bindparams(bindparam("kinds", expanding=True)).columns(**_JOB_TYPES)
     for lock in ("", "FOR UPDATE SKIP LOCKED")
 }
+_SUBMIT_COLUMNS = ("id", "kind", "spec", "status", "priority", "attempts", "max_attempts", "timeout_s", "idempotency_key",
+                   "parent_id", "cancel_requested", "progress", "message", "created_at")
+_SUBMIT_SQL = (
+    text(f"INSERT INTO jobs ({', '.join(_SUBMIT_COLUMNS)}) VALUES ({', '.join(':' + c for c in _SUBMIT_COLUMNS)}) RETURNING *")
+    .bindparams(bindparam("spec", type_=JSON), bindparam("cancel_requested", type_=Boolean))
+    .columns(**_JOB_TYPES)
+)
 _ANY_QUEUED_SQL = text("SELECT 1 FROM jobs WHERE status = 'queued' AND kind IN :kinds LIMIT 1").bindparams(
     bindparam("kinds", expanding=True)
 )
@@ -146,15 +153,14 @@ def submit(
     )  # fmt: skip
     try:
         with write_tx(engine) as conn:
-            conn.execute(insert(jobs).values(**row))
+            job = conn.execute(_SUBMIT_SQL, row).mappings().one()
             _add_event(conn, row["id"], "status", QUEUED)
     except IntegrityError:
         existing = find_by_key(engine, idempotency_key) if idempotency_key else None
         if existing is None:
             raise
         return _same_submission(existing, kind, spec), False  # a concurrent submission with the same key won
-    with engine.connect() as conn:
-        return _get(conn, row["id"]), True
+    return dict(job), True
 
 
 def _same_submission(job: dict[str, Any], kind: str, spec: dict[str, Any]) -> dict[str, Any]:
@@ -174,11 +180,18 @@ def find_by_key(engine: Engine, key: str) -> dict[str, Any] | None:
 # ------------------------------------------------------------------------------------------ worker side
 
 
-def claim(engine: Engine, worker_id: str, kinds: Sequence[str], lease_s: float) -> dict[str, Any] | None:
-    """Take the highest-priority, oldest queued job of one of ``kinds``; None when there is none."""
-    with engine.connect() as conn:  # a read first: idle workers polling must not queue for the write lock
-        if conn.execute(_ANY_QUEUED_SQL, {"kinds": list(kinds)}).first() is None:
-            return None
+def claim(
+    engine: Engine, worker_id: str, kinds: Sequence[str], lease_s: float, *, peek: bool = True
+) -> dict[str, Any] | None:
+    """Take the highest-priority, oldest queued job of one of ``kinds``; None when there is none.
+
+    ``peek`` reads first and only takes the write lock when a job is waiting, so that idle workers polling
+    do not queue for the lock; a busy worker (its last claim found a job) skips that read.
+    """
+    if peek:
+        with engine.connect() as conn:
+            if conn.execute(_ANY_QUEUED_SQL, {"kinds": list(kinds)}).first() is None:
+                return None
     now = time.time()
     stmt = _CLAIM_SQL["FOR UPDATE SKIP LOCKED" if engine.dialect.name == "postgresql" else ""]
     params = {"owner": worker_id, "expires": now + lease_s, "now": now, "kinds": list(kinds)}

@@ -59,7 +59,26 @@ def _size(n: int) -> str:
     return str(n)
 
 
-templates.env.filters.update(ts=_ts, num=_num, pretty=_pretty, size=_size)
+def _spec_summary(spec: Any) -> str:
+    """A few words on what a job runs (planner, model, inputs), for the jobs table."""
+    if not isinstance(spec, dict):
+        return ""
+    parts = []
+    planner = spec.get("planner")
+    if isinstance(planner, dict) and planner.get("name"):
+        parts.append(str(planner["name"]) + (f" ({planner['model']})" if planner.get("model") else ""))
+    for key in ("model", "matrix", "seed_manifest", "dataset", "config", "pipeline"):
+        if isinstance(spec.get(key), str):
+            parts.append(spec[key].rsplit("/", 1)[-1])
+    for key in ("scenarios", "checkpoints", "datasets"):
+        if isinstance(spec.get(key), list):
+            parts.append(f"{len(spec[key])} {key}")
+    if isinstance(spec.get("seconds"), int | float):
+        parts.append(f"{spec['seconds']} s")
+    return " · ".join(parts[:4])
+
+
+templates.env.filters.update(ts=_ts, num=_num, pretty=_pretty, size=_size, spec_summary=_spec_summary)
 templates.env.globals.update(duration=_duration, FINAL=FINAL)
 
 

@@ -127,6 +127,7 @@
       let text = at + "  " + ev.type.padEnd(8) + " ";
       if (ev.type === "progress" && ev.progress !== null) text += Math.round(ev.progress * 100) + " %  ";
       pre.textContent += text + (ev.message || "") + "\n";
+      if (pre.textContent.length > 400000) pre.textContent = "…\n" + pre.textContent.slice(-300000);
       pre.scrollTop = pre.scrollHeight;
     }
     function progress(ev) {

@@ -1,0 +1,235 @@
+"""API load benchmark: a local server as `foresight up` starts it, under closed-loop HTTP clients.
+
+Phases (each on a fresh temporary data dir unless --database-url is given):
+1. status reads: ``GET /v1/jobs/{id}`` over existing jobs, ``--clients`` concurrent keep-alive connections;
+2. submissions: ``POST /v1/jobs`` (an empty ``sleep`` job) the same way, while the server's worker runs them;
+3. claims: ``--claim-jobs`` empty jobs queued in the database, then ``--claim-workers`` worker processes
+   drain the queue; throughput = jobs / (last finish − first claim).
+
+The load generator is one asyncio process speaking minimal HTTP/1.1 over raw sockets, so that it takes as
+little of the machine's CPU as possible. Targets (2-core machine, generator included): status reads
+≥ 800 req/s with p99 ≤ 100 ms; submissions ≥ 150 req/s with p99 ≤ 250 ms; claims ≥ 200 jobs/s (SQLite).
+
+    python bench/api_load.py --json [--duration 30] [--clients 50]
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+TOKEN = "bench-token"
+TARGETS = {
+    "status_reads": {"min_rps": 800, "max_p99_ms": 100},
+    "submissions": {"min_rps": 150, "max_p99_ms": 250},
+    "claims": {"min_jobs_per_s": 200},
+}
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _env(data_dir: Path, database_url: str | None) -> dict[str, str]:
+    env = {**os.environ, "FORESIGHT_DATA_DIR": str(data_dir), "FORESIGHT_API_TOKEN": TOKEN}
+    if database_url:
+        env["FORESIGHT_DATABASE_URL"] = database_url
+    return env
+
+
+def _cli(env: dict[str, str], *args: str, **kwargs) -> subprocess.Popen:  # noqa: ANN003
+    return subprocess.Popen([sys.executable, "-m", "cli.main", *args], env=env, cwd=REPO, **kwargs)
+
+
+def _wait_healthy(port: int, timeout: float = 90) -> None:
+    import httpx
+
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        try:
+            if httpx.get(f"http://127.0.0.1:{port}/healthz", timeout=1).status_code == 200:
+                return
+        except httpx.HTTPError:
+            time.sleep(0.2)
+    raise RuntimeError("server did not become healthy")
+
+
+# --------------------------------------------------------------------------------------- HTTP client
+
+
+async def _request(reader: asyncio.StreamReader, writer: asyncio.StreamWriter, raw: bytes) -> int:
+    writer.write(raw)
+    head = await reader.readuntil(b"\r\n\r\n")
+    status = int(head[9:12])
+    length = 0
+    for line in head.split(b"\r\n"):
+        if line[:15].lower() == b"content-length:":
+            length = int(line[15:])
+    if length:
+        await reader.readexactly(length)
+    return status
+
+
+async def _client_loop(port: int, requests: list[bytes], stop_at: float, latencies: list[float], errors: list[int]) -> None:
+    reader, writer = await asyncio.open_connection("127.0.0.1", port)
+    i = 0
+    try:
+        while time.perf_counter() < stop_at:
+            t0 = time.perf_counter()
+            status = await _request(reader, writer, requests[i % len(requests)])
+            latencies.append(time.perf_counter() - t0)
+            if status >= 400:
+                errors.append(status)
+            i += 1
+    finally:
+        writer.close()
+
+
+def _load(port: int, requests: list[bytes], clients: int, duration: float) -> dict:
+    latencies: list[float] = []
+    errors: list[int] = []
+
+    async def main() -> None:
+        stop_at = time.perf_counter() + duration
+        per_client = [requests[i::clients] or requests for i in range(clients)]
+        await asyncio.gather(*(_client_loop(port, per_client[i], stop_at, latencies, errors) for i in range(clients)))
+
+    t0 = time.perf_counter()
+    asyncio.run(main())
+    elapsed = time.perf_counter() - t0
+    latencies.sort()
+    n = len(latencies)
+    pct = lambda q: round(1000 * latencies[min(n - 1, int(q * n))], 2) if n else None  # noqa: E731
+    return {"requests": n, "seconds": round(elapsed, 2), "rps": round(n / elapsed, 1), "p50_ms": pct(0.50),
+            "p99_ms": pct(0.99), "errors": len(errors), "clients": clients}  # fmt: skip
+
+
+def _get(path: str) -> bytes:
+    return f"GET {path} HTTP/1.1\r\nHost: bench\r\n\r\n".encode()
+
+
+def _post(path: str, body: dict) -> bytes:
+    data = json.dumps(body).encode()
+    head = (f"POST {path} HTTP/1.1\r\nHost: bench\r\nAuthorization: Bearer {TOKEN}\r\n"
+            f"Content-Type: application/json\r\nContent-Length: {len(data)}\r\n\r\n")  # fmt: skip
+    return head.encode() + data
+
+
+# --------------------------------------------------------------------------------------- phases
+
+
+def bench_http(database_url: str | None, clients: int, duration: float) -> dict:
+    import httpx
+
+    with tempfile.TemporaryDirectory(prefix="foresight-bench-") as tmp:
+        env = _env(Path(tmp), database_url)
+        port = _free_port()
+        server = _cli(env, "up", "--port", str(port), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            _wait_healthy(port)
+            with httpx.Client(base_url=f"http://127.0.0.1:{port}", headers={"Authorization": f"Bearer {TOKEN}"}) as c:
+                ids = [c.post("/v1/jobs", json={"spec": {"kind": "sleep"}}).json()["id"] for _ in range(200)]
+            reads = _load(port, [_get(f"/v1/jobs/{i}") for i in ids], clients, duration)
+            submits = _load(port, [_post("/v1/jobs", {"spec": {"kind": "sleep"}})], clients, duration)
+        finally:
+            server.send_signal(signal.SIGTERM)
+            try:
+                server.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                server.kill()
+    return {"status_reads": reads, "submissions": submits}
+
+
+def bench_claims(database_url: str | None, jobs: int, workers: int) -> dict:
+    from sqlalchemy import func, insert, select
+
+    from api.db import queue
+    from api.db.session import make_engine, upgrade, write_tx
+
+    with tempfile.TemporaryDirectory(prefix="foresight-bench-") as tmp:
+        env = _env(Path(tmp), database_url)
+        url = database_url or f"sqlite:///{Path(tmp) / 'foresight.db'}"
+        upgrade(url)
+        engine = make_engine(url)
+        if database_url:  # a shared database: start from an empty queue
+            with write_tx(engine) as conn:
+                conn.execute(queue.events.delete())
+                conn.execute(queue.artifacts.delete())
+                conn.execute(queue.jobs.delete())
+        now = time.time()
+        rows = [dict(id=queue.new_id(), kind="sleep", spec={"kind": "sleep"}, status="queued", priority=0, attempts=0,
+                     max_attempts=3, cancel_requested=False, progress=0.0, message="", created_at=now + i * 1e-6)
+                for i in range(jobs)]  # fmt: skip
+        with write_tx(engine) as conn:
+            conn.execute(insert(queue.jobs), rows)
+        procs = [_cli(env, "worker", stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL) for _ in range(workers)]
+        try:
+            deadline = time.time() + 300
+            while time.time() < deadline:
+                with engine.connect() as conn:
+                    done = conn.execute(
+                        select(func.count()).select_from(queue.jobs).where(queue.jobs.c.status == "succeeded")
+                    ).scalar()
+                if done == jobs:
+                    break
+                time.sleep(0.2)
+            with engine.connect() as conn:
+                first, last = conn.execute(select(func.min(queue.jobs.c.started_at), func.max(queue.jobs.c.finished_at))).one()
+                owners = conn.execute(select(func.count(func.distinct(queue.jobs.c.lease_owner)))).scalar()
+        finally:
+            for p in procs:
+                p.send_signal(signal.SIGTERM)
+            for p in procs:
+                p.wait(timeout=30)
+            engine.dispose()
+    span = (last or 0) - (first or 0)
+    return {"jobs": jobs, "done": done, "workers": workers, "workers_used": owners, "seconds": round(span, 2),
+            "jobs_per_s": round(done / span, 1) if span > 0 else None,
+            "database": "postgresql" if database_url else "sqlite"}  # fmt: skip
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--json", action="store_true", help="print the results as JSON")
+    parser.add_argument("--duration", type=float, default=30.0, help="[s] per HTTP phase")
+    parser.add_argument("--clients", type=int, default=50)
+    parser.add_argument("--claim-jobs", type=int, default=2000)
+    parser.add_argument("--claim-workers", type=int, default=2)
+    parser.add_argument("--database-url", help="benchmark this database instead of a temporary SQLite file")
+    args = parser.parse_args(argv)
+
+    result = {
+        **bench_http(args.database_url, args.clients, args.duration),
+        "claims": bench_claims(args.database_url, args.claim_jobs, args.claim_workers),
+        "targets": TARGETS,
+        "machine": {"cpus": os.cpu_count(), "loadavg_1m_at_end": round(os.getloadavg()[0], 2)},
+    }
+    r, s, c = result["status_reads"], result["submissions"], result["claims"]
+    result["meets_targets"] = {
+        "status_reads": r["rps"] >= 800 and r["p99_ms"] is not None and r["p99_ms"] <= 100 and r["errors"] == 0,
+        "submissions": s["rps"] >= 150 and s["p99_ms"] is not None and s["p99_ms"] <= 250 and s["errors"] == 0,
+        "claims": (c["jobs_per_s"] or 0) >= 200,
+    }
+    if args.json:
+        print(json.dumps(result, indent=2))
+    else:
+        print(f"status reads: {r['rps']} req/s, p50 {r['p50_ms']} ms, p99 {r['p99_ms']} ms, errors {r['errors']}")
+        print(f"submissions:  {s['rps']} req/s, p50 {s['p50_ms']} ms, p99 {s['p99_ms']} ms, errors {s['errors']}")
+        print(f"claims:       {c['jobs_per_s']} jobs/s ({c['done']}/{c['jobs']} jobs, {c['workers']} workers, {c['database']})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
