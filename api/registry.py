@@ -23,7 +23,7 @@ from sqlalchemy import Engine, select
 from api import store
 from api.db.models import Bundle, Dataset, Model, ModelStatus
 from api.db.session import session_factory
-from api.settings import REPO_ROOT, Settings
+from api.settings import Settings
 from core.errors import ConfigError, CoreError, NotFoundError
 
 logger = logging.getLogger(__name__)
@@ -259,8 +259,8 @@ class Resolver:
         return store.resolve_under(self.settings.store_root, row.path)
 
     def model_path(self, row: Model) -> Path:
-        if row.read_only:
-            return store.resolve_under(REPO_ROOT, row.checkpoint)
+        if row.read_only:  # paths in model/registry.yaml are relative to the repository (the file's grandparent)
+            return store.resolve_under(self.settings.model_registry.resolve().parent.parent, row.checkpoint)
         return store.resolve_under(self.settings.store_root, row.checkpoint)
 
     def model(self, ident: str) -> Path:

@@ -1,0 +1,154 @@
+"""Bundles (upload validation) and the model registry (shipped entries, promote, delete rules)."""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import tarfile
+import zipfile
+from pathlib import Path
+
+import pytest
+import yaml
+
+from api.settings import REPO_ROOT
+from core.errors import CoreError
+
+CONFIGS = REPO_ROOT / "configs"
+
+
+def _tar(files: dict[str, bytes], extra: list[tarfile.TarInfo] = ()) -> bytes:  # noqa: B006
+    buf = io.BytesIO()
+    with tarfile.open(fileobj=buf, mode="w:gz") as tar:
+        for name, data in files.items():
+            info = tarfile.TarInfo(name)
+            info.size = len(data)
+            tar.addfile(info, io.BytesIO(data))
+        for info in extra:
+            tar.addfile(info)
+    return buf.getvalue()
+
+
+def _project_bundle() -> dict[str, bytes]:
+    """The project's classic matrix with its archetypes and maps, as archive members."""
+    files = {}
+    for path in sorted(CONFIGS.rglob("*")):
+        if path.is_file() and path.suffix in {".yaml", ".svg"} and ("scenarios" in path.parts or "maps" in path.parts):
+            files[path.relative_to(CONFIGS).as_posix()] = path.read_bytes()
+    return files
+
+
+def test_builtin_bundle_registered_at_start_up(client) -> None:  # noqa: ANN001
+    bundles = client.get("/v1/bundles").json()
+    assert "builtin" in [b["id"] for b in bundles["data"]]
+    scenarios = client.get("/v1/bundles/builtin/scenarios").json()
+    assert scenarios and {"matrix", "name", "map", "seeds"} <= scenarios[0].keys()
+
+
+def test_upload_valid_bundle(client, auth, settings) -> None:  # noqa: ANN001
+    r = client.post("/v1/bundles", params={"name": "mine"}, content=_tar(_project_bundle()),
+                    headers={**auth, "Content-Type": "application/gzip"})  # fmt: skip
+    assert r.status_code == 201, r.text
+    assert r.json()["scenarios"] == ["scenarios/classic_interactions.yaml"]
+    assert (settings.store_root / "bundles" / "mine" / "scenarios" / "classic_interactions.yaml").is_file()
+    assert len(client.get("/v1/bundles/mine/scenarios").json()) > 0
+    again = client.post("/v1/bundles", params={"name": "mine"}, content=_tar(_project_bundle()), headers=auth)
+    assert again.status_code == 409
+
+
+def _symlink() -> tarfile.TarInfo:
+    info = tarfile.TarInfo("scenarios/link.yaml")
+    info.type, info.linkname = tarfile.SYMTYPE, "/etc/passwd"
+    return info
+
+
+@pytest.mark.parametrize(
+    "archive,why",
+    [
+        (lambda: _tar({"../evil.yaml": b"scenarios: []"}), ".."),
+        (lambda: _tar({"/abs/evil.yaml": b"scenarios: []"}), "absolute"),
+        (lambda: _tar({"m.yaml": b"includes: [../../etc/x.yaml]"}), "leaves the bundle"),
+        (lambda: _tar({"m.yaml": b"map_registry: /etc/registry.yaml\nscenarios: []"}), "absolute"),
+        (lambda: _tar({"m.yaml": b"scenarios: [\n"}), "YAML"),
+        (lambda: _tar({"run.sh": b"echo hi"}), "file type"),
+        (lambda: _tar({"readme.md": b"no matrix"}), "no scenario matrix"),
+        (lambda: _tar({"m.yaml": b"scenarios: []"}, [_symlink()]), "links"),
+        (lambda: b"not an archive at all", "not a zip or tar"),
+        (lambda: _zip({"../x.yaml": b"scenarios: []"}), ".."),
+    ],
+)
+def test_upload_invalid_bundles_are_422_and_store_nothing(client, auth, settings, archive, why) -> None:  # noqa: ANN001
+    r = client.post("/v1/bundles", params={"name": "bad"}, content=archive(), headers=auth)
+    assert r.status_code == 422, r.text
+    assert why in str(r.json()["detail"])
+    assert client.get("/v1/bundles/bad").status_code == 404
+    assert not (settings.store_root / "bundles" / "bad").exists()
+
+
+def _zip(files: dict[str, bytes]) -> bytes:
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as z:
+        for name, data in files.items():
+            z.writestr(name, data)
+    return buf.getvalue()
+
+
+def test_upload_name_and_auth(client, auth) -> None:  # noqa: ANN001
+    data = _tar(_project_bundle())
+    assert client.post("/v1/bundles", params={"name": "x"}, content=data).status_code == 401
+    assert client.post("/v1/bundles", params={"name": "../x"}, content=data, headers=auth).status_code == 422
+    assert client.post("/v1/bundles", params={"name": "builtin"}, content=data, headers=auth).status_code in (409, 422)
+
+
+def test_shipped_models_are_read_only(tmp_path: Path, settings, auth) -> None:  # noqa: ANN001
+    from fastapi.testclient import TestClient
+
+    from api.main import create_app
+
+    repo = tmp_path / "repo"
+    ckpt = repo / "model" / "checkpoint.bin"
+    ckpt.parent.mkdir(parents=True)
+    ckpt.write_bytes(b"weights")
+    registry = repo / "model" / "registry.yaml"
+    registry.write_text(yaml.safe_dump({"models": [{
+        "id": "shipped-1", "path": "model/checkpoint.bin", "sha256": hashlib.sha256(b"weights").hexdigest(),
+        "provenance": "test", "tags": ["default", "predictor"]}]}))  # fmt: skip
+    with TestClient(create_app(settings.model_copy(update={"model_registry": registry}))) as c:
+        model = c.get("/v1/models/shipped-1").json()
+        assert model["read_only"] and model["status"] == "default"
+        assert c.delete("/v1/models/shipped-1", headers=auth).status_code == 409
+        assert c.post("/v1/models/shipped-1/promote", headers=auth).status_code == 409
+        resolver = c.app.state.resolver
+        assert resolver.model("shipped-1") == ckpt.resolve()
+        assert resolver.model("default") == ckpt.resolve()
+        ckpt.write_bytes(b"tampered")
+        with pytest.raises(CoreError, match="sha256"):
+            resolver.model("shipped-1")
+
+
+def test_register_promote_delete(client, auth, engine, settings) -> None:  # noqa: ANN001
+    from api import store
+    from api.db import queue
+
+    job = client.post("/v1/jobs", json={"spec": {"kind": "sleep"}}, headers=auth).json()
+    body = {"id": "m1", "job_id": job["id"], "artifact": "ckpt.pt"}
+    assert client.post("/v1/models", json=body, headers=auth).status_code == 409  # job not finished
+    c = queue.claim(engine, "w", ["sleep"], 30)
+    rel = f"jobs/{job['id']}/ckpt.pt"
+    store.write_atomic(store.resolve_under(settings.store_root, rel), b"w")
+    queue.finish(engine, job["id"], "w", c["attempts"], {}, store.scan(settings.store_root, f"jobs/{job['id']}"))
+    assert client.post("/v1/models", json={**body, "artifact": "../x"}, headers=auth).status_code == 422
+    assert client.post("/v1/models", json={**body, "artifact": "nope.pt"}, headers=auth).status_code == 404
+    created = client.post("/v1/models", json=body, headers=auth)
+    assert created.status_code == 201 and created.json()["status"] == "candidate"
+    assert created.json()["sha256"] == hashlib.sha256(b"w").hexdigest()
+    assert client.post("/v1/models", json={**body}, headers=auth).status_code == 409
+    body2 = {**body, "id": "m2"}
+    assert client.post("/v1/models", json=body2, headers=auth).status_code == 201
+    assert client.post("/v1/models/m1/promote", json={"to": "default"}, headers=auth).json()["status"] == "default"
+    assert client.post("/v1/models/m2/promote", json={"to": "default"}, headers=auth).json()["status"] == "default"
+    assert client.get("/v1/models/m1").json()["status"] == "promoted"
+    assert client.get("/v1/models", params={"status": "default"}).json()["count"] == 1
+    assert client.delete("/v1/models/m2", headers=auth).status_code == 409  # the default
+    assert client.delete("/v1/models/m1", headers=auth).status_code == 204
+    assert "m2" in client.get("/v1/models/export").text
