@@ -25,6 +25,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     data.add_argument("--ethucy", help="ETH/UCY root folder with <fold>/train|val|test")
     data.add_argument("--dataset", help="dataset .npz (scored on its test split, else val)")
     pe.add_argument("--fold", help="one fold (eth|hotel|univ|zara1|zara2); default all")
+    pe.add_argument("--split", help="dataset split to score: test (default; val when there is no test), val, all")
     _outputs(pe)
     pe.set_defaults(func=predict_eval_cmd)
 
@@ -102,7 +103,7 @@ def predict_eval_cmd(args: argparse.Namespace) -> int:
         train = {k: v for k, v in _train_values(args.config).items() if k != "dataset"}
     config = build_config(PredictEvalConfig, {
         "model": args.model, "train": train, "ethucy": args.ethucy, "dataset": args.dataset,
-        "folds": [args.fold] if args.fold else None})
+        "folds": [args.fold] if args.fold else None, "split": args.split})
     result = run_predict_eval(config, _ctx(args))
     if args.json:
         emit({"folds": {k: v.model_dump() for k, v in result.folds.items()}, "average": result.average.model_dump(),

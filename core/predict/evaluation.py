@@ -26,7 +26,7 @@ class PredictEvalConfig(BaseModel):
     ethucy: str | None = None  #: ETH/UCY root holding <fold>/train|val|test
     folds: list[str] | None = None  #: default: all five
     dataset: str | None = None  #: dataset id or .npz path (instead of ethucy)
-    split: str = "test"  #: held-out split of ``dataset`` (falls back to val when it has no test episodes)
+    split: str = "test"  #: held-out split of ``dataset`` (test, else val when it has no test episodes; "all")
     max_agents: int = Field(default=12, ge=1)  #: slots per ETH/UCY sample
 
     @model_validator(mode="after")
@@ -78,6 +78,12 @@ def _predictor(config: PredictEvalConfig, ds: Dataset, ctx: StageContext, name: 
 
 
 def _score(config: PredictEvalConfig, ds: Dataset, split: str, ctx: StageContext, name: str) -> FoldScore:
+    if split == "all":
+        if config.train is not None:
+            raise ConfigError("split 'all' cannot be used with training (it would score training data)",
+                              source=name, item="split")
+        ds = _all_as_test(ds)
+        split = "test"
     if not len(ds.split_indices(split)):
         raise ConfigError(f"no samples in split {split!r}", source=name, item="split")
     predictor = _predictor(config, ds, ctx, name)
@@ -85,6 +91,14 @@ def _score(config: PredictEvalConfig, ds: Dataset, split: str, ctx: StageContext
     cv = evaluate_predictor(ConstantVelocityPredictor(ds.meta.timebase), ds, split)
     return FoldScore(ade=r["ade"], fde=r["fde"], samples=r["samples"], split=split, cv_ade=cv["ade"], cv_fde=cv["fde"],
                      predictor=getattr(predictor, "name", "model"))
+
+
+def _all_as_test(ds: Dataset) -> Dataset:
+    """The same samples with every episode marked test (a dataset collected only for evaluation)."""
+    from dataclasses import replace
+
+    meta = replace(ds.meta, episodes=[replace(e, split="test") for e in ds.meta.episodes])
+    return Dataset(ds.state, ds.target, ds.mask, ds.target_mask, ds.episode, meta)
 
 
 def run_predict_eval(config: PredictEvalConfig, ctx: StageContext) -> PredictEvalResult:

@@ -42,3 +42,12 @@ def test_import_ethucy_command(tmp_path, capsys):
                str(tmp_path / "z.npz"), "--json"])
     summary = json.loads(capsys.readouterr().out)
     assert rc == 0 and summary["samples_per_split"] == {"train": 6, "val": 6, "test": 6}
+
+
+def test_eval_all_samples_of_a_held_out_dataset(tmp_path, curving_dataset, capsys):
+    from core.predict.dataset import load_dataset
+
+    rc = main(["predict-eval", "--model", "cv", "--dataset", str(curving_dataset), "--split", "all", "--json",
+               "--out", str(tmp_path)])
+    out = json.loads(capsys.readouterr().out)
+    assert rc == 0 and out["folds"]["arcs"]["samples"] == len(load_dataset(curving_dataset))
