@@ -84,7 +84,7 @@ class SafetyConfig(_Frozen):
 class WeightsConfig(_Frozen):
     """Cost weights (lower cost is better); see ``core.planners.predictive.cost`` for the terms."""
 
-    goal: float = Field(default=4.0, ge=0)  #: per metre of route progress
+    goal: float = Field(default=6.0, ge=0)  #: per metre of route progress
     collision: float = Field(default=60.0, ge=0)
     near_miss: float = Field(default=2.0, ge=0)
     ttc: float = Field(default=6.0, ge=0)
