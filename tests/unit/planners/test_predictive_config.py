@@ -70,3 +70,17 @@ def test_bad_reference_value_is_named():
     with pytest.raises(ConfigError) as exc:
         PredictivePlannerConfig.from_reference_grid({"predictive_collision_weight": "high"})
     assert exc.value.item == "predictive_collision_weight"
+
+
+def test_our_planner_grid_resolves():
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[3] / "configs" / "planners" / "predictive_grid_v1.yaml"
+    variants = yaml.safe_load(path.read_text())["variants"]
+    hashes = set()
+    for v in variants:
+        cfg = PredictivePlannerConfig.from_dict(v.get("config"), source=v["name"])
+        if v.get("params"):
+            cfg = PredictivePlannerConfig.from_reference_grid(v["params"], base=cfg, source=v["name"])
+        hashes.add(cfg.config_hash())
+    assert len(hashes) == len(variants)  # every variant differs from the others
