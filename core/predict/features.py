@@ -52,6 +52,16 @@ def current_index(history: int, channel: str) -> int:
     return len(STEP_CHANNELS) * (history - 1) + STEP_CHANNELS.index(channel)
 
 
+def mirror_signs(history: int) -> np.ndarray:
+    """(F,) +-1 per channel that mirrors a feature row across the ego x axis (y -> -y).
+
+    The frames are left/right symmetric, so a mirrored sample (targets' y negated too) is as valid
+    as the original: a free data augmentation. Flipped: py, vy, goal_uy and the turn rate ego_w.
+    """
+    flip = ("py[", "vy[", "goal_uy", "ego_w")
+    return np.array([-1.0 if n.startswith(flip) else 1.0 for n in feature_names(history)], dtype=np.float32)
+
+
 @dataclass(frozen=True)
 class Window:
     """What is known at one instant, in the world frame, on a time base's grid."""

@@ -32,6 +32,7 @@ class TrainConfig(_Strict):
     blocks: int = Field(default=2, ge=0, le=8)  #: K message-passing blocks
     loss_beta: float = Field(default=0.2, gt=0)  #: SmoothL1 beta [m]
     grad_clip: float = Field(default=1.0, gt=0)
+    augment_mirror: bool = False  #: mirror a random half of each batch across the ego x axis (y -> -y)
     threads: int = Field(default=1, ge=1, le=64)  #: torch intra-op threads (1: small matmuls gain little from more, and shared cores thrash)
     val_split: str = "val"  #: which recorded split validates (val; test only for held-out checks)
     proxy_every: int = Field(default=0, ge=0)  #: epochs between proxy evaluations (0 = off)

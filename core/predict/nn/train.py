@@ -19,6 +19,7 @@ import numpy as np
 import torch
 
 from core.predict.dataset import Dataset, file_sha256, load_dataset, resolve_dataset_path
+from core.predict.features import mirror_signs
 from core.predict.metrics import ade_fde
 from core.predict.nn.checkpoint import make_checkpoint, read_checkpoint, save_checkpoint
 from core.predict.nn.model import ModelConfig, TrajectoryModel, masked_ade_fde, masked_smooth_l1
@@ -56,10 +57,13 @@ def train_epoch(model, opt, data: dict[str, torch.Tensor], config: TrainConfig, 
     model.train()
     gen = torch.Generator().manual_seed(config.seed * 1_000_003 + epoch)
     order = torch.randperm(len(data["state"]), generator=gen)
+    signs = torch.from_numpy(mirror_signs(model.config.history)) if config.augment_mirror else None
     loss_sum = err = pts = ferr = fin = 0.0
     for i in range(0, len(order), config.batch_size):
         idx = order[i:i + config.batch_size]
         b = {k: v[idx] for k, v in data.items()}
+        if signs is not None:
+            b = _mirror_half(b, signs, gen)
         pred = model(b["state"], b["mask"])
         loss = masked_smooth_l1(pred, b["target"], b["target_mask"], config.loss_beta)
         opt.zero_grad(set_to_none=True)
@@ -71,6 +75,16 @@ def train_epoch(model, opt, data: dict[str, torch.Tensor], config: TrainConfig, 
         n = float(b["target_mask"].sum())
         loss_sum, err, pts, ferr, fin = loss_sum + float(loss.detach()) * n, err + float(e), pts + float(p), ferr + float(fe), fin + float(f)
     return {"loss": loss_sum / max(pts, 1.0), "ade": err / max(pts, 1.0), "fde": ferr / max(fin, 1.0)}
+
+
+def _mirror_half(b: dict[str, torch.Tensor], signs: torch.Tensor, gen: torch.Generator) -> dict[str, torch.Tensor]:
+    """Mirror a random half of the batch across the ego x axis (features by ``signs``, targets' y)."""
+    flip = torch.rand(len(b["state"]), generator=gen) < 0.5
+    out = dict(b)
+    out["state"] = torch.where(flip[:, None, None], b["state"] * signs, b["state"])
+    ty = torch.where(flip[:, None, None], -b["target"][..., 1], b["target"][..., 1])
+    out["target"] = torch.stack([b["target"][..., 0], ty], dim=-1)
+    return out
 
 
 def cv_metrics(ds: Dataset, index: np.ndarray) -> dict[str, float]:

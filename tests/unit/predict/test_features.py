@@ -100,3 +100,16 @@ def test_short_trace_gives_no_samples():
     trace = make_trace(np.zeros((5, 5)), np.zeros((5, 1), np.int64), np.zeros((5, 1, 2)))
     s = samples_from_trace(trace, PLANNER_TIMEBASE, 4, None)
     assert len(s) == 0 and s.state.shape == (0, 4, feature_dim(5))
+
+
+def test_mirror_signs_mirror_a_window():
+    tb = TimeBase(0.5, 2, 3)
+    hist = np.array([[[1.0, 0.5], [2.0, 1.5]]])
+    w = Window(np.array([0.0, 0.0, 0.0]), np.array([0.7, 0.3]), np.array([3.0, 4.0]), np.array([1]), hist,
+               np.ones((1, 2), bool))
+    mirrored = Window(w.ego_pose, np.array([0.7, -0.3]), np.array([3.0, -4.0]), w.ped_ids,
+                      hist * [1.0, -1.0], w.hist_valid)
+    from core.predict.features import mirror_signs
+
+    np.testing.assert_allclose(extract_features(w, tb, 1).features * mirror_signs(2),
+                               extract_features(mirrored, tb, 1).features, atol=1e-6)

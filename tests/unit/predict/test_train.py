@@ -68,7 +68,8 @@ def test_selection_order():
 
 
 def test_gate_failure_is_reported(tmp_path, curving_dataset):
-    cfg = TrainConfig(dataset=str(curving_dataset), **{**FAST, "epochs": 1}, gates={"max_val_ade": 0.001})
+    cfg = TrainConfig(dataset=str(curving_dataset), **{**FAST, "epochs": 1}, gates={"max_val_ade": 0.001},
+                      augment_mirror=True)
     res = run_train(cfg, StageContext(workdir=tmp_path))
     assert not res.gates_passed
     assert json.loads((tmp_path / "training_summary.json").read_text())["quality_gates"]["checks"]["val_ade_below_limit"] is False
