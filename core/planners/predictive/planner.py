@@ -1,10 +1,13 @@
 """The predictive planner: forecast -> (v, omega) candidates -> beam search over rollouts -> best command.
 
 One decision: one batched forecaster call; first-segment candidates (dense in the near field)
-rolled out with the simulator's kinematics and held to the horizon; the best ``beam_width``
-sequences are extended segment by segment with a coarser command set; the first command of the
-cheapest sequence seen is returned. Braking (0, 0) is always a candidate, so the robot can wait.
-Deterministic: no randomness, stable sorts.
+rolled out with the simulator's own kinematics (``core.sim.robot.unicycle_step``) and held to the
+horizon; the best ``beam_width`` sequences are extended with a coarser command set; the first
+command of the cheapest sequence seen is returned. Braking (0, 0) is always a candidate, so the
+robot can wait. Three mechanisms keep a cautious robot from freezing (see ``cost``/``config``):
+passive safety (a pedestrian walking into a standing robot weighs less), reactive clearance
+(pedestrians step away from an edging robot), and stall assertiveness (after a few seconds without
+route progress, contact is assumed closer). Deterministic: no randomness, stable sorts.
 """
 
 from __future__ import annotations
