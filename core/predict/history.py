@@ -8,6 +8,7 @@ equal trace features for the same situation.
 from __future__ import annotations
 
 from collections import deque
+from typing import NamedTuple
 
 import numpy as np
 
@@ -17,16 +18,25 @@ from core.predict.timebase import TimeBase
 from core.sim.observation import Observation
 
 
+class _Frame(NamedTuple):
+    step: int
+    dt: float  #: [s]
+    ids: np.ndarray  #: (N,) int64
+    positions: np.ndarray  #: (N, 2) world [m]
+
+
 class LiveHistory:
     """The last (H-1)·stride + 1 observations; a new episode (step 0 or a step jump back) restarts it."""
 
     def __init__(self, timebase: TimeBase):
         self.timebase = timebase
-        self._frames: deque[Observation] = deque()
+        self._frames: deque[_Frame] = deque()
+        self._latest: Observation | None = None
         self._stride: int | None = None
 
     def reset(self) -> None:
         self._frames.clear()
+        self._latest = None
         self._stride = None
 
     def observe(self, obs: Observation) -> None:
@@ -41,7 +51,9 @@ class LiveHistory:
         elif abs(obs.dt - self._frames[-1].dt) > 1e-9:
             raise ConfigError(f"simulator dt changed mid-episode ({self._frames[-1].dt} -> {obs.dt})",
                               item="observation.dt")
-        self._frames.append(obs)
+        ids = np.array(obs.ped_ids, dtype=np.int64)  # copies: a producer may reuse its arrays
+        self._frames.append(_Frame(obs.step, obs.dt, ids, np.array(obs.ped_positions, dtype=float)))
+        self._latest = obs
         while len(self._frames) > (self.timebase.history - 1) * self._stride + 1:
             self._frames.popleft()
 
@@ -53,11 +65,11 @@ class LiveHistory:
         """The current situation: every pedestrian present now, with its history on the grid."""
         if not self._frames:
             raise ConfigError("no observation yet: call observe() before forecasting", item="observation")
-        now = self._frames[-1]
-        ids = np.asarray(now.ped_ids, dtype=np.int64)
+        now = self._latest
+        ids = self._frames[-1].ids
         ids = ids[ids >= 0]
         hist, valid = gather_history(
-            [f.ped_ids for f in self._frames], [f.ped_positions for f in self._frames],
+            [f.ids for f in self._frames], [f.positions for f in self._frames],
             self._stride, self.timebase.history, ids)
         return Window(
             ego_pose=np.asarray(now.robot_pose, float), ego_motion=np.asarray(now.robot_velocity, float),
