@@ -41,6 +41,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     co = sub.add_parser("collect", help="roll out episodes and write a prediction dataset")
     co.add_argument("--config", help="YAML whose 'collect' mapping holds CollectConfig fields (flags override)")
+    co.add_argument("--section", default="collect", help="mapping of --config to read (e.g. hardcase)")
     co.add_argument("--matrix", default=None, help="scenario matrix YAML (default: builtin classic matrix)")
     co.add_argument("--hard-seeds", help="TRAINING seed manifest YAML (hard-case collection)")
     co.add_argument("--scenarios", help="comma-separated scenario names (base collection)")
@@ -135,8 +136,8 @@ def collect_cmd(args: argparse.Namespace) -> int:
     flags = {"scenarios": args.scenarios.split(",") if args.scenarios else None,
              "seeds_per_scenario": args.seeds_per_scenario, "base_seed": args.base_seed, "policy": args.policy,
              "max_steps": args.max_steps, "max_agents": args.max_agents}
-    values = {**_section(args.config, "collect"), **{k: v for k, v in flags.items() if v is not None}}
-    if args.matrix or args.hard_seeds:
+    values = {**_section(args.config, args.section), **{k: v for k, v in flags.items() if v is not None}}
+    if args.matrix or args.hard_seeds:  # local files; a --config's paths are relative to the builtin configs/
         from cli.evaluate import bundle_of
 
         bundle, rel, bundles = bundle_of(args.matrix or str(_builtin_matrix()), args.hard_seeds)

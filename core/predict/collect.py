@@ -51,7 +51,7 @@ class CollectConfig(BaseModel):
     matrix: BundlePath = "scenarios/classic_interactions.yaml"
     scenarios: list[str] | None = None  #: default: all of the matrix (base mode)
     seeds_per_scenario: int = Field(default=4, ge=1, le=10_000)
-    base_seed: int = Field(default=1000, ge=0)
+    base_seed: int = Field(default=50_000, ge=0)  #: above the matrices' own (evaluation) seeds, all < 10000
     hard_seeds: BundlePath | None = None  #: training seed manifest -> hard-case mode
     policy: Literal["goal", "goal_noisy", "planner"] = "goal"
     planner: dict[str, Any] | None = None  #: {name, config, model: "cv" | model id} when policy = planner

@@ -30,7 +30,7 @@ def test_collect_and_mix_from_the_simulator(tmp_path):
                         val_fraction=0.34)
     res = run_collect(cfg, _ctx(tmp_path / "base"))
     ds = load_dataset(tmp_path / "base" / res.dataset)
-    assert [e.seed for e in ds.meta.episodes] == [1000, 1001, 1002]
+    assert [e.seed for e in ds.meta.episodes] == [50_000, 50_001, 50_002]
     assert sum(e.split == "val" for e in ds.meta.episodes) == 1
     assert ds.meta.source == "sim" and ds.meta.frame_convention == "robot" and len(ds) > 0
     assert np.all(ds.target_mask <= ds.mask[..., None])
