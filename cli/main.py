@@ -22,6 +22,7 @@ COMMAND_MODULES = [
     "cli.maps",
     "cli.evaluate",
     "cli.predict",
+    "cli.pipeline",
 ]
 
 

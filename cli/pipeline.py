@@ -1,0 +1,321 @@
+"""`foresight pipeline run|mine-seeds` and `foresight demo`.
+
+``pipeline run -f CONFIG`` submits a ``pipeline`` job (the seed runbook as child jobs) to the server and
+follows it; ``--local`` runs every stage in-process instead. ``demo`` starts a server and a worker on the
+embedded SQLite default (as ``foresight up``), submits ``configs/pipelines/quickstart.yaml`` through the
+HTTP API, follows it, prints the report's URL and file and the gate verdict, and stops the server.
+Exit codes: 0 gates passed, 2 a required gate failed (the summary is written), 1 error or failed stage.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from core.errors import ConfigError, CoreError
+from core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
+
+QUICKSTART = BUILTIN_CONFIG_ROOT / "pipelines" / "quickstart.yaml"
+FINISHED = {"succeeded", "failed", "cancelled"}
+MATRIX = BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml"
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    from cli.client import add_connection_args
+
+    pipe = sub.add_parser("pipeline", help="the runbook as one job: collect, train, evaluate, campaign, gates, promote")
+    actions = pipe.add_subparsers(dest="action", required=True)
+    run = actions.add_parser("run", help="run a pipeline config (on the server by default)")
+    run.add_argument("-f", "--file", required=True, help="pipeline YAML (e.g. configs/pipelines/quickstart.yaml)")
+    run.add_argument("--local", action="store_true", help="run every stage in-process, no server")
+    run.add_argument("--out", help="--local: work folder (default: a new temporary folder; reruns resume)")
+    run.add_argument("--workers", type=int, help="processes per episode stage (overrides the config's workers)")
+    run.add_argument("--no-wait", action="store_true", help="submit and print the job id")
+    run.add_argument("--key", help="idempotency key of the submission")
+    run.add_argument("--json", action="store_true", help="print the result as JSON")
+    add_connection_args(run)
+    run.set_defaults(func=cmd_run)
+
+    mine = actions.add_parser("mine-seeds", help="mine a seed manifest: seeds where a baseline planner fails")
+    mine.add_argument("--matrix", default=str(MATRIX), help="scenario matrix YAML")
+    mine.add_argument("--seeds", help="candidate seeds LO:HI (half open) or a comma list (default: each "
+                                      "scenario's own seeds, i.e. the evaluation seeds)")
+    mine.add_argument("--baseline", default="orca", help="baseline planner (orca, social_force, goal)")
+    mine.add_argument("--per-scenario", type=int, default=2, help="failing seeds kept per scenario")
+    mine.add_argument("--exclude", action="append", default=[], help="manifest whose pairs are never picked (repeatable)")
+    mine.add_argument("--scenarios", help="comma-separated scenario names (default: all)")
+    mine.add_argument("--description", default="", help="manifest description")
+    mine.add_argument("-o", "--output", required=True, help="manifest YAML to write")
+    mine.set_defaults(func=cmd_mine)
+
+    demo = sub.add_parser("demo", help="start a server + worker, run the quickstart pipeline through the API, "
+                                       "print the report and the gate verdict")
+    demo.add_argument("-f", "--file", default=str(QUICKSTART), help="pipeline YAML (default: quickstart)")
+    demo.add_argument("--port", type=int, help="server port (default: a free one)")
+    demo.add_argument("--concurrency", type=int, default=1, help="worker job slots")
+    demo.add_argument("--keep-running", action="store_true", help="leave the server running at the end")
+    demo.add_argument("--json", action="store_true", help="print the pipeline result as JSON")
+    demo.set_defaults(func=cmd_demo)
+
+
+# ------------------------------------------------------------------------------------------ helpers
+
+
+def read_pipeline(path: str | Path, workers: int | None = None) -> dict[str, Any]:
+    """The pipeline YAML as a spec (validated here, so a bad file fails before anything starts)."""
+    from core.pipeline.config import load_pipeline_config
+
+    config = load_pipeline_config(path)
+    if workers is not None:
+        config = config.model_copy(update={"workers": max(1, workers)})
+    return config.model_dump(mode="json", exclude_unset=False)
+
+
+def verdict_text(result: dict[str, Any]) -> str:
+    if result.get("passed"):
+        head = "GATES PASSED"
+    else:
+        head = "GATES FAILED (" + ", ".join(result.get("failed_gates") or ["?"]) + ")"
+    lines = [f"{head}: exit code {result.get('exit_code')}"]
+    if result.get("promotion"):
+        lines.append(result["promotion"].replace("`", ""))
+    return "\n".join(lines)
+
+
+def _stage_lines(result: dict[str, Any]) -> list[str]:
+    out = []
+    for st in result.get("stages") or []:
+        wall = f"{st['wall_s']:.0f} s" if st.get("wall_s") is not None else "-"
+        out.append(f"  {st['name']:<9} {st['status']:<12} {wall:>6}  {st.get('headline') or ''}")
+    return out
+
+
+# ------------------------------------------------------------------------------------------ local
+
+
+def run_local(config_path: str, out: str | None, workers: int | None, quiet: bool) -> tuple[dict[str, Any], Path]:
+    from cli.common import local_context
+    from cli.evaluate import ModelArgs
+    from core.pipeline.config import PipelineConfig
+    from core.pipeline.local import LocalChildren
+    from core.pipeline.runbook import run_pipeline
+
+    config = PipelineConfig.model_validate(read_pipeline(config_path, workers))
+    if config.bundle != BUILTIN_BUNDLE:
+        raise ConfigError("--local runs use the builtin bundle (configs/)", source=config_path, item="bundle")
+    workdir = Path(out) if out else Path(tempfile.mkdtemp(prefix=f"foresight-pipeline-{config.name}-"))
+    ctx = local_context(workdir, {BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT}, quiet=quiet)
+    ctx.workers = config.workers
+    if not quiet:
+        ctx.log = lambda message: print(f"\n{message}", file=sys.stderr)
+    children = LocalChildren(ctx, resolve_model=ModelArgs().resolve)
+    result = run_pipeline(config, ctx, children, run_id=workdir.name.split("-")[-1] or "local")
+    return result.model_dump(mode="json"), workdir
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    if args.local:
+        result, workdir = run_local(args.file, args.out, args.workers, quiet=args.json)
+        if args.json:
+            print(json.dumps(result, indent=2))
+        else:
+            print("\n".join(_stage_lines(result)))
+            print(f"report: {workdir / 'report.html'}")
+            print(verdict_text(result))
+        return int(result["exit_code"])
+    from cli.client import Client
+
+    client = Client.from_args(args)
+    return submit_and_follow(client, read_pipeline(args.file, args.workers), as_json=args.json,
+                             wait=not args.no_wait, key=args.key)
+
+
+# ------------------------------------------------------------------------------------------ server
+
+
+def submit_and_follow(client: Any, spec: dict[str, Any], *, as_json: bool, wait: bool = True,
+                      key: str | None = None, store_root: Path | None = None) -> int:
+    body: dict[str, Any] = {"spec": {**spec, "kind": "pipeline"}}
+    if key:
+        body["idempotency_key"] = key
+    job = client.post("/v1/jobs", json=body)
+    if not wait:
+        print(json.dumps(job, indent=2) if as_json else job["id"])
+        return 0
+    if not as_json:
+        print(f"pipeline job {job['id']} submitted", file=sys.stderr)
+    job = follow_pipeline(client, job["id"], quiet=as_json)
+    return report_outcome(client, job, as_json=as_json, store_root=store_root)
+
+
+def follow_pipeline(client: Any, job_id: str, *, quiet: bool) -> dict[str, Any]:
+    """Poll the pipeline job until it ends: one line per child stage as it starts and ends, and a bar."""
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    console = Console(stderr=True)
+    seen: dict[str, str] = {}
+    with Progress(TextColumn("pipeline"), BarColumn(), TextColumn("{task.percentage:>5.1f}%"), TimeElapsedColumn(),
+                  TextColumn("{task.fields[message]}"), console=console, disable=quiet, transient=False) as bar:
+        task = bar.add_task("pipeline", total=1.0, message="")
+        while True:
+            job = client.get(f"/v1/jobs/{job_id}")
+            bar.update(task, completed=job["progress"], message=f"{job['status']} {job['message'][:70]}")
+            if not quiet and job.get("children"):
+                page = client.get("/v1/jobs", params={"parent_id": job_id, "limit": 50})
+                for child in sorted(page["data"], key=lambda c: c["created_at"]):
+                    if seen.get(child["id"]) != child["status"] and child["status"] != "queued":
+                        seen[child["id"]] = child["status"]
+                        bar.console.print(f"  {child['kind']:<9} {child['id'][:12]} {child['status']}")
+            if job["status"] in FINISHED:
+                return job
+            time.sleep(1.0)
+
+
+def report_outcome(client: Any, job: dict[str, Any], *, as_json: bool, store_root: Path | None = None) -> int:
+    base = str(client.http.base_url).rstrip("/")
+    url = f"{base}/ui/jobs/{job['id']}/files/report.html"
+    path = (store_root / "jobs" / job["id"] / "report.html") if store_root else None
+    result = job.get("result") or {}
+    if as_json:
+        print(json.dumps({"job": job["id"], "status": job["status"], "result": result, "report_url": url,
+                          "report_file": str(path) if path else None}, indent=2))
+    else:
+        if result:
+            print("\n".join(_stage_lines(result)))
+        print(f"report: {url}")
+        if path:
+            print(f"report file: {path}")
+        if job["status"] == "succeeded":
+            print(verdict_text(result))
+        else:
+            err = job.get("error") or {}
+            print(f"pipeline {job['status']}: {err.get('type', '')}: {err.get('message', '')}"
+                  f"\n(retry with `foresight jobs retry {job['id']}`: finished stages are not run again)")
+    if job["status"] != "succeeded":
+        return 1
+    return int(result.get("exit_code", 1))
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def _wait_healthy(url: str, proc: subprocess.Popen, timeout: float = 60.0) -> None:
+    import httpx
+
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if proc.poll() is not None:
+            raise CoreError(f"the server exited with code {proc.returncode} before it was ready")
+        try:
+            if httpx.get(f"{url}/healthz", timeout=2.0).status_code == 200:
+                return
+        except httpx.HTTPError:
+            pass
+        time.sleep(0.3)
+    raise CoreError(f"the server at {url} did not become ready within {timeout:.0f} s")
+
+
+def cmd_demo(args: argparse.Namespace) -> int:
+    from api.settings import Settings
+    from cli.client import Client
+
+    spec = read_pipeline(args.file)  # fail on a bad config before starting anything
+    settings = Settings()
+    port = args.port or _free_port()
+    url = f"http://127.0.0.1:{port}"
+    env = {**os.environ, "FORESIGHT_API_URL": url}
+    print(f"starting the Foresight server and a worker on {url} (database {settings.resolved_database_url}, "
+          f"store {settings.store_root})", file=sys.stderr)
+    proc = subprocess.Popen([sys.executable, "-m", "cli.main", "up", "--port", str(port), "--concurrency",
+                             str(max(1, args.concurrency))], env=env, start_new_session=True)
+    code = 1
+    try:
+        _wait_healthy(url, proc)
+        client = Client(url, Settings().client_token())
+        print(f"dashboard: {url}/ui", file=sys.stderr)
+        code = submit_and_follow(client, spec, as_json=args.json, store_root=settings.store_root)
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        code = 130
+    finally:
+        if args.keep_running and proc.poll() is None:
+            print(f"server still running on {url} (pid {proc.pid}); stop it with: kill {proc.pid}", file=sys.stderr)
+        else:
+            _stop(proc)
+    return code
+
+
+def _stop(proc: subprocess.Popen) -> None:
+    if proc.poll() is not None:
+        return
+    proc.send_signal(signal.SIGTERM)
+    try:
+        proc.wait(timeout=30)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait(timeout=10)
+
+
+# ------------------------------------------------------------------------------------------ seeds
+
+
+def cmd_mine(args: argparse.Namespace) -> int:
+    from core.pipeline.seeds import mine_failures, parse_seed_range, read_manifest_pairs, write_manifest
+
+    seeds = parse_seed_range(args.seeds) if args.seeds else None
+    exclude: set[tuple[str, int]] = set()
+    for path in args.exclude:
+        exclude |= read_manifest_pairs(path)
+    scenarios = [s.strip() for s in args.scenarios.split(",") if s.strip()] if args.scenarios else None
+
+    def progress(fraction: float, message: str) -> None:
+        print(f"\r{100 * fraction:5.1f}% {message[:70]:<70}", end="", file=sys.stderr, flush=True)
+
+    found = mine_failures(args.matrix, seeds=seeds, baseline=args.baseline, per_scenario=args.per_scenario,
+                          scenarios=scenarios, exclude=exclude, progress=progress)
+    print(file=sys.stderr)
+    command = " ".join(["foresight pipeline mine-seeds", *_argv_for(args)])
+    header = (f"Mined by: {command}\nSeeds where the {args.baseline} baseline does not reach the goal, the first "
+              f"{args.per_scenario} per scenario in seed order\n(candidate seeds: "
+              f"{args.seeds or 'each scenario own seeds = the evaluation seeds'}"
+              + (f"; excluding {', '.join(args.exclude)}" if args.exclude else "") + ").")
+    path = write_manifest(args.output, found, args.description or f"{args.baseline} failures", header)
+    print(f"{sum(len(v) for v in found.values())} seeds in {len(found)} scenarios -> {path}")
+    return 0
+
+
+def _argv_for(args: argparse.Namespace) -> list[str]:
+    out = []
+    if args.matrix != str(MATRIX):
+        out += ["--matrix", args.matrix]
+    if args.seeds:
+        out += ["--seeds", args.seeds]
+    out += ["--baseline", args.baseline, "--per-scenario", str(args.per_scenario)]
+    for e in args.exclude:
+        out += ["--exclude", _rel(e)]
+    if args.scenarios:
+        out += ["--scenarios", args.scenarios]
+    if args.description:
+        out += ["--description", repr(args.description)]
+    return [*out, "-o", _rel(args.output)]
+
+
+def _rel(path: str) -> str:
+    try:
+        return Path(path).resolve().relative_to(BUILTIN_CONFIG_ROOT.parent).as_posix()
+    except ValueError:
+        return path
+

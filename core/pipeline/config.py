@@ -1,0 +1,204 @@
+"""The pipeline config: the seed runbook's stages, each section a stage config defined once in core.
+
+A section is its stage's config class with the fields the pipeline wires in (datasets, model ids, the
+seed manifests, the bundle and matrix) made optional; :func:`stage_config` builds the real stage config
+from a section and the outputs of the stages before it. The two seed manifests are named once at the
+top: ``training_seeds`` feeds hard-case collection and proxy selection, ``evaluation_seeds`` feeds
+diagnostics and the campaign's hard suite (and so the gates); they must not share a (scenario, seed).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from core.errors import ConfigError
+from core.evaluation.config import CampaignConfig, DiagnosticsConfig, EvaluationConfig
+from core.predict.collect import CollectConfig, MixConfig
+from core.predict.proxy import ProxySpec
+from core.predict.train_config import TrainConfig
+from core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident
+
+#: placeholder for the model this pipeline trains and registers (planner.model, campaign checkpoints)
+CANDIDATE = "candidate"
+GateName = Literal["training", "evaluation", "closed_loop"]
+
+
+class CollectSection(CollectConfig):
+    """Base collection: every scenario x ``seeds_per_scenario`` seeds from ``base_seed`` (keep it outside
+    the evaluation seed range: the matrix's own seeds are below 10000)."""
+
+    base_seed: int = Field(default=50_000, ge=0)
+    output: str = "base.npz"
+
+    @model_validator(mode="after")
+    def _no_manifest(self) -> CollectSection:
+        if self.hard_seeds is not None:
+            raise ValueError("base collection takes no seed manifest; the hard-case stage uses training_seeds")
+        return self
+
+
+class HardcaseSection(CollectConfig):
+    """Hard-case collection on the TRAINING manifest (``training_seeds``; set here only to the same file)."""
+
+    output: str = "hardcase.npz"
+
+
+class MixSection(MixConfig):
+    base: str = ""  #: wired: the base dataset
+    hardcase: str = ""  #: wired: the hard-case dataset
+
+
+class TrainSection(TrainConfig):
+    dataset: str = ""  #: wired: the mixed dataset (or the base one without a hard-case stage)
+
+
+class RegisterSection(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    model_id: Ident | None = None  #: default: ``<pipeline name>-<run id>``
+    tags: list[str] = Field(default_factory=list, max_length=20)
+
+
+class EvaluateSection(EvaluationConfig):
+    """The candidate on the global suite (``planner.model`` None or "candidate" = the registered model)."""
+
+
+class DiagnoseSection(DiagnosticsConfig):
+    seed_manifest: BundlePath | None = None  #: wired: ``evaluation_seeds``
+
+
+class CampaignSection(CampaignConfig):
+    seed_manifest: BundlePath | None = None  #: wired: ``evaluation_seeds``
+    checkpoints: list[str] = Field(default_factory=lambda: [CANDIDATE], min_length=1, max_length=50)
+
+
+class GatesSection(BaseModel):
+    """Which gates must pass before the candidate is promoted (a gate whose stage did not run fails)."""
+
+    model_config = ConfigDict(extra="forbid")
+    require: list[GateName] = Field(default_factory=lambda: ["training", "evaluation", "closed_loop"])
+
+
+class PromoteSection(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    to: Literal["promoted", "default"] = "promoted"
+
+
+class PipelineConfig(BaseModel):
+    """collect -> hard-case collect -> mix -> train (proxy on the training seeds) -> register (candidate) ->
+    evaluate -> diagnose -> campaign -> gates -> promote."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    name: Ident = "pipeline"
+    description: str = ""
+    bundle: Ident = BUILTIN_BUNDLE
+    matrix: BundlePath = "scenarios/classic_interactions.yaml"
+    training_seeds: BundlePath  #: TRAINING hard-seed manifest: hard-case collection + proxy selection
+    evaluation_seeds: BundlePath  #: EVALUATION hard-seed manifest: diagnostics + campaign hard suite
+    workers: int = Field(default=2, ge=1, le=64)  #: processes each episode stage may use
+    collect: CollectSection = CollectSection()
+    hardcase: HardcaseSection | None = HardcaseSection()  #: None: no hard-case collection and no mix
+    mix: MixSection = MixSection()
+    train: TrainSection = TrainSection()
+    registration: RegisterSection = RegisterSection()  #: the register stage (model id, tags)
+    evaluate: EvaluateSection = EvaluateSection()
+    diagnose: DiagnoseSection | None = DiagnoseSection()  #: None: skip diagnostics
+    campaign: CampaignSection
+    gates: GatesSection = GatesSection()
+    promote: PromoteSection = PromoteSection()
+
+    @model_validator(mode="after")
+    def _wiring(self) -> PipelineConfig:
+        if self.training_seeds == self.evaluation_seeds:
+            raise ValueError("training_seeds and evaluation_seeds must be different manifests")
+        for name in ("collect", "hardcase", "evaluate", "diagnose", "campaign"):
+            section = getattr(self, name)
+            if section is None:
+                continue
+            for key in ("bundle", "matrix"):
+                if key in section.model_fields_set and getattr(section, key) != getattr(self, key):
+                    raise ValueError(f"{name}.{key} differs from the pipeline's {key}; set it once at the top")
+        for name, key in (("hardcase", "hard_seeds"), ("diagnose", "seed_manifest"), ("campaign", "seed_manifest")):
+            section = getattr(self, name)
+            want = self.training_seeds if name == "hardcase" else self.evaluation_seeds
+            value = getattr(section, key, None) if section is not None else None
+            if value is not None and value != want:
+                raise ValueError(f"{name}.{key} must be the pipeline's "
+                                 f"{'training_seeds' if name == 'hardcase' else 'evaluation_seeds'} (or unset)")
+        proxy = self.train.proxy
+        if proxy is not None and proxy.seed_manifest not in (None, self.training_seeds):
+            raise ValueError("train.proxy.seed_manifest must be the training_seeds manifest (or unset)")
+        return self
+
+
+def _build(model: type[BaseModel], data: dict[str, Any], stage: str) -> Any:
+    try:
+        return model.model_validate(data)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        raise ConfigError(err["msg"], source="pipeline", item=".".join([stage, *map(str, err["loc"])])) from None
+
+
+def _model(value: str | None, candidate: str) -> str:
+    return candidate if value in (None, CANDIDATE) else value
+
+
+def stage_config(config: PipelineConfig, stage: str, inputs: dict[str, str]) -> BaseModel:
+    """The stage config of ``stage`` with its wired inputs.
+
+    ``inputs``: ``base``/``hardcase``/``mixed`` dataset ids and ``model`` (the registered candidate's id).
+    """
+    where = {"bundle": config.bundle, "matrix": config.matrix}
+    if stage == "collect":
+        return _build(CollectConfig, {**config.collect.model_dump(), **where}, stage)
+    if stage == "hardcase":
+        assert config.hardcase is not None
+        return _build(CollectConfig, {**config.hardcase.model_dump(), **where, "hard_seeds": config.training_seeds}, stage)
+    if stage == "mix":
+        return _build(MixConfig, {**config.mix.model_dump(), "base": inputs["base"], "hardcase": inputs["hardcase"]},
+                      stage)
+    if stage == "train":
+        data = config.train.model_dump()
+        data["dataset"] = inputs.get("mixed") or inputs["base"]
+        if config.train.proxy_every > 0:
+            proxy = (config.train.proxy or ProxySpec()).model_dump()
+            proxy.update(where, seed_manifest=config.training_seeds, scenarios=None, seeds_per_scenario=None)
+            data["proxy"] = proxy
+        return _build(TrainConfig, data, stage)
+    if stage == "evaluate":
+        data = config.evaluate.model_dump()
+        data.update(where)
+        data["planner"]["model"] = _model(data["planner"].get("model"), inputs["model"]) \
+            if data["planner"]["name"] == "predictive" else data["planner"].get("model")
+        return _build(EvaluationConfig, data, stage)
+    if stage == "diagnose":
+        assert config.diagnose is not None
+        data = config.diagnose.model_dump()
+        data.update(where, seed_manifest=config.evaluation_seeds)
+        if data["planner"]["name"] == "predictive":
+            data["planner"]["model"] = _model(data["planner"].get("model"), inputs["model"])
+        return _build(DiagnosticsConfig, data, stage)
+    if stage == "campaign":
+        data = config.campaign.model_dump()
+        data.update(where, seed_manifest=config.evaluation_seeds)
+        data["checkpoints"] = list(dict.fromkeys(_model(c, inputs["model"]) for c in data["checkpoints"]))
+        return _build(CampaignConfig, data, stage)
+    raise ConfigError(f"no stage config for {stage!r}", source="pipeline", item=stage)
+
+
+def load_pipeline_config(path: str | Path) -> PipelineConfig:
+    """Read a pipeline YAML; errors name the file and the field."""
+    path = Path(path)
+    try:
+        data = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError) as exc:
+        raise ConfigError(f"cannot read YAML ({exc})", source=path) from None
+    try:
+        return PipelineConfig.model_validate(data)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        raise ConfigError(err["msg"], source=path, item=".".join(str(p) for p in err["loc"]) or None) from None

@@ -1,0 +1,337 @@
+"""The seed runbook as one stage function: ``run_pipeline(config, ctx, run_child)``.
+
+The graph (each arrow names what flows into the next stage)::
+
+    collect ──base dataset──┐
+    hardcase (TRAINING seeds) ──hard-case dataset──> mix ──mixed dataset──> train (proxy on TRAINING seeds)
+    train ──checkpoint──> register (status candidate) ──model id──> evaluate, diagnose (EVALUATION seeds),
+    campaign (candidate x planner grid on the EVALUATION seeds + the global suite)
+    train, evaluate, campaign ──gate results──> gates ──verdict──> promote (only when the required gates pass)
+
+Core stays database-free: ``run_child(stage, kind, spec, progress)`` is the caller's. It runs one stage
+(the worker: a child job row it claims and runs itself; ``--local``: the stage function in a sub-folder)
+and returns a :class:`ChildRun` (or the bare result dict). A caller that already holds a succeeded run of
+that stage returns it again without running it: that is how a pipeline resumes from its failed stage.
+``kind`` is a job kind (collect, mix, train, evaluate, diagnose, campaign) or one of the registry actions
+``register`` and ``promote``. ``progress(fraction, message)`` maps the child's progress into the pipeline's.
+
+The performance summary (``report.md``/``report.html`` + ``pipeline_summary.json``) is written after the
+last stage that ran, also when a gate failed (the result then carries exit code 2) and when a stage failed
+or was cancelled (the summary is written, then the error propagates so the job fails and can be retried).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from pydantic import BaseModel
+
+from core.errors import ConfigError, CoreError
+from core.evaluation.gates import GATE_FAILED_EXIT
+from core.pipeline.config import PipelineConfig, stage_config
+from core.reports.pipeline import (
+    PipelineSummary,
+    StageEntry,
+    best_from_campaign,
+    gate_entry,
+    headline,
+    write_pipeline_report,
+)
+from core.stages.context import Cancelled, StageContext
+
+#: (stage name, kind) in run order; gates is decided here, register/promote are registry actions
+RUNBOOK: list[tuple[str, str]] = [
+    ("collect", "collect"), ("hardcase", "collect"), ("mix", "mix"), ("train", "train"), ("register", "register"),
+    ("evaluate", "evaluate"), ("diagnose", "diagnose"), ("campaign", "campaign"), ("gates", "gates"),
+    ("promote", "promote"),
+]  # fmt: skip
+#: relative effort of each stage, for the overall progress bar
+WEIGHT = {"collect": 1, "hardcase": 0.5, "mix": 0.1, "train": 3, "register": 0.05, "evaluate": 2, "diagnose": 1,
+          "campaign": 4, "gates": 0.01, "promote": 0.05}
+GATE_OF_STAGE = {"training": "train", "evaluation": "evaluate", "closed_loop": "campaign"}
+
+
+@dataclass
+class ChildRun:
+    """What a caller's ``run_child`` hands back for one stage."""
+
+    result: dict[str, Any]
+    ident: str | None = None  #: how later stages name this output (dataset id, model id); default: job_id
+    job_id: str | None = None
+    wall_s: float | None = None
+    resumed: bool = False  #: True: an earlier run's result, not run again
+    report: str | None = None  #: link to the stage's report page
+    artifacts: dict[str, str] = field(default_factory=dict)  #: label -> link
+
+
+RunChild = Callable[[str, str, dict[str, Any], Callable[[float, str], None]], "ChildRun | dict[str, Any]"]
+
+
+class StageFailed(CoreError):
+    """A pipeline stage failed; the summary was written, and a retry resumes from this stage."""
+
+
+class PipelineResult(BaseModel):
+    name: str
+    status: str  #: passed | failed_gate
+    exit_code: int  #: 0 passed, 2 a required gate failed
+    passed: bool
+    failed_gates: list[str]
+    model_id: str | None
+    promoted: bool
+    promotion: str
+    stages: list[StageEntry]
+    summary: dict[str, Any]  #: the PipelineSummary
+    report: str = "report.html"
+    artifacts: dict[str, str]
+    wall_s: float
+
+
+def _selection_text(config: PipelineConfig) -> str:
+    return (f"training seeds {config.training_seeds}, evaluation seeds {config.evaluation_seeds} "
+            f"(matrix {config.matrix} in bundle {config.bundle})")
+
+
+def check_seed_separation(config: PipelineConfig, ctx: StageContext) -> dict[str, int]:
+    """Refuse a config whose TRAINING hard seeds meet the EVALUATION hard seeds or any seed the evaluate
+    stage or the campaign's global suite runs; returns the episode counts of the suites."""
+    from core.evaluation.config import EpisodeSelection
+    from core.evaluation.runner import load_selection
+
+    where = {"bundle": config.bundle, "matrix": config.matrix}
+    _, _, train = load_selection(EpisodeSelection(**where, seed_manifest=config.training_seeds), ctx)
+    _, _, hard = load_selection(EpisodeSelection(**where, seed_manifest=config.evaluation_seeds), ctx)
+    ev = config.evaluate
+    _, _, glob = load_selection(EpisodeSelection(**where, scenarios=ev.scenarios, seeds_per_scenario=ev.seeds_per_scenario,
+                                                 seed_manifest=ev.seed_manifest), ctx)
+    cp = config.campaign
+    _, _, camp = load_selection(EpisodeSelection(**where, scenarios=cp.scenarios,
+                                                 seeds_per_scenario=cp.seeds_per_scenario), ctx)
+    train_set = set(train)
+    for label, pairs in (("evaluation_seeds", hard), ("evaluate", glob), ("campaign global suite", camp)):
+        shared = sorted(train_set & set(pairs))
+        if shared:
+            raise ConfigError(f"training hard seeds overlap the {label} episodes: {shared[:5]}"
+                              + (f" (+{len(shared) - 5} more)" if len(shared) > 5 else ""),
+                              source="pipeline", item="training_seeds")
+    return {"training_seeds": len(train), "evaluation_seeds": len(hard), "evaluate": len(glob),
+            "campaign_global": len(camp)}
+
+
+def _gate_dict(stage: str, result: dict[str, Any] | None) -> dict[str, Any] | None:
+    """A stage result's gate in the GateResult shape (training: from the summary's quality gates)."""
+    if not result:
+        return None
+    if stage == "train":
+        summary = result.get("_summary") or {}
+        gate = summary.get("quality_gates")
+        if gate:
+            checks = gate.get("checks")
+            if isinstance(checks, dict):
+                gate = {**gate, "checks": [{"name": k, "passed": bool(v)} for k, v in checks.items()]}
+            return gate
+        return {"passed": bool(result.get("gates_passed")), "checks": []}
+    gate = result.get("gate")
+    return gate if isinstance(gate, dict) else None
+
+
+def run_pipeline(config: PipelineConfig, ctx: StageContext, run_child: RunChild, *, run_id: str = "local") -> PipelineResult:
+    """Run (or resume) every stage through ``run_child``; write the summary; return the verdict.
+
+    ``run_id`` names this run (the worker passes the pipeline job's id): the candidate model is
+    ``<name>-<run_id[:8]>`` unless ``register.model_id`` is set.
+    """
+    t0 = time.perf_counter()
+    stages = [(s, k) for s, k in RUNBOOK if not (config.hardcase is None and s in ("hardcase", "mix"))
+              and not (config.diagnose is None and s == "diagnose")]
+    total = sum(WEIGHT[s] for s, _ in stages)
+    done_weight = 0.0
+    entries: dict[str, StageEntry] = {s: StageEntry(name=s, status="pending") for s, _ in stages}
+    results: dict[str, dict[str, Any]] = {}
+    inputs: dict[str, str] = {}
+    model_id = config.registration.model_id or f"{config.name}-{run_id[:8]}"
+    gates: list[Any] = []
+    verdict: dict[str, Any] = {"passed": None, "failed": [], "promotion": ""}
+    promoted = False
+    ctx.log(f"pipeline {config.name}: {_selection_text(config)}")
+    sizes = check_seed_separation(config, ctx)
+    ctx.log("episodes: " + ", ".join(f"{k} {v}" for k, v in sizes.items()))
+
+    def summary(status: str, exit_code: int) -> PipelineSummary:
+        best = best_from_campaign(results["campaign"]) if "campaign" in results else None
+        for entry in entries.values():
+            if entry.status == "pending":
+                entry.status = "skipped"
+        return PipelineSummary(
+            name=config.name, status=status, exit_code=exit_code, stages=list(entries.values()), gates=gates, best=best,
+            promoted_model=model_id if promoted else None, promotion=verdict["promotion"],
+            artifacts={"summary (JSON)": "pipeline_summary.json", "config": "pipeline_config.json"},
+            code_version=_code_version(), wall_s=time.perf_counter() - t0,
+        )
+
+    def publish(s: PipelineSummary) -> None:
+        ctx.artifact("pipeline_summary.json").write_text(s.model_dump_json(indent=2))
+        training = (results.get("train") or {}).get("_summary")
+        try:
+            write_pipeline_report(s, ctx.workdir, campaign=results.get("campaign"), training=training)
+        except Exception as exc:  # a report is a by-product: never hide the pipeline's own outcome
+            ctx.log(f"pipeline report failed: {exc!r}")
+
+    ctx.artifact("pipeline_config.json").write_text(config.model_dump_json(indent=2))
+    for stage, kind in stages:
+        entry = entries[stage]
+        span = WEIGHT[stage] / total
+        base = done_weight / total
+
+        def progress(fraction: float, message: str, base: float = base, span: float = span, stage: str = stage) -> None:
+            ctx.progress(min(base + span * max(0.0, min(1.0, fraction)), 0.999), f"{stage}: {message}")
+
+        try:
+            ctx.check_cancelled()
+            progress(0.0, "starting")
+            if stage == "gates":
+                t = time.perf_counter()
+                gates, verdict = _decide(config, results)
+                entry.status = "passed" if verdict["passed"] else "failed_gate"
+                entry.wall_s = time.perf_counter() - t
+                entry.headline = ("all required gates passed" if verdict["passed"]
+                                  else "failed: " + ", ".join(verdict["failed"]))
+            elif stage == "promote":
+                if not verdict["passed"]:
+                    entry.status = "skipped"
+                    entry.headline = f"{model_id} stays a candidate"
+                else:
+                    run = _as_run(run_child(stage, kind, {"model_id": model_id, "to": config.promote.to}, progress))
+                    _fill(entry, run, kind)
+                    promoted = True
+                    entry.status = "completed"
+                    entry.headline = f"{model_id} -> {config.promote.to}"
+                    verdict["promotion"] = (f"Promoted `{model_id}` to {config.promote.to}: every required gate "
+                                            f"({', '.join(config.gates.require) or 'none'}) passed.")
+            else:
+                spec = _spec(config, stage, inputs, results, model_id)
+                run = _as_run(run_child(stage, kind, spec, progress))
+                _fill(entry, run, kind)
+                results[stage] = run.result
+                if kind in ("collect", "mix"):
+                    inputs[{"collect": "base", "hardcase": "hardcase", "mix": "mixed"}[stage]] = run.ident or run.job_id or ""
+                elif stage == "train":
+                    results["train"]["_summary"] = _read_json(run.result.get("summary"))
+                elif stage == "register":
+                    inputs["model"] = run.ident or model_id
+                    model_id = inputs["model"]
+                    entry.headline = f"{model_id} registered as candidate"
+                entry.status = _status(kind, run.result)
+        except Cancelled:
+            entry.status = "cancelled"
+            publish(summary("cancelled", 1))
+            raise
+        except Exception as exc:
+            entry.status, entry.error = "failed", f"{type(exc).__name__}: {exc}"[:500]
+            publish(summary("failed", 1))
+            raise StageFailed(f"pipeline {config.name}: stage {stage} failed: {exc}") from exc
+        done_weight += WEIGHT[stage]
+        progress(1.0, entry.status)
+
+    passed = bool(verdict["passed"])
+    exit_code = 0 if passed else GATE_FAILED_EXIT
+    if not passed and not verdict["promotion"]:
+        verdict["promotion"] = (f"`{model_id}` stays a candidate: required gate(s) failed "
+                                f"({', '.join(verdict['failed'])}).")
+    s = summary("passed" if passed else "failed_gate", exit_code)
+    publish(s)
+    ctx.progress(1.0, f"{s.status}: " + ("promoted " + model_id if promoted else "not promoted"))
+    return PipelineResult(
+        name=config.name, status=s.status, exit_code=exit_code, passed=passed, failed_gates=verdict["failed"],
+        model_id=inputs.get("model"), promoted=promoted, promotion=verdict["promotion"], stages=s.stages,
+        summary=s.model_dump(mode="json"),
+        artifacts={"report": "report.html", "markdown": "report.md", "summary": "pipeline_summary.json"},
+        wall_s=time.perf_counter() - t0,
+    )
+
+
+def _spec(config: PipelineConfig, stage: str, inputs: dict[str, str], results: dict[str, dict[str, Any]],
+          model_id: str) -> dict[str, Any]:
+    if stage == "register":
+        train = results["train"]
+        summary = train.get("_summary") or {}
+        return {
+            "model_id": model_id, "status": "candidate", "train_stage": "train",
+            "tags": list(dict.fromkeys([*config.registration.tags, "pipeline", config.name])),
+            "lineage": {"pipeline": config.name, "datasets": {k: v for k, v in inputs.items() if k != "model"},
+                        "training_seeds": config.training_seeds, "dataset": summary.get("dataset")},
+            "training": {"best_epoch": train.get("best_epoch"), "selection_mode": train.get("selection_mode"),
+                         "config": summary.get("config")},
+            "metrics": {k: train.get(k) for k in ("val_ade", "val_fde", "cv_val_ade", "cv_val_fde", "gates_passed")},
+        }
+    return stage_config(config, stage, {**inputs, "model": inputs.get("model", model_id)}).model_dump(mode="json")
+
+
+def _decide(config: PipelineConfig, results: dict[str, dict[str, Any]]) -> tuple[list[Any], dict[str, Any]]:
+    entries, failed = [], []
+    for name, stage in GATE_OF_STAGE.items():
+        gate = _gate_dict(stage, results.get(stage))
+        entry = gate_entry(name, gate)
+        required = name in config.gates.require
+        if not required:
+            entry.detail = (entry.detail + "; " if entry.detail else "") + "advisory (not required for promotion)"
+        elif entry.passed is None and name == "closed_loop" and results.get("campaign") is not None:
+            entry.detail = "the campaign has no closed-loop gate configured"
+        entries.append(entry)
+        if required and entry.passed is not True:
+            failed.append(name)
+    return entries, {"passed": not failed, "failed": failed, "promotion": ""}
+
+
+def _status(kind: str, result: dict[str, Any]) -> str:
+    if kind == "train":
+        return "completed" if result.get("gates_passed") else "failed_gate"
+    status = result.get("status")
+    if kind in ("evaluate", "campaign") and status in ("passed", "completed", "failed_gate"):
+        return status
+    if kind == "evaluate" and status == "failed_integrity":
+        return "failed_gate"
+    return "completed"
+
+
+def _fill(entry: StageEntry, run: ChildRun, kind: str) -> None:
+    entry.job_id, entry.wall_s, entry.report = run.job_id, run.wall_s, run.report
+    entry.artifacts = dict(run.artifacts)
+    entry.headline = headline(kind, run.result) + (" (resumed)" if run.resumed else "")
+    if kind in ("collect", "mix"):
+        s = run.result.get("summary") or {}
+        n = s.get("samples", s.get("n_samples"))
+        ep = s.get("episodes", s.get("n_episodes"))
+        outcomes = run.result.get("outcomes") or {}
+        entry.headline = (f"{n if n is not None else '?'} samples"
+                          + (f" from {ep} episodes" if ep is not None else "")
+                          + (f"; outcomes {dict(outcomes)}" if outcomes else "")
+                          + (" (resumed)" if run.resumed else ""))
+
+
+def _as_run(value: ChildRun | dict[str, Any]) -> ChildRun:
+    return value if isinstance(value, ChildRun) else ChildRun(result=dict(value or {}))
+
+
+def _read_json(path: Any) -> dict[str, Any] | None:
+    from pathlib import Path
+
+    if not path:
+        return None
+    try:
+        return json.loads(Path(path).read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def _code_version() -> str | None:
+    try:
+        from core.version import code_version
+
+        return code_version()
+    except Exception:  # noqa: BLE001 - provenance only
+        return None
