@@ -7,6 +7,7 @@ from fastapi.routing import APIRoute
 
 from api import errors, web
 from api.db.session import check_migrated, make_engine, session_factory
+from api.deps import ReadAuth
 from api.registry import Resolver, load_shipped_models, sync_bundles
 from api.routes import bundles, jobs, models, ops, results
 from api.settings import Settings
@@ -42,7 +43,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.revision = revision
     errors.install(app)
     app.include_router(ops.router)
+    # Reads are open unless closed by a setting; when open, the read routes carry no auth dependency at all
+    # (dependency resolution is a good part of a status read's cost). Writes always require the token.
+    read_auth = [ReadAuth] if settings.read_requires_token else []
     for module in (jobs, models, bundles, results):
-        app.include_router(module.router, prefix="/v1")
+        app.include_router(module.router, prefix="/v1", dependencies=read_auth)
     web.install(app)  # the dashboard: /ui pages over the same store
     return app

@@ -53,6 +53,15 @@ def _cli(env: dict[str, str], *args: str, **kwargs) -> subprocess.Popen:  # noqa
     return subprocess.Popen([sys.executable, "-m", "cli.main", *args], env=env, cwd=REPO, **kwargs)
 
 
+def _cpu_s(pid: int) -> float:
+    """CPU seconds (user + system) used so far by a process (Linux /proc)."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return 0.0
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
 def _wait_healthy(port: int, timeout: float = 90) -> None:
     import httpx
 
@@ -97,7 +106,9 @@ async def _client_loop(port: int, requests: list[bytes], stop_at: float, latenci
         writer.close()
 
 
-def _load(port: int, requests: list[bytes], clients: int, duration: float) -> dict:
+def _load(port: int, requests: list[bytes], clients: int, duration: float, server_pid: int) -> dict:
+    """Closed-loop load; also the CPU the server process and this generator used (the machine is shared,
+    so CPU per request says more about the server than wall-clock throughput alone)."""
     latencies: list[float] = []
     errors: list[int] = []
 
@@ -106,14 +117,17 @@ def _load(port: int, requests: list[bytes], clients: int, duration: float) -> di
         per_client = [requests[i::clients] or requests for i in range(clients)]
         await asyncio.gather(*(_client_loop(port, per_client[i], stop_at, latencies, errors) for i in range(clients)))
 
-    t0 = time.perf_counter()
+    t0, server0, own0 = time.perf_counter(), _tree_cpu_s(server_pid), time.process_time()
     asyncio.run(main())
     elapsed = time.perf_counter() - t0
+    server_cpu, own_cpu = _tree_cpu_s(server_pid) - server0, time.process_time() - own0
     latencies.sort()
     n = len(latencies)
     pct = lambda q: round(1000 * latencies[min(n - 1, int(q * n))], 2) if n else None  # noqa: E731
     return {"requests": n, "seconds": round(elapsed, 2), "rps": round(n / elapsed, 1), "p50_ms": pct(0.50),
-            "p99_ms": pct(0.99), "errors": len(errors), "clients": clients}  # fmt: skip
+            "p99_ms": pct(0.99), "errors": len(errors), "clients": clients,
+            "server_cpu_s": round(server_cpu, 2), "generator_cpu_s": round(own_cpu, 2),
+            "server_cpu_ms_per_request": round(1000 * server_cpu / n, 3) if n else None}  # fmt: skip
 
 
 def _get(path: str) -> bytes:
@@ -130,19 +144,30 @@ def _post(path: str, body: dict) -> bytes:
 # --------------------------------------------------------------------------------------- phases
 
 
-def bench_http(database_url: str | None, clients: int, duration: float) -> dict:
+def _tree_cpu_s(pid: int) -> float:
+    """CPU seconds of a process and its children (server worker processes), from /proc."""
+    total = _cpu_s(pid)
+    try:
+        children = Path(f"/proc/{pid}/task/{pid}/children").read_text().split()
+    except OSError:
+        return total
+    return total + sum(_tree_cpu_s(int(c)) for c in children)
+
+
+def bench_http(database_url: str | None, clients: int, duration: float, server_workers: int) -> dict:
     import httpx
 
     with tempfile.TemporaryDirectory(prefix="foresight-bench-") as tmp:
         env = _env(Path(tmp), database_url)
         port = _free_port()
-        server = _cli(env, "up", "--port", str(port), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        server = _cli(env, "up", "--port", str(port), "--workers", str(server_workers),
+                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)  # fmt: skip
         try:
             _wait_healthy(port)
             with httpx.Client(base_url=f"http://127.0.0.1:{port}", headers={"Authorization": f"Bearer {TOKEN}"}) as c:
                 ids = [c.post("/v1/jobs", json={"spec": {"kind": "sleep"}}).json()["id"] for _ in range(200)]
-            reads = _load(port, [_get(f"/v1/jobs/{i}") for i in ids], clients, duration)
-            submits = _load(port, [_post("/v1/jobs", {"spec": {"kind": "sleep"}})], clients, duration)
+            reads = _load(port, [_get(f"/v1/jobs/{i}") for i in ids], clients, duration, server.pid)
+            submits = _load(port, [_post("/v1/jobs", {"spec": {"kind": "sleep"}})], clients, duration, server.pid)
         finally:
             server.send_signal(signal.SIGTERM)
             try:
@@ -175,6 +200,7 @@ def bench_claims(database_url: str | None, jobs: int, workers: int) -> dict:
         with write_tx(engine) as conn:
             conn.execute(insert(queue.jobs), rows)
         procs = [_cli(env, "worker", stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL) for _ in range(workers)]
+        cpu = 0.0
         try:
             deadline = time.time() + 300
             while time.time() < deadline:
@@ -188,6 +214,7 @@ def bench_claims(database_url: str | None, jobs: int, workers: int) -> dict:
             with engine.connect() as conn:
                 first, last = conn.execute(select(func.min(queue.jobs.c.started_at), func.max(queue.jobs.c.finished_at))).one()
                 owners = conn.execute(select(func.count(func.distinct(queue.jobs.c.lease_owner)))).scalar()
+            cpu = sum(_cpu_s(p.pid) for p in procs)  # includes each worker's start-up (imports)
         finally:
             for p in procs:
                 p.send_signal(signal.SIGTERM)
@@ -197,7 +224,8 @@ def bench_claims(database_url: str | None, jobs: int, workers: int) -> dict:
     span = (last or 0) - (first or 0)
     return {"jobs": jobs, "done": done, "workers": workers, "workers_used": owners, "seconds": round(span, 2),
             "jobs_per_s": round(done / span, 1) if span > 0 else None,
-            "database": "postgresql" if database_url else "sqlite"}  # fmt: skip
+            "database": "postgresql" if database_url else "sqlite",
+            "workers_cpu_s_incl_startup": round(cpu, 2)}  # fmt: skip
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -207,14 +235,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--clients", type=int, default=50)
     parser.add_argument("--claim-jobs", type=int, default=2000)
     parser.add_argument("--claim-workers", type=int, default=2)
+    parser.add_argument("--server-workers", type=int, default=1, help="`foresight up --workers`")
     parser.add_argument("--database-url", help="benchmark this database instead of a temporary SQLite file")
     args = parser.parse_args(argv)
 
+    load0 = round(os.getloadavg()[0], 2)
     result = {
-        **bench_http(args.database_url, args.clients, args.duration),
+        **bench_http(args.database_url, args.clients, args.duration, args.server_workers),
         "claims": bench_claims(args.database_url, args.claim_jobs, args.claim_workers),
         "targets": TARGETS,
-        "machine": {"cpus": os.cpu_count(), "loadavg_1m_at_end": round(os.getloadavg()[0], 2)},
+        "machine": {"cpus": os.cpu_count(), "loadavg_1m_at_start": load0, "loadavg_1m_at_end": round(os.getloadavg()[0], 2)},
     }
     r, s, c = result["status_reads"], result["submissions"], result["claims"]
     result["meets_targets"] = {

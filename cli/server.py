@@ -36,6 +36,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def _server_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--host", default="127.0.0.1")
     parser.add_argument("--port", type=int, default=8000)
+    parser.add_argument("--workers", type=int, default=1, help="server processes (uvicorn workers; default 1)")
     parser.add_argument("--log-level", default="warning")
 
 
@@ -57,13 +58,17 @@ def _serve(settings: Settings, args: argparse.Namespace) -> None:
 
     from api.main import create_app
 
-    app = create_app(settings)
+    app = create_app(settings)  # fails here, before serving, on an un-migrated database
     print(f"foresight API on http://{args.host}:{args.port} (store {settings.store_root})", file=sys.stderr)
     # uvicorn shuts down gracefully on SIGTERM/SIGINT, then re-raises the signal to the handler that was
     # installed before it: make that one return, so that callers' clean-up runs and the exit code is 0.
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: None)
-    uvicorn.run(app, host=args.host, port=args.port, log_level=args.log_level, access_log=False)
+    if args.workers > 1:  # each process builds its app from the same FORESIGHT_* environment
+        uvicorn.run("api.main:create_app", factory=True, workers=args.workers, host=args.host, port=args.port,
+                    log_level=args.log_level, access_log=False)  # fmt: skip
+    else:
+        uvicorn.run(app, host=args.host, port=args.port, log_level=args.log_level, access_log=False)
 
 
 def cmd_serve(args: argparse.Namespace) -> int:

@@ -9,7 +9,7 @@ from sqlalchemy import select
 
 from api.db import queue
 from api.db.models import Bundle
-from api.deps import EngineDep, ReadAuth, ResolverDep, SessionDep, SettingsDep, WriteAuth
+from api.deps import EngineDep, ResolverDep, SessionDep, SettingsDep, WriteAuth
 from api.registry import MAX_BUNDLE_BYTES, save_upload
 from api.schemas import BundlePublic, BundlesPublic, Ident, ScenarioPublic
 from core.errors import ConfigError
@@ -24,7 +24,7 @@ def _get(session: SessionDep, bundle_id: str) -> Bundle:
     return row
 
 
-@router.get("", dependencies=[ReadAuth])
+@router.get("")
 def read_bundles(session: SessionDep) -> BundlesPublic:
     """Registered config bundles."""
     rows = list(session.scalars(select(Bundle).order_by(Bundle.id)))
@@ -60,13 +60,13 @@ async def create_bundle(
     return BundlePublic.model_validate(row)
 
 
-@router.get("/{bundle_id}", dependencies=[ReadAuth])
+@router.get("/{bundle_id}")
 def read_bundle(bundle_id: Ident, session: SessionDep) -> BundlePublic:
     """One bundle: its files and scenario matrices."""
     return BundlePublic.model_validate(_get(session, bundle_id))
 
 
-@router.get("/{bundle_id}/scenarios", dependencies=[ReadAuth])
+@router.get("/{bundle_id}/scenarios")
 def read_bundle_scenarios(bundle_id: Ident, session: SessionDep, resolver: ResolverDep) -> list[ScenarioPublic]:
     """The scenarios of every matrix in the bundle."""
     from core.scenarios.loader import load_matrix

@@ -13,7 +13,7 @@ from sqlalchemy.exc import IntegrityError
 from api import store
 from api.db import queue
 from api.db.models import Artifact, Model, ModelStatus
-from api.deps import EngineDep, ReadAuth, SessionDep, WriteAuth, WriteSessionDep
+from api.deps import EngineDep, SessionDep, WriteAuth, WriteSessionDep
 from api.registry import export_models, models_using
 from api.schemas import Ident, ModelCreate, ModelPromote, ModelPublic, ModelsPublic
 
@@ -27,7 +27,7 @@ def _get(session: SessionDep, model_id: str) -> Model:
     return row
 
 
-@router.get("", dependencies=[ReadAuth])
+@router.get("")
 def read_models(
     session: SessionDep,
     status_: Annotated[ModelStatus | None, Query(alias="status")] = None,
@@ -41,7 +41,7 @@ def read_models(
     return ModelsPublic(data=[ModelPublic.model_validate(m) for m in rows], count=len(rows))
 
 
-@router.get("/export", dependencies=[ReadAuth], response_class=PlainTextResponse)
+@router.get("/export", response_class=PlainTextResponse)
 def export_registry(session: SessionDep) -> PlainTextResponse:
     """Models registered at run time, in the schema of ``model/registry.yaml``."""
     rows = list(session.scalars(select(Model).where(Model.read_only.is_(False)).order_by(Model.created_at)))
@@ -75,7 +75,7 @@ def create_model(body: ModelCreate, session: WriteSessionDep, engine: EngineDep)
     return ModelPublic.model_validate(row)
 
 
-@router.get("/{model_id}", dependencies=[ReadAuth])
+@router.get("/{model_id}")
 def read_model(model_id: Ident, session: SessionDep) -> ModelPublic:
     """One registry entry."""
     return ModelPublic.model_validate(_get(session, model_id))

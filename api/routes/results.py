@@ -9,7 +9,7 @@ from sqlalchemy import select
 
 from api.db import queue
 from api.db.models import Campaign, CampaignCell, Dataset, Evaluation, FailureTaxonomy, GateResult
-from api.deps import ReadAuth, SessionDep
+from api.deps import SessionDep
 from api.schemas import CampaignPublic, DatasetPublic, EvaluationPublic, Ident
 
 router = APIRouter(tags=["results"])
@@ -22,13 +22,13 @@ def _get(session: SessionDep, model: type, ident: str, what: str) -> Any:
     return row
 
 
-@router.get("/datasets", dependencies=[ReadAuth])
+@router.get("/datasets")
 def read_datasets(session: SessionDep) -> list[DatasetPublic]:
     """Datasets, oldest first."""
     return [DatasetPublic.model_validate(d) for d in session.scalars(select(Dataset).order_by(Dataset.created_at))]
 
 
-@router.get("/datasets/{dataset_id}", dependencies=[ReadAuth])
+@router.get("/datasets/{dataset_id}")
 def read_dataset(dataset_id: Ident, session: SessionDep) -> DatasetPublic:
     """A dataset's summary."""
     return DatasetPublic.model_validate(_get(session, Dataset, dataset_id, "dataset"))
@@ -42,13 +42,13 @@ def _evaluation(session: SessionDep, evaluation_id: str) -> EvaluationPublic:
     return out
 
 
-@router.get("/evaluations/{evaluation_id}", dependencies=[ReadAuth])
+@router.get("/evaluations/{evaluation_id}")
 def read_evaluation(evaluation_id: Ident, session: SessionDep) -> EvaluationPublic:
     """Metrics, the per-scenario table and the failure taxonomy of an evaluation."""
     return _evaluation(session, evaluation_id)
 
 
-@router.get("/campaigns/{campaign_id}", dependencies=[ReadAuth])
+@router.get("/campaigns/{campaign_id}")
 def read_campaign(campaign_id: Ident, session: SessionDep) -> CampaignPublic:
     """A campaign's ranked cells, best cell and gate results."""
     row = _get(session, Campaign, campaign_id, "campaign")
@@ -89,7 +89,7 @@ def metric_deltas(a: dict[str, Any], b: dict[str, Any]) -> dict[str, dict[str, A
     return out
 
 
-@router.get("/compare", dependencies=[ReadAuth])
+@router.get("/compare")
 def compare_evaluations(session: SessionDep, a: Annotated[Ident, Query()], b: Annotated[Ident, Query()]) -> dict[str, Any]:
     """Two evaluations side by side: resolved-config diff key by key and metric deltas (b − a)."""
     ea, eb = _evaluation(session, a), _evaluation(session, b)
