@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from core.errors import ConfigError
 from core.predict.dataset import Dataset, file_sha256, load_dataset, resolve_dataset_path
 from core.predict.features import mirror_signs
 from core.predict.metrics import ade_fde
@@ -131,6 +132,9 @@ def run_train(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | Non
     last_path = ctx.artifact("checkpoints/last.pt")
     if config.resume and last_path.is_file():
         state = read_checkpoint(last_path)
+        if state["dataset"].get("sha256") != dataset_info["sha256"] or state["model_config"] != mcfg.to_dict():
+            raise ConfigError("cannot resume: checkpoints/last.pt was trained on another dataset or model config "
+                              "(use a new work dir or resume: false)", source=last_path, item="resume")
         model.load_state_dict(state["model"])
         opt.load_state_dict(state["optimizer"])
         history, start = state["train_state"]["history"], state["epoch"] + 1

@@ -91,3 +91,10 @@ def test_proxy_wired_to_the_evaluation_engine(tmp_path, curving_dataset):
     summary = json.loads((tmp_path / "training_summary.json").read_text())
     proxy = summary["selection"]["proxy_history"][0]
     assert res.selection_mode == "proxy" and proxy["episodes"] == 1.0 and 0.0 <= proxy["success"] <= 1.0
+
+
+def test_resume_refuses_another_model_config(tmp_path, curving_dataset):
+    run_train(TrainConfig(dataset=str(curving_dataset), **{**FAST, "epochs": 1}), StageContext(workdir=tmp_path))
+    with pytest.raises(ConfigError, match="cannot resume"):
+        run_train(TrainConfig(dataset=str(curving_dataset), **{**FAST, "epochs": 2, "hidden": 8}),
+                  StageContext(workdir=tmp_path))
