@@ -1,0 +1,202 @@
+"""The runbook with a fake run_child: wiring between stages, the gate verdict, the summary, resume."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from core.errors import ConfigError
+from core.pipeline.config import PipelineConfig, load_pipeline_config, stage_config
+from core.pipeline.runbook import ChildRun, StageFailed, check_seed_separation, run_pipeline
+from core.stages.context import Cancelled, StageContext
+from core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
+
+SMOKE = BUILTIN_CONFIG_ROOT / "pipelines" / "smoke.yaml"
+SECTIONS = ["## Verdict", "## Stages", "## Gates", "## Best campaign variant", "## Promoted model", "## Artifacts"]
+
+
+def _ctx(tmp_path: Path, cancelled: list[bool] | None = None) -> StageContext:
+    flag = cancelled if cancelled is not None else [False]
+    return StageContext(workdir=tmp_path, resolve_bundle=lambda ident: BUILTIN_CONFIG_ROOT,
+                        is_cancelled=lambda: flag[0])
+
+
+def _gate(passed: bool) -> dict[str, Any]:
+    return {"passed": passed, "checks": [{"name": "success_rate", "passed": passed, "value": 0.5, "threshold": 0.4}]}
+
+
+def _suite(rate: float) -> dict[str, Any]:
+    return {"success": {"rate": rate, "low": rate - 0.1, "high": rate + 0.1, "n": 10, "k": int(10 * rate)},
+            "mean_min_clearance": {"mean": 0.4}}
+
+
+class FakeChildren:
+    """Records every call; results shaped like the real stage results (only the fields the runbook reads)."""
+
+    def __init__(self, *, evaluation_passes: bool = True, fail: str | None = None):
+        self.calls: list[tuple[str, str, dict[str, Any]]] = []
+        self.done: dict[str, ChildRun] = {}
+        self.evaluation_passes = evaluation_passes
+        self.fail = fail
+
+    def __call__(self, stage: str, kind: str, spec: dict[str, Any], progress: Any) -> ChildRun:
+        if stage in self.done:  # resume: a succeeded child is returned, not run again
+            run = self.done[stage]
+            return ChildRun(result=run.result, ident=run.ident, job_id=run.job_id, resumed=True)
+        self.calls.append((stage, kind, spec))
+        progress(0.5, "half way")
+        if stage == self.fail:
+            raise RuntimeError(f"{stage} exploded")
+        run = ChildRun(result=self.result(stage, kind, spec), ident=f"id-{stage}", job_id=f"job-{stage}", wall_s=1.0)
+        if kind == "register":
+            run.ident = spec["model_id"]
+        self.done[stage] = run
+        return run
+
+    def result(self, stage: str, kind: str, spec: dict[str, Any]) -> dict[str, Any]:
+        if kind == "collect" or kind == "mix":
+            return {"dataset": f"{stage}.npz", "sha256": "0" * 64, "summary": {"samples": 10, "episodes": 2},
+                    "outcomes": {"success": 2}}
+        if kind == "train":
+            return {"checkpoint": "model.pt", "summary": None, "best_epoch": 2, "val_ade": 0.3, "val_fde": 0.6,
+                    "cv_val_ade": 0.4, "cv_val_fde": 0.8, "selection_mode": "proxy", "gates_passed": True}
+        if kind == "evaluate":
+            return {"status": "passed" if self.evaluation_passes else "failed_gate", "success_rate": 0.8,
+                    "collision_rate": 0.1, "episodes": 6, "gate": _gate(self.evaluation_passes)}
+        if kind == "diagnose":
+            return {"episodes": 6, "solved": 3}
+        if kind == "campaign":
+            cell = {"variant": "default", "checkpoint": spec["checkpoints"][0], "hard": _suite(0.5),
+                    "global": _suite(0.7), "planner": {"config_hash": "ab" * 32}}
+            return {"status": "passed", "best": cell, "ranked": [cell], "gate": _gate(True)}
+        return {"model_id": spec.get("model_id"), "status": spec.get("to", spec.get("status"))}
+
+
+def _smoke() -> PipelineConfig:
+    return load_pipeline_config(SMOKE)
+
+
+def test_stages_run_in_order_and_outputs_feed_the_next_stage(tmp_path: Path) -> None:
+    config = _smoke()
+    fake = FakeChildren()
+    result = run_pipeline(config, _ctx(tmp_path), fake, run_id="0123456789abcdef")
+    assert [c[0] for c in fake.calls] == ["collect", "hardcase", "mix", "train", "register", "evaluate", "diagnose",
+                                          "campaign", "promote"]
+    spec = {stage: s for stage, _, s in fake.calls}
+    assert spec["collect"]["hard_seeds"] is None
+    assert spec["hardcase"]["hard_seeds"] == config.training_seeds
+    assert (spec["mix"]["base"], spec["mix"]["hardcase"]) == ("id-collect", "id-hardcase")
+    assert spec["train"]["dataset"] == "id-mix"
+    assert spec["train"]["proxy"]["seed_manifest"] == config.training_seeds  # proxy: TRAINING hard seeds
+    model = "smoke-01234567"
+    assert spec["register"]["model_id"] == model and spec["register"]["status"] == "candidate"
+    assert spec["evaluate"]["planner"]["model"] == model
+    assert spec["diagnose"]["seed_manifest"] == config.evaluation_seeds
+    assert spec["diagnose"]["planner"]["model"] == model
+    assert spec["campaign"]["seed_manifest"] == config.evaluation_seeds
+    assert spec["campaign"]["checkpoints"] == [model]
+    assert spec["promote"] == {"model_id": model, "to": "promoted"}
+    assert result.passed and result.exit_code == 0 and result.promoted and result.model_id == model
+    report = (tmp_path / "report.md").read_text()
+    for section in SECTIONS:
+        assert section in report
+    assert (tmp_path / "report.html").is_file() and (tmp_path / "pipeline_summary.json").is_file()
+
+
+def test_failing_gate_writes_the_summary_exit_2_and_does_not_promote(tmp_path: Path) -> None:
+    fake = FakeChildren(evaluation_passes=False)
+    result = run_pipeline(_smoke(), _ctx(tmp_path), fake, run_id="feedbeef")
+    assert result.exit_code == 2 and not result.passed and result.status == "failed_gate"
+    assert result.failed_gates == ["evaluation"]
+    assert "promote" not in [c[0] for c in fake.calls] and not result.promoted
+    assert "stays a candidate" in result.promotion
+    report = (tmp_path / "report.md").read_text()
+    for section in SECTIONS:
+        assert section in report
+    assert "FAILED" in report
+    stages = {s.name: s.status for s in result.stages}
+    assert stages["gates"] == "failed_gate" and stages["promote"] == "skipped"
+
+
+def test_a_failed_stage_writes_the_summary_and_a_rerun_resumes_from_it(tmp_path: Path) -> None:
+    config = _smoke()
+    fake = FakeChildren(fail="evaluate")
+    with pytest.raises(StageFailed, match="stage evaluate failed"):
+        run_pipeline(config, _ctx(tmp_path), fake, run_id="abc")
+    report = (tmp_path / "report.md").read_text()
+    assert "failed" in report and "evaluate exploded" in report
+    ran_first = [c[0] for c in fake.calls]
+    assert ran_first[-1] == "evaluate" and "campaign" not in ran_first
+
+    fake.fail, fake.calls = None, []  # the retry: finished stages come back as resumed, nothing re-runs
+    result = run_pipeline(config, _ctx(tmp_path), fake, run_id="abc")
+    assert [c[0] for c in fake.calls] == ["evaluate", "diagnose", "campaign", "promote"]
+    assert result.passed
+    assert {s.name: s.headline.endswith("(resumed)") for s in result.stages}["train"]
+
+
+def test_cancellation_writes_the_summary_and_propagates(tmp_path: Path) -> None:
+    flag = [False]
+
+    class CancelDuringTrain(FakeChildren):
+        def __call__(self, stage, kind, spec, progress):  # noqa: ANN001, ANN204
+            if stage == "train":
+                flag[0] = True
+                raise Cancelled("job cancelled")
+            return super().__call__(stage, kind, spec, progress)
+
+    with pytest.raises(Cancelled):
+        run_pipeline(_smoke(), _ctx(tmp_path, flag), CancelDuringTrain(), run_id="abc")
+    assert "cancelled" in (tmp_path / "report.md").read_text()
+
+
+def test_without_hardcase_the_train_stage_takes_the_base_dataset(tmp_path: Path) -> None:
+    config = _smoke().model_copy(update={"hardcase": None, "diagnose": None})
+    fake = FakeChildren()
+    run_pipeline(config, _ctx(tmp_path), fake)
+    stages = [c[0] for c in fake.calls]
+    assert "hardcase" not in stages and "mix" not in stages and "diagnose" not in stages
+    assert dict((s, spec) for s, _, spec in fake.calls)["train"]["dataset"] == "id-collect"
+
+
+# ------------------------------------------------------------------------------------------ config
+
+
+def test_the_shipped_pipeline_configs_validate_and_build_every_stage_config() -> None:
+    inputs = {"base": "b", "hardcase": "h", "mixed": "m", "model": "cand"}
+    for name in ("smoke", "quickstart", "full"):
+        config = load_pipeline_config(BUILTIN_CONFIG_ROOT / "pipelines" / f"{name}.yaml")
+        assert config.training_seeds != config.evaluation_seeds
+        assert "train" in config.training_seeds and "eval" in config.evaluation_seeds
+        for stage in ("collect", "hardcase", "mix", "train", "evaluate", "diagnose", "campaign"):
+            built = stage_config(config, stage, inputs)
+            assert getattr(built, "bundle", BUILTIN_BUNDLE) == BUILTIN_BUNDLE
+        ctx = StageContext(workdir=Path("."), resolve_bundle=lambda ident: BUILTIN_CONFIG_ROOT)
+        sizes = check_seed_separation(config, ctx)  # raises when training seeds meet evaluation episodes
+        assert sizes["training_seeds"] > 0 and sizes["evaluation_seeds"] > 0
+
+
+def test_the_two_manifests_must_differ_and_sections_cannot_rewire_them() -> None:
+    data = _smoke().model_dump()
+    with pytest.raises(ValueError, match="different manifests"):
+        PipelineConfig.model_validate({**data, "training_seeds": data["evaluation_seeds"]})
+    bad = {**data, "hardcase": {**data["hardcase"], "hard_seeds": data["evaluation_seeds"]}}
+    with pytest.raises(ValueError, match="training_seeds"):
+        PipelineConfig.model_validate(bad)
+    bad = {**data, "campaign": {**data["campaign"], "seed_manifest": data["training_seeds"]}}
+    with pytest.raises(ValueError, match="evaluation_seeds"):
+        PipelineConfig.model_validate(bad)
+    bad = {**data, "train": {**data["train"], "proxy": {"seed_manifest": data["evaluation_seeds"]}}}
+    with pytest.raises(ValueError, match="proxy"):
+        PipelineConfig.model_validate(bad)
+
+
+def test_training_seeds_that_meet_the_evaluation_episodes_are_refused(tmp_path: Path) -> None:
+    data = _smoke().model_dump()
+    # the quick evaluation manifest overlaps the full one: as training seeds it must be refused
+    config = PipelineConfig.model_validate({**data, "training_seeds": "seeds/classic_eval_hard_quick.yaml",
+                                            "evaluation_seeds": "seeds/classic_eval_hard.yaml"})
+    with pytest.raises(ConfigError, match="overlap"):
+        check_seed_separation(config, _ctx(tmp_path))

@@ -1,0 +1,86 @@
+"""Seed manifests: training and evaluation hard seeds never meet; the mining reproduces the shipped files."""
+
+from __future__ import annotations
+
+import itertools
+import re
+
+import pytest
+
+from core.errors import ConfigError
+from core.pipeline.seeds import (
+    EVALUATION_SEED_MAX,
+    TRAINING_SEED_MIN,
+    mine_failures,
+    parse_seed_range,
+    read_manifest_pairs,
+)
+from core.scenarios.loader import load_matrix
+from core.scenarios.seeds import load_seed_manifest
+from core.stages.refs import BUILTIN_CONFIG_ROOT
+
+SEEDS = BUILTIN_CONFIG_ROOT / "seeds"
+MATRIX = BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml"
+TRAINING = sorted(SEEDS.glob("classic_train_hard*.yaml"))
+EVALUATION = sorted(SEEDS.glob("classic_eval_hard*.yaml"))
+
+
+def test_there_are_training_and_evaluation_manifests() -> None:
+    assert {p.name for p in TRAINING} >= {"classic_train_hard.yaml", "classic_train_hard_quick.yaml",
+                                          "classic_train_hard_smoke.yaml"}
+    assert {p.name for p in EVALUATION} >= {"classic_eval_hard.yaml", "classic_eval_hard_quick.yaml",
+                                            "classic_eval_hard_smoke.yaml"}
+
+
+@pytest.mark.parametrize(("train", "evaluation"), list(itertools.product(TRAINING, EVALUATION)),
+                         ids=lambda p: p.stem)
+def test_training_and_evaluation_manifests_are_disjoint(train, evaluation) -> None:  # noqa: ANN001
+    assert not read_manifest_pairs(train) & read_manifest_pairs(evaluation)
+
+
+def test_manifests_load_against_the_matrix_and_sit_in_their_seed_ranges() -> None:
+    matrix = load_matrix(MATRIX)
+    own = {(n, s) for n in matrix.names for s in matrix.get(n).scenario.seeds}
+    for path in TRAINING:
+        manifest = load_seed_manifest(path, matrix)
+        assert len(manifest) > 0
+        assert all(seed >= TRAINING_SEED_MIN for _, seed in manifest.pairs()), path
+        assert not set(manifest.pairs()) & own  # never an evaluation seed of the matrix
+    for path in EVALUATION:
+        manifest = load_seed_manifest(path, matrix)
+        assert all(seed <= EVALUATION_SEED_MAX for _, seed in manifest.pairs()), path
+        assert set(manifest.pairs()) <= own  # mined from the seeds evaluations run
+
+
+def test_quick_and_smoke_manifests_are_subsets_of_the_full_ones() -> None:
+    for kind in ("train", "eval"):
+        full = read_manifest_pairs(SEEDS / f"classic_{kind}_hard.yaml")
+        for size in ("quick", "smoke"):
+            assert read_manifest_pairs(SEEDS / f"classic_{kind}_hard_{size}.yaml") <= full
+
+
+def test_each_manifest_says_how_it_was_mined() -> None:
+    for path in [*TRAINING, *EVALUATION]:
+        assert re.search(r"^# Mined by: foresight pipeline mine-seeds .*--baseline social_force", path.read_text(), re.M)
+
+
+def test_mining_reproduces_the_shipped_entries() -> None:
+    """Deterministic baseline: re-mining two scenarios gives the files' seeds (first failures in order)."""
+    names = ["crossing_medium", "doorway_medium"]
+    evaluation = mine_failures(MATRIX, seeds=None, baseline="social_force", per_scenario=1, scenarios=names)
+    shipped = load_seed_manifest(SEEDS / "classic_eval_hard_smoke.yaml").seeds
+    assert {n: tuple(v) for n, v in evaluation.items()} == {n: shipped[n] for n in names}
+    training = mine_failures(MATRIX, seeds=range(20000, 20040), baseline="social_force", per_scenario=1,
+                             scenarios=names, exclude=read_manifest_pairs(SEEDS / "classic_eval_hard.yaml"))
+    shipped = load_seed_manifest(SEEDS / "classic_train_hard_smoke.yaml").seeds
+    assert {n: tuple(v) for n, v in training.items()} == {n: shipped[n] for n in names}
+
+
+def test_seed_ranges_parse() -> None:
+    assert parse_seed_range("20000:20003") == [20000, 20001, 20002]
+    assert parse_seed_range("5, 7") == [5, 7]
+    for bad in ("3:3", "x:4", "-1:4"):
+        with pytest.raises(ConfigError):
+            parse_seed_range(bad)
+    with pytest.raises(ConfigError):
+        mine_failures(MATRIX, seeds=[1], baseline="predictive")
