@@ -53,6 +53,7 @@ class CollectConfig(BaseModel):
     seeds_per_scenario: int = Field(default=4, ge=1, le=10_000)
     base_seed: int = Field(default=50_000, ge=0)  #: above the matrices' own (evaluation) seeds, all < 10000
     hard_seeds: BundlePath | None = None  #: training seed manifest -> hard-case mode
+    evaluation_seeds: BundlePath | None = None  #: evaluation manifest: collecting any of its episodes is an error
     policy: Literal["goal", "goal_noisy", "planner"] = "goal"
     planner: dict[str, Any] | None = None  #: {name, config, model: "cv" | model id} when policy = planner
     timebase: TimeBaseSpec = TimeBaseSpec()
@@ -128,6 +129,17 @@ def episode_list(config: CollectConfig, matrix, manifest_path=None) -> list[tupl
             for i, n in enumerate(names) for k in range(config.seeds_per_scenario)]
 
 
+def _refuse_evaluation_episodes(jobs, path, matrix) -> None:
+    """Training data must never contain an episode we evaluate on."""
+    from core.scenarios.seeds import load_seed_manifest
+
+    held = set(load_seed_manifest(path, matrix).pairs())
+    clash = [(s.name, seed) for s, seed, _ in jobs if (s.name, seed) in held]
+    if clash:
+        raise ConfigError(f"{len(clash)} collected episodes are evaluation episodes, e.g. {clash[0]}",
+                          source=path, item="evaluation_seeds")
+
+
 def run_collect(config: CollectConfig, ctx: StageContext) -> CollectResult:
     from core.scenarios.loader import load_matrix
     from core.sim.episode import run_episode
@@ -136,6 +148,8 @@ def run_collect(config: CollectConfig, ctx: StageContext) -> CollectResult:
     matrix = load_matrix(resolve_in_bundle(root, config.matrix))
     manifest = resolve_in_bundle(root, config.hard_seeds) if config.hard_seeds else None
     jobs = episode_list(config, matrix, manifest)
+    if config.evaluation_seeds is not None:
+        _refuse_evaluation_episodes(jobs, resolve_in_bundle(root, config.evaluation_seeds), matrix)
     timebase = config.timebase.build()
     splits = assign_splits(len(jobs), config.val_fraction, config.split_seed)
     recorder = _Recorder(_policy(config, ctx))

@@ -57,3 +57,13 @@ def test_planner_policy_needs_a_name(tmp_path):
     with pytest.raises(ConfigError, match="planner.name"):
         run_collect(CollectConfig(scenarios=["crossing_high"], seeds_per_scenario=1, policy="planner", planner={}),
                     _ctx(tmp_path))
+
+
+def test_evaluation_episodes_are_refused(tmp_path):
+    root = tmp_path / "bundle"
+    for sub in ("scenarios", "maps"):
+        shutil.copytree(BUILTIN_CONFIG_ROOT / sub, root / sub)
+    (root / "eval.yaml").write_text("crossing_high: [50001]\n")
+    cfg = CollectConfig(scenarios=["crossing_high"], seeds_per_scenario=2, evaluation_seeds="eval.yaml")
+    with pytest.raises(ConfigError, match="evaluation episodes"):
+        run_collect(cfg, StageContext(workdir=tmp_path / "out", resolve_bundle=lambda ident: root))
