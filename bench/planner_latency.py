@@ -91,8 +91,11 @@ def main() -> None:
     args = ap.parse_args()
     models: list = ["cv"]
     if args.checkpoint:
+        import torch
+
         from core.predict.nn.checkpoint import load_predictor
 
+        torch.set_num_threads(1)  # one decision per core, as in the evaluation's worker processes
         models.append(load_predictor(args.checkpoint))
     entries = [measure(n, model, args.decisions) for model in models for n in args.pedestrians]
     result = {"benchmark": "planner_latency", "targets": {"pedestrians": 16, "p50_ms": 2.0, "p95_ms": 5.0},
