@@ -14,8 +14,8 @@ import numpy as np
 import pyrvo
 from pydantic import BaseModel, ConfigDict, Field
 
-from core.planners.social_force import limits_of, velocity_to_unicycle
 from core.planners.base import EpisodeInfo
+from core.planners.social_force import limits_of, velocity_to_unicycle
 from core.sim.observation import Observation
 
 

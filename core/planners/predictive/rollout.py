@@ -40,10 +40,7 @@ def extend_forecast(positions: np.ndarray, times: np.ndarray, extra_steps: int) 
     if extra_steps <= 0:
         return positions, times
     dt = times[1] - times[0] if len(times) > 1 else times[0]
-    if len(times) > 1:
-        vel = (positions[:, -1] - positions[:, -2]) / dt
-    else:
-        vel = np.zeros_like(positions[:, -1])
+    vel = (positions[:, -1] - positions[:, -2]) / dt if len(times) > 1 else np.zeros_like(positions[:, -1])
     k = np.arange(1, extra_steps + 1) * dt
     ext = positions[:, -1:, :] + k[None, :, None] * vel[:, None, :]
     return np.concatenate([positions, ext], axis=1), np.concatenate([times, times[-1] + k])
