@@ -115,3 +115,25 @@ def test_assertiveness_grows_only_while_stalled():
     assert p._assertiveness(9.9, s.stall_after_s + s.stall_ramp_s / 2) == pytest.approx(0.5)
     assert p._assertiveness(9.9, s.stall_after_s + 2 * s.stall_ramp_s) == 1.0
     assert p._assertiveness(9.0, 20.0) == 0.0  # progress resets the stall clock
+
+
+def test_rollouts_are_read_at_the_forecast_times():
+    from core.errors import ConfigError
+    from core.planners.predictive.rollout import eval_steps, extend_forecast, rollout
+    from core.sim.robot import unicycle_step
+
+    times = PLANNER_TIMEBASE.times  # 0.2 s grid
+    idx = eval_steps(times, 0.1)
+    assert idx.tolist() == list(range(1, 24, 2))  # state after step 2, 4, ... = time 0.2, 0.4, ...
+    with pytest.raises(ConfigError):
+        eval_steps(np.array([0.15, 0.3]), 0.1)
+    # the rollout is the simulator's step, applied step by step
+    s0 = np.array([[0.0, 0.0, 0.3, 0.5, 0.0]])
+    cmds = np.tile([1.5, 0.4], (1, 5, 1))
+    states = rollout(s0, cmds, RobotLimits(), 0.1)
+    s = s0[0]
+    for _ in range(5):
+        s = unicycle_step(s, np.array([1.5, 0.4]), RobotLimits(), 0.1)
+    assert np.allclose(states[0, -1], s)
+    pos, t = extend_forecast(np.array([[[0.0, 0.0], [0.2, 0.0]]]), np.array([0.2, 0.4]), 2)
+    assert t.tolist() == pytest.approx([0.2, 0.4, 0.6, 0.8]) and pos[0, -1].tolist() == pytest.approx([0.6, 0.0])
