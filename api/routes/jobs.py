@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import asyncio
 import json
 import time
-from collections.abc import Iterator
+from collections.abc import AsyncIterator
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Header, Query, Request, Response, status
+from fastapi import APIRouter, Header, HTTPException, Query, Request, Response, status
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, StreamingResponse
 from sqlalchemy import bindparam, func, select
@@ -53,7 +54,7 @@ def create_job(
 ) -> Response:  # fmt: skip
     """Queue a job (201); a known idempotency key returns its job (200)."""
     if content_length is not None and content_length > MAX_SPEC_BYTES:
-        raise RequestValidationError([{"loc": ("body",), "msg": "request body too large", "type": "too_large"}])
+        raise HTTPException(status.HTTP_413_REQUEST_ENTITY_TOO_LARGE, f"request body over {MAX_SPEC_BYTES} bytes")
     spec = body.spec.model_dump(mode="json")
     errors = unsafe_paths(spec)
     if errors:
@@ -130,11 +131,15 @@ async def read_job(job_id: Ident, request: Request) -> Response:
     return Response(body, media_type="application/json")
 
 
-def _sse(engine: Any, job_id: str, after: int) -> Iterator[str]:
-    """Events as SSE frames until the job is finished and its events are drained."""
+async def _sse(engine: Any, job_id: str, after: int) -> AsyncIterator[str]:
+    """Events as SSE frames until the job is finished and its events are drained.
+
+    An async generator: a waiting stream holds no thread-pool thread (a sync generator would hold one per
+    open stream and starve the other endpoints); its queries run in the pool.
+    """
     last_ping = time.monotonic()
     while True:
-        batch = queue.events_after(engine, job_id, after)
+        batch = await run_in_threadpool(queue.events_after, engine, job_id, after)
         for ev in batch:
             after = ev["id"]
             data = {"type": ev["type"], "at": ev["at"], "message": ev["message"], "progress": ev["progress"]}
@@ -142,16 +147,18 @@ def _sse(engine: Any, job_id: str, after: int) -> Iterator[str]:
         if batch:
             continue
         try:
-            job = queue.get_job(engine, job_id)
+            job = await run_in_threadpool(queue.get_job, engine, job_id)
         except queue.JobNotFound:
             return
-        if job["status"] not in (queue.QUEUED, queue.RUNNING) and not queue.events_after(engine, job_id, after, 1):
-            yield f"event: end\ndata: {json.dumps({'status': job['status']})}\n\n"
-            return
+        if job["status"] not in (queue.QUEUED, queue.RUNNING):
+            if not await run_in_threadpool(queue.events_after, engine, job_id, after, 1):
+                yield f"event: end\ndata: {json.dumps({'status': job['status']})}\n\n"
+                return
+            continue
         if time.monotonic() - last_ping > 15:
             last_ping = time.monotonic()
             yield ": keep-alive\n\n"
-        time.sleep(SSE_POLL_S)
+        await asyncio.sleep(SSE_POLL_S)
 
 
 @router.get("/{job_id}/events", response_class=StreamingResponse,

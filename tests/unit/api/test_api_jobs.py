@@ -171,3 +171,10 @@ def test_reads_can_be_closed(settings, auth) -> None:  # noqa: ANN001
     with TestClient(create_app(closed)) as c:
         assert c.get("/v1/jobs").status_code == 401
         assert c.get("/v1/jobs", headers=auth).status_code == 200
+
+
+def test_oversized_submission_is_413(client, auth) -> None:  # noqa: ANN001
+    body = {"spec": {"kind": "sleep", "fail": "x"}, "idempotency_key": "k", "pad": "y" * (2 << 20)}
+    r = client.post("/v1/jobs", json=body, headers=auth)
+    assert r.status_code == 413 and "bytes" in r.json()["detail"]
+    assert _count(client) == 0
