@@ -8,7 +8,7 @@ import time
 from collections.abc import AsyncIterator
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Header, HTTPException, Query, Request, Response, status
+from fastapi import APIRouter, Depends, Header, HTTPException, Query, Request, Response, status
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, StreamingResponse
 from sqlalchemy import bindparam, func, select
@@ -46,15 +46,16 @@ def read_job_kinds() -> list[KindPublic]:
     return [KindPublic(kind=k.name, description=k.description, spec_schema=k.spec.model_json_schema()) for k in KINDS.values()]
 
 
-@router.post("", status_code=status.HTTP_201_CREATED, dependencies=[WriteAuth], response_model=JobPublic,
-             responses={200: {"model": JobPublic, "description": "the job of a known idempotency key"}})  # fmt: skip
-def create_job(
-    body: JobCreate, engine: EngineDep, settings: SettingsDep,
-    content_length: Annotated[int | None, Header(include_in_schema=False)] = None,
-) -> Response:  # fmt: skip
-    """Queue a job (201); a known idempotency key returns its job (200)."""
+async def limit_body(content_length: Annotated[int | None, Header(include_in_schema=False)] = None) -> None:
+    """413 before the body is validated (dependencies run first)."""
     if content_length is not None and content_length > MAX_SPEC_BYTES:
         raise HTTPException(status.HTTP_413_REQUEST_ENTITY_TOO_LARGE, f"request body over {MAX_SPEC_BYTES} bytes")
+
+
+@router.post("", status_code=status.HTTP_201_CREATED, dependencies=[WriteAuth, Depends(limit_body)], response_model=JobPublic,
+             responses={200: {"model": JobPublic, "description": "the job of a known idempotency key"}})  # fmt: skip
+def create_job(body: JobCreate, engine: EngineDep, settings: SettingsDep) -> Response:
+    """Queue a job (201); a known idempotency key returns its job (200)."""
     spec = body.spec.model_dump(mode="json")
     errors = unsafe_paths(spec)
     if errors:
