@@ -27,7 +27,7 @@ test: install browser
 	$(PY) -m pytest -q
 
 demo: install
-	$(VENV)/bin/foresight sim demo
+	$(VENV)/bin/foresight demo
 
 lint: install
 	$(VENV)/bin/ruff check .

@@ -175,7 +175,8 @@ def follow_pipeline(client: Any, job_id: str, *, quiet: bool) -> dict[str, Any]:
                 for child in sorted(page["data"], key=lambda c: c["created_at"]):
                     if seen.get(child["id"]) != child["status"] and child["status"] != "queued":
                         seen[child["id"]] = child["status"]
-                        bar.console.print(f"  {child['kind']:<9} {child['id'][:12]} {child['status']}")
+                        stage = (child.get("idempotency_key") or child["kind"]).rsplit(":", 1)[-1]
+                        bar.console.print(f"  {stage:<9} {child['kind']:<9} job {child['id'][:12]}  {child['status']}")
             if job["status"] in FINISHED:
                 return job
             time.sleep(1.0)
@@ -239,8 +240,13 @@ def cmd_demo(args: argparse.Namespace) -> int:
     env = {**os.environ, "FORESIGHT_API_URL": url}
     print(f"starting the Foresight server and a worker on {url} (database {settings.resolved_database_url}, "
           f"store {settings.store_root})", file=sys.stderr)
-    proc = subprocess.Popen([sys.executable, "-m", "cli.main", "up", "--port", str(port), "--concurrency",
-                             str(max(1, args.concurrency))], env=env, start_new_session=True)
+    settings.data_dir.mkdir(parents=True, exist_ok=True)
+    log_path = (settings.data_dir / "demo-server.log").resolve()
+    print(f"server log: {log_path}", file=sys.stderr)
+    with log_path.open("a") as log:
+        proc = subprocess.Popen([sys.executable, "-m", "cli.main", "up", "--port", str(port), "--concurrency",
+                                 str(max(1, args.concurrency))], env=env, start_new_session=True,
+                                stdout=log, stderr=subprocess.STDOUT)
     code = 1
     try:
         _wait_healthy(url, proc)
