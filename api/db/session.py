@@ -8,6 +8,7 @@ busy timeout for the single writer lock instead of failing on a lock upgrade.
 
 from __future__ import annotations
 
+import contextlib
 import random
 import sqlite3
 import threading
@@ -95,8 +96,13 @@ def is_sqlite(engine: Engine) -> bool:
 _WRITE_LOCKS: dict[int, threading.Lock] = {}
 
 
+def writer_lock(engine: Engine) -> threading.Lock:
+    """The process-local lock that SQLite write transactions of ``engine`` queue on (see :func:`write_tx`)."""
+    return _WRITE_LOCKS.setdefault(id(engine.pool), threading.Lock())
+
+
 @contextmanager
-def write_tx(engine: Engine) -> Iterator[Connection]:
+def write_tx(engine: Engine, *, lock_held: bool = False) -> Iterator[Connection]:
     """A write transaction: committed on success, rolled back on error (``BEGIN IMMEDIATE`` on SQLite).
 
     On SQLite the threads of one process also queue on a process-local lock first: waiting there wakes
@@ -107,7 +113,7 @@ def write_tx(engine: Engine) -> Iterator[Connection]:
         with engine.begin() as conn:
             yield conn
         return
-    lock = _WRITE_LOCKS.setdefault(id(engine.pool), threading.Lock())
+    lock = contextlib.nullcontext() if lock_held else writer_lock(engine)
     with lock, engine.connect() as conn:
         conn = conn.execution_options(**{_IMMEDIATE: True})
         with conn.begin():

@@ -114,3 +114,16 @@ def test_delete_only_finished(engine) -> None:  # noqa: ANN001
     queue.delete_job(engine, job["id"])
     with pytest.raises(queue.JobNotFound):
         queue.get_job(engine, job["id"])
+
+
+def test_concurrent_submissions_are_grouped_and_all_stored(engine) -> None:  # noqa: ANN001
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(16) as pool:
+        jobs = list(pool.map(lambda i: _submit(engine, spec={"seconds": i % 3}), range(64)))
+    assert len({j["id"] for j in jobs}) == 64 and all(j["status"] == "queued" for j in jobs)
+    assert queue.depth(engine) == {"sleep": {"queued": 64}}
+    for job in jobs[:5]:
+        stored = queue.get_job(engine, job["id"])
+        assert {k: stored[k] for k in job} == job  # what submit returned is what was stored
+        assert [e["message"] for e in queue.events_after(engine, job["id"], 0)] == ["queued"]
