@@ -42,6 +42,7 @@ def _server_args(parser: argparse.ArgumentParser) -> None:
 
 def _logging(level: str = "info") -> None:
     logging.basicConfig(level=level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    logging.getLogger("alembic").setLevel(logging.WARNING)  # its plugin set-up lines on every schema check
 
 
 def cmd_db_upgrade(args: argparse.Namespace) -> int:
@@ -78,6 +79,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
 
 
 def cmd_worker(args: argparse.Namespace) -> int:
+    from api.db import queue
     from api.db.session import check_migrated, make_engine
     from worker.runner import JobWorker
 
@@ -87,6 +89,7 @@ def cmd_worker(args: argparse.Namespace) -> int:
     check_migrated(engine)
     kinds = [k.strip() for k in args.kinds.split(",")] if args.kinds else None
     worker = JobWorker(settings, engine, concurrency=max(1, args.concurrency), kinds=kinds)
+    queue.prune_workers(engine)  # forget workers silent for a day
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: worker.stop())
     print(f"foresight worker {worker.id}: {args.concurrency} slot(s), kinds {worker.kinds}", file=sys.stderr)
