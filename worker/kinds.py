@@ -122,4 +122,4 @@ _stage_kind("diagnose", "core.evaluation.config:DiagnosticsConfig", "core.evalua
             "hard-seed diagnostics: trace every seed of a manifest")
 _stage_kind("campaign", "core.evaluation.config:CampaignConfig", "core.evaluation.campaign:run_campaign",
             "checkpoints x planner-grid variants with quality gates", records.campaign)
-register(importlib.import_module("worker.pipeline").KIND)  # the runbook as child jobs (core.pipeline)
+register(JobKind("pipeline", **importlib.import_module("worker.pipeline").KIND_FIELDS))  # the runbook as child jobs

@@ -27,19 +27,29 @@ from pydantic import create_model
 from core.errors import CoreError
 from core.pipeline.config import PipelineConfig
 from core.stages.context import Cancelled, StageContext
-from worker.kinds import JobKind
 
 PipelineSpec = create_model("PipelineSpec", __base__=PipelineConfig, kind=(Literal["pipeline"], "pipeline"))  # type: ignore[valid-type]
 POLL_S = 1.0  #: [s] how often a pipeline looks at a child another worker is running
 
 
 @cache
-def _services(database_url: str) -> tuple[Any, Any]:
+def _engine(database_url: str, busy_timeout_ms: int) -> Any:
     from api.db.session import make_engine
+
+    return make_engine(database_url, busy_timeout_ms=busy_timeout_ms)
+
+
+def worker_services(ctx: StageContext) -> tuple[Any, Any]:
+    """(settings, engine) of the worker running this job: its context's resolver holds both (a pipeline
+    needs the job store itself); outside a worker, the environment's settings."""
+    from api.registry import Resolver
     from api.settings import Settings
 
+    resolver = getattr(ctx.resolve_bundle, "__self__", None)
+    if isinstance(resolver, Resolver):
+        return resolver.settings, resolver.sessions.kw["bind"]
     settings = Settings()
-    return settings, make_engine(database_url, busy_timeout_ms=settings.sqlite_busy_timeout_ms)
+    return settings, _engine(settings.resolved_database_url, settings.sqlite_busy_timeout_ms)
 
 
 def _claim_child(engine: Any, job_id: str, owner: str, lease_s: float) -> dict[str, Any] | None:
@@ -114,14 +124,15 @@ def _child_worker_class() -> type:
 class ChildJobs:
     """``run_child`` of a pipeline job: stage -> child job row, claimed and run here."""
 
-    def __init__(self, ctx: StageContext, config: PipelineConfig):
+    def __init__(self, ctx: StageContext, config: PipelineConfig, *, settings: Any = None, engine: Any = None):
         from api.db import queue
-        from api.settings import Settings
 
         self.ctx = ctx
         self.config = config
         self.parent_id = ctx.workdir.name
-        self.settings, self.engine = _services(Settings().resolved_database_url)
+        if settings is None or engine is None:
+            settings, engine = worker_services(ctx)
+        self.settings, self.engine = settings, engine
         try:
             parent = queue.get_job(self.engine, self.parent_id)
         except queue.JobNotFound:
@@ -320,6 +331,10 @@ def run_pipeline_job(spec: Any, ctx: StageContext) -> dict[str, Any]:
     return result.model_dump(mode="json")
 
 
-KIND = JobKind("pipeline", PipelineSpec, run_pipeline_job,
-               "the runbook as child jobs: collect, hard-case collect, mix, train (proxy), register, evaluate, "
-               "diagnose, campaign, gates, promote")
+#: the ``pipeline`` JobKind's fields (worker/kinds.py registers it; no import of worker.kinds here: no cycle)
+KIND_FIELDS = {
+    "spec": PipelineSpec,
+    "run": run_pipeline_job,
+    "description": "the runbook as child jobs: collect, hard-case collect, mix, train (proxy), register, evaluate, "
+    "diagnose, campaign, gates, promote",
+}

@@ -1,0 +1,153 @@
+"""The pipeline's run_child in the worker (ChildJobs) against a real SQLite file, with ``sleep`` children:
+child rows with their parent, claimed and run in the caller's thread, resume, retry, cancellation, registry."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from sqlalchemy import update
+
+from api import store
+from api.db import queue
+from api.db.session import make_engine, upgrade, write_tx
+from api.registry import Resolver
+from api.settings import Settings
+from core.errors import CoreError
+from core.pipeline.config import load_pipeline_config
+from core.stages.context import Cancelled, StageContext
+from core.stages.refs import BUILTIN_CONFIG_ROOT
+from worker.pipeline import ChildJobs, worker_services
+
+
+@pytest.fixture
+def settings(tmp_path: Path) -> Settings:
+    s = Settings(data_dir=tmp_path, api_token="t", lease_s=2.0, heartbeat_s=0.2, poll_s=0.05, shutdown_grace_s=0.3,
+                 model_registry=tmp_path / "none.yaml")  # fmt: skip
+    upgrade(s.resolved_database_url)
+    return s
+
+
+@pytest.fixture
+def engine(settings: Settings) -> Iterator:
+    eng = make_engine(settings.resolved_database_url)
+    yield eng
+    eng.dispose()
+
+
+class Parent:
+    """A claimed pipeline job row and the context its worker would give it."""
+
+    def __init__(self, settings: Settings, engine) -> None:  # noqa: ANN001
+        queue.submit(engine, kind="pipeline", spec={"kind": "pipeline"})
+        self.job = queue.claim(engine, "worker-1", ["pipeline"], 30.0)
+        self.cancelled = False
+        workdir = store.resolve_under(settings.store_root, store.job_dir(settings.store_root, self.job["id"]))
+        workdir.mkdir(parents=True)
+        self.ctx = StageContext(workdir=workdir, is_cancelled=lambda: self.cancelled,
+                                resolve_bundle=Resolver(settings, engine).bundle)
+        self.config = load_pipeline_config(BUILTIN_CONFIG_ROOT / "pipelines" / "smoke.yaml")
+
+    def children(self) -> ChildJobs:
+        return ChildJobs(self.ctx, self.config)
+
+
+def _progress(seen: list) -> callable:
+    return lambda fraction, message: seen.append((fraction, message))
+
+
+def test_the_worker_services_come_from_the_context(settings, engine) -> None:  # noqa: ANN001
+    parent = Parent(settings, engine)
+    got_settings, got_engine = worker_services(parent.ctx)
+    assert got_settings is settings and got_engine is engine
+
+
+def test_a_child_is_a_job_row_run_in_this_thread_and_not_run_twice(settings, engine) -> None:  # noqa: ANN001
+    parent = Parent(settings, engine)
+    children = parent.children()
+    seen: list = []
+    try:
+        run = children("nap", "sleep", {"seconds": 0.2, "steps": 2, "artifact": "out.txt"}, _progress(seen))
+        child = queue.get_job(engine, run.job_id)
+        assert child["parent_id"] == parent.job["id"] and child["status"] == "succeeded"
+        assert child["idempotency_key"] == f"pipeline:{parent.job['id']}:nap"
+        assert child["lease_owner"].endswith("/pipeline") and not run.resumed
+        assert run.result == {"slept_s": 0.2} and seen and seen[-1][0] == 1.0  # child progress reached the pipeline
+        again = children("nap", "sleep", {"seconds": 0.2, "steps": 2, "artifact": "out.txt"}, _progress(seen))
+        assert again.resumed and again.job_id == run.job_id
+        assert queue.get_job(engine, run.job_id)["attempts"] == 1
+    finally:
+        children.close()
+
+
+def test_a_failed_child_fails_the_stage_and_a_rerun_retries_it(settings, engine) -> None:  # noqa: ANN001
+    parent = Parent(settings, engine)
+    children = parent.children()
+    try:
+        with pytest.raises(CoreError, match="RuntimeError: boom"):
+            children("bad", "sleep", {"fail": "boom"}, _progress([]))
+        ok = children("fine", "sleep", {"seconds": 0.0}, _progress([]))
+        with write_tx(engine) as conn:  # as if this stage had failed in the earlier run
+            conn.execute(update(queue.jobs).where(queue.jobs.c.id == ok.job_id).values(status="failed"))
+    finally:
+        children.close()
+    rerun = parent.children()
+    try:
+        again = rerun("fine", "sleep", {"seconds": 0.0}, _progress([]))
+        assert again.job_id == ok.job_id and not again.resumed
+        assert queue.get_job(engine, ok.job_id)["status"] == "succeeded"
+    finally:
+        rerun.close()
+
+
+def test_cancelling_the_pipeline_cancels_the_running_child(settings, engine) -> None:  # noqa: ANN001
+    parent = Parent(settings, engine)
+    children = parent.children()
+    outcome: list = []
+
+    def run() -> None:
+        try:
+            children("long", "sleep", {"seconds": 20, "steps": 200}, _progress([]))
+        except BaseException as exc:  # noqa: BLE001
+            outcome.append(exc)
+
+    thread = threading.Thread(target=run)
+    thread.start()
+    try:
+        deadline = time.time() + 10
+        while "long" not in children.children and time.time() < deadline:
+            time.sleep(0.05)
+        queue.request_cancel(engine, parent.job["id"])
+        parent.cancelled = True
+        thread.join(timeout=10)
+        assert not thread.is_alive() and isinstance(outcome[0], Cancelled)
+        assert queue.get_job(engine, children.children["long"])["status"] == "cancelled"
+    finally:
+        children.close()
+
+
+def test_register_then_promote_in_the_registry(settings, engine) -> None:  # noqa: ANN001
+    from api.db.models import Model
+    from api.db.session import session_factory
+
+    parent = Parent(settings, engine)
+    children = parent.children()
+    try:
+        train = children("train", "sleep", {"artifact": "model.pt"}, _progress([]))
+        spec = {"model_id": "cand-1", "status": "candidate", "train_stage": "train", "tags": ["pipeline"],
+                "lineage": {"datasets": {"base": "x"}}, "metrics": {"val_ade": 0.3}, "training": {}}
+        reg = children("register", "register", spec, _progress([]))
+        assert reg.ident == "cand-1" and not reg.resumed
+        assert children("register", "register", spec, _progress([])).resumed  # a resumed pipeline re-registers nothing
+        with session_factory(engine)() as session:
+            row = session.get(Model, "cand-1")
+            assert (row.status, row.job_id, row.read_only) == ("candidate", train.job_id, False)
+            assert row.checkpoint == f"jobs/{train.job_id}/model.pt"
+        children("promote", "promote", {"model_id": "cand-1", "to": "default"}, _progress([]))
+        with session_factory(engine)() as session:
+            assert session.get(Model, "cand-1").status == "default"
+    finally:
+        children.close()
