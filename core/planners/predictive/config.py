@@ -72,9 +72,9 @@ class SafetyConfig(_Frozen):
     discount: float = Field(default=0.9, gt=0, le=1)  #: per forecast step weight of pedestrian terms
     passive_floor: float = Field(default=0.15, ge=0, le=1)  #: weight of ped terms while the robot stands still
     passive_speed: float = Field(default=0.6, gt=0)  #: robot speed [m/s] from which ped terms count fully
-    stall_after_s: float = Field(default=2.0, gt=0)  #: no route progress for this long starts assertiveness [s]
-    stall_ramp_s: float = Field(default=3.0, gt=0)  #: time for assertiveness to grow from 0 to 1 [s]
-    stall_progress: float = Field(default=0.3, gt=0)  #: route progress [m] that counts as not stalled
+    stall_after_s: float = Field(default=2.0, gt=0)  #: window over which route progress is measured [s]
+    stall_ramp_s: float = Field(default=3.0, gt=0)  #: time for assertiveness to move between 0 and 1 [s]
+    stall_progress: float = Field(default=0.5, gt=0)  #: less route progress [m] in the window is a stall
     yield_distance: float = Field(default=0.7, ge=0)  #: contact reduction at full assertiveness [m]
     yield_speed: float = Field(default=0.3, ge=0)  #: pedestrians step away from a close robot at up to this [m/s]
     yield_range: float = Field(default=1.2, ge=0)  #: ... starting this far beyond contact [m]

@@ -13,6 +13,7 @@ route progress, contact is assumed closer). Deterministic: no randomness, stable
 from __future__ import annotations
 
 import time
+from collections import deque
 from typing import Any
 
 import numpy as np
@@ -48,7 +49,8 @@ class PredictivePlanner:
             raise ConfigError(f"the predictive planner drives a differential-drive robot, not {robot.type!r}",
                               item="robot_config.type")
         self.forecaster.reset()
-        self._best_phi, self._best_time = np.inf, 0.0
+        self._phi_hist: deque[tuple[float, float]] = deque()
+        self._assert = 0.0
         self._limits = RobotLimits.from_config(robot)
         self._cands: dict[bool | None, np.ndarray] = {}
         self._prev = np.zeros(2)
@@ -100,7 +102,7 @@ class PredictivePlanner:
         p0 = obs.robot_pose[:2]
         route = C.RoutePotential(obs.route, switch_radius=obs.goal_tolerance, goal_tolerance=obs.goal_tolerance)
         phi0 = route.start(p0)
-        assertive = self._assertiveness(phi0, obs.time)
+        assertive = self._assertiveness(phi0, obs.time, obs.dt)
         contact = (obs.robot_radius + obs.ped_radius + cfg.safety.extra_robot_margin + cfg.safety.extra_ped_margin
                    - assertive * cfg.safety.yield_distance)
         times = np.asarray(times, dtype=float)
@@ -123,17 +125,23 @@ class PredictivePlanner:
         )
         return scene, near, extra
 
-    def _assertiveness(self, phi0: float, now: float) -> float:
-        """0..1, growing once the robot made no route progress for ``stall_after_s``.
+    def _assertiveness(self, phi0: float, now: float, dt: float) -> float:
+        """0..1: ramps up while route progress over the last ``stall_after_s`` is below ``stall_progress``.
 
-        A robot that waits for pedestrians who wait for it (doorways, corridors) stalls forever;
-        pedestrians yield to a robot that edges forward (they are repelled by it), so after a stall
-        the pedestrian terms assume contact ``yield_distance`` closer, ramping up over ``stall_ramp_s``.
+        A robot that waits for pedestrians who wait for it (doorways, corridors, oncoming streams)
+        stalls forever; pedestrians yield to a robot that edges forward (they are repelled by it), so
+        after a stall the pedestrian terms assume contact ``yield_distance`` closer. It ramps down at
+        the same rate once progress resumes (no reset: creeping must not switch it off at once).
         """
         s = self.config.safety
-        if phi0 < self._best_phi - s.stall_progress or not np.isfinite(self._best_phi):
-            self._best_phi, self._best_time = phi0, now
-        return float(np.clip((now - self._best_time - s.stall_after_s) / s.stall_ramp_s, 0.0, 1.0))
+        self._phi_hist.append((now, phi0))
+        while len(self._phi_hist) > 1 and self._phi_hist[1][0] <= now - s.stall_after_s:
+            self._phi_hist.popleft()
+        t_old, phi_old = self._phi_hist[0]
+        stalled = now - t_old >= s.stall_after_s - 1e-9 and phi_old - phi0 < s.stall_progress
+        step = dt / s.stall_ramp_s
+        self._assert = float(np.clip(self._assert + (step if stalled else -step), 0.0, 1.0))
+        return self._assert
 
     def _candidates(self, near: bool | None) -> np.ndarray:
         """First-segment commands (near field or not), or the later-segment set for ``None``; cached per episode."""

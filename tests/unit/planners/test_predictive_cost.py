@@ -106,15 +106,21 @@ def test_pedestrians_are_predicted_to_make_room_for_a_slow_robot():
     assert fast["collision"][0] > 0
 
 
-def test_assertiveness_grows_only_while_stalled():
+def test_assertiveness_grows_while_stalled_and_decays_with_progress():
     m = corridor_map()
     p = _planner(m)
     s = p.config.safety
-    assert p._assertiveness(10.0, 0.0) == 0.0
-    assert p._assertiveness(10.0, s.stall_after_s) == 0.0
-    assert p._assertiveness(9.9, s.stall_after_s + s.stall_ramp_s / 2) == pytest.approx(0.5)
-    assert p._assertiveness(9.9, s.stall_after_s + 2 * s.stall_ramp_s) == 1.0
-    assert p._assertiveness(9.0, 20.0) == 0.0  # progress resets the stall clock
+    dt, t, a = 0.1, 0.0, []
+    for _ in range(int((s.stall_after_s + s.stall_ramp_s) / dt) + 5):  # standing still
+        a.append(p._assertiveness(10.0, t, dt))
+        t += dt
+    assert a[0] == 0.0 and a[int(s.stall_after_s / dt) - 1] == 0.0 and a[-1] == 1.0
+    phi = 10.0
+    for _ in range(int(s.stall_after_s / dt) + 10):  # driving at 1 m/s along the route
+        phi -= 1.0 * dt
+        t += dt
+        last = p._assertiveness(phi, t, dt)
+    assert 0.0 < last < 1.0  # ramps down gradually, no reset
 
 
 def test_rollouts_are_read_at_the_forecast_times():
