@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Literal
 
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
@@ -27,6 +28,7 @@ class TrainConfig(_Strict):
     batch_size: int = Field(default=512, ge=1)
     lr: float = Field(default=2e-3, gt=0)
     weight_decay: float = Field(default=1e-4, ge=0)
+    lr_schedule: Literal["constant", "cosine"] = "constant"  #: cosine: lr * (1 + cos(pi * (epoch - 1) / epochs)) / 2
     seed: int = 0
     hidden: int = Field(default=48, ge=4, le=1024)  #: model width h (48: ~2.5 MFLOP per training sample at N=12)
     blocks: int = Field(default=2, ge=0, le=8)  #: K message-passing blocks

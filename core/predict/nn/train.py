@@ -10,6 +10,7 @@ optional proxy evaluation through a callback, and selection. The selected model 
 from __future__ import annotations
 
 import json
+import math
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -88,6 +89,13 @@ def _mirror_half(b: dict[str, torch.Tensor], signs: torch.Tensor, gen: torch.Gen
     return out
 
 
+def epoch_lr(config: TrainConfig, epoch: int) -> float:
+    """Learning rate of an epoch (a pure function of the epoch, so resuming continues the schedule)."""
+    if config.lr_schedule == "cosine":
+        return config.lr * 0.5 * (1.0 + math.cos(math.pi * (epoch - 1) / config.epochs))
+    return config.lr
+
+
 def cv_metrics(ds: Dataset, index: np.ndarray) -> dict[str, float]:
     pred = ConstantVelocityPredictor(ds.meta.timebase).predict(ds.state[index], ds.mask[index])
     r = ade_fde(pred, ds.target[index], ds.target_mask[index])
@@ -143,6 +151,8 @@ def run_train(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | Non
     for epoch in range(start, config.epochs + 1):
         ctx.check_cancelled()
         t0 = time.time()
+        for group in opt.param_groups:
+            group["lr"] = epoch_lr(config, epoch)
         tr = train_epoch(model, opt, train_data, config, epoch)
         t1 = time.time()
         va = evaluate(model, val_data, config.loss_beta)

@@ -98,3 +98,11 @@ def test_resume_refuses_another_model_config(tmp_path, curving_dataset):
     with pytest.raises(ConfigError, match="cannot resume"):
         run_train(TrainConfig(dataset=str(curving_dataset), **{**FAST, "epochs": 2, "hidden": 8}),
                   StageContext(workdir=tmp_path))
+
+
+def test_cosine_schedule_is_a_function_of_the_epoch():
+    from core.predict.nn.train import epoch_lr
+
+    cfg = TrainConfig(dataset="d.npz", epochs=4, lr=1.0, lr_schedule="cosine")
+    assert [round(epoch_lr(cfg, e), 3) for e in (1, 2, 3, 4)] == [1.0, 0.854, 0.5, 0.146]
+    assert epoch_lr(TrainConfig(dataset="d.npz", lr=0.3), 7) == 0.3
