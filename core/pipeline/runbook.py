@@ -132,7 +132,16 @@ def _gate_dict(stage: str, result: dict[str, Any] | None) -> dict[str, Any] | No
         if gate:
             checks = gate.get("checks")
             if isinstance(checks, dict):
-                gate = {**gate, "checks": [{"name": k, "passed": bool(v)} for k, v in checks.items()]}
+                best, limits, cv = summary.get("best") or {}, gate.get("limits") or {}, gate.get("cv") or {}
+                ref = {  # check -> (value, threshold) from the training summary
+                    "val_ade_below_limit": (best.get("val_ade"), limits.get("max_val_ade")),
+                    "val_fde_below_limit": (best.get("val_fde"), limits.get("max_val_fde")),
+                    "val_ade_below_cv": (best.get("val_ade"), cv.get("ade")),
+                    "val_fde_below_cv": (best.get("val_fde"), cv.get("fde")),
+                }
+                gate = {**gate, "checks": [
+                    {"name": k, "passed": bool(v), "value": ref.get(k, (None, None))[0],
+                     "threshold": ref.get(k, (None, None))[1]} for k, v in checks.items()]}
             return gate
         return {"passed": bool(result.get("gates_passed")), "checks": []}
     gate = result.get("gate")
