@@ -46,6 +46,8 @@ class Settings(BaseSettings):
     max_attempts: int = Field(3, ge=1, le=100)  #: default claims per job before a lost lease fails it
     shutdown_grace_s: float = Field(10.0, ge=0)  #: [s] a stopping worker waits this long before releasing jobs
     sqlite_busy_timeout_ms: int = Field(30000, ge=0)  #: [ms]
+    #: processes a stage may use for parallel episodes (``StageContext.workers``); worker slots are threads
+    stage_workers: int = Field(1, ge=1, le=256)
 
     @field_validator("api_url")
     @classmethod

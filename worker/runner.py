@@ -210,6 +210,7 @@ class JobWorker:
             resolve_dataset=self.resolver.dataset,
             resolve_model=self.resolver.model,
             resolve_bundle=self.resolver.bundle,
+            workers=self.settings.stage_workers,
         )
 
 
