@@ -16,6 +16,7 @@ promoted only when the required gates pass; a failing gate is a succeeded pipeli
 
 from __future__ import annotations
 
+import contextlib
 import threading
 import time
 from functools import cache
@@ -116,7 +117,8 @@ def _child_worker_class() -> type:
                 h.lost = h.lost or job_id in lost
                 h.shutdown = h.shutdown or stop == "stop"
                 if stop == "cancel":
-                    queue.request_cancel(self.engine, job_id)
+                    with contextlib.suppress(queue.Conflict):
+                        queue.request_cancel(self.engine, job_id)
 
     return ChildWorker
 
@@ -215,7 +217,11 @@ class ChildJobs:
                 queue.retry(self.engine, child_id)  # resume from the failed stage
                 retried = True
                 continue
-            self.ctx.check_cancelled()
+            if self.ctx.is_cancelled():
+                if status == queue.RUNNING and self._parent_stop() == "cancel":
+                    with contextlib.suppress(queue.Conflict):  # another worker runs it: ask it to stop
+                        queue.request_cancel(self.engine, child_id)
+                self.ctx.check_cancelled()
             if status == queue.QUEUED:
                 claimed = _claim_child(self.engine, child_id, self.owner, self.settings.lease_s)
                 if claimed is not None:
