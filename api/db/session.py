@@ -19,13 +19,16 @@ from pathlib import Path
 
 from sqlalchemy import Connection, Engine, create_engine, event, text
 from sqlalchemy.engine import make_url
+from sqlalchemy.exc import OperationalError
 from sqlalchemy.orm import Session, sessionmaker
+
+from core.errors import CoreError
 
 MIGRATIONS_DIR = Path(__file__).resolve().parent.parent.parent / "migrations"
 _IMMEDIATE = "foresight_immediate"
 
 
-class NotMigratedError(RuntimeError):
+class NotMigratedError(CoreError, RuntimeError):
     """The database schema is not at the latest migration; run `foresight db upgrade`."""
 
 
@@ -135,7 +138,12 @@ def head_revision() -> str:
 
 
 def current_revision(engine: Engine) -> str | None:
-    with engine.connect() as conn:
+    try:
+        conn = engine.connect()
+    except OperationalError as exc:
+        url = engine.url.render_as_string(hide_password=True)
+        raise CoreError(f"cannot connect to database {url}: {str(exc.orig).strip().splitlines()[0]}") from None
+    with conn:
         try:
             row = conn.execute(text("SELECT version_num FROM alembic_version")).first()
         except Exception:  # the table is missing: never migrated
