@@ -249,6 +249,7 @@ def claim(
     params = {"owner": worker_id, "expires": now + lease_s, "now": now, "kinds": list(kinds)}
     if engine.dialect.name == "postgresql":
         with write_tx(engine) as conn:
+            _no_fsync(conn)
             row = conn.execute(_CLAIM_PG_SQL, params).mappings().first()
         return dict(row) if row else None
     with write_tx(engine) as conn:
@@ -257,6 +258,17 @@ def claim(
             return None
         _add_event(conn, row["id"], "status", f"{RUNNING} (attempt {row['attempts']}, worker {worker_id})")
     return dict(row)
+
+
+def _no_fsync(conn: Connection) -> None:
+    """PostgreSQL: commit this transaction without waiting for its WAL flush (claims, heartbeats, progress).
+
+    A database crash may then forget the last moments of these: a forgotten claim puts the job back in
+    the queue while its worker still runs it, but a job's finish (result, artifacts, records; always
+    flushed) is guarded by owner and attempt, so the work may run twice, its result is stored once.
+    """
+    if conn.dialect.name == "postgresql":
+        conn.exec_driver_sql("SET LOCAL synchronous_commit TO OFF")
 
 
 def _held(job_id: str, owner: str, attempt: int):  # noqa: ANN202
@@ -274,6 +286,7 @@ def heartbeat(
     held = list(held)
     now = time.time()
     with write_tx(engine) as conn:
+        _no_fsync(conn)
         conn.execute(_BEAT_WORKER_SQL, {"now": now, "owner": worker_id})
         if not held:
             return set(), set()
@@ -284,6 +297,7 @@ def heartbeat(
 
 def report_progress(engine: Engine, job_id: str, owner: str, attempt: int, fraction: float, message: str) -> None:
     with write_tx(engine) as conn:
+        _no_fsync(conn)
         held = {"id": job_id, "owner": owner, "attempt": attempt}
         n = conn.execute(_PROGRESS_SQL, {**held, "progress": fraction, "message": message})
         if n.rowcount:
