@@ -337,10 +337,24 @@ def run_pipeline_job(spec: Any, ctx: StageContext) -> dict[str, Any]:
     return result.model_dump(mode="json")
 
 
+def record_gates(conn: Any, job: dict[str, Any], result: dict[str, Any], job_dir: str) -> None:
+    """The pipeline's gate verdicts as gate-result rows (``pipeline:<gate>``), written with its final status."""
+    from sqlalchemy import insert
+
+    from api.db.models import GateResult
+
+    rows = [{"job_id": job["id"], "campaign_id": None, "gate": f"pipeline:{g['name']}", "passed": bool(g["passed"]),
+             "details": g, "created_at": time.time()}
+            for g in (result.get("summary") or {}).get("gates") or [] if g.get("passed") is not None]
+    if rows:
+        conn.execute(insert(GateResult.__table__), rows)
+
+
 #: the ``pipeline`` JobKind's fields (worker/kinds.py registers it; no import of worker.kinds here: no cycle)
 KIND_FIELDS = {
     "spec": PipelineSpec,
     "run": run_pipeline_job,
+    "record": record_gates,
     "description": "the runbook as child jobs: collect, hard-case collect, mix, train (proxy), register, evaluate, "
     "diagnose, campaign, gates, promote",
 }

@@ -151,3 +151,19 @@ def test_register_then_promote_in_the_registry(settings, engine) -> None:  # noq
             assert session.get(Model, "cand-1").status == "default"
     finally:
         children.close()
+
+
+def test_the_pipeline_verdict_is_recorded_as_gate_rows(settings, engine) -> None:  # noqa: ANN001
+    from sqlalchemy import select
+
+    from api.db.models import GateResult
+    from worker.pipeline import record_gates
+
+    parent = Parent(settings, engine)
+    gates = [{"name": "evaluation", "passed": False, "checks": []}, {"name": "training", "passed": True, "checks": []},
+             {"name": "closed_loop", "passed": None, "checks": [], "detail": "not evaluated"}]
+    with write_tx(engine) as conn:
+        record_gates(conn, parent.job, {"summary": {"gates": gates}}, "jobs/x")
+    with engine.connect() as conn:
+        rows = conn.execute(select(GateResult.gate, GateResult.passed).where(GateResult.job_id == parent.job["id"]))
+        assert sorted(rows) == [("pipeline:evaluation", False), ("pipeline:training", True)]
