@@ -1,7 +1,7 @@
 """ORCA baseline through pyrvo (the RVO2 library), static obstacles included.
 
-Each decision rebuilds the agent set of one RVO2 simulator whose obstacles (map polygons plus four
-boundary walls) were added once at ``reset``: the robot is agent 0 with a preferred velocity toward
+One RVO2 simulator per episode holds the obstacles (map polygons plus four boundary walls) and
+one agent per body; each decision overwrites the agents' states: the robot is agent 0 with a preferred velocity toward
 its current route waypoint, every pedestrian an agent moving at its observed velocity. After one
 RVO2 step the robot's new velocity is the ORCA velocity, tracked with a unicycle command.
 """
@@ -52,43 +52,66 @@ class OrcaPlanner:
     def __init__(self, config: OrcaConfig | None = None):
         self.config = config or OrcaConfig()
         self._sim: Any = None
+        self._agents = -1
+        self._polys: list[np.ndarray] = []
+        self._dt = 0.1
         self._diag: dict[str, Any] | None = None
 
     def reset(self, info: EpisodeInfo) -> None:
-        c = self.config
         m = info.scenario.map
-        sim = pyrvo.RVOSimulator()
-        sim.set_time_step(float(info.dt))
-        polys = [np.asarray(p, dtype=float) for p in m.obstacles] + _boundary_walls(m.width, m.height, c.wall_thickness)
-        for poly in polys:
-            sim.add_obstacle([tuple(map(float, v)) for v in _ccw(poly)])
-        sim.process_obstacles()
-        self._sim = sim
+        walls = _boundary_walls(m.width, m.height, self.config.wall_thickness)
+        self._polys = [_ccw(np.asarray(p, dtype=float)) for p in m.obstacles] + [_ccw(w) for w in walls]
+        self._dt = float(info.dt)
+        self._sim, self._agents = None, -1
         self._diag = None
 
     @property
     def diagnostics(self) -> dict[str, Any] | None:
         return self._diag
 
+    def _simulator(self, n_agents: int) -> Any:
+        """An RVO2 simulator with the static obstacles and ``n_agents`` agents, kept while the count holds.
+
+        Agents are never removed: pyrvo's ``clear_agents`` deletes them but leaves their pointers in
+        RVO2's agent k-d tree (use after free: episodes then differ from run to run). The pedestrian
+        count is fixed per episode (pedestrians respawn), so one simulator serves the whole episode.
+        """
+        if self._sim is None or self._agents != n_agents:
+            c = self.config
+            sim = pyrvo.RVOSimulator()
+            sim.set_time_step(self._dt)
+            for poly in self._polys:
+                sim.add_obstacle([(float(x), float(y)) for x, y in poly])
+            sim.process_obstacles()
+            for _ in range(n_agents):
+                sim.add_agent((0.0, 0.0), c.neighbor_dist, c.max_neighbors, c.time_horizon, c.time_horizon_obst,
+                              1.0, 1.0, (0.0, 0.0))
+            self._sim, self._agents = sim, n_agents
+        return self._sim
+
     def plan(self, obs: Observation) -> tuple[float, float]:
-        c, sim = self.config, self._sim
+        c = self.config
         vmax, wmax = limits_of(obs.robot_limits)
         x, y, th = (float(a) for a in obs.robot_pose)
         v = float(obs.robot_velocity[0])
-        sim.clear_agents()
-        sim.add_agent((x, y), c.neighbor_dist, c.max_neighbors, c.time_horizon, c.time_horizon_obst,
-                      obs.robot_radius + c.radius_margin, vmax, (v * np.cos(th), v * np.sin(th)))
+        sim = self._simulator(1 + len(obs.ped_positions))
         to_wp = np.asarray(obs.waypoint, dtype=float) - obs.robot_pose[:2]
         dist = float(np.hypot(*to_wp))
         pref = to_wp / dist * min(c.speed_ratio * vmax, dist / max(obs.dt, 1e-9)) if dist > 1e-9 else np.zeros(2)
-        sim.set_agent_pref_velocity(0, (float(pref[0]), float(pref[1])))
-        for p, u in zip(obs.ped_positions, obs.ped_velocities, strict=True):
-            speed = float(np.hypot(*u))
-            i = sim.add_agent((float(p[0]), float(p[1])), c.neighbor_dist, c.max_neighbors, c.time_horizon,
-                              c.time_horizon_obst, obs.ped_radius, max(speed, 1e-3), (float(u[0]), float(u[1])))
-            sim.set_agent_pref_velocity(i, (float(u[0]), float(u[1])))
+        _set_agent(sim, 0, (x, y), (v * np.cos(th), v * np.sin(th)), tuple(pref), obs.robot_radius + c.radius_margin, vmax)
+        for i, (p, u) in enumerate(zip(obs.ped_positions, obs.ped_velocities, strict=True), start=1):
+            _set_agent(sim, i, tuple(p), tuple(u), tuple(u), obs.ped_radius, max(float(np.hypot(*u)), 1e-3))
         sim.do_step()
         u = np.asarray(sim.get_agent_velocity(0).to_tuple())
         cmd = velocity_to_unicycle(u, th, vmax, wmax, c.turn_gain)
         self._diag = {"command": cmd, "orca_velocity": u.tolist(), "preferred_velocity": pref.tolist()}
         return cmd
+
+
+def _set_agent(sim: Any, i: int, pos: tuple, vel: tuple, pref: tuple, radius: float, max_speed: float) -> None:
+    """Overwrite every per-decision input of agent ``i`` (nothing carries over between decisions)."""
+    sim.set_agent_position(i, (float(pos[0]), float(pos[1])))
+    sim.set_agent_velocity(i, (float(vel[0]), float(vel[1])))
+    sim.set_agent_pref_velocity(i, (float(pref[0]), float(pref[1])))
+    sim.set_agent_radius(i, float(radius))
+    sim.set_agent_max_speed(i, float(max_speed))

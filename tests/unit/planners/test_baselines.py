@@ -80,3 +80,18 @@ def test_registry_builds_the_goal_seeking_robot():
     assert p.name == "goal" and p.config.speed == 0.8
     with pytest.raises(ConfigError):
         make_planner("goal", {"sped": 0.8})
+
+
+def test_orca_is_deterministic_across_decisions_and_pedestrian_counts():
+    """Same observations, same commands: no state leaks between decisions (pyrvo's clear_agents did)."""
+    m = corridor_map(obstacles=(WALL,))
+    rng = np.random.default_rng(3)
+    seq = [observation(m, pose=(5.0 + 0.1 * k, 10.0, 0.0), peds=rng.uniform([6, 8], [14, 12], size=(n, 2)),
+                       ped_vels=rng.normal(0, 0.5, size=(n, 2))) for k, n in enumerate([3, 3, 5, 5, 2, 4])]
+
+    def run():
+        p = OrcaPlanner()
+        p.reset(info_for(m))
+        return [p.plan(o) for o in seq]
+
+    assert run() == run()
