@@ -30,6 +30,7 @@ from api.db import queue
 from api.registry import Resolver
 from api.settings import Settings
 from core.errors import CoreError
+from core.pipeline.local import write_report
 from core.stages.context import Cancelled, StageContext
 from worker.kinds import KINDS
 from worker.retry import decide_retry
@@ -170,6 +171,8 @@ class JobWorker:
                 workdir.mkdir(parents=True, exist_ok=True)
             ctx = self._context(held, workdir)
             result = kind.run(spec, ctx)
+            if kind.make_workdir:  # the report page is a by-product: written before the scan lists artifacts
+                write_report(job["kind"], result, workdir, ctx.log)
         except Cancelled:
             if held.lost:
                 raise queue.LeaseLost(f"job {job['id']}: lease lost while running") from None
