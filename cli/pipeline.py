@@ -114,7 +114,7 @@ def run_local(config_path: str, out: str | None, workers: int | None, quiet: boo
         raise ConfigError("--local runs use the builtin bundle (configs/)", source=config_path, item="bundle")
     workdir = Path(out) if out else Path(tempfile.mkdtemp(prefix=f"foresight-pipeline-{config.name}-"))
     ctx = local_context(workdir, {BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT}, quiet=quiet)
-    ctx.workers = config.workers
+    ctx.workers = config.workers or 1
     if not quiet:
         ctx.log = lambda message: print(f"\n{message}", file=sys.stderr)
     children = LocalChildren(ctx, resolve_model=ModelArgs().resolve)

@@ -82,7 +82,7 @@ def _child_worker_class() -> type:
     class ChildWorker(JobWorker):
         """Runs the pipeline's children through the worker's own code path (records, artifacts, retries)."""
 
-        def __init__(self, settings: Any, engine: Any, *, owner: str, workers: int,
+        def __init__(self, settings: Any, engine: Any, *, owner: str, workers: int | None,
                      on_progress: Any, parent_cancelled: Any) -> None:
             super().__init__(settings, engine, concurrency=1)
             self.id = owner
@@ -99,7 +99,8 @@ def _child_worker_class() -> type:
                 self.on_progress(fraction, message)
 
             ctx.progress = progress
-            ctx.workers = self.workers
+            if self.workers:  # the pipeline's own request wins over the worker's FORESIGHT_STAGE_WORKERS
+                ctx.workers = self.workers
             return ctx
 
         def beat(self) -> None:

@@ -99,7 +99,8 @@ class PipelineConfig(BaseModel):
     matrix: BundlePath = "scenarios/classic_interactions.yaml"
     training_seeds: BundlePath  #: TRAINING hard-seed manifest: hard-case collection + proxy selection
     evaluation_seeds: BundlePath  #: EVALUATION hard-seed manifest: diagnostics + campaign hard suite
-    workers: int = Field(default=2, ge=1, le=64)  #: processes each episode stage may use
+    #: processes each episode stage may use; None: the worker's own (FORESIGHT_STAGE_WORKERS; --local: 1)
+    workers: int | None = Field(default=None, ge=1, le=64)
     collect: CollectSection = CollectSection()
     hardcase: HardcaseSection | None = HardcaseSection()  #: None: no hard-case collection and no mix
     mix: MixSection = MixSection()

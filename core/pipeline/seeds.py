@@ -7,8 +7,9 @@ evaluation manifest excluded. ``foresight pipeline mine-seeds`` reproduces the s
 (``configs/seeds/``); the exact commands are in each file's header.
 
 The shipped manifests are mined with the social-force baseline: it is deterministic (the same seed gives the
-same episode). ORCA would be the natural baseline, but its episodes currently differ from run to run in one
-process (same scenario and seed: success, then a collision), so an ORCA-mined manifest cannot be reproduced.
+same episode). ORCA would be the natural baseline, but when they were mined its episodes differed from run to
+run in one process (fixed since in the ORCA planner); re-mining with ``--baseline orca`` is now possible but
+would change the manifests.
 Seed ranges: evaluation = each scenario's own matrix seeds (1000-2009 in classic_interactions), training =
 20000-20039 (``--seeds 20000:20040``); base collection in the pipelines starts at 50000 + 100000 per scenario.
 """
