@@ -64,16 +64,17 @@ def test_each_manifest_says_how_it_was_mined() -> None:
         assert re.search(r"^# Mined by: foresight pipeline mine-seeds .*--baseline social_force", path.read_text(), re.M)
 
 
-def test_mining_reproduces_the_shipped_entries() -> None:
-    """Deterministic baseline: re-mining two scenarios gives the files' seeds (first failures in order)."""
+def test_mining_is_deterministic_and_keeps_to_its_range_and_exclusions() -> None:
+    """The same call mines the same seeds (the baseline draws only from the episode seed). The shipped files are
+    not compared: they were mined at one simulator version and stay fixed when the simulator changes."""
     names = ["crossing_medium", "doorway_medium"]
-    evaluation = mine_failures(MATRIX, seeds=None, baseline="social_force", per_scenario=1, scenarios=names)
-    shipped = load_seed_manifest(SEEDS / "classic_eval_hard_smoke.yaml").seeds
-    assert {n: tuple(v) for n, v in evaluation.items()} == {n: shipped[n] for n in names}
-    training = mine_failures(MATRIX, seeds=range(20000, 20040), baseline="social_force", per_scenario=1,
-                             scenarios=names, exclude=read_manifest_pairs(SEEDS / "classic_eval_hard.yaml"))
-    shipped = load_seed_manifest(SEEDS / "classic_train_hard_smoke.yaml").seeds
-    assert {n: tuple(v) for n, v in training.items()} == {n: shipped[n] for n in names}
+    kwargs = dict(seeds=range(20000, 20012), baseline="social_force", per_scenario=2, scenarios=names)
+    first = mine_failures(MATRIX, **kwargs)
+    assert first == mine_failures(MATRIX, **kwargs)
+    assert all(len(v) <= 2 and all(20000 <= s < 20012 for s in v) for v in first.values())
+    excluded = {(n, s) for n, v in first.items() for s in v}
+    again = mine_failures(MATRIX, **kwargs, exclude=excluded)
+    assert not {(n, s) for n, v in again.items() for s in v} & excluded
 
 
 def test_seed_ranges_parse() -> None:
