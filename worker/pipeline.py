@@ -53,29 +53,6 @@ def worker_services(ctx: StageContext) -> tuple[Any, Any]:
     return settings, _engine(settings.resolved_database_url, settings.sqlite_busy_timeout_ms)
 
 
-def _claim_child(engine: Any, job_id: str, owner: str, lease_s: float) -> dict[str, Any] | None:
-    """Claim one queued job by id (the pipeline runs its own children); None when it is not queued."""
-    from sqlalchemy import insert, update
-
-    from api.db import queue
-    from api.db.session import write_tx
-
-    jobs = queue.jobs
-    now = time.time()
-    with write_tx(engine) as conn:
-        row = conn.execute(
-            update(jobs).where(jobs.c.id == job_id, jobs.c.status == queue.QUEUED)
-            .values(status=queue.RUNNING, lease_owner=owner, lease_expires_at=now + lease_s,
-                    attempts=jobs.c.attempts + 1, started_at=now, progress=0.0, message="")
-            .returning(*jobs.c)
-        ).mappings().first()  # fmt: skip
-        if row is None:
-            return None
-        conn.execute(insert(queue.events).values(
-            job_id=job_id, at=now, type="status", message=f"{queue.RUNNING} (attempt {row['attempts']}, worker {owner})"))
-    return dict(row)
-
-
 def _child_worker_class() -> type:
     from worker.runner import JobWorker
 
@@ -224,7 +201,7 @@ class ChildJobs:
                         queue.request_cancel(self.engine, child_id)
                 self.ctx.check_cancelled()
             if status == queue.QUEUED:
-                claimed = _claim_child(self.engine, child_id, self.owner, self.settings.lease_s)
+                claimed = queue.claim_id(self.engine, child_id, self.owner, self.settings.lease_s)
                 if claimed is not None:
                     self.ctx.log(f"stage {stage}: running {kind} job {child_id}")
                     self.worker._run(claimed)

@@ -260,6 +260,22 @@ def claim(
     return dict(row)
 
 
+def claim_id(engine: Engine, job_id: str, worker_id: str, lease_s: float) -> dict[str, Any] | None:
+    """Take one queued job by id (a pipeline runs its own children in its slot); None when it is not queued."""
+    now = time.time()
+    with write_tx(engine) as conn:
+        row = conn.execute(
+            update(jobs).where(jobs.c.id == job_id, jobs.c.status == QUEUED)
+            .values(status=RUNNING, lease_owner=worker_id, lease_expires_at=now + lease_s,
+                    attempts=jobs.c.attempts + 1, started_at=now, progress=0.0, message="")
+            .returning(*jobs.c)
+        ).mappings().first()  # fmt: skip
+        if row is None:
+            return None
+        _add_event(conn, job_id, "status", f"{RUNNING} (attempt {row['attempts']}, worker {worker_id})")
+    return dict(row)
+
+
 def _no_fsync(conn: Connection) -> None:
     """PostgreSQL: commit this transaction without waiting for its WAL flush (claims, heartbeats, progress).
 
