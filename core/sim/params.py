@@ -72,6 +72,9 @@ class CrowdParams:
     tier_std: float = 0.2  #: std of the desired-speed tiers [m/s]
     tier_clip: tuple[float, float] = (0.1, 3.0)  #: desired-speed tier range [m/s]
     robot_spawn_margin: float = 0.5  #: extra clearance of spawning peds beyond collision distance [m]
+    #: half-angle [deg] of the cone ahead of a moving robot in which (re)spawns also keep clear of its
+    #: stopping distance v^2 / (2 decel) (see ``core.sim.simulator.stopping_zone_clear``)
+    robot_spawn_cone_deg: float = 60.0
     wall_constraint: bool = True  #: keep pedestrians out of obstacles (see core.sim.walls)
     wall_clearance: float = 1e-3  #: how far a stopped pedestrian stays off an edge line [m]
     dense_pair_limit: int = 64  #: up to this many peds the (N, N) grid, above a cell list (measured crossover 50-80)

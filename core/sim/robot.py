@@ -1,8 +1,9 @@
 """Robot kinematics (pure and vectorised) and the robot's route: spawn, goal, waypoints (reference §2).
 
 ``unicycle_step`` is the single implementation of the robot's motion: the simulator calls it on a
-(5,) state, and the predictive planner imports it to roll out thousands of candidates (..., 5) with
-exactly the simulator's kinematics. Keep its name and signature stable.
+(5,) state; ``unicycle_rollout`` gives the same states as calling it once per step over a command
+sequence, vectorised over the steps, and the predictive planner rolls out its candidates (B, n) with
+it, so they follow exactly the simulator's kinematics. Keep their names and signatures stable.
 """
 
 from __future__ import annotations
@@ -117,6 +118,121 @@ def _unicycle_one(state: np.ndarray, cmd: np.ndarray, limits: RobotLimits, dt: f
                      (th2 + np.pi) % (2 * np.pi) - np.pi, v2, w2])
 
 
+def unicycle_rollout(state0: np.ndarray, cmds: np.ndarray, limits: RobotLimits, dt: float) -> np.ndarray:
+    """States (..., n, 5) after each of n steps of ``unicycle_step`` from ``state0`` (..., 5) under ``cmds`` (..., n, 2).
+
+    The same result as calling ``unicycle_step`` n times (to floating-point rounding; headings agree
+    modulo 2 pi, a heading on the wrap boundary may come out as -pi instead of pi), without a Python
+    loop over the steps for the default ``tracking`` actuation: under a command held over a run of
+    steps the speeds follow a clipped ramp from the run's first speed, and heading and position are
+    cumulative sums of the midpoint odometry. Batch shapes broadcast as in ``unicycle_step``; like
+    ``unicycle_step`` it ignores ``limits.kind`` (see ``robot_rollout``).
+    """
+    state0 = np.asarray(state0, dtype=float)
+    cmds = np.asarray(cmds, dtype=float)
+    n = cmds.shape[-2]
+    batch = np.broadcast_shapes(state0.shape[:-1], cmds.shape[:-2])
+    out = np.empty(batch + (n, 5))
+    if n == 0:
+        return out
+    s0 = np.broadcast_to(state0, batch + (5,))
+    cmds = np.broadcast_to(cmds, batch + (n, 2))
+    v0, w0 = s0[..., V], s0[..., W]
+    if limits.actuation == "reference_lag":
+        v, w = _lag_speeds(v0, w0, cmds, limits, dt)
+    else:
+        v, w = _tracking_speeds(v0, w0, cmds, limits, dt)
+    # midpoint odometry, accumulated in the order unicycle_step adds (heading unwrapped until the end)
+    shape = batch + (n + 1,)
+    th = np.empty(shape)
+    th[..., 0] = s0[..., TH]
+    th[..., 1] = w0
+    th[..., 2:] = w[..., :-1]  # previous turn rates
+    th[..., 1:] += w
+    th[..., 1:] *= 0.5
+    th[..., 1:] *= dt  # heading increment of each step
+    np.cumsum(th, axis=-1, out=th)
+    mid = th[..., 1:] + th[..., :-1]
+    mid *= 0.5
+    dist = np.empty(batch + (n,))
+    dist[..., 0] = v0
+    dist[..., 1:] = v[..., :-1]
+    dist += v
+    dist *= 0.5
+    dist *= dt
+    acc = np.empty(shape)
+    for col, trig in ((X, np.cos), (Y, np.sin)):
+        acc[..., 0] = s0[..., col]
+        np.multiply(dist, trig(mid), out=acc[..., 1:])
+        np.cumsum(acc, axis=-1, out=acc)
+        out[..., col] = acc[..., 1:]
+    out[..., TH] = wrap_angle(th[..., 1:])
+    out[..., V] = v
+    out[..., W] = w
+    return out
+
+
+def _tracking_speeds(v0: np.ndarray, w0: np.ndarray, cmds: np.ndarray, limits: RobotLimits,
+                     dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Speeds (..., n) of ``tracking`` actuation: per run of steps with the same (clipped) command, a ramp
+    within the acceleration limits toward the command, in closed form."""
+    cv = _clip(cmds[..., 0], limits.v_min, limits.v_max)
+    cw = _clip(cmds[..., 1], -limits.w_max, limits.w_max)
+    n = cv.shape[-1]
+    changed = (cv[..., 1:] != cv[..., :-1]) | (cw[..., 1:] != cw[..., :-1])  # a new run starts after a change
+    starts = np.flatnonzero(changed.reshape(-1, n - 1).any(axis=0)) + 1 if n > 1 else []
+    bounds = [0, *(int(i) for i in starts), n]
+    k = np.arange(1, n + 1, dtype=float)
+    v = np.empty(cv.shape)
+    w = np.empty(cw.shape)
+    for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+        kk = k[: b - a]
+        va = v0 if a == 0 else v[..., a - 1]
+        wa = w0 if a == 0 else w[..., a - 1]
+        v[..., a:b] = _held_ramp(va, cv[..., a], limits.v_min, limits.v_max, limits.decel * dt, limits.accel * dt, kk)
+        w[..., a:b] = _held_ramp(wa, cw[..., a], -limits.w_max, limits.w_max, limits.alpha * dt, limits.alpha * dt, kk)
+    return v, w
+
+
+def _held_ramp(x0: np.ndarray, target: np.ndarray, lo: float, hi: float, down: float, up: float,
+               k: np.ndarray) -> np.ndarray:
+    """x after steps k = 1..L (..., L) of x <- clip(x + clip(target - x, -down, up), lo, hi), target in [lo, hi].
+
+    From x0 within [lo, hi] every step stays between x0 and the target, so the speed clip never acts and
+    x_k = x0 + clip(target - x0, -k down, k up) (clipped once more against rounding). A start outside the
+    limits (never after a simulator step) takes its first step exactly, which lands inside them.
+    """
+    x0 = np.asarray(x0, dtype=float)
+    if not np.all((x0 >= lo) & (x0 <= hi)):
+        x1 = _clip(x0 + _clip(target - x0, -down, up), lo, hi)
+        if len(k) == 1:
+            return x1[..., None]
+        rest = _ramp(x1, target, lo, hi, down, up, k[:-1])
+        return np.concatenate([x1[..., None], rest], axis=-1)
+    return _ramp(x0, target, lo, hi, down, up, k)
+
+
+def _ramp(x0: np.ndarray, target: np.ndarray, lo: float, hi: float, down: float, up: float, k: np.ndarray) -> np.ndarray:
+    x0 = x0[..., None]
+    return _clip(x0 + np.minimum(np.maximum(target[..., None] - x0, -down * k), up * k), lo, hi)
+
+
+def _lag_speeds(v0: np.ndarray, w0: np.ndarray, cmds: np.ndarray, limits: RobotLimits,
+                dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Speeds (..., n) of ``reference_lag`` actuation: the first-order lag is stepped as ``unicycle_step`` does
+    (only the speeds loop over the steps; the pose is vectorised by the caller)."""
+    n = cmds.shape[-2]
+    v_all = np.empty(cmds.shape[:-1])
+    w_all = np.empty(cmds.shape[:-1])
+    v, w = v0, w0
+    for i in range(n):
+        v = _clip(v + dt * _clip(cmds[..., i, 0] - v, -limits.decel, limits.accel), limits.v_min, limits.v_max)
+        w = _clip(w + dt * _clip(cmds[..., i, 1] - w, -limits.alpha, limits.alpha), -limits.w_max, limits.w_max)
+        v_all[..., i] = v
+        w_all[..., i] = w
+    return v_all, w_all
+
+
 def holonomic_step(state: np.ndarray, cmd: np.ndarray, limits: RobotLimits, dt: float) -> np.ndarray:
     """Holonomic robot: cmd (..., 2) is a world-frame velocity (vx, vy) [m/s] tracked within ``accel``.
 
@@ -150,3 +266,16 @@ def robot_step(state: np.ndarray, cmd: np.ndarray, limits: RobotLimits, dt: floa
     if limits.kind == "holonomic":
         return holonomic_step(state, cmd, limits, dt)
     return unicycle_step(state, cmd, limits, dt)
+
+
+def robot_rollout(state0: np.ndarray, cmds: np.ndarray, limits: RobotLimits, dt: float) -> np.ndarray:
+    """``robot_step`` repeated over cmds (..., n, 2): states (..., n, 5); ``unicycle_rollout`` for differential drive."""
+    if limits.kind != "holonomic":
+        return unicycle_rollout(state0, cmds, limits, dt)
+    cmds = np.asarray(cmds, dtype=float)
+    s = np.asarray(state0, dtype=float)
+    out = np.empty(np.broadcast_shapes(s.shape[:-1], cmds.shape[:-2]) + (cmds.shape[-2], 5))
+    for i in range(cmds.shape[-2]):
+        s = holonomic_step(s, cmds[..., i, :], limits, dt)
+        out[..., i, :] = s
+    return out

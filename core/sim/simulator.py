@@ -43,6 +43,28 @@ def episode_generators(name: str, seed: int, n: int) -> list[np.random.Generator
     return [np.random.Generator(np.random.PCG64(s)) for s in ss.spawn(n)]
 
 
+def stopping_zone_clear(pts: np.ndarray, robot: np.ndarray, clear: float, decel: float, cone_deg: float) -> np.ndarray:
+    """(K,) True for points (K, 2) outside the moving robot's stopping zone.
+
+    The zone: points within ``cone_deg`` of the robot's direction of travel (its heading, reversed
+    when driving backwards) and within ``clear`` + v^2 / (2 decel) of its centre, v = the robot's
+    speed (state column 3). A pedestrian (re)spawned there is inside the distance the robot needs
+    to brake, so contact would be unavoidable whatever the planner does. A standing robot has no
+    zone (``clear`` alone applies, in ``Simulator._free``).
+    """
+    v = float(robot[3])
+    pts = np.asarray(pts, dtype=float).reshape(-1, 2)
+    if v == 0.0 or decel <= 0:
+        return np.ones(len(pts), dtype=bool)
+    reach = clear + v * v / (2.0 * decel)
+    heading = float(robot[2]) + (0.0 if v > 0 else math.pi)
+    rel = pts - np.asarray(robot[:2], dtype=float)
+    dist = np.hypot(rel[:, 0], rel[:, 1])
+    along = rel[:, 0] * math.cos(heading) + rel[:, 1] * math.sin(heading)
+    in_cone = along >= dist * math.cos(math.radians(cone_deg))
+    return ~(in_cone & (dist <= reach))
+
+
 class Simulator:
     """Social-force crowd plus one robot on a static map; ``reset`` then ``step`` until ``Events.done``."""
 
@@ -109,6 +131,14 @@ class Simulator:
             ok &= d2 > self.clear**2
         return ok
 
+    def _respawn_ok(self, pts: np.ndarray) -> np.ndarray:
+        """``_free`` of the robot, and out of its stopping zone ahead (``stopping_zone_clear``)."""
+        ok = self._free(pts, self.robot[None, :2])
+        if ok.any():
+            ok &= stopping_zone_clear(pts, self.robot, self.clear, self.limits.decel,
+                                      self.crowd_params.robot_spawn_cone_deg)
+        return ok
+
     def _build_crowd(self, pop, map_def) -> None:
         cfg, cp = self.cfg, self.crowd_params
         self.crowd = CrowdArrays(pop)
@@ -133,7 +163,7 @@ class Simulator:
         cent = None
         if self.has_groups:
             cent = self.crowd.centroids()
-            if self.routes.step(self.crowd, cent, self.rng, lambda pts: self._free(pts, self.robot[None, :2])):
+            if self.routes.step(self.crowd, cent, self.rng, self._respawn_ok):
                 cent = None  # a group respawned: positions changed
             self.zones.step(self.crowd, cent if cent is not None else self.crowd.centroids(), self.rng)
         self.singles.step(self.crowd, self.t)

@@ -97,13 +97,16 @@ class StaticClearance:
         return np.where(outside, -1.0, d)
 
     def _interpolate(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        f = self.field
-        gx = np.clip(x / self.resolution, 0, f.shape[0] - 1.000001)
-        gy = np.clip(y / self.resolution, 0, f.shape[1] - 1.000001)
+        nx, ny = self.field.shape
+        gx = np.minimum(np.maximum(x / self.resolution, 0), nx - 1.000001)  # np.clip, without its dispatch
+        gy = np.minimum(np.maximum(y / self.resolution, 0), ny - 1.000001)
         i, j = gx.astype(np.int64), gy.astype(np.int64)
         ax, ay = gx - i, gy - j
-        return ((f[i, j] * (1 - ax) + f[i + 1, j] * ax) * (1 - ay)
-                + (f[i, j + 1] * (1 - ax) + f[i + 1, j + 1] * ax) * ay)
+        bx, by = 1 - ax, 1 - ay
+        flat = self.field.reshape(-1)  # f[i, j] = flat[i * ny + j]: one gather per corner
+        c = i * ny + j
+        return ((flat[c] * bx + flat[c + ny] * ax) * by
+                + (flat[c + 1] * bx + flat[c + ny + 1] * ax) * ay)
 
 
 _FIELDS: OrderedDict[tuple, np.ndarray] = OrderedDict()  # per-process cache: maps repeat across episodes
@@ -173,13 +176,20 @@ def pedestrian_terms(pos: np.ndarray, speed: np.ndarray, scene: Scene, cfg: Pred
     margin = s.collision_margin + s.margin_growth * scene.times + s.speed_clearance_gain * speed  # (B, K)
     resp = s.passive_floor + (1.0 - s.passive_floor) * np.minimum(1.0, speed / s.passive_speed)  # (B, K)
     wk = resp * (s.discount ** np.arange(len(scene.times)))  # (B, K)
+    nearest = clear.min(axis=1)  # (B, K) over pedestrians
+    # the hard term is monotone in the clearance: its max over pedestrians is the one at the nearest
+    hard = (np.maximum(s.hard_clearance_distance - nearest, 0.0) * resp).max(axis=1)
+    # pedestrians farther than every margin + band from every rollout add exact zeros to the sums: drop them
+    reach = float(margin.max()) + max(s.near_distance, s.ttc_distance, 0.0)
+    keep = clear.min(axis=(0, 2)) < reach  # (N,)
+    if not keep.all():
+        clear = clear[:, keep]
     excess = margin[:, None, :] - clear  # (B, N, K): > 0 inside the collision margin
     collision = np.einsum("bnk,bk->b", np.maximum(excess, 0.0), wk)
     near = np.einsum("bnk,bk->b", np.maximum(excess + s.near_distance, 0.0), wk)
     ttc = np.einsum("bnk,bk->b", np.maximum(excess + s.ttc_distance, 0.0), resp / scene.times)
-    hard = (np.maximum(s.hard_clearance_distance - clear, 0.0) * resp[:, None, :]).max(axis=(1, 2))
     return {"collision": collision, "near_miss": near, "ttc": ttc, "hard_clearance": hard,
-            "min_clearance": clear.min(axis=(1, 2))}
+            "min_clearance": nearest.min(axis=1)}
 
 
 def _reactive_clearance(pos: np.ndarray, fut: np.ndarray, scene: Scene, speed: float, reach: float) -> np.ndarray:
@@ -191,22 +201,46 @@ def _reactive_clearance(pos: np.ndarray, fut: np.ndarray, scene: Scene, speed: f
     linearly more the closer it is. The displacement accumulates along the forecast steps, so a
     robot that edges toward a pedestrian is predicted to make room, a fast one still collides.
     """
-    B, K = pos.shape[0], pos.shape[1]
+    K = pos.shape[1]
     dx = pos[:, None, :, 0] - fut[None, :, :, 0]  # (B, N, K) robot minus pedestrian
     dy = pos[:, None, :, 1] - fut[None, :, :, 1]
-    if speed <= 0 or reach <= 0:
-        return np.sqrt(dx * dx + dy * dy) - scene.contact
-    steps = np.diff(np.concatenate([[0.0], scene.times]))  # (K,)
-    ox = np.zeros((B, fut.shape[0]))  # accumulated pedestrian displacement
-    oy = np.zeros_like(ox)
-    clear = np.empty(dx.shape)
-    for k in range(K):
-        ex, ey = dx[..., k] - ox, dy[..., k] - oy
-        d = np.sqrt(ex * ex + ey * ey)
-        clear[..., k] = d - scene.contact
-        push = speed * steps[k] * np.clip(1.0 - clear[..., k] / reach, 0.0, 1.0) / np.maximum(d, 1e-6)
-        ox -= push * ex
-        oy -= push * ey
+    clear = np.sqrt(dx * dx + dy * dy) - scene.contact  # undisplaced
+    if speed <= 0 or reach <= 0 or K < 2:
+        return clear
+    # A pedestrian is displaced only from the first step it is within ``reach`` (push exactly 0 before, so its
+    # clearance is the undisplaced one up to there): step only those pairs, from the first such step on.
+    inside = clear[..., :-1] < reach  # (B, N, K-1)
+    steps_in = inside.any(axis=(0, 1))
+    if not steps_in.any():
+        return clear
+    k0 = int(np.argmax(steps_in))
+    ib, jn = np.nonzero(inside[..., k0:].any(axis=-1))
+    rel = np.stack([dx[ib, jn, k0:], dy[ib, jn, k0:]], axis=-1).transpose(1, 2, 0).copy()  # (K-k0, 2, A)
+    gain = speed * np.diff(np.concatenate([[0.0], scene.times]))  # (K,) largest step away per forecast step
+    A = len(ib)
+    off = np.zeros((2, A))  # accumulated pedestrian displacement (x, y)
+    e = np.empty((2, A))
+    d = np.empty(A)
+    push = np.empty(A)
+    out = np.empty((K - k0, A))
+    for i in range(K - k0):  # the plain formulas, in place: e = rel - off, d = |e|, clear = d - contact, ...
+        np.subtract(rel[i], off, out=e)
+        np.square(e, out=rel[i])
+        np.add(rel[i, 0], rel[i, 1], out=d)
+        np.sqrt(d, out=d)
+        np.subtract(d, scene.contact, out=out[i])
+        if i == K - k0 - 1:
+            break
+        # push = gain * clip(1 - clear / reach, 0, 1) / max(d, 1e-6); displacement -= push * e
+        np.divide(out[i], reach, out=push)
+        np.subtract(1.0, push, out=push)
+        np.maximum(push, 0.0, out=push)
+        np.minimum(push, 1.0, out=push)
+        np.multiply(gain[k0 + i], push, out=push)
+        np.divide(push, np.maximum(d, 1e-6, out=d), out=push)
+        np.multiply(push, e, out=e)
+        np.subtract(off, e, out=off)
+    clear[ib, jn, k0:] = out.T
     return clear
 
 

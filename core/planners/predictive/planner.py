@@ -1,7 +1,7 @@
 """The predictive planner: forecast -> (v, omega) candidates -> beam search over rollouts -> best command.
 
 One decision: one batched forecaster call; first-segment candidates (dense in the near field)
-rolled out with the simulator's own kinematics (``core.sim.robot.unicycle_step``) and held to the
+rolled out with the simulator's own kinematics (``core.sim.robot.unicycle_rollout``) and held to the
 horizon; the best ``beam_width`` sequences are extended with a coarser command set; the first
 command of the cheapest sequence seen is returned. Braking (0, 0) is always a candidate, so the
 robot can wait. Three mechanisms keep a cautious robot from freezing (see ``cost``/``config``):

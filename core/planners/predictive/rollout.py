@@ -1,9 +1,10 @@
 """Roll candidate command sequences out with the simulator's own robot kinematics.
 
-The planner never re-implements the robot: every rollout step is ``core.sim.robot``'s vectorised
-step with the episode's limits and simulator dt, so a rollout is exactly what the simulator would
-do with the same commands. Costs are then read at the simulator steps that coincide with the
-forecast's times (``eval_index``), so robot and pedestrians are compared at the same instants.
+The planner never re-implements the robot: a rollout is ``core.sim.robot.unicycle_rollout``
+(``unicycle_step`` repeated, vectorised over the steps) with the episode's limits and simulator dt,
+so a rollout is exactly what the simulator would do with the same commands. Costs are then read
+at the simulator steps that coincide with the forecast's times (``eval_index``), so robot and
+pedestrians are compared at the same instants.
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from core.errors import ConfigError
-from core.sim.robot import RobotLimits, unicycle_step
+from core.sim.robot import RobotLimits, unicycle_rollout
 
 
 def eval_steps(times: np.ndarray, sim_dt: float) -> np.ndarray:
@@ -25,14 +26,11 @@ def eval_steps(times: np.ndarray, sim_dt: float) -> np.ndarray:
 
 
 def rollout(state0: np.ndarray, commands: np.ndarray, limits: RobotLimits, dt: float) -> np.ndarray:
-    """States (B, n, 5) after each of n steps from ``state0`` (B, 5) under ``commands`` (B, n, 2)."""
-    n = commands.shape[1]
-    out = np.empty(commands.shape[:2] + (5,))
-    s = state0
-    for k in range(n):
-        s = unicycle_step(s, commands[:, k], limits, dt)
-        out[:, k] = s
-    return out
+    """States (B, n, 5) after each of n steps from ``state0`` (B, 5) or (5,) under ``commands`` (B, n, 2).
+
+    ``unicycle_rollout``: repeated ``unicycle_step`` without a Python loop over the steps.
+    """
+    return unicycle_rollout(state0, commands, limits, dt)
 
 
 def extend_forecast(positions: np.ndarray, times: np.ndarray, extra_steps: int) -> tuple[np.ndarray, np.ndarray]:

@@ -5,12 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from core.maps.model import Route, Zone
 from core.planners.goal import GoalSeeking
 from core.sim.episode import run_episode
-from core.sim.simulator import Simulator
+from core.sim.simulator import Simulator, stopping_zone_clear
 from core.sim.trace import Trace
 
-from .scenes import scenario, street_map
+from .scenes import open_map, scenario, street_map
 
 STREET = scenario(street_map(), name="street", ped_density=0.08, max_episode_steps=300)
 
@@ -40,6 +41,45 @@ def test_no_pedestrian_spawns_within_collision_distance_of_the_robot():
         obs = Simulator().reset(STREET, seed)
         d = np.hypot(*(obs.ped_positions - obs.robot_pose[:2]).T)
         assert d.min() > obs.robot_radius + obs.ped_radius + 0.5 - 1e-9
+
+
+def test_stopping_zone_covers_the_braking_distance_ahead_only():
+    robot = np.array([0.0, 0.0, 0.0, 2.0, 0.0])  # 2 m/s along +x, decel 1 m/s^2: 2 m to stop
+    pts = np.array([[3.5, 0.0], [3.0, 1.5], [4.0, 0.0], [-3.5, 0.0], [0.0, 2.5], [1.0, 3.0]])
+    assert stopping_zone_clear(pts, robot, 1.9, 1.0, 60.0).tolist() == [False, False, True, True, True, True]
+    assert stopping_zone_clear(pts, robot * [1, 1, 1, 0, 1], 1.9, 1.0, 60.0).all()  # standing: no zone
+    backwards = robot * [1, 1, 1, -1, 1]
+    assert stopping_zone_clear(pts, backwards, 1.9, 1.0, 60.0).tolist() == [True, True, True, False, True, True]
+    turned = np.array([0.0, 0.0, np.pi / 2, 1.0, 0.0])  # 1 m/s along +y: 0.5 m to stop
+    assert stopping_zone_clear(np.array([[0.0, 2.3], [0.0, 2.5], [2.3, 0.0]]), turned, 1.9, 1.0, 60.0).tolist() == [
+        False, True, True]
+
+
+def test_respawns_keep_out_of_a_moving_robots_stopping_zone():
+    """Pedestrians respawn in a zone just ahead of a robot held at 2 m/s: none lands where it cannot brake in time.
+
+    (With the collision distance + margin alone, a few respawns per episode land inside its 2 m stopping distance.)
+    """
+    m = open_map(robot_start=(1.0, 9.0, 2.0, 2.0), robot_goal=(37.0, 9.5),
+                 ped_spawn=(Zone.from_rect(6.0, 7.0, 6.0, 6.0),), ped_goal=(Zone.from_rect(22.0, 15.0, 2.0, 2.0),),
+                 ped_routes=(Route(spawn_id=0, goal_id=0, waypoints=((9.0, 16.0), (9.5, 16.0))),))
+    scen = scenario(m, name="respawn_ahead", population_size=8, max_peds_per_group=1, max_episode_steps=300)
+    moving = np.array([5.0, 10.0, 0.0, 2.0, 0.0])  # heading for the spawn zone at full speed
+    sim = Simulator()
+    respawns = 0
+    for seed in range(3):
+        obs = sim.reset(scen, seed)
+        ids = obs.ped_ids.copy()
+        while not sim.done:
+            sim.robot = moving.copy()  # respawns happen at the start of the step, with this robot state
+            obs, _ = sim.step((2.0, 0.0))
+            new = ~np.isin(obs.ped_ids, ids)
+            ids = np.union1d(ids, obs.ped_ids)
+            respawns += int(new.sum())
+            # positions are read after the step: the respawned pedestrian walked < 0.3 m since
+            assert stopping_zone_clear(obs.ped_positions[new], moving, sim.clear - 0.3, sim.limits.decel,
+                                       sim.crowd_params.robot_spawn_cone_deg).all(), (seed, sim.t)
+    assert respawns > 50
 
 
 def test_observation_contract():
