@@ -56,7 +56,7 @@ class DiagnosticsConfig(EpisodeSelection):
     planner: PlannerSpec = PlannerSpec()
     metrics: MetricsConfig = MetricsConfig()
     taxonomy: TaxonomyConfig = TaxonomyConfig()
-    render: bool = True  #: a PNG per seed
+    render: bool = True  #: a PNG and an animated GIF replay per seed
     max_predicted_peds: int = Field(default=4, ge=0, le=200)  #: per-step predicted-vs-actual for the nearest N peds
 
 

@@ -49,6 +49,7 @@ class SeedSummary(BaseModel):
     prediction_ade: float | None
     trace: str  #: artifact name of the per-step JSON
     render: str | None = None  #: artifact name of the PNG
+    replay: str | None = None  #: artifact name of the animated GIF replay (predicted futures drawn)
 
 
 class DiagnosticsResult(BaseModel):
@@ -130,7 +131,17 @@ def _render(run: EpisodeRun, scenario: Any, ctx: StageContext, name: str, title:
     return name
 
 
-def _summary(run: EpisodeRun, trace_name: str, render_name: str | None) -> SeedSummary:
+def _replay(run: EpisodeRun, scenario: Any, ctx: StageContext, name: str, title: str, steps: list) -> str:
+    from core.render.animation import render_replay
+
+    rec = run.record
+    render_replay(run.trace, scenario.map, ctx.artifact(name), predictions=steps, title=title,
+                  collision_step=rec.safety.first_collision_step, collision_point=rec.collision_point,
+                  robot_radius=run.geometry.robot_radius, ped_radius=run.geometry.ped_radius)
+    return name
+
+
+def _summary(run: EpisodeRun, trace_name: str, render_name: str | None, replay: str | None) -> SeedSummary:
     r, cmd = run.record, run.trace.command
     return SeedSummary(
         scenario=r.scenario, seed=r.seed, outcome=r.outcome, steps=r.steps, label=r.taxonomy.label,
@@ -139,21 +150,24 @@ def _summary(run: EpisodeRun, trace_name: str, render_name: str | None) -> SeedS
         mean_command_v=float(cmd[:, 0].mean()) if len(cmd) else None,
         max_command_v=float(cmd[:, 0].max()) if len(cmd) else None,
         plan_ms_mean=r.timing.plan_ms_mean, prediction_ade=r.prediction.ade, trace=trace_name, render=render_name,
+        replay=replay,
     )
 
 
 def _write_seed(run: EpisodeRun, scenario: Any, config: DiagnosticsConfig, ctx: StageContext) -> SeedSummary:
     name, seed = run.record.scenario, run.record.seed
     trace_name = f"diagnostics/trace_{name}_{seed}.json"
+    steps = step_trace(run, config.max_predicted_peds)
     ctx.artifact(trace_name).write_text(json.dumps({
         "scenario": name, "seed": seed, "horizon": run.geometry.horizon, "dt": run.trace.dt,
-        "record": run.record.model_dump(mode="json"), "steps": step_trace(run, config.max_predicted_peds),
+        "record": run.record.model_dump(mode="json"), "steps": steps,
     }))
-    render = None
+    render = replay = None
     if config.render:
-        render = _render(run, scenario, ctx, f"diagnostics/{name}_{seed}.png",
-                         f"{name} seed {seed}: {run.record.outcome} ({run.record.taxonomy.label or 'solved'})")
-    return _summary(run, trace_name, render)
+        title = f"{name} seed {seed}: {run.record.outcome} ({run.record.taxonomy.label or 'solved'})"
+        render = _render(run, scenario, ctx, f"diagnostics/{name}_{seed}.png", title)
+        replay = _replay(run, scenario, ctx, f"diagnostics/replay_{name}_{seed}.gif", title, steps)
+    return _summary(run, trace_name, render, replay)
 
 
 def run_diagnostics(config: DiagnosticsConfig, ctx: StageContext) -> DiagnosticsResult:

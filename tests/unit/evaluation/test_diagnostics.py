@@ -1,4 +1,4 @@
-"""Hard-seed diagnostics: per-step trace with the planner's decision, summary with taxonomy, a PNG per seed."""
+"""Hard-seed diagnostics: per-step trace with the planner's decision, summary with taxonomy, a PNG and a GIF per seed."""
 
 from __future__ import annotations
 
@@ -25,6 +25,8 @@ def test_diagnostics_of_a_manifest(tmp_path: Path) -> None:
     s = res.seeds[0]
     assert s.outcome == "timeout" and s.label == "timeout_slow_progress" and s.steps == 20
     assert (work / s.render).stat().st_size > 1000
+    gif = (work / s.replay).read_bytes()
+    assert gif[:6] in (b"GIF87a", b"GIF89a") and len(gif) > 1000
     trace = json.loads((work / s.trace).read_text())
     assert len(trace["steps"]) == 20
     step = trace["steps"][5]
