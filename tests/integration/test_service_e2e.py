@@ -72,7 +72,9 @@ def test_up_submit_follow_and_read_back(service: Service) -> None:
         assert client.post("/v1/models", json={"id": "demo-model", "job_id": done["id"], "artifact": "out/hello.txt"}).status_code == 409
         assert client.post("/v1/models/demo-model/promote", json={"to": "default"}).json()["status"] == "default"
         assert client.delete("/v1/models/demo-model").status_code == 409
-        assert [m["id"] for m in client.get("/v1/models").json()["data"]] == ["demo-model"]
+        listed = {m["id"]: m for m in client.get("/v1/models").json()["data"]}
+        assert "demo-model" in listed and listed["demo-model"]["status"] == "default"
+        assert listed["predictor-sim-default"]["read_only"] is True  # shipped in model/registry.yaml
         listed = json.loads(service.cli("jobs", "ls", "--kind", "sleep", "--json").stdout)
         assert listed["count"] == 2
         assert "demo-model" in service.cli("models", "export").stdout
