@@ -7,7 +7,8 @@ process's CPU time (cpu_*: less sensitive to other processes on a shared machine
 caches (static distance field) and are reported separately as ``first_ms``. An episode that ends is
 reset and stepping continues until ``--decisions`` decisions were timed. Targets: p50 <= 2 ms and
 p95 <= 5 ms at 16 pedestrians. ``--json`` prints ONE JSON object with ``entries``
-[{pedestrians, predictor, p50_ms, p95_ms, ...}]; the learned model needs ``--checkpoint``.
+[{pedestrians, predictor, p50_ms, p95_ms, ...}]; the learned rows use ``--checkpoint`` (default: the
+shipped default predictor, model/predictor-sim-default.pt).
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 REPO = Path(__file__).resolve().parent.parent
+DEFAULT_CHECKPOINT = REPO / "model" / "predictor-sim-default.pt"
 sys.path.insert(0, str(REPO))
 
 from core.maps.model import MapDef, Route, Zone  # noqa: E402
@@ -87,7 +89,8 @@ def main() -> None:
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--pedestrians", type=int, nargs="+", default=[4, 16, 50])
     ap.add_argument("--decisions", type=int, default=400)
-    ap.add_argument("--checkpoint", type=Path, help="learned model checkpoint (adds predictor 'learned')")
+    ap.add_argument("--checkpoint", type=Path, default=DEFAULT_CHECKPOINT if DEFAULT_CHECKPOINT.is_file() else None,
+                    help="learned model checkpoint (default: the shipped default predictor)")
     args = ap.parse_args()
     models: list = ["cv"]
     if args.checkpoint:
