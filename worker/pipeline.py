@@ -213,31 +213,15 @@ class ChildJobs:
 
     def _outcome(self, stage: str, kind: str, job: dict[str, Any], *, resumed: bool) -> Any:
         from api import store
-        from core.pipeline.local import write_report
         from core.pipeline.runbook import ChildRun
 
+        # the child's report page was written by the worker code path that ran it (JobWorker._execute)
         folder = store.resolve_under(self.settings.store_root, store.job_dir(self.settings.store_root, job["id"]))
         result = dict(job["result"] or {})
-        if not resumed and folder.is_dir():
-            write_report(kind, result, folder, self.ctx.log, **self._report_options(kind, result))
         report = f"/ui/jobs/{job['id']}/files/report.html" if (folder / "report.html").is_file() else None
         wall = job["finished_at"] - job["started_at"] if job.get("finished_at") and job.get("started_at") else None
         return ChildRun(result=result, ident=job["id"], job_id=job["id"], wall_s=wall, resumed=resumed, report=report,
                         artifacts={"job": f"/v1/jobs/{job['id']}"})
-
-    def _report_options(self, kind: str, result: dict[str, Any]) -> dict[str, Any]:
-        if kind != "diagnose":
-            return {}
-        try:
-            from core.scenarios.loader import load_matrix
-            from core.stages.refs import resolve_in_bundle
-
-            config = result.get("config") or {}
-            root = self.worker.resolver.bundle(config.get("bundle", self.config.bundle))
-            matrix = load_matrix(resolve_in_bundle(root, config.get("matrix", self.config.matrix)))
-            return {"maps": {n: matrix.get(n).map for n in matrix.names}}
-        except Exception:  # noqa: BLE001 - a report without map backgrounds is still a report
-            return {}
 
     # ---------------------------------------------------------------- registry
     def _register(self, spec: dict[str, Any]) -> Any:

@@ -30,7 +30,6 @@ from api.db import queue
 from api.registry import Resolver
 from api.settings import Settings
 from core.errors import CoreError
-from core.pipeline.local import write_report
 from core.stages.context import Cancelled, StageContext
 from worker.kinds import KINDS
 from worker.retry import decide_retry
@@ -172,6 +171,9 @@ class JobWorker:
             ctx = self._context(held, workdir)
             result = kind.run(spec, ctx)
             if kind.make_workdir:  # the report page is a by-product: written before the scan lists artifacts
+                # imported here: matplotlib loads on the first finished stage, not at worker start
+                from core.reports.stage import write_report
+
                 write_report(job["kind"], result, workdir, ctx.log)
         except Cancelled:
             if held.lost:

@@ -91,6 +91,8 @@ class LocalChildren:
         data = result.model_dump(mode="json", by_alias=True) if isinstance(result, BaseModel) else dict(result)
         done.write_text(json.dumps({"spec": spec, "result": data, "wall_s": wall}, indent=2, default=str))
         if self.reports:
+            from core.reports.stage import write_report  # matplotlib: only when reports are wanted
+
             write_report(kind, data, folder, self.ctx.log)
         return self._run_of(stage, kind, folder, data, wall)
 
@@ -112,16 +114,3 @@ class LocalChildren:
         self._save_registry(data)
         return ChildRun(result={"model_id": spec["model_id"], "status": spec["status"], "checkpoint": str(checkpoint)},
                         ident=spec["model_id"])
-
-
-def write_report(kind: str, result: dict[str, Any], folder: Path, log: Callable[[str], None], **options: Any) -> list[Path]:
-    """The stage's report page (a by-product: a failure is logged, never raised)."""
-    from core.reports.stage import REPORTERS, write_stage_report
-
-    if kind not in REPORTERS or (folder / "report.html").is_file():
-        return []
-    try:
-        return write_stage_report(kind, result, folder, **options)
-    except Exception as exc:  # noqa: BLE001
-        log(f"{kind} report failed: {exc!r}")
-        return []

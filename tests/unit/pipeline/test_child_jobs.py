@@ -5,15 +5,13 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Iterator
-from pathlib import Path
 
 import pytest
 from sqlalchemy import update
 
 from api import store
 from api.db import queue
-from api.db.session import make_engine, upgrade, write_tx
+from api.db.session import write_tx
 from api.registry import Resolver
 from api.settings import Settings
 from core.errors import CoreError
@@ -21,21 +19,6 @@ from core.pipeline.config import load_pipeline_config
 from core.stages.context import Cancelled, StageContext
 from core.stages.refs import BUILTIN_CONFIG_ROOT
 from worker.pipeline import ChildJobs, worker_services
-
-
-@pytest.fixture
-def settings(tmp_path: Path) -> Settings:
-    s = Settings(data_dir=tmp_path, api_token="t", lease_s=2.0, heartbeat_s=0.2, poll_s=0.05, shutdown_grace_s=0.3,
-                 model_registry=tmp_path / "none.yaml")  # fmt: skip
-    upgrade(s.resolved_database_url)
-    return s
-
-
-@pytest.fixture
-def engine(settings: Settings) -> Iterator:
-    eng = make_engine(settings.resolved_database_url)
-    yield eng
-    eng.dispose()
 
 
 class Parent:
