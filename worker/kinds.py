@@ -122,4 +122,44 @@ _stage_kind("diagnose", "core.evaluation.config:DiagnosticsConfig", "core.evalua
             "hard-seed diagnostics: trace every seed of a manifest")
 _stage_kind("campaign", "core.evaluation.config:CampaignConfig", "core.evaluation.campaign:run_campaign",
             "checkpoints x planner-grid variants with quality gates", records.campaign)
+
+
+def _import_dataset_kind() -> None:
+    """``import_dataset``: a fold of a named data root (``FORESIGHT_DATA_ROOTS``) -> a dataset record.
+
+    The root name is checked at submission against the settings read from the environment (the discriminated
+    union validating a spec has no app object to ask; the environment is every process's settings source),
+    and resolved again by the worker that runs the job.
+    """
+    from pydantic import field_validator
+
+    from api.settings import Settings
+    from core.predict.ethucy import ImportDatasetConfig
+
+    class ImportDatasetSpec(ImportDatasetConfig):
+        kind: Literal["import_dataset"] = "import_dataset"
+
+        @field_validator("root")
+        @classmethod
+        def _known_root(cls, value: str) -> str:
+            try:
+                Settings().data_root(value)
+            except LookupError as exc:  # a 422 naming the field, the name and the known roots
+                raise ValueError(str(exc)) from None
+            return value
+
+    def run(spec: ImportDatasetSpec, ctx: StageContext) -> dict[str, Any]:
+        from core.predict.ethucy import ImportEthucyConfig, run_import_ethucy
+
+        root = Settings().data_root(spec.root)
+        record = run_import_ethucy(ImportEthucyConfig(root=str(root), fold=spec.fold, max_agents=spec.max_agents), ctx)
+        origin = {"source": spec.source, "root": spec.root, "fold": spec.fold}
+        return {"dataset": record["path"], "sha256": record["sha256"], "summary": {**record["summary"], **origin},
+                "outcomes": {}, **origin}
+
+    register(JobKind("import_dataset", ImportDatasetSpec, run, "import an ETH/UCY fold of a named data root as a dataset",
+                     records.dataset))
+
+
+_import_dataset_kind()
 register(JobKind("pipeline", **importlib.import_module("worker.pipeline").KIND_FIELDS))  # the runbook as child jobs

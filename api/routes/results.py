@@ -9,7 +9,7 @@ from sqlalchemy import select
 
 from api.db import queue
 from api.db.models import Campaign, CampaignCell, Dataset, Evaluation, FailureTaxonomy, GateResult
-from api.deps import SessionDep
+from api.deps import SessionDep, SettingsDep
 from api.schemas import CampaignPublic, DatasetPublic, EvaluationPublic, Ident
 
 router = APIRouter(tags=["results"])
@@ -32,6 +32,16 @@ def read_datasets(session: SessionDep) -> list[DatasetPublic]:
 def read_dataset(dataset_id: Ident, session: SessionDep) -> DatasetPublic:
     """A dataset's summary."""
     return DatasetPublic.model_validate(_get(session, Dataset, dataset_id, "dataset"))
+
+
+@router.get("/data-roots")
+def read_data_roots(settings: SettingsDep) -> list[dict[str, Any]]:
+    """Named data roots an ``import_dataset`` job may read (``FORESIGHT_DATA_ROOTS``), with the ETH/UCY folds
+    found in each; names only, the server's folders stay private."""
+    from core.predict.ethucy import FOLDS
+
+    return [{"name": name, "folds": [f for f in FOLDS if (path / f).is_dir()]}
+            for name, path in sorted(settings.named_data_roots.items())]
 
 
 def _evaluation(session: SessionDep, evaluation_id: str) -> EvaluationPublic:

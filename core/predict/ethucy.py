@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
@@ -29,6 +29,7 @@ from core.predict.mixing import dataset_from_episodes
 from core.predict.samples import SampleArrays
 from core.predict.timebase import ETHUCY_TIMEBASE, TimeBase
 from core.stages.context import StageContext
+from core.stages.refs import Ident
 
 FOLDS = ("eth", "hotel", "univ", "zara1", "zara2")
 #: scene-file prefixes of each fold's held-out scene; they must never be in that fold's train/val
@@ -145,6 +146,17 @@ class ImportEthucyConfig(BaseModel):
     fold: str
     max_agents: int = Field(default=12, ge=1, le=256)
     output: str = "dataset.npz"
+
+
+class ImportDatasetConfig(BaseModel):
+    """Job ``import_dataset``: one fold of a named data root (the service maps names to folders on its disk,
+    so the spec holds no server path)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    source: Literal["ethucy"] = "ethucy"
+    root: Ident = "ethucy"  #: data root name (``GET /v1/data-roots``), never a path
+    fold: Literal["eth", "hotel", "univ", "zara1", "zara2"]
+    max_agents: int = Field(default=12, ge=1, le=256)
 
 
 def run_import_ethucy(config: ImportEthucyConfig, ctx: StageContext) -> dict[str, Any]:
