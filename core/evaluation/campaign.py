@@ -13,6 +13,8 @@ import hashlib
 import json
 import re
 import time
+from dataclasses import dataclass
+from pathlib import Path
 from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
@@ -147,9 +149,21 @@ def _load_cell(ctx: StageContext, key: str, fingerprint: str) -> CellResult | No
 def _run_cell(config: CampaignConfig, ctx: StageContext, matrix: ScenarioMatrix, settings: EpisodeSettings,
               rp: ResolvedPlanner, hard: list[tuple[str, int]], glob: list[tuple[str, int]],
               key: str, fingerprint: str, checkpoint: str) -> CellResult:
-    union = list(dict.fromkeys([*glob, *hard]))  # a hard episode also in the global suite runs once
+    union = suite_union(hard, glob)
     jobs = [Job(i, s, seed, rp) for i, (s, seed) in enumerate(union)]
     records = run_jobs(jobs, settings, ctx, matrix=matrix, start_method=config.start_method)
+    return finish_cell(config, ctx, rp, hard, glob, records, key, fingerprint, checkpoint)
+
+
+def suite_union(hard: list[tuple[str, int]], glob: list[tuple[str, int]]) -> list[tuple[str, int]]:
+    """A cell's episodes: the global suite, then the hard episodes not in it (each runs once)."""
+    return list(dict.fromkeys([*glob, *hard]))
+
+
+def finish_cell(config: CampaignConfig, ctx: StageContext, rp: ResolvedPlanner, hard: list[tuple[str, int]],
+                glob: list[tuple[str, int]], records: list, key: str, fingerprint: str, checkpoint: str) -> CellResult:
+    """A cell from its records (in :func:`suite_union` order); writes ``cells/<key>.json`` and ``.jsonl``."""
+    union = suite_union(hard, glob)
     by_pair = {(r.scenario, r.seed): r for r in records}
     hard_recs, glob_recs = [by_pair[p] for p in hard], [by_pair[p] for p in glob]
     integrity = check_integrity(records, expected=union)
@@ -173,6 +187,42 @@ def _gate(config: CampaignConfig, best: CellResult, cells: list[CellResult]) -> 
 def run_campaign(config: CampaignConfig, ctx: StageContext) -> CampaignResult:
     """Run (or resume) every cell, rank, gate; writes campaign_summary.json and campaign_report.md."""
     t0 = time.perf_counter()
+    plan = prepare_campaign(config, ctx)
+    hard, glob = plan.hard, plan.glob
+    cells: list[CellResult] = []
+    ran = 0
+    for i, (ck, rp) in enumerate(plan.cells):
+        ctx.check_cancelled()
+        key = _cell_key(ck, rp.variant or rp.name)
+        fp = _fingerprint(rp, config, hard, glob)
+        cell = _load_cell(ctx, key, fp)
+        ctx.progress(i / len(plan.cells), f"{key}: {'resumed' if cell else 'running'}")
+        if cell is None:
+            cell = _run_cell(config, ctx, plan.matrix, plan.settings, rp, hard, glob, key, fp, ck)
+            ran += 1
+        cells.append(cell)
+    ctx.progress(1.0, "done")
+    return campaign_result(config, ctx, plan, cells, ran, t0)
+
+
+@dataclass(frozen=True)
+class CampaignPlan:
+    """What a campaign runs: its suites and its cells (checkpoint, resolved planner) in grid order."""
+
+    path: Path
+    matrix: ScenarioMatrix
+    hard: list[tuple[str, int]]
+    glob: list[tuple[str, int]]
+    cells: list[tuple[str, ResolvedPlanner]]
+    settings: EpisodeSettings
+
+    def cell_key(self, i: int) -> str:
+        ck, rp = self.cells[i]
+        return _cell_key(ck, rp.variant or rp.name)
+
+
+def prepare_campaign(config: CampaignConfig, ctx: StageContext) -> CampaignPlan:
+    """Load the suites and the grid, resolve every cell's planner, check every checkpoint fits every scenario."""
     sel = dict(bundle=config.bundle, matrix=config.matrix, max_steps=config.max_steps)
     path, matrix, hard = load_selection(EpisodeSelection(**sel, seed_manifest=config.seed_manifest), ctx)
     _, _, glob = load_selection(
@@ -185,19 +235,17 @@ def run_campaign(config: CampaignConfig, ctx: StageContext) -> CampaignResult:
     for rp in {rp.model_id: rp for _, rp in cells_rp}.values():  # every checkpoint fits before any episode
         preflight(rp, scenarios)
     settings = EpisodeSettings(str(path), config.max_steps, config.metrics, config.taxonomy)
-    cells: list[CellResult] = []
-    ran = 0
-    for i, (ck, rp) in enumerate(cells_rp):
-        ctx.check_cancelled()
-        key = _cell_key(ck, rp.variant or rp.name)
-        fp = _fingerprint(rp, config, hard, glob)
-        cell = _load_cell(ctx, key, fp)
-        ctx.progress(i / len(cells_rp), f"{key}: {'resumed' if cell else 'running'}")
-        if cell is None:
-            cell = _run_cell(config, ctx, matrix, settings, rp, hard, glob, key, fp, ck)
-            ran += 1
-        cells.append(cell)
-    ctx.progress(1.0, "done")
+    return CampaignPlan(path, matrix, hard, glob, cells_rp, settings)
+
+
+def cell_fingerprint(config: CampaignConfig, plan: CampaignPlan, i: int) -> str:
+    return _fingerprint(plan.cells[i][1], config, plan.hard, plan.glob)
+
+
+def campaign_result(config: CampaignConfig, ctx: StageContext, plan: CampaignPlan, cells: list[CellResult],
+                    ran: int, t0: float) -> CampaignResult:
+    """Rank the cells (in grid order), gate, write campaign_summary.json and campaign_report.md."""
+    hard, glob = plan.hard, plan.glob
     ranked = rank(cells)
     gate = _gate(config, ranked[0], cells)
     ref = next((c for c in cells if config.gate and c.variant == config.gate.baseline_variant

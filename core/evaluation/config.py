@@ -5,7 +5,7 @@ Inputs are named by bundle id + bundle-relative path and by model id, never by s
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
@@ -17,6 +17,10 @@ from core.evaluation.taxonomy import TaxonomyConfig
 from core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident
 
 StartMethod = Literal["spawn", "fork", "forkserver"]
+MAX_SHARDS = 64  #: most shard jobs one evaluation or campaign is split into
+#: ``shards`` of an evaluation or campaign: a service worker splits the episodes into this many shard jobs that any
+#: worker may run (core.evaluation.shards); the result is the same for any value, and in-process runs ignore it
+Shards = Annotated[int, Field(ge=1, le=MAX_SHARDS)]
 
 
 class _Config(BaseModel):
@@ -47,6 +51,7 @@ class EvaluationConfig(EpisodeSelection):
     gate: EvaluationGateConfig = EvaluationGateConfig()
     bootstrap: BootstrapConfig = BootstrapConfig()
     start_method: StartMethod = "spawn"  #: worker processes (results do not depend on it)
+    shards: Shards = 1  #: shard jobs a service worker splits the episodes into (results do not depend on it)
 
 
 class DiagnosticsConfig(EpisodeSelection):
@@ -86,6 +91,7 @@ class CampaignConfig(_Config):
     taxonomy: TaxonomyConfig = TaxonomyConfig()
     bootstrap: BootstrapConfig = BootstrapConfig()
     start_method: StartMethod = "spawn"
+    shards: Shards = 1  #: shard jobs a service worker splits the cells' episodes into (results do not depend on it)
 
     @model_validator(mode="after")
     def _grid(self) -> CampaignConfig:
@@ -95,4 +101,44 @@ class CampaignConfig(_Config):
             raise ValueError("campaigns vary the predictive planner")
         if len(set(self.checkpoints)) != len(self.checkpoints):
             raise ValueError("checkpoints listed twice")
+        return self
+
+
+class ShardRef(_Config):
+    """Which slice of a sharded run a shard job holds: every ``count``-th episode from ``index`` on."""
+
+    index: int = Field(ge=0, lt=MAX_SHARDS)
+    count: int = Field(ge=2, le=MAX_SHARDS)
+
+    @model_validator(mode="after")
+    def _in_range(self) -> ShardRef:
+        if self.index >= self.count:
+            raise ValueError(f"shard index {self.index} is not below the shard count {self.count}")
+        return self
+
+
+def _check_shard(shard: ShardRef, shards: int) -> None:
+    if shard.count != shards:
+        raise ValueError(f"shard count {shard.count} differs from shards {shards}")
+
+
+class EvaluationShardConfig(EvaluationConfig):
+    """One shard job of a sharded evaluation: the parent's config as given, plus which slice to run."""
+
+    shard: ShardRef
+
+    @model_validator(mode="after")
+    def _shard(self) -> EvaluationShardConfig:
+        _check_shard(self.shard, self.shards)
+        return self
+
+
+class CampaignShardConfig(CampaignConfig):
+    """One shard job of a sharded campaign: the parent's config as given, plus which slice to run."""
+
+    shard: ShardRef
+
+    @model_validator(mode="after")
+    def _shard(self) -> CampaignShardConfig:
+        _check_shard(self.shard, self.shards)
         return self

@@ -216,21 +216,49 @@ def read_records(path: Path) -> list[EpisodeRecord]:
     return [EpisodeRecord.model_validate_json(line) for line in Path(path).read_text().splitlines() if line.strip()]
 
 
-def run_evaluation(config: EvaluationConfig, ctx: StageContext) -> EvaluationResult:
-    """Evaluate one planner config on a matrix; writes evaluation.json and episodes.jsonl under ctx.workdir."""
-    t0 = time.perf_counter()
+@dataclass(frozen=True)
+class PreparedEvaluation:
+    """What an evaluation runs: its matrix, the (scenario, seed) episode list in order, the resolved planner."""
+
+    path: Path
+    matrix: ScenarioMatrix
+    pairs: list[tuple[str, int]]
+    planner: ResolvedPlanner
+    settings: EpisodeSettings
+
+
+def prepare_evaluation(config: EvaluationConfig, ctx: StageContext) -> PreparedEvaluation:
+    """Select the episodes and resolve the planner (shared by a whole run, its shards and their merge)."""
     path, matrix, pairs = load_selection(config, ctx)
     rp = resolve_planner(config.planner, ctx)
     preflight(rp, [matrix.get(name) for name in dict.fromkeys(s for s, _ in pairs)])
-    jobs = [Job(i, s, seed, rp) for i, (s, seed) in enumerate(pairs)]
     settings = EpisodeSettings(str(path), config.max_steps, config.metrics, config.taxonomy)
-    ctx.progress(0.0, f"{len(jobs)} episodes, {rp.label}")
+    return PreparedEvaluation(path, matrix, pairs, rp, settings)
+
+
+def run_evaluation(config: EvaluationConfig, ctx: StageContext) -> EvaluationResult:
+    """Evaluate one planner config on a matrix; writes evaluation.json and episodes.jsonl under ctx.workdir.
+
+    ``config.shards`` is for the service (the worker splits the episodes into shard jobs, see
+    core.evaluation.shards); run here in-process, every episode runs in this call, with the same result.
+    """
+    t0 = time.perf_counter()
+    prep = prepare_evaluation(config, ctx)
+    jobs = [Job(i, s, seed, prep.planner) for i, (s, seed) in enumerate(prep.pairs)]
+    ctx.progress(0.0, f"{len(jobs)} episodes, {prep.planner.label}")
 
     def progress(done: int, total: int, rec: EpisodeRecord) -> None:
         ctx.progress(done / total, f"{rec.scenario} seed {rec.seed}: {rec.outcome}")
 
-    records = run_jobs(jobs, settings, ctx, matrix=matrix, start_method=config.start_method, on_record=progress)
-    result = evaluation_result(config, records, pairs, rp, ctx, time.perf_counter() - t0)
+    records = run_jobs(jobs, prep.settings, ctx, matrix=prep.matrix, start_method=config.start_method,
+                       on_record=progress)
+    return finish_evaluation(config, records, prep, ctx, t0)
+
+
+def finish_evaluation(config: EvaluationConfig, records: list[EpisodeRecord], prep: PreparedEvaluation,
+                      ctx: StageContext, t0: float) -> EvaluationResult:
+    """The result of every episode's records (in episode-list order); writes the evaluation's artifacts."""
+    result = evaluation_result(config, records, prep.pairs, prep.planner, ctx, time.perf_counter() - t0)
     write_records(ctx.artifact("episodes.jsonl"), records)
     ctx.artifact("evaluation.json").write_text(json.dumps(result.model_dump(mode="json"), indent=2))
     return result
