@@ -124,7 +124,7 @@ class ChildRunner:
             raise CoreError(f"{role} job {self.parent_id} is not in {self.settings.resolved_database_url}: the "
                             "worker's FORESIGHT_* settings must be in its environment") from None
         if parent["kind"] not in parent_kinds:
-            raise CoreError(f"job {self.parent_id} is a {parent['kind']} job, not a {role}")
+            raise CoreError(f"job {self.parent_id} is a {parent['kind']} job, not a {' or '.join(parent_kinds)} job")
         self.owner = f"{(parent['lease_owner'] or 'worker')[:50]}/{role}"
         #: progress of the child running in this slot; replace it to follow children
         self.on_progress: ChildProgress = lambda child_id, fraction, message: None

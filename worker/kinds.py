@@ -75,12 +75,14 @@ register(JobKind("sleep", SleepSpec, run_sleep, "diagnostic: sleep, report progr
 
 
 def _stage_kind(
-    name: str, config_ref: str, stage_ref: str, description: str, record: Recorder | None = None
+    name: str, config_ref: str, stage_ref: str, description: str, record: Recorder | None = None,
+    sharded: bool = False,
 ) -> None:
     """Register the core stage ``stage_ref`` ("module:function") with its config ``config_ref`` as a kind.
 
     Only the config's module is imported here (the API needs the spec model); the stage's module (which may
     import torch) is imported when a worker runs the job. Stages that have not landed are skipped.
+    ``sharded``: a config with ``shards`` > 1 runs as shard jobs and their merge (worker/shards.py).
     """
     config_module, config_name = config_ref.split(":")
     stage_module, stage_name = stage_ref.split(":")
@@ -98,9 +100,11 @@ def _stage_kind(
     )
 
     def run(spec_obj: BaseModel, ctx: StageContext) -> dict[str, Any]:
-        stage = getattr(importlib.import_module(stage_module), stage_name)
         config_obj = config_model.model_validate(spec_obj.model_dump(exclude={"kind"}))
-        result = stage(config_obj, ctx)
+        if sharded and getattr(config_obj, "shards", 1) > 1:
+            result = importlib.import_module("worker.shards").run_sharded(name, config_obj, ctx)
+        else:
+            result = getattr(importlib.import_module(stage_module), stage_name)(config_obj, ctx)
         return result.model_dump(mode="json", by_alias=True) if isinstance(result, BaseModel) else dict(result or {})
 
     register(JobKind(name, spec, run, description, record))
@@ -117,11 +121,16 @@ _stage_kind("train", "core.predict.train_config:TrainConfig", "core.predict.nn.t
 _stage_kind("predict_eval", "core.predict.evaluation:PredictEvalConfig", "core.predict.evaluation:run_predict_eval",
             "ADE/FDE of a predictor on a dataset or ETH/UCY fold")
 _stage_kind("evaluate", "core.evaluation.config:EvaluationConfig", "core.evaluation.runner:run_evaluation",
-            "evaluate a planner on a scenario matrix", records.evaluation)
+            "evaluate a planner on a scenario matrix", records.evaluation, sharded=True)
+_stage_kind("evaluate_shard", "core.evaluation.config:EvaluationShardConfig",
+            "core.evaluation.shards:run_evaluation_shard",
+            "one shard of an evaluation with shards > 1 (submitted by its parent evaluate job)")
 _stage_kind("diagnose", "core.evaluation.config:DiagnosticsConfig", "core.evaluation.diagnostics:run_diagnostics",
             "hard-seed diagnostics: trace every seed of a manifest")
 _stage_kind("campaign", "core.evaluation.config:CampaignConfig", "core.evaluation.campaign:run_campaign",
-            "checkpoints x planner-grid variants with quality gates", records.campaign)
+            "checkpoints x planner-grid variants with quality gates", records.campaign, sharded=True)
+_stage_kind("campaign_shard", "core.evaluation.config:CampaignShardConfig", "core.evaluation.shards:run_campaign_shard",
+            "one shard of a campaign with shards > 1 (submitted by its parent campaign job)")
 
 
 def _import_dataset_kind() -> None:
