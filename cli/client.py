@@ -21,6 +21,10 @@ class ApiError(CoreError):
         super().__init__(f"HTTP {status}: {describe(detail)}")
 
 
+class ServerUnreachable(CoreError):
+    """No server answered at the client's URL."""
+
+
 def describe(detail: Any) -> str:
     """One readable line from an error body (``detail`` may be a string or a list of field errors)."""
     if isinstance(detail, list):
@@ -54,7 +58,7 @@ class Client:
         try:
             response = self.http.request(method, path, **kwargs)
         except httpx.HTTPError as exc:
-            raise CoreError(f"cannot reach the server at {self.http.base_url}: {exc}") from None
+            raise ServerUnreachable(f"cannot reach the server at {self.http.base_url} ({exc})") from None
         if response.status_code >= 400:
             try:
                 detail = response.json().get("detail", response.text)

@@ -1,9 +1,12 @@
-"""`foresight evaluate`, `foresight diagnose` and `foresight campaign` (in-process; ``--local`` always works).
+"""`foresight evaluate`, `foresight diagnose` and `foresight campaign`: submitted to the server and followed
+(the default), or run in-process with ``--local``.
 
-They build the same stage configs the service accepts. Files given on the command line (matrix, seed
-manifest, planner grid) become one local bundle rooted at their common folder (or the builtin bundle
-when they all live in the project's configs/); a checkpoint path becomes model id ``file:<name>``.
-Exit codes: 0 passed, 2 failing gate or integrity (a result, summary written), 1 error.
+Both build the job kind's spec (``cli.stage``). On the server, matrix, seed manifest and planner grid are
+names inside a config bundle (files in the project's configs/ are named in ``builtin``; ``--bundle ID`` for
+an uploaded one) and models are ids. With ``--local``, files given on the command line become one local
+bundle rooted at their common folder (or the builtin bundle when they all live in the project's configs/),
+and a checkpoint path becomes model id ``file:<name>``.
+Exit codes: 0 passed, 2 failing gate or integrity (a result, summary written), 1 error (or a failed job).
 """
 
 from __future__ import annotations
@@ -14,7 +17,8 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from cli.common import build_config, emit, local_context
+from cli import stage
+from cli.common import emit, local_context
 from core.errors import ConfigError, NotFoundError
 from core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
 
@@ -27,12 +31,13 @@ def _common(p: argparse.ArgumentParser, *, planner: bool = True) -> None:
     if planner:
         p.add_argument("--planner", default="predictive", help="planner name (predictive|orca|social_force|goal) "
                        "or a planner YAML ({name, config, reference_params} or a predictive config)")
-        p.add_argument("--model", help="model id, checkpoint path, or cv (predictive planner)")
+        p.add_argument("--model", help="model id or cv (predictive planner; --local: also a checkpoint path)")
     p.add_argument("--max-steps", type=int, help="horizon override for smoke runs (default: each scenario's)")
-    p.add_argument("--out", help="work folder for the artifacts (default: a new temporary folder)")
-    p.add_argument("--workers", type=int, default=1, help="parallel episode processes")
-    p.add_argument("--local", action="store_true", help="run in-process (the default until a server is used)")
-    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.add_argument("--bundle", help="server: config bundle id; --matrix/--seeds/--grid are names inside it")
+    p.add_argument("--out", help="--local: work folder for the artifacts (default: a new temporary folder)")
+    p.add_argument("--workers", type=int, help="--local: parallel episode processes (default 1; the server's "
+                                               "workers use FORESIGHT_STAGE_WORKERS)")
+    stage.add_mode_args(p)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -147,7 +152,7 @@ class ModelArgs:
         return path
 
 
-def planner_spec(value: str, model: str | None, models: ModelArgs) -> dict[str, Any]:
+def planner_spec(value: str, model: str | None, models: ModelArgs, *, default: bool = True) -> dict[str, Any]:
     if value in PLANNERS:
         spec: dict[str, Any] = {"name": value}
     else:
@@ -159,7 +164,7 @@ def planner_spec(value: str, model: str | None, models: ModelArgs) -> dict[str, 
         spec = dict(data) if "name" in data else {"name": "predictive", "config": data}
     if model is not None:
         spec["model"] = models.ident(model)
-    elif spec.get("name", "predictive") == "predictive" and "model" not in spec:
+    elif default and spec.get("name", "predictive") == "predictive" and "model" not in spec:
         spec["model"] = models.default()
     return spec
 
@@ -168,7 +173,7 @@ def _context(args: argparse.Namespace, roots: dict[str, Path], models: ModelArgs
     out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix=f"foresight-{args.command}-"))
     ctx = local_context(out, roots, quiet=args.json)
     ctx.resolve_model = models.resolve
-    ctx.workers = max(1, int(args.workers))
+    ctx.workers = max(1, int(args.workers or 1))
     return ctx
 
 
@@ -179,27 +184,75 @@ def _names(value: str | None) -> list[str] | None:
 # ------------------------------------------------------------------------------ commands
 
 
+class Refs:
+    """The command's inputs in the form of its mode: server (bundle names, model ids, the server's default
+    predictor) or local (a local bundle of the given files, checkpoint paths, model/registry.yaml)."""
+
+    def __init__(self, args: argparse.Namespace, files: dict[str, str | None]):
+        self.args, self.local = args, args.local
+        self.models = ModelArgs()
+        self._client = None
+        if self.local:
+            if args.bundle:
+                raise ConfigError("--bundle names a server bundle; --local runs take files", source="command line",
+                                  item="--bundle")
+            self.bundle, paths, self.roots = bundle_of(*files.values())
+            self.names = dict(zip(files, paths, strict=True))
+        else:
+            stage.local_only(args, out="--out", workers="--workers")
+            self.bundle, self.names = stage.bundle_names(args.bundle, files)
+            self.roots = {}
+
+    @property
+    def client(self):  # noqa: ANN201
+        if self._client is None:
+            self._client = stage.Client.from_args(self.args)
+        return self._client
+
+    def model(self, value: str | None, flag: str = "--model") -> str | None:
+        return self.models.ident(value) if self.local else stage.model_id(value, flag)
+
+    def planner(self, value: str, model: str | None) -> dict[str, Any]:
+        if self.local:
+            return planner_spec(value, model, self.models)
+        spec = planner_spec(value, None, self.models, default=False)
+        if model is not None:
+            spec["model"] = stage.model_id(model, "--model")
+        elif spec.get("model") is not None:
+            spec["model"] = stage.model_id(str(spec["model"]), "--planner model")
+        elif spec.get("name", "predictive") == "predictive":
+            spec["model"] = stage.server_default_model(self.client)
+        return spec
+
+    def run(self, kind: str, values: dict[str, Any], config_model: type, local_run, text, result_model,  # noqa: ANN001
+            exit_code=lambda r: 0) -> int:  # noqa: ANN001
+        spec = stage.spec(kind, values)
+        if not self.local:
+            return stage.submit(self.args, spec, text=lambda r, ref: text(r, str(ref)), result_model=result_model,
+                                exit_code=exit_code, client=self.client if self._client else None)
+        ctx = _context(self.args, self.roots, self.models)
+        result = local_run(stage.config_of(spec, config_model), ctx)
+        emit(result, self.args.json, lambda r: text(r, f"artifacts in {ctx.workdir.resolve()}"))
+        return exit_code(result)
+
+
 def evaluate_cmd(args: argparse.Namespace) -> int:
     from core.evaluation.config import EvaluationConfig
-    from core.evaluation.runner import run_evaluation
+    from core.evaluation.runner import EvaluationResult, run_evaluation
 
-    bundle, (matrix, seeds), roots = bundle_of(args.matrix, args.seeds)
-    models = ModelArgs()
+    refs = Refs(args, {"--matrix": args.matrix, "--seeds": args.seeds})
     values: dict[str, Any] = {
-        "bundle": bundle, "matrix": matrix, "seed_manifest": seeds, "scenarios": _names(args.scenarios),
-        "seeds_per_scenario": args.seeds_per_scenario, "max_steps": args.max_steps,
-        "planner": planner_spec(args.planner, args.model, models),
+        "bundle": refs.bundle, "matrix": refs.names["--matrix"], "seed_manifest": refs.names["--seeds"],
+        "scenarios": _names(args.scenarios), "seeds_per_scenario": args.seeds_per_scenario,
+        "max_steps": args.max_steps, "planner": refs.planner(args.planner, args.model),
     }
     if args.min_success is not None:
         values["gate"] = {"min_success_rate": args.min_success}
-    config = build_config(EvaluationConfig, values)
-    ctx = _context(args, roots, models)
-    result = run_evaluation(config, ctx)
-    emit(result, args.json, lambda r: _evaluation_text(r, ctx.workdir))
-    return result.exit_code
+    return refs.run("evaluate", values, EvaluationConfig, run_evaluation, _evaluation_text, EvaluationResult,
+                    lambda r: r.exit_code)
 
 
-def _evaluation_text(r: Any, out: Path) -> str:
+def _evaluation_text(r: Any, where: str) -> str:
     def pct(x: Any) -> str:
         return "-" if x is None else f"{100 * x:5.1f}%"
 
@@ -214,44 +267,37 @@ def _evaluation_text(r: Any, out: Path) -> str:
     lines += ["", f"failures: {fails}", f"gate: {r.status}"]
     lines += [f"  {c.name}: {'ok' if c.passed else 'FAIL'} ({c.value} vs {c.threshold}) {c.detail}".rstrip()
               for c in r.gate.checks]
-    lines.append(f"artifacts in {out.resolve()}")
+    lines.append(where)
     return "\n".join(lines)
 
 
 def diagnose_cmd(args: argparse.Namespace) -> int:
     from core.evaluation.config import DiagnosticsConfig
-    from core.evaluation.diagnostics import report, run_diagnostics
+    from core.evaluation.diagnostics import DiagnosticsResult, report, run_diagnostics
 
-    bundle, (matrix, seeds), roots = bundle_of(args.matrix, args.seeds)
-    models = ModelArgs()
-    config = build_config(DiagnosticsConfig, {
-        "bundle": bundle, "matrix": matrix, "seed_manifest": seeds, "max_steps": args.max_steps,
-        "planner": planner_spec(args.planner, args.model, models), "render": not args.no_render,
-    })
-    ctx = _context(args, roots, models)
-    result = run_diagnostics(config, ctx)
-    emit(result, args.json, lambda r: report(r) + f"\nartifacts in {ctx.workdir.resolve()}")
-    return 0
+    refs = Refs(args, {"--matrix": args.matrix, "--seeds": args.seeds})
+    values = {
+        "bundle": refs.bundle, "matrix": refs.names["--matrix"], "seed_manifest": refs.names["--seeds"],
+        "max_steps": args.max_steps, "planner": refs.planner(args.planner, args.model), "render": not args.no_render,
+    }
+    return refs.run("diagnose", values, DiagnosticsConfig, run_diagnostics, lambda r, where: f"{report(r)}\n{where}",
+                    DiagnosticsResult)
 
 
 def campaign_cmd(args: argparse.Namespace) -> int:
-    from core.evaluation.campaign import report, run_campaign
+    from core.evaluation.campaign import CampaignResult, report, run_campaign
     from core.evaluation.config import CampaignConfig
 
-    bundle, (matrix, seeds, grid), roots = bundle_of(args.matrix, args.seeds, args.grid)
-    models = ModelArgs()
+    refs = Refs(args, {"--matrix": args.matrix, "--seeds": args.seeds, "--grid": args.grid})
     values: dict[str, Any] = {
-        "bundle": bundle, "matrix": matrix, "seed_manifest": seeds, "grid": grid,
-        "checkpoints": [models.ident(c) for c in args.checkpoints], "max_steps": args.max_steps,
-        "seeds_per_scenario": args.seeds_per_scenario, "scenarios": _names(args.scenarios),
+        "bundle": refs.bundle, "matrix": refs.names["--matrix"], "seed_manifest": refs.names["--seeds"],
+        "grid": refs.names["--grid"], "checkpoints": [refs.model(c, "--checkpoints") for c in args.checkpoints],
+        "max_steps": args.max_steps, "seeds_per_scenario": args.seeds_per_scenario, "scenarios": _names(args.scenarios),
     }
     if args.baseline:
         values["gate"] = {"baseline_variant": args.baseline}
-    config = build_config(CampaignConfig, values)
-    ctx = _context(args, roots, models)
-    result = run_campaign(config, ctx)
-    emit(result, args.json, lambda r: report(r) + f"\nartifacts in {ctx.workdir.resolve()}")
-    return result.exit_code
+    return refs.run("campaign", values, CampaignConfig, run_campaign, lambda r, where: f"{report(r)}\n{where}",
+                    CampaignResult, lambda r: r.exit_code)
 
 
 def compare_cmd(args: argparse.Namespace) -> int:

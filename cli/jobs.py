@@ -106,6 +106,16 @@ def cmd_submit(args: argparse.Namespace) -> int:
 
 def follow(client: Client, job_id: str, *, as_json: bool, quiet: bool, timeout: float | None = None) -> int:
     """Poll a job until it ends, with a progress bar on stderr; exit code 0 if it succeeded."""
+    job = watch(client, job_id, quiet=quiet, timeout=timeout)
+    if job["status"] not in FINISHED:
+        _print(job, as_json, f"still {job['status']} after {timeout} s")
+        return 2
+    _print(job, as_json, _line(job))
+    return 0 if job["status"] == "succeeded" else 1
+
+
+def watch(client: Client, job_id: str, *, quiet: bool, timeout: float | None = None) -> dict[str, Any]:
+    """The job once it ended (or when ``timeout`` passed), following it with a live progress bar on stderr."""
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -118,14 +128,9 @@ def follow(client: Client, job_id: str, *, as_json: bool, quiet: bool, timeout: 
         while True:
             job = client.get(f"/v1/jobs/{job_id}")
             bar.update(task, completed=job["progress"], message=f"{job['status']} {job['message'][:50]}")
-            if job["status"] in FINISHED:
-                break
-            if deadline is not None and time.monotonic() > deadline:
-                _print(job, as_json, f"still {job['status']} after {timeout} s")
-                return 2
+            if job["status"] in FINISHED or (deadline is not None and time.monotonic() > deadline):
+                return job
             time.sleep(0.5)
-    _print(job, as_json, _line(job))
-    return 0 if job["status"] == "succeeded" else 1
 
 
 def cmd_ls(args: argparse.Namespace) -> int:

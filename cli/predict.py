@@ -1,8 +1,9 @@
-"""Prediction commands, in-process (``--local`` is accepted and is the default):
-``predict-eval``, ``dataset import-ethucy``, ``collect``, ``mix`` and ``train``.
+"""Prediction commands: ``predict-eval``, ``dataset import-ethucy``, ``collect``, ``mix`` and ``train``.
 
-They build the same stage configs as the service (core.predict.*); files given here are local paths.
-Exit codes: 0 ok, 2 training gates failed (summary written), 1 error.
+Each builds its job kind's spec (``cli.stage``) and submits it to the server, following the job (the
+default), or runs it in-process with ``--local``. On the server datasets and models are ids; with
+``--local`` they may be local files (.npz, checkpoints).
+Exit codes: 0 ok, 2 training gates failed (summary written), 1 error (or a failed job).
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ import argparse
 import tempfile
 from pathlib import Path
 
+from cli import stage
 from cli.common import build_config, emit, local_context, matrix_ref
 from core.errors import ConfigError
 
@@ -18,12 +20,12 @@ from core.errors import ConfigError
 def register(sub: argparse._SubParsersAction) -> None:
     pe = sub.add_parser("predict-eval", help="ADE/FDE of a predictor on ETH/UCY folds or a dataset")
     who = pe.add_mutually_exclusive_group(required=True)
-    who.add_argument("--model", help="checkpoint path, model id, or cv")
+    who.add_argument("--model", help="model id or cv (--local: also a checkpoint path)")
     who.add_argument("--train", action="store_true", help="train the default model (or --config) per fold first")
     pe.add_argument("--config", help="training config YAML (its 'train' mapping, or the whole file)")
     data = pe.add_mutually_exclusive_group(required=True)
-    data.add_argument("--ethucy", help="ETH/UCY root folder with <fold>/train|val|test")
-    data.add_argument("--dataset", help="dataset .npz (scored on its test split, else val)")
+    data.add_argument("--ethucy", help="--local: ETH/UCY root folder with <fold>/train|val|test")
+    data.add_argument("--dataset", help="dataset id (--local: a .npz file), scored on its test split, else val")
     pe.add_argument("--fold", help="one fold (eth|hotel|univ|zara1|zara2); default all")
     pe.add_argument("--split", help="dataset split to score: test (default; val when there is no test), val, all")
     _outputs(pe)
@@ -31,12 +33,14 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     ds = sub.add_parser("dataset", help="prediction datasets")
     dsub = ds.add_subparsers(dest="dataset_command", required=True)
-    im = dsub.add_parser("import-ethucy", help="import one ETH/UCY fold as a dataset (.npz + .json)")
-    im.add_argument("--ethucy", required=True, help="ETH/UCY root folder")
+    im = dsub.add_parser("import-ethucy", help="import one ETH/UCY fold as a dataset (server: a dataset record; "
+                                               "--local: .npz + .json files)")
+    im.add_argument("--root", help="data root name on the server (GET /v1/data-roots; default ethucy)")
+    im.add_argument("--ethucy", help="--local: ETH/UCY root folder")
     im.add_argument("--fold", required=True)
     im.add_argument("--max-agents", type=int, default=12)
-    im.add_argument("--output", required=True, help="output .npz path")
-    im.add_argument("--json", action="store_true")
+    im.add_argument("--output", help="--local: output .npz path")
+    stage.add_mode_args(im)
     im.set_defaults(func=import_cmd)
 
     co = sub.add_parser("collect", help="roll out episodes and write a prediction dataset")
@@ -44,6 +48,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     co.add_argument("--section", default="collect", help="mapping of --config to read (e.g. hardcase)")
     co.add_argument("--matrix", default=None, help="scenario matrix YAML (default: builtin classic matrix)")
     co.add_argument("--hard-seeds", help="TRAINING seed manifest YAML (hard-case collection)")
+    co.add_argument("--bundle", help="server: config bundle id; --matrix/--hard-seeds are names inside it")
     co.add_argument("--scenarios", help="comma-separated scenario names (base collection)")
     co.add_argument("--seeds-per-scenario", type=int)
     co.add_argument("--base-seed", type=int)
@@ -54,14 +59,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     co.set_defaults(func=collect_cmd)
 
     mx = sub.add_parser("mix", help="base + hard-case dataset, hard-case training rows oversampled")
-    mx.add_argument("--base", required=True)
-    mx.add_argument("--hardcase", required=True)
+    mx.add_argument("--base", required=True, help="dataset id (--local: a .npz file)")
+    mx.add_argument("--hardcase", required=True, help="dataset id (--local: a .npz file)")
     mx.add_argument("--repeat", type=int, default=3)
     _outputs(mx)
     mx.set_defaults(func=mix_cmd)
 
     tr = sub.add_parser("train", help="train the trajectory predictor on a dataset")
-    tr.add_argument("--dataset", help="dataset .npz (overrides the config's)")
+    tr.add_argument("--dataset", help="dataset id (--local: a .npz file); overrides the config's")
     tr.add_argument("--config", help="training config YAML (its 'train' mapping, or the whole file)")
     tr.add_argument("--epochs", type=int)
     tr.add_argument("--threads", type=int)
@@ -70,9 +75,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _outputs(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--out", help="work folder (default: a new temporary folder)")
-    p.add_argument("--local", action="store_true", help="run in-process (the default)")
-    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.add_argument("--out", help="--local: work folder (default: a new temporary folder)")
+    stage.add_mode_args(p)
 
 
 def _ctx(args: argparse.Namespace, bundles: dict[str, Path] | None = None):
@@ -97,33 +101,70 @@ def _train_values(path: str | None) -> dict:
 
 
 def predict_eval_cmd(args: argparse.Namespace) -> int:
-    from core.predict.evaluation import PredictEvalConfig, run_predict_eval
+    from core.predict.evaluation import PredictEvalConfig, PredictEvalResult
 
     train = None
     if args.train:
         train = {k: v for k, v in _train_values(args.config).items() if k != "dataset"}
-    config = build_config(PredictEvalConfig, {
-        "model": args.model, "train": train, "ethucy": args.ethucy, "dataset": args.dataset,
-        "folds": [args.fold] if args.fold else None, "split": args.split})
-    result = run_predict_eval(config, _ctx(args))
+    values = {"model": args.model, "train": train, "ethucy": args.ethucy, "dataset": args.dataset,
+              "folds": [args.fold] if args.fold else None, "split": args.split}
+    if not args.local:
+        stage.local_only(args, out="--out")
+        if args.ethucy is not None:
+            raise ConfigError("--ethucy names a local folder; on the server import the fold first "
+                              "(`foresight dataset import-ethucy --root NAME --fold FOLD`) and pass --dataset ID, "
+                              "or run in-process with --local", source="command line", item="--ethucy")
+        values.update(model=stage.model_id(args.model, "--model"), dataset=stage.dataset_id(args.dataset, "--dataset"))
+        return stage.submit(args, stage.spec("predict_eval", values), text=_score_table, result_model=PredictEvalResult)
+    from core.predict.evaluation import run_predict_eval
+
+    result = run_predict_eval(stage.config_of(stage.spec("predict_eval", values), PredictEvalConfig), _ctx(args))
     if args.json:
         emit({"folds": {k: v.model_dump() for k, v in result.folds.items()}, "average": result.average.model_dump(),
               "cv_average": result.cv_average.model_dump()}, True, str)
         return 0
+    print(_score_table(result, None))
+    return 0
+
+
+def _score_table(result, where: str | None) -> str:  # noqa: ANN001
     lines = [f"{'fold':<10}{'samples':>9}{'ADE':>8}{'FDE':>8}{'CV ADE':>9}{'CV FDE':>9}"]
     for name, f in result.folds.items():
         lines.append(f"{name:<10}{f.samples:>9}{f.ade:>8.3f}{f.fde:>8.3f}{f.cv_ade:>9.3f}{f.cv_fde:>9.3f}")
     a, c = result.average, result.cv_average
     lines.append(f"{'average':<10}{'':>9}{a.ade:>8.3f}{a.fde:>8.3f}{c.ade:>9.3f}{c.fde:>9.3f}")
-    print("\n".join(lines))
-    return 0
+    return "\n".join(lines + ([where] if where else []))
 
 
 def import_cmd(args: argparse.Namespace) -> int:
+    if not args.local:
+        from core.predict.ethucy import ImportDatasetConfig
+
+        stage.local_only(args, output="--output")
+        if args.ethucy is not None:
+            raise ConfigError("--ethucy names a local folder; the server reads named data roots: pass --root NAME "
+                              "(GET /v1/data-roots), or run in-process with --local", source="command line",
+                              item="--ethucy")  # fmt: skip
+        # validated against the core config here; the server checks the root name against its own roots
+        config = build_config(ImportDatasetConfig, {"root": args.root, "fold": args.fold, "max_agents": args.max_agents})
+        return stage.submit(args, config, kind="import_dataset", text=lambda r, ref: (
+            f"dataset {ref.id} (fold {r['fold']} of data root {r['root']}): {r['summary']['samples']} samples "
+            f"{r['summary']['samples_per_split']}\n{ref}"))
     from core.predict.ethucy import ImportEthucyConfig, run_import_ethucy
 
+    if args.output is None:
+        raise ConfigError("--local imports need --output FILE.npz", source="command line", item="--output")
+    if (args.ethucy is None) == (args.root is None):
+        raise ConfigError("give --ethucy FOLDER (or --root NAME of FORESIGHT_DATA_ROOTS)", source="command line",
+                          item="--ethucy")
+    if args.ethucy is None:
+        from api.settings import Settings
+
+        folder = Settings().data_root(args.root)
+    else:
+        folder = Path(args.ethucy).resolve()
     out = Path(args.output).resolve()
-    config = build_config(ImportEthucyConfig, {"root": str(Path(args.ethucy).resolve()), "fold": args.fold,
+    config = build_config(ImportEthucyConfig, {"root": str(folder), "fold": args.fold,
                                                "max_agents": args.max_agents, "output": out.name})
     record = run_import_ethucy(config, local_context(out.parent, {}, quiet=True))
     emit(record["summary"], args.json, lambda s: f"{args.output}: {s['samples']} samples {s['samples_per_split']}")
@@ -131,12 +172,24 @@ def import_cmd(args: argparse.Namespace) -> int:
 
 
 def collect_cmd(args: argparse.Namespace) -> int:
-    from core.predict.collect import CollectConfig, run_collect
+    from core.predict.collect import CollectConfig, CollectResult
 
     flags = {"scenarios": args.scenarios.split(",") if args.scenarios else None,
              "seeds_per_scenario": args.seeds_per_scenario, "base_seed": args.base_seed, "policy": args.policy,
              "max_steps": args.max_steps, "max_agents": args.max_agents}
     values = {**_section(args.config, args.section), **{k: v for k, v in flags.items() if v is not None}}
+    if not args.local:
+        stage.local_only(args, out="--out")
+        if args.matrix or args.hard_seeds or args.bundle:
+            bundle, names = stage.bundle_names(args.bundle, {"--matrix": args.matrix, "--hard-seeds": args.hard_seeds})
+            values.update(bundle=bundle, matrix=names["--matrix"], hard_seeds=names["--hard-seeds"])
+        return stage.submit(args, stage.spec("collect", values), result_model=CollectResult, text=lambda r, ref: (
+            f"dataset {ref.id}: {r.summary['samples']} samples, outcomes {r.outcomes}\n{ref}"))
+    if args.bundle:
+        raise ConfigError("--bundle names a server bundle; --local runs take --matrix/--hard-seeds files",
+                          source="command line", item="--bundle")
+    from core.predict.collect import run_collect
+
     if args.matrix or args.hard_seeds:  # local files; a --config's paths are relative to the builtin configs/
         from cli.evaluate import bundle_of
 
@@ -144,7 +197,7 @@ def collect_cmd(args: argparse.Namespace) -> int:
         values.update(bundle=bundle, matrix=rel[0], hard_seeds=rel[1])
     else:
         bundles = matrix_ref(str(_builtin_matrix()))[2]
-    result = run_collect(build_config(CollectConfig, values), _ctx(args, bundles))
+    result = run_collect(stage.config_of(stage.spec("collect", values), CollectConfig), _ctx(args, bundles))
     emit(result, args.json, lambda r: f"{Path(args.out or '.') / r.dataset}: {r.summary['samples']} samples, "
          f"outcomes {r.outcomes}")
     return 0
@@ -157,23 +210,44 @@ def _builtin_matrix() -> Path:
 
 
 def mix_cmd(args: argparse.Namespace) -> int:
-    from core.predict.collect import MixConfig, run_mix
+    from core.predict.collect import CollectResult, MixConfig
 
-    config = build_config(MixConfig, {"base": args.base, "hardcase": args.hardcase, "hardcase_repeat": args.repeat})
-    result = run_mix(config, _ctx(args))
+    values = {"base": args.base, "hardcase": args.hardcase, "hardcase_repeat": args.repeat}
+    if not args.local:
+        stage.local_only(args, out="--out")
+        values.update(base=stage.dataset_id(args.base, "--base"), hardcase=stage.dataset_id(args.hardcase, "--hardcase"))
+        return stage.submit(args, stage.spec("mix", values), result_model=CollectResult, text=lambda r, ref: (
+            f"dataset {ref.id}: {r.summary['samples']} samples\n{ref}"))
+    from core.predict.collect import run_mix
+
+    result = run_mix(stage.config_of(stage.spec("mix", values), MixConfig), _ctx(args))
     emit(result, args.json, lambda r: f"{r.dataset}: {r.summary['samples']} samples")
     return 0
 
 
 def train_cmd(args: argparse.Namespace) -> int:
-    from core.predict.nn.train import run_train
-    from core.predict.train_config import TrainConfig
+    from core.predict.train_config import TrainConfig, TrainResult
 
     overrides = {"dataset": args.dataset, "epochs": args.epochs, "threads": args.threads}
     values = {**_train_values(args.config), **{k: v for k, v in overrides.items() if v is not None}}
     if values.get("dataset") is None:
         raise ConfigError("no dataset: give --dataset or a config with train.dataset", source=args.config)
-    result = run_train(build_config(TrainConfig, values), _ctx(args))
-    emit(result, args.json, lambda r: f"{r.checkpoint}: epoch {r.best_epoch} val ADE {r.val_ade:.3f} FDE "
-         f"{r.val_fde:.3f} (CV {r.cv_val_ade:.3f}/{r.cv_val_fde:.3f}), gates {'passed' if r.gates_passed else 'FAILED'}")
-    return 0 if result.gates_passed else 2
+
+    def text(r: TrainResult, where: str) -> str:
+        return (f"{r.checkpoint}: epoch {r.best_epoch} val ADE {r.val_ade:.3f} FDE {r.val_fde:.3f} "
+                f"(CV {r.cv_val_ade:.3f}/{r.cv_val_fde:.3f}), gates {'passed' if r.gates_passed else 'FAILED'}{where}")
+
+    def exit_code(r: TrainResult) -> int:
+        return 0 if r.gates_passed else 2
+
+    if not args.local:
+        stage.local_only(args, out="--out")
+        values["dataset"] = stage.dataset_id(str(values["dataset"]), "--dataset")
+        return stage.submit(args, stage.spec("train", values), result_model=TrainResult, exit_code=exit_code,
+                            text=lambda r, ref: text(r, f"\n{ref}\nregister it: foresight models register MODEL_ID "
+                                                        f"--job {ref.id} --artifact {r.checkpoint}"))  # fmt: skip
+    from core.predict.nn.train import run_train
+
+    result = run_train(stage.config_of(stage.spec("train", values), TrainConfig), _ctx(args))
+    emit(result, args.json, lambda r: text(r, ""))
+    return exit_code(result)

@@ -7,7 +7,9 @@ import json
 import shutil
 from pathlib import Path
 
+from cli import stage
 from cli.common import build_config, emit, local_context, matrix_ref
+from core.errors import ConfigError
 from core.stages.simulate import SimulateConfig, SimulateResult, run_simulate
 
 
@@ -20,12 +22,13 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     sim = sub.add_parser("sim", help="run the simulator").add_subparsers(dest="action", required=True)
     run = sim.add_parser("run", help="one episode with the goal-seeking robot")
-    run.add_argument("--matrix", required=True)
+    run.add_argument("--matrix", required=True, help="scenario matrix YAML (server: a name in --bundle, or a file "
+                                                     "in the project's configs/)")
+    run.add_argument("--bundle", help="server: config bundle id; --matrix is a name inside it")
     run.add_argument("--scenario", required=True)
     run.add_argument("--seed", type=int, required=True)
-    run.add_argument("--render", help="write a PNG/SVG of the episode here")
-    run.add_argument("--local", action="store_true", help="run in-process (the default until a server is used)")
-    run.add_argument("--json", action="store_true")
+    run.add_argument("--render", help="write a PNG/SVG of the episode here (server: downloaded from the job)")
+    stage.add_mode_args(run)
     run.set_defaults(func=sim_run)
 
     demo = sim.add_parser("demo", help="simulator demo: a few classic episodes, rendered and summarised")
@@ -66,11 +69,17 @@ def _table(rows: list[dict]) -> str:
 
 
 def sim_run(args: argparse.Namespace) -> int:
+    values = {"scenarios": [args.scenario], "seeds": [args.seed], "render": bool(args.render)}
+    if not args.local:
+        bundle, names = stage.bundle_names(args.bundle, {"--matrix": args.matrix})
+        spec = stage.spec("simulate", {**values, "bundle": bundle, "matrix": names["--matrix"]})
+        return stage.submit(args, spec, result_model=SimulateResult, after=_download_render(args.render),
+                            text=lambda r, ref: f"{_episode_line(r.episodes[0])}\n{ref}")
+    if args.bundle:
+        raise ConfigError("--bundle names a server bundle; --local runs take a --matrix file", source="command line",
+                          item="--bundle")
     bundle, rel, roots = matrix_ref(args.matrix)
-    config = build_config(
-        SimulateConfig,
-        {"bundle": bundle, "matrix": rel, "scenarios": [args.scenario], "seeds": [args.seed], "render": bool(args.render)},
-    )
+    config = stage.config_of(stage.spec("simulate", {**values, "bundle": bundle, "matrix": rel}), SimulateConfig)
     ctx = local_context(None, roots, quiet=True)
     result = run_simulate(config, ctx)
     episode = result.episodes[0]
@@ -79,6 +88,23 @@ def sim_run(args: argparse.Namespace) -> int:
         episode = episode.model_copy(update={"render": str(Path(args.render).resolve())})
     emit(episode, args.json, _episode_line)
     return 0
+
+
+def _download_render(target: str | None):  # noqa: ANN202
+    """After a server run: fetch the episode's render artifact to ``target`` (the result then names the file)."""
+
+    def after(result: SimulateResult, ref: stage.JobRef, client: stage.Client) -> SimulateResult:
+        episode = result.episodes[0]
+        if not target or not episode.render:
+            return result
+        response = client.http.get(f"/v1/jobs/{ref.id}/artifacts/{episode.render}")
+        if response.status_code >= 400:
+            raise ConfigError(f"cannot download render {episode.render!r} of job {ref.id}: HTTP {response.status_code}")
+        Path(target).write_bytes(response.content)
+        rendered = episode.model_copy(update={"render": str(Path(target).resolve())})
+        return result.model_copy(update={"episodes": [rendered, *result.episodes[1:]]})
+
+    return after
 
 
 def _episode_line(e) -> str:

@@ -38,13 +38,13 @@ def test_sim_run_json_and_render(reference_matrix_path: Path, tmp_path: Path, ca
     assert first["outcome"] in {"success", "collision_pedestrian", "collision_static", "timeout"}
     assert 0 < first["steps"] <= 500 and first["pedestrians"] == 3
     assert png.stat().st_size > 10_000
-    assert main([*args, "--json"]) == 0
+    assert main([*args, "--json", "--local"]) == 0
     again = _json(capsys)
     assert (again["outcome"], again["steps"], again["min_distance"]) == (first["outcome"], first["steps"], first["min_distance"])
 
 
 def test_sim_run_unknown_scenario_is_one_line_error(reference_matrix_path: Path, capsys) -> None:
-    rc = main(["sim", "run", "--matrix", str(reference_matrix_path), "--scenario", "nope", "--seed", "1"])
+    rc = main(["sim", "run", "--matrix", str(reference_matrix_path), "--scenario", "nope", "--seed", "1", "--local"])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 1 and len(err) == 1 and "nope" in err[0]
 

@@ -15,7 +15,7 @@ MATRIX = str(BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml")
 
 def test_evaluate_json_and_gate_exit_code(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     argv = ["evaluate", "--matrix", MATRIX, "--planner", "goal", "--scenarios", "crossing_low",
-            "--seeds-per-scenario", "1", "--max-steps", "20", "--json", "--out", str(tmp_path)]
+            "--seeds-per-scenario", "1", "--max-steps", "20", "--json", "--out", str(tmp_path), "--local"]
     rc = main([*argv, "--min-success", "1.0"])  # 20 steps cannot reach the goal: the gate fails
     data = json.loads(capsys.readouterr().out)
     assert rc == 2 and data["exit_code"] == 2 and data["status"] == "failed_gate"
@@ -26,6 +26,6 @@ def test_evaluate_json_and_gate_exit_code(tmp_path: Path, capsys: pytest.Capture
 
 def test_bad_input_is_one_error_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     rc = main(["evaluate", "--matrix", MATRIX, "--planner", "predictive", "--model", "no-such-model",
-               "--scenarios", "crossing_low", "--out", str(tmp_path)])
+               "--scenarios", "crossing_low", "--out", str(tmp_path), "--local"])
     err = capsys.readouterr().err
     assert rc == 1 and err.startswith("foresight: error:") and "no-such-model" in err

@@ -7,7 +7,7 @@ from cli.main import main
 
 def test_predict_eval_cv_on_one_fold(shared_dir, capsys):
     rc = main(["predict-eval", "--model", "cv", "--ethucy", str(shared_dir / "reference" / "ethucy"),
-               "--fold", "zara1", "--json"])
+               "--fold", "zara1", "--json", "--local"])
     out = json.loads(capsys.readouterr().out)
     assert rc == 0 and set(out) >= {"folds", "average"}
     assert out["folds"]["zara1"]["ade"] == pytest.approx(0.43, abs=0.01)
@@ -17,17 +17,17 @@ def test_predict_eval_cv_on_one_fold(shared_dir, capsys):
 def test_train_then_eval_on_dataset(tmp_path, curving_dataset, capsys):
     (tmp_path / "t.yaml").write_text("train:\n  epochs: 2\n  hidden: 8\n  blocks: 1\n  batch_size: 64\n")
     rc = main(["train", "--dataset", str(curving_dataset), "--config", str(tmp_path / "t.yaml"),
-               "--out", str(tmp_path / "run"), "--json"])
+               "--out", str(tmp_path / "run"), "--json", "--local"])
     res = json.loads(capsys.readouterr().out)
     assert rc in (0, 2) and res["best_epoch"] in (1, 2)
     rc = main(["predict-eval", "--model", res["checkpoint"], "--dataset", str(curving_dataset), "--json",
-               "--out", str(tmp_path / "ev")])
+               "--out", str(tmp_path / "ev"), "--local"])
     out = json.loads(capsys.readouterr().out)
     assert rc == 0 and out["folds"]["arcs"]["split"] == "val"
 
 
 def test_bad_input_is_one_line_error(tmp_path, capsys):
-    rc = main(["predict-eval", "--model", "cv", "--ethucy", str(tmp_path), "--fold", "nowhere"])
+    rc = main(["predict-eval", "--model", "cv", "--ethucy", str(tmp_path), "--fold", "nowhere", "--local"])
     assert rc == 1 and "unknown fold" in capsys.readouterr().err
 
 
@@ -39,7 +39,7 @@ def test_import_ethucy_command(tmp_path, capsys):
         (root / "zara1" / split).mkdir(parents=True)
         (root / "zara1" / split / name).write_text(rows + "\n")
     rc = main(["dataset", "import-ethucy", "--ethucy", str(root), "--fold", "zara1", "--output",
-               str(tmp_path / "z.npz"), "--json"])
+               str(tmp_path / "z.npz"), "--json", "--local"])
     summary = json.loads(capsys.readouterr().out)
     assert rc == 0 and summary["samples_per_split"] == {"train": 6, "val": 6, "test": 6}
 
@@ -48,6 +48,6 @@ def test_eval_all_samples_of_a_held_out_dataset(tmp_path, curving_dataset, capsy
     from core.predict.dataset import load_dataset
 
     rc = main(["predict-eval", "--model", "cv", "--dataset", str(curving_dataset), "--split", "all", "--json",
-               "--out", str(tmp_path)])
+               "--out", str(tmp_path), "--local"])
     out = json.loads(capsys.readouterr().out)
     assert rc == 0 and out["folds"]["arcs"]["samples"] == len(load_dataset(curving_dataset))
