@@ -8,8 +8,11 @@ from typing import Any
 
 from fastapi import FastAPI, Request
 from fastapi.encoders import jsonable_encoder
+from fastapi.exception_handlers import http_exception_handler
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
+from pydantic import BaseModel
+from starlette.exceptions import HTTPException
 
 from api.db import queue
 from api.db.session import NotMigratedError
@@ -17,6 +20,30 @@ from api.store import UnsafePath
 from core.errors import ConfigError, CoreError, NotFoundError
 
 logger = logging.getLogger(__name__)
+
+
+class ErrorBody(BaseModel):
+    """The body of every non-422 error: one readable line."""
+
+    detail: str
+
+
+_WHY = {
+    401: "missing bearer token",
+    403: "invalid bearer token",
+    404: "unknown id",
+    409: "conflict with the resource's state (or a duplicate id)",
+    413: "request body too large",
+}
+
+
+def responses(*codes: int) -> dict[int | str, dict[str, Any]]:
+    """OpenAPI ``responses=`` for a route's error codes (422 is documented by FastAPI for every route with
+    parameters), so that the schema lists every status the route can answer."""
+    return {code: {"model": ErrorBody, "description": _WHY[code]} for code in codes}
+
+
+AUTH = (401, 403)  #: codes of a route behind the bearer token
 
 
 def _json(code: int, detail: object) -> JSONResponse:
@@ -38,6 +65,13 @@ def install(app: FastAPI) -> None:
     @app.exception_handler(RequestValidationError)
     async def _validation(_: Request, exc: RequestValidationError) -> JSONResponse:
         return _json(422, _finite(jsonable_encoder(exc.errors())))
+
+    @app.exception_handler(HTTPException)
+    async def _http(request: Request, exc: HTTPException) -> JSONResponse:
+        if exc.status_code == 400:  # FastAPI could not parse the body (e.g. JSON that is not UTF-8): bad input
+            msg = "the request body could not be parsed (a JSON body must be UTF-8 JSON)"
+            return _json(422, [{"loc": ["body"], "msg": msg, "type": "body_invalid"}])
+        return await http_exception_handler(request, exc)
 
     @app.exception_handler(ConfigError)
     async def _config(_: Request, exc: ConfigError) -> JSONResponse:
@@ -63,7 +97,7 @@ def install(app: FastAPI) -> None:
 
     @app.exception_handler(CoreError)
     async def _core(_: Request, exc: CoreError) -> JSONResponse:
-        return _json(422, str(exc))
+        return _json(422, [{"loc": [], "msg": str(exc), "type": "core_error"}])  # the shape of every 422
 
     @app.exception_handler(Exception)
     async def _internal(request: Request, exc: Exception) -> JSONResponse:

@@ -19,6 +19,30 @@ def _operation_id(route: APIRoute) -> str:
     return route.name
 
 
+def _require_discriminators(doc: dict) -> dict:
+    """Mark each discriminated union's tag (a job spec's ``kind``) required in the schemas it selects: the
+    spec models give ``kind`` a default (handy in Python), yet a request body must name it, and a schema that
+    calls it optional describes bodies the API refuses."""
+    schemas = doc.get("components", {}).get("schemas", {})
+
+    def walk(node: object) -> None:
+        if isinstance(node, dict):
+            disc = node.get("discriminator")
+            if isinstance(disc, dict):
+                for ref in disc.get("mapping", {}).values():
+                    target = schemas.get(ref.rsplit("/", 1)[-1])
+                    if target is not None and disc["propertyName"] not in target.setdefault("required", []):
+                        target["required"].append(disc["propertyName"])
+            for value in node.values():
+                walk(value)
+        elif isinstance(node, list):
+            for value in node:
+                walk(value)
+
+    walk(doc)
+    return doc
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     """The API app for ``settings``; refuses (NotMigratedError) a database that is not at the latest migration."""
     settings = settings or Settings()
@@ -42,11 +66,21 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.token = settings.server_token()
     app.state.revision = revision
     errors.install(app)
-    app.include_router(ops.router)
     # Reads are open unless closed by a setting; when open, the read routes carry no auth dependency at all
     # (dependency resolution is a good part of a status read's cost). Writes always require the token.
     read_auth = [ReadAuth] if settings.read_requires_token else []
+    read_codes = errors.responses(*errors.AUTH) if settings.read_requires_token else {}
+    app.include_router(ops.router)
+    app.include_router(ops.read_router, dependencies=read_auth, responses=read_codes)
     for module in (jobs, models, bundles, results):
-        app.include_router(module.router, prefix="/v1", dependencies=read_auth)
+        app.include_router(module.router, prefix="/v1", dependencies=read_auth, responses=read_codes)
     web.install(app)  # the dashboard: /ui pages over the same store
+    base_openapi = app.openapi
+
+    def openapi() -> dict:
+        built = app.openapi_schema is not None
+        doc = base_openapi()
+        return doc if built else _require_discriminators(doc)
+
+    app.openapi = openapi  # type: ignore[method-assign]
     return app

@@ -10,6 +10,7 @@ from sqlalchemy import select
 from api.db import queue
 from api.db.models import Bundle
 from api.deps import EngineDep, ResolverDep, SessionDep, SettingsDep, WriteAuth
+from api.errors import AUTH, responses
 from api.registry import MAX_BUNDLE_BYTES, save_upload
 from api.schemas import BundlePublic, BundlesPublic, Ident, ScenarioPublic
 from core.errors import ConfigError
@@ -31,7 +32,7 @@ def read_bundles(session: SessionDep) -> BundlesPublic:
     return BundlesPublic(data=[BundlePublic.model_validate(b) for b in rows], count=len(rows))
 
 
-@router.post("", status_code=status.HTTP_201_CREATED, dependencies=[WriteAuth],
+@router.post("", status_code=status.HTTP_201_CREATED, dependencies=[WriteAuth], responses=responses(*AUTH, 409),
              openapi_extra={"requestBody": {"required": True, "content": {
                  "application/zip": {"schema": {"type": "string", "format": "binary"}},
                  "application/x-tar": {"schema": {"type": "string", "format": "binary"}},
@@ -60,13 +61,13 @@ async def create_bundle(
     return BundlePublic.model_validate(row)
 
 
-@router.get("/{bundle_id}")
+@router.get("/{bundle_id}", responses=responses(404))
 def read_bundle(bundle_id: Ident, session: SessionDep) -> BundlePublic:
     """One bundle: its files and scenario matrices."""
     return BundlePublic.model_validate(_get(session, bundle_id))
 
 
-@router.get("/{bundle_id}/scenarios")
+@router.get("/{bundle_id}/scenarios", responses=responses(404))
 def read_bundle_scenarios(bundle_id: Ident, session: SessionDep, resolver: ResolverDep) -> list[ScenarioPublic]:
     """The scenarios of every matrix in the bundle."""
     from core.scenarios.loader import load_matrix

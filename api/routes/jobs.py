@@ -19,6 +19,7 @@ from api.db import queue
 from api.db.models import Dataset, JobStatus, Model
 from api.db.session import is_sqlite
 from api.deps import EngineDep, SettingsDep, WriteAuth
+from api.errors import AUTH, responses
 from api.schemas import Ident, JobCreate, JobPublic, JobsPublic, KindPublic, job_public
 from worker.kinds import KINDS
 
@@ -53,7 +54,8 @@ async def limit_body(content_length: Annotated[int | None, Header(include_in_sch
 
 
 @router.post("", status_code=status.HTTP_201_CREATED, dependencies=[WriteAuth, Depends(limit_body)], response_model=JobPublic,
-             responses={200: {"model": JobPublic, "description": "the job of a known idempotency key"}})  # fmt: skip
+             responses={200: {"model": JobPublic, "description": "the job of a known idempotency key"},
+                        **responses(*AUTH, 404, 409, 413)})  # fmt: skip
 def create_job(body: JobCreate, engine: EngineDep, settings: SettingsDep) -> Response:
     """Queue a job (201); a known idempotency key returns its job (200)."""
     spec = body.spec.model_dump(mode="json")
@@ -118,7 +120,7 @@ def _read_job(engine: Any, job_id: str) -> bytes:
     return job_public(dict(row), artifacts, children).model_dump_json().encode()
 
 
-@router.get("/{job_id}", response_model=JobPublic)
+@router.get("/{job_id}", response_model=JobPublic, responses=responses(404))
 async def read_job(job_id: Ident, request: Request) -> Response:
     """One job: status, progress, timestamps, error, result summary, artifacts and children."""
     # The most frequent request (clients polling). On SQLite the three indexed lookups take well under a
@@ -163,7 +165,7 @@ async def _sse(engine: Any, job_id: str, after: int) -> AsyncIterator[str]:
 
 
 @router.get("/{job_id}/events", response_class=StreamingResponse,
-            responses={200: {"content": {"text/event-stream": {}}}})  # fmt: skip
+            responses={200: {"content": {"text/event-stream": {}}}, **responses(404)})  # fmt: skip
 def read_job_events(
     job_id: Ident, engine: EngineDep,
     last_event_id: Annotated[int | None, Header(ge=0)] = None,
@@ -176,21 +178,22 @@ def read_job_events(
                              headers={"Cache-Control": "no-cache"})  # fmt: skip
 
 
-@router.post("/{job_id}/cancel", dependencies=[WriteAuth])
+@router.post("/{job_id}/cancel", dependencies=[WriteAuth], responses=responses(*AUTH, 404, 409))
 def cancel_job(job_id: Ident, engine: EngineDep) -> JobPublic:
     """Cancel a queued job, or ask a running job's worker to stop it (409 when already finished)."""
     queue.request_cancel(engine, job_id)
     return job_public(queue.get_job(engine, job_id))
 
 
-@router.post("/{job_id}/retry", dependencies=[WriteAuth])
+@router.post("/{job_id}/retry", dependencies=[WriteAuth], responses=responses(*AUTH, 404, 409))
 def retry_job(job_id: Ident, engine: EngineDep) -> JobPublic:
     """Queue a failed or cancelled job again (409 otherwise)."""
     queue.retry(engine, job_id)
     return job_public(queue.get_job(engine, job_id))
 
 
-@router.delete("/{job_id}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[WriteAuth])
+@router.delete("/{job_id}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[WriteAuth],
+                responses=responses(*AUTH, 404, 409))
 def delete_job(job_id: Ident, engine: EngineDep, settings: SettingsDep) -> Response:
     """Delete a finished job and its artifacts, keeping files that a model or dataset record uses."""
     with engine.connect() as conn:
@@ -210,7 +213,7 @@ def delete_job(job_id: Ident, engine: EngineDep, settings: SettingsDep) -> Respo
 
 
 @router.get("/{job_id}/artifacts/{name:path}", response_class=FileResponse,
-            responses={200: {"content": {"application/octet-stream": {}}}})  # fmt: skip
+            responses={200: {"content": {"application/octet-stream": {}}}, **responses(404)})  # fmt: skip
 def read_job_artifact(job_id: Ident, name: str, engine: EngineDep, settings: SettingsDep, request: Request) -> FileResponse:
     """Download one artifact of a job."""
     clean = store.check_relative(name)  # 422 for absolute names and '..'

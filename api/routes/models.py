@@ -14,6 +14,7 @@ from api import store
 from api.db import queue
 from api.db.models import Artifact, Model, ModelStatus
 from api.deps import EngineDep, SessionDep, WriteAuth, WriteSessionDep
+from api.errors import AUTH, responses
 from api.registry import export_models, models_using
 from api.schemas import Ident, ModelCreate, ModelPromote, ModelPublic, ModelsPublic
 
@@ -41,14 +42,19 @@ def read_models(
     return ModelsPublic(data=[ModelPublic.model_validate(m) for m in rows], count=len(rows))
 
 
-@router.get("/export", response_class=PlainTextResponse)
-def export_registry(session: SessionDep) -> PlainTextResponse:
+class YamlResponse(PlainTextResponse):
+    media_type = "application/yaml"
+
+
+@router.get("/export", response_class=YamlResponse, responses={200: {"content": {"application/yaml": {"schema": {
+    "type": "object", "required": ["models"], "properties": {"models": {"type": "array", "items": {"type": "object"}}}}}}}})
+def export_registry(session: SessionDep) -> YamlResponse:
     """Models registered at run time, in the schema of ``model/registry.yaml``."""
     rows = list(session.scalars(select(Model).where(Model.read_only.is_(False)).order_by(Model.created_at)))
-    return PlainTextResponse(export_models(rows), media_type="application/yaml")
+    return YamlResponse(export_models(rows))
 
 
-@router.post("", status_code=status.HTTP_201_CREATED, dependencies=[WriteAuth])
+@router.post("", status_code=status.HTTP_201_CREATED, dependencies=[WriteAuth], responses=responses(*AUTH, 404, 409))
 def create_model(body: ModelCreate, session: WriteSessionDep, engine: EngineDep) -> ModelPublic:
     """Register a checkpoint artifact of a succeeded job (409 for a duplicate id)."""
     if session.get(Model, body.id) is not None:
@@ -75,13 +81,13 @@ def create_model(body: ModelCreate, session: WriteSessionDep, engine: EngineDep)
     return ModelPublic.model_validate(row)
 
 
-@router.get("/{model_id}")
+@router.get("/{model_id}", responses=responses(404))
 def read_model(model_id: Ident, session: SessionDep) -> ModelPublic:
     """One registry entry."""
     return ModelPublic.model_validate(_get(session, model_id))
 
 
-@router.post("/{model_id}/promote", dependencies=[WriteAuth])
+@router.post("/{model_id}/promote", dependencies=[WriteAuth], responses=responses(*AUTH, 404, 409))
 def promote_model(model_id: Ident, session: WriteSessionDep, body: ModelPromote | None = None) -> ModelPublic:
     """Promote a model; promoting to ``default`` demotes the previous default to ``promoted``."""
     target = (body or ModelPromote()).to
@@ -98,7 +104,8 @@ def promote_model(model_id: Ident, session: WriteSessionDep, body: ModelPromote 
     return ModelPublic.model_validate(row)
 
 
-@router.delete("/{model_id}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[WriteAuth])
+@router.delete("/{model_id}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[WriteAuth],
+                responses=responses(*AUTH, 404, 409))
 def delete_model(model_id: Ident, session: WriteSessionDep, engine: EngineDep) -> Response:
     """Delete a registered model (409 for shipped or default models and models that records use)."""
     row = _get(session, model_id)

@@ -9,11 +9,13 @@ from fastapi.responses import PlainTextResponse
 from sqlalchemy import select, text
 
 from api.db import queue
-from api.deps import EngineDep, ReadAuth, SettingsDep
+from api.deps import EngineDep, SettingsDep
 from api.schemas import Health, WorkerPublic, WorkersPublic, iso
 from worker.kinds import KINDS
 
-router = APIRouter(tags=["operations"])
+router = APIRouter(tags=["operations"])  #: always open (liveness probes carry no token)
+#: reads: the app adds the read-auth dependency when reads are closed, so the schema's security matches
+read_router = APIRouter(tags=["operations"])
 
 
 def _alive_cutoff(settings) -> float:  # noqa: ANN001
@@ -29,7 +31,7 @@ def read_health(request: Request, engine: EngineDep) -> Health:
     return Health(status="ok", database=engine.dialect.name, revision=request.app.state.revision, kinds=sorted(KINDS))
 
 
-@router.get("/v1/workers", dependencies=[ReadAuth])
+@read_router.get("/v1/workers")
 def read_workers(engine: EngineDep, settings: SettingsDep) -> WorkersPublic:
     """Alive workers with their current jobs, and the queue depth per kind."""
     w, j = queue.workers, queue.jobs
@@ -49,7 +51,7 @@ def read_workers(engine: EngineDep, settings: SettingsDep) -> WorkersPublic:
     return WorkersPublic(data=data, count=len(data), queue=queue.depth(engine))
 
 
-@router.get("/metrics", response_class=PlainTextResponse, dependencies=[ReadAuth])
+@read_router.get("/metrics", response_class=PlainTextResponse)
 def read_metrics(engine: EngineDep, settings: SettingsDep) -> PlainTextResponse:
     """Prometheus text format: jobs per kind and status, alive workers, oldest queued job age."""
     lines = [

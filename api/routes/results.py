@@ -10,6 +10,7 @@ from sqlalchemy import select
 from api.db import queue
 from api.db.models import Campaign, CampaignCell, Dataset, Evaluation, FailureTaxonomy, GateResult
 from api.deps import SessionDep, SettingsDep
+from api.errors import responses
 from api.schemas import CampaignPublic, DatasetPublic, EvaluationPublic, Ident
 
 router = APIRouter(tags=["results"])
@@ -28,7 +29,7 @@ def read_datasets(session: SessionDep) -> list[DatasetPublic]:
     return [DatasetPublic.model_validate(d) for d in session.scalars(select(Dataset).order_by(Dataset.created_at))]
 
 
-@router.get("/datasets/{dataset_id}")
+@router.get("/datasets/{dataset_id}", responses=responses(404))
 def read_dataset(dataset_id: Ident, session: SessionDep) -> DatasetPublic:
     """A dataset's summary."""
     return DatasetPublic.model_validate(_get(session, Dataset, dataset_id, "dataset"))
@@ -52,13 +53,13 @@ def _evaluation(session: SessionDep, evaluation_id: str) -> EvaluationPublic:
     return out
 
 
-@router.get("/evaluations/{evaluation_id}")
+@router.get("/evaluations/{evaluation_id}", responses=responses(404))
 def read_evaluation(evaluation_id: Ident, session: SessionDep) -> EvaluationPublic:
     """Metrics, the per-scenario table and the failure taxonomy of an evaluation."""
     return _evaluation(session, evaluation_id)
 
 
-@router.get("/campaigns/{campaign_id}")
+@router.get("/campaigns/{campaign_id}", responses=responses(404))
 def read_campaign(campaign_id: Ident, session: SessionDep) -> CampaignPublic:
     """A campaign's ranked cells, best cell and gate results."""
     row = _get(session, Campaign, campaign_id, "campaign")
@@ -99,7 +100,7 @@ def metric_deltas(a: dict[str, Any], b: dict[str, Any]) -> dict[str, dict[str, A
     return out
 
 
-@router.get("/compare")
+@router.get("/compare", responses=responses(404))
 def compare_evaluations(session: SessionDep, a: Annotated[Ident, Query()], b: Annotated[Ident, Query()]) -> dict[str, Any]:
     """Two evaluations side by side: resolved-config diff key by key and metric deltas (b − a)."""
     ea, eb = _evaluation(session, a), _evaluation(session, b)

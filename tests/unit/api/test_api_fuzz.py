@@ -1,6 +1,6 @@
-"""Schema-driven fuzzing of every operation in the OpenAPI document (schemathesis is not installed here, so
-this is a small generator of our own): no input may produce a 5xx or a non-JSON error, and refused writes
-store nothing."""
+"""Our own fuzzing of every operation in the OpenAPI document, beside schemathesis (test_api_schemathesis.py):
+it mixes hostile strings (server paths, '..', SQL, huge values) into otherwise schema-shaped requests, and it
+checks what schemathesis does not: refused submissions store nothing, and every error body is JSON."""
 
 from __future__ import annotations
 
