@@ -187,12 +187,19 @@ class ChildRunner:
             rows = {cid: queue.get_job(self.engine, cid) for cid in child_ids}
             if all(r["status"] == queue.SUCCEEDED for r in rows.values()):
                 return rows, touched
+            if self.ctx.is_cancelled():
+                if self.parent_stop() == "cancel":
+                    for cid, job in rows.items():
+                        if job["status"] in (queue.QUEUED, queue.RUNNING):
+                            with contextlib.suppress(queue.Conflict):  # queued: cancelled; running: asked to stop
+                                queue.request_cancel(self.engine, cid)
+                raise Cancelled(f"{self.role} stopped during {label}")
             retried = False
             for cid, job in rows.items():
                 status = job["status"]
                 if status not in (queue.FAILED, queue.CANCELLED):
                     continue
-                if cid in touched or (status == queue.CANCELLED and self.ctx.is_cancelled()):
+                if cid in touched:
                     if status == queue.CANCELLED:
                         raise Cancelled(f"{label} ({job['kind']} job {cid}) was cancelled")
                     raise CoreError(f"{job['kind']} job {cid} failed: {job.get('error_type')}: {job.get('error_message')}")
@@ -202,13 +209,6 @@ class ChildRunner:
                 retried = True
             if retried:
                 continue
-            if self.ctx.is_cancelled():
-                if self.parent_stop() == "cancel":
-                    for cid, job in rows.items():
-                        if job["status"] in (queue.QUEUED, queue.RUNNING):
-                            with contextlib.suppress(queue.Conflict):  # queued: cancelled; running: asked to stop
-                                queue.request_cancel(self.engine, cid)
-                self.ctx.check_cancelled()
             claimed = None
             for cid, job in rows.items():
                 if job["status"] == queue.QUEUED:
@@ -219,9 +219,7 @@ class ChildRunner:
                 self.ctx.log(f"{label}: running {claimed['kind']} job {claimed['id']}")
                 self.worker._run(claimed)
                 touched.add(claimed["id"])
-                if self.ctx.is_cancelled():
-                    raise Cancelled(f"{self.role} stopped during {label}")
-                continue
+                continue  # a parent cancelled meanwhile cancels the other children at the top of the loop
             if on_wait is not None:
                 on_wait(rows)
             time.sleep(POLL_S)  # running elsewhere: other workers took them first

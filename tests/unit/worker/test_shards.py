@@ -1,0 +1,129 @@
+"""Sharded evaluate/campaign jobs on a real SQLite file with real worker threads: one one-slot worker runs a
+sharded run alone (no deadlock) with the unsharded result; retry reuses succeeded shards; cancel cancels them."""
+
+from __future__ import annotations
+
+import json
+import time
+from typing import Any
+
+import pytest
+from sqlalchemy import select
+
+from api import store
+from api.db import queue
+from api.db.models import Campaign, CampaignCell, Evaluation
+from api.registry import sync_bundles
+
+#: wall-clock values: planner timing, run time, the code version (the git head moves while tests run)
+NOISE = {"wall_s", "code_version", "fingerprint", "plan_ms_mean", "plan_ms_p95", "shards"}
+
+EVALUATE = {"kind": "evaluate", "scenarios": ["crossing_low", "head_on_corridor_high"], "seeds_per_scenario": 3,
+            "max_steps": 30, "planner": {"name": "goal"}}
+CAMPAIGN = {"kind": "campaign", "seed_manifest": "seeds/classic_eval_hard_smoke.yaml", "scenarios": ["crossing_medium"],
+            "seeds_per_scenario": 1, "max_steps": 10, "checkpoints": ["cv"], "gate": {"baseline_variant": "base"},
+            "variants": [{"name": "base", "config": {}}, {"name": "slow", "config": {"max_speed_ratio": 0.5}}]}
+
+
+@pytest.fixture(autouse=True)
+def _builtin_bundle(settings, engine) -> None:  # noqa: ANN001 - as the server registers it at start-up
+    sync_bundles(engine, settings)
+
+
+def _strip(data: Any) -> Any:
+    if isinstance(data, dict):
+        return {k: _strip(v) for k, v in data.items() if k not in NOISE}
+    if isinstance(data, list):
+        return [_strip(v) for v in data]
+    return data
+
+
+def _wait(engine, job_id: str, statuses: set[str], timeout: float = 60.0) -> dict:  # noqa: ANN001
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        job = queue.get_job(engine, job_id)
+        if job["status"] in statuses:
+            return job
+        time.sleep(0.05)
+    raise AssertionError(f"job {job_id} still {job['status']}: {job['message']}")
+
+
+def _submit(engine, spec: dict) -> str:  # noqa: ANN001
+    return queue.submit(engine, kind=spec["kind"], spec=spec)[0]["id"]
+
+
+def _children(engine, parent_id: str) -> list[dict]:  # noqa: ANN001
+    with engine.connect() as conn:
+        rows = conn.execute(select(queue.jobs).where(queue.jobs.c.parent_id == parent_id)).mappings()
+        return sorted((dict(r) for r in rows), key=lambda r: r["idempotency_key"])
+
+
+def test_one_worker_runs_a_sharded_evaluation_alone_with_the_unsharded_result(settings, engine, start_worker) -> None:  # noqa: ANN001
+    start_worker(concurrency=1)
+    whole = _wait(engine, _submit(engine, EVALUATE), {"succeeded", "failed"})
+    parent_id = _submit(engine, {**EVALUATE, "shards": 4})
+    parent = _wait(engine, parent_id, {"succeeded", "failed"})
+    assert parent["status"] == "succeeded", parent["error_message"]
+    assert parent["progress"] == 1.0
+    assert _strip(parent["result"]) == _strip(whole["result"])
+    assert parent["result"]["config"]["shards"] == 4 and parent["result"]["episodes"] == 6
+
+    shards = _children(engine, parent_id)
+    assert [s["idempotency_key"] for s in shards] == [f"shard:{parent_id}:{i}/4" for i in range(4)]
+    assert {(s["kind"], s["status"], s["attempts"]) for s in shards} == {("evaluate_shard", "succeeded", 1)}
+    assert all(s["lease_owner"].endswith("/shards") for s in shards)  # run in the parent's own slot
+    assert sorted(i for s in shards for i in s["result"]["items"]) == list(range(6))
+
+    with engine.connect() as conn:  # the evaluation record, as an unsharded job writes it
+        rows = {r.id: r for r in conn.execute(select(Evaluation).where(Evaluation.id.in_([whole["id"], parent_id])))}
+        names = {r.name for r in conn.execute(select(queue.artifacts).where(queue.artifacts.c.job_id == parent_id))}
+    assert _strip(rows[parent_id].metrics) == _strip(rows[whole["id"]].metrics)
+    assert _strip(rows[parent_id].per_scenario) == _strip(rows[whole["id"]].per_scenario)
+    assert {"evaluation.json", "episodes.jsonl", "report.html"} <= names
+    folder = store.resolve_under(settings.store_root, store.job_dir(settings.store_root, parent_id))
+    assert len((folder / "episodes.jsonl").read_text().splitlines()) == 6
+
+
+def test_one_worker_runs_a_sharded_campaign_alone_with_the_unsharded_ranking(engine, start_worker) -> None:  # noqa: ANN001
+    start_worker(concurrency=1)
+    whole = _wait(engine, _submit(engine, CAMPAIGN), {"succeeded", "failed"})
+    assert whole["status"] == "succeeded", whole["error_message"]
+    parent_id = _submit(engine, {**CAMPAIGN, "shards": 3})
+    parent = _wait(engine, parent_id, {"succeeded", "failed"})
+    assert parent["status"] == "succeeded", parent["error_message"]
+    assert _strip(parent["result"]) == _strip(whole["result"])
+    assert [s["kind"] for s in _children(engine, parent_id)] == ["campaign_shard"] * 3
+    with engine.connect() as conn:
+        best = dict(conn.execute(select(Campaign.id, Campaign.best)).all())
+        cells = conn.execute(select(CampaignCell.campaign_id, CampaignCell.rank, CampaignCell.params,
+                                    CampaignCell.metrics)).all()
+    assert _strip(best[parent_id]) == _strip(best[whole["id"]])
+    ranked = {cid: [(rank, params, json.dumps(_strip(m), sort_keys=True)) for c, rank, params, m in cells if c == cid]
+              for cid in (parent_id, whole["id"])}
+    assert ranked[parent_id] == ranked[whole["id"]] and len(ranked[parent_id]) == 2
+
+
+def test_cancelling_the_parent_cancels_its_shards_and_a_retry_reuses_the_finished_ones(engine, start_worker) -> None:  # noqa: ANN001
+    start_worker(concurrency=1)
+    long = {**EVALUATE, "seeds_per_scenario": 6, "max_steps": 400, "shards": 3}
+    parent_id = _submit(engine, long)
+    deadline = time.time() + 60
+    while time.time() < deadline:  # shard 1 done, shard 2 running (the parent runs them one by one)
+        shards = _children(engine, parent_id)
+        if [s["status"] for s in shards][:2] == ["succeeded", "running"]:
+            break
+        time.sleep(0.02)
+    queue.request_cancel(engine, parent_id)
+    assert _wait(engine, parent_id, {"succeeded", "failed", "cancelled"}, timeout=10)["status"] == "cancelled"
+    shards = _children(engine, parent_id)
+    statuses = [s["status"] for s in shards]
+    assert statuses[0] == "succeeded" and statuses[-1] == "cancelled"  # the queued one too, not left to others
+    assert set(statuses) == {"succeeded", "cancelled"}
+
+    queue.retry(engine, parent_id)
+    again = _wait(engine, parent_id, {"succeeded", "failed"})
+    assert again["status"] == "succeeded" and again["result"]["episodes"] == 12
+    after = _children(engine, parent_id)
+    assert [s["status"] for s in after] == ["succeeded"] * 3
+    for before, now in zip(shards, after, strict=True):  # succeeded shards are not run again
+        assert (now["finished_at"] == before["finished_at"]) == (before["status"] == "succeeded")
