@@ -233,8 +233,8 @@ def train_cmd(args: argparse.Namespace) -> int:
     if values.get("dataset") is None:
         raise ConfigError("no dataset: give --dataset or a config with train.dataset", source=args.config)
 
-    def text(r: TrainResult, where: str) -> str:
-        return (f"{r.checkpoint}: epoch {r.best_epoch} val ADE {r.val_ade:.3f} FDE {r.val_fde:.3f} "
+    def text(r: TrainResult, where: str, checkpoint: str | None = None) -> str:
+        return (f"{checkpoint or r.checkpoint}: epoch {r.best_epoch} val ADE {r.val_ade:.3f} FDE {r.val_fde:.3f} "
                 f"(CV {r.cv_val_ade:.3f}/{r.cv_val_fde:.3f}), gates {'passed' if r.gates_passed else 'FAILED'}{where}")
 
     def exit_code(r: TrainResult) -> int:
@@ -245,7 +245,8 @@ def train_cmd(args: argparse.Namespace) -> int:
         values["dataset"] = stage.dataset_id(str(values["dataset"]), "--dataset")
         return stage.submit(args, stage.spec("train", values), result_model=TrainResult, exit_code=exit_code,
                             text=lambda r, ref: text(r, f"\n{ref}\nregister it: foresight models register MODEL_ID "
-                                                        f"--job {ref.id} --artifact {r.checkpoint}"))  # fmt: skip
+                                                        f"--job {ref.id} --artifact {Path(r.checkpoint).name}",
+                                                     Path(r.checkpoint).name))  # fmt: skip
     from core.predict.nn.train import run_train
 
     result = run_train(stage.config_of(stage.spec("train", values), TrainConfig), _ctx(args))
