@@ -8,6 +8,7 @@ from fastapi.routing import APIRoute
 from api import errors, web
 from api.db.session import check_migrated, make_engine, session_factory
 from api.deps import ReadAuth
+from api.http_metrics import HttpMetrics, MetricsMiddleware, route_templates
 from api.registry import Resolver, load_shipped_models, sync_bundles
 from api.routes import bundles, jobs, models, ops, results
 from api.settings import Settings
@@ -65,6 +66,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.resolver = Resolver(settings, engine)
     app.state.token = settings.server_token()
     app.state.revision = revision
+    app.state.http_metrics = HttpMetrics()
+    app.add_middleware(MetricsMiddleware, metrics=app.state.http_metrics)
     errors.install(app)
     # Reads are open unless closed by a setting; when open, the read routes carry no auth dependency at all
     # (dependency resolution is a good part of a status read's cost). Writes always require the token.
@@ -75,6 +78,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     for module in (jobs, models, bundles, results):
         app.include_router(module.router, prefix="/v1", dependencies=read_auth, responses=read_codes)
     web.install(app)  # the dashboard: /ui pages over the same store
+    app.state.http_metrics.templates = route_templates(app)
     base_openapi = app.openapi
 
     def openapi() -> dict:

@@ -52,8 +52,9 @@ def read_workers(engine: EngineDep, settings: SettingsDep) -> WorkersPublic:
 
 
 @read_router.get("/metrics", response_class=PlainTextResponse)
-def read_metrics(engine: EngineDep, settings: SettingsDep) -> PlainTextResponse:
-    """Prometheus text format: jobs per kind and status, alive workers, oldest queued job age."""
+def read_metrics(request: Request, engine: EngineDep, settings: SettingsDep) -> PlainTextResponse:
+    """Prometheus text format: jobs per kind and status, alive workers, oldest queued job age, and this
+    server process's HTTP requests by method, route and status class with their latency histogram."""
     lines = [
         "# HELP foresight_jobs Jobs per kind and status.",
         "# TYPE foresight_jobs gauge",
@@ -74,5 +75,6 @@ def read_metrics(engine: EngineDep, settings: SettingsDep) -> PlainTextResponse:
         "# HELP foresight_queue_oldest_age_seconds Age of the oldest queued job.",
         "# TYPE foresight_queue_oldest_age_seconds gauge",
         f"foresight_queue_oldest_age_seconds {time.time() - oldest if oldest else 0:.3f}",
+        *request.app.state.http_metrics.exposition(),
     ]
     return PlainTextResponse("\n".join(lines) + "\n", media_type="text/plain; version=0.0.4")
