@@ -132,11 +132,14 @@ def cmd_run(args: argparse.Namespace) -> int:
             print(f"report: {workdir / 'report.html'}")
             print(verdict_text(result))
         return int(result["exit_code"])
-    from cli.client import Client
+    from cli.client import Client, ServerUnreachable
 
     client = Client.from_args(args)
-    return submit_and_follow(client, read_pipeline(args.file, args.workers), as_json=args.json,
-                             wait=not args.no_wait, key=args.key)
+    spec = read_pipeline(args.file, args.workers)
+    try:
+        return submit_and_follow(client, spec, as_json=args.json, wait=not args.no_wait, key=args.key)
+    except ServerUnreachable as exc:
+        raise CoreError(f"{exc}; start one with `foresight up`, or run in-process with --local") from None
 
 
 # ------------------------------------------------------------------------------------------ server

@@ -35,6 +35,7 @@ def _one_line_error(capsys: pytest.CaptureFixture[str]) -> str:
     ["evaluate", "--matrix", "scenarios/classic_interactions.yaml", "--planner", "goal", "--scenarios", "crossing_low"],
     ["dataset", "import-ethucy", "--root", "ethucy", "--fold", "zara1"],
     ["sim", "run", "--matrix", "scenarios/classic_interactions.yaml", "--scenario", "crossing_low", "--seed", "1"],
+    ["pipeline", "run", "-f", "configs/pipelines/smoke.yaml"],
 ])  # fmt: skip
 def test_unreachable_server_is_one_line_naming_up_and_local(argv: list[str], nowhere: str, capsys) -> None:  # noqa: ANN001
     assert main([*argv, "--url", nowhere]) == 1
