@@ -73,6 +73,8 @@ def test_one_worker_runs_a_sharded_evaluation_alone_with_the_unsharded_result(se
     assert {(s["kind"], s["status"], s["attempts"]) for s in shards} == {("evaluate_shard", "succeeded", 1)}
     assert all(s["lease_owner"].endswith("/shards") for s in shards)  # run in the parent's own slot
     assert sorted(i for s in shards for i in s["result"]["items"]) == list(range(6))
+    progress = [e["message"] for e in queue.events_after(engine, parent_id, 0) if e["type"] == "progress"]
+    assert any(m.startswith("shards ") and "/4 done" in m for m in progress), progress  # the parent follows its shards
 
     with engine.connect() as conn:  # the evaluation record, as an unsharded job writes it
         rows = {r.id: r for r in conn.execute(select(Evaluation).where(Evaluation.id.in_([whole["id"], parent_id])))}
