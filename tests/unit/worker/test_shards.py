@@ -129,3 +129,27 @@ def test_cancelling_the_parent_cancels_its_shards_and_a_retry_reuses_the_finishe
     assert [s["status"] for s in after] == ["succeeded"] * 3
     for before, now in zip(shards, after, strict=True):  # succeeded shards are not run again
         assert (now["finished_at"] == before["finished_at"]) == (before["status"] == "succeeded")
+
+
+def test_a_pipeline_stage_may_be_sharded(settings, engine) -> None:  # noqa: ANN001
+    """The pipeline's evaluate child with shards: children of a child, all run in the pipeline's one slot."""
+    from api.registry import Resolver
+    from core.pipeline.config import load_pipeline_config
+    from core.stages.context import StageContext
+    from core.stages.refs import BUILTIN_CONFIG_ROOT
+    from worker.pipeline import ChildJobs
+
+    queue.submit(engine, kind="pipeline", spec={"kind": "pipeline"})
+    job = queue.claim(engine, "worker-1", ["pipeline"], 30.0)
+    workdir = store.resolve_under(settings.store_root, store.job_dir(settings.store_root, job["id"]))
+    workdir.mkdir(parents=True)
+    ctx = StageContext(workdir=workdir, resolve_bundle=Resolver(settings, engine).bundle)
+    children = ChildJobs(ctx, load_pipeline_config(BUILTIN_CONFIG_ROOT / "pipelines" / "smoke.yaml"))
+    try:
+        spec = {k: v for k, v in EVALUATE.items() if k != "kind"}
+        run = children("evaluate", "evaluate", {**spec, "shards": 2}, lambda fraction, message: None)
+    finally:
+        children.close()
+    assert run.result["episodes"] == 6
+    shards = _children(engine, run.job_id)
+    assert [(s["status"], s["lease_owner"]) for s in shards] == [("succeeded", "worker-1/pipeline/shards")] * 2
