@@ -85,6 +85,10 @@ class Job(Base):
 
 #: the claim's order (priority first, then oldest): one index walk, no sort, however long the queue
 Index("ix_jobs_claim", Job.status, Job.priority.desc(), Job.created_at, Job.id)
+#: the job list's order (newest first), alone and after each filter: a page is read off an index, not sorted
+Index("ix_jobs_created", Job.created_at.desc(), Job.id)
+Index("ix_jobs_status_created", Job.status, Job.created_at.desc(), Job.id)
+Index("ix_jobs_kind_created", Job.kind, Job.created_at.desc(), Job.id)
 
 
 class JobEvent(Base):

@@ -507,6 +507,35 @@ def delete_job(engine: Engine, job_id: str) -> list[dict[str, Any]]:
     return arts
 
 
+def list_filter(statuses: Sequence[str] = (), kinds: Sequence[str] = (), parent_id: str | None = None) -> list:
+    """The WHERE terms of the job list."""
+    where = []
+    if statuses:
+        where.append(jobs.c.status.in_(list(statuses)))
+    if kinds:
+        where.append(jobs.c.kind.in_(list(kinds)))
+    if parent_id:
+        where.append(jobs.c.parent_id == parent_id)
+    return where
+
+
+def list_page_query(where: list, limit: int, offset: int):  # noqa: ANN201
+    """One page of the job list, newest first (the order of the ``ix_jobs_*created`` indexes)."""
+    return select(jobs).where(*where).order_by(jobs.c.created_at.desc(), jobs.c.id).limit(limit).offset(offset)
+
+
+def list_jobs(
+    engine: Engine, *, statuses: Sequence[str] = (), kinds: Sequence[str] = (), parent_id: str | None = None,
+    limit: int = 50, offset: int = 0,
+) -> tuple[int, list[dict[str, Any]]]:  # fmt: skip
+    """``(total matching, one page of jobs)``, newest first, filtered by status, kind and parent."""
+    where = list_filter(statuses, kinds, parent_id)
+    with engine.connect() as conn:
+        count = conn.execute(select(func.count()).select_from(jobs).where(*where)).scalar_one()
+        rows = [dict(r) for r in conn.execute(list_page_query(where, limit, offset)).mappings()]
+    return count, rows
+
+
 def get_job(engine: Engine, job_id: str) -> dict[str, Any]:
     with engine.connect() as conn:
         return _get(conn, job_id)

@@ -11,7 +11,7 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Depends, Header, HTTPException, Query, Request, Response, status
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, StreamingResponse
-from sqlalchemy import bindparam, func, select
+from sqlalchemy import bindparam, select
 from starlette.concurrency import run_in_threadpool
 
 from api import store
@@ -83,21 +83,9 @@ def read_jobs(
     offset: Annotated[int, Query(ge=0, le=10_000_000)] = 0,
 ) -> JobsPublic:
     """Jobs, newest first, filtered by status, kind and parent."""
-    jobs = queue.jobs
-    where = []
-    if status_:
-        where.append(jobs.c.status.in_([s.value for s in status_]))
-    if kind:
-        where.append(jobs.c.kind.in_(kind))
-    if parent_id:
-        where.append(jobs.c.parent_id == parent_id)
-    with engine.connect() as conn:
-        count = conn.execute(select(func.count()).select_from(jobs).where(*where)).scalar_one()
-        rows = conn.execute(
-            select(jobs).where(*where).order_by(jobs.c.created_at.desc(), jobs.c.id).limit(limit).offset(offset)
-        ).mappings()
-        data = [job_public(dict(r)) for r in rows]
-    return JobsPublic(data=data, count=count, limit=limit, offset=offset)
+    count, rows = queue.list_jobs(engine, statuses=[s.value for s in status_ or ()], kinds=kind or (),
+                                  parent_id=parent_id, limit=limit, offset=offset)  # fmt: skip
+    return JobsPublic(data=[job_public(r) for r in rows], count=count, limit=limit, offset=offset)
 
 
 _JOB_BY_ID = select(queue.jobs).where(queue.jobs.c.id == bindparam("job_id"))
