@@ -1,9 +1,10 @@
-"""A sharded evaluation shared by two worker processes behind a real server: both run shards, and the merged
-evaluation read back over HTTP equals the unsharded one."""
+"""A sharded evaluation shared by two worker processes behind a real server (SQLite file, and PostgreSQL): both
+run shards, and the merged evaluation read back over HTTP equals the unsharded one."""
 
 from __future__ import annotations
 
 import time
+from pathlib import Path
 from typing import Any
 
 from .service import Service
@@ -33,6 +34,18 @@ def _wait(client, job_id: str, timeout: float = 120) -> dict:  # noqa: ANN001
 
 
 def test_two_workers_share_a_sharded_evaluation(service: Service) -> None:
+    _share(service)
+
+
+def test_two_workers_share_a_sharded_evaluation_on_postgres(tmp_path: Path, pg_url: str) -> None:
+    service = Service(tmp_path, database_url=pg_url)
+    try:
+        _share(service)
+    finally:
+        service.stop()
+
+
+def _share(service: Service) -> None:
     service.migrate()
     service.serve()
     workers = [service.worker(), service.worker()]
