@@ -66,7 +66,8 @@ Pair = tuple[str, int]
 
 
 class ShardResult(BaseModel):
-    """A shard's partial result (``shard.json`` and its job's result summary); the records are in ``records``."""
+    """A shard's partial result (``shard.json`` and its job's result summary); its records are in ``records``
+    (always ``shard_episodes.jsonl`` next to it)."""
 
     format: str = SHARD_FORMAT
     stage: Literal["evaluate", "campaign"]
@@ -163,7 +164,7 @@ def read_shard(folder: str | Path) -> tuple[ShardResult, list[EpisodeRecord]]:
     """A finished shard's result and records from its folder."""
     folder = Path(folder)
     part = ShardResult.model_validate_json((folder / SHARD_FILE).read_text())
-    return part, read_records(folder / part.records)
+    return part, read_records(folder / RECORDS_FILE)  # never a name read from the file: it stays in the folder
 
 
 # ------------------------------------------------------------------------------ merging
