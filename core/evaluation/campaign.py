@@ -4,7 +4,9 @@ Ranking is the reference's (code) order: descending lexicographic on (hard succe
 clearance, global clearance, global average speed); cells with integrity violations rank last. Each
 finished cell is written to ``cells/`` with a fingerprint of everything that determines it, so a
 resumed campaign skips finished cells. The optional closed-loop gate compares the best cell with the
-baseline variant on the same checkpoint; a failing gate is a result with exit code 2.
+baseline variant on the same checkpoint; a failing gate is a result with exit code 2. A service worker may run
+a campaign's (cell, episode) work list as shard jobs instead (``shards`` > 1, core.evaluation.shards); their
+merge builds the same cells through :func:`finish_cell` and :func:`campaign_result`.
 """
 
 from __future__ import annotations
