@@ -52,6 +52,12 @@ def local_context(workdir: Path | None, bundles: dict[str, Path], *, quiet: bool
             raise NotFoundError(f"unknown bundle id {ident!r} (in-process runs know {sorted(bundles)})")
         return bundles[ident]
 
+    def resolve_data_root(name: str) -> Path:
+        """A named data root: FORESIGHT_DATA_ROOTS, or ``ethucy`` from the shared folder."""
+        from api.settings import Settings
+
+        return Settings().data_root(name)
+
     def progress(fraction: float, message: str) -> None:
         if not quiet:
             bar = "#" * int(30 * fraction)
@@ -61,7 +67,8 @@ def local_context(workdir: Path | None, bundles: dict[str, Path], *, quiet: bool
 
     root = workdir or Path(tempfile.mkdtemp(prefix="foresight-"))
     root.mkdir(parents=True, exist_ok=True)
-    return StageContext(workdir=root, progress=progress, resolve_bundle=resolve_bundle)
+    return StageContext(workdir=root, progress=progress, resolve_bundle=resolve_bundle,
+                        resolve_data_root=resolve_data_root)
 
 
 def emit(obj: Any, as_json: bool, text: Callable[[Any], str]) -> None:

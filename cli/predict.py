@@ -24,7 +24,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     who.add_argument("--train", action="store_true", help="train the default model (or --config) per fold first")
     pe.add_argument("--config", help="training config YAML (its 'train' mapping, or the whole file)")
     data = pe.add_mutually_exclusive_group(required=True)
-    data.add_argument("--ethucy", help="--local: ETH/UCY root folder with <fold>/train|val|test")
+    data.add_argument("--ethucy", metavar="ROOT", help="ETH/UCY data root name (GET /v1/data-roots, e.g. ethucy); "
+                      "--local also takes a folder with <fold>/train|val|test")
     data.add_argument("--dataset", help="dataset id (--local: a .npz file), scored on its test split, else val")
     pe.add_argument("--fold", help="one fold (eth|hotel|univ|zara1|zara2); default all")
     pe.add_argument("--split", help="dataset split to score: test (default; val when there is no test), val, all")
@@ -110,10 +111,10 @@ def predict_eval_cmd(args: argparse.Namespace) -> int:
               "folds": [args.fold] if args.fold else None, "split": args.split}
     if not args.local:
         stage.local_only(args, out="--out")
-        if args.ethucy is not None:
-            raise ConfigError("--ethucy names a local folder; on the server import the fold first "
-                              "(`foresight dataset import-ethucy --root NAME --fold FOLD`) and pass --dataset ID, "
-                              "or run in-process with --local", source="command line", item="--ethucy")
+        if args.ethucy is not None and Path(args.ethucy).expanduser().is_dir():
+            raise ConfigError(f"{args.ethucy!r} is a local folder; the server reads named data roots: pass "
+                              "--ethucy NAME (GET /v1/data-roots), or run in-process with --local",
+                              source="command line", item="--ethucy")  # fmt: skip
         values.update(model=stage.model_id(args.model, "--model"), dataset=stage.dataset_id(args.dataset, "--dataset"))
         return stage.submit(args, stage.spec("predict_eval", values), text=_score_table, result_model=PredictEvalResult)
     from core.predict.evaluation import run_predict_eval

@@ -215,6 +215,8 @@ class JobWorker:
             resolve_dataset=self.resolver.dataset,
             resolve_model=self.resolver.model,
             resolve_bundle=self.resolver.bundle,
+            resolve_data_root=self.settings.data_root,
+            local_files=False,  # a spec names inputs by id only
             workers=self.settings.stage_workers,
         )
 

@@ -156,6 +156,5 @@ def file_sha256(path: Path) -> str:
 
 
 def resolve_dataset_path(ref: str, ctx) -> Path:
-    """A local ``.npz`` path as given, else a dataset id resolved by the stage context."""
-    path = Path(ref)
-    return path if path.suffix == ".npz" and path.is_file() else ctx.resolve_dataset(ref)
+    """A local ``.npz`` path as given (in-process runs only), else a dataset id resolved by the stage context."""
+    return ctx.local_file(ref, (".npz",)) or ctx.resolve_dataset(ref)

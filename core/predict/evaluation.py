@@ -21,9 +21,10 @@ from core.stages.context import StageContext
 
 class PredictEvalConfig(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
-    model: str | None = None  #: "cv", a checkpoint path or a model id
+    model: str | None = None  #: "cv", a model id, or (in-process runs) a checkpoint path
     train: dict[str, Any] | None = None  #: TrainConfig fields (without dataset): train one model per fold
-    ethucy: str | None = None  #: ETH/UCY root holding <fold>/train|val|test
+    ethucy: str | None = None  #: named data root (FORESIGHT_DATA_ROOTS) holding <fold>/train|val|test; in-process
+    #: runs also take a directory
     folds: list[str] | None = None  #: default: all five
     dataset: str | None = None  #: dataset id or .npz path (instead of ethucy)
     split: str = "test"  #: held-out split of ``dataset`` (test, else val when it has no test episodes; "all")
@@ -63,7 +64,7 @@ def _predictor(config: PredictEvalConfig, ds: Dataset, ctx: StageContext, name: 
     if config.model is not None:
         from core.predict.nn.checkpoint import load_predictor
 
-        path = Path(config.model) if Path(config.model).is_file() else ctx.resolve_model(config.model)
+        path = ctx.local_file(config.model) or ctx.resolve_model(config.model)
         return load_predictor(path, expect_timebase=ds.meta.timebase)
     from core.predict.nn.checkpoint import load_predictor
     from core.predict.nn.train import run_train
@@ -72,7 +73,8 @@ def _predictor(config: PredictEvalConfig, ds: Dataset, ctx: StageContext, name: 
     data_path = ctx.artifact(f"{name}/dataset.npz")
     save_dataset(ds, data_path)
     sub = StageContext(workdir=ctx.artifact(f"{name}/train/.keep").parent, log=ctx.log,
-                       is_cancelled=ctx.is_cancelled, progress=lambda f, m: ctx.progress(f, f"{name}: {m}"))
+                       is_cancelled=ctx.is_cancelled, progress=lambda f, m: ctx.progress(f, f"{name}: {m}"),
+                       local_files=True)  # the fold's dataset: the file this stage just wrote
     result = run_train(TrainConfig(**{**config.train, "dataset": str(data_path)}), sub)
     return load_predictor(Path(result.checkpoint), expect_timebase=ds.meta.timebase)
 
@@ -104,12 +106,14 @@ def _all_as_test(ds: Dataset) -> Dataset:
 def run_predict_eval(config: PredictEvalConfig, ctx: StageContext) -> PredictEvalResult:
     folds: dict[str, FoldScore] = {}
     if config.ethucy is not None:
+        local = Path(config.ethucy)
+        root = local if ctx.local_files and local.is_dir() else ctx.resolve_data_root(config.ethucy)
         names = config.folds or list(FOLDS)
         splits = ("test",) if config.train is None else ("train", "val", "test")
         for i, fold in enumerate(names):
             ctx.check_cancelled()
             ctx.progress(i / len(names), f"fold {fold}")
-            ds = import_fold(Path(config.ethucy), fold, ETHUCY_TIMEBASE, config.max_agents, splits)
+            ds = import_fold(root, fold, ETHUCY_TIMEBASE, config.max_agents, splits)
             folds[fold] = _score(config, ds, "test", ctx, fold)
     else:
         path = resolve_dataset_path(config.dataset, ctx)

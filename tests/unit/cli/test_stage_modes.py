@@ -51,7 +51,7 @@ def test_local_files_where_ids_are_needed_are_refused(tmp_path: Path, nowhere: s
         (["train", "--dataset", str(npz)], "--dataset", "dataset id"),
         (["mix", "--base", "a", "--hardcase", str(npz)], "--hardcase", "dataset id"),
         (["predict-eval", "--model", str(ckpt), "--dataset", "abc"], "--model", "model id"),
-        (["predict-eval", "--model", "cv", "--ethucy", str(tmp_path)], "--ethucy", "import-ethucy --root"),
+        (["predict-eval", "--model", "cv", "--ethucy", str(tmp_path)], "--ethucy", "--ethucy NAME"),
         (["dataset", "import-ethucy", "--ethucy", str(tmp_path), "--fold", "zara1"], "--ethucy", "--root NAME"),
         (["evaluate", "--matrix", str(matrix), "--planner", "goal"], "--matrix", "bundles upload"),
         (["campaign", "--matrix", "scenarios/classic_interactions.yaml", "--seeds", "seeds/x.yaml",
