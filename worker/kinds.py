@@ -160,7 +160,7 @@ def _import_dataset_kind() -> None:
     def run(spec: ImportDatasetSpec, ctx: StageContext) -> dict[str, Any]:
         from core.predict.ethucy import ImportEthucyConfig, run_import_ethucy
 
-        root = Settings().data_root(spec.root)
+        root = ctx.resolve_data_root(spec.root)  # the running worker's own settings
         record = run_import_ethucy(ImportEthucyConfig(root=str(root), fold=spec.fold, max_agents=spec.max_agents), ctx)
         origin = {"source": spec.source, "root": spec.root, "fold": spec.fold}
         return {"dataset": record["path"], "sha256": record["sha256"], "summary": {**record["summary"], **origin},
