@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from cli import stage
+from cli.client import add_connection_args
 from cli.common import emit, local_context
 from core.errors import ConfigError, NotFoundError
 from core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
@@ -65,10 +66,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     cp.add_argument("--scenarios", help="global suite: comma-separated scenario names (default: all)")
     cp.set_defaults(func=campaign_cmd)
 
-    cm = sub.add_parser("compare", help="evaluations side by side per family (is a baseline better anywhere?)")
-    cm.add_argument("runs", nargs="+", help="evaluation work folders (with episodes.jsonl), optionally LABEL=FOLDER")
-    cm.add_argument("--reference", help="label of the planner under test (default: the first run)")
+    cm = sub.add_parser("compare", help="two evaluations: config diff and metric deltas (--local: work folders "
+                        "side by side per family, is a baseline better anywhere?)")  # fmt: skip
+    cm.add_argument("runs", nargs="+", help="two evaluation ids; --local: evaluation work folders (with "
+                    "episodes.jsonl), optionally LABEL=FOLDER")  # fmt: skip
+    cm.add_argument("--local", action="store_true", help="compare local evaluation work folders in-process")
+    cm.add_argument("--reference", help="--local: label of the planner under test (default: the first run)")
     cm.add_argument("--json", action="store_true")
+    add_connection_args(cm)
     cm.set_defaults(func=compare_cmd)
 
 
@@ -302,6 +307,11 @@ def campaign_cmd(args: argparse.Namespace) -> int:
 
 def compare_cmd(args: argparse.Namespace) -> int:
     from core.evaluation.compare import compare, load_run, table
+
+    if not args.local:
+        from cli.report import compare_remote
+
+        return compare_remote(args)
 
     runs = {}
     for item in args.runs:

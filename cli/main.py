@@ -23,6 +23,7 @@ COMMAND_MODULES = [
     "cli.evaluate",
     "cli.predict",
     "cli.pipeline",
+    "cli.report",
 ]
 
 

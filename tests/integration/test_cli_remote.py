@@ -49,6 +49,22 @@ def test_collect_train_evaluate_through_the_stage_commands(service: Service) -> 
         assert jobs["evaluate"]["spec"]["bundle"] == "builtin"
         assert jobs["evaluate"]["spec"]["matrix"] == "scenarios/classic_interactions.yaml"  # a name, not a path
 
+    # the same evaluation with constant velocity, then the A/B comparison and the report, read back by the CLI
+    cv = _job(service.cli("evaluate", "--matrix", "configs/scenarios/classic_interactions.yaml", "--scenarios",
+                          "crossing_low", "--seeds-per-scenario", "1", "--max-steps", "40", "--model", "cv",
+                          "--min-success", "0", "--json"))  # fmt: skip
+    compared = _job(service.cli("compare", jobs["evaluate"]["id"], cv["id"], "--json"))
+    assert compared["a"] == jobs["evaluate"]["id"] and compared["b"] == cv["id"]
+    assert {"a": "smoke-model", "b": "cv"} in [v for k, v in compared["config_diff"].items() if k.endswith("model")]
+    text = service.cli("compare", jobs["evaluate"]["id"], cv["id"]).stdout
+    assert "config (only keys that differ):" in text and '"smoke-model" -> "cv"' in text
+
+    report = service.cli("report", cv["id"]).stdout
+    assert report.startswith("#") and "crossing_low" in report  # the evaluation's Markdown report
+    fetched = _job(service.cli("report", cv["id"], "--out", str(service.tmp / "report"), "--json"))
+    assert fetched["kind"] == "evaluate" and {"report.md", "report.html"} <= set(fetched["report"])
+    assert (service.tmp / "report" / "report.html").is_file() and any(f.endswith(".png") for f in fetched["written"])
+
     # --no-wait prints the id; the job runs all the same
     job_id = service.cli("mix", "--base", dataset, "--hardcase", dataset, "--repeat", "2", "--no-wait").stdout.strip()
     waited = _job(service.cli("jobs", "wait", job_id, "--json"))
@@ -83,6 +99,11 @@ def test_import_an_ethucy_fold_by_root_name_and_use_it_by_id(service: Service, s
     fold = next(iter(scored["result"]["folds"].values()))
     assert fold["split"] == "test" and fold["samples"] == summary["samples_per_split"]["test"]
     assert abs(fold["ade"] - 0.43) <= 0.01  # the published protocol's CV number on zara1 (tests/unit/predict)
+
+    # predict_eval names the ETH/UCY data root (never a server folder): the fold is imported by the worker
+    named = _job(service.cli("predict-eval", "--model", "cv", "--ethucy", "ethucy", "--fold", "zara1", "--json"))
+    assert named["status"] == "succeeded" and named["spec"]["ethucy"] == "ethucy"
+    assert abs(named["result"]["folds"]["zara1"]["ade"] - fold["ade"]) < 1e-9  # the same test split, the same CV
 
     unknown = service.cli("dataset", "import-ethucy", "--root", "nope", "--fold", "zara1", check=False)
     assert unknown.returncode == 1

@@ -1,0 +1,122 @@
+"""Client commands that read results back: `foresight report JOB_ID` and `foresight compare A B`.
+
+``report`` prints the Markdown report a worker wrote beside a finished job's artifacts (``--out DIR`` also
+fetches the HTML page and its figures); ``compare`` asks the server for the runbook's A/B comparison of two
+evaluations (``GET /v1/compare``). ``compare --local`` compares evaluation work folders in-process.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from cli.client import Client, add_connection_args
+from core.errors import ConfigError
+from core.reports.common import FIGURES
+
+REPORT_MD, REPORT_HTML = "report.md", "report.html"
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    rp = sub.add_parser("report", help="a finished job's report (Markdown; --out DIR: HTML page with figures)")
+    rp.add_argument("job_id")
+    rp.add_argument("--out", help="folder to download the report page, its figures and report.md into")
+    rp.add_argument("--json", action="store_true", help="the job, its result and the report's artifact URLs")
+    add_connection_args(rp)
+    rp.set_defaults(func=report_cmd)
+
+
+def _download(client: Client, job_id: str, name: str) -> bytes:
+    from cli.client import ApiError
+
+    response = client.http.get(f"/v1/jobs/{job_id}/artifacts/{name}")
+    if response.status_code >= 400:
+        raise ApiError(response.status_code, response.json().get("detail"))
+    return response.content
+
+
+def report_files(job: dict[str, Any]) -> list[str]:
+    """Artifact names that make up the job's report: the two pages and the figures they sit beside."""
+    names = [a["name"] for a in job.get("artifacts") or []]
+    if REPORT_MD not in names and REPORT_HTML not in names:
+        return []
+    return [n for n in names if n in (REPORT_MD, REPORT_HTML) or n.startswith(f"{FIGURES}/")]
+
+
+def report_cmd(args: argparse.Namespace) -> int:
+    client = Client.from_args(args)
+    job = client.get(f"/v1/jobs/{args.job_id}")
+    files = report_files(job)
+    if not files:
+        raise ConfigError(f"job {args.job_id} ({job['kind']}, {job['status']}) has no report: reports are written "
+                          "when a collect, train, evaluate, diagnose, campaign or pipeline job succeeds",
+                          item=args.job_id)  # fmt: skip
+    written: list[str] = []
+    if args.out:
+        out = Path(args.out)
+        for name in files:
+            dest = (out / name).resolve()
+            if out.resolve() not in dest.parents:
+                raise ConfigError(f"artifact name {name!r} escapes {out}", item=name)
+            dest.parent.mkdir(parents=True, exist_ok=True)
+            dest.write_bytes(_download(client, args.job_id, name))
+            written.append(str(dest))
+    if args.json:
+        urls = {a["name"]: a["url"] for a in job.get("artifacts") or [] if a["name"] in files}
+        print(json.dumps({"job": job["id"], "kind": job["kind"], "status": job["status"], "result": job.get("result"),
+                          "report": urls, "written": written}, indent=2))  # fmt: skip
+        return 0
+    if REPORT_MD in files:
+        print(_download(client, args.job_id, REPORT_MD).decode())
+    if written:
+        page = next((w for w in written if w.endswith(REPORT_HTML)), written[0])
+        print(f"report page: {page}")
+    return 0
+
+
+def compare_remote(args: argparse.Namespace) -> int:
+    """Two evaluation ids: the resolved-config diff key by key and the metric deltas (b - a) with intervals."""
+    if len(args.runs) != 2:
+        raise ConfigError(f"the server compares two evaluations (got {len(args.runs)} ids); folders of local "
+                          "evaluation runs compare with --local", source="command line", item="runs")
+    for value in args.runs:
+        if Path(value.rpartition("=")[2]).expanduser().exists():
+            raise ConfigError(f"{value!r} is a local folder; the server compares evaluation ids (GET /v1/evaluations"
+                              " via `foresight jobs ls --kind evaluate`); compare folders with --local",
+                              source="command line", item="runs")  # fmt: skip
+    a, b = args.runs
+    result = Client.from_args(args).get("/v1/compare", params={"a": a, "b": b})
+    if args.json:
+        print(json.dumps(result, indent=2))
+        return 0
+    print(compare_text(result))
+    return 0
+
+
+def compare_text(result: dict[str, Any]) -> str:
+    lines = [f"A = {result['a']}    B = {result['b']}", "", "config (only keys that differ):"]
+    diff = result.get("config_diff") or {}
+    lines += [f"  {key}: {_short(v.get('a'))} -> {_short(v.get('b'))}" for key, v in diff.items()] or ["  identical"]
+    lines += ["", f"{'metric':<34}{'A':>22}{'B':>22}{'B - A':>10}"]
+    for name, m in (result.get("metrics") or {}).items():
+        lines.append(f"{name:<34}{_value(m.get('a')):>22}{_value(m.get('b')):>22}{_num(m.get('delta')):>10}")
+    return "\n".join(lines)
+
+
+def _value(metric: Any) -> str:
+    """A metric as a number, or ``value [ci_low, ci_high]`` when it carries an interval."""
+    if not isinstance(metric, dict):
+        return _num(metric)
+    ci = f" [{_num(metric['ci_low'])}, {_num(metric['ci_high'])}]" if metric.get("ci_low") is not None else ""
+    return _num(metric.get("value")) + ci
+
+
+def _short(value: Any) -> str:
+    text = json.dumps(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _num(value: Any) -> str:
+    return f"{value:.3f}" if isinstance(value, int | float) else "-"
