@@ -34,7 +34,9 @@ def main() -> None:
     else:
         tb = PLANNER_TIMEBASE
         cfg = ModelConfig(tb.history, tb.horizon, tb.dt, TrainConfig.model_fields["hidden"].default,
-                          TrainConfig.model_fields["blocks"].default)
+                          TrainConfig.model_fields["blocks"].default,
+                          TrainConfig.model_fields["edge_dim"].default,
+                      TrainConfig.model_fields["local_frame"].default)
         predictor = TorchPredictor(TrajectoryModel(cfg), tb, "default-size")
     rng = np.random.default_rng(0)
     x = rng.normal(size=(1, args.peds, feature_dim(predictor.timebase.history))).astype(np.float32)

@@ -30,7 +30,9 @@ def main() -> None:
     torch.set_num_threads(args.threads)
     tb = PLANNER_TIMEBASE
     cfg = ModelConfig(tb.history, tb.horizon, tb.dt, TrainConfig.model_fields["hidden"].default,
-                      TrainConfig.model_fields["blocks"].default)
+                      TrainConfig.model_fields["blocks"].default,
+                      TrainConfig.model_fields["edge_dim"].default,
+                      TrainConfig.model_fields["local_frame"].default)
     torch.manual_seed(0)
     model = TrajectoryModel(cfg)
     opt = torch.optim.AdamW(model.parameters(), lr=1e-3)

@@ -32,6 +32,8 @@ class TrainConfig(_Strict):
     seed: int = 0
     hidden: int = Field(default=48, ge=4, le=1024)  #: model width h (48: ~2.5 MFLOP per training sample at N=12)
     blocks: int = Field(default=2, ge=0, le=8)  #: K message-passing blocks
+    edge_dim: int = Field(default=16, ge=0, le=256)  #: relative position/velocity edge embedding width (0 = none; core.predict.nn.model)
+    local_frame: bool = True  #: encode/decode each pedestrian in its own frame (core.predict.nn.model)
     loss_beta: float = Field(default=0.2, gt=0)  #: SmoothL1 beta [m]
     grad_clip: float = Field(default=1.0, gt=0)
     augment_mirror: bool = False  #: mirror a random half of each batch across the ego x axis (y -> -y)

@@ -5,10 +5,23 @@ Shapes: B samples, N slots, F features per slot (``core.predict.features``), h h
   plus the robot/goal channels) -> (B, N, h);
 - K residual message-passing blocks; each block's attention is distance-aware with a learned
   weighting: logits_ij = q_i·k_j / sqrt(h) - softplus(a_b)·|p_i - p_j| with p the current
-  positions and a_b learned per block, inactive partners masked out;
+  positions and a_b learned per block, inactive partners masked out; with ``edges`` (the default
+  for new models), an edge embedding e_ij = MLP(p_j - p_i, v_j - v_i, |p_j - p_i|) (width
+  ``edge_dim``) of the pair's relative position and velocity adds a learned logit term w_b·e_ij
+  and a message term W_b sum_j a_ij e_ij: without it a message only knows its sender, not where the sender is
+  relative to the receiver, which is what interactions (avoidance, following) depend on;
 - decoder: per-step displacements d_k (B, N, T, 2) added to the constant-velocity step v0·dt and
   summed over time: p_k = p_0 + sum_{j<=k} (v0·dt + d_j). The model starts as constant velocity
   and learns corrections to it.
+
+``local_frame`` (the default for new models): each pedestrian is encoded in its OWN frame (origin
+= its current position, x = its current velocity direction; the ego x axis when it stands still):
+its history relative to its current position, its velocities, the robot's relative position and
+velocity and the goal direction, all rotated into that frame; edges are rotated into the
+receiver's frame; the decoder's displacements are rotated back into the features' frame. Walking
+dynamics do not depend on where the robot happens to face, so the network no longer has to learn
+the same behaviour once per orientation (an equivariance the ego-frame input lacked). The input
+features (``core.predict.features``) are unchanged: the frame change is a fixed function of them.
 """
 
 from __future__ import annotations
@@ -30,31 +43,74 @@ class ModelConfig:
     dt: float  #: time-base step [s]
     hidden: int = 64  #: h
     blocks: int = 2  #: K message-passing blocks
+    edge_dim: int = 0  #: width of the relative-geometry edge embeddings (0 = none, as checkpoints before them)
+    local_frame: bool = False  #: encode/decode each pedestrian in its own frame (False = checkpoints before it)
 
     @property
     def input_dim(self) -> int:
-        return feature_dim(self.history)
+        return LOCAL_EXTRA + 5 * self.history if self.local_frame else feature_dim(self.history)
 
     def to_dict(self) -> dict:
         return asdict(self)
 
 
+LOCAL_EXTRA = 10  #: pedestrian-frame channels besides the history: robot rel. pos, |pos|, robot vel, omega, goal dir, goal dist, speed
+STILL = 0.05  #: [m/s] below this speed a pedestrian's frame keeps the ego x axis
+
+
+def _rotate(x: torch.Tensor, c: torch.Tensor, s: torch.Tensor) -> torch.Tensor:
+    """(..., 2) vectors into a frame at angle (c, s) = (cos, sin): x' = c x + s y, y' = -s x + c y."""
+    return torch.stack([c * x[..., 0] + s * x[..., 1], -s * x[..., 0] + c * x[..., 1]], dim=-1)
+
+
+def local_inputs(features: torch.Tensor, history: int) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """(B, N, 5 H + LOCAL_EXTRA) pedestrian-frame inputs and each frame's (cos, sin) (B, N) in the ego frame."""
+    H = history
+    steps = features[..., : 5 * H].unflatten(-1, (H, 5))
+    pos, vel, valid = steps[..., 0:2], steps[..., 2:4], steps[..., 4:5]
+    p0, v0 = pos[..., -1, :], vel[..., -1, :]
+    speed = torch.linalg.vector_norm(v0, dim=-1)
+    moving = speed > STILL
+    safe = torch.where(moving, speed, torch.ones_like(speed))
+    c = torch.where(moving, v0[..., 0] / safe, torch.ones_like(speed))
+    s = torch.where(moving, v0[..., 1] / safe, torch.zeros_like(speed))
+    cs, ss = c.unsqueeze(-1), s.unsqueeze(-1)
+    rel = _rotate(pos - p0.unsqueeze(-2), cs, ss) * valid
+    vl = _rotate(vel, cs, ss)
+    ego = features[..., 5 * H:]
+    robot_rel = _rotate(-p0, c, s)
+    robot_vel = _rotate(torch.stack([ego[..., 0], torch.zeros_like(ego[..., 0])], dim=-1), c, s)
+    goal = _rotate(ego[..., 2:4], c, s)
+    x = torch.cat([rel.flatten(-2), vl.flatten(-2), valid.flatten(-2), robot_rel,
+                   torch.linalg.vector_norm(p0, dim=-1, keepdim=True), robot_vel, ego[..., 1:2], goal, ego[..., 4:5],
+                   speed.unsqueeze(-1)], dim=-1)
+    return x, c, s
+
+
 class MessageBlock(nn.Module):
     """One round of distance-weighted attention and a residual update."""
 
-    def __init__(self, hidden: int):
+    def __init__(self, hidden: int, edge_dim: int = 0):
         super().__init__()
         self.qkv = nn.Linear(hidden, 3 * hidden)
+        self.edge_logit = nn.Linear(edge_dim, 1) if edge_dim else None
+        self.edge_value = nn.Linear(edge_dim, hidden, bias=False) if edge_dim else None
         self.distance_weight = nn.Parameter(torch.tensor(0.5))  # softplus -> ~0.97 per metre at init
         self.update = nn.Sequential(nn.Linear(2 * hidden, hidden), nn.ReLU(), nn.Linear(hidden, hidden))
         self.scale = 1.0 / math.sqrt(hidden)
 
-    def forward(self, h: torch.Tensor, dist: torch.Tensor, pair_mask: torch.Tensor) -> torch.Tensor:
-        """h (B, N, h), dist (B, N, N) [m], pair_mask (B, N, N) bool -> (B, N, h)."""
+    def forward(self, h: torch.Tensor, dist: torch.Tensor, pair_mask: torch.Tensor,
+                edge: torch.Tensor | None = None) -> torch.Tensor:
+        """h (B, N, h), dist (B, N, N) [m], pair_mask (B, N, N) bool, edge (B, N, N, e) -> (B, N, h)."""
         q, k, v = self.qkv(h).chunk(3, dim=-1)
         logits = (q @ k.transpose(1, 2)) * self.scale - F.softplus(self.distance_weight) * dist
+        if self.edge_logit is not None:
+            logits = logits + self.edge_logit(edge).squeeze(-1)
         logits = logits.masked_fill(~pair_mask, -1e9)
-        msg = torch.softmax(logits, dim=-1) @ v
+        att = torch.softmax(logits, dim=-1)
+        msg = att @ v
+        if self.edge_logit is not None:
+            msg = msg + self.edge_value((att.unsqueeze(-1) * edge).sum(2))
         return h + self.update(torch.cat([h, msg], dim=-1))
 
 
@@ -64,7 +120,8 @@ class TrajectoryModel(nn.Module):
         self.config = config
         c = config
         self.encoder = nn.Sequential(nn.Linear(c.input_dim, c.hidden), nn.ReLU(), nn.Linear(c.hidden, c.hidden), nn.ReLU())
-        self.blocks = nn.ModuleList(MessageBlock(c.hidden) for _ in range(c.blocks))
+        self.blocks = nn.ModuleList(MessageBlock(c.hidden, c.edge_dim) for _ in range(c.blocks))
+        self.edge_encoder = nn.Sequential(nn.Linear(5, c.edge_dim), nn.ReLU()) if c.edge_dim else None
         self.decoder = nn.Sequential(nn.Linear(c.hidden, c.hidden), nn.ReLU(), nn.Linear(c.hidden, 2 * c.horizon))
         nn.init.zeros_(self.decoder[-1].weight)  # start exactly at constant velocity
         nn.init.zeros_(self.decoder[-1].bias)
@@ -77,12 +134,25 @@ class TrajectoryModel(nn.Module):
         m = mask.unsqueeze(-1)
         p0 = features[..., self._px : self._px + 2]
         v0 = features[..., self._vx : self._vx + 2]
+        local = self.config.local_frame
+        if local:
+            x, c, s = local_inputs(features, self.config.history)
+        else:
+            x = features
         dist = torch.cdist(p0, p0)
         pair_mask = (mask.unsqueeze(1) > 0).expand(B, N, N)
-        h = self.encoder(features) * m
+        h = self.encoder(x) * m
+        edge = None
+        if self.edge_encoder is not None and self.blocks:
+            rel_p, rel_v = p0.unsqueeze(1) - p0.unsqueeze(2), v0.unsqueeze(1) - v0.unsqueeze(2)  # [b, i, j] = x_j - x_i
+            if local:  # into the receiver i's frame
+                rel_p, rel_v = (_rotate(r, c.unsqueeze(-1), s.unsqueeze(-1)) for r in (rel_p, rel_v))
+            edge = self.edge_encoder(torch.cat([rel_p, rel_v, dist.unsqueeze(-1)], dim=-1))
         for block in self.blocks:
-            h = block(h, dist, pair_mask) * m
+            h = block(h, dist, pair_mask, edge) * m
         delta = self.decoder(h).view(B, N, self.config.horizon, 2)
+        if local:  # back from each pedestrian's frame: the inverse rotation
+            delta = _rotate(delta, c.unsqueeze(-1), -s.unsqueeze(-1))
         steps = delta + (v0 * self.config.dt).unsqueeze(2)
         return (p0.unsqueeze(2) + torch.cumsum(steps, dim=2)) * m.unsqueeze(-1)
 

@@ -128,7 +128,8 @@ def run_train(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | Non
     train_data, val_data = _tensors(ds, tr_idx), _tensors(ds, va_idx)
     cv = cv_metrics(ds, va_idx)
     tb = ds.meta.timebase
-    mcfg = ModelConfig(tb.history, tb.horizon, tb.dt, config.hidden, config.blocks)
+    mcfg = ModelConfig(tb.history, tb.horizon, tb.dt, config.hidden, config.blocks, config.edge_dim,
+                       config.local_frame)
     with torch.random.fork_rng():
         torch.manual_seed(config.seed)
         model = TrajectoryModel(mcfg)

@@ -9,10 +9,13 @@ from core.predict.nn.model import ModelConfig, TrajectoryModel, masked_ade_fde, 
 from core.predict.predictor import ConstantVelocityPredictor, Predictor
 from core.predict.timebase import ETHUCY_TIMEBASE, PLANNER_TIMEBASE
 
+#: the architecture of checkpoints before edges and pedestrian frames, and the current default one
+ARCHS = {"ego": {}, "local_edges": {"edge_dim": 8, "local_frame": True}}
 
-def _model(seed=0):
+
+def _model(seed=0, **arch):
     torch.manual_seed(seed)
-    return TrajectoryModel(ModelConfig(5, 12, 0.2, hidden=16, blocks=2))
+    return TrajectoryModel(ModelConfig(5, 12, 0.2, hidden=16, blocks=2, **arch))
 
 
 def _batch(B=3, N=4, seed=0):
@@ -24,17 +27,19 @@ def _batch(B=3, N=4, seed=0):
     return f, m
 
 
-def test_untrained_model_is_constant_velocity_and_masks():
+@pytest.mark.parametrize("arch", ARCHS)
+def test_untrained_model_is_constant_velocity_and_masks(arch):
     f, m = _batch()
-    p = TorchPredictor(_model(), PLANNER_TIMEBASE, "m")
+    p = TorchPredictor(_model(**ARCHS[arch]), PLANNER_TIMEBASE, "m")
     assert isinstance(p, Predictor)
     out = p.predict(f, m)
     np.testing.assert_allclose(out, ConstantVelocityPredictor(PLANNER_TIMEBASE).predict(f, m), atol=1e-5)
     assert not out[:, -1].any()
 
 
-def test_permutation_equivariant_and_inactive_slots_ignored():
-    model = _model()
+@pytest.mark.parametrize("arch", ARCHS)
+def test_permutation_equivariant_and_inactive_slots_ignored(arch):
+    model = _model(**ARCHS[arch])
     for p in model.decoder[-1].parameters():
         torch.nn.init.normal_(p, std=0.1)
     f, m = _batch()
@@ -45,6 +50,36 @@ def test_permutation_equivariant_and_inactive_slots_ignored():
     f2 = f.copy()
     f2[:, -1] = 99.0  # garbage in an inactive slot changes nothing
     torch.testing.assert_close(model(torch.tensor(f2), torch.tensor(m)), out, atol=1e-5, rtol=1e-5)
+
+
+def _rotate_scene(f: np.ndarray, a: float) -> np.ndarray:
+    """The same scene with the ego frame turned by -a: every position, velocity and goal direction rotates by a."""
+    c, s = np.cos(a), np.sin(a)
+    out = f.copy()
+    cols = [(5 * h, 5 * h + 1) for h in range(5)] + [(5 * h + 2, 5 * h + 3) for h in range(5)] + [(27, 28)]
+    for x, y in cols:
+        out[..., x], out[..., y] = c * f[..., x] - s * f[..., y], s * f[..., x] + c * f[..., y]
+    return out
+
+
+def test_local_frame_model_is_rotation_equivariant():
+    """In pedestrian frames the prediction turns with the scene (robot standing still, so nothing is tied to
+    the ego axes); the ego-frame model has no such structure."""
+    f, m = _batch(B=4, N=5, seed=3)
+    f[..., 25:27] = 0.0  # robot v and omega: a still robot
+    f[..., 4:25:5] = 1.0  # all history observed
+    f[..., 22:24] = np.where(np.abs(f[..., 22:24]) < 0.2, 0.5, f[..., 22:24])  # moving: a defined own frame
+    f[:, -1] = 0.0
+    a = 0.9
+    rot = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]], np.float32)
+    for arch, equivariant in (("local_edges", True), ("ego", False)):
+        model = _model(**ARCHS[arch])
+        for p in model.decoder[-1].parameters():
+            torch.nn.init.normal_(p, std=0.1)
+        out = model(torch.tensor(f), torch.tensor(m)).detach().numpy()
+        out_r = model(torch.tensor(_rotate_scene(f, a)), torch.tensor(m)).detach().numpy()
+        close = np.allclose(out_r, out @ rot.T, atol=1e-4)
+        assert close == equivariant, arch
 
 
 def test_masked_loss_and_metrics_ignore_missing_targets():
@@ -65,8 +100,9 @@ def _save(tmp_path, model, timebase=PLANNER_TIMEBASE, name="m.pt", **overrides):
     return tmp_path / name
 
 
-def test_checkpoint_round_trip(tmp_path):
-    model = _model()
+@pytest.mark.parametrize("arch", ARCHS)
+def test_checkpoint_round_trip(tmp_path, arch):
+    model = _model(**ARCHS[arch])
     for p in model.decoder[-1].parameters():
         torch.nn.init.normal_(p, std=0.1)
     f, m = _batch()
