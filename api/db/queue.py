@@ -16,6 +16,7 @@ from __future__ import annotations
 import threading
 import time
 import uuid
+import weakref
 from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
@@ -35,7 +36,7 @@ from sqlalchemy import (
 from sqlalchemy.exc import IntegrityError
 
 from api.db.models import FINISHED, Artifact, Job, JobEvent, JobStatus, Worker
-from api.db.session import is_sqlite, write_tx, writer_lock
+from api.db.session import is_sqlite, write_tx
 
 jobs = Job.__table__
 events = JobEvent.__table__
@@ -145,6 +146,15 @@ def _get(conn: Connection, job_id: str) -> dict[str, Any]:
 # ---------------------------------------------------------------------------------------------- submission
 
 
+def _new_row(kind: str, spec: dict[str, Any], priority: int, timeout_s: float | None, max_attempts: int,
+             idempotency_key: str | None, parent_id: str | None) -> dict[str, Any]:  # fmt: skip
+    return dict(
+        id=new_id(), kind=kind, spec=spec, status=QUEUED, priority=priority, attempts=0,
+        max_attempts=max_attempts, timeout_s=timeout_s, idempotency_key=idempotency_key, parent_id=parent_id,
+        cancel_requested=False, progress=0.0, message="", created_at=time.time(),
+    )  # fmt: skip
+
+
 def submit(
     engine: Engine,
     *,
@@ -161,14 +171,15 @@ def submit(
         existing = find_by_key(engine, idempotency_key)
         if existing is not None:
             return _same_submission(existing, kind, spec), False
-    now = time.time()
-    row = dict(
-        id=new_id(), kind=kind, spec=spec, status=QUEUED, priority=priority, attempts=0,
-        max_attempts=max_attempts, timeout_s=timeout_s, idempotency_key=idempotency_key, parent_id=parent_id,
-        cancel_requested=False, progress=0.0, message="", created_at=now,
-    )  # fmt: skip
+    row = _new_row(kind, spec, priority, timeout_s, max_attempts, idempotency_key, parent_id)
     if idempotency_key is None and parent_id is None and is_sqlite(engine):
-        return _submit_grouped(engine, row), True
+        done = threading.Event()
+        failed: list[BaseException] = []
+        _batcher(engine).put(row, lambda error: (error and failed.append(error), done.set()))
+        done.wait()
+        if failed:
+            raise failed[0]
+        return {**_JOB_DEFAULTS, **row}, True
     try:
         with write_tx(engine) as conn:
             job = conn.execute(_SUBMIT_SQL, row).mappings().one()
@@ -181,34 +192,82 @@ def submit(
     return dict(job), True
 
 
-_pending: dict[int, list[dict[str, Any]]] = {}
-_pending_lock = threading.Lock()
+async def submit_plain(engine: Engine, *, kind: str, spec: dict[str, Any], priority: int = 0,
+                       timeout_s: float | None = None, max_attempts: int = 3) -> dict[str, Any]:  # fmt: skip
+    """Queue a job without idempotency key or parent from the event loop, on SQLite: the request waits on a
+    future while the engine's submission thread (:class:`SubmitBatcher`) writes it, so it holds no thread."""
+    import asyncio
 
+    loop = asyncio.get_running_loop()
+    future: asyncio.Future[None] = loop.create_future()
 
-def _submit_grouped(engine: Engine, row: dict[str, Any]) -> dict[str, Any]:
-    """Group commit on SQLite: concurrent plain submissions wait for the writer lock together, and whoever
-    gets it inserts every submission waiting by then in one transaction (one lock hand-off and one commit
-    for many requests, in arrival order, instead of one each)."""
-    item: dict[str, Any] = {"row": row, "done": False, "error": None}
-    with _pending_lock:
-        _pending.setdefault(id(engine.pool), []).append(item)
-    with writer_lock(engine):
-        if not item["done"]:
-            with _pending_lock:
-                batch = _pending.pop(id(engine.pool), [])
-            try:
-                with write_tx(engine, lock_held=True) as conn:
-                    conn.execute(insert(jobs), [it["row"] for it in batch])
-                    conn.execute(_EVENT_SQL, [{"job_id": it["row"]["id"], "at": it["row"]["created_at"], "type": "status",
-                                               "message": QUEUED, "progress": None} for it in batch])  # fmt: skip
-            except Exception as exc:  # every submission of the batch fails the same way
-                for it in batch:
-                    it["error"] = exc
-            for it in batch:
-                it["done"] = True
-    if item["error"] is not None:
-        raise item["error"]
+    def settle(error: BaseException | None) -> None:
+        if not future.done():
+            future.set_exception(error) if error is not None else future.set_result(None)
+
+    row = _new_row(kind, spec, priority, timeout_s, max_attempts, None, None)
+    _batcher(engine).put(row, lambda error: loop.call_soon_threadsafe(settle, error))
+    await future
     return {**_JOB_DEFAULTS, **row}
+
+
+class SubmitBatcher:
+    """Group commit of plain submissions on SQLite, by one thread per engine and process.
+
+    Submissions queue here in arrival order; the thread takes every submission waiting, inserts them in one
+    write transaction (one writer-lock hand-off and one commit for many requests), and reports to each.
+    Before, each request's own thread-pool thread raced for the process's writer lock: Python locks are not
+    fair, so under 40 contending threads some requests waited for many batches (p99 97 ms in-process, 40 ms
+    with this thread, at ~1.5x the throughput). The thread exits when idle and starts again on demand.
+    """
+
+    IDLE_S = 5.0  #: [s] the thread stops after this long without submissions
+
+    def __init__(self, engine: Engine) -> None:
+        self.engine = engine
+        self._pending: list[tuple[dict[str, Any], Callable[[BaseException | None], Any]]] = []
+        self._cv = threading.Condition()
+        self._running = False
+
+    def put(self, row: dict[str, Any], done: Callable[[BaseException | None], Any]) -> None:
+        """Queue ``row``; ``done(None)`` once it is committed, ``done(error)`` if its batch failed (from the
+        submission thread)."""
+        with self._cv:
+            self._pending.append((row, done))
+            if not self._running:
+                self._running = True
+                threading.Thread(target=self._run, name="foresight-submit", daemon=True).start()
+            self._cv.notify()
+
+    def _run(self) -> None:
+        while True:
+            with self._cv:
+                if not self._pending and not self._cv.wait_for(lambda: self._pending, timeout=self.IDLE_S):
+                    self._running = False
+                    return
+                batch, self._pending = self._pending, []
+            error: BaseException | None = None
+            try:
+                with write_tx(self.engine) as conn:
+                    conn.execute(insert(jobs), [row for row, _ in batch])
+                    conn.execute(_EVENT_SQL, [{"job_id": row["id"], "at": row["created_at"], "type": "status",
+                                               "message": QUEUED, "progress": None} for row, _ in batch])  # fmt: skip
+            except Exception as exc:  # noqa: BLE001 (every submission of the batch fails the same way)
+                error = exc
+            for _, done in batch:
+                done(error)
+
+
+_batchers: weakref.WeakValueDictionary[int, SubmitBatcher] = weakref.WeakValueDictionary()  # by id(engine.pool)
+_batchers_lock = threading.Lock()
+
+
+def _batcher(engine: Engine) -> SubmitBatcher:
+    with _batchers_lock:
+        batcher = _batchers.get(id(engine.pool))
+        if batcher is None or batcher.engine.pool is not engine.pool:
+            batcher = _batchers[id(engine.pool)] = SubmitBatcher(engine)
+        return batcher
 
 
 #: the columns a fresh job has beyond what submit sets
