@@ -68,8 +68,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     cm = sub.add_parser("compare", help="two evaluations: config diff and metric deltas (--local: work folders "
                         "side by side per family, is a baseline better anywhere?)")  # fmt: skip
-    cm.add_argument("runs", nargs="+", help="two evaluation ids; --local: evaluation work folders (with "
-                    "episodes.jsonl), optionally LABEL=FOLDER")  # fmt: skip
+    cm.add_argument("runs", nargs="+", help="two evaluation ids or campaign cells CAMPAIGN_ID:RANK[:hard]; "
+                    "--local: evaluation work folders (with episodes.jsonl), optionally LABEL=FOLDER")
     cm.add_argument("--local", action="store_true", help="compare local evaluation work folders in-process")
     cm.add_argument("--reference", help="--local: label of the planner under test (default: the first run)")
     cm.add_argument("--json", action="store_true")

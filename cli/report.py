@@ -77,9 +77,10 @@ def report_cmd(args: argparse.Namespace) -> int:
 
 
 def compare_remote(args: argparse.Namespace) -> int:
-    """Two evaluation ids: the resolved-config diff key by key and the metric deltas (b - a) with intervals."""
+    """Two evaluation ids or campaign cells (``CAMPAIGN_ID:RANK[:hard]``): the resolved-config diff key by key and
+    the headline metric deltas (B - A) with intervals."""
     if len(args.runs) != 2:
-        raise ConfigError(f"the server compares two evaluations (got {len(args.runs)} ids); folders of local "
+        raise ConfigError(f"the server compares two results (got {len(args.runs)} ids); folders of local "
                           "evaluation runs compare with --local", source="command line", item="runs")
     for value in args.runs:
         if Path(value.rpartition("=")[2]).expanduser().exists():
@@ -99,18 +100,23 @@ def compare_text(result: dict[str, Any]) -> str:
     lines = [f"A = {result['a']}    B = {result['b']}", "", "config (only keys that differ):"]
     diff = result.get("config_diff") or {}
     lines += [f"  {key}: {_short(v.get('a'))} -> {_short(v.get('b'))}" for key, v in diff.items()] or ["  identical"]
-    lines += ["", f"{'metric':<34}{'A':>22}{'B':>22}{'B - A':>10}"]
+    sources = result.get("sources") or {}
+    if sources:
+        lines.insert(1, f"A: {sources.get('a')}    B: {sources.get('b')}")
+    lines += ["", f"{'metric':<16}{'A':>24}{'B':>24}{'B - A [95 % interval]':>34}"]
     for name, m in (result.get("metrics") or {}).items():
-        lines.append(f"{name:<34}{_value(m.get('a')):>22}{_value(m.get('b')):>22}{_num(m.get('delta')):>10}")
+        interval = f" [{_num(m.get('low'))}, {_num(m.get('high'))}]" + (" *" if m.get("significant") else "")
+        lines.append(f"{name:<16}{_value(m.get('a')):>24}{_value(m.get('b')):>24}{_num(m.get('delta')) + interval:>34}")
+    lines.append("* the interval excludes 0: a difference the data support")
     return "\n".join(lines)
 
 
-def _value(metric: Any) -> str:
-    """A metric as a number, or ``value [ci_low, ci_high]`` when it carries an interval."""
-    if not isinstance(metric, dict):
-        return _num(metric)
-    ci = f" [{_num(metric['ci_low'])}, {_num(metric['ci_high'])}]" if metric.get("ci_low") is not None else ""
-    return _num(metric.get("value")) + ci
+def _value(estimate: Any) -> str:
+    """``value [low, high]`` of an estimate."""
+    if not isinstance(estimate, dict):
+        return _num(estimate)
+    ci = f" [{_num(estimate['low'])}, {_num(estimate['high'])}]" if estimate.get("low") is not None else ""
+    return _num(estimate.get("value")) + ci
 
 
 def _short(value: Any) -> str:

@@ -72,36 +72,38 @@ def read_campaign(campaign_id: Ident, session: SessionDep) -> CampaignPublic:
     )  # fmt: skip
 
 
-def _flatten(value: Any, prefix: str = "") -> dict[str, Any]:
-    if isinstance(value, dict):
-        out: dict[str, Any] = {}
-        for k, v in value.items():
-            out.update(_flatten(v, f"{prefix}.{k}" if prefix else str(k)))
-        return out
-    return {prefix: value}
+SUITES = ("global", "hard")
 
 
-def diff_configs(a: dict[str, Any], b: dict[str, Any]) -> dict[str, dict[str, Any]]:
-    """Keys whose values differ between two (nested) configs, as dotted keys."""
-    fa, fb = _flatten(a), _flatten(b)
-    return {k: {"a": fa.get(k), "b": fb.get(k)} for k in sorted(fa.keys() | fb.keys()) if fa.get(k) != fb.get(k)}
-
-
-def metric_deltas(a: dict[str, Any], b: dict[str, Any]) -> dict[str, dict[str, Any]]:
-    """b − a for every numeric metric both have; a metric may be a number or ``{value, ci_low, ci_high}``."""
-    out = {}
-    for key in sorted(a.keys() & b.keys()):
-        va, vb = a[key], b[key]
-        na = va.get("value") if isinstance(va, dict) else va
-        nb = vb.get("value") if isinstance(vb, dict) else vb
-        if isinstance(na, int | float) and isinstance(nb, int | float):
-            entry = {"a": va, "b": vb, "delta": nb - na}
-            out[key] = entry
-    return out
+def _operand(session: SessionDep, ident: str) -> tuple[str, dict[str, Any], dict[str, Any]]:
+    """(what it is, resolved config, headline summary) of an evaluation id or a campaign cell
+    ``CAMPAIGN_ID:RANK[:SUITE]`` (rank 1 = the best cell, suite ``global`` (default) or ``hard``)."""
+    row = session.get(Evaluation, ident)
+    if row is not None:
+        return "evaluation", row.config, (row.metrics or {}).get("overall") or {}
+    campaign_id, _, rest = ident.partition(":")
+    rank, _, suite = rest.partition(":")
+    if not rank.isdigit() or (suite or "global") not in SUITES or session.get(Campaign, campaign_id) is None:
+        raise queue.JobNotFound(f"no evaluation {ident!r} and no campaign cell of that name "
+                                "(cells are CAMPAIGN_ID:RANK or CAMPAIGN_ID:RANK:hard, rank 1 = best)")
+    cell = session.scalars(select(CampaignCell).where(CampaignCell.campaign_id == campaign_id,
+                                                      CampaignCell.rank == int(rank))).first()  # fmt: skip
+    if cell is None:
+        raise queue.JobNotFound(f"campaign {campaign_id!r} has no cell of rank {rank}")
+    config = {**session.get(Campaign, campaign_id).config, **cell.params}
+    suite = suite or "global"
+    summary = (cell.metrics or {}).get(suite)
+    if not summary:
+        raise queue.JobNotFound(f"campaign {campaign_id!r} cell {rank} has no {suite} suite")
+    return f"campaign cell ({suite} suite)", config, summary
 
 
 @router.get("/compare", responses=responses(404))
 def compare_evaluations(session: SessionDep, a: Annotated[Ident, Query()], b: Annotated[Ident, Query()]) -> dict[str, Any]:
-    """Two evaluations side by side: resolved-config diff key by key and metric deltas (b − a)."""
-    ea, eb = _evaluation(session, a), _evaluation(session, b)
-    return {"a": a, "b": b, "config_diff": diff_configs(ea.config, eb.config), "metrics": metric_deltas(ea.metrics, eb.metrics)}
+    """Two evaluations or campaign cells (``CAMPAIGN_ID:RANK[:hard]``) side by side: the resolved-config diff
+    key by key and the headline metric deltas B - A with 95 % intervals (MOVER, from each side's intervals)."""
+    from core.evaluation.delta import deltas, diff_configs
+
+    (kind_a, config_a, sum_a), (kind_b, config_b, sum_b) = _operand(session, a), _operand(session, b)
+    return {"a": a, "b": b, "sources": {"a": kind_a, "b": kind_b}, "config_diff": diff_configs(config_a, config_b),
+            "metrics": {k: v.model_dump() for k, v in deltas(sum_a, sum_b).items()}}

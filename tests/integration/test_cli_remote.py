@@ -57,7 +57,7 @@ def test_collect_train_evaluate_through_the_stage_commands(service: Service) -> 
     assert compared["a"] == jobs["evaluate"]["id"] and compared["b"] == cv["id"]
     assert {"a": "smoke-model", "b": "cv"} in [v for k, v in compared["config_diff"].items() if k.endswith("model")]
     text = service.cli("compare", jobs["evaluate"]["id"], cv["id"]).stdout
-    assert "config (only keys that differ):" in text and '"smoke-model" -> "cv"' in text
+    assert "config (only keys that differ):" in text and '"smoke-model" -> "cv"' in text and "success" in text
 
     report = service.cli("report", cv["id"]).stdout
     assert report.startswith("#") and "crossing_low" in report  # the evaluation's Markdown report
