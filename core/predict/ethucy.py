@@ -6,7 +6,10 @@ track), sliding by one frame. Neighbours are the other pedestrians present at th
 with whatever part of the observed history they have (valid flags; never future data). Frame
 convention ``focal_pedestrian``: the focal pedestrian's current position and last observed
 displacement place the frame (observed steps only). Only the focal slot carries targets, so
-ADE/FDE over ``target_mask`` are the benchmark's per-window numbers.
+ADE/FDE over ``target_mask`` are the benchmark's per-window numbers; training splits may also
+carry the neighbours' futures (``neighbour_targets``: where each neighbour is annotated, in the
+same focal frame), which gives the model several supervised pedestrians per window instead of one
+without changing what is scored (validation and test stay focal-only).
 
 Leakage rules enforced here: the fold's test scene never appears in its train/val files; velocities
 are backward differences (``extract_features``); the full H-step history of the focal pedestrian is
@@ -69,8 +72,9 @@ def focal_windows(rows: np.ndarray, span: int) -> Iterator[tuple[int, np.ndarray
                 yield int(pid), frames[i : i + span]
 
 
-def scene_samples(rows: np.ndarray, timebase: TimeBase, max_agents: int) -> SampleArrays:
-    """All focal-pedestrian windows of one scene file, on ``timebase``."""
+def scene_samples(rows: np.ndarray, timebase: TimeBase, max_agents: int, neighbour_targets: bool = False) -> SampleArrays:
+    """All focal-pedestrian windows of one scene file, on ``timebase`` (neighbours' futures as targets too when
+    ``neighbour_targets``; for training splits only)."""
     k = _stride(timebase)
     H, T = timebase.history, timebase.horizon
     span = (H + T - 1) * k + 1
@@ -91,6 +95,13 @@ def scene_samples(rows: np.ndarray, timebase: TimeBase, max_agents: int) -> Samp
         target = np.zeros((max_agents, T, 2), np.float32)
         tmask = np.zeros((max_agents, T), np.float32)
         target[0], tmask[0] = world_to_ego(future, f.origin, f.heading), 1.0
+        if neighbour_targets:
+            for k, g in enumerate(grid[H:]):
+                gid, gpos = by_frame.get(int(g), (np.zeros(0, np.int64), np.zeros((0, 2))))
+                match = (f.ped_ids[1:, None] == gid[None, :]) & (f.ped_ids[1:, None] >= 0)
+                found = np.nonzero(match.any(axis=1))[0] + 1
+                target[found, k] = world_to_ego(gpos[match[found - 1].argmax(axis=1)], f.origin, f.heading)
+                tmask[found, k] = 1.0
         for name, value in (("state", f.features), ("mask", f.mask), ("target", target), ("target_mask", tmask)):
             out[name].append(value)
     n = len(out["state"])
@@ -122,19 +133,23 @@ def fold_files(root: Path, fold: str) -> dict[str, list[Path]]:
 
 
 def import_fold(root: Path, fold: str, timebase: TimeBase = ETHUCY_TIMEBASE, max_agents: int = 12,
-                splits: tuple[str, ...] = ("train", "val", "test")) -> Dataset:
-    """One dataset with the fold's train, val and test files as episodes of those splits."""
+                splits: tuple[str, ...] = ("train", "val", "test"), neighbour_targets: tuple[str, ...] = ()) -> Dataset:
+    """One dataset with the fold's train, val and test files as episodes of those splits; the splits named in
+    ``neighbour_targets`` (training only: never test) also carry the neighbours' futures."""
+    if "test" in neighbour_targets:
+        raise ConfigError("neighbour targets on the test split would change what is scored", item="neighbour_targets")
     files = fold_files(root, fold)
     episodes = []
     for split in splits:
         for path in files[split]:
             rec = EpisodeRecord(scenario=f"{split}/{path.stem}", seed=None, split=split, role="real")
-            episodes.append((rec, scene_samples(read_scene(path), timebase, max_agents)))
+            episodes.append((rec, scene_samples(read_scene(path), timebase, max_agents, split in neighbour_targets)))
     meta = DatasetMeta(timebase=timebase, max_agents=max_agents, frame_convention="focal_pedestrian",
                        source="real", episodes=[],
                        generator={"kind": "ethucy", "fold": fold, "splits": list(splits),
                                   "files": {s: [p.name for p in files[s]] for s in splits},
-                                  "frame_step": FRAME_STEP, "frame_dt": FRAME_DT, "max_agents": max_agents})
+                                  "frame_step": FRAME_STEP, "frame_dt": FRAME_DT, "max_agents": max_agents,
+                                  **({"neighbour_targets": list(neighbour_targets)} if neighbour_targets else {})})
     return dataset_from_episodes(episodes, meta)
 
 

@@ -35,6 +35,17 @@ def test_observed_only_frame_and_backward_velocity():
     np.testing.assert_allclose(s.target[0, 0], [[0.0, 0.4], [0.0, 0.8]], atol=1e-6)
     assert s.target_mask[0].tolist() == [[1, 1], [0, 0], [0, 0]]
     assert not s.state[0, 0, -5:].any()  # no robot: ego channels zero
+    # training splits may carry the neighbours' futures (same focal frame, only where annotated); features unchanged
+    n = scene_samples(_scene({1: focal, 2: neighbour}), tb, max_agents=3, neighbour_targets=True)
+    np.testing.assert_array_equal(n.state, s.state)
+    np.testing.assert_allclose(n.target[0, 0], s.target[0, 0])
+    np.testing.assert_allclose(n.target[0, 1, 0], [8.2, 9.0], atol=1e-6)
+    assert n.target_mask[0].tolist() == [[1, 1], [1, 0], [0, 0]]
+
+
+def test_neighbour_targets_never_on_the_test_split(tmp_path):
+    with pytest.raises(ConfigError, match="neighbour targets"):
+        import_fold(tmp_path, "zara1", neighbour_targets=("train", "test"))
 
 
 def test_short_history_is_not_padded():
