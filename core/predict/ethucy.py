@@ -96,12 +96,12 @@ def scene_samples(rows: np.ndarray, timebase: TimeBase, max_agents: int, neighbo
         tmask = np.zeros((max_agents, T), np.float32)
         target[0], tmask[0] = world_to_ego(future, f.origin, f.heading), 1.0
         if neighbour_targets:
-            for k, g in enumerate(grid[H:]):
+            for step, g in enumerate(grid[H:]):
                 gid, gpos = by_frame.get(int(g), (np.zeros(0, np.int64), np.zeros((0, 2))))
                 match = (f.ped_ids[1:, None] == gid[None, :]) & (f.ped_ids[1:, None] >= 0)
                 found = np.nonzero(match.any(axis=1))[0] + 1
-                target[found, k] = world_to_ego(gpos[match[found - 1].argmax(axis=1)], f.origin, f.heading)
-                tmask[found, k] = 1.0
+                target[found, step] = world_to_ego(gpos[match[found - 1].argmax(axis=1)], f.origin, f.heading)
+                tmask[found, step] = 1.0
         for name, value in (("state", f.features), ("mask", f.mask), ("target", target), ("target_mask", tmask)):
             out[name].append(value)
     n = len(out["state"])

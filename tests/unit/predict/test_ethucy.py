@@ -43,6 +43,16 @@ def test_observed_only_frame_and_backward_velocity():
     assert n.target_mask[0].tolist() == [[1, 1], [1, 0], [0, 0]]
 
 
+def test_neighbour_targets_leave_windows_and_focal_targets_unchanged():
+    tb = TimeBase(0.4, 3, 4)
+    walk = {1: [(f * 10, f * 0.4, 0.0) for f in range(12)], 2: [(f * 10, 5.0, f * 0.3) for f in range(3, 12)]}
+    plain, extra = (scene_samples(_scene(walk), tb, 2, neighbour_targets=n) for n in (False, True))
+    assert len(plain) == len(extra) == 9  # 7 windows of ped 1, 2 of ped 2
+    np.testing.assert_array_equal(extra.state, plain.state)
+    np.testing.assert_array_equal(extra.target[:, 0], plain.target[:, 0])
+    assert extra.target_mask[:, 1].sum() > 0 and plain.target_mask[:, 1].sum() == 0
+
+
 def test_neighbour_targets_never_on_the_test_split(tmp_path):
     with pytest.raises(ConfigError, match="neighbour targets"):
         import_fold(tmp_path, "zara1", neighbour_targets=("train", "test"))
