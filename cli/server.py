@@ -57,16 +57,16 @@ def cmd_db_upgrade(args: argparse.Namespace) -> int:
 def _serve(settings: Settings, args: argparse.Namespace) -> None:
     import uvicorn
 
-    from api.main import create_app
+    from api.main import create_server_app
 
-    app = create_app(settings)  # fails here, before serving, on an un-migrated database
+    app = create_server_app(settings)  # fails here, before serving, on an un-migrated database
     print(f"foresight API on http://{args.host}:{args.port} (store {settings.store_root})", file=sys.stderr)
     # uvicorn shuts down gracefully on SIGTERM/SIGINT, then re-raises the signal to the handler that was
     # installed before it: make that one return, so that callers' clean-up runs and the exit code is 0.
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: None)
     if args.workers > 1:  # each process builds its app from the same FORESIGHT_* environment
-        uvicorn.run("api.main:create_app", factory=True, workers=args.workers, host=args.host, port=args.port,
+        uvicorn.run("api.main:create_server_app", factory=True, workers=args.workers, host=args.host, port=args.port,
                     log_level=args.log_level, access_log=False)  # fmt: skip
     else:
         uvicorn.run(app, host=args.host, port=args.port, log_level=args.log_level, access_log=False)
