@@ -1,5 +1,5 @@
 """The shipped default predictor (model/registry.yaml) loads on the planner time base and beats
-constant velocity on held-out simulator episodes (seeds outside its training range)."""
+constant velocity clearly on held-out simulator episodes (seeds outside its training range)."""
 
 from pathlib import Path
 
@@ -15,7 +15,11 @@ from core.stages.context import StageContext
 from core.stages.refs import BUILTIN_CONFIG_ROOT
 
 REPO = Path(__file__).resolve().parents[3]
-HELD_OUT_SEED = 7_000_000  #: far from the training base seeds (1000 + i * 100000 + k)
+HELD_OUT_SEED = 7_000_000  #: far from the training base seeds (50000 + i * 100000 + k, k < 48)
+#: learned / constant-velocity ADE and FDE must stay below this here. Measured on these 6 episodes: 0.59 / 0.57
+#: (the model shipped before pedestrian frames and edge embeddings: 0.76 / 0.75); the benchmark target over
+#: 66 held-out episodes is 0.75 (measured 0.62 / 0.61).
+MAX_RATIO = 0.70
 
 
 def _default_entry() -> dict | None:
@@ -38,4 +42,5 @@ def test_default_model_beats_cv_on_held_out_episodes(tmp_path):
     ds = load_dataset(tmp_path / res.dataset)
     learned = evaluate_predictor(predictor, ds)
     cv = evaluate_predictor(ConstantVelocityPredictor(PLANNER_TIMEBASE), ds)
-    assert learned["ade"] < cv["ade"] and learned["fde"] < cv["fde"]
+    ratios = learned["ade"] / cv["ade"], learned["fde"] / cv["fde"]
+    assert max(ratios) <= MAX_RATIO, f"learned/cv ADE, FDE = {ratios[0]:.3f}, {ratios[1]:.3f}"
