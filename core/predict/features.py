@@ -62,6 +62,16 @@ def mirror_signs(history: int) -> np.ndarray:
     return np.array([-1.0 if n.startswith(flip) else 1.0 for n in feature_names(history)], dtype=np.float32)
 
 
+def length_channels(history: int) -> np.ndarray:
+    """(F,) 1.0 for channels measured in metres or m/s (positions, velocities, robot v, goal distance), else 0.
+
+    Scaling these and the targets by one factor is the same scene walked faster or slower (a scale
+    augmentation; ETH/UCY's eth scene runs about 1.6x faster than the others).
+    """
+    lengths = ("px[", "py[", "vx[", "vy[", "ego_v", "goal_dist")
+    return np.array([1.0 if n.startswith(lengths) else 0.0 for n in feature_names(history)], dtype=np.float32)
+
+
 @dataclass(frozen=True)
 class Window:
     """What is known at one instant, in the world frame, on a time base's grid."""

@@ -6,7 +6,7 @@ from pathlib import Path
 from typing import Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from core.errors import ConfigError
 from core.predict.proxy import ProxySpec
@@ -34,9 +34,11 @@ class TrainConfig(_Strict):
     blocks: int = Field(default=2, ge=0, le=8)  #: K message-passing blocks
     edge_dim: int = Field(default=16, ge=0, le=256)  #: relative position/velocity edge embedding width (0 = none; core.predict.nn.model)
     local_frame: bool = True  #: encode/decode each pedestrian in its own frame (core.predict.nn.model)
+    ensemble: int = Field(default=1, ge=1, le=16)  #: > 1: train that many members (seeds seed, seed+1, ...), each selected as usual; the checkpoint averages them
     loss_beta: float = Field(default=0.2, gt=0)  #: SmoothL1 beta [m]
     grad_clip: float = Field(default=1.0, gt=0)
     augment_mirror: bool = False  #: mirror a random half of each batch across the ego x axis (y -> -y)
+    augment_scale: tuple[float, float] | None = None  #: scale each sample's lengths/speeds and targets by a factor drawn log-uniformly from [lo, hi]
     threads: int = Field(default=1, ge=1, le=64)  #: torch intra-op threads (1: small matmuls gain little from more, and shared cores thrash)
     val_split: str = "val"  #: which recorded split validates (val; test only for held-out checks)
     proxy_every: int = Field(default=0, ge=0)  #: epochs between proxy evaluations (0 = off)
@@ -44,6 +46,13 @@ class TrainConfig(_Strict):
     resume: bool = True  #: continue from checkpoints/last.pt in the work dir when present
     allow_degenerate: bool = False  #: skip the fail-fast dataset checks (recorded in the summary)
     gates: GateConfig = GateConfig()
+
+    @field_validator("augment_scale")
+    @classmethod
+    def _scale_bounds(cls, v: tuple[float, float] | None) -> tuple[float, float] | None:
+        if v is not None and not 0 < v[0] <= v[1]:
+            raise ValueError("augment_scale needs 0 < lo <= hi")
+        return v
 
 
 class TrainResult(BaseModel):

@@ -17,7 +17,7 @@ import torch
 
 from core.errors import ConfigError, NotFoundError
 from core.predict.features import feature_names
-from core.predict.nn.model import ModelConfig, TrajectoryModel
+from core.predict.nn.model import ModelConfig, TrajectoryModel, build_model
 from core.predict.predictor import check_batch
 from core.predict.timebase import TimeBase
 from core.version import code_version
@@ -103,7 +103,7 @@ def load_predictor(path: Path, expect_timebase: TimeBase | None = None, name: st
         raise ConfigError(f"bad model_config ({exc})", source=path, item="model_config") from None
     if (config.history, config.horizon) != (timebase.history, timebase.horizon) or abs(config.dt - timebase.dt) > 1e-9:
         raise ConfigError("model_config disagrees with the checkpoint's time base", source=path, item="model_config")
-    model = TrajectoryModel(config)
+    model = build_model(config)
     try:
         model.load_state_dict(payload["model"], strict=True)
     except RuntimeError as exc:

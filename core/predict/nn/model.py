@@ -27,7 +27,7 @@ features (``core.predict.features``) are unchanged: the frame change is a fixed 
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import torch
 from torch import nn
@@ -45,6 +45,7 @@ class ModelConfig:
     blocks: int = 2  #: K message-passing blocks
     edge_dim: int = 0  #: width of the relative-geometry edge embeddings (0 = none, as checkpoints before them)
     local_frame: bool = False  #: encode/decode each pedestrian in its own frame (False = checkpoints before it)
+    members: int = 1  #: > 1: an ensemble of that many independently trained models, predictions averaged
 
     @property
     def input_dim(self) -> int:
@@ -155,6 +156,24 @@ class TrajectoryModel(nn.Module):
             delta = _rotate(delta, c.unsqueeze(-1), -s.unsqueeze(-1))
         steps = delta + (v0 * self.config.dt).unsqueeze(2)
         return (p0.unsqueeze(2) + torch.cumsum(steps, dim=2)) * m.unsqueeze(-1)
+
+
+class EnsembleModel(nn.Module):
+    """``config.members`` independently trained models (different seeds); the prediction is their mean, so it
+    stays deterministic. Averaging removes part of each member's seed-dependent error."""
+
+    def __init__(self, config: ModelConfig):
+        super().__init__()
+        self.config = config
+        self.members = nn.ModuleList(TrajectoryModel(replace(config, members=1)) for _ in range(config.members))
+
+    def forward(self, features: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+        return torch.stack([m(features, mask) for m in self.members]).mean(dim=0)
+
+
+def build_model(config: ModelConfig) -> nn.Module:
+    """The model a config describes: one network, or an ensemble of ``members``."""
+    return TrajectoryModel(config) if config.members == 1 else EnsembleModel(config)
 
 
 def masked_smooth_l1(pred: torch.Tensor, target: torch.Tensor, target_mask: torch.Tensor, beta: float) -> torch.Tensor:

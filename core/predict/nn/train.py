@@ -13,6 +13,7 @@ import json
 import math
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -21,10 +22,16 @@ import torch
 
 from core.errors import ConfigError
 from core.predict.dataset import Dataset, file_sha256, load_dataset, resolve_dataset_path
-from core.predict.features import mirror_signs
+from core.predict.features import length_channels, mirror_signs
 from core.predict.metrics import ade_fde
 from core.predict.nn.checkpoint import make_checkpoint, read_checkpoint, save_checkpoint
-from core.predict.nn.model import ModelConfig, TrajectoryModel, masked_ade_fde, masked_smooth_l1
+from core.predict.nn.model import (
+    EnsembleModel,
+    ModelConfig,
+    TrajectoryModel,
+    masked_ade_fde,
+    masked_smooth_l1,
+)
 from core.predict.nn.selection import Selection
 from core.predict.predictor import ConstantVelocityPredictor
 from core.predict.quality import check_quality, summarize
@@ -60,12 +67,15 @@ def train_epoch(model, opt, data: dict[str, torch.Tensor], config: TrainConfig, 
     gen = torch.Generator().manual_seed(config.seed * 1_000_003 + epoch)
     order = torch.randperm(len(data["state"]), generator=gen)
     signs = torch.from_numpy(mirror_signs(model.config.history)) if config.augment_mirror else None
+    lengths = torch.from_numpy(length_channels(model.config.history)) if config.augment_scale else None
     loss_sum = err = pts = ferr = fin = 0.0
     for i in range(0, len(order), config.batch_size):
         idx = order[i:i + config.batch_size]
         b = {k: v[idx] for k, v in data.items()}
         if signs is not None:
             b = _mirror_half(b, signs, gen)
+        if lengths is not None:
+            b = _scale(b, lengths, config.augment_scale, gen)
         pred = model(b["state"], b["mask"])
         loss = masked_smooth_l1(pred, b["target"], b["target_mask"], config.loss_beta)
         opt.zero_grad(set_to_none=True)
@@ -87,6 +97,14 @@ def _mirror_half(b: dict[str, torch.Tensor], signs: torch.Tensor, gen: torch.Gen
     ty = torch.where(flip[:, None, None], -b["target"][..., 1], b["target"][..., 1])
     out["target"] = torch.stack([b["target"][..., 0], ty], dim=-1)
     return out
+
+
+def _scale(b: dict[str, torch.Tensor], lengths: torch.Tensor, bounds: tuple[float, float],
+           gen: torch.Generator) -> dict[str, torch.Tensor]:
+    """Every sample's length channels and targets times one factor, log-uniform in ``bounds``."""
+    lo, hi = math.log(bounds[0]), math.log(bounds[1])
+    f = torch.exp(lo + (hi - lo) * torch.rand(len(b["state"]), generator=gen))[:, None, None]
+    return {**b, "state": b["state"] * (1.0 + (f - 1.0) * lengths), "target": b["target"] * f[..., None]}
 
 
 def epoch_lr(config: TrainConfig, epoch: int) -> float:
@@ -115,6 +133,8 @@ def gates(config: TrainConfig, best: dict[str, Any], cv: dict[str, float]) -> di
 
 def run_train(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | None = None) -> TrainResult:
     """Train on ``config.dataset``; resume from ``checkpoints/last.pt`` in the work dir when present."""
+    if config.ensemble > 1:
+        return _train_ensemble(config, ctx, proxy)
     started = time.time()
     torch.set_num_threads(config.threads)
     if proxy is None and config.proxy is not None and config.proxy_every > 0:
@@ -174,6 +194,48 @@ def run_train(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | Non
                          "train_state": {"history": history, "selection": selection.to_dict()}}, last_path)
         ctx.progress(epoch / config.epochs, f"epoch {epoch}: val ade {va['ade']:.3f} fde {va['fde']:.3f}")
     return _finish(config, ctx, history, selection, cv, stats, dataset_info, started)
+
+
+def _train_ensemble(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | None) -> TrainResult:
+    """Members in ``members/<k>/`` (complete, resumable runs with seeds seed + k, each selected as usual), then
+    ``model.pt`` averaging them and a summary with the ensemble's validation metrics and gates (``history``: the
+    first member's curves; every member's summary is in its folder)."""
+    started = time.time()
+    k_total = config.ensemble
+    results = []
+    for k in range(k_total):
+        sub = replace(ctx, workdir=ctx.artifact(f"members/{k}/.keep").parent,
+                      progress=lambda f, m, k=k: ctx.progress((k + f) / k_total, f"member {k + 1}/{k_total}: {m}"))
+        results.append(run_train(config.model_copy(update={"ensemble": 1, "seed": config.seed + k}), sub, proxy))
+    payloads = [read_checkpoint(Path(r.checkpoint)) for r in results]
+    model = EnsembleModel(ModelConfig(**{**payloads[0]["model_config"], "members": k_total}))
+    for member, payload in zip(model.members, payloads, strict=True):
+        member.load_state_dict(payload["model"])
+    ds_path = resolve_dataset_path(config.dataset, ctx)
+    ds = load_dataset(ds_path)
+    va_idx = ds.split_indices(config.val_split)
+    va, cv = evaluate(model, _tensors(ds, va_idx), config.loss_beta), cv_metrics(ds, va_idx)
+    best = {"epoch": max(r.best_epoch for r in results), "val_loss": va["loss"], "val_ade": va["ade"],
+            "val_fde": va["fde"], "member_epochs": [r.best_epoch for r in results]}
+    gate = gates(config, best, cv)
+    payload = make_checkpoint(model, ds.meta.timebase, ds.meta.frame_convention, payloads[0]["dataset"],
+                              {k: best[k] for k in ("val_loss", "val_ade", "val_fde")}, best["epoch"])
+    save_checkpoint(payload, ctx.artifact("model.pt"))
+    first = json.loads(Path(results[0].summary).read_text())
+    summary = {
+        "artifact_role": "predictive_training_summary", "config": config.model_dump(), "dataset": payloads[0]["dataset"],
+        "dataset_stats": first["dataset_stats"], "cv_val": cv, "history": first["history"], "best": best,
+        "members": [{"seed": config.seed + k, "summary": f"members/{k}/training_summary.json", "best_epoch": r.best_epoch,
+                     "val_ade": r.val_ade, "val_fde": r.val_fde} for k, r in enumerate(results)],
+        "selection_mode": f"ensemble of {k_total} ({results[0].selection_mode} each)", "quality_gates": gate,
+        "checkpoint": str(ctx.artifact("model.pt")), "total_runtime_s": time.time() - started,
+        "code_version": code_version(),
+    }
+    path = ctx.artifact("training_summary.json")
+    path.write_text(json.dumps(summary, indent=2, default=float))
+    return TrainResult(checkpoint=str(ctx.artifact("model.pt")), summary=str(path), best_epoch=best["epoch"],
+                       val_ade=best["val_ade"], val_fde=best["val_fde"], cv_val_ade=cv["ade"], cv_val_fde=cv["fde"],
+                       selection_mode=summary["selection_mode"], gates_passed=gate["passed"])
 
 
 def _finish(config, ctx, history, selection, cv, stats, dataset_info, started) -> TrainResult:

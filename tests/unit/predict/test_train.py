@@ -106,3 +106,42 @@ def test_cosine_schedule_is_a_function_of_the_epoch():
     cfg = TrainConfig(dataset="d.npz", epochs=4, lr=1.0, lr_schedule="cosine")
     assert [round(epoch_lr(cfg, e), 3) for e in (1, 2, 3, 4)] == [1.0, 0.854, 0.5, 0.146]
     assert epoch_lr(TrainConfig(dataset="d.npz", lr=0.3), 7) == 0.3
+
+
+def test_ensemble_averages_its_members(tmp_path, curving_dataset):
+    """Members are ordinary runs with seeds seed, seed + 1; the checkpoint predicts their mean."""
+    import numpy as np
+
+    from core.predict.dataset import load_dataset
+    from core.predict.nn.checkpoint import load_predictor
+
+    res = run_train(TrainConfig(dataset=str(curving_dataset), ensemble=2, **{**FAST, "epochs": 2}),
+                    StageContext(workdir=tmp_path))
+    members = [load_predictor(tmp_path / "members" / str(k) / "model.pt") for k in range(2)]
+    ensemble = load_predictor(tmp_path / "model.pt")
+    assert ensemble.model.config.members == 2
+    ds = load_dataset(curving_dataset)
+    x, m = ds.state[:16], ds.mask[:16]
+    a, b = (p.predict(x, m) for p in members)
+    assert not np.allclose(a, b)  # different seeds, different members
+    np.testing.assert_allclose(ensemble.predict(x, m), (a + b) / 2, atol=1e-5)
+    summary = json.loads((tmp_path / "training_summary.json").read_text())
+    assert [s["seed"] for s in summary["members"]] == [0, 1] and summary["history"]
+    assert summary["best"]["val_ade"] == pytest.approx(res.val_ade) and "ensemble of 2" in res.selection_mode
+
+
+def test_scale_augmentation_scales_lengths_and_targets_together():
+    from core.predict.features import feature_names, length_channels
+    from core.predict.nn.train import _scale
+
+    names = feature_names(2)
+    state = torch.ones(3, 2, len(names))
+    b = _scale({"state": state, "target": torch.ones(3, 2, 4, 2), "mask": torch.ones(3, 2)},
+               torch.from_numpy(length_channels(2)), (0.5, 2.0), torch.Generator().manual_seed(0))
+    f = b["target"][:, 0, 0, 0]
+    assert ((f >= 0.5) & (f <= 2.0)).all() and not torch.allclose(f, f[0].expand(3))
+    row = dict(zip(names, b["state"][0, 0].tolist(), strict=True))
+    assert row["px[0]"] == pytest.approx(float(f[0])) and row["vy[-1]"] == pytest.approx(float(f[0]))
+    assert row["valid[0]"] == 1.0 and row["goal_ux"] == 1.0 and row["ego_w"] == 1.0
+    with pytest.raises(ValueError, match="augment_scale"):
+        TrainConfig(dataset="d.npz", augment_scale=(2.0, 1.0))
