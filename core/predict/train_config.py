@@ -35,6 +35,7 @@ class TrainConfig(_Strict):
     edge_dim: int = Field(default=16, ge=0, le=256)  #: relative position/velocity edge embedding width (0 = none; core.predict.nn.model)
     local_frame: bool = True  #: encode/decode each pedestrian in its own frame (core.predict.nn.model)
     ensemble: int = Field(default=1, ge=1, le=16)  #: > 1: train that many members (seeds seed, seed+1, ...), each selected as usual; the checkpoint averages them
+    loss: Literal["smooth_l1", "euclidean"] = "smooth_l1"  #: euclidean: the mean displacement error itself (what ADE scores)
     loss_beta: float = Field(default=0.2, gt=0)  #: SmoothL1 beta [m]
     grad_clip: float = Field(default=1.0, gt=0)
     augment_mirror: bool = False  #: mirror a random half of each batch across the ego x axis (y -> -y)

@@ -182,6 +182,19 @@ def masked_smooth_l1(pred: torch.Tensor, target: torch.Tensor, target_mask: torc
     return (per_point * target_mask).sum() / target_mask.sum().clamp(min=1.0)
 
 
+def masked_euclidean(pred: torch.Tensor, target: torch.Tensor, target_mask: torch.Tensor, eps: float = 1e-6) -> torch.Tensor:
+    """Mean Euclidean error of valid points: the ADE itself as the loss (its minimiser is what ADE/FDE reward)."""
+    err = torch.sqrt(((pred - target) ** 2).sum(-1) + eps)
+    return (err * target_mask).sum() / target_mask.sum().clamp(min=1.0)
+
+
+def masked_loss(kind: str, pred: torch.Tensor, target: torch.Tensor, target_mask: torch.Tensor, beta: float) -> torch.Tensor:
+    """The training loss ``kind`` (smooth_l1 | euclidean) over valid points."""
+    if kind == "euclidean":
+        return masked_euclidean(pred, target, target_mask)
+    return masked_smooth_l1(pred, target, target_mask, beta)
+
+
 def masked_ade_fde(pred: torch.Tensor, target: torch.Tensor, target_mask: torch.Tensor) -> tuple[torch.Tensor, ...]:
     """Sums for ADE/FDE: (sum of errors, valid points, sum of final errors, valid finals)."""
     err = torch.linalg.vector_norm(pred - target, dim=-1)

@@ -30,7 +30,7 @@ from core.predict.nn.model import (
     ModelConfig,
     TrajectoryModel,
     masked_ade_fde,
-    masked_smooth_l1,
+    masked_loss,
 )
 from core.predict.nn.selection import Selection
 from core.predict.predictor import ConstantVelocityPredictor
@@ -48,7 +48,8 @@ def _tensors(ds: Dataset, index: np.ndarray) -> dict[str, torch.Tensor]:
             ("state", "mask", "target", "target_mask")}
 
 
-def evaluate(model: TrajectoryModel, data: dict[str, torch.Tensor], beta: float, batch: int = 2048) -> dict[str, float]:
+def evaluate(model: TrajectoryModel, data: dict[str, torch.Tensor], beta: float, batch: int = 2048,
+             loss: str = "smooth_l1") -> dict[str, float]:
     """Loss, ADE, FDE over a whole split (sums over valid points, not means of batch means)."""
     model.eval()
     loss_sum = err = pts = ferr = fin = 0.0
@@ -56,7 +57,7 @@ def evaluate(model: TrajectoryModel, data: dict[str, torch.Tensor], beta: float,
         for i in range(0, len(data["state"]), batch):
             b = {k: v[i:i + batch] for k, v in data.items()}
             pred = model(b["state"], b["mask"])
-            loss_sum += float(masked_smooth_l1(pred, b["target"], b["target_mask"], beta)) * float(b["target_mask"].sum())
+            loss_sum += float(masked_loss(loss, pred, b["target"], b["target_mask"], beta)) * float(b["target_mask"].sum())
             e, p, fe, f = masked_ade_fde(pred, b["target"], b["target_mask"])
             err, pts, ferr, fin = err + float(e), pts + float(p), ferr + float(fe), fin + float(f)
     return {"loss": loss_sum / max(pts, 1.0), "ade": err / max(pts, 1.0), "fde": ferr / max(fin, 1.0)}
@@ -77,7 +78,7 @@ def train_epoch(model, opt, data: dict[str, torch.Tensor], config: TrainConfig, 
         if lengths is not None:
             b = _scale(b, lengths, config.augment_scale, gen)
         pred = model(b["state"], b["mask"])
-        loss = masked_smooth_l1(pred, b["target"], b["target_mask"], config.loss_beta)
+        loss = masked_loss(config.loss, pred, b["target"], b["target_mask"], config.loss_beta)
         opt.zero_grad(set_to_none=True)
         loss.backward()
         torch.nn.utils.clip_grad_norm_(model.parameters(), config.grad_clip, error_if_nonfinite=True)
@@ -176,7 +177,7 @@ def run_train(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | Non
             group["lr"] = epoch_lr(config, epoch)
         tr = train_epoch(model, opt, train_data, config, epoch)
         t1 = time.time()
-        va = evaluate(model, val_data, config.loss_beta)
+        va = evaluate(model, val_data, config.loss_beta, loss=config.loss)
         rec = {"epoch": epoch, **{f"train_{k}": v for k, v in tr.items()}, **{f"val_{k}": v for k, v in va.items()},
                "cv_val_ade": cv["ade"], "cv_val_fde": cv["fde"], "train_runtime_s": t1 - t0,
                "val_runtime_s": time.time() - t1, "train_samples": len(tr_idx), "val_samples": len(va_idx)}
@@ -214,7 +215,7 @@ def _train_ensemble(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback
     ds_path = resolve_dataset_path(config.dataset, ctx)
     ds = load_dataset(ds_path)
     va_idx = ds.split_indices(config.val_split)
-    va, cv = evaluate(model, _tensors(ds, va_idx), config.loss_beta), cv_metrics(ds, va_idx)
+    va, cv = evaluate(model, _tensors(ds, va_idx), config.loss_beta, loss=config.loss), cv_metrics(ds, va_idx)
     best = {"epoch": max(r.best_epoch for r in results), "val_loss": va["loss"], "val_ade": va["ade"],
             "val_fde": va["fde"], "member_epochs": [r.best_epoch for r in results]}
     gate = gates(config, best, cv)

@@ -5,7 +5,7 @@ import torch
 from core.errors import ConfigError
 from core.predict.features import current_index, feature_dim
 from core.predict.nn.checkpoint import TorchPredictor, load_predictor, make_checkpoint, save_checkpoint
-from core.predict.nn.model import ModelConfig, TrajectoryModel, masked_ade_fde, masked_smooth_l1
+from core.predict.nn.model import ModelConfig, TrajectoryModel, masked_ade_fde, masked_loss, masked_smooth_l1
 from core.predict.predictor import ConstantVelocityPredictor, Predictor
 from core.predict.timebase import ETHUCY_TIMEBASE, PLANNER_TIMEBASE
 
@@ -89,6 +89,7 @@ def test_masked_loss_and_metrics_ignore_missing_targets():
     target[0, 1] = 100.0  # slot 1 has no targets: must not count
     tmask = torch.tensor([[[1.0, 1.0, 1.0], [0.0, 0.0, 0.0]]])
     assert float(masked_smooth_l1(pred, target, tmask, beta=1.0)) == pytest.approx(2.5)
+    assert float(masked_loss("euclidean", pred, target, tmask, 1.0)) == pytest.approx(3.0)  # = the ADE
     e, n, fe, fn = masked_ade_fde(pred, target, tmask)
     assert (float(e / n), float(fe / fn)) == (3.0, 3.0)
 
