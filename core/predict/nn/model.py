@@ -59,33 +59,30 @@ LOCAL_EXTRA = 10  #: pedestrian-frame channels besides the history: robot rel. p
 STILL = 0.05  #: [m/s] below this speed a pedestrian's frame keeps the ego x axis
 
 
-def _rotate(x: torch.Tensor, c: torch.Tensor, s: torch.Tensor) -> torch.Tensor:
-    """(..., 2) vectors into a frame at angle (c, s) = (cos, sin): x' = c x + s y, y' = -s x + c y."""
-    return torch.stack([c * x[..., 0] + s * x[..., 1], -s * x[..., 0] + c * x[..., 1]], dim=-1)
-
-
-def local_inputs(features: torch.Tensor, history: int) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    """(B, N, 5 H + LOCAL_EXTRA) pedestrian-frame inputs and each frame's (cos, sin) (B, N) in the ego frame."""
+def local_inputs(features: torch.Tensor, history: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """(B, N, 5 H + LOCAL_EXTRA) pedestrian-frame inputs and each frame's rotation R (B, N, 2, 2), rows (c, s) and
+    (-s, c) with (c, s) the unit velocity (ego x when still): a row vector x goes into the frame as x @ R^T and
+    back as x @ R. One batched matmul for all vectors (few, larger ops: inference is one small batch)."""
     H = history
     steps = features[..., : 5 * H].unflatten(-1, (H, 5))
     pos, vel, valid = steps[..., 0:2], steps[..., 2:4], steps[..., 4:5]
     p0, v0 = pos[..., -1, :], vel[..., -1, :]
-    speed = torch.linalg.vector_norm(v0, dim=-1)
-    moving = speed > STILL
-    safe = torch.where(moving, speed, torch.ones_like(speed))
-    c = torch.where(moving, v0[..., 0] / safe, torch.ones_like(speed))
-    s = torch.where(moving, v0[..., 1] / safe, torch.zeros_like(speed))
-    cs, ss = c.unsqueeze(-1), s.unsqueeze(-1)
-    rel = _rotate(pos - p0.unsqueeze(-2), cs, ss) * valid
-    vl = _rotate(vel, cs, ss)
+    speed = torch.linalg.vector_norm(v0, dim=-1, keepdim=True)
+    unit_x, row2 = (_UNIT_X, _ROW2) if features.dtype == torch.float32 else (_UNIT_X.to(features.dtype), _ROW2.to(features.dtype))
+    u = torch.where(speed > STILL, v0 / speed.clamp(min=STILL), unit_x)  # (c, s)
+    rot = torch.stack([u, u.flip(-1) * row2], dim=-2)  # rows (c, s), (-s, c)
     ego = features[..., 5 * H:]
-    robot_rel = _rotate(-p0, c, s)
-    robot_vel = _rotate(torch.stack([ego[..., 0], torch.zeros_like(ego[..., 0])], dim=-1), c, s)
-    goal = _rotate(ego[..., 2:4], c, s)
-    x = torch.cat([rel.flatten(-2), vl.flatten(-2), valid.flatten(-2), robot_rel,
-                   torch.linalg.vector_norm(p0, dim=-1, keepdim=True), robot_vel, ego[..., 1:2], goal, ego[..., 4:5],
-                   speed.unsqueeze(-1)], dim=-1)
-    return x, c, s
+    vecs = torch.cat([(pos - p0.unsqueeze(-2)) * valid, vel, -p0.unsqueeze(-2),
+                      (ego[..., 0:2] * unit_x).unsqueeze(-2), ego[..., 2:4].unsqueeze(-2)], dim=-2)
+    r = vecs @ rot.transpose(-1, -2)  # (B, N, 2 H + 3, 2)
+    x = torch.cat([r[..., : 2 * H, :].flatten(-2), valid.flatten(-2), r[..., 2 * H, :],
+                   torch.linalg.vector_norm(p0, dim=-1, keepdim=True), r[..., 2 * H + 1, :], ego[..., 1:2],
+                   r[..., 2 * H + 2, :], ego[..., 4:5], speed], dim=-1)
+    return x, rot
+
+
+_UNIT_X = torch.tensor([1.0, 0.0])
+_ROW2 = torch.tensor([-1.0, 1.0])  #: (s, c) * (-1, 1) = (-s, c)
 
 
 class MessageBlock(nn.Module):
@@ -102,16 +99,17 @@ class MessageBlock(nn.Module):
 
     def forward(self, h: torch.Tensor, dist: torch.Tensor, pair_mask: torch.Tensor,
                 edge: torch.Tensor | None = None) -> torch.Tensor:
-        """h (B, N, h), dist (B, N, N) [m], pair_mask (B, N, N) bool, edge (B, N, N, e) -> (B, N, h)."""
+        """h (B, N, h), dist (B, N, N) [m], pair_mask (B, N, N) bool (True = masked OUT: an inactive partner),
+        edge (B, N, N, e) -> (B, N, h)."""
         q, k, v = self.qkv(h).chunk(3, dim=-1)
         logits = (q @ k.transpose(1, 2)) * self.scale - F.softplus(self.distance_weight) * dist
         if self.edge_logit is not None:
             logits = logits + self.edge_logit(edge).squeeze(-1)
-        logits = logits.masked_fill(~pair_mask, -1e9)
+        logits = logits.masked_fill(pair_mask, -1e9)
         att = torch.softmax(logits, dim=-1)
         msg = att @ v
         if self.edge_logit is not None:
-            msg = msg + self.edge_value((att.unsqueeze(-1) * edge).sum(2))
+            msg = msg + self.edge_value((att.unsqueeze(-2) @ edge).squeeze(-2))  # sum_j a_ij e_ij
         return h + self.update(torch.cat([h, msg], dim=-1))
 
 
@@ -136,24 +134,24 @@ class TrajectoryModel(nn.Module):
         p0 = features[..., self._px : self._px + 2]
         v0 = features[..., self._vx : self._vx + 2]
         local = self.config.local_frame
-        if local:
-            x, c, s = local_inputs(features, self.config.history)
-        else:
-            x = features
-        dist = torch.cdist(p0, p0)
-        pair_mask = (mask.unsqueeze(1) > 0).expand(B, N, N)
+        x, rot = local_inputs(features, self.config.history) if local else (features, None)
+        pair_mask = (mask.unsqueeze(1) <= 0).expand(B, N, N)  # True = inactive partner
         h = self.encoder(x) * m
         edge = None
         if self.edge_encoder is not None and self.blocks:
-            rel_p, rel_v = p0.unsqueeze(1) - p0.unsqueeze(2), v0.unsqueeze(1) - v0.unsqueeze(2)  # [b, i, j] = x_j - x_i
+            pv = torch.cat([p0, v0], dim=-1)
+            rel = pv.unsqueeze(1) - pv.unsqueeze(2)  # [b, i, j] = (p_j - p_i, v_j - v_i)
+            dist = torch.linalg.vector_norm(rel[..., :2], dim=-1)  # = cdist(p0, p0), without a second pass
             if local:  # into the receiver i's frame
-                rel_p, rel_v = (_rotate(r, c.unsqueeze(-1), s.unsqueeze(-1)) for r in (rel_p, rel_v))
-            edge = self.edge_encoder(torch.cat([rel_p, rel_v, dist.unsqueeze(-1)], dim=-1))
+                rel = (rel.unflatten(-1, (2, 2)) @ rot.transpose(-1, -2).unsqueeze(2)).flatten(-2)
+            edge = self.edge_encoder(torch.cat([rel, dist.unsqueeze(-1)], dim=-1))
+        else:
+            dist = torch.cdist(p0, p0)
         for block in self.blocks:
             h = block(h, dist, pair_mask, edge) * m
         delta = self.decoder(h).view(B, N, self.config.horizon, 2)
         if local:  # back from each pedestrian's frame: the inverse rotation
-            delta = _rotate(delta, c.unsqueeze(-1), -s.unsqueeze(-1))
+            delta = delta @ rot
         steps = delta + (v0 * self.config.dt).unsqueeze(2)
         return (p0.unsqueeze(2) + torch.cumsum(steps, dim=2)) * m.unsqueeze(-1)
 
