@@ -27,6 +27,7 @@ features (``core.predict.features``) are unchanged: the frame change is a fixed 
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import asdict, dataclass, replace
 
 import torch
@@ -128,7 +129,34 @@ class TrajectoryModel(nn.Module):
         self._vx = current_index(c.history, "vx")
 
     def forward(self, features: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
-        """features (B, N, F), mask (B, N) -> future positions (B, N, T, 2) in the features' frame."""
+        """features (B, N, F), mask (B, N) -> future positions (B, N, T, 2) in the features' frame.
+
+        One planner decision (B = 1, eval, inference mode) runs a TorchScript trace of this same
+        forward, made on the first such call per input shape: the same ATen ops in the same order
+        (bit-identical outputs), without ~60 Python-dispatched ops (0.46 -> 0.26 ms per call measured).
+        """
+        if features.shape[0] == 1 and not self.training and torch.is_inference_mode_enabled():
+            return self._traced(features, mask)
+        return self._forward(features, mask)
+
+    def _traced(self, features: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+        cache = self.__dict__.setdefault("_trace_cache", {})  # a plain attribute: not in state_dict
+        key = (tuple(features.shape), features.dtype, tuple(mask.shape), mask.dtype)
+        fn = cache.get(key)
+        if fn is None:
+            if len(cache) >= 4:  # a handful of slot counts per process; never grow without bound
+                return self._forward(features, mask)
+            with warnings.catch_warnings():  # torch 2.13 marks jit.trace deprecated; it is what removes the overhead
+                warnings.simplefilter("ignore")
+                fn = cache[key] = torch.jit.trace(_Eager(self), (features, mask), check_trace=False)
+        return fn(features, mask)
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state.pop("_trace_cache", None)  # traces share the weights; rebuilt on demand after unpickling
+        return state
+
+    def _forward(self, features: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
         B, N, _ = features.shape
         m = mask.unsqueeze(-1)
         p0 = features[..., self._px : self._px + 2]
@@ -154,6 +182,17 @@ class TrajectoryModel(nn.Module):
             delta = delta @ rot
         steps = delta + (v0 * self.config.dt).unsqueeze(2)
         return (p0.unsqueeze(2) + torch.cumsum(steps, dim=2)) * m.unsqueeze(-1)
+
+
+class _Eager(nn.Module):
+    """The eager forward of a TrajectoryModel, as the module to trace (tracing calls forward)."""
+
+    def __init__(self, model: TrajectoryModel):
+        super().__init__()
+        self.model = model
+
+    def forward(self, features: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+        return self.model._forward(features, mask)
 
 
 class EnsembleModel(nn.Module):

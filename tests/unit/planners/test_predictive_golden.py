@@ -19,12 +19,16 @@ import pytest
 from core.planners.base import EpisodeInfo
 from core.planners.predictive.config import PredictivePlannerConfig
 from core.planners.predictive.planner import PredictivePlanner
-from core.predict.forecaster import ConstantVelocityForecaster
+from core.predict.forecaster import ConstantVelocityForecaster, LearnedForecaster
 from core.predict.timebase import PLANNER_TIMEBASE
 from core.scenarios.model import ResolvedScenario, RobotConfig, Scenario
 from tests.unit.planners.scenes import corridor_map, observation
 
 FIXTURE = Path(__file__).with_name("predictive_golden.json")
+#: the same decisions with the shipped learned predictor (recorded before its inference was traced)
+LEARNED_FIXTURE = Path(__file__).with_name("predictive_golden_learned.json")
+LEARNED_CASES = ("crossing", "crowd16", "crowd16_pillars", "extended_horizon", "ped_ahead", "stall")
+CHECKPOINT = Path(__file__).resolve().parents[3] / "model" / "predictor-sim-default.pt"
 
 _PILLARS = (((7.5, 11.9), (9, 11.9), (9, 13), (7.5, 13)), ((12, 7), (13, 7), (13, 9.2), (12, 9.2)))
 
@@ -80,13 +84,13 @@ def _cases() -> dict[str, dict]:
     return cases
 
 
-def run_case(case: dict) -> list[dict]:
-    """Every decision of one case: command, cost, sequence, evaluations, near field."""
+def run_case(case: dict, forecaster=None) -> list[dict]:
+    """Every decision of one case: command, cost, sequence, evaluations, near field (constant velocity by default)."""
     m = corridor_map(obstacles=case.get("obstacles", ()))
     robot = RobotConfig(**case.get("robot", {}))
     scen = ResolvedScenario(scenario=Scenario(name="test", map_id="test", robot_config=robot), map=m)
     planner = PredictivePlanner(PredictivePlannerConfig.from_dict(case.get("config")),
-                                ConstantVelocityForecaster(PLANNER_TIMEBASE))
+                                forecaster or ConstantVelocityForecaster(PLANNER_TIMEBASE))
     planner.reset(EpisodeInfo(scenario=scen, seed=0, dt=0.1, robot_radius=1.0, ped_radius=0.4))
     out = []
     for step, kw in enumerate(case["steps"]):  # consecutive simulator steps
@@ -113,6 +117,26 @@ def test_decisions_match_the_recorded_ones(name):
         assert g["cost"] == pytest.approx(e["cost"], rel=1e-9, abs=1e-9), (name, k)
 
 
+def _learned_forecaster() -> LearnedForecaster:
+    from core.predict.nn.checkpoint import load_predictor
+
+    return LearnedForecaster(load_predictor(CHECKPOINT))
+
+
+@pytest.mark.parametrize("name", LEARNED_CASES)
+def test_learned_decisions_match_the_recorded_ones(name):
+    expected = json.loads(LEARNED_FIXTURE.read_text())[name]
+    got = run_case(_cases()[name], _learned_forecaster())
+    for k, (g, e) in enumerate(zip(got, expected, strict=True)):
+        assert g["command"] == e["command"], (name, k)
+        assert g["sequence"] == e["sequence"], (name, k)
+        assert (g["evaluated"], g["near_field"]) == (e["evaluated"], e["near_field"]), (name, k)
+        assert g["cost"] == pytest.approx(e["cost"], rel=1e-6, abs=1e-6), (name, k)  # float32 model
+
+
 if __name__ == "__main__":
     FIXTURE.write_text(json.dumps({name: run_case(c) for name, c in sorted(_cases().items())}, indent=1) + "\n")
     print(f"wrote {FIXTURE}")
+    LEARNED_FIXTURE.write_text(json.dumps({n: run_case(_cases()[n], _learned_forecaster()) for n in LEARNED_CASES},
+                                          indent=1) + "\n")
+    print(f"wrote {LEARNED_FIXTURE}")
