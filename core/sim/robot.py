@@ -9,6 +9,7 @@ it, so they follow exactly the simulator's kinematics. Keep their names and sign
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -131,17 +132,19 @@ def unicycle_rollout(state0: np.ndarray, cmds: np.ndarray, limits: RobotLimits, 
     state0 = np.asarray(state0, dtype=float)
     cmds = np.asarray(cmds, dtype=float)
     n = cmds.shape[-2]
-    batch = np.broadcast_shapes(state0.shape[:-1], cmds.shape[:-2])
+    same = state0.shape[:-1] == cmds.shape[:-2]  # the planner's case: skip the broadcasting calls
+    batch = state0.shape[:-1] if same else np.broadcast_shapes(state0.shape[:-1], cmds.shape[:-2])
     out = np.empty(batch + (n, 5))
     if n == 0:
         return out
-    s0 = np.broadcast_to(state0, batch + (5,))
-    cmds = np.broadcast_to(cmds, batch + (n, 2))
+    s0 = state0 if same else np.broadcast_to(state0, batch + (5,))
+    cmds = cmds if same else np.broadcast_to(cmds, batch + (n, 2))
     v0, w0 = s0[..., V], s0[..., W]
     if limits.actuation == "reference_lag":
         v, w = _lag_speeds(v0, w0, cmds, limits, dt)
     else:
-        v, w = _tracking_speeds(v0, w0, cmds, limits, dt)
+        vw = _held_speeds(s0[..., V:], cmds, limits, dt) if n > 1 else None
+        v, w = (vw[..., 0, :], vw[..., 1, :]) if vw is not None else _tracking_speeds(v0, w0, cmds, limits, dt)
     # midpoint odometry, accumulated in the order unicycle_step adds (heading unwrapped until the end)
     shape = batch + (n + 1,)
     th = np.empty(shape)
@@ -170,6 +173,27 @@ def unicycle_rollout(state0: np.ndarray, cmds: np.ndarray, limits: RobotLimits, 
     out[..., V] = v
     out[..., W] = w
     return out
+
+
+@lru_cache(maxsize=64)
+def _ramp_limits(limits: RobotLimits, dt: float) -> tuple[np.ndarray, ...]:
+    """(2, 1) lower/upper bounds and per-step down/up changes of (v, omega), for :func:`_held_speeds`."""
+    col = [[limits.v_min, -limits.w_max], [limits.v_max, limits.w_max],
+           [limits.decel * dt, limits.alpha * dt], [limits.accel * dt, limits.alpha * dt]]
+    return tuple(np.array(c)[:, None] for c in col)
+
+
+def _held_speeds(vw0: np.ndarray, cmds: np.ndarray, limits: RobotLimits, dt: float) -> np.ndarray | None:
+    """``_tracking_speeds`` as (..., 2, n) [v; omega] when every sequence holds ONE command within the limits
+    (the planner's rollouts), else None: the same ramp formulas, v and omega in one array op each and
+    without the run detection (numpy's per-call overhead dominates at the planner's sizes)."""
+    if not np.logical_and.reduce(cmds[..., 1:, :] == cmds[..., :1, :], axis=None):
+        return None
+    lo, hi, down, up = _ramp_limits(limits, dt)
+    if not np.logical_and.reduce((vw0 >= lo[:, 0]) & (vw0 <= hi[:, 0]), axis=None):
+        return None
+    k = np.arange(1, cmds.shape[-2] + 1, dtype=float)
+    return _ramp(vw0, _clip(cmds[..., 0, :], lo[:, 0], hi[:, 0]), lo, hi, down, up, k)
 
 
 def _tracking_speeds(v0: np.ndarray, w0: np.ndarray, cmds: np.ndarray, limits: RobotLimits,
