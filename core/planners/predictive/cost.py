@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from collections import OrderedDict
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -147,6 +148,16 @@ class Scene:
     max_speed: float
     max_turn_rate: float
 
+    @cached_property
+    def time_steps(self) -> np.ndarray:
+        """(K,) seconds between successive forecast times (the first from now)."""
+        return np.diff(np.concatenate([[0.0], self.times]))
+
+    @cached_property
+    def discounts(self) -> dict[float, np.ndarray]:
+        """discount factor -> (K,) its powers 0..K-1 (filled on first use; one decision, one config)."""
+        return {}
+
 
 @dataclass(frozen=True)
 class Rollouts:
@@ -175,21 +186,25 @@ def pedestrian_terms(pos: np.ndarray, speed: np.ndarray, scene: Scene, cfg: Pred
     clear = _reactive_clearance(pos, fut, scene, s.yield_speed, s.yield_range)  # (B, N, K)
     margin = s.collision_margin + s.margin_growth * scene.times + s.speed_clearance_gain * speed  # (B, K)
     resp = s.passive_floor + (1.0 - s.passive_floor) * np.minimum(1.0, speed / s.passive_speed)  # (B, K)
-    wk = resp * (s.discount ** np.arange(len(scene.times)))  # (B, K)
-    nearest = clear.min(axis=1)  # (B, K) over pedestrians
+    disc = scene.discounts.get(s.discount)
+    if disc is None:
+        disc = scene.discounts[s.discount] = s.discount ** np.arange(len(scene.times))
+    wk = resp * disc  # (B, K)
+    # ufunc reductions instead of the .min/.max methods: the same reductions without their Python wrappers
+    nearest = np.minimum.reduce(clear, axis=1)  # (B, K) over pedestrians
     # the hard term is monotone in the clearance: its max over pedestrians is the one at the nearest
-    hard = (np.maximum(s.hard_clearance_distance - nearest, 0.0) * resp).max(axis=1)
+    hard = np.maximum.reduce(np.maximum(s.hard_clearance_distance - nearest, 0.0) * resp, axis=1)
     # pedestrians farther than every margin + band from every rollout add exact zeros to the sums: drop them
-    reach = float(margin.max()) + max(s.near_distance, s.ttc_distance, 0.0)
-    keep = clear.min(axis=(0, 2)) < reach  # (N,)
-    if not keep.all():
+    reach = float(np.maximum.reduce(margin, axis=None)) + max(s.near_distance, s.ttc_distance, 0.0)
+    keep = np.minimum.reduce(clear, axis=(0, 2)) < reach  # (N,)
+    if not np.logical_and.reduce(keep):
         clear = clear[:, keep]
     excess = margin[:, None, :] - clear  # (B, N, K): > 0 inside the collision margin
     collision = np.einsum("bnk,bk->b", np.maximum(excess, 0.0), wk)
     near = np.einsum("bnk,bk->b", np.maximum(excess + s.near_distance, 0.0), wk)
     ttc = np.einsum("bnk,bk->b", np.maximum(excess + s.ttc_distance, 0.0), resp / scene.times)
     return {"collision": collision, "near_miss": near, "ttc": ttc, "hard_clearance": hard,
-            "min_clearance": nearest.min(axis=1)}
+            "min_clearance": np.minimum.reduce(nearest, axis=1)}
 
 
 def _reactive_clearance(pos: np.ndarray, fut: np.ndarray, scene: Scene, speed: float, reach: float) -> np.ndarray:
@@ -210,13 +225,13 @@ def _reactive_clearance(pos: np.ndarray, fut: np.ndarray, scene: Scene, speed: f
     # A pedestrian is displaced only from the first step it is within ``reach`` (push exactly 0 before, so its
     # clearance is the undisplaced one up to there): step only those pairs, from the first such step on.
     inside = clear[..., :-1] < reach  # (B, N, K-1)
-    steps_in = inside.any(axis=(0, 1))
-    if not steps_in.any():
+    steps_in = np.logical_or.reduce(inside, axis=(0, 1))
+    if not np.logical_or.reduce(steps_in):
         return clear
     k0 = int(np.argmax(steps_in))
-    ib, jn = np.nonzero(inside[..., k0:].any(axis=-1))
+    ib, jn = np.nonzero(np.logical_or.reduce(inside[..., k0:], axis=-1))
     rel = np.stack([dx[ib, jn, k0:], dy[ib, jn, k0:]], axis=-1).transpose(1, 2, 0).copy()  # (K-k0, 2, A)
-    gain = speed * np.diff(np.concatenate([[0.0], scene.times]))  # (K,) largest step away per forecast step
+    gain = speed * scene.time_steps  # (K,) largest step away per forecast step
     A = len(ib)
     off = np.zeros((2, A))  # accumulated pedestrian displacement (x, y)
     e = np.empty((2, A))
@@ -234,14 +249,16 @@ def _reactive_clearance(pos: np.ndarray, fut: np.ndarray, scene: Scene, speed: f
         # push = gain * clip(1 - clear / reach, 0, 1) / max(d, 1e-6); displacement -= push * e
         np.divide(out[i], reach, out=push)
         np.subtract(1.0, push, out=push)
-        np.maximum(push, 0.0, out=push)
-        np.minimum(push, 1.0, out=push)
+        _clip01(push, 0.0, 1.0, out=push)  # = minimum(maximum(push, 0), 1): push is never NaN
         np.multiply(gain[k0 + i], push, out=push)
         np.divide(push, np.maximum(d, 1e-6, out=d), out=push)
         np.multiply(push, e, out=e)
         np.subtract(off, e, out=off)
     clear[ib, jn, k0:] = out.T
     return clear
+
+
+_clip01 = np._core.umath.clip  #: the clip ufunc itself (np.clip adds Python-level dispatch)
 
 
 def influence_range(cfg: PredictivePlannerConfig, horizon_s: float, max_speed: float) -> float:
@@ -268,17 +285,18 @@ def evaluate(roll: Rollouts, scene: Scene, cfg: PredictivePlannerConfig) -> tupl
     terms["progress"] = progress
     terms["progress_risk"] = np.maximum(0.0, progress) * np.maximum(0.0, s.progress_risk_distance - min_c)
     sc = scene.static(pos) - scene.robot_radius  # (B, K)
-    terms["static_collision"] = (sc < s.static_margin).sum(axis=1).astype(float)
-    terms["static"] = np.maximum(0.0, s.static_margin + s.static_soft_distance - sc).mean(axis=1)
+    K = len(roll.eval_index)  # means below: np.add.reduce / K is what ndarray.mean computes, without its wrapper
+    terms["static_collision"] = np.add.reduce(sc < s.static_margin, axis=1, dtype=float)
+    terms["static"] = np.add.reduce(np.maximum(0.0, s.static_margin + s.static_soft_distance - sc), axis=1) / K
     cmd = roll.commands[:, roll.eval_index]  # (B, K, 2)
-    terms["velocity"] = np.abs(cmd[..., 0]).mean(axis=1) / scene.max_speed
-    terms["turn"] = np.abs(cmd[..., 1]).mean(axis=1) / scene.max_turn_rate
+    terms["velocity"] = np.add.reduce(np.abs(cmd[..., 0]), axis=1) / K / scene.max_speed
+    terms["turn"] = np.add.reduce(np.abs(cmd[..., 1]), axis=1) / K / scene.max_turn_rate
     terms["smoothness"] = (np.abs(roll.commands[:, 0, 0] - scene.prev_command[0]) / scene.max_speed
                            + np.abs(roll.commands[:, 0, 1] - scene.prev_command[1]) / scene.max_turn_rate)
     # mean (not terminal) heading error: a terminal error lets every decision postpone turning in place
     bearing = np.arctan2(target[:, None, 1] - pos[..., 1], target[:, None, 0] - pos[..., 0])  # (B, K)
-    terms["heading"] = np.abs((bearing - ev[..., 2] + np.pi) % (2 * np.pi) - np.pi).mean(axis=1) / np.pi
+    terms["heading"] = np.add.reduce(np.abs((bearing - ev[..., 2] + np.pi) % (2 * np.pi) - np.pi), axis=1) / K / np.pi
     total = -wt.goal * terms["progress"]
     for name in TERMS[1:]:
-        total = total + getattr(wt, name) * terms[name]
+        total += getattr(wt, name) * terms[name]
     return total, terms
