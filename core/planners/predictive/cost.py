@@ -53,15 +53,16 @@ class RoutePotential:
         x, y = pts[..., 0], pts[..., 1]
         d = [np.sqrt((x - wx) ** 2 + (y - wy) ** 2) for wx, wy in self.waypoints]  # J x (B, T)
         phi = d[0] + self.after[0]
-        idx = np.zeros(pts.shape[:2], dtype=np.int64)
-        reached = np.ones(pts.shape[:2], dtype=bool)
+        idx = np.zeros(pts.shape[0], dtype=np.int64)  # active waypoint at the end only: all the caller reads
+        reached = None
         for j in range(1, len(d)):
-            reached = np.logical_or.accumulate(reached & (d[j - 1] <= self.switch_radius), axis=1)
+            step = d[j - 1] <= self.switch_radius
+            reached = np.logical_or.accumulate(step if reached is None else reached & step, axis=1)
             phi = np.where(reached, d[j] + self.after[j], phi)
-            idx += reached
+            idx += reached[:, -1]
         gx, gy = self.goal
         done = np.logical_or.accumulate((x - gx) ** 2 + (y - gy) ** 2 <= self.goal_tolerance**2, axis=1)
-        return np.where(done, 0.0, phi), self.waypoints[idx[:, -1]]
+        return np.where(done, 0.0, phi), self.waypoints[idx]
 
     def start(self, p0: np.ndarray) -> float:
         """Potential at the current position (the active waypoint is the observation's)."""

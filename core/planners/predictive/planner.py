@@ -53,6 +53,7 @@ class PredictivePlanner:
         self._assert = 0.0
         self._limits = RobotLimits.from_config(robot)
         self._cands: dict[bool | None, np.ndarray] = {}
+        self._step_cache: dict[tuple, tuple] = {}
         self._prev = np.zeros(2)
         self._diag = None
 
@@ -162,15 +163,14 @@ class PredictivePlanner:
         cfg = self.config
         limits = self._limits
         sim_dt = obs.dt
-        idx = eval_steps(scene.times, sim_dt)
-        S = int(idx[-1]) + 1
-        bounds = _boundaries(cfg.search.segments_s, sim_dt, S)
+        idx, S, bounds = self._steps(scene.times, sim_dt)
         state0 = np.concatenate([obs.robot_pose, obs.robot_velocity]).astype(float)
         first = self._candidates(near)
         cmds = np.repeat(first[:, None, :], S, axis=1)  # (C, S, 2)
         states = rollout(np.repeat(state0[None], len(first), axis=0), cmds, limits, sim_dt)
         total, terms = C.evaluate(C.Rollouts(states, idx, cmds), scene, cfg)
-        pool = (cmds, states, total, terms)
+        pool = (cmds, states, total)
+        pool_terms = [terms]  # per evaluation; only the best sequence's are read, so never concatenated
         n_eval = len(first)
         branch = self._candidates(None)
         for b in bounds:
@@ -183,9 +183,26 @@ class PredictivePlanner:
             new_states = np.concatenate([np.repeat(p_states[:, :b], M, axis=0), tail], axis=1)
             t_new, terms_new = C.evaluate(C.Rollouts(new_states, idx, new_cmds), scene, cfg)
             n_eval += len(new_cmds)
-            pool = _merge(pool, (new_cmds, new_states, t_new, terms_new))
+            pool = tuple(np.concatenate([a, b]) for a, b in zip(pool, (new_cmds, new_states, t_new), strict=True))
+            pool_terms.append(terms_new)
         best = int(np.argmin(pool[2]))
-        return pool[0][best], {k: v[best] for k, v in pool[3].items()}, float(pool[2][best]), n_eval
+        rest = best
+        for terms in pool_terms:  # the evaluation that holds ``best``
+            size = len(next(iter(terms.values())))
+            if rest < size:
+                break
+            rest -= size
+        return pool[0][best], {k: v[rest] for k, v in terms.items()}, float(pool[2][best]), n_eval
+
+    def _steps(self, times: np.ndarray, sim_dt: float) -> tuple[np.ndarray, int, list[int]]:
+        """Rollout step of each forecast time, rollout length and segment boundaries; cached per time grid."""
+        key = (times.tobytes(), sim_dt)
+        cached = self._step_cache.get(key)
+        if cached is None:
+            idx = eval_steps(times, sim_dt)
+            S = int(idx[-1]) + 1
+            cached = self._step_cache[key] = (idx, S, _boundaries(self.config.search.segments_s, sim_dt, S))
+        return cached
 
 
 def _reach(v0: float, limits: RobotLimits, times: np.ndarray) -> np.ndarray:
@@ -207,12 +224,6 @@ def _boundaries(segments_s: tuple[float, ...], sim_dt: float, S: int) -> list[in
         raise ConfigError(f"segments {segments_s} s leave no second segment inside the {S * sim_dt:.1f} s horizon",
                           item="search.segments_s")
     return out
-
-
-def _merge(a: tuple, b: tuple) -> tuple:
-    """Concatenate two evaluated pools (commands, states, totals, terms)."""
-    terms = {k: np.concatenate([a[3][k], b[3][k]]) for k in a[3]}
-    return (np.concatenate([a[0], b[0]]), np.concatenate([a[1], b[1]]), np.concatenate([a[2], b[2]]), terms)
 
 
 def _segments(cmds: np.ndarray) -> list[tuple[int, float, float]]:
