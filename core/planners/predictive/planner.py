@@ -54,6 +54,7 @@ class PredictivePlanner:
         self._limits = RobotLimits.from_config(robot)
         self._cands: dict[bool | None, np.ndarray] = {}
         self._step_cache: dict[tuple, tuple] = {}
+        self._route_cache: tuple | None = None
         self._prev = np.zeros(2)
         self._diag = None
 
@@ -101,7 +102,7 @@ class PredictivePlanner:
     def _scene(self, obs: Observation, positions: np.ndarray, times: np.ndarray) -> tuple[C.Scene, bool, int]:
         cfg, limits = self.config, self._limits
         p0 = obs.robot_pose[:2]
-        route = C.RoutePotential(obs.route, switch_radius=obs.goal_tolerance, goal_tolerance=obs.goal_tolerance)
+        route = self._route(obs)
         phi0 = route.start(p0)
         assertive = self._assertiveness(phi0, obs.time, obs.dt)
         contact = (obs.robot_radius + obs.ped_radius + cfg.safety.extra_robot_margin + cfg.safety.extra_ped_margin
@@ -141,8 +142,17 @@ class PredictivePlanner:
         t_old, phi_old = self._phi_hist[0]
         stalled = now - t_old >= s.stall_after_s - 1e-9 and phi_old - phi0 < s.stall_progress
         step = dt / s.stall_ramp_s
-        self._assert = float(np.clip(self._assert + (step if stalled else -step), 0.0, 1.0))
+        self._assert = min(max(self._assert + (step if stalled else -step), 0.0), 1.0)  # = np.clip on a float
         return self._assert
+
+    def _route(self, obs: Observation) -> C.RoutePotential:
+        """The route potential of the remaining route; rebuilt only when the route (or tolerance) changes."""
+        route = np.asarray(obs.route, dtype=float)
+        key = (route.tobytes(), route.shape, obs.goal_tolerance)
+        if self._route_cache is None or self._route_cache[0] != key:
+            self._route_cache = (key, C.RoutePotential(route, switch_radius=obs.goal_tolerance,
+                                                       goal_tolerance=obs.goal_tolerance))
+        return self._route_cache[1]
 
     def _candidates(self, near: bool | None) -> np.ndarray:
         """First-segment commands (near field or not), or the later-segment set for ``None``; cached per episode."""
