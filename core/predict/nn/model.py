@@ -135,7 +135,8 @@ class TrajectoryModel(nn.Module):
         forward, made on the first such call per input shape: the same ATen ops in the same order
         (bit-identical outputs), without ~60 Python-dispatched ops (0.46 -> 0.26 ms per call measured).
         """
-        if features.shape[0] == 1 and not self.training and torch.is_inference_mode_enabled():
+        if (features.shape[0] == 1 and not self.training and torch.is_inference_mode_enabled()
+                and not torch.jit.is_tracing()):  # an outer trace (export) records the eager ops
             return self._traced(features, mask)
         return self._forward(features, mask)
 
@@ -148,7 +149,11 @@ class TrajectoryModel(nn.Module):
                 return self._forward(features, mask)
             with warnings.catch_warnings():  # torch 2.13 marks jit.trace deprecated; it is what removes the overhead
                 warnings.simplefilter("ignore")
-                fn = cache[key] = torch.jit.trace(_Eager(self), (features, mask), check_trace=False)
+                try:
+                    fn = torch.jit.trace(_Eager(self), (features, mask), check_trace=False)
+                except (AttributeError, RuntimeError):  # a torch without tracing: the eager forward, same result
+                    fn = self._forward
+            cache[key] = fn
         return fn(features, mask)
 
     def __getstate__(self) -> dict:
