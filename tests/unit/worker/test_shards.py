@@ -106,15 +106,19 @@ def test_one_worker_runs_a_sharded_campaign_alone_with_the_unsharded_ranking(eng
 
 
 def test_cancelling_the_parent_cancels_its_shards_and_a_retry_reuses_the_finished_ones(engine, start_worker) -> None:  # noqa: ANN001
-    start_worker(concurrency=1)
+    # a shard here runs in ~0.2 s; heartbeats every 20 ms notice the cancellation well before the last one ends
+    # (with the default 0.2 s a parent may finish first: a cancellation that arrives too late is no cancellation)
+    start_worker(concurrency=1, heartbeat_s=0.02)
     long = {**EVALUATE, "seeds_per_scenario": 6, "max_steps": 400, "shards": 3}
     parent_id = _submit(engine, long)
     deadline = time.time() + 60
-    while time.time() < deadline:  # shard 1 done, shard 2 running (the parent runs them one by one)
-        shards = _children(engine, parent_id)
-        if [s["status"] for s in shards][:2] == ["succeeded", "running"]:
+    while time.time() < deadline:  # shard 1 done, shard 3 not started yet (the parent runs them one by one)
+        statuses = [s["status"] for s in _children(engine, parent_id)]
+        if len(statuses) == 3 and statuses[0] == "succeeded" and statuses[2] == "queued":
             break
-        time.sleep(0.02)
+        time.sleep(0.01)
+    else:
+        raise AssertionError(f"never saw shard 1 done with shard 3 queued: {statuses}")
     queue.request_cancel(engine, parent_id)
     assert _wait(engine, parent_id, {"succeeded", "failed", "cancelled"}, timeout=10)["status"] == "cancelled"
     shards = _children(engine, parent_id)
