@@ -232,11 +232,7 @@ def _train_ensemble(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback
         "checkpoint": str(ctx.artifact("model.pt")), "total_runtime_s": time.time() - started,
         "code_version": code_version(),
     }
-    path = ctx.artifact("training_summary.json")
-    path.write_text(json.dumps(summary, indent=2, default=float))
-    return TrainResult(checkpoint=str(ctx.artifact("model.pt")), summary=str(path), best_epoch=best["epoch"],
-                       val_ade=best["val_ade"], val_fde=best["val_fde"], cv_val_ade=cv["ade"], cv_val_fde=cv["fde"],
-                       selection_mode=summary["selection_mode"], gates_passed=gate["passed"])
+    return _write_summary(summary, ctx)
 
 
 def _finish(config, ctx, history, selection, cv, stats, dataset_info, started) -> TrainResult:
@@ -249,8 +245,14 @@ def _finish(config, ctx, history, selection, cv, stats, dataset_info, started) -
         "checkpoint": str(ctx.artifact("model.pt")), "total_runtime_s": time.time() - started,
         "code_version": code_version(),
     }
+    return _write_summary(summary, ctx)
+
+
+def _write_summary(summary: dict, ctx: StageContext) -> TrainResult:
+    """Write ``training_summary.json`` (one run or an ensemble) and the stage result it implies."""
+    best, cv = summary["best"], summary["cv_val"]
     path = ctx.artifact("training_summary.json")
     path.write_text(json.dumps(summary, indent=2, default=float))
-    return TrainResult(checkpoint=str(ctx.artifact("model.pt")), summary=str(path), best_epoch=best["epoch"],
+    return TrainResult(checkpoint=summary["checkpoint"], summary=str(path), best_epoch=best["epoch"],
                        val_ade=best["val_ade"], val_fde=best["val_fde"], cv_val_ade=cv["ade"], cv_val_fde=cv["fde"],
-                       selection_mode=selection.mode, gates_passed=gate["passed"])
+                       selection_mode=summary["selection_mode"], gates_passed=summary["quality_gates"]["passed"])
