@@ -6,17 +6,7 @@ import json
 import signal
 import time
 
-from .service import Service
-
-
-def _wait(client, job_id: str, timeout: float = 90) -> dict:  # noqa: ANN001
-    deadline = time.time() + timeout
-    while time.time() < deadline:
-        job = client.get(f"/v1/jobs/{job_id}").json()
-        if job["status"] in ("succeeded", "failed", "cancelled"):
-            return job
-        time.sleep(0.2)
-    raise AssertionError(f"job {job_id} did not finish: {job}")
+from .service import Service, wait_job
 
 
 def test_up_submit_follow_and_read_back(service: Service) -> None:
@@ -51,7 +41,7 @@ def test_up_submit_follow_and_read_back(service: Service) -> None:
         body = {"spec": {"kind": "simulate", "scenarios": ["crossing_low"], "seeds": [1000], "render": False}}
         sim = client.post("/v1/jobs", json=body)
         assert sim.status_code == 201, sim.text
-        result = _wait(client, sim.json()["id"])
+        result = wait_job(client, sim.json()["id"])
         assert result["status"] == "succeeded", result
         assert result["result"]["episodes"][0]["scenario"] == "crossing_low"
         summary = client.get(f"/v1/jobs/{result['id']}/artifacts/simulate.json")
@@ -60,7 +50,7 @@ def test_up_submit_follow_and_read_back(service: Service) -> None:
         # an evaluation: submitted over HTTP, run by the worker, read back as JSON (with its taxonomy)
         body = {"spec": {"kind": "evaluate", "scenarios": ["crossing_low"], "seeds_per_scenario": 1, "max_steps": 50,
                          "planner": {"name": "goal"}}}
-        ev = _wait(client, client.post("/v1/jobs", json=body).json()["id"])
+        ev = wait_job(client, client.post("/v1/jobs", json=body).json()["id"])
         assert ev["status"] == "succeeded", ev
         evaluation = client.get(f"/v1/evaluations/{ev['id']}").json()
         assert evaluation["metrics"]["episodes"] == 1 and evaluation["bundle_id"] == "builtin"
@@ -107,7 +97,7 @@ def test_cancel_and_retry_through_the_cli(service: Service) -> None:
             time.sleep(0.1)
         t0 = time.time()
         service.cli("jobs", "cancel", job_id)
-        assert _wait(client, job_id, timeout=10)["status"] == "cancelled"
+        assert wait_job(client, job_id, timeout=10)["status"] == "cancelled"
         assert time.time() - t0 < 4.0  # noticed within ~2 s (+ the CLI's start-up)
         again = json.loads(service.cli("jobs", "retry", job_id, "--json").stdout)
         assert again["status"] == "queued"

@@ -3,11 +3,10 @@ run shards, and the merged evaluation read back over HTTP equals the unsharded o
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 from typing import Any
 
-from .service import Service
+from .service import Service, wait_job
 
 EVALUATE = {"kind": "evaluate", "scenarios": ["crossing_low", "head_on_corridor_high"], "seeds_per_scenario": 4,
             "max_steps": 300, "planner": {"name": "goal"}}
@@ -23,14 +22,6 @@ def _strip(data: Any) -> Any:
     return data
 
 
-def _wait(client, job_id: str, timeout: float = 120) -> dict:  # noqa: ANN001
-    deadline = time.time() + timeout
-    while time.time() < deadline:
-        job = client.get(f"/v1/jobs/{job_id}").json()
-        if job["status"] in ("succeeded", "failed", "cancelled"):
-            return job
-        time.sleep(0.2)
-    raise AssertionError(f"job {job_id} did not finish: {job}")
 
 
 def test_two_workers_share_a_sharded_evaluation(service: Service) -> None:
@@ -50,11 +41,11 @@ def _share(service: Service) -> None:
     service.serve()
     workers = [service.worker(), service.worker()]
     with service.client() as client:
-        whole = _wait(client, client.post("/v1/jobs", json={"spec": EVALUATE}).json()["id"])
+        whole = wait_job(client, client.post("/v1/jobs", json={"spec": EVALUATE}).json()["id"], timeout=120)
         assert whole["status"] == "succeeded", service.logs()
         resp = client.post("/v1/jobs", json={"spec": {**EVALUATE, "shards": 4}})
         assert resp.status_code == 201, resp.text
-        parent = _wait(client, resp.json()["id"])
+        parent = wait_job(client, resp.json()["id"], timeout=120)
         assert parent["status"] == "succeeded", (parent["error"], service.logs())
         assert parent["progress"] == 1.0 and len(parent["children"]) == 4
 
