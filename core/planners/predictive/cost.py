@@ -64,6 +64,30 @@ class RoutePotential:
         done = np.logical_or.accumulate((x - gx) ** 2 + (y - gy) ** 2 <= self.goal_tolerance**2, axis=1)
         return np.where(done, 0.0, phi), self.waypoints[idx]
 
+    def final(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``__call__``'s potential at the rollouts' last point only (B,), and the active waypoint (B, 2).
+
+        What ``evaluate`` reads: the same values, without the (B, T) selections of every step; waypoint
+        switching still follows every step of the rollout.
+        """
+        x, y = pts[..., 0], pts[..., 1]
+        wx, wy = self.waypoints[0]
+        d = np.sqrt((x - wx) ** 2 + (y - wy) ** 2)  # (B, T) to the active waypoint
+        phi = d[:, -1] + self.after[0]
+        idx = np.zeros(pts.shape[0], dtype=np.int64)
+        reached = None
+        for j in range(1, len(self.waypoints)):
+            step = d <= self.switch_radius
+            reached = np.logical_or.accumulate(step if reached is None else reached & step, axis=1)
+            wx, wy = self.waypoints[j]
+            d = np.sqrt((x - wx) ** 2 + (y - wy) ** 2)
+            end = reached[:, -1]
+            phi = np.where(end, d[:, -1] + self.after[j], phi)
+            idx += end
+        gx, gy = self.goal
+        done = np.logical_or.reduce((x - gx) ** 2 + (y - gy) ** 2 <= self.goal_tolerance**2, axis=1)
+        return np.where(done, 0.0, phi), self.waypoints[idx]
+
     def start(self, p0: np.ndarray) -> float:
         """Potential at the current position (the active waypoint is the observation's)."""
         x, y = float(p0[0]), float(p0[1])
@@ -230,32 +254,42 @@ def _reactive_clearance(pos: np.ndarray, fut: np.ndarray, scene: Scene, speed: f
     if not np.logical_or.reduce(steps_in):
         return clear
     k0 = int(np.argmax(steps_in))
-    ib, jn = np.nonzero(np.logical_or.reduce(inside[..., k0:], axis=-1))
-    rel = np.stack([dx[ib, jn, k0:], dy[ib, jn, k0:]], axis=-1).transpose(1, 2, 0).copy()  # (K-k0, 2, A)
-    gain = speed * scene.time_steps  # (K,) largest step away per forecast step
-    A = len(ib)
+    B, N = clear.shape[:2]
+    # stepped pairs as rows of the flattened (B * N, K) arrays: one ``take`` per array, not 2-D fancy indexing
+    pair = np.flatnonzero(np.logical_or.reduce(inside[..., k0:], axis=-1))
+    A = len(pair)
+    rel = np.empty((K - k0, 2, A))  # (step, x/y, pair) robot minus pedestrian
+    rel[:, 0] = dx.reshape(B * N, K).take(pair, axis=0)[:, k0:].T
+    rel[:, 1] = dy.reshape(B * N, K).take(pair, axis=0)[:, k0:].T
+    gain = (speed * scene.time_steps[k0:]).tolist()  # largest step away per forecast step, as Python floats
     off = np.zeros((2, A))  # accumulated pedestrian displacement (x, y)
     e = np.empty((2, A))
     d = np.empty(A)
     push = np.empty(A)
     out = np.empty((K - k0, A))
-    for i in range(K - k0):  # the plain formulas, in place: e = rel - off, d = |e|, clear = d - contact, ...
-        np.subtract(rel[i], off, out=e)
-        np.square(e, out=rel[i])
-        np.add(rel[i, 0], rel[i, 1], out=d)
+    last = K - k0 - 1
+    for i, (r, sq0, sq1, c) in enumerate(zip(rel, rel[:, 0], rel[:, 1], out, strict=True)):
+        # the plain formulas, in place: e = rel - off, d = |e|, clear = d - contact, ...
+        np.subtract(r, off, out=e)
+        np.square(e, out=r)
+        np.add(sq0, sq1, out=d)
         np.sqrt(d, out=d)
-        np.subtract(d, scene.contact, out=out[i])
-        if i == K - k0 - 1:
+        np.subtract(d, scene.contact, out=c)
+        if i == last:
             break
         # push = gain * clip(1 - clear / reach, 0, 1) / max(d, 1e-6); displacement -= push * e
-        np.divide(out[i], reach, out=push)
+        np.divide(c, reach, out=push)
         np.subtract(1.0, push, out=push)
         _clip01(push, 0.0, 1.0, out=push)  # = minimum(maximum(push, 0), 1): push is never NaN
-        np.multiply(gain[k0 + i], push, out=push)
+        np.multiply(gain[i], push, out=push)
         np.divide(push, np.maximum(d, 1e-6, out=d), out=push)
         np.multiply(push, e, out=e)
         np.subtract(off, e, out=off)
-    clear[ib, jn, k0:] = out.T
+    if clear.flags.c_contiguous:  # (always, as a fresh ufunc result) the reshape is a view to write through
+        clear.reshape(B * N, K)[pair, k0:] = out.T
+    else:
+        ib, jn = np.divmod(pair, N)
+        clear[ib, jn, k0:] = out.T
     return clear
 
 
@@ -280,8 +314,8 @@ def evaluate(roll: Rollouts, scene: Scene, cfg: PredictivePlannerConfig) -> tupl
     pos = ev[..., :2]
     speed = np.abs(ev[..., 3])
     terms = pedestrian_terms(pos, speed, scene, cfg)
-    phi, target = scene.route(pos)
-    progress = scene.phi0 - phi[:, -1]
+    phi_end, target = scene.route.final(pos)
+    progress = scene.phi0 - phi_end
     min_c = terms.pop("min_clearance")
     terms["progress"] = progress
     terms["progress_risk"] = np.maximum(0.0, progress) * np.maximum(0.0, s.progress_risk_distance - min_c)
