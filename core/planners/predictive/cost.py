@@ -41,6 +41,7 @@ class RoutePotential:
         self.waypoints = full[:lookahead]  #: (J, 2) the active waypoint and the next ones
         self.after = after[:lookahead]  #: (J,)
         self.goal = full[-1]
+        self.goal_is_last = len(full) <= lookahead  #: the goal is waypoints[-1] (``final`` reuses its distances)
         self.switch_radius = switch_radius
         self.goal_tolerance = goal_tolerance
 
@@ -72,7 +73,8 @@ class RoutePotential:
         """
         x, y = pts[..., 0], pts[..., 1]
         wx, wy = self.waypoints[0]
-        d = np.sqrt((x - wx) ** 2 + (y - wy) ** 2)  # (B, T) to the active waypoint
+        sq = (x - wx) ** 2 + (y - wy) ** 2
+        d = np.sqrt(sq)  # (B, T) to the active waypoint
         phi = d[:, -1] + self.after[0]
         idx = np.zeros(pts.shape[0], dtype=np.int64)
         reached = None
@@ -80,12 +82,15 @@ class RoutePotential:
             step = d <= self.switch_radius
             reached = np.logical_or.accumulate(step if reached is None else reached & step, axis=1)
             wx, wy = self.waypoints[j]
-            d = np.sqrt((x - wx) ** 2 + (y - wy) ** 2)
+            sq = (x - wx) ** 2 + (y - wy) ** 2
+            d = np.sqrt(sq)
             end = reached[:, -1]
             phi = np.where(end, d[:, -1] + self.after[j], phi)
             idx += end
-        gx, gy = self.goal
-        done = np.logical_or.reduce((x - gx) ** 2 + (y - gy) ** 2 <= self.goal_tolerance**2, axis=1)
+        if not self.goal_is_last:
+            gx, gy = self.goal
+            sq = (x - gx) ** 2 + (y - gy) ** 2
+        done = np.logical_or.reduce(sq <= self.goal_tolerance**2, axis=1)
         return np.where(done, 0.0, phi), self.waypoints[idx]
 
     def start(self, p0: np.ndarray) -> float:
