@@ -120,6 +120,8 @@ def gather_history(
             continue
         match = (ids[:, None] == fid[None, :]) & (fid[None, :] >= 0)
         found = match.any(axis=1)
+        if not found.any():  # e.g. a frame with nobody in it: argmax over an empty row would raise
+            continue
         pos[found, h] = np.asarray(frame_pos[k])[match[found].argmax(axis=1)]
         valid[found, h] = True
     return pos, valid

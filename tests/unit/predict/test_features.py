@@ -113,3 +113,14 @@ def test_mirror_signs_mirror_a_window():
 
     np.testing.assert_allclose(extract_features(w, tb, 1).features * mirror_signs(2),
                                extract_features(mirrored, tb, 1).features, atol=1e-6)
+
+
+def test_gather_history_with_an_empty_older_frame():
+    """A pedestrian that appears after a frame with nobody in it: its earlier grid point is simply unobserved."""
+    from core.predict.features import gather_history
+
+    frame_ids = [np.array([], dtype=np.int64), np.array([7, 3], dtype=np.int64), np.array([3], dtype=np.int64)]
+    frame_pos = [np.zeros((0, 2)), np.array([[9.0, 9.0], [1.0, 1.0]]), np.array([[1.5, 1.0]])]
+    pos, valid = gather_history(frame_ids, frame_pos, 1, 3, np.array([3]))
+    np.testing.assert_array_equal(valid, [[False, True, True]])
+    np.testing.assert_allclose(pos, [[[0.0, 0.0], [1.0, 1.0], [1.5, 1.0]]])
