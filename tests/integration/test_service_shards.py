@@ -6,6 +6,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from tests.results import without
+
 from .service import Service, wait_job
 
 EVALUATE = {"kind": "evaluate", "scenarios": ["crossing_low", "head_on_corridor_high"], "seeds_per_scenario": 4,
@@ -15,13 +17,7 @@ NOISE = {"wall_s", "code_version", "plan_ms_mean", "plan_ms_p95"}
 
 
 def _strip(data: Any) -> Any:
-    if isinstance(data, dict):
-        return {k: _strip(v) for k, v in data.items() if k not in NOISE}
-    if isinstance(data, list):
-        return [_strip(v) for v in data]
-    return data
-
-
+    return without(data, NOISE)
 
 
 def test_two_workers_share_a_sharded_evaluation(service: Service) -> None:

@@ -30,17 +30,14 @@ from core.evaluation.shards import (
 )
 from core.stages.context import StageContext
 from core.stages.refs import BUILTIN_CONFIG_ROOT
+from tests.results import without
 
 #: wall-clock values: planner timing, run time, the code version (the git head moves while tests run)
 NOISE = {"wall_s", "code_version", "fingerprint", "plan_ms_mean", "plan_ms_p95"}
 
 
 def _strip(data: Any) -> Any:
-    if isinstance(data, dict):
-        return {k: _strip(v) for k, v in data.items() if k not in NOISE}
-    if isinstance(data, list):
-        return [_strip(v) for v in data]
-    return data
+    return without(data, NOISE)
 
 
 def _ctx(root: Path, work: Path) -> StageContext:

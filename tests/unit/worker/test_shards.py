@@ -14,6 +14,7 @@ from api import store
 from api.db import queue
 from api.db.models import Campaign, CampaignCell, Evaluation
 from api.registry import sync_bundles
+from tests.results import without
 
 #: wall-clock values: planner timing, run time, the code version (the git head moves while tests run)
 NOISE = {"wall_s", "code_version", "fingerprint", "plan_ms_mean", "plan_ms_p95", "shards"}
@@ -31,11 +32,7 @@ def _builtin_bundle(settings, engine) -> None:  # noqa: ANN001 - as the server r
 
 
 def _strip(data: Any) -> Any:
-    if isinstance(data, dict):
-        return {k: _strip(v) for k, v in data.items() if k not in NOISE}
-    if isinstance(data, list):
-        return [_strip(v) for v in data]
-    return data
+    return without(data, NOISE)
 
 
 def _wait(engine, job_id: str, statuses: set[str], timeout: float = 60.0) -> dict:  # noqa: ANN001
