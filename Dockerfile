@@ -13,7 +13,8 @@ WORKDIR /app
 # CPU build of torch first (as the Makefile does), so the resolver never pulls a CUDA build.
 RUN pip install --index-url https://download.pytorch.org/whl/cpu torch==2.13.0
 
-COPY pyproject.toml README.md alembic.ini ./
+COPY pyproject.toml setup.py README.md alembic.ini ./
+COPY foresight foresight
 COPY core core
 COPY api api
 COPY worker worker
@@ -21,8 +22,8 @@ COPY cli cli
 COPY migrations migrations
 COPY configs configs
 COPY model model
-# Editable install: the service finds configs/, model/registry.yaml and migrations/ beside its packages.
-RUN pip install -e . \
+# The wheel carries configs/, model/, migrations/, templates and static files as package data.
+RUN pip install . \
     && useradd --create-home --uid 1000 foresight \
     && mkdir -p /data/store && chown -R foresight /data
 USER foresight

@@ -7,14 +7,14 @@ import gc
 from fastapi import FastAPI
 from fastapi.routing import APIRoute
 
-from api import errors, web
-from api.db.session import check_migrated, make_engine, session_factory
-from api.deps import ReadAuth
-from api.http_metrics import HttpMetrics, MetricsMiddleware, route_templates
-from api.registry import Resolver, load_shipped_models, sync_bundles
-from api.routes import bundles, jobs, models, ops, results
-from api.settings import Settings
-from core.version import code_version
+from foresight.api import errors, web
+from foresight.api.db.session import check_migrated, make_engine, session_factory
+from foresight.api.deps import ReadAuth
+from foresight.api.http_metrics import HttpMetrics, MetricsMiddleware, route_templates
+from foresight.api.registry import Resolver, load_shipped_models, sync_bundles
+from foresight.api.routes import bundles, jobs, models, ops, results
+from foresight.api.settings import Settings
+from foresight.core.version import code_version
 
 
 def _operation_id(route: APIRoute) -> str:

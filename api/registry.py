@@ -20,11 +20,11 @@ from typing import Any
 import yaml
 from sqlalchemy import Engine, select
 
-from api import store
-from api.db.models import Bundle, Dataset, Model, ModelStatus
-from api.db.session import session_factory
-from api.settings import Settings
-from core.errors import ConfigError, CoreError, NotFoundError
+from foresight.api import store
+from foresight.api.db.models import Bundle, Dataset, Model, ModelStatus
+from foresight.api.db.session import session_factory
+from foresight.api.settings import Settings
+from foresight.core.errors import ConfigError, CoreError, NotFoundError
 
 logger = logging.getLogger(__name__)
 
@@ -182,7 +182,7 @@ def _check_yaml_refs(value: Any, file: str, root: Path, where: str = "") -> None
 
 def save_upload(engine: Engine, settings: Settings, ident: str, data: bytes) -> Bundle:
     """Validate an uploaded zip/tar bundle and store it under ``bundles/<id>``; ConfigError when invalid."""
-    from core.scenarios.loader import load_matrix
+    from foresight.core.scenarios.loader import load_matrix
 
     if not IDENT.match(ident) or ident == BUILTIN_BUNDLE:
         raise ConfigError("bundle id must be letters, digits, '.', '_', '-', ':' (not 'builtin')", item="name")
@@ -288,7 +288,7 @@ class Resolver:
 
 def models_using(engine: Engine, model_id: str) -> list[str]:
     """Ids of records that use a model (evaluations)."""
-    from api.db.models import Evaluation
+    from foresight.api.db.models import Evaluation
 
     with session_factory(engine)() as session:
         return list(session.scalars(select(Evaluation.id).where(Evaluation.model_id == model_id)))

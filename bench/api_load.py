@@ -50,7 +50,7 @@ def _env(data_dir: Path, database_url: str | None) -> dict[str, str]:
 
 
 def _cli(env: dict[str, str], *args: str, **kwargs) -> subprocess.Popen:  # noqa: ANN003
-    return subprocess.Popen([sys.executable, "-m", "cli.main", *args], env=env, cwd=REPO, **kwargs)
+    return subprocess.Popen([sys.executable, "-m", "foresight.cli.main", *args], env=env, cwd=REPO, **kwargs)
 
 
 def _cpu_s(pid: int) -> float:
@@ -185,8 +185,8 @@ def bench_http(database_url: str | None, clients: int, duration: float, server_w
 def bench_claims(database_url: str | None, jobs: int, workers: int) -> dict:
     from sqlalchemy import func, insert, select
 
-    from api.db import queue
-    from api.db.session import make_engine, upgrade, write_tx
+    from foresight.api.db import queue
+    from foresight.api.db.session import make_engine, upgrade, write_tx
 
     with tempfile.TemporaryDirectory(prefix="foresight-bench-") as tmp:
         env = _env(Path(tmp), database_url)

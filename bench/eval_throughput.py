@@ -20,10 +20,10 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from core.errors import NotFoundError  # noqa: E402
-from core.evaluation.config import EvaluationConfig  # noqa: E402
-from core.evaluation.runner import run_evaluation  # noqa: E402
-from core.stages.context import StageContext  # noqa: E402
+from foresight.core.errors import NotFoundError  # noqa: E402
+from foresight.core.evaluation.config import EvaluationConfig  # noqa: E402
+from foresight.core.evaluation.runner import run_evaluation  # noqa: E402
+from foresight.core.stages.context import StageContext  # noqa: E402
 
 TARGET_S = 60.0
 

@@ -25,11 +25,11 @@ REPO = Path(__file__).resolve().parent.parent
 DEFAULT_CHECKPOINT = REPO / "model" / "predictor-sim-default.pt"
 sys.path.insert(0, str(REPO))
 
-from core.maps.model import MapDef, Route, Zone  # noqa: E402
-from core.planners.base import EpisodeInfo  # noqa: E402
-from core.planners.registry import make_planner  # noqa: E402
-from core.scenarios.model import ResolvedScenario, Scenario, SimulationConfig  # noqa: E402
-from core.sim.simulator import Simulator  # noqa: E402
+from foresight.core.maps.model import MapDef, Route, Zone  # noqa: E402
+from foresight.core.planners.base import EpisodeInfo  # noqa: E402
+from foresight.core.planners.registry import make_planner  # noqa: E402
+from foresight.core.scenarios.model import ResolvedScenario, Scenario, SimulationConfig  # noqa: E402
+from foresight.core.sim.simulator import Simulator  # noqa: E402
 
 
 def scenario(n: int) -> ResolvedScenario:
@@ -96,7 +96,7 @@ def main() -> None:
     if args.checkpoint:
         import torch
 
-        from core.predict.nn.checkpoint import load_predictor
+        from foresight.core.predict.nn.checkpoint import load_predictor
 
         torch.set_num_threads(1)  # one decision per core, as in the evaluation's worker processes
         models.append(load_predictor(args.checkpoint))

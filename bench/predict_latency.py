@@ -13,11 +13,11 @@ import time
 import numpy as np
 import torch
 
-from core.predict.features import feature_dim
-from core.predict.nn.checkpoint import TorchPredictor, load_predictor
-from core.predict.nn.model import ModelConfig, TrajectoryModel
-from core.predict.timebase import PLANNER_TIMEBASE
-from core.predict.train_config import TrainConfig
+from foresight.core.predict.features import feature_dim
+from foresight.core.predict.nn.checkpoint import TorchPredictor, load_predictor
+from foresight.core.predict.nn.model import ModelConfig, TrajectoryModel
+from foresight.core.predict.timebase import PLANNER_TIMEBASE
+from foresight.core.predict.train_config import TrainConfig
 
 
 def main() -> None:

@@ -20,11 +20,11 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from core.maps.model import MapDef, Route, Zone  # noqa: E402
-from core.planners.base import EpisodeInfo  # noqa: E402
-from core.planners.goal import GoalSeeking  # noqa: E402
-from core.scenarios.model import ResolvedScenario, Scenario, SimulationConfig  # noqa: E402
-from core.sim.simulator import Simulator  # noqa: E402
+from foresight.core.maps.model import MapDef, Route, Zone  # noqa: E402
+from foresight.core.planners.base import EpisodeInfo  # noqa: E402
+from foresight.core.planners.goal import GoalSeeking  # noqa: E402
+from foresight.core.scenarios.model import ResolvedScenario, Scenario, SimulationConfig  # noqa: E402
+from foresight.core.sim.simulator import Simulator  # noqa: E402
 
 REFERENCE_MATRIX = "reference/robot_sf/configs/scenarios/classic_interactions.yaml"
 
@@ -101,7 +101,7 @@ def main(argv: list[str] | None = None) -> int:
         entries.append(measure(f"open_{n}", open_scenario(n), 0, steps, args.repeats))
     cold = None
     if not args.no_reference and (shared / REFERENCE_MATRIX).is_file():
-        from core.scenarios.loader import load_matrix
+        from foresight.core.scenarios.loader import load_matrix
 
         for s in load_matrix(shared / REFERENCE_MATRIX).scenarios:
             entries.append(measure(s.name, s, s.scenario.seeds[0], args.steps, args.repeats))

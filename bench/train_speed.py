@@ -13,10 +13,10 @@ import time
 import torch
 from torch.utils.flop_counter import FlopCounterMode
 
-from core.predict.features import feature_dim
-from core.predict.nn.model import ModelConfig, TrajectoryModel, masked_smooth_l1
-from core.predict.timebase import PLANNER_TIMEBASE
-from core.predict.train_config import TrainConfig
+from foresight.core.predict.features import feature_dim
+from foresight.core.predict.nn.model import ModelConfig, TrajectoryModel, masked_smooth_l1
+from foresight.core.predict.timebase import PLANNER_TIMEBASE
+from foresight.core.predict.train_config import TrainConfig
 
 
 def main() -> None:

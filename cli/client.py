@@ -9,8 +9,8 @@ from typing import Any
 
 import httpx
 
-from api.settings import Settings
-from core.errors import CoreError
+from foresight.api.settings import Settings
+from foresight.core.errors import CoreError
 
 
 class ApiError(CoreError):

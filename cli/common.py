@@ -11,9 +11,9 @@ from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
-from core.errors import ConfigError
-from core.stages.context import StageContext
-from core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
+from foresight.core.errors import ConfigError
+from foresight.core.stages.context import StageContext
+from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
 
 LOCAL_BUNDLE = "local"
 
@@ -45,7 +45,7 @@ def build_config(model: type[BaseModel], values: dict[str, Any]) -> Any:
 
 def local_context(workdir: Path | None, bundles: dict[str, Path], *, quiet: bool) -> StageContext:
     """A StageContext for in-process runs, with a progress line on stderr unless quiet."""
-    from core.errors import NotFoundError
+    from foresight.core.errors import NotFoundError
 
     def resolve_bundle(ident: str) -> Path:
         if ident not in bundles:
@@ -54,7 +54,7 @@ def local_context(workdir: Path | None, bundles: dict[str, Path], *, quiet: bool
 
     def resolve_data_root(name: str) -> Path:
         """A named data root: FORESIGHT_DATA_ROOTS, or ``ethucy`` from the shared folder."""
-        from api.settings import Settings
+        from foresight.api.settings import Settings
 
         return Settings().data_root(name)
 

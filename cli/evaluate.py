@@ -17,11 +17,11 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from cli import stage
-from cli.client import add_connection_args
-from cli.common import emit, local_context
-from core.errors import ConfigError, NotFoundError
-from core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
+from foresight.cli import stage
+from foresight.cli.client import add_connection_args
+from foresight.cli.common import emit, local_context
+from foresight.core.errors import ConfigError, NotFoundError
+from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
 
 PLANNERS = ("predictive", "orca", "social_force", "goal")
 LOCAL_BUNDLE = "local"
@@ -126,7 +126,7 @@ class ModelArgs:
 
     @staticmethod
     def registry() -> list[dict[str, Any]]:
-        from core.scenarios.loader import read_yaml
+        from foresight.core.scenarios.loader import read_yaml
 
         if not MODEL_REGISTRY.is_file():
             return []
@@ -141,7 +141,7 @@ class ModelArgs:
         return str(entry["id"])
 
     def resolve(self, ident: str) -> Path:
-        from core.evaluation.plannerspec import sha256_file
+        from foresight.core.evaluation.plannerspec import sha256_file
 
         if ident in self.files:
             return self.files[ident]
@@ -161,7 +161,7 @@ def planner_spec(value: str, model: str | None, models: ModelArgs, *, default: b
     if value in PLANNERS:
         spec: dict[str, Any] = {"name": value}
     else:
-        from core.scenarios.loader import read_yaml
+        from foresight.core.scenarios.loader import read_yaml
 
         data = read_yaml(Path(value))
         if not isinstance(data, dict):
@@ -242,8 +242,8 @@ class Refs:
 
 
 def evaluate_cmd(args: argparse.Namespace) -> int:
-    from core.evaluation.config import EvaluationConfig
-    from core.evaluation.runner import EvaluationResult, run_evaluation
+    from foresight.core.evaluation.config import EvaluationConfig
+    from foresight.core.evaluation.runner import EvaluationResult, run_evaluation
 
     refs = Refs(args, {"--matrix": args.matrix, "--seeds": args.seeds})
     values: dict[str, Any] = {
@@ -277,8 +277,8 @@ def _evaluation_text(r: Any, where: str) -> str:
 
 
 def diagnose_cmd(args: argparse.Namespace) -> int:
-    from core.evaluation.config import DiagnosticsConfig
-    from core.evaluation.diagnostics import DiagnosticsResult, report, run_diagnostics
+    from foresight.core.evaluation.config import DiagnosticsConfig
+    from foresight.core.evaluation.diagnostics import DiagnosticsResult, report, run_diagnostics
 
     refs = Refs(args, {"--matrix": args.matrix, "--seeds": args.seeds})
     values = {
@@ -290,8 +290,8 @@ def diagnose_cmd(args: argparse.Namespace) -> int:
 
 
 def campaign_cmd(args: argparse.Namespace) -> int:
-    from core.evaluation.campaign import CampaignResult, report, run_campaign
-    from core.evaluation.config import CampaignConfig
+    from foresight.core.evaluation.campaign import CampaignResult, report, run_campaign
+    from foresight.core.evaluation.config import CampaignConfig
 
     refs = Refs(args, {"--matrix": args.matrix, "--seeds": args.seeds, "--grid": args.grid})
     values: dict[str, Any] = {
@@ -306,10 +306,10 @@ def campaign_cmd(args: argparse.Namespace) -> int:
 
 
 def compare_cmd(args: argparse.Namespace) -> int:
-    from core.evaluation.compare import compare, load_run, table
+    from foresight.core.evaluation.compare import compare, load_run, table
 
     if not args.local:
-        from cli.report import compare_remote
+        from foresight.cli.report import compare_remote
 
         return compare_remote(args)
 

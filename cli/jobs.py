@@ -11,8 +11,8 @@ from typing import Any
 
 import yaml
 
-from cli.client import Client, add_connection_args
-from core.errors import ConfigError
+from foresight.cli.client import Client, add_connection_args
+from foresight.core.errors import ConfigError
 
 FINISHED = {"succeeded", "failed", "cancelled"}
 
@@ -196,7 +196,7 @@ def cmd_download(args: argparse.Namespace) -> int:
     client = Client.from_args(args)
     response = client.http.get(f"/v1/jobs/{args.job_id}/artifacts/{args.name}")
     if response.status_code >= 400:
-        from cli.client import ApiError
+        from foresight.cli.client import ApiError
 
         raise ApiError(response.status_code, response.json().get("detail"))
     out = Path(args.output or Path(args.name).name)

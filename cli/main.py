@@ -10,20 +10,20 @@ import argparse
 import importlib
 import sys
 
-from core.errors import CoreError
+from foresight.core.errors import CoreError
 
 #: Command-group modules; each defines ``register(subparsers)`` adding its commands, and every
 #: command sets ``func(args) -> int`` as its handler.
 COMMAND_MODULES = [
-    "cli.sim",
-    "cli.server",
-    "cli.jobs",
-    "cli.models",
-    "cli.maps",
-    "cli.evaluate",
-    "cli.predict",
-    "cli.pipeline",
-    "cli.report",
+    "foresight.cli.sim",
+    "foresight.cli.server",
+    "foresight.cli.jobs",
+    "foresight.cli.models",
+    "foresight.cli.maps",
+    "foresight.cli.evaluate",
+    "foresight.cli.predict",
+    "foresight.cli.pipeline",
+    "foresight.cli.report",
 ]
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from cli.common import emit
+from foresight.cli.common import emit
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -36,7 +36,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _load(args: argparse.Namespace):
-    from core.maps.io import load_map
+    from foresight.core.maps.io import load_map
 
     return load_map(Path(args.path), apply_transforms=args.apply_transforms)
 
@@ -56,7 +56,7 @@ def show_map(args: argparse.Namespace) -> int:
 
 
 def convert_map(args: argparse.Namespace) -> int:
-    from core.maps.native import dump_map
+    from foresight.core.maps.native import dump_map
 
     Path(args.output).write_text(dump_map(_load(args)), encoding="utf-8")
     print(f"wrote {args.output}")
@@ -64,7 +64,7 @@ def convert_map(args: argparse.Namespace) -> int:
 
 
 def render_map(args: argparse.Namespace) -> int:
-    from core.render.map_view import render_map as draw
+    from foresight.core.render.map_view import render_map as draw
 
     draw(_load(args), Path(args.output))
     print(f"wrote {args.output}")
@@ -72,7 +72,7 @@ def render_map(args: argparse.Namespace) -> int:
 
 
 def rehash_registry(args: argparse.Namespace) -> int:
-    from core.maps.registry import refresh_checksums
+    from foresight.core.maps.registry import refresh_checksums
 
     changed = refresh_checksums(args.registry, write=not args.check)
     rows = {k: {"old": old, "new": new} for k, (old, new) in changed.items()}

@@ -9,8 +9,8 @@ import json
 import tarfile
 from pathlib import Path
 
-from cli.client import Client, add_connection_args
-from core.errors import ConfigError
+from foresight.cli.client import Client, add_connection_args
+from foresight.core.errors import ConfigError
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -21,8 +21,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-from core.errors import ConfigError, CoreError
-from core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
+from foresight.core.errors import ConfigError, CoreError
+from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
 
 QUICKSTART = BUILTIN_CONFIG_ROOT / "pipelines" / "quickstart.yaml"
 FINISHED = {"succeeded", "failed", "cancelled"}
@@ -30,7 +30,7 @@ MATRIX = BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml"
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    from cli.client import add_connection_args
+    from foresight.cli.client import add_connection_args
 
     pipe = sub.add_parser("pipeline", help="the runbook as one job: collect, train, evaluate, campaign, gates, promote")
     actions = pipe.add_subparsers(dest="action", required=True)
@@ -72,7 +72,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def read_pipeline(path: str | Path, workers: int | None = None) -> dict[str, Any]:
     """The pipeline YAML as a spec (validated here, so a bad file fails before anything starts)."""
-    from core.pipeline.config import load_pipeline_config
+    from foresight.core.pipeline.config import load_pipeline_config
 
     config = load_pipeline_config(path)
     if workers is not None:
@@ -103,11 +103,11 @@ def _stage_lines(result: dict[str, Any]) -> list[str]:
 
 
 def run_local(config_path: str, out: str | None, workers: int | None, quiet: bool) -> tuple[dict[str, Any], Path]:
-    from cli.common import local_context
-    from cli.evaluate import ModelArgs
-    from core.pipeline.config import PipelineConfig
-    from core.pipeline.local import LocalChildren
-    from core.pipeline.runbook import run_pipeline
+    from foresight.cli.common import local_context
+    from foresight.cli.evaluate import ModelArgs
+    from foresight.core.pipeline.config import PipelineConfig
+    from foresight.core.pipeline.local import LocalChildren
+    from foresight.core.pipeline.runbook import run_pipeline
 
     config = PipelineConfig.model_validate(read_pipeline(config_path, workers))
     if config.bundle != BUILTIN_BUNDLE:
@@ -132,7 +132,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             print(f"report: {workdir / 'report.html'}")
             print(verdict_text(result))
         return int(result["exit_code"])
-    from cli.client import Client, ServerUnreachable
+    from foresight.cli.client import Client, ServerUnreachable
 
     client = Client.from_args(args)
     spec = read_pipeline(args.file, args.workers)
@@ -233,8 +233,8 @@ def _wait_healthy(url: str, proc: subprocess.Popen, timeout: float = 60.0) -> No
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    from api.settings import Settings
-    from cli.client import Client
+    from foresight.api.settings import Settings
+    from foresight.cli.client import Client
 
     spec = read_pipeline(args.file)  # fail on a bad config before starting anything
     settings = Settings()
@@ -247,7 +247,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     log_path = (settings.data_dir / "demo-server.log").resolve()
     print(f"server log: {log_path}", file=sys.stderr)
     with log_path.open("a") as log:
-        proc = subprocess.Popen([sys.executable, "-m", "cli.main", "up", "--port", str(port), "--concurrency",
+        proc = subprocess.Popen([sys.executable, "-m", "foresight.cli.main", "up", "--port", str(port), "--concurrency",
                                  str(max(1, args.concurrency))], env=env, start_new_session=True,
                                 stdout=log, stderr=subprocess.STDOUT)
     code = 1
@@ -282,7 +282,12 @@ def _stop(proc: subprocess.Popen) -> None:
 
 
 def cmd_mine(args: argparse.Namespace) -> int:
-    from core.pipeline.seeds import mine_failures, parse_seed_range, read_manifest_pairs, write_manifest
+    from foresight.core.pipeline.seeds import (
+        mine_failures,
+        parse_seed_range,
+        read_manifest_pairs,
+        write_manifest,
+    )
 
     seeds = parse_seed_range(args.seeds) if args.seeds else None
     exclude: set[tuple[str, int]] = set()

@@ -12,9 +12,9 @@ import argparse
 import tempfile
 from pathlib import Path
 
-from cli import stage
-from cli.common import build_config, emit, local_context, matrix_ref
-from core.errors import ConfigError
+from foresight.cli import stage
+from foresight.cli.common import build_config, emit, local_context, matrix_ref
+from foresight.core.errors import ConfigError
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -89,7 +89,7 @@ def _section(path: str | None, key: str) -> dict:
     """The ``key`` mapping of a YAML file (or the whole file when it has no such key)."""
     if path is None:
         return {}
-    from core.scenarios.loader import read_yaml
+    from foresight.core.scenarios.loader import read_yaml
 
     data = read_yaml(Path(path))
     if not isinstance(data, dict) or not isinstance(data.get(key, data), dict):
@@ -102,7 +102,7 @@ def _train_values(path: str | None) -> dict:
 
 
 def predict_eval_cmd(args: argparse.Namespace) -> int:
-    from core.predict.evaluation import PredictEvalConfig, PredictEvalResult
+    from foresight.core.predict.evaluation import PredictEvalConfig, PredictEvalResult
 
     train = None
     if args.train:
@@ -117,7 +117,7 @@ def predict_eval_cmd(args: argparse.Namespace) -> int:
                               source="command line", item="--ethucy")  # fmt: skip
         values.update(model=stage.model_id(args.model, "--model"), dataset=stage.dataset_id(args.dataset, "--dataset"))
         return stage.submit(args, stage.spec("predict_eval", values), text=_score_table, result_model=PredictEvalResult)
-    from core.predict.evaluation import run_predict_eval
+    from foresight.core.predict.evaluation import run_predict_eval
 
     result = run_predict_eval(stage.config_of(stage.spec("predict_eval", values), PredictEvalConfig), _ctx(args))
     if args.json:
@@ -139,7 +139,7 @@ def _score_table(result, where: str | None) -> str:  # noqa: ANN001
 
 def import_cmd(args: argparse.Namespace) -> int:
     if not args.local:
-        from core.predict.ethucy import ImportDatasetConfig
+        from foresight.core.predict.ethucy import ImportDatasetConfig
 
         stage.local_only(args, output="--output")
         if args.ethucy is not None:
@@ -151,7 +151,7 @@ def import_cmd(args: argparse.Namespace) -> int:
         return stage.submit(args, config, kind="import_dataset", text=lambda r, ref: (
             f"dataset {ref.id} (fold {r['fold']} of data root {r['root']}): {r['summary']['samples']} samples "
             f"{r['summary']['samples_per_split']}\n{ref}"))
-    from core.predict.ethucy import ImportEthucyConfig, run_import_ethucy
+    from foresight.core.predict.ethucy import ImportEthucyConfig, run_import_ethucy
 
     if args.output is None:
         raise ConfigError("--local imports need --output FILE.npz", source="command line", item="--output")
@@ -159,7 +159,7 @@ def import_cmd(args: argparse.Namespace) -> int:
         raise ConfigError("give --ethucy FOLDER (or --root NAME of FORESIGHT_DATA_ROOTS)", source="command line",
                           item="--ethucy")
     if args.ethucy is None:
-        from api.settings import Settings
+        from foresight.api.settings import Settings
 
         folder = Settings().data_root(args.root)
     else:
@@ -173,7 +173,7 @@ def import_cmd(args: argparse.Namespace) -> int:
 
 
 def collect_cmd(args: argparse.Namespace) -> int:
-    from core.predict.collect import CollectConfig, CollectResult
+    from foresight.core.predict.collect import CollectConfig, CollectResult
 
     flags = {"scenarios": args.scenarios.split(",") if args.scenarios else None,
              "seeds_per_scenario": args.seeds_per_scenario, "base_seed": args.base_seed, "policy": args.policy,
@@ -189,10 +189,10 @@ def collect_cmd(args: argparse.Namespace) -> int:
     if args.bundle:
         raise ConfigError("--bundle names a server bundle; --local runs take --matrix/--hard-seeds files",
                           source="command line", item="--bundle")
-    from core.predict.collect import run_collect
+    from foresight.core.predict.collect import run_collect
 
     if args.matrix or args.hard_seeds:  # local files; a --config's paths are relative to the builtin configs/
-        from cli.evaluate import bundle_of
+        from foresight.cli.evaluate import bundle_of
 
         bundle, rel, bundles = bundle_of(args.matrix or str(_builtin_matrix()), args.hard_seeds)
         values.update(bundle=bundle, matrix=rel[0], hard_seeds=rel[1])
@@ -205,13 +205,13 @@ def collect_cmd(args: argparse.Namespace) -> int:
 
 
 def _builtin_matrix() -> Path:
-    from core.stages.refs import BUILTIN_CONFIG_ROOT
+    from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
 
     return BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml"
 
 
 def mix_cmd(args: argparse.Namespace) -> int:
-    from core.predict.collect import CollectResult, MixConfig
+    from foresight.core.predict.collect import CollectResult, MixConfig
 
     values = {"base": args.base, "hardcase": args.hardcase, "hardcase_repeat": args.repeat}
     if not args.local:
@@ -219,7 +219,7 @@ def mix_cmd(args: argparse.Namespace) -> int:
         values.update(base=stage.dataset_id(args.base, "--base"), hardcase=stage.dataset_id(args.hardcase, "--hardcase"))
         return stage.submit(args, stage.spec("mix", values), result_model=CollectResult, text=lambda r, ref: (
             f"dataset {ref.id}: {r.summary['samples']} samples\n{ref}"))
-    from core.predict.collect import run_mix
+    from foresight.core.predict.collect import run_mix
 
     result = run_mix(stage.config_of(stage.spec("mix", values), MixConfig), _ctx(args))
     emit(result, args.json, lambda r: f"{r.dataset}: {r.summary['samples']} samples")
@@ -227,7 +227,7 @@ def mix_cmd(args: argparse.Namespace) -> int:
 
 
 def train_cmd(args: argparse.Namespace) -> int:
-    from core.predict.train_config import TrainConfig, TrainResult
+    from foresight.core.predict.train_config import TrainConfig, TrainResult
 
     overrides = {"dataset": args.dataset, "epochs": args.epochs, "threads": args.threads}
     values = {**_train_values(args.config), **{k: v for k, v in overrides.items() if v is not None}}
@@ -248,7 +248,7 @@ def train_cmd(args: argparse.Namespace) -> int:
                             text=lambda r, ref: text(r, f"\n{ref}\nregister it: foresight models register MODEL_ID "
                                                         f"--job {ref.id} --artifact {Path(r.checkpoint).name}",
                                                      Path(r.checkpoint).name))  # fmt: skip
-    from core.predict.nn.train import run_train
+    from foresight.core.predict.nn.train import run_train
 
     result = run_train(stage.config_of(stage.spec("train", values), TrainConfig), _ctx(args))
     emit(result, args.json, lambda r: text(r, ""))

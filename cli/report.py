@@ -12,9 +12,9 @@ import json
 from pathlib import Path
 from typing import Any
 
-from cli.client import Client, add_connection_args
-from core.errors import ConfigError
-from core.reports.common import FIGURES
+from foresight.cli.client import Client, add_connection_args
+from foresight.core.errors import ConfigError
+from foresight.core.reports.common import FIGURES
 
 REPORT_MD, REPORT_HTML = "report.md", "report.html"
 
@@ -29,7 +29,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _download(client: Client, job_id: str, name: str) -> bytes:
-    from cli.client import ApiError
+    from foresight.cli.client import ApiError
 
     response = client.http.get(f"/v1/jobs/{job_id}/artifacts/{name}")
     if response.status_code >= 400:

@@ -9,7 +9,7 @@ import signal
 import subprocess
 import sys
 
-from api.settings import Settings
+from foresight.api.settings import Settings
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -46,7 +46,7 @@ def _logging(level: str = "info") -> None:
 
 
 def cmd_db_upgrade(args: argparse.Namespace) -> int:
-    from api.db.session import upgrade
+    from foresight.api.db.session import upgrade
 
     settings = Settings()
     upgrade(settings.resolved_database_url, args.revision)
@@ -57,7 +57,7 @@ def cmd_db_upgrade(args: argparse.Namespace) -> int:
 def _serve(settings: Settings, args: argparse.Namespace) -> None:
     import uvicorn
 
-    from api.main import create_server_app
+    from foresight.api.main import create_server_app
 
     app = create_server_app(settings)  # fails here, before serving, on an un-migrated database
     print(f"foresight API on http://{args.host}:{args.port} (store {settings.store_root})", file=sys.stderr)
@@ -66,7 +66,7 @@ def _serve(settings: Settings, args: argparse.Namespace) -> None:
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: None)
     if args.workers > 1:  # each process builds its app from the same FORESIGHT_* environment
-        uvicorn.run("api.main:create_server_app", factory=True, workers=args.workers, host=args.host, port=args.port,
+        uvicorn.run("foresight.api.main:create_server_app", factory=True, workers=args.workers, host=args.host, port=args.port,
                     log_level=args.log_level, access_log=False)  # fmt: skip
     else:
         uvicorn.run(app, host=args.host, port=args.port, log_level=args.log_level, access_log=False)
@@ -79,9 +79,9 @@ def cmd_serve(args: argparse.Namespace) -> int:
 
 
 def cmd_worker(args: argparse.Namespace) -> int:
-    from api.db import queue
-    from api.db.session import check_migrated, make_engine
-    from worker.runner import JobWorker
+    from foresight.api.db import queue
+    from foresight.api.db.session import check_migrated, make_engine
+    from foresight.worker.runner import JobWorker
 
     _logging()
     settings = Settings()
@@ -99,14 +99,14 @@ def cmd_worker(args: argparse.Namespace) -> int:
 
 def cmd_up(args: argparse.Namespace) -> int:
     """Migrate, start a worker process, serve in this one; stopping the server stops the worker."""
-    from api.db.session import upgrade
+    from foresight.api.db.session import upgrade
 
     _logging(args.log_level)
     settings = Settings()
     upgrade(settings.resolved_database_url)
     settings.server_token()  # create the data dir's token before the client needs it
     worker = subprocess.Popen(
-        [sys.executable, "-m", "cli.main", "worker", "--concurrency", str(args.concurrency)], env=os.environ.copy()
+        [sys.executable, "-m", "foresight.cli.main", "worker", "--concurrency", str(args.concurrency)], env=os.environ.copy()
     )
     try:
         _serve(settings, args)

@@ -7,10 +7,10 @@ import json
 import shutil
 from pathlib import Path
 
-from cli import stage
-from cli.common import build_config, emit, local_context, matrix_ref
-from core.errors import ConfigError
-from core.stages.simulate import SimulateConfig, SimulateResult, run_simulate
+from foresight.cli import stage
+from foresight.cli.common import build_config, emit, local_context, matrix_ref
+from foresight.core.errors import ConfigError
+from foresight.core.stages.simulate import SimulateConfig, SimulateResult, run_simulate
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -38,8 +38,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def scenarios_list(args: argparse.Namespace) -> int:
-    from core.scenarios.loader import load_matrix
-    from core.sim.population import pedestrian_count
+    from foresight.core.scenarios.loader import load_matrix
+    from foresight.core.sim.population import pedestrian_count
 
     matrix = load_matrix(Path(args.matrix))
     rows = [
@@ -118,8 +118,8 @@ DEMO_SCENARIOS = 6
 
 
 def demo_run(args: argparse.Namespace) -> int:
-    from core.scenarios.loader import load_matrix
-    from core.stages.refs import BUILTIN_CONFIG_ROOT
+    from foresight.core.scenarios.loader import load_matrix
+    from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
 
     matrix_path = BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml"
     matrix = load_matrix(matrix_path)

@@ -18,10 +18,10 @@ from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
-from cli.client import Client, ServerUnreachable, add_connection_args
-from cli.common import build_config
-from core.errors import ConfigError, CoreError
-from core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
+from foresight.cli.client import Client, ServerUnreachable, add_connection_args
+from foresight.cli.common import build_config
+from foresight.core.errors import ConfigError, CoreError
+from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
 
 CHECKPOINT_SUFFIXES = (".pt", ".pth", ".ckpt")
 
@@ -39,7 +39,7 @@ def add_mode_args(p: argparse.ArgumentParser, *, json_flag: bool = True) -> None
 
 def spec(kind: str, values: dict[str, Any]) -> BaseModel:
     """The job kind's spec from command-line values (None = not given); one readable ConfigError when invalid."""
-    from worker.kinds import KINDS
+    from foresight.worker.kinds import KINDS
 
     return build_config(KINDS[kind].spec, {**values, "kind": kind})
 
@@ -136,7 +136,7 @@ def submit(args: argparse.Namespace, spec_obj: BaseModel, *, text: Callable[[Any
     """POST the spec to ``/v1/jobs``, follow the job with a progress bar, print its result (``text(result, ref)``
     or, with ``--json``, the finished job) and return the result's exit code; a failed or cancelled job is one
     error line and exit 1. ``after(result, ref, client)`` may fetch artifacts and return an updated result."""
-    from cli.jobs import watch
+    from foresight.cli.jobs import watch
 
     client = client or Client.from_args(args)
     kind = kind or spec_obj.kind  # type: ignore[attr-defined]

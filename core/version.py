@@ -6,7 +6,7 @@ import functools
 import subprocess
 from pathlib import Path
 
-from core import __version__
+from foresight.core import __version__
 
 
 @functools.cache

@@ -6,9 +6,9 @@ from logging.config import fileConfig
 
 from alembic import context
 
-from api.db.models import Base
-from api.db.session import make_engine
-from api.settings import Settings
+from foresight.api.db.models import Base
+from foresight.api.db.session import make_engine
+from foresight.api.settings import Settings
 
 config = context.config
 if config.config_file_name is not None:

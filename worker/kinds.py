@@ -17,9 +17,9 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, create_model
 
-from core.stages.context import StageContext
-from worker import records
-from worker.records import Recorder
+from foresight.core.stages.context import StageContext
+from foresight.worker import records
+from foresight.worker.records import Recorder
 
 
 @dataclass(frozen=True)
@@ -102,7 +102,7 @@ def _stage_kind(
     def run(spec_obj: BaseModel, ctx: StageContext) -> dict[str, Any]:
         config_obj = config_model.model_validate(spec_obj.model_dump(exclude={"kind"}))
         if sharded and getattr(config_obj, "shards", 1) > 1:
-            result = importlib.import_module("worker.shards").run_sharded(name, config_obj, ctx)
+            result = importlib.import_module("foresight.worker.shards").run_sharded(name, config_obj, ctx)
         else:
             result = getattr(importlib.import_module(stage_module), stage_name)(config_obj, ctx)
         return result.model_dump(mode="json", by_alias=True) if isinstance(result, BaseModel) else dict(result or {})
@@ -110,26 +110,26 @@ def _stage_kind(
     register(JobKind(name, spec, run, description, record))
 
 
-_stage_kind("simulate", "core.stages.simulate:SimulateConfig", "core.stages.simulate:run_simulate",
+_stage_kind("simulate", "foresight.core.stages.simulate:SimulateConfig", "foresight.core.stages.simulate:run_simulate",
             "run episodes of a scenario matrix with a simple controller")
-_stage_kind("collect", "core.predict.collect:CollectConfig", "core.predict.collect:run_collect",
+_stage_kind("collect", "foresight.core.predict.collect:CollectConfig", "foresight.core.predict.collect:run_collect",
             "roll out episodes into a prediction dataset (base, or hard-case with a seed manifest)", records.dataset)
-_stage_kind("mix", "core.predict.collect:MixConfig", "core.predict.collect:run_mix",
+_stage_kind("mix", "foresight.core.predict.collect:MixConfig", "foresight.core.predict.collect:run_mix",
             "mix a base and a hard-case dataset", records.dataset)
-_stage_kind("train", "core.predict.train_config:TrainConfig", "core.predict.nn.train:run_train",
+_stage_kind("train", "foresight.core.predict.train_config:TrainConfig", "foresight.core.predict.nn.train:run_train",
             "train the trajectory predictor")
-_stage_kind("predict_eval", "core.predict.evaluation:PredictEvalConfig", "core.predict.evaluation:run_predict_eval",
+_stage_kind("predict_eval", "foresight.core.predict.evaluation:PredictEvalConfig", "foresight.core.predict.evaluation:run_predict_eval",
             "ADE/FDE of a predictor on a dataset or ETH/UCY fold")
-_stage_kind("evaluate", "core.evaluation.config:EvaluationConfig", "core.evaluation.runner:run_evaluation",
+_stage_kind("evaluate", "foresight.core.evaluation.config:EvaluationConfig", "foresight.core.evaluation.runner:run_evaluation",
             "evaluate a planner on a scenario matrix", records.evaluation, sharded=True)
-_stage_kind("evaluate_shard", "core.evaluation.config:EvaluationShardConfig",
-            "core.evaluation.shards:run_evaluation_shard",
+_stage_kind("evaluate_shard", "foresight.core.evaluation.config:EvaluationShardConfig",
+            "foresight.core.evaluation.shards:run_evaluation_shard",
             "one shard of an evaluation with shards > 1 (submitted by its parent evaluate job)")
-_stage_kind("diagnose", "core.evaluation.config:DiagnosticsConfig", "core.evaluation.diagnostics:run_diagnostics",
+_stage_kind("diagnose", "foresight.core.evaluation.config:DiagnosticsConfig", "foresight.core.evaluation.diagnostics:run_diagnostics",
             "hard-seed diagnostics: trace every seed of a manifest")
-_stage_kind("campaign", "core.evaluation.config:CampaignConfig", "core.evaluation.campaign:run_campaign",
+_stage_kind("campaign", "foresight.core.evaluation.config:CampaignConfig", "foresight.core.evaluation.campaign:run_campaign",
             "checkpoints x planner-grid variants with quality gates", records.campaign, sharded=True)
-_stage_kind("campaign_shard", "core.evaluation.config:CampaignShardConfig", "core.evaluation.shards:run_campaign_shard",
+_stage_kind("campaign_shard", "foresight.core.evaluation.config:CampaignShardConfig", "foresight.core.evaluation.shards:run_campaign_shard",
             "one shard of a campaign with shards > 1 (submitted by its parent campaign job)")
 
 
@@ -142,8 +142,8 @@ def _import_dataset_kind() -> None:
     """
     from pydantic import field_validator
 
-    from api.settings import Settings
-    from core.predict.ethucy import ImportDatasetConfig
+    from foresight.api.settings import Settings
+    from foresight.core.predict.ethucy import ImportDatasetConfig
 
     class ImportDatasetSpec(ImportDatasetConfig):
         kind: Literal["import_dataset"] = "import_dataset"
@@ -158,7 +158,7 @@ def _import_dataset_kind() -> None:
             return value
 
     def run(spec: ImportDatasetSpec, ctx: StageContext) -> dict[str, Any]:
-        from core.predict.ethucy import ImportEthucyConfig, run_import_ethucy
+        from foresight.core.predict.ethucy import ImportEthucyConfig, run_import_ethucy
 
         root = ctx.resolve_data_root(spec.root)  # the running worker's own settings
         record = run_import_ethucy(ImportEthucyConfig(root=str(root), fold=spec.fold, max_agents=spec.max_agents), ctx)
@@ -171,4 +171,4 @@ def _import_dataset_kind() -> None:
 
 
 _import_dataset_kind()
-register(JobKind("pipeline", **importlib.import_module("worker.pipeline").KIND_FIELDS))  # the runbook as child jobs
+register(JobKind("pipeline", **importlib.import_module("foresight.worker.pipeline").KIND_FIELDS))  # the runbook as child jobs

@@ -20,10 +20,10 @@ from typing import Any, Literal
 
 from pydantic import create_model
 
-from core.errors import CoreError
-from core.pipeline.config import PipelineConfig
-from core.stages.context import StageContext
-from worker.children import ChildRunner, worker_services
+from foresight.core.errors import CoreError
+from foresight.core.pipeline.config import PipelineConfig
+from foresight.core.stages.context import StageContext
+from foresight.worker.children import ChildRunner, worker_services
 
 PipelineSpec = create_model("PipelineSpec", __base__=PipelineConfig, kind=(Literal["pipeline"], "pipeline"))  # type: ignore[valid-type]
 
@@ -62,8 +62,8 @@ class ChildJobs:
         return self._outcome(stage, kind, rows[child_id], resumed=not (created or child_id in touched))
 
     def _outcome(self, stage: str, kind: str, job: dict[str, Any], *, resumed: bool) -> Any:
-        from api import store
-        from core.pipeline.runbook import ChildRun
+        from foresight.api import store
+        from foresight.core.pipeline.runbook import ChildRun
 
         # the child's report page was written by the worker code path that ran it (JobWorker._execute)
         folder = store.resolve_under(self.settings.store_root, store.job_dir(self.settings.store_root, job["id"]))
@@ -77,9 +77,9 @@ class ChildJobs:
     def _register(self, spec: dict[str, Any]) -> Any:
         from sqlalchemy import select
 
-        from api.db.models import Artifact, Model, ModelStatus
-        from api.db.session import session_factory
-        from core.pipeline.runbook import ChildRun
+        from foresight.api.db.models import Artifact, Model, ModelStatus
+        from foresight.api.db.session import session_factory
+        from foresight.core.pipeline.runbook import ChildRun
 
         train_job = self.children.get(spec.get("train_stage", "train"))
         if train_job is None:
@@ -107,10 +107,10 @@ class ChildJobs:
                         artifacts={"model": f"/v1/models/{model_id}"})
 
     def _time_base(self, checkpoint: str) -> dict[str, Any]:
-        from api import store
+        from foresight.api import store
 
         try:
-            from core.predict.nn.checkpoint import read_checkpoint
+            from foresight.core.predict.nn.checkpoint import read_checkpoint
 
             return dict(read_checkpoint(store.resolve_under(self.settings.store_root, checkpoint))["timebase"])
         except Exception:  # noqa: BLE001 - provenance only
@@ -119,9 +119,9 @@ class ChildJobs:
     def _promote(self, spec: dict[str, Any]) -> Any:
         from sqlalchemy import update
 
-        from api.db.models import Model, ModelStatus
-        from api.db.session import session_factory
-        from core.pipeline.runbook import ChildRun
+        from foresight.api.db.models import Model, ModelStatus
+        from foresight.api.db.session import session_factory
+        from foresight.core.pipeline.runbook import ChildRun
 
         model_id, target = spec["model_id"], spec["to"]
         with session_factory(self.engine, write=True).begin() as session:
@@ -138,7 +138,7 @@ class ChildJobs:
 
 
 def run_pipeline_job(spec: Any, ctx: StageContext) -> dict[str, Any]:
-    from core.pipeline.runbook import run_pipeline
+    from foresight.core.pipeline.runbook import run_pipeline
 
     config = PipelineConfig.model_validate(spec.model_dump(exclude={"kind"}))
     children = ChildJobs(ctx, config)
@@ -153,7 +153,7 @@ def record_gates(conn: Any, job: dict[str, Any], result: dict[str, Any], job_dir
     """The pipeline's gate verdicts as gate-result rows (``pipeline:<gate>``), written with its final status."""
     from sqlalchemy import insert
 
-    from api.db.models import GateResult
+    from foresight.api.db.models import GateResult
 
     rows = [{"job_id": job["id"], "campaign_id": None, "gate": f"pipeline:{g['name']}", "passed": bool(g["passed"]),
              "details": g, "created_at": time.time()}

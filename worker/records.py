@@ -9,7 +9,15 @@ from typing import Any
 
 from sqlalchemy import Connection, insert, select
 
-from api.db.models import Campaign, CampaignCell, Dataset, Evaluation, FailureTaxonomy, GateResult, Model
+from foresight.api.db.models import (
+    Campaign,
+    CampaignCell,
+    Dataset,
+    Evaluation,
+    FailureTaxonomy,
+    GateResult,
+    Model,
+)
 
 #: ``record(conn, job, result, job_dir)``: ``job_dir`` is the job's store-relative artifact folder
 Recorder = Callable[[Connection, dict[str, Any], dict[str, Any], str], None]

@@ -10,7 +10,7 @@ from __future__ import annotations
 from pydantic import ValidationError
 from sqlalchemy.exc import OperationalError
 
-from core.errors import CoreError
+from foresight.core.errors import CoreError
 
 TRANSIENT: tuple[type[BaseException], ...] = (OperationalError, ConnectionError, TimeoutError)
 

@@ -25,14 +25,14 @@ from typing import Any
 
 from sqlalchemy import Engine
 
-from api import store
-from api.db import queue
-from api.registry import Resolver
-from api.settings import Settings
-from core.errors import CoreError
-from core.stages.context import Cancelled, StageContext
-from worker.kinds import KINDS
-from worker.retry import decide_retry
+from foresight.api import store
+from foresight.api.db import queue
+from foresight.api.registry import Resolver
+from foresight.api.settings import Settings
+from foresight.core.errors import CoreError
+from foresight.core.stages.context import Cancelled, StageContext
+from foresight.worker.kinds import KINDS
+from foresight.worker.retry import decide_retry
 
 logger = logging.getLogger(__name__)
 
@@ -172,7 +172,7 @@ class JobWorker:
             result = kind.run(spec, ctx)
             if kind.make_workdir:  # the report page is a by-product: written before the scan lists artifacts
                 # imported here: matplotlib loads on the first finished stage, not at worker start
-                from core.reports.stage import write_report
+                from foresight.core.reports.stage import write_report
 
                 write_report(job["kind"], result, workdir, ctx.log)
         except Cancelled:

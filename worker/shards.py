@@ -22,9 +22,9 @@ from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
-from core.errors import CoreError
-from core.stages.context import StageContext
-from worker.children import ChildRunner
+from foresight.core.errors import CoreError
+from foresight.core.stages.context import StageContext
+from foresight.worker.children import ChildRunner
 
 #: parent kind -> its shard kind (both registered in worker/kinds.py)
 SHARD_KINDS = {"evaluate": "evaluate_shard", "campaign": "campaign_shard"}
@@ -32,9 +32,9 @@ SHARD_KINDS = {"evaluate": "evaluate_shard", "campaign": "campaign_shard"}
 
 def run_sharded(kind: str, config: Any, ctx: StageContext) -> BaseModel:
     """Run the ``kind`` stage's ``config`` (with ``config.shards`` > 1) as shard jobs and merge them."""
-    from api import store
-    from api.db import queue
-    from core.evaluation.shards import merge_campaign_shards, merge_evaluation_shards, read_shard
+    from foresight.api import store
+    from foresight.api.db import queue
+    from foresight.core.evaluation.shards import merge_campaign_shards, merge_evaluation_shards, read_shard
 
     t0 = time.perf_counter()
     count = int(config.shards)

@@ -7,13 +7,13 @@ from typing import Annotated
 from fastapi import APIRouter, Query, Request, status
 from sqlalchemy import select
 
-from api.db import queue
-from api.db.models import Bundle
-from api.deps import EngineDep, ResolverDep, SessionDep, SettingsDep, WriteAuth
-from api.errors import AUTH, responses
-from api.registry import MAX_BUNDLE_BYTES, save_upload
-from api.schemas import BundlePublic, BundlesPublic, Ident, ScenarioPublic
-from core.errors import ConfigError
+from foresight.api.db import queue
+from foresight.api.db.models import Bundle
+from foresight.api.deps import EngineDep, ResolverDep, SessionDep, SettingsDep, WriteAuth
+from foresight.api.errors import AUTH, responses
+from foresight.api.registry import MAX_BUNDLE_BYTES, save_upload
+from foresight.api.schemas import BundlePublic, BundlesPublic, Ident, ScenarioPublic
+from foresight.core.errors import ConfigError
 
 router = APIRouter(prefix="/bundles", tags=["bundles"])
 
@@ -70,7 +70,7 @@ def read_bundle(bundle_id: Ident, session: SessionDep) -> BundlePublic:
 @router.get("/{bundle_id}/scenarios", responses=responses(404))
 def read_bundle_scenarios(bundle_id: Ident, session: SessionDep, resolver: ResolverDep) -> list[ScenarioPublic]:
     """The scenarios of every matrix in the bundle."""
-    from core.scenarios.loader import load_matrix
+    from foresight.core.scenarios.loader import load_matrix
 
     row = _get(session, bundle_id)
     root = resolver.bundle_root(row)

@@ -15,14 +15,14 @@ from fastapi.responses import FileResponse, StreamingResponse
 from sqlalchemy import bindparam, select
 from starlette.concurrency import run_in_threadpool
 
-from api import store
-from api.db import queue
-from api.db.models import Dataset, JobStatus, Model
-from api.db.session import is_sqlite
-from api.deps import EngineDep, SettingsDep, WriteAuth
-from api.errors import AUTH, responses
-from api.schemas import Ident, JobCreate, JobPublic, JobsPublic, KindPublic, job_public
-from worker.kinds import KINDS
+from foresight.api import store
+from foresight.api.db import queue
+from foresight.api.db.models import Dataset, JobStatus, Model
+from foresight.api.db.session import is_sqlite
+from foresight.api.deps import EngineDep, SettingsDep, WriteAuth
+from foresight.api.errors import AUTH, responses
+from foresight.api.schemas import Ident, JobCreate, JobPublic, JobsPublic, KindPublic, job_public
+from foresight.worker.kinds import KINDS
 
 router = APIRouter(prefix="/jobs", tags=["jobs"])
 

@@ -10,13 +10,13 @@ from fastapi.responses import PlainTextResponse
 from sqlalchemy import select, update
 from sqlalchemy.exc import IntegrityError
 
-from api import store
-from api.db import queue
-from api.db.models import Artifact, Model, ModelStatus
-from api.deps import EngineDep, SessionDep, WriteAuth, WriteSessionDep
-from api.errors import AUTH, responses
-from api.registry import export_models, models_using
-from api.schemas import Ident, ModelCreate, ModelPromote, ModelPublic, ModelsPublic
+from foresight.api import store
+from foresight.api.db import queue
+from foresight.api.db.models import Artifact, Model, ModelStatus
+from foresight.api.deps import EngineDep, SessionDep, WriteAuth, WriteSessionDep
+from foresight.api.errors import AUTH, responses
+from foresight.api.registry import export_models, models_using
+from foresight.api.schemas import Ident, ModelCreate, ModelPromote, ModelPublic, ModelsPublic
 
 router = APIRouter(prefix="/models", tags=["models"])
 

@@ -8,10 +8,10 @@ from fastapi import APIRouter, Request
 from fastapi.responses import PlainTextResponse
 from sqlalchemy import select, text
 
-from api.db import queue
-from api.deps import EngineDep, SettingsDep
-from api.schemas import Health, WorkerPublic, WorkersPublic, iso
-from worker.kinds import KINDS
+from foresight.api.db import queue
+from foresight.api.deps import EngineDep, SettingsDep
+from foresight.api.schemas import Health, WorkerPublic, WorkersPublic, iso
+from foresight.worker.kinds import KINDS
 
 router = APIRouter(tags=["operations"])  #: always open (liveness probes carry no token)
 #: reads: the app adds the read-auth dependency when reads are closed, so the schema's security matches

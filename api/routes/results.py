@@ -7,11 +7,11 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Query
 from sqlalchemy import select
 
-from api.db import queue
-from api.db.models import Campaign, CampaignCell, Dataset, Evaluation, FailureTaxonomy, GateResult
-from api.deps import SessionDep, SettingsDep
-from api.errors import responses
-from api.schemas import CampaignPublic, DatasetPublic, EvaluationPublic, Ident
+from foresight.api.db import queue
+from foresight.api.db.models import Campaign, CampaignCell, Dataset, Evaluation, FailureTaxonomy, GateResult
+from foresight.api.deps import SessionDep, SettingsDep
+from foresight.api.errors import responses
+from foresight.api.schemas import CampaignPublic, DatasetPublic, EvaluationPublic, Ident
 
 router = APIRouter(tags=["results"])
 
@@ -39,7 +39,7 @@ def read_dataset(dataset_id: Ident, session: SessionDep) -> DatasetPublic:
 def read_data_roots(settings: SettingsDep) -> list[dict[str, Any]]:
     """Named data roots an ``import_dataset`` job may read (``FORESIGHT_DATA_ROOTS``), with the ETH/UCY folds
     found in each; names only, the server's folders stay private."""
-    from core.predict.ethucy import FOLDS
+    from foresight.core.predict.ethucy import FOLDS
 
     return [{"name": name, "folds": [f for f in FOLDS if (path / f).is_dir()]}
             for name, path in sorted(settings.named_data_roots.items())]
@@ -102,7 +102,7 @@ def _operand(session: SessionDep, ident: str) -> tuple[str, dict[str, Any], dict
 def compare_evaluations(session: SessionDep, a: Annotated[Ident, Query()], b: Annotated[Ident, Query()]) -> dict[str, Any]:
     """Two evaluations or campaign cells (``CAMPAIGN_ID:RANK[:hard]``) side by side: the resolved-config diff
     key by key and the headline metric deltas B - A with 95 % intervals (MOVER, from each side's intervals)."""
-    from core.evaluation.delta import deltas, diff_configs
+    from foresight.core.evaluation.delta import deltas, diff_configs
 
     (kind_a, config_a, sum_a), (kind_b, config_b, sum_b) = _operand(session, a), _operand(session, b)
     return {"a": a, "b": b, "sources": {"a": kind_a, "b": kind_b}, "config_diff": diff_configs(config_a, config_b),

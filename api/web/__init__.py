@@ -10,8 +10,8 @@ from __future__ import annotations
 
 from fastapi import FastAPI
 
-from api.web.auth import install_handlers
-from api.web.pages import router
+from foresight.api.web.auth import install_handlers
+from foresight.api.web.pages import router
 
 
 def install(app: FastAPI) -> None:

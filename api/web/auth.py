@@ -6,7 +6,7 @@ import secrets
 
 from fastapi import FastAPI, Request
 
-from api.web.render import page
+from foresight.api.web.render import page
 
 COOKIE = "foresight_token"  #: session cookie the page script sets from the prompted token
 

@@ -9,13 +9,13 @@ from fastapi import APIRouter, Depends, Query, Request
 from fastapi.responses import FileResponse, HTMLResponse
 from sqlalchemy import select
 
-from api import store
-from api.db import queue
-from api.db.models import Bundle, Campaign, Evaluation, Model
-from api.web import files, previews
-from api.web.auth import PageNotFound, read_access
-from api.web.render import page
-from core.errors import NotFoundError
+from foresight.api import store
+from foresight.api.db import queue
+from foresight.api.db.models import Bundle, Campaign, Evaluation, Model
+from foresight.api.web import files, previews
+from foresight.api.web.auth import PageNotFound, read_access
+from foresight.api.web.render import page
+from foresight.core.errors import NotFoundError
 
 router = APIRouter(prefix="/ui", include_in_schema=False, dependencies=[Depends(read_access)])
 RESULT_KINDS = {"evaluate": "Evaluations", "campaign": "Campaigns", "diagnose": "Diagnostics",

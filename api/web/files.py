@@ -14,10 +14,10 @@ from fastapi import APIRouter, Depends, Request
 from fastapi import Path as PathParam
 from fastapi.responses import FileResponse
 
-from api import store
-from api.db import queue
-from api.web.auth import PageNotFound, read_access
-from api.web.render import HERE
+from foresight.api import store
+from foresight.api.db import queue
+from foresight.api.web.auth import PageNotFound, read_access
+from foresight.api.web.render import HERE
 
 router = APIRouter(include_in_schema=False)
 STATIC = HERE / "static"

@@ -9,12 +9,12 @@ from fastapi import APIRouter, Depends, Query, Request
 from fastapi.responses import HTMLResponse, RedirectResponse
 from sqlalchemy import func, select
 
-from api.db import queue
-from api.db.models import JobStatus
-from api.web import catalog, files
-from api.web.auth import PageNotFound, read_access
-from api.web.render import page
-from worker.kinds import KINDS
+from foresight.api.db import queue
+from foresight.api.db.models import JobStatus
+from foresight.api.web import catalog, files
+from foresight.api.web.auth import PageNotFound, read_access
+from foresight.api.web.render import page
+from foresight.worker.kinds import KINDS
 
 router = APIRouter(include_in_schema=False)
 pages = APIRouter(prefix="/ui", include_in_schema=False, dependencies=[Depends(read_access)])

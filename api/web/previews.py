@@ -12,7 +12,7 @@ import threading
 from functools import lru_cache
 from pathlib import Path
 
-from core.scenarios.model import ScenarioMatrix
+from foresight.core.scenarios.model import ScenarioMatrix
 
 CACHE = "web-cache/maps"
 _render_lock = threading.Lock()  #: one drawing at a time: previews are CPU work in the server process
@@ -20,7 +20,7 @@ _render_lock = threading.Lock()  #: one drawing at a time: previews are CPU work
 
 @lru_cache(maxsize=32)
 def _load(path: str, mtime_ns: int) -> ScenarioMatrix:
-    from core.scenarios.loader import load_matrix
+    from foresight.core.scenarios.loader import load_matrix
 
     return load_matrix(Path(path))
 
@@ -39,7 +39,7 @@ def preview(store_root: Path, mapdef) -> Path:  # noqa: ANN001
     path = store_root / CACHE / f"{map_key(mapdef)}.png"
     if path.is_file():
         return path
-    from core.render.map_view import render_map
+    from foresight.core.render.map_view import render_map
 
     with _render_lock:
         if not path.is_file():

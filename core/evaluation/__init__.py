@@ -12,15 +12,15 @@ import importlib
 from typing import Any
 
 _EXPORTS = {
-    "EvaluationConfig": "core.evaluation.config",
-    "DiagnosticsConfig": "core.evaluation.config",
-    "CampaignConfig": "core.evaluation.config",
-    "run_evaluation": "core.evaluation.runner",
-    "EvaluationResult": "core.evaluation.runner",
-    "run_diagnostics": "core.evaluation.diagnostics",
-    "DiagnosticsResult": "core.evaluation.diagnostics",
-    "run_campaign": "core.evaluation.campaign",
-    "CampaignResult": "core.evaluation.campaign",
+    "EvaluationConfig": "foresight.core.evaluation.config",
+    "DiagnosticsConfig": "foresight.core.evaluation.config",
+    "CampaignConfig": "foresight.core.evaluation.config",
+    "run_evaluation": "foresight.core.evaluation.runner",
+    "EvaluationResult": "foresight.core.evaluation.runner",
+    "run_diagnostics": "foresight.core.evaluation.diagnostics",
+    "DiagnosticsResult": "foresight.core.evaluation.diagnostics",
+    "run_campaign": "foresight.core.evaluation.campaign",
+    "CampaignResult": "foresight.core.evaluation.campaign",
 }
 
 __all__ = list(_EXPORTS)
@@ -29,4 +29,4 @@ __all__ = list(_EXPORTS)
 def __getattr__(name: str) -> Any:
     if name in _EXPORTS:
         return getattr(importlib.import_module(_EXPORTS[name]), name)
-    raise AttributeError(f"module 'core.evaluation' has no attribute {name!r}")
+    raise AttributeError(f"module 'foresight.core.evaluation' has no attribute {name!r}")

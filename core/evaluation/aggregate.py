@@ -11,9 +11,9 @@ from collections.abc import Callable, Iterable
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from core.evaluation.record import EpisodeRecord
-from core.evaluation.stats import MeanEstimate, RateEstimate, bootstrap_mean, rate
-from core.evaluation.taxonomy import count_labels
+from foresight.core.evaluation.record import EpisodeRecord
+from foresight.core.evaluation.stats import MeanEstimate, RateEstimate, bootstrap_mean, rate
+from foresight.core.evaluation.taxonomy import count_labels
 
 #: rate name -> predicate on a record
 RATES: dict[str, Callable[[EpisodeRecord], bool]] = {

@@ -21,13 +21,19 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from core.errors import ConfigError
-from core.evaluation.aggregate import SuiteSummary, summarise
-from core.evaluation.config import CampaignConfig, EpisodeSelection, GridVariant
-from core.evaluation.gates import GATE_FAILED_EXIT, ClosedLoopGateResult, closed_loop_gate
-from core.evaluation.integrity import IntegrityReport, check_integrity
-from core.evaluation.plannerspec import PlannerSpec, ResolvedPlanner, config_diff, preflight, resolve_planner
-from core.evaluation.runner import (
+from foresight.core.errors import ConfigError
+from foresight.core.evaluation.aggregate import SuiteSummary, summarise
+from foresight.core.evaluation.config import CampaignConfig, EpisodeSelection, GridVariant
+from foresight.core.evaluation.gates import GATE_FAILED_EXIT, ClosedLoopGateResult, closed_loop_gate
+from foresight.core.evaluation.integrity import IntegrityReport, check_integrity
+from foresight.core.evaluation.plannerspec import (
+    PlannerSpec,
+    ResolvedPlanner,
+    config_diff,
+    preflight,
+    resolve_planner,
+)
+from foresight.core.evaluation.runner import (
     EpisodeSettings,
     Job,
     PlannerProvenance,
@@ -37,9 +43,9 @@ from core.evaluation.runner import (
     run_jobs,
     write_records,
 )
-from core.scenarios.model import ScenarioMatrix
-from core.stages.context import StageContext
-from core.version import code_version
+from foresight.core.scenarios.model import ScenarioMatrix
+from foresight.core.stages.context import StageContext
+from foresight.core.version import code_version
 
 CELL_FORMAT = "foresight.campaign_cell/1"
 
@@ -87,7 +93,7 @@ def load_variants(config: CampaignConfig, ctx: StageContext) -> list[GridVariant
     if config.variants is not None:
         variants, source = config.variants, "variants"
     else:
-        from core.scenarios.loader import read_yaml
+        from foresight.core.scenarios.loader import read_yaml
 
         source = config.grid or "grid"
         data = read_yaml(bundle_file(ctx, config.bundle, source))

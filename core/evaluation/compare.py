@@ -10,10 +10,10 @@ from pathlib import Path
 
 from pydantic import BaseModel
 
-from core.errors import ConfigError
-from core.evaluation.aggregate import BootstrapConfig, aggregate
-from core.evaluation.record import EpisodeRecord
-from core.evaluation.runner import read_records
+from foresight.core.errors import ConfigError
+from foresight.core.evaluation.aggregate import BootstrapConfig, aggregate
+from foresight.core.evaluation.record import EpisodeRecord
+from foresight.core.evaluation.runner import read_records
 
 
 class PlannerCell(BaseModel):

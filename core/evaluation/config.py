@@ -9,12 +9,12 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from core.evaluation.aggregate import BootstrapConfig
-from core.evaluation.gates import ClosedLoopGateConfig, EvaluationGateConfig
-from core.evaluation.metrics import MetricsConfig
-from core.evaluation.plannerspec import PlannerSpec
-from core.evaluation.taxonomy import TaxonomyConfig
-from core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident
+from foresight.core.evaluation.aggregate import BootstrapConfig
+from foresight.core.evaluation.gates import ClosedLoopGateConfig, EvaluationGateConfig
+from foresight.core.evaluation.metrics import MetricsConfig
+from foresight.core.evaluation.plannerspec import PlannerSpec
+from foresight.core.evaluation.taxonomy import TaxonomyConfig
+from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident
 
 StartMethod = Literal["spawn", "fork", "forkserver"]
 MAX_SHARDS = 64  #: most shard jobs one evaluation or campaign is split into

@@ -15,12 +15,12 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel
 
-from core.evaluation.config import DiagnosticsConfig
-from core.evaluation.episode import EpisodeRun
-from core.evaluation.metrics import derive
-from core.evaluation.plannerspec import preflight, resolve_planner
-from core.evaluation.record import EpisodeRecord
-from core.evaluation.runner import (
+from foresight.core.evaluation.config import DiagnosticsConfig
+from foresight.core.evaluation.episode import EpisodeRun
+from foresight.core.evaluation.metrics import derive
+from foresight.core.evaluation.plannerspec import preflight, resolve_planner
+from foresight.core.evaluation.record import EpisodeRecord
+from foresight.core.evaluation.runner import (
     EpisodeSettings,
     Job,
     PlannerProvenance,
@@ -28,9 +28,9 @@ from core.evaluation.runner import (
     planner_provenance,
     run_jobs,
 )
-from core.evaluation.taxonomy import TaxonomyConfig, count_labels
-from core.stages.context import StageContext
-from core.version import code_version
+from foresight.core.evaluation.taxonomy import TaxonomyConfig, count_labels
+from foresight.core.stages.context import StageContext
+from foresight.core.version import code_version
 
 
 class SeedSummary(BaseModel):
@@ -121,7 +121,7 @@ def step_trace(run: EpisodeRun, max_peds: int) -> list[dict[str, Any]]:
 
 
 def _render(run: EpisodeRun, scenario: Any, ctx: StageContext, name: str, title: str) -> str | None:
-    from core.render.trace import render_trace
+    from foresight.core.render.trace import render_trace
 
     tr, rec = run.trace, run.record
     render_trace(tr, scenario.map, ctx.artifact(name), title=title,
@@ -132,7 +132,7 @@ def _render(run: EpisodeRun, scenario: Any, ctx: StageContext, name: str, title:
 
 
 def _replay(run: EpisodeRun, scenario: Any, ctx: StageContext, name: str, title: str, steps: list) -> str:
-    from core.render.animation import render_replay
+    from foresight.core.render.animation import render_replay
 
     rec = run.record
     render_replay(run.trace, scenario.map, ctx.artifact(name), predictions=steps, title=title,

@@ -14,14 +14,14 @@ from typing import Any
 
 import numpy as np
 
-from core.evaluation.metrics import EpisodeGeometry, MetricsConfig
-from core.evaluation.plannerspec import ResolvedPlanner, build_planner
-from core.evaluation.record import EpisodeRecord, PredictionQuality, Provenance, build_record
-from core.evaluation.taxonomy import TaxonomyConfig
-from core.planners.base import EpisodeInfo, Planner
-from core.scenarios.model import ResolvedScenario
-from core.sim.observation import Observation
-from core.version import code_version
+from foresight.core.evaluation.metrics import EpisodeGeometry, MetricsConfig
+from foresight.core.evaluation.plannerspec import ResolvedPlanner, build_planner
+from foresight.core.evaluation.record import EpisodeRecord, PredictionQuality, Provenance, build_record
+from foresight.core.evaluation.taxonomy import TaxonomyConfig
+from foresight.core.planners.base import EpisodeInfo, Planner
+from foresight.core.scenarios.model import ResolvedScenario
+from foresight.core.sim.observation import Observation
+from foresight.core.version import code_version
 
 #: keep the predictions of every k-th decision for the in-loop ADE/FDE (cost stays small)
 PREDICTION_STRIDE = 5
@@ -144,8 +144,8 @@ def run_one(scenario: ResolvedScenario, seed: int, rp: ResolvedPlanner, *, max_s
             metrics_cfg: MetricsConfig | None = None, taxonomy_cfg: TaxonomyConfig | None = None,
             keep_diagnostics: bool = False, simulator: Any = None) -> EpisodeRun:
     """Run and record one (scenario, seed, planner) episode."""
-    from core.sim.episode import run_episode
-    from core.sim.simulator import Simulator
+    from foresight.core.sim.episode import run_episode
+    from foresight.core.sim.simulator import Simulator
 
     sim = simulator or Simulator()
     planner = RecordingPlanner(build_planner(rp), keep_diagnostics)

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from core.evaluation.aggregate import SuiteSummary
-from core.evaluation.integrity import IntegrityReport
+from foresight.core.evaluation.aggregate import SuiteSummary
+from foresight.core.evaluation.integrity import IntegrityReport
 
 GATE_FAILED_EXIT = 2
 

@@ -11,7 +11,7 @@ from collections.abc import Iterable
 
 from pydantic import BaseModel, Field
 
-from core.evaluation.record import EpisodeRecord
+from foresight.core.evaluation.record import EpisodeRecord
 
 #: tolerance on a negative clearance before a "success" counts as an undetected overlap [m]
 OVERLAP_TOL = 1e-6

@@ -18,10 +18,10 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from core.errors import ConfigError
-from core.planners.base import EpisodeInfo, Planner
-from core.scenarios.model import ResolvedScenario
-from core.stages.context import StageContext
+from foresight.core.errors import ConfigError
+from foresight.core.planners.base import EpisodeInfo, Planner
+from foresight.core.scenarios.model import ResolvedScenario
+from foresight.core.stages.context import StageContext
 
 PlannerName = Literal["predictive", "orca", "social_force", "goal"]
 CV = "cv"
@@ -84,7 +84,7 @@ def _dump_config(cfg: Any) -> dict[str, Any]:
 
 
 def _predictive_config(spec: PlannerSpec) -> dict[str, Any]:
-    from core.planners.predictive.config import PredictivePlannerConfig
+    from foresight.core.planners.predictive.config import PredictivePlannerConfig
 
     cfg = PredictivePlannerConfig.from_dict(spec.config, source="planner.config")
     if spec.reference_params:
@@ -96,7 +96,7 @@ def _predictive_config(spec: PlannerSpec) -> dict[str, Any]:
 @cache
 def load_model(path: str, sha256: str) -> Any:
     """Load a checkpoint into a predictor once per process and file content (imports torch only here)."""
-    from core.predict.nn.checkpoint import load_predictor
+    from foresight.core.predict.nn.checkpoint import load_predictor
 
     try:
         return load_predictor(Path(path))
@@ -106,7 +106,7 @@ def load_model(path: str, sha256: str) -> Any:
 
 def build_planner(rp: ResolvedPlanner) -> Planner:
     """A fresh planner for one episode (the loaded model is shared, it is stateless)."""
-    from core.planners.registry import make_planner
+    from foresight.core.planners.registry import make_planner
 
     model = None
     if rp.name == "predictive":
@@ -138,7 +138,7 @@ def resolve_planner(spec: PlannerSpec, ctx: StageContext) -> ResolvedPlanner:
     if spec.name == "predictive":
         resolved = _predictive_config(spec)
     else:
-        from core.planners.registry import make_planner
+        from foresight.core.planners.registry import make_planner
 
         resolved = _dump_config(make_planner(spec.name, spec.config).config)
     model_id, sha, path = _model(spec, ctx)

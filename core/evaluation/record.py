@@ -11,7 +11,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from core.evaluation.metrics import (
+from foresight.core.evaluation.metrics import (
     Efficiency,
     EpisodeGeometry,
     MetricsConfig,
@@ -24,7 +24,7 @@ from core.evaluation.metrics import (
     smoothness,
     timing_summary,
 )
-from core.evaluation.taxonomy import TaxonomyConfig, TaxonomyResult, classify
+from foresight.core.evaluation.taxonomy import TaxonomyConfig, TaxonomyResult, classify
 
 Outcome = Literal["collision_pedestrian", "collision_static", "success", "timeout", "error"]
 OUTCOMES: tuple[str, ...] = Outcome.__args__  # type: ignore[attr-defined]

@@ -18,20 +18,20 @@ from typing import Any, Literal
 
 from pydantic import BaseModel
 
-from core.errors import ConfigError
-from core.evaluation.aggregate import Aggregates, aggregate, summarise
-from core.evaluation.config import EpisodeSelection, EvaluationConfig
-from core.evaluation.episode import EpisodeRun, run_one
-from core.evaluation.gates import GateResult, evaluation_gate
-from core.evaluation.integrity import IntegrityReport, check_integrity
-from core.evaluation.metrics import MetricsConfig
-from core.evaluation.plannerspec import ResolvedPlanner, preflight, resolve_planner
-from core.evaluation.record import EpisodeRecord
-from core.evaluation.taxonomy import TaxonomyConfig
-from core.scenarios.model import ScenarioMatrix
-from core.stages.context import StageContext
-from core.stages.refs import resolve_in_bundle
-from core.version import code_version
+from foresight.core.errors import ConfigError
+from foresight.core.evaluation.aggregate import Aggregates, aggregate, summarise
+from foresight.core.evaluation.config import EpisodeSelection, EvaluationConfig
+from foresight.core.evaluation.episode import EpisodeRun, run_one
+from foresight.core.evaluation.gates import GateResult, evaluation_gate
+from foresight.core.evaluation.integrity import IntegrityReport, check_integrity
+from foresight.core.evaluation.metrics import MetricsConfig
+from foresight.core.evaluation.plannerspec import ResolvedPlanner, preflight, resolve_planner
+from foresight.core.evaluation.record import EpisodeRecord
+from foresight.core.evaluation.taxonomy import TaxonomyConfig
+from foresight.core.scenarios.model import ScenarioMatrix
+from foresight.core.stages.context import StageContext
+from foresight.core.stages.refs import resolve_in_bundle
+from foresight.core.version import code_version
 
 
 @dataclass(frozen=True)
@@ -77,8 +77,8 @@ def bundle_file(ctx: StageContext, bundle: str, rel: str) -> Path:
 
 def load_selection(sel: EpisodeSelection, ctx: StageContext) -> tuple[Path, ScenarioMatrix, list[tuple[str, int]]]:
     """(matrix path, matrix, [(scenario, seed), ...] in matrix order) of an episode selection."""
-    from core.scenarios.loader import load_matrix
-    from core.scenarios.seeds import load_seed_manifest
+    from foresight.core.scenarios.loader import load_matrix
+    from foresight.core.scenarios.seeds import load_seed_manifest
 
     path = bundle_file(ctx, sel.bundle, sel.matrix)
     matrix = load_matrix(path)
@@ -105,8 +105,8 @@ def _init_pool_worker(settings: EpisodeSettings) -> None:
 
 
 def _init_worker(settings: EpisodeSettings, matrix: ScenarioMatrix | None = None) -> None:
-    from core.scenarios.loader import load_matrix
-    from core.sim.simulator import Simulator
+    from foresight.core.scenarios.loader import load_matrix
+    from foresight.core.sim.simulator import Simulator
 
     _WORKER.update(settings=settings, matrix=matrix or load_matrix(settings.matrix_path), sim=Simulator())
 

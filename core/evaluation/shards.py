@@ -27,8 +27,8 @@ from typing import Any, Literal
 
 from pydantic import BaseModel
 
-from core.errors import CoreError
-from core.evaluation.campaign import (
+from foresight.core.errors import CoreError
+from foresight.core.evaluation.campaign import (
     CampaignPlan,
     CampaignResult,
     campaign_result,
@@ -37,15 +37,15 @@ from core.evaluation.campaign import (
     prepare_campaign,
     suite_union,
 )
-from core.evaluation.config import (
+from foresight.core.evaluation.config import (
     CampaignConfig,
     CampaignShardConfig,
     EvaluationConfig,
     EvaluationShardConfig,
     ShardRef,
 )
-from core.evaluation.record import EpisodeRecord
-from core.evaluation.runner import (
+from foresight.core.evaluation.record import EpisodeRecord
+from foresight.core.evaluation.runner import (
     EvaluationResult,
     Job,
     PreparedEvaluation,
@@ -55,8 +55,8 @@ from core.evaluation.runner import (
     run_jobs,
     write_records,
 )
-from core.stages.context import StageContext
-from core.version import code_version
+from foresight.core.stages.context import StageContext
+from foresight.core.version import code_version
 
 SHARD_FORMAT = "foresight.shard/1"
 SHARD_FILE = "shard.json"

@@ -12,7 +12,7 @@ from typing import Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from core.evaluation.metrics import (
+from foresight.core.evaluation.metrics import (
     Derived,
     no_progress_mask,
     sign_change_steps,

@@ -10,9 +10,9 @@ import functools
 import hashlib
 from pathlib import Path
 
-from core.errors import ConfigError
-from core.maps import native, svg
-from core.maps.model import MapDef
+from foresight.core.errors import ConfigError
+from foresight.core.maps import native, svg
+from foresight.core.maps.model import MapDef
 
 SVG_SUFFIXES = frozenset({".svg"})
 YAML_SUFFIXES = frozenset({".yaml", ".yml"})

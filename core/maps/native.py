@@ -15,8 +15,8 @@ from typing import Any
 import yaml
 from pydantic import ValidationError
 
-from core.errors import ConfigError
-from core.maps.model import MapDef, Point, Route, SinglePedestrian, Zone
+from foresight.core.errors import ConfigError
+from foresight.core.maps.model import MapDef, Point, Route, SinglePedestrian, Zone
 
 FORMAT = "foresight.map/1"
 ZONE_FIELDS = (

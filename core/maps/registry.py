@@ -13,9 +13,9 @@ from typing import Any
 
 import yaml
 
-from core.errors import ConfigError, NotFoundError
-from core.maps.io import file_sha256, load_map
-from core.maps.model import MapDef
+from foresight.core.errors import ConfigError, NotFoundError
+from foresight.core.maps.io import file_sha256, load_map
+from foresight.core.maps.model import MapDef
 
 SCHEMA = "robot_sf.map_catalog.v2"
 SUPPORTED_VERSIONS = frozenset({2})

@@ -16,10 +16,10 @@ from pathlib import Path
 
 from pydantic import ValidationError
 
-from core.errors import ConfigError
-from core.maps import geometry, svgpath, svgtransform
-from core.maps.model import MapDef, Point, Route, SinglePedestrian, Zone
-from core.maps.svgreport import (
+from foresight.core.errors import ConfigError
+from foresight.core.maps import geometry, svgpath, svgtransform
+from foresight.core.maps.model import MapDef, Point, Route, SinglePedestrian, Zone
+from foresight.core.maps.svgreport import (
     PED_ROUTE_ONLY_MODE,
     ROBOT_ROUTE_ONLY_MODE,
     ROUTE_CROSSES_OBSTACLE_INTERIOR,

@@ -15,12 +15,12 @@ from typing import Any, Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from core.errors import ConfigError
-from core.evaluation.config import CampaignConfig, DiagnosticsConfig, EvaluationConfig
-from core.predict.collect import CollectConfig, MixConfig
-from core.predict.proxy import ProxySpec
-from core.predict.train_config import TrainConfig
-from core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident
+from foresight.core.errors import ConfigError
+from foresight.core.evaluation.config import CampaignConfig, DiagnosticsConfig, EvaluationConfig
+from foresight.core.predict.collect import CollectConfig, MixConfig
+from foresight.core.predict.proxy import ProxySpec
+from foresight.core.predict.train_config import TrainConfig
+from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident
 
 #: placeholder for the model this pipeline trains and registers (planner.model, campaign checkpoints)
 CANDIDATE = "candidate"

@@ -16,18 +16,18 @@ from typing import Any
 
 from pydantic import BaseModel
 
-from core.errors import NotFoundError
-from core.pipeline.runbook import ChildRun
-from core.stages.context import StageContext
+from foresight.core.errors import NotFoundError
+from foresight.core.pipeline.runbook import ChildRun
+from foresight.core.stages.context import StageContext
 
 #: kind -> (config class, stage function), imported when the stage runs (train imports torch)
 STAGES = {
-    "collect": ("core.predict.collect:CollectConfig", "core.predict.collect:run_collect"),
-    "mix": ("core.predict.collect:MixConfig", "core.predict.collect:run_mix"),
-    "train": ("core.predict.train_config:TrainConfig", "core.predict.nn.train:run_train"),
-    "evaluate": ("core.evaluation.config:EvaluationConfig", "core.evaluation.runner:run_evaluation"),
-    "diagnose": ("core.evaluation.config:DiagnosticsConfig", "core.evaluation.diagnostics:run_diagnostics"),
-    "campaign": ("core.evaluation.config:CampaignConfig", "core.evaluation.campaign:run_campaign"),
+    "collect": ("foresight.core.predict.collect:CollectConfig", "foresight.core.predict.collect:run_collect"),
+    "mix": ("foresight.core.predict.collect:MixConfig", "foresight.core.predict.collect:run_mix"),
+    "train": ("foresight.core.predict.train_config:TrainConfig", "foresight.core.predict.nn.train:run_train"),
+    "evaluate": ("foresight.core.evaluation.config:EvaluationConfig", "foresight.core.evaluation.runner:run_evaluation"),
+    "diagnose": ("foresight.core.evaluation.config:DiagnosticsConfig", "foresight.core.evaluation.diagnostics:run_diagnostics"),
+    "campaign": ("foresight.core.evaluation.config:CampaignConfig", "foresight.core.evaluation.campaign:run_campaign"),
 }
 
 
@@ -91,7 +91,7 @@ class LocalChildren:
         data = result.model_dump(mode="json", by_alias=True) if isinstance(result, BaseModel) else dict(result)
         done.write_text(json.dumps({"spec": spec, "result": data, "wall_s": wall}, indent=2, default=str))
         if self.reports:
-            from core.reports.stage import write_report  # matplotlib: only when reports are wanted
+            from foresight.core.reports.stage import write_report  # matplotlib: only when reports are wanted
 
             write_report(kind, data, folder, self.ctx.log)
         return self._run_of(stage, kind, folder, data, wall)
@@ -104,7 +104,7 @@ class LocalChildren:
                         artifacts={"folder": f"{stage}/"})
 
     def _register(self, spec: dict[str, Any]) -> ChildRun:
-        from core.evaluation.plannerspec import sha256_file
+        from foresight.core.evaluation.plannerspec import sha256_file
 
         train = json.loads((self.ctx.workdir / spec["train_stage"] / "result.json").read_text())["result"]
         checkpoint = Path(train["checkpoint"])

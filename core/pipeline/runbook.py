@@ -30,10 +30,10 @@ from typing import Any
 
 from pydantic import BaseModel
 
-from core.errors import ConfigError, CoreError
-from core.evaluation.gates import GATE_FAILED_EXIT
-from core.pipeline.config import PipelineConfig, stage_config
-from core.reports.pipeline import (
+from foresight.core.errors import ConfigError, CoreError
+from foresight.core.evaluation.gates import GATE_FAILED_EXIT
+from foresight.core.pipeline.config import PipelineConfig, stage_config
+from foresight.core.reports.pipeline import (
     PipelineSummary,
     StageEntry,
     best_from_campaign,
@@ -41,7 +41,7 @@ from core.reports.pipeline import (
     headline,
     write_pipeline_report,
 )
-from core.stages.context import Cancelled, StageContext
+from foresight.core.stages.context import Cancelled, StageContext
 
 #: (stage name, kind) in run order; gates is decided here, register/promote are registry actions
 RUNBOOK: list[tuple[str, str]] = [
@@ -99,8 +99,8 @@ def _selection_text(config: PipelineConfig) -> str:
 def check_seed_separation(config: PipelineConfig, ctx: StageContext) -> dict[str, int]:
     """Refuse a config whose TRAINING hard seeds meet the EVALUATION hard seeds or any seed the evaluate
     stage or the campaign's global suite runs; returns the episode counts of the suites."""
-    from core.evaluation.config import EpisodeSelection
-    from core.evaluation.runner import load_selection
+    from foresight.core.evaluation.config import EpisodeSelection
+    from foresight.core.evaluation.runner import load_selection
 
     where = {"bundle": config.bundle, "matrix": config.matrix}
     _, _, train = load_selection(EpisodeSelection(**where, seed_manifest=config.training_seeds), ctx)
@@ -339,7 +339,7 @@ def _read_json(path: Any) -> dict[str, Any] | None:
 
 def _code_version() -> str | None:
     try:
-        from core.version import code_version
+        from foresight.core.version import code_version
 
         return code_version()
     except Exception:  # noqa: BLE001 - provenance only

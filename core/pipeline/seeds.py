@@ -22,7 +22,7 @@ from typing import Any
 
 import yaml
 
-from core.errors import ConfigError
+from foresight.core.errors import ConfigError
 
 #: Seeds below this are the evaluation range of our matrices (their own seeds, extended by
 #: ``seeds_per_scenario``); training seeds are mined at or above :data:`TRAINING_SEED_MIN`.
@@ -63,9 +63,9 @@ def mine_failures(
     ``exclude``: pairs never to pick (e.g. the evaluation manifest when mining training seeds).
     Deterministic: the simulator and the baselines draw only from the episode seed.
     """
-    from core.planners.registry import make_planner
-    from core.scenarios.loader import load_matrix
-    from core.sim.episode import run_episode
+    from foresight.core.planners.registry import make_planner
+    from foresight.core.scenarios.loader import load_matrix
+    from foresight.core.sim.episode import run_episode
 
     if baseline == "predictive":
         raise ConfigError("mine with a baseline that needs no model (orca, social_force, goal)", item="baseline")

@@ -5,8 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Protocol, runtime_checkable
 
-from core.scenarios.model import ResolvedScenario
-from core.sim.observation import Observation
+from foresight.core.scenarios.model import ResolvedScenario
+from foresight.core.sim.observation import Observation
 
 
 @dataclass(frozen=True)

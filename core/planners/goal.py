@@ -12,8 +12,8 @@ from typing import Any
 
 import numpy as np
 
-from core.planners.base import EpisodeInfo
-from core.sim.observation import Observation
+from foresight.core.planners.base import EpisodeInfo
+from foresight.core.sim.observation import Observation
 
 
 @dataclass(frozen=True)

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from core.errors import ConfigError, NotFoundError
-from core.planners.base import Planner
+from foresight.core.errors import ConfigError, NotFoundError
+from foresight.core.planners.base import Planner
 
 PLANNER_NAMES = ("predictive", "orca", "social_force", "goal")
 
@@ -19,20 +19,20 @@ PLANNER_NAMES = ("predictive", "orca", "social_force", "goal")
 def make_planner(name: str, config: dict[str, Any] | None = None, *, model: Any = None) -> Planner:
     """Build a planner by name with an optional nested config dict (unknown keys are a ConfigError)."""
     if name == "predictive":
-        from core.planners.predictive.config import PredictivePlannerConfig
-        from core.planners.predictive.planner import PredictivePlanner
+        from foresight.core.planners.predictive.config import PredictivePlannerConfig
+        from foresight.core.planners.predictive.planner import PredictivePlanner
 
         return PredictivePlanner(PredictivePlannerConfig.from_dict(config), make_forecaster(model))
     if name == "orca":
-        from core.planners.orca import OrcaConfig, OrcaPlanner
+        from foresight.core.planners.orca import OrcaConfig, OrcaPlanner
 
         return OrcaPlanner(_validate(OrcaConfig, config, name))
     if name == "social_force":
-        from core.planners.social_force import SocialForceConfig, SocialForcePlanner
+        from foresight.core.planners.social_force import SocialForceConfig, SocialForcePlanner
 
         return SocialForcePlanner(_validate(SocialForceConfig, config, name))
     if name == "goal":
-        from core.planners.goal import GoalSeeking
+        from foresight.core.planners.goal import GoalSeeking
 
         try:
             return GoalSeeking(**(config or {}))
@@ -43,9 +43,9 @@ def make_planner(name: str, config: dict[str, Any] | None = None, *, model: Any 
 
 def make_forecaster(model: Any) -> Any:
     """The predictive planner's forecaster for ``model`` ("cv", a Forecaster or a Predictor)."""
-    from core.predict.forecaster import ConstantVelocityForecaster, Forecaster, LearnedForecaster
-    from core.predict.predictor import Predictor
-    from core.predict.timebase import PLANNER_TIMEBASE
+    from foresight.core.predict.forecaster import ConstantVelocityForecaster, Forecaster, LearnedForecaster
+    from foresight.core.predict.predictor import Predictor
+    from foresight.core.predict.timebase import PLANNER_TIMEBASE
 
     if model is None:
         raise ConfigError("the predictive planner needs a model: 'cv', a forecaster or a loaded predictor",

@@ -14,9 +14,9 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from core.errors import ConfigError
-from core.planners.base import EpisodeInfo
-from core.sim.observation import Observation
+from foresight.core.errors import ConfigError
+from foresight.core.planners.base import EpisodeInfo
+from foresight.core.sim.observation import Observation
 
 
 def limits_of(robot_limits: dict[str, float]) -> tuple[float, float]:

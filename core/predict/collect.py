@@ -15,9 +15,9 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from core.errors import ConfigError
-from core.planners.base import EpisodeInfo
-from core.predict.dataset import (
+from foresight.core.errors import ConfigError
+from foresight.core.planners.base import EpisodeInfo
+from foresight.core.predict.dataset import (
     DatasetMeta,
     EpisodeRecord,
     config_hash,
@@ -26,13 +26,13 @@ from core.predict.dataset import (
     resolve_dataset_path,
     save_dataset,
 )
-from core.predict.mixing import assign_splits, dataset_from_episodes, mix_datasets
-from core.predict.quality import check_quality
-from core.predict.samples import samples_from_trace
-from core.predict.timebase import PLANNER_TIMEBASE, TimeBase
-from core.sim.observation import Observation
-from core.stages.context import StageContext
-from core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident, resolve_in_bundle
+from foresight.core.predict.mixing import assign_splits, dataset_from_episodes, mix_datasets
+from foresight.core.predict.quality import check_quality
+from foresight.core.predict.samples import samples_from_trace
+from foresight.core.predict.timebase import PLANNER_TIMEBASE, TimeBase
+from foresight.core.sim.observation import Observation
+from foresight.core.stages.context import StageContext
+from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident, resolve_in_bundle
 
 
 class TimeBaseSpec(BaseModel):
@@ -98,20 +98,20 @@ class _Recorder:
 
 
 def _policy(config: CollectConfig, ctx: StageContext):
-    from core.planners.goal import GoalSeeking
+    from foresight.core.planners.goal import GoalSeeking
 
     if config.policy == "goal":
         return GoalSeeking()
     if config.policy == "goal_noisy":
         return GoalSeeking(noise_v=0.15, noise_w=0.3)
-    from core.planners.registry import make_planner
+    from foresight.core.planners.registry import make_planner
 
     spec = dict(config.planner or {})
     if "name" not in spec:
         raise ConfigError("policy 'planner' needs planner.name", item="planner.name")
     model = spec.get("model")
     if model not in (None, "cv"):
-        from core.predict.nn.checkpoint import load_predictor
+        from foresight.core.predict.nn.checkpoint import load_predictor
 
         model = load_predictor(ctx.resolve_model(model))
     return make_planner(spec["name"], spec.get("config"), model=model)
@@ -120,7 +120,7 @@ def _policy(config: CollectConfig, ctx: StageContext):
 def episode_list(config: CollectConfig, matrix, manifest_path=None) -> list[tuple[Any, int, str]]:
     """(scenario, seed, role) of every episode to collect."""
     if manifest_path is not None:
-        from core.scenarios.seeds import load_seed_manifest
+        from foresight.core.scenarios.seeds import load_seed_manifest
 
         manifest = load_seed_manifest(manifest_path, matrix)
         return [(matrix.get(name), seed, "hardcase") for name, seed in manifest.pairs()]
@@ -131,7 +131,7 @@ def episode_list(config: CollectConfig, matrix, manifest_path=None) -> list[tupl
 
 def _refuse_evaluation_episodes(jobs, path, matrix) -> None:
     """Training data must never contain an episode we evaluate on."""
-    from core.scenarios.seeds import load_seed_manifest
+    from foresight.core.scenarios.seeds import load_seed_manifest
 
     held = set(load_seed_manifest(path, matrix).pairs())
     clash = [(s.name, seed) for s, seed, _ in jobs if (s.name, seed) in held]
@@ -141,8 +141,8 @@ def _refuse_evaluation_episodes(jobs, path, matrix) -> None:
 
 
 def run_collect(config: CollectConfig, ctx: StageContext) -> CollectResult:
-    from core.scenarios.loader import load_matrix
-    from core.sim.episode import run_episode
+    from foresight.core.scenarios.loader import load_matrix
+    from foresight.core.sim.episode import run_episode
 
     root = ctx.resolve_bundle(config.bundle)
     matrix = load_matrix(resolve_in_bundle(root, config.matrix))

@@ -18,11 +18,11 @@ from typing import Any, Literal
 
 import numpy as np
 
-from core.errors import ConfigError, NotFoundError
-from core.predict.features import FRAME_CONVENTIONS, feature_dim, feature_names
-from core.predict.quality import summarize
-from core.predict.timebase import TimeBase
-from core.version import code_version
+from foresight.core.errors import ConfigError, NotFoundError
+from foresight.core.predict.features import FRAME_CONVENTIONS, feature_dim, feature_names
+from foresight.core.predict.quality import summarize
+from foresight.core.predict.timebase import TimeBase
+from foresight.core.version import code_version
 
 SCHEMA_VERSION = "foresight.predict.dataset/1"
 ARRAYS = ("state", "target", "mask", "target_mask", "episode")

@@ -25,14 +25,14 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from core.errors import ConfigError, NotFoundError
-from core.predict.dataset import Dataset, DatasetMeta, EpisodeRecord, save_dataset
-from core.predict.features import Window, extract_features, gather_history, world_to_ego
-from core.predict.mixing import dataset_from_episodes
-from core.predict.samples import SampleArrays
-from core.predict.timebase import ETHUCY_TIMEBASE, TimeBase
-from core.stages.context import StageContext
-from core.stages.refs import Ident
+from foresight.core.errors import ConfigError, NotFoundError
+from foresight.core.predict.dataset import Dataset, DatasetMeta, EpisodeRecord, save_dataset
+from foresight.core.predict.features import Window, extract_features, gather_history, world_to_ego
+from foresight.core.predict.mixing import dataset_from_episodes
+from foresight.core.predict.samples import SampleArrays
+from foresight.core.predict.timebase import ETHUCY_TIMEBASE, TimeBase
+from foresight.core.stages.context import StageContext
+from foresight.core.stages.refs import Ident
 
 FOLDS = ("eth", "hotel", "univ", "zara1", "zara2")
 #: scene-file prefixes of each fold's held-out scene; they must never be in that fold's train/val

@@ -10,13 +10,13 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from core.errors import ConfigError
-from core.predict.dataset import Dataset, load_dataset, resolve_dataset_path, save_dataset
-from core.predict.ethucy import FOLDS, import_fold
-from core.predict.metrics import evaluate_predictor
-from core.predict.predictor import ConstantVelocityPredictor
-from core.predict.timebase import ETHUCY_TIMEBASE
-from core.stages.context import StageContext
+from foresight.core.errors import ConfigError
+from foresight.core.predict.dataset import Dataset, load_dataset, resolve_dataset_path, save_dataset
+from foresight.core.predict.ethucy import FOLDS, import_fold
+from foresight.core.predict.metrics import evaluate_predictor
+from foresight.core.predict.predictor import ConstantVelocityPredictor
+from foresight.core.predict.timebase import ETHUCY_TIMEBASE
+from foresight.core.stages.context import StageContext
 
 
 class PredictEvalConfig(BaseModel):
@@ -62,13 +62,13 @@ def _predictor(config: PredictEvalConfig, ds: Dataset, ctx: StageContext, name: 
     if config.model == "cv":
         return ConstantVelocityPredictor(ds.meta.timebase)
     if config.model is not None:
-        from core.predict.nn.checkpoint import load_predictor
+        from foresight.core.predict.nn.checkpoint import load_predictor
 
         path = ctx.local_file(config.model) or ctx.resolve_model(config.model)
         return load_predictor(path, expect_timebase=ds.meta.timebase)
-    from core.predict.nn.checkpoint import load_predictor
-    from core.predict.nn.train import run_train
-    from core.predict.train_config import TrainConfig
+    from foresight.core.predict.nn.checkpoint import load_predictor
+    from foresight.core.predict.nn.train import run_train
+    from foresight.core.predict.train_config import TrainConfig
 
     data_path = ctx.artifact(f"{name}/dataset.npz")
     save_dataset(ds, data_path)

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core.predict.timebase import TimeBase
+from foresight.core.predict.timebase import TimeBase
 
 STEP_CHANNELS = ("px", "py", "vx", "vy", "valid")
 EGO_CHANNELS = ("ego_v", "ego_w", "goal_ux", "goal_uy", "goal_dist")

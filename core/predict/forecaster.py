@@ -12,12 +12,12 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from core.errors import ConfigError
-from core.predict.features import ego_to_world, extract_features
-from core.predict.history import LiveHistory
-from core.predict.predictor import ConstantVelocityPredictor, Predictor
-from core.predict.timebase import TimeBase
-from core.sim.observation import Observation
+from foresight.core.errors import ConfigError
+from foresight.core.predict.features import ego_to_world, extract_features
+from foresight.core.predict.history import LiveHistory
+from foresight.core.predict.predictor import ConstantVelocityPredictor, Predictor
+from foresight.core.predict.timebase import TimeBase
+from foresight.core.sim.observation import Observation
 
 
 @dataclass(frozen=True)

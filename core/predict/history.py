@@ -12,10 +12,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from core.errors import ConfigError
-from core.predict.features import Window, gather_history
-from core.predict.timebase import TimeBase
-from core.sim.observation import Observation
+from foresight.core.errors import ConfigError
+from foresight.core.predict.features import Window, gather_history
+from foresight.core.predict.timebase import TimeBase
+from foresight.core.sim.observation import Observation
 
 
 class _Frame(NamedTuple):

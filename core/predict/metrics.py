@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.predict.predictor import Predictor
+from foresight.core.predict.predictor import Predictor
 
 
 def ade_fde(pred: np.ndarray, target: np.ndarray, target_mask: np.ndarray) -> dict[str, float]:

@@ -11,9 +11,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from core.errors import ConfigError
-from core.predict.dataset import Dataset, DatasetMeta, EpisodeRecord
-from core.predict.samples import SampleArrays
+from foresight.core.errors import ConfigError
+from foresight.core.predict.dataset import Dataset, DatasetMeta, EpisodeRecord
+from foresight.core.predict.samples import SampleArrays
 
 
 def assign_splits(n_episodes: int, val_fraction: float, seed: int) -> list[str]:

@@ -11,9 +11,9 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from core.errors import ConfigError
-from core.predict.features import current_index, feature_dim
-from core.predict.timebase import TimeBase
+from foresight.core.errors import ConfigError
+from foresight.core.predict.features import current_index, feature_dim
+from foresight.core.predict.timebase import TimeBase
 
 
 @runtime_checkable

@@ -12,8 +12,8 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from core.stages.context import StageContext
-from core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident
+from foresight.core.stages.context import StageContext
+from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident
 
 
 class ProxySpec(BaseModel):
@@ -32,8 +32,8 @@ CANDIDATE = "proxy-candidate"
 
 def evaluation_proxy(spec: ProxySpec, ctx: StageContext):
     """A callback running one evaluation per candidate checkpoint under ``proxy_eval/<name>/``."""
-    from core.evaluation.config import EvaluationConfig
-    from core.evaluation.runner import run_evaluation
+    from foresight.core.evaluation.config import EvaluationConfig
+    from foresight.core.evaluation.runner import run_evaluation
 
     def proxy(path: Path) -> dict[str, float]:
         sub = StageContext(workdir=ctx.artifact(f"proxy_eval/{Path(path).stem}/result.json").parent,

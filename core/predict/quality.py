@@ -11,8 +11,8 @@ from typing import Any
 
 import numpy as np
 
-from core.errors import ConfigError
-from core.predict.features import current_index
+from foresight.core.errors import ConfigError
+from foresight.core.predict.features import current_index
 
 
 @dataclass(frozen=True)

@@ -13,8 +13,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core.predict.features import Window, extract_features, feature_dim, gather_history, world_to_ego
-from core.predict.timebase import TimeBase
+from foresight.core.predict.features import (
+    Window,
+    extract_features,
+    feature_dim,
+    gather_history,
+    world_to_ego,
+)
+from foresight.core.predict.timebase import TimeBase
 
 
 @dataclass(frozen=True)

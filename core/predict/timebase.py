@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from core.errors import ConfigError
+from foresight.core.errors import ConfigError
 
 _TOL = 1e-6
 

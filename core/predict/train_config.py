@@ -8,8 +8,8 @@ from typing import Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
-from core.errors import ConfigError
-from core.predict.proxy import ProxySpec
+from foresight.core.errors import ConfigError
+from foresight.core.predict.proxy import ProxySpec
 
 
 class _Strict(BaseModel):

@@ -23,10 +23,10 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
 from PIL import Image
 
-from core.maps.model import MapDef
-from core.render.figure import map_axes
-from core.render.map_view import draw_map
-from core.render.trace import COLLISION_COLOUR, PED_COLOUR, ped_segments, recorded_states
+from foresight.core.maps.model import MapDef
+from foresight.core.render.figure import map_axes
+from foresight.core.render.map_view import draw_map
+from foresight.core.render.trace import COLLISION_COLOUR, PED_COLOUR, ped_segments, recorded_states
 
 PREDICTION_COLOUR = "tab:pink"
 ROBOT_COLOUR = "tab:green"

@@ -19,7 +19,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
-from core.render.figure import DPI, save
+from foresight.core.render.figure import DPI, save
 
 SERIES_COLOURS = ("tab:green", "tab:red", "tab:blue", "tab:orange", "tab:purple", "tab:gray")
 #: fixed colour per taxonomy label, so that every chart of every run uses the same colours

@@ -12,8 +12,8 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from core.errors import ConfigError
-from core.maps.model import MapDef
+from foresight.core.errors import ConfigError
+from foresight.core.maps.model import MapDef
 
 FORMATS = {".png": "png", ".svg": "svg"}
 WIDTH_IN = 8.0  #: figure width [inch]

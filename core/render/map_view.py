@@ -8,8 +8,8 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.patches import Polygon, Rectangle
 
-from core.maps.model import MapDef, Route, Zone
-from core.render.figure import map_axes, save
+from foresight.core.maps.model import MapDef, Route, Zone
+from foresight.core.render.figure import map_axes, save
 
 ZONE_STYLE = {  #: field -> (face colour, legend label)
     "robot_spawn_zones": ("tab:green", "robot spawn"),

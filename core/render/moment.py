@@ -17,11 +17,11 @@ from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 
-from core.maps.model import MapDef
-from core.render.animation import PREDICTION_COLOUR, ROBOT_COLOUR, as_floats
-from core.render.figure import DPI, map_axes, save
-from core.render.map_view import draw_map
-from core.render.trace import COLLISION_COLOUR, PED_COLOUR
+from foresight.core.maps.model import MapDef
+from foresight.core.render.animation import PREDICTION_COLOUR, ROBOT_COLOUR, as_floats
+from foresight.core.render.figure import DPI, map_axes, save
+from foresight.core.render.map_view import draw_map
+from foresight.core.render.trace import COLLISION_COLOUR, PED_COLOUR
 
 MARGIN = 4.0  #: view margin around the drawn points when no map is given [m]
 

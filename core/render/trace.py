@@ -17,9 +17,9 @@ from matplotlib.axes import Axes
 from matplotlib.collections import LineCollection
 from matplotlib.patches import Circle
 
-from core.maps.model import MapDef
-from core.render.figure import map_axes, save
-from core.render.map_view import draw_map
+from foresight.core.maps.model import MapDef
+from foresight.core.render.figure import map_axes, save
+from foresight.core.render.map_view import draw_map
 
 ROBOT_CMAP = "viridis"
 PED_COLOUR = "tab:brown"  #: distinct from the blue ped routes

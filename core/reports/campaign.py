@@ -10,8 +10,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from core.render.charts import ranking_chart, taxonomy_bars
-from core.reports.common import (
+from foresight.core.render.charts import ranking_chart, taxonomy_bars
+from foresight.core.reports.common import (
     as_dict,
     existing,
     figure_path,
@@ -24,8 +24,8 @@ from core.reports.common import (
     rate_text,
     verdict,
 )
-from core.reports.compare import add_comparison
-from core.reports.document import Document
+from foresight.core.reports.compare import add_comparison
+from foresight.core.reports.document import Document
 
 
 def glob_suite(cell: Mapping[str, Any]) -> Mapping[str, Any]:
@@ -117,8 +117,8 @@ def cell_run(workdir: Path, cell: Mapping[str, Any], bootstrap_samples: int = 50
     """An evaluation-like dict of a cell's episodes (hard and global suites together), from its episodes file."""
     if not existing(workdir, cell.get("episodes_file")):
         return None
-    from core.evaluation.aggregate import BootstrapConfig, aggregate
-    from core.evaluation.runner import read_records
+    from foresight.core.evaluation.aggregate import BootstrapConfig, aggregate
+    from foresight.core.evaluation.runner import read_records
 
     records = read_records(workdir / cell["episodes_file"])
     aggs = aggregate(records, BootstrapConfig(samples=bootstrap_samples))

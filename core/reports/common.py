@@ -15,8 +15,8 @@ from typing import Any
 
 from pydantic import BaseModel
 
-from core.render.charts import Estimate
-from core.reports.document import Document
+from foresight.core.render.charts import Estimate
+from foresight.core.reports.document import Document
 
 FIGURES = "figures"  #: figure folder, relative to the report
 

@@ -14,9 +14,19 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from core.render.charts import Estimate, ab_chart
-from core.reports.common import as_dict, figure_path, fmt, mean_text, num, pct, publish, rate_est, rate_text
-from core.reports.document import Document
+from foresight.core.render.charts import Estimate, ab_chart
+from foresight.core.reports.common import (
+    as_dict,
+    figure_path,
+    fmt,
+    mean_text,
+    num,
+    pct,
+    publish,
+    rate_est,
+    rate_text,
+)
+from foresight.core.reports.document import Document
 
 RATE_KEYS = ("success", "collision", "collision_pedestrian", "collision_static", "timeout")
 MEAN_KEYS = {"min_clearance": "min clearance [m]", "avg_speed": "avg speed [m/s]",

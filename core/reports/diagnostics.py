@@ -15,12 +15,12 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from core.maps.model import MapDef
-from core.render.animation import render_replay
-from core.render.charts import taxonomy_bars
-from core.render.moment import render_critical_moment
-from core.reports.common import as_dict, existing, figure_path, fmt, publish
-from core.reports.document import Document
+from foresight.core.maps.model import MapDef
+from foresight.core.render.animation import render_replay
+from foresight.core.render.charts import taxonomy_bars
+from foresight.core.render.moment import render_critical_moment
+from foresight.core.reports.common import as_dict, existing, figure_path, fmt, publish
+from foresight.core.reports.document import Document
 
 DEFAULT_PED_RADIUS = 0.4  #: [m] only for drawing
 
@@ -80,7 +80,7 @@ def _replay(workdir: Path, seed: Mapping[str, Any], trace_json: Mapping[str, Any
             return str(rel)
     npz = workdir / f"diagnostics/trace_{name}_{s}.npz"
     if trace is None and npz.is_file():
-        from core.sim.trace import Trace
+        from foresight.core.sim.trace import Trace
 
         trace = Trace.load(npz)
     if trace is None or mapdef is None:

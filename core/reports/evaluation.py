@@ -10,8 +10,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from core.render.charts import rate_bars, taxonomy_bars
-from core.reports.common import (
+from foresight.core.render.charts import rate_bars, taxonomy_bars
+from foresight.core.reports.common import (
     as_dict,
     figure_path,
     fmt,
@@ -23,7 +23,7 @@ from core.reports.common import (
     rate_text,
     verdict,
 )
-from core.reports.document import Document
+from foresight.core.reports.document import Document
 
 MEAN_ROWS = {  #: aggregate mean name -> (row label, digits)
     "min_clearance": ("min clearance (surface gap) [m]", 2),

@@ -14,10 +14,19 @@ from typing import Any
 
 from pydantic import BaseModel, Field
 
-from core.render.charts import ranking_chart, training_curves
-from core.reports.campaign import cell_name, glob_suite
-from core.reports.common import as_dict, figure_path, fmt, gate_rows, pct, publish, rate_est, verdict
-from core.reports.document import Document
+from foresight.core.render.charts import ranking_chart, training_curves
+from foresight.core.reports.campaign import cell_name, glob_suite
+from foresight.core.reports.common import (
+    as_dict,
+    figure_path,
+    fmt,
+    gate_rows,
+    pct,
+    publish,
+    rate_est,
+    verdict,
+)
+from foresight.core.reports.document import Document
 
 
 class StageEntry(BaseModel):

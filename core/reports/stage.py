@@ -10,13 +10,13 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from core.errors import ConfigError
-from core.reports.campaign import write_campaign_report
-from core.reports.common import as_dict
-from core.reports.diagnostics import write_diagnostics_report
-from core.reports.evaluation import write_evaluation_report
-from core.reports.pipeline import write_pipeline_report
-from core.reports.training import write_training_report
+from foresight.core.errors import ConfigError
+from foresight.core.reports.campaign import write_campaign_report
+from foresight.core.reports.common import as_dict
+from foresight.core.reports.diagnostics import write_diagnostics_report
+from foresight.core.reports.evaluation import write_evaluation_report
+from foresight.core.reports.pipeline import write_pipeline_report
+from foresight.core.reports.training import write_training_report
 
 REPORTERS: dict[str, Callable[..., list[Path]]] = {
     "evaluate": write_evaluation_report,

@@ -11,9 +11,9 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from core.render.charts import training_curves
-from core.reports.common import as_dict, figure_path, fmt, num, pct, publish, verdict
-from core.reports.document import Document
+from foresight.core.render.charts import training_curves
+from foresight.core.reports.common import as_dict, figure_path, fmt, num, pct, publish, verdict
+from foresight.core.reports.document import Document
 
 
 def _gates(doc: Document, summary: Mapping[str, Any]) -> None:

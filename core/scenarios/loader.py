@@ -36,11 +36,16 @@ from typing import Any
 import yaml
 from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 
-from core.errors import ConfigError, NotFoundError
-from core.maps.io import file_sha256, load_map
-from core.maps.model import MapDef, SinglePedestrian
-from core.maps.registry import MapRegistry
-from core.scenarios.model import ResolvedScenario, Scenario, ScenarioMatrix, SinglePedestrianOverride
+from foresight.core.errors import ConfigError, NotFoundError
+from foresight.core.maps.io import file_sha256, load_map
+from foresight.core.maps.model import MapDef, SinglePedestrian
+from foresight.core.maps.registry import MapRegistry
+from foresight.core.scenarios.model import (
+    ResolvedScenario,
+    Scenario,
+    ScenarioMatrix,
+    SinglePedestrianOverride,
+)
 
 _INCLUDE_ALIASES = ("includes", "include", "scenario_files")
 _ROOT_ONLY = (

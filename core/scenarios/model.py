@@ -11,7 +11,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from core.maps.model import MapDef, Point, WaitRule
+from foresight.core.maps.model import MapDef, Point, WaitRule
 
 
 class _Strict(BaseModel):
@@ -156,7 +156,7 @@ class ScenarioMatrix(BaseModel):
         for s in self.scenarios:
             if s.name == name:
                 return s
-        from core.errors import NotFoundError
+        from foresight.core.errors import NotFoundError
 
         raise NotFoundError(f"{self.source}: no scenario named {name!r} (have: {', '.join(self.names)})")
 

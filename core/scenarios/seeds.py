@@ -14,9 +14,9 @@ from typing import Annotated, Any
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from core.errors import ConfigError
-from core.scenarios.loader import read_yaml, validation_message
-from core.scenarios.model import ScenarioMatrix
+from foresight.core.errors import ConfigError
+from foresight.core.scenarios.loader import read_yaml, validation_message
+from foresight.core.scenarios.model import ScenarioMatrix
 
 Seed = Annotated[int, Field(strict=True, ge=0)]
 

@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.maps.model import MapDef, SinglePedestrian
-from core.sim.forces import as_complex, as_xy, group_centroids
-from core.sim.population import Population
-from core.sim.zones import Validator, sample_free
+from foresight.core.maps.model import MapDef, SinglePedestrian
+from foresight.core.sim.forces import as_complex, as_xy, group_centroids
+from foresight.core.sim.population import Population
+from foresight.core.sim.zones import Validator, sample_free
 
 
 class CrowdArrays:

@@ -16,8 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 import pymunk
 
-from core.sim.geometry import SegmentSet, StaticMap
-from core.sim.observation import CollisionKind
+from foresight.core.sim.geometry import SegmentSet, StaticMap
+from foresight.core.sim.observation import CollisionKind
 
 
 @dataclass(frozen=True)

@@ -8,13 +8,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.sim import forces
-from core.sim.behaviours import CrowdArrays
-from core.sim.forces import as_complex, as_xy
-from core.sim.geometry import SegmentSet
-from core.sim.neighbours import cell_pairs
-from core.sim.params import CrowdParams, ForceParams
-from core.sim.walls import constrain_moves
+from foresight.core.sim import forces
+from foresight.core.sim.behaviours import CrowdArrays
+from foresight.core.sim.forces import as_complex, as_xy
+from foresight.core.sim.geometry import SegmentSet
+from foresight.core.sim.neighbours import cell_pairs
+from foresight.core.sim.params import CrowdParams, ForceParams
+from foresight.core.sim.walls import constrain_moves
 
 
 def _group_pairs(group: np.ndarray, size: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

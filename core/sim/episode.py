@@ -9,11 +9,11 @@ from typing import Any
 
 import numpy as np
 
-from core.planners.base import EpisodeInfo, Planner
-from core.scenarios.model import ResolvedScenario
-from core.sim.observation import Events, Observation
-from core.sim.simulator import Simulator
-from core.sim.trace import Trace
+from foresight.core.planners.base import EpisodeInfo, Planner
+from foresight.core.scenarios.model import ResolvedScenario
+from foresight.core.sim.observation import Events, Observation
+from foresight.core.sim.simulator import Simulator
+from foresight.core.sim.trace import Trace
 
 StepHook = Callable[[Observation, tuple[float, float], Events, Any], None]  #: (obs after step, command, events, diagnostics)
 

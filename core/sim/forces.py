@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.sim.geometry import SegmentSet
-from core.sim.params import ForceParams
+from foresight.core.sim.geometry import SegmentSet
+from foresight.core.sim.params import ForceParams
 
 
 def as_complex(xy: np.ndarray) -> np.ndarray:

@@ -12,7 +12,7 @@ import functools
 import numpy as np
 import pymunk
 
-from core.maps.model import MapDef
+from foresight.core.maps.model import MapDef
 
 
 class SegmentSet:

@@ -6,9 +6,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core.errors import ConfigError
-from core.maps.model import MapDef
-from core.sim.zones import Validator, polyline_exit_point, sample_free
+from foresight.core.errors import ConfigError
+from foresight.core.maps.model import MapDef
+from foresight.core.sim.zones import Validator, polyline_exit_point, sample_free
 
 
 @dataclass

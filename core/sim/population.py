@@ -11,11 +11,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from core.errors import ConfigError
-from core.maps.model import MapDef, SinglePedestrian
-from core.scenarios.model import ResolvedScenario, SimulationConfig
-from core.sim.params import TIER_MEANS, CrowdParams
-from core.sim.zones import RouteGeometry, Validator, sample_free, sample_zone
+from foresight.core.errors import ConfigError
+from foresight.core.maps.model import MapDef, SinglePedestrian
+from foresight.core.scenarios.model import ResolvedScenario, SimulationConfig
+from foresight.core.sim.params import TIER_MEANS, CrowdParams
+from foresight.core.sim.zones import RouteGeometry, Validator, sample_free, sample_zone
 
 
 @dataclass

@@ -13,7 +13,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from core.scenarios.model import RobotConfig
+from foresight.core.scenarios.model import RobotConfig
 
 X, Y, TH, V, W = range(5)  #: columns of a robot state (..., 5): x [m], y [m], heading [rad], v [m/s], omega [rad/s]
 

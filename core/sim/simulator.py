@@ -15,19 +15,19 @@ import math
 
 import numpy as np
 
-from core.errors import CoreError
-from core.scenarios.model import ResolvedScenario
-from core.sim.behaviours import CrowdArrays, CrowdedZones, RouteFollowing, SingleScripts
-from core.sim.collision import StaticChecker, ped_contact
-from core.sim.crowd import CrowdDynamics
-from core.sim.geometry import StaticMap
-from core.sim.navigation import RobotRoute, sample_robot_route
-from core.sim.observation import Events, Observation
-from core.sim.params import CrowdParams, ForceParams
-from core.sim.population import build_population
-from core.sim.robot import RobotLimits, robot_step
-from core.sim.trace import Trace
-from core.version import code_version
+from foresight.core.errors import CoreError
+from foresight.core.scenarios.model import ResolvedScenario
+from foresight.core.sim.behaviours import CrowdArrays, CrowdedZones, RouteFollowing, SingleScripts
+from foresight.core.sim.collision import StaticChecker, ped_contact
+from foresight.core.sim.crowd import CrowdDynamics
+from foresight.core.sim.geometry import StaticMap
+from foresight.core.sim.navigation import RobotRoute, sample_robot_route
+from foresight.core.sim.observation import Events, Observation
+from foresight.core.sim.params import CrowdParams, ForceParams
+from foresight.core.sim.population import build_population
+from foresight.core.sim.robot import RobotLimits, robot_step
+from foresight.core.sim.trace import Trace
+from foresight.core.version import code_version
 
 _NO_EVENT = Events()
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from core.errors import ConfigError
+from foresight.core.errors import ConfigError
 
 FORMAT = "foresight.trace/1"
 

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.sim.geometry import SegmentSet
+from foresight.core.sim.geometry import SegmentSet
 
 
 def _first_hits(walls: SegmentSet, p: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

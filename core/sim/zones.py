@@ -6,8 +6,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from core.errors import ConfigError
-from core.maps.model import Route, Zone
+from foresight.core.errors import ConfigError
+from foresight.core.maps.model import Route, Zone
 
 Validator = Callable[[np.ndarray], np.ndarray]  #: points (K, 2) -> accepted mask (K,)
 

@@ -9,7 +9,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from core.errors import CoreError, NotFoundError
+from foresight.core.errors import CoreError, NotFoundError
 
 
 class Cancelled(CoreError):

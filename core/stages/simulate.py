@@ -11,10 +11,10 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from core.errors import ConfigError
-from core.stages.context import StageContext
-from core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident, resolve_in_bundle
-from core.version import code_version
+from foresight.core.errors import ConfigError
+from foresight.core.stages.context import StageContext
+from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident, resolve_in_bundle
+from foresight.core.version import code_version
 
 
 class SimulateConfig(BaseModel):
@@ -48,9 +48,9 @@ class SimulateResult(BaseModel):
 
 
 def run_simulate(config: SimulateConfig, ctx: StageContext) -> SimulateResult:
-    from core.planners.goal import GoalSeeking
-    from core.scenarios.loader import load_matrix
-    from core.sim.episode import run_episode
+    from foresight.core.planners.goal import GoalSeeking
+    from foresight.core.scenarios.loader import load_matrix
+    from foresight.core.sim.episode import run_episode
 
     matrix_path = resolve_in_bundle(ctx.resolve_bundle(config.bundle), config.matrix)
     matrix = load_matrix(matrix_path)
@@ -69,7 +69,7 @@ def run_simulate(config: SimulateConfig, ctx: StageContext) -> SimulateResult:
         result = run_episode(scenario, seed, GoalSeeking())
         render_name = None
         if config.render:
-            from core.render.trace import render_trace
+            from foresight.core.render.trace import render_trace
 
             render_name = f"renders/{scenario.name}--{seed}.png"
             render_trace(result.trace, scenario.map, ctx.artifact(render_name), title=f"{scenario.name} seed {seed}")

@@ -49,7 +49,7 @@ class Up:
     def start(self, timeout_s: float = 60.0) -> Up:
         log = self.log_path.open("w")
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "cli.main", "up", "--host", "127.0.0.1", "--port", str(self.port),
+            [sys.executable, "-m", "foresight.cli.main", "up", "--host", "127.0.0.1", "--port", str(self.port),
              "--concurrency", str(self.concurrency)],
             env=self.env, cwd=REPO, stdout=log, stderr=subprocess.STDOUT, start_new_session=True,
         )  # fmt: skip

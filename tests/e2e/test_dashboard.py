@@ -133,7 +133,7 @@ def test_dashboard_follows_a_job_to_its_report(service: Up, page, capsys: pytest
     report_file = service.store / "jobs" / evaluation / "report.html"
     assert report_file.is_file(), (
         f"the worker wrote no report for the evaluate job ({report_file} missing): the worker is expected to call "
-        "core.reports.stage.write_stage_report(kind, result, workdir) after a stage succeeds"
+        "foresight.core.reports.stage.write_stage_report(kind, result, workdir) after a stage succeeds"
     )  # fmt: skip
     shots = screenshot_dir()
     page.screenshot(path=str(shots / "dashboard-jobs.png"), full_page=True)

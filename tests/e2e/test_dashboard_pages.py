@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from api.db.session import upgrade
-from api.settings import Settings
+from foresight.api.db.session import upgrade
+from foresight.api.settings import Settings
 
 TOKEN = "pages-token"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
@@ -32,7 +32,7 @@ def _client(tmp_path: Path, migrated: Path, **overrides: object):  # noqa: ANN20
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)
         from fastapi.testclient import TestClient
-    from api.main import create_app
+    from foresight.api.main import create_app
 
     return TestClient(create_app(settings), raise_server_exceptions=False), settings
 

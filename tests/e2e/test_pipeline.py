@@ -53,7 +53,7 @@ def test_smoke_pipeline_through_the_service(tmp_path: Path) -> None:
             assert job.status_code == 201, job.text
             job_id = job.json()["id"]
             cli = subprocess.Popen(
-                [sys.executable, "-m", "cli.main", "pipeline", "run", "-f", str(failing_file), "--url", up.url,
+                [sys.executable, "-m", "foresight.cli.main", "pipeline", "run", "-f", str(failing_file), "--url", up.url,
                  "--token", TOKEN],
                 cwd=REPO, env={**os.environ, **up.env}, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
             job = _wait(client, job_id)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import yaml
 
-from cli.main import build_parser
+from foresight.cli.main import build_parser
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -51,8 +51,8 @@ def test_commands_are_real_cli_commands() -> None:
 
 def test_dockerfile_copies_every_package_the_service_needs() -> None:
     text = (REPO / "Dockerfile").read_text()
-    for path in ("core", "api", "worker", "cli", "migrations", "configs", "model", "alembic.ini", "pyproject.toml"):
+    for path in ("foresight", "core", "api", "worker", "cli", "migrations", "configs", "model", "setup.py", "pyproject.toml"):
         assert re.search(rf"^COPY .*\b{re.escape(path)}\b", text, re.M), path
-    assert "pip install -e ." in text and "torch==2.13.0" in text
+    assert "pip install ." in text and "torch==2.13.0" in text
     assert re.search(r"^USER (?!root)", text, re.M)
     assert "EXPOSE 8000" in text and "/healthz" in text

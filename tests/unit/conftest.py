@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from api.db.session import make_engine, upgrade
-from api.settings import Settings
+from foresight.api.db.session import make_engine, upgrade
+from foresight.api.settings import Settings
 
 
 @pytest.fixture

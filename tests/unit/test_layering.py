@@ -9,14 +9,20 @@ REPO = Path(__file__).resolve().parents[2]
 SERVICE_ONLY = {"fastapi", "starlette", "sqlalchemy", "alembic", "httpx", "uvicorn", "psycopg", "api", "worker", "cli"}
 
 
+def _top(module: str) -> str:
+    """The first component of a module name, our own packages by their folder (``foresight.core.x`` -> core)."""
+    parts = module.split(".")
+    return parts[1] if parts[0] == "foresight" and len(parts) > 1 else parts[0]
+
+
 def _imports(path: Path) -> set[str]:
     tree = ast.parse(path.read_text(), filename=str(path))
     names: set[str] = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
-            names.update(a.name.split(".")[0] for a in node.names)
+            names.update(_top(a.name) for a in node.names)
         elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            names.add(node.module.split(".")[0])
+            names.add(_top(node.module))
     return names
 
 

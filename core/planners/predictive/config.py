@@ -15,7 +15,7 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from core.errors import ConfigError
+from foresight.core.errors import ConfigError
 
 
 class _Frozen(BaseModel):

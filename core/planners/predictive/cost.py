@@ -18,8 +18,8 @@ from functools import cached_property
 
 import numpy as np
 
-from core.planners.predictive.config import PredictivePlannerConfig
-from core.sim.observation import StaticGeometry
+from foresight.core.planners.predictive.config import PredictivePlannerConfig
+from foresight.core.sim.observation import StaticGeometry
 
 TERMS = (
     "progress", "collision", "near_miss", "ttc", "progress_risk", "hard_clearance",

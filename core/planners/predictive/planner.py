@@ -18,15 +18,15 @@ from typing import Any
 
 import numpy as np
 
-from core.errors import ConfigError
-from core.planners.base import EpisodeInfo
-from core.planners.predictive import cost as C
-from core.planners.predictive.config import PredictivePlannerConfig
-from core.planners.predictive.rollout import eval_steps, extend_forecast, rollout
-from core.planners.predictive.sampling import branch_commands, first_candidates
-from core.predict.forecaster import Forecaster
-from core.sim.observation import Observation
-from core.sim.robot import RobotLimits
+from foresight.core.errors import ConfigError
+from foresight.core.planners.base import EpisodeInfo
+from foresight.core.planners.predictive import cost as C
+from foresight.core.planners.predictive.config import PredictivePlannerConfig
+from foresight.core.planners.predictive.rollout import eval_steps, extend_forecast, rollout
+from foresight.core.planners.predictive.sampling import branch_commands, first_candidates
+from foresight.core.predict.forecaster import Forecaster
+from foresight.core.sim.observation import Observation
+from foresight.core.sim.robot import RobotLimits
 
 
 class PredictivePlanner:

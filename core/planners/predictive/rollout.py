@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.errors import ConfigError
-from core.sim.robot import RobotLimits, unicycle_rollout
+from foresight.core.errors import ConfigError
+from foresight.core.sim.robot import RobotLimits, unicycle_rollout
 
 
 def eval_steps(times: np.ndarray, sim_dt: float) -> np.ndarray:

@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.planners.predictive.config import SamplingConfig, SearchConfig
-from core.sim.robot import RobotLimits
+from foresight.core.planners.predictive.config import SamplingConfig, SearchConfig
+from foresight.core.sim.robot import RobotLimits
 
 
 def turn_rate_grid(count: int, max_turn_rate: float, extra: tuple[float, ...] = ()) -> np.ndarray:

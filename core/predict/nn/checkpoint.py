@@ -15,12 +15,12 @@ from typing import Any
 import numpy as np
 import torch
 
-from core.errors import ConfigError, NotFoundError
-from core.predict.features import feature_names
-from core.predict.nn.model import ModelConfig, TrajectoryModel, build_model
-from core.predict.predictor import check_batch
-from core.predict.timebase import TimeBase
-from core.version import code_version
+from foresight.core.errors import ConfigError, NotFoundError
+from foresight.core.predict.features import feature_names
+from foresight.core.predict.nn.model import ModelConfig, TrajectoryModel, build_model
+from foresight.core.predict.predictor import check_batch
+from foresight.core.predict.timebase import TimeBase
+from foresight.core.version import code_version
 
 FORMAT = "foresight.predict.checkpoint/1"
 REQUIRED = ("format", "model_config", "model", "timebase", "feature_schema", "dataset", "metrics", "epoch",

@@ -34,7 +34,7 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from core.predict.features import current_index, feature_dim
+from foresight.core.predict.features import current_index, feature_dim
 
 
 @dataclass(frozen=True)

@@ -20,24 +20,24 @@ from typing import Any
 import numpy as np
 import torch
 
-from core.errors import ConfigError
-from core.predict.dataset import Dataset, file_sha256, load_dataset, resolve_dataset_path
-from core.predict.features import length_channels, mirror_signs
-from core.predict.metrics import ade_fde
-from core.predict.nn.checkpoint import make_checkpoint, read_checkpoint, save_checkpoint
-from core.predict.nn.model import (
+from foresight.core.errors import ConfigError
+from foresight.core.predict.dataset import Dataset, file_sha256, load_dataset, resolve_dataset_path
+from foresight.core.predict.features import length_channels, mirror_signs
+from foresight.core.predict.metrics import ade_fde
+from foresight.core.predict.nn.checkpoint import make_checkpoint, read_checkpoint, save_checkpoint
+from foresight.core.predict.nn.model import (
     EnsembleModel,
     ModelConfig,
     TrajectoryModel,
     masked_ade_fde,
     masked_loss,
 )
-from core.predict.nn.selection import Selection
-from core.predict.predictor import ConstantVelocityPredictor
-from core.predict.quality import check_quality, summarize
-from core.predict.train_config import TrainConfig, TrainResult
-from core.stages.context import StageContext
-from core.version import code_version
+from foresight.core.predict.nn.selection import Selection
+from foresight.core.predict.predictor import ConstantVelocityPredictor
+from foresight.core.predict.quality import check_quality, summarize
+from foresight.core.predict.train_config import TrainConfig, TrainResult
+from foresight.core.stages.context import StageContext
+from foresight.core.version import code_version
 
 #: proxy evaluation: checkpoint path -> {"success": rate in [0, 1], "clearance": mean min distance [m]}
 ProxyCallback = Callable[[Path], dict[str, float]]
@@ -139,7 +139,7 @@ def run_train(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | Non
     started = time.time()
     torch.set_num_threads(config.threads)
     if proxy is None and config.proxy is not None and config.proxy_every > 0:
-        from core.predict.proxy import evaluation_proxy
+        from foresight.core.predict.proxy import evaluation_proxy
 
         proxy = evaluation_proxy(config.proxy, ctx)
     ds_path = resolve_dataset_path(config.dataset, ctx)

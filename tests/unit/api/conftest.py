@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from api.db.session import make_engine, upgrade
-from api.settings import Settings
+from foresight.api.db.session import make_engine, upgrade
+from foresight.api.settings import Settings
 
 TOKEN = "test-token"
 
@@ -43,7 +43,7 @@ def client(settings: Settings):  # noqa: ANN201
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)
         from fastapi.testclient import TestClient
-    from api.main import create_app
+    from foresight.api.main import create_app
 
     with TestClient(create_app(settings), raise_server_exceptions=False) as c:
         yield c

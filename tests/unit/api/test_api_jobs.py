@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from api.db import queue
+from foresight.api.db import queue
 
 SLEEP = {"spec": {"kind": "sleep"}}
 
@@ -122,7 +122,7 @@ def test_cancel_retry_delete_rules(client, auth, engine) -> None:  # noqa: ANN00
 
 
 def _finish_with_artifact(engine, settings, job_id: str, name: str = "out/a.txt") -> None:  # noqa: ANN001
-    from api import store
+    from foresight.api import store
 
     c = queue.claim(engine, "w", ["sleep"], 30)
     rel = f"{store.job_dir(settings.store_root, job_id)}/{name}"
@@ -165,7 +165,7 @@ def test_health_workers_metrics_openapi(client) -> None:  # noqa: ANN001
 def test_reads_can_be_closed(settings, auth) -> None:  # noqa: ANN001
     from fastapi.testclient import TestClient
 
-    from api.main import create_app
+    from foresight.api.main import create_app
 
     closed = settings.model_copy(update={"read_requires_token": True})
     with TestClient(create_app(closed)) as c:

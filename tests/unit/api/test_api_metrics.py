@@ -69,7 +69,7 @@ def test_closed_reads_close_metrics_and_workers_but_not_health(settings) -> None
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)
         from fastapi.testclient import TestClient
-    from api.main import create_app
+    from foresight.api.main import create_app
 
     closed = settings.model_copy(update={"read_requires_token": True})
     with TestClient(create_app(closed)) as c:

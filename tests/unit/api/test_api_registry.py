@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 import yaml
 
-from api.settings import REPO_ROOT
-from core.errors import CoreError
+from foresight.api.settings import REPO_ROOT
+from foresight.core.errors import CoreError
 
 CONFIGS = REPO_ROOT / "configs"
 
@@ -103,7 +103,7 @@ def test_upload_name_and_auth(client, auth) -> None:  # noqa: ANN001
 def test_shipped_models_are_read_only(tmp_path: Path, settings, auth) -> None:  # noqa: ANN001
     from fastapi.testclient import TestClient
 
-    from api.main import create_app
+    from foresight.api.main import create_app
 
     repo = tmp_path / "repo"
     ckpt = repo / "model" / "checkpoint.bin"
@@ -127,8 +127,8 @@ def test_shipped_models_are_read_only(tmp_path: Path, settings, auth) -> None:  
 
 
 def test_register_promote_delete(client, auth, engine, settings) -> None:  # noqa: ANN001
-    from api import store
-    from api.db import queue
+    from foresight.api import store
+    from foresight.api.db import queue
 
     job = client.post("/v1/jobs", json={"spec": {"kind": "sleep"}}, headers=auth).json()
     body = {"id": "m1", "job_id": job["id"], "artifact": "ckpt.pt"}

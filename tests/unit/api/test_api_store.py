@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from api import store
+from foresight.api import store
 
 
 @pytest.mark.parametrize("name", ["/etc/passwd", "../x", "a/../../b", "a\\..\\b", "C:\\x", "", "\\\\server\\share"])

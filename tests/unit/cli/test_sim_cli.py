@@ -6,7 +6,7 @@ import json
 import shutil
 from pathlib import Path
 
-from cli.main import main
+from foresight.cli.main import main
 
 REPO = Path(__file__).resolve().parents[3]
 OUR_MATRIX = REPO / "configs" / "scenarios" / "classic_interactions.yaml"

@@ -8,10 +8,10 @@ from pathlib import Path
 
 import pytest
 
-from cli import stage
-from cli.main import main
-from core.errors import ConfigError
-from core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.cli import stage
+from foresight.cli.main import main
+from foresight.core.errors import ConfigError
+from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
 
 
 @pytest.fixture
@@ -89,8 +89,8 @@ def test_bundle_names() -> None:
 
 def test_the_local_and_server_specs_are_one_model() -> None:
     """Both modes validate the job kind's spec; --local runs the core config a worker would build from it."""
-    from core.predict.collect import CollectConfig
-    from worker.kinds import KINDS
+    from foresight.core.predict.collect import CollectConfig
+    from foresight.worker.kinds import KINDS
 
     spec = stage.spec("collect", {"scenarios": ["crossing_low"], "seeds_per_scenario": 2, "max_steps": None})
     assert isinstance(spec, KINDS["collect"].spec) and spec.kind == "collect"

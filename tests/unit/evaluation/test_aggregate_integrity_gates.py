@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import pytest
 
-from core.evaluation.aggregate import BootstrapConfig, aggregate, summarise
-from core.evaluation.gates import (
+from foresight.core.evaluation.aggregate import BootstrapConfig, aggregate, summarise
+from foresight.core.evaluation.gates import (
     ClosedLoopGateConfig,
     EvaluationGateConfig,
     closed_loop_gate,
     evaluation_gate,
 )
-from core.evaluation.integrity import check_integrity
+from foresight.core.evaluation.integrity import check_integrity
 
 from .traces import record
 
@@ -105,7 +105,7 @@ def test_closed_loop_gate() -> None:
 
 
 def test_compare_flags_families_where_a_baseline_is_better() -> None:
-    from core.evaluation.compare import compare
+    from foresight.core.evaluation.compare import compare
 
     ours = [record("cross_low", 1), record("cross_low", 2, "timeout", speed=0.5), record("door_low", 1)]
     orca = [record("cross_low", 1), record("cross_low", 2), record("door_low", 1, "timeout", speed=0.5)]

@@ -8,14 +8,14 @@ from pathlib import Path
 
 import pytest
 
-from core.errors import ConfigError
-from core.evaluation.aggregate import BootstrapConfig, summarise
-from core.evaluation.campaign import CellResult, rank, ranking_key, run_campaign
-from core.evaluation.config import CampaignConfig
-from core.evaluation.integrity import check_integrity
-from core.evaluation.runner import PlannerProvenance
-from core.stages.context import StageContext
-from core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.errors import ConfigError
+from foresight.core.evaluation.aggregate import BootstrapConfig, summarise
+from foresight.core.evaluation.campaign import CellResult, rank, ranking_key, run_campaign
+from foresight.core.evaluation.config import CampaignConfig
+from foresight.core.evaluation.integrity import check_integrity
+from foresight.core.evaluation.runner import PlannerProvenance
+from foresight.core.stages.context import StageContext
+from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
 
 from .traces import record
 
@@ -114,7 +114,7 @@ def test_unknown_baseline_and_bad_grid_fail_before_running(bundle: Path, tmp_pat
 
 
 def test_config_diff_is_key_by_key() -> None:
-    from core.evaluation.plannerspec import config_diff
+    from foresight.core.evaluation.plannerspec import config_diff
 
     a = {"w": {"goal": 1.0, "ttc": 0.3}, "speed": 1.0, "only_a": 1}
     b = {"w": {"goal": 1.0, "ttc": 0.5}, "speed": 1.0}

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from cli.main import main
-from core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.cli.main import main
+from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
 
 MATRIX = str(BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml")
 

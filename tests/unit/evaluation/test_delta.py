@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from core.evaluation.delta import Estimate, deltas, diff_configs, headline, mover
-from core.evaluation.stats import wilson_interval
+from foresight.core.evaluation.delta import Estimate, deltas, diff_configs, headline, mover
+from foresight.core.evaluation.stats import wilson_interval
 
 
 def _rate(k: int, n: int) -> Estimate:

@@ -6,10 +6,10 @@ import json
 import shutil
 from pathlib import Path
 
-from core.evaluation.config import DiagnosticsConfig
-from core.evaluation.diagnostics import run_diagnostics
-from core.stages.context import StageContext
-from core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.evaluation.config import DiagnosticsConfig
+from foresight.core.evaluation.diagnostics import run_diagnostics
+from foresight.core.stages.context import StageContext
+from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
 
 
 def test_diagnostics_of_a_manifest(tmp_path: Path) -> None:
@@ -35,9 +35,9 @@ def test_diagnostics_of_a_manifest(tmp_path: Path) -> None:
     pva = step["predicted_vs_actual"]
     assert pva and len(pva[0]["predicted"]) == len(pva[0]["times"]) == len(pva[0]["actual"])
     # the seed behaves exactly as in an evaluation of the same manifest
-    from core.evaluation.config import EvaluationConfig
-    from core.evaluation.record import EpisodeRecord
-    from core.evaluation.runner import read_records, run_evaluation
+    from foresight.core.evaluation.config import EvaluationConfig
+    from foresight.core.evaluation.record import EpisodeRecord
+    from foresight.core.evaluation.runner import read_records, run_evaluation
 
     ev = tmp_path / "ev"
     ev.mkdir()

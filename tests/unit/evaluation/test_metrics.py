@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.evaluation.metrics import (
+from foresight.core.evaluation.metrics import (
     MetricsConfig,
     derive,
     efficiency,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.evaluation.episode import prediction_quality
+from foresight.core.evaluation.episode import prediction_quality
 
 from .traces import DT, make_trace, still, straight
 

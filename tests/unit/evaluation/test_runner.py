@@ -7,11 +7,11 @@ from pathlib import Path
 
 import pytest
 
-from core.errors import ConfigError, NotFoundError
-from core.evaluation.config import EvaluationConfig
-from core.evaluation.runner import expand_seeds, read_records, run_evaluation
-from core.stages.context import Cancelled, StageContext
-from core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.errors import ConfigError, NotFoundError
+from foresight.core.evaluation.config import EvaluationConfig
+from foresight.core.evaluation.runner import expand_seeds, read_records, run_evaluation
+from foresight.core.stages.context import Cancelled, StageContext
+from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
 
 
 def _ctx(tmp: Path, workers: int = 1, **kw) -> StageContext:
@@ -87,9 +87,9 @@ def test_bad_planner_key_is_a_config_error(tmp_path: Path) -> None:
 
 
 def _checkpoint(path: Path) -> Path:
-    from core.predict.nn.checkpoint import make_checkpoint, save_checkpoint
-    from core.predict.nn.model import ModelConfig, TrajectoryModel
-    from core.predict.timebase import PLANNER_TIMEBASE as TB
+    from foresight.core.predict.nn.checkpoint import make_checkpoint, save_checkpoint
+    from foresight.core.predict.nn.model import ModelConfig, TrajectoryModel
+    from foresight.core.predict.timebase import PLANNER_TIMEBASE as TB
 
     model = TrajectoryModel(ModelConfig(history=TB.history, horizon=TB.horizon, dt=TB.dt, hidden=8, blocks=1))
     save_checkpoint(make_checkpoint(model, TB, "robot", {"id": "test"}, {}, 0), path)
@@ -97,7 +97,7 @@ def _checkpoint(path: Path) -> Path:
 
 
 def test_learned_model_provenance_and_no_fallback(tmp_path: Path) -> None:
-    from core.evaluation.plannerspec import sha256_file
+    from foresight.core.evaluation.plannerspec import sha256_file
 
     ckpt = _checkpoint(tmp_path / "m.pt")
     ctx = _ctx(tmp_path / "run", resolve_model=lambda _i: ckpt)
@@ -111,8 +111,8 @@ def test_learned_model_provenance_and_no_fallback(tmp_path: Path) -> None:
 
 
 def test_fallback_to_constant_velocity_is_flagged() -> None:
-    from core.evaluation.episode import fallback_of
-    from core.evaluation.plannerspec import ResolvedPlanner
+    from foresight.core.evaluation.episode import fallback_of
+    from foresight.core.evaluation.plannerspec import ResolvedPlanner
 
     learned = ResolvedPlanner("predictive", None, {}, "h", "m1", "sha", model_path="/x.pt")
     cv = ResolvedPlanner("predictive", None, {}, "h", "cv", "cv")

@@ -10,16 +10,16 @@ from typing import Any
 import pytest
 from pydantic import ValidationError
 
-from core.errors import CoreError
-from core.evaluation.campaign import run_campaign
-from core.evaluation.config import (
+from foresight.core.errors import CoreError
+from foresight.core.evaluation.campaign import run_campaign
+from foresight.core.evaluation.config import (
     CampaignConfig,
     CampaignShardConfig,
     EvaluationConfig,
     EvaluationShardConfig,
 )
-from core.evaluation.runner import read_records, run_evaluation
-from core.evaluation.shards import (
+from foresight.core.evaluation.runner import read_records, run_evaluation
+from foresight.core.evaluation.shards import (
     merge_campaign_shards,
     merge_evaluation_shards,
     merge_records,
@@ -28,8 +28,8 @@ from core.evaluation.shards import (
     run_evaluation_shard,
     shard_items,
 )
-from core.stages.context import StageContext
-from core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.stages.context import StageContext
+from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
 from tests.results import without
 
 #: wall-clock values: planner timing, run time, the code version (the git head moves while tests run)

@@ -6,11 +6,11 @@ from pathlib import Path
 
 import pytest
 
-from core.evaluation.episode import run_one
-from core.evaluation.plannerspec import PlannerSpec, resolve_planner
-from core.scenarios.loader import load_matrix
-from core.stages.context import StageContext
-from core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.evaluation.episode import run_one
+from foresight.core.evaluation.plannerspec import PlannerSpec, resolve_planner
+from foresight.core.scenarios.loader import load_matrix
+from foresight.core.stages.context import StageContext
+from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
 
 
 @pytest.fixture(scope="module")
@@ -30,7 +30,7 @@ def test_goal_seeking_robot_into_a_head_on_crowd_is_robot_fault(matrix, tmp_path
 
 
 def test_planner_exception_becomes_an_error_record(matrix, tmp_path: Path, monkeypatch) -> None:
-    from core.planners.goal import GoalSeeking
+    from foresight.core.planners.goal import GoalSeeking
 
     def boom(self, obs):
         if obs.step == 3:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from core.evaluation.stats import bootstrap_mean, rate, wilson_interval
+from foresight.core.evaluation.stats import bootstrap_mean, rate, wilson_interval
 
 
 @pytest.mark.parametrize(

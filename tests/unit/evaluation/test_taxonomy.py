@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.evaluation.metrics import derive
-from core.evaluation.taxonomy import LABELS, TaxonomyConfig, classify, count_labels
+from foresight.core.evaluation.metrics import derive
+from foresight.core.evaluation.taxonomy import LABELS, TaxonomyConfig, classify, count_labels
 
 from .traces import DT, R_PED, R_ROBOT, braking, geometry, make_trace, still, straight
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core.evaluation.metrics import EpisodeGeometry
+from foresight.core.evaluation.metrics import EpisodeGeometry
 
 DT = 0.1
 R_ROBOT = 0.3
@@ -87,7 +87,7 @@ def braking(x_brake: float, stop_x: float, ped_x: float, hold_steps: int = 20) -
 
 
 def provenance(scenario: str = "s_low", seed: int = 0, **kw):
-    from core.evaluation.record import Provenance
+    from foresight.core.evaluation.record import Provenance
 
     base = dict(scenario=scenario, archetype=scenario.rsplit("_", 1)[0], density=scenario.rsplit("_", 1)[-1],
                 seed=seed, planner="predictive", planner_config_hash="abc123", model_id="cv",
@@ -99,7 +99,7 @@ def provenance(scenario: str = "s_low", seed: int = 0, **kw):
 def record(scenario: str = "s_low", seed: int = 0, outcome: str = "success", *, ped_y: float = 2.0,
            speed: float = 1.0, **prov):
     """A record of a straight 10 m run past a standing pedestrian ``ped_y`` metres off the path."""
-    from core.evaluation.record import build_record
+    from foresight.core.evaluation.record import build_record
 
     steps = int(round(10.0 / speed / DT))
     if outcome == "collision_pedestrian":  # stop at contact: centre distance = radii

@@ -7,9 +7,9 @@ import os
 
 import pytest
 
-from core.errors import ConfigError
-from core.maps import io
-from core.maps.native import dump_map
+from foresight.core.errors import ConfigError
+from foresight.core.maps import io
+from foresight.core.maps.native import dump_map
 
 from .svgdocs import ROBOT, path, write_svg
 

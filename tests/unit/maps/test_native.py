@@ -7,10 +7,10 @@ from pathlib import Path
 import pytest
 import yaml
 
-from core.errors import ConfigError
-from core.maps.model import MapDef, Route, SinglePedestrian, WaitRule, Zone
-from core.maps.native import dump_map, load_native_map, map_from_dict
-from core.maps.svg import load_svg_map
+from foresight.core.errors import ConfigError
+from foresight.core.maps.model import MapDef, Route, SinglePedestrian, WaitRule, Zone
+from foresight.core.maps.native import dump_map, load_native_map, map_from_dict
+from foresight.core.maps.svg import load_svg_map
 
 EXAMPLE = """\
 format: foresight.map/1

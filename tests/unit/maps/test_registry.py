@@ -8,9 +8,9 @@ from pathlib import Path
 import pytest
 import yaml
 
-from core.errors import ConfigError, NotFoundError
-from core.maps import io
-from core.maps.registry import MapRegistry
+from foresight.core.errors import ConfigError, NotFoundError
+from foresight.core.maps import io
+from foresight.core.maps.registry import MapRegistry
 
 from .svgdocs import ROBOT, write_svg
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from core.maps.svg import read_svg
+from foresight.core.maps.svg import read_svg
 
 CLASSIC = [
     "classic_bottleneck",

@@ -6,9 +6,9 @@ import math
 
 import pytest
 
-from core.errors import ConfigError
-from core.maps.svg import load_svg_map, parse_svg_text, read_svg
-from core.maps.svgreport import (
+from foresight.core.errors import ConfigError
+from foresight.core.maps.svg import load_svg_map, parse_svg_text, read_svg
+from foresight.core.maps.svgreport import (
     PED_ROUTE_ONLY_MODE,
     ROBOT_ROUTE_ONLY_MODE,
     ROUTE_CROSSES_OBSTACLE_INTERIOR,

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from core.maps.svgpath import PathDataError, parse_path, path_commands, segment_count
+from foresight.core.maps.svgpath import PathDataError, parse_path, path_commands, segment_count
 
 
 def approx_pts(points):

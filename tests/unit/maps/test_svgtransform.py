@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from core.maps.svgtransform import TransformError, apply, compose, parse_transform
+from foresight.core.maps.svgtransform import TransformError, apply, compose, parse_transform
 
 
 @pytest.mark.parametrize(

@@ -9,16 +9,16 @@ import time
 import pytest
 from sqlalchemy import update
 
-from api import store
-from api.db import queue
-from api.db.session import write_tx
-from api.registry import Resolver
-from api.settings import Settings
-from core.errors import CoreError
-from core.pipeline.config import load_pipeline_config
-from core.stages.context import Cancelled, StageContext
-from core.stages.refs import BUILTIN_CONFIG_ROOT
-from worker.pipeline import ChildJobs, worker_services
+from foresight.api import store
+from foresight.api.db import queue
+from foresight.api.db.session import write_tx
+from foresight.api.registry import Resolver
+from foresight.api.settings import Settings
+from foresight.core.errors import CoreError
+from foresight.core.pipeline.config import load_pipeline_config
+from foresight.core.stages.context import Cancelled, StageContext
+from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.worker.pipeline import ChildJobs, worker_services
 
 
 class Parent:
@@ -113,8 +113,8 @@ def test_cancelling_the_pipeline_cancels_the_running_child(settings, engine) -> 
 
 
 def test_register_then_promote_in_the_registry(settings, engine) -> None:  # noqa: ANN001
-    from api.db.models import Model
-    from api.db.session import session_factory
+    from foresight.api.db.models import Model
+    from foresight.api.db.session import session_factory
 
     parent = Parent(settings, engine)
     children = parent.children()
@@ -139,8 +139,8 @@ def test_register_then_promote_in_the_registry(settings, engine) -> None:  # noq
 def test_the_pipeline_verdict_is_recorded_as_gate_rows(settings, engine) -> None:  # noqa: ANN001
     from sqlalchemy import select
 
-    from api.db.models import GateResult
-    from worker.pipeline import record_gates
+    from foresight.api.db.models import GateResult
+    from foresight.worker.pipeline import record_gates
 
     parent = Parent(settings, engine)
     gates = [{"name": "evaluation", "passed": False, "checks": []}, {"name": "training", "passed": True, "checks": []},

@@ -7,11 +7,11 @@ from typing import Any
 
 import pytest
 
-from core.errors import ConfigError
-from core.pipeline.config import PipelineConfig, load_pipeline_config, stage_config
-from core.pipeline.runbook import ChildRun, StageFailed, check_seed_separation, run_pipeline
-from core.stages.context import Cancelled, StageContext
-from core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
+from foresight.core.errors import ConfigError
+from foresight.core.pipeline.config import PipelineConfig, load_pipeline_config, stage_config
+from foresight.core.pipeline.runbook import ChildRun, StageFailed, check_seed_separation, run_pipeline
+from foresight.core.stages.context import Cancelled, StageContext
+from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
 
 SMOKE = BUILTIN_CONFIG_ROOT / "pipelines" / "smoke.yaml"
 SECTIONS = ["## Verdict", "## Stages", "## Gates", "## Best campaign variant", "## Promoted model", "## Artifacts"]

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.maps.model import MapDef, Route, Zone
-from core.planners.base import EpisodeInfo
-from core.scenarios.model import ResolvedScenario, Scenario
-from core.sim.geometry import StaticMap
-from core.sim.observation import Observation
-from core.sim.robot import RobotLimits
+from foresight.core.maps.model import MapDef, Route, Zone
+from foresight.core.planners.base import EpisodeInfo
+from foresight.core.scenarios.model import ResolvedScenario, Scenario
+from foresight.core.sim.geometry import StaticMap
+from foresight.core.sim.observation import Observation
+from foresight.core.sim.robot import RobotLimits
 
 
 def corridor_map(obstacles: tuple = (), width: float = 30.0, height: float = 20.0) -> MapDef:

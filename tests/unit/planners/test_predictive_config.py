@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 import yaml
 
-from core.errors import ConfigError
-from core.planners.predictive.config import REFERENCE_KEY_MAP, PredictivePlannerConfig
+from foresight.core.errors import ConfigError
+from foresight.core.planners.predictive.config import REFERENCE_KEY_MAP, PredictivePlannerConfig
 
 
 @pytest.fixture(scope="module")

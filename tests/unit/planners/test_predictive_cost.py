@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.planners.predictive.config import PredictivePlannerConfig, SamplingConfig
-from core.planners.predictive.cost import RoutePotential
-from core.planners.predictive.planner import PredictivePlanner
-from core.planners.predictive.sampling import first_candidates
-from core.predict.forecaster import ConstantVelocityForecaster
-from core.predict.timebase import PLANNER_TIMEBASE
-from core.sim.robot import RobotLimits
+from foresight.core.planners.predictive.config import PredictivePlannerConfig, SamplingConfig
+from foresight.core.planners.predictive.cost import RoutePotential
+from foresight.core.planners.predictive.planner import PredictivePlanner
+from foresight.core.planners.predictive.sampling import first_candidates
+from foresight.core.predict.forecaster import ConstantVelocityForecaster
+from foresight.core.predict.timebase import PLANNER_TIMEBASE
+from foresight.core.sim.robot import RobotLimits
 from tests.unit.planners.scenes import corridor_map, info_for, observation
 
 
@@ -124,9 +124,9 @@ def test_assertiveness_grows_while_stalled_and_decays_with_progress():
 
 
 def test_rollouts_are_read_at_the_forecast_times():
-    from core.errors import ConfigError
-    from core.planners.predictive.rollout import eval_steps, extend_forecast, rollout
-    from core.sim.robot import unicycle_step
+    from foresight.core.errors import ConfigError
+    from foresight.core.planners.predictive.rollout import eval_steps, extend_forecast, rollout
+    from foresight.core.sim.robot import unicycle_step
 
     times = PLANNER_TIMEBASE.times  # 0.2 s grid
     idx = eval_steps(times, 0.1)

@@ -16,12 +16,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from core.planners.base import EpisodeInfo
-from core.planners.predictive.config import PredictivePlannerConfig
-from core.planners.predictive.planner import PredictivePlanner
-from core.predict.forecaster import ConstantVelocityForecaster, LearnedForecaster
-from core.predict.timebase import PLANNER_TIMEBASE
-from core.scenarios.model import ResolvedScenario, RobotConfig, Scenario
+from foresight.core.planners.base import EpisodeInfo
+from foresight.core.planners.predictive.config import PredictivePlannerConfig
+from foresight.core.planners.predictive.planner import PredictivePlanner
+from foresight.core.predict.forecaster import ConstantVelocityForecaster, LearnedForecaster
+from foresight.core.predict.timebase import PLANNER_TIMEBASE
+from foresight.core.scenarios.model import ResolvedScenario, RobotConfig, Scenario
 from tests.unit.planners.scenes import corridor_map, observation
 
 FIXTURE = Path(__file__).with_name("predictive_golden.json")
@@ -118,7 +118,7 @@ def test_decisions_match_the_recorded_ones(name):
 
 
 def _learned_forecaster() -> LearnedForecaster:
-    from core.predict.nn.checkpoint import load_predictor
+    from foresight.core.predict.nn.checkpoint import load_predictor
 
     return LearnedForecaster(load_predictor(CHECKPOINT))
 

@@ -5,15 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.errors import ConfigError
-from core.maps.model import SinglePedestrian
-from core.planners.base import EpisodeInfo, Planner
-from core.planners.predictive.config import PredictivePlannerConfig
-from core.planners.predictive.planner import PredictivePlanner
-from core.predict.forecaster import ConstantVelocityForecaster
-from core.predict.timebase import PLANNER_TIMEBASE, TimeBase
-from core.scenarios.model import ResolvedScenario, Scenario, SimulationConfig
-from core.sim.simulator import Simulator
+from foresight.core.errors import ConfigError
+from foresight.core.maps.model import SinglePedestrian
+from foresight.core.planners.base import EpisodeInfo, Planner
+from foresight.core.planners.predictive.config import PredictivePlannerConfig
+from foresight.core.planners.predictive.planner import PredictivePlanner
+from foresight.core.predict.forecaster import ConstantVelocityForecaster
+from foresight.core.predict.timebase import PLANNER_TIMEBASE, TimeBase
+from foresight.core.scenarios.model import ResolvedScenario, Scenario, SimulationConfig
+from foresight.core.sim.simulator import Simulator
 from tests.unit.planners.scenes import corridor_map, info_for, observation
 
 

@@ -2,10 +2,10 @@ import numpy as np
 import pytest
 import torch
 
-from core.predict.dataset import DatasetMeta, EpisodeRecord, save_dataset
-from core.predict.mixing import assign_splits, dataset_from_episodes
-from core.predict.samples import samples_from_trace
-from core.predict.timebase import PLANNER_TIMEBASE
+from foresight.core.predict.dataset import DatasetMeta, EpisodeRecord, save_dataset
+from foresight.core.predict.mixing import assign_splits, dataset_from_episodes
+from foresight.core.predict.samples import samples_from_trace
+from foresight.core.predict.timebase import PLANNER_TIMEBASE
 from tests.unit.predict.helpers import make_trace
 
 

@@ -6,7 +6,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from core.sim.observation import Observation
+from foresight.core.sim.observation import Observation
 
 
 def make_obs(step: int, robot_pose, ids, positions, dt: float = 0.1, robot_velocity=(0.5, 0.1),

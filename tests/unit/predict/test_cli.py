@@ -2,7 +2,7 @@ import json
 
 import pytest
 
-from cli.main import main
+from foresight.cli.main import main
 
 
 def test_predict_eval_cv_on_one_fold(shared_dir, capsys):
@@ -45,7 +45,7 @@ def test_import_ethucy_command(tmp_path, capsys):
 
 
 def test_eval_all_samples_of_a_held_out_dataset(tmp_path, curving_dataset, capsys):
-    from core.predict.dataset import load_dataset
+    from foresight.core.predict.dataset import load_dataset
 
     rc = main(["predict-eval", "--model", "cv", "--dataset", str(curving_dataset), "--split", "all", "--json",
                "--out", str(tmp_path), "--local"])

@@ -3,11 +3,11 @@ import shutil
 import numpy as np
 import pytest
 
-from core.errors import ConfigError
-from core.predict.collect import CollectConfig, MixConfig, episode_list, run_collect, run_mix
-from core.predict.dataset import load_dataset
-from core.stages.context import StageContext
-from core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.errors import ConfigError
+from foresight.core.predict.collect import CollectConfig, MixConfig, episode_list, run_collect, run_mix
+from foresight.core.predict.dataset import load_dataset
+from foresight.core.stages.context import StageContext
+from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
 
 
 def _ctx(path):

@@ -1,13 +1,13 @@
 import numpy as np
 import pytest
 
-from core.errors import ConfigError
-from core.predict.dataset import DatasetMeta, EpisodeRecord, load_dataset, save_dataset
-from core.predict.mixing import assign_splits, dataset_from_episodes, mix_datasets
-from core.predict.quality import check_quality
-from core.predict.samples import samples_from_trace
-from core.predict.timebase import PLANNER_TIMEBASE
-from core.version import code_version
+from foresight.core.errors import ConfigError
+from foresight.core.predict.dataset import DatasetMeta, EpisodeRecord, load_dataset, save_dataset
+from foresight.core.predict.mixing import assign_splits, dataset_from_episodes, mix_datasets
+from foresight.core.predict.quality import check_quality
+from foresight.core.predict.samples import samples_from_trace
+from foresight.core.predict.timebase import PLANNER_TIMEBASE
+from foresight.core.version import code_version
 from tests.unit.predict.helpers import scripted_episode
 
 

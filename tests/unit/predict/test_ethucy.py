@@ -1,12 +1,12 @@
 import numpy as np
 import pytest
 
-from core.errors import ConfigError
-from core.predict.ethucy import focal_windows, fold_files, import_fold, scene_samples
-from core.predict.features import feature_names
-from core.predict.metrics import evaluate_predictor
-from core.predict.predictor import ConstantVelocityPredictor
-from core.predict.timebase import ETHUCY_TIMEBASE, TimeBase
+from foresight.core.errors import ConfigError
+from foresight.core.predict.ethucy import focal_windows, fold_files, import_fold, scene_samples
+from foresight.core.predict.features import feature_names
+from foresight.core.predict.metrics import evaluate_predictor
+from foresight.core.predict.predictor import ConstantVelocityPredictor
+from foresight.core.predict.timebase import ETHUCY_TIMEBASE, TimeBase
 
 
 def _scene(tracks):

@@ -2,7 +2,7 @@ import math
 
 import numpy as np
 
-from core.predict.features import (
+from foresight.core.predict.features import (
     Window,
     current_index,
     ego_to_world,
@@ -11,9 +11,9 @@ from core.predict.features import (
     feature_names,
     world_to_ego,
 )
-from core.predict.history import LiveHistory
-from core.predict.samples import samples_from_trace, trace_window
-from core.predict.timebase import PLANNER_TIMEBASE, TimeBase
+from foresight.core.predict.history import LiveHistory
+from foresight.core.predict.samples import samples_from_trace, trace_window
+from foresight.core.predict.timebase import PLANNER_TIMEBASE, TimeBase
 from tests.unit.predict.helpers import make_trace, scripted_episode
 
 
@@ -109,7 +109,7 @@ def test_mirror_signs_mirror_a_window():
                np.ones((1, 2), bool))
     mirrored = Window(w.ego_pose, np.array([0.7, -0.3]), np.array([3.0, -4.0]), w.ped_ids,
                       hist * [1.0, -1.0], w.hist_valid)
-    from core.predict.features import mirror_signs
+    from foresight.core.predict.features import mirror_signs
 
     np.testing.assert_allclose(extract_features(w, tb, 1).features * mirror_signs(2),
                                extract_features(mirrored, tb, 1).features, atol=1e-6)
@@ -117,7 +117,7 @@ def test_mirror_signs_mirror_a_window():
 
 def test_gather_history_with_an_empty_older_frame():
     """A pedestrian that appears after a frame with nobody in it: its earlier grid point is simply unobserved."""
-    from core.predict.features import gather_history
+    from foresight.core.predict.features import gather_history
 
     frame_ids = [np.array([], dtype=np.int64), np.array([7, 3], dtype=np.int64), np.array([3], dtype=np.int64)]
     frame_pos = [np.zeros((0, 2)), np.array([[9.0, 9.0], [1.0, 1.0]]), np.array([[1.5, 1.0]])]

@@ -1,10 +1,15 @@
 import numpy as np
 import pytest
 
-from core.errors import ConfigError
-from core.predict.forecaster import ConstantVelocityForecaster, Forecast, Forecaster, LearnedForecaster
-from core.predict.predictor import ConstantVelocityPredictor
-from core.predict.timebase import PLANNER_TIMEBASE, TimeBase
+from foresight.core.errors import ConfigError
+from foresight.core.predict.forecaster import (
+    ConstantVelocityForecaster,
+    Forecast,
+    Forecaster,
+    LearnedForecaster,
+)
+from foresight.core.predict.predictor import ConstantVelocityPredictor
+from foresight.core.predict.timebase import PLANNER_TIMEBASE, TimeBase
 from tests.unit.predict.helpers import make_obs
 
 

@@ -2,12 +2,23 @@ import numpy as np
 import pytest
 import torch
 
-from core.errors import ConfigError
-from core.predict.features import current_index, feature_dim
-from core.predict.nn.checkpoint import TorchPredictor, load_predictor, make_checkpoint, save_checkpoint
-from core.predict.nn.model import ModelConfig, TrajectoryModel, masked_ade_fde, masked_loss, masked_smooth_l1
-from core.predict.predictor import ConstantVelocityPredictor, Predictor
-from core.predict.timebase import ETHUCY_TIMEBASE, PLANNER_TIMEBASE
+from foresight.core.errors import ConfigError
+from foresight.core.predict.features import current_index, feature_dim
+from foresight.core.predict.nn.checkpoint import (
+    TorchPredictor,
+    load_predictor,
+    make_checkpoint,
+    save_checkpoint,
+)
+from foresight.core.predict.nn.model import (
+    ModelConfig,
+    TrajectoryModel,
+    masked_ade_fde,
+    masked_loss,
+    masked_smooth_l1,
+)
+from foresight.core.predict.predictor import ConstantVelocityPredictor, Predictor
+from foresight.core.predict.timebase import ETHUCY_TIMEBASE, PLANNER_TIMEBASE
 
 #: the architecture of checkpoints before edges and pedestrian frames, and the current default one
 ARCHS = {"ego": {}, "local_edges": {"edge_dim": 8, "local_frame": True}}

@@ -1,7 +1,7 @@
 import pytest
 
-from core.errors import ConfigError
-from core.predict.timebase import ETHUCY_TIMEBASE, PLANNER_TIMEBASE, TimeBase
+from foresight.core.errors import ConfigError
+from foresight.core.predict.timebase import ETHUCY_TIMEBASE, PLANNER_TIMEBASE, TimeBase
 
 
 def test_times_and_stride():

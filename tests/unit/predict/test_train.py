@@ -3,12 +3,12 @@ import json
 import pytest
 import torch
 
-from core.errors import ConfigError
-from core.predict.nn.checkpoint import read_checkpoint
-from core.predict.nn.selection import Selection
-from core.predict.nn.train import run_train
-from core.predict.train_config import TrainConfig, load_config
-from core.stages.context import StageContext
+from foresight.core.errors import ConfigError
+from foresight.core.predict.nn.checkpoint import read_checkpoint
+from foresight.core.predict.nn.selection import Selection
+from foresight.core.predict.nn.train import run_train
+from foresight.core.predict.train_config import TrainConfig, load_config
+from foresight.core.stages.context import StageContext
 
 FAST = dict(epochs=4, batch_size=64, hidden=16, blocks=1, lr=3e-3, threads=1)
 
@@ -82,7 +82,7 @@ def test_bad_config_file_names_field(tmp_path):
 
 
 def test_proxy_wired_to_the_evaluation_engine(tmp_path, curving_dataset):
-    from core.stages.refs import BUILTIN_CONFIG_ROOT
+    from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
 
     cfg = TrainConfig(dataset=str(curving_dataset), proxy_every=1,
                       proxy={"scenarios": ["crossing_low"], "seeds_per_scenario": 1, "max_steps": 20},
@@ -101,7 +101,7 @@ def test_resume_refuses_another_model_config(tmp_path, curving_dataset):
 
 
 def test_cosine_schedule_is_a_function_of_the_epoch():
-    from core.predict.nn.train import epoch_lr
+    from foresight.core.predict.nn.train import epoch_lr
 
     cfg = TrainConfig(dataset="d.npz", epochs=4, lr=1.0, lr_schedule="cosine")
     assert [round(epoch_lr(cfg, e), 3) for e in (1, 2, 3, 4)] == [1.0, 0.854, 0.5, 0.146]
@@ -112,8 +112,8 @@ def test_ensemble_averages_its_members(tmp_path, curving_dataset):
     """Members are ordinary runs with seeds seed, seed + 1; the checkpoint predicts their mean."""
     import numpy as np
 
-    from core.predict.dataset import load_dataset
-    from core.predict.nn.checkpoint import load_predictor
+    from foresight.core.predict.dataset import load_dataset
+    from foresight.core.predict.nn.checkpoint import load_predictor
 
     res = run_train(TrainConfig(dataset=str(curving_dataset), ensemble=2, **{**FAST, "epochs": 2}),
                     StageContext(workdir=tmp_path))
@@ -131,8 +131,8 @@ def test_ensemble_averages_its_members(tmp_path, curving_dataset):
 
 
 def test_scale_augmentation_scales_lengths_and_targets_together():
-    from core.predict.features import feature_names, length_channels
-    from core.predict.nn.train import _scale
+    from foresight.core.predict.features import feature_names, length_channels
+    from foresight.core.predict.nn.train import _scale
 
     names = feature_names(2)
     state = torch.ones(3, 2, len(names))

@@ -9,10 +9,10 @@ import matplotlib.image as mpimg
 import numpy as np
 import pytest
 
-from core.errors import ConfigError
-from core.maps.model import MapDef, Route, SinglePedestrian, Zone
-from core.render.map_view import render_map
-from core.render.trace import ped_segments, recorded_states, render_trace
+from foresight.core.errors import ConfigError
+from foresight.core.maps.model import MapDef, Route, SinglePedestrian, Zone
+from foresight.core.render.map_view import render_map
+from foresight.core.render.trace import ped_segments, recorded_states, render_trace
 
 
 @dataclass
@@ -123,8 +123,8 @@ def test_recorded_states_honours_steps_and_nan_padding() -> None:
 
 
 def test_renders_a_simulator_trace_without_collision(tmp_path: Path, mapdef: MapDef) -> None:
-    """core.sim.trace.Trace marks "no collision" with step -1 and a NaN point: no red mark at the start."""
-    from core.sim.trace import Trace
+    """foresight.core.sim.trace.Trace marks "no collision" with step -1 and a NaN point: no red mark at the start."""
+    from foresight.core.sim.trace import Trace
 
     src = _trace(20)
     tr = Trace(50, 2, dt=0.1)

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 from PIL import Image
 
-from core.evaluation.stats import bootstrap_mean, rate
+from foresight.core.evaluation.stats import bootstrap_mean, rate
 
 LABELS = ["collision_pedestrian_robot_fault", "collision_pedestrian_pedestrian_fault", "collision_static",
           "out_of_bounds", "timeout_freeze", "timeout_oscillation", "timeout_slow_progress", "planner_error"]

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core.maps.model import MapDef, Route, Zone
+from foresight.core.maps.model import MapDef, Route, Zone
 
 STEPS = 60
 

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from core.render.animation import frame_steps, prediction_steps, render_replay
+from foresight.core.render.animation import frame_steps, prediction_steps, render_replay
 
 from .scenes import predictions, small_map, trace
 

@@ -6,7 +6,14 @@ from pathlib import Path
 
 import pytest
 
-from core.render.charts import Estimate, ab_chart, ranking_chart, rate_bars, taxonomy_bars, training_curves
+from foresight.core.render.charts import (
+    Estimate,
+    ab_chart,
+    ranking_chart,
+    rate_bars,
+    taxonomy_bars,
+    training_curves,
+)
 
 from .data import assert_picture, training
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from core.reports.document import Document
+from foresight.core.reports.document import Document
 
 from .data import assert_page
 

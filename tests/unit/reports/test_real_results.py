@@ -9,13 +9,13 @@ from pathlib import Path
 
 import pytest
 
-from core.evaluation.config import EvaluationConfig
-from core.evaluation.runner import EvaluationResult, run_evaluation
-from core.reports.campaign import write_campaign_report
-from core.reports.compare import write_comparison_report
-from core.reports.evaluation import write_evaluation_report
-from core.stages.context import StageContext
-from core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.evaluation.config import EvaluationConfig
+from foresight.core.evaluation.runner import EvaluationResult, run_evaluation
+from foresight.core.reports.campaign import write_campaign_report
+from foresight.core.reports.compare import write_comparison_report
+from foresight.core.reports.evaluation import write_evaluation_report
+from foresight.core.stages.context import StageContext
+from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
 
 from .data import assert_page, assert_picture, campaign
 

@@ -7,18 +7,18 @@ from pathlib import Path
 
 import pytest
 
-from core.reports.campaign import write_campaign_report
-from core.reports.compare import rate_delta, write_comparison_report
-from core.reports.diagnostics import write_diagnostics_report
-from core.reports.evaluation import write_evaluation_report
-from core.reports.pipeline import (
+from foresight.core.reports.campaign import write_campaign_report
+from foresight.core.reports.compare import rate_delta, write_comparison_report
+from foresight.core.reports.diagnostics import write_diagnostics_report
+from foresight.core.reports.evaluation import write_evaluation_report
+from foresight.core.reports.pipeline import (
     PipelineSummary,
     StageEntry,
     best_from_campaign,
     gate_entry,
     write_pipeline_report,
 )
-from core.reports.training import write_training_report
+from foresight.core.reports.training import write_training_report
 
 from . import data
 from .scenes import predictions, small_map, trace
@@ -200,8 +200,8 @@ def test_diagnostics_report_links_an_existing_replay(tmp_path: Path) -> None:
 
 
 def test_stage_dispatch(tmp_path: Path) -> None:
-    from core.errors import ConfigError
-    from core.reports.stage import write_stage_report
+    from foresight.core.errors import ConfigError
+    from foresight.core.reports.stage import write_stage_report
 
     (tmp_path / "training_summary.json").write_text(json.dumps(data.training()))
     train_result = {"checkpoint": "model.pt", "summary": "training_summary.json", "best_epoch": 6}
@@ -213,7 +213,7 @@ def test_stage_dispatch(tmp_path: Path) -> None:
 
 
 def test_stage_headlines() -> None:
-    from core.reports.pipeline import headline
+    from foresight.core.reports.pipeline import headline
 
     assert headline("evaluate", data.evaluation()) == "success 70.0%, collision 10.0% over 10 episodes; gate FAILED"
     assert headline("campaign", data.campaign()).startswith("best careful: hard success 75.0%, global 85.0%")

@@ -7,7 +7,7 @@ from typing import Any
 
 import yaml
 
-from core.maps.io import file_sha256
+from foresight.core.maps.io import file_sha256
 
 
 def write(path: Path, data: Any) -> Path:

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 import yaml
 
-from core.maps.geometry import point_strictly_inside
-from core.maps.io import file_sha256, load_map
-from core.maps.model import MapDef, Zone
-from core.scenarios.loader import load_matrix
-from core.scenarios.model import ScenarioMatrix
+from foresight.core.maps.geometry import point_strictly_inside
+from foresight.core.maps.io import file_sha256, load_map
+from foresight.core.maps.model import MapDef, Zone
+from foresight.core.scenarios.loader import load_matrix
+from foresight.core.scenarios.model import ScenarioMatrix
 
 REPO = Path(__file__).resolve().parents[3]
 MAPS = REPO / "configs" / "maps"

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from core.errors import ConfigError
-from core.scenarios.loader import load_matrix, matrix_from_data
+from foresight.core.errors import ConfigError
+from foresight.core.scenarios.loader import load_matrix, matrix_from_data
 
 from .matrices import registry, scenario, tiny_map, write
 

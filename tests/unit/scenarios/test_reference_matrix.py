@@ -6,10 +6,10 @@ from pathlib import Path
 
 import pytest
 
-from core.errors import ConfigError
-from core.scenarios.loader import load_matrix, matrix_from_data
-from core.scenarios.model import ScenarioMatrix
-from core.scenarios.seeds import load_seed_manifest
+from foresight.core.errors import ConfigError
+from foresight.core.scenarios.loader import load_matrix, matrix_from_data
+from foresight.core.scenarios.model import ScenarioMatrix
+from foresight.core.scenarios.seeds import load_seed_manifest
 
 # name, map (file stem or map id), ped_density, max_episode_steps, first seed (3 consecutive seeds)
 EXPECTED = [

@@ -6,10 +6,10 @@ from pathlib import Path
 
 import pytest
 
-from core.errors import ConfigError
-from core.scenarios.loader import load_matrix
-from core.scenarios.model import ScenarioMatrix
-from core.scenarios.seeds import SeedManifest, load_seed_manifest
+from foresight.core.errors import ConfigError
+from foresight.core.scenarios.loader import load_matrix
+from foresight.core.scenarios.model import ScenarioMatrix
+from foresight.core.scenarios.seeds import SeedManifest, load_seed_manifest
 
 from .matrices import scenario, tiny_map, write
 

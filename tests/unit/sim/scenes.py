@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from core.maps.model import MapDef, Route, SinglePedestrian, Zone
-from core.scenarios.model import ResolvedScenario, RobotConfig, Scenario, SimulationConfig
+from foresight.core.maps.model import MapDef, Route, SinglePedestrian, Zone
+from foresight.core.scenarios.model import ResolvedScenario, RobotConfig, Scenario, SimulationConfig
 
 
 def open_map(

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.sim.collision import static_contact
-from core.sim.geometry import SegmentSet
-from core.sim.simulator import Simulator
+from foresight.core.sim.collision import static_contact
+from foresight.core.sim.geometry import SegmentSet
+from foresight.core.sim.simulator import Simulator
 
 from .scenes import open_map, scenario, walker
 
@@ -84,9 +84,9 @@ def test_goal_reached_within_tolerance():
 
 
 def test_pymunk_checker_agrees_with_the_numpy_rule():
-    from core.maps.model import MapDef
-    from core.sim.collision import StaticChecker
-    from core.sim.geometry import StaticMap
+    from foresight.core.maps.model import MapDef
+    from foresight.core.sim.collision import StaticChecker
+    from foresight.core.sim.geometry import StaticMap
 
     m = MapDef(name="m", width=20, height=20, obstacles=(((5, 5), (9, 5), (7, 9)), ((12, 2), (18, 2), (18, 6), (12, 6))))
     st = StaticMap(m)

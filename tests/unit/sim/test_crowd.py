@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.maps.model import WaitRule, Zone
-from core.sim.geometry import points_in_polygons
-from core.sim.params import CrowdParams
-from core.sim.simulator import Simulator
+from foresight.core.maps.model import WaitRule, Zone
+from foresight.core.sim.geometry import points_in_polygons
+from foresight.core.sim.params import CrowdParams
+from foresight.core.sim.simulator import Simulator
 
 from .scenes import open_map, scenario, street_map, walker
 

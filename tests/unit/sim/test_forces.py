@@ -7,12 +7,12 @@ import math
 import numpy as np
 import pytest
 
-from core.sim import forces
-from core.sim.forces import as_complex as C
-from core.sim.forces import as_xy
-from core.sim.geometry import SegmentSet
-from core.sim.neighbours import all_pairs, cell_pairs
-from core.sim.params import ForceParams
+from foresight.core.sim import forces
+from foresight.core.sim.forces import as_complex as C
+from foresight.core.sim.forces import as_xy
+from foresight.core.sim.geometry import SegmentSet
+from foresight.core.sim.neighbours import all_pairs, cell_pairs
+from foresight.core.sim.params import ForceParams
 
 P = ForceParams()
 

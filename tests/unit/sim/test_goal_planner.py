@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.planners.base import EpisodeInfo, Planner
-from core.planners.goal import GoalSeeking
-from core.scenarios.model import RobotConfig
-from core.sim.episode import run_episode
-from core.sim.simulator import Simulator
+from foresight.core.planners.base import EpisodeInfo, Planner
+from foresight.core.planners.goal import GoalSeeking
+from foresight.core.scenarios.model import RobotConfig
+from foresight.core.sim.episode import run_episode
+from foresight.core.sim.simulator import Simulator
 
 from .scenes import open_map, scenario
 

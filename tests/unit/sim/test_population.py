@@ -6,12 +6,12 @@ import math
 
 import numpy as np
 
-from core.maps.model import Zone
-from core.scenarios.model import SimulationConfig
-from core.sim.params import CrowdParams
-from core.sim.population import group_sizes, population_counts
-from core.sim.simulator import Simulator
-from core.sim.zones import sample_zone
+from foresight.core.maps.model import Zone
+from foresight.core.scenarios.model import SimulationConfig
+from foresight.core.sim.params import CrowdParams
+from foresight.core.sim.population import group_sizes, population_counts
+from foresight.core.sim.simulator import Simulator
+from foresight.core.sim.zones import sample_zone
 
 from .scenes import scenario, street_map
 

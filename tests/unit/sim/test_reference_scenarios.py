@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.planners.goal import GoalSeeking
-from core.scenarios.loader import load_matrix
-from core.sim.episode import run_episode
-from core.sim.population import pedestrian_count
-from core.sim.simulator import Simulator
+from foresight.core.planners.goal import GoalSeeking
+from foresight.core.scenarios.loader import load_matrix
+from foresight.core.sim.episode import run_episode
+from foresight.core.sim.population import pedestrian_count
+from foresight.core.sim.simulator import Simulator
 
 # pedestrians per scenario (route + single), reference-simulation §6.3
 EXPECTED_PEDS = {

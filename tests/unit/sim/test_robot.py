@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.scenarios.model import RobotConfig
-from core.sim.robot import (
+from foresight.core.scenarios.model import RobotConfig
+from foresight.core.sim.robot import (
     RobotLimits,
     holonomic_step,
     robot_rollout,

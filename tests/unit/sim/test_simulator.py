@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.maps.model import Route, Zone
-from core.planners.goal import GoalSeeking
-from core.sim.episode import run_episode
-from core.sim.simulator import Simulator, stopping_zone_clear
-from core.sim.trace import Trace
+from foresight.core.maps.model import Route, Zone
+from foresight.core.planners.goal import GoalSeeking
+from foresight.core.sim.episode import run_episode
+from foresight.core.sim.simulator import Simulator, stopping_zone_clear
+from foresight.core.sim.trace import Trace
 
 from .scenes import open_map, scenario, street_map
 

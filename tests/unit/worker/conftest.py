@@ -7,12 +7,12 @@ from collections.abc import Callable, Iterator
 
 import pytest
 
-from api.settings import Settings
+from foresight.api.settings import Settings
 
 
 @pytest.fixture
 def start_worker(settings: Settings, engine) -> Iterator[Callable]:  # noqa: ANN001
-    from worker.runner import JobWorker
+    from foresight.worker.runner import JobWorker
 
     started: list[tuple[JobWorker, threading.Thread]] = []
 

@@ -10,10 +10,10 @@ from typing import Any
 import pytest
 from sqlalchemy import select
 
-from api import store
-from api.db import queue
-from api.db.models import Campaign, CampaignCell, Evaluation
-from api.registry import sync_bundles
+from foresight.api import store
+from foresight.api.db import queue
+from foresight.api.db.models import Campaign, CampaignCell, Evaluation
+from foresight.api.registry import sync_bundles
 from tests.results import without
 
 #: wall-clock values: planner timing, run time, the code version (the git head moves while tests run)
@@ -134,11 +134,11 @@ def test_cancelling_the_parent_cancels_its_shards_and_a_retry_reuses_the_finishe
 
 def test_a_pipeline_stage_may_be_sharded(settings, engine) -> None:  # noqa: ANN001
     """The pipeline's evaluate child with shards: children of a child, all run in the pipeline's one slot."""
-    from api.registry import Resolver
-    from core.pipeline.config import load_pipeline_config
-    from core.stages.context import StageContext
-    from core.stages.refs import BUILTIN_CONFIG_ROOT
-    from worker.pipeline import ChildJobs
+    from foresight.api.registry import Resolver
+    from foresight.core.pipeline.config import load_pipeline_config
+    from foresight.core.stages.context import StageContext
+    from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+    from foresight.worker.pipeline import ChildJobs
 
     queue.submit(engine, kind="pipeline", spec={"kind": "pipeline"})
     job = queue.claim(engine, "worker-1", ["pipeline"], 30.0)

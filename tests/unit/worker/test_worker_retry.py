@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 from sqlalchemy.exc import OperationalError
 
-from core.errors import ConfigError, NotFoundError
-from worker.retry import decide_retry
+from foresight.core.errors import ConfigError, NotFoundError
+from foresight.worker.retry import decide_retry
 
 
 @pytest.mark.parametrize(

@@ -1,0 +1,34 @@
+"""Installs the repository's top-level folders under the one ``foresight`` namespace.
+
+``core/`` becomes ``foresight.core``, ``api/`` ``foresight.api`` and so on, so no generic top-level name is
+claimed; migrations, templates, static files, the built-in configs and the shipped model travel as package data.
+Everything else (metadata, dependencies, extras) is in pyproject.toml.
+"""
+
+from pathlib import Path
+
+from setuptools import setup
+
+HERE = Path(__file__).resolve().parent
+CODE = ("core", "api", "worker", "cli", "store")  # Python packages
+DATA = ("migrations", "configs", "model")  # run-time data the service reads beside its code
+
+
+def _packages(folder: str) -> list[str]:
+    root = HERE / folder
+    if not root.is_dir():
+        return []
+    subdirs = [root, *(p for p in sorted(root.rglob("*")) if p.is_dir() and "__pycache__" not in p.parts)]
+    return [".".join(("foresight", folder, *d.relative_to(root).parts)) for d in subdirs]
+
+
+folders = [f for f in (*CODE, *DATA) if (HERE / f).is_dir()]
+setup(
+    packages=["foresight", *(pkg for f in folders for pkg in _packages(f))],
+    package_dir={"foresight": "foresight", **{f"foresight.{f}": f for f in folders}},
+    package_data={
+        "foresight.api": ["web/templates/*", "web/static/*"],
+        **{f"foresight.{f}": ["**/*"] for f in DATA},
+    },
+    exclude_package_data={"": ["*.pyc"]},
+)
