@@ -95,28 +95,43 @@ def load_selection(sel: EpisodeSelection, ctx: StageContext) -> tuple[Path, Scen
 
 # ------------------------------------------------------------------------------ workers
 
-_WORKER: dict[str, Any] = {}
+class EpisodeWorker:
+    """One run's episode executor: its settings, matrix and (stateful, reused) Simulator.
+
+    Owned by exactly one caller at a time: the in-process path builds one per ``run_jobs`` call (several
+    runs may execute at once in one process, e.g. a worker's slot threads), a pool process builds one in
+    its initialiser.
+    """
+
+    def __init__(self, settings: EpisodeSettings, matrix: ScenarioMatrix | None = None):
+        from foresight.core.scenarios.loader import load_matrix
+        from foresight.core.sim.simulator import Simulator
+
+        self.settings = settings
+        self.matrix = matrix or load_matrix(settings.matrix_path)
+        self.sim = Simulator()
+
+    def run(self, job: Job) -> tuple[int, Any]:
+        s = self.settings
+        run = run_one(self.matrix.get(job.scenario), job.seed, job.planner, max_steps=s.max_steps,
+                      metrics_cfg=s.metrics, taxonomy_cfg=s.taxonomy, keep_diagnostics=s.keep_diagnostics,
+                      simulator=self.sim)
+        return job.index, (run if s.keep_diagnostics else run.record)
+
+
+_POOL_WORKER: EpisodeWorker | None = None  #: a pool process's own executor (each pool process serves one run)
 
 
 def _init_pool_worker(settings: EpisodeSettings) -> None:
+    global _POOL_WORKER
     os.environ.setdefault("OMP_NUM_THREADS", "1")  # one thread per worker process (set before torch loads)
     os.environ.setdefault("MKL_NUM_THREADS", "1")
-    _init_worker(settings)
+    _POOL_WORKER = EpisodeWorker(settings)
 
 
-def _init_worker(settings: EpisodeSettings, matrix: ScenarioMatrix | None = None) -> None:
-    from foresight.core.scenarios.loader import load_matrix
-    from foresight.core.sim.simulator import Simulator
-
-    _WORKER.update(settings=settings, matrix=matrix or load_matrix(settings.matrix_path), sim=Simulator())
-
-
-def _run_job(job: Job) -> tuple[int, Any]:
-    s: EpisodeSettings = _WORKER["settings"]
-    run = run_one(_WORKER["matrix"].get(job.scenario), job.seed, job.planner, max_steps=s.max_steps,
-                  metrics_cfg=s.metrics, taxonomy_cfg=s.taxonomy, keep_diagnostics=s.keep_diagnostics,
-                  simulator=_WORKER["sim"])
-    return job.index, (run if s.keep_diagnostics else run.record)
+def _run_pool_job(job: Job) -> tuple[int, Any]:
+    assert _POOL_WORKER is not None, "pool process without initialiser"
+    return _POOL_WORKER.run(job)
 
 
 def expected_cost(matrix: ScenarioMatrix, name: str, max_steps: int | None) -> float:
@@ -150,12 +165,12 @@ def run_jobs(
     # a learned model runs in worker processes even with one worker: one torch thread each, so the
     # numbers (and hence trajectories) do not depend on the worker count
     if workers == 1 and not any(j.planner.learned for j in jobs):
-        _init_worker(settings, matrix)
-        collect(_run_job(j) for j in local)
+        worker = EpisodeWorker(settings, matrix)
+        collect(worker.run(j) for j in local)
     else:
         pool_ctx = mp.get_context(start_method)
         with pool_ctx.Pool(workers, initializer=_init_pool_worker, initargs=(settings,)) as pool:
-            collect(pool.imap_unordered(_run_job, local, chunksize=1))
+            collect(pool.imap_unordered(_run_pool_job, local, chunksize=1))
     return [r for r in out if r is not None]
 
 

@@ -119,3 +119,40 @@ def test_fallback_to_constant_velocity_is_flagged() -> None:
     assert fallback_of(learned, {"learned:m", "constant_velocity"})
     assert fallback_of(learned, {"learned+cv_far:m"}) is None  # far pedestrians on cv is declared, not silent
     assert fallback_of(cv, {"constant_velocity"}) is None
+
+
+def test_two_evaluations_at_once_in_one_process_match_their_solo_runs(tmp_path: Path) -> None:
+    """Two in-process runs on threads (as a worker's slot threads run jobs) keep their own matrix, horizon and
+    simulator: each run's records equal its solo run's, record for record. The runs alternate episode by episode
+    (a barrier in their progress callbacks), so a run sharing state with the other would see the other's."""
+    import threading
+
+    configs = {
+        "a": _config(),
+        "b": _config(scenarios=["overtaking_medium", "crossing_high"], max_steps=25, planner={"name": "social_force"}),
+    }
+    solo = {k: run_evaluation(cfg, _ctx(tmp_path / f"solo_{k}")) for k, cfg in configs.items()}
+    barrier = threading.Barrier(2, timeout=120)
+    errors: list[BaseException] = []
+
+    def run(key: str) -> None:
+        try:
+            run_evaluation(configs[key], _ctx(tmp_path / f"both_{key}", progress=lambda _f, _m: barrier.wait()))
+        except BaseException as exc:  # noqa: BLE001 - reported by the main thread
+            errors.append(exc)
+            barrier.abort()
+
+    threads = [threading.Thread(target=run, args=(k,)) for k in configs]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors, errors
+    for key in configs:
+        alone = read_records(tmp_path / f"solo_{key}" / "episodes.jsonl")
+        together = read_records(tmp_path / f"both_{key}" / "episodes.jsonl")
+        assert len(alone) == solo[key].episodes == 4
+        assert [r.comparable() for r in together] == [r.comparable() for r in alone]
+    horizons = {k: {r.provenance.horizon for r in read_records(tmp_path / f"both_{k}" / "episodes.jsonl")}
+                for k in configs}
+    assert horizons == {"a": {40}, "b": {25}}
