@@ -33,5 +33,11 @@ def reference_dir(shared_dir: Path) -> Path:
 
 
 @pytest.fixture(scope="session")
+def corpus_dir(shared_dir: Path) -> Path:
+    """The reference's wider scenario corpus (robot_sf_corpus: configs/scenarios, maps)."""
+    return shared_dir / "reference" / "robot_sf_corpus"
+
+
+@pytest.fixture(scope="session")
 def reference_matrix_path(reference_dir: Path) -> Path:
     return reference_dir / "configs" / "scenarios" / "classic_interactions.yaml"

@@ -9,18 +9,23 @@ Reading it the way the reference (robot_sf) does, but with every key checked:
 - ``map_search_paths``: folders relative to the file that declares them; they apply to that
   file's scenarios and to everything it includes.
 - ``map_file`` is tried relative to the root manifest's folder, then the declaring file's
-  folder, then each search path in scope (the root's first).
+  folder, then each search path in scope (the root's first), then each folder above the
+  declaring file (robot_sf names some maps relative to its repository root).
 - ``map_id`` (wins over ``map_file``) is resolved through a map registry, chosen as: the
   ``map_registry`` argument, else the root manifest's ``map_registry:`` key (relative to the
   manifest), else the first ``registry.yaml`` found in the parent folder of a search path or in
-  the search path itself (the reference layout: maps in ``maps/svg_maps``, registry in
-  ``maps/registry.yaml``). As in the reference, a map loaded by id is named by its id (so
+  the search path itself, else ``maps/registry.yaml`` in a folder above the declaring file (the
+  reference layout: maps in ``maps/svg_maps``, registry in ``maps/registry.yaml``). As in the reference, a map loaded by id is named by its id (so
   ``classic_cross_trap`` stays distinct from ``classic_crossing``, which it is read from).
 - Root manifest only: ``select_scenarios`` (ordered, case-insensitive), ``scenario_overrides``
   (deep-merged into every scenario), ``scenario_overrides_by_name``, ``map_registry``,
   ``metadata`` (kept on the matrix) and ``seeds`` (default seed list for scenarios without one).
 - ``evaluation``, ``evaluation_reason``, ``evaluation_replacement``, ``description``: notes the
   reference puts on archetype files; kept under the matrix metadata ``file_notes``.
+- ``schema_version`` (must name a scenario-matrix schema) and ``defaults`` (a block that only
+  holds YAML anchors the scenarios alias; the reference never applies it, nor do we).
+- A file that is not a scenario matrix (contract set, perturbation manifest, density-tier index,
+  catalog, route payload, map, result index; ``core.scenarios.kinds``) is refused by kind.
 
 Anything else is a :class:`~core.errors.ConfigError` naming the file, the scenario and the key.
 """
@@ -40,6 +45,7 @@ from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.maps.io import file_sha256, load_map
 from foresight.core.maps.model import MapDef, SinglePedestrian
 from foresight.core.maps.registry import MapRegistry
+from foresight.core.scenarios.kinds import MATRIX_SCHEMAS, non_matrix_kind
 from foresight.core.scenarios.model import (
     ResolvedScenario,
     Scenario,
@@ -109,6 +115,8 @@ class _FileSpec(BaseModel):
     evaluation_reason: str | None = None
     evaluation_replacement: str | None = None
     description: str | None = None
+    schema_version: str | None = None
+    defaults: dict[str, Any] = {}  #: a block of YAML anchors for the scenarios to alias; never applied itself
 
     @model_validator(mode="before")
     @classmethod
@@ -123,6 +131,12 @@ class _FileSpec(BaseModel):
         data = dict(data)
         if used:
             data["includes"] = data.pop(used[0])
+        if isinstance(data.get("includes"), str):
+            data["includes"] = [data["includes"]]
+        version = data.get("schema_version")
+        if version is not None and version not in MATRIX_SCHEMAS:
+            raise ValueError(f"schema_version {version!r} is not a scenario matrix schema (expected one of "
+                             f"{', '.join(MATRIX_SCHEMAS)})")
         return data
 
 
@@ -144,6 +158,9 @@ class _Entry:
 def _parse_spec(data: Any, source: Path, *, is_root: bool) -> _FileSpec:
     if data is None:
         raise ConfigError("the file is empty", source=source)
+    kind = non_matrix_kind(data)
+    if kind is not None:
+        raise ConfigError(f"not a scenario matrix (it is a {kind})", source=source)
     try:
         spec = _FileSpec.model_validate(data)
     except ValidationError as err:
@@ -280,6 +297,8 @@ class _MapResolver:
         rel = Path(scenario.map_file)
         tried = [rel] if rel.is_absolute() else [self.root / rel, entry.file.parent / rel]
         tried += [] if rel.is_absolute() else [sp / rel for sp in entry.search_paths]
+        # last resort: a path relative to a folder above the file (robot_sf scripts run from its repository root)
+        tried += [] if rel.is_absolute() else [d / rel for d in entry.file.parents[1:]]
         tried = list(dict.fromkeys(tried))
         for candidate in tried:
             if candidate.is_file():
@@ -298,11 +317,13 @@ class _MapResolver:
             candidates = [
                 c for sp in entry.search_paths for c in (sp.parent / _REGISTRY_NAME, sp / _REGISTRY_NAME)
             ]
+            # the reference's repository layout: maps/registry.yaml at the root above configs/scenarios/
+            candidates += [d / "maps" / _REGISTRY_NAME for d in entry.file.parents]
             path = next((c for c in candidates if c.is_file()), None)
         if path is None:
             raise ConfigError(
                 f"map_id {scenario.map_id!r} needs a map registry: pass map_registry, set map_registry: in the "
-                f"manifest, or keep {_REGISTRY_NAME} next to a map search path",
+                f"manifest, or keep {_REGISTRY_NAME} next to a map search path or in a maps/ folder above the file",
                 source=entry.file,
                 item=scenario.name,
             )

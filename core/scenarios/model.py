@@ -63,6 +63,11 @@ class RobotConfig(_Strict):
             data = dict(data)
             if "model" in data and "type" not in data:
                 data["type"] = data.pop("model")
+            for old, new in (("max_robot_speed", "max_linear_speed"), ("robot_radius", "radius")):
+                if old in data:  # names used by robot_sf's older robot settings
+                    if new in data:
+                        raise ValueError(f"give {new} or its alias {old}, not both")
+                    data[new] = data.pop(old)
             alias = {"diff": "differential_drive", "omni": "holonomic"}
             if data.get("type") in alias:
                 data["type"] = alias[data["type"]]

@@ -133,7 +133,8 @@ def test_density_index_is_not_a_matrix(reference_dir: Path) -> None:
     with pytest.raises(ConfigError) as info:
         load_matrix(reference_dir / "configs/scenarios/archetypes/classic_density_tier_index.yaml")
     assert Path(info.value.source).name == "classic_density_tier_index.yaml"
-    assert "unsupported key" in info.value.detail
+    assert info.value.detail == "not a scenario matrix (it is a density-tier index)"
+    assert str(info.value) == f"{info.value.source}: not a scenario matrix (it is a density-tier index)"
 
 
 def test_apply_transforms_reaches_the_svg_importer(reference_matrix_path: Path) -> None:
