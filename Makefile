@@ -8,7 +8,7 @@ STAMP   = $(VENV)/.foresight-installed
 
 .PHONY: install browser test demo lint bench clean
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml setup.py
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q torch==2.13.0

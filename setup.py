@@ -1,7 +1,9 @@
 """Installs the repository's top-level folders under the one ``foresight`` namespace.
 
-``core/`` becomes ``foresight.core``, ``api/`` ``foresight.api`` and so on, so no generic top-level name is
-claimed; migrations, templates, static files, the built-in configs and the shipped model travel as package data.
+``core/`` becomes ``foresight.core``, ``api/`` ``foresight.api``, ``store/`` ``foresight.store`` and so on, so no
+generic top-level name is claimed (an editable install maps the folders that exist when it runs: after a new
+top-level folder appears, ``make install`` reinstalls, since the stamp depends on this file); migrations,
+templates, static files, the built-in configs and the shipped model travel as package data.
 Everything else (metadata, dependencies, extras) is in pyproject.toml.
 """
 

@@ -10,9 +10,9 @@ from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from sqlalchemy import Engine
 from sqlalchemy.orm import Session
 
-from foresight.api.db.session import session_factory
-from foresight.api.registry import Resolver
-from foresight.api.settings import Settings
+from foresight.store.registry import Resolver
+from foresight.store.session import session_factory
+from foresight.store.settings import Settings
 
 _bearer = HTTPBearer(auto_error=False, description="FORESIGHT_API_TOKEN")
 

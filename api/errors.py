@@ -14,10 +14,10 @@ from fastapi.responses import JSONResponse
 from pydantic import BaseModel
 from starlette.exceptions import HTTPException
 
-from foresight.api.db import queue
-from foresight.api.db.session import NotMigratedError
-from foresight.api.store import UnsafePath
 from foresight.core.errors import ConfigError, CoreError, NotFoundError
+from foresight.store import queue
+from foresight.store.folders import UnsafePath
+from foresight.store.session import NotMigratedError
 
 logger = logging.getLogger(__name__)
 

@@ -8,13 +8,13 @@ from fastapi import FastAPI
 from fastapi.routing import APIRoute
 
 from foresight.api import errors, web
-from foresight.api.db.session import check_migrated, make_engine, session_factory
 from foresight.api.deps import ReadAuth
 from foresight.api.http_metrics import HttpMetrics, MetricsMiddleware, route_templates
-from foresight.api.registry import Resolver, load_shipped_models, sync_bundles
 from foresight.api.routes import bundles, jobs, models, ops, results
-from foresight.api.settings import Settings
 from foresight.core.version import code_version
+from foresight.store.registry import Resolver, load_shipped_models, sync_bundles
+from foresight.store.session import check_migrated, make_engine, session_factory
+from foresight.store.settings import Settings
 
 
 def _operation_id(route: APIRoute) -> str:

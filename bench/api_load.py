@@ -185,8 +185,8 @@ def bench_http(database_url: str | None, clients: int, duration: float, server_w
 def bench_claims(database_url: str | None, jobs: int, workers: int) -> dict:
     from sqlalchemy import func, insert, select
 
-    from foresight.api.db import queue
-    from foresight.api.db.session import make_engine, upgrade, write_tx
+    from foresight.store import queue
+    from foresight.store.session import make_engine, upgrade, write_tx
 
     with tempfile.TemporaryDirectory(prefix="foresight-bench-") as tmp:
         env = _env(Path(tmp), database_url)

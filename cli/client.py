@@ -9,8 +9,8 @@ from typing import Any
 
 import httpx
 
-from foresight.api.settings import Settings
 from foresight.core.errors import CoreError
+from foresight.store.settings import Settings
 
 
 class ApiError(CoreError):

@@ -54,7 +54,7 @@ def local_context(workdir: Path | None, bundles: dict[str, Path], *, quiet: bool
 
     def resolve_data_root(name: str) -> Path:
         """A named data root: FORESIGHT_DATA_ROOTS, or ``ethucy`` from the shared folder."""
-        from foresight.api.settings import Settings
+        from foresight.store.settings import Settings
 
         return Settings().data_root(name)
 

@@ -233,8 +233,8 @@ def _wait_healthy(url: str, proc: subprocess.Popen, timeout: float = 60.0) -> No
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    from foresight.api.settings import Settings
     from foresight.cli.client import Client
+    from foresight.store.settings import Settings
 
     spec = read_pipeline(args.file)  # fail on a bad config before starting anything
     settings = Settings()

@@ -159,7 +159,7 @@ def import_cmd(args: argparse.Namespace) -> int:
         raise ConfigError("give --ethucy FOLDER (or --root NAME of FORESIGHT_DATA_ROOTS)", source="command line",
                           item="--ethucy")
     if args.ethucy is None:
-        from foresight.api.settings import Settings
+        from foresight.store.settings import Settings
 
         folder = Settings().data_root(args.root)
     else:

@@ -9,7 +9,7 @@ import signal
 import subprocess
 import sys
 
-from foresight.api.settings import Settings
+from foresight.store.settings import Settings
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -46,7 +46,7 @@ def _logging(level: str = "info") -> None:
 
 
 def cmd_db_upgrade(args: argparse.Namespace) -> int:
-    from foresight.api.db.session import upgrade
+    from foresight.store.session import upgrade
 
     settings = Settings()
     upgrade(settings.resolved_database_url, args.revision)
@@ -79,8 +79,8 @@ def cmd_serve(args: argparse.Namespace) -> int:
 
 
 def cmd_worker(args: argparse.Namespace) -> int:
-    from foresight.api.db import queue
-    from foresight.api.db.session import check_migrated, make_engine
+    from foresight.store import queue
+    from foresight.store.session import check_migrated, make_engine
     from foresight.worker.runner import JobWorker
 
     _logging()
@@ -99,7 +99,7 @@ def cmd_worker(args: argparse.Namespace) -> int:
 
 def cmd_up(args: argparse.Namespace) -> int:
     """Migrate, start a worker process, serve in this one; stopping the server stops the worker."""
-    from foresight.api.db.session import upgrade
+    from foresight.store.session import upgrade
 
     _logging(args.log_level)
     settings = Settings()

@@ -1,4 +1,4 @@
-"""Alembic environment: metadata from api.db.models, URL from the caller's config or the settings."""
+"""Alembic environment: metadata from store.models, URL from the caller's config or the settings."""
 
 from __future__ import annotations
 
@@ -6,9 +6,9 @@ from logging.config import fileConfig
 
 from alembic import context
 
-from foresight.api.db.models import Base
-from foresight.api.db.session import make_engine
-from foresight.api.settings import Settings
+from foresight.store.models import Base
+from foresight.store.session import make_engine
+from foresight.store.settings import Settings
 
 config = context.config
 if config.config_file_name is not None:

@@ -35,7 +35,7 @@ ChildProgress = Callable[[str, float, str], None]
 
 @cache
 def _engine(database_url: str, busy_timeout_ms: int) -> Any:
-    from foresight.api.db.session import make_engine
+    from foresight.store.session import make_engine
 
     return make_engine(database_url, busy_timeout_ms=busy_timeout_ms)
 
@@ -43,8 +43,8 @@ def _engine(database_url: str, busy_timeout_ms: int) -> Any:
 def worker_services(ctx: StageContext) -> tuple[Any, Any]:
     """(settings, engine) of the worker running this job: its context's resolver holds both (a parent job
     needs the job store itself); outside a worker, the environment's settings."""
-    from foresight.api.registry import Resolver
-    from foresight.api.settings import Settings
+    from foresight.store.registry import Resolver
+    from foresight.store.settings import Settings
 
     resolver = getattr(ctx.resolve_bundle, "__self__", None)
     if isinstance(resolver, Resolver):
@@ -84,7 +84,7 @@ def child_worker_class() -> type:
 
         def beat(self) -> None:
             """Renew the held child's lease; pass the parent's cancellation or stop on to it."""
-            from foresight.api.db import queue
+            from foresight.store import queue
 
             with self._lock:
                 held = dict(self._held)
@@ -110,7 +110,7 @@ class ChildRunner:
 
     def __init__(self, ctx: StageContext, *, role: str, parent_kinds: tuple[str, ...], workers: int | None = None,
                  settings: Any = None, engine: Any = None) -> None:
-        from foresight.api.db import queue
+        from foresight.store import queue
 
         self.ctx = ctx
         self.role = role
@@ -149,7 +149,7 @@ class ChildRunner:
     def parent_stop(self) -> str | None:
         """'cancel' when the parent's cancellation was requested, 'stop' when it must stop otherwise
         (worker shutdown, timeout, lost lease: children are left to the queue), else None."""
-        from foresight.api.db import queue
+        from foresight.store import queue
 
         if not self.ctx.is_cancelled():
             return None
@@ -161,7 +161,7 @@ class ChildRunner:
     def submit(self, label: str, kind: str, spec: dict[str, Any], key: str) -> tuple[dict[str, Any], bool]:
         """Queue the child ``kind`` job (its spec validated as the API would) under idempotency ``key``;
         returns ``(job, created)``: a known key returns the child an earlier attempt submitted."""
-        from foresight.api.db import queue
+        from foresight.store import queue
         from foresight.worker.kinds import KINDS
 
         if kind not in KINDS:
@@ -180,7 +180,7 @@ class ChildRunner:
 
         Raises :class:`Cancelled` when the parent stops or a child was cancelled with it, :class:`CoreError`
         when a child fails after this call ran or retried it."""
-        from foresight.api.db import queue
+        from foresight.store import queue
 
         touched: set[str] = set()
         while True:

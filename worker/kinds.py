@@ -18,8 +18,8 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, create_model
 
 from foresight.core.stages.context import StageContext
-from foresight.worker import records
-from foresight.worker.records import Recorder
+from foresight.store import records
+from foresight.store.records import Recorder
 
 
 @dataclass(frozen=True)
@@ -142,8 +142,8 @@ def _import_dataset_kind() -> None:
     """
     from pydantic import field_validator
 
-    from foresight.api.settings import Settings
     from foresight.core.predict.ethucy import ImportDatasetConfig
+    from foresight.store.settings import Settings
 
     class ImportDatasetSpec(ImportDatasetConfig):
         kind: Literal["import_dataset"] = "import_dataset"

@@ -62,11 +62,11 @@ class ChildJobs:
         return self._outcome(stage, kind, rows[child_id], resumed=not (created or child_id in touched))
 
     def _outcome(self, stage: str, kind: str, job: dict[str, Any], *, resumed: bool) -> Any:
-        from foresight.api import store
         from foresight.core.pipeline.runbook import ChildRun
+        from foresight.store import folders
 
         # the child's report page was written by the worker code path that ran it (JobWorker._execute)
-        folder = store.resolve_under(self.settings.store_root, store.job_dir(self.settings.store_root, job["id"]))
+        folder = folders.resolve_under(self.settings.store_root, folders.job_dir(self.settings.store_root, job["id"]))
         result = dict(job["result"] or {})
         report = f"/ui/jobs/{job['id']}/files/report.html" if (folder / "report.html").is_file() else None
         wall = job["finished_at"] - job["started_at"] if job.get("finished_at") and job.get("started_at") else None
@@ -77,9 +77,9 @@ class ChildJobs:
     def _register(self, spec: dict[str, Any]) -> Any:
         from sqlalchemy import select
 
-        from foresight.api.db.models import Artifact, Model, ModelStatus
-        from foresight.api.db.session import session_factory
         from foresight.core.pipeline.runbook import ChildRun
+        from foresight.store.models import Artifact, Model, ModelStatus
+        from foresight.store.session import session_factory
 
         train_job = self.children.get(spec.get("train_stage", "train"))
         if train_job is None:
@@ -107,21 +107,21 @@ class ChildJobs:
                         artifacts={"model": f"/v1/models/{model_id}"})
 
     def _time_base(self, checkpoint: str) -> dict[str, Any]:
-        from foresight.api import store
+        from foresight.store import folders
 
         try:
             from foresight.core.predict.nn.checkpoint import read_checkpoint
 
-            return dict(read_checkpoint(store.resolve_under(self.settings.store_root, checkpoint))["timebase"])
+            return dict(read_checkpoint(folders.resolve_under(self.settings.store_root, checkpoint))["timebase"])
         except Exception:  # noqa: BLE001 - provenance only
             return {}
 
     def _promote(self, spec: dict[str, Any]) -> Any:
         from sqlalchemy import update
 
-        from foresight.api.db.models import Model, ModelStatus
-        from foresight.api.db.session import session_factory
         from foresight.core.pipeline.runbook import ChildRun
+        from foresight.store.models import Model, ModelStatus
+        from foresight.store.session import session_factory
 
         model_id, target = spec["model_id"], spec["to"]
         with session_factory(self.engine, write=True).begin() as session:
@@ -153,7 +153,7 @@ def record_gates(conn: Any, job: dict[str, Any], result: dict[str, Any], job_dir
     """The pipeline's gate verdicts as gate-result rows (``pipeline:<gate>``), written with its final status."""
     from sqlalchemy import insert
 
-    from foresight.api.db.models import GateResult
+    from foresight.store.models import GateResult
 
     rows = [{"job_id": job["id"], "campaign_id": None, "gate": f"pipeline:{g['name']}", "passed": bool(g["passed"]),
              "details": g, "created_at": time.time()}

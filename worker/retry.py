@@ -8,11 +8,11 @@ programming errors would fail the same way again, so they fail at once and the u
 from __future__ import annotations
 
 from pydantic import ValidationError
-from sqlalchemy.exc import OperationalError
 
 from foresight.core.errors import CoreError
+from foresight.store.session import TRANSIENT_ERRORS
 
-TRANSIENT: tuple[type[BaseException], ...] = (OperationalError, ConnectionError, TimeoutError)
+TRANSIENT: tuple[type[BaseException], ...] = (*TRANSIENT_ERRORS, ConnectionError, TimeoutError)
 
 
 def decide_retry(exc: BaseException) -> bool:

@@ -25,12 +25,11 @@ from typing import Any
 
 from sqlalchemy import Engine
 
-from foresight.api import store
-from foresight.api.db import queue
-from foresight.api.registry import Resolver
-from foresight.api.settings import Settings
 from foresight.core.errors import CoreError
 from foresight.core.stages.context import Cancelled, StageContext
+from foresight.store import folders, queue
+from foresight.store.registry import Resolver
+from foresight.store.settings import Settings
 from foresight.worker.kinds import KINDS
 from foresight.worker.retry import decide_retry
 
@@ -162,10 +161,10 @@ class JobWorker:
         job = held.job
         args = (self.engine, job["id"], self.id, job["attempts"])
         kind = KINDS[job["kind"]]
-        workdir_rel = store.job_dir(self.settings.store_root, job["id"])
+        workdir_rel = folders.job_dir(self.settings.store_root, job["id"])
         try:
             spec = kind.spec.model_validate(job["spec"])
-            workdir = store.resolve_under(self.settings.store_root, workdir_rel)
+            workdir = folders.resolve_under(self.settings.store_root, workdir_rel)
             if kind.make_workdir:
                 workdir.mkdir(parents=True, exist_ok=True)
             ctx = self._context(held, workdir)
@@ -189,9 +188,9 @@ class JobWorker:
             logger.info("job %s failed: %r", job["id"], exc, extra={"action": "job_failed", "job": job["id"]})
             queue.fail_or_retry(*args, type(exc).__name__, str(exc), retry=decide_retry(exc))
             return
-        artifacts = store.scan(self.settings.store_root, workdir_rel)
+        artifacts = folders.scan(self.settings.store_root, workdir_rel)
         if not artifacts and kind.make_workdir:
-            _remove_empty(store.resolve_under(self.settings.store_root, workdir_rel))
+            _remove_empty(folders.resolve_under(self.settings.store_root, workdir_rel))
         record = None
         if kind.record is not None:
             record = functools.partial(_record, kind.record, job=job, result=result, job_dir=workdir_rel)

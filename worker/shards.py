@@ -32,9 +32,8 @@ SHARD_KINDS = {"evaluate": "evaluate_shard", "campaign": "campaign_shard"}
 
 def run_sharded(kind: str, config: Any, ctx: StageContext) -> BaseModel:
     """Run the ``kind`` stage's ``config`` (with ``config.shards`` > 1) as shard jobs and merge them."""
-    from foresight.api import store
-    from foresight.api.db import queue
     from foresight.core.evaluation.shards import merge_campaign_shards, merge_evaluation_shards, read_shard
+    from foresight.store import folders, queue
 
     t0 = time.perf_counter()
     count = int(config.shards)
@@ -70,7 +69,7 @@ def run_sharded(kind: str, config: Any, ctx: StageContext) -> BaseModel:
     ctx.progress(0.99, f"merging {count} shards")
     parts = []
     for cid in ids:
-        folder = store.resolve_under(runner.settings.store_root, store.job_dir(runner.settings.store_root, cid))
+        folder = folders.resolve_under(runner.settings.store_root, folders.job_dir(runner.settings.store_root, cid))
         try:
             parts.append(read_shard(folder))
         except (OSError, ValidationError) as exc:

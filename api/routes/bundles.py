@@ -7,13 +7,13 @@ from typing import Annotated
 from fastapi import APIRouter, Query, Request, status
 from sqlalchemy import select
 
-from foresight.api.db import queue
-from foresight.api.db.models import Bundle
 from foresight.api.deps import EngineDep, ResolverDep, SessionDep, SettingsDep, WriteAuth
 from foresight.api.errors import AUTH, responses
-from foresight.api.registry import MAX_BUNDLE_BYTES, save_upload
 from foresight.api.schemas import BundlePublic, BundlesPublic, Ident, ScenarioPublic
 from foresight.core.errors import ConfigError
+from foresight.store import queue
+from foresight.store.models import Bundle
+from foresight.store.registry import MAX_BUNDLE_BYTES, save_upload
 
 router = APIRouter(prefix="/bundles", tags=["bundles"])
 

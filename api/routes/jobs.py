@@ -15,13 +15,12 @@ from fastapi.responses import FileResponse, StreamingResponse
 from sqlalchemy import bindparam, select
 from starlette.concurrency import run_in_threadpool
 
-from foresight.api import store
-from foresight.api.db import queue
-from foresight.api.db.models import Dataset, JobStatus, Model
-from foresight.api.db.session import is_sqlite
 from foresight.api.deps import EngineDep, SettingsDep, WriteAuth
 from foresight.api.errors import AUTH, responses
 from foresight.api.schemas import Ident, JobCreate, JobPublic, JobsPublic, KindPublic, job_public
+from foresight.store import folders, queue
+from foresight.store.models import Dataset, JobStatus, Model
+from foresight.store.session import is_sqlite
 from foresight.worker.kinds import KINDS
 
 router = APIRouter(prefix="/jobs", tags=["jobs"])
@@ -36,7 +35,7 @@ def unsafe_paths(value: Any, loc: tuple = ()) -> list[dict[str, Any]]:
         return [e for k, v in value.items() for e in unsafe_paths(v, (*loc, k))]
     if isinstance(value, list):
         return [e for i, v in enumerate(value) for e in unsafe_paths(v, (*loc, i))]
-    if isinstance(value, str) and store.looks_unsafe(value):
+    if isinstance(value, str) and folders.looks_unsafe(value):
         msg = "server paths are not allowed in specs: name inputs by id or by a path relative to their bundle"
         return [{"loc": ("body", "spec", *loc), "msg": msg, "type": "value_error.unsafe_path", "input": value}]
     return []
@@ -197,8 +196,8 @@ def delete_job(job_id: Ident, engine: EngineDep, settings: SettingsDep) -> Respo
         used |= set(conn.execute(select(Dataset.path).where(Dataset.job_id == job_id)).scalars())
     for art in queue.delete_job(engine, job_id):
         if art["path"] not in used:
-            store.resolve_under(settings.store_root, art["path"]).unlink(missing_ok=True)
-    folder = store.resolve_under(settings.store_root, store.job_dir(settings.store_root, job_id))
+            folders.resolve_under(settings.store_root, art["path"]).unlink(missing_ok=True)
+    folder = folders.resolve_under(settings.store_root, folders.job_dir(settings.store_root, job_id))
     if folder.is_dir():
         for sub in sorted((p for p in folder.rglob("*") if p.is_dir()), reverse=True):
             if not any(sub.iterdir()):
@@ -212,14 +211,14 @@ def delete_job(job_id: Ident, engine: EngineDep, settings: SettingsDep) -> Respo
             responses={200: {"content": {"application/octet-stream": {}}}, **responses(404)})  # fmt: skip
 def read_job_artifact(job_id: Ident, name: str, engine: EngineDep, settings: SettingsDep, request: Request) -> FileResponse:
     """Download one artifact of a job."""
-    clean = store.check_relative(name)  # 422 for absolute names and '..'
+    clean = folders.check_relative(name)  # 422 for absolute names and '..'
     arts = queue.artifacts
     with engine.connect() as conn:
         row = conn.execute(select(arts).where(arts.c.job_id == job_id, arts.c.name == clean)).mappings().first()
     if row is None:
         queue.get_job(engine, job_id)
         raise queue.JobNotFound(f"job {job_id} has no artifact {clean!r}")
-    path = store.resolve_under(settings.store_root, row["path"])
+    path = folders.resolve_under(settings.store_root, row["path"])
     if not path.is_file():
         raise queue.JobNotFound(f"artifact {clean!r} of job {job_id} is missing from the store")
     return FileResponse(path, filename=path.name)

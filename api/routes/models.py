@@ -10,13 +10,12 @@ from fastapi.responses import PlainTextResponse
 from sqlalchemy import select, update
 from sqlalchemy.exc import IntegrityError
 
-from foresight.api import store
-from foresight.api.db import queue
-from foresight.api.db.models import Artifact, Model, ModelStatus
 from foresight.api.deps import EngineDep, SessionDep, WriteAuth, WriteSessionDep
 from foresight.api.errors import AUTH, responses
-from foresight.api.registry import export_models, models_using
 from foresight.api.schemas import Ident, ModelCreate, ModelPromote, ModelPublic, ModelsPublic
+from foresight.store import folders, queue
+from foresight.store.models import Artifact, Model, ModelStatus
+from foresight.store.registry import export_models, models_using
 
 router = APIRouter(prefix="/models", tags=["models"])
 
@@ -62,7 +61,7 @@ def create_model(body: ModelCreate, session: WriteSessionDep, engine: EngineDep)
     job = queue.get_job(engine, body.job_id)
     if job["status"] != queue.SUCCEEDED:
         raise queue.Conflict(f"job {body.job_id} is {job['status']}; register checkpoints of succeeded jobs")
-    name = store.check_relative(body.artifact)
+    name = folders.check_relative(body.artifact)
     art = session.scalars(select(Artifact).where(Artifact.job_id == body.job_id, Artifact.name == name)).first()
     if art is None:
         raise queue.JobNotFound(f"job {body.job_id} has no artifact {name!r}")

@@ -8,9 +8,9 @@ from fastapi import APIRouter, Request
 from fastapi.responses import PlainTextResponse
 from sqlalchemy import select, text
 
-from foresight.api.db import queue
 from foresight.api.deps import EngineDep, SettingsDep
 from foresight.api.schemas import Health, WorkerPublic, WorkersPublic, iso
+from foresight.store import queue
 from foresight.worker.kinds import KINDS
 
 router = APIRouter(tags=["operations"])  #: always open (liveness probes carry no token)

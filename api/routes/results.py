@@ -7,11 +7,11 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Query
 from sqlalchemy import select
 
-from foresight.api.db import queue
-from foresight.api.db.models import Campaign, CampaignCell, Dataset, Evaluation, FailureTaxonomy, GateResult
 from foresight.api.deps import SessionDep, SettingsDep
 from foresight.api.errors import responses
 from foresight.api.schemas import CampaignPublic, DatasetPublic, EvaluationPublic, Ident
+from foresight.store import queue
+from foresight.store.models import Campaign, CampaignCell, Dataset, Evaluation, FailureTaxonomy, GateResult
 
 router = APIRouter(tags=["results"])
 

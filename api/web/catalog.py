@@ -9,13 +9,12 @@ from fastapi import APIRouter, Depends, Query, Request
 from fastapi.responses import FileResponse, HTMLResponse
 from sqlalchemy import select
 
-from foresight.api import store
-from foresight.api.db import queue
-from foresight.api.db.models import Bundle, Campaign, Evaluation, Model
 from foresight.api.web import files, previews
 from foresight.api.web.auth import PageNotFound, read_access
 from foresight.api.web.render import page
 from foresight.core.errors import NotFoundError
+from foresight.store import folders, queue
+from foresight.store.models import Bundle, Campaign, Evaluation, Model
 
 router = APIRouter(prefix="/ui", include_in_schema=False, dependencies=[Depends(read_access)])
 RESULT_KINDS = {"evaluate": "Evaluations", "campaign": "Campaigns", "diagnose": "Diagnostics",
@@ -90,7 +89,7 @@ def _matrix(request: Request, bundle_id: str, matrix: str):  # noqa: ANN202
     if matrix not in row.scenarios:
         raise PageNotFound(f"bundle {bundle_id} has no scenario matrix {matrix}")
     root = request.app.state.resolver.bundle_root(row)
-    return row, previews.load_matrix_cached(store.resolve_under(root, matrix))
+    return row, previews.load_matrix_cached(folders.resolve_under(root, matrix))
 
 
 MatrixQuery = Annotated[str, Query(min_length=1, max_length=500)]

@@ -14,10 +14,9 @@ from fastapi import APIRouter, Depends, Request
 from fastapi import Path as PathParam
 from fastapi.responses import FileResponse
 
-from foresight.api import store
-from foresight.api.db import queue
 from foresight.api.web.auth import PageNotFound, read_access
 from foresight.api.web.render import HERE
+from foresight.store import folders, queue
 
 router = APIRouter(include_in_schema=False)
 STATIC = HERE / "static"
@@ -28,7 +27,7 @@ HTML_POLICY = "default-src 'self'; script-src 'none'; object-src 'none'; style-s
 
 def job_folder(request: Request, job_id: str) -> Path:
     root = request.app.state.settings.store_root
-    return store.resolve_under(root, store.job_dir(root, job_id))
+    return folders.resolve_under(root, folders.job_dir(root, job_id))
 
 
 def report_of(request: Request, job_id: str) -> str | None:
@@ -46,7 +45,7 @@ def read_job_file(request: Request, job_id: Annotated[str, PathParam(max_length=
     except queue.JobNotFound:
         raise PageNotFound(f"no job {job_id}") from None
     folder = job_folder(request, job_id)
-    path = store.resolve_under(folder, name)
+    path = folders.resolve_under(folder, name)
     if not path.is_file():
         raise PageNotFound(f"job {job_id} has no file {name}")
     media = mimetypes.guess_type(path.name)[0] or "application/octet-stream"

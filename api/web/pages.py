@@ -9,11 +9,11 @@ from fastapi import APIRouter, Depends, Query, Request
 from fastapi.responses import HTMLResponse, RedirectResponse
 from sqlalchemy import func, select
 
-from foresight.api.db import queue
-from foresight.api.db.models import JobStatus
 from foresight.api.web import catalog, files
 from foresight.api.web.auth import PageNotFound, read_access
 from foresight.api.web.render import page
+from foresight.store import queue
+from foresight.store.models import JobStatus
 from foresight.worker.kinds import KINDS
 
 router = APIRouter(include_in_schema=False)

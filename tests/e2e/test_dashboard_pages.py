@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from foresight.api.db.session import upgrade
-from foresight.api.settings import Settings
+from foresight.store.session import upgrade
+from foresight.store.settings import Settings
 
 TOKEN = "pages-token"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}

@@ -8,8 +8,8 @@ from pathlib import Path
 
 from sqlalchemy import func, insert, select
 
-from foresight.api.db import queue
-from foresight.api.db.session import make_engine, write_tx
+from foresight.store import queue
+from foresight.store.session import make_engine, write_tx
 
 from .service import Service
 

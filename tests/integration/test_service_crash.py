@@ -7,8 +7,8 @@ import time
 
 from sqlalchemy import select
 
-from foresight.api.db import queue
-from foresight.api.db.session import make_engine
+from foresight.store import queue
+from foresight.store.session import make_engine
 
 from .service import Service
 

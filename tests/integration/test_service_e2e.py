@@ -78,7 +78,7 @@ def test_up_submit_follow_and_read_back(service: Service) -> None:
     assert up.wait(timeout=30) == 0
     with service.client() as _:
         pass
-    from foresight.api.db.session import make_engine
+    from foresight.store.session import make_engine
 
     engine = make_engine(f"sqlite:///{service.tmp / 'data' / 'foresight.db'}")
     with engine.connect() as conn:

@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from foresight.api.db.session import make_engine, upgrade
-from foresight.api.settings import Settings
+from foresight.store.session import make_engine, upgrade
+from foresight.store.settings import Settings
 
 
 @pytest.fixture

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from foresight.api.db.session import make_engine, upgrade
-from foresight.api.settings import Settings
+from foresight.store.session import make_engine, upgrade
+from foresight.store.settings import Settings
 
 TOKEN = "test-token"
 

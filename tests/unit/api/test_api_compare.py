@@ -6,7 +6,7 @@ import time
 
 from sqlalchemy import insert
 
-from foresight.api.db.models import Campaign, CampaignCell, Evaluation
+from foresight.store.models import Campaign, CampaignCell, Evaluation
 
 
 def _rate(k: int, n: int, low: float, high: float) -> dict:

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from foresight.api.settings import Settings, parse_data_roots
+from foresight.store.settings import Settings, parse_data_roots
 
 
 @pytest.fixture

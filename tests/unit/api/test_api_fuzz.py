@@ -99,7 +99,7 @@ def test_no_input_breaks_the_server(client, auth, seed: int) -> None:  # noqa: A
 
 
 def test_events_stream(client, auth, engine) -> None:  # noqa: ANN001
-    from foresight.api.db import queue
+    from foresight.store import queue
 
     job = client.post("/v1/jobs", json={"spec": {"kind": "sleep"}}, headers=auth).json()
     c = queue.claim(engine, "w", ["sleep"], 30)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from foresight.api.db import queue
+from foresight.store import queue
 
 SLEEP = {"spec": {"kind": "sleep"}}
 
@@ -122,12 +122,12 @@ def test_cancel_retry_delete_rules(client, auth, engine) -> None:  # noqa: ANN00
 
 
 def _finish_with_artifact(engine, settings, job_id: str, name: str = "out/a.txt") -> None:  # noqa: ANN001
-    from foresight.api import store
+    from foresight.store import folders
 
     c = queue.claim(engine, "w", ["sleep"], 30)
-    rel = f"{store.job_dir(settings.store_root, job_id)}/{name}"
-    store.write_atomic(store.resolve_under(settings.store_root, rel), b"hello")
-    queue.finish(engine, job_id, "w", c["attempts"], {}, store.scan(settings.store_root, store.job_dir(settings.store_root, job_id)))
+    rel = f"{folders.job_dir(settings.store_root, job_id)}/{name}"
+    folders.write_atomic(folders.resolve_under(settings.store_root, rel), b"hello")
+    queue.finish(engine, job_id, "w", c["attempts"], {}, folders.scan(settings.store_root, folders.job_dir(settings.store_root, job_id)))
 
 
 def test_artifact_download_and_traversal(client, auth, engine, settings) -> None:  # noqa: ANN001

@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 import yaml
 
-from foresight.api.settings import REPO_ROOT
 from foresight.core.errors import CoreError
+from foresight.store.settings import REPO_ROOT
 
 CONFIGS = REPO_ROOT / "configs"
 
@@ -127,16 +127,15 @@ def test_shipped_models_are_read_only(tmp_path: Path, settings, auth) -> None:  
 
 
 def test_register_promote_delete(client, auth, engine, settings) -> None:  # noqa: ANN001
-    from foresight.api import store
-    from foresight.api.db import queue
+    from foresight.store import folders, queue
 
     job = client.post("/v1/jobs", json={"spec": {"kind": "sleep"}}, headers=auth).json()
     body = {"id": "m1", "job_id": job["id"], "artifact": "ckpt.pt"}
     assert client.post("/v1/models", json=body, headers=auth).status_code == 409  # job not finished
     c = queue.claim(engine, "w", ["sleep"], 30)
     rel = f"jobs/{job['id']}/ckpt.pt"
-    store.write_atomic(store.resolve_under(settings.store_root, rel), b"w")
-    queue.finish(engine, job["id"], "w", c["attempts"], {}, store.scan(settings.store_root, f"jobs/{job['id']}"))
+    folders.write_atomic(folders.resolve_under(settings.store_root, rel), b"w")
+    queue.finish(engine, job["id"], "w", c["attempts"], {}, folders.scan(settings.store_root, f"jobs/{job['id']}"))
     assert client.post("/v1/models", json={**body, "artifact": "../x"}, headers=auth).status_code == 422
     assert client.post("/v1/models", json={**body, "artifact": "nope.pt"}, headers=auth).status_code == 404
     created = client.post("/v1/models", json=body, headers=auth)

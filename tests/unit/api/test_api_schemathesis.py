@@ -24,9 +24,9 @@ from hypothesis.errors import Unsatisfiable
 from schemathesis import GenerationMode
 from schemathesis.specs.openapi.checks import positive_data_acceptance
 
-from foresight.api.db import queue
 from foresight.api.main import create_app
-from foresight.api.settings import Settings
+from foresight.store import queue
+from foresight.store.settings import Settings
 from tests.unit.api.conftest import TOKEN
 
 AUTH = {"Authorization": f"Bearer {TOKEN}"}

@@ -8,7 +8,7 @@ import threading
 
 from sqlalchemy import func, select
 
-from foresight.api.db import queue
+from foresight.store import queue
 
 
 def _stored(engine) -> tuple[dict[str, dict], dict[str, int]]:  # noqa: ANN001

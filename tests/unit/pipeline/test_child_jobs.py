@@ -9,15 +9,14 @@ import time
 import pytest
 from sqlalchemy import update
 
-from foresight.api import store
-from foresight.api.db import queue
-from foresight.api.db.session import write_tx
-from foresight.api.registry import Resolver
-from foresight.api.settings import Settings
 from foresight.core.errors import CoreError
 from foresight.core.pipeline.config import load_pipeline_config
 from foresight.core.stages.context import Cancelled, StageContext
 from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.store import folders, queue
+from foresight.store.registry import Resolver
+from foresight.store.session import write_tx
+from foresight.store.settings import Settings
 from foresight.worker.pipeline import ChildJobs, worker_services
 
 
@@ -28,7 +27,7 @@ class Parent:
         queue.submit(engine, kind="pipeline", spec={"kind": "pipeline"})
         self.job = queue.claim(engine, "worker-1", ["pipeline"], 30.0)
         self.cancelled = False
-        workdir = store.resolve_under(settings.store_root, store.job_dir(settings.store_root, self.job["id"]))
+        workdir = folders.resolve_under(settings.store_root, folders.job_dir(settings.store_root, self.job["id"]))
         workdir.mkdir(parents=True)
         self.ctx = StageContext(workdir=workdir, is_cancelled=lambda: self.cancelled,
                                 resolve_bundle=Resolver(settings, engine).bundle)
@@ -113,8 +112,8 @@ def test_cancelling_the_pipeline_cancels_the_running_child(settings, engine) -> 
 
 
 def test_register_then_promote_in_the_registry(settings, engine) -> None:  # noqa: ANN001
-    from foresight.api.db.models import Model
-    from foresight.api.db.session import session_factory
+    from foresight.store.models import Model
+    from foresight.store.session import session_factory
 
     parent = Parent(settings, engine)
     children = parent.children()
@@ -139,7 +138,7 @@ def test_register_then_promote_in_the_registry(settings, engine) -> None:  # noq
 def test_the_pipeline_verdict_is_recorded_as_gate_rows(settings, engine) -> None:  # noqa: ANN001
     from sqlalchemy import select
 
-    from foresight.api.db.models import GateResult
+    from foresight.store.models import GateResult
     from foresight.worker.pipeline import record_gates
 
     parent = Parent(settings, engine)

@@ -7,7 +7,7 @@ from collections.abc import Callable, Iterator
 
 import pytest
 
-from foresight.api.settings import Settings
+from foresight.store.settings import Settings
 
 
 @pytest.fixture

@@ -10,10 +10,9 @@ from typing import Any
 import pytest
 from sqlalchemy import select
 
-from foresight.api import store
-from foresight.api.db import queue
-from foresight.api.db.models import Campaign, CampaignCell, Evaluation
-from foresight.api.registry import sync_bundles
+from foresight.store import folders, queue
+from foresight.store.models import Campaign, CampaignCell, Evaluation
+from foresight.store.registry import sync_bundles
 from tests.results import without
 
 #: wall-clock values: planner timing, run time, the code version (the git head moves while tests run)
@@ -79,7 +78,7 @@ def test_one_worker_runs_a_sharded_evaluation_alone_with_the_unsharded_result(se
     assert _strip(rows[parent_id].metrics) == _strip(rows[whole["id"]].metrics)
     assert _strip(rows[parent_id].per_scenario) == _strip(rows[whole["id"]].per_scenario)
     assert {"evaluation.json", "episodes.jsonl", "report.html"} <= names
-    folder = store.resolve_under(settings.store_root, store.job_dir(settings.store_root, parent_id))
+    folder = folders.resolve_under(settings.store_root, folders.job_dir(settings.store_root, parent_id))
     assert len((folder / "episodes.jsonl").read_text().splitlines()) == 6
 
 
@@ -134,15 +133,15 @@ def test_cancelling_the_parent_cancels_its_shards_and_a_retry_reuses_the_finishe
 
 def test_a_pipeline_stage_may_be_sharded(settings, engine) -> None:  # noqa: ANN001
     """The pipeline's evaluate child with shards: children of a child, all run in the pipeline's one slot."""
-    from foresight.api.registry import Resolver
     from foresight.core.pipeline.config import load_pipeline_config
     from foresight.core.stages.context import StageContext
     from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+    from foresight.store.registry import Resolver
     from foresight.worker.pipeline import ChildJobs
 
     queue.submit(engine, kind="pipeline", spec={"kind": "pipeline"})
     job = queue.claim(engine, "worker-1", ["pipeline"], 30.0)
-    workdir = store.resolve_under(settings.store_root, store.job_dir(settings.store_root, job["id"]))
+    workdir = folders.resolve_under(settings.store_root, folders.job_dir(settings.store_root, job["id"]))
     workdir.mkdir(parents=True)
     ctx = StageContext(workdir=workdir, resolve_bundle=Resolver(settings, engine).bundle)
     children = ChildJobs(ctx, load_pipeline_config(BUILTIN_CONFIG_ROOT / "pipelines" / "smoke.yaml"))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from foresight.api.db import queue
+from foresight.store import queue
 
 
 def _finish(engine, spec: dict, timeout: float = 120.0) -> dict:  # noqa: ANN001

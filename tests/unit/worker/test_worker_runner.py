@@ -6,7 +6,7 @@ import time
 
 import pytest
 
-from foresight.api.db import queue
+from foresight.store import queue
 
 
 def _wait(engine, job_id: str, statuses: set[str], timeout: float = 10.0) -> dict:  # noqa: ANN001

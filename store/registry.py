@@ -20,11 +20,11 @@ from typing import Any
 import yaml
 from sqlalchemy import Engine, select
 
-from foresight.api import store
-from foresight.api.db.models import Bundle, Dataset, Model, ModelStatus
-from foresight.api.db.session import session_factory
-from foresight.api.settings import Settings
 from foresight.core.errors import ConfigError, CoreError, NotFoundError
+from foresight.store import folders
+from foresight.store.models import Bundle, Dataset, Model, ModelStatus
+from foresight.store.session import session_factory
+from foresight.store.settings import Settings
 
 logger = logging.getLogger(__name__)
 
@@ -108,7 +108,7 @@ def load_shipped_models(engine: Engine, settings: Settings) -> list[str]:
             if row is None:
                 row = Model(id=entry["id"], created_at=time.time())
                 session.add(row)
-            row.checkpoint = store.check_relative(str(entry["path"]))
+            row.checkpoint = folders.check_relative(str(entry["path"]))
             row.sha256, row.read_only = str(entry["sha256"]), True
             tags = entry.get("tags", [])
             row.status = entry.get("status", ModelStatus.default.value if "default" in tags else ModelStatus.promoted.value)
@@ -193,12 +193,12 @@ def save_upload(engine: Engine, settings: Settings, ident: str, data: bytes) -> 
         root = Path(tmp).resolve()
         for name, content in members:
             try:
-                rel = store.check_relative(name)
-            except store.UnsafePath as exc:
+                rel = folders.check_relative(name)
+            except folders.UnsafePath as exc:
                 raise ConfigError(str(exc), source="upload", item=name) from None
             if Path(rel).suffix not in BUNDLE_SUFFIXES:
                 raise ConfigError(f"file type not allowed (allowed: {sorted(BUNDLE_SUFFIXES)})", source="upload", item=rel)
-            store.write_atomic(store.resolve_under(root, rel), content)
+            folders.write_atomic(folders.resolve_under(root, rel), content)
         files = bundle_files(root)
         for rel in files:
             if rel.endswith((".yaml", ".yml")):
@@ -215,13 +215,13 @@ def save_upload(engine: Engine, settings: Settings, ident: str, data: bytes) -> 
             except CoreError as exc:
                 raise ConfigError(str(exc), source=rel) from None
         stored = f"bundles/{ident}"
-        dest = store.resolve_under(settings.store_root, stored)
+        dest = folders.resolve_under(settings.store_root, stored)
         if dest.exists():
             raise FileExistsError(ident)
         dest.parent.mkdir(parents=True, exist_ok=True)
         staging = Path(tempfile.mkdtemp(prefix=f".{ident}.", dir=dest.parent))
         for rel in files:
-            store.write_atomic(staging / rel, (root / rel).read_bytes())
+            folders.write_atomic(staging / rel, (root / rel).read_bytes())
         staging.rename(dest)
     _put_bundle(engine, ident, "upload", dest, stored, hashlib.sha256(data).hexdigest())
     with session_factory(engine)() as session:
@@ -241,7 +241,7 @@ class Resolver:
 
     def bundle_root(self, row: Bundle) -> Path:
         if row.source == "upload":
-            return store.resolve_under(self.settings.store_root, row.root)
+            return folders.resolve_under(self.settings.store_root, row.root)
         return Path(row.root)
 
     def bundle(self, ident: str) -> Path:
@@ -256,12 +256,12 @@ class Resolver:
             row = session.get(Dataset, ident)
         if row is None:
             raise NotFoundError(f"unknown dataset id {ident!r}")
-        return store.resolve_under(self.settings.store_root, row.path)
+        return folders.resolve_under(self.settings.store_root, row.path)
 
     def model_path(self, row: Model) -> Path:
         if row.read_only:  # paths in model/registry.yaml are relative to the repository (the file's grandparent)
-            return store.resolve_under(self.settings.model_registry.resolve().parent.parent, row.checkpoint)
-        return store.resolve_under(self.settings.store_root, row.checkpoint)
+            return folders.resolve_under(self.settings.model_registry.resolve().parent.parent, row.checkpoint)
+        return folders.resolve_under(self.settings.store_root, row.checkpoint)
 
     def model(self, ident: str) -> Path:
         """The checkpoint of a registered model, after checking its sha256; ``default`` names the default
@@ -280,7 +280,7 @@ class Resolver:
             raise NotFoundError(f"model {ident!r}: checkpoint {row.checkpoint} is missing")
         stat = path.stat()
         if self._verified.get(ident) != (stat.st_mtime, stat.st_size):
-            if store.sha256_file(path) != row.sha256:
+            if folders.sha256_file(path) != row.sha256:
                 raise CoreError(f"model {ident!r}: checkpoint {row.checkpoint} does not match its sha256")
             self._verified[ident] = (stat.st_mtime, stat.st_size)
         return path
@@ -288,7 +288,7 @@ class Resolver:
 
 def models_using(engine: Engine, model_id: str) -> list[str]:
     """Ids of records that use a model (evaluations)."""
-    from foresight.api.db.models import Evaluation
+    from foresight.store.models import Evaluation
 
     with session_factory(engine)() as session:
         return list(session.scalars(select(Evaluation.id).where(Evaluation.model_id == model_id)))

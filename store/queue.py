@@ -37,8 +37,8 @@ from sqlalchemy import (
 )
 from sqlalchemy.exc import IntegrityError
 
-from foresight.api.db.models import FINISHED, Artifact, Job, JobEvent, JobStatus, Worker
-from foresight.api.db.session import is_sqlite, write_tx
+from foresight.store.models import FINISHED, Artifact, Job, JobEvent, JobStatus, Worker
+from foresight.store.session import is_sqlite, write_tx
 
 jobs = Job.__table__
 events = JobEvent.__table__

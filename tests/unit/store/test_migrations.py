@@ -10,8 +10,8 @@ import pytest
 from alembic.autogenerate import compare_metadata
 from alembic.migration import MigrationContext
 
-from foresight.api.db.models import Base
-from foresight.api.db.session import NotMigratedError, check_migrated, make_engine, upgrade
+from foresight.store.models import Base
+from foresight.store.session import NotMigratedError, check_migrated, make_engine, upgrade
 
 PG_ADMIN = "postgresql+psycopg://postgres@127.0.0.1:5432/test"
 
@@ -38,7 +38,7 @@ def test_sqlite_head_matches_models(tmp_path: Path) -> None:
 )  # fmt: skip
 def test_job_list_pages_are_read_off_an_index(tmp_path: Path, filters: dict, index: str) -> None:
     """The job list's page query walks an index in its order: no temporary B-tree sorts every matching job."""
-    from foresight.api.db import queue
+    from foresight.store import queue
 
     url = f"sqlite:///{tmp_path / 'm.db'}"
     upgrade(url)
@@ -59,7 +59,7 @@ def test_unmigrated_database_is_refused(tmp_path: Path) -> None:
 
 def test_app_refuses_unmigrated_database(tmp_path: Path) -> None:
     from foresight.api.main import create_app
-    from foresight.api.settings import Settings
+    from foresight.store.settings import Settings
 
     with pytest.raises(NotMigratedError):
         create_app(Settings(data_dir=tmp_path, api_token="t"))

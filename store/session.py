@@ -24,8 +24,12 @@ from sqlalchemy.orm import Session, sessionmaker
 
 from foresight.core.errors import CoreError
 
-MIGRATIONS_DIR = Path(__file__).resolve().parent.parent.parent / "migrations"
+MIGRATIONS_DIR = Path(__file__).resolve().parent.parent / "migrations"
 _IMMEDIATE = "foresight_immediate"
+
+
+#: database errors worth another attempt (a dropped connection, a lock held too long)
+TRANSIENT_ERRORS: tuple[type[BaseException], ...] = (OperationalError,)
 
 
 class NotMigratedError(CoreError, RuntimeError):

@@ -9,7 +9,7 @@ from typing import Any
 
 from sqlalchemy import Connection, insert, select
 
-from foresight.api.db.models import (
+from foresight.store.models import (
     Campaign,
     CampaignCell,
     Dataset,

@@ -6,7 +6,7 @@ import time
 
 import pytest
 
-from foresight.api.db import queue
+from foresight.store import queue
 
 
 def _submit(engine, **kw):  # noqa: ANN001, ANN202

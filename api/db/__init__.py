@@ -1,1 +1,0 @@
-"""Database layer: table models, engine/session set-up, and the job-queue SQL."""
