@@ -27,7 +27,9 @@ class SimulationConfig(_Strict):
     difficulty: int = Field(default=0, ge=0)  #: accepted for reference compatibility; density is set directly
     max_peds_per_group: int = Field(default=3, ge=1, le=20)
     peds_speed_mult: float = Field(default=1.3, gt=0)  #: desired speed = mult x spawn speed (0.5 m/s) -> 0.65 m/s
-    ped_speed_tier: Literal["reference", "slow", "typical", "brisk"] = "reference"  #: realistic tiers ~1.3 m/s
+    #: desired speeds: reference = peds_speed_mult x 0.5 m/s; tiers draw from a normal (core.sim.params.SPEED_TIERS),
+    #: ``realistic`` = measured walking speeds N(1.34, 0.26) m/s
+    ped_speed_tier: Literal["reference", "slow", "typical", "brisk", "realistic"] = "reference"
     ped_radius: float = Field(default=0.4, gt=0)  #: collision radius [m]
     goal_radius: float = Field(default=1.0, ge=0)  #: robot goal tolerance = robot radius + this [m]
     route_spawn_distribution: Literal["cluster", "spread"] = "cluster"
@@ -37,6 +39,9 @@ class SimulationConfig(_Strict):
     zone_sampling: Literal["triangle", "full"] = "triangle"  #: triangle = the reference's half-rectangle reading
     peds_have_obstacle_forces: bool = True
     peds_have_robot_repulsion: bool = True
+    nonreactive_fraction: float = Field(default=0.0, ge=0, le=1)  #: share of peds that ignore the robot entirely
+    late_reaction_fraction: float = Field(default=0.0, ge=0, le=1)  #: share of the other peds that notice it late
+    late_reaction_distance: float = Field(default=2.0, gt=0)  #: centre distance at which a late ped reacts [m]
     population_size: int | None = Field(default=None, ge=0, le=5000)  #: force an exact route+zone ped count
     groups: float | None = Field(default=None, ge=0, le=1)  #: reference group_crossing share; read by no physics (like the reference)
 

@@ -15,7 +15,12 @@ differences:
 - a pedestrian's desired speed is a per-ped parameter: the reference froze it from the spawn
   velocity, so scripted peds spawned at rest (start delay, waits) could never move;
 - ``ped_speed_tier`` slow/typical/brisk draws desired speeds from N(0.65|1.3|1.6, 0.2) clipped to
-  [0.1, 3.0] m/s (the reference clips at 0); scripted peds keep 1.3 x their scripted speed;
+  [0.1, 3.0] m/s (the reference clips at 0); ``realistic`` from measured walking speeds, N(1.34, 0.26)
+  (``params.SPEED_TIERS``); scripted peds keep 1.3 x their scripted speed;
+- per scenario, a share of pedestrians ignores the robot (``nonreactive_fraction``) and a share of the
+  others notices it late, only within ``late_reaction_distance`` (``attention``); the reference has
+  every pedestrian feel the robot within 3.35 m;
+- replay scenarios (``Scenario.replay``) move recorded ETH/UCY pedestrians along their tracks (``replay``);
 - no pedestrian spawns (or respawns) within r_robot + r_ped + 0.5 m of the robot; the robot's
   start keeps the same distance from scripted peds and, where its zone allows, does not touch a
   wall (robot_sf starts some head-on corridor / T-intersection episodes in collision); a group

@@ -35,7 +35,9 @@ class CrowdDynamics:
     def __init__(
         self, crowd: CrowdArrays, walls: SegmentSet, params: ForceParams, crowd_params: CrowdParams, *,
         dt: float, robot_radius: float, obstacle_forces: bool, robot_repulsion: bool, semi_implicit: bool,
+        robot_reach: np.ndarray | None = None,
     ):
+        """``robot_reach`` (N,): per-ped robot reaction range [m] (``core.sim.attention``); None = the force's cutoff."""
         self.c = crowd
         self.walls = walls
         self.p = params
@@ -43,7 +45,11 @@ class CrowdDynamics:
         self.dt = dt
         self.robot_radius = robot_radius
         self.obstacle_forces = obstacle_forces and len(walls) > 0
-        self.robot_repulsion = robot_repulsion
+        cutoff = params.robot_cutoff(robot_radius)
+        if robot_reach is not None and (robot_reach >= cutoff).all():
+            robot_reach = None  # everyone reacts at the cutoff: the scalar test is the same and cheaper
+        self.robot_reach = robot_reach
+        self.robot_repulsion = robot_repulsion and (robot_reach is None or bool((robot_reach > 0).any()))
         self.semi_implicit = semi_implicit
         n = len(crowd.pos)
         self.n = n
@@ -85,7 +91,7 @@ class CrowdDynamics:
             f += forces.group_repulsion_force(c.z, self.gi, self.gj, p)
             f += forces.group_gaze_force(c.z, c.zgoal, cent, self.member_n, p)
         if self.robot_repulsion:
-            f += forces.robot_force(c.z, robot, self.robot_radius, p)
+            f += forces.robot_force(c.z, robot, self.robot_radius, p, self.robot_reach)
         return f, clearance
 
     def step(self, robot: complex, centroids: np.ndarray | None = None) -> None:

@@ -141,11 +141,16 @@ def group_gaze_force(z: np.ndarray, goal: np.ndarray, centroid: np.ndarray, n: n
     return g * (p.group_gaze_factor * k)
 
 
-def robot_force(z: np.ndarray, robot: complex, robot_radius: float, p: ForceParams) -> np.ndarray:
-    """Repulsion from the robot centre x_r: factor * unit(x - x_r) / d^3 within the hard cutoff."""
+def robot_force(
+    z: np.ndarray, robot: complex, robot_radius: float, p: ForceParams, reach: np.ndarray | None = None
+) -> np.ndarray:
+    """Repulsion from the robot centre x_r: factor * unit(x - x_r) / d^3 within the hard cutoff.
+
+    ``reach`` (N,): each ped's own cutoff instead [m] (``core.sim.attention``; 0 = ignores the robot).
+    """
     r = z - robot
     d = norm(r)
-    active = (d <= p.robot_cutoff(robot_radius)) & (d > 0)
+    active = (d <= (p.robot_cutoff(robot_radius) if reach is None else reach)) & (d > 0)
     if not active.any():
         return np.zeros(len(z), dtype=complex)
     return r * np.where(active, p.robot_factor / np.maximum(d, 1e-6) ** 4, 0.0)  # unit(r) / d^3 = r / d^4

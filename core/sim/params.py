@@ -69,7 +69,6 @@ class CrowdParams:
     cluster_clip: float = 1.5  #: lateral spawn offsets clipped to +-this [m]
     route_threshold: float = 1.0  #: group-centroid waypoint proximity [m]
     single_threshold: float = 0.2  #: single-ped waypoint proximity [m]
-    tier_std: float = 0.2  #: std of the desired-speed tiers [m/s]
     tier_clip: tuple[float, float] = (0.1, 3.0)  #: desired-speed tier range [m/s]
     robot_spawn_margin: float = 0.5  #: extra clearance of spawning peds beyond collision distance [m]
     #: half-angle [deg] of the cone ahead of a moving robot in which (re)spawns also keep clear of its
@@ -80,4 +79,11 @@ class CrowdParams:
     dense_pair_limit: int = 64  #: up to this many peds the (N, N) grid, above a cell list (measured crossover 50-80)
 
 
-TIER_MEANS = {"slow": 0.65, "typical": 1.3, "brisk": 1.6}  #: desired-speed tier means [m/s]
+#: desired-speed tiers: (mean, std) of a normal clipped to ``CrowdParams.tier_clip`` [m/s]. slow/typical/brisk
+#: are the reference's tiers (robot_sf ``pedestrian_speed_tiers``, std 0.2). ``realistic`` is the free walking
+#: speed of pedestrians measured in the field: mean 1.34 m/s, standard deviation 0.26 m/s (U. Weidmann,
+#: "Transporttechnik der Fussgaenger", Schriftenreihe des IVT Nr. 90, ETH Zuerich, 1993, from 58 studies; the
+#: values Helbing & Molnar, Phys. Rev. E 51:4282, 1995, use for social-force desired speeds).
+SPEED_TIERS: dict[str, tuple[float, float]] = {
+    "slow": (0.65, 0.2), "typical": (1.3, 0.2), "brisk": (1.6, 0.2), "realistic": (1.34, 0.26),
+}

@@ -14,7 +14,7 @@ import numpy as np
 from foresight.core.errors import ConfigError
 from foresight.core.maps.model import MapDef, SinglePedestrian
 from foresight.core.scenarios.model import ResolvedScenario, SimulationConfig
-from foresight.core.sim.params import TIER_MEANS, CrowdParams
+from foresight.core.sim.params import SPEED_TIERS, CrowdParams
 from foresight.core.sim.zones import RouteGeometry, Validator, sample_free, sample_zone
 
 
@@ -81,10 +81,11 @@ def group_sizes(n: int, max_size: int, rng: np.random.Generator, decay: float) -
 
 
 def desired_speeds(n: int, cfg: SimulationConfig, crowd: CrowdParams, rng: np.random.Generator) -> np.ndarray:
-    """Per-ped desired speed (n,) [m/s]: peds_speed_mult x spawn speed, or a clipped normal speed tier."""
+    """Per-ped desired speed (n,) [m/s]: peds_speed_mult x spawn speed, or a clipped normal speed tier (SPEED_TIERS)."""
     if cfg.ped_speed_tier == "reference":
         return np.full(n, cfg.peds_speed_mult * crowd.spawn_speed)
-    v = rng.normal(TIER_MEANS[cfg.ped_speed_tier], crowd.tier_std, size=n)
+    mean, std = SPEED_TIERS[cfg.ped_speed_tier]
+    v = rng.normal(mean, std, size=n)
     return np.clip(v, *crowd.tier_clip)
 
 

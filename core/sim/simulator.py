@@ -17,6 +17,7 @@ import numpy as np
 
 from foresight.core.errors import CoreError
 from foresight.core.scenarios.model import ResolvedScenario
+from foresight.core.sim.attention import reaction_ranges
 from foresight.core.sim.behaviours import CrowdArrays, CrowdedZones, RouteFollowing, SingleScripts
 from foresight.core.sim.collision import StaticChecker, ped_contact
 from foresight.core.sim.crowd import CrowdDynamics
@@ -96,7 +97,7 @@ class Simulator:
         self.limits = RobotLimits.from_config(rcfg)
         self.limits_dict = self.limits.as_dict()
         self.ped_radius = cfg.ped_radius
-        robot_rng, pop_rng, spread_rng, self.rng = episode_generators(scenario.name, seed, 4)
+        robot_rng, pop_rng, spread_rng, self.rng, attention_rng = episode_generators(scenario.name, seed, 5)
         if cfg.route_spawn_seed is not None:
             spread_rng = episode_generators(scenario.name, cfg.route_spawn_seed, 4)[2]
         self.clear = self.limits.radius + cfg.ped_radius + self.crowd_params.robot_spawn_margin
@@ -113,9 +114,11 @@ class Simulator:
         pop = build_population(map_def, cfg, self.crowd_params, pop_rng, spread_rng,
                                lambda pts: self._free(pts, self.robot[None, :2]))
         pop.pos = self.static.push_off_edges(pop.pos, 2 * self.crowd_params.wall_clearance)
-        self._build_crowd(pop, map_def)
+        reach = reaction_ranges(pop.n, cfg, self.force_params.robot_cutoff(self.limits.radius), attention_rng)
+        self._build_crowd(pop, map_def, reach)
         self._trace = Trace(self.horizon, pop.n, dt=self.dt, scenario=scenario.name, seed=seed,
-                            meta={"code_version": code_version(), "map": map_def.name, "n_peds": pop.n})
+                            meta={"code_version": code_version(), "map": map_def.name, "n_peds": pop.n,
+                                  "n_nonreactive": int((reach == 0).sum())})
         self.static_check = StaticChecker(self.static, self.limits.radius)
         self.t = 0
         self.done = False
@@ -139,7 +142,7 @@ class Simulator:
                                       self.crowd_params.robot_spawn_cone_deg)
         return ok
 
-    def _build_crowd(self, pop, map_def) -> None:
+    def _build_crowd(self, pop, map_def, robot_reach: np.ndarray) -> None:
         cfg, cp = self.cfg, self.crowd_params
         self.crowd = CrowdArrays(pop)
         self.routes = RouteFollowing(pop, map_def, cp.route_threshold, cfg.zone_sampling)
@@ -150,7 +153,7 @@ class Simulator:
         self.dynamics = CrowdDynamics(
             self.crowd, self.static.walls, self.force_params, cp, dt=self.dt, robot_radius=self.limits.radius,
             obstacle_forces=cfg.peds_have_obstacle_forces, robot_repulsion=cfg.peds_have_robot_repulsion,
-            semi_implicit=cfg.pedestrian_integration_scheme == "semi_implicit_euler",
+            semi_implicit=cfg.pedestrian_integration_scheme == "semi_implicit_euler", robot_reach=robot_reach,
         )
 
     def step(self, command) -> tuple[Observation, Events]:

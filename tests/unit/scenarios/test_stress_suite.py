@@ -1,0 +1,45 @@
+"""The stress suite (configs/scenarios/stress.yaml) and its training seeds: complete, realistic, disjoint."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+from foresight.core.scenarios.loader import load_matrix
+from foresight.core.scenarios.seeds import load_seed_manifest
+
+REPO = Path(__file__).resolve().parents[3]
+MATRIX = REPO / "configs" / "scenarios" / "stress.yaml"
+TRAIN = REPO / "configs" / "seeds" / "stress_train.yaml"
+ARCHETYPES = {"crossing", "cross_trap", "head_on_corridor", "overtaking", "bottleneck", "doorway", "merging",
+              "t_intersection", "group_crossing", "station_platform", "urban_crossing"}
+
+
+def test_synthetic_part_is_every_archetype_at_realistic_speed_and_both_shares() -> None:
+    m = load_matrix(MATRIX)
+    synthetic = [s for s in m.scenarios if not s.name.startswith("replay_")]
+    cells = {(s.scenario.archetype, s.scenario.simulation_config.nonreactive_fraction) for s in synthetic}
+    assert cells == {(a, f) for a in ARCHETYPES for f in (0.3, 1.0)} and len(synthetic) == 22
+    for s in synthetic:
+        cfg = s.scenario.simulation_config
+        assert cfg.ped_speed_tier == "realistic" and cfg.ped_density == 0.05 and cfg.peds_have_robot_repulsion
+        assert len(set(s.scenario.seeds)) == 10
+
+
+def test_training_seeds_cover_the_synthetic_scenarios_and_never_an_evaluation_seed() -> None:
+    m = load_matrix(MATRIX)
+    train = load_seed_manifest(TRAIN, m)
+    synthetic = {s.name for s in m.scenarios if not s.name.startswith("replay_")}
+    assert set(train.scenario_names) == synthetic
+    for name in synthetic:
+        assert len(train.seeds[name]) == 10
+        assert not set(train.seeds[name]) & set(m.get(name).scenario.seeds)
+
+
+def test_files_are_what_the_generator_writes(tmp_path: Path) -> None:
+    spec = importlib.util.spec_from_file_location("make_stress_suite", REPO / "bench" / "make_stress_suite.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    module.main(["--out", str(tmp_path / "stress.yaml"), "--train-out", str(tmp_path / "train.yaml")])
+    assert (tmp_path / "stress.yaml").read_text() == MATRIX.read_text()
+    assert (tmp_path / "train.yaml").read_text() == TRAIN.read_text()
