@@ -122,7 +122,7 @@ def geometry_of(scenario: ResolvedScenario, sim: Any) -> EpisodeGeometry:
     """Radii, horizon and route of the episode just run (the simulator sampled the route)."""
     return EpisodeGeometry(robot_radius=float(sim.limits.radius), ped_radius=float(sim.ped_radius),
                            horizon=int(sim.horizon), route=np.asarray(sim.route.waypoints, dtype=float),
-                           goal_tolerance=float(sim.route.tolerance))
+                           goal_tolerance=float(sim.route.tolerance), limits=sim.limits, static=sim.static)
 
 
 def fallback_of(rp: ResolvedPlanner, sources: set[str]) -> str | None:

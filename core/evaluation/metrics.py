@@ -14,6 +14,9 @@ from typing import Any, Protocol
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from foresight.core.sim.observation import StaticGeometry
+from foresight.core.sim.robot import RobotLimits
+
 
 class TraceLike(Protocol):
     """The parts of ``core.sim.trace.Trace`` the metrics read (see docs/architecture.md)."""
@@ -48,6 +51,8 @@ class EpisodeGeometry:
     horizon: int  #: max_episode_steps
     route: np.ndarray  #: (K, 2) robot route waypoints, goal last [m]
     goal_tolerance: float = 0.0  #: [m]
+    limits: RobotLimits = RobotLimits()  #: the robot's dynamics (the taxonomy's escape check)
+    static: StaticGeometry | None = None  #: the map's obstacles and bounds, when known (escape check)
 
 
 @dataclass(frozen=True)
@@ -56,6 +61,7 @@ class Derived:
 
     steps: int
     dt: float
+    robot: np.ndarray  #: (T+1, 5) the trace's robot states x, y, heading, v, omega
     pos: np.ndarray  #: (T+1, 2)
     speed: np.ndarray  #: (T+1,) |v| state [m/s]
     omega: np.ndarray  #: (T+1,) [rad/s]
@@ -168,7 +174,7 @@ def derive(trace: TraceLike, geom: EpisodeGeometry) -> Derived:
     ttc = np.where(valid, time_to_collision(rel, ped_vel - vel[:, None, :], radius), np.inf)
     nearest = dist.min(axis=1) if dist.shape[1] else np.full(T + 1, np.inf)
     return Derived(
-        steps=T, dt=float(trace.dt), pos=pos, speed=np.abs(v), omega=robot[:, 4], vel=vel, dist=dist,
+        steps=T, dt=float(trace.dt), robot=robot, pos=pos, speed=np.abs(v), omega=robot[:, 4], vel=vel, dist=dist,
         nearest=nearest, clearance=nearest - radius,
         ttc=ttc.min(axis=1) if ttc.shape[1] else np.full(T + 1, np.inf),
         progress=route_progress(pos, _full_route(pos[0], geom.route)),

@@ -125,7 +125,8 @@ def build_record(
     success = outcome == "success"
     tax = classify(
         d, outcome, robot_radius=geom.robot_radius, ped_radius=geom.ped_radius, collision_kind=collision_kind,
-        collision_step=collision_step, prediction_error=prediction_error, cfg=taxonomy_cfg,
+        collision_step=collision_step, prediction_error=prediction_error, cfg=taxonomy_cfg, limits=geom.limits,
+        static=geom.static,
     )
     point = None if collision_point is None else tuple(float(x) for x in np.asarray(collision_point)[:2])
     return EpisodeRecord(

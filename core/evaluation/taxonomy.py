@@ -3,6 +3,12 @@
 Labels and default thresholds are those of the shared metrics-and-taxonomy.md; the thresholds live in
 :class:`TaxonomyConfig`, which every evaluation reports next to its taxonomy counts so that two
 taxonomies are only compared under the same definitions.
+
+A pedestrian collision is the planner's (``collision_pedestrian_robot_fault``) when the robot drove into
+the pedestrian (approach speed at contact above ``robot_fault_approach_speed``) or when an admissible
+robot motion from the moment the conflict became visible would have avoided it
+(``core.evaluation.escape``); only an unavoidable contact is ``collision_pedestrian_pedestrian_fault``.
+Standing still in the path of a pedestrian seen for seconds is therefore the robot's fault.
 """
 
 from __future__ import annotations
@@ -12,6 +18,7 @@ from typing import Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from foresight.core.evaluation.escape import escape_exists
 from foresight.core.evaluation.metrics import (
     Derived,
     no_progress_mask,
@@ -19,6 +26,8 @@ from foresight.core.evaluation.metrics import (
     time_to_collision,
     window_steps,
 )
+from foresight.core.sim.observation import StaticGeometry
+from foresight.core.sim.robot import RobotLimits
 
 Label = Literal[
     "collision_pedestrian_robot_fault",
@@ -54,6 +63,8 @@ class TaxonomyConfig(BaseModel):
     deadlock_progress: float = Field(default=0.05, ge=0)  #: route progress at most this ... [m]
     deadlock_window_s: float = Field(default=1.5, gt=0)  #: ... over this window = deadlock [s]
     prediction_miss_error: float = Field(default=1.0, gt=0)  #: mean predictor error on the involved ped above this [m]
+    fault_lookback_s: float = Field(default=3.0, gt=0)  #: the conflict is visible at most this long before contact [s]
+    fault_extension_s: float = Field(default=1.0, ge=0)  #: an escape must stay clear this long past the contact [s]
 
 
 class TaxonomyResult(BaseModel):
@@ -61,6 +72,8 @@ class TaxonomyResult(BaseModel):
     tags: list[Tag] = Field(default_factory=list)
     critical_ped_id: int | None = None  #: the pedestrian involved (collision, or closest approach)
     critical_step: int | None = None
+    avoidable: bool | None = None  #: pedestrian collisions: an admissible motion from the decision step avoids it
+    decision_step: int | None = None  #: pedestrian collisions: the state the escape check starts from
 
 
 def _critical(d: Derived, step: int | None) -> tuple[int, int] | None:
@@ -110,6 +123,15 @@ def _avoidance_start(d: Derived, t: int, slot: int, cfg: TaxonomyConfig) -> int:
     return first + k + int(reducing[0])
 
 
+def decision_step(d: Derived, t: int, slot: int, cfg: TaxonomyConfig) -> int:
+    """The state at which the conflict with the pedestrian in ``slot`` at ``t`` became visible: its first
+    recorded step in that slot (spawn), but at most ``fault_lookback_s`` before ``t``."""
+    first = max(0, t - window_steps(cfg.fault_lookback_s, d.dt))
+    same = d.ped_ids[first : t + 1, slot] == d.ped_ids[t, slot]
+    k = int(np.argmin(same[::-1])) if not same.all() else same.size  # trailing run of the same id
+    return t - k + 1 if k < same.size else first
+
+
 def _late_reaction(d: Derived, t: int, slot: int, cfg: TaxonomyConfig, radius: float) -> bool:
     s = _avoidance_start(d, t, slot, cfg)
     rel = d.ped_pos[s, slot] - d.pos[s]
@@ -137,16 +159,15 @@ def _oscillating(d: Derived, cfg: TaxonomyConfig) -> bool:
 
 
 def _primary(outcome: str, collision_kind: str | None, d: Derived, crit: tuple[int, int] | None,
-             cfg: TaxonomyConfig) -> Label | None:
+             cfg: TaxonomyConfig, avoidable: bool | None) -> Label | None:
     if outcome == "success":
         return None
     if outcome == "error":
         return "planner_error"
     if outcome == "collision_pedestrian":
-        if crit is None:
+        if crit is None or avoidable or approach_speed(d, *crit) > cfg.robot_fault_approach_speed:
             return "collision_pedestrian_robot_fault"
-        fast = approach_speed(d, *crit) > cfg.robot_fault_approach_speed
-        return "collision_pedestrian_robot_fault" if fast else "collision_pedestrian_pedestrian_fault"
+        return "collision_pedestrian_pedestrian_fault"
     if outcome == "collision_static":
         return "out_of_bounds" if collision_kind == "out_of_bounds" else "collision_static"
     if _freeze_time(d, cfg) >= cfg.freeze_min_s:
@@ -166,16 +187,26 @@ def classify(
     collision_step: int | None = None,
     prediction_error: dict[int, float] | None = None,
     cfg: TaxonomyConfig | None = None,
+    limits: RobotLimits | None = None,
+    static: StaticGeometry | None = None,
 ) -> TaxonomyResult:
     """Primary label (failed episodes) and tags (any episode) of one episode.
 
     ``prediction_error`` maps pedestrian id -> mean predictor displacement error [m] over the episode,
-    when the planner reported its predictions.
+    when the planner reported its predictions. ``limits`` (default: the reference robot) and ``static``
+    (the map, when known) bound the motions the escape check of a pedestrian collision may try.
     """
     cfg = cfg or TaxonomyConfig()
     ped_event = outcome == "collision_pedestrian"
     crit = _critical(d, collision_step if ped_event else None)
-    label = _primary(outcome, collision_kind, d, crit, cfg)
+    start = avoidable = None
+    if ped_event and crit is not None:
+        start = decision_step(d, *crit, cfg)
+        avoidable = escape_exists(
+            d.robot, d.ped_ids, d.ped_pos, d.ped_vel, start=start, contact=crit[0], dt=d.dt,
+            limits=limits or RobotLimits(), robot_radius=robot_radius, ped_radius=ped_radius,
+            extension_steps=int(round(cfg.fault_extension_s / d.dt)), static=static)
+    label = _primary(outcome, collision_kind, d, crit, cfg, avoidable)
     tags: list[Tag] = []
     near = (d.clearance >= 0) & (d.clearance < cfg.near_miss_clearance)
     if near.any():
@@ -189,7 +220,7 @@ def classify(
     if label is not None and no_progress_mask(d, cfg.deadlock_window_s, cfg.deadlock_progress).any():
         tags.append("deadlock")
     return TaxonomyResult(label=label, tags=tags, critical_ped_id=pid if close_call else None,
-                          critical_step=crit[0] if close_call else None)
+                          critical_step=crit[0] if close_call else None, avoidable=avoidable, decision_step=start)
 
 
 def count_labels(labels: list[str | None]) -> dict[str, int]:

@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from foresight.core.evaluation.metrics import derive
+from foresight.core.evaluation.metrics import EpisodeGeometry, derive
 from foresight.core.evaluation.taxonomy import LABELS, TaxonomyConfig, classify, count_labels
+from foresight.core.sim.robot import RobotLimits
 
 from .traces import DT, R_PED, R_ROBOT, braking, geometry, make_trace, still, straight
 
@@ -24,14 +25,19 @@ def test_robot_drives_into_a_standing_pedestrian_is_robot_fault() -> None:
     assert "late_reaction" in res.tags  # it never slowed down
 
 
-def test_pedestrian_walks_into_a_standing_robot_is_pedestrian_fault() -> None:
+def test_standing_still_while_a_walker_it_saw_for_seconds_walks_into_it_is_robot_fault() -> None:
+    # (this case was labelled pedestrian fault before issue 12: the robot never moved, yet it had 4.4 s to)
     tr = make_trace(still((0.0, 0.0), 44), [straight(5.0, -1.0, 44)], v=0.0, heading=np.zeros(45))
-    assert _classify(tr, "collision_pedestrian", collision_step=44).label == "collision_pedestrian_pedestrian_fault"
+    res = _classify(tr, "collision_pedestrian", collision_step=44)
+    assert res.label == "collision_pedestrian_robot_fault"
+    assert res.avoidable is True and res.decision_step == 44 - 30  # the 3 s look-back, not the spawn
 
 
 def test_slow_creep_into_a_pedestrian_is_below_the_fault_threshold() -> None:
     tr = make_trace(straight(4.0, 0.1, 14), [straight(6.0, -0.9, 14)])  # contact at step 14
-    assert _classify(tr, "collision_pedestrian", collision_step=14).label == "collision_pedestrian_pedestrian_fault"
+    res = _classify(tr, "collision_pedestrian", collision_step=14)
+    assert res.label == "collision_pedestrian_pedestrian_fault"
+    assert res.avoidable is False  # 1.4 s from the first recorded step is too short to get out of the way
     strict = TaxonomyConfig(robot_fault_approach_speed=0.05)
     assert _classify(tr, "collision_pedestrian", collision_step=14, cfg=strict).label == (
         "collision_pedestrian_robot_fault")
@@ -166,3 +172,81 @@ def test_crossing_pedestrian_changing_the_line_of_sight_is_not_avoidance() -> No
     tr = make_trace(robot[: contact + 1], [ped[: contact + 1]])
     res = _classify(tr, "collision_pedestrian", collision_step=contact)
     assert "late_reaction" in res.tags
+
+
+def _side_hit(visible_steps: int, ped_speed: float, n: int = 60):
+    """Robot at 2 m/s along +x; a pedestrian running +y at ``ped_speed`` appears (spawns) ``visible_steps``
+    before it hits the robot's right side at step n (line of centres perpendicular to the robot's motion)."""
+    robot = straight(0.0, 2.0, n)
+    t = np.arange(n + 1)
+    ped = np.column_stack([np.full(n + 1, robot[n, 0]), -(R_ROBOT + R_PED) - ped_speed * DT * (n - t)])
+    ids = np.where(t >= n - visible_steps, 7, -1)[:, None]
+    return make_trace(robot, [ped], ped_ids=ids, v=2.0, heading=np.zeros(n + 1))
+
+
+def test_unavoidable_side_hit_at_speed_is_pedestrian_fault() -> None:
+    res = _classify(_side_hit(5, 2.0), "collision_pedestrian", collision_step=60)
+    assert res.label == "collision_pedestrian_pedestrian_fault"
+    assert res.avoidable is False and res.decision_step == 55  # visible from its spawn, 0.5 s before contact
+    assert res.critical_ped_id == 7
+
+
+def test_the_same_side_hit_seen_earlier_is_robot_fault() -> None:
+    res = _classify(_side_hit(8, 1.5), "collision_pedestrian", collision_step=60)  # 0.8 s: braking clears it
+    assert res.label == "collision_pedestrian_robot_fault"
+    assert res.avoidable is True and res.decision_step == 52
+
+
+def test_standing_robot_of_the_reference_size_in_the_path_of_a_slow_walker_is_robot_fault() -> None:
+    # robot radius 1 m as the reference robot; a 0.5 m/s walker from 6 m, visible for 9.4 s
+    contact = int(round((6.0 - 1.3) / 0.05))
+    tr = make_trace(still((0.0, 0.0), contact), [straight(6.0, -0.5, contact)], v=0.0, heading=np.zeros(contact + 1))
+    geom = EpisodeGeometry(robot_radius=1.0, ped_radius=0.3, horizon=1000, route=np.array([[100.0, 0.0]]))
+    res = classify(derive(tr, geom), "collision_pedestrian", robot_radius=1.0, ped_radius=0.3, collision_step=contact)
+    assert res.label == "collision_pedestrian_robot_fault" and res.avoidable is True
+
+
+def _head_on(visible_steps: int = 8):
+    """A robot standing still facing +x; a walker at 1 m/s appears 0.8 s before it reaches the robot."""
+    n = 40
+    ped = straight(R_ROBOT + R_PED + 0.1 * n, -1.0, n)
+    ids = np.where(np.arange(n + 1) >= n - visible_steps, 0, -1)[:, None]
+    return make_trace(still((0.0, 0.0), n), [ped], ped_ids=ids, v=0.0, heading=np.zeros(n + 1)), n
+
+
+def test_escape_uses_the_robot_kind_holonomic_can_sidestep_where_differential_drive_cannot() -> None:
+    tr, n = _head_on()
+    diff = _classify(tr, "collision_pedestrian", collision_step=n)
+    holo = _classify(tr, "collision_pedestrian", collision_step=n, limits=RobotLimits(kind="holonomic"))
+    assert diff.label == "collision_pedestrian_pedestrian_fault"  # turning in place first takes too long
+    assert holo.label == "collision_pedestrian_robot_fault"  # a sideways step clears it
+
+
+class _Corridor:
+    """Static geometry of a dead-end corridor along +x: walls at y = +-half_width and x = -half_width
+    (distance only, as the check needs)."""
+
+    segments = np.zeros((0, 4))
+    width = height = 100.0
+
+    def __init__(self, half_width: float):
+        self.half_width = half_width
+
+    def distance(self, points: np.ndarray) -> np.ndarray:
+        p = np.asarray(points)
+        return np.minimum(self.half_width - np.abs(p[..., 1]), p[..., 0] + self.half_width)
+
+
+def test_an_escape_through_a_wall_does_not_count() -> None:
+    tr, n = _head_on()
+    holo = RobotLimits(kind="holonomic")
+    free = _classify(tr, "collision_pedestrian", collision_step=n, limits=holo, static=_Corridor(5.0))
+    boxed = _classify(tr, "collision_pedestrian", collision_step=n, limits=holo, static=_Corridor(R_ROBOT + 0.05))
+    assert free.label == "collision_pedestrian_robot_fault"  # sideways or backwards
+    assert boxed.label == "collision_pedestrian_pedestrian_fault" and boxed.avoidable is False
+
+
+def test_fault_look_back_is_configurable() -> None:
+    tr = make_trace(still((0.0, 0.0), 44), [straight(5.0, -1.0, 44)], v=0.0, heading=np.zeros(45))
+    short = _classify(tr, "collision_pedestrian", collision_step=44, cfg=TaxonomyConfig(fault_lookback_s=0.5))
+    assert short.decision_step == 39 and short.label == "collision_pedestrian_pedestrian_fault"
