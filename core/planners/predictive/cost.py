@@ -41,56 +41,27 @@ class RoutePotential:
         self.waypoints = full[:lookahead]  #: (J, 2) the active waypoint and the next ones
         self.after = after[:lookahead]  #: (J,)
         self.goal = full[-1]
-        self.goal_is_last = len(full) <= lookahead  #: the goal is waypoints[-1] (``final`` reuses its distances)
         self.switch_radius = switch_radius
         self.goal_tolerance = goal_tolerance
 
     def __call__(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Potential (B, T) [m] along rollouts ``pts`` (B, T, 2), and the active waypoint (B, 2) at their end.
+        """Potential (B,) [m] at the end of rollouts ``pts`` (B, T, 2), and the active waypoint (B, 2) there.
 
-        Zero from the first step inside the goal tolerance on (the episode ends there, whichever
-        waypoint is active, as in the simulator).
+        Waypoint j becomes active from the first step inside ``switch_radius`` of waypoint j - 1 (once
+        j - 1 was active); the potential is zero if any step came inside the goal tolerance (the
+        episode ends there, whichever waypoint is active, as in the simulator).
         """
-        x, y = pts[..., 0], pts[..., 1]
-        d = [np.sqrt((x - wx) ** 2 + (y - wy) ** 2) for wx, wy in self.waypoints]  # J x (B, T)
-        phi = d[0] + self.after[0]
-        idx = np.zeros(pts.shape[0], dtype=np.int64)  # active waypoint at the end only: all the caller reads
-        reached = None
-        for j in range(1, len(d)):
-            step = d[j - 1] <= self.switch_radius
-            reached = np.logical_or.accumulate(step if reached is None else reached & step, axis=1)
-            phi = np.where(reached, d[j] + self.after[j], phi)
-            idx += reached[:, -1]
-        gx, gy = self.goal
-        done = np.logical_or.accumulate((x - gx) ** 2 + (y - gy) ** 2 <= self.goal_tolerance**2, axis=1)
-        return np.where(done, 0.0, phi), self.waypoints[idx]
-
-    def final(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``__call__``'s potential at the rollouts' last point only (B,), and the active waypoint (B, 2).
-
-        What ``evaluate`` reads: the same values, without the (B, T) selections of every step; waypoint
-        switching still follows every step of the rollout.
-        """
-        x, y = pts[..., 0], pts[..., 1]
-        wx, wy = self.waypoints[0]
-        sq = (x - wx) ** 2 + (y - wy) ** 2
-        d = np.sqrt(sq)  # (B, T) to the active waypoint
+        d = _distance(pts, self.waypoints[0])  # (B, T) to the active waypoint
         phi = d[:, -1] + self.after[0]
-        idx = np.zeros(pts.shape[0], dtype=np.int64)
-        reached = None
+        idx = np.zeros(len(pts), dtype=np.int64)
+        reached = np.ones(d.shape, dtype=bool)  # (B, T) waypoint j - 1 active at that step
         for j in range(1, len(self.waypoints)):
-            step = d <= self.switch_radius
-            reached = np.logical_or.accumulate(step if reached is None else reached & step, axis=1)
-            wx, wy = self.waypoints[j]
-            sq = (x - wx) ** 2 + (y - wy) ** 2
-            d = np.sqrt(sq)
+            reached = np.logical_or.accumulate(reached & (d <= self.switch_radius), axis=1)
+            d = _distance(pts, self.waypoints[j])
             end = reached[:, -1]
             phi = np.where(end, d[:, -1] + self.after[j], phi)
             idx += end
-        if not self.goal_is_last:
-            gx, gy = self.goal
-            sq = (x - gx) ** 2 + (y - gy) ** 2
-        done = np.logical_or.reduce(sq <= self.goal_tolerance**2, axis=1)
+        done = np.logical_or.reduce(_distance(pts, self.goal) <= self.goal_tolerance, axis=1)
         return np.where(done, 0.0, phi), self.waypoints[idx]
 
     def start(self, p0: np.ndarray) -> float:
@@ -99,6 +70,11 @@ class RoutePotential:
         if math.hypot(x - self.goal[0], y - self.goal[1]) <= self.goal_tolerance:
             return 0.0
         return math.hypot(x - self.waypoints[0, 0], y - self.waypoints[0, 1]) + float(self.after[0])
+
+
+def _distance(pts: np.ndarray, point: np.ndarray) -> np.ndarray:
+    """Euclidean distance (...) from points (..., 2) to one point (2,)."""
+    return np.sqrt((pts[..., 0] - point[0]) ** 2 + (pts[..., 1] - point[1]) ** 2)
 
 
 class StaticClearance:
@@ -244,65 +220,31 @@ def pedestrian_terms(pos: np.ndarray, speed: np.ndarray, scene: Scene, cfg: Pred
 def _reactive_clearance(pos: np.ndarray, fut: np.ndarray, scene: Scene, speed: float, reach: float) -> np.ndarray:
     """Clearance (B, N, K) [m] between each rollout and each forecast pedestrian, who steps away from the robot.
 
-    Pedestrians are repelled by a robot closing in (the crowd model's robot force; people do the
-    same), which a forecast made without the robot's plan cannot know: within ``reach`` metres of
-    contact a pedestrian is displaced away from the rolled-out robot at up to ``speed`` m/s,
-    linearly more the closer it is. The displacement accumulates along the forecast steps, so a
-    robot that edges toward a pedestrian is predicted to make room, a fast one still collides.
+    Pedestrians repelled by a robot closing in (the crowd model's robot force) step away from it,
+    which a forecast made without the robot's plan cannot know: within ``reach`` metres of contact a
+    pedestrian is displaced away from the rolled-out robot at up to ``speed`` m/s, linearly more the
+    closer it is, and the displacement accumulates along the forecast steps. ``speed`` 0 assumes
+    nothing of the kind (pedestrians who do not see the robot): the plain clearance.
     """
-    K = pos.shape[1]
-    dx = pos[:, None, :, 0] - fut[None, :, :, 0]  # (B, N, K) robot minus pedestrian
-    dy = pos[:, None, :, 1] - fut[None, :, :, 1]
-    clear = np.sqrt(dx * dx + dy * dy) - scene.contact  # undisplaced
+    rel = pos[:, None] - fut[None]  # (B, N, K, 2) robot minus pedestrian
+    clear = np.sqrt(rel[..., 0] ** 2 + rel[..., 1] ** 2) - scene.contact
+    K = clear.shape[-1]
     if speed <= 0 or reach <= 0 or K < 2:
         return clear
-    # A pedestrian is displaced only from the first step it is within ``reach`` (push exactly 0 before, so its
-    # clearance is the undisplaced one up to there): step only those pairs, from the first such step on.
-    inside = clear[..., :-1] < reach  # (B, N, K-1)
-    steps_in = np.logical_or.reduce(inside, axis=(0, 1))
-    if not np.logical_or.reduce(steps_in):
+    stepped = np.logical_or.reduce(clear[..., :-1] < reach, axis=-1)  # (B, N): pairs ever within reach
+    if not stepped.any():  # every other pair is never pushed: its clearance is the plain one
         return clear
-    k0 = int(np.argmax(steps_in))
-    B, N = clear.shape[:2]
-    # stepped pairs as rows of the flattened (B * N, K) arrays: one ``take`` per array, not 2-D fancy indexing
-    pair = np.flatnonzero(np.logical_or.reduce(inside[..., k0:], axis=-1))
-    A = len(pair)
-    rel = np.empty((K - k0, 2, A))  # (step, x/y, pair) robot minus pedestrian
-    rel[:, 0] = dx.reshape(B * N, K).take(pair, axis=0)[:, k0:].T
-    rel[:, 1] = dy.reshape(B * N, K).take(pair, axis=0)[:, k0:].T
-    gain = (speed * scene.time_steps[k0:]).tolist()  # largest step away per forecast step, as Python floats
-    off = np.zeros((2, A))  # accumulated pedestrian displacement (x, y)
-    e = np.empty((2, A))
-    d = np.empty(A)
-    push = np.empty(A)
-    out = np.empty((K - k0, A))
-    last = K - k0 - 1
-    for i, (r, sq0, sq1, c) in enumerate(zip(rel, rel[:, 0], rel[:, 1], out, strict=True)):
-        # the plain formulas, in place: e = rel - off, d = |e|, clear = d - contact, ...
-        np.subtract(r, off, out=e)
-        np.square(e, out=r)
-        np.add(sq0, sq1, out=d)
-        np.sqrt(d, out=d)
-        np.subtract(d, scene.contact, out=c)
-        if i == last:
-            break
-        # push = gain * clip(1 - clear / reach, 0, 1) / max(d, 1e-6); displacement -= push * e
-        np.divide(c, reach, out=push)
-        np.subtract(1.0, push, out=push)
-        _clip01(push, 0.0, 1.0, out=push)  # = minimum(maximum(push, 0), 1): push is never NaN
-        np.multiply(gain[i], push, out=push)
-        np.divide(push, np.maximum(d, 1e-6, out=d), out=push)
-        np.multiply(push, e, out=e)
-        np.subtract(off, e, out=off)
-    if clear.flags.c_contiguous:  # (always, as a fresh ufunc result) the reshape is a view to write through
-        clear.reshape(B * N, K)[pair, k0:] = out.T
-    else:
-        ib, jn = np.divmod(pair, N)
-        clear[ib, jn, k0:] = out.T
+    rel = rel[stepped]  # (A, K, 2)
+    off = np.zeros((len(rel), 2))  # accumulated displacement of each pedestrian (x, y)
+    out = np.empty(rel.shape[:2])
+    for k in range(K):
+        e = rel[:, k] - off  # robot minus displaced pedestrian
+        d = np.sqrt(e[:, 0] ** 2 + e[:, 1] ** 2)
+        out[:, k] = d - scene.contact
+        push = speed * scene.time_steps[k] * np.clip(1.0 - out[:, k] / reach, 0.0, 1.0) / np.maximum(d, 1e-6)
+        off -= push[:, None] * e
+    clear[stepped] = out
     return clear
-
-
-_clip01 = np._core.umath.clip  #: the clip ufunc itself (np.clip adds Python-level dispatch)
 
 
 def influence_range(cfg: PredictivePlannerConfig, horizon_s: float, max_speed: float) -> float:
@@ -323,7 +265,7 @@ def evaluate(roll: Rollouts, scene: Scene, cfg: PredictivePlannerConfig) -> tupl
     pos = ev[..., :2]
     speed = np.abs(ev[..., 3])
     terms = pedestrian_terms(pos, speed, scene, cfg)
-    phi_end, target = scene.route.final(pos)
+    phi_end, target = scene.route(pos)
     progress = scene.phi0 - phi_end
     min_c = terms.pop("min_clearance")
     terms["progress"] = progress

@@ -68,15 +68,16 @@ def test_route_progress_follows_waypoints():
     route = np.array([[10.0, 10.0], [10.0, 20.0]])
     pot = RoutePotential(route, switch_radius=2.0, goal_tolerance=2.0)
     start = pot.start(np.array([0.0, 10.0]))
-    along = pot(np.array([[[5.0, 10.0]]]))[0][0, 0]
-    cut = pot(np.array([[[3.5, 13.5]]]))[0][0, 0]  # ~5 m closer to the goal in a straight line
+    along = pot(np.array([[[5.0, 10.0]]]))[0][0]
+    cut = pot(np.array([[[3.5, 13.5]]]))[0][0]  # ~5 m closer to the goal in a straight line
     assert start - along == pytest.approx(5.0)
     assert along < cut
 
 
 def test_goal_inside_tolerance_has_zero_potential():
     pot = RoutePotential(np.array([[10.0, 10.0], [20.0, 10.0]]), switch_radius=2.0, goal_tolerance=2.0)
-    phi = pot(np.array([[[5.0, 10.0], [18.5, 10.0], [25.0, 10.0]]]))[0][0]
+    pts = np.array([[[5.0, 10.0], [18.5, 10.0], [25.0, 10.0]]])
+    phi = [pot(pts[:, : k + 1])[0][0] for k in range(3)]  # the potential after each step of the rollout
     assert phi[1] == 0.0 and phi[2] == 0.0 and phi[0] > 0
 
 
