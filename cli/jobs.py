@@ -13,6 +13,7 @@ import yaml
 
 from foresight.cli.client import Client, add_connection_args
 from foresight.core.errors import ConfigError
+from foresight.core.yamlio import load_yaml
 
 FINISHED = {"succeeded", "failed", "cancelled"}
 
@@ -66,7 +67,7 @@ def read_spec(path: str | None) -> dict[str, Any]:
         return {}
     try:
         text = sys.stdin.read() if path == "-" else Path(path).read_text()
-        data = yaml.safe_load(text) or {}
+        data = load_yaml(text, source=path) or {}
     except OSError as exc:
         raise ConfigError(f"cannot read spec: {exc.strerror}", source=path) from None
     except yaml.YAMLError as exc:

@@ -14,6 +14,7 @@ from foresight.core.evaluation.gates import ClosedLoopGateConfig, EvaluationGate
 from foresight.core.evaluation.metrics import MetricsConfig
 from foresight.core.evaluation.plannerspec import PlannerSpec
 from foresight.core.evaluation.taxonomy import TaxonomyConfig
+from foresight.core.scenarios.model import MAX_EPISODE_STEPS
 from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident
 
 StartMethod = Literal["spawn", "fork", "forkserver"]
@@ -35,7 +36,7 @@ class EpisodeSelection(_Config):
     scenarios: list[str] | None = Field(default=None, max_length=1000)  #: default: every scenario
     seeds_per_scenario: int | None = Field(default=None, ge=1, le=1000)  #: own seeds, extended by max+1, max+2 ...
     seed_manifest: BundlePath | None = None  #: only these (scenario, seed) pairs
-    max_steps: int | None = Field(default=None, ge=1, le=100_000)  #: horizon override (smoke runs); default: the scenario's
+    max_steps: int | None = Field(default=None, ge=1, le=MAX_EPISODE_STEPS)  #: horizon override (smoke runs); default: the scenario's
 
     @model_validator(mode="after")
     def _one_seed_source(self) -> EpisodeSelection:
@@ -85,7 +86,7 @@ class CampaignConfig(_Config):
     scenarios: list[str] | None = Field(default=None, max_length=1000)  #: global suite scenarios (default: all)
     planner: PlannerSpec = PlannerSpec()  #: base predictive config the variants modify
     seeds_per_scenario: int | None = Field(default=None, ge=1, le=1000)  #: global suite seeds
-    max_steps: int | None = Field(default=None, ge=1, le=100_000)
+    max_steps: int | None = Field(default=None, ge=1, le=MAX_EPISODE_STEPS)
     gate: ClosedLoopGateConfig | None = None
     metrics: MetricsConfig = MetricsConfig()
     taxonomy: TaxonomyConfig = TaxonomyConfig()

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -142,8 +143,8 @@ class EpisodeRun:
 
 def run_one(scenario: ResolvedScenario, seed: int, rp: ResolvedPlanner, *, max_steps: int | None = None,
             metrics_cfg: MetricsConfig | None = None, taxonomy_cfg: TaxonomyConfig | None = None,
-            keep_diagnostics: bool = False, simulator: Any = None) -> EpisodeRun:
-    """Run and record one (scenario, seed, planner) episode."""
+            keep_diagnostics: bool = False, simulator: Any = None, check: Callable[[], None] | None = None) -> EpisodeRun:
+    """Run and record one (scenario, seed, planner) episode; ``check`` as in :func:`run_episode`."""
     from foresight.core.sim.episode import run_episode
     from foresight.core.sim.simulator import Simulator
 
@@ -152,7 +153,7 @@ def run_one(scenario: ResolvedScenario, seed: int, rp: ResolvedPlanner, *, max_s
     t0 = time.perf_counter()
     error = None
     try:
-        run_episode(scenario, seed, planner, simulator=sim, max_steps=max_steps)
+        run_episode(scenario, seed, planner, simulator=sim, max_steps=max_steps, check=check)
         outcome = sim.trace.outcome
     except PlannerFailure as exc:
         outcome, error = "error", str(exc)

@@ -12,7 +12,6 @@ import hashlib
 import json
 import pickle
 from dataclasses import dataclass
-from functools import cache
 from pathlib import Path
 from typing import Any, Literal
 
@@ -93,13 +92,27 @@ def _predictive_config(spec: PlannerSpec) -> dict[str, Any]:
     return cfg.resolved()
 
 
-@cache
-def load_model(path: str, sha256: str) -> Any:
-    """Load a checkpoint into a predictor once per process and file content (imports torch only here)."""
+_MODELS: dict[tuple[str, str], Any] = {}  #: (path, sha256 of the bytes loaded) -> predictor, per process
+
+
+def load_model(path: str, sha256: str | None = None) -> Any:
+    """Load a checkpoint into a predictor once per process and file content (imports torch only here).
+
+    The bytes loaded must hash to ``sha256`` (None: any; the predictor's ``sha256`` says what was loaded), so
+    a file rewritten between resolving and loading, or while worker processes start, fails the run instead
+    of being used under another checksum."""
+    if sha256 is not None and (path, sha256) in _MODELS:
+        return _MODELS[path, sha256]
+    predictor = _load_model(path, sha256)
+    _MODELS[path, predictor.sha256] = predictor
+    return predictor
+
+
+def _load_model(path: str, sha256: str | None) -> Any:
     from foresight.core.predict.nn.checkpoint import load_predictor
 
     try:
-        return load_predictor(Path(path))
+        return load_predictor(Path(path), expect_sha256=sha256)
     except pickle.UnpicklingError as exc:  # a file torch cannot read at all (not only a wrong payload)
         raise ConfigError(f"not a readable checkpoint ({str(exc).splitlines()[0]})", source=path) from None
 
@@ -126,9 +139,8 @@ def _model(spec: PlannerSpec, ctx: StageContext) -> tuple[str, str, str | None]:
     path = Path(ctx.resolve_model(ident))
     if not path.is_file():
         raise ConfigError("checkpoint file not found", source=path, item=ident)
-    sha = sha256_file(path)
-    load_model(str(path), sha)  # ConfigError / NotFoundError here stops the run before any episode
-    return ident, sha, str(path)
+    sha = load_model(str(path)).sha256  # a bad model stops the run here, before any episode
+    return ident, sha, str(path)  # later loads (worker processes) check their bytes against this checksum
 
 
 def resolve_planner(spec: PlannerSpec, ctx: StageContext) -> ResolvedPlanner:

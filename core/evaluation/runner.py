@@ -103,22 +103,26 @@ class EpisodeWorker:
     its initialiser.
     """
 
-    def __init__(self, settings: EpisodeSettings, matrix: ScenarioMatrix | None = None):
+    def __init__(self, settings: EpisodeSettings, matrix: ScenarioMatrix | None = None,
+                 check: Callable[[], None] | None = None):
+        """``check`` (in-process runs only) stops an episode from inside; pool processes are terminated instead."""
         from foresight.core.scenarios.loader import load_matrix
         from foresight.core.sim.simulator import Simulator
 
         self.settings = settings
         self.matrix = matrix or load_matrix(settings.matrix_path)
         self.sim = Simulator()
+        self.check = check
 
     def run(self, job: Job) -> tuple[int, Any]:
         s = self.settings
         run = run_one(self.matrix.get(job.scenario), job.seed, job.planner, max_steps=s.max_steps,
                       metrics_cfg=s.metrics, taxonomy_cfg=s.taxonomy, keep_diagnostics=s.keep_diagnostics,
-                      simulator=self.sim)
+                      simulator=self.sim, check=self.check)
         return job.index, (run if s.keep_diagnostics else run.record)
 
 
+POLL_S = 0.25  #: [s] how often a parent waiting on pool processes checks for cancellation
 _POOL_WORKER: EpisodeWorker | None = None  #: a pool process's own executor (each pool process serves one run)
 
 
@@ -165,13 +169,25 @@ def run_jobs(
     # a learned model runs in worker processes even with one worker: one torch thread each, so the
     # numbers (and hence trajectories) do not depend on the worker count
     if workers == 1 and not any(j.planner.learned for j in jobs):
-        worker = EpisodeWorker(settings, matrix)
+        worker = EpisodeWorker(settings, matrix, ctx.check_cancelled)
         collect(worker.run(j) for j in local)
     else:
         pool_ctx = mp.get_context(start_method)
         with pool_ctx.Pool(workers, initializer=_init_pool_worker, initargs=(settings,)) as pool:
-            collect(pool.imap_unordered(_run_pool_job, local, chunksize=1))
+            collect(_polled(pool.imap_unordered(_run_pool_job, local, chunksize=1), len(local), ctx))
     return [r for r in out if r is not None]
+
+
+def _polled(results: Any, n: int, ctx: StageContext) -> Iterable[tuple[int, Any]]:
+    """The pool's ``n`` results, checking for cancellation every :data:`POLL_S` while an episode runs
+    (leaving the pool's ``with`` block on Cancelled terminates its processes mid-episode)."""
+    for _ in range(n):
+        while True:
+            try:
+                yield results.next(timeout=POLL_S)
+                break
+            except mp.TimeoutError:
+                ctx.check_cancelled()
 
 
 # ------------------------------------------------------------------------------ the stage

@@ -17,6 +17,7 @@ from pydantic import ValidationError
 
 from foresight.core.errors import ConfigError
 from foresight.core.maps.model import MapDef, Point, Route, SinglePedestrian, Zone
+from foresight.core.yamlio import load_yaml
 
 FORMAT = "foresight.map/1"
 ZONE_FIELDS = (
@@ -188,7 +189,7 @@ def load_native_map(path: str | Path) -> MapDef:
     except FileNotFoundError:
         raise ConfigError("map file not found", source=p, item="path") from None
     try:
-        doc = yaml.safe_load(text)
+        doc = load_yaml(text, source=p)
     except yaml.YAMLError as exc:
         raise ConfigError(f"malformed YAML: {exc}", source=p, item="yaml") from exc
     return map_from_dict(doc, source=str(p), default_name=p.stem)

@@ -16,6 +16,7 @@ import yaml
 from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.maps.io import file_sha256, load_map
 from foresight.core.maps.model import MapDef
+from foresight.core.yamlio import load_yaml
 
 SCHEMA = "robot_sf.map_catalog.v2"
 SUPPORTED_VERSIONS = frozenset({2})
@@ -61,7 +62,7 @@ class MapRegistry:
 
     def _read(self) -> dict[str, Any]:
         try:
-            doc = yaml.safe_load(self.path.read_text(encoding="utf-8"))
+            doc = load_yaml(self.path.read_text(encoding="utf-8"), source=self.path)
         except FileNotFoundError:
             raise ConfigError("map registry not found", source=self.path, item="path") from None
         except yaml.YAMLError as exc:

@@ -17,6 +17,7 @@ from pathlib import Path
 from pydantic import ValidationError
 
 from foresight.core.errors import ConfigError
+from foresight.core.limits import MAX_NESTING
 from foresight.core.maps import geometry, svgpath, svgtransform
 from foresight.core.maps.model import MapDef, Point, Route, SinglePedestrian, Zone
 from foresight.core.maps.svgreport import (
@@ -459,13 +460,31 @@ def _mean3(zone: Zone) -> Point:
     return ((ax + bx + cx) / 3.0, (ay + by + cy) / 3.0)
 
 
-def parse_svg_text(text: str | bytes, *, name: str, source: str, apply_transforms: bool = False) -> SvgImport:
-    """Import SVG text; ``source`` names the file in error messages."""
+def _parse_xml(text: str | bytes, source: str) -> ET.Element:
+    """The document's root element; nesting deeper than MAX_NESTING elements is refused while parsing
+    (the importer walks the tree recursively)."""
+    parser = ET.XMLPullParser(events=("start", "end"))
+    root, depth, chunk = None, 0, 1 << 16
     try:
-        root = ET.fromstring(text)
+        for at in range(0, len(text), chunk):
+            parser.feed(text[at : at + chunk])
+            for event, elem in parser.read_events():
+                root = root if root is not None else elem
+                depth += 1 if event == "start" else -1
+                if depth > MAX_NESTING:
+                    raise ConfigError(f"elements nested deeper than {MAX_NESTING} levels", source=source,
+                                      item=f"<{elem.tag.rpartition('}')[2]}>")
+        parser.close()
     except ET.ParseError as exc:
         raise ConfigError(f"malformed XML: {exc}", source=source, item="xml") from exc
-    importer = _Importer(root, source, apply_transforms)
+    if root is None:
+        raise ConfigError("malformed XML: no element found", source=source, item="xml")
+    return root
+
+
+def parse_svg_text(text: str | bytes, *, name: str, source: str, apply_transforms: bool = False) -> SvgImport:
+    """Import SVG text; ``source`` names the file in error messages."""
+    importer = _Importer(_parse_xml(text, source), source, apply_transforms)
     return SvgImport(importer.build(name), importer.report)
 
 

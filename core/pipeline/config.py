@@ -21,6 +21,7 @@ from foresight.core.predict.collect import CollectConfig, MixConfig
 from foresight.core.predict.proxy import ProxySpec
 from foresight.core.predict.train_config import TrainConfig
 from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident
+from foresight.core.yamlio import load_yaml
 
 #: placeholder for the model this pipeline trains and registers (planner.model, campaign checkpoints)
 CANDIDATE = "candidate"
@@ -195,7 +196,7 @@ def load_pipeline_config(path: str | Path) -> PipelineConfig:
     """Read a pipeline YAML; errors name the file and the field."""
     path = Path(path)
     try:
-        data = yaml.safe_load(path.read_text())
+        data = load_yaml(path.read_text(), source=path)
     except (OSError, yaml.YAMLError) as exc:
         raise ConfigError(f"cannot read YAML ({exc})", source=path) from None
     try:

@@ -23,6 +23,7 @@ from typing import Any
 import yaml
 
 from foresight.core.errors import ConfigError
+from foresight.core.yamlio import load_yaml
 
 #: Seeds below this are the evaluation range of our matrices (their own seeds, extended by
 #: ``seeds_per_scenario``); training seeds are mined at or above :data:`TRAINING_SEED_MIN`.
@@ -99,7 +100,7 @@ def manifest_pairs(data: dict[str, Any]) -> set[tuple[str, int]]:
 
 
 def read_manifest_pairs(path: str | Path) -> set[tuple[str, int]]:
-    data = yaml.safe_load(Path(path).read_text())
+    data = load_yaml(Path(path).read_text(), source=path)
     if not isinstance(data, dict):
         raise ConfigError("a seed manifest must be a mapping", source=path)
     return manifest_pairs(data)

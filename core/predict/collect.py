@@ -30,6 +30,7 @@ from foresight.core.predict.mixing import assign_splits, dataset_from_episodes, 
 from foresight.core.predict.quality import check_quality
 from foresight.core.predict.samples import samples_from_trace
 from foresight.core.predict.timebase import PLANNER_TIMEBASE, TimeBase
+from foresight.core.scenarios.model import MAX_EPISODE_STEPS
 from foresight.core.sim.observation import Observation
 from foresight.core.stages.context import StageContext
 from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident, resolve_in_bundle
@@ -58,7 +59,7 @@ class CollectConfig(BaseModel):
     planner: dict[str, Any] | None = None  #: {name, config, model: "cv" | model id} when policy = planner
     timebase: TimeBaseSpec = TimeBaseSpec()
     max_agents: int = Field(default=12, ge=1, le=256)
-    max_steps: int | None = Field(default=300, ge=1)  #: cap on episode length
+    max_steps: int | None = Field(default=300, ge=1, le=MAX_EPISODE_STEPS)  #: cap on episode length
     sample_every: int | None = Field(default=None, ge=1)  #: simulator steps between samples (default: stride)
     val_fraction: float = Field(default=0.2, ge=0, lt=1)
     split_seed: int = 0
@@ -157,7 +158,7 @@ def run_collect(config: CollectConfig, ctx: StageContext) -> CollectResult:
     for i, (scenario, seed, role) in enumerate(jobs):
         ctx.check_cancelled()
         ctx.progress(i / len(jobs), f"{scenario.name} seed {seed}")
-        result = run_episode(scenario, seed, recorder, max_steps=config.max_steps)
+        result = run_episode(scenario, seed, recorder, max_steps=config.max_steps, check=ctx.check_cancelled)
         outcomes[result.outcome] = outcomes.get(result.outcome, 0) + 1
         samples = samples_from_trace(result.trace, timebase, config.max_agents,
                                      recorder.waypoint_array(result.trace.steps), config.sample_every)

@@ -10,6 +10,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from foresight.core.errors import ConfigError
 from foresight.core.predict.proxy import ProxySpec
+from foresight.core.yamlio import load_yaml
 
 
 class _Strict(BaseModel):
@@ -71,7 +72,7 @@ class TrainResult(BaseModel):
 def load_config(path: Path, model: type[BaseModel], key: str | None = None) -> BaseModel:
     """Read a YAML file (optionally one top-level ``key`` of it) into ``model``; errors name file and field."""
     try:
-        data = yaml.safe_load(Path(path).read_text())
+        data = load_yaml(Path(path).read_text(), source=path)
     except (OSError, yaml.YAMLError) as exc:
         raise ConfigError(f"cannot read YAML ({exc})", source=path) from None
     if key is not None:

@@ -52,6 +52,7 @@ from foresight.core.scenarios.model import (
     ScenarioMatrix,
     SinglePedestrianOverride,
 )
+from foresight.core.yamlio import load_yaml
 
 _INCLUDE_ALIASES = ("includes", "include", "scenario_files")
 _ROOT_ONLY = (
@@ -74,7 +75,7 @@ def read_yaml(path: str | Path, *, referenced_from: str | Path | None = None, it
         raise ConfigError(f"file {str(p)!r} does not exist", source=where, item=item)
     try:
         with p.open(encoding="utf-8") as fh:
-            return yaml.safe_load(fh)
+            return load_yaml(fh.read(), source=p)
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""

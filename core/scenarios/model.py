@@ -13,6 +13,9 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from foresight.core.maps.model import MapDef, Point, WaitRule
 
+#: most steps of one episode anywhere (scenario horizon, evaluation and collection ``max_steps``)
+MAX_EPISODE_STEPS = 100_000
+
 
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
@@ -22,7 +25,7 @@ class SimulationConfig(_Strict):
     """Crowd and episode settings of one scenario (YAML ``simulation_config``)."""
 
     dt: float = Field(default=0.1, gt=0, le=1.0)  #: simulation step [s]
-    max_episode_steps: int = Field(default=2000, ge=1, le=100_000)  #: horizon: exactly this many steps, then timeout
+    max_episode_steps: int = Field(default=2000, ge=1, le=MAX_EPISODE_STEPS)  #: horizon: exactly this many steps, then timeout
     ped_density: float = Field(default=0.01, ge=0, le=2.0)  #: peds per m^2 of spawnable area (route length x 3 m + crowded zones)
     difficulty: int = Field(default=0, ge=0)  #: accepted for reference compatibility; density is set directly
     max_peds_per_group: int = Field(default=3, ge=1, le=20)

@@ -16,6 +16,8 @@ from foresight.core.sim.simulator import Simulator
 from foresight.core.sim.trace import Trace
 
 StepHook = Callable[[Observation, tuple[float, float], Events, Any], None]  #: (obs after step, command, events, diagnostics)
+#: steps between two calls of ``check``: a cancel or timeout stops even a 100,000-step episode within milliseconds
+CHECK_EVERY = 16
 
 
 @dataclass
@@ -35,8 +37,13 @@ class EpisodeResult:
 def run_episode(
     scenario: ResolvedScenario, seed: int, planner: Planner, *, max_steps: int | None = None,
     simulator: Simulator | None = None, on_step: StepHook | None = None, info_extra: dict[str, Any] | None = None,
+    check: Callable[[], None] | None = None,
 ) -> EpisodeResult:
-    """Run one episode to its end (collision, goal or exactly ``max_steps``/max_episode_steps steps)."""
+    """Run one episode to its end (collision, goal or exactly ``max_steps``/max_episode_steps steps).
+
+    ``check`` (e.g. ``StageContext.check_cancelled``) is called every :data:`CHECK_EVERY` steps and stops the
+    episode by raising, so a cancelled or timed-out job never waits for a long episode to end.
+    """
     t0 = time.perf_counter()
     sim = simulator or Simulator()
     obs = sim.reset(scenario, seed, max_steps=max_steps)
@@ -52,6 +59,8 @@ def run_episode(
             on_step(obs, cmd, events, planner.diagnostics)
         if events.done:
             break
+        if check is not None and sim.t % CHECK_EVERY == 0:
+            check()
     trace = sim.trace
     dmin = float(sim.min_ped_distance) if np.isfinite(sim.min_ped_distance) else None
     return EpisodeResult(

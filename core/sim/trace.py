@@ -15,12 +15,25 @@ import numpy as np
 from foresight.core.errors import ConfigError
 
 FORMAT = "foresight.trace/1"
+#: [bytes] most memory one episode's trace may take; a horizon x crowd above it is refused before it runs
+#: (a robot that cannot move fills every row, so "untouched pages are free" is no bound)
+MAX_TRACE_BYTES = 256 * 2**20
+
+
+def trace_bytes(horizon: int, n_peds: int) -> int:
+    """Bytes of a trace's arrays: per row robot (5) + ids + pos (2) + vel (2) as 8-byte values, plus commands."""
+    return (horizon + 1) * 8 * (5 + 5 * n_peds) + horizon * 16
 
 
 class Trace:
     """robot (T+1, 5), command (T, 2), ped_ids (T+1, N) (-1 = empty), ped_pos/ped_vel (T+1, N, 2), events."""
 
     def __init__(self, horizon: int, n_peds: int, *, dt: float, scenario: str = "", seed: int = 0, meta: dict | None = None):
+        need = trace_bytes(horizon, n_peds)
+        if need > MAX_TRACE_BYTES:
+            raise ConfigError(f"an episode of {horizon} steps with {n_peds} pedestrians needs a {need / 2**20:.0f} MiB "
+                              f"trace; the limit is {MAX_TRACE_BYTES / 2**20:.0f} MiB: lower max_steps or the crowd",
+                              source=scenario or None, item="max_steps")
         self.dt = float(dt)
         self.scenario = scenario
         self.seed = int(seed)

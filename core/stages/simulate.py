@@ -66,7 +66,7 @@ def run_simulate(config: SimulateConfig, ctx: StageContext) -> SimulateResult:
     for i, (scenario, seed) in enumerate(jobs):
         ctx.check_cancelled()
         ctx.progress(i / len(jobs), f"{scenario.name} seed {seed}")
-        result = run_episode(scenario, seed, GoalSeeking())
+        result = run_episode(scenario, seed, GoalSeeking(), check=ctx.check_cancelled)
         render_name = None
         if config.render:
             from foresight.core.render.trace import render_trace

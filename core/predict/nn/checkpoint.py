@@ -8,6 +8,8 @@ from the file alone and refuses a file whose format, feature layout or time base
 
 from __future__ import annotations
 
+import hashlib
+import io
 import pickle
 from pathlib import Path
 from typing import Any
@@ -45,12 +47,28 @@ def save_checkpoint(payload: dict[str, Any], path: Path) -> None:
     tmp.replace(path)
 
 
-def read_checkpoint(path: Path) -> dict[str, Any]:
+def checkpoint_bytes(path: Path, expect_sha256: str | None = None) -> tuple[bytes, str]:
+    """The file's bytes and their sha256, read once (what is hashed is what gets loaded); a checksum other
+    than ``expect_sha256`` is a ConfigError, so a checkpoint rewritten in place is never used silently."""
     path = Path(path)
     if not path.is_file():
         raise NotFoundError(f"checkpoint {path} does not exist")
+    data = path.read_bytes()
+    sha = hashlib.sha256(data).hexdigest()
+    if expect_sha256 is not None and sha != expect_sha256:
+        raise ConfigError(f"checkpoint content changed: sha256 {sha[:12]}... instead of {expect_sha256[:12]}...",
+                          source=path, item="sha256")
+    return data, sha
+
+
+def read_checkpoint(path: Path, expect_sha256: str | None = None) -> dict[str, Any]:
+    """The checkpoint dict (format and required keys checked); ``expect_sha256`` as in :func:`checkpoint_bytes`."""
+    return _decode(checkpoint_bytes(path, expect_sha256)[0], Path(path))
+
+
+def _decode(data: bytes, path: Path) -> dict[str, Any]:
     try:
-        payload = torch.load(path, map_location="cpu", weights_only=True)
+        payload = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
     except (RuntimeError, OSError, EOFError, ValueError, pickle.UnpicklingError) as exc:
         raise ConfigError(f"not a readable checkpoint ({exc})", source=path) from None
     if not isinstance(payload, dict) or payload.get("format") != FORMAT:
@@ -65,8 +83,9 @@ class TorchPredictor:
     """A trained model behind the :class:`core.predict.predictor.Predictor` interface (numpy in/out)."""
 
     def __init__(self, model: TrajectoryModel, timebase: TimeBase, name: str, frame_convention: str = "robot",
-                 max_agents: int | None = None, threads: int | None = None):
+                 max_agents: int | None = None, threads: int | None = None, sha256: str | None = None):
         self.model = model.eval()
+        self.sha256 = sha256  #: checksum of the checkpoint bytes this model was built from
         self.timebase = timebase
         self.name = name
         self.frame_convention = frame_convention
@@ -82,14 +101,16 @@ class TorchPredictor:
 
 
 def load_predictor(path: Path, expect_timebase: TimeBase | None = None, name: str | None = None,
-                   threads: int | None = 1) -> TorchPredictor:
-    """Rebuild the model from the checkpoint alone; ``expect_timebase`` makes a mismatch an error.
+                   threads: int | None = 1, expect_sha256: str | None = None) -> TorchPredictor:
+    """Rebuild the model from the checkpoint alone; ``expect_timebase`` makes a mismatch an error, and so
+    does ``expect_sha256`` (checked on the very bytes loaded; the result's ``sha256`` holds their checksum).
 
     ``threads`` sets torch's (process-wide) thread count: one per process by default, because a decision
     is a batch of a few pedestrians where threads only add contention (136-415 ms per decision was
     measured with the default count on a loaded 2-core machine, ~0.2 ms with one).
     """
-    payload = read_checkpoint(path)
+    data, sha = checkpoint_bytes(path, expect_sha256)
+    payload = _decode(data, Path(path))
     timebase = TimeBase.from_dict(payload["timebase"], source=str(path))
     if expect_timebase is not None:
         expect_timebase.require_same(timebase, what=f"checkpoint {path}", source=str(path))
@@ -111,4 +132,4 @@ def load_predictor(path: Path, expect_timebase: TimeBase | None = None, name: st
                           item="model") from None
     max_agents = payload.get("dataset", {}).get("max_agents")
     return TorchPredictor(model, timebase, name or Path(path).stem, schema.get("frame_convention", "robot"), max_agents,
-                          threads=threads)
+                          threads=threads, sha256=sha)
