@@ -14,6 +14,7 @@ from typing import Any
 
 from foresight.cli.client import Client, add_connection_args
 from foresight.core.errors import ConfigError
+from foresight.core.evaluation.stats import ALPHA, MIN_PAIRS
 from foresight.core.reports.common import FIGURES
 
 REPORT_MD, REPORT_HTML = "report.md", "report.html"
@@ -103,12 +104,22 @@ def compare_text(result: dict[str, Any]) -> str:
     sources = result.get("sources") or {}
     if sources:
         lines.insert(1, f"A: {sources.get('a')}    B: {sources.get('b')}")
-    lines += ["", f"{'metric':<16}{'A':>24}{'B':>24}{'B - A [95 % interval]':>34}"]
+    lines += ["", f"{'metric':<16}{'A':>24}{'B':>24}{'B - A [95 % interval]':>34}  method"]
     for name, m in (result.get("metrics") or {}).items():
         interval = f" [{_num(m.get('low'))}, {_num(m.get('high'))}]" + (" *" if m.get("significant") else "")
-        lines.append(f"{name:<16}{_value(m.get('a')):>24}{_value(m.get('b')):>24}{_num(m.get('delta')) + interval:>34}")
-    lines.append("* the interval excludes 0: a difference the data support")
+        lines.append(f"{name:<16}{_value(m.get('a')):>24}{_value(m.get('b')):>24}{_num(m.get('delta')) + interval:>34}"
+                     f"  {_method(m)}")
+    lines.append(f"* significant: paired p < {ALPHA} (McNemar exact / Wilcoxon signed-rank), unpaired the interval "
+                 f"excludes 0; never with fewer than {MIN_PAIRS} episodes")
     return "\n".join(lines)
+
+
+def _method(m: dict[str, Any]) -> str:
+    if m.get("method") != "paired":
+        return "unpaired (MOVER)"
+    disc = m.get("discordant")
+    extra = f", discordant A/B {disc[0]}/{disc[1]}" if disc else ""
+    return f"paired n={m.get('n_pairs')}, {m.get('test')} p={_num(m.get('p_value'))}{extra}"
 
 
 def _value(estimate: Any) -> str:

@@ -10,8 +10,16 @@ from sqlalchemy import select
 from foresight.api.deps import SessionDep, SettingsDep
 from foresight.api.errors import responses
 from foresight.api.schemas import CampaignPublic, DatasetPublic, EvaluationPublic, Ident
-from foresight.store import queue
-from foresight.store.models import Campaign, CampaignCell, Dataset, Evaluation, FailureTaxonomy, GateResult
+from foresight.store import folders, queue
+from foresight.store.models import (
+    Artifact,
+    Campaign,
+    CampaignCell,
+    Dataset,
+    Evaluation,
+    FailureTaxonomy,
+    GateResult,
+)
 
 router = APIRouter(tags=["results"])
 
@@ -98,12 +106,29 @@ def _operand(session: SessionDep, ident: str) -> tuple[str, dict[str, Any], dict
     return f"campaign cell ({suite} suite)", config, summary
 
 
+def _episodes(session: SessionDep, settings: SettingsDep, ident: str) -> list[Any] | None:
+    """An evaluation's episode records (its job's episodes.jsonl), None for campaign cells or when gone."""
+    from foresight.core.evaluation.runner import read_records
+
+    row = session.get(Evaluation, ident)
+    art = None if row is None or row.job_id is None else session.scalars(
+        select(Artifact).where(Artifact.job_id == row.job_id, Artifact.name == "episodes.jsonl")).first()
+    path = None if art is None else folders.resolve_under(settings.store_root, art.path)
+    return read_records(path) if path is not None and path.is_file() else None
+
+
 @router.get("/compare", responses=responses(404))
-def compare_evaluations(session: SessionDep, a: Annotated[Ident, Query()], b: Annotated[Ident, Query()]) -> dict[str, Any]:
+def compare_evaluations(session: SessionDep, settings: SettingsDep, a: Annotated[Ident, Query()],
+                        b: Annotated[Ident, Query()]) -> dict[str, Any]:
     """Two evaluations or campaign cells (``CAMPAIGN_ID:RANK[:hard]``) side by side: the resolved-config diff
-    key by key and the headline metric deltas B - A with 95 % intervals (MOVER, from each side's intervals)."""
-    from foresight.core.evaluation.delta import deltas, diff_configs
+    key by key and the headline metric deltas B - A with 95 % intervals. Two evaluations of the same
+    (scenario, seed) episodes are paired (McNemar / Wilcoxon p-values, paired bootstrap intervals); the other
+    metrics, and results of other episodes, use MOVER from each side's intervals (``method`` per metric)."""
+    from foresight.core.evaluation.delta import deltas, diff_configs, paired_deltas
 
     (kind_a, config_a, sum_a), (kind_b, config_b, sum_b) = _operand(session, a), _operand(session, b)
+    ra, rb = _episodes(session, settings, a), _episodes(session, settings, b)
+    paired = paired_deltas(ra, rb) if ra and rb else None
+    metrics = {**deltas(sum_a, sum_b), **(paired or {})}
     return {"a": a, "b": b, "sources": {"a": kind_a, "b": kind_b}, "config_diff": diff_configs(config_a, config_b),
-            "metrics": {k: v.model_dump() for k, v in deltas(sum_a, sum_b).items()}}
+            "paired": paired is not None, "metrics": {k: v.model_dump() for k, v in metrics.items()}}

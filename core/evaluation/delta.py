@@ -6,25 +6,44 @@ MOVER method (Newcombe 1998, "method 10" for a difference of proportions; Zou & 
 for independent estimates A and B with intervals [la, ua] and [lb, ub], d = B - A has
 ``[d - sqrt((B - lb)^2 + (ua - A)^2), d + sqrt((ub - B)^2 + (A - la)^2)]``. It needs no episode data, so a
 comparison reads only the stored summaries; an interval that excludes 0 is a difference the data support.
+That is the **unpaired** method (``method: unpaired_mover``), for results that did not run the same episodes.
+
+Two results that ran the same (scenario, seed) episodes are **paired** (``method: paired``, see
+:func:`paired_deltas`): B - A is the mean of the per-episode differences, its interval a paired bootstrap,
+and its p-value McNemar's exact test (success, collision) or the Wilcoxon signed-rank test (continuous
+metrics), ``core.evaluation.stats``. Either way nothing is marked significant below ``MIN_PAIRS`` episodes.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from typing import Any
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any, Literal
 
+import numpy as np
 from pydantic import BaseModel
+
+from foresight.core.evaluation.aggregate import MEANS, RATES
+from foresight.core.evaluation.record import EpisodeRecord
+from foresight.core.evaluation.stats import ALPHA, MIN_PAIRS, mcnemar_p, paired_bootstrap, wilcoxon_p
 
 #: headline metric -> its field in a SuiteSummary (a campaign cell's hard or global suite)
 SUITE_FIELDS = {"success": "success", "collision": "collision", "min_clearance": "mean_min_clearance",
                 "min_distance": "mean_min_distance", "avg_speed": "mean_avg_speed"}  # fmt: skip
 
 
+#: headline metric -> per-episode value (booleans as 0/1; None = not applicable, the pair is left out)
+EPISODE_VALUES: dict[str, Callable[[EpisodeRecord], float | bool | None]] = {
+    "success": RATES["success"], "collision": RATES["collision"], **{k: MEANS[k] for k in ("min_clearance",
+                                                                                           "min_distance", "avg_speed")}}
+BINARY = ("success", "collision")
+
+
 class Estimate(BaseModel):
     value: float | None
     low: float | None = None
     high: float | None = None
+    n: int | None = None  #: episodes behind the estimate, when known
 
 
 class Delta(BaseModel):
@@ -33,13 +52,18 @@ class Delta(BaseModel):
     delta: float | None  #: B - A
     low: float | None  #: 95 % interval of the delta (None when either side has no interval)
     high: float | None
-    significant: bool  #: the interval excludes 0
+    significant: bool  #: paired: p < ALPHA; unpaired: the interval excludes 0; never below MIN_PAIRS episodes
+    method: Literal["unpaired_mover", "paired"] = "unpaired_mover"
+    test: Literal["mcnemar_exact", "wilcoxon_signed_rank"] | None = None  #: paired only
+    n_pairs: int | None = None  #: paired only: episodes both results ran (with a value on both sides)
+    discordant: tuple[int, int] | None = None  #: McNemar's (A only, B only) pairs
+    p_value: float | None = None  #: paired only, two-sided
 
 
 def _estimate(raw: Mapping[str, Any]) -> Estimate:
     """A stored RateEstimate (``rate``) or MeanEstimate (``mean``) as one shape."""
     value = raw.get("rate", raw.get("mean"))
-    return Estimate(value=value, low=raw.get("low"), high=raw.get("high"))
+    return Estimate(value=value, low=raw.get("low"), high=raw.get("high"), n=raw.get("n"))
 
 
 def headline(summary: Mapping[str, Any]) -> dict[str, Estimate]:
@@ -61,13 +85,52 @@ def mover(a: Estimate, b: Estimate) -> Delta:
         return Delta(a=a, b=b, delta=d, low=None, high=None, significant=False)
     low = d - math.hypot(b.value - b.low, a.high - a.value)
     high = d + math.hypot(b.high - b.value, a.value - a.low)
-    return Delta(a=a, b=b, delta=d, low=low, high=high, significant=low > 0 or high < 0)
+    enough = all(e.n is None or e.n >= MIN_PAIRS for e in (a, b))
+    return Delta(a=a, b=b, delta=d, low=low, high=high, significant=enough and (low > 0 or high < 0))
 
 
 def deltas(a: Mapping[str, Any], b: Mapping[str, Any]) -> dict[str, Delta]:
-    """Every headline metric both results have, B - A."""
+    """Every headline metric both results have, B - A (unpaired: from the stored summaries)."""
     ea, eb = headline(a), headline(b)
     return {name: mover(ea[name], eb[name]) for name in ea if name in eb}
+
+
+def pair_keys(records: Sequence[EpisodeRecord]) -> list[tuple[str, int]]:
+    return sorted((r.scenario, r.seed) for r in records)
+
+
+def paired_delta(name: str, a: Sequence[float | bool | None], b: Sequence[float | bool | None], *,
+                 seed: int = 123) -> Delta:
+    """B - A of one metric over paired episodes (``a[i]`` and ``b[i]`` from the same scenario and seed)."""
+    keep = [i for i, (x, y) in enumerate(zip(a, b, strict=True)) if x is not None and y is not None]
+    va = np.array([float(a[i]) for i in keep])
+    vb = np.array([float(b[i]) for i in keep])
+    n = len(keep)
+    if n == 0:
+        return Delta(a=Estimate(value=None), b=Estimate(value=None), delta=None, low=None, high=None,
+                     significant=False, method="paired", n_pairs=0)
+    diff = vb - va
+    low, high = paired_bootstrap(diff, seed=seed)
+    discordant = None
+    if name in BINARY:
+        discordant = (int(((va == 1) & (vb == 0)).sum()), int(((va == 0) & (vb == 1)).sum()))
+        test, p = "mcnemar_exact", mcnemar_p(*discordant)
+    else:
+        test, p = "wilcoxon_signed_rank", wilcoxon_p(diff)
+    return Delta(a=Estimate(value=float(va.mean()), n=n), b=Estimate(value=float(vb.mean()), n=n),
+                 delta=float(diff.mean()), low=low, high=high, significant=n >= MIN_PAIRS and p < ALPHA,
+                 method="paired", test=test, n_pairs=n, discordant=discordant, p_value=p)
+
+
+def paired_deltas(a: Sequence[EpisodeRecord], b: Sequence[EpisodeRecord]) -> dict[str, Delta] | None:
+    """Every headline metric, B - A, paired by (scenario, seed); None when the two ran other episodes
+    (then only the unpaired :func:`deltas` apply)."""
+    if not a or pair_keys(a) != pair_keys(b):
+        return None
+    by_pair = {(r.scenario, r.seed): r for r in b}
+    pairs = [(r, by_pair[(r.scenario, r.seed)]) for r in a]
+    return {name: paired_delta(name, [get(x) for x, _ in pairs], [get(y) for _, y in pairs])
+            for name, get in EPISODE_VALUES.items()}
 
 
 def flatten(value: Any, prefix: str = "") -> dict[str, Any]:

@@ -1,8 +1,16 @@
-"""Interval estimates for evaluation aggregates: Wilson intervals for rates, seeded bootstrap for means.
+"""Interval estimates for evaluation aggregates (Wilson intervals for rates, seeded bootstrap for means) and
+the paired tests of A/B comparisons on the same (scenario, seed) episodes.
 
 Wilson is used for rates because with a few episodes per scenario (3-10) the normal approximation gives
 intervals outside [0, 1] and zero width at 0 % or 100 %. Bootstrap intervals are seeded so that the same
 records always give the same evaluation.json.
+
+Paired runs (two planners on the same episodes) are compared episode by episode: McNemar's test for a
+binary outcome (exact binomial on the discordant pairs, at every count: the chi-square form is only a
+large-count shortcut), the Wilcoxon signed-rank test for a continuous metric, and a seeded paired
+bootstrap (pairs resampled together) for the interval of the mean difference. No result is marked
+significant below ``MIN_PAIRS`` pairs: with fewer, McNemar reaches p < 0.05 only when nearly every
+discordant pair goes one way, and the percentile bootstrap under-covers.
 """
 
 from __future__ import annotations
@@ -14,6 +22,8 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict
 
 Z95 = 1.959963984540054  #: two-sided 95 % normal quantile
+MIN_PAIRS = 20  #: fewest paired episodes (or, unpaired, episodes per side) for a significance mark
+ALPHA = 0.05  #: significance level of the paired tests
 
 
 class RateEstimate(BaseModel):
@@ -77,3 +87,39 @@ def bootstrap_mean(
     alpha = (1.0 - confidence) / 2.0
     low, high = np.quantile(means, [alpha, 1.0 - alpha])
     return MeanEstimate(n=n, mean=mean, low=float(low), high=float(high))
+
+
+def mcnemar_p(a_only: int, b_only: int) -> float:
+    """Two-sided exact McNemar p-value from the discordant pairs (A yes/B no, A no/B yes): a binomial test of
+    ``b_only`` out of ``a_only + b_only`` against 1/2; 1.0 without discordant pairs."""
+    n = a_only + b_only
+    if n == 0:
+        return 1.0
+    from scipy.stats import binomtest
+
+    return float(binomtest(b_only, n, 0.5).pvalue)
+
+
+def wilcoxon_p(diff: Sequence[float] | np.ndarray) -> float:
+    """Two-sided Wilcoxon signed-rank p-value of paired differences (zero differences dropped; exact
+    distribution for small samples without ties, normal approximation otherwise); 1.0 when all are zero."""
+    d = np.asarray(diff, dtype=float)
+    d = d[d != 0]
+    if d.size == 0:
+        return 1.0
+    from scipy.stats import wilcoxon
+
+    return float(wilcoxon(d, zero_method="wilcox").pvalue)
+
+
+def paired_bootstrap(diff: Sequence[float] | np.ndarray, *, samples: int = 2000, seed: int = 123,
+                     confidence: float = 0.95) -> tuple[float, float]:
+    """Percentile interval of the mean paired difference, resampling the pairs (seeded)."""
+    d = np.asarray(diff, dtype=float)
+    if d.size < 2:
+        m = float(d.mean()) if d.size else 0.0
+        return m, m
+    idx = np.random.default_rng(seed).integers(0, d.size, size=(samples, d.size))
+    alpha = (1.0 - confidence) / 2.0
+    low, high = np.quantile(d[idx].mean(axis=1), [alpha, 1.0 - alpha])
+    return float(low), float(high)

@@ -6,7 +6,9 @@ import time
 
 from sqlalchemy import insert
 
-from foresight.store.models import Campaign, CampaignCell, Evaluation
+from foresight.core.evaluation.runner import write_records
+from foresight.store.models import Artifact, Campaign, CampaignCell, Evaluation, Job
+from tests.unit.evaluation.traces import record
 
 
 def _rate(k: int, n: int, low: float, high: float) -> dict:
@@ -52,3 +54,37 @@ def test_unknown_results_are_404_naming_them(client, engine) -> None:  # noqa: A
         r = client.get("/v1/compare", params={"a": "eval-a", "b": b})
         assert r.status_code == 404 and b.split(":")[0] in r.json()["detail"], (b, r.text)
     assert client.get("/v1/compare", params={"a": "eval-a", "b": "camp:1:hard"}).status_code == 404  # no hard suite
+
+
+def _store_with_episodes(engine, settings, runs: dict[str, list]) -> None:  # noqa: ANN001
+    """Evaluations whose jobs kept their episodes.jsonl under the store root (as a worker leaves them)."""
+    with engine.begin() as conn:
+        for ident, records in runs.items():
+            path = settings.store_root / "jobs" / ident / "episodes.jsonl"
+            path.parent.mkdir(parents=True, exist_ok=True)
+            write_records(path, records)
+            now = time.time()
+            conn.execute(insert(Job.__table__).values(id=ident, kind="evaluate", spec={}, status="succeeded",
+                                                      created_at=now))  # fmt: skip
+            conn.execute(insert(Artifact.__table__).values(job_id=ident, name="episodes.jsonl",
+                                                           path=f"jobs/{ident}/episodes.jsonl", size=1, sha256="x",
+                                                           created_at=now))  # fmt: skip
+            k = sum(r.success for r in records)
+            overall = {"episodes": len(records), "rates": {"success": _rate(k, len(records), 0.0, 1.0)}, "means": {}}
+            conn.execute(insert(Evaluation.__table__).values(id=ident, job_id=ident, config={}, per_scenario=[],
+                                                             metrics={"overall": overall}, created_at=now))  # fmt: skip
+
+
+def test_evaluations_of_the_same_episodes_are_paired(client, engine, settings) -> None:  # noqa: ANN001
+    seeds = range(24)
+    a = [record("s_low", s, "collision_pedestrian" if s < 8 else "success", ped_y=0.3 if s < 8 else 2.0) for s in seeds]
+    b = [record("s_low", s, "success") for s in seeds]
+    _store_with_episodes(engine, settings, {"eval-a": a, "eval-b": b, "eval-c": b[:20]})
+    body = client.get("/v1/compare", params={"a": "eval-a", "b": "eval-b"}).json()
+    assert body["paired"] is True
+    success = body["metrics"]["success"]
+    assert success["method"] == "paired" and success["test"] == "mcnemar_exact"
+    assert success["discordant"] == [0, 8] and abs(success["p_value"] - 2 / 2**8) < 1e-12 and success["significant"]
+    assert body["metrics"]["min_clearance"]["test"] == "wilcoxon_signed_rank"
+    other = client.get("/v1/compare", params={"a": "eval-a", "b": "eval-c"}).json()  # other episodes: unpaired
+    assert other["paired"] is False and other["metrics"]["success"]["method"] == "unpaired_mover"
