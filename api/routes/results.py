@@ -10,16 +10,8 @@ from sqlalchemy import select
 from foresight.api.deps import SessionDep, SettingsDep
 from foresight.api.errors import responses
 from foresight.api.schemas import CampaignPublic, DatasetPublic, EvaluationPublic, Ident
-from foresight.store import folders, queue
-from foresight.store.models import (
-    Artifact,
-    Campaign,
-    CampaignCell,
-    Dataset,
-    Evaluation,
-    FailureTaxonomy,
-    GateResult,
-)
+from foresight.store import folders, models, queue
+from foresight.store.models import Campaign, CampaignCell, Dataset, Evaluation, FailureTaxonomy, GateResult
 
 router = APIRouter(tags=["results"])
 
@@ -110,9 +102,9 @@ def _episodes(session: SessionDep, settings: SettingsDep, ident: str) -> list[An
     """An evaluation's episode records (its job's episodes.jsonl), None for campaign cells or when gone."""
     from foresight.core.evaluation.runner import read_records
 
-    row = session.get(Evaluation, ident)
+    row, art = session.get(Evaluation, ident), models.Artifact
     art = None if row is None or row.job_id is None else session.scalars(
-        select(Artifact).where(Artifact.job_id == row.job_id, Artifact.name == "episodes.jsonl")).first()
+        select(art).where(art.job_id == row.job_id, art.name == "episodes.jsonl")).first()
     path = None if art is None else folders.resolve_under(settings.store_root, art.path)
     return read_records(path) if path is not None and path.is_file() else None
 
