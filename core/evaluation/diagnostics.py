@@ -13,7 +13,7 @@ import time
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel
+from pydantic import BaseModel, Field
 
 from foresight.core.evaluation.config import DiagnosticsConfig
 from foresight.core.evaluation.episode import EpisodeRun
@@ -64,6 +64,37 @@ class DiagnosticsResult(BaseModel):
     artifacts: dict[str, str]
     wall_s: float
     config: dict  #: the stage config as given (with defaults)
+
+
+class PredictedVsActual(BaseModel):
+    """A pedestrian's forecast made at a step against where it really was (None: not in the scene then)."""
+
+    ped_id: int
+    times: list[float]  #: [s] after the step
+    predicted: list[list[float]]  #: (H, 2)
+    actual: list[list[float] | None]
+
+
+class TraceStep(BaseModel):
+    step: int
+    robot: list[float | None]  #: x, y, heading, v, omega
+    command: list[float | None] | None = None  #: (v, omega) commanded at this step; None at the last state
+    min_distance: float | None  #: centre distance to the nearest pedestrian [m]
+    min_clearance: float | None = None  #: surface gap [m]
+    plan_ms: float | None = None
+    chosen: dict[str, Any] | None = None  #: the planner's diagnostics of its decision (without predictions)
+    predicted_vs_actual: list[PredictedVsActual] = Field(default_factory=list)
+
+
+class SeedTrace(BaseModel):
+    """``diagnostics/trace_<scenario>_<seed>.json``: one diagnosed episode step by step, with its record."""
+
+    scenario: str
+    seed: int
+    horizon: int
+    dt: float
+    record: EpisodeRecord
+    steps: list[TraceStep]
 
 
 def jsonable(x: Any, digits: int = 4) -> Any:
@@ -158,10 +189,9 @@ def _write_seed(run: EpisodeRun, scenario: Any, config: DiagnosticsConfig, ctx: 
     name, seed = run.record.scenario, run.record.seed
     trace_name = f"diagnostics/trace_{name}_{seed}.json"
     steps = step_trace(run, config.max_predicted_peds)
-    ctx.artifact(trace_name).write_text(json.dumps({
-        "scenario": name, "seed": seed, "horizon": run.geometry.horizon, "dt": run.trace.dt,
-        "record": run.record.model_dump(mode="json"), "steps": steps,
-    }))
+    ctx.artifact(trace_name).write_text(SeedTrace(
+        scenario=name, seed=seed, horizon=run.geometry.horizon, dt=run.trace.dt, record=run.record, steps=steps,
+    ).model_dump_json())
     render = replay = None
     if config.render:
         title = f"{name} seed {seed}: {run.record.outcome} ({run.record.taxonomy.label or 'solved'})"

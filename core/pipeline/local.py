@@ -18,7 +18,10 @@ from pydantic import BaseModel
 
 from foresight.core.errors import NotFoundError
 from foresight.core.pipeline.runbook import ChildRun
+from foresight.core.predict.collect import CollectResult
+from foresight.core.predict.train_config import TrainResult
 from foresight.core.stages.context import StageContext
+from foresight.core.stages.results import read_result
 
 #: kind -> (config class, stage function), imported when the stage runs (train imports torch)
 STAGES = {
@@ -78,27 +81,27 @@ class LocalChildren:
             return ChildRun(result={"model_id": spec["model_id"], "status": spec["to"]}, ident=spec["model_id"])
         if done.is_file():
             saved = json.loads(done.read_text())
-            if saved.get("spec") == spec:
-                return self._run_of(stage, kind, folder, saved["result"], saved.get("wall_s"), resumed=True)
+            if saved["spec"] == spec:
+                return self._run_of(stage, folder, read_result(kind, saved["result"]), saved["wall_s"], resumed=True)
         config_ref, stage_ref = STAGES[kind]
         config = _load(config_ref).model_validate(spec)
         folder.mkdir(parents=True, exist_ok=True)
         sub = replace(self.ctx, workdir=folder, progress=progress, resolve_model=self.resolve_model,
                       resolve_dataset=self.resolve_dataset)
         t0 = time.perf_counter()
-        result = _load(stage_ref)(config, sub)
+        result = read_result(kind, _load(stage_ref)(config, sub))
         wall = time.perf_counter() - t0
-        data = result.model_dump(mode="json", by_alias=True) if isinstance(result, BaseModel) else dict(result)
+        data = result.model_dump(mode="json", by_alias=True)
         done.write_text(json.dumps({"spec": spec, "result": data, "wall_s": wall}, indent=2, default=str))
         if self.reports:
             from foresight.core.reports.stage import write_report  # matplotlib: only when reports are wanted
 
-            write_report(kind, data, folder, self.ctx.log)
-        return self._run_of(stage, kind, folder, data, wall)
+            write_report(kind, result, folder, self.ctx.log)
+        return self._run_of(stage, folder, result, wall)
 
-    def _run_of(self, stage: str, kind: str, folder: Path, result: dict[str, Any], wall: float | None,
+    def _run_of(self, stage: str, folder: Path, result: BaseModel, wall: float | None,
                 resumed: bool = False) -> ChildRun:
-        ident = str(folder / result["dataset"]) if kind in ("collect", "mix") else None
+        ident = str(folder / result.dataset) if isinstance(result, CollectResult) else None
         report = f"{stage}/report.html" if (folder / "report.html").is_file() else None
         return ChildRun(result=result, ident=ident, job_id=None, wall_s=wall, resumed=resumed, report=report,
                         artifacts={"folder": f"{stage}/"})
@@ -106,8 +109,8 @@ class LocalChildren:
     def _register(self, spec: dict[str, Any]) -> ChildRun:
         from foresight.core.evaluation.plannerspec import sha256_file
 
-        train = json.loads((self.ctx.workdir / spec["train_stage"] / "result.json").read_text())["result"]
-        checkpoint = Path(train["checkpoint"])
+        saved = json.loads((self.ctx.workdir / spec["train_stage"] / "result.json").read_text())
+        checkpoint = Path(TrainResult.model_validate(saved["result"]).checkpoint)
         data = self._registry()
         data[spec["model_id"]] = {"checkpoint": str(checkpoint), "sha256": sha256_file(checkpoint),
                                   **{k: v for k, v in spec.items() if k not in ("model_id", "train_stage")}}

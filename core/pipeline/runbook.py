@@ -10,7 +10,8 @@ The graph (each arrow names what flows into the next stage)::
 
 Core stays database-free: ``run_child(stage, kind, spec, progress)`` is the caller's. It runs one stage
 (the worker: a child job row it claims and runs itself; ``--local``: the stage function in a sub-folder)
-and returns a :class:`ChildRun` (or the bare result dict). A caller that already holds a succeeded run of
+and returns a :class:`ChildRun` (or the bare result); a stage's result is validated here as its kind's
+result model (core.stages.results). A caller that already holds a succeeded run of
 that stage returns it again without running it: that is how a pipeline resumes from its failed stage.
 ``kind`` is a job kind (collect, mix, train, evaluate, diagnose, campaign) or one of the registry actions
 ``register`` and ``promote``. ``progress(fraction, message)`` maps the child's progress into the pipeline's.
@@ -22,17 +23,20 @@ or was cancelled (the summary is written, then the error propagates so the job f
 
 from __future__ import annotations
 
-import json
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from pathlib import Path
+from typing import Any, TypeVar
 
 from pydantic import BaseModel
 
 from foresight.core.errors import ConfigError, CoreError
-from foresight.core.evaluation.gates import GATE_FAILED_EXIT
+from foresight.core.evaluation.campaign import CampaignResult
+from foresight.core.evaluation.gates import GATE_FAILED_EXIT, GateResult
+from foresight.core.evaluation.runner import EvaluationResult
 from foresight.core.pipeline.config import PipelineConfig, stage_config
+from foresight.core.predict.train_config import TrainingSummary, TrainResult
 from foresight.core.reports.pipeline import (
     PipelineSummary,
     StageEntry,
@@ -42,6 +46,9 @@ from foresight.core.reports.pipeline import (
     write_pipeline_report,
 )
 from foresight.core.stages.context import Cancelled, StageContext
+from foresight.core.stages.results import RESULTS, read_result
+
+M = TypeVar("M", bound=BaseModel)
 
 #: (stage name, kind) in run order; gates is decided here, register/promote are registry actions
 RUNBOOK: list[tuple[str, str]] = [
@@ -59,7 +66,7 @@ GATE_OF_STAGE = {"training": "train", "evaluation": "evaluate", "closed_loop": "
 class ChildRun:
     """What a caller's ``run_child`` hands back for one stage."""
 
-    result: dict[str, Any]
+    result: Any  #: the stage's result model (its JSON dict is validated by run_pipeline); registry actions: a dict
     ident: str | None = None  #: how later stages name this output (dataset id, model id); default: job_id
     job_id: str | None = None
     wall_s: float | None = None
@@ -68,7 +75,7 @@ class ChildRun:
     artifacts: dict[str, str] = field(default_factory=dict)  #: label -> link
 
 
-RunChild = Callable[[str, str, dict[str, Any], Callable[[float, str], None]], "ChildRun | dict[str, Any]"]
+RunChild = Callable[[str, str, dict[str, Any], Callable[[float, str], None]], "ChildRun | BaseModel | dict[str, Any]"]
 
 
 class StageFailed(CoreError):
@@ -85,7 +92,7 @@ class PipelineResult(BaseModel):
     promoted: bool
     promotion: str
     stages: list[StageEntry]
-    summary: dict[str, Any]  #: the PipelineSummary
+    summary: PipelineSummary
     report: str = "report.html"
     artifacts: dict[str, str]
     wall_s: float
@@ -122,30 +129,26 @@ def check_seed_separation(config: PipelineConfig, ctx: StageContext) -> dict[str
             "campaign_global": len(camp)}
 
 
-def _gate_dict(stage: str, result: dict[str, Any] | None) -> dict[str, Any] | None:
-    """A stage result's gate in the GateResult shape (training: from the summary's quality gates)."""
-    if not result:
-        return None
-    if stage == "train":
-        summary = result.get("_summary") or {}
-        gate = summary.get("quality_gates")
-        if gate:
-            checks = gate.get("checks")
-            if isinstance(checks, dict):
-                best, limits, cv = summary.get("best") or {}, gate.get("limits") or {}, gate.get("cv") or {}
-                ref = {  # check -> (value, threshold) from the training summary
-                    "val_ade_below_limit": (best.get("val_ade"), limits.get("max_val_ade")),
-                    "val_fde_below_limit": (best.get("val_fde"), limits.get("max_val_fde")),
-                    "val_ade_below_cv": (best.get("val_ade"), cv.get("ade")),
-                    "val_fde_below_cv": (best.get("val_fde"), cv.get("fde")),
-                }
-                gate = {**gate, "checks": [
-                    {"name": k, "passed": bool(v), "value": ref.get(k, (None, None))[0],
-                     "threshold": ref.get(k, (None, None))[1]} for k, v in checks.items()]}
-            return gate
-        return {"passed": bool(result.get("gates_passed")), "checks": []}
-    gate = result.get("gate")
-    return gate if isinstance(gate, dict) else None
+@dataclass
+class StageResults:
+    """The typed results of the stages run so far (and the training summary the train result names)."""
+
+    by_stage: dict[str, BaseModel] = field(default_factory=dict)
+    training: TrainingSummary | None = None
+
+    def of(self, stage: str, model: type[M]) -> M | None:
+        result = self.by_stage.get(stage)
+        return result if isinstance(result, model) else None
+
+    def gate(self, stage: str) -> GateResult | None:
+        """A stage's gate (training: the summary's, or the bare verdict when the summary is unavailable)."""
+        if stage == "train":
+            train = self.of("train", TrainResult)
+            if self.training is not None:
+                return self.training.gate_result()
+            return None if train is None else GateResult(passed=train.gates_passed, checks=[])
+        result = self.of(stage, EvaluationResult) or self.of(stage, CampaignResult)
+        return None if result is None else result.gate
 
 
 def run_pipeline(config: PipelineConfig, ctx: StageContext, run_child: RunChild, *, run_id: str = "local") -> PipelineResult:
@@ -160,7 +163,7 @@ def run_pipeline(config: PipelineConfig, ctx: StageContext, run_child: RunChild,
     total = sum(WEIGHT[s] for s, _ in stages)
     done_weight = 0.0
     entries: dict[str, StageEntry] = {s: StageEntry(name=s, status="pending") for s, _ in stages}
-    results: dict[str, dict[str, Any]] = {}
+    results = StageResults()
     inputs: dict[str, str] = {}
     model_id = config.registration.model_id or f"{config.name}-{run_id[:8]}"
     gates: list[Any] = []
@@ -171,7 +174,8 @@ def run_pipeline(config: PipelineConfig, ctx: StageContext, run_child: RunChild,
     ctx.log("episodes: " + ", ".join(f"{k} {v}" for k, v in sizes.items()))
 
     def summary(status: str, exit_code: int) -> PipelineSummary:
-        best = best_from_campaign(results["campaign"]) if "campaign" in results else None
+        campaign = results.of("campaign", CampaignResult)
+        best = best_from_campaign(campaign) if campaign is not None else None
         for entry in entries.values():
             if entry.status == "pending":
                 entry.status = "skipped"
@@ -184,9 +188,9 @@ def run_pipeline(config: PipelineConfig, ctx: StageContext, run_child: RunChild,
 
     def publish(s: PipelineSummary) -> None:
         ctx.artifact("pipeline_summary.json").write_text(s.model_dump_json(indent=2))
-        training = (results.get("train") or {}).get("_summary")
         try:
-            write_pipeline_report(s, ctx.workdir, campaign=results.get("campaign"), training=training)
+            write_pipeline_report(s, ctx.workdir, campaign=results.of("campaign", CampaignResult),
+                                  training=results.training)
         except Exception as exc:  # a report is a by-product: never hide the pipeline's own outcome
             ctx.log(f"pipeline report failed: {exc!r}")
 
@@ -214,7 +218,7 @@ def run_pipeline(config: PipelineConfig, ctx: StageContext, run_child: RunChild,
                     entry.status = "skipped"
                     entry.headline = f"{model_id} stays a candidate"
                 else:
-                    run = _as_run(run_child(stage, kind, {"model_id": model_id, "to": config.promote.to}, progress))
+                    run = _as_run(run_child(stage, kind, {"model_id": model_id, "to": config.promote.to}, progress), kind)
                     _fill(entry, run, kind)
                     promoted = True
                     entry.status = "completed"
@@ -223,18 +227,19 @@ def run_pipeline(config: PipelineConfig, ctx: StageContext, run_child: RunChild,
                                             f"({', '.join(config.gates.require) or 'none'}) passed.")
             else:
                 spec = _spec(config, stage, inputs, results, model_id)
-                run = _as_run(run_child(stage, kind, spec, progress))
+                run = _as_run(run_child(stage, kind, spec, progress), kind)
                 _fill(entry, run, kind)
-                results[stage] = run.result
+                if kind in RESULTS:
+                    results.by_stage[stage] = run.result
                 if kind in ("collect", "mix"):
                     inputs[{"collect": "base", "hardcase": "hardcase", "mix": "mixed"}[stage]] = run.ident or run.job_id or ""
                 elif stage == "train":
-                    results["train"]["_summary"] = _read_json(run.result.get("summary"))
+                    results.training = _training_summary(run.result)
                 elif stage == "register":
                     inputs["model"] = run.ident or model_id
                     model_id = inputs["model"]
                     entry.headline = f"{model_id} registered as candidate"
-                entry.status = _status(kind, run.result)
+                entry.status = _status(run.result)
         except Cancelled:
             entry.status = "cancelled"
             publish(summary("cancelled", 1))
@@ -257,38 +262,38 @@ def run_pipeline(config: PipelineConfig, ctx: StageContext, run_child: RunChild,
     return PipelineResult(
         name=config.name, status=s.status, exit_code=exit_code, passed=passed, failed_gates=verdict["failed"],
         model_id=inputs.get("model"), promoted=promoted, promotion=verdict["promotion"], stages=s.stages,
-        summary=s.model_dump(mode="json"),
+        summary=s,
         artifacts={"report": "report.html", "markdown": "report.md", "summary": "pipeline_summary.json"},
         wall_s=time.perf_counter() - t0,
     )
 
 
-def _spec(config: PipelineConfig, stage: str, inputs: dict[str, str], results: dict[str, dict[str, Any]],
+def _spec(config: PipelineConfig, stage: str, inputs: dict[str, str], results: StageResults,
           model_id: str) -> dict[str, Any]:
     if stage == "register":
-        train = results["train"]
-        summary = train.get("_summary") or {}
+        train = results.of("train", TrainResult)
+        assert train is not None, "register runs after train"
+        summary = results.training
         return {
             "model_id": model_id, "status": "candidate", "train_stage": "train",
             "tags": list(dict.fromkeys([*config.registration.tags, "pipeline", config.name])),
             "lineage": {"pipeline": config.name, "datasets": {k: v for k, v in inputs.items() if k != "model"},
-                        "training_seeds": config.training_seeds, "dataset": summary.get("dataset")},
-            "training": {"best_epoch": train.get("best_epoch"), "selection_mode": train.get("selection_mode"),
-                         "config": summary.get("config")},
-            "metrics": {k: train.get(k) for k in ("val_ade", "val_fde", "cv_val_ade", "cv_val_fde", "gates_passed")},
+                        "training_seeds": config.training_seeds, "dataset": summary.dataset if summary else None},
+            "training": {"best_epoch": train.best_epoch, "selection_mode": train.selection_mode,
+                         "config": summary.config if summary else None},
+            "metrics": train.model_dump(include={"val_ade", "val_fde", "cv_val_ade", "cv_val_fde", "gates_passed"}),
         }
     return stage_config(config, stage, {**inputs, "model": inputs.get("model", model_id)}).model_dump(mode="json")
 
 
-def _decide(config: PipelineConfig, results: dict[str, dict[str, Any]]) -> tuple[list[Any], dict[str, Any]]:
+def _decide(config: PipelineConfig, results: StageResults) -> tuple[list[Any], dict[str, Any]]:
     entries, failed = [], []
     for name, stage in GATE_OF_STAGE.items():
-        gate = _gate_dict(stage, results.get(stage))
-        entry = gate_entry(name, gate)
+        entry = gate_entry(name, results.gate(stage))
         required = name in config.gates.require
         if not required:
             entry.detail = (entry.detail + "; " if entry.detail else "") + "advisory (not required for promotion)"
-        elif entry.passed is None and name == "closed_loop" and results.get("campaign") is not None:
+        elif entry.passed is None and name == "closed_loop" and results.of("campaign", CampaignResult) is not None:
             entry.detail = "the campaign has no closed-loop gate configured"
         entries.append(entry)
         if required and entry.passed is not True:
@@ -296,14 +301,13 @@ def _decide(config: PipelineConfig, results: dict[str, dict[str, Any]]) -> tuple
     return entries, {"passed": not failed, "failed": failed, "promotion": ""}
 
 
-def _status(kind: str, result: dict[str, Any]) -> str:
-    if kind == "train":
-        return "completed" if result.get("gates_passed") else "failed_gate"
-    status = result.get("status")
-    if kind in ("evaluate", "campaign") and status in ("passed", "completed", "failed_gate"):
-        return status
-    if kind == "evaluate" and status == "failed_integrity":
-        return "failed_gate"
+def _status(result: Any) -> str:
+    if isinstance(result, TrainResult):
+        return "completed" if result.gates_passed else "failed_gate"
+    if isinstance(result, EvaluationResult):
+        return "failed_gate" if result.status == "failed_integrity" else result.status
+    if isinstance(result, CampaignResult):
+        return result.status
     return "completed"
 
 
@@ -311,30 +315,20 @@ def _fill(entry: StageEntry, run: ChildRun, kind: str) -> None:
     entry.job_id, entry.wall_s, entry.report = run.job_id, run.wall_s, run.report
     entry.artifacts = dict(run.artifacts)
     entry.headline = headline(kind, run.result) + (" (resumed)" if run.resumed else "")
-    if kind in ("collect", "mix"):
-        s = run.result.get("summary") or {}
-        n = s.get("samples", s.get("n_samples"))
-        ep = s.get("episodes", s.get("n_episodes"))
-        outcomes = run.result.get("outcomes") or {}
-        entry.headline = (f"{n if n is not None else '?'} samples"
-                          + (f" from {ep} episodes" if ep is not None else "")
-                          + (f"; outcomes {dict(outcomes)}" if outcomes else "")
-                          + (" (resumed)" if run.resumed else ""))
 
 
-def _as_run(value: ChildRun | dict[str, Any]) -> ChildRun:
-    return value if isinstance(value, ChildRun) else ChildRun(result=dict(value or {}))
+def _as_run(value: ChildRun | BaseModel | dict[str, Any], kind: str) -> ChildRun:
+    """The caller's answer as a ChildRun whose result is validated as the kind's result model."""
+    run = value if isinstance(value, ChildRun) else ChildRun(result=value)
+    if kind in RESULTS:
+        run.result = read_result(kind, run.result)
+    return run
 
 
-def _read_json(path: Any) -> dict[str, Any] | None:
-    from pathlib import Path
-
-    if not path:
-        return None
-    try:
-        return json.loads(Path(path).read_text())
-    except (OSError, ValueError):
-        return None
+def _training_summary(train: TrainResult) -> TrainingSummary | None:
+    """The summary file a train result names (None when this process cannot read it, e.g. another host's)."""
+    path = Path(train.summary)
+    return TrainingSummary.model_validate_json(path.read_text()) if path.is_file() else None
 
 
 def _code_version() -> str | None:

@@ -67,10 +67,25 @@ class CollectConfig(BaseModel):
     check_quality: bool = True
 
 
+class DatasetSummary(BaseModel):
+    """A dataset's counts and statistics (core.predict.quality.summarize); imports add their origin fields."""
+
+    model_config = ConfigDict(extra="allow")
+
+    samples: int
+    episodes: int
+    samples_per_split: dict[str, int]
+    episodes_per_split: dict[str, int]
+    active_agent_ratio: float
+    active_target_ratio: float
+    target_std_m: float
+    final_displacement_m: dict[str, float]  #: mean, p50, p95
+
+
 class CollectResult(BaseModel):
     dataset: str  #: artifact path of the .npz
     sha256: str
-    summary: dict[str, Any]
+    summary: DatasetSummary
     outcomes: dict[str, int]
 
 

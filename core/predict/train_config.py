@@ -9,6 +9,7 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from foresight.core.errors import ConfigError
+from foresight.core.evaluation.gates import GateCheck, GateResult
 from foresight.core.predict.proxy import ProxySpec
 from foresight.core.yamlio import load_yaml
 
@@ -67,6 +68,128 @@ class TrainResult(BaseModel):
     cv_val_fde: float
     selection_mode: str
     gates_passed: bool
+
+
+class _Summary(BaseModel):
+    model_config = ConfigDict(ser_json_inf_nan="constants")  #: a proxy clearance is -inf without pedestrians
+
+
+class ProxyScore(_Summary):
+    """A checkpoint's closed-loop proxy evaluation (core.predict.proxy)."""
+
+    success: float  #: success rate in [0, 1]
+    clearance: float  #: mean minimum surface gap [m] (-inf without pedestrians)
+    episodes: float | None = None
+
+
+class EpochScore(_Summary):
+    """The validation numbers a checkpoint is selected and gated by."""
+
+    epoch: int
+    val_loss: float
+    val_ade: float
+    val_fde: float
+    proxy: ProxyScore | None = None
+
+
+class EpochRecord(EpochScore):
+    """One training epoch (a row of ``history``)."""
+
+    train_loss: float
+    train_ade: float
+    train_fde: float
+    cv_val_ade: float
+    cv_val_fde: float
+    train_runtime_s: float | None = None
+    val_runtime_s: float | None = None
+    train_samples: int | None = None
+    val_samples: int | None = None
+
+
+class EnsembleScore(EpochScore):
+    """An ensemble's validation numbers (``epoch``: its latest member's)."""
+
+    member_epochs: list[int]
+
+
+class AdeFde(_Summary):
+    ade: float
+    fde: float
+
+
+class TrainingGate(_Summary):
+    """The training gate: the selected checkpoint's validation ADE/FDE against limits and constant velocity."""
+
+    limits: GateConfig
+    cv: AdeFde
+    checks: dict[str, bool]  #: val_ade_below_limit, val_fde_below_limit, val_ade_below_cv, val_fde_below_cv
+    passed: bool
+
+    def reference(self, best: EpochScore) -> dict[str, tuple[float, float]]:
+        """Check name -> (value, threshold) [m]."""
+        return {"val_ade_below_limit": (best.val_ade, self.limits.max_val_ade),
+                "val_fde_below_limit": (best.val_fde, self.limits.max_val_fde),
+                "val_ade_below_cv": (best.val_ade, self.cv.ade), "val_fde_below_cv": (best.val_fde, self.cv.fde)}
+
+
+def training_gate(gates: GateConfig, best: EpochScore, cv: AdeFde) -> TrainingGate:
+    checks = {
+        "val_ade_below_limit": best.val_ade <= gates.max_val_ade,
+        "val_fde_below_limit": best.val_fde <= gates.max_val_fde,
+        "val_ade_below_cv": (best.val_ade < cv.ade) or not gates.require_beat_cv,
+        "val_fde_below_cv": (best.val_fde < cv.fde) or not gates.require_beat_cv,
+    }
+    return TrainingGate(limits=gates, cv=cv, checks=checks, passed=all(checks.values()))
+
+
+class EnsembleMember(_Summary):
+    seed: int
+    summary: str  #: the member's training_summary.json, relative to the ensemble's folder
+    best_epoch: int
+    val_ade: float
+    val_fde: float
+
+
+class SelectionState(_Summary):
+    """How the checkpoint was selected (core.predict.nn.selection.Selection without its copy of the best epoch)."""
+
+    proxy_enabled: bool
+    mode: str  #: val_loss | val_loss_fallback | proxy
+    reason: str
+    proxy_history: list[dict[str, float]]
+
+
+class TrainingSummary(_Summary):
+    """``training_summary.json`` of the ``train`` stage (one run or an ensemble); the TrainResult is derived from it."""
+
+    artifact_role: Literal["predictive_training_summary"] = "predictive_training_summary"
+    config: dict  #: the TrainConfig as run
+    dataset: dict  #: id, sha256, source, generator config hash, frame convention, lineage
+    dataset_stats: dict
+    cv_val: AdeFde
+    history: list[EpochRecord]
+    best: EpochRecord | EnsembleScore
+    selection: SelectionState | None = None  #: single runs only
+    members: list[EnsembleMember] | None = None  #: ensembles only
+    selection_mode: str
+    quality_gates: TrainingGate
+    checkpoint: str
+    total_runtime_s: float
+    code_version: str
+
+    def gate_result(self) -> GateResult:
+        """The training gate as a GateResult (each check with its value and threshold)."""
+        ref = self.quality_gates.reference(self.best)
+        return GateResult(passed=self.quality_gates.passed, checks=[
+            GateCheck(name=name, passed=ok, value=ref[name][0], threshold=ref[name][1])
+            for name, ok in self.quality_gates.checks.items()])
+
+    def result(self, path: str) -> TrainResult:
+        """The stage result of this summary, written at ``path``."""
+        return TrainResult(checkpoint=self.checkpoint, summary=path, best_epoch=self.best.epoch,
+                           val_ade=self.best.val_ade, val_fde=self.best.val_fde, cv_val_ade=self.cv_val.ade,
+                           cv_val_fde=self.cv_val.fde, selection_mode=self.selection_mode,
+                           gates_passed=self.quality_gates.passed)
 
 
 def load_config(path: Path, model: type[BaseModel], key: str | None = None) -> BaseModel:

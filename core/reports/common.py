@@ -1,35 +1,40 @@
-"""Shared report plumbing: reading a stage result in any form, number formatting, figure naming.
+"""Shared report plumbing: reading a stage result as its model, number formatting, figure naming.
 
-Reports read results as plain JSON-like dicts (a pydantic result, its ``model_dump``, or the JSON file a
-stage wrote) so that a report can be rebuilt from stored artifacts, and so that a field added to a
-result model does not break the report. Missing optional fields show as "-", never as 0.
+A report reads its stage's result model (defined once in core), validated on read from whatever holds it:
+the model itself, its JSON dict (a job row's result) or the JSON file the stage wrote. A renamed or missing
+field is a validation error naming the field, never a "?" in a report. Optional values show as "-", never as 0.
 """
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from pydantic import BaseModel
 
+from foresight.core.evaluation.gates import GateCheck
+from foresight.core.evaluation.stats import MeanEstimate, RateEstimate
 from foresight.core.render.charts import Estimate
 from foresight.core.reports.document import Document
 
 FIGURES = "figures"  #: figure folder, relative to the report
 
+M = TypeVar("M", bound=BaseModel)
 
-def as_dict(obj: Any) -> dict[str, Any]:
-    """A result as a JSON-like dict: pydantic model (by alias, e.g. ``global``), mapping, or JSON file path."""
+
+def read(model: type[M], obj: Any) -> M:
+    """``obj`` as a ``model``: the model itself, a JSON-like mapping, another model's dump, or a JSON file path."""
+    if isinstance(obj, model):
+        return obj
     if isinstance(obj, BaseModel):
-        return obj.model_dump(mode="json", by_alias=True)
+        return model.model_validate(obj.model_dump(mode="json", by_alias=True))
     if isinstance(obj, Mapping):
-        return dict(obj)
+        return model.model_validate(obj)
     if isinstance(obj, str | Path):
-        return json.loads(Path(obj).read_text())
-    raise TypeError(f"cannot read a result from {type(obj).__name__}")
+        return model.model_validate_json(Path(obj).read_text())
+    raise TypeError(f"cannot read a {model.__name__} from {type(obj).__name__}")
 
 
 def num(x: Any) -> float | None:
@@ -50,27 +55,26 @@ def fmt(x: Any, digits: int = 2, unit: str = "") -> str:
     return "-" if v is None else f"{v:.{digits}f}{unit}"
 
 
-def rate_text(r: Mapping[str, Any] | None) -> str:
-    """A serialised RateEstimate as ``62.5% [30.6, 86.3] (5/8)``."""
-    if not r or num(r.get("rate")) is None:
+def rate_text(r: RateEstimate | None) -> str:
+    """A RateEstimate as ``62.5% [30.6, 86.3] (5/8)``."""
+    if r is None or r.rate is None:
         return "-"
-    return f"{pct(r['rate'])} [{100 * num(r.get('low') or 0):.1f}, {100 * num(r.get('high') or 0):.1f}] " \
-           f"({r.get('count', '?')}/{r.get('n', '?')})"
+    return f"{pct(r.rate)} [{100 * (r.low or 0):.1f}, {100 * (r.high or 0):.1f}] ({r.count}/{r.n})"
 
 
-def mean_text(m: Mapping[str, Any] | None, digits: int = 2) -> str:
-    """A serialised MeanEstimate as ``0.41 [0.30, 0.52] (n=8)``."""
-    if not m or num(m.get("mean")) is None:
+def mean_text(m: MeanEstimate | None, digits: int = 2) -> str:
+    """A MeanEstimate as ``0.41 [0.30, 0.52] (n=8)``."""
+    if m is None or num(m.mean) is None:
         return "-"
-    return f"{fmt(m['mean'], digits)} [{fmt(m.get('low'), digits)}, {fmt(m.get('high'), digits)}] (n={m.get('n', '?')})"
+    return f"{fmt(m.mean, digits)} [{fmt(m.low, digits)}, {fmt(m.high, digits)}] (n={m.n})"
 
 
-def rate_est(r: Mapping[str, Any] | None) -> Estimate:
-    return Estimate.of(r, "rate")
+def rate_est(r: RateEstimate | None) -> Estimate:
+    return Estimate(None) if r is None else Estimate(num(r.rate), num(r.low), num(r.high))
 
 
-def mean_est(m: Mapping[str, Any] | None) -> Estimate:
-    return Estimate.of(m, "mean")
+def mean_est(m: MeanEstimate | None) -> Estimate:
+    return Estimate(None) if m is None else Estimate(num(m.mean), num(m.low), num(m.high))
 
 
 def figure_path(workdir: Path, name: str) -> tuple[Path, str]:
@@ -85,10 +89,9 @@ def verdict(passed: Any) -> str:
     return "PASSED" if passed else "FAILED"
 
 
-def gate_rows(checks: list[Mapping[str, Any]]) -> list[list[str]]:
+def gate_rows(checks: list[GateCheck]) -> list[list[str]]:
     """Rows (check, verdict, value, threshold, detail) of a gate's checks."""
-    return [[c.get("name", "?"), "ok" if c.get("passed") else "FAIL", fmt(c.get("value"), 3),
-             fmt(c.get("threshold"), 3), c.get("detail") or ""] for c in checks]
+    return [[c.name, "ok" if c.passed else "FAIL", fmt(c.value, 3), fmt(c.threshold, 3), c.detail] for c in checks]
 
 
 def existing(workdir: Path, rel: str | None) -> bool:

@@ -10,72 +10,69 @@ which the trace JSON does not hold: it is linked when the stage wrote one (``rep
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from foresight.core.evaluation.diagnostics import (
+    DiagnosticsResult,
+    PredictedVsActual,
+    SeedSummary,
+    SeedTrace,
+    TraceStep,
+)
 from foresight.core.maps.model import MapDef
 from foresight.core.render.animation import render_replay
 from foresight.core.render.charts import taxonomy_bars
 from foresight.core.render.moment import render_critical_moment
-from foresight.core.reports.common import as_dict, existing, figure_path, fmt, publish
+from foresight.core.reports.common import existing, figure_path, fmt, publish, read
 from foresight.core.reports.document import Document
 
 DEFAULT_PED_RADIUS = 0.4  #: [m] only for drawing
 
 
-def _critical_step(record: Mapping[str, Any], steps: list[dict[str, Any]]) -> int:
+def _critical_step(trace: SeedTrace) -> int:
     """The taxonomy's critical step, else the first collision, else the closest approach, else the end."""
-    tax = record.get("taxonomy") or {}
-    for step in (tax.get("critical_step"), (record.get("safety") or {}).get("first_collision_step")):
-        if step is not None and int(step) >= 0:
-            return int(step)
-    dists = [s.get("min_distance") for s in steps]
-    finite = [(d, i) for i, d in enumerate(dists) if d is not None]
-    return min(finite)[1] if finite else max(len(steps) - 1, 0)
+    for step in (trace.record.taxonomy.critical_step, trace.record.safety.first_collision_step):
+        if step is not None and step >= 0:
+            return step
+    finite = [(s.min_distance, i) for i, s in enumerate(trace.steps) if s.min_distance is not None]
+    return min(finite)[1] if finite else max(len(trace.steps) - 1, 0)
 
 
-def _forecasts_at(steps: list[dict[str, Any]], t: int) -> tuple[int, list[dict[str, Any]]]:
+def _forecasts_at(steps: list[TraceStep], t: int) -> tuple[int, list[PredictedVsActual]]:
     """(step, rows) of the latest ``predicted_vs_actual`` at or before ``t`` (empty when none was recorded)."""
     for i in range(min(t, len(steps) - 1), -1, -1):
-        rows = steps[i].get("predicted_vs_actual") or []
-        if rows:
-            return i, rows
+        if steps[i].predicted_vs_actual:
+            return i, steps[i].predicted_vs_actual
     return t, []
 
 
-def _moment(workdir: Path, seed: Mapping[str, Any], trace: Mapping[str, Any], mapdef: MapDef | None) -> str | None:
-    steps = trace.get("steps") or []
-    if not steps:
+def _moment(workdir: Path, seed: SeedSummary, trace: SeedTrace, mapdef: MapDef | None) -> str | None:
+    if not trace.steps:
         return None
-    record = trace.get("record") or {}
-    t = _critical_step(record, steps)
-    made_at, rows = _forecasts_at(steps, t)
-    robot = [s["robot"][:2] for s in steps]
-    if len(steps) and t >= len(steps):
-        t = len(steps) - 1
-    radius = _robot_radius(seed)
-    path, rel = figure_path(workdir, f"moment_{seed['scenario']}_{seed['seed']}.png")
-    title = (f"{seed['scenario']} seed {seed['seed']}: step {t} ({t * float(trace.get('dt', 0.1)):.1f} s), "
+    t = min(_critical_step(trace), len(trace.steps) - 1)
+    made_at, rows = _forecasts_at(trace.steps, t)
+    path, rel = figure_path(workdir, f"moment_{seed.scenario}_{seed.seed}.png")
+    title = (f"{seed.scenario} seed {seed.seed}: step {t} ({t * trace.dt:.1f} s), "
              f"forecast made at step {made_at}")
-    render_critical_moment(robot, made_at, rows, path, mapdef=mapdef, title=title,
-                           collision_point=record.get("collision_point"), robot_radius=radius)
+    render_critical_moment([s.robot[:2] for s in trace.steps], made_at, [r.model_dump() for r in rows], path,
+                           mapdef=mapdef, title=title, collision_point=trace.record.collision_point,
+                           robot_radius=_robot_radius(seed))
     return rel
 
 
-def _robot_radius(seed: Mapping[str, Any]) -> float:
+def _robot_radius(seed: SeedSummary) -> float:
     """min distance - min clearance = robot + pedestrian radius, so the robot is drawn at its size."""
-    d, c = seed.get("min_distance"), seed.get("min_clearance")
-    if d is None or c is None:
+    if seed.min_distance is None or seed.min_clearance is None:
         return 1.0
-    return max(0.1, float(d) - float(c) - DEFAULT_PED_RADIUS)
+    return max(0.1, seed.min_distance - seed.min_clearance - DEFAULT_PED_RADIUS)
 
 
-def _replay(workdir: Path, seed: Mapping[str, Any], trace_json: Mapping[str, Any], mapdef: MapDef | None,
+def _replay(workdir: Path, seed: SeedSummary, trace_json: SeedTrace | None, mapdef: MapDef | None,
             trace: Any) -> str | None:
-    name, s = seed["scenario"], seed["seed"]
-    for rel in (seed.get("replay"), f"diagnostics/{name}_{s}.gif", f"diagnostics/replay_{name}_{s}.gif"):
+    name, s = seed.scenario, seed.seed
+    for rel in (seed.replay, f"diagnostics/{name}_{s}.gif", f"diagnostics/replay_{name}_{s}.gif"):
         if existing(workdir, rel):
             return str(rel)
     npz = workdir / f"diagnostics/trace_{name}_{s}.npz"
@@ -86,33 +83,34 @@ def _replay(workdir: Path, seed: Mapping[str, Any], trace_json: Mapping[str, Any
     if trace is None or mapdef is None:
         return None
     rel = f"diagnostics/replay_{name}_{s}.gif"
-    record = trace_json.get("record") or {}
-    render_replay(trace, mapdef, workdir / rel, predictions=trace_json.get("steps"),
-                  title=f"{name} seed {s}: {seed.get('outcome')}",
-                  collision_step=(record.get("safety") or {}).get("first_collision_step"),
-                  collision_point=record.get("collision_point"), robot_radius=_robot_radius(seed),
-                  ped_radius=DEFAULT_PED_RADIUS)
+    record = trace_json.record if trace_json is not None else None
+    render_replay(trace, mapdef, workdir / rel,
+                  predictions=[st.model_dump() for st in trace_json.steps] if trace_json is not None else None,
+                  title=f"{name} seed {s}: {seed.outcome}",
+                  collision_step=record.safety.first_collision_step if record is not None else None,
+                  collision_point=record.collision_point if record is not None else None,
+                  robot_radius=_robot_radius(seed), ped_radius=DEFAULT_PED_RADIUS)
     return rel
 
 
-def _seed_section(doc: Document, workdir: Path, seed: Mapping[str, Any], mapdef: MapDef | None, trace: Any) -> None:
-    doc.section(f"{seed['scenario']} seed {seed['seed']}: {seed.get('outcome')}", level=3)
+def _seed_section(doc: Document, workdir: Path, seed: SeedSummary, mapdef: MapDef | None, trace: Any) -> None:
+    doc.section(f"{seed.scenario} seed {seed.seed}: {seed.outcome}", level=3)
     doc.bullets([
-        f"outcome **{seed.get('outcome')}**, label {seed.get('label') or '-'}, tags {', '.join(seed.get('tags') or []) or '-'}",
-        f"steps {seed.get('steps')}, first collision step {seed.get('first_collision_step', '-')}",
-        f"min distance {fmt(seed.get('min_distance'), 2, ' m')}, min clearance {fmt(seed.get('min_clearance'), 2, ' m')}",
-        f"command speed mean {fmt(seed.get('mean_command_v'), 2, ' m/s')}, max {fmt(seed.get('max_command_v'), 2, ' m/s')}",
-        f"planner time {fmt(seed.get('plan_ms_mean'), 2, ' ms')} per step, prediction ADE {fmt(seed.get('prediction_ade'), 2, ' m')}",
+        f"outcome **{seed.outcome}**, label {seed.label or '-'}, tags {', '.join(seed.tags) or '-'}",
+        f"steps {seed.steps}, first collision step {_or_dash(seed.first_collision_step)}",
+        f"min distance {fmt(seed.min_distance, 2, ' m')}, min clearance {fmt(seed.min_clearance, 2, ' m')}",
+        f"command speed mean {fmt(seed.mean_command_v, 2, ' m/s')}, max {fmt(seed.max_command_v, 2, ' m/s')}",
+        f"planner time {fmt(seed.plan_ms_mean, 2, ' ms')} per step, prediction ADE {fmt(seed.prediction_ade, 2, ' m')}",
     ])
-    if existing(workdir, seed.get("render")):
-        doc.image(str(seed["render"]), "Episode: robot path by time, pedestrian tracks, collision point")
-    trace_json: dict[str, Any] = {}
-    if existing(workdir, seed.get("trace")):
-        trace_json = json.loads((workdir / seed["trace"]).read_text())
+    if existing(workdir, seed.render):
+        doc.image(str(seed.render), "Episode: robot path by time, pedestrian tracks, collision point")
+    trace_json = None
+    if existing(workdir, seed.trace):
+        trace_json = read(SeedTrace, workdir / seed.trace)
         moment = _moment(workdir, seed, trace_json, mapdef)
         if moment:
             doc.image(moment, "Critical moment: predicted (dashed) vs actual (solid) futures of the nearest pedestrians")
-        doc.links([("per-step trace (JSON)", str(seed["trace"]))])
+        doc.links([("per-step trace (JSON)", seed.trace)])
     else:
         doc.note("No per-step trace stored for this seed: no critical-moment picture.")
     replay = _replay(workdir, seed, trace_json, mapdef, trace)
@@ -122,44 +120,45 @@ def _seed_section(doc: Document, workdir: Path, seed: Mapping[str, Any], mapdef:
         doc.note("No replay: no full episode trace (.npz or Trace) and map were available.")
 
 
-def build_diagnostics_document(res: Mapping[str, Any], workdir: Path, maps: Mapping[str, MapDef] | None = None,
+def _or_dash(x: Any) -> Any:
+    return "-" if x is None else x
+
+
+def build_diagnostics_document(res: DiagnosticsResult, workdir: Path, maps: Mapping[str, MapDef] | None = None,
                                traces: Mapping[tuple[str, int], Any] | None = None) -> Document:
-    planner = res.get("planner") or {}
-    seeds = list(res.get("seeds") or [])
-    doc = Document(f"Hard-seed diagnostics: {planner.get('variant') or planner.get('name', 'planner')}")
+    planner = res.planner
+    label = planner.variant or planner.name
+    doc = Document(f"Hard-seed diagnostics: {label}")
     doc.section("Summary")
-    doc.text(f"Solved **{res.get('solved', '?')}/{res.get('episodes', '?')}** hard seeds with planner "
-             f"`{planner.get('variant') or planner.get('name', '?')}` (config `{str(planner.get('config_hash', '?'))[:12]}`, "
-             f"model `{planner.get('model_id', '?')}`), code `{res.get('code_version', '?')}`, "
-             f"{fmt(res.get('wall_s'), 1, ' s')}.")
-    outcomes = res.get("outcomes") or {}
-    doc.table(["outcome", "episodes"], [[k, v] for k, v in sorted(outcomes.items())] or [["-", 0]])
+    doc.text(f"Solved **{res.solved}/{res.episodes}** hard seeds with planner `{label}` (config "
+             f"`{planner.config_hash[:12]}`, model `{planner.model_id}`), code `{res.code_version}`, "
+             f"{fmt(res.wall_s, 1, ' s')}.")
+    doc.table(["outcome", "episodes"], [[k, v] for k, v in sorted(res.outcomes.items())] or [["-", 0]])
     doc.section("Failure taxonomy")
     by_scenario: dict[str, dict[str, int]] = {}
-    for s in seeds:
-        if s.get("label"):
-            counts = by_scenario.setdefault(s["scenario"], {})
-            counts[s["label"]] = counts.get(s["label"], 0) + 1
+    for s in res.seeds:
+        if s.label:
+            counts = by_scenario.setdefault(s.scenario, {})
+            counts[s.label] = counts.get(s.label, 0) + 1
     if by_scenario:
         path, rel = figure_path(workdir, "diagnostics_taxonomy.png")
         taxonomy_bars(by_scenario, path, title="Failure mechanisms of the hard seeds per scenario")
         doc.image(rel, "Failed hard seeds per scenario by primary taxonomy label")
-        doc.table(["label", "episodes"], [[k, v] for k, v in (res.get("taxonomy") or {}).items() if v])
+        doc.table(["label", "episodes"], [[k, v] for k, v in res.taxonomy.items() if v])
     else:
         doc.note("Every hard seed was solved: nothing to classify.")
     doc.section("Hard seeds")
     doc.table(["scenario", "seed", "outcome", "label", "tags", "steps", "first collision", "min clearance [m]",
                "prediction ADE [m]"],
-              [[s["scenario"], s["seed"], s.get("outcome"), s.get("label") or "-", ", ".join(s.get("tags") or []) or "-",
-                s.get("steps"), s.get("first_collision_step") if s.get("first_collision_step") is not None else "-",
-                fmt(s.get("min_clearance")), fmt(s.get("prediction_ade"))] for s in seeds])
+              [[s.scenario, s.seed, s.outcome, s.label or "-", ", ".join(s.tags) or "-", s.steps,
+                _or_dash(s.first_collision_step), fmt(s.min_clearance), fmt(s.prediction_ade)] for s in res.seeds])
     doc.section("Episodes")
-    if not seeds:
+    if not res.seeds:
         doc.note("No seeds were diagnosed.")
-    for s in seeds:
-        _seed_section(doc, workdir, s, (maps or {}).get(s["scenario"]), (traces or {}).get((s["scenario"], s["seed"])))
+    for s in res.seeds:
+        _seed_section(doc, workdir, s, (maps or {}).get(s.scenario), (traces or {}).get((s.scenario, s.seed)))
     doc.section("Artifacts")
-    doc.links([(f"{k}: {v}", v) for k, v in (res.get("artifacts") or {}).items()] + [("report (Markdown)", "report.md")])
+    doc.links([(f"{k}: {v}", v) for k, v in res.artifacts.items()] + [("report (Markdown)", "report.md")])
     return doc
 
 
@@ -167,10 +166,9 @@ def write_diagnostics_report(result: Any, workdir: str | Path, *, maps: Mapping[
                              traces: Mapping[tuple[str, int], Any] | None = None) -> list[Path]:
     """Write figures, replays, ``report.md`` and ``report.html`` for a diagnostics run; returns their paths.
 
-    ``maps``: scenario name -> map, for map backgrounds and for rendering replays (e.g.
-    ``{n: matrix.get(n).map for n in matrix.names}``); ``traces``: (scenario, seed) -> episode Trace.
+    ``result``: a :class:`DiagnosticsResult`, its JSON dict or ``diagnostics.json``. ``maps``: scenario name ->
+    map, for map backgrounds and for rendering replays (e.g. ``{n: matrix.get(n).map for n in matrix.names}``);
+    ``traces``: (scenario, seed) -> episode Trace.
     """
     workdir = Path(workdir)
-    return publish(build_diagnostics_document(as_dict(result), workdir, maps, traces), workdir)
-
-
+    return publish(build_diagnostics_document(read(DiagnosticsResult, result), workdir, maps, traces), workdir)

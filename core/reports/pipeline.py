@@ -8,25 +8,21 @@ input; the helpers build its gate and best-variant entries from the stage result
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 from pydantic import BaseModel, Field
 
-from foresight.core.render.charts import ranking_chart, training_curves
-from foresight.core.reports.campaign import cell_name, glob_suite
-from foresight.core.reports.common import (
-    as_dict,
-    figure_path,
-    fmt,
-    gate_rows,
-    pct,
-    publish,
-    rate_est,
-    verdict,
-)
+from foresight.core.evaluation.campaign import CampaignResult
+from foresight.core.evaluation.diagnostics import DiagnosticsResult
+from foresight.core.evaluation.gates import GateCheck, GateResult
+from foresight.core.evaluation.runner import EvaluationResult
+from foresight.core.predict.collect import CollectResult
+from foresight.core.predict.train_config import TrainingSummary, TrainResult
+from foresight.core.reports.campaign import ranking_figure
+from foresight.core.reports.common import figure_path, fmt, gate_rows, pct, publish, read, verdict
 from foresight.core.reports.document import Document
+from foresight.core.reports.training import curves
 
 
 class StageEntry(BaseModel):
@@ -43,7 +39,7 @@ class StageEntry(BaseModel):
 class GateEntry(BaseModel):
     name: str  #: training | evaluation | closed_loop
     passed: bool | None  #: None = not evaluated (its stage did not run)
-    checks: list[dict[str, Any]] = Field(default_factory=list)  #: GateCheck dicts (name, passed, value, threshold, detail)
+    checks: list[GateCheck] = Field(default_factory=list)
     detail: str = ""
 
 
@@ -71,50 +67,43 @@ class PipelineSummary(BaseModel):
     wall_s: float | None = None
 
 
-def gate_entry(name: str, gate: Mapping[str, Any] | None) -> GateEntry:
-    """From a GateResult dict (``checks`` list) or the training summary's ``quality_gates`` (``checks`` mapping)."""
-    if not gate:
+def gate_entry(name: str, gate: GateResult | None) -> GateEntry:
+    """A gate's verdict and checks (the training gate: ``TrainingSummary.gate_result()``)."""
+    if gate is None:
         return GateEntry(name=name, passed=None, detail="not evaluated")
-    checks = gate.get("checks") or []
-    if isinstance(checks, Mapping):
-        checks = [{"name": k, "passed": bool(v)} for k, v in checks.items()]
-    return GateEntry(name=name, passed=bool(gate.get("passed")), checks=list(checks))
+    return GateEntry(name=name, passed=gate.passed, checks=gate.checks)
 
 
-def best_from_campaign(result: Any) -> BestVariant | None:
-    """The ranked-first cell of a campaign result (model, dict or path)."""
-    best = as_dict(result).get("best")
-    if not best:
+def best_from_campaign(result: CampaignResult) -> BestVariant | None:
+    """The ranked-first cell of a campaign result."""
+    best = result.best
+    if best is None:
         return None
-    hard, glob = best.get("hard") or {}, glob_suite(best)
-    return BestVariant(variant=str(best.get("variant")), checkpoint=best.get("checkpoint"),
-                       config_hash=(best.get("planner") or {}).get("config_hash"),
-                       hard_success=(hard.get("success") or {}).get("rate"),
-                       global_success=(glob.get("success") or {}).get("rate"),
-                       hard_clearance=(hard.get("mean_min_clearance") or {}).get("mean"),
-                       global_clearance=(glob.get("mean_min_clearance") or {}).get("mean"))
+    return BestVariant(variant=best.variant, checkpoint=best.checkpoint, config_hash=best.planner.config_hash,
+                       hard_success=best.hard.success.rate, global_success=best.global_.success.rate,
+                       hard_clearance=best.hard.mean_min_clearance.mean,
+                       global_clearance=best.global_.mean_min_clearance.mean)
 
 
-def headline(kind: str, result: Any) -> str:
-    """One line of a stage result's key numbers, for :attr:`StageEntry.headline` (empty for unknown kinds)."""
-    r = as_dict(result)
-    if kind == "evaluate":
-        return (f"success {pct(r.get('success_rate'))}, collision {pct(r.get('collision_rate'))} over "
-                f"{r.get('episodes', '?')} episodes; gate {verdict((r.get('gate') or {}).get('passed'))}")
-    if kind == "diagnose":
-        return f"solved {r.get('solved', '?')}/{r.get('episodes', '?')} hard seeds"
-    if kind == "campaign":
-        b = best_from_campaign(r)
+def headline(kind: str, result: BaseModel | None) -> str:
+    """One line of a stage result's key numbers, for :attr:`StageEntry.headline` (empty for other kinds)."""
+    if kind == "evaluate" and isinstance(result, EvaluationResult):
+        return (f"success {pct(result.success_rate)}, collision {pct(result.collision_rate)} over "
+                f"{result.episodes} episodes; gate {verdict(result.gate.passed)}")
+    if kind == "diagnose" and isinstance(result, DiagnosticsResult):
+        return f"solved {result.solved}/{result.episodes} hard seeds"
+    if kind == "campaign" and isinstance(result, CampaignResult):
+        b = best_from_campaign(result)
         return "no cells" if b is None else (
             f"best {b.variant}: hard success {pct(b.hard_success)}, global {pct(b.global_success)}, "
             f"clearance {fmt(b.hard_clearance)} / {fmt(b.global_clearance)} m")
-    if kind == "train":
-        best = r.get("best") or {}
-        ade, fde = r.get("val_ade", best.get("val_ade")), r.get("val_fde", best.get("val_fde"))
-        cv_ade = r.get("cv_val_ade", (r.get("cv_val") or {}).get("ade"))
-        cv_fde = r.get("cv_val_fde", (r.get("cv_val") or {}).get("fde"))
-        return (f"val ADE {fmt(ade, 3)} m (CV {fmt(cv_ade, 3)}), FDE {fmt(fde, 3)} m (CV {fmt(cv_fde, 3)}), "
-                f"epoch {r.get('best_epoch', best.get('epoch', '?'))}")
+    if kind == "train" and isinstance(result, TrainResult | TrainingSummary):
+        r = result.result("") if isinstance(result, TrainingSummary) else result
+        return (f"val ADE {fmt(r.val_ade, 3)} m (CV {fmt(r.cv_val_ade, 3)}), FDE {fmt(r.val_fde, 3)} m "
+                f"(CV {fmt(r.cv_val_fde, 3)}), epoch {r.best_epoch}")
+    if kind in ("collect", "mix") and isinstance(result, CollectResult):
+        s = result.summary
+        return f"{s.samples} samples from {s.episodes} episodes" + (f"; outcomes {result.outcomes}" if result.outcomes else "")
     return ""
 
 
@@ -142,7 +131,7 @@ def _gates(doc: Document, s: PipelineSummary) -> None:
             doc.table(["check", "result", "value", "threshold", "detail"], gate_rows(g.checks))
 
 
-def _best(doc: Document, workdir: Path, s: PipelineSummary, campaign: Mapping[str, Any] | None) -> None:
+def _best(doc: Document, workdir: Path, s: PipelineSummary, campaign: CampaignResult | None) -> None:
     doc.section("Best campaign variant")
     b = s.best
     if b is None:
@@ -153,16 +142,13 @@ def _best(doc: Document, workdir: Path, s: PipelineSummary, campaign: Mapping[st
         doc.table(["suite", "success", "mean min clearance [m]"],
                   [["hard", pct(b.hard_success), fmt(b.hard_clearance)],
                    ["global", pct(b.global_success), fmt(b.global_clearance)]])
-    cells = list((campaign or {}).get("ranked") or [])
-    if cells:
-        path, rel = figure_path(workdir, "pipeline_campaign_ranking.png")
-        ranking_chart([cell_name(c) for c in cells], [rate_est((c.get("hard") or {}).get("success")) for c in cells],
-                      [rate_est(glob_suite(c).get("success")) for c in cells], path, title="Campaign ranking")
+    if campaign is not None and campaign.ranked:
+        rel = ranking_figure(workdir, "pipeline_campaign_ranking.png", campaign.ranked, title="Campaign ranking")
         doc.image(rel, "Campaign cells in rank order: hard-suite and global success with 95 % intervals")
 
 
-def build_pipeline_document(s: PipelineSummary, workdir: Path, campaign: Mapping[str, Any] | None = None,
-                            training: Mapping[str, Any] | None = None) -> Document:
+def build_pipeline_document(s: PipelineSummary, workdir: Path, campaign: CampaignResult | None = None,
+                            training: TrainingSummary | None = None) -> Document:
     doc = Document(f"Pipeline {s.name}: performance summary")
     doc.section("Verdict")
     failed = [g.name for g in s.gates if g.passed is False]
@@ -177,26 +163,24 @@ def build_pipeline_document(s: PipelineSummary, workdir: Path, campaign: Mapping
     doc.text(f"`{s.promoted_model}`" if s.promoted_model else "No model was promoted.")
     if s.promotion:
         doc.text(s.promotion)
-    history = list((training or {}).get("history") or [])
-    if history:
+    if training is not None and training.history:
         doc.section("Training curves")
         path, rel = figure_path(workdir, "pipeline_training_curves.png")
-        training_curves(history, path, best_epoch=((training or {}).get("best") or {}).get("epoch"))
+        curves(training, path)
         doc.image(rel, "Predictor training: loss, ADE and FDE per epoch against constant velocity")
     doc.section("Artifacts")
     doc.links([(k, v) for k, v in s.artifacts.items()] + [("summary (Markdown)", "report.md")])
     return doc
 
 
-def write_pipeline_report(summary: PipelineSummary | Mapping[str, Any], workdir: str | Path, *,
-                          campaign: Any = None, training: Any = None) -> list[Path]:
+def write_pipeline_report(summary: Any, workdir: str | Path, *, campaign: Any = None, training: Any = None) -> list[Path]:
     """Write the pipeline summary (``report.md``/``report.html`` plus figures) under ``workdir``; returns the paths.
 
-    ``campaign``: the campaign result (for the ranking chart), ``training``: the training summary (for the
-    curves); both optional and may be models, dicts or JSON paths.
+    ``summary``: a :class:`PipelineSummary` (or its dict); ``campaign``: the campaign result (for the ranking
+    chart), ``training``: the training summary (for the curves); both optional, models, dicts or JSON paths.
     """
     workdir = Path(workdir)
-    s = summary if isinstance(summary, PipelineSummary) else PipelineSummary.model_validate(as_dict(summary))
-    doc = build_pipeline_document(s, workdir, as_dict(campaign) if campaign is not None else None,
-                                  as_dict(training) if training is not None else None)
+    doc = build_pipeline_document(read(PipelineSummary, summary), workdir,
+                                  read(CampaignResult, campaign) if campaign is not None else None,
+                                  read(TrainingSummary, training) if training is not None else None)
     return publish(doc, workdir)

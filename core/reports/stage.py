@@ -11,8 +11,9 @@ from pathlib import Path
 from typing import Any
 
 from foresight.core.errors import ConfigError
+from foresight.core.predict.train_config import TrainingSummary, TrainResult
 from foresight.core.reports.campaign import write_campaign_report
-from foresight.core.reports.common import as_dict
+from foresight.core.reports.common import read
 from foresight.core.reports.diagnostics import write_diagnostics_report
 from foresight.core.reports.evaluation import write_evaluation_report
 from foresight.core.reports.pipeline import write_pipeline_report
@@ -27,16 +28,15 @@ REPORTERS: dict[str, Callable[..., list[Path]]] = {
 }
 
 
-def _training_summary(result: Any, workdir: Path) -> Any:
-    """A ``TrainResult`` names its summary file; the training report needs that file's content."""
-    data = as_dict(result)
-    if "history" in data or not data.get("summary"):
-        return data
-    path = Path(data["summary"])
+def _training_summary(result: Any, workdir: Path) -> TrainingSummary:
+    """A ``TrainResult`` names its summary file; the training report reads that file's TrainingSummary."""
+    if isinstance(result, TrainingSummary):
+        return result
+    path = Path(read(TrainResult, result).summary)
     path = path if path.is_absolute() else workdir / path
     if not path.is_file():
         raise ConfigError("training summary file not found", source=path)
-    return path
+    return read(TrainingSummary, path)
 
 
 def write_stage_report(kind: str, result: Any, workdir: str | Path, **options: Any) -> list[Path]:

@@ -9,13 +9,11 @@ optional proxy evaluation through a callback, and selection. The selected model 
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import torch
@@ -35,7 +33,17 @@ from foresight.core.predict.nn.model import (
 from foresight.core.predict.nn.selection import Selection
 from foresight.core.predict.predictor import ConstantVelocityPredictor
 from foresight.core.predict.quality import check_quality, summarize
-from foresight.core.predict.train_config import TrainConfig, TrainResult
+from foresight.core.predict.train_config import (
+    AdeFde,
+    EnsembleMember,
+    EnsembleScore,
+    EpochRecord,
+    SelectionState,
+    TrainConfig,
+    TrainingSummary,
+    TrainResult,
+    training_gate,
+)
 from foresight.core.stages.context import StageContext
 from foresight.core.version import code_version
 
@@ -119,17 +127,6 @@ def cv_metrics(ds: Dataset, index: np.ndarray) -> dict[str, float]:
     pred = ConstantVelocityPredictor(ds.meta.timebase).predict(ds.state[index], ds.mask[index])
     r = ade_fde(pred, ds.target[index], ds.target_mask[index])
     return {"ade": r["ade"], "fde": r["fde"]}
-
-
-def gates(config: TrainConfig, best: dict[str, Any], cv: dict[str, float]) -> dict[str, Any]:
-    g = config.gates
-    checks = {
-        "val_ade_below_limit": best["val_ade"] <= g.max_val_ade,
-        "val_fde_below_limit": best["val_fde"] <= g.max_val_fde,
-        "val_ade_below_cv": (best["val_ade"] < cv["ade"]) or not g.require_beat_cv,
-        "val_fde_below_cv": (best["val_fde"] < cv["fde"]) or not g.require_beat_cv,
-    }
-    return {"limits": g.model_dump(), "cv": cv, "checks": checks, "passed": all(checks.values())}
 
 
 def run_train(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | None = None) -> TrainResult:
@@ -216,43 +213,39 @@ def _train_ensemble(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback
     ds = load_dataset(ds_path)
     va_idx = ds.split_indices(config.val_split)
     va, cv = evaluate(model, _tensors(ds, va_idx), config.loss_beta, loss=config.loss), cv_metrics(ds, va_idx)
-    best = {"epoch": max(r.best_epoch for r in results), "val_loss": va["loss"], "val_ade": va["ade"],
-            "val_fde": va["fde"], "member_epochs": [r.best_epoch for r in results]}
-    gate = gates(config, best, cv)
+    best = EnsembleScore(epoch=max(r.best_epoch for r in results), val_loss=va["loss"], val_ade=va["ade"],
+                         val_fde=va["fde"], member_epochs=[r.best_epoch for r in results])
+    cv_val = AdeFde(**cv)
     payload = make_checkpoint(model, ds.meta.timebase, ds.meta.frame_convention, payloads[0]["dataset"],
-                              {k: best[k] for k in ("val_loss", "val_ade", "val_fde")}, best["epoch"])
+                              {"val_loss": best.val_loss, "val_ade": best.val_ade, "val_fde": best.val_fde}, best.epoch)
     save_checkpoint(payload, ctx.artifact("model.pt"))
-    first = json.loads(Path(results[0].summary).read_text())
-    summary = {
-        "artifact_role": "predictive_training_summary", "config": config.model_dump(), "dataset": payloads[0]["dataset"],
-        "dataset_stats": first["dataset_stats"], "cv_val": cv, "history": first["history"], "best": best,
-        "members": [{"seed": config.seed + k, "summary": f"members/{k}/training_summary.json", "best_epoch": r.best_epoch,
-                     "val_ade": r.val_ade, "val_fde": r.val_fde} for k, r in enumerate(results)],
-        "selection_mode": f"ensemble of {k_total} ({results[0].selection_mode} each)", "quality_gates": gate,
-        "checkpoint": str(ctx.artifact("model.pt")), "total_runtime_s": time.time() - started,
-        "code_version": code_version(),
-    }
+    first = TrainingSummary.model_validate_json(Path(results[0].summary).read_text())
+    summary = TrainingSummary(
+        config=config.model_dump(), dataset=payloads[0]["dataset"], dataset_stats=first.dataset_stats, cv_val=cv_val,
+        history=first.history, best=best,
+        members=[EnsembleMember(seed=config.seed + k, summary=f"members/{k}/training_summary.json",
+                                best_epoch=r.best_epoch, val_ade=r.val_ade, val_fde=r.val_fde)
+                 for k, r in enumerate(results)],
+        selection_mode=f"ensemble of {k_total} ({results[0].selection_mode} each)",
+        quality_gates=training_gate(config.gates, best, cv_val), checkpoint=str(ctx.artifact("model.pt")),
+        total_runtime_s=time.time() - started, code_version=code_version(),
+    )
     return _write_summary(summary, ctx)
 
 
 def _finish(config, ctx, history, selection, cv, stats, dataset_info, started) -> TrainResult:
-    best = selection.best
-    gate = gates(config, best, cv)
-    summary = {
-        "artifact_role": "predictive_training_summary", "config": config.model_dump(), "dataset": dataset_info,
-        "dataset_stats": stats, "cv_val": cv, "history": history, "best": best,
-        "selection": selection.to_dict(), "selection_mode": selection.mode, "quality_gates": gate,
-        "checkpoint": str(ctx.artifact("model.pt")), "total_runtime_s": time.time() - started,
-        "code_version": code_version(),
-    }
+    best, cv_val = EpochRecord.model_validate(selection.best), AdeFde(**cv)
+    summary = TrainingSummary(
+        config=config.model_dump(), dataset=dataset_info, dataset_stats=stats, cv_val=cv_val, history=history,
+        best=best, selection=SelectionState.model_validate(selection.to_dict()), selection_mode=selection.mode,
+        quality_gates=training_gate(config.gates, best, cv_val), checkpoint=str(ctx.artifact("model.pt")),
+        total_runtime_s=time.time() - started, code_version=code_version(),
+    )
     return _write_summary(summary, ctx)
 
 
-def _write_summary(summary: dict, ctx: StageContext) -> TrainResult:
+def _write_summary(summary: TrainingSummary, ctx: StageContext) -> TrainResult:
     """Write ``training_summary.json`` (one run or an ensemble) and the stage result it implies."""
-    best, cv = summary["best"], summary["cv_val"]
     path = ctx.artifact("training_summary.json")
-    path.write_text(json.dumps(summary, indent=2, default=float))
-    return TrainResult(checkpoint=summary["checkpoint"], summary=str(path), best_epoch=best["epoch"],
-                       val_ade=best["val_ade"], val_fde=best["val_fde"], cv_val_ade=cv["ade"], cv_val_fde=cv["fde"],
-                       selection_mode=summary["selection_mode"], gates_passed=summary["quality_gates"]["passed"])
+    path.write_text(summary.model_dump_json(indent=2))
+    return summary.result(str(path))

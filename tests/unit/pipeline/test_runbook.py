@@ -12,6 +12,7 @@ from foresight.core.pipeline.config import PipelineConfig, load_pipeline_config,
 from foresight.core.pipeline.runbook import ChildRun, StageFailed, check_seed_separation, run_pipeline
 from foresight.core.stages.context import Cancelled, StageContext
 from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
+from tests.unit.reports import data
 
 SMOKE = BUILTIN_CONFIG_ROOT / "pipelines" / "smoke.yaml"
 SECTIONS = ["## Verdict", "## Stages", "## Gates", "## Best campaign variant", "## Promoted model", "## Artifacts"]
@@ -23,17 +24,8 @@ def _ctx(tmp_path: Path, cancelled: list[bool] | None = None) -> StageContext:
                         is_cancelled=lambda: flag[0])
 
 
-def _gate(passed: bool) -> dict[str, Any]:
-    return {"passed": passed, "checks": [{"name": "success_rate", "passed": passed, "value": 0.5, "threshold": 0.4}]}
-
-
-def _suite(rate: float) -> dict[str, Any]:
-    return {"success": {"rate": rate, "low": rate - 0.1, "high": rate + 0.1, "n": 10, "k": int(10 * rate)},
-            "mean_min_clearance": {"mean": 0.4}}
-
-
 class FakeChildren:
-    """Records every call; results shaped like the real stage results (only the fields the runbook reads)."""
+    """Records every call; results are complete stage results (the runbook validates them as their models)."""
 
     def __init__(self, *, evaluation_passes: bool = True, fail: str | None = None):
         self.calls: list[tuple[str, str, dict[str, Any]]] = []
@@ -57,20 +49,20 @@ class FakeChildren:
 
     def result(self, stage: str, kind: str, spec: dict[str, Any]) -> dict[str, Any]:
         if kind == "collect" or kind == "mix":
-            return {"dataset": f"{stage}.npz", "sha256": "0" * 64, "summary": {"samples": 10, "episodes": 2},
+            return {"dataset": f"{stage}.npz", "sha256": "0" * 64, "summary": data.dataset_summary(10, 2),
                     "outcomes": {"success": 2}}
         if kind == "train":
-            return {"checkpoint": "model.pt", "summary": None, "best_epoch": 2, "val_ade": 0.3, "val_fde": 0.6,
-                    "cv_val_ade": 0.4, "cv_val_fde": 0.8, "selection_mode": "proxy", "gates_passed": True}
+            return {"checkpoint": "model.pt", "summary": "no/training_summary.json", "best_epoch": 2, "val_ade": 0.3,
+                    "val_fde": 0.6, "cv_val_ade": 0.4, "cv_val_fde": 0.8, "selection_mode": "proxy", "gates_passed": True}
         if kind == "evaluate":
-            return {"status": "passed" if self.evaluation_passes else "failed_gate", "success_rate": 0.8,
-                    "collision_rate": 0.1, "episodes": 6, "gate": _gate(self.evaluation_passes)}
+            return data.evaluation(failures=not self.evaluation_passes)
         if kind == "diagnose":
-            return {"episodes": 6, "solved": 3}
+            return data.diagnostics(6, 3)
         if kind == "campaign":
-            cell = {"variant": "default", "checkpoint": spec["checkpoints"][0], "hard": _suite(0.5),
-                    "global": _suite(0.7), "planner": {"config_hash": "ab" * 32}}
-            return {"status": "passed", "best": cell, "ranked": [cell], "gate": _gate(True)}
+            result = data.campaign(gate_passed=True)
+            for cell in result["ranked"]:
+                cell["checkpoint"] = spec["checkpoints"][0]
+            return result
         return {"model_id": spec.get("model_id"), "status": spec.get("to", spec.get("status"))}
 
 

@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 from PIL import Image
 
+from foresight.core.evaluation.aggregate import MEANS
 from foresight.core.evaluation.stats import bootstrap_mean, rate
 
 LABELS = ["collision_pedestrian_robot_fault", "collision_pedestrian_pedestrian_fault", "collision_static",
@@ -34,8 +35,8 @@ def group(key: str, success: int, collision: int, n: int, tax: dict[str, int], f
         "rates": {"success": rate_d(success, n), "collision": rate_d(collision, n),
                   "collision_pedestrian": rate_d(collision, n), "collision_static": rate_d(0, n),
                   "timeout": rate_d(timeout, n), "error": rate_d(0, n)},
-        "means": {"min_clearance": mean_d(clearance), "avg_speed": mean_d([0.8] * n),
-                  "time_to_goal_s": mean_d([12.5] * success)},
+        "means": {**{name: mean_d([]) for name in MEANS}, "min_clearance": mean_d(clearance),
+                  "avg_speed": mean_d([0.8] * n), "time_to_goal_s": mean_d([12.5] * success)},
         "delta_to_global": {"success_rate": 0.05},
         "failed": [{"scenario": key, "seed": s, "outcome": "timeout", "label": "timeout_slow_progress"}
                    for s in failed_seeds],
@@ -73,8 +74,24 @@ def evaluation(failures: bool = True) -> dict[str, Any]:
         "gate": {"passed": gate_ok, "checks": [
             {"name": "success_rate", "passed": gate_ok, "value": overall["rates"]["success"]["rate"], "threshold": 0.8},
             {"name": "mean_min_clearance", "passed": True, "value": 0.5, "threshold": 0.25}]},
-        "artifacts": {"summary": "evaluation.json", "episodes": "episodes.jsonl"}, "wall_s": 12.3,
+        "artifacts": {"summary": "evaluation.json", "episodes": "episodes.jsonl"}, "wall_s": 12.3, "config": {},
     }
+
+
+def dataset_summary(samples: int, episodes: int) -> dict[str, Any]:
+    """A dataset's summary (core.predict.quality.summarize) with round numbers."""
+    return {"samples": samples, "episodes": episodes, "samples_per_split": {"train": samples, "val": 0, "test": 0},
+            "episodes_per_split": {"train": episodes, "val": 0, "test": 0}, "active_agent_ratio": 0.5,
+            "active_target_ratio": 0.9, "target_std_m": 1.0, "final_displacement_m": {"mean": 1.0, "p50": 1.0, "p95": 2.0}}
+
+
+def diagnostics(episodes: int, solved: int) -> dict[str, Any]:
+    """A diagnostics result without seeds (the counts and provenance only)."""
+    return {"episodes": episodes, "solved": solved, "outcomes": {"success": solved, "timeout": episodes - solved},
+            "taxonomy": taxonomy(timeout_freeze=episodes - solved), "taxonomy_config": {}, "seeds": [],
+            "planner": {"name": "predictive", "variant": None, "config": {}, "config_hash": "c0ffee", "model_id": "m-7",
+                        "checkpoint_sha256": "deadbeef" * 8},
+            "code_version": "0.1.0+test", "artifacts": {"summary": "diagnostics.json"}, "wall_s": 3.0, "config": {}}
 
 
 def suite(success: int, n: int, clearance: float, tax: dict[str, int]) -> dict[str, Any]:
@@ -109,7 +126,8 @@ def campaign(gate_passed: bool = False) -> dict[str, Any]:
             "best": cells[0], "ranked": cells, "gate": gate, "cells_run": 3, "cells_resumed": 0,
             "matrix": "scenarios/classic_interactions.yaml", "seed_manifest": "seeds/eval_hard.yaml", "grid": "inline",
             "horizon": "scenario", "hard_episodes": 4, "global_episodes": 20, "code_version": "0.1.0+test",
-            "artifacts": {"summary": "campaign_summary.json", "cells": "cells/"}, "wall_s": 99.0}
+            "artifacts": {"summary": "campaign_summary.json", "cells": "cells/"}, "wall_s": 99.0,
+            "best_vs_reference": {}, "config": {}}
 
 
 def training(proxy: bool = True) -> dict[str, Any]:
@@ -125,12 +143,27 @@ def training(proxy: bool = True) -> dict[str, Any]:
     return {"artifact_role": "predictive_training_summary", "config": {"epochs": 6},
             "dataset": {"id": "ds-1", "sha256": "0123abcd" * 8, "source": "simulator"},
             "dataset_stats": {"samples": 4321, "episodes": 40}, "cv_val": {"ade": 0.41, "fde": 0.93},
-            "history": hist, "best": best, "selection": {"reason": "best (proxy success, proxy clearance, -val loss)"},
+            "history": hist, "best": best,
+            "selection": {"proxy_enabled": proxy, "mode": "proxy" if proxy else "val_loss", "proxy_history": [],
+                          "reason": "best (proxy success, proxy clearance, -val loss)"},
             "selection_mode": "proxy" if proxy else "val_loss",
             "quality_gates": {"limits": {"max_val_ade": 1.0, "max_val_fde": 1.8}, "cv": {"ade": 0.41, "fde": 0.93},
                               "checks": {"val_ade_below_limit": True, "val_fde_below_limit": True,
                                          "val_ade_below_cv": True, "val_fde_below_cv": True}, "passed": True},
             "checkpoint": "model.pt", "total_runtime_s": 42.0, "code_version": "0.1.0+test"}
+
+
+def record(trace: Any, scenario: str, seed: int, *, collision_step: int, collision_point: tuple[float, float]) -> Any:
+    """The EpisodeRecord of a hand-built collided episode (core.evaluation.record.build_record)."""
+    from foresight.core.evaluation.metrics import EpisodeGeometry
+    from foresight.core.evaluation.record import Provenance, build_record
+
+    geom = EpisodeGeometry(robot_radius=1.0, ped_radius=0.4, horizon=trace.steps, route=trace.robot[[0, -1], :2])
+    prov = Provenance(scenario=scenario, archetype=scenario.rsplit("_", 1)[0], seed=seed, planner="predictive",
+                      planner_config_hash="c0ffee", model_id="m-7", checkpoint_sha256="deadbeef" * 8,
+                      code_version="0.1.0+test", dt=trace.dt, horizon=trace.steps)
+    return build_record(trace, geom, outcome="collision_pedestrian", provenance=prov, collision_kind="pedestrian",
+                        collision_step=collision_step, collision_point=collision_point)
 
 
 def assert_picture(path: Path, min_bytes: int = 2000) -> None:

@@ -7,6 +7,11 @@ from pathlib import Path
 
 import pytest
 
+from foresight.core.evaluation.campaign import CampaignResult
+from foresight.core.evaluation.diagnostics import DiagnosticsResult
+from foresight.core.evaluation.runner import EvaluationResult
+from foresight.core.evaluation.stats import rate
+from foresight.core.predict.train_config import TrainingSummary, TrainResult
 from foresight.core.reports.campaign import write_campaign_report
 from foresight.core.reports.compare import rate_delta, write_comparison_report
 from foresight.core.reports.diagnostics import write_diagnostics_report
@@ -113,18 +118,18 @@ def test_comparison_report(tmp_path: Path) -> None:
 
 
 def test_newcombe_interval_of_a_rate_delta() -> None:
-    a, b = data.rate_d(5, 10), data.rate_d(9, 10)  # Wilson [0.2366, 0.7634] and [0.5958, 0.9821]
+    a, b = rate(5, 10), rate(9, 10)  # Wilson [0.2366, 0.7634] and [0.5958, 0.9821]
     d = rate_delta(a, b)
     assert d.value == pytest.approx(0.4)
     # Newcombe's hybrid score: d -/+ sqrt of the squared inner/outer Wilson half-widths
     assert d.low == pytest.approx(0.4 - ((0.9 - 0.5958) ** 2 + (0.7634 - 0.5) ** 2) ** 0.5, abs=1e-3)
     assert d.high == pytest.approx(0.4 + ((0.9821 - 0.9) ** 2 + (0.5 - 0.2366) ** 2) ** 0.5, abs=1e-3)
     assert d.low < 0 < d.high  # 5/10 vs 9/10 is not a clear difference
-    assert rate_delta(data.rate_d(0, 0), data.rate_d(1, 2)).value is None
+    assert rate_delta(rate(0, 0), rate(1, 2)).value is None
 
 
 def test_pipeline_summary_with_a_failing_gate(tmp_path: Path) -> None:
-    camp = data.campaign(gate_passed=False)
+    camp = CampaignResult.model_validate(data.campaign(gate_passed=False))
     summary = PipelineSummary(
         name="quickstart", status="failed_gate", exit_code=2,
         stages=[StageEntry(name="train", status="completed", wall_s=40.0, headline="val ADE 0.27 m",
@@ -132,7 +137,8 @@ def test_pipeline_summary_with_a_failing_gate(tmp_path: Path) -> None:
                 StageEntry(name="campaign", status="failed_gate", wall_s=99.0, report="campaign/report.html",
                            artifacts={"summary": "campaign/campaign_summary.json"}),
                 StageEntry(name="promote", status="skipped")],
-        gates=[gate_entry("training", data.training()["quality_gates"]), gate_entry("closed_loop", camp["gate"]),
+        gates=[gate_entry("training", TrainingSummary.model_validate(data.training()).gate_result()),
+               gate_entry("closed_loop", camp.gate),
                gate_entry("evaluation", None)],
         best=best_from_campaign(camp), promoted_model=None, promotion="closed-loop gate failed: not promoted",
         artifacts={"pipeline.json": "pipeline.json"})
@@ -159,11 +165,11 @@ def _diagnostics(tmp_path: Path) -> dict:
                      "actual": [None] * 7 + [[1.0, 2.0]]} for i, p in zip(ids, pos, strict=True)]
         steps.append({"step": t, "robot": tr.robot[t].tolist(), "min_distance": 2.0 - t / 60,
                       "predicted_vs_actual": rows})
-    record = {"taxonomy": {"critical_step": 40}, "safety": {"first_collision_step": 40},
-              "collision_point": [14.0, 10.0]}
+    record = data.record(tr, "crossing_high", 3, collision_step=40, collision_point=(14.0, 10.0))
     (tmp_path / "diagnostics").mkdir(parents=True)
     (tmp_path / "diagnostics/trace_crossing_high_3.json").write_text(
-        json.dumps({"scenario": "crossing_high", "seed": 3, "dt": 0.1, "record": record, "steps": steps}))
+        json.dumps({"scenario": "crossing_high", "seed": 3, "horizon": tr.steps, "dt": 0.1,
+                    "record": record.model_dump(mode="json"), "steps": steps}))
     seed = {"scenario": "crossing_high", "seed": 3, "outcome": "collision_pedestrian", "steps": 40,
             "label": "collision_pedestrian_robot_fault", "tags": ["late_reaction"], "first_collision_step": 40,
             "min_distance": 1.3, "min_clearance": -0.1, "mean_command_v": 1.1, "max_command_v": 1.5,
@@ -174,7 +180,8 @@ def _diagnostics(tmp_path: Path) -> dict:
     return {"episodes": 2, "solved": 1, "outcomes": {"collision_pedestrian": 1, "success": 1},
             "taxonomy": data.taxonomy(collision_pedestrian_robot_fault=1), "taxonomy_config": {},
             "seeds": [seed, solved], "code_version": "0.1.0+test", "artifacts": {"summary": "diagnostics.json"},
-            "planner": {"name": "predictive", "variant": None, "config_hash": "c0ffee", "model_id": "m-7"}, "wall_s": 3.0}
+            "planner": {"name": "predictive", "variant": None, "config": {}, "config_hash": "c0ffee", "model_id": "m-7",
+                        "checkpoint_sha256": "deadbeef" * 8}, "wall_s": 3.0, "config": {}}
 
 
 def test_diagnostics_report_with_moment_and_replay(tmp_path: Path) -> None:
@@ -204,7 +211,9 @@ def test_stage_dispatch(tmp_path: Path) -> None:
     from foresight.core.reports.stage import write_stage_report
 
     (tmp_path / "training_summary.json").write_text(json.dumps(data.training()))
-    train_result = {"checkpoint": "model.pt", "summary": "training_summary.json", "best_epoch": 6}
+    train_result = {"checkpoint": "model.pt", "summary": "training_summary.json", "best_epoch": 6, "val_ade": 0.27,
+                    "val_fde": 0.53, "cv_val_ade": 0.41, "cv_val_fde": 0.93, "selection_mode": "proxy",
+                    "gates_passed": True}
     paths = write_stage_report("train", train_result, tmp_path)
     assert (tmp_path / "figures/training_curves.png") in paths and "Selected epoch **6**" in paths[-2].read_text()
     assert write_stage_report("evaluate", data.evaluation(), tmp_path / "e")[-1] == tmp_path / "e" / "report.html"
@@ -215,9 +224,11 @@ def test_stage_dispatch(tmp_path: Path) -> None:
 def test_stage_headlines() -> None:
     from foresight.core.reports.pipeline import headline
 
-    assert headline("evaluate", data.evaluation()) == "success 70.0%, collision 10.0% over 10 episodes; gate FAILED"
-    assert headline("campaign", data.campaign()).startswith("best careful: hard success 75.0%, global 85.0%")
-    assert headline("train", data.training()) == "val ADE 0.267 m (CV 0.410), FDE 0.533 m (CV 0.930), epoch 6"
-    assert headline("train", {"val_ade": 0.3, "val_fde": 0.6, "cv_val_ade": 0.4, "cv_val_fde": 0.9,
-                              "best_epoch": 3}).startswith("val ADE 0.300 m (CV 0.400)")
-    assert headline("diagnose", {"solved": 2, "episodes": 5}) == "solved 2/5 hard seeds" and headline("x", {}) == ""
+    assert headline("evaluate", EvaluationResult.model_validate(data.evaluation())) == "success 70.0%, collision 10.0% over 10 episodes; gate FAILED"
+    assert headline("campaign", CampaignResult.model_validate(data.campaign())).startswith("best careful: hard success 75.0%, global 85.0%")
+    assert headline("train", TrainingSummary.model_validate(data.training())) == "val ADE 0.267 m (CV 0.410), FDE 0.533 m (CV 0.930), epoch 6"
+    assert headline("train", TrainResult(val_ade=0.3, val_fde=0.6, cv_val_ade=0.4, cv_val_fde=0.9, best_epoch=3,
+                                         checkpoint="model.pt", summary="s.json", selection_mode="val_loss",
+                                         gates_passed=True)).startswith("val ADE 0.300 m (CV 0.400)")
+    diagnosed = DiagnosticsResult.model_construct(solved=2, episodes=5)
+    assert headline("diagnose", diagnosed) == "solved 2/5 hard seeds" and headline("x", None) == ""
