@@ -3,7 +3,13 @@
 Synthetic part: each of our 11 archetypes at medium density (configs/scenarios/archetypes, the ``_medium`` entry:
 map, horizon, crowd settings, evaluation seeds) with realistic walking speeds and non-reactive shares of 0.3 and
 1.0 (everyone ignores the robot), 10 evaluation seeds each. Training seeds are the evaluation seeds + 50000
-(disjoint by construction; the unit tests check it). Prints one JSON summary line.
+(disjoint by construction; the unit tests check it).
+
+Replay part: recorded ETH/UCY pedestrians (data root ``ethucy``) in the five scenes, the episodes picked by
+``core.scenarios.replay.select_episodes`` (interaction density: most pedestrians crossing the robot's path across
+the main flow, non-overlapping 20 s windows; it reads the recordings only, never a planner's result). biwi_eth is
+replayed at 0.64 s per annotation: its file's clock is compressed about 1.6x (median 2.45 m/s against 1.0-1.3 m/s
+elsewhere; shared/reference/ethucy/PROVENANCE.md). Prints one JSON summary line.
 """
 
 from __future__ import annotations
@@ -27,6 +33,10 @@ HEADER = """\
 #   Weidmann 1993) with non-reactive shares 0.3 (*_nr30) and 1.0 (*_nr100: nobody yields to the robot);
 #   10 evaluation seeds per scenario (the archetype's medium seeds). Training seeds (closed-loop model selection,
 #   hard-case mining): configs/seeds/stress_train.yaml, evaluation seed + 50000, never these.
+# - replay_*: recorded ETH/UCY pedestrians (eth, hotel, univ, zara1, zara2) who follow their recorded paths and
+#   ignore the robot, in the scene's walkable bounds; the robot crosses the main flow. Episodes chosen by
+#   core.scenarios.replay.select_episodes (most pedestrians crossing the robot's path, non-overlapping 20 s
+#   windows; recordings only, never a planner's result). One seed each: a replay is the same for every seed.
 """
 
 
@@ -44,6 +54,37 @@ def synthetic() -> list[dict]:
             meta = {**base["metadata"], "condition": f"nonreactive_{share:g}"}
             out.append({"name": f"{arch}_{suffix}", "map_id": base["map_id"], "simulation_config": sim,
                         "robot_config": base.get("robot_config", {}), "metadata": meta, "seeds": base["seeds"]})
+    return out
+
+
+REPLAY_HORIZON_S = 20.0  #: episode length of a replay scenario [s]
+REPLAY_DT = 0.1  #: the simulator's default step [s]
+#: scene file -> (family, seconds per annotation, episodes); univ is students001 + students003
+REPLAY_SCENES = {
+    "biwi_eth": ("replay_eth", 0.64, 7), "biwi_hotel": ("replay_hotel", 0.4, 7),
+    "students001": ("replay_univ", 0.4, 3), "students003": ("replay_univ", 0.4, 5),
+    "crowds_zara01": ("replay_zara1", 0.4, 7), "crowds_zara02": ("replay_zara2", 0.4, 7),
+}
+
+
+def replay() -> list[dict]:
+    from foresight.core.dataroots import data_root
+    from foresight.core.predict.ethucy import read_scene
+    from foresight.core.scenarios.replay import scene_file, select_episodes
+
+    root = data_root("ethucy")
+    out = []
+    for scene, (family, frame_dt, count) in REPLAY_SCENES.items():
+        for ep in select_episodes(scene, read_scene(scene_file(root, scene)), frame_dt, horizon_s=REPLAY_HORIZON_S,
+                                  count=count):
+            block = {"scene": scene, "start_frame": ep.start_frame, **({"frame_dt": frame_dt} if frame_dt != 0.4 else {}),
+                     "robot_start": list(ep.robot_start), "robot_goal": list(ep.robot_goal)}
+            out.append({"name": f"{family}_{scene}_{ep.start_frame}", "replay": block,
+                        "simulation_config": {"max_episode_steps": round(REPLAY_HORIZON_S / REPLAY_DT)},
+                        "robot_config": {},
+                        "metadata": {"archetype": family, "condition": "replay", "crossings": ep.crossings,
+                                     "pedestrians": ep.pedestrians},
+                        "seeds": [0]})
     return out
 
 
@@ -77,7 +118,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, default=REPO / "configs/scenarios/stress.yaml")
     ap.add_argument("--train-out", type=Path, default=REPO / "configs/seeds/stress_train.yaml")
     args = ap.parse_args(argv)
-    scenarios = synthetic()
+    scenarios = synthetic() + replay()
     args.out.write_text(matrix_text(scenarios))
     args.train_out.write_text(train_text(scenarios))
     print(json.dumps({"matrix": str(args.out), "train_seeds": str(args.train_out), "scenarios": len(scenarios),

@@ -6,33 +6,16 @@ Built by whoever starts a component (the app factory, the worker, the CLI), neve
 from __future__ import annotations
 
 import os
-import re
 import secrets
 from pathlib import Path
 
 from pydantic import Field, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
-from foresight.core.errors import NotFoundError
+from foresight.core.dataroots import DEFAULT_SHARED, named_data_roots, parse_data_roots, pick_root
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 TOKEN_FILE = "api-token"
-ROOT_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,63}$")
-
-
-def parse_data_roots(value: str) -> dict[str, Path]:
-    """``"ethucy=/data/ethucy,other=/x"`` -> {name: resolved folder}; ValueError naming a malformed entry."""
-    roots: dict[str, Path] = {}
-    for entry in (e.strip() for e in value.split(",")):
-        if not entry:
-            continue
-        name, sep, path = (x.strip() for x in entry.partition("="))
-        if not sep or not path or not ROOT_NAME.match(name):
-            raise ValueError(f"data root entry {entry!r}: expected NAME=PATH (NAME: letters, digits, '.', '_', '-')")
-        roots[name] = Path(path).expanduser().resolve()
-    return roots
-
-
 class Settings(BaseSettings):
     """Everything the API server, the worker and the CLI client need to know about their environment."""
 
@@ -68,7 +51,7 @@ class Settings(BaseSettings):
     #: named data roots on the worker's disk (``name=path,name=path``); specs name them, never the paths
     data_roots: str = ""
     #: the shared reference material; its ``reference/ethucy`` is data root ``ethucy`` unless one is named so
-    shared: Path = REPO_ROOT.parent / "shared"
+    shared: Path = DEFAULT_SHARED
 
     @field_validator("api_url")
     @classmethod
@@ -96,19 +79,11 @@ class Settings(BaseSettings):
     @property
     def named_data_roots(self) -> dict[str, Path]:
         """Data root name -> folder: ``FORESIGHT_DATA_ROOTS``, plus ``ethucy`` from the shared folder when it exists."""
-        roots = parse_data_roots(self.data_roots)
-        ethucy = self.shared / "reference" / "ethucy"
-        if "ethucy" not in roots and ethucy.is_dir():
-            roots["ethucy"] = ethucy.resolve()
-        return roots
+        return named_data_roots(self.data_roots, self.shared)
 
     def data_root(self, name: str) -> Path:
         """The folder of data root ``name``; NotFoundError naming the known roots."""
-        roots = self.named_data_roots
-        if name not in roots:
-            known = ", ".join(sorted(roots)) or "none (set FORESIGHT_DATA_ROOTS)"
-            raise NotFoundError(f"unknown data root {name!r}; known: {known}")
-        return roots[name]
+        return pick_root(self.named_data_roots, name)
 
     def token_file(self) -> Path:
         return self.data_dir / TOKEN_FILE

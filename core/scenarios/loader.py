@@ -27,13 +27,16 @@ Reading it the way the reference (robot_sf) does, but with every key checked:
 - A file that is not a scenario matrix (contract set, perturbation manifest, density-tier index,
   catalog, route payload, map, result index; ``core.scenarios.kinds``) is refused by kind.
 
+- ``replay`` (instead of a map): recorded pedestrians of a data root's scene, and a map built from
+  the scene's bounds (``core.scenarios.replay``); the scene is read and checked here.
+
 Anything else is a :class:`~core.errors.ConfigError` naming the file, the scenario and the key.
 """
 
 from __future__ import annotations
 
 import copy
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -41,6 +44,7 @@ from typing import Any
 import yaml
 from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 
+from foresight.core.dataroots import data_root
 from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.maps.io import file_sha256, load_map
 from foresight.core.maps.model import MapDef, SinglePedestrian
@@ -52,6 +56,7 @@ from foresight.core.scenarios.model import (
     ScenarioMatrix,
     SinglePedestrianOverride,
 )
+from foresight.core.scenarios.replay import SceneFiles, replay_scene
 from foresight.core.yamlio import load_yaml
 
 _INCLUDE_ALIASES = ("includes", "include", "scenario_files")
@@ -375,10 +380,12 @@ def matrix_from_data(
     source: str | Path,
     apply_transforms: bool = False,
     map_registry: str | Path | MapRegistry | None = None,
+    data_roots: Callable[[str], Path] | None = None,
 ) -> ScenarioMatrix:
     """Build a matrix from already-parsed manifest data; relative paths resolve against ``source``'s folder.
 
     ``source`` need not exist as a file (an inline manifest posted to the API names a notional path).
+    ``data_roots`` maps a replay scene's data root name to its folder (default: ``core.dataroots.data_root``).
     """
     root = Path(source).resolve()
     spec = _parse_spec(data, root, is_root=True)
@@ -394,8 +401,13 @@ def matrix_from_data(
     if registry is None and spec.map_registry is not None:
         registry = root.parent / spec.map_registry
     resolver = _MapResolver(root.parent, registry, apply_transforms)
+    scenes = SceneFiles(data_roots or data_root)
     resolved = []
     for entry, scenario in scenarios:
+        if scenario.replay is not None:
+            mapdef, tracks, sha = replay_scene(scenario, entry.file, scenes)
+            resolved.append(ResolvedScenario(scenario=scenario, map=mapdef, map_sha256=sha, replay=tracks))
+            continue
         mapdef, sha = resolver.load(scenario, entry)
         mapdef = apply_single_pedestrians(
             mapdef, scenario.single_pedestrians, source=entry.file, scenario=scenario.name
@@ -412,6 +424,7 @@ def load_matrix(
     *,
     apply_transforms: bool = False,
     map_registry: str | Path | MapRegistry | None = None,
+    data_roots: Callable[[str], Path] | None = None,
 ) -> ScenarioMatrix:
     """Load a scenario matrix file with its includes and maps (see the module docstring for the rules).
 
@@ -420,5 +433,5 @@ def load_matrix(
     """
     p = Path(path).resolve()
     return matrix_from_data(
-        read_yaml(p), source=p, apply_transforms=apply_transforms, map_registry=map_registry
+        read_yaml(p), source=p, apply_transforms=apply_transforms, map_registry=map_registry, data_roots=data_roots
     )

@@ -7,8 +7,10 @@ Defaults are the reference (robot_sf) defaults; units in brackets.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Annotated, Any, Literal
 
+import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from foresight.core.maps.model import MapDef, Point, WaitRule
@@ -99,8 +101,25 @@ class SinglePedestrianOverride(_Strict):
     note: str | None = None
 
 
+class ReplayConfig(_Strict):
+    """Recorded pedestrians replayed along their tracks instead of a simulated crowd (``core.scenarios.replay``).
+
+    The scene is the ETH/UCY file ``<data root>/raw/all_data/<scene>.txt``; the episode starts at its annotated
+    frame ``start_frame`` and lasts the scenario's horizon. The map is the scene's walkable bounds (every recorded
+    position plus ``margin``), with no obstacles; ``robot_start``/``robot_goal`` are in the scene's own coordinates.
+    """
+
+    data_root: str = Field(default="ethucy", pattern=r"^[A-Za-z0-9][A-Za-z0-9._-]{0,63}$")  #: a named data root
+    scene: str = Field(min_length=1, pattern=r"^[A-Za-z0-9][A-Za-z0-9._-]*$")  #: scene file stem, e.g. crowds_zara01
+    start_frame: int = Field(ge=0)  #: the scene's frame number at which the episode starts (annotated)
+    frame_dt: float = Field(default=0.4, gt=0)  #: seconds per annotation (10 frame units) [s]
+    robot_start: Point  #: [m], scene coordinates
+    robot_goal: Point  #: [m], scene coordinates
+    margin: float = Field(default=2.0, ge=0)  #: map bounds beyond the recorded positions [m]
+
+
 class Scenario(_Strict):
-    """One scenario entry of a matrix: a map plus crowd, robot and seed settings."""
+    """One scenario entry of a matrix: a map plus crowd, robot and seed settings (or a replayed scene)."""
 
     name: str = Field(min_length=1)
     map_file: str | None = None
@@ -111,6 +130,7 @@ class Scenario(_Strict):
     metadata: dict[str, Any] = Field(default_factory=dict)
     seeds: tuple[Annotated[int, Field(ge=0, le=2**32 - 1)], ...] = Field(default=(0,), min_length=1)
     required_map_profile: str = "robot_runtime"  #: registry capability a map_id must have (reference key)
+    replay: ReplayConfig | None = None  #: replayed recorded pedestrians; the map comes from the scene
 
     @model_validator(mode="before")
     @classmethod
@@ -122,7 +142,11 @@ class Scenario(_Strict):
 
     @model_validator(mode="after")
     def _has_map(self) -> Scenario:
-        if not self.map_file and not self.map_id:
+        if self.replay is not None:
+            if self.map_file or self.map_id or self.single_pedestrians:
+                raise ValueError("a replay scenario's map and pedestrians come from its scene: no map_file, map_id "
+                                 "or single_pedestrians")
+        elif not self.map_file and not self.map_id:
             raise ValueError("a scenario needs map_file or map_id")
         return self
 
@@ -142,6 +166,16 @@ class Scenario(_Strict):
         return str(d) if d is not None else None
 
 
+@dataclass(frozen=True, eq=False)
+class ReplayTracks:
+    """The annotations of a replay scenario's window, sorted by (id, time), in the map frame."""
+
+    step: np.ndarray  #: (R,) annotation instants in simulator steps since the start (whole when dt divides frame_dt)
+    ids: np.ndarray  #: (R,) int64 pedestrian ids of the scene file
+    xy: np.ndarray  #: (R, 2) positions [m], map frame = scene frame - offset
+    offset: tuple[float, float]  #: scene coordinates of the map origin [m]
+
+
 class ResolvedScenario(BaseModel):
     """A scenario with its map loaded and its single-pedestrian overrides applied: what the simulator runs."""
 
@@ -149,7 +183,8 @@ class ResolvedScenario(BaseModel):
 
     scenario: Scenario
     map: MapDef
-    map_sha256: str | None = None  #: checksum of the map source file, for provenance
+    map_sha256: str | None = None  #: checksum of the map source file (a replay: of its scene file), for provenance
+    replay: ReplayTracks | None = None  #: the recorded tracks of a replay scenario, in the map frame
 
     @property
     def name(self) -> str:

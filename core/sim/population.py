@@ -58,7 +58,9 @@ def population_counts(map_def: MapDef, cfg: SimulationConfig, crowd: CrowdParams
 
 
 def pedestrian_count(scenario: ResolvedScenario, crowd: CrowdParams | None = None) -> int:
-    """How many pedestrians an episode of this scenario has (zone + route + single peds; fixed over the episode)."""
+    """How many pedestrians an episode of this scenario has (zone + route + single peds, or the replayed tracks)."""
+    if scenario.replay is not None:
+        return len(np.unique(scenario.replay.ids))
     n_zone, n_route = population_counts(scenario.map, scenario.scenario.simulation_config, crowd or CrowdParams())
     return n_zone + n_route + len(scenario.map.single_pedestrians)
 

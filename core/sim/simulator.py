@@ -26,6 +26,7 @@ from foresight.core.sim.navigation import RobotRoute, sample_robot_route
 from foresight.core.sim.observation import Events, Observation
 from foresight.core.sim.params import CrowdParams, ForceParams
 from foresight.core.sim.population import build_population
+from foresight.core.sim.replay import ReplayCrowd
 from foresight.core.sim.robot import RobotLimits, robot_step
 from foresight.core.sim.trace import Trace
 from foresight.core.version import code_version
@@ -114,9 +115,12 @@ class Simulator:
         pop = build_population(map_def, cfg, self.crowd_params, pop_rng, spread_rng,
                                lambda pts: self._free(pts, self.robot[None, :2]))
         pop.pos = self.static.push_off_edges(pop.pos, 2 * self.crowd_params.wall_clearance)
+        self.replay = ReplayCrowd(scenario.replay, self.horizon, self.dt) if scenario.replay is not None else None
+        if self.replay is not None and pop.n:
+            raise CoreError(f"{scenario.name}: a replay scenario has only its recorded pedestrians")
         reach = reaction_ranges(pop.n, cfg, self.force_params.robot_cutoff(self.limits.radius), attention_rng)
         self._build_crowd(pop, map_def, reach)
-        self._trace = Trace(self.horizon, pop.n, dt=self.dt, scenario=scenario.name, seed=seed,
+        self._trace = Trace(self.horizon, pop.n if self.replay is None else self.replay.n, dt=self.dt, scenario=scenario.name, seed=seed,
                             meta={"code_version": code_version(), "map": map_def.name, "n_peds": pop.n,
                                   "n_nonreactive": int((reach == 0).sum())})
         self.static_check = StaticChecker(self.static, self.limits.radius)
@@ -184,7 +188,8 @@ class Simulator:
 
     def _events(self, reached: bool) -> Events:
         xy = self.robot[:2]
-        contact, dmin = ped_contact(xy, self.limits.radius, self.crowd.pos, self.ped_radius)
+        peds = self.crowd.pos if self.replay is None else self.replay.present_pos(self.t)
+        contact, dmin = ped_contact(xy, self.limits.radius, peds, self.ped_radius)
         self.min_ped_distance = min(self.min_ped_distance, dmin)
         if contact is None:
             contact = self.static_check.check(xy)
@@ -199,11 +204,17 @@ class Simulator:
         return _NO_EVENT
 
     def _record(self) -> None:
-        c = self.crowd
-        self._trace.record_state(self.t, self.robot, c.ids, c.pos, c.vel)
+        c, r, t = self.crowd, self.replay, self.t
+        if r is None:
+            self._trace.record_state(t, self.robot, c.ids, c.pos, c.vel)
+        else:
+            self._trace.record_state(t, self.robot, r.ids[t], r.pos[t], r.vel[t])
 
     def _observation(self) -> Observation:
         robot, ids, pos, vel = self._trace.row(self.t)
+        if self.replay is not None:  # planners see the pedestrians present now, never an empty slot
+            here = self.replay.present[self.t]
+            ids, pos, vel = ids[here], pos[here], vel[here]
         route = self.route
         return Observation(
             step=self.t, time=self.t * self.dt, dt=self.dt, robot_pose=robot[:3], robot_velocity=robot[3:],

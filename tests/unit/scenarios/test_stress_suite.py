@@ -5,6 +5,8 @@ from __future__ import annotations
 import importlib.util
 from pathlib import Path
 
+import numpy as np
+
 from foresight.core.scenarios.loader import load_matrix
 from foresight.core.scenarios.seeds import load_seed_manifest
 
@@ -15,9 +17,9 @@ ARCHETYPES = {"crossing", "cross_trap", "head_on_corridor", "overtaking", "bottl
               "t_intersection", "group_crossing", "station_platform", "urban_crossing"}
 
 
-def test_synthetic_part_is_every_archetype_at_realistic_speed_and_both_shares() -> None:
+def test_synthetic_part_is_every_archetype_at_realistic_speed_and_both_shares(shared_dir: Path) -> None:
     m = load_matrix(MATRIX)
-    synthetic = [s for s in m.scenarios if not s.name.startswith("replay_")]
+    synthetic = [s for s in m.scenarios if s.scenario.replay is None]
     cells = {(s.scenario.archetype, s.scenario.simulation_config.nonreactive_fraction) for s in synthetic}
     assert cells == {(a, f) for a in ARCHETYPES for f in (0.3, 1.0)} and len(synthetic) == 22
     for s in synthetic:
@@ -26,17 +28,29 @@ def test_synthetic_part_is_every_archetype_at_realistic_speed_and_both_shares() 
         assert len(set(s.scenario.seeds)) == 10
 
 
-def test_training_seeds_cover_the_synthetic_scenarios_and_never_an_evaluation_seed() -> None:
+def test_training_seeds_cover_the_synthetic_scenarios_and_never_an_evaluation_seed(shared_dir: Path) -> None:
     m = load_matrix(MATRIX)
     train = load_seed_manifest(TRAIN, m)
-    synthetic = {s.name for s in m.scenarios if not s.name.startswith("replay_")}
+    synthetic = {s.name for s in m.scenarios if s.scenario.replay is None}
     assert set(train.scenario_names) == synthetic
     for name in synthetic:
         assert len(train.seeds[name]) == 10
         assert not set(train.seeds[name]) & set(m.get(name).scenario.seeds)
 
 
-def test_files_are_what_the_generator_writes(tmp_path: Path) -> None:
+def test_replay_part_covers_the_five_scenes_with_at_least_30_episodes(shared_dir: Path) -> None:
+    m = load_matrix(MATRIX)
+    replay = [s for s in m.scenarios if s.scenario.replay is not None]
+    families = {s.scenario.archetype for s in replay}
+    assert len(replay) >= 30 and families == {f"replay_{x}" for x in ("eth", "hotel", "univ", "zara1", "zara2")}
+    for s in replay:
+        assert s.scenario.metadata["crossings"] >= 5 and s.scenario.simulation_config.max_episode_steps == 200
+        start, goal = (np.asarray(p) for p in s.map.robot_routes[0].waypoints)
+        assert np.hypot(*(goal - start)) >= 5.0
+    assert {s.scenario.replay.frame_dt for s in replay if s.scenario.replay.scene == "biwi_eth"} == {0.64}
+
+
+def test_files_are_what_the_generator_writes(tmp_path: Path, shared_dir: Path) -> None:
     spec = importlib.util.spec_from_file_location("make_stress_suite", REPO / "bench" / "make_stress_suite.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
