@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import math
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
@@ -73,8 +74,20 @@ class WaitRule(_Frozen):
     note: str | None = None
 
 
+Role = Literal["wait", "follow", "lead", "accompany", "join", "leave"]
+
+
 class SinglePedestrian(_Frozen):
-    """A scripted pedestrian: start, then a goal or a list of waypoints, with optional waits."""
+    """A scripted pedestrian: start, then a goal or a list of waypoints, with optional waits.
+
+    A ``role`` (reference robot_sf semantics, ``core.sim.behaviours.SingleScripts``): ``wait`` holds
+    the start; ``follow``/``lead``/``accompany`` head for a point ``role_offset`` (forward, lateral
+    [m], robot frame) from the robot (``role_target_id`` ``robot``/``robot:0``; ``lead`` only while
+    the ped has no goal or trajectory); ``join`` walks to another single pedestrian
+    (``role_target_id``) and stays with it; ``leave`` leaves its group (single peds walk alone).
+    A proximity hold stops the ped at the trajectory waypoint before ``hold_ref_point`` until the
+    robot is within ``hold_until_robot_within_m`` of that point or ``hold_timeout_s`` has passed.
+    """
 
     id: str = Field(min_length=1)
     start: Point
@@ -84,6 +97,25 @@ class SinglePedestrian(_Frozen):
     wait_at: tuple[WaitRule, ...] = ()
     start_delay_s: float = Field(default=0.0, ge=0)
     note: str | None = None
+    role: Role | None = None
+    role_target_id: str | None = None  #: "robot", "robot:0" or a single pedestrian id
+    role_offset: Point | None = None  #: (forward, lateral) [m]; default per role (ROLE_OFFSETS)
+    hold_until_robot_within_m: float | None = Field(default=None, gt=0)
+    hold_ref_point: Point | None = None
+    hold_timeout_s: float | None = Field(default=None, gt=0)  #: None = DEFAULT_HOLD_TIMEOUT_S
+    metadata: dict[str, Any] = Field(default_factory=dict)
+
+    @model_validator(mode="after")
+    def _hold_needs_a_point(self) -> SinglePedestrian:
+        if self.hold_until_robot_within_m is not None and self.hold_ref_point is None:
+            raise ValueError(f"single pedestrian {self.id!r}: hold_until_robot_within_m needs hold_ref_point")
+        return self
+
+
+#: Default (forward, lateral) offsets from the robot of the robot-relative roles [m] (robot_sf's).
+ROLE_OFFSETS: dict[str, Point] = {"follow": (-1.0, 0.0), "lead": (1.5, 0.0), "accompany": (0.0, 1.0)}
+#: Fail-open release of a proximity hold without ``hold_timeout_s`` [s] (robot_sf's default).
+DEFAULT_HOLD_TIMEOUT_S = 6.0
 
 
 class MapDef(_Frozen):
@@ -101,7 +133,8 @@ class MapDef(_Frozen):
     ped_routes: tuple[Route, ...] = ()
     ped_crowded_zones: tuple[Zone, ...] = ()
     single_pedestrians: tuple[SinglePedestrian, ...] = ()
-    pois: dict[str, Point] = Field(default_factory=dict)
+    pois: dict[str, Point] = Field(default_factory=dict)  #: points of interest by id [m]
+    poi_labels: dict[str, str] = Field(default_factory=dict)  #: POI id -> human label (SVG inkscape:label)
     source: str | None = None  #: file it was read from (for error messages and provenance)
 
     @field_validator("obstacles")
@@ -154,6 +187,16 @@ class MapDef(_Frozen):
     def all_segments(self) -> np.ndarray:
         """Obstacle edges plus map bounds, (S + 4, 4): what pedestrians feel and the robot collides with."""
         return np.vstack([self.obstacle_segments, self.bound_segments])
+
+    def poi(self, name: str) -> Point:
+        """A point of interest by label (as robot_sf looks it up) or by id; KeyError names the known ones."""
+        for key, label in self.poi_labels.items():
+            if label == name:
+                return self.pois[key]
+        if name in self.pois:
+            return self.pois[name]
+        known = sorted({*self.pois, *self.poi_labels.values()})
+        raise KeyError(f"the map has no point of interest {name!r} (has: {', '.join(known) or 'none'})")
 
     def single_pedestrian(self, ped_id: str) -> SinglePedestrian:
         for p in self.single_pedestrians:

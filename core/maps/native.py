@@ -36,10 +36,14 @@ TOP_KEYS = {
     "obstacles",
     "single_pedestrians",
     "pois",
+    "poi_labels",
     *ZONE_FIELDS,
     *ROUTE_FIELDS,
 }
-PED_KEYS = {"id", "start", "goal", "trajectory", "speed_m_s", "wait_at", "start_delay_s", "note"}
+PED_KEYS = {
+    "id", "start", "goal", "trajectory", "speed_m_s", "wait_at", "start_delay_s", "note", "role", "role_target_id",
+    "role_offset", "hold_until_robot_within_m", "hold_ref_point", "hold_timeout_s", "metadata",
+}
 
 
 class _Reader:
@@ -124,7 +128,7 @@ class _Reader:
 
     def single_pedestrian(self, v: Any, item: str) -> SinglePedestrian:
         d = dict(self.mapping(v, item, PED_KEYS))
-        for key in ("start", "goal"):
+        for key in ("start", "goal", "role_offset", "hold_ref_point"):
             if d.get(key) is not None:
                 d[key] = self.point(d[key], f"{item}.{key}")
         if "trajectory" in d:
@@ -174,6 +178,10 @@ def map_from_dict(doc: Any, *, source: str, default_name: str = "map") -> MapDef
     if not isinstance(pois, dict):
         raise r.fail("pois", "expected a mapping name -> [x, y]")
     fields["pois"] = {str(k): r.point(v, f"pois.{k}") for k, v in pois.items()}
+    labels = doc.get("poi_labels") or {}
+    if not isinstance(labels, dict) or not all(str(k) in fields["pois"] for k in labels):
+        raise r.fail("poi_labels", "expected a mapping POI id -> label over ids listed in pois")
+    fields["poi_labels"] = {str(k): str(v) for k, v in labels.items()}
     try:
         return MapDef(**fields)
     except ValidationError as exc:
@@ -235,6 +243,9 @@ def _ped_doc(p: SinglePedestrian) -> dict[str, Any]:
         d["trajectory"] = [_pt(q) for q in p.trajectory]
     if p.wait_at:
         d["wait_at"] = [w.model_dump(exclude_defaults=True) for w in p.wait_at]
+    for key in ("role_offset", "hold_ref_point"):
+        if getattr(p, key) is not None:
+            d[key] = _pt(getattr(p, key))
     return d
 
 
@@ -252,6 +263,8 @@ def map_to_dict(m: MapDef) -> dict[str, Any]:
     doc["ped_crowded_zones"] = [_zone_doc(z) for z in m.ped_crowded_zones]
     doc["single_pedestrians"] = [_ped_doc(p) for p in m.single_pedestrians]
     doc["pois"] = {k: _pt(v) for k, v in m.pois.items()}
+    if m.poi_labels:
+        doc["poi_labels"] = dict(m.poi_labels)
     return doc
 
 

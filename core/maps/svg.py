@@ -118,6 +118,7 @@ class _Importer:
         self.crowded: list[Zone] = []
         self.routes: dict[str, list[Route]] = {"robot": [], "ped": []}
         self.pois: dict[str, Point] = {}
+        self.poi_labels: dict[str, str] = {}
 
     def error(self, message: str, item: str | None = None) -> ConfigError:
         return ConfigError(message, source=self.source, item=item)
@@ -380,6 +381,8 @@ class _Importer:
                 key = el.elem_id or label
                 pois[key] = centre or self._centre(el)
                 self.report.poi_labels[key] = label
+                if label not in (key, "poi"):
+                    self.poi_labels[key] = label
             elif centre is None:
                 self.report.ignored.append(el.describe())
         self.pois = pois
@@ -449,6 +452,7 @@ class _Importer:
                 ped_crowded_zones=tuple(self.crowded),
                 single_pedestrians=tuple(peds),
                 pois=self.pois,
+                poi_labels=self.poi_labels,
                 source=self.source,
             )
         except ValidationError as exc:

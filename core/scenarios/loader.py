@@ -47,16 +47,21 @@ from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 from foresight.core.dataroots import data_root
 from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.maps.io import file_sha256, load_map
-from foresight.core.maps.model import MapDef, SinglePedestrian
+from foresight.core.maps.model import MapDef
 from foresight.core.maps.registry import MapRegistry
 from foresight.core.scenarios.kinds import MATRIX_SCHEMAS, non_matrix_kind
 from foresight.core.scenarios.model import (
     ResolvedScenario,
     Scenario,
     ScenarioMatrix,
-    SinglePedestrianOverride,
 )
 from foresight.core.scenarios.replay import SceneFiles, replay_scene
+from foresight.core.scenarios.routes import (
+    apply_generated_replay,
+    apply_route_overrides,
+    read_route_overrides,
+)
+from foresight.core.scenarios.singles import apply_single_pedestrians
 from foresight.core.yamlio import load_yaml
 
 _INCLUDE_ALIASES = ("includes", "include", "scenario_files")
@@ -343,35 +348,24 @@ def _replace(mapdef: MapDef, **changes: Any) -> MapDef:
     return MapDef(**{**fields, **changes})
 
 
-_NULLABLE = {"goal": None, "trajectory": (), "wait_at": (), "note": None}
-
-
-def apply_single_pedestrians(
-    mapdef: MapDef, overrides: tuple[SinglePedestrianOverride, ...], *, source: str | Path, scenario: str
-) -> MapDef:
-    """The map with the scenario's single-pedestrian overrides applied by id (every id must exist)."""
-    if not overrides:
-        return mapdef
-    peds = {p.id: p for p in mapdef.single_pedestrians}
-    for ov in overrides:
-        item = f"{scenario}.single_pedestrians[{ov.id}]"
-        if ov.id not in peds:
-            have = ", ".join(peds) or "none"
-            raise ConfigError(
-                f"the map has no single pedestrian {ov.id!r} (has: {have})", source=source, item=item
-            )
-        changes: dict[str, Any] = {}
-        for field in ov.model_fields_set - {"id"}:
-            value = getattr(ov, field)
-            if value is None and field not in _NULLABLE:
-                raise ConfigError(f"{field} may not be null", source=source, item=item)
-            changes[field] = _NULLABLE[field] if value is None else value
-        merged = {**peds[ov.id].model_dump(), **changes}
+def _apply_routes(mapdef: MapDef, scenario: Scenario, entry: _Entry, root: Path) -> MapDef:
+    """A scenario's generated replay, then its route-override file, then its inline route overrides."""
+    overrides = []
+    if scenario.generated_replay is not None:
+        mapdef, robot_route = apply_generated_replay(mapdef, scenario.generated_replay)
+        overrides.append(robot_route)
+    if scenario.route_overrides_file is not None:
+        rel = Path(scenario.route_overrides_file)
+        tried = [rel] if rel.is_absolute() else [entry.file.parent / rel, root.parent / rel]
+        path = next((t for t in tried if t.is_file()), tried[0])
+        overrides.append(read_route_overrides(path.resolve(), scenario=scenario.name, referenced_from=entry.file))
+    overrides.append(scenario.route_overrides)
+    for over in filter(None, overrides):
         try:
-            peds[ov.id] = SinglePedestrian.model_validate(merged)
+            mapdef = apply_route_overrides(mapdef, over)
         except ValidationError as err:
-            raise ConfigError(validation_message(err), source=source, item=item) from err
-    return _replace(mapdef, single_pedestrians=tuple(peds.values()))
+            raise ConfigError(validation_message(err), source=entry.file, item=f"{scenario.name}.routes") from err
+    return mapdef
 
 
 def matrix_from_data(
@@ -409,8 +403,10 @@ def matrix_from_data(
             resolved.append(ResolvedScenario(scenario=scenario, map=mapdef, map_sha256=sha, replay=tracks))
             continue
         mapdef, sha = resolver.load(scenario, entry)
+        mapdef = _apply_routes(mapdef, scenario, entry, root)
         mapdef = apply_single_pedestrians(
-            mapdef, scenario.single_pedestrians, source=entry.file, scenario=scenario.name
+            mapdef, scenario.single_pedestrians, source=entry.file, scenario=scenario.name,
+            default_hold_ref_point=scenario.conflict_point,
         )
         resolved.append(ResolvedScenario(scenario=scenario, map=mapdef, map_sha256=sha))
     metadata = dict(spec.metadata)

@@ -13,7 +13,7 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from foresight.core.maps.model import MapDef, Point, WaitRule
+from foresight.core.maps.model import MapDef, Point, Role, WaitRule
 
 #: most steps of one episode anywhere (scenario horizon, evaluation and collection ``max_steps``)
 MAX_EPISODE_STEPS = 100_000
@@ -21,6 +21,29 @@ MAX_EPISODE_STEPS = 100_000
 
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+ResponseLaw = Literal["reactive", "non_reactive", "non_yielding", "hesitating"]
+
+
+class PedRobotForceConfig(_Strict):
+    """robot_sf's ``prf_config``: the robot repulsion felt by pedestrians, calibrated per scenario."""
+
+    is_active: bool = True  #: False = no robot repulsion (as ``peds_have_robot_repulsion: false``)
+    robot_radius: float = Field(default=1.0, gt=0)  #: robot radius in the force's cutoff [m]
+    activation_threshold: float = Field(default=2.0, gt=0)  #: cutoff = this + 0.35 + robot_radius [m]
+    force_multiplier: float = 10.0  #: factor of the 1/d^3 repulsion
+
+
+def _fractions(value: dict[str, float] | None, what: str) -> dict[str, float] | None:
+    """A composition: positive shares summing to 1 (robot_sf's check)."""
+    if value is None:
+        return None
+    if not value or any(not v > 0 for v in value.values()):
+        raise ValueError(f"{what} needs positive shares")
+    if abs(sum(value.values()) - 1.0) > 1e-6:
+        raise ValueError(f"{what} shares must sum to 1 (got {sum(value.values()):g})")
+    return value
 
 
 class SimulationConfig(_Strict):
@@ -49,6 +72,44 @@ class SimulationConfig(_Strict):
     late_reaction_distance: float = Field(default=2.0, gt=0)  #: centre distance at which a late ped reacts [m]
     population_size: int | None = Field(default=None, ge=0, le=5000)  #: force an exact route+zone ped count
     groups: float | None = Field(default=None, ge=0, le=1)  #: reference group_crossing share; read by no physics (like the reference)
+    #: route/zone peds re-placed in their route's spawn zone at reset, heading for its first waypoint
+    peds_reset_follow_route_at_start: bool = False
+    #: heterogeneous walkers (robot_sf): share of each archetype, and its desired-speed factor
+    archetype_composition: dict[str, float] | None = None
+    archetype_speed_factors: dict[str, float] | None = None
+    archetype_seed: int | None = None  #: default: drawn from the episode seed
+    #: how route/zone peds respond to the robot: share per law; the law scales the robot repulsion
+    response_law_composition: dict[ResponseLaw, float] | None = None
+    response_law_seed: int | None = None  #: default: drawn from the episode seed
+    non_reactive_response_multiplier: float = Field(default=0.0, ge=0)  #: non_reactive / non_yielding
+    hesitating_response_multiplier: float = Field(default=1.0, ge=0)
+    prf_config: PedRobotForceConfig | None = None
+
+    @model_validator(mode="before")
+    @classmethod
+    def _reference_spellings(cls, data: Any) -> Any:
+        if isinstance(data, dict):
+            data = dict(data)
+            if data.get("route_spawn_distribution") == "uniform":  # uniform anchors along the route = cluster
+                data["route_spawn_distribution"] = "cluster"
+            misplaced = data.pop("robot_config", None)  # robot_sf files that put an empty robot_config here
+            if misplaced:
+                raise ValueError("robot_config belongs at scenario level, not in simulation_config")
+        return data
+
+    @model_validator(mode="after")
+    def _compositions(self) -> SimulationConfig:
+        _fractions(self.archetype_composition, "archetype_composition")
+        _fractions(self.response_law_composition, "response_law_composition")
+        if (self.archetype_composition is None) != (self.archetype_speed_factors is None):
+            raise ValueError("archetype_composition and archetype_speed_factors come together")
+        if self.archetype_composition is not None:
+            missing = sorted(set(self.archetype_composition) - set(self.archetype_speed_factors or {}))
+            if missing:
+                raise ValueError(f"archetype_speed_factors lacks {', '.join(missing)}")
+            if any(not f > 0 for f in (self.archetype_speed_factors or {}).values()):
+                raise ValueError("archetype_speed_factors must be positive")
+        return self
 
 
 class RobotConfig(_Strict):
@@ -89,16 +150,92 @@ class RobotConfig(_Strict):
 
 
 class SinglePedestrianOverride(_Strict):
-    """Scenario-level override of a map's single pedestrian, matched by ``id`` (which must exist)."""
+    """Scenario-level override of a map's single pedestrian, matched by ``id``.
+
+    An id the map lacks defines a new pedestrian when the entry gives its ``start``. ``goal_poi``
+    and ``trajectory_poi`` name the map's points of interest (label or id) instead of coordinates.
+    """
 
     id: str
     start: Point | None = None
     goal: Point | None = None
+    goal_poi: str | None = None
     trajectory: tuple[Point, ...] | None = None
+    trajectory_poi: tuple[str, ...] | None = None
     speed_m_s: float | None = Field(default=None, ge=0)
     wait_at: tuple[WaitRule, ...] | None = None
     start_delay_s: float | None = Field(default=None, ge=0)
     note: str | None = None
+    role: Role | None = None
+    role_target_id: str | None = None
+    role_offset: Point | None = None
+    hold_until_robot_within_m: float | None = Field(default=None, gt=0)
+    hold_ref_point: Point | None = None
+    hold_timeout_s: float | None = Field(default=None, gt=0)
+    metadata: dict[str, Any] | None = None
+
+    @model_validator(mode="after")
+    def _one_way_per_point(self) -> SinglePedestrianOverride:
+        for a, b in (("goal", "goal_poi"), ("trajectory", "trajectory_poi")):
+            if {a, b} <= self.model_fields_set:
+                raise ValueError(f"give {a} or {b}, not both")
+        return self
+
+
+class RouteSpec(_Strict):
+    """One route of a route override: zone indices (None or one the map lacks: a 0.1 m zone at the end), waypoints."""
+
+    spawn_id: int | None = Field(default=None, ge=0)
+    goal_id: int | None = Field(default=None, ge=0)
+    waypoints: tuple[Point, ...] = Field(min_length=2)
+
+
+class RouteOverrides(_Strict):
+    """Routes that replace the map's robot and/or pedestrian routes (an empty list keeps the map's)."""
+
+    robot_routes: tuple[RouteSpec, ...] = ()
+    ped_routes: tuple[RouteSpec, ...] = ()
+
+
+class ReplayPedestrian(_Strict):
+    id: str = Field(min_length=1)
+    start: Point
+    trajectory: tuple[Point, ...] = ()
+
+
+class ReplayRobot(_Strict):
+    start: Point
+    goal: Point
+    trajectory: tuple[Point, ...] = ()  #: the recorded robot path: provenance only (the planner drives)
+
+
+class GeneratedReplay(_Strict):
+    """robot_sf's generated-scenario replay: scripted pedestrians along recorded paths, the robot's start and goal."""
+
+    schema_version: Literal["robot_sf.generated_replay_runtime.v1"] = "robot_sf.generated_replay_runtime.v1"
+    pedestrians: tuple[ReplayPedestrian, ...] = ()
+    robot: ReplayRobot | None = None
+
+
+class PlatformSemantics(_Strict):
+    """Hazard / keep-clear regions robot_sf records for provenance; no consumer reads them (its status says so)."""
+
+    status: Literal["metadata_only"] = "metadata_only"
+    regions: tuple[dict[str, Any], ...] = Field(min_length=1)
+
+
+class ObservationVisibility(_Strict):
+    """Which pedestrians the planner sees: field of view around the heading, range, walls in the line of sight."""
+
+    enabled: bool = True
+    fov_degrees: float = Field(default=360.0, gt=0, le=360)
+    max_range_m: float | None = Field(default=None, gt=0)
+    static_occlusion: bool = False  #: obstacle edges between robot and pedestrian hide it
+    dynamic_occlusion: Literal[False] = False  #: pedestrians hiding each other: not modelled
+
+    @property
+    def active(self) -> bool:
+        return self.enabled and (self.fov_degrees < 360 or self.max_range_m is not None or self.static_occlusion)
 
 
 class ReplayConfig(_Strict):
@@ -131,6 +268,12 @@ class Scenario(_Strict):
     seeds: tuple[Annotated[int, Field(ge=0, le=2**32 - 1)], ...] = Field(default=(0,), min_length=1)
     required_map_profile: str = "robot_runtime"  #: registry capability a map_id must have (reference key)
     replay: ReplayConfig | None = None  #: replayed recorded pedestrians; the map comes from the scene
+    route_overrides_file: str | None = None  #: YAML with robot_routes/ped_routes (or a route_payload holding them)
+    route_overrides: RouteOverrides | None = None  #: the same inline (applied after the file's)
+    generated_replay: GeneratedReplay | None = None
+    observation_visibility: ObservationVisibility | None = None
+    platform_semantics: PlatformSemantics | None = None
+    scenario_family: str | None = None  #: a label, like metadata.archetype
 
     @model_validator(mode="before")
     @classmethod
@@ -159,6 +302,14 @@ class Scenario(_Strict):
             if self.name.endswith(suffix):
                 return self.name[: -len(suffix)]
         return self.name
+
+    @property
+    def conflict_point(self) -> tuple[float, float] | None:
+        """metadata.public_requirement.event_contract.conflict_point: robot_sf's default hold reference point."""
+        node: Any = self.metadata
+        for key in ("public_requirement", "event_contract", "conflict_point"):
+            node = node.get(key) if isinstance(node, dict) else None
+        return (float(node[0]), float(node[1])) if isinstance(node, list | tuple) and len(node) == 2 else None
 
     @property
     def density_label(self) -> str | None:

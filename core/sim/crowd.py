@@ -91,7 +91,8 @@ class CrowdDynamics:
             f += forces.group_repulsion_force(c.z, self.gi, self.gj, p)
             f += forces.group_gaze_force(c.z, c.zgoal, cent, self.member_n, p)
         if self.robot_repulsion:
-            f += forces.robot_force(c.z, robot, self.robot_radius, p, self.robot_reach)
+            fr = forces.robot_force(c.z, robot, self.robot_radius, p, self.robot_reach)
+            f += fr if c.robot_response is None else fr * c.robot_response
         return f, clearance
 
     def step(self, robot: complex, centroids: np.ndarray | None = None) -> None:

@@ -14,6 +14,7 @@ import numpy as np
 from foresight.core.errors import ConfigError
 from foresight.core.maps.model import MapDef, SinglePedestrian
 from foresight.core.scenarios.model import ResolvedScenario, SimulationConfig
+from foresight.core.sim import heterogeneity
 from foresight.core.sim.params import SPEED_TIERS, CrowdParams
 from foresight.core.sim.zones import RouteGeometry, Validator, sample_free, sample_zone
 
@@ -34,6 +35,7 @@ class Population:
     zone_groups: np.ndarray  #: (Gz,) group indices in crowded zones
     zone_of_group: np.ndarray  #: (Gz,) crowded-zone index
     singles: list[SinglePedestrian] = field(default_factory=list)  #: scripted peds, rows N - len(singles) ...
+    robot_response: np.ndarray | None = None  #: (N,) multiplier of the robot repulsion per ped; None = 1 for all
 
     @property
     def n(self) -> int:
@@ -223,6 +225,10 @@ def build_population(
     blocks = [(m, g) for m, g, _ in zoned] + [(m, routes[r].points[wp]) for m, r, wp in placed]
     n_crowd = sum(len(m) for m, _ in blocks)
     vmax = desired_speeds(n_crowd, cfg, crowd, rng)
+    factors = heterogeneity.speed_factors(n_crowd, cfg, rng)
+    if factors is not None:
+        vmax = vmax * factors
+    response = heterogeneity.robot_responses(n_crowd, cfg, rng)
     vel = _crowd_velocities(blocks, vmax, cfg.peds_speed_mult)
     singles = list(map_def.single_pedestrians)
     starts = [single_start(sp) for sp in singles]
@@ -239,6 +245,7 @@ def build_population(
         route_groups=np.arange(len(zoned), len(blocks)), route_of_group=np.array([r for _, r, _ in placed], dtype=np.intp),
         route_wp=np.array([wp for _, _, wp in placed], dtype=np.intp), zone_groups=np.arange(len(zoned)),
         zone_of_group=np.array([z for _, _, z in zoned], dtype=np.intp), singles=singles,
+        robot_response=None if response is None else np.concatenate([response, np.ones(len(singles))]),
     )
 
 

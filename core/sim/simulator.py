@@ -10,6 +10,7 @@ observation. All randomness comes from generators spawned from
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import math
 
@@ -29,6 +30,7 @@ from foresight.core.sim.population import build_population
 from foresight.core.sim.replay import ReplayCrowd
 from foresight.core.sim.robot import RobotLimits, robot_step
 from foresight.core.sim.trace import Trace
+from foresight.core.sim.visibility import visible
 from foresight.core.version import code_version
 
 _NO_EVENT = Events()
@@ -118,7 +120,8 @@ class Simulator:
         self.replay = ReplayCrowd(scenario.replay, self.horizon, self.dt) if scenario.replay is not None else None
         if self.replay is not None and pop.n:
             raise CoreError(f"{scenario.name}: a replay scenario has only its recorded pedestrians")
-        reach = reaction_ranges(pop.n, cfg, self.force_params.robot_cutoff(self.limits.radius), attention_rng)
+        params, robot_radius, _ = self._robot_repulsion()
+        reach = reaction_ranges(pop.n, cfg, params.robot_cutoff(robot_radius), attention_rng)
         self._build_crowd(pop, map_def, reach)
         self._trace = Trace(self.horizon, pop.n if self.replay is None else self.replay.n, dt=self.dt, scenario=scenario.name, seed=seed,
                             meta={"code_version": code_version(), "map": map_def.name, "n_peds": pop.n,
@@ -146,6 +149,20 @@ class Simulator:
                                       self.crowd_params.robot_spawn_cone_deg)
         return ok
 
+    def _robot_repulsion(self) -> tuple[ForceParams, float, bool]:
+        """Force parameters, robot radius in the force, and whether peds feel the robot at all.
+
+        A scenario's ``prf_config`` (robot_sf's calibration) replaces the factor, activation range and radius.
+        """
+        cfg = self.cfg
+        params, robot_radius, repulsion = self.force_params, self.limits.radius, cfg.peds_have_robot_repulsion
+        if cfg.prf_config is not None:
+            prf = cfg.prf_config
+            params = dataclasses.replace(params, robot_factor=prf.force_multiplier,
+                                         robot_activation=prf.activation_threshold)
+            robot_radius, repulsion = prf.robot_radius, repulsion and prf.is_active
+        return params, robot_radius, repulsion
+
     def _build_crowd(self, pop, map_def, robot_reach: np.ndarray) -> None:
         cfg, cp = self.cfg, self.crowd_params
         self.crowd = CrowdArrays(pop)
@@ -154,11 +171,14 @@ class Simulator:
                                   lambda pts: ~self.static.inside_obstacle(pts))
         self.singles = SingleScripts(pop.singles, pop.n - len(pop.singles), self.dt, cp.single_threshold)
         self.has_groups = len(self.routes.groups) + len(self.zones.groups) > 0
+        params, robot_radius, repulsion = self._robot_repulsion()
         self.dynamics = CrowdDynamics(
-            self.crowd, self.static.walls, self.force_params, cp, dt=self.dt, robot_radius=self.limits.radius,
-            obstacle_forces=cfg.peds_have_obstacle_forces, robot_repulsion=cfg.peds_have_robot_repulsion,
+            self.crowd, self.static.walls, params, cp, dt=self.dt, robot_radius=robot_radius,
+            obstacle_forces=cfg.peds_have_obstacle_forces, robot_repulsion=repulsion,
             semi_implicit=cfg.pedestrian_integration_scheme == "semi_implicit_euler", robot_reach=robot_reach,
         )
+        if cfg.peds_reset_follow_route_at_start:
+            self.routes.restart_all(self.crowd, self.rng, self._respawn_ok)
 
     def step(self, command) -> tuple[Observation, Events]:
         """Apply one command ((v [m/s], omega [rad/s]); (vx, vy) for a holonomic robot) for dt."""
@@ -173,7 +193,7 @@ class Simulator:
             if self.routes.step(self.crowd, cent, self.rng, self._respawn_ok):
                 cent = None  # a group respawned: positions changed
             self.zones.step(self.crowd, cent if cent is not None else self.crowd.centroids(), self.rng)
-        self.singles.step(self.crowd, self.t)
+        self.singles.step(self.crowd, self.t, self.robot)
         self.dynamics.step(complex(self.robot[0], self.robot[1]), cent)
         self.robot = robot_step(self.robot, cmd, self.limits, self.dt)
         reached = self.route.advance(self.robot)
@@ -215,6 +235,10 @@ class Simulator:
         if self.replay is not None:  # planners see the pedestrians present now, never an empty slot
             here = self.replay.present[self.t]
             ids, pos, vel = ids[here], pos[here], vel[here]
+        vis = self.scenario.scenario.observation_visibility
+        if vis is not None and vis.active:
+            seen = visible(robot, pos, vis, self.scenario.map.obstacle_segments)
+            ids, pos, vel = ids[seen], pos[seen], vel[seen]
         route = self.route
         return Observation(
             step=self.t, time=self.t * self.dt, dt=self.dt, robot_pose=robot[:3], robot_velocity=robot[3:],
