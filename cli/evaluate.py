@@ -33,6 +33,10 @@ def _common(p: argparse.ArgumentParser, *, planner: bool = True) -> None:
         p.add_argument("--planner", default="predictive", help="planner name (predictive|orca|social_force|goal) "
                        "or a planner YAML ({name, config, reference_params} or a predictive config)")
         p.add_argument("--model", help="model id or cv (predictive planner; --local: also a checkpoint path)")
+        p.add_argument("--override", action="append", metavar="KEY=VALUE",
+                       help="run the matrix under other conditions: a scenario key (dotted, e.g. "
+                            "robot_config.radius=0.5; a bare simulation_config key such as ped_speed_tier=typical) "
+                            "set in every scenario; repeatable")
     p.add_argument("--max-steps", type=int, help="horizon override for smoke runs (default: each scenario's)")
     p.add_argument("--bundle", help="server: config bundle id; --matrix/--seeds/--grid are names inside it")
     p.add_argument("--out", help="--local: work folder for the artifacts (default: a new temporary folder)")
@@ -182,6 +186,30 @@ def _context(args: argparse.Namespace, roots: dict[str, Path], models: ModelArgs
     return ctx
 
 
+def overrides(items: list[str] | None) -> dict[str, Any]:
+    """``["ped_speed_tier=typical", "robot_config.radius=0.5"]`` -> nested scenario overrides (values as YAML
+    scalars; a bare key of SimulationConfig means simulation_config.KEY)."""
+    import yaml
+
+    from foresight.core.scenarios.model import SimulationConfig
+
+    out: dict[str, Any] = {}
+    for item in items or []:
+        key, sep, raw = item.partition("=")
+        if not sep or not key.strip():
+            raise ConfigError(f"expected KEY=VALUE, got {item!r}", source="command line", item="--override")
+        path = key.strip().split(".")
+        if len(path) == 1 and path[0] in SimulationConfig.model_fields:
+            path = ["simulation_config", *path]
+        node = out
+        for part in path[:-1]:
+            node = node.setdefault(part, {})
+            if not isinstance(node, dict):
+                raise ConfigError(f"{key} conflicts with another override", source="command line", item="--override")
+        node[path[-1]] = yaml.safe_load(raw)
+    return out
+
+
 def _names(value: str | None) -> list[str] | None:
     return [s.strip() for s in value.split(",") if s.strip()] if value else None
 
@@ -250,6 +278,7 @@ def evaluate_cmd(args: argparse.Namespace) -> int:
         "bundle": refs.bundle, "matrix": refs.names["--matrix"], "seed_manifest": refs.names["--seeds"],
         "scenarios": _names(args.scenarios), "seeds_per_scenario": args.seeds_per_scenario,
         "max_steps": args.max_steps, "planner": refs.planner(args.planner, args.model),
+        "scenario_overrides": overrides(args.override),
     }
     if args.min_success is not None:
         values["gate"] = {"min_success_rate": args.min_success}
@@ -284,6 +313,7 @@ def diagnose_cmd(args: argparse.Namespace) -> int:
     values = {
         "bundle": refs.bundle, "matrix": refs.names["--matrix"], "seed_manifest": refs.names["--seeds"],
         "max_steps": args.max_steps, "planner": refs.planner(args.planner, args.model), "render": not args.no_render,
+        "scenario_overrides": overrides(args.override),
     }
     return refs.run("diagnose", values, DiagnosticsConfig, run_diagnostics, lambda r, where: f"{report(r)}\n{where}",
                     DiagnosticsResult)

@@ -37,6 +37,9 @@ class EpisodeSelection(_Config):
     seeds_per_scenario: int | None = Field(default=None, ge=1, le=1000)  #: own seeds, extended by max+1, max+2 ...
     seed_manifest: BundlePath | None = None  #: only these (scenario, seed) pairs
     max_steps: int | None = Field(default=None, ge=1, le=MAX_EPISODE_STEPS)  #: horizon override (smoke runs); default: the scenario's
+    #: deep-merged into every scenario after the matrix's own overrides: run a matrix under other conditions,
+    #: e.g. ``{simulation_config: {ped_speed_tier: typical, peds_have_robot_repulsion: false}}``
+    scenario_overrides: dict[str, Any] = Field(default_factory=dict)
 
     @model_validator(mode="after")
     def _one_seed_source(self) -> EpisodeSelection:

@@ -206,7 +206,8 @@ def run_diagnostics(config: DiagnosticsConfig, ctx: StageContext) -> Diagnostics
     path, matrix, pairs = load_selection(config, ctx)
     rp = resolve_planner(config.planner, ctx)
     preflight(rp, [matrix.get(s) for s in dict.fromkeys(s for s, _ in pairs)])
-    settings = EpisodeSettings(str(path), config.max_steps, config.metrics, config.taxonomy, keep_diagnostics=True)
+    settings = EpisodeSettings(str(path), config.max_steps, config.metrics, config.taxonomy, keep_diagnostics=True,
+                               overrides=config.scenario_overrides)
     jobs = [Job(i, name, seed, rp) for i, (name, seed) in enumerate(pairs)]
 
     def progress(done: int, total: int, rec: EpisodeRecord) -> None:

@@ -51,6 +51,7 @@ class EpisodeSettings:
     metrics: MetricsConfig
     taxonomy: TaxonomyConfig
     keep_diagnostics: bool = False  #: return whole EpisodeRuns (trace + per-step planner log), not records
+    overrides: dict[str, Any] | None = None  #: the selection's scenario_overrides (applied when a worker loads the matrix)
 
 
 # ------------------------------------------------------------------------------ episode selection
@@ -81,7 +82,7 @@ def load_selection(sel: EpisodeSelection, ctx: StageContext) -> tuple[Path, Scen
     from foresight.core.scenarios.seeds import load_seed_manifest
 
     path = bundle_file(ctx, sel.bundle, sel.matrix)
-    matrix = load_matrix(path)
+    matrix = load_matrix(path, overrides=sel.scenario_overrides)
     names = matrix.names if sel.scenarios is None else [matrix.get(n).name for n in sel.scenarios]
     if sel.seed_manifest is not None:
         manifest = load_seed_manifest(bundle_file(ctx, sel.bundle, sel.seed_manifest), matrix)
@@ -110,7 +111,7 @@ class EpisodeWorker:
         from foresight.core.sim.simulator import Simulator
 
         self.settings = settings
-        self.matrix = matrix or load_matrix(settings.matrix_path)
+        self.matrix = matrix or load_matrix(settings.matrix_path, overrides=settings.overrides)
         self.sim = Simulator()
         self.check = check
 
@@ -263,7 +264,8 @@ def prepare_evaluation(config: EvaluationConfig, ctx: StageContext) -> PreparedE
     path, matrix, pairs = load_selection(config, ctx)
     rp = resolve_planner(config.planner, ctx)
     preflight(rp, [matrix.get(name) for name in dict.fromkeys(s for s, _ in pairs)])
-    settings = EpisodeSettings(str(path), config.max_steps, config.metrics, config.taxonomy)
+    settings = EpisodeSettings(str(path), config.max_steps, config.metrics, config.taxonomy,
+                               overrides=config.scenario_overrides)
     return PreparedEvaluation(path, matrix, pairs, rp, settings)
 
 

@@ -263,13 +263,14 @@ def _select(entries: list[_Entry], spec: _FileSpec, source: Path) -> list[_Entry
     return chosen
 
 
-def _validate_scenario(entry: _Entry, spec: _FileSpec) -> Scenario:
+def _validate_scenario(entry: _Entry, spec: _FileSpec, overrides: Mapping[str, Any]) -> Scenario:
     data: dict[str, Any] = {"seeds": list(spec.seeds)} if spec.seeds is not None else {}
     data = _deep_merge(data, entry.data)
     data = _deep_merge(data, spec.scenario_overrides)
     for name, over in spec.scenario_overrides_by_name.items():
         if name.casefold() == entry.raw_name.casefold():
             data = _deep_merge(data, over)
+    data = _deep_merge(data, overrides)
     try:
         return Scenario.model_validate(data)
     except ValidationError as err:
@@ -375,17 +376,24 @@ def matrix_from_data(
     apply_transforms: bool = False,
     map_registry: str | Path | MapRegistry | None = None,
     data_roots: Callable[[str], Path] | None = None,
+    overrides: Mapping[str, Any] | None = None,
 ) -> ScenarioMatrix:
     """Build a matrix from already-parsed manifest data; relative paths resolve against ``source``'s folder.
 
     ``source`` need not exist as a file (an inline manifest posted to the API names a notional path).
     ``data_roots`` maps a replay scene's data root name to its folder (default: ``core.dataroots.data_root``).
+    ``overrides`` are deep-merged into every scenario last, after the matrix's own overrides (a caller's
+    conditions, e.g. ``{"simulation_config": {"ped_speed_tier": "typical"}}``); they may not rename scenarios.
     """
     root = Path(source).resolve()
     spec = _parse_spec(data, root, is_root=True)
+    overrides = dict(overrides or {})
+    for key in ("name", "scenario_id"):
+        if key in overrides:
+            raise ConfigError("overrides may not rename scenarios", source="overrides", item=key)
     entries, notes = _expand(root, spec, (root,), ())
     chosen = {id(e) for e in _select(entries, spec, root)}
-    scenarios = [(e, _validate_scenario(e, spec)) for e in entries]  # validate all, resolve the chosen
+    scenarios = [(e, _validate_scenario(e, spec, overrides)) for e in entries]  # validate all, resolve the chosen
     if spec.select_scenarios is not None:
         order = {n.casefold(): i for i, n in enumerate(spec.select_scenarios)}
         scenarios = sorted(
@@ -421,13 +429,14 @@ def load_matrix(
     apply_transforms: bool = False,
     map_registry: str | Path | MapRegistry | None = None,
     data_roots: Callable[[str], Path] | None = None,
+    overrides: Mapping[str, Any] | None = None,
 ) -> ScenarioMatrix:
     """Load a scenario matrix file with its includes and maps (see the module docstring for the rules).
 
     ``apply_transforms`` is passed to the SVG importer (the reference ignores SVG transforms).
     ``map_registry`` (a registry file or a loaded :class:`MapRegistry`) overrides the manifest's.
+    ``data_roots`` and ``overrides``: see :func:`matrix_from_data`.
     """
     p = Path(path).resolve()
-    return matrix_from_data(
-        read_yaml(p), source=p, apply_transforms=apply_transforms, map_registry=map_registry, data_roots=data_roots
-    )
+    return matrix_from_data(read_yaml(p), source=p, apply_transforms=apply_transforms, map_registry=map_registry,
+                            data_roots=data_roots, overrides=overrides)

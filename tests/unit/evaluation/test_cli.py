@@ -29,3 +29,34 @@ def test_bad_input_is_one_error_line(tmp_path: Path, capsys: pytest.CaptureFixtu
                "--scenarios", "crossing_low", "--out", str(tmp_path), "--local"])
     err = capsys.readouterr().err
     assert rc == 1 and err.startswith("foresight: error:") and "no-such-model" in err
+
+
+def _safety(folder: Path) -> list[tuple]:
+    rows = [json.loads(line) for line in (folder / "episodes.jsonl").read_text().splitlines()]
+    return [(r["scenario"], r["seed"], r["outcome"], r["steps"], r["safety"]["min_distance"]) for r in rows]
+
+
+def test_override_runs_the_matrix_under_other_conditions_in_every_worker(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = ["evaluate", "--matrix", MATRIX, "--planner", "goal", "--scenarios", "crossing_high",
+            "--seeds-per-scenario", "2", "--max-steps", "150", "--json", "--local"]
+    over = ["--override", "ped_speed_tier=brisk", "--override", "nonreactive_fraction=1"]
+    assert main([*argv, "--out", str(tmp_path / "plain")]) in (0, 2)
+    assert main([*argv, *over, "--out", str(tmp_path / "one")]) in (0, 2)
+    assert main([*argv, *over, "--workers", "2", "--out", str(tmp_path / "two")]) in (0, 2)
+    summary = json.loads((tmp_path / "two" / "evaluation.json").read_text())
+    assert summary["config"]["scenario_overrides"] == {
+        "simulation_config": {"ped_speed_tier": "brisk", "nonreactive_fraction": 1}}
+    assert _safety(tmp_path / "one") == _safety(tmp_path / "two")  # pool workers load the same conditions
+    assert _safety(tmp_path / "one") != _safety(tmp_path / "plain")
+
+
+def test_override_errors_name_the_key(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    base = ["evaluate", "--matrix", MATRIX, "--planner", "goal", "--scenarios", "crossing_low", "--local",
+            "--out", str(tmp_path)]
+    assert main([*base, "--override", "ped_speed_tier"]) == 1
+    assert "--override" in capsys.readouterr().err
+    assert main([*base, "--override", "simulation_config.no_such_key=1"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "simulation_config.no_such_key: unsupported key" in err[0]
