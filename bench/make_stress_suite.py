@@ -79,7 +79,7 @@ def replay() -> list[dict]:
                                   count=count):
             block = {"scene": scene, "start_frame": ep.start_frame, **({"frame_dt": frame_dt} if frame_dt != 0.4 else {}),
                      "robot_start": list(ep.robot_start), "robot_goal": list(ep.robot_goal)}
-            out.append({"name": f"{family}_{scene}_{ep.start_frame}", "replay": block,
+            out.append({"name": f"replay_{scene}_{ep.start_frame}", "replay": block,
                         "simulation_config": {"max_episode_steps": round(REPLAY_HORIZON_S / REPLAY_DT)},
                         "robot_config": {},
                         "metadata": {"archetype": family, "condition": "replay", "crossings": ep.crossings,

@@ -1,86 +1,176 @@
-"""Navigation table: success (collisions) per family for every planner, from evaluation results.
+"""Navigation table: success / collision / timeout with 95 % Wilson intervals per family, for every planner.
 
-Either runs the evaluations (``--matrix M --seeds-per-scenario N``: the predictive planner with
-constant-velocity forecasts and with the default learned model, ORCA, social force, goal-seeking, each
-through ``foresight evaluate``'s engine) or reads ``foresight evaluate --json`` outputs given as
-``NAME=FILE`` pairs. Prints ONE JSON object (``--json``) or a Markdown table, and flags every family where
-a baseline beats the predictive planner (higher success, or equal success with fewer collisions).
+Suites (``--suites``, default all three; each runs at its scenarios' own seeds and horizons):
+
+- ``stress``: configs/scenarios/stress.yaml (realistic speeds; 30 % and 100 % of the pedestrians ignore the robot;
+  replayed ETH/UCY scenes), grouped by condition and family;
+- ``reference_typical``: the reference's classic matrix (shared/reference/robot_sf) with ``ped_speed_tier: typical``;
+- ``reference_typical_blind``: the same and ``peds_have_robot_repulsion: false`` (nobody yields to the robot);
+- or ``--matrix M [--override KEY=VALUE ...]``: any matrix under any conditions, as suite ``custom``.
+
+Planners (``--planners``, default all): predictive with the default learned model, predictive with constant-velocity
+forecasts, ORCA, social force, goal-seeking. Every (suite, planner) is one ``foresight evaluate --local`` run whose work
+folder (``--out``/<suite>/<planner>: evaluation.json, episodes.jsonl) is kept; ``--reuse`` takes a finished folder
+instead of re-running it, so a long table can be built in parts. ``--seeds-per-scenario N`` (the first N of each
+scenario's seeds) and ``--scenarios`` make partial runs cheap. Prints ONE JSON object (``--json``) or a Markdown table,
+and lists every group where a baseline beats a predictive planner (higher success, or equal with fewer collisions).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
+SHARED = Path(os.environ.get("FORESIGHT_SHARED", REPO.parent / "shared"))
+REFERENCE = SHARED / "reference/robot_sf/configs/scenarios/classic_interactions.yaml"
+SUITES = {  #: name -> (matrix, --override values)
+    "stress": (REPO / "configs/scenarios/stress.yaml", []),
+    "reference_typical": (REFERENCE, ["ped_speed_tier=typical"]),
+    "reference_typical_blind": (REFERENCE, ["ped_speed_tier=typical", "peds_have_robot_repulsion=false"]),
+}
 PLANNERS = {  #: column name -> foresight evaluate arguments
-    "predictive (cv)": ["--planner", "predictive", "--model", "cv"],
     "predictive (learned)": ["--planner", "predictive"],
+    "predictive (cv)": ["--planner", "predictive", "--model", "cv"],
     "orca": ["--planner", "orca"],
     "social_force": ["--planner", "social_force"],
     "goal": ["--planner", "goal"],
 }
+SLUG = {"predictive (learned)": "predictive_learned", "predictive (cv)": "predictive_cv"}
 BASELINES = ("orca", "social_force", "goal")
 
 
-def run(matrix: str, seeds: int, workers: int) -> dict[str, dict]:
-    results = {}
-    for name, args in PLANNERS.items():
-        cmd = [str(REPO / ".venv/bin/foresight"), "evaluate", "--matrix", matrix, *args, "--local", "--json",
-               "--seeds-per-scenario", str(seeds), "--workers", str(workers)]
-        out = subprocess.run(cmd, capture_output=True, text=True)
-        if out.returncode not in (0, 2):  # 2 = the evaluation gate failed: still a result
-            sys.exit(f"{name}: {out.stderr.strip()}")
-        results[name] = json.loads(out.stdout)
-    return results
+def run_one(suite: str, matrix: Path, overrides: list[str], planner: str, args: argparse.Namespace) -> Path:
+    """The work folder of one (suite, planner) evaluation, run now unless --reuse finds it finished."""
+    out = Path(args.out) / suite / SLUG.get(planner, planner)
+    if args.reuse and (out / "evaluation.json").is_file():
+        return out
+    cmd = [str(REPO / ".venv/bin/foresight"), "evaluate", "--matrix", str(matrix), *PLANNERS[planner], "--local",
+           "--json", "--workers", str(args.workers), "--out", str(out), "--min-success", "0"]
+    cmd += [x for o in overrides for x in ("--override", o)]
+    if args.seeds_per_scenario:
+        cmd += ["--seeds-per-scenario", str(args.seeds_per_scenario)]
+    if args.scenarios:
+        cmd += ["--scenarios", args.scenarios]
+    print(f"[{time.strftime('%H:%M:%S')}] {suite} / {planner}: {' '.join(cmd[1:])}", file=sys.stderr, flush=True)
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    if done.returncode not in (0, 2):  # 2 = a failing gate or integrity check: still a result
+        sys.exit(f"{suite} / {planner}: {done.stderr.strip()}")
+    return out
 
 
-def table(results: dict[str, dict]) -> dict:
-    families: dict[str, dict[str, dict]] = {}
-    for planner, res in results.items():
-        rows = [*res["aggregates"]["per_family"], {**res["aggregates"]["overall"], "key": "all"}]
-        for row in rows:
-            r = row["rates"]
-            families.setdefault(row["key"], {})[planner] = {
-                "episodes": row["episodes"], "success": r["success"]["rate"], "collision": r["collision"]["rate"]}
-    ours = [p for p in results if p.startswith("predictive")]
-    beaten = []
-    for fam, cells in families.items():
-        for p in ours:
-            for b in (x for x in BASELINES if x in cells):
-                s, c = cells[p], cells[b]
-                if c["success"] > s["success"] or (c["success"] == s["success"] and c["collision"] < s["collision"]):
-                    beaten.append({"family": fam, "planner": p, "baseline": b})
-    return {"families": families, "baseline_better": beaten,
-            "wall_s": {p: round(r["wall_s"], 1) for p, r in results.items()}}
+def groups_of(matrix: Path, overrides: list[str]) -> dict[str, str]:
+    """Scenario name -> table group: its family, prefixed by its stress condition where it has one."""
+    from foresight.cli.evaluate import overrides as parse_overrides
+    from foresight.core.scenarios.loader import load_matrix
+
+    out = {}
+    for s in load_matrix(matrix, overrides=parse_overrides(overrides)).scenarios:
+        condition = s.scenario.metadata.get("condition")
+        out[s.name] = f"{condition} / {s.scenario.archetype}" if condition and condition != "replay" else s.scenario.archetype
+    return out
 
 
-def markdown(t: dict) -> str:
-    planners = list(next(iter(t["families"].values())))
-    lines = ["| family | " + " | ".join(planners) + " |", "|---" * (len(planners) + 1) + "|"]
-    for fam, cells in t["families"].items():
-        vals = [f"{100 * cells[p]['success']:.1f} % ({100 * cells[p]['collision']:.1f} %)" for p in planners]
-        lines.append(f"| {fam} (n={cells[planners[0]]['episodes']}) | " + " | ".join(vals) + " |")
+def cell(records: list) -> dict:
+    from foresight.core.evaluation.stats import rate
+
+    n = len(records)
+    counts = {"success": sum(r.success for r in records), "collision": sum(r.collision for r in records),
+              "timeout": sum(r.outcome == "timeout" for r in records)}
+    return {"episodes": n, **{k: rate(c, n).model_dump(exclude={"n"}) for k, c in counts.items()}}
+
+
+def suite_table(folders: dict[str, Path], groups: dict[str, str]) -> dict[str, dict[str, dict]]:
+    """{group: {planner: cell}} with per-condition and overall rows after the families."""
+    from foresight.core.evaluation.record import EpisodeRecord
+
+    table: dict[str, dict[str, dict]] = {}
+    for planner, folder in folders.items():
+        records = [EpisodeRecord.model_validate_json(line) for line in (folder / "episodes.jsonl").read_text().splitlines()]
+        by: dict[str, list] = {}
+        for r in records:
+            group = groups[r.scenario]
+            by.setdefault(group, []).append(r)
+            if " / " in group:
+                by.setdefault(f"all {group.split(' / ')[0]}", []).append(r)
+            elif group.startswith("replay_"):
+                by.setdefault("all replay", []).append(r)
+        by["all"] = records
+        for group in sorted(by, key=lambda g: (g.startswith("all"), g == "all", g)):
+            table.setdefault(group, {})[planner] = cell(by[group])
+    return table
+
+
+def baseline_better(suites: dict[str, dict]) -> list[dict]:
+    out = []
+    for suite, t in suites.items():
+        for group, cells in t["groups"].items():
+            for p in (p for p in cells if p.startswith("predictive")):
+                for b in (x for x in BASELINES if x in cells):
+                    s, c = cells[p], cells[b]
+                    if (c["success"]["rate"], -c["collision"]["rate"]) > (s["success"]["rate"], -s["collision"]["rate"]):
+                        out.append({"suite": suite, "group": group, "planner": p, "baseline": b})
+    return out
+
+
+def markdown(result: dict) -> str:
+    def pct(x: dict, interval: bool) -> str:
+        s = f"{100 * x['rate']:.0f}"
+        return s + (f" [{100 * x['low']:.0f}–{100 * x['high']:.0f}]" if interval else "")
+
+    lines = ["success [95 % CI] / collision [95 % CI] / timeout, % of episodes", ""]
+    for suite, t in result["suites"].items():
+        planners = list(next(iter(t["groups"].values())))
+        over = ", ".join(t["overrides"]) or "none"
+        lines += [f"**{suite}** ({Path(t['matrix']).name}, overrides: {over})", "",
+                  "| group | " + " | ".join(planners) + " |", "|---" * (len(planners) + 1) + "|"]
+        for group, cells in t["groups"].items():
+            vals = [f"{pct(c['success'], True)} / {pct(c['collision'], True)} / {pct(c['timeout'], False)}"
+                    for c in (cells[p] for p in planners)]
+            name = f"**{group}**" if group.startswith("all") else group
+            lines.append(f"| {name} (n={cells[planners[0]]['episodes']}) | " + " | ".join(vals) + " |")
+        lines.append("")
     return "\n".join(lines)
 
 
 def main(argv: list[str] | None = None) -> int:
+    from foresight.core.evaluation.runner import EvaluationResult
+
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--matrix", help="run every planner on this matrix")
-    ap.add_argument("--seeds-per-scenario", type=int, default=10)
+    ap.add_argument("--suites", default=",".join(SUITES), help=f"comma-separated, of {', '.join(SUITES)}")
+    ap.add_argument("--matrix", help="instead of --suites: this matrix, as suite 'custom'")
+    ap.add_argument("--override", action="append", default=[], metavar="KEY=VALUE", help="with --matrix (repeatable)")
+    ap.add_argument("--planners", default=",".join(SLUG.get(p, p) for p in PLANNERS),
+                    help="comma-separated, of predictive_learned, predictive_cv, orca, social_force, goal")
+    ap.add_argument("--seeds-per-scenario", type=int, help="the first N seeds of each scenario (default: all its own)")
+    ap.add_argument("--scenarios", help="comma-separated scenario names (default: all)")
     ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("results", nargs="*", help="NAME=FILE pairs of `foresight evaluate --json` outputs")
+    ap.add_argument("--out", default=str(REPO / "out" / "navigation"), help="work folders of the evaluations")
+    ap.add_argument("--reuse", action="store_true", help="take finished work folders under --out instead of re-running")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    if args.matrix:
-        results = run(args.matrix, args.seeds_per_scenario, args.workers)
-    else:
-        results = {k: json.loads(Path(v).read_text()) for k, v in (a.split("=", 1) for a in args.results)}
-    t = table(results)
-    print(json.dumps(t, indent=2) if args.json else markdown(t))
+    suites = {"custom": (Path(args.matrix), args.override)} if args.matrix else {
+        s: SUITES[s] for s in args.suites.split(",") if s}
+    by_slug = {SLUG.get(p, p): p for p in PLANNERS}
+    planners = [by_slug[p] for p in args.planners.split(",") if p]
+    result: dict = {"command": ["bench/navigation_table.py", *(argv if argv is not None else sys.argv[1:])],
+                    "suites": {}, "runs": {}}
+    for suite, (matrix, overrides) in suites.items():
+        folders = {p: run_one(suite, matrix, overrides, p, args) for p in planners}
+        summaries = {p: EvaluationResult.model_validate_json((f / "evaluation.json").read_text())
+                     for p, f in folders.items()}
+        result["suites"][suite] = {"matrix": str(matrix), "overrides": overrides,
+                                   "groups": suite_table(folders, groups_of(matrix, overrides))}
+        result["runs"][suite] = {p: {"folder": str(folders[p]), "wall_s": round(s.wall_s, 1),
+                                     "code_version": s.code_version, "episodes": s.episodes}
+                                 for p, s in summaries.items()}
+    result["baseline_better"] = baseline_better(result["suites"])
+    print(json.dumps(result, indent=2) if args.json else markdown(result))
     return 0
 
 
