@@ -16,6 +16,7 @@ import yaml
 from pydantic import ValidationError
 
 from foresight.core.errors import ConfigError
+from foresight.core.maps import robotsf
 from foresight.core.maps.model import MapDef, Point, Route, SinglePedestrian, Zone
 from foresight.core.yamlio import load_yaml
 
@@ -190,7 +191,7 @@ def map_from_dict(doc: Any, *, source: str, default_name: str = "map") -> MapDef
 
 
 def load_native_map(path: str | Path) -> MapDef:
-    """Read a ``foresight.map/1`` YAML file."""
+    """Read a ``foresight.map/1`` YAML file (or robot_sf's serialized map format, ``core.maps.robotsf``)."""
     p = Path(path)
     try:
         text = p.read_text(encoding="utf-8")
@@ -200,6 +201,8 @@ def load_native_map(path: str | Path) -> MapDef:
         doc = load_yaml(text, source=p)
     except yaml.YAMLError as exc:
         raise ConfigError(f"malformed YAML: {exc}", source=p, item="yaml") from exc
+    if robotsf.is_robotsf_map(doc):
+        return robotsf.map_from_robotsf(doc, source=str(p), name=p.stem)
     return map_from_dict(doc, source=str(p), default_name=p.stem)
 
 

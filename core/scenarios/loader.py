@@ -36,6 +36,7 @@ Anything else is a :class:`~core.errors.ConfigError` naming the file, the scenar
 from __future__ import annotations
 
 import copy
+import functools
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -339,8 +340,19 @@ class _MapResolver:
                 source=entry.file,
                 item=scenario.name,
             )
-        self._registry = MapRegistry(path)
+        self._registry = _registry(*_file_version(path))
         return self._registry
+
+
+def _file_version(path: Path) -> tuple[Path, int, int]:
+    st = path.stat()
+    return path.resolve(), st.st_mtime_ns, st.st_size
+
+
+@functools.lru_cache(maxsize=8)
+def _registry(path: Path, _mtime_ns: int, _size: int) -> MapRegistry:
+    """A map registry, parsed once per file version (robot_sf's catalog is large and matrices share it)."""
+    return MapRegistry(path)
 
 
 def _replace(mapdef: MapDef, **changes: Any) -> MapDef:

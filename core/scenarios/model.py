@@ -281,6 +281,8 @@ class Scenario(_Strict):
         if isinstance(data, dict) and "scenario_id" in data and "name" not in data:
             data = dict(data)
             data["name"] = data.pop("scenario_id")
+        if isinstance(data, dict) and "multi_amv" in data:
+            raise ValueError("multi_amv: Foresight simulates one robot; robot_sf's multi-robot scenarios cannot be run")
         return data
 
     @model_validator(mode="after")
