@@ -5,9 +5,10 @@ from __future__ import annotations
 from datetime import UTC, datetime
 from typing import Annotated, Any, Literal, Union
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 
-from foresight.worker.kinds import KINDS
+from foresight.core.stages.kinds import KINDS
+from foresight.store.settings import Settings
 
 Ident = Annotated[str, Field(min_length=1, max_length=200, pattern=r"^[A-Za-z0-9][A-Za-z0-9._:\-]*$")]
 
@@ -23,7 +24,18 @@ def _job_spec_type() -> Any:
     return Annotated[Union[specs], Field(discriminator="kind")]  # noqa: UP007 (a runtime tuple of models)
 
 
-JobSpec = _job_spec_type()
+def _known_data_root(spec: Any) -> Any:
+    """An ``import_dataset`` spec names a data root of this server (checked against the settings in the
+    environment, every process's settings source): a 422 naming the field, the name and the known roots."""
+    if getattr(spec, "kind", None) == "import_dataset":
+        try:
+            Settings().data_root(spec.root)
+        except LookupError as exc:
+            raise ValueError(f"spec.import_dataset.root: {exc}") from None
+    return spec
+
+
+JobSpec = Annotated[_job_spec_type(), AfterValidator(_known_data_root)]
 
 
 # Jobs

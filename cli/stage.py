@@ -39,7 +39,7 @@ def add_mode_args(p: argparse.ArgumentParser, *, json_flag: bool = True) -> None
 
 def spec(kind: str, values: dict[str, Any]) -> BaseModel:
     """The job kind's spec from command-line values (None = not given); one readable ConfigError when invalid."""
-    from foresight.worker.kinds import KINDS
+    from foresight.core.stages.kinds import KINDS
 
     return build_config(KINDS[kind].spec, {**values, "kind": kind})
 

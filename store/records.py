@@ -71,3 +71,19 @@ def _gate(conn: Connection, job: dict[str, Any], campaign_id: str | None, gate: 
         job_id=job["id"], campaign_id=campaign_id, gate=str(gate.get("name", "gate")), passed=passed, details=gate,
         created_at=time.time(),
     ))  # fmt: skip
+
+
+def pipeline_gates(conn: Connection, job: dict[str, Any], result: dict[str, Any], job_dir: str) -> None:
+    """The pipeline's gate verdicts as gate-result rows (``pipeline:<gate>``), written with its final status."""
+    rows = [{"job_id": job["id"], "campaign_id": None, "gate": f"pipeline:{g['name']}", "passed": bool(g["passed"]),
+             "details": g, "created_at": time.time()}
+            for g in (result.get("summary") or {}).get("gates") or [] if g.get("passed") is not None]
+    if rows:
+        conn.execute(insert(GateResult.__table__), rows)
+
+
+#: job kind -> the recorder of its result rows (kinds without rows are absent; names checked against the kinds)
+RECORDERS: dict[str, Recorder] = {
+    "collect": dataset, "mix": dataset, "import_dataset": dataset, "evaluate": evaluation, "campaign": campaign,
+    "pipeline": pipeline_gates,
+}  # fmt: skip

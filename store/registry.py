@@ -18,11 +18,12 @@ from pathlib import Path
 from typing import Any
 
 import yaml
-from sqlalchemy import Engine, select
+from sqlalchemy import Engine, select, update
+from sqlalchemy.exc import IntegrityError
 
 from foresight.core.errors import ConfigError, CoreError, NotFoundError
-from foresight.store import folders
-from foresight.store.models import Bundle, Dataset, Model, ModelStatus
+from foresight.store import folders, queue
+from foresight.store.models import Artifact, Bundle, Dataset, Model, ModelStatus
 from foresight.store.session import session_factory
 from foresight.store.settings import Settings
 
@@ -284,6 +285,74 @@ class Resolver:
                 raise CoreError(f"model {ident!r}: checkpoint {row.checkpoint} does not match its sha256")
             self._verified[ident] = (stat.st_mtime, stat.st_size)
         return path
+
+
+# ------------------------------------------------------------------------------------------ registration
+
+
+def register_checkpoint(engine: Engine, settings: Settings, *, model_id: str, job_id: str, artifact: str = "model.pt",
+                        metadata: dict[str, Any] | None = None, status: str = ModelStatus.candidate.value,
+                        resume: bool = False) -> dict[str, Any]:
+    """Register the checkpoint artifact ``artifact`` of succeeded job ``job_id`` as model ``model_id``.
+
+    ``metadata`` may hold time_base (when absent, read from the checkpoint), lineage, training, metrics, tags and
+    provenance. An id already taken is a :class:`~store.queue.Conflict`, unless ``resume`` and it names this
+    very job's model (a retried pipeline): then that model is returned with ``resumed: True``.
+    Returns ``{model_id, status, resumed}``.
+    """
+    meta = metadata or {}
+    with session_factory(engine, write=True).begin() as session:
+        existing = session.get(Model, model_id)
+        if existing is not None:
+            if resume and existing.job_id == job_id:
+                return {"model_id": model_id, "status": existing.status, "resumed": True}
+            owner = f" (job {existing.job_id})" if existing.job_id else ""
+            raise queue.Conflict(f"a model with id {model_id!r} already exists{owner}")
+        job = queue.get_job(engine, job_id)
+        if job["status"] != queue.SUCCEEDED:
+            raise queue.Conflict(f"job {job_id} is {job['status']}; register checkpoints of succeeded jobs")
+        name = folders.check_relative(artifact)
+        art = session.scalars(select(Artifact).where(Artifact.job_id == job_id, Artifact.name == name)).first()
+        if art is None:
+            raise queue.JobNotFound(f"job {job_id} has no artifact {name!r}")
+        session.add(Model(
+            id=model_id, status=status, checkpoint=art.path, sha256=art.sha256,
+            time_base=meta["time_base"] if "time_base" in meta else _time_base(settings, art.path), lineage=meta.get("lineage", {}),
+            training=meta.get("training", {}), metrics=meta.get("metrics", {}), tags=meta.get("tags", []),
+            provenance=meta.get("provenance") or f"job {job_id}", read_only=False, job_id=job_id,
+            created_at=time.time(),
+        ))  # fmt: skip
+        try:
+            session.flush()
+        except IntegrityError:
+            raise queue.Conflict(f"a model with id {model_id!r} already exists") from None
+    return {"model_id": model_id, "status": status, "resumed": False}
+
+
+def _time_base(settings: Settings, checkpoint: str) -> dict[str, Any]:
+    """The time base a checkpoint declares ({} when it cannot be read: provenance only)."""
+    try:
+        from foresight.core.predict.nn.checkpoint import read_checkpoint
+
+        return dict(read_checkpoint(folders.resolve_under(settings.store_root, checkpoint))["timebase"])
+    except Exception:  # noqa: BLE001 - provenance only
+        return {}
+
+
+def promote(engine: Engine, model_id: str, to: str = ModelStatus.promoted.value) -> dict[str, Any]:
+    """Promote a model; promoting to ``default`` demotes the previous default to ``promoted``. Shipped models
+    (read-only) are refused: their status lives in ``model/registry.yaml``."""
+    with session_factory(engine, write=True).begin() as session:
+        row = session.get(Model, model_id)
+        if row is None:
+            raise queue.JobNotFound(f"no model with id {model_id!r}")
+        if row.read_only:
+            raise queue.Conflict(f"model {model_id} is shipped (model/registry.yaml); change its status there")
+        if to == ModelStatus.default.value:
+            session.execute(update(Model).where(Model.status == ModelStatus.default.value, Model.id != model_id)
+                            .values(status=ModelStatus.promoted.value))
+        row.status = to
+    return {"model_id": model_id, "status": to}
 
 
 def models_using(engine: Engine, model_id: str) -> list[str]:

@@ -12,6 +12,7 @@ and are released to the queue (their attempt is not counted). A second stop requ
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import logging
 import os
@@ -19,18 +20,19 @@ import socket
 import threading
 import time
 import uuid
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from sqlalchemy import Engine
-
 from foresight.core.errors import CoreError
-from foresight.core.stages.context import Cancelled, StageContext
-from foresight.store import folders, queue
+from foresight.core.stages.context import Cancelled, ChildProgress, StageContext
+from foresight.core.stages.kinds import KINDS
+from foresight.store import folders, queue, records
 from foresight.store.registry import Resolver
+from foresight.store.session import Engine
 from foresight.store.settings import Settings
-from foresight.worker.kinds import KINDS
+from foresight.worker.children import ChildRunner
 from foresight.worker.retry import decide_retry
 
 logger = logging.getLogger(__name__)
@@ -57,7 +59,16 @@ class Held:
 
 
 class JobWorker:
-    def __init__(self, settings: Settings, engine: Engine, *, concurrency: int = 1, kinds: list[str] | None = None):
+    """Claims and runs jobs in ``concurrency`` slot threads (:meth:`run`).
+
+    A child worker (:meth:`child_worker`, made for a parent job's :class:`~worker.children.ChildRunner`) never
+    polls the queue: it runs the children its parent claimed (:meth:`run_job`) under its own lease owner, with
+    the parent's worker count, their progress forwarded and the parent's stop passed on by :meth:`beat`.
+    """
+
+    def __init__(self, settings: Settings, engine: Engine, *, concurrency: int = 1, kinds: list[str] | None = None,
+                 worker_id: str | None = None, stage_workers: int | None = None,
+                 on_progress: ChildProgress | None = None, parent_stop: Callable[[], str | None] | None = None):
         self.settings = settings
         self.engine = engine
         self.concurrency = concurrency
@@ -65,7 +76,11 @@ class JobWorker:
         unknown = set(self.kinds) - set(KINDS)
         if unknown:
             raise CoreError(f"unknown job kinds {sorted(unknown)}; known: {sorted(KINDS)}")
-        self.id = f"{socket.gethostname()}-{os.getpid()}-{uuid.uuid4().hex[:6]}"
+        self.id = worker_id or f"{socket.gethostname()}-{os.getpid()}-{uuid.uuid4().hex[:6]}"
+        #: processes a stage may use: the parent's own request wins over FORESIGHT_STAGE_WORKERS
+        self.stage_workers = stage_workers or settings.stage_workers
+        self.on_progress = on_progress
+        self.parent_stop = parent_stop
         self.resolver = Resolver(settings, engine)
         self._held: dict[str, Held] = {}
         self._lock = threading.Lock()
@@ -117,21 +132,42 @@ class JobWorker:
             if job is None:
                 self._stopping.wait(self.settings.poll_s)
                 continue
-            self._run(job)
+            self.run_job(job)
+
+    def beat(self) -> None:
+        """Renew the leases of held jobs; note cancellation requests and lost leases (and, in a child worker,
+        pass the parent's cancellation or stop on to its children)."""
+        with self._lock:
+            held_ids = list(self._held)
+        if not held_ids and self.parent_stop is not None:
+            return
+        cancel, lost = queue.heartbeat(self.engine, self.id, held_ids, self.settings.lease_s)
+        stop = self.parent_stop() if self.parent_stop is not None else None
+        with self._lock:
+            for job_id in held_ids:
+                held = self._held.get(job_id)
+                if held is None:
+                    continue
+                held.cancel_requested = held.cancel_requested or job_id in cancel or stop == "cancel"
+                held.lost = held.lost or job_id in lost
+                held.shutdown = held.shutdown or stop == "stop"
+        if stop == "cancel":
+            for job_id in held_ids:
+                with contextlib.suppress(queue.Conflict):
+                    queue.request_cancel(self.engine, job_id)
+
+    def child_worker(self, owner: str, workers: int | None, on_progress: ChildProgress,
+                     parent_stop: Callable[[], str | None]) -> JobWorker:
+        """A one-slot worker that runs a parent's children (lease owner ``owner``) through this code path."""
+        return JobWorker(self.settings, self.engine, worker_id=owner, stage_workers=workers or self.stage_workers,
+                         on_progress=on_progress, parent_stop=parent_stop)
 
     def _heartbeat_loop(self) -> None:
         reap_every = max(self.settings.heartbeat_s, self.settings.lease_s / 4)
         next_reap = 0.0
         while not self._beat_stop.wait(self.settings.heartbeat_s):
             try:
-                with self._lock:
-                    held_ids = list(self._held)
-                cancel, lost = queue.heartbeat(self.engine, self.id, held_ids, self.settings.lease_s)
-                with self._lock:
-                    for job_id in cancel & self._held.keys():
-                        self._held[job_id].cancel_requested = True
-                    for job_id in lost & self._held.keys():
-                        self._held[job_id].lost = True
+                self.beat()
                 if time.time() >= next_reap:
                     reaped = queue.reap_stale(self.engine)
                     if any(reaped.values()):
@@ -141,7 +177,8 @@ class JobWorker:
                 logger.exception("heartbeat failed", extra={"action": "heartbeat_failed"})
 
     # ------------------------------------------------------------------ one job
-    def _run(self, job: dict[str, Any]) -> None:
+    def run_job(self, job: dict[str, Any]) -> None:
+        """Run a job this worker claimed, to its end (succeeded, failed, retried, cancelled or released)."""
         timeout = job["timeout_s"]
         held = Held(job, deadline=time.time() + timeout if timeout else None)
         with self._lock:
@@ -167,8 +204,8 @@ class JobWorker:
             workdir = folders.resolve_under(self.settings.store_root, workdir_rel)
             if kind.make_workdir:
                 workdir.mkdir(parents=True, exist_ok=True)
-            ctx = self._context(held, workdir)
-            result = kind.run(spec, ctx)
+            ctx = self.stage_context(held, workdir)
+            result = kind.execute(spec, ctx)
             if kind.make_workdir:  # the report page is a by-product: written before the scan lists artifacts
                 # imported here: matplotlib loads on the first finished stage, not at worker start
                 from foresight.core.reports.stage import write_report
@@ -192,21 +229,25 @@ class JobWorker:
         if not artifacts and kind.make_workdir:
             _remove_empty(folders.resolve_under(self.settings.store_root, workdir_rel))
         record = None
-        if kind.record is not None:
-            record = functools.partial(_record, kind.record, job=job, result=result, job_dir=workdir_rel)
+        if job["kind"] in records.RECORDERS:
+            record = functools.partial(records.RECORDERS[job["kind"]], job=job, result=result, job_dir=workdir_rel)
         queue.finish(*args, result, artifacts, record)
 
-    def _context(self, held: Held, workdir: Path) -> StageContext:
+    def stage_context(self, held: Held, workdir: Path) -> StageContext:
+        """The context a held job's stage runs in: its folder, progress, log, cancellation, inputs by id,
+        and its child jobs (``ctx.children``)."""
         job = held.job
 
         def progress(fraction: float, message: str) -> None:
             now = time.time()
+            if self.on_progress is not None:
+                self.on_progress(job["id"], fraction, message)
             if fraction < 1.0 and now - held.last_progress < PROGRESS_EVERY_S:
                 return
             held.last_progress = now
             queue.report_progress(self.engine, job["id"], self.id, job["attempts"], float(fraction), message[:2000])
 
-        return StageContext(
+        ctx = StageContext(
             workdir=workdir,
             progress=progress,
             log=lambda message: queue.log(self.engine, job["id"], message[:2000]),
@@ -216,8 +257,11 @@ class JobWorker:
             resolve_bundle=self.resolver.bundle,
             resolve_data_root=self.settings.data_root,
             local_files=False,  # a spec names inputs by id only
-            workers=self.settings.stage_workers,
+            workers=self.stage_workers,
+            job_id=job["id"],
         )
+        ctx.children = functools.partial(ChildRunner, self, ctx)
+        return ctx
 
 
 def _remove_empty(folder: Path) -> None:
@@ -228,6 +272,3 @@ def _remove_empty(folder: Path) -> None:
     if folder.is_dir() and not any(folder.iterdir()):
         folder.rmdir()
 
-
-def _record(recorder, conn, *, job, result, job_dir) -> None:  # noqa: ANN001
-    recorder(conn, job, result, job_dir)

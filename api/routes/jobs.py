@@ -18,10 +18,10 @@ from starlette.concurrency import run_in_threadpool
 from foresight.api.deps import EngineDep, SettingsDep, WriteAuth
 from foresight.api.errors import AUTH, responses
 from foresight.api.schemas import Ident, JobCreate, JobPublic, JobsPublic, KindPublic, job_public
+from foresight.core.stages.kinds import KINDS
 from foresight.store import folders, queue
 from foresight.store.models import Dataset, JobStatus, Model
 from foresight.store.session import is_sqlite
-from foresight.worker.kinds import KINDS
 
 router = APIRouter(prefix="/jobs", tags=["jobs"])
 

@@ -2,19 +2,17 @@
 
 from __future__ import annotations
 
-import time
 from typing import Annotated
 
 from fastapi import APIRouter, Query, Response, status
 from fastapi.responses import PlainTextResponse
-from sqlalchemy import select, update
-from sqlalchemy.exc import IntegrityError
+from sqlalchemy import select
 
-from foresight.api.deps import EngineDep, SessionDep, WriteAuth, WriteSessionDep
+from foresight.api.deps import EngineDep, SessionDep, SettingsDep, WriteAuth, WriteSessionDep
 from foresight.api.errors import AUTH, responses
 from foresight.api.schemas import Ident, ModelCreate, ModelPromote, ModelPublic, ModelsPublic
-from foresight.store import folders, queue
-from foresight.store.models import Artifact, Model, ModelStatus
+from foresight.store import queue, registry
+from foresight.store.models import Model, ModelStatus
 from foresight.store.registry import export_models, models_using
 
 router = APIRouter(prefix="/models", tags=["models"])
@@ -54,30 +52,12 @@ def export_registry(session: SessionDep) -> YamlResponse:
 
 
 @router.post("", status_code=status.HTTP_201_CREATED, dependencies=[WriteAuth], responses=responses(*AUTH, 404, 409))
-def create_model(body: ModelCreate, session: WriteSessionDep, engine: EngineDep) -> ModelPublic:
+def create_model(body: ModelCreate, session: SessionDep, engine: EngineDep, settings: SettingsDep) -> ModelPublic:
     """Register a checkpoint artifact of a succeeded job (409 for a duplicate id)."""
-    if session.get(Model, body.id) is not None:
-        raise queue.Conflict(f"a model with id {body.id!r} already exists")
-    job = queue.get_job(engine, body.job_id)
-    if job["status"] != queue.SUCCEEDED:
-        raise queue.Conflict(f"job {body.job_id} is {job['status']}; register checkpoints of succeeded jobs")
-    name = folders.check_relative(body.artifact)
-    art = session.scalars(select(Artifact).where(Artifact.job_id == body.job_id, Artifact.name == name)).first()
-    if art is None:
-        raise queue.JobNotFound(f"job {body.job_id} has no artifact {name!r}")
-    row = Model(
-        id=body.id, status=body.status, checkpoint=art.path, sha256=art.sha256, time_base=body.time_base,
-        lineage=body.lineage, training=body.training, metrics=body.metrics, tags=body.tags,
-        provenance=body.provenance or f"job {body.job_id}", read_only=False, job_id=body.job_id,
-        created_at=time.time(),
-    )  # fmt: skip
-    session.add(row)
-    try:
-        session.commit()
-    except IntegrityError:
-        session.rollback()
-        raise queue.Conflict(f"a model with id {body.id!r} already exists") from None
-    return ModelPublic.model_validate(row)
+    meta = body.model_dump(include={"time_base", "lineage", "training", "metrics", "tags", "provenance"})
+    registry.register_checkpoint(engine, settings, model_id=body.id, job_id=body.job_id, artifact=body.artifact,
+                                 metadata=meta, status=body.status)
+    return ModelPublic.model_validate(_get(session, body.id))
 
 
 @router.get("/{model_id}", responses=responses(404))
@@ -87,20 +67,10 @@ def read_model(model_id: Ident, session: SessionDep) -> ModelPublic:
 
 
 @router.post("/{model_id}/promote", dependencies=[WriteAuth], responses=responses(*AUTH, 404, 409))
-def promote_model(model_id: Ident, session: WriteSessionDep, body: ModelPromote | None = None) -> ModelPublic:
+def promote_model(model_id: Ident, session: SessionDep, engine: EngineDep, body: ModelPromote | None = None) -> ModelPublic:
     """Promote a model; promoting to ``default`` demotes the previous default to ``promoted``."""
-    target = (body or ModelPromote()).to
-    row = _get(session, model_id)
-    if row.read_only:
-        raise queue.Conflict(f"model {model_id} is shipped (model/registry.yaml); change its status there")
-    if target == ModelStatus.default.value:
-        session.execute(
-            update(Model).where(Model.status == ModelStatus.default.value, Model.id != model_id)
-            .values(status=ModelStatus.promoted.value)
-        )  # fmt: skip
-    row.status = target
-    session.commit()
-    return ModelPublic.model_validate(row)
+    registry.promote(engine, model_id, (body or ModelPromote()).to)
+    return ModelPublic.model_validate(_get(session, model_id))
 
 
 @router.delete("/{model_id}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[WriteAuth],

@@ -10,8 +10,8 @@ from sqlalchemy import select, text
 
 from foresight.api.deps import EngineDep, SettingsDep
 from foresight.api.schemas import Health, WorkerPublic, WorkersPublic, iso
+from foresight.core.stages.kinds import KINDS
 from foresight.store import queue
-from foresight.worker.kinds import KINDS
 
 router = APIRouter(tags=["operations"])  #: always open (liveness probes carry no token)
 #: reads: the app adds the read-auth dependency when reads are closed, so the schema's security matches

@@ -12,9 +12,9 @@ from sqlalchemy import func, select
 from foresight.api.web import catalog, files
 from foresight.api.web.auth import PageNotFound, read_access
 from foresight.api.web.render import page
+from foresight.core.stages.kinds import KINDS
 from foresight.store import queue
 from foresight.store.models import JobStatus
-from foresight.worker.kinds import KINDS
 
 router = APIRouter(include_in_schema=False)
 pages = APIRouter(prefix="/ui", include_in_schema=False, dependencies=[Depends(read_access)])

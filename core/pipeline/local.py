@@ -6,7 +6,6 @@ registry (``<workdir>/registry.json``); a stage whose ``result.json`` exists is 
 
 from __future__ import annotations
 
-import importlib
 import json
 import time
 from collections.abc import Callable
@@ -21,22 +20,8 @@ from foresight.core.pipeline.runbook import ChildRun
 from foresight.core.predict.collect import CollectResult
 from foresight.core.predict.train_config import TrainResult
 from foresight.core.stages.context import StageContext
+from foresight.core.stages.kinds import KINDS
 from foresight.core.stages.results import read_result
-
-#: kind -> (config class, stage function), imported when the stage runs (train imports torch)
-STAGES = {
-    "collect": ("foresight.core.predict.collect:CollectConfig", "foresight.core.predict.collect:run_collect"),
-    "mix": ("foresight.core.predict.collect:MixConfig", "foresight.core.predict.collect:run_mix"),
-    "train": ("foresight.core.predict.train_config:TrainConfig", "foresight.core.predict.nn.train:run_train"),
-    "evaluate": ("foresight.core.evaluation.config:EvaluationConfig", "foresight.core.evaluation.runner:run_evaluation"),
-    "diagnose": ("foresight.core.evaluation.config:DiagnosticsConfig", "foresight.core.evaluation.diagnostics:run_diagnostics"),
-    "campaign": ("foresight.core.evaluation.config:CampaignConfig", "foresight.core.evaluation.campaign:run_campaign"),
-}
-
-
-def _load(ref: str) -> Any:
-    module, name = ref.split(":")
-    return getattr(importlib.import_module(module), name)
 
 
 class LocalChildren:
@@ -83,13 +68,13 @@ class LocalChildren:
             saved = json.loads(done.read_text())
             if saved["spec"] == spec:
                 return self._run_of(stage, folder, read_result(kind, saved["result"]), saved["wall_s"], resumed=True)
-        config_ref, stage_ref = STAGES[kind]
-        config = _load(config_ref).model_validate(spec)
+        stage_kind = KINDS[kind]
+        config = stage_kind.config.model_validate(spec)
         folder.mkdir(parents=True, exist_ok=True)
         sub = replace(self.ctx, workdir=folder, progress=progress, resolve_model=self.resolve_model,
                       resolve_dataset=self.resolve_dataset)
         t0 = time.perf_counter()
-        result = read_result(kind, _load(stage_ref)(config, sub))
+        result = read_result(kind, stage_kind.run(config, sub))
         wall = time.perf_counter() - t0
         data = result.model_dump(mode="json", by_alias=True)
         done.write_text(json.dumps({"spec": spec, "result": data, "wall_s": wall}, indent=2, default=str))

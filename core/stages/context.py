@@ -8,6 +8,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, Protocol
 
 from foresight.core.errors import CoreError, NotFoundError
 
@@ -23,6 +24,49 @@ def _not_available(kind: str) -> Callable[[str], Path]:
     return resolve
 
 
+#: ``on_progress(child_id, fraction, message)`` of a child job running in its parent's slot
+ChildProgress = Callable[[str, float, str], None]
+
+
+class ChildJobs(Protocol):
+    """The child jobs of the running job (a pipeline's stages, a sharded run's shards), from whoever runs it.
+
+    A child is a real job (its own progress, artifacts and records) submitted under an idempotency key, so a
+    retried parent finds it again; :meth:`run` runs queued children in the parent's own slot and waits for
+    those other workers took. A service worker backs this with its queue (``worker.children``).
+    """
+
+    parent_id: str
+
+    def submit(self, label: str, kind: str, spec: dict[str, Any], key: str) -> tuple[dict[str, Any], bool]:
+        """Queue a ``kind`` child (spec validated as the API would); (job row, created)."""
+        ...
+
+    def run(self, label: str, child_ids: list[str], on_progress: ChildProgress | None = None,
+            on_wait: Callable[[dict[str, dict[str, Any]]], None] | None = None,
+            ) -> tuple[dict[str, dict[str, Any]], set[str]]:
+        """Drive the children until all succeeded; (final rows by id, ids run or retried by this call)."""
+        ...
+
+    def folder(self, child_id: str) -> Path:
+        """A child's artifact folder."""
+        ...
+
+    def register_model(self, model_id: str, train_job: str, spec: dict[str, Any]) -> dict[str, Any]:
+        """Register the ``model.pt`` of child ``train_job`` as a candidate model (the registry's one rule)."""
+        ...
+
+    def promote_model(self, model_id: str, to: str) -> dict[str, Any]:
+        """Promote a model (the registry's one rule)."""
+        ...
+
+    def close(self) -> None: ...
+
+
+def _no_children(role: str, workers: int | None = None) -> ChildJobs:
+    raise CoreError(f"{role}: child jobs need a service worker (this context runs stages in-process)")
+
+
 @dataclass
 class StageContext:
     """Runtime services of one stage run.
@@ -36,6 +80,8 @@ class StageContext:
     store, registry and settings. ``local_files``: whether a stage may also take a local file path where an
     id is expected: True for library and in-process (``--local``) runs; a service worker sets False, so a job
     spec can never make the server read a path of the submitter's choosing.
+    ``job_id`` is the service job this run is (None in-process); ``children(role, workers)`` opens the
+    :class:`ChildJobs` of that job (call ``close()`` when done).
     """
 
     workdir: Path
@@ -48,6 +94,8 @@ class StageContext:
     resolve_data_root: Callable[[str], Path] = field(default_factory=lambda: _not_available("data root"))
     local_files: bool = True
     workers: int = 1  #: processes a stage may use for parallel episodes
+    job_id: str | None = None
+    children: Callable[[str, int | None], ChildJobs] = _no_children
 
     def check_cancelled(self) -> None:
         if self.is_cancelled():

@@ -90,7 +90,7 @@ def test_bundle_names() -> None:
 def test_the_local_and_server_specs_are_one_model() -> None:
     """Both modes validate the job kind's spec; --local runs the core config a worker would build from it."""
     from foresight.core.predict.collect import CollectConfig
-    from foresight.worker.kinds import KINDS
+    from foresight.core.stages.kinds import KINDS
 
     spec = stage.spec("collect", {"scenarios": ["crossing_low"], "seeds_per_scenario": 2, "max_steps": None})
     assert isinstance(spec, KINDS["collect"].spec) and spec.kind == "collect"

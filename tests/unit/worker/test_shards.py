@@ -134,16 +134,15 @@ def test_cancelling_the_parent_cancels_its_shards_and_a_retry_reuses_the_finishe
 def test_a_pipeline_stage_may_be_sharded(settings, engine) -> None:  # noqa: ANN001
     """The pipeline's evaluate child with shards: children of a child, all run in the pipeline's one slot."""
     from foresight.core.pipeline.config import load_pipeline_config
-    from foresight.core.stages.context import StageContext
+    from foresight.core.pipeline.service import ChildJobs
     from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
-    from foresight.store.registry import Resolver
-    from foresight.worker.pipeline import ChildJobs
+    from foresight.worker.runner import Held, JobWorker
 
     queue.submit(engine, kind="pipeline", spec={"kind": "pipeline"})
     job = queue.claim(engine, "worker-1", ["pipeline"], 30.0)
     workdir = folders.resolve_under(settings.store_root, folders.job_dir(settings.store_root, job["id"]))
     workdir.mkdir(parents=True)
-    ctx = StageContext(workdir=workdir, resolve_bundle=Resolver(settings, engine).bundle)
+    ctx = JobWorker(settings, engine, worker_id="worker-1").stage_context(Held(job, None), workdir)
     children = ChildJobs(ctx, load_pipeline_config(BUILTIN_CONFIG_ROOT / "pipelines" / "smoke.yaml"))
     try:
         spec = {k: v for k, v in EVALUATE.items() if k != "kind"}

@@ -1,4 +1,4 @@
-"""The pipeline's run_child in the worker (ChildJobs) against a real SQLite file, with ``sleep`` children:
+"""The pipeline's run_child (ChildJobs) over a worker's child-job facility against a real SQLite file, with ``sleep`` children:
 child rows with their parent, claimed and run in the caller's thread, resume, retry, cancellation, registry."""
 
 from __future__ import annotations
@@ -11,13 +11,13 @@ from sqlalchemy import update
 
 from foresight.core.errors import CoreError
 from foresight.core.pipeline.config import load_pipeline_config
+from foresight.core.pipeline.service import ChildJobs
 from foresight.core.stages.context import Cancelled, StageContext
 from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
 from foresight.store import folders, queue
-from foresight.store.registry import Resolver
 from foresight.store.session import write_tx
 from foresight.store.settings import Settings
-from foresight.worker.pipeline import ChildJobs, worker_services
+from foresight.worker.runner import Held, JobWorker
 
 
 class Parent:
@@ -29,8 +29,8 @@ class Parent:
         self.cancelled = False
         workdir = folders.resolve_under(settings.store_root, folders.job_dir(settings.store_root, self.job["id"]))
         workdir.mkdir(parents=True)
-        self.ctx = StageContext(workdir=workdir, is_cancelled=lambda: self.cancelled,
-                                resolve_bundle=Resolver(settings, engine).bundle)
+        self.ctx: StageContext = JobWorker(settings, engine, worker_id="worker-1").stage_context(Held(self.job, None), workdir)
+        self.ctx.is_cancelled = lambda: self.cancelled
         self.config = load_pipeline_config(BUILTIN_CONFIG_ROOT / "pipelines" / "smoke.yaml")
 
     def children(self) -> ChildJobs:
@@ -41,10 +41,13 @@ def _progress(seen: list) -> callable:
     return lambda fraction, message: seen.append((fraction, message))
 
 
-def test_the_worker_services_come_from_the_context(settings, engine) -> None:  # noqa: ANN001
+def test_the_child_jobs_use_the_running_workers_services(settings, engine) -> None:  # noqa: ANN001
     parent = Parent(settings, engine)
-    got_settings, got_engine = worker_services(parent.ctx)
-    assert got_settings is settings and got_engine is engine
+    jobs = parent.ctx.children("pipeline", None)
+    try:
+        assert jobs.settings is settings and jobs.engine is engine and jobs.parent_id == parent.job["id"]
+    finally:
+        jobs.close()
 
 
 def test_a_child_is_a_job_row_run_in_this_thread_and_not_run_twice(settings, engine) -> None:  # noqa: ANN001
@@ -139,7 +142,7 @@ def test_the_pipeline_verdict_is_recorded_as_gate_rows(settings, engine) -> None
     from sqlalchemy import select
 
     from foresight.store.models import GateResult
-    from foresight.worker.pipeline import record_gates
+    from foresight.store.records import pipeline_gates as record_gates
 
     parent = Parent(settings, engine)
     gates = [{"name": "evaluation", "passed": False, "checks": []}, {"name": "training", "passed": True, "checks": []},

@@ -6,7 +6,8 @@ under the idempotency key ``shard:<parent id>:<index>/<count>``. Shards are kind
 same kind with a field because a shard's result is a partial (a :class:`~core.evaluation.shards.ShardResult`
 and its records, no evaluation/campaign rows, no report), never to be mistaken for a whole run. Any worker may
 claim a shard; the parent runs still-queued shards in its own slot and waits for those other workers took
-(:mod:`worker.children`, shared with the pipeline), so one worker with one slot finishes a sharded run alone.
+(``ctx.children``, the child-job facility the pipeline uses too), so one worker with one slot finishes a sharded
+run alone.
 Its progress is the mean of its shards' progress. Then it merges the shards in core
 (:func:`~core.evaluation.shards.merge_evaluation_shards` / ``merge_campaign_shards``) into the result, artifacts,
 report and records an unsharded run produces.
@@ -23,22 +24,20 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from foresight.core.errors import CoreError
+from foresight.core.evaluation.shards import merge_campaign_shards, merge_evaluation_shards, read_shard
 from foresight.core.stages.context import StageContext
-from foresight.worker.children import ChildRunner
 
-#: parent kind -> its shard kind (both registered in worker/kinds.py)
+#: parent kind -> its shard kind (both in core.stages.kinds)
 SHARD_KINDS = {"evaluate": "evaluate_shard", "campaign": "campaign_shard"}
+SUCCEEDED, RUNNING = "succeeded", "running"  #: job statuses (the store's queue)
 
 
 def run_sharded(kind: str, config: Any, ctx: StageContext) -> BaseModel:
     """Run the ``kind`` stage's ``config`` (with ``config.shards`` > 1) as shard jobs and merge them."""
-    from foresight.core.evaluation.shards import merge_campaign_shards, merge_evaluation_shards, read_shard
-    from foresight.store import folders, queue
-
     t0 = time.perf_counter()
     count = int(config.shards)
     shard_kind = SHARD_KINDS[kind]
-    runner = ChildRunner(ctx, role="shards", parent_kinds=(kind,), workers=ctx.workers)
+    runner = ctx.children("shards", ctx.workers)
     try:
         body = config.model_dump(mode="json")
         ids = []
@@ -55,23 +54,21 @@ def run_sharded(kind: str, config: Any, ctx: StageContext) -> BaseModel:
 
         def on_wait(rows: dict[str, dict[str, Any]]) -> None:
             for cid, row in rows.items():
-                fractions[cid] = 1.0 if row["status"] == queue.SUCCEEDED else float(row["progress"] or 0.0)
-            report(f"{sum(r['status'] == queue.RUNNING for r in rows.values())} running")
+                fractions[cid] = 1.0 if row["status"] == SUCCEEDED else float(row["progress"] or 0.0)
+            report(f"{sum(r['status'] == RUNNING for r in rows.values())} running")
 
         def on_progress(child_id: str, fraction: float, message: str) -> None:
             fractions[child_id] = float(fraction)
             report(message)
 
-        runner.on_progress = on_progress
-        runner.run(f"{kind} shards", ids, on_wait=on_wait)
+        runner.run(f"{kind} shards", ids, on_progress=on_progress, on_wait=on_wait)
     finally:
         runner.close()
     ctx.progress(0.99, f"merging {count} shards")
     parts = []
     for cid in ids:
-        folder = folders.resolve_under(runner.settings.store_root, folders.job_dir(runner.settings.store_root, cid))
         try:
-            parts.append(read_shard(folder))
+            parts.append(read_shard(runner.folder(cid)))
         except (OSError, ValidationError) as exc:
             raise CoreError(f"{shard_kind} job {cid}: its shard files cannot be read ({exc})") from None
     merge = merge_evaluation_shards if kind == "evaluate" else merge_campaign_shards
