@@ -7,11 +7,9 @@ from typing import Annotated
 
 from fastapi import Depends, HTTPException, Request, status
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
-from sqlalchemy import Engine
-from sqlalchemy.orm import Session
 
 from foresight.store.registry import Resolver
-from foresight.store.session import session_factory
+from foresight.store.session import Engine
 from foresight.store.settings import Settings
 
 _bearer = HTTPBearer(auto_error=False, description="FORESIGHT_API_TOKEN")
@@ -26,16 +24,6 @@ async def get_settings(request: Request) -> Settings:
 
 async def get_engine(request: Request) -> Engine:
     return request.app.state.engine
-
-
-def get_session(request: Request):  # noqa: ANN201
-    with request.app.state.sessions() as session:
-        yield session
-
-
-def get_write_session(request: Request):  # noqa: ANN201
-    with request.app.state.write_sessions() as session:
-        yield session
 
 
 async def get_resolver(request: Request) -> Resolver:
@@ -63,10 +51,8 @@ async def require_read(request: Request, credentials: Annotated[HTTPAuthorizatio
 
 SettingsDep = Annotated[Settings, Depends(get_settings)]
 EngineDep = Annotated[Engine, Depends(get_engine)]
-SessionDep = Annotated[Session, Depends(get_session)]
-WriteSessionDep = Annotated[Session, Depends(get_write_session)]
 ResolverDep = Annotated[Resolver, Depends(get_resolver)]
 WriteAuth = Depends(require_write)
 ReadAuth = Depends(require_read)
 
-__all__ = ["EngineDep", "ReadAuth", "ResolverDep", "SessionDep", "SettingsDep", "WriteAuth", "WriteSessionDep", "session_factory"]
+__all__ = ["EngineDep", "ReadAuth", "ResolverDep", "SettingsDep", "WriteAuth"]

@@ -13,7 +13,7 @@ from foresight.api.http_metrics import HttpMetrics, MetricsMiddleware, route_tem
 from foresight.api.routes import bundles, jobs, models, ops, results
 from foresight.core.version import code_version
 from foresight.store.registry import Resolver, load_shipped_models, sync_bundles
-from foresight.store.session import check_migrated, make_engine, session_factory
+from foresight.store.session import check_migrated, make_engine
 from foresight.store.settings import Settings
 
 
@@ -63,8 +63,6 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     app.state.settings = settings
     app.state.engine = engine
-    app.state.sessions = session_factory(engine)
-    app.state.write_sessions = session_factory(engine, write=True)
     app.state.resolver = Resolver(settings, engine)
     app.state.token = settings.server_token()
     app.state.revision = revision

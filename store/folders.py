@@ -88,3 +88,14 @@ def scan(root: Path, relative_dir: str) -> list[dict]:
         name = path.relative_to(base).as_posix()
         out.append(dict(name=name, path=f"{relative_dir}/{name}", size=path.stat().st_size, sha256=sha256_file(path)))
     return out
+
+
+def remove_empty(folder: Path) -> None:
+    """Remove the empty sub-folders of ``folder``, then ``folder`` itself when nothing is left in it."""
+    if not folder.is_dir():
+        return
+    for sub in sorted((p for p in folder.rglob("*") if p.is_dir()), reverse=True):
+        if not any(sub.iterdir()):
+            sub.rmdir()
+    if not any(folder.iterdir()):
+        folder.rmdir()

@@ -20,6 +20,7 @@ import time
 import uuid
 import weakref
 from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
 from typing import Any
 
 from sqlalchemy import (
@@ -37,7 +38,8 @@ from sqlalchemy import (
 )
 from sqlalchemy.exc import IntegrityError
 
-from foresight.store.models import FINISHED, Artifact, Job, JobEvent, JobStatus, Worker
+from foresight.store import folders
+from foresight.store.models import FINISHED, Artifact, Dataset, Job, JobEvent, JobStatus, Model, Worker
 from foresight.store.session import is_sqlite, write_tx
 
 jobs = Job.__table__
@@ -645,3 +647,84 @@ def depth(engine: Engine) -> dict[str, dict[str, int]]:
         for kind, status, count in rows:
             out.setdefault(kind, {})[status] = count
     return out
+
+
+_JOB_BY_ID = select(jobs).where(jobs.c.id == bindparam("job_id"))
+_ARTIFACTS_OF = (select(artifacts.c.name, artifacts.c.size, artifacts.c.sha256, artifacts.c.path)
+                 .where(artifacts.c.job_id == bindparam("job_id")).order_by(artifacts.c.name))
+_CHILDREN_OF = (select(jobs.c.id, jobs.c.kind, jobs.c.status, jobs.c.progress)
+                .where(jobs.c.parent_id == bindparam("job_id")).order_by(jobs.c.created_at))
+
+
+def job_detail(engine: Engine, job_id: str) -> tuple[dict[str, Any], list[dict[str, Any]], list[dict[str, Any]]]:
+    """(the job, its artifacts by name, its children (id, kind, status, progress) oldest first): three indexed
+    lookups on one connection (the most frequent read: clients polling)."""
+    params = {"job_id": job_id}
+    with engine.connect() as conn:
+        row = conn.execute(_JOB_BY_ID, params).mappings().first()
+        if row is None:
+            raise JobNotFound(f"no job with id {job_id!r}")
+        arts = [dict(a) for a in conn.execute(_ARTIFACTS_OF, params).mappings()]
+        children = [dict(c) for c in conn.execute(_CHILDREN_OF, params).mappings()]
+    return dict(row), arts, children
+
+
+def find_artifact(engine: Engine, job_id: str, name: str) -> dict[str, Any]:
+    """The artifact record ``name`` of a job; :class:`JobNotFound` naming the job or the artifact."""
+    with engine.connect() as conn:
+        row = conn.execute(select(artifacts).where(artifacts.c.job_id == job_id, artifacts.c.name == name)).mappings().first()
+    if row is None:
+        get_job(engine, job_id)
+        raise JobNotFound(f"job {job_id} has no artifact {name!r}")
+    return dict(row)
+
+
+def finished_jobs(engine: Engine, kinds: Sequence[str], limit: int) -> list[dict[str, Any]]:
+    """The newest succeeded or failed jobs of ``kinds`` (id, kind, status, result, finished_at, created_at)."""
+    with engine.connect() as conn:
+        rows = conn.execute(
+            select(jobs.c.id, jobs.c.kind, jobs.c.status, jobs.c.result, jobs.c.finished_at, jobs.c.created_at)
+            .where(jobs.c.kind.in_(list(kinds)), jobs.c.status.in_([SUCCEEDED, FAILED]))
+            .order_by(jobs.c.created_at.desc()).limit(limit)
+        ).mappings().all()  # fmt: skip
+    return [dict(r) for r in rows]
+
+
+def ping(engine: Engine) -> str:
+    """The database's dialect name, after a round trip (``SELECT 1``)."""
+    with engine.connect() as conn:
+        conn.execute(text("SELECT 1"))
+    return engine.dialect.name
+
+
+def alive_workers(engine: Engine, heard_since: float) -> list[dict[str, Any]]:
+    """Workers not stopped and heard from since ``heard_since``, oldest first, each with ``jobs``: the ids of
+    the running jobs it holds."""
+    with engine.connect() as conn:
+        rows = conn.execute(
+            select(workers).where(workers.c.stopped_at.is_(None), workers.c.heartbeat_at >= heard_since)
+            .order_by(workers.c.started_at)
+        ).mappings().all()  # fmt: skip
+        running = conn.execute(select(jobs.c.id, jobs.c.lease_owner).where(jobs.c.status == RUNNING)).all()
+    held: dict[str, list[str]] = {}
+    for job_id, owner in running:
+        held.setdefault(owner, []).append(job_id)
+    return [{**r, "jobs": held.get(r["id"], [])} for r in rows]
+
+
+def oldest_queued_at(engine: Engine) -> float | None:
+    """When the oldest queued job was submitted (None: nothing queued)."""
+    with engine.connect() as conn:
+        return conn.execute(select(jobs.c.created_at).where(jobs.c.status == QUEUED)
+                            .order_by(jobs.c.created_at).limit(1)).scalar()
+
+
+def delete_job_and_files(engine: Engine, store_root: Path, job_id: str) -> None:
+    """Delete a finished job and its artifact files, keeping the files a model or dataset record uses."""
+    with engine.connect() as conn:
+        used = set(conn.execute(select(Model.checkpoint).where(Model.job_id == job_id)).scalars())
+        used |= set(conn.execute(select(Dataset.path).where(Dataset.job_id == job_id)).scalars())
+    for art in delete_job(engine, job_id):
+        if art["path"] not in used:
+            folders.resolve_under(store_root, art["path"]).unlink(missing_ok=True)
+    folders.remove_empty(folders.resolve_under(store_root, folders.job_dir(store_root, job_id)))

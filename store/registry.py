@@ -361,3 +361,53 @@ def models_using(engine: Engine, model_id: str) -> list[str]:
 
     with session_factory(engine)() as session:
         return list(session.scalars(select(Evaluation.id).where(Evaluation.model_id == model_id)))
+
+
+# ------------------------------------------------------------------------------------------ reads
+
+
+def models(engine: Engine, *, status: str | None = None, tag: str | None = None, run_time_only: bool = False) -> list[Model]:
+    """Registry entries, oldest first (shipped read-only entries included unless ``run_time_only``)."""
+    stmt = select(Model).order_by(Model.created_at, Model.id)
+    if status is not None:
+        stmt = stmt.where(Model.status == status)
+    if run_time_only:
+        stmt = stmt.where(Model.read_only.is_(False))
+    with session_factory(engine)() as session:
+        return [m for m in session.scalars(stmt) if tag is None or tag in m.tags]
+
+
+def model(engine: Engine, model_id: str) -> Model:
+    with session_factory(engine)() as session:
+        row = session.get(Model, model_id)
+    if row is None:
+        raise queue.JobNotFound(f"no model with id {model_id!r}")
+    return row
+
+
+def delete_model(engine: Engine, model_id: str) -> None:
+    """Delete a run-time model; :class:`~store.queue.Conflict` for shipped or default models and models that
+    records use."""
+    with session_factory(engine, write=True).begin() as session:
+        row = session.get(Model, model_id)
+        if row is None:
+            raise queue.JobNotFound(f"no model with id {model_id!r}")
+        if row.read_only:
+            raise queue.Conflict(f"model {model_id} is shipped (model/registry.yaml) and read-only")
+        if row.status == ModelStatus.default.value:
+            raise queue.Conflict(f"model {model_id} is the default; promote another model to default first")
+        users = models_using(engine, model_id)
+        if users:
+            raise queue.Conflict(f"model {model_id} is used by evaluations {users[:10]}")
+        session.delete(row)
+
+
+def bundles(engine: Engine) -> list[Bundle]:
+    """Registered config bundles by id."""
+    with session_factory(engine)() as session:
+        return list(session.scalars(select(Bundle).order_by(Bundle.id)))
+
+
+def bundle(engine: Engine, bundle_id: str) -> Bundle | None:
+    with session_factory(engine)() as session:
+        return session.get(Bundle, bundle_id)

@@ -227,7 +227,7 @@ class JobWorker:
             return
         artifacts = folders.scan(self.settings.store_root, workdir_rel)
         if not artifacts and kind.make_workdir:
-            _remove_empty(folders.resolve_under(self.settings.store_root, workdir_rel))
+            folders.remove_empty(folders.resolve_under(self.settings.store_root, workdir_rel))
         record = None
         if job["kind"] in records.RECORDERS:
             record = functools.partial(records.RECORDERS[job["kind"]], job=job, result=result, job_dir=workdir_rel)
@@ -262,13 +262,3 @@ class JobWorker:
         )
         ctx.children = functools.partial(ChildRunner, self, ctx)
         return ctx
-
-
-def _remove_empty(folder: Path) -> None:
-    """Remove a job folder that holds no files (empty sub-folders included)."""
-    for sub in sorted((p for p in folder.rglob("*") if p.is_dir()), reverse=True):
-        if not any(sub.iterdir()):
-            sub.rmdir()
-    if folder.is_dir() and not any(folder.iterdir()):
-        folder.rmdir()
-

@@ -5,30 +5,29 @@ from __future__ import annotations
 from typing import Annotated
 
 from fastapi import APIRouter, Query, Request, status
-from sqlalchemy import select
 
-from foresight.api.deps import EngineDep, ResolverDep, SessionDep, SettingsDep, WriteAuth
+from foresight.api.deps import EngineDep, ResolverDep, SettingsDep, WriteAuth
 from foresight.api.errors import AUTH, responses
 from foresight.api.schemas import BundlePublic, BundlesPublic, Ident, ScenarioPublic
 from foresight.core.errors import ConfigError
-from foresight.store import queue
+from foresight.store import queue, registry
 from foresight.store.models import Bundle
 from foresight.store.registry import MAX_BUNDLE_BYTES, save_upload
 
 router = APIRouter(prefix="/bundles", tags=["bundles"])
 
 
-def _get(session: SessionDep, bundle_id: str) -> Bundle:
-    row = session.get(Bundle, bundle_id)
+def _get(engine: EngineDep, bundle_id: str) -> Bundle:
+    row = registry.bundle(engine, bundle_id)
     if row is None:
         raise queue.JobNotFound(f"no bundle with id {bundle_id!r}")
     return row
 
 
 @router.get("")
-def read_bundles(session: SessionDep) -> BundlesPublic:
+def read_bundles(engine: EngineDep) -> BundlesPublic:
     """Registered config bundles."""
-    rows = list(session.scalars(select(Bundle).order_by(Bundle.id)))
+    rows = registry.bundles(engine)
     return BundlesPublic(data=[BundlePublic.model_validate(b) for b in rows], count=len(rows))
 
 
@@ -38,11 +37,11 @@ def read_bundles(session: SessionDep) -> BundlesPublic:
                  "application/x-tar": {"schema": {"type": "string", "format": "binary"}},
                  "application/gzip": {"schema": {"type": "string", "format": "binary"}}}}})  # fmt: skip
 async def create_bundle(
-    request: Request, engine: EngineDep, settings: SettingsDep, session: SessionDep,
+    request: Request, engine: EngineDep, settings: SettingsDep,
     name: Annotated[Ident, Query(description="bundle id")],
 ) -> BundlePublic:  # fmt: skip
     """Upload a zip or tar of YAML files and maps (the raw archive is the body); validated before it is stored."""
-    if session.get(Bundle, name) is not None:
+    if registry.bundle(engine, name) is not None:
         raise queue.Conflict(f"a bundle with id {name!r} already exists")
     declared = int(request.headers.get("content-length") or 0)
     if declared > MAX_BUNDLE_BYTES:
@@ -62,17 +61,17 @@ async def create_bundle(
 
 
 @router.get("/{bundle_id}", responses=responses(404))
-def read_bundle(bundle_id: Ident, session: SessionDep) -> BundlePublic:
+def read_bundle(bundle_id: Ident, engine: EngineDep) -> BundlePublic:
     """One bundle: its files and scenario matrices."""
-    return BundlePublic.model_validate(_get(session, bundle_id))
+    return BundlePublic.model_validate(_get(engine, bundle_id))
 
 
 @router.get("/{bundle_id}/scenarios", responses=responses(404))
-def read_bundle_scenarios(bundle_id: Ident, session: SessionDep, resolver: ResolverDep) -> list[ScenarioPublic]:
+def read_bundle_scenarios(bundle_id: Ident, engine: EngineDep, resolver: ResolverDep) -> list[ScenarioPublic]:
     """The scenarios of every matrix in the bundle."""
     from foresight.core.scenarios.loader import load_matrix
 
-    row = _get(session, bundle_id)
+    row = _get(engine, bundle_id)
     root = resolver.bundle_root(row)
     out = []
     for rel in row.scenarios:

@@ -12,7 +12,6 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Depends, Header, HTTPException, Query, Request, Response, status
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, StreamingResponse
-from sqlalchemy import bindparam, select
 from starlette.concurrency import run_in_threadpool
 
 from foresight.api.deps import EngineDep, SettingsDep, WriteAuth
@@ -20,7 +19,7 @@ from foresight.api.errors import AUTH, responses
 from foresight.api.schemas import Ident, JobCreate, JobPublic, JobsPublic, KindPublic, job_public
 from foresight.core.stages.kinds import KINDS
 from foresight.store import folders, queue
-from foresight.store.models import Dataset, JobStatus, Model
+from foresight.store.models import JobStatus
 from foresight.store.session import is_sqlite
 
 router = APIRouter(prefix="/jobs", tags=["jobs"])
@@ -95,24 +94,9 @@ def read_jobs(
     return JobsPublic(data=[job_public(r) for r in rows], count=count, limit=limit, offset=offset)
 
 
-_JOB_BY_ID = select(queue.jobs).where(queue.jobs.c.id == bindparam("job_id"))
-_ARTIFACTS_OF = (
-    select(queue.artifacts.c.name, queue.artifacts.c.size, queue.artifacts.c.sha256)
-    .where(queue.artifacts.c.job_id == bindparam("job_id"))
-    .order_by(queue.artifacts.c.name)
-)
-_CHILDREN_OF = select(queue.jobs.c.id).where(queue.jobs.c.parent_id == bindparam("job_id"))
-
-
 def _read_job(engine: Any, job_id: str) -> bytes:
-    params = {"job_id": job_id}
-    with engine.connect() as conn:
-        row = conn.execute(_JOB_BY_ID, params).mappings().first()
-        if row is None:
-            raise queue.JobNotFound(f"no job with id {job_id!r}")
-        artifacts = [dict(a) for a in conn.execute(_ARTIFACTS_OF, params).mappings()]
-        children = list(conn.execute(_CHILDREN_OF, params).scalars())
-    return job_public(dict(row), artifacts, children).model_dump_json().encode()
+    row, artifacts, children = queue.job_detail(engine, job_id)
+    return job_public(row, artifacts, [c["id"] for c in children]).model_dump_json().encode()
 
 
 @router.get("/{job_id}", response_model=JobPublic, responses=responses(404))
@@ -191,19 +175,7 @@ def retry_job(job_id: Ident, engine: EngineDep) -> JobPublic:
                 responses=responses(*AUTH, 404, 409))
 def delete_job(job_id: Ident, engine: EngineDep, settings: SettingsDep) -> Response:
     """Delete a finished job and its artifacts, keeping files that a model or dataset record uses."""
-    with engine.connect() as conn:
-        used = set(conn.execute(select(Model.checkpoint).where(Model.job_id == job_id)).scalars())
-        used |= set(conn.execute(select(Dataset.path).where(Dataset.job_id == job_id)).scalars())
-    for art in queue.delete_job(engine, job_id):
-        if art["path"] not in used:
-            folders.resolve_under(settings.store_root, art["path"]).unlink(missing_ok=True)
-    folder = folders.resolve_under(settings.store_root, folders.job_dir(settings.store_root, job_id))
-    if folder.is_dir():
-        for sub in sorted((p for p in folder.rglob("*") if p.is_dir()), reverse=True):
-            if not any(sub.iterdir()):
-                sub.rmdir()
-        if not any(folder.iterdir()):
-            folder.rmdir()
+    queue.delete_job_and_files(engine, settings.store_root, job_id)
     return Response(status_code=status.HTTP_204_NO_CONTENT)
 
 
@@ -212,12 +184,7 @@ def delete_job(job_id: Ident, engine: EngineDep, settings: SettingsDep) -> Respo
 def read_job_artifact(job_id: Ident, name: str, engine: EngineDep, settings: SettingsDep, request: Request) -> FileResponse:
     """Download one artifact of a job."""
     clean = folders.check_relative(name)  # 422 for absolute names and '..'
-    arts = queue.artifacts
-    with engine.connect() as conn:
-        row = conn.execute(select(arts).where(arts.c.job_id == job_id, arts.c.name == clean)).mappings().first()
-    if row is None:
-        queue.get_job(engine, job_id)
-        raise queue.JobNotFound(f"job {job_id} has no artifact {clean!r}")
+    row = queue.find_artifact(engine, job_id, clean)
     path = folders.resolve_under(settings.store_root, row["path"])
     if not path.is_file():
         raise queue.JobNotFound(f"artifact {clean!r} of job {job_id} is missing from the store")

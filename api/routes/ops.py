@@ -6,7 +6,6 @@ import time
 
 from fastapi import APIRouter, Request
 from fastapi.responses import PlainTextResponse
-from sqlalchemy import select, text
 
 from foresight.api.deps import EngineDep, SettingsDep
 from foresight.api.schemas import Health, WorkerPublic, WorkersPublic, iso
@@ -26,27 +25,16 @@ def _alive_cutoff(settings) -> float:  # noqa: ANN001
 @router.get("/healthz")
 def read_health(request: Request, engine: EngineDep) -> Health:
     """Liveness and database reachability."""
-    with engine.connect() as conn:
-        conn.execute(text("SELECT 1"))
-    return Health(status="ok", database=engine.dialect.name, revision=request.app.state.revision, kinds=sorted(KINDS))
+    return Health(status="ok", database=queue.ping(engine), revision=request.app.state.revision, kinds=sorted(KINDS))
 
 
 @read_router.get("/v1/workers")
 def read_workers(engine: EngineDep, settings: SettingsDep) -> WorkersPublic:
     """Alive workers with their current jobs, and the queue depth per kind."""
-    w, j = queue.workers, queue.jobs
-    with engine.connect() as conn:
-        rows = conn.execute(
-            select(w).where(w.c.stopped_at.is_(None), w.c.heartbeat_at >= _alive_cutoff(settings)).order_by(w.c.started_at)
-        ).mappings().all()
-        running = conn.execute(select(j.c.id, j.c.lease_owner).where(j.c.status == queue.RUNNING)).all()
-    held: dict[str, list[str]] = {}
-    for job_id, owner in running:
-        held.setdefault(owner, []).append(job_id)
     data = [
         WorkerPublic(id=r["id"], host=r["host"], pid=r["pid"], concurrency=r["concurrency"], kinds=r["kinds"],
-                     started_at=iso(r["started_at"]), heartbeat_at=iso(r["heartbeat_at"]), jobs=held.get(r["id"], []))
-        for r in rows
+                     started_at=iso(r["started_at"]), heartbeat_at=iso(r["heartbeat_at"]), jobs=r["jobs"])
+        for r in queue.alive_workers(engine, _alive_cutoff(settings))
     ]  # fmt: skip
     return WorkersPublic(data=data, count=len(data), queue=queue.depth(engine))
 
@@ -62,12 +50,8 @@ def read_metrics(request: Request, engine: EngineDep, settings: SettingsDep) -> 
     for kind, counts in sorted(queue.depth(engine).items()):
         for status, count in sorted(counts.items()):
             lines.append(f'foresight_jobs{{kind="{kind}",status="{status}"}} {count}')
-    w, j = queue.workers, queue.jobs
-    with engine.connect() as conn:
-        alive = conn.execute(
-            select(w.c.id).where(w.c.stopped_at.is_(None), w.c.heartbeat_at >= _alive_cutoff(settings))
-        ).all()
-        oldest = conn.execute(select(j.c.created_at).where(j.c.status == queue.QUEUED).order_by(j.c.created_at).limit(1)).scalar()
+    alive = queue.alive_workers(engine, _alive_cutoff(settings))
+    oldest = queue.oldest_queued_at(engine)
     lines += [
         "# HELP foresight_workers_alive Workers with a recent heartbeat.",
         "# TYPE foresight_workers_alive gauge",

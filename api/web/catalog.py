@@ -2,19 +2,17 @@
 
 from __future__ import annotations
 
-from collections import defaultdict
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Depends, Query, Request
 from fastapi.responses import FileResponse, HTMLResponse
-from sqlalchemy import select
 
 from foresight.api.web import files, previews
 from foresight.api.web.auth import PageNotFound, read_access
 from foresight.api.web.render import page
 from foresight.core.errors import NotFoundError
-from foresight.store import folders, queue
-from foresight.store.models import Bundle, Campaign, Evaluation, Model
+from foresight.store import folders, queue, registry, results
+from foresight.store.models import Bundle
 
 router = APIRouter(prefix="/ui", include_in_schema=False, dependencies=[Depends(read_access)])
 RESULT_KINDS = {"evaluate": "Evaluations", "campaign": "Campaigns", "diagnose": "Diagnostics",
@@ -26,8 +24,7 @@ RESULT_LIMIT = 200
 @router.get("/models")
 def models_page(request: Request) -> HTMLResponse:
     """The registry: status, lineage, metrics, provenance; promote buttons for run-time entries."""
-    with request.app.state.sessions() as session:
-        rows = list(session.scalars(select(Model).order_by(Model.created_at, Model.id)))
+    rows = registry.models(request.app.state.engine)
     return page(request, "models.html", title="Models", nav="models", models=rows)
 
 
@@ -42,18 +39,9 @@ def _headline(result: dict[str, Any] | None) -> dict[str, Any]:
 @router.get("/results")
 def results_page(request: Request) -> HTMLResponse:
     """Finished stage jobs by kind, with their headline numbers, records and report pages."""
-    jobs = queue.jobs
-    with request.app.state.engine.connect() as conn:
-        rows = conn.execute(
-            select(jobs.c.id, jobs.c.kind, jobs.c.status, jobs.c.result, jobs.c.finished_at, jobs.c.created_at)
-            .where(jobs.c.kind.in_(list(RESULT_KINDS)), jobs.c.status.in_([queue.SUCCEEDED, queue.FAILED]))
-            .order_by(jobs.c.created_at.desc()).limit(RESULT_LIMIT)
-        ).mappings().all()  # fmt: skip
-    with request.app.state.sessions() as session:
-        records: dict[str, list[tuple[str, str]]] = defaultdict(list)
-        for table, route in ((Evaluation, "evaluations"), (Campaign, "campaigns")):
-            for ident, job_id in session.execute(select(table.id, table.job_id)):
-                records[job_id].append((ident, f"/v1/{route}/{ident}"))
+    engine = request.app.state.engine
+    rows = queue.finished_jobs(engine, list(RESULT_KINDS), RESULT_LIMIT)
+    records = results.records_by_job(engine)
     sections: dict[str, list[dict[str, Any]]] = {title: [] for title in RESULT_KINDS.values()}
     for row in rows:
         sections[RESULT_KINDS[row["kind"]]].append(dict(
@@ -64,8 +52,7 @@ def results_page(request: Request) -> HTMLResponse:
 
 
 def _bundle(request: Request, bundle_id: str) -> Bundle:
-    with request.app.state.sessions() as session:
-        row = session.get(Bundle, bundle_id)
+    row = registry.bundle(request.app.state.engine, bundle_id)
     if row is None:
         raise PageNotFound(f"no bundle with id {bundle_id}")
     return row
@@ -73,8 +60,7 @@ def _bundle(request: Request, bundle_id: str) -> Bundle:
 
 @router.get("/bundles")
 def bundles_page(request: Request) -> HTMLResponse:
-    with request.app.state.sessions() as session:
-        rows = list(session.scalars(select(Bundle).order_by(Bundle.id)))
+    rows = registry.bundles(request.app.state.engine)
     return page(request, "bundles.html", title="Bundles", nav="bundles", bundles=rows)
 
 

@@ -7,7 +7,6 @@ from urllib.parse import urlencode
 
 from fastapi import APIRouter, Depends, Query, Request
 from fastapi.responses import HTMLResponse, RedirectResponse
-from sqlalchemy import func, select
 
 from foresight.api.web import catalog, files
 from foresight.api.web.auth import PageNotFound, read_access
@@ -31,18 +30,8 @@ def read_root() -> RedirectResponse:
 
 
 def _jobs(request: Request, status: list[JobStatus] | None, kind: list[str] | None, offset: int) -> dict[str, Any]:
-    jobs = queue.jobs
-    where = []
-    if status:
-        where.append(jobs.c.status.in_([s.value for s in status]))
-    if kind:
-        where.append(jobs.c.kind.in_(kind))
-    with request.app.state.engine.connect() as conn:
-        count = conn.execute(select(func.count()).select_from(jobs).where(*where)).scalar_one()
-        rows = conn.execute(
-            select(jobs).where(*where).order_by(jobs.c.created_at.desc(), jobs.c.id).limit(PAGE_SIZE).offset(offset)
-        ).mappings()
-        data = [dict(r) for r in rows]
+    count, data = queue.list_jobs(request.app.state.engine, statuses=[s.value for s in status or []], kinds=kind or [],
+                                  limit=PAGE_SIZE, offset=offset)  # fmt: skip
     for job in data:
         job["report"] = files.report_of(request, job["id"]) if job["status"] == queue.SUCCEEDED else None
     filters = urlencode([("status", s.value) for s in status or []] + [("kind", k) for k in kind or []])
@@ -71,18 +60,10 @@ def jobs_rows(
 
 
 def _job(request: Request, job_id: str) -> dict[str, Any]:
-    engine = request.app.state.engine
     try:
-        job = queue.get_job(engine, job_id)
+        job, job["artifacts"], job["children"] = queue.job_detail(request.app.state.engine, job_id)
     except queue.JobNotFound:
         raise PageNotFound(f"no job with id {job_id}") from None
-    arts = queue.artifacts
-    jobs = queue.jobs
-    with engine.connect() as conn:
-        job["artifacts"] = [dict(a) for a in conn.execute(select(arts).where(arts.c.job_id == job_id).order_by(arts.c.name)).mappings()]
-        job["children"] = [dict(r) for r in conn.execute(
-            select(jobs.c.id, jobs.c.kind, jobs.c.status, jobs.c.progress).where(jobs.c.parent_id == job_id)
-            .order_by(jobs.c.created_at)).mappings()]  # fmt: skip
     job["report"] = files.report_of(request, job_id)
     return job
 

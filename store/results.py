@@ -1,0 +1,108 @@
+"""Reads of the result rows finished jobs wrote (``store.records``): datasets, evaluations with their failure
+taxonomy, campaigns with their ranked cells and gates, and the operands of a comparison.
+
+Rows come back detached (their columns loaded), for response models to validate from attributes.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from pathlib import Path
+from typing import Any
+
+from sqlalchemy import Engine, select
+
+from foresight.store import folders, queue
+from foresight.store.models import (
+    Artifact,
+    Campaign,
+    CampaignCell,
+    Dataset,
+    Evaluation,
+    FailureTaxonomy,
+    GateResult,
+)
+from foresight.store.session import session_factory
+
+SUITES = ("global", "hard")  #: a campaign cell's suites
+
+
+def _get(session: Any, model: type, ident: str, what: str) -> Any:
+    row = session.get(model, ident)
+    if row is None:
+        raise queue.JobNotFound(f"no {what} with id {ident!r}")
+    return row
+
+
+def datasets(engine: Engine) -> list[Dataset]:
+    """Datasets, oldest first."""
+    with session_factory(engine)() as session:
+        return list(session.scalars(select(Dataset).order_by(Dataset.created_at)))
+
+
+def dataset(engine: Engine, ident: str) -> Dataset:
+    with session_factory(engine)() as session:
+        return _get(session, Dataset, ident, "dataset")
+
+
+def evaluation(engine: Engine, ident: str) -> tuple[Evaluation, list[dict[str, Any]]]:
+    """An evaluation row and its failure taxonomy (category, count, examples)."""
+    with session_factory(engine)() as session:
+        row = _get(session, Evaluation, ident, "evaluation")
+        taxonomy = session.scalars(select(FailureTaxonomy).where(FailureTaxonomy.evaluation_id == ident))
+        return row, [{"category": t.category, "count": t.count, "examples": t.examples} for t in taxonomy]
+
+
+def campaign(engine: Engine, ident: str) -> tuple[Campaign, list[dict[str, Any]], list[dict[str, Any]]]:
+    """A campaign row, its cells by rank (rank, params, metrics) and its gate results (gate, passed, details)."""
+    with session_factory(engine)() as session:
+        row = _get(session, Campaign, ident, "campaign")
+        cells = session.scalars(select(CampaignCell).where(CampaignCell.campaign_id == ident).order_by(CampaignCell.rank))
+        gates = session.scalars(select(GateResult).where(GateResult.campaign_id == ident))
+        return (row, [{"rank": c.rank, "params": c.params, "metrics": c.metrics} for c in cells],
+                [{"gate": g.gate, "passed": g.passed, "details": g.details} for g in gates])
+
+
+def comparison_operand(engine: Engine, ident: str) -> tuple[str, dict[str, Any], dict[str, Any]]:
+    """(what it is, resolved config, headline summary) of an evaluation id or a campaign cell
+    ``CAMPAIGN_ID:RANK[:SUITE]`` (rank 1 = the best cell, suite ``global`` (default) or ``hard``)."""
+    with session_factory(engine)() as session:
+        row = session.get(Evaluation, ident)
+        if row is not None:
+            return "evaluation", row.config, (row.metrics or {}).get("overall") or {}
+        campaign_id, _, rest = ident.partition(":")
+        rank, _, suite = rest.partition(":")
+        found = session.get(Campaign, campaign_id)
+        if not rank.isdigit() or (suite or "global") not in SUITES or found is None:
+            raise queue.JobNotFound(f"no evaluation {ident!r} and no campaign cell of that name "
+                                    "(cells are CAMPAIGN_ID:RANK or CAMPAIGN_ID:RANK:hard, rank 1 = best)")
+        cell = session.scalars(select(CampaignCell).where(CampaignCell.campaign_id == campaign_id,
+                                                          CampaignCell.rank == int(rank))).first()  # fmt: skip
+        if cell is None:
+            raise queue.JobNotFound(f"campaign {campaign_id!r} has no cell of rank {rank}")
+        config = {**found.config, **cell.params}
+        suite = suite or "global"
+        summary = (cell.metrics or {}).get(suite)
+        if not summary:
+            raise queue.JobNotFound(f"campaign {campaign_id!r} cell {rank} has no {suite} suite")
+        return f"campaign cell ({suite} suite)", config, summary
+
+
+def records_by_job(engine: Engine) -> dict[str, list[tuple[str, str]]]:
+    """Job id -> its evaluation and campaign records as (id, API path)."""
+    out: dict[str, list[tuple[str, str]]] = defaultdict(list)
+    with session_factory(engine)() as session:
+        for table, route in ((Evaluation, "evaluations"), (Campaign, "campaigns")):
+            for ident, job_id in session.execute(select(table.id, table.job_id)):
+                out[job_id].append((ident, f"/v1/{route}/{ident}"))
+    return out
+
+
+def episodes_file(engine: Engine, store_root: Path, ident: str) -> Path | None:
+    """An evaluation's episode records file (its job's ``episodes.jsonl``); None for other ids or when gone."""
+    with session_factory(engine)() as session:
+        row = session.get(Evaluation, ident)
+        art = None if row is None or row.job_id is None else session.scalars(
+            select(Artifact).where(Artifact.job_id == row.job_id, Artifact.name == "episodes.jsonl")).first()
+    path = None if art is None else folders.resolve_under(store_root, art.path)
+    return path if path is not None and path.is_file() else None
