@@ -20,7 +20,7 @@ from typing import Any
 from foresight.cli import stage
 from foresight.cli.client import add_connection_args
 from foresight.cli.common import emit, local_context
-from foresight.core.errors import ConfigError, NotFoundError
+from foresight.core.errors import ConfigError
 from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
 
 PLANNERS = ("predictive", "orca", "social_force", "goal")
@@ -128,37 +128,22 @@ class ModelArgs:
             return ident
         return value
 
-    @staticmethod
-    def registry() -> list[dict[str, Any]]:
-        from foresight.core.scenarios.loader import read_yaml
-
-        if not MODEL_REGISTRY.is_file():
-            return []
-        data = read_yaml(MODEL_REGISTRY) or {}
-        return [m for m in data.get("models", []) if isinstance(m, dict)] if isinstance(data, dict) else []
-
     def default(self) -> str:
-        entry = next((m for m in self.registry() if {"default", "predictor"} <= set(m.get("tags", []))), None)
+        """The default model of the shipped registry, by the server's own rule (store.shipped.default_model)."""
+        from foresight.store.shipped import default_model, read_shipped
+
+        entry = default_model(read_shipped(MODEL_REGISTRY))
         if entry is None:
             raise ConfigError("no default predictor in model/registry.yaml: pass --model ID|PATH|cv",
                               source="command line", item="model")
         return str(entry["id"])
 
     def resolve(self, ident: str) -> Path:
-        from foresight.core.evaluation.plannerspec import sha256_file
+        from foresight.store.shipped import resolve_shipped
 
         if ident in self.files:
             return self.files[ident]
-        entry = next((m for m in self.registry() if m.get("id") == ident), None)
-        if entry is None:
-            raise NotFoundError(f"unknown model id {ident!r} (not in model/registry.yaml; or pass a checkpoint path)")
-        path = (MODEL_REGISTRY.parent.parent / str(entry["path"])).resolve()
-        if not path.is_file():
-            raise NotFoundError(f"model {ident!r}: checkpoint {entry['path']} is missing")
-        if entry.get("sha256") and sha256_file(path) != entry["sha256"]:
-            raise ConfigError(f"checkpoint {entry['path']} does not match its sha256", source=MODEL_REGISTRY,
-                              item=ident)
-        return path
+        return resolve_shipped(MODEL_REGISTRY, ident)
 
 
 def planner_spec(value: str, model: str | None, models: ModelArgs, *, default: bool = True) -> dict[str, Any]:

@@ -108,10 +108,10 @@ def bundle_names(bundle: str | None, files: dict[str, str | None]) -> tuple[str,
 
 
 def server_default_model(client: Client) -> str:
-    """The server's default predictor id (status default, else a shipped entry tagged default)."""
-    models = client.get("/v1/models")["data"]
-    entry = next((m for m in models if m["status"] == "default"), None) or next(
-        (m for m in models if m.get("read_only") and "default" in m.get("tags", [])), None)
+    """The server's default predictor id, by the server's own rule (store.shipped.default_model)."""
+    from foresight.store.shipped import default_model
+
+    entry = default_model(client.get("/v1/models")["data"])
     if entry is None:
         raise ConfigError("the server has no default predictor: pass --model ID or cv", source="command line",
                           item="--model")

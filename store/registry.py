@@ -26,11 +26,11 @@ from foresight.store import folders, queue
 from foresight.store.models import Artifact, Bundle, Dataset, Model, ModelStatus
 from foresight.store.session import session_factory
 from foresight.store.settings import Settings
+from foresight.store.shipped import DEFAULT_MODEL, default_model, read_shipped, shipped_checkpoint
 
 logger = logging.getLogger(__name__)
 
 BUILTIN_BUNDLE = "builtin"
-DEFAULT_MODEL = "default"
 BUNDLE_SUFFIXES = {".yaml", ".yml", ".svg", ".json", ".txt", ".md"}
 MAX_BUNDLE_FILES = 2000
 MAX_BUNDLE_BYTES = 50 * 1024 * 1024  #: [bytes] unpacked size limit of an uploaded bundle
@@ -92,16 +92,9 @@ def sync_bundles(engine: Engine, settings: Settings) -> list[str]:
 
 def load_shipped_models(engine: Engine, settings: Settings) -> list[str]:
     """Register ``model/registry.yaml`` entries as read-only models (path relative to the repository)."""
-    path = settings.model_registry
-    if not path.is_file():
-        return []
-    data = yaml.safe_load(path.read_text()) or {}
-    entries = data.get("models", []) if isinstance(data, dict) else []
     names = []
     with session_factory(engine, write=True).begin() as session:
-        for i, entry in enumerate(entries):
-            if not isinstance(entry, dict) or not {"id", "path", "sha256"} <= entry.keys():
-                raise ConfigError("each model needs id, path and sha256", source=path, item=str(i))
+        for entry in read_shipped(settings.model_registry):
             row = session.get(Model, entry["id"])
             if row is not None and not row.read_only:
                 logger.warning("shipped model %s shadowed by a registered model of that id", entry["id"])
@@ -111,8 +104,7 @@ def load_shipped_models(engine: Engine, settings: Settings) -> list[str]:
                 session.add(row)
             row.checkpoint = folders.check_relative(str(entry["path"]))
             row.sha256, row.read_only = str(entry["sha256"]), True
-            tags = entry.get("tags", [])
-            row.status = entry.get("status", ModelStatus.default.value if "default" in tags else ModelStatus.promoted.value)
+            row.status = entry["status"]
             row.provenance = str(entry.get("provenance", ""))
             row.time_base, row.lineage = entry.get("time_base", {}), entry.get("lineage", {})
             row.training, row.metrics, row.tags = entry.get("training", {}), entry.get("metrics", {}), entry.get("tags", [])
@@ -260,20 +252,17 @@ class Resolver:
         return folders.resolve_under(self.settings.store_root, row.path)
 
     def model_path(self, row: Model) -> Path:
-        if row.read_only:  # paths in model/registry.yaml are relative to the repository (the file's grandparent)
-            return folders.resolve_under(self.settings.model_registry.resolve().parent.parent, row.checkpoint)
+        if row.read_only:
+            return shipped_checkpoint(self.settings.model_registry, row.checkpoint)
         return folders.resolve_under(self.settings.store_root, row.checkpoint)
 
     def model(self, ident: str) -> Path:
         """The checkpoint of a registered model, after checking its sha256; ``default`` names the default
-        model (status default, else a shipped entry tagged default)."""
+        model (:func:`~store.shipped.default_model`: status default, else a shipped entry tagged default)."""
         with self.sessions() as session:
             row = session.get(Model, ident)
             if row is None and ident == DEFAULT_MODEL:
-                rows = list(session.scalars(select(Model).order_by(Model.read_only, Model.created_at)))
-                row = next((m for m in rows if m.status == ModelStatus.default.value), None) or next(
-                    (m for m in rows if m.read_only and "default" in m.tags), None
-                )
+                row = default_model(session.scalars(select(Model).order_by(Model.read_only, Model.created_at)))
         if row is None:
             raise NotFoundError(f"unknown model id {ident!r}")
         path = self.model_path(row)

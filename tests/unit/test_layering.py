@@ -1,12 +1,17 @@
-"""The architecture's import rules, checked on the source: core is pure; torch and matplotlib stay in their corners."""
+"""The architecture's import rules, checked on the source: core is pure; torch and matplotlib stay in their corners;
+only the store talks to the database; api and worker never import each other; no import cycles (imports inside
+functions count: a cycle held together by a lazy import is still a cycle)."""
 
 from __future__ import annotations
 
 import ast
+from collections import defaultdict
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
-SERVICE_ONLY = {"fastapi", "starlette", "sqlalchemy", "alembic", "httpx", "uvicorn", "psycopg", "api", "worker", "cli"}
+SERVICE_ONLY = {"fastapi", "starlette", "sqlalchemy", "alembic", "httpx", "uvicorn", "psycopg", "api", "worker", "cli",
+                "store"}
+PACKAGES = ("core", "store", "api", "worker", "cli")
 
 
 def _top(module: str) -> str:
@@ -53,8 +58,121 @@ def test_matplotlib_only_in_render() -> None:
 
 def test_nothing_imports_cli_or_bench() -> None:
     offenders = []
-    for pkg in ("core", "api", "worker"):
+    for pkg in ("core", "store", "api", "worker"):
         for p in (REPO / pkg).rglob("*.py"):
             if _imports(p) & {"cli", "bench"}:
                 offenders.append(str(p.relative_to(REPO)))
+    assert offenders == []
+
+
+def _modules() -> dict[str, Path]:
+    """``foresight.<folder>.<module>`` -> file, for every module of our packages."""
+    out = {}
+    for pkg in PACKAGES:
+        for p in sorted((REPO / pkg).rglob("*.py")):
+            parts = p.relative_to(REPO).with_suffix("").parts
+            out[".".join(("foresight", *(parts[:-1] if parts[-1] == "__init__" else parts)))] = p
+    return out
+
+
+def _module_graph() -> dict[str, set[str]]:
+    """Module -> the modules of ours it imports (anywhere in the file; a package's ``__init__`` counts as a module)."""
+    modules = _modules()
+
+    def owner(name: str) -> str | None:
+        while name and name not in modules:
+            name = name.rpartition(".")[0]
+        return name or None
+
+    graph: dict[str, set[str]] = defaultdict(set)
+    for name, path in modules.items():
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            targets: list[str] = []
+            if isinstance(node, ast.Import):
+                targets = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                targets = [f"{node.module}.{a.name}" for a in node.names]
+            for target in targets:
+                found = owner(target) if target.startswith("foresight.") else None
+                if found and found != name and not name.startswith(found + "."):  # a package's own __init__
+                    graph[name].add(found)
+        graph.setdefault(name, set())
+    return graph
+
+
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components with more than one node (Tarjan, iterative)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    out: list[list[str]] = []
+    for root in graph:
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph[root])))]
+        index[root] = low[root] = len(index)
+        stack.append(root)
+        on_stack.add(root)
+        while work:
+            node, children = work[-1]
+            child = next(children, None)
+            if child is not None:
+                if child not in index:
+                    index[child] = low[child] = len(index)
+                    stack.append(child)
+                    on_stack.add(child)
+                    work.append((child, iter(sorted(graph.get(child, ())))))
+                elif child in on_stack:
+                    low[node] = min(low[node], index[child])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[node])
+            if low[node] == index[node]:
+                component = []
+                while True:
+                    member = stack.pop()
+                    on_stack.discard(member)
+                    component.append(member)
+                    if member == node:
+                        break
+                if len(component) > 1:
+                    out.append(sorted(component))
+    return out
+
+
+def _package_graph() -> dict[str, set[str]]:
+    packages: dict[str, set[str]] = defaultdict(set)
+    for source, targets in _module_graph().items():
+        for target in targets:
+            a, b = _top(source), _top(target)
+            if a != b:
+                packages[a].add(b)
+    return packages
+
+
+def test_cycle_finder_finds_a_cycle() -> None:
+    assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+
+
+def test_no_import_cycle_between_modules() -> None:
+    assert _cycles(_module_graph()) == []
+
+
+def test_no_import_cycle_between_packages() -> None:
+    assert _cycles(_package_graph()) == []
+
+
+def test_api_and_worker_never_import_each_other() -> None:
+    packages = _package_graph()
+    assert "worker" not in packages["api"] and "api" not in packages["worker"]
+    assert packages["store"] <= {"core"}  # the store serves api and worker; it knows only core
+
+
+def test_only_the_store_imports_sqlalchemy_or_alembic() -> None:
+    files = [*_modules().values(), *sorted((REPO / "migrations").rglob("*.py"))]
+    offenders = [str(p.relative_to(REPO)) for p in files
+                 if _imports(p) & {"sqlalchemy", "alembic"} and REPO / "store" not in p.parents
+                 and REPO / "migrations" not in p.parents]  # fmt: skip
     assert offenders == []
