@@ -42,7 +42,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import yaml
 from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 
 from foresight.core.dataroots import data_root
@@ -50,6 +49,7 @@ from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.maps.io import file_sha256, load_map
 from foresight.core.maps.model import MapDef
 from foresight.core.maps.registry import MapRegistry
+from foresight.core.scenarios.files import read_yaml, validation_message
 from foresight.core.scenarios.kinds import MATRIX_SCHEMAS, non_matrix_kind
 from foresight.core.scenarios.model import (
     ResolvedScenario,
@@ -63,7 +63,6 @@ from foresight.core.scenarios.routes import (
     read_route_overrides,
 )
 from foresight.core.scenarios.singles import apply_single_pedestrians
-from foresight.core.yamlio import load_yaml
 
 _INCLUDE_ALIASES = ("includes", "include", "scenario_files")
 _ROOT_ONLY = (
@@ -76,37 +75,6 @@ _ROOT_ONLY = (
 )
 _NOTE_KEYS = ("evaluation", "evaluation_reason", "evaluation_replacement", "description")
 _REGISTRY_NAME = "registry.yaml"
-
-
-def read_yaml(path: str | Path, *, referenced_from: str | Path | None = None, item: str | None = None) -> Any:
-    """Parse one YAML file; a missing file or a syntax error is a ConfigError naming the file."""
-    p = Path(path)
-    if not p.is_file():
-        where = referenced_from if referenced_from is not None else p
-        raise ConfigError(f"file {str(p)!r} does not exist", source=where, item=item)
-    try:
-        with p.open(encoding="utf-8") as fh:
-            return load_yaml(fh.read(), source=p)
-    except yaml.YAMLError as err:
-        mark = getattr(err, "problem_mark", None)
-        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
-        problem = getattr(err, "problem", None) or str(err)
-        raise ConfigError(f"malformed YAML{at}: {problem}", source=p, item=item) from err
-
-
-def validation_message(err: ValidationError, prefix: str = "") -> str:
-    """One line per pydantic error: dotted field path, then what is wrong (unknown keys say so)."""
-    lines = []
-    for e in err.errors():
-        loc = ".".join(str(x) for x in (*(prefix.split(".") if prefix else ()), *e["loc"]))
-        if e["type"] == "extra_forbidden":
-            msg = "unsupported key"
-        else:
-            msg = str(e["msg"]).removeprefix("Value error, ")
-            if isinstance(e.get("input"), int | float | str | bool | None) and e["type"] != "missing":
-                msg += f" (got {e['input']!r})"
-        lines.append(f"{loc}: {msg}" if loc else msg)
-    return "; ".join(lines)
 
 
 class _FileSpec(BaseModel):

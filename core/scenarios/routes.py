@@ -24,7 +24,7 @@ def read_route_overrides(path: Path, *, scenario: str, referenced_from: Path) ->
     Other top-level keys of such files (optimizer provenance, diagnostics) describe how the routes
     were found and are not read.
     """
-    from foresight.core.scenarios.loader import read_yaml, validation_message
+    from foresight.core.scenarios.files import read_yaml, validation_message
 
     data = read_yaml(path, referenced_from=referenced_from, item=f"{scenario}.route_overrides_file")
     if not isinstance(data, dict):

@@ -74,7 +74,7 @@ def apply_single_pedestrians(
         try:
             peds[ov.id] = SinglePedestrian.model_validate(merged)
         except ValidationError as err:
-            from foresight.core.scenarios.loader import validation_message
+            from foresight.core.scenarios.files import validation_message
 
             raise ConfigError(validation_message(err), source=source, item=item) from err
     for ped in peds.values():

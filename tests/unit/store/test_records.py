@@ -16,3 +16,9 @@ def test_every_kind_has_a_spec_with_its_name_and_a_run_function() -> None:
         assert kind.name == name and callable(kind.run)
         assert kind.spec.model_fields["kind"].default == name
         assert set(kind.config.model_fields) | {"kind"} == set(kind.spec.model_fields)
+
+
+def test_the_kinds_result_models_are_the_stage_results() -> None:
+    from foresight.core.stages.results import RESULTS
+
+    assert {name: KINDS[name].result for name in RESULTS} == RESULTS
