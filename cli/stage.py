@@ -1,7 +1,7 @@
 """The stage commands' two modes: submit the spec to the server and follow it (the default), or run it
 in-process (``--local``).
 
-Both modes validate the same spec model, the job kind's (``worker.kinds``), so a command line means the same
+Both modes validate the same spec model, the job kind's (``core.stages.kinds``), so a command line means the same
 job either way. On the server inputs are ids (datasets, models) and bundle-relative names (matrices, seed
 manifests, grids): a local file where an id is needed is refused here, before anything is sent, with a hint
 to use ``--local``.

@@ -12,7 +12,7 @@ builds the result with the very code an unsharded run uses (``finish_evaluation`
 ``campaign_result``). Every episode depends only on (scenario, seed, resolved planner config), so a merged
 result has the numbers of an unsharded run (planner timing aside, which is wall-clock).
 
-Who runs the shards is the service's business (``worker/shards.py``: one child job per shard); here a shard is
+Who runs the shards is the service's business (``core.evaluation.sharded``: one child job per shard); here a shard is
 a stage function like any other (``run_evaluation_shard``, ``run_campaign_shard``).
 """
 
