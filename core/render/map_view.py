@@ -22,6 +22,7 @@ OBSTACLE_COLOUR = "0.35"
 ROBOT_ROUTE_COLOUR = "black"
 PED_ROUTE_COLOUR = "tab:blue"
 SINGLE_PED_COLOUR = "tab:orange"
+POI_COLOUR = "tab:purple"
 
 
 def zone_polygon(zone: Zone) -> np.ndarray:
@@ -47,12 +48,22 @@ def _draw_single_peds(ax: Axes, mapdef: MapDef) -> None:
     for i, ped in enumerate(mapdef.single_pedestrians):
         label = "single ped" if i == 0 else None
         ax.plot(*ped.start, "o", color=SINGLE_PED_COLOUR, ms=6, label=label, zorder=5)
-        ax.annotate(ped.id, ped.start, textcoords="offset points", xytext=(4, 4), fontsize=7, zorder=5)
+        name = f"{ped.id} ({ped.role})" if ped.role else ped.id
+        ax.annotate(name, ped.start, textcoords="offset points", xytext=(4, 4), fontsize=7, zorder=5)
+        if ped.hold_ref_point is not None:  # the point whose approach by the robot releases the hold
+            ax.plot(*ped.hold_ref_point, "s", mfc="none", color=SINGLE_PED_COLOUR, ms=7, zorder=5)
         path = [ped.start, *ped.trajectory] if ped.trajectory else ([ped.start, ped.goal] if ped.goal else [])
         if len(path) > 1:
             xy = np.asarray(path, dtype=float)
             ax.plot(xy[:, 0], xy[:, 1], ":", color=SINGLE_PED_COLOUR, lw=1.2, zorder=4)
             ax.plot(*xy[-1], "x", color=SINGLE_PED_COLOUR, ms=6, zorder=5)
+
+
+def _draw_pois(ax: Axes, mapdef: MapDef) -> None:
+    for i, (key, xy) in enumerate(mapdef.pois.items()):
+        ax.plot(*xy, "*", color=POI_COLOUR, ms=10, label="point of interest" if i == 0 else None, zorder=5)
+        ax.annotate(mapdef.poi_labels.get(key, key), xy, textcoords="offset points", xytext=(5, -9), fontsize=7,
+                    color=POI_COLOUR, zorder=5)
 
 
 def draw_map(ax: Axes, mapdef: MapDef, *, routes: bool = True, legend: bool = True) -> None:
@@ -79,6 +90,7 @@ def draw_map(ax: Axes, mapdef: MapDef, *, routes: bool = True, legend: bool = Tr
             _draw_route(ax, r, PED_ROUTE_COLOUR, 1.0, "ped route" if i == 0 else None)
         for i, r in enumerate(mapdef.robot_routes):
             _draw_route(ax, r, ROBOT_ROUTE_COLOUR, 1.6, "robot route" if i == 0 else None)
+    _draw_pois(ax, mapdef)
     _draw_single_peds(ax, mapdef)
     if legend:
         ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)

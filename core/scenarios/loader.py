@@ -30,7 +30,9 @@ Reading it the way the reference (robot_sf) does, but with every key checked:
 - ``replay`` (instead of a map): recorded pedestrians of a data root's scene, and a map built from
   the scene's bounds (``core.scenarios.replay``); the scene is read and checked here.
 
-Anything else is a :class:`~core.errors.ConfigError` naming the file, the scenario and the key.
+Scenario keys (single pedestrians, route overrides, generated replays, visibility, compositions) and
+every choice made where robot_sf is silent: docs/scenarios.md. Anything else is a
+:class:`~core.errors.ConfigError` naming the file, the scenario and the key.
 """
 
 from __future__ import annotations

@@ -29,5 +29,8 @@ differences:
   contributes < 0.01 m/s^2 (8.3 m at 0.65 m/s; the reference uses 20 m);
 - the robot is commanded by (v, omega) targets tracked within its acceleration limits
   (``RobotConfig.actuation="reference_lag"`` restores the benchmark's first-order lag);
-- all randomness comes from generators derived from (seed, scenario name), never global state.
+- all randomness comes from generators derived from (seed, scenario name), never global state;
+- single-pedestrian roles and holds follow robot_sf except: a ``join`` pedestrian walks with its
+  target but does not enter its social group; a timed wait at a hold waypoint is followed by the
+  hold (robot_sf skips it); a ``hold_ref_point`` off the trajectory is an error (docs/scenarios.md).
 """

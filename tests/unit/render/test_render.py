@@ -139,3 +139,23 @@ def test_renders_a_simulator_trace_without_collision(tmp_path: Path, mapdef: Map
         return int(((img[..., 0] > 0.8) & (img[..., 1] < 0.2) & (img[..., 2] < 0.2)).sum())
 
     assert red(hit) > red(none) + 50
+
+
+def test_map_shows_points_of_interest_and_single_pedestrian_roles() -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from foresight.core.maps.model import SinglePedestrian
+    from foresight.core.render.map_view import draw_map
+
+    mapdef = MapDef(name="m", width=10, height=8, pois={"poi_a": (3.0, 4.0)}, poi_labels={"poi_a": "kiosk"},
+                    single_pedestrians=(SinglePedestrian(id="p1", start=(1.0, 1.0), role="lead"),))
+    fig, ax = plt.subplots()
+    draw_map(ax, mapdef)
+    texts = {t.get_text() for t in ax.texts}
+    assert {"kiosk", "p1 (lead)"} <= texts
+    stars = [ln for ln in ax.lines if ln.get_marker() == "*"]
+    assert [tuple(ln.get_xydata()[0]) for ln in stars] == [(3.0, 4.0)]
+    plt.close(fig)
