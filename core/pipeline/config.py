@@ -5,6 +5,9 @@ seed manifests, the bundle and matrix) made optional; :func:`stage_config` build
 from a section and the outputs of the stages before it. The two seed manifests are named once at the
 top: ``training_seeds`` feeds hard-case collection and proxy selection, ``evaluation_seeds`` feeds
 diagnostics and the campaign's hard suite (and so the gates); they must not share a (scenario, seed).
+``selection`` moves closed-loop model selection (the training proxy) to a suite where constant velocity and
+a good model differ, the stress suite, on that suite's TRAINING seeds (checked at run time to hold none of
+its matrix's own, evaluation, seeds: ``core.predict.proxy``).
 """
 
 from __future__ import annotations
@@ -76,6 +79,14 @@ class CampaignSection(CampaignConfig):
     checkpoints: list[str] = Field(default_factory=lambda: [CANDIDATE], min_length=1, max_length=50)
 
 
+class SelectionSection(BaseModel):
+    """The closed-loop model-selection suite of the training proxy (default: ``matrix`` x ``training_seeds``)."""
+
+    model_config = ConfigDict(extra="forbid")
+    matrix: BundlePath  #: e.g. scenarios/stress.yaml
+    seeds: BundlePath  #: that matrix's TRAINING seed manifest (e.g. seeds/stress_train_quick.yaml)
+
+
 class GatesSection(BaseModel):
     """Which gates must pass before the candidate is promoted (a gate whose stage did not run fails)."""
 
@@ -106,6 +117,7 @@ class PipelineConfig(BaseModel):
     hardcase: HardcaseSection | None = HardcaseSection()  #: None: no hard-case collection and no mix
     mix: MixSection = MixSection()
     train: TrainSection = TrainSection()
+    selection: SelectionSection | None = None  #: proxy selection suite; None: matrix x training_seeds
     registration: RegisterSection = RegisterSection()  #: the register stage (model id, tags)
     evaluate: EvaluateSection = EvaluateSection()
     diagnose: DiagnoseSection | None = DiagnoseSection()  #: None: skip diagnostics
@@ -131,9 +143,11 @@ class PipelineConfig(BaseModel):
             if value is not None and value != want:
                 raise ValueError(f"{name}.{key} must be the pipeline's "
                                  f"{'training_seeds' if name == 'hardcase' else 'evaluation_seeds'} (or unset)")
-        proxy = self.train.proxy
-        if proxy is not None and proxy.seed_manifest not in (None, self.training_seeds):
-            raise ValueError("train.proxy.seed_manifest must be the training_seeds manifest (or unset)")
+        if self.selection is not None and self.selection.seeds == self.evaluation_seeds:
+            raise ValueError("selection.seeds must be a TRAINING manifest, not the evaluation_seeds")
+        proxy, want = self.train.proxy, self.selection.seeds if self.selection else self.training_seeds
+        if proxy is not None and proxy.seed_manifest not in (None, want):
+            raise ValueError(f"train.proxy.seed_manifest must be {want} (selection.seeds, else training_seeds) or unset")
         return self
 
 
@@ -168,7 +182,9 @@ def stage_config(config: PipelineConfig, stage: str, inputs: dict[str, str]) -> 
         data["dataset"] = inputs.get("mixed") or inputs["base"]
         if config.train.proxy_every > 0:
             proxy = (config.train.proxy or ProxySpec()).model_dump()
-            proxy.update(where, seed_manifest=config.training_seeds, scenarios=None, seeds_per_scenario=None)
+            sel = config.selection
+            proxy.update(where, matrix=sel.matrix if sel else config.matrix, scenarios=None, seeds_per_scenario=None,
+                         seed_manifest=sel.seeds if sel else config.training_seeds)
             data["proxy"] = proxy
         return _build(TrainConfig, data, stage)
     if stage == "evaluate":

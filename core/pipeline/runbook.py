@@ -104,10 +104,12 @@ def _selection_text(config: PipelineConfig) -> str:
 
 
 def check_seed_separation(config: PipelineConfig, ctx: StageContext) -> dict[str, int]:
-    """Refuse a config whose TRAINING hard seeds meet the EVALUATION hard seeds or any seed the evaluate
-    stage or the campaign's global suite runs; returns the episode counts of the suites."""
+    """Refuse a config whose TRAINING hard seeds, or whose model-selection suite (``selection``), meet the
+    EVALUATION hard seeds or any seed the evaluate stage or the campaign's global suite runs, or whose
+    selection suite holds one of its own matrix's (evaluation) seeds; returns the episode counts of the suites."""
     from foresight.core.evaluation.config import EpisodeSelection
     from foresight.core.evaluation.runner import load_selection
+    from foresight.core.predict.proxy import ProxySpec, check_training_seeds
 
     where = {"bundle": config.bundle, "matrix": config.matrix}
     _, _, train = load_selection(EpisodeSelection(**where, seed_manifest=config.training_seeds), ctx)
@@ -118,15 +120,18 @@ def check_seed_separation(config: PipelineConfig, ctx: StageContext) -> dict[str
     cp = config.campaign
     _, _, camp = load_selection(EpisodeSelection(**where, scenarios=cp.scenarios,
                                                  seeds_per_scenario=cp.seeds_per_scenario), ctx)
-    train_set = set(train)
-    for label, pairs in (("evaluation_seeds", hard), ("evaluate", glob), ("campaign global suite", camp)):
-        shared = sorted(train_set & set(pairs))
-        if shared:
-            raise ConfigError(f"training hard seeds overlap the {label} episodes: {shared[:5]}"
-                              + (f" (+{len(shared) - 5} more)" if len(shared) > 5 else ""),
-                              source="pipeline", item="training_seeds")
+    sel = config.selection
+    selection = [] if sel is None else check_training_seeds(
+        ProxySpec(bundle=config.bundle, matrix=sel.matrix, seed_manifest=sel.seeds), ctx)
+    for item, what, mine in (("training_seeds", "training hard seeds", train), ("selection", "selection seeds", selection)):
+        for label, pairs in (("evaluation_seeds", hard), ("evaluate", glob), ("campaign global suite", camp)):
+            shared = sorted(set(mine) & set(pairs))
+            if shared:
+                raise ConfigError(f"{what} overlap the {label} episodes: {shared[:5]}"
+                                  + (f" (+{len(shared) - 5} more)" if len(shared) > 5 else ""),
+                                  source="pipeline", item=item)
     return {"training_seeds": len(train), "evaluation_seeds": len(hard), "evaluate": len(glob),
-            "campaign_global": len(camp)}
+            "campaign_global": len(camp), "selection": len(selection)}
 
 
 @dataclass

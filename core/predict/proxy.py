@@ -12,6 +12,7 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from foresight.core.errors import ConfigError
 from foresight.core.stages.context import StageContext
 from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident
 
@@ -30,10 +31,30 @@ class ProxySpec(BaseModel):
 CANDIDATE = "proxy-candidate"
 
 
+def check_training_seeds(spec: ProxySpec, ctx: StageContext) -> list[tuple[str, int]]:
+    """The proxy's (scenario, seed) episodes; ConfigError when its seed manifest holds one of its matrix's own
+    seeds (the evaluation seeds: selecting a model on them would leak the evaluation into training)."""
+    from foresight.core.evaluation.config import EpisodeSelection
+    from foresight.core.evaluation.runner import load_selection
+
+    sel = EpisodeSelection(bundle=spec.bundle, matrix=spec.matrix, scenarios=spec.scenarios,
+                           seeds_per_scenario=spec.seeds_per_scenario, seed_manifest=spec.seed_manifest)
+    _, matrix, pairs = load_selection(sel, ctx)
+    if spec.seed_manifest is not None:
+        clash = sorted({(n, s) for n, s in pairs if s in set(matrix.get(n).scenario.seeds)})
+        if clash:
+            raise ConfigError(f"{len(clash)} proxy episodes use evaluation seeds of {spec.matrix} (first: "
+                              f"{clash[0][0]} seed {clash[0][1]}); select models on TRAINING seeds only",
+                              source=spec.seed_manifest, item="seed_manifest")
+    return pairs
+
+
 def evaluation_proxy(spec: ProxySpec, ctx: StageContext):
     """A callback running one evaluation per candidate checkpoint under ``proxy_eval/<name>/``."""
     from foresight.core.evaluation.config import EvaluationConfig
     from foresight.core.evaluation.runner import run_evaluation
+
+    check_training_seeds(spec, ctx)
 
     def proxy(path: Path) -> dict[str, float]:
         sub = StageContext(workdir=ctx.artifact(f"proxy_eval/{Path(path).stem}/result.json").parent,

@@ -81,7 +81,9 @@ def test_stages_run_in_order_and_outputs_feed_the_next_stage(tmp_path: Path) -> 
     assert spec["hardcase"]["hard_seeds"] == config.training_seeds
     assert (spec["mix"]["base"], spec["mix"]["hardcase"]) == ("id-collect", "id-hardcase")
     assert spec["train"]["dataset"] == "id-mix"
-    assert spec["train"]["proxy"]["seed_manifest"] == config.training_seeds  # proxy: TRAINING hard seeds
+    # proxy: the selection suite's TRAINING seeds (issue 12; before it, the pipeline's training hard seeds)
+    assert (spec["train"]["proxy"]["matrix"], spec["train"]["proxy"]["seed_manifest"]) == (
+        config.selection.matrix, config.selection.seeds)
     model = "smoke-01234567"
     assert spec["register"]["model_id"] == model and spec["register"]["status"] == "candidate"
     assert spec["evaluate"]["planner"]["model"] == model
@@ -168,6 +170,11 @@ def test_the_shipped_pipeline_configs_validate_and_build_every_stage_config() ->
         ctx = StageContext(workdir=Path("."), resolve_bundle=lambda ident: BUILTIN_CONFIG_ROOT)
         sizes = check_seed_separation(config, ctx)  # raises when training seeds meet evaluation episodes
         assert sizes["training_seeds"] > 0 and sizes["evaluation_seeds"] > 0
+        # closed-loop model selection runs on the stress suite's TRAINING seeds (issue 12)
+        assert config.selection is not None and config.selection.matrix == "scenarios/stress.yaml"
+        proxy = stage_config(config, "train", inputs).proxy
+        assert (proxy.matrix, proxy.seed_manifest) == (config.selection.matrix, config.selection.seeds)
+        assert sizes["selection"] >= 3
 
 
 def test_the_two_manifests_must_differ_and_sections_cannot_rewire_them() -> None:
@@ -191,4 +198,19 @@ def test_training_seeds_that_meet_the_evaluation_episodes_are_refused(tmp_path: 
     config = PipelineConfig.model_validate({**data, "training_seeds": "seeds/classic_eval_hard_quick.yaml",
                                             "evaluation_seeds": "seeds/classic_eval_hard.yaml"})
     with pytest.raises(ConfigError, match="overlap"):
+        check_seed_separation(config, _ctx(tmp_path))
+
+
+def test_a_selection_suite_on_evaluation_seeds_is_refused(tmp_path: Path) -> None:
+    data = _smoke().model_dump()
+    plain = PipelineConfig.model_validate({**data, "selection": None})  # no selection suite: the training hard seeds
+    proxy = stage_config(plain, "train", {"base": "b", "hardcase": "h", "mixed": "m", "model": "c"}).proxy
+    assert (proxy.matrix, proxy.seed_manifest) == (plain.matrix, plain.training_seeds)
+    with pytest.raises(ValueError, match="selection.seeds"):
+        PipelineConfig.model_validate({**data, "selection": {"matrix": "scenarios/stress.yaml",
+                                                             "seeds": data["evaluation_seeds"]}})
+    # the evaluation hard seeds of the classic matrix are that matrix's own seeds: never a selection suite
+    config = PipelineConfig.model_validate({**data, "selection": {"matrix": "scenarios/classic_interactions.yaml",
+                                                                  "seeds": "seeds/classic_eval_hard_quick.yaml"}})
+    with pytest.raises(ConfigError, match="evaluation seeds of scenarios/classic_interactions.yaml"):
         check_seed_separation(config, _ctx(tmp_path))

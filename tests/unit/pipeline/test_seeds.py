@@ -85,3 +85,13 @@ def test_seed_ranges_parse() -> None:
             parse_seed_range(bad)
     with pytest.raises(ConfigError):
         mine_failures(MATRIX, seeds=[1], baseline="predictive")
+
+
+def test_stress_selection_manifests_are_training_seeds_only() -> None:
+    """The pipelines select models on these (issue 12): subsets of stress_train.yaml, never a stress.yaml seed."""
+    stress = load_matrix(BUILTIN_CONFIG_ROOT / "scenarios" / "stress.yaml")
+    own = {(n, s) for n in stress.names for s in stress.get(n).scenario.seeds}
+    full = read_manifest_pairs(SEEDS / "stress_train.yaml")
+    for size, minimum in (("quick", 30), ("smoke", 3)):
+        pairs = set(load_seed_manifest(SEEDS / f"stress_train_{size}.yaml", stress).pairs())
+        assert len(pairs) >= minimum and pairs <= full and not pairs & own
