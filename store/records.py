@@ -57,7 +57,7 @@ def campaign(conn: Connection, job: dict[str, Any], result: dict[str, Any], job_
         best=result.get("best"), created_at=time.time(),
     ))  # fmt: skip
     cells = [{"campaign_id": job["id"], "rank": i + 1, "params": {"checkpoint": c.get("checkpoint"), "variant": c.get("variant")},
-              "metrics": {"hard": c.get("hard"), "global": c.get("global")}} for i, c in enumerate(result.get("ranked", []))]  # fmt: skip
+              "metrics": {"hard": c.get("hard"), "global": c.get("global"), "vs_baseline": c.get("vs_baseline")}} for i, c in enumerate(result.get("ranked", []))]  # fmt: skip
     if cells:
         conn.execute(insert(CampaignCell.__table__), cells)
     _gate(conn, job, job["id"], result.get("gate"))

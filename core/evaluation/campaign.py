@@ -24,6 +24,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.aggregate import SuiteSummary, summarise
 from foresight.core.evaluation.config import CampaignConfig, EpisodeSelection, GridVariant
+from foresight.core.evaluation.delta import Delta, paired_deltas
 from foresight.core.evaluation.gates import GATE_FAILED_EXIT, ClosedLoopGateResult, closed_loop_gate
 from foresight.core.evaluation.integrity import IntegrityReport, check_integrity
 from foresight.core.evaluation.plannerspec import (
@@ -40,9 +41,11 @@ from foresight.core.evaluation.runner import (
     bundle_file,
     load_selection,
     planner_provenance,
+    read_records,
     run_jobs,
     write_records,
 )
+from foresight.core.evaluation.stats import ALPHA, MIN_PAIRS
 from foresight.core.scenarios.model import ScenarioMatrix
 from foresight.core.stages.context import StageContext
 from foresight.core.version import code_version
@@ -66,6 +69,9 @@ class CellResult(BaseModel):
     integrity: IntegrityReport
     ranking_key: list[float]
     episodes_file: str
+    baseline: str | None = None  #: key of the baseline cell it is compared with (same checkpoint)
+    #: suite (hard, global) -> headline metric -> paired delta vs the baseline cell (same episodes)
+    vs_baseline: dict[str, dict[str, Delta] | None] | None = None
 
 
 class CampaignResult(BaseModel):
@@ -185,11 +191,36 @@ def finish_cell(config: CampaignConfig, ctx: StageContext, rp: ResolvedPlanner, 
     return cell
 
 
+def baseline_variant(config: CampaignConfig, cells: list[CellResult]) -> str:
+    """The variant every cell is compared with: the gate's baseline, else the grid's first variant."""
+    return config.gate.baseline_variant if config.gate else cells[0].variant
+
+
+def with_paired_stats(config: CampaignConfig, ctx: StageContext, plan: CampaignPlan,
+                      cells: list[CellResult]) -> list[CellResult]:
+    """Each cell with its paired comparison against the baseline variant's cell of the same checkpoint on both
+    suites (same (scenario, seed) episodes: McNemar / Wilcoxon, ``core.evaluation.delta.paired_deltas``)."""
+    name = baseline_variant(config, cells)
+    base = {c.checkpoint: c for c in cells if c.variant == name}
+    records = {c.key: {(r.scenario, r.seed): r for r in read_records(ctx.artifact(c.episodes_file))} for c in cells}
+    out = []
+    for c in cells:
+        b = base.get(c.checkpoint)
+        if b is None or b.key == c.key:
+            out.append(c)
+            continue
+        vs = {suite: paired_deltas([records[b.key][p] for p in pairs], [records[c.key][p] for p in pairs])
+              for suite, pairs in (("hard", plan.hard), ("global", plan.glob))}
+        out.append(c.model_copy(update={"baseline": b.key, "vs_baseline": vs}))
+    return out
+
+
 def _gate(config: CampaignConfig, best: CellResult, cells: list[CellResult]) -> ClosedLoopGateResult | None:
     if config.gate is None:
         return None
     base = next(c for c in cells if c.variant == config.gate.baseline_variant and c.checkpoint == best.checkpoint)
-    return closed_loop_gate((best.key, best.hard, best.global_), (base.key, base.hard, base.global_), config.gate)
+    return closed_loop_gate((best.key, best.hard, best.global_), (base.key, base.hard, base.global_), config.gate,
+                            paired=best.vs_baseline)
 
 
 def run_campaign(config: CampaignConfig, ctx: StageContext) -> CampaignResult:
@@ -254,6 +285,7 @@ def campaign_result(config: CampaignConfig, ctx: StageContext, plan: CampaignPla
                     ran: int, t0: float) -> CampaignResult:
     """Rank the cells (in grid order), gate, write campaign_summary.json and campaign_report.md."""
     hard, glob = plan.hard, plan.glob
+    cells = with_paired_stats(config, ctx, plan, cells)
     ranked = rank(cells)
     gate = _gate(config, ranked[0], cells)
     ref = next((c for c in cells if config.gate and c.variant == config.gate.baseline_variant
@@ -281,6 +313,19 @@ def _m(x: float | None) -> str:
     return "-" if x is None else f"{x:.2f}"
 
 
+def _paired_text(d: Delta, scale: float = 1.0, unit: str = "") -> str:
+    if d.delta is None:
+        return "-"
+    return f"{scale * d.delta:+.2f}{unit} [{scale * (d.low or 0):+.2f}, {scale * (d.high or 0):+.2f}]"
+
+
+def _p_text(d: Delta) -> str:
+    if d.p_value is None:
+        return "-"
+    disc = f" ({d.discordant[0]}/{d.discordant[1]})" if d.discordant else ""
+    return f"{d.p_value:.3g}{disc}{' *' if d.significant else ''}"
+
+
 def report(res: CampaignResult) -> str:
     lines = ["# Planner campaign", ""]
     if res.best:
@@ -301,6 +346,19 @@ def report(res: CampaignResult) -> str:
                      f"{_m(c.global_.mean_min_clearance.mean)} | {_m(c.global_.mean_avg_speed.mean)} | "
                      f"{_pct(c.global_.collision.rate)} | {'ok' if c.integrity.ok else 'VIOLATIONS'} |")
     lines.append("")
+    paired = [c for c in res.ranked if c.vs_baseline]
+    if paired:
+        lines += [f"Paired against the baseline cell of the same checkpoint (same episodes; McNemar exact for success, "
+                  f"Wilcoxon signed-rank for clearance; * = p < {ALPHA} with at least {MIN_PAIRS} pairs):", "",
+                  "| variant | checkpoint | suite | success delta [95 %] | McNemar p (discordant base/variant) | "
+                  "clearance delta [m] | Wilcoxon p |", "|---|---|---|---|---|---|---|"]
+        for c in paired:
+            for suite, d in (c.vs_baseline or {}).items():
+                if d:
+                    lines.append(f"| {c.variant} | {c.checkpoint} | {suite} | {_paired_text(d['success'], 100, ' pp')} | "
+                                 f"{_p_text(d['success'])} | {_paired_text(d['min_clearance'])} | "
+                                 f"{_p_text(d['min_clearance'])} |")
+        lines.append("")
     if res.gate is None:
         lines.append("No closed-loop gate configured.")
     else:

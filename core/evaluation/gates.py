@@ -6,10 +6,14 @@ normal outcome of a stage (exit code 2, summary written), never an exception.
 
 from __future__ import annotations
 
+from typing import Literal
+
 from pydantic import BaseModel, ConfigDict, Field
 
 from foresight.core.evaluation.aggregate import SuiteSummary
+from foresight.core.evaluation.delta import Delta
 from foresight.core.evaluation.integrity import IntegrityReport
+from foresight.core.evaluation.stats import ALPHA
 
 GATE_FAILED_EXIT = 2
 
@@ -69,6 +73,8 @@ class ClosedLoopGateConfig(BaseModel):
     min_hard_success_delta: float = 0.0  #: no drop in hard-suite success
     max_clearance_regression: float = Field(default=0.1, ge=0)  #: allowed drop of global mean min clearance [m]
     fail_on_new_failure_labels: bool = False  #: a hard-suite failure mechanism the baseline never showed
+    #: also require a significant paired success gain on this suite (McNemar, same episodes, >= MIN_PAIRS pairs)
+    require_significant_gain: Literal["hard", "global"] | None = None
 
 
 class TaxonomyComparison(BaseModel):
@@ -91,14 +97,26 @@ class ClosedLoopGateResult(GateResult):
     candidate: str
     baseline: str
     hard_taxonomy: TaxonomyComparison
+    paired: dict[str, dict[str, Delta] | None] | None = None  #: suite -> metric -> paired delta (candidate - baseline)
+
+
+def _paired_detail(paired: dict[str, dict[str, Delta] | None] | None, suite: str, metric: str) -> str:
+    d = (paired or {}).get(suite) or {}
+    m = d.get(metric)
+    if m is None or m.p_value is None:
+        return "unpaired"
+    disc = f", discordant {m.discordant[0]}/{m.discordant[1]}" if m.discordant else ""
+    return f"paired n={m.n_pairs}, {m.test} p={m.p_value:.3g}{disc}{', significant' if m.significant else ''}"
 
 
 def closed_loop_gate(
     candidate: tuple[str, SuiteSummary, SuiteSummary],
     baseline: tuple[str, SuiteSummary, SuiteSummary],
     cfg: ClosedLoopGateConfig,
+    paired: dict[str, dict[str, Delta] | None] | None = None,
 ) -> ClosedLoopGateResult:
-    """``candidate``/``baseline``: (name, hard suite, global suite)."""
+    """``candidate``/``baseline``: (name, hard suite, global suite); ``paired``: their paired deltas per suite
+    when both ran the same episodes (the campaign's ``vs_baseline``), reported with each check."""
     cname, chard, cglob = candidate
     bname, bhard, bglob = baseline
     dg = cglob.success_rate - bglob.success_rate
@@ -108,15 +126,23 @@ def closed_loop_gate(
     tax = compare_taxonomy(chard.taxonomy, bhard.taxonomy)
     checks = [
         GateCheck(name="global_success_delta", passed=dg >= cfg.min_global_success_delta - 1e-12, value=dg,
-                  threshold=cfg.min_global_success_delta),
+                  threshold=cfg.min_global_success_delta, detail=_paired_detail(paired, "global", "success")),
         GateCheck(name="hard_success_delta", passed=dh >= cfg.min_hard_success_delta - 1e-12, value=dh,
-                  threshold=cfg.min_hard_success_delta),
+                  threshold=cfg.min_hard_success_delta, detail=_paired_detail(paired, "hard", "success")),
         GateCheck(name="global_clearance_regression", passed=dc is None or -dc <= cfg.max_clearance_regression,
                   value=None if dc is None else -dc, threshold=cfg.max_clearance_regression,
                   detail="" if dc is not None else "clearance unavailable"),
         GateCheck(name="hard_new_failure_labels", passed=not (cfg.fail_on_new_failure_labels and tax.new_labels),
                   value=float(len(tax.new_labels)), threshold=0.0, detail=", ".join(tax.new_labels)),
     ]
+    if cfg.require_significant_gain is not None:
+        gain = ((paired or {}).get(cfg.require_significant_gain) or {}).get("success")
+        checks.append(GateCheck(
+            name=f"{cfg.require_significant_gain}_significant_success_gain",
+            passed=gain is not None and gain.significant and (gain.delta or 0.0) > 0,
+            value=None if gain is None else gain.p_value, threshold=ALPHA,
+            detail="no paired episodes (the candidate is the baseline, or other episodes)" if gain is None
+            else _paired_detail(paired, cfg.require_significant_gain, "success")))
     base = _result(checks)
     return ClosedLoopGateResult(passed=base.passed, checks=base.checks, candidate=cname, baseline=bname,
-                                hard_taxonomy=tax)
+                                hard_taxonomy=tax, paired=paired)

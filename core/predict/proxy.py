@@ -2,7 +2,10 @@
 TRAINING hard-seed set (never the evaluation manifest), run through the evaluation engine.
 
 ``evaluation_proxy(spec, ctx)`` returns the callback ``run_train`` takes: checkpoint path ->
-{success, clearance} (success rate, mean minimum clearance [m]).
+{success, clearance} (success rate, mean minimum clearance [m]), plus the same planner with constant-velocity
+forecasts on the same episodes (run once, ``proxy_eval/cv``), paired: ``cv_success``, ``vs_cv_delta`` (candidate
+- CV success) and ``vs_cv_p`` (McNemar exact), so the training gate can see whether prediction helps in
+closed loop on a suite where it can (the stress suite's training seeds).
 """
 
 from __future__ import annotations
@@ -52,22 +55,34 @@ def check_training_seeds(spec: ProxySpec, ctx: StageContext) -> list[tuple[str, 
 def evaluation_proxy(spec: ProxySpec, ctx: StageContext):
     """A callback running one evaluation per candidate checkpoint under ``proxy_eval/<name>/``."""
     from foresight.core.evaluation.config import EvaluationConfig
-    from foresight.core.evaluation.runner import run_evaluation
+    from foresight.core.evaluation.delta import paired_deltas
+    from foresight.core.evaluation.runner import read_records, run_evaluation
 
     check_training_seeds(spec, ctx)
+    cv_records: list = []
 
-    def proxy(path: Path) -> dict[str, float]:
-        sub = StageContext(workdir=ctx.artifact(f"proxy_eval/{Path(path).stem}/result.json").parent,
+    def run(path: Path | None, name: str) -> tuple[Any, list]:
+        sub = StageContext(workdir=ctx.artifact(f"proxy_eval/{name}/result.json").parent,
                            resolve_bundle=ctx.resolve_bundle, resolve_model=lambda ident: Path(path),
                            is_cancelled=ctx.is_cancelled, log=ctx.log, workers=ctx.workers)
         config = EvaluationConfig(
             bundle=spec.bundle, matrix=spec.matrix, seed_manifest=spec.seed_manifest, scenarios=spec.scenarios,
             seeds_per_scenario=spec.seeds_per_scenario, max_steps=spec.max_steps,
-            planner={"name": "predictive", "config": spec.planner_config, "model": CANDIDATE})
-        overall = run_evaluation(config, sub).aggregates.overall
+            planner={"name": "predictive", "config": spec.planner_config, "model": CANDIDATE if path else "cv"})
+        result = run_evaluation(config, sub)
+        return result.aggregates.overall, read_records(sub.workdir / result.artifacts["episodes"])
+
+    def proxy(path: Path) -> dict[str, float]:
+        overall, records = run(path, Path(path).stem)
+        if not cv_records:
+            cv_records.extend(run(None, "cv")[1])
+        vs_cv = (paired_deltas(cv_records, records) or {}).get("success")
         clearance = overall.means["min_clearance"].mean
-        return {"success": float(overall.rates["success"].rate or 0.0),
-                "clearance": float(clearance) if clearance is not None else float("-inf"),
-                "episodes": float(overall.episodes)}
+        out = {"success": float(overall.rates["success"].rate or 0.0),
+               "clearance": float(clearance) if clearance is not None else float("-inf"),
+               "episodes": float(overall.episodes)}
+        if vs_cv is not None and vs_cv.delta is not None:
+            out.update(cv_success=float(vs_cv.a.value), vs_cv_delta=vs_cv.delta, vs_cv_p=float(vs_cv.p_value))
+        return out
 
     return proxy

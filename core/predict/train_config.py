@@ -22,6 +22,9 @@ class GateConfig(_Strict):
     max_val_ade: float = Field(default=1.0, gt=0)  #: [m]
     max_val_fde: float = Field(default=1.8, gt=0)  #: [m]
     require_beat_cv: bool = True  #: best val ADE and FDE must be below constant velocity's on the same split
+    #: closed loop: the selected checkpoint's proxy success must not be below the same planner's with constant
+    #: velocity on the same proxy episodes (reported whenever a proxy ran; a check only when true)
+    require_proxy_not_below_cv: bool = False
 
 
 class TrainConfig(_Strict):
@@ -80,6 +83,9 @@ class ProxyScore(_Summary):
     success: float  #: success rate in [0, 1]
     clearance: float  #: mean minimum surface gap [m] (-inf without pedestrians)
     episodes: float | None = None
+    cv_success: float | None = None  #: the same planner with constant velocity on the same episodes
+    vs_cv_delta: float | None = None  #: success - cv_success (paired episodes)
+    vs_cv_p: float | None = None  #: McNemar exact p of that difference
 
 
 class EpochScore(_Summary):
@@ -124,12 +130,15 @@ class TrainingGate(_Summary):
     cv: AdeFde
     checks: dict[str, bool]  #: val_ade_below_limit, val_fde_below_limit, val_ade_below_cv, val_fde_below_cv
     passed: bool
+    closed_loop: ProxyScore | None = None  #: the selected checkpoint's proxy score (with CV on the same episodes)
 
-    def reference(self, best: EpochScore) -> dict[str, tuple[float, float]]:
-        """Check name -> (value, threshold) [m]."""
+    def reference(self, best: EpochScore) -> dict[str, tuple[float | None, float | None]]:
+        """Check name -> (value, threshold) ([m]; the closed-loop check: success rates)."""
+        p = self.closed_loop
         return {"val_ade_below_limit": (best.val_ade, self.limits.max_val_ade),
                 "val_fde_below_limit": (best.val_fde, self.limits.max_val_fde),
-                "val_ade_below_cv": (best.val_ade, self.cv.ade), "val_fde_below_cv": (best.val_fde, self.cv.fde)}
+                "val_ade_below_cv": (best.val_ade, self.cv.ade), "val_fde_below_cv": (best.val_fde, self.cv.fde),
+                "proxy_success_not_below_cv": (p.success if p else None, p.cv_success if p else None)}
 
 
 def training_gate(gates: GateConfig, best: EpochScore, cv: AdeFde) -> TrainingGate:
@@ -139,7 +148,10 @@ def training_gate(gates: GateConfig, best: EpochScore, cv: AdeFde) -> TrainingGa
         "val_ade_below_cv": (best.val_ade < cv.ade) or not gates.require_beat_cv,
         "val_fde_below_cv": (best.val_fde < cv.fde) or not gates.require_beat_cv,
     }
-    return TrainingGate(limits=gates, cv=cv, checks=checks, passed=all(checks.values()))
+    if gates.require_proxy_not_below_cv:  # closed loop, paired on the proxy episodes (core.predict.proxy)
+        delta = best.proxy.vs_cv_delta if best.proxy is not None else None
+        checks["proxy_success_not_below_cv"] = delta is not None and delta >= 0.0
+    return TrainingGate(limits=gates, cv=cv, checks=checks, passed=all(checks.values()), closed_loop=best.proxy)
 
 
 class EnsembleMember(_Summary):

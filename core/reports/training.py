@@ -25,6 +25,11 @@ def _gates(doc: Document, summary: TrainingSummary) -> None:
     doc.table(["check", "result", "value [m]", "threshold [m]"],
               [[name, "ok" if ok else "FAIL", fmt(values[name][0], 3), fmt(values[name][1], 3)]
                for name, ok in gate.checks.items()])
+    p = gate.closed_loop
+    if p is not None and p.cv_success is not None:
+        doc.text(f"Closed loop on the selection suite ({fmt(p.episodes, 0)} episodes): success {pct(p.success)} with "
+                 f"this checkpoint vs {pct(p.cv_success)} with constant velocity, same episodes (McNemar exact "
+                 f"p = {fmt(p.vs_cv_p, 3)}).")
 
 
 def _dataset(doc: Document, summary: TrainingSummary) -> None:

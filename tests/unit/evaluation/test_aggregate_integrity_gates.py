@@ -104,6 +104,28 @@ def test_closed_loop_gate() -> None:
     assert [c.name for c in tax.checks if not c.passed] == ["hard_new_failure_labels"]
 
 
+def test_closed_loop_gate_reports_paired_tests_and_can_require_a_significant_gain() -> None:
+    from foresight.core.evaluation.delta import paired_deltas
+
+    seeds = range(24)
+    base = [record("h_low", s, "timeout" if s < 9 else "success", speed=0.5 if s < 9 else 1.0) for s in seeds]
+    cand = [record("h_low", s) for s in seeds]  # succeeds on the 9 episodes the baseline timed out
+    paired = {"hard": paired_deltas(base, cand), "global": paired_deltas(base, cand)}
+    cfg = ClosedLoopGateConfig(baseline_variant="base", require_significant_gain="hard")
+    suites = lambda recs: (summarise(recs, BOOT), summarise(recs, BOOT))  # noqa: E731
+    gate = closed_loop_gate(("cand", *suites(cand)), ("base", *suites(base)), cfg, paired=paired)
+    assert gate.passed and gate.paired["hard"]["success"].discordant == (0, 9)
+    hard = next(c for c in gate.checks if c.name == "hard_success_delta")
+    assert "mcnemar_exact" in hard.detail and "significant" in hard.detail
+    gain = next(c for c in gate.checks if c.name == "hard_significant_success_gain")
+    assert gain.passed and gain.value == pytest.approx(2 / 2**9)
+    few = {"hard": paired_deltas(base[:12], cand[:12]), "global": None}  # 12 pairs < MIN_PAIRS: no mark
+    weak = closed_loop_gate(("cand", *suites(cand)), ("base", *suites(base)), cfg, paired=few)
+    assert [c.name for c in weak.checks if not c.passed] == ["hard_significant_success_gain"]
+    unpaired = closed_loop_gate(("cand", *suites(cand)), ("base", *suites(base)), cfg)
+    assert not unpaired.passed and "unpaired" in next(c for c in unpaired.checks if c.name == "hard_success_delta").detail
+
+
 def test_compare_flags_families_where_a_baseline_is_better() -> None:
     from foresight.core.evaluation.compare import compare
 

@@ -82,6 +82,14 @@ def test_campaign_runs_ranks_and_resumes(bundle: Path, tmp_path: Path) -> None:
     assert summary["best"]["variant"] == first.ranked[0].variant
     assert "global" in summary["ranked"][0] and summary["ranked"][0]["planner"]["config"]
     assert (work / "campaign_report.md").read_text().startswith("# Planner campaign")
+    # every cell is compared pair by pair with the baseline (first) variant on the same episodes
+    careful = next(c for c in first.ranked if c.variant == "careful")
+    base = next(c for c in first.ranked if c.variant == "base")
+    assert base.vs_baseline is None and careful.baseline == base.key
+    hard = careful.vs_baseline["hard"]["success"]
+    assert hard.method == "paired" and hard.n_pairs == 1 and not hard.significant  # 1 pair: never marked
+    assert careful.vs_baseline["global"]["min_clearance"].n_pairs == 2
+    assert "Paired against the baseline cell" in (work / "campaign_report.md").read_text()
     again = run_campaign(_config(), _ctx(bundle, work))
     assert (again.cells_run, again.cells_resumed) == (0, 2)
     assert [c.model_dump() for c in again.ranked] == [c.model_dump() for c in first.ranked]
@@ -102,6 +110,11 @@ def test_gate_pass_and_fail_are_results(bundle: Path, tmp_path: Path) -> None:
     assert bad.cells_resumed == 2  # the gate is re-evaluated on finished cells
     data = json.loads((work / "campaign_summary.json").read_text())
     assert data["gate"]["passed"] is False and data["status"] == "failed_gate"
+    # a significant paired gain cannot be shown on 2 global episodes: the gate says so instead of passing
+    gain = run_campaign(_config(gate={"baseline_variant": "base", "max_clearance_regression": 100.0,
+                                      "require_significant_gain": "global"}), _ctx(bundle, work))
+    check = next(c for c in gain.gate.checks if c.name == "global_significant_success_gain")
+    assert not check.passed and gain.status == "failed_gate"
 
 
 def test_unknown_baseline_and_bad_grid_fail_before_running(bundle: Path, tmp_path: Path) -> None:

@@ -91,6 +91,26 @@ def test_proxy_wired_to_the_evaluation_engine(tmp_path, curving_dataset):
     summary = json.loads((tmp_path / "training_summary.json").read_text())
     proxy = summary["selection"]["proxy_history"][0]
     assert res.selection_mode == "proxy" and proxy["episodes"] == 1.0 and 0.0 <= proxy["success"] <= 1.0
+    # the same planner with constant velocity on the same episodes, once, paired with every candidate
+    assert (tmp_path / "proxy_eval" / "cv" / "episodes.jsonl").is_file()
+    assert proxy["vs_cv_delta"] == pytest.approx(proxy["success"] - proxy["cv_success"]) and 0 < proxy["vs_cv_p"] <= 1
+    assert summary["quality_gates"]["closed_loop"]["cv_success"] == proxy["cv_success"]
+
+
+def test_closed_loop_training_gate_against_constant_velocity(tmp_path, curving_dataset):
+    def proxy(delta):
+        return lambda path: {"success": 0.5, "clearance": 0.4, "cv_success": 0.5 - delta, "vs_cv_delta": delta,
+                             "vs_cv_p": 0.01}
+
+    cfg = TrainConfig(dataset=str(curving_dataset), proxy_every=1, **{**FAST, "epochs": 1},
+                      gates={"require_proxy_not_below_cv": True, "require_beat_cv": False})
+    worse = run_train(cfg, StageContext(workdir=tmp_path / "worse"), proxy=proxy(-0.2))
+    summary = json.loads((tmp_path / "worse" / "training_summary.json").read_text())["quality_gates"]
+    assert not worse.gates_passed and summary["checks"]["proxy_success_not_below_cv"] is False
+    assert summary["closed_loop"] == {"success": 0.5, "cv_success": 0.7, "vs_cv_delta": -0.2, "vs_cv_p": 0.01}
+    assert run_train(cfg, StageContext(workdir=tmp_path / "better"), proxy=proxy(0.1)).gates_passed
+    no_proxy = run_train(cfg.model_copy(update={"proxy_every": 0}), StageContext(workdir=tmp_path / "none"))
+    assert not no_proxy.gates_passed  # required but never measured: the gate fails
 
 
 def test_resume_refuses_another_model_config(tmp_path, curving_dataset):
