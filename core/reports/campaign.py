@@ -11,6 +11,8 @@ from typing import Any
 
 from foresight.core.evaluation.aggregate import SuiteSummary
 from foresight.core.evaluation.campaign import CampaignResult, CellResult
+from foresight.core.evaluation.delta import Delta
+from foresight.core.evaluation.stats import ALPHA, MIN_PAIRS
 from foresight.core.render.charts import ranking_chart, taxonomy_bars
 from foresight.core.reports.common import (
     existing,
@@ -62,6 +64,30 @@ def _ranking(doc: Document, workdir: Path, cells: list[CellResult]) -> None:
                 mean_text(c.global_.mean_avg_speed), rate_text(c.global_.collision),
                 "ok" if c.integrity.ok else "VIOLATIONS"]
                for i, c in enumerate(cells, start=1)])
+    _paired(doc, cells)
+
+
+def _p(d: Delta) -> str:
+    if d.p_value is None:
+        return "-"
+    disc = f" ({d.discordant[0]}/{d.discordant[1]})" if d.discordant else ""
+    return f"{d.p_value:.3g}{disc}{' *' if d.significant else ''}"
+
+
+def _paired(doc: Document, cells: list[CellResult]) -> None:
+    def delta(d: Delta, scale: float, unit: str) -> str:
+        return "-" if d.delta is None else f"{scale * d.delta:+.{1 if scale > 1 else 2}f}{unit}"
+
+    rows = [[cell_name(c), suite, delta(d["success"], 100, " pp"), _p(d["success"]),
+             delta(d["min_clearance"], 1, " m"), _p(d["min_clearance"])]
+            for c in cells for suite, d in (c.vs_baseline or {}).items() if d]
+    if not rows:
+        return
+    doc.section("Paired against the baseline variant", 3)
+    doc.text(f"Each cell against the baseline variant's cell of the same checkpoint, on the same (scenario, seed) "
+             f"episodes: success by McNemar's exact test (discordant pairs baseline-only / variant-only), clearance by "
+             f"the Wilcoxon signed-rank test; * = p < {ALPHA} with at least {MIN_PAIRS} pairs.")
+    doc.table(["cell", "suite", "success delta", "McNemar p", "clearance delta", "Wilcoxon p"], rows)
 
 
 def _taxonomy(doc: Document, workdir: Path, cells: list[CellResult]) -> None:

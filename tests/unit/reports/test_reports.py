@@ -232,3 +232,16 @@ def test_stage_headlines() -> None:
                                          gates_passed=True)).startswith("val ADE 0.300 m (CV 0.400)")
     diagnosed = DiagnosticsResult.model_construct(solved=2, episodes=5)
     assert headline("diagnose", diagnosed) == "solved 2/5 hard seeds" and headline("x", None) == ""
+
+
+def test_campaign_report_shows_the_paired_tests_against_the_baseline(tmp_path: Path) -> None:
+    from foresight.core.evaluation.delta import paired_delta
+
+    res = data.campaign()
+    success = paired_delta("success", [False] * 9 + [True] * 15, [True] * 24)  # 9 discordant pairs, variant's way
+    clearance = paired_delta("min_clearance", [0.2] * 24, [0.3 + 0.01 * i for i in range(24)])
+    res["ranked"][0]["vs_baseline"] = {"hard": {"success": success.model_dump(), "min_clearance": clearance.model_dump()},
+                                       "global": None}
+    md, _ = _read(write_campaign_report(res, tmp_path))
+    assert "### Paired against the baseline variant" in md
+    assert f"| careful @ cv | hard | +37.5 pp | {2 / 2**9:.3g} (0/9) * | +0.21 m |" in md
