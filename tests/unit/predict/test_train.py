@@ -107,7 +107,8 @@ def test_closed_loop_training_gate_against_constant_velocity(tmp_path, curving_d
     worse = run_train(cfg, StageContext(workdir=tmp_path / "worse"), proxy=proxy(-0.2))
     summary = json.loads((tmp_path / "worse" / "training_summary.json").read_text())["quality_gates"]
     assert not worse.gates_passed and summary["checks"]["proxy_success_not_below_cv"] is False
-    assert summary["closed_loop"] == {"success": 0.5, "cv_success": 0.7, "vs_cv_delta": -0.2, "vs_cv_p": 0.01}
+    assert summary["closed_loop"] == {"success": 0.5, "clearance": 0.4, "episodes": None, "cv_success": 0.7,
+                                      "vs_cv_delta": -0.2, "vs_cv_p": 0.01}
     assert run_train(cfg, StageContext(workdir=tmp_path / "better"), proxy=proxy(0.1)).gates_passed
     no_proxy = run_train(cfg.model_copy(update={"proxy_every": 0}), StageContext(workdir=tmp_path / "none"))
     assert not no_proxy.gates_passed  # required but never measured: the gate fails
