@@ -1,7 +1,10 @@
 """Several evaluations side by side, per family: where is a baseline better than the planner under test?
 
 "Better" is the issue's rule: higher success, or equal success with fewer collisions. Evaluations are
-only compared when they ran the same (scenario, seed) episodes, so a table never mixes unlike runs.
+only compared when they ran the same (scenario, seed) episodes, so a table never mixes unlike runs; every
+planner is also compared with the reference pair by pair (``paired``: other - reference, McNemar exact for
+success and collisions, Wilcoxon signed-rank for the continuous metrics; per family the success delta), and a
+difference is significant only from ``MIN_PAIRS`` episodes on.
 """
 
 from __future__ import annotations
@@ -12,8 +15,10 @@ from pydantic import BaseModel
 
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.aggregate import BootstrapConfig, aggregate
+from foresight.core.evaluation.delta import Delta, paired_deltas
 from foresight.core.evaluation.record import EpisodeRecord
 from foresight.core.evaluation.runner import read_records
+from foresight.core.evaluation.stats import ALPHA, MIN_PAIRS
 
 
 class PlannerCell(BaseModel):
@@ -26,6 +31,7 @@ class FamilyRow(BaseModel):
     family: str
     planners: dict[str, PlannerCell]
     better_than_reference: list[str]  #: planners beating the reference planner on this family
+    paired_success: dict[str, Delta] = {}  #: planner -> its success minus the reference's, paired on the family
 
 
 class Comparison(BaseModel):
@@ -35,6 +41,7 @@ class Comparison(BaseModel):
     overall: dict[str, PlannerCell]
     families: list[FamilyRow]
     families_where_a_baseline_is_better: list[str]
+    paired: dict[str, dict[str, Delta]] = {}  #: planner -> headline metric -> planner - reference, paired
 
 
 def _better(a: PlannerCell, b: PlannerCell) -> bool:
@@ -61,15 +68,24 @@ def compare(runs: dict[str, list[EpisodeRecord]], reference: str) -> Comparison:
     boot = BootstrapConfig(samples=0)
     aggs = {label: aggregate(recs, boot) for label, recs in runs.items()}
     families = [g.key for g in aggs[reference].per_family]
+    others = [label for label in runs if label != reference]
+
+    def paired(fam: str | None) -> dict[str, dict[str, Delta]]:
+        def pick(recs: list[EpisodeRecord]) -> list[EpisodeRecord]:
+            return [r for r in recs if fam is None or r.provenance.archetype == fam]
+        return {label: paired_deltas(pick(runs[reference]), pick(runs[label])) or {} for label in others}
+
     rows = []
     for fam in families:
         cells = {label: _cell(next(g for g in a.per_family if g.key == fam)) for label, a in aggs.items()}
         better = [label for label, c in cells.items() if label != reference and _better(c, cells[reference])]
-        rows.append(FamilyRow(family=fam, planners=cells, better_than_reference=better))
+        success = {label: d["success"] for label, d in paired(fam).items() if d}
+        rows.append(FamilyRow(family=fam, planners=cells, better_than_reference=better, paired_success=success))
     return Comparison(
         reference=reference, planners=list(runs), episodes=len(base),
         overall={label: _cell(a.overall) for label, a in aggs.items()}, families=rows,
         families_where_a_baseline_is_better=[r.family for r in rows if r.better_than_reference],
+        paired=paired(None),
     )
 
 
@@ -88,9 +104,21 @@ def table(c: Comparison) -> str:
     def pct(x: float | None) -> str:
         return "-" if x is None else f"{100 * x:.0f}%"
 
-    head = "| family | " + " | ".join(f"{p} success / coll." for p in c.planners) + " | baseline better |"
-    lines = [head, "|---" * (len(c.planners) + 2) + "|"]
-    for row in [*c.families, FamilyRow(family="**all**", planners=c.overall, better_than_reference=[])]:
+    def paired(d: Delta | None) -> str:
+        if d is None or d.delta is None:
+            return "-"
+        return f"{100 * d.delta:+.0f} pp, p={d.p_value:.2g}{' *' if d.significant else ''}"
+
+    others = [p for p in c.planners if p != c.reference]
+    head = ("| family | " + " | ".join(f"{p} success / coll." for p in c.planners) + " | baseline better | "
+            + " | ".join(f"{p} - {c.reference} success (McNemar)" for p in others) + " |")
+    lines = [head, "|---" * (len(c.planners) + 2 + len(others)) + "|"]
+    overall = {p: d.get("success") for p, d in c.paired.items()}
+    for row in [*c.families, FamilyRow(family="**all**", planners=c.overall, better_than_reference=[],
+                                       paired_success={p: d for p, d in overall.items() if d})]:
         cells = " | ".join(f"{pct(row.planners[p].success)} / {pct(row.planners[p].collision)}" for p in c.planners)
-        lines.append(f"| {row.family} | {cells} | {', '.join(row.better_than_reference) or '-'} |")
+        tests = " | ".join(paired(row.paired_success.get(p)) for p in others)
+        lines.append(f"| {row.family} | {cells} | {', '.join(row.better_than_reference) or '-'} | {tests} |")
+    lines.append(f"\npaired on the same (scenario, seed) episodes; * = McNemar exact p < {ALPHA} with at least "
+                 f"{MIN_PAIRS} pairs")
     return "\n".join(lines) + "\n"

@@ -137,3 +137,16 @@ def test_compare_flags_families_where_a_baseline_is_better() -> None:
     assert c.families[0].better_than_reference == ["orca"]  # goal: same success, more collisions
     with pytest.raises(ValueError):
         compare({"predictive": ours, "orca": orca[:2]}, reference="predictive")
+    # paired with the reference: orca - predictive per family and overall, never significant on 3 episodes
+    assert c.families[0].paired_success["orca"].discordant == (0, 1) and c.families[1].paired_success["orca"].delta == -1
+    assert c.paired["goal"]["collision"].delta == pytest.approx(1 / 3) and not c.paired["orca"]["success"].significant
+
+
+def test_compare_table_marks_a_paired_difference_with_enough_episodes() -> None:
+    from foresight.core.evaluation.compare import compare, table
+
+    cv = [record("cross_low", s, "timeout" if s < 10 else "success", speed=0.5 if s < 10 else 1.0) for s in range(30)]
+    learned = [record("cross_low", s) for s in range(30)]
+    c = compare({"learned": learned, "cv": cv}, reference="cv")
+    assert c.paired["learned"]["success"].discordant == (0, 10) and c.paired["learned"]["success"].significant
+    assert f"+33 pp, p={2 / 2**10:.2g} *" in table(c)
