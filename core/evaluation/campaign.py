@@ -23,12 +23,12 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.aggregate import SuiteSummary, summarise
-from foresight.core.evaluation.config import CampaignConfig, EpisodeSelection, GridVariant
+from foresight.core.evaluation.config import CampaignConfig, EpisodeSelection, GridVariant, variant_spec
 from foresight.core.evaluation.delta import Delta, paired_deltas
 from foresight.core.evaluation.gates import GATE_FAILED_EXIT, ClosedLoopGateResult, closed_loop_gate
 from foresight.core.evaluation.integrity import IntegrityReport, check_integrity
 from foresight.core.evaluation.plannerspec import (
-    PlannerSpec,
+    NO_MODEL,
     ResolvedPlanner,
     config_diff,
     preflight,
@@ -142,11 +142,15 @@ def _fingerprint(rp: ResolvedPlanner, config: CampaignConfig, hard: list, glob: 
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()
 
 
-def _spec(config: CampaignConfig, variant: GridVariant, checkpoint: str) -> PlannerSpec:
-    base = config.planner
-    return PlannerSpec(name="predictive", config={**base.config, **variant.config},
-                       reference_params={**(base.reference_params or {}), **variant.params} or None,
-                       variant=variant.name, model=checkpoint)
+def _checkpoints(config: CampaignConfig) -> list[str]:
+    """The checkpoints of the cells: the config's, or ``none`` for a planner without a model."""
+    from foresight.core.planners.registry import entry
+
+    if entry(config.planner.name).takes_model:
+        return list(config.checkpoints)
+    if config.checkpoints != ["cv"]:
+        raise ConfigError(f"planner {config.planner.name!r} takes no model; leave checkpoints out", item="checkpoints")
+    return [NO_MODEL]
 
 
 def _load_cell(ctx: StageContext, key: str, fingerprint: str) -> CellResult | None:
@@ -269,7 +273,8 @@ def prepare_campaign(config: CampaignConfig, ctx: StageContext) -> CampaignPlan:
     variants = load_variants(config, ctx)
     if config.gate and config.gate.baseline_variant not in {v.name for v in variants}:
         raise ConfigError(f"baseline variant {config.gate.baseline_variant!r} is not in the grid", item="gate")
-    cells_rp = [(ck, resolve_planner(_spec(config, v, ck), ctx)) for ck in config.checkpoints for v in variants]
+    cells_rp = [(ck, resolve_planner(variant_spec(config.planner, v, None if ck == NO_MODEL else ck), ctx))
+                for ck in _checkpoints(config) for v in variants]
     scenarios = [matrix.get(s) for s in dict.fromkeys(s for s, _ in [*glob, *hard])]
     for rp in {rp.model_id: rp for _, rp in cells_rp}.values():  # every checkpoint fits before any episode
         preflight(rp, scenarios)

@@ -9,10 +9,11 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from foresight.core.errors import ConfigError
 from foresight.core.evaluation.aggregate import BootstrapConfig
 from foresight.core.evaluation.gates import ClosedLoopGateConfig, EvaluationGateConfig
 from foresight.core.evaluation.metrics import MetricsConfig
-from foresight.core.evaluation.plannerspec import PlannerSpec
+from foresight.core.evaluation.plannerspec import PlannerSpec, planner_spec
 from foresight.core.evaluation.taxonomy import TaxonomyConfig
 from foresight.core.scenarios.model import MAX_EPISODE_STEPS
 from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident
@@ -49,7 +50,7 @@ class EpisodeSelection(_Config):
 
 
 class EvaluationConfig(EpisodeSelection):
-    planner: PlannerSpec = PlannerSpec()
+    planner: PlannerSpec = Field(default_factory=planner_spec)
     metrics: MetricsConfig = MetricsConfig()
     taxonomy: TaxonomyConfig = TaxonomyConfig()
     gate: EvaluationGateConfig = EvaluationGateConfig()
@@ -62,7 +63,7 @@ class DiagnosticsConfig(EpisodeSelection):
     """Hard-seed diagnostics: every (scenario, seed) of a seed manifest, traced step by step."""
 
     seed_manifest: BundlePath  #: required here
-    planner: PlannerSpec = PlannerSpec()
+    planner: PlannerSpec = Field(default_factory=planner_spec)
     metrics: MetricsConfig = MetricsConfig()
     taxonomy: TaxonomyConfig = TaxonomyConfig()
     render: bool = True  #: a PNG and an animated GIF replay per seed
@@ -70,11 +71,34 @@ class DiagnosticsConfig(EpisodeSelection):
 
 
 class GridVariant(_Config):
-    """One planner-grid variant: reference keys (``params``, mapped by the planner) and/or our keys (``config``)."""
+    """One planner-grid variant: our keys (``config``, merged into the base planner's config) and/or, for the
+    predictive planner, reference keys (``params``, mapped by the planner)."""
 
     name: str = Field(min_length=1, max_length=200)
     params: dict[str, Any] = Field(default_factory=dict)
     config: dict[str, Any] = Field(default_factory=dict)
+
+
+def _merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
+    """``base`` with ``over``'s keys, nested mappings merged key by key."""
+    out = dict(base)
+    for key, value in over.items():
+        out[key] = _merge(out[key], value) if isinstance(value, dict) and isinstance(out.get(key), dict) else value
+    return out
+
+
+def variant_spec(base: Any, variant: GridVariant, checkpoint: str | None) -> Any:
+    """The planner spec of one grid variant on ``base`` (the campaign's planner) with ``checkpoint`` as model.
+
+    ConfigError naming the variant and the field when the merged config does not fit the planner's model.
+    """
+    config = base.config.model_dump(exclude_unset=True) if isinstance(base.config, BaseModel) else base.config
+    try:
+        return planner_spec(name=base.name, config=_merge(config or {}, variant.config),
+                            reference_params={**(base.reference_params or {}), **variant.params} or None,
+                            variant=variant.name, model=checkpoint)
+    except ConfigError as exc:
+        raise ConfigError(exc.detail, source=f"grid variant {variant.name}", item=exc.item) from None
 
 
 class CampaignConfig(_Config):
@@ -87,7 +111,7 @@ class CampaignConfig(_Config):
     variants: list[GridVariant] | None = Field(default=None, max_length=200)  #: inline grid (instead of ``grid``)
     checkpoints: list[str] = Field(default_factory=lambda: ["cv"], min_length=1, max_length=50)  #: model ids or "cv"
     scenarios: list[str] | None = Field(default=None, max_length=1000)  #: global suite scenarios (default: all)
-    planner: PlannerSpec = PlannerSpec()  #: base predictive config the variants modify
+    planner: PlannerSpec = Field(default_factory=planner_spec)  #: base planner config the variants modify
     seeds_per_scenario: int | None = Field(default=None, ge=1, le=1000)  #: global suite seeds
     max_steps: int | None = Field(default=None, ge=1, le=MAX_EPISODE_STEPS)
     gate: ClosedLoopGateConfig | None = None
@@ -101,8 +125,8 @@ class CampaignConfig(_Config):
     def _grid(self) -> CampaignConfig:
         if (self.grid is None) == (self.variants is None):
             raise ValueError("give exactly one of grid (a file) or variants (inline)")
-        if self.planner.name != "predictive":
-            raise ValueError("campaigns vary the predictive planner")
+        for variant in self.variants or ():  # an inline variant's config is checked now, naming the field
+            variant_spec(self.planner, variant, None)
         if len(set(self.checkpoints)) != len(self.checkpoints):
             raise ValueError("checkpoints listed twice")
         return self

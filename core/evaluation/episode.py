@@ -7,6 +7,7 @@ exception or an invalid command into the ``error`` outcome instead of a crashed 
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from collections.abc import Callable
@@ -52,8 +53,18 @@ class RecordingPlanner:
         self.log = StepLog()
 
     def reset(self, info: EpisodeInfo) -> None:
-        self.inner.reset(info)
         self.log = StepLog()
+        try:
+            self.inner.reset(info)
+        except Exception as exc:  # noqa: BLE001 - as in plan: the episode ends as "error"
+            raise PlannerFailure(f"{type(exc).__name__} at reset: {exc}") from exc
+
+    def finish(self, outcome: str) -> None:
+        """The optional ``finish(outcome)`` of the planner interface; its failure changes no result."""
+        finish = getattr(self.inner, "finish", None)
+        if finish is not None:
+            with contextlib.suppress(Exception):  # the episode is over and recorded either way
+                finish(outcome)
 
     @property
     def diagnostics(self) -> dict[str, Any] | None:
@@ -157,6 +168,7 @@ def run_one(scenario: ResolvedScenario, seed: int, rp: ResolvedPlanner, *, max_s
         outcome = sim.trace.outcome
     except PlannerFailure as exc:
         outcome, error = "error", str(exc)
+    planner.finish(outcome)
     wall = time.perf_counter() - t0
     trace = sim.trace
     geom = geometry_of(scenario, sim)

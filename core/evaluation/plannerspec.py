@@ -7,37 +7,101 @@ rebuild exactly the same planner.
 
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 import json
 import pickle
+import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal, Union
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Discriminator,
+    Field,
+    Tag,
+    TypeAdapter,
+    ValidationError,
+    create_model,
+    model_validator,
+)
 
-from foresight.core.errors import ConfigError
+from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.planners.base import EpisodeInfo, Planner
 from foresight.core.scenarios.model import ResolvedScenario
 from foresight.core.stages.context import StageContext
 
-PlannerName = Literal["predictive", "orca", "social_force", "goal"]
 CV = "cv"
 NO_MODEL = "none"
 DEFAULT_MODEL = "default"  #: id resolved through ctx.resolve_model when a predictive run names no model
+OTHER = "other"  #: the union member of every other name: in-process planners (``module:attr``) or an error
 
 
-class PlannerSpec(BaseModel):
-    """A planner as a config names it (YAML, API body, CLI)."""
+class PlannerSpecBase(BaseModel):
+    """A planner as a config names it (YAML, API body, CLI): one typed member per planner name."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, from_attributes=True)
 
-    name: PlannerName = "predictive"
-    config: dict[str, Any] = Field(default_factory=dict)  #: nested planner config (our keys); defaults fill the rest
+    name: str = "predictive"
+    config: Any = None  #: the planner's config model (our keys); defaults fill the rest
     reference_params: dict[str, Any] | None = None  #: reference planner-grid keys (predictive only), mapped by the planner
     variant: str | None = None  #: a label (campaign grid variant name)
     model: str | None = None  #: predictive only: a model id or "cv"; None = the registry's default model
+
+
+class ModulePlannerSpec(PlannerSpecBase):
+    """An in-process planner ``module:attr`` registered by the running process (never on a server)."""
+
+    name: str = Field(max_length=300)
+    config: dict[str, Any] = Field(default_factory=dict)
+
+    @model_validator(mode="after")
+    def _registered(self) -> ModulePlannerSpec:
+        from foresight.core.planners.registry import entry
+
+        try:
+            entry(self.name).validate(self.config)
+        except (NotFoundError, ConfigError) as exc:
+            raise ValueError(str(exc)) from None
+        return self
+
+
+def _tagger(typed: set[str]) -> Any:
+    def tag(value: Any) -> str:
+        name = value.get("name", "predictive") if isinstance(value, dict) else getattr(value, "name", "predictive")
+        return name if isinstance(name, str) and name in typed else OTHER
+
+    return tag
+
+
+def _member(name: str, config_model: type[BaseModel]) -> type[PlannerSpecBase]:
+    title = "".join(p.title() for p in re.split(r"[^A-Za-z0-9]+", name))
+    return create_model(f"{title}PlannerSpec", __base__=PlannerSpecBase, __doc__=f"Planner {name!r} and its config.",
+                        name=(Literal[name], name), config=(config_model, Field(default_factory=config_model)))
+
+
+def _planner_spec_type() -> Any:
+    """The typed union keyed by planner name: built-ins', external's and every installed plugin's config model."""
+    from foresight.core.planners.registry import installed
+
+    entries = installed()
+    members = [Annotated[_member(n, e.config_model), Tag(n)] for n, e in entries.items()]
+    members.append(Annotated[ModulePlannerSpec, Tag(OTHER)])
+    return Annotated[Union[tuple(members)], Discriminator(_tagger(set(entries)))]  # noqa: UP007 (runtime tuple)
+
+
+PlannerSpec = _planner_spec_type()
+_ADAPTER: TypeAdapter[Any] = TypeAdapter(PlannerSpec)
+
+
+def planner_spec(spec: Any = None, /, **fields: Any) -> PlannerSpecBase:
+    """The typed spec of a dict, a spec or keyword fields: ``planner_spec(name="goal", config={"speed": 0.8})``."""
+    try:
+        return _ADAPTER.validate_python(fields if spec is None else spec)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        raise ConfigError(err["msg"], item=".".join(str(p) for p in ("planner", *err["loc"]))) from None
 
 
 @dataclass(frozen=True)
@@ -74,24 +138,6 @@ def sha256_file(path: Path) -> str:
     return h.hexdigest()
 
 
-def _dump_config(cfg: Any) -> dict[str, Any]:
-    if isinstance(cfg, BaseModel):
-        return cfg.model_dump(mode="json")
-    if dataclasses.is_dataclass(cfg):
-        return json.loads(json.dumps(dataclasses.asdict(cfg)))
-    raise ConfigError(f"cannot resolve a planner config of type {type(cfg).__name__}", item="planner.config")
-
-
-def _predictive_config(spec: PlannerSpec) -> dict[str, Any]:
-    from foresight.core.planners.predictive.config import PredictivePlannerConfig
-
-    cfg = PredictivePlannerConfig.from_dict(spec.config, source="planner.config")
-    if spec.reference_params:
-        cfg = PredictivePlannerConfig.from_reference_grid(spec.reference_params, base=cfg,
-                                                          source=f"planner grid variant {spec.variant or '?'}")
-    return cfg.resolved()
-
-
 _MODELS: dict[tuple[str, str], Any] = {}  #: (path, sha256 of the bytes loaded) -> predictor, per process
 
 
@@ -122,14 +168,14 @@ def build_planner(rp: ResolvedPlanner) -> Planner:
     from foresight.core.planners.registry import make_planner
 
     model = None
-    if rp.name == "predictive":
+    if rp.model_id != NO_MODEL:
         model = load_model(rp.model_path, rp.checkpoint_sha256) if rp.model_path else CV
     return make_planner(rp.name, rp.config, model=model)
 
 
-def _model(spec: PlannerSpec, ctx: StageContext) -> tuple[str, str, str | None]:
+def _model(spec: PlannerSpecBase, takes_model: bool, ctx: StageContext) -> tuple[str, str, str | None]:
     """(model id, checkpoint sha256, local path) of a spec; loading it now surfaces a bad model early."""
-    if spec.name != "predictive":
+    if not takes_model:
         if spec.model not in (None, NO_MODEL):
             raise ConfigError(f"planner {spec.name!r} takes no model", item="model")
         return NO_MODEL, NO_MODEL, None
@@ -143,17 +189,21 @@ def _model(spec: PlannerSpec, ctx: StageContext) -> tuple[str, str, str | None]:
     return ident, sha, str(path)  # later loads (worker processes) check their bytes against this checksum
 
 
-def resolve_planner(spec: PlannerSpec, ctx: StageContext) -> ResolvedPlanner:
-    if spec.reference_params and spec.name != "predictive":
-        raise ConfigError("reference planner-grid params apply to the predictive planner only",
-                          item="planner.reference_params")
-    if spec.name == "predictive":
-        resolved = _predictive_config(spec)
-    else:
-        from foresight.core.planners.registry import make_planner
+def resolve_planner(spec: PlannerSpecBase | dict[str, Any], ctx: StageContext) -> ResolvedPlanner:
+    """Every key of the planner's config (defaults expanded), its hash and its model, checked before any episode."""
+    from foresight.core.planners.registry import entry
 
-        resolved = _dump_config(make_planner(spec.name, spec.config).config)
-    model_id, sha, path = _model(spec, ctx)
+    spec = planner_spec(spec)
+    found = entry(spec.name)
+    cfg = found.validate(spec.config)
+    if spec.reference_params:
+        if spec.name != "predictive":
+            raise ConfigError("reference planner-grid params apply to the predictive planner only",
+                              item="planner.reference_params")
+        cfg = type(cfg).from_reference_grid(spec.reference_params, base=cfg,
+                                            source=f"planner grid variant {spec.variant or '?'}")
+    resolved = cfg.model_dump(mode="json")
+    model_id, sha, path = _model(spec, found.takes_model, ctx)
     return ResolvedPlanner(name=spec.name, variant=spec.variant, config=resolved, config_hash=config_hash(resolved),
                            model_id=model_id, checkpoint_sha256=sha, model_path=path)
 

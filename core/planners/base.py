@@ -1,4 +1,19 @@
-"""The planner protocol every controller satisfies (collection, baselines, predictive planner)."""
+"""The planner protocol every controller satisfies (collection, baselines, predictive planner, your own).
+
+Planner interface, version 1 (:data:`PLANNER_API_VERSION`), the contract for plugins and in-process planners:
+
+- ``reset(info: EpisodeInfo)`` once before each episode (scenario, seed, dt, true radii);
+- ``plan(obs: Observation) -> (v, omega)`` once per simulation step: commanded linear speed [m/s] and turn rate
+  [rad/s] (a holonomic robot takes (vx, vy)); an exception or a non-finite command ends the episode as
+  ``planner_error`` with the message;
+- ``diagnostics`` (optional): a dict describing the last decision, or None;
+- ``finish(outcome: str)`` (optional): called after each episode with its outcome.
+
+A plugin is an installed package declaring an entry point in the group ``foresight.planners``
+(``my_planner = "my_pkg:MyPlanner"``): the object there has a ``config_model`` (a pydantic model: the
+planner's config, validated at submission) and is called as ``obj(config)`` to build a fresh planner per
+episode; ``planner_api = 1`` may state the version it was written for. See ``core.planners.registry``.
+"""
 
 from __future__ import annotations
 
@@ -7,6 +22,8 @@ from typing import Any, Protocol, runtime_checkable
 
 from foresight.core.scenarios.model import ResolvedScenario
 from foresight.core.sim.observation import Observation
+
+PLANNER_API_VERSION = 1  #: the interface version above; a plugin declaring another is refused
 
 
 @dataclass(frozen=True)

@@ -7,17 +7,18 @@ diversifies the robot's paths across episodes.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict
 
 from foresight.core.planners.base import EpisodeInfo
 from foresight.core.sim.observation import Observation
 
 
-@dataclass(frozen=True)
-class GoalSeekingConfig:
+class GoalSeekingConfig(BaseModel):
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
     speed: float = 1.0  #: cruise speed [m/s]
     turn_gain: float = 1.5  #: turn rate per heading error [1/s]
     max_turn_rate: float = 1.0  #: [rad/s]
@@ -41,7 +42,7 @@ class GoalSeeking:
 
     def __init__(self, config: GoalSeekingConfig | None = None, **overrides: float):
         base = config or GoalSeekingConfig()
-        self.config = GoalSeekingConfig(**{**base.__dict__, **overrides})
+        self.config = GoalSeekingConfig.model_validate({**base.model_dump(), **overrides}) if overrides else base
         self._rng = np.random.default_rng(0)
         self._last: dict[str, Any] | None = None
         self._target: np.ndarray | None = None

@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 import pytest
+from pydantic import ValidationError
 
 from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.evaluation.config import EvaluationConfig
@@ -81,9 +82,10 @@ def test_unreadable_checkpoint_fails_before_any_episode(tmp_path: Path) -> None:
     assert not (tmp_path / "run" / "episodes.jsonl").exists()
 
 
-def test_bad_planner_key_is_a_config_error(tmp_path: Path) -> None:
-    with pytest.raises(ConfigError):
-        run_evaluation(_config(planner={"name": "predictive", "model": "cv", "config": {"nope": 1}}), _ctx(tmp_path))
+def test_bad_planner_key_is_a_config_error() -> None:
+    """Caught by the config itself (the typed planner union), before any run, naming the field."""
+    with pytest.raises(ValidationError, match=r"planner\.predictive\.config\.nope"):
+        _config(planner={"name": "predictive", "model": "cv", "config": {"nope": 1}})
 
 
 def _checkpoint(path: Path) -> Path:

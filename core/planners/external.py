@@ -1,0 +1,288 @@
+"""External planners: a separate process speaking the JSON-lines planner protocol on stdin/stdout.
+
+Protocol ``foresight.planner/1`` (one JSON object per line, each way; the process may log to stderr):
+
+1. hello, once per process: we send ``{"type": "hello", "protocol": 1}``; it answers
+   ``{"type": "hello", "protocol": 1, "name": "...", "capabilities": [...]}``.
+2. episode start: ``{"type": "start", "episode": {"scenario", "seed", "dt", "robot_radius", "ped_radius"},
+   "params": {...}}`` (``params``: the planner's own config from the spec); it answers ``{"type": "ready"}``.
+3. every step: ``{"type": "observation", "step", "time", "robot": {"pose": [x, y, heading], "velocity": [v, w]},
+   "goal": [x, y], "waypoint": [x, y], "route": [[x, y], ...], "goal_tolerance",
+   "pedestrians": {"ids": [...], "positions": [[x, y], ...], "velocities": [[vx, vy], ...]}}``, on step 0 also
+   the episode's constants ``"robot_limits": {...}, "static": {"segments": [[x1, y1, x2, y2], ...], "width",
+   "height"}``; it answers ``{"type": "command", "v": .., "omega": ..}`` (optionally ``"diagnostics": {...}``)
+   within the per-step deadline. World frame, metres, seconds, radians.
+4. episode end: ``{"type": "end", "outcome": "success" | ...}`` (no answer).
+Closing its stdin ends the process. A process that exits, misses a deadline (it is killed) or answers anything
+but the expected message ends the episode as ``planner_error`` with that reason; the next episode starts a new
+process. One process serves the episodes of one thread in turn.
+
+Only operator-configured commands run: ``FORESIGHT_EXTERNAL_PLANNERS`` maps names to command lines (a JSON
+object ``{"name": "command line" or ["argv", ...]}``); a spec names one of them, never a command.
+"""
+
+from __future__ import annotations
+
+import atexit
+import contextlib
+import json
+import os
+import select
+import shlex
+import subprocess
+import tempfile
+import threading
+import time
+from typing import Any
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, field_validator
+
+from foresight.core.errors import ConfigError
+from foresight.core.planners.base import EpisodeInfo
+from foresight.core.sim.observation import Observation
+
+PROTOCOL = 1
+ENV = "FORESIGHT_EXTERNAL_PLANNERS"
+
+
+def operator_commands(value: str | None = None) -> dict[str, list[str]]:
+    """Name -> argv of the operator-configured external planners (``FORESIGHT_EXTERNAL_PLANNERS``)."""
+    text = os.environ.get(ENV, "") if value is None else value
+    if not text.strip():
+        return {}
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ConfigError(f"not JSON: {exc}", source=ENV) from None
+    if not isinstance(data, dict):
+        raise ConfigError('expected a JSON object {"name": "command line"}', source=ENV)
+    out = {}
+    for name, cmd in data.items():
+        argv = shlex.split(cmd) if isinstance(cmd, str) else cmd
+        if not (isinstance(argv, list) and argv and all(isinstance(a, str) for a in argv)):
+            raise ConfigError("expected a command line or a non-empty list of strings", source=ENV, item=name)
+        out[str(name)] = argv
+    return out
+
+
+class ExternalPlannerConfig(BaseModel):
+    """Which operator-configured process plans, its deadlines and its own parameters."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    command: str = Field(min_length=1, max_length=200)  #: a name in FORESIGHT_EXTERNAL_PLANNERS, never a command line
+    step_timeout_s: float = Field(default=1.0, gt=0, le=60)  #: deadline of one observation -> command round trip
+    start_timeout_s: float = Field(default=20.0, gt=0, le=300)  #: deadline of the process start and episode start
+    params: dict[str, Any] = Field(default_factory=dict)  #: sent to the process with every episode start
+
+    @field_validator("command")
+    @classmethod
+    def _configured(cls, value: str) -> str:
+        known = operator_commands()
+        if value not in known:
+            raise ValueError(f"external planner {value!r} is not configured by the operator (configured: "
+                             f"{', '.join(known) or 'none'}; the operator sets {ENV})")
+        return value
+
+
+class ExternalPlannerError(RuntimeError):
+    """The process crashed, missed a deadline or broke the protocol (the episode ends as planner_error)."""
+
+
+def _tail(path: str, n: int = 300) -> str:
+    try:
+        with open(path, "rb") as f:
+            f.seek(max(0, os.fstat(f.fileno()).st_size - n))
+            return f.read().decode(errors="replace").strip()
+    except OSError:
+        return ""
+
+
+class PlannerProcess:
+    """One running planner process: send a line, wait for a line with a deadline."""
+
+    def __init__(self, name: str, argv: list[str], timeout_s: float):
+        self.name = name
+        self._err = tempfile.NamedTemporaryFile(prefix="foresight-planner-", suffix=".log", delete=False)  # noqa: SIM115
+        try:
+            self.proc = subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._err,
+                                         bufsize=0, close_fds=True)
+        except OSError as exc:
+            raise ExternalPlannerError(f"external planner {name!r} did not start: {exc}") from None
+        self._buf = b""
+        hello = self.request({"type": "hello", "protocol": PROTOCOL}, timeout_s, "hello", "hello")
+        if hello.get("protocol") != PROTOCOL:
+            self.kill()
+            raise ExternalPlannerError(f"external planner {name!r} speaks protocol {hello.get('protocol')!r}, "
+                                       f"expected {PROTOCOL}")
+        self.hello = hello
+
+    @property
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def send(self, msg: dict[str, Any], where: str) -> None:
+        try:
+            os.write(self.proc.stdin.fileno(), (json.dumps(msg, separators=(",", ":")) + "\n").encode())
+        except OSError:
+            self._exited(f"before {where}")
+
+    def request(self, msg: dict[str, Any], timeout_s: float, expect: str, where: str) -> dict[str, Any]:
+        self.send(msg, where)
+        line = self._readline(timeout_s, where)
+        try:
+            reply = json.loads(line)
+        except (json.JSONDecodeError, UnicodeDecodeError):
+            self._fail(f"sent malformed JSON at {where}: {line[:120]!r}")
+        if not isinstance(reply, dict) or reply.get("type") != expect:
+            self._fail(f"sent {str(reply)[:120]!r} at {where}, expected a {expect!r} message")
+        return reply
+
+    def _readline(self, timeout_s: float, where: str) -> bytes:
+        fd = self.proc.stdout.fileno()
+        deadline = time.monotonic() + timeout_s
+        while b"\n" not in self._buf:
+            left = deadline - time.monotonic()
+            if left <= 0 or not select.select([fd], [], [], left)[0]:
+                self._fail(f"sent no answer within {timeout_s:g} s at {where} (killed)")
+            chunk = os.read(fd, 1 << 16)
+            if not chunk:
+                self._exited(f"at {where}")
+            self._buf += chunk
+        line, _, self._buf = self._buf.partition(b"\n")
+        return line
+
+    def _exited(self, where: str) -> None:
+        try:
+            code = self.proc.wait(timeout=1)
+        except subprocess.TimeoutExpired:
+            code = None
+        self._fail(f"exited (code {code}) {where}")
+
+    def _fail(self, reason: str) -> None:
+        self.kill()
+        tail = _tail(self._err.name)
+        raise ExternalPlannerError(f"external planner {self.name!r} {reason}" + (f"; stderr: {tail}" if tail else ""))
+
+    def kill(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.kill()
+        self.proc.wait()
+        self._close_files()
+
+    def close(self) -> None:
+        """End the process politely (stdin closed), killing it if it lingers."""
+        try:
+            self.proc.stdin.close()
+            self.proc.wait(timeout=2)
+        except (OSError, subprocess.TimeoutExpired):
+            pass
+        self.kill()
+
+    def _close_files(self) -> None:
+        for f in (self.proc.stdin, self.proc.stdout):
+            with contextlib.suppress(OSError):
+                f.close()
+        self._err.close()
+        with contextlib.suppress(OSError):
+            os.unlink(self._err.name)
+
+
+_PROCESSES: dict[tuple[tuple[str, ...], int], PlannerProcess] = {}  #: (argv, thread) -> its process
+_LOCK = threading.Lock()
+
+
+def _process(name: str, argv: list[str], timeout_s: float) -> PlannerProcess:
+    key = (tuple(argv), threading.get_ident())
+    with _LOCK:
+        proc = _PROCESSES.get(key)
+    if proc is None or not proc.alive:
+        proc = PlannerProcess(name, argv, timeout_s)
+        with _LOCK:
+            _PROCESSES[key] = proc
+    return proc
+
+
+@atexit.register
+def close_all() -> None:
+    """End every planner process this process started."""
+    with _LOCK:
+        procs = list(_PROCESSES.values())
+        _PROCESSES.clear()
+    for proc in procs:
+        proc.close()
+
+
+def _list(a: np.ndarray) -> list:
+    return np.asarray(a, dtype=float).tolist()
+
+
+def observation_message(obs: Observation) -> dict[str, Any]:
+    """The protocol's observation message (episode constants on step 0)."""
+    msg: dict[str, Any] = {
+        "type": "observation", "step": int(obs.step), "time": float(obs.time),
+        "robot": {"pose": _list(obs.robot_pose), "velocity": _list(obs.robot_velocity)},
+        "goal": _list(obs.goal), "waypoint": _list(obs.waypoint), "route": _list(obs.route),
+        "goal_tolerance": float(obs.goal_tolerance),
+        "pedestrians": {"ids": np.asarray(obs.ped_ids).tolist(), "positions": _list(obs.ped_positions),
+                        "velocities": _list(obs.ped_velocities)},
+    }
+    if obs.step == 0:
+        msg["robot_limits"] = {k: float(v) for k, v in obs.robot_limits.items()}
+        msg["static"] = {"segments": _list(obs.static.segments), "width": float(obs.static.width),
+                         "height": float(obs.static.height)}
+    return msg
+
+
+class ExternalPlanner:
+    """The planner protocol over a planner process (started on first use, reused across episodes)."""
+
+    name = "external"
+
+    def __init__(self, config: ExternalPlannerConfig, argv: list[str]):
+        self.config = config
+        self.argv = argv
+        self._proc: PlannerProcess | None = None
+        self._diag: dict[str, Any] | None = None
+
+    def reset(self, info: EpisodeInfo) -> None:
+        c = self.config
+        self._proc = _process(c.command, self.argv, c.start_timeout_s)
+        episode = {"scenario": info.scenario.name, "seed": int(info.seed), "dt": float(info.dt),
+                   "robot_radius": float(info.robot_radius), "ped_radius": float(info.ped_radius)}
+        self._proc.request({"type": "start", "episode": episode, "params": c.params}, c.start_timeout_s, "ready",
+                           "episode start")
+        self._diag = None
+
+    def plan(self, obs: Observation) -> tuple[float, float]:
+        if self._proc is None:
+            raise ExternalPlannerError("plan() before reset()")
+        reply = self._proc.request(observation_message(obs), self.config.step_timeout_s, "command",
+                                   f"step {obs.step}")
+        try:
+            v, w = float(reply["v"]), float(reply["omega"])
+        except (KeyError, TypeError, ValueError):
+            self._proc.kill()
+            raise ExternalPlannerError(f"external planner {self.config.command!r} sent a command without numeric "
+                                       f"'v' and 'omega' at step {obs.step}: {str(reply)[:120]}") from None
+        diag = reply.get("diagnostics")
+        self._diag = diag if isinstance(diag, dict) else None
+        return v, w
+
+    @property
+    def diagnostics(self) -> dict[str, Any] | None:
+        return self._diag
+
+    def finish(self, outcome: str) -> None:
+        if self._proc is not None and self._proc.alive:
+            self._proc.send({"type": "end", "outcome": outcome}, "episode end")
+
+
+def build_external(config: ExternalPlannerConfig) -> ExternalPlanner:
+    """An external planner for a validated config (the command is looked up in this process's settings)."""
+    commands = operator_commands()
+    if config.command not in commands:
+        raise ConfigError(f"external planner {config.command!r} is not configured here", source=ENV,
+                          item="planner.config.command")
+    return ExternalPlanner(config, commands[config.command])
