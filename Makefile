@@ -5,14 +5,17 @@ PYTHON ?= python3
 VENV   ?= .venv
 PY      = $(VENV)/bin/python
 STAMP   = $(VENV)/.foresight-installed
+# the planner plugin the tests evaluate (an entry point in the group foresight.planners)
+TOY_PLUGIN = tests/plugins/toy_planner
 
 .PHONY: install browser test demo lint bench clean
 
-$(STAMP): pyproject.toml setup.py
+$(STAMP): pyproject.toml setup.py $(TOY_PLUGIN)/pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q torch==2.13.0
 	$(PY) -m pip install -q -e '.[dev]'
+	$(PY) -m pip install -q -e $(TOY_PLUGIN)
 	touch $(STAMP)
 
 install: $(STAMP)

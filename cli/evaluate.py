@@ -23,15 +23,17 @@ from foresight.cli.common import emit, local_context
 from foresight.core.errors import ConfigError
 from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
 
-PLANNERS = ("predictive", "orca", "social_force", "goal")
 LOCAL_BUNDLE = "local"
 
 
 def _common(p: argparse.ArgumentParser, *, planner: bool = True) -> None:
     p.add_argument("--matrix", required=True, help="scenario matrix YAML")
     if planner:
-        p.add_argument("--planner", default="predictive", help="planner name (predictive|orca|social_force|goal) "
-                       "or a planner YAML ({name, config, reference_params} or a predictive config)")
+        p.add_argument("--planner", default="predictive", help="planner name (built-in, installed plugin, external; "
+                       "--local also module:attr) or a planner YAML ({name, config, reference_params} or a "
+                       "predictive config)")
+        p.add_argument("--planner-config", help="the planner's config as JSON or YAML, e.g. '{\"speed\": 0.8}' or, "
+                       "for an external planner, '{command: NAME}'")
         p.add_argument("--model", help="model id or cv (predictive planner; --local: also a checkpoint path)")
         p.add_argument("--override", action="append", metavar="KEY=VALUE",
                        help="run the matrix under other conditions: a scenario key (dotted, e.g. "
@@ -63,7 +65,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     cp = sub.add_parser("campaign", help="checkpoints x planner-grid variants on a hard and a global suite")
     _common(cp, planner=False)
     cp.add_argument("--seeds", required=True, help="hard-suite seed manifest YAML (an evaluation manifest)")
-    cp.add_argument("--grid", required=True, help="planner grid YAML (variants: [{name, params}])")
+    cp.add_argument("--grid", required=True, help="planner grid YAML (variants: [{name, params, config}])")
+    cp.add_argument("--planner", default="predictive", help="the planner the grid varies (a name or a planner YAML)")
+    cp.add_argument("--planner-config", help="the base config of that planner as JSON or YAML")
     cp.add_argument("--checkpoints", nargs="+", default=["cv"], help="model ids, checkpoint paths, or cv")
     cp.add_argument("--baseline", help="baseline variant name for the closed-loop gate")
     cp.add_argument("--seeds-per-scenario", type=int, help="global suite: N seeds per scenario")
@@ -146,9 +150,22 @@ class ModelArgs:
         return resolve_shipped(MODEL_REGISTRY, ident)
 
 
-def planner_spec(value: str, model: str | None, models: ModelArgs, *, default: bool = True) -> dict[str, Any]:
-    if value in PLANNERS:
-        spec: dict[str, Any] = {"name": value}
+def planner_spec(value: str, model: str | None, models: ModelArgs, *, default: bool = True,
+                 config: str | None = None, local: bool = True) -> dict[str, Any]:
+    """The planner part of a spec from ``--planner`` (a name or a YAML file), ``--planner-config`` and ``--model``.
+
+    ``module:attr`` names in-process planners: registered here for ``--local`` runs, refused for the server.
+    """
+    from foresight.core.planners.registry import entry, names, register
+
+    if ":" in value and not Path(value).is_file():
+        if not local:
+            raise ConfigError(f"{value!r}: module:attr planners run in-process only (--local); the server runs "
+                              f"installed plugins and operator-configured external planners",
+                              source="command line", item="--planner")  # fmt: skip
+        spec: dict[str, Any] = {"name": register(value)}
+    elif value in names() or not value.endswith((".yaml", ".yml", ".json")):
+        spec = {"name": value}
     else:
         from foresight.core.scenarios.loader import read_yaml
 
@@ -156,11 +173,33 @@ def planner_spec(value: str, model: str | None, models: ModelArgs, *, default: b
         if not isinstance(data, dict):
             raise ConfigError("a planner file must be a mapping", source=value)
         spec = dict(data) if "name" in data else {"name": "predictive", "config": data}
+    if config is not None:
+        spec["config"] = _inline_config(config)
     if model is not None:
         spec["model"] = models.ident(model)
-    elif default and spec.get("name", "predictive") == "predictive" and "model" not in spec:
+    elif default and "model" not in spec and _takes_model(spec.get("name", "predictive"), entry):
         spec["model"] = models.default()
     return spec
+
+
+def _takes_model(name: str, entry: Any) -> bool:
+    try:
+        return entry(name).takes_model
+    except LookupError:  # an unknown name: the spec's validation names it with the installed ones
+        return False
+
+
+def _inline_config(text: str) -> dict[str, Any]:
+    import yaml
+
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"not JSON or YAML ({str(exc).splitlines()[0]})", source="command line",
+                          item="--planner-config") from None
+    if not isinstance(data, dict):
+        raise ConfigError("expected a mapping of config keys", source="command line", item="--planner-config")
+    return data
 
 
 def _context(args: argparse.Namespace, roots: dict[str, Path], models: ModelArgs):
@@ -231,9 +270,10 @@ class Refs:
         return self.models.ident(value) if self.local else stage.model_id(value, flag)
 
     def planner(self, value: str, model: str | None) -> dict[str, Any]:
+        config = getattr(self.args, "planner_config", None)
         if self.local:
-            return planner_spec(value, model, self.models)
-        spec = planner_spec(value, None, self.models, default=False)
+            return planner_spec(value, model, self.models, config=config)
+        spec = planner_spec(value, None, self.models, default=False, config=config, local=False)
         if model is not None:
             spec["model"] = stage.model_id(model, "--model")
         elif spec.get("model") is not None:
@@ -313,6 +353,8 @@ def campaign_cmd(args: argparse.Namespace) -> int:
         "bundle": refs.bundle, "matrix": refs.names["--matrix"], "seed_manifest": refs.names["--seeds"],
         "grid": refs.names["--grid"], "checkpoints": [refs.model(c, "--checkpoints") for c in args.checkpoints],
         "max_steps": args.max_steps, "seeds_per_scenario": args.seeds_per_scenario, "scenarios": _names(args.scenarios),
+        "planner": planner_spec(args.planner, None, refs.models, default=False, config=args.planner_config,
+                                local=refs.local),
     }
     if args.baseline:
         values["gate"] = {"baseline_variant": args.baseline}

@@ -3,8 +3,23 @@
 The repository's top-level folders install under this one namespace (see ``setup.py``):
 ``foresight.core`` (the pure library), ``foresight.api``, ``foresight.worker``, ``foresight.cli``, and the
 run-time data the service needs: ``foresight.migrations``, ``foresight.configs``, ``foresight.model``.
+
+For notebooks and scripts: ``foresight.evaluate(planner, ...)`` and ``foresight.simulate(planner, ...)``
+(``foresight.library``); with gymnasium installed, ``import foresight.core.gym`` registers the environment
+``foresight/CrowdNav-v0``.
 """
+
+from typing import Any
 
 from foresight.core import __version__
 
-__all__ = ["__version__"]
+__all__ = ["__version__", "evaluate", "simulate"]
+
+
+def __getattr__(name: str) -> Any:
+    """``evaluate`` and ``simulate`` load the evaluation stack on first use, not with every ``foresight.*`` import."""
+    if name in ("evaluate", "simulate"):
+        from foresight import library
+
+        return getattr(library, name)
+    raise AttributeError(f"module 'foresight' has no attribute {name!r}")

@@ -161,8 +161,11 @@ class PlannerProcess:
         self._fail(f"exited (code {code}) {where}")
 
     def _fail(self, reason: str) -> None:
-        self.kill()
+        if self.proc.poll() is None:
+            self.proc.kill()
+        self.proc.wait()
         tail = _tail(self._err.name)
+        self.kill()
         raise ExternalPlannerError(f"external planner {self.name!r} {reason}" + (f"; stderr: {tail}" if tail else ""))
 
     def kill(self) -> None:

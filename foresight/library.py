@@ -1,0 +1,93 @@
+"""The Python API for notebooks and scripts: ``foresight.evaluate`` and ``foresight.simulate``.
+
+Both run in-process exactly as ``foresight evaluate --local`` / ``foresight sim run --local`` do (the same spec,
+the same stage function, the same typed result). A planner is a name (a built-in, an installed plugin,
+``external``, ``module:attr``) or a Python object: a planner class (optionally with a pydantic ``config_model``,
+then built as ``cls(config)``), a factory function, or a planner instance (reused, reset every episode).
+With ``workers`` > 1 episodes run in spawned processes, which rebuild the planner from its ``module:attr`` name:
+define it in an importable module (not in a notebook cell) for that.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from foresight.core.evaluation.episode import EpisodeRun
+from foresight.core.evaluation.runner import EvaluationResult
+
+DEFAULT_MATRIX = "scenarios/classic_interactions.yaml"
+
+
+def _files(*refs: str | Path | None) -> tuple[str, list[str | None], dict[str, Path]]:
+    """(bundle, bundle-relative names, bundle roots) of files, or of names in the built-in configs."""
+    from foresight.cli.evaluate import bundle_of
+    from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+
+    return bundle_of(*(None if r is None else str(r if Path(r).expanduser().is_file() else BUILTIN_CONFIG_ROOT / str(r))
+                       for r in refs))
+
+
+def planner_name(planner: Any) -> str:
+    """The name a planner runs under: a name as given, or a Python object registered as ``module:attr``."""
+    from foresight.core.planners.registry import register
+
+    if isinstance(planner, str):
+        return register(planner) if ":" in planner else planner
+    return register(planner)
+
+
+def _planner(planner: Any, config: dict[str, Any] | None, model: str | None) -> tuple[dict[str, Any], Any]:
+    from foresight.cli.evaluate import ModelArgs
+    from foresight.core.planners.registry import entry
+
+    models = ModelArgs()
+    name = planner_name(planner)
+    spec: dict[str, Any] = {"name": name, "config": config or {}}
+    if entry(name).takes_model:
+        spec["model"] = models.ident(model) if model is not None else models.default()
+    elif model is not None:
+        spec["model"] = model
+    return spec, models
+
+
+def evaluate(planner: Any = "predictive", *, matrix: str | Path = DEFAULT_MATRIX, scenarios: list[str] | None = None,
+             seeds: int | None = None, seed_manifest: str | Path | None = None, config: dict[str, Any] | None = None,
+             model: str | None = None, max_steps: int | None = None, workers: int = 1,
+             out: str | Path | None = None, quiet: bool = True) -> EvaluationResult:
+    """Evaluate a planner on a scenario matrix; the same typed result as the service's ``evaluate`` job.
+
+    ``matrix``: a YAML file, or a name in the built-in configs; ``seeds``: N seeds per scenario (default: the
+    matrix's own); ``config``: the planner's config (validated by its model); ``model``: predictive planner only
+    (a model id, a checkpoint path or "cv"; default: the shipped default model); ``out``: the work folder
+    (default: a new temporary folder) where evaluation.json and episodes.jsonl are written.
+    """
+    from foresight.cli.common import local_context
+    from foresight.cli.stage import config_of, spec
+    from foresight.core.evaluation.config import EvaluationConfig
+    from foresight.core.evaluation.runner import run_evaluation
+
+    bundle, (name, manifest), roots = _files(matrix, seed_manifest)
+    planner_dict, models = _planner(planner, config, model)
+    values = {"bundle": bundle, "matrix": name, "seed_manifest": manifest, "scenarios": scenarios,
+              "seeds_per_scenario": seeds, "max_steps": max_steps, "planner": planner_dict}
+    cfg = config_of(spec("evaluate", values), EvaluationConfig)
+    ctx = local_context(Path(out) if out else None, roots, quiet=quiet)
+    ctx.resolve_model = models.resolve
+    ctx.workers = max(1, int(workers))
+    return run_evaluation(cfg, ctx)
+
+
+def simulate(planner: Any = "goal", *, scenario: str, seed: int = 0, matrix: str | Path = DEFAULT_MATRIX,
+             config: dict[str, Any] | None = None, model: str | None = None,
+             max_steps: int | None = None) -> EpisodeRun:
+    """One episode of a planner: its evaluation record (outcome, metrics, taxonomy) and the full trace."""
+    from foresight.core.evaluation.episode import run_one
+    from foresight.core.evaluation.plannerspec import resolve_planner
+    from foresight.core.scenarios.loader import load_matrix
+    from foresight.core.stages.context import StageContext
+
+    bundle, (name,), roots = _files(matrix)
+    planner_dict, models = _planner(planner, config, model)
+    rp = resolve_planner(planner_dict, StageContext(workdir=Path.cwd(), resolve_model=models.resolve))
+    return run_one(load_matrix(roots[bundle] / str(name)).get(scenario), seed, rp, max_steps=max_steps)
