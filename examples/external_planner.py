@@ -20,7 +20,7 @@ def command(obs, params):
     for px, py in obs["pedestrians"]["positions"]:
         dx, dy = px - x, py - y
         ahead = dx * math.cos(heading) + dy * math.sin(heading)
-        if 0 < ahead and math.hypot(dx, dy) < params.get("caution_distance", 2.5):
+        if ahead > 0 and math.hypot(dx, dy) < params.get("caution_distance", 2.5):
             speed = min(speed, params.get("cautious_speed", 0.3))
     return {"type": "command", "v": speed, "omega": max(-1.0, min(1.0, 1.5 * error))}
 

@@ -5,15 +5,19 @@ The repository's top-level folders install under this one namespace (see ``setup
 run-time data the service needs: ``foresight.migrations``, ``foresight.configs``, ``foresight.model``.
 
 For notebooks and scripts: ``foresight.evaluate(planner, ...)`` and ``foresight.simulate(planner, ...)``
-(``foresight.library``); with gymnasium installed, ``import foresight.core.gym`` registers the environment
-``foresight/CrowdNav-v0``.
+(``foresight.library``); with gymnasium installed, ``import foresight.core.gym`` (or importing gymnasium
+before foresight) registers the environment ``foresight/CrowdNav-v0``.
 """
 
+import sys
 from typing import Any
 
 from foresight.core import __version__
 
 __all__ = ["__version__", "evaluate", "simulate"]
+
+if "gymnasium" in sys.modules:  # registers foresight/CrowdNav-v0; not imported otherwise (it is optional)
+    import foresight.core.gym  # noqa: F401
 
 
 def __getattr__(name: str) -> Any:

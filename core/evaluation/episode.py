@@ -152,6 +152,33 @@ class EpisodeRun:
     geometry: EpisodeGeometry
 
 
+def record_of(scenario: ResolvedScenario, seed: int, sim: Any, rp: ResolvedPlanner, *, outcome: str,
+              error: str | None = None, log: StepLog | None = None, wall_s: float | None = None,
+              metrics_cfg: MetricsConfig | None = None,
+              taxonomy_cfg: TaxonomyConfig | None = None) -> tuple[EpisodeRecord, EpisodeGeometry]:
+    """The record (metrics, taxonomy, provenance) of the episode ``sim`` just ran, and its geometry."""
+    log = log or StepLog()
+    trace = sim.trace
+    geom = geometry_of(scenario, sim)
+    quality, per_ped = prediction_quality(trace, log.predictions, trace.dt)
+    sc = scenario.scenario
+    prov = Provenance(
+        scenario=sc.name, archetype=sc.archetype, density=sc.density_label, seed=int(seed), planner=rp.name,
+        variant=rp.variant, planner_config_hash=rp.config_hash, model_id=rp.model_id,
+        checkpoint_sha256=rp.checkpoint_sha256, code_version=code_version(), dt=float(trace.dt),
+        horizon=geom.horizon, map_sha256=scenario.map_sha256, fallback=fallback_of(rp, log.sources),
+    )
+    kind = trace.collision_kind or None
+    record = build_record(
+        trace, geom, outcome=outcome, provenance=prov, collision_kind=kind,
+        collision_step=trace.collision_step if trace.collision_step >= 0 else None,
+        collision_point=trace.collision_point if kind else None, error=error, plan_ms=log.plan_ms,
+        wall_s=wall_s, prediction=quality, prediction_error=per_ped, metrics_cfg=metrics_cfg,
+        taxonomy_cfg=taxonomy_cfg,
+    )
+    return record, geom
+
+
 def run_one(scenario: ResolvedScenario, seed: int, rp: ResolvedPlanner, *, max_steps: int | None = None,
             metrics_cfg: MetricsConfig | None = None, taxonomy_cfg: TaxonomyConfig | None = None,
             keep_diagnostics: bool = False, simulator: Any = None, check: Callable[[], None] | None = None) -> EpisodeRun:
@@ -169,23 +196,6 @@ def run_one(scenario: ResolvedScenario, seed: int, rp: ResolvedPlanner, *, max_s
     except PlannerFailure as exc:
         outcome, error = "error", str(exc)
     planner.finish(outcome)
-    wall = time.perf_counter() - t0
-    trace = sim.trace
-    geom = geometry_of(scenario, sim)
-    quality, per_ped = prediction_quality(trace, planner.log.predictions, trace.dt)
-    sc = scenario.scenario
-    prov = Provenance(
-        scenario=sc.name, archetype=sc.archetype, density=sc.density_label, seed=int(seed), planner=rp.name,
-        variant=rp.variant, planner_config_hash=rp.config_hash, model_id=rp.model_id,
-        checkpoint_sha256=rp.checkpoint_sha256, code_version=code_version(), dt=float(trace.dt),
-        horizon=geom.horizon, map_sha256=scenario.map_sha256, fallback=fallback_of(rp, planner.log.sources),
-    )
-    kind = trace.collision_kind or None
-    record = build_record(
-        trace, geom, outcome=outcome, provenance=prov, collision_kind=kind,
-        collision_step=trace.collision_step if trace.collision_step >= 0 else None,
-        collision_point=trace.collision_point if kind else None, error=error, plan_ms=planner.log.plan_ms,
-        wall_s=wall, prediction=quality, prediction_error=per_ped, metrics_cfg=metrics_cfg,
-        taxonomy_cfg=taxonomy_cfg,
-    )
-    return EpisodeRun(record=record, trace=trace, log=planner.log, geometry=geom)
+    record, geom = record_of(scenario, seed, sim, rp, outcome=outcome, error=error, log=planner.log,
+                             wall_s=time.perf_counter() - t0, metrics_cfg=metrics_cfg, taxonomy_cfg=taxonomy_cfg)
+    return EpisodeRun(record=record, trace=sim.trace, log=planner.log, geometry=geom)
