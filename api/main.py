@@ -10,7 +10,8 @@ from fastapi.routing import APIRoute
 from foresight.api import errors, web
 from foresight.api.deps import ReadAuth
 from foresight.api.http_metrics import HttpMetrics, MetricsMiddleware, route_templates
-from foresight.api.routes import bundles, jobs, models, ops, results
+from foresight.api.routes import bundles, jobs, models, ops, planners, results
+from foresight.core.planners.external import operator_commands
 from foresight.core.version import code_version
 from foresight.store.registry import Resolver, load_shipped_models, sync_bundles
 from foresight.store.session import check_migrated, make_engine
@@ -49,6 +50,7 @@ def _require_discriminators(doc: dict) -> dict:
 def create_app(settings: Settings | None = None) -> FastAPI:
     """The API app for ``settings``; refuses (NotMigratedError) a database that is not at the latest migration."""
     settings = settings or Settings()
+    operator_commands()  # a malformed FORESIGHT_EXTERNAL_PLANNERS stops the start, naming the variable
     engine = make_engine(settings.resolved_database_url, busy_timeout_ms=settings.sqlite_busy_timeout_ms, pool_size=20)
     revision = check_migrated(engine)
     settings.store_root.mkdir(parents=True, exist_ok=True)
@@ -75,7 +77,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     read_codes = errors.responses(*errors.AUTH) if settings.read_requires_token else {}
     app.include_router(ops.router)
     app.include_router(ops.read_router, dependencies=read_auth, responses=read_codes)
-    for module in (jobs, models, bundles, results):
+    for module in (jobs, models, bundles, results, planners):
         app.include_router(module.router, prefix="/v1", dependencies=read_auth, responses=read_codes)
     web.install(app)  # the dashboard: /ui pages over the same store
     app.state.http_metrics.templates = route_templates(app)

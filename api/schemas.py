@@ -237,6 +237,21 @@ class CampaignPublic(BaseModel):
     gates: list[dict[str, Any]]
 
 
+# Planners
+class PlannerPublic(BaseModel):
+    name: str
+    origin: str = Field(description='"builtin", "external" or "plugin DIST VERSION"')
+    description: str
+    takes_model: bool = Field(description="the spec's planner.model names a predictor (predictive planner)")
+    config_schema: dict[str, Any] = Field(description="JSON schema of planner.config")
+
+
+class PlannersPublic(BaseModel):
+    data: list[PlannerPublic]
+    count: int
+    external_commands: list[str] = Field(description="names an external planner's config.command may take")
+
+
 class Health(BaseModel):
     status: str
     database: str

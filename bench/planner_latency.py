@@ -9,6 +9,10 @@ reset and stepping continues until ``--decisions`` decisions were timed. Targets
 p95 <= 5 ms at 16 pedestrians. ``--json`` prints ONE JSON object with ``entries``
 [{pedestrians, predictor, p50_ms, p95_ms, ...}]; the learned rows use ``--checkpoint`` (default: the
 shipped default predictor, model/predictor-sim-default.pt).
+
+``--external`` adds ``external`` rows: the per-step round trip of the external-planner protocol (observation as
+a JSON line to the process, command back; core.planners.external) with the reference client
+examples/external_planner.py, whose own work (a loop over the pedestrians) is included. Target: p50 <= 0.3 ms.
 """
 
 from __future__ import annotations
@@ -45,10 +49,10 @@ def scenario(n: int) -> ResolvedScenario:
     return ResolvedScenario(scenario=Scenario(name=f"latency_{n}", map_id=m.name, simulation_config=sim), map=m)
 
 
-def measure(n: int, model, decisions: int, seed: int = 0) -> dict:
+def measure(n: int, model, decisions: int, seed: int = 0, planner=None) -> dict:
     """Time ``decisions`` plan() calls (after the first of each episode) with n pedestrians."""
     scen = scenario(n)
-    planner = make_planner("predictive", None, model=model)
+    planner = planner or make_planner("predictive", None, model=model)
     sim = Simulator()
     times: list[float] = []
     cpu: list[float] = []
@@ -75,13 +79,24 @@ def measure(n: int, model, decisions: int, seed: int = 0) -> dict:
                 break
     ms = np.asarray(times) * 1e3
     cpu_ms = np.asarray(cpu) * 1e3
+    source = "external" if planner.name == "external" else planner.diagnostics["forecast_source"].split(":")[0]
     return {
-        "pedestrians": n, "predictor": planner.diagnostics["forecast_source"].split(":")[0],
+        "pedestrians": n, "predictor": source,
         "p50_ms": round(float(np.percentile(ms, 50)), 3), "p95_ms": round(float(np.percentile(ms, 95)), 3),
         "mean_ms": round(float(ms.mean()), 3),
         "cpu_p50_ms": round(float(np.percentile(cpu_ms, 50)), 3), "cpu_p95_ms": round(float(np.percentile(cpu_ms, 95)), 3), "first_ms": round(float(np.max(first)) * 1e3, 3),
         "decisions": len(ms), "observed_pedestrians": int(np.median(peds)),
     }
+
+
+def external_planner():
+    """The reference client as an operator-configured external planner."""
+    import os
+
+    from foresight.core.planners.external import ENV
+
+    os.environ[ENV] = json.dumps({"reference": [sys.executable, str(REPO / "examples" / "external_planner.py")]})
+    return make_planner("external", {"command": "reference"})
 
 
 def main() -> None:
@@ -91,8 +106,13 @@ def main() -> None:
     ap.add_argument("--decisions", type=int, default=400)
     ap.add_argument("--checkpoint", type=Path, default=DEFAULT_CHECKPOINT if DEFAULT_CHECKPOINT.is_file() else None,
                     help="learned model checkpoint (default: the shipped default predictor)")
+    ap.add_argument("--external", action="store_true", help="also time the external-planner protocol round trip")
+    ap.add_argument("--external-only", action="store_true", help="time only the external-planner protocol")
     args = ap.parse_args()
-    models: list = ["cv"]
+    args.external |= args.external_only
+    if args.external_only:
+        args.checkpoint = None
+    models: list = [] if args.external_only else ["cv"]
     if args.checkpoint:
         import torch
 
@@ -101,8 +121,11 @@ def main() -> None:
         torch.set_num_threads(1)  # one decision per core, as in the evaluation's worker processes
         models.append(load_predictor(args.checkpoint))
     entries = [measure(n, model, args.decisions) for model in models for n in args.pedestrians]
-    result = {"benchmark": "planner_latency", "targets": {"pedestrians": 16, "p50_ms": 2.0, "p95_ms": 5.0},
-              "entries": entries}
+    targets = {"pedestrians": 16, "p50_ms": 2.0, "p95_ms": 5.0}
+    if args.external:
+        entries += [measure(n, None, args.decisions, planner=external_planner()) for n in args.pedestrians]
+        targets["external_p50_ms"] = 0.3
+    result = {"benchmark": "planner_latency", "targets": targets, "entries": entries}
     if args.json:
         print(json.dumps(result))
     else:

@@ -48,7 +48,7 @@ class RecordingPlanner:
 
     def __init__(self, inner: Planner, keep_diagnostics: bool = False):
         self.inner = inner
-        self.name = inner.name
+        self.name = getattr(inner, "name", type(inner).__name__)
         self.keep = keep_diagnostics
         self.log = StepLog()
 
@@ -68,7 +68,7 @@ class RecordingPlanner:
 
     @property
     def diagnostics(self) -> dict[str, Any] | None:
-        return self.inner.diagnostics
+        return getattr(self.inner, "diagnostics", None)  # optional in the planner interface
 
     def plan(self, obs: Observation) -> tuple[float, float]:
         t0 = time.perf_counter()
@@ -83,7 +83,7 @@ class RecordingPlanner:
         return float(v), float(w)
 
     def _observe_diagnostics(self, step: int) -> None:
-        diag = self.inner.diagnostics
+        diag = self.diagnostics
         if self.keep:
             self.log.diagnostics.append(diag)
         if not diag:
