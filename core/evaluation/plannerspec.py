@@ -20,6 +20,7 @@ from pydantic import (
     ConfigDict,
     Discriminator,
     Field,
+    GetCoreSchemaHandler,
     Tag,
     TypeAdapter,
     ValidationError,
@@ -53,7 +54,7 @@ class PlannerSpecBase(BaseModel):
 class ModulePlannerSpec(PlannerSpecBase):
     """An in-process planner ``module:attr`` registered by the running process (never on a server)."""
 
-    name: str = Field(max_length=300)
+    name: str = Field(max_length=300, json_schema_extra={"pattern": r"^[^:]+:[^:]+$"})  #: schema: module:attr
     config: dict[str, Any] = Field(default_factory=dict)
 
     @model_validator(mode="after")
@@ -78,7 +79,8 @@ def _tagger(typed: set[str]) -> Any:
 def _member(name: str, config_model: type[BaseModel]) -> type[PlannerSpecBase]:
     title = "".join(p.title() for p in re.split(r"[^A-Za-z0-9]+", name))
     return create_model(f"{title}PlannerSpec", __base__=PlannerSpecBase, __doc__=f"Planner {name!r} and its config.",
-                        name=(Literal[name], name), config=(config_model, Field(default_factory=config_model)))
+                        name=(Literal[name], name if name == "predictive" else ...),  # only it is the default
+                        config=(config_model, Field(default_factory=config_model)))
 
 
 def _planner_spec_type() -> Any:
@@ -91,8 +93,20 @@ def _planner_spec_type() -> Any:
     return Annotated[Union[tuple(members)], Discriminator(_tagger(set(entries)))]  # noqa: UP007 (runtime tuple)
 
 
-PlannerSpec = _planner_spec_type()
-_ADAPTER: TypeAdapter[Any] = TypeAdapter(PlannerSpec)
+_UNION = _planner_spec_type()
+_ADAPTER: TypeAdapter[Any] = TypeAdapter(_UNION)
+
+
+class PlannerSpec:
+    """The planner field of a config (the typed union keyed by name) and its constructor:
+    ``PlannerSpec(name="goal", config={"speed": 0.8})`` returns the typed member (see :func:`planner_spec`)."""
+
+    def __new__(cls, spec: Any = None, /, **fields: Any) -> PlannerSpecBase:  # type: ignore[misc]
+        return planner_spec(spec, **fields)
+
+    @classmethod
+    def __get_pydantic_core_schema__(cls, source: Any, handler: GetCoreSchemaHandler) -> Any:
+        return handler.generate_schema(_UNION)
 
 
 def planner_spec(spec: Any = None, /, **fields: Any) -> PlannerSpecBase:
