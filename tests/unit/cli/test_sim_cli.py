@@ -49,6 +49,23 @@ def test_sim_run_unknown_scenario_is_one_line_error(reference_matrix_path: Path,
     assert rc == 1 and len(err) == 1 and "nope" in err[0]
 
 
+def test_corpus_matrix_lists_and_runs_and_a_non_matrix_is_one_line(corpus_dir: Path, tmp_path: Path, capsys) -> None:
+    scen = corpus_dir / "configs" / "scenarios"
+    event = scen / "single" / "event_disruption_public_exit.yaml"
+    assert main(["scenarios", "list", "--matrix", str(event), "--json"]) == 0
+    (row,) = _json(capsys)
+    assert row["name"] == "event_disruption_public_exit_blocked_path_v1" and row["pedestrians"] > 4
+    png = tmp_path / "event.png"
+    args = ["sim", "run", "--local", "--json", "--matrix", str(event), "--scenario", row["name"], "--seed", "4759"]
+    assert main([*args, "--render", str(png)]) == 0
+    assert _json(capsys)["outcome"] in {"success", "collision_pedestrian", "collision_static", "timeout"}
+    assert png.stat().st_size > 10_000
+    contract = scen / "contracts" / "issue_2164_amv_cross_trap_contracts.yaml"
+    assert main(["scenarios", "list", "--matrix", str(contract)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].endswith(f"{contract}: not a scenario matrix (it is a scenario contract set)")
+
+
 def test_missing_matrix_names_the_file(capsys) -> None:
     assert main(["scenarios", "list", "--matrix", "/no/such/matrix.yaml"]) == 1
     assert "/no/such/matrix.yaml" in capsys.readouterr().err

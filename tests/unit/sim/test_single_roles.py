@@ -100,3 +100,23 @@ def test_roles_and_holds_are_deterministic() -> None:
     assert np.array_equal(a[0].trace.robot, b[0].trace.robot)
     # the joiner closed in on the lead pedestrian
     assert np.linalg.norm(a[2][-1][1] - a[2][-1][0]) < np.linalg.norm(np.subtract((20.0, 12.0), (6.0, 1.5)))
+
+
+def test_join_walks_to_its_target_and_stays_with_it() -> None:
+    target = walker("t1", (20.0, 20.0), (30.0, 20.0), speed=0.4)
+    joiner = walker("j1", (8.0, 12.0), speed=1.0, role="join", role_target_id="t1")
+    scen = scenario(open_map(singles=(target, joiner)), max_episode_steps=600)
+    _, _, peds = _drive(scen, (0.0, 0.0), 400)
+    gaps = [np.linalg.norm(p[1] - p[0]) for p in peds]
+    assert gaps[0] > 10 and max(gaps[250:]) < 1.5  # reached the walking target, then kept up with it
+
+
+def test_leave_and_lead_with_a_script_walk_the_script() -> None:
+    traj = ((12.0, 10.0), (16.0, 12.0))
+    plain = walker("a", (8.0, 10.0), speed=1.0, trajectory=traj)
+    leave = walker("b", (8.0, 10.0), speed=1.0, trajectory=traj, role="leave")
+    lead = walker("c", (8.0, 10.0), speed=1.0, trajectory=traj, role="lead")
+    runs = [_drive(scenario(open_map(singles=(p,)), max_episode_steps=200), (0.5, 0.0), 100)[2] for p in
+            (plain, leave, lead)]
+    assert np.array_equal(runs[0][-1], runs[1][-1]) and np.array_equal(runs[0][-1], runs[2][-1])
+    assert np.linalg.norm(runs[0][-1][0] - traj[-1]) < 0.5
