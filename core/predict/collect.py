@@ -65,6 +65,8 @@ class CollectConfig(BaseModel):
     split_seed: int = 0
     output: str = "dataset.npz"
     check_quality: bool = True
+    #: deep-merged into every scenario after the matrix's own overrides (as EpisodeSelection.scenario_overrides)
+    scenario_overrides: dict[str, Any] = Field(default_factory=dict)
 
 
 class DatasetSummary(BaseModel):
@@ -161,7 +163,7 @@ def run_collect(config: CollectConfig, ctx: StageContext) -> CollectResult:
     from foresight.core.sim.episode import run_episode
 
     root = ctx.resolve_bundle(config.bundle)
-    matrix = load_matrix(resolve_in_bundle(root, config.matrix))
+    matrix = load_matrix(resolve_in_bundle(root, config.matrix), overrides=config.scenario_overrides)
     manifest = resolve_in_bundle(root, config.hard_seeds) if config.hard_seeds else None
     jobs = episode_list(config, matrix, manifest)
     if config.evaluation_seeds is not None:

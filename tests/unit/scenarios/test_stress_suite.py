@@ -1,4 +1,5 @@
-"""The stress suite (configs/scenarios/stress.yaml) and its training seeds: complete, realistic, disjoint."""
+"""Realistic conditions: the stress suite (configs/scenarios/stress.yaml) and its training seeds (complete, realistic,
+disjoint), and our matrix's crowd defaults."""
 
 from __future__ import annotations
 
@@ -57,3 +58,13 @@ def test_files_are_what_the_generator_writes(tmp_path: Path, shared_dir: Path) -
     module.main(["--out", str(tmp_path / "stress.yaml"), "--train-out", str(tmp_path / "train.yaml")])
     assert (tmp_path / "stress.yaml").read_text() == MATRIX.read_text()
     assert (tmp_path / "train.yaml").read_text() == TRAIN.read_text()
+
+
+def test_our_matrix_defaults_to_realistic_crowds_and_the_reference_keeps_its_own(reference_matrix_path: Path) -> None:
+    ours = load_matrix(REPO / "configs" / "scenarios" / "classic_interactions.yaml")
+    for s in ours.scenarios:
+        cfg = s.scenario.simulation_config
+        assert cfg.ped_speed_tier == "realistic" and cfg.nonreactive_fraction == 0.2
+    for s in load_matrix(reference_matrix_path).scenarios:
+        cfg = s.scenario.simulation_config
+        assert cfg.ped_speed_tier == "reference" and cfg.nonreactive_fraction == 0.0 and cfg.peds_have_robot_repulsion
