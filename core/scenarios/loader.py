@@ -335,7 +335,8 @@ def _apply_routes(mapdef: MapDef, scenario: Scenario, entry: _Entry, root: Path)
     """A scenario's generated replay, then its route-override file, then its inline route overrides."""
     overrides = []
     if scenario.generated_replay is not None:
-        mapdef, robot_route = apply_generated_replay(mapdef, scenario.generated_replay)
+        mapdef, robot_route = apply_generated_replay(mapdef, scenario.generated_replay, source=entry.file,
+                                                     item=f"{scenario.name}.generated_replay")
         overrides.append(robot_route)
     if scenario.route_overrides_file is not None:
         rel = Path(scenario.route_overrides_file)

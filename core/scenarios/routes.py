@@ -70,7 +70,9 @@ def apply_route_overrides(mapdef: MapDef, overrides: RouteOverrides) -> MapDef:
     return MapDef(**fields)
 
 
-def apply_generated_replay(mapdef: MapDef, replay: GeneratedReplay) -> tuple[MapDef, RouteOverrides | None]:
+def apply_generated_replay(
+    mapdef: MapDef, replay: GeneratedReplay, *, source: str | Path, item: str
+) -> tuple[MapDef, RouteOverrides | None]:
     """Replay pedestrians become single pedestrians walking their recorded path; the robot's start and goal a route.
 
     Returns the map with the pedestrians added and the robot route override (None without a robot).
@@ -79,7 +81,7 @@ def apply_generated_replay(mapdef: MapDef, replay: GeneratedReplay) -> tuple[Map
     clash = sorted(have & {p.id for p in replay.pedestrians})
     if clash:
         raise ConfigError(f"generated_replay pedestrian ids {clash} clash with the map's single pedestrians",
-                          source=mapdef.source, item=mapdef.name)
+                          source=source, item=item)
     peds = tuple(SinglePedestrian(id=p.id, start=p.start, trajectory=p.trajectory) for p in replay.pedestrians)
     fields = {k: getattr(mapdef, k) for k in MapDef.model_fields}
     fields["single_pedestrians"] = (*mapdef.single_pedestrians, *peds)
