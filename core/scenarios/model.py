@@ -217,11 +217,32 @@ class GeneratedReplay(_Strict):
     robot: ReplayRobot | None = None
 
 
+class SemanticRegion(_Strict):
+    """A hazard or keep-clear region: a bbox [min_x, min_y, max_x, max_y] or a polygon (robot_sf's checks)."""
+
+    id: str = Field(min_length=1)
+    kind: Literal["hazard", "keep_clear"]
+    shape: Literal["polygon", "bbox"]
+    bounds: tuple[float, float, float, float] | None = None
+    points: tuple[Point, ...] | None = None
+    note: str | None = None
+    metadata: dict[str, Any] = Field(default_factory=dict)
+
+    @model_validator(mode="after")
+    def _geometry(self) -> SemanticRegion:
+        if self.shape == "bbox" and (self.bounds is None or not (self.bounds[0] < self.bounds[2]
+                                                                  and self.bounds[1] < self.bounds[3])):
+            raise ValueError(f"region {self.id!r}: a bbox needs bounds [min_x, min_y, max_x, max_y] with min < max")
+        if self.shape == "polygon" and (self.points is None or len(self.points) < 3):
+            raise ValueError(f"region {self.id!r}: a polygon needs at least 3 points")
+        return self
+
+
 class PlatformSemantics(_Strict):
     """Hazard / keep-clear regions robot_sf records for provenance; no consumer reads them (its status says so)."""
 
     status: Literal["metadata_only"] = "metadata_only"
-    regions: tuple[dict[str, Any], ...] = Field(min_length=1)
+    regions: tuple[SemanticRegion, ...] = Field(min_length=1)
 
 
 class ObservationVisibility(_Strict):

@@ -154,6 +154,9 @@ def test_platform_semantics_needing_a_consumer_is_refused(tmp_path: Path) -> Non
     bad = {**ok, "platform_semantics": {"status": "require_consumers", "regions": regions}}
     with pytest.raises(ConfigError, match="platform_semantics.status"):
         matrix_from_data({"scenarios": [bad]}, source=tmp_path / "m.yaml")
+    flat = {**ok, "platform_semantics": {"regions": [{**regions[0], "bounds": [1, 1, 1, 2]}]}}
+    with pytest.raises(ConfigError, match="region 'r': a bbox needs bounds"):
+        matrix_from_data({"scenarios": [flat]}, source=tmp_path / "m.yaml")
 
 
 def test_robot_sf_map_format_is_read_with_its_margins(tmp_path: Path) -> None:
