@@ -21,6 +21,7 @@ COMMAND_MODULES = [
     "foresight.cli.models",
     "foresight.cli.maps",
     "foresight.cli.evaluate",
+    "foresight.cli.planners",
     "foresight.cli.predict",
     "foresight.cli.pipeline",
     "foresight.cli.report",

@@ -6,7 +6,7 @@ from fastapi import APIRouter
 
 from foresight.api.schemas import PlannerPublic, PlannersPublic
 from foresight.core.planners.external import operator_commands
-from foresight.core.planners.registry import installed
+from foresight.core.planners.registry import catalogue
 
 router = APIRouter(prefix="/planners", tags=["planners"])
 
@@ -15,6 +15,5 @@ router = APIRouter(prefix="/planners", tags=["planners"])
 def read_planners() -> PlannersPublic:
     """Built-in planners, installed plugins (entry points of ``foresight.planners``) and ``external`` with the
     operator-configured external planner names (never their command lines)."""
-    data = [PlannerPublic(name=e.name, origin=e.origin, description=e.description, takes_model=e.takes_model,
-                          config_schema=e.config_model.model_json_schema()) for e in installed().values()]
+    data = [PlannerPublic(**entry) for entry in catalogue()]
     return PlannersPublic(data=data, count=len(data), external_commands=sorted(operator_commands()))

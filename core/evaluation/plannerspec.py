@@ -8,7 +8,6 @@ rebuild exactly the same planner.
 from __future__ import annotations
 
 import hashlib
-import json
 import pickle
 import re
 from dataclasses import dataclass
@@ -29,7 +28,7 @@ from pydantic import (
 )
 
 from foresight.core.errors import ConfigError, NotFoundError
-from foresight.core.planners.base import EpisodeInfo, Planner
+from foresight.core.planners.base import EpisodeInfo, Planner, config_hash
 from foresight.core.scenarios.model import ResolvedScenario
 from foresight.core.stages.context import StageContext
 
@@ -137,11 +136,6 @@ class ResolvedPlanner:
     @property
     def learned(self) -> bool:
         return self.model_path is not None
-
-
-def config_hash(resolved: dict[str, Any]) -> str:
-    """sha256 of the canonical JSON (sorted keys, compact) - the same as the predictive config's own hash."""
-    return hashlib.sha256(json.dumps(resolved, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
 
 
 def sha256_file(path: Path) -> str:

@@ -28,6 +28,7 @@ from foresight.core.evaluation.metrics import MetricsConfig
 from foresight.core.evaluation.plannerspec import ResolvedPlanner, preflight, resolve_planner
 from foresight.core.evaluation.record import EpisodeRecord
 from foresight.core.evaluation.taxonomy import TaxonomyConfig
+from foresight.core.planners.external import release_planner_processes
 from foresight.core.scenarios.model import ScenarioMatrix
 from foresight.core.stages.context import StageContext
 from foresight.core.stages.refs import resolve_in_bundle
@@ -171,7 +172,10 @@ def run_jobs(
     # numbers (and hence trajectories) do not depend on the worker count
     if workers == 1 and not any(j.planner.learned for j in jobs):
         worker = EpisodeWorker(settings, matrix, ctx.check_cancelled)
-        collect(worker.run(j) for j in local)
+        try:
+            collect(worker.run(j) for j in local)
+        finally:
+            release_planner_processes()  # this thread's external planner processes (a pool's die with it)
     else:
         pool_ctx = mp.get_context(start_method)
         with pool_ctx.Pool(workers, initializer=_init_pool_worker, initargs=(settings,)) as pool:

@@ -17,6 +17,8 @@ episode; ``planner_api = 1`` may state the version it was written for. See ``cor
 
 from __future__ import annotations
 
+import hashlib
+import json
 from dataclasses import dataclass, field
 from typing import Any, Protocol, runtime_checkable
 
@@ -24,6 +26,11 @@ from foresight.core.scenarios.model import ResolvedScenario
 from foresight.core.sim.observation import Observation
 
 PLANNER_API_VERSION = 1  #: the interface version above; a plugin declaring another is refused
+
+
+def config_hash(resolved: dict[str, Any]) -> str:
+    """A planner config's identity: sha256 of its canonical JSON (sorted keys, compact), every key resolved."""
+    return hashlib.sha256(json.dumps(resolved, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
 
 
 @dataclass(frozen=True)

@@ -207,6 +207,16 @@ def _process(name: str, argv: list[str], timeout_s: float) -> PlannerProcess:
     return proc
 
 
+def release_planner_processes() -> None:
+    """End the planner processes the calling thread started (after a run: no idle processes left behind)."""
+    me = threading.get_ident()
+    with _LOCK:
+        mine = [key for key in _PROCESSES if key[1] == me]
+        procs = [_PROCESSES.pop(key) for key in mine]
+    for proc in procs:
+        proc.close()
+
+
 @atexit.register
 def close_all() -> None:
     """End every planner process this process started."""

@@ -183,6 +183,12 @@ def register(planner: str | Any) -> str:
     return name
 
 
+def catalogue() -> list[dict[str, Any]]:
+    """Every installed planner: name, origin, description, whether it takes a model, its config's JSON schema."""
+    return [{"name": e.name, "origin": e.origin, "description": e.description, "takes_model": e.takes_model,
+             "config_schema": e.config_model.model_json_schema()} for e in installed().values()]
+
+
 def names() -> list[str]:
     return [*installed(), *_LOCAL]
 

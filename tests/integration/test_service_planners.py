@@ -38,6 +38,7 @@ def test_plugin_campaign_external_planners_and_bad_specs(tmp_path: Path) -> None
             assert {"speed", "caution_distance"} <= set(toy["config_schema"]["properties"])
             assert listed["external_commands"] == ["crash", "hang", "reference"]
             assert "python" not in json.dumps(listed)  # names only, never the operator's command lines
+            assert json.loads(service.cli("planners", "--json").stdout) == listed
 
             # bad input: each a 422 naming what is wrong, nothing queued
             text = _refused(client, {"name": "dwa"})

@@ -8,14 +8,13 @@ Speeds are ratios of the robot's own limits, so one config serves every robot.
 
 from __future__ import annotations
 
-import hashlib
-import json
 import math
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from foresight.core.errors import ConfigError
+from foresight.core.planners.base import config_hash
 
 
 class _Frozen(BaseModel):
@@ -112,9 +111,8 @@ class PredictivePlannerConfig(_Frozen):
         return self.model_dump(mode="json")
 
     def config_hash(self) -> str:
-        """sha256 of the canonical JSON of :meth:`resolved`."""
-        text = json.dumps(self.resolved(), sort_keys=True, separators=(",", ":"))
-        return hashlib.sha256(text.encode()).hexdigest()
+        """sha256 of the canonical JSON of :meth:`resolved` (the hash every run records)."""
+        return config_hash(self.resolved())
 
     @classmethod
     def from_dict(cls, data: dict[str, Any] | None, source: str | None = None) -> PredictivePlannerConfig:

@@ -14,6 +14,7 @@ from pydantic import ValidationError
 
 from foresight.core.evaluation.config import EvaluationConfig
 from foresight.core.evaluation.runner import run_evaluation
+from foresight.core.planners import external
 from foresight.core.planners.external import close_all, operator_commands
 from foresight.core.stages.context import StageContext
 from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
@@ -56,6 +57,7 @@ def test_reference_client_drives_the_robot(commands: dict, tmp_path: Path) -> No
     assert result.episodes == 2 and result.taxonomy.get("planner_error", 0) == 0
     assert all(r["outcome"] != "error" for r in records)
     assert result.success_rate is not None and result.success_rate > 0  # it reaches the goal
+    assert external._PROCESSES == {}  # the run ended its planner process
 
 
 @pytest.mark.parametrize("mode, reason", [("crash", r"exited \(code 3\) at step 2.*crashed on purpose"),

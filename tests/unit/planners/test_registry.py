@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import pytest
 from pydantic import ValidationError
 
@@ -67,3 +69,16 @@ def test_campaign_variants_of_a_plugin_are_checked_at_validation() -> None:
     assert ok.planner.name == "toy"
     with pytest.raises(ValidationError, match=r"grid variant bad.*planner\.toy\.config\.spede"):
         CampaignConfig.model_validate({**base, "variants": [{"name": "bad", "config": {"spede": 0.5}}]})
+
+
+def test_cli_lists_this_installations_planners(capsys, monkeypatch: pytest.MonkeyPatch) -> None:  # noqa: ANN001
+    from foresight.cli.main import main
+
+    monkeypatch.setenv("FORESIGHT_EXTERNAL_PLANNERS", '{"ref": "python ref.py"}')
+    assert main(["planners", "--local", "--json"]) == 0
+    listing = json.loads(capsys.readouterr().out)
+    toy = next(p for p in listing["data"] if p["name"] == "toy")
+    assert toy["config_schema"]["properties"]["speed"]["default"] == 1.0
+    assert listing["external_commands"] == ["ref"] and "python" not in json.dumps(listing)
+    assert main(["planners", "--local"]) == 0
+    assert "toy" in capsys.readouterr().out
