@@ -7,6 +7,9 @@ from typing import Annotated, Any, Literal, Union
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 
+from foresight.core.evaluation.aggregate import GroupStats
+from foresight.core.evaluation.campaign import CellMetrics, CellParams, CellResult
+from foresight.core.evaluation.runner import EvaluationMetrics, EvaluationRunConfig
 from foresight.core.stages.kinds import KINDS
 from foresight.store.settings import Settings
 
@@ -222,18 +225,24 @@ class EvaluationPublic(BaseModel):
     job_id: str | None
     model_id: str | None
     bundle_id: str | None
-    config: dict[str, Any]
-    metrics: dict[str, Any]
-    per_scenario: list[Any]
+    config: EvaluationRunConfig
+    metrics: EvaluationMetrics
+    per_scenario: list[GroupStats]
     taxonomy: list[dict[str, Any]] = Field(default_factory=list)
+
+
+class CampaignCellPublic(BaseModel):
+    rank: int
+    params: CellParams
+    metrics: CellMetrics
 
 
 class CampaignPublic(BaseModel):
     id: str
     job_id: str | None
     config: dict[str, Any]
-    best: dict[str, Any] | None
-    cells: list[dict[str, Any]]
+    best: CellResult | None
+    cells: list[CampaignCellPublic]
     gates: list[dict[str, Any]]
 
 

@@ -1,5 +1,8 @@
 """Result records of finished stage jobs, written in the transaction that marks the job succeeded
-(so a job's records exist exactly once, together with its final status). Ids are the job's id."""
+(so a job's records exist exactly once, together with its final status). Ids are the job's id.
+
+Each recorder reads the job's result as its stage's result model (validated) and derives the rows from its
+fields, so a renamed field is an error here, never a NULL in a row."""
 
 from __future__ import annotations
 
@@ -9,6 +12,10 @@ from typing import Any
 
 from sqlalchemy import Connection, insert, select
 
+from foresight.core.evaluation.campaign import CampaignResult
+from foresight.core.evaluation.gates import GateResult as Gate
+from foresight.core.evaluation.runner import EvaluationResult, evaluation_metrics, evaluation_run_config
+from foresight.core.predict.collect import CollectResult
 from foresight.store.models import (
     Campaign,
     CampaignCell,
@@ -24,52 +31,49 @@ Recorder = Callable[[Connection, dict[str, Any], dict[str, Any], str], None]
 
 
 def dataset(conn: Connection, job: dict[str, Any], result: dict[str, Any], job_dir: str) -> None:
+    res = CollectResult.model_validate(result)
     conn.execute(insert(Dataset.__table__).values(
-        id=job["id"], job_id=job["id"], path=f"{job_dir}/{result['dataset']}", sha256=result.get("sha256"),
-        summary={**result.get("summary", {}), "outcomes": result.get("outcomes", {})}, created_at=time.time(),
+        id=job["id"], job_id=job["id"], path=f"{job_dir}/{res.dataset}", sha256=res.sha256,
+        summary={**res.summary.model_dump(mode="json"), "outcomes": res.outcomes}, created_at=time.time(),
     ))  # fmt: skip
 
 
 def evaluation(conn: Connection, job: dict[str, Any], result: dict[str, Any], job_dir: str) -> None:
-    aggregates = result.get("aggregates", {})
-    model_id = (result.get("planner") or {}).get("model_id")
-    if model_id and conn.execute(select(Model.id).where(Model.id == model_id)).first() is None:
+    res = EvaluationResult.model_validate(result)
+    model_id: str | None = res.planner.model_id
+    if conn.execute(select(Model.id).where(Model.id == model_id)).first() is None:
         model_id = None  # a model outside the registry (e.g. constant velocity): no foreign key to keep
-    metrics = {
-        "success_rate": result.get("success_rate"), "collision_rate": result.get("collision_rate"),
-        "episodes": result.get("episodes"), "status": result.get("status"), "overall": aggregates.get("overall"),
-    }  # fmt: skip
     conn.execute(insert(Evaluation.__table__).values(
-        id=job["id"], job_id=job["id"], model_id=model_id, bundle_id=result.get("bundle"),
-        config={"stage": result.get("config", {}), "planner": (result.get("planner") or {}).get("config", {})},
-        metrics=metrics, per_scenario=aggregates.get("per_scenario", []), created_at=time.time(),
+        id=job["id"], job_id=job["id"], model_id=model_id, bundle_id=res.bundle,
+        config=evaluation_run_config(res).model_dump(mode="json"),
+        metrics=evaluation_metrics(res).model_dump(mode="json"),
+        per_scenario=[g.model_dump(mode="json") for g in res.aggregates.per_scenario], created_at=time.time(),
     ))  # fmt: skip
-    rows = [{"evaluation_id": job["id"], "category": k, "count": int(v), "examples": []}
-            for k, v in (result.get("taxonomy") or {}).items()]  # fmt: skip
+    rows = [{"evaluation_id": job["id"], "category": k, "count": v, "examples": []} for k, v in res.taxonomy.items()]
     if rows:
         conn.execute(insert(FailureTaxonomy.__table__), rows)
-    _gate(conn, job, None, result.get("gate"))
+    _gate(conn, job, None, res.gate)
 
 
 def campaign(conn: Connection, job: dict[str, Any], result: dict[str, Any], job_dir: str) -> None:
+    res = CampaignResult.model_validate(result)
     conn.execute(insert(Campaign.__table__).values(
-        id=job["id"], job_id=job["id"], config={k: result.get(k) for k in ("matrix", "seed_manifest", "grid", "horizon")},
-        best=result.get("best"), created_at=time.time(),
+        id=job["id"], job_id=job["id"], config=res.model_dump(mode="json", include={"matrix", "seed_manifest", "grid", "horizon"}),
+        best=res.best.model_dump(mode="json") if res.best else None, created_at=time.time(),
     ))  # fmt: skip
-    cells = [{"campaign_id": job["id"], "rank": i + 1, "params": {"checkpoint": c.get("checkpoint"), "variant": c.get("variant")},
-              "metrics": {"hard": c.get("hard"), "global": c.get("global"), "vs_baseline": c.get("vs_baseline")}} for i, c in enumerate(result.get("ranked", []))]  # fmt: skip
+    cells = [{"campaign_id": job["id"], "rank": i + 1, "params": c.params().model_dump(),
+              "metrics": c.metrics().model_dump(mode="json")} for i, c in enumerate(res.ranked)]  # fmt: skip
     if cells:
         conn.execute(insert(CampaignCell.__table__), cells)
-    _gate(conn, job, job["id"], result.get("gate"))
+    _gate(conn, job, job["id"], res.gate)
 
 
-def _gate(conn: Connection, job: dict[str, Any], campaign_id: str | None, gate: Any) -> None:
-    if not isinstance(gate, dict):
+def _gate(conn: Connection, job: dict[str, Any], campaign_id: str | None, gate: Gate | None) -> None:
+    if gate is None:
         return
-    passed = bool(gate.get("passed", gate.get("status") == "passed"))
     conn.execute(insert(GateResult.__table__).values(
-        job_id=job["id"], campaign_id=campaign_id, gate=str(gate.get("name", "gate")), passed=passed, details=gate,
-        created_at=time.time(),
+        job_id=job["id"], campaign_id=campaign_id, gate="gate", passed=gate.passed,
+        details=gate.model_dump(mode="json"), created_at=time.time(),
     ))  # fmt: skip
 
 

@@ -53,25 +53,42 @@ from foresight.core.version import code_version
 CELL_FORMAT = "foresight.campaign_cell/1"
 
 
-class CellResult(BaseModel):
-    """One checkpoint x variant: both suites' summaries and integrity (written to cells/<key>.json)."""
+class CellMetrics(BaseModel):
+    """A cell's two suites (``global`` by alias) and its paired comparison with the baseline cell: the metrics
+    its result row and API record keep."""
 
     model_config = ConfigDict(serialize_by_alias=True, validate_by_name=True, validate_by_alias=True)
+
+    hard: SuiteSummary
+    global_: SuiteSummary = Field(alias="global")
+    #: suite (hard, global) -> headline metric -> paired delta vs the baseline cell (same episodes)
+    vs_baseline: dict[str, dict[str, Delta] | None] | None = None
+
+
+class CellParams(BaseModel):
+    """Which cell: the checkpoint and the planner-grid variant."""
+
+    checkpoint: str
+    variant: str
+
+
+class CellResult(CellMetrics, CellParams):
+    """One checkpoint x variant: both suites' summaries and integrity (written to cells/<key>.json)."""
 
     format: str = CELL_FORMAT
     key: str
     fingerprint: str
-    checkpoint: str
-    variant: str
     planner: PlannerProvenance
-    hard: SuiteSummary
-    global_: SuiteSummary = Field(alias="global")
     integrity: IntegrityReport
     ranking_key: list[float]
     episodes_file: str
     baseline: str | None = None  #: key of the baseline cell it is compared with (same checkpoint)
-    #: suite (hard, global) -> headline metric -> paired delta vs the baseline cell (same episodes)
-    vs_baseline: dict[str, dict[str, Delta] | None] | None = None
+
+    def metrics(self) -> CellMetrics:
+        return CellMetrics(hard=self.hard, global_=self.global_, vs_baseline=self.vs_baseline)
+
+    def params(self) -> CellParams:
+        return CellParams(checkpoint=self.checkpoint, variant=self.variant)
 
 
 class CampaignResult(BaseModel):

@@ -19,7 +19,7 @@ from typing import Any, Literal
 from pydantic import BaseModel
 
 from foresight.core.errors import ConfigError
-from foresight.core.evaluation.aggregate import Aggregates, aggregate, summarise
+from foresight.core.evaluation.aggregate import Aggregates, GroupStats, aggregate, summarise
 from foresight.core.evaluation.config import EpisodeSelection, EvaluationConfig
 from foresight.core.evaluation.episode import EpisodeRun, run_one
 from foresight.core.evaluation.gates import GateResult, evaluation_gate
@@ -234,6 +234,32 @@ class EvaluationResult(BaseModel):
     artifacts: dict[str, str]
     wall_s: float
     config: dict[str, Any]  #: the stage config as given (with defaults), for re-running
+
+
+class EvaluationMetrics(BaseModel):
+    """An evaluation's headline numbers: the ``metrics`` its result row and API record keep."""
+
+    success_rate: float | None
+    collision_rate: float | None
+    episodes: int
+    status: str
+    overall: GroupStats
+
+
+class EvaluationRunConfig(BaseModel):
+    """What an evaluation ran: the stage config as given and the planner's fully resolved config."""
+
+    stage: dict[str, Any]
+    planner: dict[str, Any]
+
+
+def evaluation_metrics(result: EvaluationResult) -> EvaluationMetrics:
+    return EvaluationMetrics(success_rate=result.success_rate, collision_rate=result.collision_rate,
+                             episodes=result.episodes, status=result.status, overall=result.aggregates.overall)
+
+
+def evaluation_run_config(result: EvaluationResult) -> EvaluationRunConfig:
+    return EvaluationRunConfig(stage=result.config, planner=result.planner.config)
 
 
 def seed_source(sel: EpisodeSelection) -> str:

@@ -10,14 +10,16 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from pydantic import BaseModel
 
-from foresight.core.evaluation.gates import GateCheck
-from foresight.core.evaluation.stats import MeanEstimate, RateEstimate
 from foresight.core.render.charts import Estimate
 from foresight.core.reports.document import Document
+
+if TYPE_CHECKING:
+    from foresight.core.evaluation.gates import GateCheck
+    from foresight.core.evaluation.stats import MeanEstimate, RateEstimate
 
 FIGURES = "figures"  #: figure folder, relative to the report
 
