@@ -15,6 +15,7 @@ from sqlalchemy import Connection, insert, select
 from foresight.core.evaluation.campaign import CampaignResult
 from foresight.core.evaluation.gates import GateResult as Gate
 from foresight.core.evaluation.runner import EvaluationResult, evaluation_metrics, evaluation_run_config
+from foresight.core.pipeline.summary import PipelineResult
 from foresight.core.predict.collect import CollectResult
 from foresight.store.models import (
     Campaign,
@@ -79,9 +80,10 @@ def _gate(conn: Connection, job: dict[str, Any], campaign_id: str | None, gate: 
 
 def pipeline_gates(conn: Connection, job: dict[str, Any], result: dict[str, Any], job_dir: str) -> None:
     """The pipeline's gate verdicts as gate-result rows (``pipeline:<gate>``), written with its final status."""
-    rows = [{"job_id": job["id"], "campaign_id": None, "gate": f"pipeline:{g['name']}", "passed": bool(g["passed"]),
-             "details": g, "created_at": time.time()}
-            for g in (result.get("summary") or {}).get("gates") or [] if g.get("passed") is not None]
+    res = PipelineResult.model_validate(result)
+    rows = [{"job_id": job["id"], "campaign_id": None, "gate": f"pipeline:{g.name}", "passed": g.passed,
+             "details": g.model_dump(mode="json"), "created_at": time.time()}
+            for g in res.summary.gates if g.passed is not None]
     if rows:
         conn.execute(insert(GateResult.__table__), rows)
 

@@ -36,15 +36,15 @@ from foresight.core.evaluation.campaign import CampaignResult
 from foresight.core.evaluation.gates import GATE_FAILED_EXIT, GateResult
 from foresight.core.evaluation.runner import EvaluationResult
 from foresight.core.pipeline.config import PipelineConfig, stage_config
-from foresight.core.predict.train_config import TrainingSummary, TrainResult
-from foresight.core.reports.pipeline import (
+from foresight.core.pipeline.summary import (
+    PipelineResult,
     PipelineSummary,
     StageEntry,
     best_from_campaign,
     gate_entry,
-    headline,
-    write_pipeline_report,
 )
+from foresight.core.predict.train_config import TrainingSummary, TrainResult
+from foresight.core.reports.pipeline import headline, write_pipeline_report
 from foresight.core.stages.context import Cancelled, StageContext
 from foresight.core.stages.results import RESULTS, read_result
 
@@ -80,22 +80,6 @@ RunChild = Callable[[str, str, dict[str, Any], Callable[[float, str], None]], "C
 
 class StageFailed(CoreError):
     """A pipeline stage failed; the summary was written, and a retry resumes from this stage."""
-
-
-class PipelineResult(BaseModel):
-    name: str
-    status: str  #: passed | failed_gate
-    exit_code: int  #: 0 passed, 2 a required gate failed
-    passed: bool
-    failed_gates: list[str]
-    model_id: str | None
-    promoted: bool
-    promotion: str
-    stages: list[StageEntry]
-    summary: PipelineSummary
-    report: str = "report.html"
-    artifacts: dict[str, str]
-    wall_s: float
 
 
 def _selection_text(config: PipelineConfig) -> str:

@@ -19,7 +19,8 @@ from typing import Any
 
 from foresight.core.errors import CoreError
 from foresight.core.pipeline.config import PipelineConfig
-from foresight.core.pipeline.runbook import ChildRun, PipelineResult, run_pipeline
+from foresight.core.pipeline.runbook import ChildRun, run_pipeline
+from foresight.core.pipeline.summary import PipelineResult
 from foresight.core.stages.context import StageContext
 
 

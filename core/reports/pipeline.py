@@ -2,8 +2,8 @@
 success, clearance), the promoted model and links to every stage's artifacts.
 
 Written by the pipeline runner after the last stage that ran, also when a gate failed (exit code 2) or a
-stage crashed: a failed run is exactly when a person needs the summary. :class:`PipelineSummary` is the
-input; the helpers build its gate and best-variant entries from the stage results.
+stage crashed: a failed run is exactly when a person needs the summary. Its input is the
+:class:`~foresight.core.pipeline.summary.PipelineSummary`.
 """
 
 from __future__ import annotations
@@ -11,78 +11,18 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from pydantic import BaseModel, Field
+from pydantic import BaseModel
 
 from foresight.core.evaluation.campaign import CampaignResult
 from foresight.core.evaluation.diagnostics import DiagnosticsResult
-from foresight.core.evaluation.gates import GateCheck, GateResult
 from foresight.core.evaluation.runner import EvaluationResult
+from foresight.core.pipeline.summary import PipelineSummary, best_from_campaign
 from foresight.core.predict.collect import CollectResult
 from foresight.core.predict.train_config import TrainingSummary, TrainResult
 from foresight.core.reports.campaign import ranking_figure
 from foresight.core.reports.common import figure_path, fmt, gate_rows, pct, publish, read, verdict
 from foresight.core.reports.document import Document
 from foresight.core.reports.training import curves
-
-
-class StageEntry(BaseModel):
-    name: str  #: e.g. collect, train, register, evaluate, diagnose, campaign, gates, promote
-    status: str  #: completed | passed | failed_gate | failed | cancelled | skipped
-    job_id: str | None = None
-    wall_s: float | None = None
-    headline: str = ""  #: one line with the stage's key numbers
-    report: str | None = None  #: the stage's report page, relative to the pipeline report
-    artifacts: dict[str, str] = Field(default_factory=dict)  #: label -> relative path or API URL path
-    error: str | None = None
-
-
-class GateEntry(BaseModel):
-    name: str  #: training | evaluation | closed_loop
-    passed: bool | None  #: None = not evaluated (its stage did not run)
-    checks: list[GateCheck] = Field(default_factory=list)
-    detail: str = ""
-
-
-class BestVariant(BaseModel):
-    variant: str
-    checkpoint: str | None = None
-    config_hash: str | None = None
-    hard_success: float | None = None
-    global_success: float | None = None
-    hard_clearance: float | None = None  #: mean minimum surface gap [m]
-    global_clearance: float | None = None
-
-
-class PipelineSummary(BaseModel):
-    name: str
-    status: str  #: passed | failed_gate | failed | cancelled
-    exit_code: int
-    stages: list[StageEntry]
-    gates: list[GateEntry] = Field(default_factory=list)
-    best: BestVariant | None = None
-    promoted_model: str | None = None
-    promotion: str = ""  #: why the model was (not) promoted
-    artifacts: dict[str, str] = Field(default_factory=dict)
-    code_version: str | None = None
-    wall_s: float | None = None
-
-
-def gate_entry(name: str, gate: GateResult | None) -> GateEntry:
-    """A gate's verdict and checks (the training gate: ``TrainingSummary.gate_result()``)."""
-    if gate is None:
-        return GateEntry(name=name, passed=None, detail="not evaluated")
-    return GateEntry(name=name, passed=gate.passed, checks=gate.checks)
-
-
-def best_from_campaign(result: CampaignResult) -> BestVariant | None:
-    """The ranked-first cell of a campaign result."""
-    best = result.best
-    if best is None:
-        return None
-    return BestVariant(variant=best.variant, checkpoint=best.checkpoint, config_hash=best.planner.config_hash,
-                       hard_success=best.hard.success.rate, global_success=best.global_.success.rate,
-                       hard_clearance=best.hard.mean_min_clearance.mean,
-                       global_clearance=best.global_.mean_min_clearance.mean)
 
 
 def headline(kind: str, result: BaseModel | None) -> str:

@@ -16,7 +16,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, create_model
 
-from foresight.core.evaluation.campaign import CampaignResult, run_campaign
+from foresight.core.evaluation.campaign import run_campaign
 from foresight.core.evaluation.config import (
     CampaignConfig,
     CampaignShardConfig,
@@ -24,19 +24,19 @@ from foresight.core.evaluation.config import (
     EvaluationConfig,
     EvaluationShardConfig,
 )
-from foresight.core.evaluation.diagnostics import DiagnosticsResult, run_diagnostics
-from foresight.core.evaluation.runner import EvaluationResult, run_evaluation
+from foresight.core.evaluation.diagnostics import run_diagnostics
+from foresight.core.evaluation.runner import run_evaluation
 from foresight.core.evaluation.sharded import run_sharded
-from foresight.core.evaluation.shards import ShardResult, run_campaign_shard, run_evaluation_shard
+from foresight.core.evaluation.shards import run_campaign_shard, run_evaluation_shard
 from foresight.core.pipeline.config import PipelineConfig
-from foresight.core.pipeline.runbook import PipelineResult
 from foresight.core.pipeline.service import run_pipeline_job
-from foresight.core.predict.collect import CollectConfig, CollectResult, MixConfig, run_collect, run_mix
+from foresight.core.predict.collect import CollectConfig, MixConfig, run_collect, run_mix
 from foresight.core.predict.ethucy import ImportDatasetConfig, ImportEthucyConfig, run_import_ethucy
-from foresight.core.predict.evaluation import PredictEvalConfig, PredictEvalResult, run_predict_eval
+from foresight.core.predict.evaluation import PredictEvalConfig, run_predict_eval
 from foresight.core.predict.train_config import TrainConfig, TrainResult
 from foresight.core.stages.context import StageContext
-from foresight.core.stages.simulate import SimulateConfig, SimulateResult, run_simulate
+from foresight.core.stages.results import RESULTS
+from foresight.core.stages.simulate import SimulateConfig, run_simulate
 
 #: a stage function: ``run(config, ctx) -> result`` (a pydantic result model, or a JSON-able dict)
 Run = Callable[[Any, StageContext], Any]
@@ -47,18 +47,19 @@ class JobKind:
     name: str
     config: type[BaseModel]  #: the stage's core config (YAML files, CLI flags and API bodies validate into it)
     run: Run
-    result: type[BaseModel] | None  #: what ``run`` returns (None: a plain dict)
     description: str = ""
     #: create ``ctx.workdir`` before the run (stages write into it); False: only ``ctx.artifact`` creates it
     make_workdir: bool = True
     #: a config with ``shards`` > 1 runs as shard child jobs and their merge (core.evaluation.sharded)
     sharded: bool = False
     spec: type[BaseModel] = field(init=False)  #: the config plus ``kind: Literal[name]``: the API's job spec
+    result: type[BaseModel] | None = field(init=False)  #: what ``run`` returns (core.stages.results; None: a dict)
 
     def __post_init__(self) -> None:
         spec = create_model(f"{self.name.title().replace('_', '')}Spec", __base__=self.config,
                             kind=(Literal[self.name], self.name))  # type: ignore[valid-type]
         object.__setattr__(self, "spec", spec)
+        object.__setattr__(self, "result", RESULTS.get(self.name))
 
     def config_of(self, spec: BaseModel | dict[str, Any]) -> Any:
         """The stage config of a job spec (a spec model or its JSON)."""
@@ -116,29 +117,29 @@ def run_import_dataset(config: ImportDatasetConfig, ctx: StageContext) -> dict[s
 
 
 KINDS: dict[str, JobKind] = {k.name: k for k in (
-    JobKind("sleep", SleepConfig, run_sleep, None, "diagnostic: sleep, report progress, optionally fail",
+    JobKind("sleep", SleepConfig, run_sleep, "diagnostic: sleep, report progress, optionally fail",
             make_workdir=False),
-    JobKind("simulate", SimulateConfig, run_simulate, SimulateResult,
+    JobKind("simulate", SimulateConfig, run_simulate,
             "run episodes of a scenario matrix with a simple controller"),
-    JobKind("collect", CollectConfig, run_collect, CollectResult,
+    JobKind("collect", CollectConfig, run_collect,
             "roll out episodes into a prediction dataset (base, or hard-case with a seed manifest)"),
-    JobKind("mix", MixConfig, run_mix, CollectResult, "mix a base and a hard-case dataset"),
-    JobKind("train", TrainConfig, run_train, TrainResult, "train the trajectory predictor"),
-    JobKind("predict_eval", PredictEvalConfig, run_predict_eval, PredictEvalResult,
+    JobKind("mix", MixConfig, run_mix, "mix a base and a hard-case dataset"),
+    JobKind("train", TrainConfig, run_train, "train the trajectory predictor"),
+    JobKind("predict_eval", PredictEvalConfig, run_predict_eval,
             "ADE/FDE of a predictor on a dataset or ETH/UCY fold"),
-    JobKind("evaluate", EvaluationConfig, run_evaluation, EvaluationResult,
+    JobKind("evaluate", EvaluationConfig, run_evaluation,
             "evaluate a planner on a scenario matrix", sharded=True),
-    JobKind("evaluate_shard", EvaluationShardConfig, run_evaluation_shard, ShardResult,
+    JobKind("evaluate_shard", EvaluationShardConfig, run_evaluation_shard,
             "one shard of an evaluation with shards > 1 (submitted by its parent evaluate job)"),
-    JobKind("diagnose", DiagnosticsConfig, run_diagnostics, DiagnosticsResult,
+    JobKind("diagnose", DiagnosticsConfig, run_diagnostics,
             "hard-seed diagnostics: trace every seed of a manifest"),
-    JobKind("campaign", CampaignConfig, run_campaign, CampaignResult,
+    JobKind("campaign", CampaignConfig, run_campaign,
             "checkpoints x planner-grid variants with quality gates", sharded=True),
-    JobKind("campaign_shard", CampaignShardConfig, run_campaign_shard, ShardResult,
+    JobKind("campaign_shard", CampaignShardConfig, run_campaign_shard,
             "one shard of a campaign with shards > 1 (submitted by its parent campaign job)"),
-    JobKind("import_dataset", ImportDatasetConfig, run_import_dataset, None,
+    JobKind("import_dataset", ImportDatasetConfig, run_import_dataset,
             "import an ETH/UCY fold of a named data root as a dataset"),
-    JobKind("pipeline", PipelineConfig, run_pipeline_job, PipelineResult,
+    JobKind("pipeline", PipelineConfig, run_pipeline_job,
             "the runbook as child jobs: collect, hard-case collect, mix, train (proxy), register, evaluate, "
             "diagnose, campaign, gates, promote"),
 )}

@@ -1,6 +1,7 @@
-"""The result model of every stage kind, defined once: what a stage function returns, what a job's result holds,
-what the reports, the pipeline and the result rows read back (validated on read, so a renamed field is an error
-naming it, never a silent "?" or NULL)."""
+"""The result model of every job kind that has one, defined once: what its run function returns, what a job's
+result holds, what the reports, the pipeline and the result rows read back (validated on read, so a renamed field
+is an error naming it, never a silent "?" or NULL). The job-kind table (core.stages.kinds) takes its entries'
+result models from here; the runbook, which the kind table imports, reads them here too."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ from foresight.core.evaluation.campaign import CampaignResult
 from foresight.core.evaluation.diagnostics import DiagnosticsResult
 from foresight.core.evaluation.runner import EvaluationResult
 from foresight.core.evaluation.shards import ShardResult
+from foresight.core.pipeline.summary import PipelineResult
 from foresight.core.predict.collect import CollectResult
 from foresight.core.predict.evaluation import PredictEvalResult
 from foresight.core.predict.train_config import TrainResult
@@ -29,6 +31,7 @@ RESULTS: dict[str, type[BaseModel]] = {
     "diagnose": DiagnosticsResult,
     "campaign": CampaignResult,
     "campaign_shard": ShardResult,
+    "pipeline": PipelineResult,
 }
 
 

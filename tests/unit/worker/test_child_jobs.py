@@ -138,6 +138,16 @@ def test_register_then_promote_in_the_registry(settings, engine) -> None:  # noq
         children.close()
 
 
+def _pipeline_result(gates: list[dict]) -> dict:
+    """A failed-gate pipeline job's result with these gate verdicts."""
+    from foresight.core.pipeline.summary import PipelineResult, PipelineSummary
+
+    summary = PipelineSummary(name="p", status="failed_gate", exit_code=2, stages=[], gates=gates)
+    return PipelineResult(name="p", status="failed_gate", exit_code=2, passed=False, failed_gates=["evaluation"],
+                          model_id=None, promoted=False, promotion="", stages=[], summary=summary, artifacts={},
+                          wall_s=1.0).model_dump(mode="json")
+
+
 def test_the_pipeline_verdict_is_recorded_as_gate_rows(settings, engine) -> None:  # noqa: ANN001
     from sqlalchemy import select
 
@@ -148,7 +158,7 @@ def test_the_pipeline_verdict_is_recorded_as_gate_rows(settings, engine) -> None
     gates = [{"name": "evaluation", "passed": False, "checks": []}, {"name": "training", "passed": True, "checks": []},
              {"name": "closed_loop", "passed": None, "checks": [], "detail": "not evaluated"}]
     with write_tx(engine) as conn:
-        record_gates(conn, parent.job, {"summary": {"gates": gates}}, "jobs/x")
+        record_gates(conn, parent.job, _pipeline_result(gates), "jobs/x")
     with engine.connect() as conn:
         rows = conn.execute(select(GateResult.gate, GateResult.passed).where(GateResult.job_id == parent.job["id"]))
         assert sorted(rows) == [("pipeline:evaluation", False), ("pipeline:training", True)]
