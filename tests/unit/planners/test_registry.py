@@ -82,3 +82,28 @@ def test_cli_lists_this_installations_planners(capsys, monkeypatch: pytest.Monke
     assert listing["external_commands"] == ["ref"] and "python" not in json.dumps(listing)
     assert main(["planners", "--local"]) == 0
     assert "toy" in capsys.readouterr().out
+
+
+def test_a_broken_or_foreign_plugin_is_skipped_with_a_warning(monkeypatch: pytest.MonkeyPatch) -> None:
+    import importlib.metadata
+
+    from foresight.core.planners import registry
+
+    eps = [importlib.metadata.EntryPoint("broken", "no_such_module_xyz:Planner", registry.PLUGIN_GROUP),
+           importlib.metadata.EntryPoint("future", "tests.unit.planners.test_registry:FuturePlanner", registry.PLUGIN_GROUP),
+           importlib.metadata.EntryPoint("goal", "tests.unit.planners.user_planner:Cautious", registry.PLUGIN_GROUP),
+           importlib.metadata.EntryPoint("fine", "tests.unit.planners.user_planner:Cautious", registry.PLUGIN_GROUP)]
+    monkeypatch.setattr(importlib.metadata, "entry_points", lambda group: eps)
+    with pytest.warns(UserWarning) as caught:
+        found = registry._plugins({"goal"})
+    assert [e.name for e in found] == ["fine"]
+    messages = " | ".join(str(w.message) for w in caught)
+    assert "'broken'" in messages and "no_such_module_xyz" in messages
+    assert "'future'" in messages and "interface version 2" in messages
+    assert "'goal'" in messages and "taken" in messages
+
+
+class FuturePlanner:
+    """A plugin written for a planner interface this Foresight does not know."""
+
+    planner_api = 2
