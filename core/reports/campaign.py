@@ -141,8 +141,9 @@ def _ab_pair(res: CampaignResult, cells: list[CellResult]) -> tuple[CellResult, 
     return (cells[1], cells[0]) if len(cells) >= 2 else None
 
 
-def cell_run(workdir: Path, cell: CellResult, bootstrap_samples: int = 500) -> ComparedRun | None:
-    """A cell's episodes (hard and global suites together) as a comparable run, from its episodes file."""
+def cell_run(workdir: Path, cell: CellResult, bootstrap_samples: int = 500) -> tuple[ComparedRun, list] | None:
+    """A cell's episodes (hard and global suites together) as a comparable run, with its records, from its
+    episodes file."""
     if not existing(workdir, cell.episodes_file):
         return None
     from foresight.core.evaluation.aggregate import BootstrapConfig, aggregate
@@ -150,10 +151,13 @@ def cell_run(workdir: Path, cell: CellResult, bootstrap_samples: int = 500) -> C
 
     records = read_records(workdir / cell.episodes_file)
     aggs = aggregate(records, BootstrapConfig(samples=bootstrap_samples))
-    return ComparedRun(planner=cell.planner, episodes=len(records), taxonomy=aggs.overall.taxonomy, aggregates=aggs)
+    run = ComparedRun(planner=cell.planner, episodes=len(records), taxonomy=aggs.overall.taxonomy, aggregates=aggs)
+    return run, records
 
 
 def _ab(doc: Document, workdir: Path, res: CampaignResult, cells: list[CellResult]) -> None:
+    from foresight.core.evaluation.delta import paired_deltas
+
     pair = _ab_pair(res, cells)
     doc.section("A/B: " + (f"{cell_name(pair[1])} vs {cell_name(pair[0])}" if pair else "best vs baseline"))
     if pair is None:
@@ -165,7 +169,8 @@ def _ab(doc: Document, workdir: Path, res: CampaignResult, cells: list[CellResul
         return
     doc.text("Every episode of each cell (hard and global suites together); deltas are "
              f"{cell_name(pair[1])} - {cell_name(pair[0])}.")
-    add_comparison(doc, a, b, workdir, (cell_name(pair[0]), cell_name(pair[1])), level=3, figure="campaign_ab.png")
+    add_comparison(doc, a[0], b[0], workdir, (cell_name(pair[0]), cell_name(pair[1])), level=3,
+                   figure="campaign_ab.png", paired=paired_deltas(a[1], b[1]))
 
 
 def build_campaign_document(res: CampaignResult, workdir: Path) -> Document:

@@ -3,21 +3,25 @@ side, taxonomy counts, and a warning when the two runs are not comparable (other
 
 Rate deltas use Newcombe's hybrid score interval built from the two Wilson intervals (good at small n and
 at 0 % / 100 %, where a normal approximation collapses). Mean deltas combine the two bootstrap intervals
-the same way; that treats the runs as independent samples, so for paired runs (same seeds) it is
-conservative. Deltas are always B - A.
+the same way; that treats the runs as independent samples (labelled unpaired), so for paired runs (same
+seeds) it is conservative: when the caller has both runs' records (campaign cells) the verdict uses the
+paired tests instead (McNemar exact, Wilcoxon signed-rank; ``core.evaluation.delta.paired_deltas``).
+Deltas are always B - A.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 from pydantic import BaseModel
 
 from foresight.core.evaluation.aggregate import Aggregates, GroupStats
+from foresight.core.evaluation.delta import BINARY, Delta
 from foresight.core.evaluation.runner import PlannerProvenance
-from foresight.core.evaluation.stats import MeanEstimate, RateEstimate
+from foresight.core.evaluation.stats import ALPHA, MIN_PAIRS, MeanEstimate, RateEstimate
 from foresight.core.render.charts import Estimate, ab_chart
 from foresight.core.reports.common import (
     figure_path,
@@ -98,8 +102,10 @@ def build_comparison_document(a: ComparedRun, b: ComparedRun, workdir: Path, lab
 
 
 def add_comparison(doc: Document, a: ComparedRun, b: ComparedRun, workdir: Path,
-                   labels: tuple[str, str], *, level: int = 2, figure: str = "ab_comparison.png") -> None:
-    """Append the comparison sections (runs, metric deltas, per-scenario success, taxonomy, verdict) to ``doc``."""
+                   labels: tuple[str, str], *, level: int = 2, figure: str = "ab_comparison.png",
+                   paired: Mapping[str, Delta] | None = None) -> None:
+    """Append the comparison sections (runs, metric deltas, per-scenario success, taxonomy, verdict) to ``doc``;
+    ``paired``: the runs' paired deltas when they ran the same episodes."""
     la, lb = labels
     setup_a, setup_b = a.setup(), b.setup()
     doc.section("Runs", level)
@@ -124,7 +130,7 @@ def add_comparison(doc: Document, a: ComparedRun, b: ComparedRun, workdir: Path,
              [rate_est(_success(sb.get(n))) for n in names], path, labels=labels, title=f"{lb} - {la}")
     doc.section("Metric deltas", level)
     doc.image(rel, f"Deltas {lb} - {la} with 95 % intervals, and per-scenario success side by side")
-    doc.table(["metric", la, lb, f"delta {lb} - {la} [95 % interval]"],
+    doc.table(["metric", la, lb, f"delta {lb} - {la} [95 % interval, unpaired]"],
               [[k, rate_text(oa.rates[k]), rate_text(ob.rates[k]), _delta_text(rates[k], 100, " pp")]
                for k in RATE_KEYS]
               + [[label, mean_text(oa.means[k]), mean_text(ob.means[k]), _delta_text(means[label])]
@@ -141,12 +147,28 @@ def add_comparison(doc: Document, a: ComparedRun, b: ComparedRun, workdir: Path,
                   [[k, ta.get(k, 0), tb.get(k, 0), f"{tb.get(k, 0) - ta.get(k, 0):+d}"] for k in labels_all])
     else:
         doc.note("Neither run had a failed episode.")
+    if paired:
+        doc.table(["metric (paired)", "pairs", f"delta {lb} - {la} [95 % paired bootstrap]", "test", "p"],
+                  [[k, d.n_pairs, _delta_text(Estimate(d.delta, d.low, d.high), 100 if k in BINARY else 1),
+                    d.test or "-", fmt(d.p_value, 3) + (" *" if d.significant else "")] for k, d in paired.items()])
     doc.section("Verdict", level)
+    ps = (paired or {}).get("success")
+    if ps is not None and ps.p_value is not None:
+        disc = ps.discordant or (0, 0)
+        verdict_text = ("a significant difference" if ps.significant else
+                        f"no significant difference (p < {ALPHA} with at least {MIN_PAIRS} pairs needed)")
+        doc.text(f"Success {pct(oa.rates['success'].rate)} ({la}) vs {pct(ob.rates['success'].rate)} ({lb}), paired on "
+                 f"{ps.n_pairs} episodes: delta {_delta_text(Estimate(ps.delta, ps.low, ps.high), 100, ' pp')}; "
+                 f"{disc[1]} succeed only with {lb}, {disc[0]} only with {la}; McNemar exact "
+                 f"p = {fmt(ps.p_value, 3)}: {verdict_text}. Clearance delta "
+                 f"{fmt(means['min clearance [m]'].value, 2, ' m')}.")
+        return
     d = rates["success"]
     sig = d.value is not None and d.low is not None and d.high is not None and (d.low > 0 or d.high < 0)
     doc.text(f"Success {pct(oa.rates['success'].rate)} ({la}) vs {pct(ob.rates['success'].rate)} ({lb}): "
              f"delta {_delta_text(d, 100, ' pp')}, "
-             + ("the interval excludes 0." if sig else "the interval includes 0 (no clear difference at this sample size).")
+             + ("the interval excludes 0 (unpaired)." if sig
+                else "the interval includes 0 (unpaired; no clear difference at this sample size).")
              + f" Clearance delta {fmt(means['min clearance [m]'].value, 2, ' m')}.")
 
 

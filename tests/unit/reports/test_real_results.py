@@ -71,6 +71,9 @@ def test_campaign_ab_from_cell_episode_files(evaluated: tuple[EvaluationResult, 
     assert "## A/B: careful @ cv vs base @ cv" in md and "### Per-scenario success" in md
     assert "![" in md and "figures/campaign_ab.png" in md and (tmp_path / "figures/campaign_ab.png").is_file()
     assert "| crossing_low |" in md and "delta +0.00 pp" in md
+    # the same episodes in both cells: the verdict is the paired test (no discordant pair: p = 1)
+    assert "0 succeed only with careful @ cv, 0 only with base @ cv; McNemar exact p = 1.000" in md
+    assert "| success | " in md and "mcnemar_exact" in md and "wilcoxon_signed_rank" in md
 
 
 def test_campaign_ab_without_episode_files_says_so(tmp_path: Path) -> None:
