@@ -113,3 +113,23 @@ def test_stress_replay_episode_follows_the_real_recording(shared_dir: Path) -> N
         assert len(slot) == 1 and tr.ped_pos[step, slot[0]].tolist() == [x - ox, y - oy]
         checked += 1
     assert checked > 50
+
+
+def test_collection_takes_a_replay_scenario(tmp_path: Path, scene_root: Path, monkeypatch) -> None:
+    """A replay scenario is an ordinary scenario for every stage: here collection, the data root named through
+    FORESIGHT_DATA_ROOTS as a service worker would."""
+    from foresight.core.predict.collect import CollectConfig, run_collect
+    from foresight.core.predict.dataset import load_dataset
+    from foresight.core.stages.context import StageContext
+
+    monkeypatch.setenv("FORESIGHT_DATA_ROOTS", f"minidata={scene_root}")
+    bundle = tmp_path / "bundle"
+    write(bundle / "m.yaml", {"scenarios": [{"name": "mini_replay", "simulation_config": {"max_episode_steps": 80},
+                                             "replay": {"data_root": "minidata", "scene": "mini", "start_frame": 0,
+                                                        "robot_start": [13.6, 0.0], "robot_goal": [13.6, 10.0],
+                                                        "margin": 3.0}}]})
+    cfg = CollectConfig(matrix="m.yaml", seeds_per_scenario=1, max_steps=60, check_quality=False, val_fraction=0.0)
+    res = run_collect(cfg, StageContext(workdir=tmp_path / "out", resolve_bundle=lambda ident: bundle))
+    ds = load_dataset(tmp_path / "out" / res.dataset)
+    assert len(ds) > 10 and ds.meta.episodes[0].scenario == "mini_replay"
+    assert (ds.mask.sum(axis=1) >= 2).all()  # recorded pedestrians are in every sample
