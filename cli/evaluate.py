@@ -282,22 +282,21 @@ class Refs:
             spec["model"] = stage.server_default_model(self.client)
         return spec
 
-    def run(self, kind: str, values: dict[str, Any], config_model: type, local_run, text, result_model,  # noqa: ANN001
-            exit_code=lambda r: 0) -> int:  # noqa: ANN001
+    def run(self, kind: str, values: dict[str, Any], text, exit_code=lambda r: 0) -> int:  # noqa: ANN001
+        """Submit the ``kind`` job, or run its stage function in-process (``--local``; ``shards`` ignored)."""
+        from foresight.core.stages.kinds import KINDS
+
         spec = stage.spec(kind, values)
         if not self.local:
-            return stage.submit(self.args, spec, text=lambda r, ref: text(r, str(ref)), result_model=result_model,
+            return stage.submit(self.args, spec, text=lambda r, ref: text(r, str(ref)), result_model=KINDS[kind].result,
                                 exit_code=exit_code, client=self.client if self._client else None)
         ctx = _context(self.args, self.roots, self.models)
-        result = local_run(stage.config_of(spec, config_model), ctx)
+        result = KINDS[kind].run(stage.config_of(spec), ctx)
         emit(result, self.args.json, lambda r: text(r, f"artifacts in {ctx.workdir.resolve()}"))
         return exit_code(result)
 
 
 def evaluate_cmd(args: argparse.Namespace) -> int:
-    from foresight.core.evaluation.config import EvaluationConfig
-    from foresight.core.evaluation.runner import EvaluationResult, run_evaluation
-
     refs = Refs(args, {"--matrix": args.matrix, "--seeds": args.seeds})
     values: dict[str, Any] = {
         "bundle": refs.bundle, "matrix": refs.names["--matrix"], "seed_manifest": refs.names["--seeds"],
@@ -307,8 +306,7 @@ def evaluate_cmd(args: argparse.Namespace) -> int:
     }
     if args.min_success is not None:
         values["gate"] = {"min_success_rate": args.min_success}
-    return refs.run("evaluate", values, EvaluationConfig, run_evaluation, _evaluation_text, EvaluationResult,
-                    lambda r: r.exit_code)
+    return refs.run("evaluate", values, _evaluation_text, lambda r: r.exit_code)
 
 
 def _evaluation_text(r: Any, where: str) -> str:
@@ -331,8 +329,7 @@ def _evaluation_text(r: Any, where: str) -> str:
 
 
 def diagnose_cmd(args: argparse.Namespace) -> int:
-    from foresight.core.evaluation.config import DiagnosticsConfig
-    from foresight.core.evaluation.diagnostics import DiagnosticsResult, report, run_diagnostics
+    from foresight.core.evaluation.diagnostics import report
 
     refs = Refs(args, {"--matrix": args.matrix, "--seeds": args.seeds})
     values = {
@@ -340,13 +337,11 @@ def diagnose_cmd(args: argparse.Namespace) -> int:
         "max_steps": args.max_steps, "planner": refs.planner(args.planner, args.model), "render": not args.no_render,
         "scenario_overrides": overrides(args.override),
     }
-    return refs.run("diagnose", values, DiagnosticsConfig, run_diagnostics, lambda r, where: f"{report(r)}\n{where}",
-                    DiagnosticsResult)
+    return refs.run("diagnose", values, lambda r, where: f"{report(r)}\n{where}")
 
 
 def campaign_cmd(args: argparse.Namespace) -> int:
-    from foresight.core.evaluation.campaign import CampaignResult, report, run_campaign
-    from foresight.core.evaluation.config import CampaignConfig
+    from foresight.core.evaluation.campaign import report
 
     refs = Refs(args, {"--matrix": args.matrix, "--seeds": args.seeds, "--grid": args.grid})
     values: dict[str, Any] = {
@@ -358,8 +353,7 @@ def campaign_cmd(args: argparse.Namespace) -> int:
     }
     if args.baseline:
         values["gate"] = {"baseline_variant": args.baseline}
-    return refs.run("campaign", values, CampaignConfig, run_campaign, lambda r, where: f"{report(r)}\n{where}",
-                    CampaignResult, lambda r: r.exit_code)
+    return refs.run("campaign", values, lambda r, where: f"{report(r)}\n{where}", lambda r: r.exit_code)
 
 
 def compare_cmd(args: argparse.Namespace) -> int:

@@ -102,7 +102,7 @@ def _train_values(path: str | None) -> dict:
 
 
 def predict_eval_cmd(args: argparse.Namespace) -> int:
-    from foresight.core.predict.evaluation import PredictEvalConfig, PredictEvalResult
+    from foresight.core.predict.evaluation import PredictEvalResult
 
     train = None
     if args.train:
@@ -119,7 +119,7 @@ def predict_eval_cmd(args: argparse.Namespace) -> int:
         return stage.submit(args, stage.spec("predict_eval", values), text=_score_table, result_model=PredictEvalResult)
     from foresight.core.predict.evaluation import run_predict_eval
 
-    result = run_predict_eval(stage.config_of(stage.spec("predict_eval", values), PredictEvalConfig), _ctx(args))
+    result = run_predict_eval(stage.config_of(stage.spec("predict_eval", values)), _ctx(args))
     if args.json:
         emit({"folds": {k: v.model_dump() for k, v in result.folds.items()}, "average": result.average.model_dump(),
               "cv_average": result.cv_average.model_dump()}, True, str)
@@ -173,7 +173,7 @@ def import_cmd(args: argparse.Namespace) -> int:
 
 
 def collect_cmd(args: argparse.Namespace) -> int:
-    from foresight.core.predict.collect import CollectConfig, CollectResult
+    from foresight.core.predict.collect import CollectResult
 
     flags = {"scenarios": args.scenarios.split(",") if args.scenarios else None,
              "seeds_per_scenario": args.seeds_per_scenario, "base_seed": args.base_seed, "policy": args.policy,
@@ -185,7 +185,7 @@ def collect_cmd(args: argparse.Namespace) -> int:
             bundle, names = stage.bundle_names(args.bundle, {"--matrix": args.matrix, "--hard-seeds": args.hard_seeds})
             values.update(bundle=bundle, matrix=names["--matrix"], hard_seeds=names["--hard-seeds"])
         return stage.submit(args, stage.spec("collect", values), result_model=CollectResult, text=lambda r, ref: (
-            f"dataset {ref.id}: {r.summary['samples']} samples, outcomes {r.outcomes}\n{ref}"))
+            f"dataset {ref.id}: {r.summary.samples} samples, outcomes {r.outcomes}\n{ref}"))
     if args.bundle:
         raise ConfigError("--bundle names a server bundle; --local runs take --matrix/--hard-seeds files",
                           source="command line", item="--bundle")
@@ -198,8 +198,8 @@ def collect_cmd(args: argparse.Namespace) -> int:
         values.update(bundle=bundle, matrix=rel[0], hard_seeds=rel[1])
     else:
         bundles = matrix_ref(str(_builtin_matrix()))[2]
-    result = run_collect(stage.config_of(stage.spec("collect", values), CollectConfig), _ctx(args, bundles))
-    emit(result, args.json, lambda r: f"{Path(args.out or '.') / r.dataset}: {r.summary['samples']} samples, "
+    result = run_collect(stage.config_of(stage.spec("collect", values)), _ctx(args, bundles))
+    emit(result, args.json, lambda r: f"{Path(args.out or '.') / r.dataset}: {r.summary.samples} samples, "
          f"outcomes {r.outcomes}")
     return 0
 
@@ -211,23 +211,23 @@ def _builtin_matrix() -> Path:
 
 
 def mix_cmd(args: argparse.Namespace) -> int:
-    from foresight.core.predict.collect import CollectResult, MixConfig
+    from foresight.core.predict.collect import CollectResult
 
     values = {"base": args.base, "hardcase": args.hardcase, "hardcase_repeat": args.repeat}
     if not args.local:
         stage.local_only(args, out="--out")
         values.update(base=stage.dataset_id(args.base, "--base"), hardcase=stage.dataset_id(args.hardcase, "--hardcase"))
         return stage.submit(args, stage.spec("mix", values), result_model=CollectResult, text=lambda r, ref: (
-            f"dataset {ref.id}: {r.summary['samples']} samples\n{ref}"))
+            f"dataset {ref.id}: {r.summary.samples} samples\n{ref}"))
     from foresight.core.predict.collect import run_mix
 
-    result = run_mix(stage.config_of(stage.spec("mix", values), MixConfig), _ctx(args))
-    emit(result, args.json, lambda r: f"{r.dataset}: {r.summary['samples']} samples")
+    result = run_mix(stage.config_of(stage.spec("mix", values)), _ctx(args))
+    emit(result, args.json, lambda r: f"{r.dataset}: {r.summary.samples} samples")
     return 0
 
 
 def train_cmd(args: argparse.Namespace) -> int:
-    from foresight.core.predict.train_config import TrainConfig, TrainResult
+    from foresight.core.predict.train_config import TrainResult
 
     overrides = {"dataset": args.dataset, "epochs": args.epochs, "threads": args.threads}
     values = {**_train_values(args.config), **{k: v for k, v in overrides.items() if v is not None}}
@@ -250,6 +250,6 @@ def train_cmd(args: argparse.Namespace) -> int:
                                                      Path(r.checkpoint).name))  # fmt: skip
     from foresight.core.predict.nn.train import run_train
 
-    result = run_train(stage.config_of(stage.spec("train", values), TrainConfig), _ctx(args))
+    result = run_train(stage.config_of(stage.spec("train", values)), _ctx(args))
     emit(result, args.json, lambda r: text(r, ""))
     return exit_code(result)

@@ -79,7 +79,7 @@ def sim_run(args: argparse.Namespace) -> int:
         raise ConfigError("--bundle names a server bundle; --local runs take a --matrix file", source="command line",
                           item="--bundle")
     bundle, rel, roots = matrix_ref(args.matrix)
-    config = stage.config_of(stage.spec("simulate", {**values, "bundle": bundle, "matrix": rel}), SimulateConfig)
+    config = stage.config_of(stage.spec("simulate", {**values, "bundle": bundle, "matrix": rel}))
     ctx = local_context(None, roots, quiet=True)
     result = run_simulate(config, ctx)
     episode = result.episodes[0]

@@ -44,9 +44,11 @@ def spec(kind: str, values: dict[str, Any]) -> BaseModel:
     return build_config(KINDS[kind].spec, {**values, "kind": kind})
 
 
-def config_of(spec_obj: BaseModel, model: type[BaseModel]) -> Any:
-    """The core stage config of a spec, exactly as a worker builds it (``kind`` dropped)."""
-    return model.model_validate(spec_obj.model_dump(exclude={"kind"}))
+def config_of(spec_obj: BaseModel) -> Any:
+    """The core stage config of a job spec, exactly as a worker builds it (the job kind's ``config_of``)."""
+    from foresight.core.stages.kinds import KINDS
+
+    return KINDS[spec_obj.kind].config_of(spec_obj)
 
 
 def local_only(args: argparse.Namespace, **flags: str) -> None:

@@ -69,7 +69,7 @@ class LocalChildren:
             if saved["spec"] == spec:
                 return self._run_of(stage, folder, read_result(kind, saved["result"]), saved["wall_s"], resumed=True)
         stage_kind = KINDS[kind]
-        config = stage_kind.config.model_validate(spec)
+        config = stage_kind.config_of(spec)
         folder.mkdir(parents=True, exist_ok=True)
         sub = replace(self.ctx, workdir=folder, progress=progress, resolve_model=self.resolve_model,
                       resolve_dataset=self.resolve_dataset)

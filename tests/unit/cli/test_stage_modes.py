@@ -94,7 +94,7 @@ def test_the_local_and_server_specs_are_one_model() -> None:
 
     spec = stage.spec("collect", {"scenarios": ["crossing_low"], "seeds_per_scenario": 2, "max_steps": None})
     assert isinstance(spec, KINDS["collect"].spec) and spec.kind == "collect"
-    config = stage.config_of(spec, CollectConfig)
+    config = stage.config_of(spec)
     assert type(config) is CollectConfig and config.model_dump() == spec.model_dump(exclude={"kind"})
     with pytest.raises(ConfigError, match="seeds_per_scenario"):
         stage.spec("collect", {"seeds_per_scenario": -1})
