@@ -328,15 +328,22 @@ def _time_base(settings: Settings, checkpoint: str) -> dict[str, Any]:
         return {}
 
 
+def _run_time_model(session: Any, model_id: str, shipped: str) -> Model:
+    """A model registered at run time; JobNotFound for an unknown id, Conflict (saying ``shipped``) for a
+    shipped model, whose entry lives in ``model/registry.yaml``."""
+    row = session.get(Model, model_id)
+    if row is None:
+        raise queue.JobNotFound(f"no model with id {model_id!r}")
+    if row.read_only:
+        raise queue.Conflict(f"model {model_id} is shipped (model/registry.yaml); {shipped}")
+    return row
+
+
 def promote(engine: Engine, model_id: str, to: str = ModelStatus.promoted.value) -> dict[str, Any]:
     """Promote a model; promoting to ``default`` demotes the previous default to ``promoted``. Shipped models
     (read-only) are refused: their status lives in ``model/registry.yaml``."""
     with session_factory(engine, write=True).begin() as session:
-        row = session.get(Model, model_id)
-        if row is None:
-            raise queue.JobNotFound(f"no model with id {model_id!r}")
-        if row.read_only:
-            raise queue.Conflict(f"model {model_id} is shipped (model/registry.yaml); change its status there")
+        row = _run_time_model(session, model_id, "change its status there")
         if to == ModelStatus.default.value:
             session.execute(update(Model).where(Model.status == ModelStatus.default.value, Model.id != model_id)
                             .values(status=ModelStatus.promoted.value))
@@ -378,11 +385,7 @@ def delete_model(engine: Engine, model_id: str) -> None:
     """Delete a run-time model; :class:`~store.queue.Conflict` for shipped or default models and models that
     records use."""
     with session_factory(engine, write=True).begin() as session:
-        row = session.get(Model, model_id)
-        if row is None:
-            raise queue.JobNotFound(f"no model with id {model_id!r}")
-        if row.read_only:
-            raise queue.Conflict(f"model {model_id} is shipped (model/registry.yaml) and read-only")
+        row = _run_time_model(session, model_id, "it is read-only")
         if row.status == ModelStatus.default.value:
             raise queue.Conflict(f"model {model_id} is the default; promote another model to default first")
         users = models_using(engine, model_id)
