@@ -15,6 +15,7 @@ from pathlib import Path
 
 import httpx
 import pytest
+import yaml
 
 from tests.integration.service import free_port, wait_job
 
@@ -33,9 +34,15 @@ PACKAGE_DATA = [
 SHADOW = "raise ImportError('the user folder\\'s own {name} package was imported instead of foresight.{name}')\n"
 
 
-def _run(args: list, env: dict, cwd: Path, timeout: float = 900) -> subprocess.CompletedProcess:
+def _shipped_sha256() -> str:
+    """The shipped default model's checksum, read from the repository's registry file."""
+    entries = yaml.safe_load((REPO / "model" / "registry.yaml").read_text())["models"]
+    return next(m["sha256"] for m in entries if m.get("status") == "default")
+
+
+def _run(args: list, env: dict, cwd: Path, timeout: float = 900, ok: tuple[int, ...] = (0,)) -> subprocess.CompletedProcess:
     proc = subprocess.run([str(a) for a in args], env=env, cwd=cwd, capture_output=True, text=True, timeout=timeout)
-    assert proc.returncode == 0, f"{args}\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
+    assert proc.returncode in ok, f"{args}\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
     return proc
 
 
@@ -93,7 +100,7 @@ def test_a_user_folder_runs_the_service_and_a_local_evaluation(installed: tuple[
             job = wait_job(client, response.json()["id"], timeout=300)
             assert job["status"] == "succeeded", job
             assert job["result"]["episodes"] == 2
-            assert job["result"]["planner"]["model_id"] == "predictor-sim-default"
+            assert job["result"]["planner"]["checkpoint_sha256"] == _shipped_sha256()
     finally:
         server.terminate()
         out = server.communicate(timeout=60)[0]
@@ -103,6 +110,8 @@ def test_a_user_folder_runs_the_service_and_a_local_evaluation(installed: tuple[
     assert Path(site).is_relative_to(venv)
     local = _run(["foresight", "evaluate", "--local", "--matrix", f"{site}/configs/scenarios/classic_interactions.yaml",
                   "--scenarios", "crossing_low", "--seeds-per-scenario", "1", "--max-steps", "30", "--json",
-                  "--out", work / "local"], env, work)  # fmt: skip
+                  "--out", work / "local"], env, work, ok=(0, 2))  # fmt: skip
     result = json.loads(local.stdout)
+    assert result["exit_code"] == local.returncode  # 2: the evaluation gate failed, a result (one episode)
     assert result["episodes"] == 1 and result["planner"]["model_id"] == "predictor-sim-default"
+    assert result["planner"]["checkpoint_sha256"] == _shipped_sha256()
