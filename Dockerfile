@@ -18,12 +18,13 @@ COPY foresight foresight
 COPY core core
 COPY api api
 COPY worker worker
+COPY store store
 COPY cli cli
 COPY migrations migrations
 COPY configs configs
 COPY model model
 # The wheel carries configs/, model/, migrations/, templates and static files as package data.
-RUN pip install . \
+RUN pip install '.[server,postgres,train]' \
     && useradd --create-home --uid 1000 foresight \
     && mkdir -p /data/store && chown -R foresight /data
 USER foresight
