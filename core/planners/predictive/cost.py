@@ -19,6 +19,7 @@ from functools import cached_property
 import numpy as np
 
 from foresight.core.planners.predictive.config import PredictivePlannerConfig
+from foresight.core.sim.geometry import SegmentSet, grid_distance
 from foresight.core.sim.observation import StaticGeometry
 
 TERMS = (
@@ -132,9 +133,7 @@ def _distance_field(static: StaticGeometry, resolution: float) -> np.ndarray:
         return _FIELDS[key]
     nx = int(np.ceil(static.width / resolution)) + 1
     ny = int(np.ceil(static.height / resolution)) + 1
-    gx, gy = np.meshgrid(np.arange(nx) * resolution, np.arange(ny) * resolution, indexing="ij")
-    pts = np.stack([gx, gy], axis=-1)
-    field = np.concatenate([np.asarray(static.distance(row), dtype=float)[None] for row in pts])  # row-wise: bounded memory
+    field = grid_distance(SegmentSet(segs), np.arange(nx) * resolution, np.arange(ny) * resolution)
     _FIELDS[key] = field
     while len(_FIELDS) > 16:
         _FIELDS.popitem(last=False)
