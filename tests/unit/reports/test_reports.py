@@ -240,3 +240,14 @@ def test_campaign_report_shows_the_paired_tests_against_the_baseline(tmp_path: P
     md, _ = _read(write_campaign_report(res, tmp_path))
     assert "### Paired against the baseline variant" in md
     assert f"| careful @ cv | hard | +37.5 pp | {2 / 2**9:.3g} (0/9) * | +0.21 m |" in md
+
+
+def test_a_renamed_result_field_is_an_error_naming_it_not_a_dash(tmp_path: Path) -> None:
+    """Reports validate the stage's result model on read: a renamed field fails loudly, naming the field."""
+    from pydantic import ValidationError
+
+    renamed = data.evaluation()
+    renamed["planner"]["hash"] = renamed["planner"].pop("config_hash")
+    with pytest.raises(ValidationError, match="planner.config_hash"):
+        write_evaluation_report(renamed, tmp_path)
+    assert not (tmp_path / "report.md").exists()
