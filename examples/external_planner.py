@@ -4,7 +4,7 @@ from Foresight): head for the current waypoint, slow down when a pedestrian is c
 The operator makes it available to the server under a name, e.g.
     FORESIGHT_EXTERNAL_PLANNERS='{"reference": "python examples/external_planner.py"}'
 and a spec runs it with ``planner: {name: external, config: {command: reference, params: {speed: 1.2}}}``.
-The protocol is documented in foresight/core/planners/external.py.
+The protocol is documented in docs/planner_protocol.md.
 """
 
 import json

@@ -1,21 +1,10 @@
 """External planners: a separate process speaking the JSON-lines planner protocol on stdin/stdout.
 
-Protocol ``foresight.planner/1`` (one JSON object per line, each way; the process may log to stderr):
-
-1. hello, once per process: we send ``{"type": "hello", "protocol": 1}``; it answers
-   ``{"type": "hello", "protocol": 1, "name": "...", "capabilities": [...]}``.
-2. episode start: ``{"type": "start", "episode": {"scenario", "seed", "dt", "robot_radius", "ped_radius"},
-   "params": {...}}`` (``params``: the planner's own config from the spec); it answers ``{"type": "ready"}``.
-3. every step: ``{"type": "observation", "step", "time", "robot": {"pose": [x, y, heading], "velocity": [v, w]},
-   "goal": [x, y], "waypoint": [x, y], "route": [[x, y], ...], "goal_tolerance",
-   "pedestrians": {"ids": [...], "positions": [[x, y], ...], "velocities": [[vx, vy], ...]}}``, on step 0 also
-   the episode's constants ``"robot_limits": {...}, "static": {"segments": [[x1, y1, x2, y2], ...], "width",
-   "height"}``; it answers ``{"type": "command", "v": .., "omega": ..}`` (optionally ``"diagnostics": {...}``)
-   within the per-step deadline. World frame, metres, seconds, radians.
-4. episode end: ``{"type": "end", "outcome": "success" | ...}`` (no answer).
-Closing its stdin ends the process. A process that exits, misses a deadline (it is killed) or answers anything
-but the expected message ends the episode as ``planner_error`` with that reason; the next episode starts a new
-process. One process serves the episodes of one thread in turn.
+The protocol ``foresight.planner/1`` is documented, with an example of every message, in docs/planner_protocol.md:
+a hello per process, then per episode a start (answered "ready"), one observation -> command round trip per step
+within a deadline, and an end. A process that exits, misses a deadline (it is killed) or answers anything but the
+expected message ends the episode as ``planner_error`` with that reason; the next episode starts a new process.
+One process serves the episodes of one thread in turn (``release_planner_processes`` ends them after a run).
 
 Only operator-configured commands run: ``FORESIGHT_EXTERNAL_PLANNERS`` maps names to command lines (a JSON
 object ``{"name": "command line" or ["argv", ...]}``); a spec names one of them, never a command.
@@ -248,6 +237,13 @@ def observation_message(obs: Observation) -> dict[str, Any]:
     return msg
 
 
+def start_message(info: EpisodeInfo, params: dict[str, Any]) -> dict[str, Any]:
+    """The protocol's episode start message."""
+    episode = {"scenario": info.scenario.name, "seed": int(info.seed), "dt": float(info.dt),
+               "robot_radius": float(info.robot_radius), "ped_radius": float(info.ped_radius)}
+    return {"type": "start", "episode": episode, "params": params}
+
+
 class ExternalPlanner:
     """The planner protocol over a planner process (started on first use, reused across episodes)."""
 
@@ -262,10 +258,7 @@ class ExternalPlanner:
     def reset(self, info: EpisodeInfo) -> None:
         c = self.config
         self._proc = _process(c.command, self.argv, c.start_timeout_s)
-        episode = {"scenario": info.scenario.name, "seed": int(info.seed), "dt": float(info.dt),
-                   "robot_radius": float(info.robot_radius), "ped_radius": float(info.ped_radius)}
-        self._proc.request({"type": "start", "episode": episode, "params": c.params}, c.start_timeout_s, "ready",
-                           "episode start")
+        self._proc.request(start_message(info, c.params), c.start_timeout_s, "ready", "episode start")
         self._diag = None
 
     def plan(self, obs: Observation) -> tuple[float, float]:

@@ -74,3 +74,35 @@ def test_misbehaving_process_is_a_planner_error_and_the_run_goes_on(commands: di
         assert r["outcome"] == "error" and r["steps"] == 2
         assert r["taxonomy"]["label"] == "planner_error"
         assert re.search(reason, r["error"]), r["error"]
+
+
+def _shape(value: object) -> object:
+    """Keys at every depth (lists by their first element): what a client written from the docs relies on."""
+    if isinstance(value, dict):
+        return {k: _shape(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_shape(value[0])] if value else []
+    return type(value).__name__ if isinstance(value, str) else "number"
+
+
+def test_the_documented_messages_are_the_ones_sent_and_understood() -> None:
+    """docs/planner_protocol.md against the code: the same keys at every depth."""
+    from foresight.core.planners.base import EpisodeInfo
+    from foresight.core.planners.external import observation_message, start_message
+    from foresight.core.scenarios.loader import load_matrix
+    from foresight.core.sim.simulator import Simulator
+
+    text = (REPO / "docs" / "planner_protocol.md").read_text()
+    docs = {m["type"]: m for m in (json.loads(b) for b in re.findall(r"```json\n(.*?)```", text, flags=re.S))}
+    scenario = load_matrix(BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml").get("crossing_low")
+    sim = Simulator()
+    obs = sim.reset(scenario, 1000)
+    sent = observation_message(obs)
+    assert _shape(docs["observation"]) == _shape(sent)
+    info = EpisodeInfo(scenario=scenario, seed=1000, dt=sim.dt, robot_radius=1.0, ped_radius=0.4)
+    assert _shape(docs["start"]) == _shape(start_message(info, {"speed": 1.2}))
+    later, _ = sim.step((0.5, 0.0))
+    assert set(observation_message(later)) == set(sent) - {"robot_limits", "static"}  # constants on step 0 only
+    reference = __import__("runpy").run_path(str(REPO / "examples" / "external_planner.py"))
+    answer = reference["command"](json.loads(json.dumps(sent)), {})
+    assert set(answer) <= set(docs["command"]) and {"type", "v", "omega"} <= set(answer)

@@ -107,3 +107,13 @@ class FuturePlanner:
     """A plugin written for a planner interface this Foresight does not know."""
 
     planner_api = 2
+
+
+def test_cli_refuses_a_module_attr_planner_for_the_server(capsys) -> None:  # noqa: ANN001
+    from foresight.cli.main import main
+
+    code = main(["evaluate", "--matrix", "configs/scenarios/classic_interactions.yaml",
+                 "--planner", "tests.unit.planners.user_planner:Cautious", "--url", "http://127.0.0.1:9"])
+    err = capsys.readouterr().err
+    assert code == 1 and "module:attr planners run in-process only (--local)" in err
+    assert len(err.strip().splitlines()) == 1
