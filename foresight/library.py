@@ -64,14 +64,13 @@ def evaluate(planner: Any = "predictive", *, matrix: str | Path = DEFAULT_MATRIX
     """
     from foresight.cli.common import local_context
     from foresight.cli.stage import config_of, spec
-    from foresight.core.evaluation.config import EvaluationConfig
     from foresight.core.evaluation.runner import run_evaluation
 
     bundle, (name, manifest), roots = _files(matrix, seed_manifest)
     planner_dict, models = _planner(planner, config, model)
     values = {"bundle": bundle, "matrix": name, "seed_manifest": manifest, "scenarios": scenarios,
               "seeds_per_scenario": seeds, "max_steps": max_steps, "planner": planner_dict}
-    cfg = config_of(spec("evaluate", values), EvaluationConfig)
+    cfg = config_of(spec("evaluate", values))
     ctx = local_context(Path(out) if out else None, roots, quiet=quiet)
     ctx.resolve_model = models.resolve
     ctx.workers = max(1, int(workers))
