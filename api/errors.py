@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import logging
 import math
 from typing import Any
@@ -34,6 +35,7 @@ _WHY = {
     404: "unknown id",
     409: "conflict with the resource's state (or a duplicate id)",
     413: "request body too large",
+    507: "the store is full (no space left on device)",
 }
 
 
@@ -98,6 +100,14 @@ def install(app: FastAPI) -> None:
     @app.exception_handler(CoreError)
     async def _core(_: Request, exc: CoreError) -> JSONResponse:
         return _json(422, [{"loc": [], "msg": str(exc), "type": "core_error"}])  # the shape of every 422
+
+    @app.exception_handler(OSError)
+    async def _os_error(request: Request, exc: OSError) -> JSONResponse:
+        if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+            logger.error("store full on %s %s: %s", request.method, request.url.path, exc)
+            return _json(507, "the server's store is full (no space left on device); nothing was stored - "
+                              "retry once space is freed (foresight store gc lists orphaned files)")
+        return await _internal(request, exc)
 
     @app.exception_handler(Exception)
     async def _internal(request: Request, exc: Exception) -> JSONResponse:

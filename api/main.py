@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import gc
+from typing import Any
 
-from fastapi import FastAPI
+from fastapi import FastAPI, Response
 from fastapi.routing import APIRoute
+from starlette.routing import Match
 
 from foresight.api import errors, web
 from foresight.api.deps import ReadAuth
@@ -80,6 +82,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     for module in (jobs, models, bundles, results, planners):
         app.include_router(module.router, prefix="/v1", dependencies=read_auth, responses=read_codes)
     web.install(app)  # the dashboard: /ui pages over the same store
+    app.add_middleware(AllowMiddleware, router=app.router)
     app.state.http_metrics.templates = route_templates(app)
     base_openapi = app.openapi
 
@@ -90,6 +93,27 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     app.openapi = openapi  # type: ignore[method-assign]
     return app
+
+
+_METHODS = ("GET", "HEAD", "POST", "PUT", "PATCH", "DELETE")
+
+
+class AllowMiddleware:
+    """OPTIONS on a path: 204 with ``Allow`` listing the methods of every route of that path (Starlette's own
+    answer, a 405, named only the first route's: GET without POST on /v1/jobs). Other requests pass untouched."""
+
+    def __init__(self, app: Any, router: Any):
+        self.app, self.router = app, router
+
+    async def __call__(self, scope: dict, receive: Any, send: Any) -> None:
+        if scope["type"] != "http" or scope["method"] != "OPTIONS":
+            return await self.app(scope, receive, send)
+        methods = {m for m in _METHODS
+                   if any(r.matches({**scope, "method": m})[0] == Match.FULL for r in self.router.routes)}
+        if not methods:
+            return await self.app(scope, receive, send)
+        allow = ", ".join(sorted(methods | {"OPTIONS"}))
+        await Response(status_code=204, headers={"Allow": allow})(scope, receive, send)
 
 
 def create_server_app(settings: Settings | None = None) -> FastAPI:

@@ -140,14 +140,15 @@ class KindPublic(BaseModel):
 
 # Models
 class ModelCreate(BaseModel):
-    """Register a checkpoint that a finished job wrote as a model (status candidate unless said)."""
+    """Register a checkpoint that a finished job wrote as a model; it starts as a candidate (promotion follows
+    evaluation and gates: ``POST /v1/models/{id}/promote``)."""
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
     id: Ident
     job_id: Ident
     artifact: str = Field(min_length=1, max_length=500, description="artifact name in that job")
-    status: Literal["candidate", "promoted"] = "candidate"
+    status: Literal["candidate"] = "candidate"
     time_base: dict[str, Any] = Field(default_factory=dict)
     lineage: dict[str, Any] = Field(default_factory=dict)
     training: dict[str, Any] = Field(default_factory=dict)

@@ -1,4 +1,4 @@
-"""Server-side commands: `foresight up`, `serve`, `worker`, `db upgrade`."""
+"""Server-side commands: `foresight up`, `serve`, `worker`, `db upgrade`, `store gc`."""
 
 from __future__ import annotations
 
@@ -32,6 +32,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     upgrade.add_argument("--revision", default="head")
     upgrade.set_defaults(func=cmd_db_upgrade)
 
+    store = sub.add_parser("store", help="artifact store administration").add_subparsers(dest="action", required=True)
+    gc = store.add_parser("gc", help="remove files no job, bundle, model or dataset accounts for (crashes, full disks)")
+    gc.add_argument("--dry-run", action="store_true", help="only list what would be removed")
+    gc.add_argument("--json", action="store_true", help="print the report as JSON")
+    gc.set_defaults(func=cmd_store_gc)
+
 
 def _server_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--host", default="127.0.0.1")
@@ -51,6 +57,29 @@ def cmd_db_upgrade(args: argparse.Namespace) -> int:
     settings = Settings()
     upgrade(settings.resolved_database_url, args.revision)
     print(f"database {settings.resolved_database_url} at {args.revision}", file=sys.stderr)
+    return 0
+
+
+def cmd_store_gc(args: argparse.Namespace) -> int:
+    import dataclasses
+    import json
+
+    from foresight.store.gc import collect_garbage
+    from foresight.store.session import make_engine
+
+    settings = Settings()
+    engine = make_engine(settings.resolved_database_url)
+    try:
+        report = collect_garbage(engine, settings.store_root, dry_run=args.dry_run)
+    finally:
+        engine.dispose()
+    if args.json:
+        print(json.dumps({**dataclasses.asdict(report), "dry_run": args.dry_run}))
+    else:
+        for path in report.paths:
+            print(path)
+        verb = "would free" if args.dry_run else "freed"
+        print(f"{len(report.paths)} orphans; {verb} {report.bytes} bytes under {settings.store_root}", file=sys.stderr)
     return 0
 
 

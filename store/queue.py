@@ -88,7 +88,7 @@ _EVENT_SQL = text("INSERT INTO job_events (job_id, at, type, message, progress) 
 _HELD = "id = :id AND status = 'running' AND lease_owner = :owner AND attempts = :attempt"
 _FINISH_PG_SQL = text(
     "WITH done AS (UPDATE jobs SET status = 'succeeded', result = :result, progress = 1.0, finished_at = :now, "
-    f"lease_expires_at = NULL WHERE {_HELD} RETURNING id), "
+    f"lease_expires_at = NULL, error_type = NULL, error_message = NULL WHERE {_HELD} RETURNING id), "
     "ev AS (INSERT INTO job_events (job_id, at, type, message, progress) SELECT id, :now, 'status', 'succeeded', 1.0 "
     "FROM done) SELECT count(*) FROM done"
 ).bindparams(bindparam("result", type_=JSON))
@@ -107,8 +107,8 @@ _BEAT_JOBS_SQL = (
 # The same statements for the SQLite driver itself (qmark parameters), run inside write transactions.
 _EVENT_SQLITE = "INSERT INTO job_events (job_id, at, type, message, progress) VALUES (?, ?, ?, ?, ?)"
 _FINISH_SQLITE = (
-    "UPDATE jobs SET status = 'succeeded', result = ?, progress = 1.0, finished_at = ?, lease_expires_at = NULL "
-    "WHERE id = ? AND status = 'running' AND lease_owner = ? AND attempts = ?"
+    "UPDATE jobs SET status = 'succeeded', result = ?, progress = 1.0, finished_at = ?, lease_expires_at = NULL, "
+    "error_type = NULL, error_message = NULL WHERE id = ? AND status = 'running' AND lease_owner = ? AND attempts = ?"
 )  # the guard of _HELD
 
 
@@ -157,8 +157,15 @@ def new_id() -> str:
     return uuid.uuid4().hex
 
 
+def stored_text(text: str) -> str:
+    """``text`` as a text column can hold it: PostgreSQL refuses NUL characters (a worker then failed to record
+    an error three times and the job ended as LeaseExpired, hiding the cause)."""
+    return text.replace("\x00", "\\x00")
+
+
 def _add_event(conn: Connection, job_id: str, type_: str, message: str = "", progress: float | None = None) -> None:
-    conn.execute(_EVENT_SQL, {"job_id": job_id, "at": time.time(), "type": type_, "message": message, "progress": progress})
+    conn.execute(_EVENT_SQL, {"job_id": job_id, "at": time.time(), "type": type_, "message": stored_text(message),
+                              "progress": progress})
 
 
 def _get(conn: Connection, job_id: str) -> dict[str, Any]:
@@ -404,7 +411,7 @@ def report_progress(engine: Engine, job_id: str, owner: str, attempt: int, fract
     with write_tx(engine) as conn:
         _no_fsync(conn)
         held = {"id": job_id, "owner": owner, "attempt": attempt}
-        n = conn.execute(_PROGRESS_SQL, {**held, "progress": fraction, "message": message})
+        n = conn.execute(_PROGRESS_SQL, {**held, "progress": fraction, "message": stored_text(message)})
         if n.rowcount:
             _add_event(conn, job_id, "progress", message, fraction)
 
@@ -455,6 +462,7 @@ def fail_or_retry(
         if job is None:
             raise LeaseLost(f"job {job_id}: lease lost before failing (attempt {attempt})")
         again = retry and attempt < job.max_attempts
+        error_type, message = stored_text(error_type), stored_text(message)
         values: dict[str, Any] = dict(error_type=error_type, error_message=message, lease_expires_at=None)
         if again:
             values.update(status=QUEUED, lease_owner=None)
@@ -720,11 +728,14 @@ def oldest_queued_at(engine: Engine) -> float | None:
 
 
 def delete_job_and_files(engine: Engine, store_root: Path, job_id: str) -> None:
-    """Delete a finished job and its artifact files, keeping the files a model or dataset record uses."""
+    """Delete a finished job and its whole folder (partial files a failed run or a full disk left too, not only
+    the recorded artifacts), keeping the files a model or dataset record uses."""
     with engine.connect() as conn:
         used = set(conn.execute(select(Model.checkpoint).where(Model.job_id == job_id)).scalars())
         used |= set(conn.execute(select(Dataset.path).where(Dataset.job_id == job_id)).scalars())
-    for art in delete_job(engine, job_id):
-        if art["path"] not in used:
-            folders.resolve_under(store_root, art["path"]).unlink(missing_ok=True)
-    folders.remove_empty(folders.resolve_under(store_root, folders.job_dir(store_root, job_id)))
+    delete_job(engine, job_id)
+    folder = folders.resolve_under(store_root, folders.job_dir(store_root, job_id))
+    for path in sorted(folder.rglob("*"), reverse=True) if folder.is_dir() else []:
+        if not path.is_dir() and path.relative_to(store_root.resolve()).as_posix() not in used:
+            path.unlink(missing_ok=True)
+    folders.remove_empty(folder)

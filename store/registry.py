@@ -7,13 +7,11 @@ verifying model checksums on the way.
 from __future__ import annotations
 
 import hashlib
-import io
 import logging
 import re
-import tarfile
+import shutil
 import tempfile
 import time
-import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -21,7 +19,9 @@ import yaml
 from sqlalchemy import Engine, select, update
 from sqlalchemy.exc import IntegrityError
 
+from foresight.core.archive import read_archive
 from foresight.core.errors import ConfigError, CoreError, NotFoundError
+from foresight.core.yamlio import load_yaml
 from foresight.store import folders, queue
 from foresight.store.models import Artifact, Bundle, Dataset, Model, ModelStatus
 from foresight.store.session import session_factory
@@ -49,8 +49,8 @@ def matrix_files(root: Path, files: list[str]) -> list[str]:
         if not name.endswith((".yaml", ".yml")):
             continue
         try:
-            data = yaml.safe_load((root / name).read_text())
-        except (yaml.YAMLError, UnicodeDecodeError):
+            data = load_yaml((root / name).read_text(), source=name)
+        except (yaml.YAMLError, UnicodeDecodeError, ConfigError):
             continue
         if isinstance(data, dict) and ("includes" in data or "scenarios" in data):
             candidates[name] = data
@@ -126,35 +126,8 @@ def export_models(rows: list[Model]) -> str:
 
 
 def _members(data: bytes) -> list[tuple[str, bytes]]:
-    """(name, content) of the regular files in a zip or tar archive; unsafe names are refused."""
-    out: list[tuple[str, bytes]] = []
-    total = 0
-    if zipfile.is_zipfile(io.BytesIO(data)):
-        with zipfile.ZipFile(io.BytesIO(data)) as archive:
-            infos = [i for i in archive.infolist() if not i.is_dir()]
-            for info in infos[: MAX_BUNDLE_FILES + 1]:
-                total += info.file_size
-                if total > MAX_BUNDLE_BYTES:
-                    raise ConfigError(f"bundle unpacks to more than {MAX_BUNDLE_BYTES} bytes", source="upload")
-                out.append((info.filename, archive.read(info)))
-    else:
-        try:
-            archive = tarfile.open(fileobj=io.BytesIO(data), mode="r:*")  # noqa: SIM115 (closed below)
-        except tarfile.TarError:
-            raise ConfigError("not a zip or tar archive", source="upload") from None
-        with archive:
-            for info in archive.getmembers()[: MAX_BUNDLE_FILES + 1]:
-                if info.isdir():
-                    continue
-                if not info.isfile():
-                    raise ConfigError("links and special files are not allowed", source="upload", item=info.name)
-                total += info.size
-                if total > MAX_BUNDLE_BYTES:
-                    raise ConfigError(f"bundle unpacks to more than {MAX_BUNDLE_BYTES} bytes", source="upload")
-                out.append((info.name, archive.extractfile(info).read()))
-    if len(out) > MAX_BUNDLE_FILES:
-        raise ConfigError(f"more than {MAX_BUNDLE_FILES} files", source="upload")
-    return out
+    """(name, content) of the regular files in a zip or tar archive, read within the bundle limits."""
+    return read_archive(data, max_bytes=MAX_BUNDLE_BYTES, max_files=MAX_BUNDLE_FILES)
 
 
 def _check_yaml_refs(value: Any, file: str, root: Path, where: str = "") -> None:
@@ -196,7 +169,7 @@ def save_upload(engine: Engine, settings: Settings, ident: str, data: bytes) -> 
         for rel in files:
             if rel.endswith((".yaml", ".yml")):
                 try:
-                    _check_yaml_refs(yaml.safe_load((root / rel).read_text()), rel, root)
+                    _check_yaml_refs(load_yaml((root / rel).read_text(), source=rel), rel, root)
                 except (yaml.YAMLError, UnicodeDecodeError) as exc:
                     raise ConfigError(f"not valid YAML: {exc}", source=rel) from None
         matrices = matrix_files(root, files)
@@ -213,9 +186,13 @@ def save_upload(engine: Engine, settings: Settings, ident: str, data: bytes) -> 
             raise FileExistsError(ident)
         dest.parent.mkdir(parents=True, exist_ok=True)
         staging = Path(tempfile.mkdtemp(prefix=f".{ident}.", dir=dest.parent))
-        for rel in files:
-            folders.write_atomic(staging / rel, (root / rel).read_bytes())
-        staging.rename(dest)
+        try:  # a full disk (or any failure) leaves no staging folder behind
+            for rel in files:
+                folders.write_atomic(staging / rel, (root / rel).read_bytes())
+            staging.rename(dest)
+        except BaseException:
+            shutil.rmtree(staging, ignore_errors=True)
+            raise
     _put_bundle(engine, ident, "upload", dest, stored, hashlib.sha256(data).hexdigest())
     with session_factory(engine)() as session:
         return session.get(Bundle, ident)
@@ -230,7 +207,6 @@ class Resolver:
     def __init__(self, settings: Settings, engine: Engine):
         self.settings = settings
         self.sessions = session_factory(engine)
-        self._verified: dict[str, tuple[float, int]] = {}
 
     def bundle_root(self, row: Bundle) -> Path:
         if row.source == "upload":
@@ -256,23 +232,26 @@ class Resolver:
             return shipped_checkpoint(self.settings.model_registry, row.checkpoint)
         return folders.resolve_under(self.settings.store_root, row.checkpoint)
 
-    def model(self, ident: str) -> Path:
-        """The checkpoint of a registered model, after checking its sha256; ``default`` names the default
-        model (:func:`~store.shipped.default_model`: status default, else a shipped entry tagged default)."""
+    def model_row(self, ident: str) -> Model:
+        """The registry entry of a model id; ``default`` names the default model
+        (:func:`~store.shipped.default_model`: status default, else a shipped entry tagged default)."""
         with self.sessions() as session:
             row = session.get(Model, ident)
             if row is None and ident == DEFAULT_MODEL:
                 row = default_model(session.scalars(select(Model).order_by(Model.read_only, Model.created_at)))
         if row is None:
             raise NotFoundError(f"unknown model id {ident!r}")
+        return row
+
+    def model(self, ident: str) -> Path:
+        """The checkpoint of a registered model after hashing its content, every time: a cache keyed by
+        (mtime, size) let a checkpoint rewritten in place with both restored pass as the registered one."""
+        row = self.model_row(ident)
         path = self.model_path(row)
         if not path.is_file():
             raise NotFoundError(f"model {ident!r}: checkpoint {row.checkpoint} is missing")
-        stat = path.stat()
-        if self._verified.get(ident) != (stat.st_mtime, stat.st_size):
-            if folders.sha256_file(path) != row.sha256:
-                raise CoreError(f"model {ident!r}: checkpoint {row.checkpoint} does not match its sha256")
-            self._verified[ident] = (stat.st_mtime, stat.st_size)
+        if folders.sha256_file(path) != row.sha256:
+            raise CoreError(f"model {ident!r}: checkpoint {row.checkpoint} does not match its registered sha256")
         return path
 
 
@@ -304,9 +283,10 @@ def register_checkpoint(engine: Engine, settings: Settings, *, model_id: str, jo
         art = session.scalars(select(Artifact).where(Artifact.job_id == job_id, Artifact.name == name)).first()
         if art is None:
             raise queue.JobNotFound(f"job {job_id} has no artifact {name!r}")
+        checkpoint = _checkpoint(settings, art.path, art.sha256, name)
         session.add(Model(
             id=model_id, status=status, checkpoint=art.path, sha256=art.sha256,
-            time_base=meta["time_base"] if "time_base" in meta else _time_base(settings, art.path), lineage=meta.get("lineage", {}),
+            time_base=meta["time_base"] if "time_base" in meta else dict(checkpoint["timebase"]), lineage=meta.get("lineage", {}),
             training=meta.get("training", {}), metrics=meta.get("metrics", {}), tags=meta.get("tags", []),
             provenance=meta.get("provenance") or f"job {job_id}", read_only=False, job_id=job_id,
             created_at=time.time(),
@@ -318,14 +298,15 @@ def register_checkpoint(engine: Engine, settings: Settings, *, model_id: str, jo
     return {"model_id": model_id, "status": status, "resumed": False}
 
 
-def _time_base(settings: Settings, checkpoint: str) -> dict[str, Any]:
-    """The time base a checkpoint declares ({} when it cannot be read: provenance only)."""
-    try:
-        from foresight.core.predict.nn.checkpoint import read_checkpoint
+def _checkpoint(settings: Settings, path: str, sha256: str, name: str) -> dict[str, Any]:
+    """The checkpoint an artifact holds: ConfigError (422) naming the artifact when it is not a checkpoint of a
+    known format or its bytes no longer have the recorded sha256 (any file used to become a model)."""
+    from foresight.core.predict.nn.checkpoint import read_checkpoint  # torch loads on the first registration
 
-        return dict(read_checkpoint(folders.resolve_under(settings.store_root, checkpoint))["timebase"])
-    except Exception:  # noqa: BLE001 - provenance only
-        return {}
+    try:
+        return read_checkpoint(folders.resolve_under(settings.store_root, path), expect_sha256=sha256)
+    except ConfigError as exc:
+        raise ConfigError(exc.detail, source=f"artifact {name}", item=exc.item) from None
 
 
 def _run_time_model(session: Any, model_id: str, shipped: str) -> Model:

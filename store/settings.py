@@ -13,6 +13,7 @@ from pydantic import Field, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from foresight.core.dataroots import DEFAULT_SHARED, named_data_roots, parse_data_roots, pick_root
+from foresight.core.stages.budget import DEFAULT_STEP_BUDGET
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 TOKEN_FILE = "api-token"
@@ -48,6 +49,10 @@ class Settings(BaseSettings):
     sqlite_busy_timeout_ms: int = Field(30000, ge=0)  #: [ms]
     #: processes a stage may use for parallel episodes (``StageContext.workers``); worker slots are threads
     stage_workers: int = Field(1, ge=1, le=256)
+    #: [s] limit of one attempt of a job that sets no ``timeout_s`` of its own (children of pipelines and shards too)
+    job_timeout_s: float = Field(12 * 3600.0, gt=0, le=7 * 86400)
+    #: simulation steps one job may ask for (episodes x horizon), checked at submission and before a stage runs
+    max_job_steps: int = Field(DEFAULT_STEP_BUDGET, ge=1)
     #: named data roots on the worker's disk (``name=path,name=path``); specs name them, never the paths
     data_roots: str = ""
     #: the shared reference material; its ``reference/ethucy`` is data root ``ethucy`` unless one is named so

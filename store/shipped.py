@@ -11,9 +11,8 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any, TypeVar
 
-import yaml
-
 from foresight.core.errors import ConfigError, NotFoundError
+from foresight.core.yamlio import load_yaml
 from foresight.store import folders
 
 DEFAULT_MODEL = "default"  #: the model id that names the default model
@@ -42,7 +41,7 @@ def read_shipped(path: Path) -> list[dict[str, Any]]:
     ``read_only: True``; ConfigError naming the file and the entry when one lacks id, path or sha256."""
     if not path.is_file():
         return []
-    data = yaml.safe_load(path.read_text()) or {}
+    data = load_yaml(path.read_text(), source=path) or {}
     entries = data.get("models", []) if isinstance(data, dict) else []
     out = []
     for i, entry in enumerate(entries):

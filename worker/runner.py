@@ -26,12 +26,13 @@ from pathlib import Path
 from typing import Any
 
 from foresight.core.errors import CoreError
+from foresight.core.stages.budget import check_budget, work_size
 from foresight.core.stages.context import Cancelled, ChildProgress, StageContext
 from foresight.core.stages.kinds import KINDS
 from foresight.store import folders, queue, records
 from foresight.store.registry import Resolver
 from foresight.store.session import Engine
-from foresight.store.settings import Settings
+from foresight.store.settings import REPO_ROOT, Settings
 from foresight.worker.children import ChildRunner
 from foresight.worker.retry import decide_retry
 
@@ -45,7 +46,8 @@ class Held:
     """A job this worker is running, and why it should stop, if it should."""
 
     job: dict[str, Any]
-    deadline: float | None
+    timeout_s: float  #: the job's own limit, else the server's default
+    deadline: float
     cancel_requested: bool = False
     timed_out: bool = False
     shutdown: bool = False
@@ -53,7 +55,7 @@ class Held:
     last_progress: float = field(default=0.0)
 
     def should_stop(self) -> bool:
-        if self.deadline is not None and time.time() > self.deadline:
+        if time.time() > self.deadline:
             self.timed_out = True
         return self.cancel_requested or self.timed_out or self.shutdown or self.lost
 
@@ -179,8 +181,8 @@ class JobWorker:
     # ------------------------------------------------------------------ one job
     def run_job(self, job: dict[str, Any]) -> None:
         """Run a job this worker claimed, to its end (succeeded, failed, retried, cancelled or released)."""
-        timeout = job["timeout_s"]
-        held = Held(job, deadline=time.time() + timeout if timeout else None)
+        timeout = job["timeout_s"] or self.settings.job_timeout_s
+        held = Held(job, timeout, deadline=time.time() + timeout)
         with self._lock:
             self._held[job["id"]] = held
         try:
@@ -205,6 +207,7 @@ class JobWorker:
             if kind.make_workdir:
                 workdir.mkdir(parents=True, exist_ok=True)
             ctx = self.stage_context(held, workdir)
+            check_budget(work_size(spec, ctx), self.settings.max_job_steps)  # children never passed the API
             result = kind.execute(spec, ctx)
             if kind.make_workdir:  # the report page is a by-product: written before the scan lists artifacts
                 # imported here: matplotlib loads on the first finished stage, not at worker start
@@ -217,13 +220,13 @@ class JobWorker:
             if held.cancel_requested:
                 queue.mark_cancelled(*args)
             elif held.timed_out:
-                queue.fail_or_retry(*args, "Timeout", f"the job ran longer than {job['timeout_s']} s", retry=False)
+                queue.fail_or_retry(*args, "Timeout", f"the job ran longer than {held.timeout_s:g} s", retry=False)
             else:
                 queue.release(*args)
             return
         except Exception as exc:
             logger.info("job %s failed: %r", job["id"], exc, extra={"action": "job_failed", "job": job["id"]})
-            queue.fail_or_retry(*args, type(exc).__name__, str(exc), retry=decide_retry(exc))
+            queue.fail_or_retry(*args, type(exc).__name__, self.public_text(str(exc)), retry=decide_retry(exc))
             return
         artifacts = folders.scan(self.settings.store_root, workdir_rel)
         if not artifacts and kind.make_workdir:
@@ -232,6 +235,14 @@ class JobWorker:
         if job["kind"] in records.RECORDERS:
             record = functools.partial(records.RECORDERS[job["kind"]], job=job, result=result, job_dir=workdir_rel)
         queue.finish(*args, result, artifacts, record)
+
+    def public_text(self, text: str) -> str:
+        """``text`` with server paths made relative to the store, the project's configs or the repository
+        (job errors are readable without a token)."""
+        s = self.settings
+        for root in sorted({s.store_root, s.project_configs.resolve(), REPO_ROOT}, key=lambda p: -len(str(p))):
+            text = text.replace(f"{root}/", "")
+        return text
 
     def stage_context(self, held: Held, workdir: Path) -> StageContext:
         """The context a held job's stage runs in: its folder, progress, log, cancellation, inputs by id,

@@ -7,14 +7,16 @@ import functools
 import json
 import time
 from collections.abc import AsyncIterator
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Depends, Header, HTTPException, Query, Request, Response, status
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, StreamingResponse
 from starlette.concurrency import run_in_threadpool
 
-from foresight.api.deps import EngineDep, SettingsDep, WriteAuth
+from foresight.api import admission
+from foresight.api.bodies import BoundedJsonRoute
+from foresight.api.deps import EngineDep, ResolverDep, SettingsDep, WriteAuth
 from foresight.api.errors import AUTH, responses
 from foresight.api.schemas import Ident, JobCreate, JobPublic, JobsPublic, KindPublic, job_public
 from foresight.core.stages.kinds import KINDS
@@ -22,10 +24,12 @@ from foresight.store import folders, queue
 from foresight.store.models import JobStatus
 from foresight.store.session import is_sqlite
 
-router = APIRouter(prefix="/jobs", tags=["jobs"])
+router = APIRouter(prefix="/jobs", tags=["jobs"], route_class=BoundedJsonRoute)
 
 MAX_SPEC_BYTES = 1 << 20  #: [bytes] request body limit of a submission
 SSE_POLL_S = 0.3  #: [s] event polling interval of a stream
+MAX_EVENT_ID = 2**63 - 1  #: event ids are 64-bit integers in every database
+KindName = Literal[tuple(KINDS)]  # type: ignore[valid-type]
 
 
 def unsafe_paths(value: Any, loc: tuple = ()) -> list[dict[str, Any]]:
@@ -55,8 +59,9 @@ async def limit_body(content_length: Annotated[int | None, Header(include_in_sch
 @router.post("", status_code=status.HTTP_201_CREATED, dependencies=[WriteAuth, Depends(limit_body)], response_model=JobPublic,
              responses={200: {"model": JobPublic, "description": "the job of a known idempotency key"},
                         **responses(*AUTH, 404, 409, 413)})  # fmt: skip
-async def create_job(body: JobCreate, engine: EngineDep, settings: SettingsDep) -> Response:
-    """Queue a job (201); a known idempotency key returns its job (200)."""
+async def create_job(body: JobCreate, engine: EngineDep, settings: SettingsDep, resolver: ResolverDep) -> Response:
+    """Queue a job (201); a known idempotency key returns its job (200). Stage jobs must name known inputs
+    (404) and fit the server's step budget (422); a job without ``timeout_s`` gets the server's default."""
     # async: the body is validated on the event loop anyway; a plain submission on SQLite then waits on the
     # store's submission thread without holding a thread-pool thread (see queue.SubmitBatcher), the rest
     # (idempotency keys, parents, PostgreSQL) runs its queries in the pool
@@ -64,15 +69,18 @@ async def create_job(body: JobCreate, engine: EngineDep, settings: SettingsDep) 
     errors = unsafe_paths(spec)
     if errors:
         raise RequestValidationError(errors)
+    if spec["kind"] != "sleep":  # the diagnostic kind has no inputs and no episodes (queue benchmarks submit it)
+        await run_in_threadpool(admission.admit, body.spec, settings, resolver)
     max_attempts = body.max_attempts or settings.max_attempts
+    timeout_s = body.timeout_s or settings.job_timeout_s
     if body.idempotency_key is None and body.parent_id is None and is_sqlite(engine):
         job, created = await queue.submit_plain(engine, kind=spec["kind"], spec=spec, priority=body.priority,
-                                                timeout_s=body.timeout_s, max_attempts=max_attempts), True  # fmt: skip
+                                                timeout_s=timeout_s, max_attempts=max_attempts), True  # fmt: skip
     else:
         if body.parent_id is not None:
             await run_in_threadpool(queue.get_job, engine, body.parent_id)  # 404 when unknown
         job, created = await run_in_threadpool(functools.partial(
-            queue.submit, engine, kind=spec["kind"], spec=spec, priority=body.priority, timeout_s=body.timeout_s,
+            queue.submit, engine, kind=spec["kind"], spec=spec, priority=body.priority, timeout_s=timeout_s,
             max_attempts=max_attempts, idempotency_key=body.idempotency_key, parent_id=body.parent_id,
         ))  # fmt: skip
     code = status.HTTP_201_CREATED if created else status.HTTP_200_OK
@@ -83,7 +91,7 @@ async def create_job(body: JobCreate, engine: EngineDep, settings: SettingsDep) 
 def read_jobs(
     engine: EngineDep,
     status_: Annotated[list[JobStatus] | None, Query(alias="status")] = None,
-    kind: Annotated[list[str] | None, Query(max_length=50)] = None,
+    kind: Annotated[list[KindName] | None, Query(max_length=50)] = None,
     parent_id: Ident | None = None,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
     offset: Annotated[int, Query(ge=0, le=10_000_000)] = 0,
@@ -147,8 +155,8 @@ async def _sse(engine: Any, job_id: str, after: int) -> AsyncIterator[str]:
             responses={200: {"content": {"text/event-stream": {}}}, **responses(404)})  # fmt: skip
 def read_job_events(
     job_id: Ident, engine: EngineDep,
-    last_event_id: Annotated[int | None, Header(ge=0)] = None,
-    after: Annotated[int, Query(ge=0)] = 0,
+    last_event_id: Annotated[int | None, Header(ge=0, le=MAX_EVENT_ID)] = None,
+    after: Annotated[int, Query(ge=0, le=MAX_EVENT_ID)] = 0,
 ) -> StreamingResponse:  # fmt: skip
     """Progress, log and status lines as server-sent events; ends with an ``end`` event."""
     queue.get_job(engine, job_id)
@@ -174,7 +182,8 @@ def retry_job(job_id: Ident, engine: EngineDep) -> JobPublic:
 @router.delete("/{job_id}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[WriteAuth],
                 responses=responses(*AUTH, 404, 409))
 def delete_job(job_id: Ident, engine: EngineDep, settings: SettingsDep) -> Response:
-    """Delete a finished job and its artifacts, keeping files that a model or dataset record uses."""
+    """Delete a finished job and its whole folder (partial files of a failed run too), keeping files that a
+    model or dataset record uses."""
     queue.delete_job_and_files(engine, settings.store_root, job_id)
     return Response(status_code=status.HTTP_204_NO_CONTENT)
 

@@ -7,13 +7,14 @@ from typing import Annotated
 from fastapi import APIRouter, Query, Response, status
 from fastapi.responses import PlainTextResponse
 
+from foresight.api.bodies import BoundedJsonRoute
 from foresight.api.deps import EngineDep, SettingsDep, WriteAuth
 from foresight.api.errors import AUTH, responses
 from foresight.api.schemas import Ident, ModelCreate, ModelPromote, ModelPublic, ModelsPublic
 from foresight.store import registry
 from foresight.store.models import ModelStatus
 
-router = APIRouter(prefix="/models", tags=["models"])
+router = APIRouter(prefix="/models", tags=["models"], route_class=BoundedJsonRoute)
 
 
 @router.get("")
@@ -40,7 +41,8 @@ def export_registry(engine: EngineDep) -> YamlResponse:
 
 @router.post("", status_code=status.HTTP_201_CREATED, dependencies=[WriteAuth], responses=responses(*AUTH, 404, 409))
 def create_model(body: ModelCreate, engine: EngineDep, settings: SettingsDep) -> ModelPublic:
-    """Register a checkpoint artifact of a succeeded job (409 for a duplicate id)."""
+    """Register a checkpoint artifact of a succeeded job as a candidate (409 for a duplicate id; 422 when the
+    artifact is not a checkpoint of a known format or no longer has its recorded sha256)."""
     meta = body.model_dump(include={"time_base", "lineage", "training", "metrics", "tags", "provenance"})
     registry.register_checkpoint(engine, settings, model_id=body.id, job_id=body.job_id, artifact=body.artifact,
                                  metadata=meta, status=body.status)

@@ -16,7 +16,7 @@ from foresight.core.evaluation.metrics import MetricsConfig
 from foresight.core.evaluation.plannerspec import PlannerSpec, planner_spec
 from foresight.core.evaluation.taxonomy import TaxonomyConfig
 from foresight.core.scenarios.model import MAX_EPISODE_STEPS
-from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident
+from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident, Name
 
 StartMethod = Literal["spawn", "fork", "forkserver"]
 MAX_SHARDS = 64  #: most shard jobs one evaluation or campaign is split into
@@ -34,7 +34,7 @@ class EpisodeSelection(_Config):
 
     bundle: Ident = BUILTIN_BUNDLE
     matrix: BundlePath = "scenarios/classic_interactions.yaml"
-    scenarios: list[str] | None = Field(default=None, max_length=1000)  #: default: every scenario
+    scenarios: list[Name] | None = Field(default=None, max_length=1000)  #: default: every scenario
     seeds_per_scenario: int | None = Field(default=None, ge=1, le=1000)  #: own seeds, extended by max+1, max+2 ...
     seed_manifest: BundlePath | None = None  #: only these (scenario, seed) pairs
     max_steps: int | None = Field(default=None, ge=1, le=MAX_EPISODE_STEPS)  #: horizon override (smoke runs); default: the scenario's
@@ -74,7 +74,7 @@ class GridVariant(_Config):
     """One planner-grid variant: our keys (``config``, merged into the base planner's config) and/or, for the
     predictive planner, reference keys (``params``, mapped by the planner)."""
 
-    name: str = Field(min_length=1, max_length=200)
+    name: Name
     params: dict[str, Any] = Field(default_factory=dict)
     config: dict[str, Any] = Field(default_factory=dict)
 
@@ -110,7 +110,7 @@ class CampaignConfig(_Config):
     grid: BundlePath | None = None  #: planner-grid YAML (``variants: [{name, params}]``)
     variants: list[GridVariant] | None = Field(default=None, max_length=200)  #: inline grid (instead of ``grid``)
     checkpoints: list[str] = Field(default_factory=lambda: ["cv"], min_length=1, max_length=50)  #: model ids or "cv"
-    scenarios: list[str] | None = Field(default=None, max_length=1000)  #: global suite scenarios (default: all)
+    scenarios: list[Name] | None = Field(default=None, max_length=1000)  #: global suite scenarios (default: all)
     planner: PlannerSpec = Field(default_factory=planner_spec)  #: base planner config the variants modify
     seeds_per_scenario: int | None = Field(default=None, ge=1, le=1000)  #: global suite seeds
     max_steps: int | None = Field(default=None, ge=1, le=MAX_EPISODE_STEPS)

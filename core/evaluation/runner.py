@@ -77,13 +77,15 @@ def bundle_file(ctx: StageContext, bundle: str, rel: str) -> Path:
         raise ConfigError(str(exc), source=rel) from None
 
 
-def load_selection(sel: EpisodeSelection, ctx: StageContext) -> tuple[Path, ScenarioMatrix, list[tuple[str, int]]]:
-    """(matrix path, matrix, [(scenario, seed), ...] in matrix order) of an episode selection."""
+def load_selection(sel: EpisodeSelection, ctx: StageContext,
+                   load: Callable[..., ScenarioMatrix] | None = None) -> tuple[Path, ScenarioMatrix, list[tuple[str, int]]]:
+    """(matrix path, matrix, [(scenario, seed), ...] in matrix order) of an episode selection; ``load(path,
+    overrides=...)`` reads the matrix (default ``load_matrix``; a server may pass a cached one)."""
     from foresight.core.scenarios.loader import load_matrix
     from foresight.core.scenarios.seeds import load_seed_manifest
 
     path = bundle_file(ctx, sel.bundle, sel.matrix)
-    matrix = load_matrix(path, overrides=sel.scenario_overrides)
+    matrix = (load or load_matrix)(path, overrides=sel.scenario_overrides)
     names = matrix.names if sel.scenarios is None else [matrix.get(n).name for n in sel.scenarios]
     if sel.seed_manifest is not None:
         manifest = load_seed_manifest(bundle_file(ctx, sel.bundle, sel.seed_manifest), matrix)

@@ -33,7 +33,7 @@ from foresight.core.predict.timebase import PLANNER_TIMEBASE, TimeBase
 from foresight.core.scenarios.model import MAX_EPISODE_STEPS
 from foresight.core.sim.observation import Observation
 from foresight.core.stages.context import StageContext
-from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident, resolve_in_bundle
+from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident, Name, resolve_in_bundle
 
 
 class TimeBaseSpec(BaseModel):
@@ -50,9 +50,9 @@ class CollectConfig(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
     bundle: Ident = BUILTIN_BUNDLE
     matrix: BundlePath = "scenarios/classic_interactions.yaml"
-    scenarios: list[str] | None = None  #: default: all of the matrix (base mode)
+    scenarios: list[Name] | None = Field(default=None, max_length=1000)  #: default: all of the matrix (base mode)
     seeds_per_scenario: int = Field(default=4, ge=1, le=10_000)
-    base_seed: int = Field(default=50_000, ge=0)  #: above the matrices' own (evaluation) seeds, all < 10000
+    base_seed: int = Field(default=50_000, ge=0, le=2**31 - 1 - 10_000_000)  #: above the matrices' own (evaluation) seeds, all < 10000; room for base_seed + i 100000 + k
     hard_seeds: BundlePath | None = None  #: training seed manifest -> hard-case mode
     evaluation_seeds: BundlePath | None = None  #: evaluation manifest: collecting any of its episodes is an error
     policy: Literal["goal", "goal_noisy", "planner"] = "goal"

@@ -11,6 +11,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.gates import GateCheck, GateResult
 from foresight.core.predict.proxy import ProxySpec
+from foresight.core.stages.refs import Seed
 from foresight.core.yamlio import load_yaml
 
 
@@ -30,11 +31,11 @@ class GateConfig(_Strict):
 class TrainConfig(_Strict):
     dataset: str  #: dataset id (resolved by the context) or a local .npz path
     epochs: int = Field(default=30, ge=1, le=10_000)
-    batch_size: int = Field(default=512, ge=1)
-    lr: float = Field(default=2e-3, gt=0)
-    weight_decay: float = Field(default=1e-4, ge=0)
+    batch_size: int = Field(default=512, ge=1, le=65_536)
+    lr: float = Field(default=2e-3, gt=0, le=10.0)
+    weight_decay: float = Field(default=1e-4, ge=0, le=10.0)
     lr_schedule: Literal["constant", "cosine"] = "constant"  #: cosine: lr * (1 + cos(pi * (epoch - 1) / epochs)) / 2
-    seed: int = 0
+    seed: Seed = 0
     hidden: int = Field(default=48, ge=4, le=1024)  #: model width h (48: ~2.5 MFLOP per training sample at N=12)
     blocks: int = Field(default=2, ge=0, le=8)  #: K message-passing blocks
     edge_dim: int = Field(default=16, ge=0, le=256)  #: relative position/velocity edge embedding width (0 = none; core.predict.nn.model)

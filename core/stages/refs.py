@@ -27,6 +27,11 @@ BundlePath = Annotated[str, Field(min_length=1, max_length=500), AfterValidator(
 #: An id of a stored object (bundle, dataset, model, job): letters, digits, '.', '_', '-', ':'.
 Ident = Annotated[str, Field(min_length=1, max_length=200, pattern=r"^[A-Za-z0-9][A-Za-z0-9._:\-]*$")]
 
+#: A name inside a file (scenario, variant): printable, no control characters (a NUL broke stored text).
+Name = Annotated[str, Field(min_length=1, max_length=200, pattern=r"^[^\x00-\x1f\x7f]+$")]
+#: A seed: what numpy's SeedSequence and every database integer column hold.
+Seed = Annotated[int, Field(ge=0, le=2**31 - 1)]
+
 
 def resolve_in_bundle(root: Path, rel: str) -> Path:
     """Join a bundle-relative path to its root and check it stays inside (symlinks resolved)."""

@@ -13,7 +13,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from foresight.core.errors import ConfigError
 from foresight.core.stages.context import StageContext
-from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident, resolve_in_bundle
+from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident, Name, Seed, resolve_in_bundle
 from foresight.core.version import code_version
 
 
@@ -24,8 +24,8 @@ class SimulateConfig(BaseModel):
 
     bundle: Ident = BUILTIN_BUNDLE
     matrix: BundlePath = "scenarios/classic_interactions.yaml"
-    scenarios: list[str] | None = Field(default=None, max_length=1000)
-    seeds: list[int] | None = Field(default=None, max_length=1000)
+    scenarios: list[Name] | None = Field(default=None, max_length=1000)
+    seeds: list[Seed] | None = Field(default=None, max_length=1000)
     planner: Literal["goal"] = "goal"
     render: bool = True
 

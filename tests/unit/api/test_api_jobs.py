@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 
 from foresight.store import queue
+from foresight.store.settings import REPO_ROOT
 
 SLEEP = {"spec": {"kind": "sleep"}}
 
@@ -121,12 +122,12 @@ def test_cancel_retry_delete_rules(client, auth, engine) -> None:  # noqa: ANN00
     assert client.get(f"/v1/jobs/{job['id']}").status_code == 404
 
 
-def _finish_with_artifact(engine, settings, job_id: str, name: str = "out/a.txt") -> None:  # noqa: ANN001
+def _finish_with_artifact(engine, settings, job_id: str, name: str = "out/a.txt", content: bytes = b"hello") -> None:  # noqa: ANN001
     from foresight.store import folders
 
     c = queue.claim(engine, "w", ["sleep"], 30)
     rel = f"{folders.job_dir(settings.store_root, job_id)}/{name}"
-    folders.write_atomic(folders.resolve_under(settings.store_root, rel), b"hello")
+    folders.write_atomic(folders.resolve_under(settings.store_root, rel), content)
     queue.finish(engine, job_id, "w", c["attempts"], {}, folders.scan(settings.store_root, folders.job_dir(settings.store_root, job_id)))
 
 
@@ -144,12 +145,13 @@ def test_artifact_download_and_traversal(client, auth, engine, settings) -> None
 
 def test_delete_keeps_files_a_model_uses(client, auth, engine, settings) -> None:  # noqa: ANN001
     job = client.post("/v1/jobs", json=SLEEP, headers=auth).json()
-    _finish_with_artifact(engine, settings, job["id"], "model.pt")
+    weights = (REPO_ROOT / "model" / "predictor-sim-default.pt").read_bytes()  # registration checks it loads
+    _finish_with_artifact(engine, settings, job["id"], "model.pt", weights)
     _finish_note = client.post("/v1/models", json={"id": "m1", "job_id": job["id"], "artifact": "model.pt"}, headers=auth)
     assert _finish_note.status_code == 201
     assert client.delete(f"/v1/jobs/{job['id']}", headers=auth).status_code == 204
     checkpoint = settings.store_root / _finish_note.json()["checkpoint"]
-    assert checkpoint.read_bytes() == b"hello"
+    assert checkpoint.read_bytes() == weights
 
 
 def test_health_workers_metrics_openapi(client) -> None:  # noqa: ANN001

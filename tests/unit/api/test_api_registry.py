@@ -134,13 +134,14 @@ def test_register_promote_delete(client, auth, engine, settings) -> None:  # noq
     assert client.post("/v1/models", json=body, headers=auth).status_code == 409  # job not finished
     c = queue.claim(engine, "w", ["sleep"], 30)
     rel = f"jobs/{job['id']}/ckpt.pt"
-    folders.write_atomic(folders.resolve_under(settings.store_root, rel), b"w")
+    weights = (REPO_ROOT / "model" / "predictor-sim-default.pt").read_bytes()  # registration checks it loads
+    folders.write_atomic(folders.resolve_under(settings.store_root, rel), weights)
     queue.finish(engine, job["id"], "w", c["attempts"], {}, folders.scan(settings.store_root, f"jobs/{job['id']}"))
     assert client.post("/v1/models", json={**body, "artifact": "../x"}, headers=auth).status_code == 422
     assert client.post("/v1/models", json={**body, "artifact": "nope.pt"}, headers=auth).status_code == 404
     created = client.post("/v1/models", json=body, headers=auth)
     assert created.status_code == 201 and created.json()["status"] == "candidate"
-    assert created.json()["sha256"] == hashlib.sha256(b"w").hexdigest()
+    assert created.json()["sha256"] == hashlib.sha256(weights).hexdigest()
     assert client.post("/v1/models", json={**body}, headers=auth).status_code == 409
     body2 = {**body, "id": "m2"}
     assert client.post("/v1/models", json=body2, headers=auth).status_code == 201

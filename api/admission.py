@@ -1,0 +1,62 @@
+"""What a submission must pass before it is queued: its inputs exist and its size fits the server's budget.
+
+Runs in the thread pool (a matrix is parsed once per file version, ~0.3 s the first time). The worker repeats the budget check before a
+stage starts, so child jobs that never pass the API are bounded too.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from foresight.api.web.previews import load_matrix_cached
+from foresight.core.stages.budget import check_budget, work_size
+from foresight.core.stages.context import StageContext
+from foresight.store.registry import Resolver
+from foresight.store.settings import Settings
+
+
+def context(settings: Settings, resolver: Resolver) -> StageContext:
+    """A context that resolves ids as a worker does (never local files); it runs nothing."""
+    return StageContext(workdir=settings.store_root, resolve_bundle=resolver.bundle, resolve_model=resolver.model,
+                        resolve_dataset=resolver.dataset, resolve_data_root=settings.data_root, local_files=False)
+
+
+def named_ids(spec: Any) -> list[tuple[str, str]]:
+    """(model | dataset, id) of every stored input a spec names by id."""
+    from foresight.core.evaluation.config import CampaignConfig
+    from foresight.core.predict.collect import CollectConfig, MixConfig
+    from foresight.core.predict.train_config import TrainConfig
+
+    out: list[tuple[str, str]] = []
+    planner = getattr(spec, "planner", None)
+    model = getattr(planner, "model", None) if planner is not None and not isinstance(planner, dict) else None
+    if isinstance(spec, CollectConfig) and spec.policy == "planner":
+        model = (spec.planner or {}).get("model")
+    if isinstance(model, str) and model != "cv":
+        out.append(("model", model))
+    if isinstance(spec, CampaignConfig):
+        out += [("model", ck) for ck in spec.checkpoints if ck != "cv"]
+    if isinstance(spec, MixConfig):
+        out += [("dataset", spec.base), ("dataset", spec.hardcase)]
+    if isinstance(spec, TrainConfig):
+        out.append(("dataset", spec.dataset))
+    return out
+
+
+def _matrix(path: Path, overrides: dict[str, Any] | None = None) -> Any:
+    """A matrix parsed once per file version (as the dashboard's), unless a spec overrides its scenarios."""
+    if overrides:
+        from foresight.core.scenarios.loader import load_matrix
+
+        return load_matrix(path, overrides=overrides)
+    return load_matrix_cached(path)
+
+
+def admit(spec: Any, settings: Settings, resolver: Resolver) -> None:
+    """NotFoundError (404) for an unknown bundle, matrix, scenario, model or dataset; ConfigError (422) for a
+    job larger than ``settings.max_job_steps`` simulation steps."""
+    ctx = context(settings, resolver)
+    for what, ident in named_ids(spec):
+        (resolver.model_row if what == "model" else resolver.dataset)(ident)
+    check_budget(work_size(spec, ctx, _matrix), settings.max_job_steps)
