@@ -46,7 +46,7 @@ def named_ids(spec: Any) -> list[tuple[str, str]]:
 
 def _matrix(path: Path, overrides: dict[str, Any] | None = None) -> Any:
     """A matrix parsed once per file version (as the dashboard's), unless a spec overrides its scenarios."""
-    if overrides:
+    if overrides or not path.is_file():  # a missing file: load_matrix's error names it
         from foresight.core.scenarios.loader import load_matrix
 
         return load_matrix(path, overrides=overrides)

@@ -46,8 +46,8 @@ class Held:
     """A job this worker is running, and why it should stop, if it should."""
 
     job: dict[str, Any]
-    timeout_s: float  #: the job's own limit, else the server's default
-    deadline: float
+    deadline: float | None
+    timeout_s: float | None = None  #: the job's own limit, else the server's default
     cancel_requested: bool = False
     timed_out: bool = False
     shutdown: bool = False
@@ -55,7 +55,7 @@ class Held:
     last_progress: float = field(default=0.0)
 
     def should_stop(self) -> bool:
-        if time.time() > self.deadline:
+        if self.deadline is not None and time.time() > self.deadline:
             self.timed_out = True
         return self.cancel_requested or self.timed_out or self.shutdown or self.lost
 
@@ -182,7 +182,7 @@ class JobWorker:
     def run_job(self, job: dict[str, Any]) -> None:
         """Run a job this worker claimed, to its end (succeeded, failed, retried, cancelled or released)."""
         timeout = job["timeout_s"] or self.settings.job_timeout_s
-        held = Held(job, timeout, deadline=time.time() + timeout)
+        held = Held(job, deadline=time.time() + timeout, timeout_s=timeout)
         with self._lock:
             self._held[job["id"]] = held
         try:

@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 
 from tests.e2e.service import REPO, TOKEN, Up
+from tests.integration.service import tiny_model_job
 
 CHROMIUM = Path("/usr/bin/chromium")
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
@@ -175,12 +176,9 @@ def test_dashboard_map_previews_and_models(service: Up, page) -> None:  # noqa: 
     page.wait_for_function("document.querySelector('figure.map img').complete "
                            "&& document.querySelector('figure.map img').naturalWidth > 0", timeout=30_000)  # fmt: skip
     page.screenshot(path=str(screenshot_dir() / "dashboard-matrix.png"))
-    # a registered model (any succeeded job's artifact will do): promote it, then make it the default
+    # a registered model (a tiny trained checkpoint: registration takes nothing else): promote it, then default
     api = service.client()
-    job = api.post("/v1/jobs", json={"spec": {"kind": "sleep", "artifact": "model.pt"}}).json()["id"]
-    deadline = time.monotonic() + 30
-    while api.get(f"/v1/jobs/{job}").json()["status"] != "succeeded" and time.monotonic() < deadline:
-        time.sleep(0.2)
+    job = tiny_model_job(api)
     model = {"id": "e2e-model", "job_id": job, "artifact": "model.pt", "metrics": {"ade": 0.31},
              "lineage": {"datasets": ["base-e2e"]}}  # fmt: skip
     assert api.post("/v1/models", json=model).status_code == 201

@@ -29,6 +29,19 @@ def wait_job(client: httpx.Client, job_id: str, timeout: float = 90) -> dict:
     raise AssertionError(f"job {job_id} did not finish: {job}")
 
 
+def tiny_model_job(client: httpx.Client, timeout: float = 180) -> str:
+    """A succeeded train job whose ``model.pt`` is a real (tiny) checkpoint: registration takes nothing else."""
+    collect = {"kind": "collect", "scenarios": ["crossing_low"], "seeds_per_scenario": 2, "max_steps": 60,
+               "check_quality": False}
+    data = wait_job(client, client.post("/v1/jobs", json={"spec": collect}).json()["id"], timeout)
+    assert data["status"] == "succeeded", data
+    train = {"kind": "train", "dataset": data["id"], "epochs": 1, "hidden": 8, "blocks": 0, "edge_dim": 0,
+             "allow_degenerate": True}
+    done = wait_job(client, client.post("/v1/jobs", json={"spec": train}).json()["id"], timeout)
+    assert done["status"] == "succeeded", done
+    return done["id"]
+
+
 def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

@@ -6,7 +6,7 @@ import json
 import signal
 import time
 
-from .service import Service, wait_job
+from .service import Service, tiny_model_job, wait_job
 
 
 def test_up_submit_follow_and_read_back(service: Service) -> None:
@@ -57,9 +57,12 @@ def test_up_submit_follow_and_read_back(service: Service) -> None:
         assert evaluation["per_scenario"][0]["key"] == "crossing_low"
 
         # the registry: register the first job's artifact, promote it, read it back
-        reg = client.post("/v1/models", json={"id": "demo-model", "job_id": done["id"], "artifact": "out/hello.txt"})
+        text = client.post("/v1/models", json={"id": "demo-model", "job_id": done["id"], "artifact": "out/hello.txt"})
+        assert text.status_code == 422 and "not a readable checkpoint" in text.text  # only checkpoints register
+        trained = tiny_model_job(client)
+        reg = client.post("/v1/models", json={"id": "demo-model", "job_id": trained, "artifact": "model.pt"})
         assert reg.status_code == 201, reg.text
-        assert client.post("/v1/models", json={"id": "demo-model", "job_id": done["id"], "artifact": "out/hello.txt"}).status_code == 409
+        assert client.post("/v1/models", json={"id": "demo-model", "job_id": trained, "artifact": "model.pt"}).status_code == 409
         assert client.post("/v1/models/demo-model/promote", json={"to": "default"}).json()["status"] == "default"
         assert client.delete("/v1/models/demo-model").status_code == 409
         listed = {m["id"]: m for m in client.get("/v1/models").json()["data"]}

@@ -114,6 +114,19 @@ def test_cancelling_the_pipeline_cancels_the_running_child(settings, engine) -> 
         children.close()
 
 
+def _make_it_a_checkpoint(settings, engine, job_id: str) -> None:  # noqa: ANN001
+    """Put a real checkpoint where the sleep child wrote its text artifact, and record its checksum."""
+    import hashlib
+
+    from foresight.store.settings import REPO_ROOT
+
+    data = (REPO_ROOT / "model" / "predictor-sim-default.pt").read_bytes()
+    folders.resolve_under(settings.store_root, f"jobs/{job_id}/model.pt").write_bytes(data)
+    with write_tx(engine) as conn:
+        conn.execute(update(queue.artifacts).where(queue.artifacts.c.job_id == job_id)
+                     .values(sha256=hashlib.sha256(data).hexdigest(), size=len(data)))
+
+
 def test_register_then_promote_in_the_registry(settings, engine) -> None:  # noqa: ANN001
     from foresight.store.models import Model
     from foresight.store.session import session_factory
@@ -122,6 +135,7 @@ def test_register_then_promote_in_the_registry(settings, engine) -> None:  # noq
     children = parent.children()
     try:
         train = children("train", "sleep", {"artifact": "model.pt"}, _progress([]))
+        _make_it_a_checkpoint(settings, engine, train.job_id)  # registration checks the artifact loads
         spec = {"model_id": "cand-1", "status": "candidate", "train_stage": "train", "tags": ["pipeline"],
                 "lineage": {"datasets": {"base": "x"}}, "metrics": {"val_ade": 0.3}, "training": {}}
         reg = children("register", "register", spec, _progress([]))
