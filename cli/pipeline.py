@@ -19,10 +19,13 @@ import sys
 import tempfile
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from foresight.core.errors import ConfigError, CoreError
 from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
+
+if TYPE_CHECKING:
+    from foresight.core.pipeline.summary import PipelineResult
 
 QUICKSTART = BUILTIN_CONFIG_ROOT / "pipelines" / "quickstart.yaml"
 FINISHED = {"succeeded", "failed", "cancelled"}
@@ -80,29 +83,20 @@ def read_pipeline(path: str | Path, workers: int | None = None) -> dict[str, Any
     return config.model_dump(mode="json", exclude_unset=False)
 
 
-def verdict_text(result: dict[str, Any]) -> str:
-    if result.get("passed"):
-        head = "GATES PASSED"
-    else:
-        head = "GATES FAILED (" + ", ".join(result.get("failed_gates") or ["?"]) + ")"
-    lines = [f"{head}: exit code {result.get('exit_code')}"]
-    if result.get("promotion"):
-        lines.append(result["promotion"].replace("`", ""))
-    return "\n".join(lines)
+def verdict_text(result: PipelineResult) -> str:
+    head = "GATES PASSED" if result.passed else "GATES FAILED (" + (", ".join(result.failed_gates) or "?") + ")"
+    return "\n".join([f"{head}: exit code {result.exit_code}"] + ([result.promotion.replace("`", "")] if result.promotion else []))
 
 
-def _stage_lines(result: dict[str, Any]) -> list[str]:
-    out = []
-    for st in result.get("stages") or []:
-        wall = f"{st['wall_s']:.0f} s" if st.get("wall_s") is not None else "-"
-        out.append(f"  {st['name']:<9} {st['status']:<12} {wall:>6}  {st.get('headline') or ''}")
-    return out
+def _stage_lines(result: PipelineResult) -> list[str]:
+    return [f"  {st.name:<9} {st.status:<12} {'-' if st.wall_s is None else f'{st.wall_s:.0f} s':>6}  {st.headline}"
+            for st in result.stages]
 
 
 # ------------------------------------------------------------------------------------------ local
 
 
-def run_local(config_path: str, out: str | None, workers: int | None, quiet: bool) -> tuple[dict[str, Any], Path]:
+def run_local(config_path: str, out: str | None, workers: int | None, quiet: bool) -> tuple[PipelineResult, Path]:
     from foresight.cli.common import local_context
     from foresight.cli.evaluate import ModelArgs
     from foresight.core.pipeline.config import PipelineConfig
@@ -119,19 +113,19 @@ def run_local(config_path: str, out: str | None, workers: int | None, quiet: boo
         ctx.log = lambda message: print(f"\n{message}", file=sys.stderr)
     children = LocalChildren(ctx, resolve_model=ModelArgs().resolve)
     result = run_pipeline(config, ctx, children, run_id=workdir.name.split("-")[-1] or "local")
-    return result.model_dump(mode="json"), workdir
+    return result, workdir
 
 
 def cmd_run(args: argparse.Namespace) -> int:
     if args.local:
         result, workdir = run_local(args.file, args.out, args.workers, quiet=args.json)
         if args.json:
-            print(json.dumps(result, indent=2))
+            print(result.model_dump_json(indent=2))
         else:
             print("\n".join(_stage_lines(result)))
             print(f"report: {workdir / 'report.html'}")
             print(verdict_text(result))
-        return int(result["exit_code"])
+        return result.exit_code
     from foresight.cli.client import Client, ServerUnreachable
 
     client = Client.from_args(args)
@@ -189,25 +183,25 @@ def report_outcome(client: Any, job: dict[str, Any], *, as_json: bool, store_roo
     base = str(client.http.base_url).rstrip("/")
     url = f"{base}/ui/jobs/{job['id']}/files/report.html"
     path = (store_root / "jobs" / job["id"] / "report.html") if store_root else None
-    result = job.get("result") or {}
+    from foresight.core.pipeline.summary import PipelineResult
+
+    result = PipelineResult.model_validate(job["result"]) if job["status"] == "succeeded" else None
     if as_json:
-        print(json.dumps({"job": job["id"], "status": job["status"], "result": result, "report_url": url,
+        print(json.dumps({"job": job["id"], "status": job["status"], "result": job["result"], "report_url": url,
                           "report_file": str(path) if path else None}, indent=2))
     else:
-        if result:
+        if result is not None:
             print("\n".join(_stage_lines(result)))
         print(f"report: {url}")
         if path:
             print(f"report file: {path}")
-        if job["status"] == "succeeded":
+        if result is not None:
             print(verdict_text(result))
         else:
             err = job.get("error") or {}
             print(f"pipeline {job['status']}: {err.get('type', '')}: {err.get('message', '')}"
                   f"\n(retry with `foresight jobs retry {job['id']}`: finished stages are not run again)")
-    if job["status"] != "succeeded":
-        return 1
-    return int(result.get("exit_code", 1))
+    return 1 if result is None else result.exit_code
 
 
 def _free_port() -> int:
