@@ -12,6 +12,8 @@ from typing import Any
 
 from sqlalchemy import Engine, select
 
+from foresight.core.evaluation.aggregate import GroupStats, SuiteSummary
+from foresight.core.evaluation.runner import EvaluationMetrics
 from foresight.store import folders, queue
 from foresight.store.models import (
     Artifact,
@@ -63,13 +65,13 @@ def campaign(engine: Engine, ident: str) -> tuple[Campaign, list[dict[str, Any]]
                 [{"gate": g.gate, "passed": g.passed, "details": g.details} for g in gates])
 
 
-def comparison_operand(engine: Engine, ident: str) -> tuple[str, dict[str, Any], dict[str, Any]]:
+def comparison_operand(engine: Engine, ident: str) -> tuple[str, dict[str, Any], GroupStats | SuiteSummary]:
     """(what it is, resolved config, headline summary) of an evaluation id or a campaign cell
     ``CAMPAIGN_ID:RANK[:SUITE]`` (rank 1 = the best cell, suite ``global`` (default) or ``hard``)."""
     with session_factory(engine)() as session:
         row = session.get(Evaluation, ident)
         if row is not None:
-            return "evaluation", row.config, (row.metrics or {}).get("overall") or {}
+            return "evaluation", row.config, EvaluationMetrics.model_validate(row.metrics).overall
         campaign_id, _, rest = ident.partition(":")
         rank, _, suite = rest.partition(":")
         found = session.get(Campaign, campaign_id)
@@ -85,7 +87,7 @@ def comparison_operand(engine: Engine, ident: str) -> tuple[str, dict[str, Any],
         summary = (cell.metrics or {}).get(suite)
         if not summary:
             raise queue.JobNotFound(f"campaign {campaign_id!r} cell {rank} has no {suite} suite")
-        return f"campaign cell ({suite} suite)", config, summary
+        return f"campaign cell ({suite} suite)", config, SuiteSummary.model_validate(summary)
 
 
 def records_by_job(engine: Engine) -> dict[str, list[tuple[str, str]]]:

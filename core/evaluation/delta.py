@@ -23,9 +23,17 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel
 
-from foresight.core.evaluation.aggregate import MEANS, RATES
+from foresight.core.evaluation.aggregate import MEANS, RATES, GroupStats, SuiteSummary
 from foresight.core.evaluation.record import EpisodeRecord
-from foresight.core.evaluation.stats import ALPHA, MIN_PAIRS, mcnemar_p, paired_bootstrap, wilcoxon_p
+from foresight.core.evaluation.stats import (
+    ALPHA,
+    MIN_PAIRS,
+    MeanEstimate,
+    RateEstimate,
+    mcnemar_p,
+    paired_bootstrap,
+    wilcoxon_p,
+)
 
 #: headline metric -> its field in a SuiteSummary (a campaign cell's hard or global suite)
 SUITE_FIELDS = {"success": "success", "collision": "collision", "min_clearance": "mean_min_clearance",
@@ -60,20 +68,19 @@ class Delta(BaseModel):
     p_value: float | None = None  #: paired only, two-sided
 
 
-def _estimate(raw: Mapping[str, Any]) -> Estimate:
-    """A stored RateEstimate (``rate``) or MeanEstimate (``mean``) as one shape."""
-    value = raw.get("rate", raw.get("mean"))
-    return Estimate(value=value, low=raw.get("low"), high=raw.get("high"), n=raw.get("n"))
+def _estimate(e: RateEstimate | MeanEstimate) -> Estimate:
+    """A RateEstimate or a MeanEstimate as one shape."""
+    return Estimate(value=e.rate if isinstance(e, RateEstimate) else e.mean, low=e.low, high=e.high, n=e.n)
 
 
-def headline(summary: Mapping[str, Any]) -> dict[str, Estimate]:
-    """Headline estimates of a stored result: an evaluation's ``overall`` GroupStats (``rates``/``means``)
-    or a campaign cell's SuiteSummary; both give the same metric names."""
-    if "rates" in summary or "means" in summary:
-        raw = {**(summary.get("rates") or {}), **(summary.get("means") or {})}
+def headline(summary: GroupStats | SuiteSummary) -> dict[str, Estimate]:
+    """Headline estimates of a result: an evaluation's ``overall`` GroupStats (``rates``/``means``) or a campaign
+    cell's SuiteSummary; both give the same metric names."""
+    if isinstance(summary, GroupStats):
+        raw: dict[str, RateEstimate | MeanEstimate] = {**summary.rates, **summary.means}
     else:
-        raw = {name: summary[f] for name, f in SUITE_FIELDS.items() if isinstance(summary.get(f), Mapping)}
-    return {name: _estimate(v) for name, v in sorted(raw.items()) if isinstance(v, Mapping)}
+        raw = {name: getattr(summary, f) for name, f in SUITE_FIELDS.items()}
+    return {name: _estimate(v) for name, v in sorted(raw.items())}
 
 
 def mover(a: Estimate, b: Estimate) -> Delta:
@@ -89,7 +96,7 @@ def mover(a: Estimate, b: Estimate) -> Delta:
     return Delta(a=a, b=b, delta=d, low=low, high=high, significant=enough and (low > 0 or high < 0))
 
 
-def deltas(a: Mapping[str, Any], b: Mapping[str, Any]) -> dict[str, Delta]:
+def deltas(a: GroupStats | SuiteSummary, b: GroupStats | SuiteSummary) -> dict[str, Delta]:
     """Every headline metric both results have, B - A (unpaired: from the stored summaries)."""
     ea, eb = headline(a), headline(b)
     return {name: mover(ea[name], eb[name]) for name in ea if name in eb}

@@ -15,14 +15,22 @@ def _rate(k: int, n: int, low: float, high: float) -> dict:
     return {"count": k, "n": n, "rate": k / n, "low": low, "high": high}
 
 
+def _metrics(k: int, n: int, low: float, high: float) -> dict:
+    """An evaluation row's metrics (EvaluationMetrics) with only a success rate in its overall group."""
+    overall = {"key": "global", "episodes": n, "rates": {"success": _rate(k, n, low, high)}, "means": {}, "failed": [],
+               "taxonomy": {}}
+    return {"success_rate": k / n, "collision_rate": 0.0, "episodes": n, "status": "passed", "overall": overall}
+
+
 def _store(engine) -> None:  # noqa: ANN001
-    overall = {"episodes": 80, "rates": {"success": _rate(48, 80, 0.4904, 0.7000)}, "means": {}}
-    better = {"episodes": 70, "rates": {"success": _rate(56, 70, 0.6922, 0.8769)}, "means": {}}
-    suite = {"episodes": 70, "success": _rate(56, 70, 0.6922, 0.8769), "taxonomy": {}}
+    unknown = {"n": 0, "mean": None, "low": None, "high": None}
+    suite = {"episodes": 70, "success": _rate(56, 70, 0.6922, 0.8769), "collision": _rate(0, 70, 0.0, 0.05),
+             "mean_min_clearance": unknown, "mean_min_distance": unknown, "mean_avg_speed": unknown, "taxonomy": {}}
     with engine.begin() as conn:
-        for ident, metrics, horizon in (("eval-a", overall, 12), ("eval-b", better, 8)):
+        for ident, metrics, horizon in (("eval-a", _metrics(48, 80, 0.4904, 0.7000), 12),
+                                        ("eval-b", _metrics(56, 70, 0.6922, 0.8769), 8)):
             conn.execute(insert(Evaluation.__table__).values(
-                id=ident, config={"planner": {"horizon": horizon}}, metrics={"overall": metrics}, per_scenario=[],
+                id=ident, config={"planner": {"horizon": horizon}}, metrics=metrics, per_scenario=[],
                 created_at=time.time()))  # fmt: skip
         conn.execute(insert(Campaign.__table__).values(id="camp", config={"grid": "grids/x.yaml"}, best=None,
                                                        created_at=time.time()))  # fmt: skip
@@ -69,10 +77,9 @@ def _store_with_episodes(engine, settings, runs: dict[str, list]) -> None:  # no
             conn.execute(insert(Artifact.__table__).values(job_id=ident, name="episodes.jsonl",
                                                            path=f"jobs/{ident}/episodes.jsonl", size=1, sha256="x",
                                                            created_at=now))  # fmt: skip
-            k = sum(r.success for r in records)
-            overall = {"episodes": len(records), "rates": {"success": _rate(k, len(records), 0.0, 1.0)}, "means": {}}
+            metrics = _metrics(sum(r.success for r in records), len(records), 0.0, 1.0)
             conn.execute(insert(Evaluation.__table__).values(id=ident, job_id=ident, config={}, per_scenario=[],
-                                                             metrics={"overall": overall}, created_at=now))  # fmt: skip
+                                                             metrics=metrics, created_at=now))  # fmt: skip
 
 
 def test_evaluations_of_the_same_episodes_are_paired(client, engine, settings) -> None:  # noqa: ANN001

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import pytest
 
+from foresight.core.evaluation.aggregate import GroupStats, SuiteSummary
 from foresight.core.evaluation.delta import Estimate, deltas, diff_configs, headline, mover
 from foresight.core.evaluation.stats import wilson_interval
 
@@ -33,10 +34,12 @@ def test_overlapping_results_are_not_significant_and_missing_sides_give_no_inter
 def test_evaluation_and_campaign_cell_summaries_share_metric_names() -> None:
     rate = {"count": 3, "n": 4, "rate": 0.75, "low": 0.3, "high": 0.95}
     mean = {"n": 4, "mean": 0.4, "low": 0.3, "high": 0.5}
-    overall = {"key": "overall", "episodes": 4, "rates": {"success": rate, "collision": {**rate, "rate": 0.25}},
-               "means": {"min_clearance": mean}}
-    suite = {"episodes": 4, "success": {**rate, "rate": 1.0, "low": 0.5, "high": 1.0}, "collision": rate,
-             "mean_min_clearance": mean, "taxonomy": {}}
+    overall = GroupStats.model_validate({"key": "overall", "episodes": 4, "failed": [], "taxonomy": {},
+                                         "rates": {"success": rate, "collision": {**rate, "rate": 0.25}},
+                                         "means": {"min_clearance": mean}})
+    suite = SuiteSummary.model_validate({"episodes": 4, "success": {**rate, "rate": 1.0, "low": 0.5, "high": 1.0},
+                                         "collision": rate, "mean_min_clearance": mean, "mean_min_distance": mean,
+                                         "mean_avg_speed": mean, "taxonomy": {}})
     assert set(headline(overall)) == {"success", "collision", "min_clearance"}
     assert set(headline(suite)) >= {"success", "collision", "min_clearance"}
     d = deltas(overall, suite)
