@@ -15,7 +15,6 @@ from typing import Any
 from foresight.cli.client import Client, add_connection_args
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.stats import ALPHA, MIN_PAIRS
-from foresight.core.reports.common import FIGURES
 
 REPORT_MD, REPORT_HTML = "report.md", "report.html"
 
@@ -40,6 +39,8 @@ def _download(client: Client, job_id: str, name: str) -> bytes:
 
 def report_files(job: dict[str, Any]) -> list[str]:
     """Artifact names that make up the job's report: the two pages and the figures they sit beside."""
+    from foresight.core.reports.common import FIGURES  # matplotlib: not at every command's start-up
+
     names = [a["name"] for a in job.get("artifacts") or []]
     if REPORT_MD not in names and REPORT_HTML not in names:
         return []
