@@ -8,7 +8,14 @@ from fastapi import APIRouter, Query
 
 from foresight.api.deps import EngineDep, SettingsDep
 from foresight.api.errors import responses
-from foresight.api.schemas import CampaignPublic, DatasetPublic, EvaluationPublic, Ident
+from foresight.api.schemas import (
+    CampaignPublic,
+    DatasetPublic,
+    EvaluationPublic,
+    EvaluationsPublic,
+    EvaluationSummaryPublic,
+    Ident,
+)
 from foresight.store import results
 
 router = APIRouter(tags=["results"])
@@ -34,6 +41,20 @@ def read_data_roots(settings: SettingsDep) -> list[dict[str, Any]]:
 
     return [{"name": name, "folds": [f for f in FOLDS if (path / f).is_dir()]}
             for name, path in sorted(settings.named_data_roots.items())]
+
+
+@router.get("/evaluations")
+def read_evaluations(
+    engine: EngineDep,
+    model_id: Ident | None = None,
+    bundle: Ident | None = None,
+    limit: Annotated[int, Query(ge=1, le=500)] = 50,
+    offset: Annotated[int, Query(ge=0, le=10_000_000)] = 0,
+) -> EvaluationsPublic:
+    """Evaluations, newest first, filtered by model id and bundle; config and headline metrics of each."""
+    count, rows = results.evaluations(engine, model_id=model_id, bundle_id=bundle, limit=limit, offset=offset)
+    return EvaluationsPublic(data=[EvaluationSummaryPublic.model_validate(r) for r in rows], count=count, limit=limit,
+                             offset=offset)
 
 
 @router.get("/evaluations/{evaluation_id}", responses=responses(404))

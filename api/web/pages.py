@@ -6,12 +6,13 @@ from typing import Annotated, Any
 from urllib.parse import urlencode
 
 from fastapi import APIRouter, Depends, Query, Request
-from fastapi.responses import HTMLResponse, RedirectResponse
+from fastapi.responses import HTMLResponse, RedirectResponse, Response
 
 from foresight.api.web import catalog, files
 from foresight.api.web.auth import PageNotFound, read_access
 from foresight.api.web.render import page
 from foresight.core.stages.kinds import KINDS
+from foresight.core.stages.results import Verdict, verdict
 from foresight.store import queue
 from foresight.store.models import JobStatus
 
@@ -29,11 +30,17 @@ def read_root() -> RedirectResponse:
     return RedirectResponse("/ui/jobs", status_code=307)
 
 
+def job_verdict(job: dict[str, Any]) -> Verdict | None:
+    """A job row's gate/integrity verdict (succeeded jobs only), shown as a badge next to its status."""
+    return verdict(job["kind"], job["result"]) if job["status"] == queue.SUCCEEDED else None
+
+
 def _jobs(request: Request, status: list[JobStatus] | None, kind: list[str] | None, offset: int) -> dict[str, Any]:
     count, data = queue.list_jobs(request.app.state.engine, statuses=[s.value for s in status or []], kinds=kind or [],
                                   limit=PAGE_SIZE, offset=offset)  # fmt: skip
     for job in data:
         job["report"] = files.report_of(request, job["id"]) if job["status"] == queue.SUCCEEDED else None
+        job["verdict"] = job_verdict(job)
     filters = urlencode([("status", s.value) for s in status or []] + [("kind", k) for k in kind or []])
     return {"jobs": data, "count": count, "offset": offset, "page_size": PAGE_SIZE, "filters": filters}
 
@@ -65,12 +72,19 @@ def _job(request: Request, job_id: str) -> dict[str, Any]:
     except queue.JobNotFound:
         raise PageNotFound(f"no job with id {job_id}") from None
     job["report"] = files.report_of(request, job_id)
+    job["verdict"] = job_verdict(job)
     return job
 
 
 @pages.get("/jobs/{job_id}")
-def job_page(request: Request, job_id: str) -> HTMLResponse:
-    """One job: summary, error, spec, result, live log, report, artifacts, children."""
+def job_page(request: Request, job_id: str) -> Response:
+    """One job: summary, error, spec, result, live log, report, artifacts, children (a short id redirects)."""
+    try:
+        full = queue.resolve_id(request.app.state.engine, job_id)
+    except queue.JobNotFound as exc:
+        raise PageNotFound(str(exc)) from None
+    if full != job_id:
+        return RedirectResponse(f"/ui/jobs/{full}", status_code=307)
     job = _job(request, job_id)
     return page(request, "job.html", title=f"Job {job_id}", nav="jobs", job=job)
 
