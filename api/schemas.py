@@ -257,6 +257,18 @@ class EvaluationsPublic(BaseModel):
     offset: int
 
 
+class EpisodePublic(BaseModel):
+    """One evaluated episode in a list, with the links to watch it."""
+
+    scenario: str
+    seed: int
+    outcome: str
+    label: str | None = Field(description="failure taxonomy label (None for successes)")
+    steps: int
+    trace: str | None = Field(description="API URL of its compact trace (None: the evaluation stored none)")
+    player: str | None = Field(description="dashboard URL of the episode player")
+
+
 class CampaignCellPublic(BaseModel):
     rank: int
     params: CellParams

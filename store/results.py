@@ -120,3 +120,15 @@ def episodes_file(engine: Engine, store_root: Path, ident: str) -> Path | None:
             select(Artifact).where(Artifact.job_id == row.job_id, Artifact.name == "episodes.jsonl")).first()
     path = None if art is None else folders.resolve_under(store_root, art.path)
     return path if path is not None and path.is_file() else None
+
+
+def episode_trace_file(engine: Engine, store_root: Path, ident: str, name: str) -> Path | None:
+    """The file ``name`` (a work-directory-relative trace name) of an evaluation's job; None when absent. Read from
+    the job's folder (written with its records) rather than the artifact rows, so one path rule serves both."""
+    with session_factory(engine)() as session:
+        row = _get(session, Evaluation, ident, "evaluation")
+        job_id = row.job_id
+    if job_id is None:
+        return None
+    path = folders.resolve_under(store_root, f"{folders.job_dir(store_root, job_id)}/{name}")
+    return path if path.is_file() else None

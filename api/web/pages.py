@@ -73,7 +73,18 @@ def _job(request: Request, job_id: str) -> dict[str, Any]:
         raise PageNotFound(f"no job with id {job_id}") from None
     job["report"] = files.report_of(request, job_id)
     job["verdict"] = job_verdict(job)
+    job["episodes"] = _episodes(request, job) if job["kind"] == "evaluate" and job["status"] == queue.SUCCEEDED else []
     return job
+
+
+def _episodes(request: Request, job: dict[str, Any]) -> list[Any]:
+    """An evaluation job's episodes (failures first) with their player links; none when it recorded none."""
+    from foresight.api.routes.results import episode_list
+
+    try:
+        return episode_list(request.app.state.engine, request.app.state.settings, job["id"])
+    except queue.JobNotFound:  # no evaluation row (e.g. the job is a shard's parent still merging)
+        return []
 
 
 @pages.get("/jobs/{job_id}")
@@ -93,6 +104,14 @@ def job_page(request: Request, job_id: str) -> Response:
 def job_summary(request: Request, job_id: str) -> HTMLResponse:
     """The summary block of a job's page (refreshed on status changes)."""
     return page(request, "_job_summary.html", job=_job(request, job_id))
+
+
+@pages.get("/evaluations/{evaluation_id}/episodes/{scenario}/{seed}")
+def episode_page(request: Request, evaluation_id: str, scenario: str, seed: int) -> HTMLResponse:
+    """The episode player: the stored compact trace drawn on a canvas, with play/pause and a time slider."""
+    data_url = f"/v1/evaluations/{evaluation_id}/episodes/{scenario}/{seed}"
+    return page(request, "episode.html", title=f"{scenario} seed {seed}", nav="results", evaluation_id=evaluation_id,
+                scenario=scenario, seed=seed, data_url=data_url)
 
 
 router.include_router(pages)

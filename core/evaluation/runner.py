@@ -53,6 +53,7 @@ class EpisodeSettings:
     taxonomy: TaxonomyConfig
     keep_diagnostics: bool = False  #: return whole EpisodeRuns (trace + per-step planner log), not records
     overrides: dict[str, Any] | None = None  #: the selection's scenario_overrides (applied when a worker loads the matrix)
+    trace_root: str | None = None  #: the work directory: each episode's compact trace goes to its ``trace_name``
 
 
 # ------------------------------------------------------------------------------ episode selection
@@ -120,9 +121,14 @@ class EpisodeWorker:
 
     def run(self, job: Job) -> tuple[int, Any]:
         s = self.settings
-        run = run_one(self.matrix.get(job.scenario), job.seed, job.planner, max_steps=s.max_steps,
+        scenario = self.matrix.get(job.scenario)
+        run = run_one(scenario, job.seed, job.planner, max_steps=s.max_steps,
                       metrics_cfg=s.metrics, taxonomy_cfg=s.taxonomy, keep_diagnostics=s.keep_diagnostics,
                       simulator=self.sim, check=self.check)
+        if s.trace_root is not None:
+            from foresight.core.evaluation.episode_trace import compact_trace, trace_name, write_compact
+
+            write_compact(Path(s.trace_root) / trace_name(job.scenario, job.seed), compact_trace(run, scenario.map))
         return job.index, (run if s.keep_diagnostics else run.record)
 
 
@@ -297,7 +303,7 @@ def prepare_evaluation(config: EvaluationConfig, ctx: StageContext) -> PreparedE
     rp = resolve_planner(config.planner, ctx)
     preflight(rp, [matrix.get(name) for name in dict.fromkeys(s for s, _ in pairs)])
     settings = EpisodeSettings(str(path), config.max_steps, config.metrics, config.taxonomy,
-                               overrides=config.scenario_overrides)
+                               overrides=config.scenario_overrides, trace_root=str(ctx.workdir))
     return PreparedEvaluation(path, matrix, pairs, rp, settings)
 
 
