@@ -157,8 +157,10 @@ def expected_cost(matrix: ScenarioMatrix, name: str, max_steps: int | None) -> f
 def run_jobs(
     jobs: list[Job], settings: EpisodeSettings, ctx: StageContext, *, matrix: ScenarioMatrix | None = None,
     start_method: str = "spawn", on_record: Callable[[int, int, EpisodeRecord], None] | None = None,
+    executor: str = "local",
 ) -> list[Any]:
-    """Run every job (in-process with one worker, else a process pool); results in job order.
+    """Run every job (``local``: in-process with one worker, else a process pool; ``ray``: one Ray task per
+    episode, core.evaluation.ray_executor); results in job order, the same for either executor.
 
     Results are EpisodeRecords, or EpisodeRuns when ``settings.keep_diagnostics``.
     """
@@ -176,6 +178,13 @@ def run_jobs(
     if matrix is not None and workers > 1:  # longest first: less idle tail; output order is by index anyway
         local.sort(key=lambda j: -expected_cost(matrix, j.scenario, settings.max_steps))
     ctx.check_cancelled()
+    if executor == "ray":
+        from foresight.core.evaluation.ray_executor import run_on_ray
+        from foresight.core.scenarios.loader import load_matrix
+
+        matrix = matrix or load_matrix(settings.matrix_path, overrides=settings.overrides)
+        collect(run_on_ray(local, settings, matrix, ctx))
+        return [r for r in out if r is not None]
     # a learned model runs in worker processes even with one worker: one torch thread each, so the
     # numbers (and hence trajectories) do not depend on the worker count
     if workers == 1 and not any(j.planner.learned for j in jobs):
@@ -322,7 +331,7 @@ def run_evaluation(config: EvaluationConfig, ctx: StageContext) -> EvaluationRes
         ctx.progress(done / total, f"{rec.scenario} seed {rec.seed}: {rec.outcome}")
 
     records = run_jobs(jobs, prep.settings, ctx, matrix=prep.matrix, start_method=config.start_method,
-                       on_record=progress)
+                       executor=config.executor, on_record=progress)
     return finish_evaluation(config, records, prep, ctx, t0)
 
 
