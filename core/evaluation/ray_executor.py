@@ -24,7 +24,7 @@ import tempfile
 import threading
 import uuid
 from collections import OrderedDict
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -75,15 +75,15 @@ def _checkpoint_file(sha256: str, blob: bytes) -> str:
     return str(path)
 
 
-def _episode(token: str, settings: Any, matrix: Any, checkpoints: dict[str, bytes], job: Any) -> tuple[int, Any]:
+def _episode(token: str, make_worker: Callable[[], Any], checkpoints: dict[str, bytes], job: Any) -> tuple[int, Any]:
     import ray
 
-    from foresight.core.evaluation.runner import EpisodeRun, EpisodeWorker
+    from foresight.core.evaluation.episode import EpisodeRun
 
     os.environ.setdefault("OMP_NUM_THREADS", "1")  # one torch thread: trajectories independent of the executor
     worker = _WORKERS.get(token)
     if worker is None:
-        worker = _WORKERS[token] = EpisodeWorker(settings, matrix)
+        worker = _WORKERS[token] = make_worker()
         while len(_WORKERS) > 4:
             _WORKERS.popitem(last=False)
     planner = job.planner
@@ -100,15 +100,19 @@ def _episode(token: str, settings: Any, matrix: Any, checkpoints: dict[str, byte
 # ------------------------------------------------------------------------------ the driver
 
 
-def run_on_ray(jobs: list[Any], settings: Any, matrix: Any, ctx: Any) -> Iterator[tuple[int, Any]]:
-    """(index, result) of every job as its task finishes; cancels the unfinished tasks when left early."""
+def run_on_ray(jobs: list[Any], make_worker: Callable[[], Any], ctx: Any) -> Iterator[tuple[int, Any]]:
+    """(index, result) of every job as its task finishes; cancels the unfinished tasks when left early.
+
+    ``make_worker`` (picklable, e.g. a partial of the run's EpisodeWorker with its settings and matrix) builds the
+    executor of one worker process; it travels through the object store once.
+    """
     import ray
 
     connect(int(ctx.workers or 1))
     task = ray.remote(num_cpus=1, max_retries=MAX_RETRIES, retry_exceptions=False)(_episode)
     checkpoints = {j.planner.checkpoint_sha256: Path(j.planner.model_path).read_bytes()
                    for j in jobs if j.planner.learned}
-    refs = [ray.put(settings), ray.put(matrix), ray.put(checkpoints)]
+    refs = [ray.put(make_worker), ray.put(checkpoints)]
     token = uuid.uuid4().hex
     pending = {task.remote(token, *refs, job): job.index for job in jobs}
     try:

@@ -7,6 +7,7 @@ worker count. Workers are plain ``multiprocessing`` processes (spawn by default:
 
 from __future__ import annotations
 
+import functools
 import json
 import multiprocessing as mp
 import os
@@ -183,7 +184,7 @@ def run_jobs(
         from foresight.core.scenarios.loader import load_matrix
 
         matrix = matrix or load_matrix(settings.matrix_path, overrides=settings.overrides)
-        collect(run_on_ray(local, settings, matrix, ctx))
+        collect(run_on_ray(local, functools.partial(EpisodeWorker, settings, matrix), ctx))
         return [r for r in out if r is not None]
     # a learned model runs in worker processes even with one worker: one torch thread each, so the
     # numbers (and hence trajectories) do not depend on the worker count
