@@ -223,11 +223,12 @@ class PlannerProvenance(BaseModel):
     config_hash: str
     model_id: str
     checkpoint_sha256: str
+    origin: str = "builtin"  #: "builtin", "external", "plugin DIST VERSION" (the plugin's version) or "module"
 
 
 def planner_provenance(rp: ResolvedPlanner) -> PlannerProvenance:
     return PlannerProvenance(name=rp.name, variant=rp.variant, config=rp.config, config_hash=rp.config_hash,
-                             model_id=rp.model_id, checkpoint_sha256=rp.checkpoint_sha256)
+                             model_id=rp.model_id, checkpoint_sha256=rp.checkpoint_sha256, origin=rp.origin)
 
 
 class EvaluationResult(BaseModel):
