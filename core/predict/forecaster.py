@@ -17,6 +17,7 @@ from foresight.core.predict.features import ego_to_world, extract_features
 from foresight.core.predict.history import LiveHistory
 from foresight.core.predict.predictor import ConstantVelocityPredictor, Predictor
 from foresight.core.predict.timebase import TimeBase
+from foresight.core.predict.uncertainty import CV_SIGMA, LEARNED_SIGMA, GrowingSigma
 from foresight.core.sim.observation import Observation
 
 
@@ -24,6 +25,7 @@ from foresight.core.sim.observation import Observation
 class Forecast:
     ped_ids: np.ndarray  #: (N,) int64 true pedestrian ids (those present now)
     positions: np.ndarray  #: (N, T, 2) world frame [m] at ``times``
+    sigma: np.ndarray  #: (N, T) per-axis std [m] of each position (isotropic Gaussian, ``core.predict.uncertainty``)
     times: np.ndarray  #: (T,) seconds ahead of the observation's time [s]
     source: str  #: which predictor made it ("constant_velocity", "learned:<name>", "learned+cv_far:<name>")
     timebase: TimeBase
@@ -45,8 +47,9 @@ class Forecaster(Protocol):
 class _PredictorForecaster:
     """Runs a Predictor on the live window's N nearest pedestrians; farther ones (if any) get CV."""
 
-    def __init__(self, predictor: Predictor, max_agents: int | None, source: str):
+    def __init__(self, predictor: Predictor, max_agents: int | None, source: str, uncertainty: GrowingSigma):
         self.predictor = predictor
+        self.uncertainty = uncertainty
         self.timebase = predictor.timebase
         self.max_agents = max_agents
         self.source = source
@@ -68,6 +71,8 @@ class _PredictorForecaster:
         feats = extract_features(window, self.timebase, None)  # all present, closest first
         n = len(feats.ped_ids)
         ego = np.zeros((n, self.timebase.horizon, 2), dtype=np.float32)
+        times = self.timebase.times
+        sigma = np.repeat(self.uncertainty(times)[None], n, axis=0)
         source = self.source
         if n:
             k = n if self.max_agents is None else min(n, self.max_agents)
@@ -75,9 +80,10 @@ class _PredictorForecaster:
             ego[:k] = self.predictor.predict(near[0][None], near[1][None])[0, :k]
             if k < n:
                 ego[k:] = self._cv.predict(feats.features[None, k:], feats.mask[None, k:])[0]
+                sigma[k:] = CV_SIGMA(times)
                 source = source.replace("learned:", "learned+cv_far:")
         world = ego_to_world(ego, feats.origin, feats.heading)
-        return Forecast(feats.ped_ids.copy(), world, self.timebase.times, source, self.timebase)
+        return Forecast(feats.ped_ids.copy(), world, sigma, times, source, self.timebase)
 
 
 def _pad(features: np.ndarray, mask: np.ndarray, slots: int | None) -> tuple[np.ndarray, np.ndarray]:
@@ -94,14 +100,15 @@ class ConstantVelocityForecaster(_PredictorForecaster):
     """Every present pedestrian continues at its last observed (backward-difference) velocity."""
 
     def __init__(self, timebase: TimeBase):
-        super().__init__(ConstantVelocityPredictor(timebase), None, "constant_velocity")
+        super().__init__(ConstantVelocityPredictor(timebase), None, "constant_velocity", CV_SIGMA)
 
 
 class LearnedForecaster(_PredictorForecaster):
     """A learned Predictor (its own time base and slot count) on the nearest pedestrians.
 
     Pedestrians beyond the model's ``max_agents`` nearest get constant velocity, and ``source``
-    says so (``learned+cv_far:<name>``); nothing falls back silently.
+    says so (``learned+cv_far:<name>``); nothing falls back silently. The forecast's spread is the
+    predictor's ``uncertainty`` when it has one, else the calibrated envelope ``LEARNED_SIGMA``.
     """
 
     def __init__(self, predictor: Predictor, max_agents: int | None = None):
@@ -110,4 +117,4 @@ class LearnedForecaster(_PredictorForecaster):
             raise ConfigError(f"model {predictor.name!r} was trained in the {frame!r} frame; the planner feeds "
                               "robot-frame features (train it on simulator data)", item="model")
         slots = max_agents if max_agents is not None else getattr(predictor, "max_agents", None)
-        super().__init__(predictor, slots, f"learned:{predictor.name}")
+        super().__init__(predictor, slots, f"learned:{predictor.name}", getattr(predictor, "uncertainty", LEARNED_SIGMA))

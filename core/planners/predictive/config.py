@@ -46,7 +46,8 @@ class SearchConfig(_Frozen):
     """Beam search over piecewise-constant command sequences on the forecast's time grid."""
 
     segments_s: tuple[float, ...] = (0.8,)  #: durations of segments 1..S-1 [s]; the last lasts to the horizon
-    extra_horizon_s: float = Field(default=0.0, ge=0, le=5)  #: extend the forecast at constant velocity [s]
+    #: extend the forecast at its final velocity [s]: 2.4 + 1.6 s lets the robot clear a walker's path in time
+    extra_horizon_s: float = Field(default=1.6, ge=0, le=5)
     beam_width: int = Field(default=6, ge=1, le=64)
     branch_speed_ratios: tuple[float, ...] = (0.0, 0.5, 1.0)  #: later-segment speeds, ratios of max speed
     branch_turn_rate_count: int = Field(default=5, ge=1, le=21)  #: later-segment turn rates over +-w_max
@@ -55,12 +56,12 @@ class SearchConfig(_Frozen):
 
 
 class SafetyConfig(_Frozen):
-    """Margins [m] added to the true radii; ``growth`` widens them with the forecast age."""
+    """Margins [m] added to the true radii; the forecast's spread (sigma) widens them with its age."""
 
     extra_robot_margin: float = Field(default=0.0, ge=0)  #: added to the robot radius for pedestrians
     extra_ped_margin: float = Field(default=0.0, ge=0)  #: added to the pedestrian radius
     collision_margin: float = Field(default=0.1, ge=0)  #: inside it a step counts as a (predicted) collision
-    margin_growth: float = Field(default=0.1, ge=0)  #: uncertainty growth of the margins [m/s of forecast age]
+    confidence: float = Field(default=1.0, ge=0, le=4)  #: chance margin in forecast standard deviations
     near_distance: float = Field(default=0.5, ge=0)  #: near-miss band beyond the collision distance
     ttc_distance: float = Field(default=0.4, ge=0)  #: a step inside it ends the time to collision
     hard_clearance_distance: float = Field(default=0.3, ge=0)
@@ -69,13 +70,13 @@ class SafetyConfig(_Frozen):
     static_margin: float = Field(default=0.05, ge=0)  #: hard: rollouts closer to an edge are infeasible
     static_soft_distance: float = Field(default=0.4, ge=0)  #: soft clearance band beyond the hard margin
     discount: float = Field(default=0.9, gt=0, le=1)  #: per forecast step weight of pedestrian terms
-    passive_floor: float = Field(default=0.15, ge=0, le=1)  #: weight of ped terms while the robot stands still
-    passive_speed: float = Field(default=0.6, gt=0)  #: robot speed [m/s] from which ped terms count fully
     stall_after_s: float = Field(default=2.0, gt=0)  #: window over which route progress is measured [s]
     stall_ramp_s: float = Field(default=3.0, gt=0)  #: time for assertiveness to move between 0 and 1 [s]
     stall_progress: float = Field(default=0.5, gt=0)  #: less route progress [m] in the window is a stall
-    yield_distance: float = Field(default=0.7, ge=0)  #: contact reduction at full assertiveness [m]
-    yield_speed: float = Field(default=0.3, ge=0)  #: pedestrians step away from a close robot at up to this [m/s]
+    stall_margin_relief: float = Field(default=0.5, ge=0, le=1)  #: soft margins dropped at full assertiveness
+    #: pedestrians assumed to step away from a close robot at up to this [m/s]; 0: forecasts taken as they are
+    #: (many people never see the robot: assuming they yield freezes the robot in their path)
+    yield_speed: float = Field(default=0.0, ge=0)
     yield_range: float = Field(default=1.2, ge=0)  #: ... starting this far beyond contact [m]
     static_field_resolution: float = Field(default=0.1, ge=0, le=0.5)  #: [m]; 0 = exact distance queries
 
@@ -85,6 +86,7 @@ class WeightsConfig(_Frozen):
 
     goal: float = Field(default=6.0, ge=0)  #: per metre of route progress
     collision: float = Field(default=60.0, ge=0)
+    risk: float = Field(default=80.0, ge=0)  #: per expected contact step (probability summed over steps)
     near_miss: float = Field(default=2.0, ge=0)
     ttc: float = Field(default=6.0, ge=0)
     progress_risk: float = Field(default=3.0, ge=0)

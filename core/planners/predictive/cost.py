@@ -23,7 +23,7 @@ from foresight.core.sim.geometry import SegmentSet, grid_distance
 from foresight.core.sim.observation import StaticGeometry
 
 TERMS = (
-    "progress", "collision", "near_miss", "ttc", "progress_risk", "hard_clearance",
+    "progress", "collision", "risk", "near_miss", "ttc", "progress_risk", "hard_clearance",
     "static", "static_collision", "velocity", "turn", "smoothness", "heading",
 )
 
@@ -145,12 +145,13 @@ class Scene:
     """Everything one decision's costs need besides the rollouts."""
 
     ped_future: np.ndarray  #: (N, K, 2) forecast positions at ``times`` [m] (relevant peds only)
+    ped_sigma: np.ndarray  #: (N, K) per-axis std of those positions [m]
     times: np.ndarray  #: (K,) seconds ahead [s]
     contact: float  #: centre distance of contact: robot radius + ped radius + extra margins [m]
     robot_radius: float  #: true robot radius [m] (static clearance)
     route: RoutePotential
     phi0: float  #: route potential at the robot's position now [m]
-    assertiveness: float  #: 0..1 after a stall (already applied to ``contact``)
+    assertiveness: float  #: 0..1 after a stall (shrinks the soft pedestrian margins)
     static: StaticClearance
     start: np.ndarray  #: (3,) x, y, heading now
     prev_command: np.ndarray  #: (2,) last command (v, omega)
@@ -161,11 +162,6 @@ class Scene:
     def time_steps(self) -> np.ndarray:
         """(K,) seconds between successive forecast times (the first from now)."""
         return np.diff(np.concatenate([[0.0], self.times]))
-
-    @cached_property
-    def discounts(self) -> dict[float, np.ndarray]:
-        """discount factor -> (K,) its powers 0..K-1 (filled on first use; one decision, one config)."""
-        return {}
 
 
 @dataclass(frozen=True)
@@ -178,42 +174,57 @@ class Rollouts:
 
 
 def pedestrian_terms(pos: np.ndarray, speed: np.ndarray, scene: Scene, cfg: PredictivePlannerConfig) -> dict[str, np.ndarray]:
-    """Collision, near-miss, TTC and hard-clearance terms (B,) and the minimum clearance (B,) [m].
+    """Collision, risk, near-miss, TTC and hard-clearance terms (B,) and the minimum clearance (B,) [m].
 
-    ``pos`` (B, K, 2) and ``speed`` (B, K) are the robot's at the forecast times. Margins grow with
-    forecast age and robot speed; every term is weighted by the robot's "responsibility": a
-    pedestrian predicted to walk into a robot standing still is discounted (passive safety),
-    because pedestrians avoid a standing robot while a constant-velocity forecast cannot, and
-    without the discount the robot flees in front of them.
+    ``pos`` (B, K, 2) and ``speed`` (B, K) are the robot's at the forecast times; each forecast
+    position is the mean of an isotropic Gaussian of std ``scene.ped_sigma`` (N, K). The collision
+    margin is a chance constraint: ``confidence`` standard deviations (the pedestrian stays beyond
+    it along the line of centres with probability Phi(confidence)) plus a base and a speed margin;
+    ``risk`` is the expected number of contact steps, the sum of P(contact) = Phi(-clearance / sigma).
+    A robot standing still is held to the same terms as a moving one: a pedestrian who does not see
+    the robot walks into it all the same. After a stall the soft margins shrink by
+    ``stall_margin_relief`` x assertiveness; the contact distance and the chance margin never do.
     """
     B = pos.shape[0]
     s = cfg.safety
-    fut = scene.ped_future
+    fut, sigma = scene.ped_future, scene.ped_sigma
     if fut.shape[0] == 0:
         z = np.zeros(B)
-        return {"collision": z, "near_miss": z, "ttc": z, "hard_clearance": z, "min_clearance": np.full(B, np.inf)}
+        return {"collision": z, "risk": z, "near_miss": z, "ttc": z, "hard_clearance": z,
+                "min_clearance": np.full(B, np.inf)}
+    relief = 1.0 - s.stall_margin_relief * scene.assertiveness
     clear = _reactive_clearance(pos, fut, scene, s.yield_speed, s.yield_range)  # (B, N, K)
-    margin = s.collision_margin + s.margin_growth * scene.times + s.speed_clearance_gain * speed  # (B, K)
-    resp = s.passive_floor + (1.0 - s.passive_floor) * np.minimum(1.0, speed / s.passive_speed)  # (B, K)
-    disc = scene.discounts.get(s.discount)
-    if disc is None:
-        disc = scene.discounts[s.discount] = s.discount ** np.arange(len(scene.times))
-    wk = resp * disc  # (B, K)
-    # ufunc reductions instead of the .min/.max methods: the same reductions without their Python wrappers
-    nearest = np.minimum.reduce(clear, axis=1)  # (B, K) over pedestrians
-    # the hard term is monotone in the clearance: its max over pedestrians is the one at the nearest
-    hard = np.maximum.reduce(np.maximum(s.hard_clearance_distance - nearest, 0.0) * resp, axis=1)
-    # pedestrians farther than every margin + band from every rollout add exact zeros to the sums: drop them
-    reach = float(np.maximum.reduce(margin, axis=None)) + max(s.near_distance, s.ttc_distance, 0.0)
-    keep = np.minimum.reduce(clear, axis=(0, 2)) < reach  # (N,)
-    if not np.logical_and.reduce(keep):
-        clear = clear[:, keep]
-    excess = margin[:, None, :] - clear  # (B, N, K): > 0 inside the collision margin
-    collision = np.einsum("bnk,bk->b", np.maximum(excess, 0.0), wk)
-    near = np.einsum("bnk,bk->b", np.maximum(excess + s.near_distance, 0.0), wk)
-    ttc = np.einsum("bnk,bk->b", np.maximum(excess + s.ttc_distance, 0.0), resp / scene.times)
-    return {"collision": collision, "near_miss": near, "ttc": ttc, "hard_clearance": hard,
-            "min_clearance": np.minimum.reduce(nearest, axis=1)}
+    nearest = clear.min(axis=1)  # (B, K) over pedestrians
+    hard = np.maximum(relief * s.hard_clearance_distance - nearest, 0.0).max(axis=1)
+    band = relief * max(s.near_distance, s.ttc_distance)
+    soft = relief * (s.collision_margin + s.speed_clearance_gain * speed)  # (B, K)
+    chance = s.confidence * sigma  # (N, K)
+    # a pedestrian beyond every margin + band and RISK_CUTOFF sigmas from every rollout adds exact zeros: drop it
+    reach = np.maximum(chance + band + soft.max(), RISK_CUTOFF * sigma)  # (N, K)
+    keep = (clear - reach).min(axis=(0, 2)) < 0  # (N,)
+    if not keep.all():
+        clear, sigma, chance = clear[:, keep], sigma[keep], chance[keep]
+    disc = s.discount ** np.arange(len(scene.times))  # (K,)
+    excess = soft[:, None, :] + chance - clear  # (B, N, K): > 0 inside the collision margin
+    return {
+        "collision": np.einsum("bnk,k->b", np.maximum(excess, 0.0), disc),
+        "risk": np.einsum("bnk,k->b", contact_probability(clear / sigma), disc),
+        "near_miss": np.einsum("bnk,k->b", np.maximum(excess + relief * s.near_distance, 0.0), disc),
+        "ttc": np.einsum("bnk,k->b", np.maximum(excess + relief * s.ttc_distance, 0.0), 1.0 / scene.times),
+        "hard_clearance": hard,
+        "min_clearance": nearest.min(axis=1),
+    }
+
+
+RISK_CUTOFF = 3.0  #: clearances beyond this many sigmas count as no risk (P < 0.0013, rounded to 0)
+
+
+def contact_probability(z: np.ndarray) -> np.ndarray:
+    """P(contact) = Phi(-z) for a clearance of z standard deviations, 0 from ``RISK_CUTOFF`` on.
+
+    Phi by its logistic approximation 1 / (1 + exp(1.702 z)) (error < 0.01): no SciPy in the hot path.
+    """
+    return np.where(z < RISK_CUTOFF, 1.0 / (1.0 + np.exp(1.702 * np.minimum(z, RISK_CUTOFF))), 0.0)
 
 
 def _reactive_clearance(pos: np.ndarray, fut: np.ndarray, scene: Scene, speed: float, reach: float) -> np.ndarray:
@@ -225,15 +236,16 @@ def _reactive_clearance(pos: np.ndarray, fut: np.ndarray, scene: Scene, speed: f
     closer it is, and the displacement accumulates along the forecast steps. ``speed`` 0 assumes
     nothing of the kind (pedestrians who do not see the robot): the plain clearance.
     """
-    rel = pos[:, None] - fut[None]  # (B, N, K, 2) robot minus pedestrian
-    clear = np.sqrt(rel[..., 0] ** 2 + rel[..., 1] ** 2) - scene.contact
+    dx = pos[:, None, :, 0] - fut[None, :, :, 0]  # (B, N, K) robot minus pedestrian
+    dy = pos[:, None, :, 1] - fut[None, :, :, 1]
+    clear = np.sqrt(dx * dx + dy * dy) - scene.contact
     K = clear.shape[-1]
     if speed <= 0 or reach <= 0 or K < 2:
         return clear
     stepped = np.logical_or.reduce(clear[..., :-1] < reach, axis=-1)  # (B, N): pairs ever within reach
     if not stepped.any():  # every other pair is never pushed: its clearance is the plain one
         return clear
-    rel = rel[stepped]  # (A, K, 2)
+    rel = np.stack([dx[stepped], dy[stepped]], axis=-1)  # (A, K, 2)
     off = np.zeros((len(rel), 2))  # accumulated displacement of each pedestrian (x, y)
     out = np.empty(rel.shape[:2])
     for k in range(K):
@@ -246,11 +258,12 @@ def _reactive_clearance(pos: np.ndarray, fut: np.ndarray, scene: Scene, speed: f
     return clear
 
 
-def influence_range(cfg: PredictivePlannerConfig, horizon_s: float, max_speed: float) -> float:
+def influence_range(cfg: PredictivePlannerConfig, horizon_s: float, max_speed: float, max_sigma: float) -> float:
     """Clearance [m] beyond which a pedestrian adds exactly zero to every pedestrian term."""
     s = cfg.safety
-    margin = s.collision_margin + s.margin_growth * horizon_s + s.speed_clearance_gain * max_speed
-    return margin + max(s.near_distance, s.ttc_distance, s.hard_clearance_distance, s.progress_risk_distance)
+    margin = s.collision_margin + s.confidence * max_sigma + s.speed_clearance_gain * max_speed
+    bands = margin + max(s.near_distance, s.ttc_distance, s.hard_clearance_distance, s.progress_risk_distance)
+    return max(bands, RISK_CUTOFF * max_sigma)
 
 
 def evaluate(roll: Rollouts, scene: Scene, cfg: PredictivePlannerConfig) -> tuple[np.ndarray, dict[str, np.ndarray]]:

@@ -4,10 +4,11 @@ One decision: one batched forecaster call; first-segment candidates (dense in th
 rolled out with the simulator's own kinematics (``core.sim.robot.unicycle_rollout``) and held to the
 horizon; the best ``beam_width`` sequences are extended with a coarser command set; the first
 command of the cheapest sequence seen is returned. Braking (0, 0) is always a candidate, so the
-robot can wait. Three mechanisms keep a cautious robot from freezing (see ``cost``/``config``):
-passive safety (a pedestrian walking into a standing robot weighs less), reactive clearance
-(pedestrians step away from an edging robot), and stall assertiveness (after a few seconds without
-route progress, contact is assumed closer). Deterministic: no randomness, stable sorts.
+robot can wait, but waiting is no refuge: a pedestrian forecast to walk into a standing robot costs
+as much as one the robot drives into, so the search turns away, speeds up or gives way early
+instead. Pedestrian terms read the forecast's spread (a chance margin and the contact probability,
+see ``cost``); after a few seconds without route progress the soft margins shrink (stall
+assertiveness), never the contact distance. Deterministic: no randomness, stable sorts.
 """
 
 from __future__ import annotations
@@ -68,7 +69,7 @@ class PredictivePlanner:
         t0 = time.perf_counter()
         self.forecaster.observe(obs)
         fc = self.forecaster.forecast()
-        scene, near, extra = self._scene(obs, fc.positions, fc.times)
+        scene, near, extra = self._scene(obs, fc.positions, fc.sigma, fc.times)
         best_cmds, best_terms, best_total, n_eval = self._search(obs, scene, near)
         v, w = float(best_cmds[0, 0]), float(best_cmds[0, 1])
         self._prev = np.array([v, w])
@@ -91,7 +92,7 @@ class PredictivePlanner:
         """Cost (B,) and terms of constant commands (B, 2) held over the horizon (tests, diagnostics)."""
         self.forecaster.observe(obs)
         fc = self.forecaster.forecast()
-        scene, _, _ = self._scene(obs, fc.positions, fc.times)
+        scene, _, _ = self._scene(obs, fc.positions, fc.sigma, fc.times)
         idx = eval_steps(scene.times, obs.dt)
         cmds = np.repeat(np.asarray(commands, dtype=float)[:, None, :], int(idx[-1]) + 1, axis=1)
         state0 = np.concatenate([obs.robot_pose, obs.robot_velocity]).astype(float)
@@ -99,30 +100,32 @@ class PredictivePlanner:
         return C.evaluate(C.Rollouts(states, idx, cmds), scene, self.config)
 
     # -- decision pieces -------------------------------------------------------------------------
-    def _scene(self, obs: Observation, positions: np.ndarray, times: np.ndarray) -> tuple[C.Scene, bool, int]:
+    def _scene(self, obs: Observation, positions: np.ndarray, sigma: np.ndarray,
+               times: np.ndarray) -> tuple[C.Scene, bool, int]:
         cfg, limits = self.config, self._limits
         p0 = obs.robot_pose[:2]
         route = self._route(obs)
         phi0 = route.start(p0)
         assertive = self._assertiveness(phi0, obs.time, obs.dt)
-        contact = (obs.robot_radius + obs.ped_radius + cfg.safety.extra_robot_margin + cfg.safety.extra_ped_margin
-                   - assertive * cfg.safety.yield_distance)
+        contact = obs.robot_radius + obs.ped_radius + cfg.safety.extra_robot_margin + cfg.safety.extra_ped_margin
         times = np.asarray(times, dtype=float)
         fut = np.asarray(positions, dtype=float).reshape(-1, len(times), 2)
+        sigma = np.asarray(sigma, dtype=float).reshape(-1, len(times))
         # ufunc reductions: ndarray.sum/min without their Python wrappers (the same reductions)
         dist = np.sqrt(np.add.reduce((fut - p0) ** 2, axis=-1))  # (N, K) to the robot's current position
         near = bool(dist.size) and float(np.minimum.reduce(dist, axis=None)) - contact <= cfg.sampling.near_field_distance
         dt_f = float(times[1] - times[0]) if len(times) > 1 else float(times[0])
         extra_s = cfg.search.extra_horizon_s + (cfg.search.horizon_boost_s if cfg.search.adaptive_horizon and near else 0.0)
         extra = int(round(extra_s / dt_f))
-        fut, times = extend_forecast(fut, times, extra)
+        fut, sigma, times = extend_forecast(fut, sigma, times, extra)
         if len(fut):  # exact culling: pedestrians no rollout can bring within any term's range
             if extra:
                 dist = np.sqrt(np.add.reduce((fut - p0) ** 2, axis=-1))
             gap = dist - contact - _reach(float(obs.robot_velocity[0]), limits, times)
-            fut = fut[np.minimum.reduce(gap, axis=1) <= C.influence_range(cfg, float(times[-1]), limits.v_max)]
+            keep = gap.min(axis=1) <= C.influence_range(cfg, float(times[-1]), limits.v_max, float(sigma.max()))
+            fut, sigma = fut[keep], sigma[keep]
         scene = C.Scene(
-            ped_future=fut, times=times, contact=contact, robot_radius=obs.robot_radius, route=route,
+            ped_future=fut, ped_sigma=sigma, times=times, contact=contact, robot_radius=obs.robot_radius, route=route,
             phi0=phi0, assertiveness=assertive, static=self._static_field(obs), start=np.asarray(obs.robot_pose, dtype=float),
             prev_command=self._prev, max_speed=limits.v_max, max_turn_rate=limits.w_max,
         )
@@ -132,9 +135,9 @@ class PredictivePlanner:
         """0..1: ramps up while route progress over the last ``stall_after_s`` is below ``stall_progress``.
 
         A robot that waits for pedestrians who wait for it (doorways, corridors, oncoming streams)
-        stalls forever; pedestrians yield to a robot that edges forward (they are repelled by it), so
-        after a stall the pedestrian terms assume contact ``yield_distance`` closer. It ramps down at
-        the same rate once progress resumes (no reset: creeping must not switch it off at once).
+        stalls forever; many pedestrians make room for a robot that edges forward, so after a stall
+        the soft pedestrian margins shrink (``stall_margin_relief``), while contact stays contact. It
+        ramps down at the same rate once progress resumes (no reset: creeping must not switch it off at once).
         """
         s = self.config.safety
         self._phi_hist.append((now, phi0))

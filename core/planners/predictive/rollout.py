@@ -33,12 +33,17 @@ def rollout(state0: np.ndarray, commands: np.ndarray, limits: RobotLimits, dt: f
     return unicycle_rollout(state0, commands, limits, dt)
 
 
-def extend_forecast(positions: np.ndarray, times: np.ndarray, extra_steps: int) -> tuple[np.ndarray, np.ndarray]:
-    """Append ``extra_steps`` on the same grid at each pedestrian's final forecast velocity: (N, K+e, 2), (K+e,)."""
+def extend_forecast(positions: np.ndarray, sigma: np.ndarray, times: np.ndarray,
+                    extra_steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Append ``extra_steps`` on the same grid: each pedestrian at its final forecast velocity, its spread
+    growing at its final rate. Returns positions (N, K+e, 2), sigma (N, K+e) and times (K+e,)."""
     if extra_steps <= 0:
-        return positions, times
+        return positions, sigma, times
     dt = times[1] - times[0] if len(times) > 1 else times[0]
     vel = (positions[:, -1] - positions[:, -2]) / dt if len(times) > 1 else np.zeros_like(positions[:, -1])
+    growth = (sigma[:, -1] - sigma[:, -2]) / dt if len(times) > 1 else np.zeros_like(sigma[:, -1])
     k = np.arange(1, extra_steps + 1) * dt
     ext = positions[:, -1:, :] + k[None, :, None] * vel[:, None, :]
-    return np.concatenate([positions, ext], axis=1), np.concatenate([times, times[-1] + k])
+    ext_sigma = sigma[:, -1:] + k[None, :] * growth[:, None]
+    return (np.concatenate([positions, ext], axis=1), np.concatenate([sigma, ext_sigma], axis=1),
+            np.concatenate([times, times[-1] + k]))

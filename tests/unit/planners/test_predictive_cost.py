@@ -99,11 +99,12 @@ def test_pedestrians_are_predicted_to_make_room_for_a_slow_robot():
     m = corridor_map()
     obs = observation(m, velocity=(0.0, 0.0), peds=[(6.5, 10.0)])  # 0.1 m beyond the 1.4 m contact distance
     creep = np.array([[0.3, 0.0]])
-    rigid = PredictivePlannerConfig.from_dict({"safety": {"yield_speed": 0.0}})
-    t_rigid = _planner(m, rigid).score_commands(obs, creep)[1]
-    t_react = _planner(m).score_commands(obs, creep)[1]
+    reactive = PredictivePlannerConfig.from_dict({"safety": {"yield_speed": 0.3}})
+    t_rigid = _planner(m).score_commands(obs, creep)[1]  # the default: forecasts taken as they are
+    t_react = _planner(m, reactive).score_commands(obs, creep)[1]
     assert t_react["collision"][0] < t_rigid["collision"][0]
-    fast = _planner(m).score_commands(observation(m, velocity=(2.0, 0.0), peds=[(9.0, 10.0)]), np.array([[2.0, 0.0]]))[1]
+    fast = _planner(m, reactive).score_commands(observation(m, velocity=(2.0, 0.0), peds=[(9.0, 10.0)]),
+                                                np.array([[2.0, 0.0]]))[1]
     assert fast["collision"][0] > 0
 
 
@@ -142,5 +143,54 @@ def test_rollouts_are_read_at_the_forecast_times():
     for _ in range(5):
         s = unicycle_step(s, np.array([1.5, 0.4]), RobotLimits(), 0.1)
     assert np.allclose(states[0, -1], s)
-    pos, t = extend_forecast(np.array([[[0.0, 0.0], [0.2, 0.0]]]), np.array([0.2, 0.4]), 2)
+    pos, sig, t = extend_forecast(np.array([[[0.0, 0.0], [0.2, 0.0]]]), np.array([[0.1, 0.15]]), np.array([0.2, 0.4]), 2)
     assert t.tolist() == pytest.approx([0.2, 0.4, 0.6, 0.8]) and pos[0, -1].tolist() == pytest.approx([0.6, 0.0])
+    assert sig[0].tolist() == pytest.approx([0.1, 0.15, 0.2, 0.25])  # the spread keeps growing at its last rate
+
+
+def _walker_towards_standing_robot(m):
+    """A standing robot facing its route (+x) and a pedestrian 3.5 m to its side walking straight at it (1.3 m/s)."""
+    return observation(m, velocity=(0.0, 0.0), peds=[(5.0, 13.5)], ped_vels=[(0.0, -1.3)], step=3)
+
+
+def _observe_walk(planner, m):
+    """Feed the walker's last steps so the forecaster sees its velocity, then return the current observation."""
+    for k in range(3):
+        planner.forecaster.observe(observation(m, velocity=(0.0, 0.0), peds=[(5.0, 13.5 + 0.13 * (3 - k))], step=k))
+    return _walker_towards_standing_robot(m)
+
+
+def test_standing_still_in_a_walkers_path_is_a_predicted_collision_and_the_robot_moves_away():
+    """No discount for a robot standing still: it gets out of the way of a pedestrian who will not yield."""
+    m = corridor_map()
+    p = _planner(m)
+    obs = _observe_walk(p, m)
+    total, terms = p.score_commands(obs, np.array([[0.0, 0.0], [2.0, 0.0]]))
+    assert terms["collision"][0] > 0 and terms["risk"][0] > 1.0  # several contact steps expected
+    assert terms["risk"][1] < 0.25 * terms["risk"][0] and total[1] < total[0]  # speeding away along the route
+    p = _planner(m)
+    v, _ = p.plan(_observe_walk(p, m))
+    assert v > 0.0 and p.diagnostics["terms"]["risk"] < 0.5 * terms["risk"][0]
+
+
+def test_chance_margin_and_risk_grow_with_the_forecast_spread():
+    """The collision margin is ``confidence`` sigmas, and the contact probability reads sigma: wider spread, more cost."""
+    m = corridor_map()
+    obs = observation(m, velocity=(1.0, 0.0), peds=[(9.0, 11.6)])  # to the side of the robot's line, standing
+    cmd = np.array([[1.0, 0.0]])
+    base = _planner(m, PredictivePlannerConfig.from_dict({"safety": {"confidence": 0.0}})).score_commands(obs, cmd)[1]
+    wide = _planner(m, PredictivePlannerConfig.from_dict({"safety": {"confidence": 2.0}})).score_commands(obs, cmd)[1]
+    assert wide["collision"][0] > base["collision"][0]
+    assert base["risk"][0] == wide["risk"][0] > 0  # risk is the probability itself, no margin
+
+
+def test_contact_probability_is_the_normal_tail():
+    """Independent check of the logistic approximation against math.erfc."""
+    import math
+
+    from foresight.core.planners.predictive.cost import RISK_CUTOFF, contact_probability
+
+    z = np.linspace(-4, 2.99, 200)
+    exact = np.array([0.5 * math.erfc(x / math.sqrt(2)) for x in z])
+    assert np.max(np.abs(contact_probability(z) - exact)) < 0.01
+    assert contact_probability(np.array([RISK_CUTOFF, 10.0])).tolist() == [0.0, 0.0]

@@ -1,9 +1,13 @@
 """Predictive planner decisions on hand-built scenes stay what they were (recorded fixture).
 
 The fixture ``predictive_golden.json`` holds the command, cost, command sequence and evaluation
-count of every decision below, recorded with the planner before its rollout was vectorised
-(``core.sim.robot.unicycle_rollout``) and its per-decision overhead trimmed. Speed-ups must not
-change decisions: commands and sequences must match exactly, costs to floating-point rounding.
+count of every decision below. Re-recorded on 2026-11-24 after one deliberate behaviour change
+(uncertainty-aware pedestrian terms, no standing-still discount, contact never shrunk, 4 s horizon;
+issue 12); before that it held the decisions of the planner before its rollout was vectorised.
+Speed-ups must not change decisions: commands and sequences must match exactly, costs to
+floating-point rounding. The independent checks of behaviour are in ``test_predictive_planner.py``
+and ``test_predictive_cost.py`` (full speed on a free route, a crossing solved, a standing robot
+leaving a walker's path).
 Re-record (only after an intended behaviour change) with
 ``python -m tests.unit.planners.test_predictive_golden``.
 """
