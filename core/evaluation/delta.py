@@ -9,8 +9,8 @@ comparison reads only the stored summaries; an interval that excludes 0 is a dif
 That is the **unpaired** method (``method: unpaired_mover``), for results that did not run the same episodes.
 
 Two results that ran the same (scenario, seed) episodes are **paired** (``method: paired``, see
-:func:`paired_deltas`): B - A is the mean of the per-episode differences, its interval a paired bootstrap,
-and its p-value McNemar's exact test (success, collision) or the Wilcoxon signed-rank test (continuous
+:func:`paired_deltas`): B - A is the mean of the per-episode differences, its interval the exact conditional
+one of McNemar's test (success, collision) or a paired bootstrap (continuous metrics), and its p-value McNemar's exact test (success, collision) or the Wilcoxon signed-rank test (continuous
 metrics), ``core.evaluation.stats``. Either way nothing is marked significant below ``MIN_PAIRS`` episodes.
 """
 
@@ -30,6 +30,7 @@ from foresight.core.evaluation.stats import (
     MIN_PAIRS,
     MeanEstimate,
     RateEstimate,
+    mcnemar_interval,
     mcnemar_p,
     paired_bootstrap,
     wilcoxon_p,
@@ -117,13 +118,14 @@ def paired_delta(name: str, a: Sequence[float | bool | None], b: Sequence[float 
         return Delta(a=Estimate(value=None), b=Estimate(value=None), delta=None, low=None, high=None,
                      significant=False, method="paired", n_pairs=0)
     diff = vb - va
-    low, high = paired_bootstrap(diff, seed=seed)
     discordant = None
     if name in BINARY:
         discordant = (int(((va == 1) & (vb == 0)).sum()), int(((va == 0) & (vb == 1)).sum()))
         test, p = "mcnemar_exact", mcnemar_p(*discordant)
+        low, high = mcnemar_interval(*discordant, n)
     else:
         test, p = "wilcoxon_signed_rank", wilcoxon_p(diff)
+        low, high = paired_bootstrap(diff, seed=seed)
     return Delta(a=Estimate(value=float(va.mean()), n=n), b=Estimate(value=float(vb.mean()), n=n),
                  delta=float(diff.mean()), low=low, high=high, significant=n >= MIN_PAIRS and p < ALPHA,
                  method="paired", test=test, n_pairs=n, discordant=discordant, p_value=p)

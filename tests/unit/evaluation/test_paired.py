@@ -80,3 +80,14 @@ def test_paired_deltas_of_records_pair_by_scenario_and_seed() -> None:
     assert d["min_clearance"].test == "wilcoxon_signed_rank" and d["min_clearance"].delta > 0
     assert d["min_clearance"].p_value < 0.01
     assert paired_deltas(a, b[:-1]) is None  # other episodes: not paired
+
+
+def test_the_binary_interval_agrees_with_mcnemar() -> None:
+    # 5 discordant pairs of 230, all one way: p = 0.0625, so the interval must include 0
+    d = paired_delta("success", [True] * 225 + [False] * 5, [True] * 230)
+    assert d.p_value == pytest.approx(0.0625) and not d.significant and d.low < 0 < d.high
+    # 7 of 40, all one way: Clopper-Pearson lower bound of 7/7 is 0.025^(1/7), hence the delta's
+    e = paired_delta("success", [i < 28 for i in range(40)], [i < 35 for i in range(40)])
+    assert e.low == pytest.approx(7 / 40 * (2 * 0.025 ** (1 / 7) - 1)) and e.high == pytest.approx(7 / 40)
+    none = paired_delta("collision", [False] * 30, [False] * 30)  # no discordant pair: +-(1 - 0.025^(1/30))
+    assert none.delta == 0 and none.high == pytest.approx(1 - 0.025 ** (1 / 30)) and none.low == -none.high
