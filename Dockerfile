@@ -24,7 +24,7 @@ COPY migrations migrations
 COPY configs configs
 COPY model model
 # The wheel carries configs/, model/, migrations/, templates and static files as package data.
-RUN pip install '.[server,postgres,train]' \
+RUN pip install '.[server,postgres,train,ray]' \
     && useradd --create-home --uid 1000 foresight \
     && mkdir -p /data/store && chown -R foresight /data
 USER foresight

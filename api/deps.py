@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import secrets
-from typing import Annotated
+from typing import Annotated, Any
 
 from fastapi import Depends, HTTPException, Request, status
+from fastapi.exceptions import RequestValidationError
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
 from foresight.store.registry import Resolver
@@ -49,10 +50,42 @@ async def require_read(request: Request, credentials: Annotated[HTTPAuthorizatio
         _check_token(request, credentials)
 
 
+_KNOWN_QUERY: dict[int, frozenset[str]] = {}
+
+
+def _query_names(dependant: Any) -> set[str]:
+    """The query parameter names a route's handler and its dependencies declare."""
+    names = {p.alias for p in dependant.query_params}
+    for sub in dependant.dependencies:
+        names |= _query_names(sub)
+    return names
+
+
+async def known_query(request: Request) -> None:
+    """Refuse query parameters the route does not declare (a typo such as ``?stauts=`` would otherwise be
+    silently ignored and answer for everything): 422 naming the parameter and the known ones."""
+    if not request.query_params:
+        return
+    route = request.scope.get("route")
+    dependant = getattr(route, "dependant", None)
+    if dependant is None:
+        return
+    known = _KNOWN_QUERY.get(id(route))
+    if known is None:
+        known = _KNOWN_QUERY[id(route)] = frozenset(_query_names(dependant))
+    unknown = sorted(set(request.query_params) - known)
+    if unknown:
+        expected = ", ".join(sorted(known)) or "none"
+        raise RequestValidationError([{"loc": ("query", name), "type": "extra_forbidden", "input": request.query_params[name],
+                                       "msg": f"unknown query parameter {name!r} (this endpoint takes: {expected})"}
+                                      for name in unknown])  # fmt: skip
+
+
 SettingsDep = Annotated[Settings, Depends(get_settings)]
 EngineDep = Annotated[Engine, Depends(get_engine)]
 ResolverDep = Annotated[Resolver, Depends(get_resolver)]
 WriteAuth = Depends(require_write)
 ReadAuth = Depends(require_read)
+KnownQuery = Depends(known_query)
 
-__all__ = ["EngineDep", "ReadAuth", "ResolverDep", "SettingsDep", "WriteAuth"]
+__all__ = ["EngineDep", "KnownQuery", "ReadAuth", "ResolverDep", "SettingsDep", "WriteAuth"]

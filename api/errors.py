@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import errno
 import logging
 import math
 from typing import Any
@@ -17,7 +16,7 @@ from starlette.exceptions import HTTPException
 
 from foresight.core.errors import ConfigError, CoreError, NotFoundError
 from foresight.store import queue
-from foresight.store.folders import UnsafePath
+from foresight.store.folders import UnsafePath, is_full_disk
 from foresight.store.session import NotMigratedError
 
 logger = logging.getLogger(__name__)
@@ -103,7 +102,7 @@ def install(app: FastAPI) -> None:
 
     @app.exception_handler(OSError)
     async def _os_error(request: Request, exc: OSError) -> JSONResponse:
-        if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+        if is_full_disk(exc):
             logger.error("store full on %s %s: %s", request.method, request.url.path, exc)
             return _json(507, "the server's store is full (no space left on device); nothing was stored - "
                               "retry once space is freed (foresight store gc lists orphaned files)")

@@ -10,7 +10,7 @@ from fastapi.routing import APIRoute
 from starlette.routing import Match
 
 from foresight.api import errors, web
-from foresight.api.deps import ReadAuth
+from foresight.api.deps import KnownQuery, ReadAuth
 from foresight.api.http_metrics import HttpMetrics, MetricsMiddleware, route_templates
 from foresight.api.routes import bundles, jobs, models, ops, planners, results
 from foresight.core.planners.external import operator_commands
@@ -80,7 +80,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(ops.router)
     app.include_router(ops.read_router, dependencies=read_auth, responses=read_codes)
     for module in (jobs, models, bundles, results, planners):
-        app.include_router(module.router, prefix="/v1", dependencies=read_auth, responses=read_codes)
+        app.include_router(module.router, prefix="/v1", dependencies=[*read_auth, KnownQuery], responses=read_codes)
     web.install(app)  # the dashboard: /ui pages over the same store
     app.add_middleware(AllowMiddleware, router=app.router)
     app.state.http_metrics.templates = route_templates(app)

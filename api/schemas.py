@@ -11,6 +11,7 @@ from foresight.core.evaluation.aggregate import GroupStats
 from foresight.core.evaluation.campaign import CellMetrics, CellParams, CellResult
 from foresight.core.evaluation.runner import EvaluationMetrics, EvaluationRunConfig
 from foresight.core.stages.kinds import KINDS
+from foresight.core.stages.results import Verdict, verdict
 from foresight.store.settings import Settings
 
 Ident = Annotated[str, Field(min_length=1, max_length=200, pattern=r"^[A-Za-z0-9][A-Za-z0-9._:\-]*$")]
@@ -81,6 +82,8 @@ class JobPublic(BaseModel):
     message: str
     error: JobError | None
     result: dict[str, Any] | None
+    verdict: Verdict | None = Field(None, description="a succeeded job's gate/integrity verdict (None: no gate); "
+                                    "failed_gate / failed_integrity are results, not crashes (CLI exit code 2)")
     worker: str | None
     created_at: datetime
     started_at: datetime | None
@@ -109,6 +112,7 @@ def job_public(row: dict[str, Any], artifacts: list[dict] | None = None, childre
         attempts=row["attempts"], max_attempts=row["max_attempts"], timeout_s=row["timeout_s"],
         idempotency_key=row["idempotency_key"], parent_id=row["parent_id"], cancel_requested=row["cancel_requested"],
         progress=row["progress"], message=row["message"], error=error, result=row["result"],
+        verdict=verdict(row["kind"], row["result"]) if row["status"] == "succeeded" else None,
         worker=row["lease_owner"], created_at=iso(row["created_at"]), started_at=iso(row["started_at"]),
         finished_at=iso(row["finished_at"]), artifacts=arts, children=children,
     )  # fmt: skip
@@ -230,6 +234,39 @@ class EvaluationPublic(BaseModel):
     metrics: EvaluationMetrics
     per_scenario: list[GroupStats]
     taxonomy: list[dict[str, Any]] = Field(default_factory=list)
+
+
+class EvaluationSummaryPublic(BaseModel):
+    """An evaluation in a list: its config and headline metrics (the per-scenario table and taxonomy are in
+    ``GET /v1/evaluations/{id}``)."""
+
+    model_config = ConfigDict(from_attributes=True)
+
+    id: str
+    job_id: str | None
+    model_id: str | None
+    bundle_id: str | None
+    config: EvaluationRunConfig
+    metrics: EvaluationMetrics
+
+
+class EvaluationsPublic(BaseModel):
+    data: list[EvaluationSummaryPublic]
+    count: int
+    limit: int
+    offset: int
+
+
+class EpisodePublic(BaseModel):
+    """One evaluated episode in a list, with the links to watch it."""
+
+    scenario: str
+    seed: int
+    outcome: str
+    label: str | None = Field(description="failure taxonomy label (None for successes)")
+    steps: int
+    trace: str | None = Field(description="API URL of its compact trace (None: the evaluation stored none)")
+    player: str | None = Field(description="dashboard URL of the episode player")
 
 
 class CampaignCellPublic(BaseModel):

@@ -44,6 +44,8 @@ def _common(p: argparse.ArgumentParser, *, planner: bool = True) -> None:
     p.add_argument("--out", help="--local: work folder for the artifacts (default: a new temporary folder)")
     p.add_argument("--workers", type=int, help="--local: parallel episode processes (default 1; the server's "
                                                "workers use FORESIGHT_STAGE_WORKERS)")
+    p.add_argument("--executor", choices=["local", "ray"], help="where episodes run: local processes (default) or "
+                   "Ray tasks on the cluster at FORESIGHT_RAY_ADDRESS (else a local Ray instance)")
     stage.add_mode_args(p)
 
 
@@ -286,6 +288,8 @@ class Refs:
         """Submit the ``kind`` job, or run its stage function in-process (``--local``; ``shards`` ignored)."""
         from foresight.core.stages.kinds import KINDS
 
+        if self.args.executor:
+            values = {**values, "executor": self.args.executor}
         spec = stage.spec(kind, values)
         if not self.local:
             return stage.submit(self.args, spec, text=lambda r, ref: text(r, str(ref)), result_model=KINDS[kind].result,

@@ -16,6 +16,7 @@ from foresight.core.errors import ConfigError
 from foresight.core.yamlio import load_yaml
 
 FINISHED = {"succeeded", "failed", "cancelled"}
+SHOW_LINES = 80  #: lines of a job's pretty-printed result that `jobs show` prints
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -25,7 +26,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     submit.add_argument("--priority", type=int, default=0)
     submit.add_argument("--timeout", type=float, help="[s] run time limit")
     submit.add_argument("--key", help="idempotency key: resubmitting with it returns the same job")
-    submit.add_argument("--wait", action="store_true", help="follow the job with a progress bar until it ends")
+    submit.add_argument("--wait", action="store_true", help="follow the job with a progress bar until it ends "
+                        "(exit 0 succeeded, 2 succeeded with a failed gate or integrity verdict, 1 failed)")
     submit.add_argument("--json", action="store_true")
     add_connection_args(submit)
     submit.set_defaults(func=cmd_submit)
@@ -43,7 +45,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         ("cancel", cmd_cancel, "cancel a queued or running job"),
         ("retry", cmd_retry, "queue a failed or cancelled job again"),
         ("delete", cmd_delete, "delete a finished job and its artifacts"),
-        ("wait", cmd_wait, "wait for a job to end (exit 0 only if it succeeded)"),
+        ("wait", cmd_wait, "wait for a job to end (exit 0 succeeded, 2 a failed gate, 1 failed)"),
         ("logs", cmd_logs, "print a job's progress and log lines (follows until it ends)"),
     ):
         p = jobs.add_parser(name, help=text)
@@ -81,9 +83,21 @@ def _print(obj: Any, as_json: bool, text: str) -> None:
     print(json.dumps(obj, indent=2) if as_json else text)
 
 
+GATE_FAILED_EXIT = 2  #: a finished job whose gate or integrity verdict failed (a result, not a crash)
+
+
 def _line(job: dict[str, Any]) -> str:
     err = f"  {job['error']['type']}: {job['error']['message'][:80]}" if job.get("error") else ""
-    return f"{job['id']}  {job['kind']:<10} {job['status']:<10} {100 * job['progress']:5.1f}%  {job['created_at'][:19]}{err}"
+    verdict = f"  {job['verdict'].upper()}" if job.get("verdict") and job["verdict"] != "passed" else ""
+    return (f"{job['id']}  {job['kind']:<10} {job['status']:<10} {100 * job['progress']:5.1f}%  "
+            f"{job['created_at'][:19]}{verdict}{err}")
+
+
+def exit_code(job: dict[str, Any]) -> int:
+    """0 succeeded (gates passed or none), 2 succeeded with a failed gate/integrity verdict, 1 failed/cancelled."""
+    if job["status"] != "succeeded":
+        return 1
+    return GATE_FAILED_EXIT if job.get("verdict") in ("failed_gate", "failed_integrity") else 0
 
 
 def cmd_submit(args: argparse.Namespace) -> int:
@@ -106,13 +120,14 @@ def cmd_submit(args: argparse.Namespace) -> int:
 
 
 def follow(client: Client, job_id: str, *, as_json: bool, quiet: bool, timeout: float | None = None) -> int:
-    """Poll a job until it ends, with a progress bar on stderr; exit code 0 if it succeeded."""
+    """Poll a job until it ends, with a progress bar on stderr; exit code 0 if it succeeded with no failed
+    verdict, 2 if a gate or integrity check failed (or ``timeout`` passed), 1 if it failed or was cancelled."""
     job = watch(client, job_id, quiet=quiet, timeout=timeout)
     if job["status"] not in FINISHED:
         _print(job, as_json, f"still {job['status']} after {timeout} s")
         return 2
     _print(job, as_json, _line(job))
-    return 0 if job["status"] == "succeeded" else 1
+    return exit_code(job)
 
 
 def watch(client: Client, job_id: str, *, quiet: bool, timeout: float | None = None) -> dict[str, Any]:
@@ -151,7 +166,9 @@ def cmd_show(args: argparse.Namespace) -> int:
     job = Client.from_args(args).get(f"/v1/jobs/{args.job_id}")
     text = [_line(job)]
     if job.get("result") is not None:
-        text.append("result: " + json.dumps(job["result"])[:2000])
+        lines = json.dumps(job["result"], indent=2).splitlines()
+        more = f"\n  ... {len(lines) - SHOW_LINES} more lines (--json for all)" if len(lines) > SHOW_LINES else ""
+        text.append("result: " + "\n".join(lines[:SHOW_LINES]) + more)
     text += [f"artifact: {a['name']} ({a['size']} bytes)" for a in job.get("artifacts") or []]
     _print(job, args.json, "\n".join(text))
     return 0

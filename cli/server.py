@@ -134,6 +134,10 @@ def cmd_up(args: argparse.Namespace) -> int:
     settings = Settings()
     upgrade(settings.resolved_database_url)
     settings.server_token()  # create the data dir's token before the client needs it
+    token = "FORESIGHT_API_TOKEN" if settings.api_token else str(settings.token_file().resolve())
+    print(f"foresight up: dashboard http://{args.host}:{args.port}/ui · data {settings.data_dir.resolve()} · "
+          f"write token in {token} (clients in another folder: export FORESIGHT_DATA_DIR="
+          f"{settings.data_dir.resolve()})", file=sys.stderr, flush=True)
     worker = subprocess.Popen(
         [sys.executable, "-m", "foresight.cli.main", "worker", "--concurrency", str(args.concurrency)], env=os.environ.copy()
     )

@@ -6,6 +6,7 @@ volume mounted at different places on different machines.
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import os
 import re
@@ -13,6 +14,11 @@ import tempfile
 from pathlib import Path, PurePosixPath, PureWindowsPath
 
 _DRIVE = re.compile(r"^[A-Za-z]:[\\/]")
+
+
+def is_full_disk(exc: BaseException) -> bool:
+    """Whether ``exc`` says the store's disk (or the user's quota) is full."""
+    return isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT)
 
 
 class UnsafePath(ValueError):

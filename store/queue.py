@@ -168,6 +168,22 @@ def _add_event(conn: Connection, job_id: str, type_: str, message: str = "", pro
                               "progress": progress})
 
 
+SHORT_ID_MIN = 8  #: the shortest id prefix accepted for a job (the CLI prints 12 characters)
+
+
+def resolve_id(engine: Engine, job_id: str) -> str:
+    """The full id of a job named by its id or a unique prefix of at least SHORT_ID_MIN hex characters (what
+    the CLI and dashboard print); other strings come back unchanged (an unknown id stays unknown)."""
+    if not SHORT_ID_MIN <= len(job_id) < 32 or any(c not in "0123456789abcdef" for c in job_id):
+        return job_id
+    with engine.connect() as conn:
+        found = list(conn.execute(select(jobs.c.id).where(jobs.c.id.startswith(job_id, autoescape=True)).limit(2))
+                     .scalars())  # fmt: skip
+    if len(found) > 1:
+        raise JobNotFound(f"job id prefix {job_id!r} matches several jobs ({', '.join(found)}, ...): give more of it")
+    return found[0] if found else job_id
+
+
 def _get(conn: Connection, job_id: str) -> dict[str, Any]:
     row = conn.execute(select(jobs).where(jobs.c.id == job_id)).mappings().first()
     if row is None:

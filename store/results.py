@@ -10,7 +10,7 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
-from sqlalchemy import Engine, select
+from sqlalchemy import Engine, func, select
 
 from foresight.core.evaluation.aggregate import GroupStats, SuiteSummary
 from foresight.core.evaluation.runner import EvaluationMetrics
@@ -45,6 +45,18 @@ def datasets(engine: Engine) -> list[Dataset]:
 def dataset(engine: Engine, ident: str) -> Dataset:
     with session_factory(engine)() as session:
         return _get(session, Dataset, ident, "dataset")
+
+
+def evaluations(engine: Engine, *, model_id: str | None = None, bundle_id: str | None = None, limit: int = 50,
+                offset: int = 0) -> tuple[int, list[Evaluation]]:
+    """``(total matching, one page of evaluations)``, newest first, filtered by model and bundle."""
+    where = [c for c in (Evaluation.model_id == model_id if model_id else None,
+                         Evaluation.bundle_id == bundle_id if bundle_id else None) if c is not None]
+    with session_factory(engine)() as session:
+        count = session.scalar(select(func.count()).select_from(Evaluation).where(*where)) or 0
+        rows = session.scalars(select(Evaluation).where(*where).order_by(Evaluation.created_at.desc(), Evaluation.id)
+                               .limit(limit).offset(offset))  # fmt: skip
+        return count, list(rows)
 
 
 def evaluation(engine: Engine, ident: str) -> tuple[Evaluation, list[dict[str, Any]]]:
@@ -108,3 +120,15 @@ def episodes_file(engine: Engine, store_root: Path, ident: str) -> Path | None:
             select(Artifact).where(Artifact.job_id == row.job_id, Artifact.name == "episodes.jsonl")).first()
     path = None if art is None else folders.resolve_under(store_root, art.path)
     return path if path is not None and path.is_file() else None
+
+
+def episode_trace_file(engine: Engine, store_root: Path, ident: str, name: str) -> Path | None:
+    """The file ``name`` (a work-directory-relative trace name) of an evaluation's job; None when absent. Read from
+    the job's folder (written with its records) rather than the artifact rows, so one path rule serves both."""
+    with session_factory(engine)() as session:
+        row = _get(session, Evaluation, ident, "evaluation")
+        job_id = row.job_id
+    if job_id is None:
+        return None
+    path = folders.resolve_under(store_root, f"{folders.job_dir(store_root, job_id)}/{name}")
+    return path if path.is_file() else None

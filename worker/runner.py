@@ -16,6 +16,7 @@ import contextlib
 import functools
 import logging
 import os
+import shutil
 import socket
 import threading
 import time
@@ -226,7 +227,11 @@ class JobWorker:
             return
         except Exception as exc:
             logger.info("job %s failed: %r", job["id"], exc, extra={"action": "job_failed", "job": job["id"]})
-            queue.fail_or_retry(*args, type(exc).__name__, self.public_text(str(exc)), retry=decide_retry(exc))
+            message, retry = self.public_text(str(exc)), decide_retry(exc)
+            if folders.is_full_disk(exc):  # the partial files are useless and hold the space others need
+                shutil.rmtree(folders.resolve_under(self.settings.store_root, workdir_rel), ignore_errors=True)
+                message, retry = f"{message} (the store is full; this attempt's partial files were removed)", False
+            queue.fail_or_retry(*args, type(exc).__name__, message, retry=retry)
             return
         artifacts = folders.scan(self.settings.store_root, workdir_rel)
         if not artifacts and kind.make_workdir:

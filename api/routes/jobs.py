@@ -9,7 +9,7 @@ import time
 from collections.abc import AsyncIterator
 from typing import Annotated, Any, Literal
 
-from fastapi import APIRouter, Depends, Header, HTTPException, Query, Request, Response, status
+from fastapi import APIRouter, Depends, Header, HTTPException, Path, Query, Request, Response, status
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, StreamingResponse
 from starlette.concurrency import run_in_threadpool
@@ -25,6 +25,18 @@ from foresight.store.models import JobStatus
 from foresight.store.session import is_sqlite
 
 router = APIRouter(prefix="/jobs", tags=["jobs"], route_class=BoundedJsonRoute)
+
+
+async def full_job_id(job_id: Annotated[Ident, Path(description="a job id or a unique prefix of 8+ characters")],
+                      request: Request) -> str:  # fmt: skip
+    """The job's full id (a short id, as the CLI prints, is resolved)."""
+    engine = request.app.state.engine
+    if len(job_id) >= 32:
+        return job_id
+    return await run_in_threadpool(queue.resolve_id, engine, job_id)
+
+
+JobId = Annotated[str, Depends(full_job_id)]
 
 MAX_SPEC_BYTES = 1 << 20  #: [bytes] request body limit of a submission
 SSE_POLL_S = 0.3  #: [s] event polling interval of a stream
@@ -108,7 +120,7 @@ def _read_job(engine: Any, job_id: str) -> bytes:
 
 
 @router.get("/{job_id}", response_model=JobPublic, responses=responses(404))
-async def read_job(job_id: Ident, request: Request) -> Response:
+async def read_job(job_id: JobId, request: Request) -> Response:
     """One job: status, progress, timestamps, error, result summary, artifacts and children."""
     # The most frequent request (clients polling). On SQLite the three indexed lookups take well under a
     # millisecond, less than a thread-pool hand-off, so they run on the event loop; other databases go
@@ -154,7 +166,7 @@ async def _sse(engine: Any, job_id: str, after: int) -> AsyncIterator[str]:
 @router.get("/{job_id}/events", response_class=StreamingResponse,
             responses={200: {"content": {"text/event-stream": {}}}, **responses(404)})  # fmt: skip
 def read_job_events(
-    job_id: Ident, engine: EngineDep,
+    job_id: JobId, engine: EngineDep,
     last_event_id: Annotated[int | None, Header(ge=0, le=MAX_EVENT_ID)] = None,
     after: Annotated[int, Query(ge=0, le=MAX_EVENT_ID)] = 0,
 ) -> StreamingResponse:  # fmt: skip
@@ -166,14 +178,14 @@ def read_job_events(
 
 
 @router.post("/{job_id}/cancel", dependencies=[WriteAuth], responses=responses(*AUTH, 404, 409))
-def cancel_job(job_id: Ident, engine: EngineDep) -> JobPublic:
+def cancel_job(job_id: JobId, engine: EngineDep) -> JobPublic:
     """Cancel a queued job, or ask a running job's worker to stop it (409 when already finished)."""
     queue.request_cancel(engine, job_id)
     return job_public(queue.get_job(engine, job_id))
 
 
 @router.post("/{job_id}/retry", dependencies=[WriteAuth], responses=responses(*AUTH, 404, 409))
-def retry_job(job_id: Ident, engine: EngineDep) -> JobPublic:
+def retry_job(job_id: JobId, engine: EngineDep) -> JobPublic:
     """Queue a failed or cancelled job again (409 otherwise)."""
     queue.retry(engine, job_id)
     return job_public(queue.get_job(engine, job_id))
@@ -181,7 +193,7 @@ def retry_job(job_id: Ident, engine: EngineDep) -> JobPublic:
 
 @router.delete("/{job_id}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[WriteAuth],
                 responses=responses(*AUTH, 404, 409))
-def delete_job(job_id: Ident, engine: EngineDep, settings: SettingsDep) -> Response:
+def delete_job(job_id: JobId, engine: EngineDep, settings: SettingsDep) -> Response:
     """Delete a finished job and its whole folder (partial files of a failed run too), keeping files that a
     model or dataset record uses."""
     queue.delete_job_and_files(engine, settings.store_root, job_id)
@@ -190,7 +202,7 @@ def delete_job(job_id: Ident, engine: EngineDep, settings: SettingsDep) -> Respo
 
 @router.get("/{job_id}/artifacts/{name:path}", response_class=FileResponse,
             responses={200: {"content": {"application/octet-stream": {}}}, **responses(404)})  # fmt: skip
-def read_job_artifact(job_id: Ident, name: str, engine: EngineDep, settings: SettingsDep, request: Request) -> FileResponse:
+def read_job_artifact(job_id: JobId, name: str, engine: EngineDep, settings: SettingsDep, request: Request) -> FileResponse:
     """Download one artifact of a job."""
     clean = folders.check_relative(name)  # 422 for absolute names and '..'
     row = queue.find_artifact(engine, job_id, clean)

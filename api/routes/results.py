@@ -8,8 +8,16 @@ from fastapi import APIRouter, Query
 
 from foresight.api.deps import EngineDep, SettingsDep
 from foresight.api.errors import responses
-from foresight.api.schemas import CampaignPublic, DatasetPublic, EvaluationPublic, Ident
-from foresight.store import results
+from foresight.api.schemas import (
+    CampaignPublic,
+    DatasetPublic,
+    EpisodePublic,
+    EvaluationPublic,
+    EvaluationsPublic,
+    EvaluationSummaryPublic,
+    Ident,
+)
+from foresight.store import queue, results
 
 router = APIRouter(tags=["results"])
 
@@ -36,6 +44,20 @@ def read_data_roots(settings: SettingsDep) -> list[dict[str, Any]]:
             for name, path in sorted(settings.named_data_roots.items())]
 
 
+@router.get("/evaluations")
+def read_evaluations(
+    engine: EngineDep,
+    model_id: Ident | None = None,
+    bundle: Ident | None = None,
+    limit: Annotated[int, Query(ge=1, le=500)] = 50,
+    offset: Annotated[int, Query(ge=0, le=10_000_000)] = 0,
+) -> EvaluationsPublic:
+    """Evaluations, newest first, filtered by model id and bundle; config and headline metrics of each."""
+    count, rows = results.evaluations(engine, model_id=model_id, bundle_id=bundle, limit=limit, offset=offset)
+    return EvaluationsPublic(data=[EvaluationSummaryPublic.model_validate(r) for r in rows], count=count, limit=limit,
+                             offset=offset)
+
+
 @router.get("/evaluations/{evaluation_id}", responses=responses(404))
 def read_evaluation(evaluation_id: Ident, engine: EngineDep) -> EvaluationPublic:
     """Metrics, the per-scenario table and the failure taxonomy of an evaluation."""
@@ -50,6 +72,44 @@ def read_campaign(campaign_id: Ident, engine: EngineDep) -> CampaignPublic:
     """A campaign's ranked cells, best cell and gate results."""
     row, cells, gates = results.campaign(engine, campaign_id)
     return CampaignPublic(id=row.id, job_id=row.job_id, config=row.config, best=row.best, cells=cells, gates=gates)
+
+
+@router.get("/evaluations/{evaluation_id}/episodes", responses=responses(404))
+def read_evaluation_episodes(evaluation_id: Ident, engine: EngineDep, settings: SettingsDep) -> list[EpisodePublic]:
+    """Every episode of an evaluation (failures first): outcome, failure label, and the URL of its trace for the
+    episode player (``trace`` is None where the evaluation stored none, e.g. before traces were kept)."""
+    return episode_list(engine, settings, evaluation_id)
+
+
+@router.get("/evaluations/{evaluation_id}/episodes/{scenario}/{seed}", responses=responses(404))
+def read_episode_trace(evaluation_id: Ident, scenario: Ident, seed: int, engine: EngineDep,
+                       settings: SettingsDep) -> dict[str, Any]:
+    """One episode's compact trace (core.evaluation.episode_trace): robot, pedestrians with ids, goal and
+    tolerance, walls, collision, logged forecasts; what the dashboard's episode player draws."""
+    from foresight.core.evaluation.episode_trace import read_compact, trace_name
+
+    path = results.episode_trace_file(engine, settings.store_root, evaluation_id, trace_name(scenario, seed))
+    if path is None:
+        raise queue.JobNotFound(f"evaluation {evaluation_id} stored no trace of {scenario} seed {seed}")
+    return read_compact(path)
+
+
+def episode_list(engine: Any, settings: Any, evaluation_id: str) -> list[EpisodePublic]:
+    """The episodes of an evaluation, failures first (by label), then in run order."""
+    from foresight.core.evaluation.episode_trace import trace_name
+
+    records = _episodes(engine, settings, evaluation_id)
+    if records is None:
+        results.evaluation(engine, evaluation_id)  # 404 for an unknown id
+        records = []
+    out = []
+    for r in records:
+        has = results.episode_trace_file(engine, settings.store_root, evaluation_id, trace_name(r.scenario, r.seed))
+        out.append(EpisodePublic(
+            scenario=r.scenario, seed=r.seed, outcome=r.outcome, label=r.taxonomy.label, steps=r.steps,
+            trace=f"/v1/evaluations/{evaluation_id}/episodes/{r.scenario}/{r.seed}" if has else None,
+            player=f"/ui/evaluations/{evaluation_id}/episodes/{r.scenario}/{r.seed}" if has else None))
+    return sorted(out, key=lambda e: e.outcome == "success")
 
 
 def _episodes(engine: EngineDep, settings: SettingsDep, ident: str) -> list[Any] | None:

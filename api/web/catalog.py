@@ -11,6 +11,7 @@ from foresight.api.web import files, previews
 from foresight.api.web.auth import PageNotFound, read_access
 from foresight.api.web.render import page
 from foresight.core.errors import NotFoundError
+from foresight.core.stages.results import planner_and_model, verdict
 from foresight.store import folders, queue, registry, results
 from foresight.store.models import Bundle
 
@@ -46,7 +47,8 @@ def results_page(request: Request) -> HTMLResponse:
     for row in rows:
         sections[RESULT_KINDS[row["kind"]]].append(dict(
             row, headline=_headline(row["result"]), records=records.get(row["id"], []),
-            report=files.report_of(request, row["id"]),
+            report=files.report_of(request, row["id"]), verdict=verdict(row["kind"], row["result"]),
+            subject=planner_and_model(row["kind"], row["result"]),
         ))  # fmt: skip
     return page(request, "results.html", title="Results", nav="results", sections=sections)
 

@@ -6,12 +6,13 @@ from typing import Annotated, Any
 from urllib.parse import urlencode
 
 from fastapi import APIRouter, Depends, Query, Request
-from fastapi.responses import HTMLResponse, RedirectResponse
+from fastapi.responses import HTMLResponse, RedirectResponse, Response
 
 from foresight.api.web import catalog, files
 from foresight.api.web.auth import PageNotFound, read_access
 from foresight.api.web.render import page
 from foresight.core.stages.kinds import KINDS
+from foresight.core.stages.results import Verdict, verdict
 from foresight.store import queue
 from foresight.store.models import JobStatus
 
@@ -29,11 +30,17 @@ def read_root() -> RedirectResponse:
     return RedirectResponse("/ui/jobs", status_code=307)
 
 
+def job_verdict(job: dict[str, Any]) -> Verdict | None:
+    """A job row's gate/integrity verdict (succeeded jobs only), shown as a badge next to its status."""
+    return verdict(job["kind"], job["result"]) if job["status"] == queue.SUCCEEDED else None
+
+
 def _jobs(request: Request, status: list[JobStatus] | None, kind: list[str] | None, offset: int) -> dict[str, Any]:
     count, data = queue.list_jobs(request.app.state.engine, statuses=[s.value for s in status or []], kinds=kind or [],
                                   limit=PAGE_SIZE, offset=offset)  # fmt: skip
     for job in data:
         job["report"] = files.report_of(request, job["id"]) if job["status"] == queue.SUCCEEDED else None
+        job["verdict"] = job_verdict(job)
     filters = urlencode([("status", s.value) for s in status or []] + [("kind", k) for k in kind or []])
     return {"jobs": data, "count": count, "offset": offset, "page_size": PAGE_SIZE, "filters": filters}
 
@@ -65,12 +72,30 @@ def _job(request: Request, job_id: str) -> dict[str, Any]:
     except queue.JobNotFound:
         raise PageNotFound(f"no job with id {job_id}") from None
     job["report"] = files.report_of(request, job_id)
+    job["verdict"] = job_verdict(job)
+    job["episodes"] = _episodes(request, job) if job["kind"] == "evaluate" and job["status"] == queue.SUCCEEDED else []
     return job
 
 
+def _episodes(request: Request, job: dict[str, Any]) -> list[Any]:
+    """An evaluation job's episodes (failures first) with their player links; none when it recorded none."""
+    from foresight.api.routes.results import episode_list
+
+    try:
+        return episode_list(request.app.state.engine, request.app.state.settings, job["id"])
+    except queue.JobNotFound:  # no evaluation row (e.g. the job is a shard's parent still merging)
+        return []
+
+
 @pages.get("/jobs/{job_id}")
-def job_page(request: Request, job_id: str) -> HTMLResponse:
-    """One job: summary, error, spec, result, live log, report, artifacts, children."""
+def job_page(request: Request, job_id: str) -> Response:
+    """One job: summary, error, spec, result, live log, report, artifacts, children (a short id redirects)."""
+    try:
+        full = queue.resolve_id(request.app.state.engine, job_id)
+    except queue.JobNotFound as exc:
+        raise PageNotFound(str(exc)) from None
+    if full != job_id:
+        return RedirectResponse(f"/ui/jobs/{full}", status_code=307)
     job = _job(request, job_id)
     return page(request, "job.html", title=f"Job {job_id}", nav="jobs", job=job)
 
@@ -79,6 +104,14 @@ def job_page(request: Request, job_id: str) -> HTMLResponse:
 def job_summary(request: Request, job_id: str) -> HTMLResponse:
     """The summary block of a job's page (refreshed on status changes)."""
     return page(request, "_job_summary.html", job=_job(request, job_id))
+
+
+@pages.get("/evaluations/{evaluation_id}/episodes/{scenario}/{seed}")
+def episode_page(request: Request, evaluation_id: str, scenario: str, seed: int) -> HTMLResponse:
+    """The episode player: the stored compact trace drawn on a canvas, with play/pause and a time slider."""
+    data_url = f"/v1/evaluations/{evaluation_id}/episodes/{scenario}/{seed}"
+    return page(request, "episode.html", title=f"{scenario} seed {seed}", nav="results", evaluation_id=evaluation_id,
+                scenario=scenario, seed=seed, data_url=data_url)
 
 
 router.include_router(pages)

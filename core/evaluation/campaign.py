@@ -186,7 +186,8 @@ def _run_cell(config: CampaignConfig, ctx: StageContext, matrix: ScenarioMatrix,
               key: str, fingerprint: str, checkpoint: str) -> CellResult:
     union = suite_union(hard, glob)
     jobs = [Job(i, s, seed, rp) for i, (s, seed) in enumerate(union)]
-    records = run_jobs(jobs, settings, ctx, matrix=matrix, start_method=config.start_method)
+    records = run_jobs(jobs, settings, ctx, matrix=matrix, start_method=config.start_method,
+                       executor=config.executor)
     return finish_cell(config, ctx, rp, hard, glob, records, key, fingerprint, checkpoint)
 
 

@@ -19,6 +19,9 @@ from foresight.core.scenarios.model import MAX_EPISODE_STEPS
 from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident, Name
 
 StartMethod = Literal["spawn", "fork", "forkserver"]
+#: where episodes run: ``local`` (this process, or a process pool of the stage's workers) or ``ray`` (one task per
+#: episode on the cluster at FORESIGHT_RAY_ADDRESS, else a local Ray instance); results do not depend on it
+Executor = Literal["local", "ray"]
 MAX_SHARDS = 64  #: most shard jobs one evaluation or campaign is split into
 #: ``shards`` of an evaluation or campaign: a service worker splits the episodes into this many shard jobs that any
 #: worker may run (core.evaluation.shards); the result is the same for any value, and in-process runs ignore it
@@ -56,6 +59,7 @@ class EvaluationConfig(EpisodeSelection):
     gate: EvaluationGateConfig = EvaluationGateConfig()
     bootstrap: BootstrapConfig = BootstrapConfig()
     start_method: StartMethod = "spawn"  #: worker processes (results do not depend on it)
+    executor: Executor = "local"
     shards: Shards = 1  #: shard jobs a service worker splits the episodes into (results do not depend on it)
 
 
@@ -68,6 +72,7 @@ class DiagnosticsConfig(EpisodeSelection):
     taxonomy: TaxonomyConfig = TaxonomyConfig()
     render: bool = True  #: a PNG and an animated GIF replay per seed
     max_predicted_peds: int = Field(default=4, ge=0, le=200)  #: per-step predicted-vs-actual for the nearest N peds
+    executor: Executor = "local"
 
 
 class GridVariant(_Config):
@@ -119,6 +124,7 @@ class CampaignConfig(_Config):
     taxonomy: TaxonomyConfig = TaxonomyConfig()
     bootstrap: BootstrapConfig = BootstrapConfig()
     start_method: StartMethod = "spawn"
+    executor: Executor = "local"
     shards: Shards = 1  #: shard jobs a service worker splits the cells' episodes into (results do not depend on it)
 
     @model_validator(mode="after")

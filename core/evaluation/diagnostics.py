@@ -214,7 +214,8 @@ def run_diagnostics(config: DiagnosticsConfig, ctx: StageContext) -> Diagnostics
         ctx.progress(0.9 * done / total, f"{rec.scenario} seed {rec.seed}: {rec.outcome}")
 
     # the same runner as evaluations (worker processes for learned models), so a seed behaves identically
-    runs: list[EpisodeRun] = run_jobs(jobs, settings, ctx, matrix=matrix, on_record=progress)
+    runs: list[EpisodeRun] = run_jobs(jobs, settings, ctx, matrix=matrix, on_record=progress,
+                                      executor=config.executor)
     seeds = [_write_seed(run, matrix.get(run.record.scenario), config, ctx) for run in runs]
     ctx.progress(1.0, "done")
     outcomes: dict[str, int] = {}

@@ -128,6 +128,7 @@ class ResolvedPlanner:
     model_id: str  #: model id, "cv", or "none" (planners without a predictor)
     checkpoint_sha256: str  #: checkpoint checksum, or "cv"/"none"
     model_path: str | None = None  #: local checkpoint path (not recorded: differs between machines)
+    origin: str = "builtin"  #: where the planner's code came from: "builtin", "external", "plugin DIST VERSION", "module"
 
     @property
     def label(self) -> str:
@@ -213,7 +214,7 @@ def resolve_planner(spec: PlannerSpecBase | dict[str, Any], ctx: StageContext) -
     resolved = cfg.model_dump(mode="json")
     model_id, sha, path = _model(spec, found.takes_model, ctx)
     return ResolvedPlanner(name=spec.name, variant=spec.variant, config=resolved, config_hash=config_hash(resolved),
-                           model_id=model_id, checkpoint_sha256=sha, model_path=path)
+                           model_id=model_id, checkpoint_sha256=sha, model_path=path, origin=found.origin)
 
 
 def preflight(rp: ResolvedPlanner, scenarios: list[ResolvedScenario]) -> None:

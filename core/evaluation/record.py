@@ -56,6 +56,7 @@ class Timing(BaseModel):
     plan_ms_p95: float | None = None
     plan_ms_max: float | None = None
     wall_s: float | None = None  #: episode wall time [s]
+    node: str | None = None  #: the Ray node that ran the episode (``executor: ray``; None in-process or in a local pool)
 
 
 class PredictionQuality(BaseModel):

@@ -7,6 +7,7 @@ worker count. Workers are plain ``multiprocessing`` processes (spawn by default:
 
 from __future__ import annotations
 
+import functools
 import json
 import multiprocessing as mp
 import os
@@ -53,6 +54,7 @@ class EpisodeSettings:
     taxonomy: TaxonomyConfig
     keep_diagnostics: bool = False  #: return whole EpisodeRuns (trace + per-step planner log), not records
     overrides: dict[str, Any] | None = None  #: the selection's scenario_overrides (applied when a worker loads the matrix)
+    trace_root: str | None = None  #: the work directory: each episode's compact trace goes to its ``trace_name``
 
 
 # ------------------------------------------------------------------------------ episode selection
@@ -120,9 +122,14 @@ class EpisodeWorker:
 
     def run(self, job: Job) -> tuple[int, Any]:
         s = self.settings
-        run = run_one(self.matrix.get(job.scenario), job.seed, job.planner, max_steps=s.max_steps,
+        scenario = self.matrix.get(job.scenario)
+        run = run_one(scenario, job.seed, job.planner, max_steps=s.max_steps,
                       metrics_cfg=s.metrics, taxonomy_cfg=s.taxonomy, keep_diagnostics=s.keep_diagnostics,
                       simulator=self.sim, check=self.check)
+        if s.trace_root is not None:
+            from foresight.core.evaluation.episode_trace import compact_trace, trace_name, write_compact
+
+            write_compact(Path(s.trace_root) / trace_name(job.scenario, job.seed), compact_trace(run, scenario.map))
         return job.index, (run if s.keep_diagnostics else run.record)
 
 
@@ -151,8 +158,10 @@ def expected_cost(matrix: ScenarioMatrix, name: str, max_steps: int | None) -> f
 def run_jobs(
     jobs: list[Job], settings: EpisodeSettings, ctx: StageContext, *, matrix: ScenarioMatrix | None = None,
     start_method: str = "spawn", on_record: Callable[[int, int, EpisodeRecord], None] | None = None,
+    executor: str = "local",
 ) -> list[Any]:
-    """Run every job (in-process with one worker, else a process pool); results in job order.
+    """Run every job (``local``: in-process with one worker, else a process pool; ``ray``: one Ray task per
+    episode, core.evaluation.ray_executor); results in job order, the same for either executor.
 
     Results are EpisodeRecords, or EpisodeRuns when ``settings.keep_diagnostics``.
     """
@@ -170,6 +179,13 @@ def run_jobs(
     if matrix is not None and workers > 1:  # longest first: less idle tail; output order is by index anyway
         local.sort(key=lambda j: -expected_cost(matrix, j.scenario, settings.max_steps))
     ctx.check_cancelled()
+    if executor == "ray":
+        from foresight.core.evaluation.ray_executor import run_on_ray
+        from foresight.core.scenarios.loader import load_matrix
+
+        matrix = matrix or load_matrix(settings.matrix_path, overrides=settings.overrides)
+        collect(run_on_ray(local, functools.partial(EpisodeWorker, settings, matrix), ctx))
+        return [r for r in out if r is not None]
     # a learned model runs in worker processes even with one worker: one torch thread each, so the
     # numbers (and hence trajectories) do not depend on the worker count
     if workers == 1 and not any(j.planner.learned for j in jobs):
@@ -207,11 +223,12 @@ class PlannerProvenance(BaseModel):
     config_hash: str
     model_id: str
     checkpoint_sha256: str
+    origin: str = "builtin"  #: "builtin", "external", "plugin DIST VERSION" (the plugin's version) or "module"
 
 
 def planner_provenance(rp: ResolvedPlanner) -> PlannerProvenance:
     return PlannerProvenance(name=rp.name, variant=rp.variant, config=rp.config, config_hash=rp.config_hash,
-                             model_id=rp.model_id, checkpoint_sha256=rp.checkpoint_sha256)
+                             model_id=rp.model_id, checkpoint_sha256=rp.checkpoint_sha256, origin=rp.origin)
 
 
 class EvaluationResult(BaseModel):
@@ -297,7 +314,7 @@ def prepare_evaluation(config: EvaluationConfig, ctx: StageContext) -> PreparedE
     rp = resolve_planner(config.planner, ctx)
     preflight(rp, [matrix.get(name) for name in dict.fromkeys(s for s, _ in pairs)])
     settings = EpisodeSettings(str(path), config.max_steps, config.metrics, config.taxonomy,
-                               overrides=config.scenario_overrides)
+                               overrides=config.scenario_overrides, trace_root=str(ctx.workdir))
     return PreparedEvaluation(path, matrix, pairs, rp, settings)
 
 
@@ -316,7 +333,7 @@ def run_evaluation(config: EvaluationConfig, ctx: StageContext) -> EvaluationRes
         ctx.progress(done / total, f"{rec.scenario} seed {rec.seed}: {rec.outcome}")
 
     records = run_jobs(jobs, prep.settings, ctx, matrix=prep.matrix, start_method=config.start_method,
-                       on_record=progress)
+                       executor=config.executor, on_record=progress)
     return finish_evaluation(config, records, prep, ctx, t0)
 
 

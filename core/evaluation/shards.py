@@ -143,7 +143,7 @@ def run_evaluation_shard(config: EvaluationShardConfig, ctx: StageContext) -> Sh
     jobs = [Job(k, *work[g], prep.planner) for k, g in enumerate(items)]
     ctx.progress(0.0, f"shard {config.shard.index + 1}/{config.shard.count}: {len(jobs)} of {len(work)} episodes")
     records = run_jobs(jobs, prep.settings, ctx, matrix=prep.matrix, start_method=config.start_method,
-                       on_record=_progress(ctx, config.shard))
+                       executor=config.executor, on_record=_progress(ctx, config.shard))
     return _write_shard(ctx, "evaluate", config.shard, fp, len(work), items, records, t0)
 
 
@@ -156,7 +156,7 @@ def run_campaign_shard(config: CampaignShardConfig, ctx: StageContext) -> ShardR
     jobs = [Job(k, *work[g][1], plan.cells[work[g][0]][1]) for k, g in enumerate(items)]
     ctx.progress(0.0, f"shard {config.shard.index + 1}/{config.shard.count}: {len(jobs)} of {len(work)} episodes")
     records = run_jobs(jobs, plan.settings, ctx, matrix=plan.matrix, start_method=config.start_method,
-                       on_record=_progress(ctx, config.shard))
+                       executor=config.executor, on_record=_progress(ctx, config.shard))
     return _write_shard(ctx, "campaign", config.shard, fp, len(work), items, records, t0)
 
 

@@ -88,7 +88,8 @@ class SelectionSection(BaseModel):
 
 
 class GatesSection(BaseModel):
-    """Which gates must pass before the candidate is promoted (a gate whose stage did not run fails)."""
+    """Which gates must have run and passed before the candidate is promoted (a required gate whose stage did not
+    run fails). A gate that ran and failed blocks promotion whether it is listed or not."""
 
     model_config = ConfigDict(extra="forbid")
     require: list[GateName] = Field(default_factory=lambda: ["training", "evaluation", "closed_loop"])

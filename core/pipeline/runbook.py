@@ -280,12 +280,14 @@ def _decide(config: PipelineConfig, results: StageResults) -> tuple[list[Any], d
     for name, stage in GATE_OF_STAGE.items():
         entry = gate_entry(name, results.gate(stage))
         required = name in config.gates.require
-        if not required:
-            entry.detail = (entry.detail + "; " if entry.detail else "") + "advisory (not required for promotion)"
+        if not required and entry.passed is None:
+            entry.detail = (entry.detail + "; " if entry.detail else "") + "not required for promotion"
         elif entry.passed is None and name == "closed_loop" and results.of("campaign", CampaignResult) is not None:
             entry.detail = "the campaign has no closed-loop gate configured"
         entries.append(entry)
-        if required and entry.passed is not True:
+        # a gate that ran and failed blocks promotion whether or not it is required: a model whose gates fail is
+        # never promoted; ``require`` names the gates that must also have run
+        if entry.passed is False or (required and entry.passed is not True):
             failed.append(name)
     return entries, {"passed": not failed, "failed": failed, "promotion": ""}
 

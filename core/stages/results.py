@@ -5,9 +5,9 @@ result models from here; the runbook, which the kind table imports, reads them h
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
-from pydantic import BaseModel
+from pydantic import BaseModel, ValidationError
 
 from foresight.core.evaluation.campaign import CampaignResult
 from foresight.core.evaluation.diagnostics import DiagnosticsResult
@@ -39,3 +39,44 @@ def read_result(kind: str, data: Any) -> BaseModel:
     """A ``kind`` stage's result from its model or its JSON dict (e.g. a job row's result), validated."""
     model = RESULTS[kind]
     return data if isinstance(data, model) else model.model_validate(data)
+
+
+#: a finished job's quality verdict: its gates passed, a gate failed, or the integrity checks failed
+Verdict = Literal["passed", "failed_gate", "failed_integrity"]
+
+
+def verdict(kind: str, data: Any) -> Verdict | None:
+    """The gate/integrity verdict of a ``kind`` job's result (None: the kind has no gate, none was configured, or
+    the result is not this version's model). One rule for the API's job status, the dashboard's badges and the
+    CLI's exit codes (2 for a failed verdict, as ``foresight evaluate`` exits)."""
+    if kind not in RESULTS or data is None:
+        return None
+    try:
+        result = read_result(kind, data)
+    except ValidationError:
+        return None
+    if isinstance(result, TrainResult):
+        return "passed" if result.gates_passed else "failed_gate"
+    if isinstance(result, EvaluationResult):
+        return result.status
+    if isinstance(result, CampaignResult | PipelineResult):
+        return None if result.status == "completed" else "passed" if result.status == "passed" else "failed_gate"
+    return None
+
+
+def planner_and_model(kind: str, data: Any) -> tuple[str | None, str | None]:
+    """(planner name, model id) a result was produced with, for result tables (None where the kind has none)."""
+    if kind not in RESULTS or data is None:
+        return None, None
+    try:
+        result = read_result(kind, data)
+    except ValidationError:
+        return None, None
+    if isinstance(result, EvaluationResult | DiagnosticsResult):
+        return result.planner.name, result.planner.model_id
+    if isinstance(result, CampaignResult) and result.best is not None:
+        best = result.best.planner
+        return f"{best.name} ({result.best.variant})", best.model_id
+    if isinstance(result, PipelineResult):
+        return None, result.model_id
+    return None, None

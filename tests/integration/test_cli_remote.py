@@ -70,6 +70,18 @@ def test_collect_train_evaluate_through_the_stage_commands(service: Service) -> 
     waited = _job(service.cli("jobs", "wait", job_id, "--json"))
     assert waited["kind"] == "mix" and waited["status"] == "succeeded"
 
+    # `submit --wait` exits 2 for an evaluation whose gate failed, as `foresight evaluate` does
+    spec = service.tmp / "gate.yaml"
+    spec.write_text("matrix: scenarios/classic_interactions.yaml\nplanner: {name: goal}\nscenarios: [crossing_low]\n"
+                    "seeds_per_scenario: 1\nmax_steps: 40\ngate: {min_success_rate: 1.0, min_mean_clearance: 100.0}\n")
+    gated = service.cli("submit", "evaluate", "-f", str(spec), "--wait", check=False)
+    assert gated.returncode == 2 and "FAILED_GATE" in gated.stdout, (gated.stdout, gated.stderr)
+    short = gated.stdout.split()[0][:12]  # the 12 characters the CLI prints are accepted as the job id
+    shown = service.cli("jobs", "show", short)
+    assert shown.stdout.startswith(gated.stdout.split()[0]) and '\n  "status": "failed_gate",' in shown.stdout
+    assert _job(service.cli("jobs", "show", short, "--json"))["verdict"] == "failed_gate"
+    assert service.cli("jobs", "wait", short, "--json", check=False).returncode == 2
+
     # a job that fails on the server: exit 1, one readable line naming the job and the error
     failed = service.cli("train", "--dataset", "no-such-dataset", "--epochs", "1", check=False)
     lines = failed.stderr.strip().splitlines()

@@ -28,6 +28,13 @@ def test_services_and_shared_store() -> None:
     assert set(_compose()["volumes"]) >= {"store", "pgdata"}
 
 
+def test_ray_head_and_nodes_serve_the_workers() -> None:
+    services = _compose()["services"]
+    assert services["ray-head"]["command"][:3] == ["ray", "start", "--head"]
+    assert services["ray-node"]["command"][:4] == ["ray", "start", "--address", "ray-head:6379"]
+    assert services["worker"]["environment"]["FORESIGHT_RAY_ADDRESS"] == "ray-head:6379"
+
+
 def test_worker_is_scalable_and_stops_gracefully() -> None:
     worker = _compose()["services"]["worker"]
     assert "ports" not in worker and "container_name" not in worker
@@ -40,7 +47,9 @@ def test_commands_are_real_cli_commands() -> None:
     parser = build_parser()
     for name, svc in _compose()["services"].items():
         command = svc.get("command")
-        if command:
+        if command and command[0] == "ray":  # the Ray head and its nodes (episodes of `executor: ray` jobs)
+            assert command[1] == "start" and "--block" in command, name
+        elif command:
             assert command[0] == "foresight", name
             parser.parse_args(command[1:])  # exits (SystemExit) on an unknown command or flag
     cmd = re.search(r'^CMD \[(.*)\]$', (REPO / "Dockerfile").read_text(), re.M).group(1)
@@ -53,6 +62,6 @@ def test_dockerfile_copies_every_package_the_service_needs() -> None:
     text = (REPO / "Dockerfile").read_text()
     for path in ("foresight", "core", "api", "worker", "cli", "migrations", "configs", "model", "setup.py", "pyproject.toml"):
         assert re.search(rf"^COPY .*\b{re.escape(path)}\b", text, re.M), path
-    assert "pip install ." in text and "torch==2.13.0" in text
+    assert re.search(r"pip install '?\.\[server", text) and "torch==2.13.0" in text
     assert re.search(r"^USER (?!root)", text, re.M)
     assert "EXPOSE 8000" in text and "/healthz" in text

@@ -66,6 +66,7 @@ def test_plugin_campaign_external_planners_and_bad_specs(tmp_path: Path) -> None
             assert set(cells) == {"slow", "fast"}
             assert cells["slow"]["planner"]["config"]["speed"] == 0.5 and cells["fast"]["planner"]["config"]["speed"] == 1.5
             assert cells["slow"]["planner"]["name"] == "toy" and cells["slow"]["checkpoint"] == "none"
+            assert cells["slow"]["planner"]["origin"] == "plugin foresight-toy-planner 0.1.0"  # its version, recorded
             slow = _episodes(client, camp["id"], cells["slow"]["episodes_file"])
             fast = _episodes(client, camp["id"], cells["fast"]["episodes_file"])
             assert max(r["efficiency"]["avg_speed"] for r in slow) <= 0.5 + 1e-6

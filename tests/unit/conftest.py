@@ -26,3 +26,17 @@ def engine(settings: Settings) -> Iterator:
     eng = make_engine(settings.resolved_database_url)
     yield eng
     eng.dispose()
+
+
+@pytest.fixture
+def small_store(tmp_path: Path) -> Iterator[Path]:
+    """A real full disk: a 1 MiB tmpfs mounted for the test (skipped where mounting needs privileges we lack)."""
+    import subprocess
+
+    mount = tmp_path / "small-store"
+    mount.mkdir()
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1m", "tmpfs", str(mount)], capture_output=True)
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here (needs root): {done.stderr.decode().strip()}")
+    yield mount
+    subprocess.run(["umount", str(mount)], check=True)

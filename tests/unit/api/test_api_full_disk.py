@@ -8,25 +8,11 @@ import os
 import subprocess
 import sys
 import time
-from pathlib import Path
-
-import pytest
 
 from foresight.store import folders, queue
 from foresight.store.gc import collect_garbage
 from foresight.store.settings import REPO_ROOT
 from tests.archives import tar_of
-
-
-@pytest.fixture
-def small_store(tmp_path: Path):  # noqa: ANN201
-    mount = tmp_path / "store"
-    mount.mkdir()
-    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1m", "tmpfs", str(mount)], capture_output=True)
-    if done.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs here (needs root): {done.stderr.decode().strip()}")
-    yield mount
-    subprocess.run(["umount", str(mount)], check=True)
 
 
 def _bundle(extra_bytes: int) -> bytes:

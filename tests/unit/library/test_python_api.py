@@ -25,7 +25,7 @@ def test_evaluate_matches_cli_local_record_for_record(tmp_path: Path, capsys) ->
                                 out=tmp_path / "api")
     assert isinstance(result, EvaluationResult) and result.episodes == 4
     assert result.planner.name == "tests.unit.planners.user_planner:Cautious"
-    assert result.planner.config == {"speed": 0.8}
+    assert result.planner.config == {"speed": 0.8} and result.planner.origin == "module"
     code = main(["evaluate", "--local", "--matrix", "configs/scenarios/classic_interactions.yaml",
                  "--planner", "tests.unit.planners.user_planner:Cautious", "--planner-config", '{"speed": 0.8}',
                  "--scenarios", ",".join(SCENARIOS), "--seeds-per-scenario", "2", "--max-steps", "120",

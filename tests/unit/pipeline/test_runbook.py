@@ -27,10 +27,11 @@ def _ctx(tmp_path: Path, cancelled: list[bool] | None = None) -> StageContext:
 class FakeChildren:
     """Records every call; results are complete stage results (the runbook validates them as their models)."""
 
-    def __init__(self, *, evaluation_passes: bool = True, fail: str | None = None):
+    def __init__(self, *, evaluation_passes: bool = True, training_passes: bool = True, fail: str | None = None):
         self.calls: list[tuple[str, str, dict[str, Any]]] = []
         self.done: dict[str, ChildRun] = {}
         self.evaluation_passes = evaluation_passes
+        self.training_passes = training_passes
         self.fail = fail
 
     def __call__(self, stage: str, kind: str, spec: dict[str, Any], progress: Any) -> ChildRun:
@@ -53,7 +54,8 @@ class FakeChildren:
                     "outcomes": {"success": 2}}
         if kind == "train":
             return {"checkpoint": "model.pt", "summary": "no/training_summary.json", "best_epoch": 2, "val_ade": 0.3,
-                    "val_fde": 0.6, "cv_val_ade": 0.4, "cv_val_fde": 0.8, "selection_mode": "proxy", "gates_passed": True}
+                    "val_fde": 0.6, "cv_val_ade": 0.4, "cv_val_fde": 0.8, "selection_mode": "proxy",
+                    "gates_passed": self.training_passes}
         if kind == "evaluate":
             return data.evaluation(failures=not self.evaluation_passes)
         if kind == "diagnose":
@@ -112,6 +114,17 @@ def test_failing_gate_writes_the_summary_exit_2_and_does_not_promote(tmp_path: P
     assert "FAILED" in report
     stages = {s.name: s.status for s in result.stages}
     assert stages["gates"] == "failed_gate" and stages["promote"] == "skipped"
+
+
+def test_a_failed_gate_that_is_not_required_still_blocks_promotion(tmp_path: Path) -> None:
+    # the smoke pipeline once printed "Gates: FAILED (training)" and promoted the model anyway
+    config = _smoke()
+    config.gates.require = ["evaluation", "closed_loop"]
+    fake = FakeChildren(training_passes=False)
+    result = run_pipeline(config, _ctx(tmp_path), fake, run_id="0badcafe")
+    assert result.exit_code == 2 and not result.passed and result.failed_gates == ["training"]
+    assert "promote" not in [c[0] for c in fake.calls] and not result.promoted
+    assert "stays a candidate" in result.promotion
 
 
 def test_a_failed_stage_writes_the_summary_and_a_rerun_resumes_from_it(tmp_path: Path) -> None:

@@ -1,0 +1,91 @@
+"""The episode player and the gate badges in Debian's Chromium: a real `foresight up`, a small evaluation whose
+gate fails; its badge on the jobs page, its episodes one click from the job page, the player loading the stored
+trace, playing, stepping, and showing the collision at the recorded step. Screenshots under out/screenshots/."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+
+import pytest
+
+from tests.e2e.service import Up
+from tests.e2e.test_dashboard import chromium, page, screenshot_dir  # noqa: F401 (fixtures)
+
+#: goal-seeking robot into dense crowds: collisions within a few seconds; a gate it cannot pass
+EVALUATE = {"kind": "evaluate", "planner": {"name": "goal"}, "scenarios": ["head_on_corridor_high", "crossing_low"],
+            "seeds_per_scenario": 1, "max_steps": 120, "gate": {"min_success_rate": 1.0}}  # fmt: skip
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def service(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Up]:
+    up = Up(tmp_path_factory.mktemp("player"), concurrency=1).start()
+    try:
+        yield up
+    finally:
+        up.stop()
+
+
+def _wait(api, job_id: str, timeout_s: float = 120.0) -> dict:  # noqa: ANN001
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        job = api.get(f"/v1/jobs/{job_id}").json()
+        if job["status"] in ("succeeded", "failed", "cancelled"):
+            return job
+        time.sleep(0.5)
+    raise AssertionError(f"job {job_id} did not finish in {timeout_s} s")
+
+
+def test_gate_badge_episode_list_and_player(service: Up, page) -> None:  # noqa: ANN001, F811
+    api = service.client()
+    job_id = api.post("/v1/jobs", json={"spec": EVALUATE}).json()["id"]
+    job = _wait(api, job_id)
+    assert job["status"] == "succeeded" and job["verdict"] == "failed_gate", (job, service.log())
+    shots = screenshot_dir()
+
+    # the verdict is a badge next to the (green) job status
+    page.goto(f"{service.url}/ui/jobs")
+    badge = page.locator(f'tr[data-job="{job_id}"] .verdict')
+    assert badge.text_content() == "GATE FAILED"
+    page.screenshot(path=str(shots / "jobs-gate-badge.png"), full_page=True)
+
+    # every episode one click from the job page, failures first
+    page.goto(f"{service.url}/ui/jobs/{job_id[:12]}")  # a short id redirects to the job
+    rows = page.locator("table.episodes tbody tr")
+    assert rows.count() == 2
+    episodes = api.get(f"/v1/evaluations/{job_id}/episodes").json()
+    first = episodes[0]
+    assert first["outcome"] != "success" and first["player"]
+    page.locator("table.episodes a.watch").first.click()
+    page.wait_for_selector('#player[data-ready="1"]', timeout=15_000)
+    assert page.url.endswith(first["player"])
+
+    trace = api.get(first["trace"]).json()
+    collision = trace["collision"]
+    assert collision is not None and collision["step"] == trace["frames"][-1]
+    assert page.get_attribute("#player", "data-step") == "0" and page.is_hidden("#event")
+    page.screenshot(path=str(shots / "player-start.png"), full_page=True)
+
+    # play moves the time on; pause stops it
+    page.click("#play")
+    page.wait_for_function("Number(document.getElementById('player').dataset.frame) >= 3", timeout=10_000)
+    page.click("#play")
+    stopped = page.get_attribute("#player", "data-frame")
+    page.wait_for_timeout(400)
+    assert page.get_attribute("#player", "data-frame") == stopped
+
+    # the slider to the frame before the collision: none shown; one step on: the collision, at its step
+    last = len(trace["frames"]) - 1
+    page.eval_on_selector("#slider", f"(s) => {{ s.value = '{last - 1}'; s.dispatchEvent(new Event('input')); }}")
+    assert int(page.get_attribute("#player", "data-step")) < collision["step"] and page.is_hidden("#event")
+    page.click("#fwd")
+    assert page.get_attribute("#player", "data-step") == str(collision["step"])
+    assert page.is_visible("#event") and f"at step {collision['step']}" in page.text_content("#event")
+    page.screenshot(path=str(shots / "player-collision.png"), full_page=True)
+
+    # the Results page: planner and model columns, the failed verdict
+    page.goto(f"{service.url}/ui/results")
+    assert "GATE FAILED" in page.text_content("table.results") and page.text_content("td.planner") == "goal"
+    page.screenshot(path=str(shots / "results-verdicts.png"), full_page=True)

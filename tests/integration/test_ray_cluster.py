@@ -1,0 +1,191 @@
+"""Episodes on a real two-node Ray cluster (``ray start --head`` and ``ray start --address``, 1 CPU each, separate
+processes): an evaluation submitted over HTTP with ``executor: ray`` runs on both nodes and its records equal the
+local executor's; a node SIGKILLed mid-run loses no episode and duplicates none; a cancelled job leaves no task
+holding a CPU. The cluster is stopped at the end."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from foresight.core.evaluation.config import EvaluationConfig
+from foresight.core.evaluation.runner import read_records, run_evaluation
+from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+from tests.results import without
+
+from .service import Service, free_port, wait_job
+
+pytestmark = pytest.mark.slow
+RAY = str(Path(sys.executable).with_name("ray"))
+EVALUATE = {"kind": "evaluate", "scenarios": ["crossing_low", "head_on_corridor_high"], "seeds_per_scenario": 3,
+            "max_steps": 150, "planner": {"name": "predictive", "model": "cv"}}
+#: execution facts, not outcomes: wall-clock values, the node, the code version
+NOISE = {"timing", "code_version"}
+
+
+class Cluster:
+    def __init__(self, tmp: Path):
+        self.port = free_port()
+        self.address = f"127.0.0.1:{self.port}"
+        self.env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0"}
+        self.tmp = tmp
+        self.node: subprocess.Popen | None = None
+
+    def start(self) -> None:
+        subprocess.run([RAY, "start", "--head", "--num-cpus", "1", "--port", str(self.port), "--include-dashboard",
+                        "false", "--disable-usage-stats"], env=self.env, check=True, capture_output=True, timeout=120)
+        self.node = subprocess.Popen([RAY, "start", "--address", self.address, "--num-cpus", "1", "--block"],
+                                     env=self.env, start_new_session=True, stdout=subprocess.DEVNULL,
+                                     stderr=subprocess.DEVNULL)  # fmt: skip
+        self.wait_cpus(2)
+
+    def nodes_alive(self) -> int:
+        out = subprocess.run([sys.executable, "-c", _ALIVE, self.address], env=self.env, capture_output=True,
+                             text=True, timeout=60)  # fmt: skip
+        return int(out.stdout.strip() or 0)
+
+    def wait_cpus(self, n: int, timeout: float = 90) -> None:
+        deadline = time.time() + timeout
+        while time.time() < deadline:
+            if self.nodes_alive() >= n:
+                return
+            time.sleep(1)
+        raise AssertionError(f"the Ray cluster did not reach {n} nodes")
+
+    def kill_node(self) -> None:
+        assert self.node is not None
+        os.killpg(self.node.pid, signal.SIGKILL)
+        self.node.wait(timeout=30)
+
+    def stop(self) -> None:
+        if self.node is not None and self.node.poll() is None:
+            self.kill_node()
+        subprocess.run([RAY, "stop", "--force"], env=self.env, capture_output=True, timeout=120)
+
+
+_ALIVE = "import ray, sys; ray.init(address=sys.argv[1], logging_level='ERROR', log_to_driver=False); " \
+         "print(sum(1 for n in ray.nodes() if n['Alive']))"
+
+
+@pytest.fixture(scope="module")
+def cluster(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Cluster]:
+    # no token authentication on this private test cluster: the head, its node, the service's worker (which
+    # inherits this process's environment) and this test process all agree
+    saved = os.environ.get("RAY_AUTH_MODE")
+    os.environ["RAY_AUTH_MODE"] = "disabled"
+    c = Cluster(tmp_path_factory.mktemp("ray"))
+    try:
+        c.start()
+        yield c
+    finally:
+        c.stop()
+        if saved is None:
+            del os.environ["RAY_AUTH_MODE"]
+        else:
+            os.environ["RAY_AUTH_MODE"] = saved
+
+
+def _local_records(tmp: Path) -> list[dict]:
+    from foresight.cli.common import local_context
+
+    ctx = local_context(tmp / "local", {"builtin": BUILTIN_CONFIG_ROOT}, quiet=True)
+    run_evaluation(EvaluationConfig(**{k: v for k, v in EVALUATE.items() if k != "kind"}), ctx)
+    return [without(r.model_dump(mode="json"), NOISE) for r in read_records(ctx.workdir / "episodes.jsonl")]
+
+
+def test_evaluation_over_http_runs_on_both_nodes_and_equals_local(cluster: Cluster, tmp_path: Path) -> None:
+    service = Service(tmp_path, ray_address=cluster.address)
+    try:
+        service.migrate()
+        service.serve()
+        service.worker()
+        with service.client() as client:
+            resp = client.post("/v1/jobs", json={"spec": {**EVALUATE, "executor": "ray"}})
+            assert resp.status_code == 201, resp.text
+            job = wait_job(client, resp.json()["id"], timeout=240)
+            assert job["status"] == "succeeded", (job["error"], service.logs())
+            lines = client.get(f"/v1/jobs/{job['id']}/artifacts/episodes.jsonl").text.splitlines()
+    finally:
+        service.stop()
+    records = [json.loads(line) for line in lines]
+    assert len({r["timing"]["node"] for r in records}) == 2  # both nodes ran episodes
+    assert [without(r, NOISE) for r in records] == _local_records(tmp_path)
+
+
+def test_node_killed_mid_run_loses_and_duplicates_nothing(cluster: Cluster, tmp_path: Path) -> None:
+    import ray
+
+    from foresight.cli.common import local_context
+    from foresight.core.evaluation import ray_executor
+
+    ray.shutdown()
+    os.environ[ray_executor.RAY_ADDRESS_ENV] = cluster.address
+    try:
+        ctx = local_context(tmp_path / "ray", {"builtin": BUILTIN_CONFIG_ROOT}, quiet=True)
+        done: list[str] = []
+        ctx.progress = lambda fraction, message="": done.append(message)  # noqa: ARG005
+        config = EvaluationConfig(**{k: v for k, v in EVALUATE.items() if k != "kind"}, executor="ray")
+        killer = threading.Thread(target=lambda: (_wait_for(lambda: len(done) >= 3), cluster.kill_node()))
+        killer.start()
+        run_evaluation(config, ctx)
+        killer.join()
+        records = read_records(ctx.workdir / "episodes.jsonl")
+    finally:
+        ray.shutdown()
+        del os.environ[ray_executor.RAY_ADDRESS_ENV]
+        cluster.node = None
+    assert cluster.nodes_alive() == 1  # the second node is really gone
+    assert sorted((r.scenario, r.seed) for r in records) == sorted({(r.scenario, r.seed) for r in records})
+    assert [without(r.model_dump(mode="json"), NOISE) for r in records] == _local_records(tmp_path)
+    # a fresh second node for the tests after this one
+    cluster.node = subprocess.Popen([RAY, "start", "--address", cluster.address, "--num-cpus", "1", "--block"],
+                                    env=cluster.env, start_new_session=True, stdout=subprocess.DEVNULL,
+                                    stderr=subprocess.DEVNULL)  # fmt: skip
+    cluster.wait_cpus(2)
+
+
+def test_cancelled_job_leaves_no_ray_task_running(cluster: Cluster, tmp_path: Path) -> None:
+    service = Service(tmp_path, ray_address=cluster.address)
+    long_run = {**EVALUATE, "seeds_per_scenario": 12, "max_steps": 1500, "executor": "ray"}
+    try:
+        service.migrate()
+        service.serve()
+        service.worker()
+        with service.client() as client:
+            job_id = client.post("/v1/jobs", json={"spec": long_run}).json()["id"]
+            _wait_for(lambda: client.get(f"/v1/jobs/{job_id}").json()["progress"] > 0, timeout=240)
+            assert client.post(f"/v1/jobs/{job_id}/cancel").status_code in (200, 202)
+            t0 = time.time()
+            job = wait_job(client, job_id, timeout=60)
+            assert job["status"] == "cancelled"
+    finally:
+        service.stop()
+    # every CPU of the cluster free again: no task of the cancelled job still runs
+    _wait_for(lambda: _free_cpus(cluster) == 2, timeout=30)
+    assert time.time() - t0 < 30
+
+
+def _free_cpus(cluster: Cluster) -> float:
+    code = ("import ray, sys; ray.init(address=sys.argv[1], logging_level='ERROR', log_to_driver=False); "
+            "print(ray.available_resources().get('CPU', 0))")
+    out = subprocess.run([sys.executable, "-c", code, cluster.address], env=cluster.env, capture_output=True,
+                         text=True, timeout=60)  # fmt: skip
+    return float(out.stdout.strip() or 0)
+
+
+def _wait_for(condition, timeout: float = 120) -> None:  # noqa: ANN001
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        if condition():
+            return
+        time.sleep(0.2)
+    raise AssertionError("condition not met in time")

@@ -1,0 +1,85 @@
+"""What a researcher sees through the API: gate verdicts in job status, short ids, unknown query parameters
+refused, the evaluation list."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from foresight.core.stages.results import planner_and_model, verdict
+from foresight.store import queue
+from tests.unit.reports import data
+
+
+def _finished_evaluation(client, auth, engine, result: dict[str, Any]) -> str:  # noqa: ANN001
+    spec = {"kind": "evaluate", "bundle": "builtin", "matrix": "scenarios/classic_interactions.yaml",
+            "planner": {"name": "goal"}, "scenarios": ["crossing_low"], "seeds_per_scenario": 1}
+    job_id = client.post("/v1/jobs", json={"spec": spec}, headers=auth).json()["id"]
+    c = queue.claim(engine, "w", ["evaluate"], 30)
+    assert c is not None and c["id"] == job_id
+    queue.finish(engine, job_id, "w", c["attempts"], result)
+    return job_id
+
+
+def test_a_failed_gate_is_in_the_job_status_and_on_the_dashboard(client, auth, engine) -> None:  # noqa: ANN001
+    failed = _finished_evaluation(client, auth, engine, data.evaluation(failures=True))
+    passed = _finished_evaluation(client, auth, engine, data.evaluation(failures=False))
+    assert client.get(f"/v1/jobs/{failed}").json()["verdict"] == "failed_gate"
+    assert client.get(f"/v1/jobs/{passed}").json()["verdict"] == "passed"
+    listed = {j["id"]: j["verdict"] for j in client.get("/v1/jobs").json()["data"]}
+    assert listed == {failed: "failed_gate", passed: "passed"}
+    sleep = client.post("/v1/jobs", json={"spec": {"kind": "sleep"}}, headers=auth).json()
+    assert sleep["verdict"] is None  # no gate: no verdict
+    rows = client.get("/ui/jobs/rows").text
+    assert rows.count("GATE FAILED") == 1 and rows.count("gates passed") == 1
+    results = client.get("/ui/results").text
+    assert "GATE FAILED" in results and "<th>planner</th><th>model</th>" in results
+    assert '<td class="planner">predictive</td>' in results  # the fixture's planner provenance
+
+
+def test_verdict_and_subject_from_typed_results() -> None:
+    assert verdict("evaluate", data.evaluation(failures=True)) == "failed_gate"
+    assert verdict("campaign", data.campaign(gate_passed=False)) == "failed_gate"
+    assert verdict("campaign", data.campaign(gate_passed=True)) == "passed"
+    assert verdict("sleep", {"slept_s": 0}) is None and verdict("evaluate", {"not": "a result"}) is None
+    name, model = planner_and_model("evaluate", data.evaluation())
+    assert name == "predictive" and model
+
+
+def test_short_ids_are_accepted_where_a_job_id_is(client, auth) -> None:  # noqa: ANN001
+    job = client.post("/v1/jobs", json={"spec": {"kind": "sleep"}}, headers=auth).json()
+    short = job["id"][:12]
+    assert client.get(f"/v1/jobs/{short}").json()["id"] == job["id"]
+    assert client.post(f"/v1/jobs/{short}/cancel", headers=auth).json()["id"] == job["id"]
+    page = client.get(f"/ui/jobs/{short}", follow_redirects=False)
+    assert page.status_code == 307 and page.headers["location"] == f"/ui/jobs/{job['id']}"
+    assert client.get("/v1/jobs/0123456789ab").status_code == 404
+    assert client.get("/v1/jobs/nothex-notfound").status_code == 404
+
+
+def test_unknown_query_parameters_are_422_naming_them(client) -> None:  # noqa: ANN001
+    r = client.get("/v1/jobs", params={"stauts": "failed"})
+    assert r.status_code == 422
+    detail = r.json()["detail"][0]
+    assert detail["loc"] == ["query", "stauts"] and "status" in detail["msg"]
+    assert client.get("/v1/jobs", params={"status": "failed"}).status_code == 200
+    assert client.get("/v1/models", params={"x": "1"}).status_code == 422
+
+
+def test_evaluations_list_with_filters_and_pagination(client, auth, engine) -> None:  # noqa: ANN001
+    from foresight.store import records
+
+    ids = []
+    for failures in (True, False, True):
+        job_id = _finished_evaluation(client, auth, engine, {})
+        job = queue.get_job(engine, job_id)
+        with engine.begin() as conn:
+            records.RECORDERS["evaluate"](conn, job, data.evaluation(failures=failures), "")
+        ids.append(job_id)
+    page = client.get("/v1/evaluations", params={"limit": 2}).json()
+    assert page["count"] == 3 and len(page["data"]) == 2 and page["limit"] == 2
+    rest = client.get("/v1/evaluations", params={"limit": 2, "offset": 2}).json()
+    assert {e["id"] for e in page["data"] + rest["data"]} == set(ids)
+    bundle = page["data"][0]["bundle_id"]
+    assert bundle and client.get("/v1/evaluations", params={"bundle": bundle}).json()["count"] == 3
+    assert client.get("/v1/evaluations", params={"bundle": "no-such-bundle"}).json()["count"] == 0
+    assert client.get("/v1/evaluations", params={"model_id": "no-such-model"}).json()["count"] == 0
