@@ -52,7 +52,8 @@ def main(argv: list[str] | None = None) -> int:
             start = 0.0
             if executor == "ray":
                 t0 = time.perf_counter()
-                ray.init(num_cpus=cpus, include_dashboard=False, log_to_driver=False, logging_level="ERROR")
+                ray.init(address="local", num_cpus=cpus, include_dashboard=False, log_to_driver=False,
+                         logging_level="ERROR")
                 start = time.perf_counter() - t0
             wall, n = timed(config, matrix.parent, cpus)
             if executor == "ray":

@@ -48,7 +48,7 @@ def connect(cpus: int) -> str:
             if address:
                 ray.init(address=address, **quiet)
             else:
-                ray.init(num_cpus=max(1, cpus), **quiet)
+                ray.init(address="local", num_cpus=max(1, cpus), **quiet)  # a new instance, never a running one
         return os.environ.get(RAY_ADDRESS_ENV) or "local"
 
 

@@ -82,11 +82,14 @@ def test_collect_train_evaluate_through_the_stage_commands(service: Service) -> 
     assert _job(service.cli("jobs", "show", short, "--json"))["verdict"] == "failed_gate"
     assert service.cli("jobs", "wait", short, "--json", check=False).returncode == 2
 
-    # a job that fails on the server: exit 1, one readable line naming the job and the error
+    # an unknown input id is refused at submission (404, nothing queued): exit 1, one readable line naming the id
     failed = service.cli("train", "--dataset", "no-such-dataset", "--epochs", "1", check=False)
     lines = failed.stderr.strip().splitlines()
-    assert failed.returncode == 1 and lines[-1].startswith("foresight: error: train job ")
-    assert "failed: NotFoundError: unknown dataset id 'no-such-dataset'" in lines[-1]
+    assert failed.returncode == 1 and lines[-1].startswith("foresight: error: "), failed.stderr
+    assert "no-such-dataset" in lines[-1] and "dataset" in lines[-1].replace("no-such-dataset", ""), lines[-1]
+    with service.client() as client:
+        assert not [j for j in client.get("/v1/jobs", params={"kind": "train"}).json()["data"]
+                    if j["spec"]["dataset"] == "no-such-dataset"]
 
 
 def test_import_an_ethucy_fold_by_root_name_and_use_it_by_id(service: Service, shared_dir: Path) -> None:
