@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import sys
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -58,17 +57,31 @@ def local_context(workdir: Path | None, bundles: dict[str, Path], *, quiet: bool
 
         return Settings().data_root(name)
 
+    bar = progress_bar(quiet=quiet)
+    task: list[Any] = []
+
     def progress(fraction: float, message: str) -> None:
-        if not quiet:
-            bar = "#" * int(30 * fraction)
-            print(f"\r[{bar:<30}] {100 * fraction:5.1f}% {message[:60]:<60}", end="", file=sys.stderr, flush=True)
-            if fraction >= 1.0:
-                print(file=sys.stderr)
+        if not task:  # started by the first report, so nothing is drawn for a run that fails before it
+            bar.start()
+            task.append(bar.add_task("local", total=1.0, message=""))
+        bar.update(task[0], completed=fraction, message=message[:60])
+        if fraction >= 1.0:
+            bar.stop()
 
     root = workdir or Path(tempfile.mkdtemp(prefix="foresight-"))
     root.mkdir(parents=True, exist_ok=True)
     return StageContext(workdir=root, progress=progress, resolve_bundle=resolve_bundle,
                         resolve_data_root=resolve_data_root)
+
+
+def progress_bar(*, quiet: bool) -> Any:
+    """The CLI's one progress-bar style (rich, on stderr): in-process runs and followed server jobs alike."""
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    return Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>5.1f}%"),
+                    TimeElapsedColumn(), TextColumn("{task.fields[message]}"), console=Console(stderr=True),
+                    disable=quiet, transient=False)  # fmt: skip
 
 
 def emit(obj: Any, as_json: bool, text: Callable[[Any], str]) -> None:

@@ -132,14 +132,10 @@ def follow(client: Client, job_id: str, *, as_json: bool, quiet: bool, timeout: 
 
 def watch(client: Client, job_id: str, *, quiet: bool, timeout: float | None = None) -> dict[str, Any]:
     """The job once it ended (or when ``timeout`` passed), following it with a live progress bar on stderr."""
-    from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+    from foresight.cli.common import progress_bar
 
     deadline = time.monotonic() + timeout if timeout else None
-    console = Console(stderr=True)
-    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>5.1f}%"),
-                  TimeElapsedColumn(), TextColumn("{task.fields[message]}"), console=console,
-                  disable=quiet, transient=False) as bar:  # fmt: skip
+    with progress_bar(quiet=quiet) as bar:
         task = bar.add_task(job_id[:12], total=1.0, message="")
         while True:
             job = client.get(f"/v1/jobs/{job_id}")

@@ -99,7 +99,12 @@ def compare_remote(args: argparse.Namespace) -> int:
 
 
 def compare_text(result: dict[str, Any]) -> str:
-    lines = [f"A = {result['a']}    B = {result['b']}", "", "config (only keys that differ):"]
+    lines = [f"A = {result['a']}    B = {result['b']}", ""]
+    differs = result.get("differs")
+    if differs is not None:  # what was run differently leads: planner, model, matrix, episodes, horizon
+        lines += ["differs:"] + ([f"  {key}: {_short(v.get('a'))} -> {_short(v.get('b'))}" for key, v in differs.items()]
+                                 or ["  nothing in planner, model, matrix, episodes, horizon"]) + [""]
+    lines.append("config (only keys that differ):")
     diff = result.get("config_diff") or {}
     lines += [f"  {key}: {_short(v.get('a'))} -> {_short(v.get('b'))}" for key, v in diff.items()] or ["  identical"]
     sources = result.get("sources") or {}

@@ -132,3 +132,38 @@ def episode_trace_file(engine: Engine, store_root: Path, ident: str, name: str) 
         return None
     path = folders.resolve_under(store_root, f"{folders.job_dir(store_root, job_id)}/{name}")
     return path if path.is_file() else None
+
+
+def comparison_setup(engine: Engine, ident: str) -> dict[str, Any] | None:
+    """What an evaluation or campaign cell (``CAMPAIGN_ID:RANK[:SUITE]``) ran, in the one canonical shape of
+    ``core.evaluation.delta.run_setup`` (the planner and model of a cell come from its campaign job's result);
+    None for a record without its run config or job result (rows written before they were kept)."""
+    from pydantic import ValidationError
+
+    from foresight.core.evaluation.campaign import CampaignResult
+    from foresight.core.evaluation.config import EvaluationConfig
+    from foresight.core.evaluation.delta import run_setup
+    from foresight.core.evaluation.runner import seed_source
+
+    with session_factory(engine)() as session:
+        row = session.get(Evaluation, ident)
+        if row is not None:
+            try:
+                stage = EvaluationConfig.model_validate(row.config["stage"])
+            except (KeyError, ValidationError):  # a row without its stage config, or another version's
+                return None
+            return run_setup(stage.planner.name, row.model_id or stage.planner.model, stage.bundle, stage.matrix,
+                             seed_source(stage), stage.max_steps)
+        campaign_id, _, rest = ident.partition(":")
+        rank, _, suite = rest.partition(":")
+        found = _get(session, Campaign, campaign_id, "campaign")
+        job = None if found.job_id is None else queue.get_job(engine, found.job_id)
+    if job is None or job["result"] is None:
+        return None
+    result = CampaignResult.model_validate(job["result"])
+    if not rank.isdigit() or not 1 <= int(rank) <= len(result.ranked):
+        raise queue.JobNotFound(f"campaign {campaign_id!r} has no cell of rank {rank}")
+    cell = result.ranked[int(rank) - 1]
+    episodes = (f"hard suite, manifest {found.config.get('seed_manifest')}" if suite == "hard" else "global suite")
+    return run_setup(f"{cell.planner.name} ({cell.variant})", cell.planner.model_id, None, found.config.get("matrix"),
+                     episodes, found.config.get("horizon"))

@@ -123,16 +123,24 @@ def _episodes(engine: EngineDep, settings: SettingsDep, ident: str) -> list[Any]
 @router.get("/compare", responses=responses(404))
 def compare_evaluations(engine: EngineDep, settings: SettingsDep, a: Annotated[Ident, Query()],
                         b: Annotated[Ident, Query()]) -> dict[str, Any]:
-    """Two evaluations or campaign cells (``CAMPAIGN_ID:RANK[:hard]``) side by side: the resolved-config diff
+    """Two evaluations or campaign cells (``CAMPAIGN_ID:RANK[:hard]``) side by side: what differs first (``differs``:
+    planner, model, matrix, episodes, horizon, from each side's canonical ``setup``), the resolved-config diff
     key by key and the headline metric deltas B - A with 95 % intervals. Two evaluations of the same
     (scenario, seed) episodes are paired (McNemar / Wilcoxon p-values, paired bootstrap intervals); the other
     metrics, and results of other episodes, use MOVER from each side's intervals (``method`` per metric)."""
-    from foresight.core.evaluation.delta import deltas, diff_configs, paired_deltas
+    return compare_results(engine, settings, a, b)
+
+
+def compare_results(engine: Any, settings: Any, a: str, b: str) -> dict[str, Any]:
+    """The body of ``GET /v1/compare`` (the dashboard's compare page renders the same)."""
+    from foresight.core.evaluation.delta import deltas, diff_configs, paired_deltas, what_differs
 
     (kind_a, config_a, sum_a), (kind_b, config_b, sum_b) = (results.comparison_operand(engine, a),
                                                             results.comparison_operand(engine, b))
     ra, rb = _episodes(engine, settings, a), _episodes(engine, settings, b)
     paired = paired_deltas(ra, rb) if ra and rb else None
     metrics = {**deltas(sum_a, sum_b), **(paired or {})}
-    return {"a": a, "b": b, "sources": {"a": kind_a, "b": kind_b}, "config_diff": diff_configs(config_a, config_b),
-            "paired": paired is not None, "metrics": {k: v.model_dump() for k, v in metrics.items()}}
+    setup_a, setup_b = results.comparison_setup(engine, a), results.comparison_setup(engine, b)
+    return {"a": a, "b": b, "sources": {"a": kind_a, "b": kind_b}, "setup": {"a": setup_a, "b": setup_b},
+            "differs": what_differs(setup_a, setup_b) if setup_a and setup_b else None,
+            "config_diff": diff_configs(config_a, config_b), "paired": paired is not None, "metrics": {k: v.model_dump() for k, v in metrics.items()}}

@@ -114,6 +114,24 @@ def episode_page(request: Request, evaluation_id: str, scenario: str, seed: int)
                 scenario=scenario, seed=seed, data_url=data_url)
 
 
+@pages.get("/compare")
+def compare_page(request: Request, a: Annotated[str | None, Query(max_length=200)] = None,
+                 b: Annotated[str | None, Query(max_length=200)] = None) -> HTMLResponse:
+    """Two evaluations or campaign cells: what differs first (planner, model, matrix, episodes, horizon), the
+    metric deltas with their intervals and tests, then the config keys that differ."""
+    from foresight.api.routes.results import compare_results
+    from foresight.core.evaluation.stats import MIN_PAIRS
+
+    cmp, error = None, None
+    if a and b:
+        try:
+            cmp = compare_results(request.app.state.engine, request.app.state.settings, a, b)
+        except queue.JobNotFound as exc:
+            error = str(exc)
+    return page(request, "compare.html", title="Compare", nav="compare", a=a, b=b, cmp=cmp, error=error,
+                min_pairs=MIN_PAIRS, status_code=404 if error else 200)
+
+
 router.include_router(pages)
 router.include_router(catalog.router)
 router.include_router(files.router)

@@ -156,3 +156,20 @@ def diff_configs(a: Mapping[str, Any], b: Mapping[str, Any]) -> dict[str, dict[s
     """Keys whose values differ between two (nested) configs, as dotted keys."""
     fa, fb = flatten(a), flatten(b)
     return {k: {"a": fa.get(k), "b": fb.get(k)} for k in sorted(fa.keys() | fb.keys()) if fa.get(k) != fb.get(k)}
+
+
+#: what a comparison leads with: the run-level choices two results may differ in (``run_setup``)
+SETUP_KEYS = ("planner", "model", "matrix", "episodes", "horizon")
+
+
+def run_setup(planner: str, model: str | None, bundle: str | None, matrix: str | None, episodes: str,
+              horizon: Any) -> dict[str, Any]:
+    """One canonical shape of "what was run" for an evaluation and a campaign cell alike, so that their
+    comparison names the real differences (planner, model, matrix, episodes, horizon) first."""
+    return {"planner": planner, "model": model or None, "matrix": f"{bundle}:{matrix}" if bundle else matrix,
+            "episodes": episodes, "horizon": None if horizon in (None, "scenario") else horizon}
+
+
+def what_differs(a: Mapping[str, Any], b: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
+    """The setup keys (``SETUP_KEYS``) whose values differ, in that order."""
+    return {k: {"a": a.get(k), "b": b.get(k)} for k in SETUP_KEYS if a.get(k) != b.get(k)}

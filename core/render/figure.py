@@ -21,14 +21,15 @@ DPI = 100
 
 
 def map_axes(mapdef: MapDef, *, title: str | None = None, extra_width_in: float = 0.0) -> tuple[Figure, Axes]:
-    """A figure with one axes framing the map bounds, y pointing down as in the SVG picture."""
+    """A figure with one axes framing the map bounds, y pointing up: the simulator's frame, where a heading turns
+    counter-clockwise from x (the SVG picture a map came from is its mirror image), as the episode player draws it."""
     aspect = mapdef.height / mapdef.width
     height_in = min(max(WIDTH_IN * aspect, 3.0), 12.0) + 0.6
     fig = Figure(figsize=(WIDTH_IN + extra_width_in, height_in), dpi=DPI)
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
     ax.set_xlim(0, mapdef.width)
-    ax.set_ylim(mapdef.height, 0)  # map frame: y grows downward, like the SVG the maps come from
+    ax.set_ylim(0, mapdef.height)
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")

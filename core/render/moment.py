@@ -36,7 +36,7 @@ def _axes(mapdef: MapDef | None, pts: np.ndarray, title: str):
     ax = fig.add_subplot(1, 1, 1)
     lo, hi = np.nanmin(pts, axis=0) - MARGIN, np.nanmax(pts, axis=0) + MARGIN
     ax.set_xlim(lo[0], hi[0])
-    ax.set_ylim(hi[1], lo[1])  # map frame: y grows downward
+    ax.set_ylim(lo[1], hi[1])  # y up, as every map picture
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")

@@ -89,14 +89,17 @@ def render_trace(
     collision_step: int | None = None,
     collision_point: Any = None,
     goal: Any = None,
+    goal_tolerance: float | None = None,
     robot_radius: float = 1.0,
     ped_radius: float = 0.4,
 ) -> Path:
     """Write the episode picture to ``path`` (.png or .svg); returns the path.
 
     ``collision_step``/``collision_point`` default to the trace's attributes of those names when
-    present; ``goal`` [m] to the trace's ``goal``. ``robot_radius`` [m] sizes the collision circle,
-    ``ped_radius`` [m] the pedestrians drawn at the collision step (else at the last state).
+    present; ``goal`` [m] to the trace's ``goal``, else its ``goal`` meta; ``goal_tolerance`` [m] (a disc around
+    the goal) and ``robot_radius`` [m] (the robot's body, drawn at the collision step or the last state; the
+    collision is an x at the contact point) to the trace's meta of those names, which the simulator records. ``ped_radius`` [m] sizes
+    the pedestrians drawn at that same state. y points up (``figure.map_axes``).
     """
     n = recorded_states(trace)
     robot_xy = np.asarray(trace.robot, dtype=float)[:n, :2]
@@ -106,6 +109,10 @@ def render_trace(
         collision_point if collision_point is not None else getattr(trace, "collision_point", None)
     )
     goal = goal if goal is not None else getattr(trace, "goal", None)
+    meta = getattr(trace, "meta", None) or {}
+    goal = goal if goal is not None else meta.get("goal")
+    robot_radius = float(meta.get("robot_radius", robot_radius))
+    goal_tolerance = goal_tolerance if goal_tolerance is not None else meta.get("goal_tolerance")
 
     fig, ax = map_axes(mapdef, title=title, extra_width_in=2.6)
     draw_map(ax, mapdef, routes=True, legend=False)
@@ -122,18 +129,16 @@ def render_trace(
     if len(robot_xy):
         ax.plot(*robot_xy[0], "o", color="tab:green", ms=9, mec="black", zorder=7, label="start")
     if goal is not None:
-        ax.plot(
-            *np.asarray(goal, dtype=float).reshape(2),
-            "*",
-            color="tab:red",
-            ms=14,
-            mec="black",
-            zorder=7,
-            label="goal",
-        )
+        gxy = tuple(np.asarray(goal, dtype=float).reshape(2))
+        if goal_tolerance:
+            ax.add_patch(Circle(gxy, goal_tolerance, fc="tab:green", ec="tab:green", alpha=0.18, zorder=4,
+                                label=f"goal tolerance ({goal_tolerance:g} m)"))
+        ax.plot(*gxy, "*", color="tab:red", ms=14, mec="black", zorder=7, label="goal")
+    if len(robot_xy):  # the robot's body where the picture's pedestrians are (a contact looks like a contact)
+        ax.add_patch(Circle(tuple(robot_xy[shown]), robot_radius, fc="tab:blue", ec="black", alpha=0.35, lw=1,
+                            zorder=7, label=f"robot body ({robot_radius:g} m)"))
     hit = _collision_xy(robot_xy, collision_step, collision_point)
     if hit is not None:
-        ax.add_patch(Circle(tuple(hit), robot_radius, fill=False, ec=COLLISION_COLOUR, lw=1.5, zorder=8))
         ax.plot(*hit, "x", color=COLLISION_COLOUR, ms=14, mew=3, zorder=9, label="collision")
     ax.legend(loc="upper left", bbox_to_anchor=(1.15, 1.0), fontsize=7, frameon=False)
     return save(fig, path)

@@ -125,7 +125,10 @@ class Simulator:
         self._build_crowd(pop, map_def, reach)
         self._trace = Trace(self.horizon, pop.n if self.replay is None else self.replay.n, dt=self.dt, scenario=scenario.name, seed=seed,
                             meta={"code_version": code_version(), "map": map_def.name, "n_peds": pop.n,
-                                  "n_nonreactive": int((reach == 0).sum())})
+                                  "n_nonreactive": int((reach == 0).sum()),
+                                  # what a picture of the trace draws: the goal, its tolerance, the robot's body
+                                  "goal": [float(v) for v in self.route.goal], "goal_tolerance": float(self.route.tolerance),
+                                  "robot_radius": float(self.limits.radius)})
         self.static_check = StaticChecker(self.static, self.limits.radius)
         self.t = 0
         self.done = False

@@ -1,6 +1,7 @@
-"""The episode player and the gate badges in Debian's Chromium: a real `foresight up`, a small evaluation whose
-gate fails; its badge on the jobs page, its episodes one click from the job page, the player loading the stored
-trace, playing, stepping, and showing the collision at the recorded step. Screenshots under out/screenshots/."""
+"""The episode player, the gate badges and the compare page in Debian's Chromium: a real `foresight up`, a small
+evaluation whose gate fails; its badge on the jobs page, its episodes one click from the job page, the player
+loading the stored trace, playing, stepping, and showing the collision at the recorded step; a second planner on
+the same episodes compared from the Results page. Screenshots under out/screenshots/."""
 
 from __future__ import annotations
 
@@ -85,7 +86,18 @@ def test_gate_badge_episode_list_and_player(service: Up, page) -> None:  # noqa:
     assert page.is_visible("#event") and f"at step {collision['step']}" in page.text_content("#event")
     page.screenshot(path=str(shots / "player-collision.png"), full_page=True)
 
-    # the Results page: planner and model columns, the failed verdict
+    # the same episodes with another planner: the Results page (planner and model columns, verdicts) links the
+    # two, and the compare page leads with what differs, then the paired metric deltas
+    other = api.post("/v1/jobs", json={"spec": {**EVALUATE, "planner": {"name": "social_force"}}}).json()["id"]
+    assert _wait(api, other)["status"] == "succeeded"
     page.goto(f"{service.url}/ui/results")
-    assert "GATE FAILED" in page.text_content("table.results") and page.text_content("td.planner") == "goal"
+    assert "GATE FAILED" in page.text_content("table.results")
+    assert [c.text_content() for c in page.locator("td.planner").all()][:2] == ["social_force", "goal"]
     page.screenshot(path=str(shots / "results-verdicts.png"), full_page=True)
+    page.locator("a.compare-link").first.click()
+    page.wait_for_selector("#differs")
+    rows = page.locator("table.differs tbody tr")
+    cells = [c.text_content() for c in rows.first.locator("th, td").all()]
+    assert rows.count() == 1 and cells == ["planner", "goal", "social_force"], cells
+    assert "paired on the same episodes" in page.text_content("#differs")
+    page.screenshot(path=str(shots / "compare.png"), full_page=True)

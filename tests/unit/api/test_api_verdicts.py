@@ -83,3 +83,51 @@ def test_evaluations_list_with_filters_and_pagination(client, auth, engine) -> N
     assert bundle and client.get("/v1/evaluations", params={"bundle": bundle}).json()["count"] == 3
     assert client.get("/v1/evaluations", params={"bundle": "no-such-bundle"}).json()["count"] == 0
     assert client.get("/v1/evaluations", params={"model_id": "no-such-model"}).json()["count"] == 0
+
+
+def test_compare_leads_with_what_differs_api_and_page(client, auth, engine) -> None:  # noqa: ANN001
+    from foresight.store import records
+
+    ids = []
+    for planner in ({"name": "goal"}, {"name": "predictive", "model": "cv"}):
+        result = data.evaluation(failures=False)
+        result["config"] = {"matrix": "scenarios/classic_interactions.yaml", "planner": planner,
+                            "scenarios": ["crossing_low"], "seeds_per_scenario": 5}
+        job_id = _finished_evaluation(client, auth, engine, {})
+        with engine.begin() as conn:
+            records.RECORDERS["evaluate"](conn, queue.get_job(engine, job_id), result, "")
+        ids.append(job_id)
+    body = client.get("/v1/compare", params={"a": ids[0], "b": ids[1]}).json()
+    assert list(body["differs"]) == ["planner", "model"]  # not the matrix, episodes or horizon: those are the same
+    assert body["differs"]["planner"] == {"a": "goal", "b": "predictive"}
+    same = client.get("/v1/compare", params={"a": ids[0], "b": ids[0]}).json()
+    assert same["differs"] == {} and same["config_diff"] == {}
+    page = client.get("/ui/compare", params={"a": ids[0], "b": ids[1]})
+    assert page.status_code == 200
+    text = page.text
+    assert text.index("What differs") < text.index("Metrics (B") < text.index("Config keys that differ")
+    assert "<th>planner</th><td><code>goal</code></td><td><code>predictive</code></td>" in text
+    assert client.get("/ui/compare", params={"a": ids[0], "b": "nope"}).status_code == 404
+
+
+def test_compare_an_evaluation_with_a_campaign_cell_names_the_cell_planner(client, auth, engine) -> None:  # noqa: ANN001
+    from foresight.store import records
+
+    result = data.evaluation(failures=False)
+    result["config"] = {"matrix": "scenarios/classic_interactions.yaml", "planner": {"name": "goal"},
+                        "scenarios": ["crossing_low"], "seeds_per_scenario": 5}
+    evaluation = _finished_evaluation(client, auth, engine, {})
+    with engine.begin() as conn:
+        records.RECORDERS["evaluate"](conn, queue.get_job(engine, evaluation), result, "")
+    spec = {"kind": "campaign", "seed_manifest": "seeds/classic_eval_hard_smoke.yaml",
+            "variants": [{"name": "default", "config": {}}], "scenarios": ["crossing_low"], "seeds_per_scenario": 1}
+    campaign = client.post("/v1/jobs", json={"spec": spec}, headers=auth).json()["id"]
+    c = queue.claim(engine, "w", ["campaign"], 30)
+    assert c is not None and c["id"] == campaign
+    cells = data.campaign(gate_passed=True)
+    queue.finish(engine, campaign, "w", c["attempts"], cells,
+                 record=lambda conn: records.RECORDERS["campaign"](conn, queue.get_job(engine, campaign), cells, ""))
+    body = client.get("/v1/compare", params={"a": evaluation, "b": f"{campaign}:1"}).json()
+    best = cells["ranked"][0]
+    assert body["differs"]["planner"] == {"a": "goal", "b": f"{best['planner']['name']} ({best['variant']})"}
+    assert body["setup"]["b"]["episodes"] == "global suite"

@@ -159,3 +159,23 @@ def test_map_shows_points_of_interest_and_single_pedestrian_roles() -> None:
     stars = [ln for ln in ax.lines if ln.get_marker() == "*"]
     assert [tuple(ln.get_xydata()[0]) for ln in stars] == [(3.0, 4.0)]
     plt.close(fig)
+
+
+def test_pictures_have_y_up_and_show_goal_tolerance_and_robot_body(tmp_path: Path, mapdef: MapDef) -> None:
+    """y points up (the simulator's frame); the goal's tolerance disc and the robot's body are drawn."""
+    from foresight.core.render.figure import map_axes
+
+    _, ax = map_axes(mapdef)
+    assert ax.get_ylim() == (0.0, mapdef.height)
+    tr = _trace(20)
+    bare = _assert_picture(render_trace(tr, mapdef, tmp_path / "bare.png", goal=(26, 4), goal_tolerance=0.0))
+    disc = _assert_picture(render_trace(tr, mapdef, tmp_path / "disc.png", goal=(26, 4), goal_tolerance=2.0))
+
+    def greenish(img: np.ndarray) -> int:
+        return int(((img[..., 1] > img[..., 0] + 0.05) & (img[..., 1] > img[..., 2] + 0.05)).sum())
+
+    assert greenish(disc) > greenish(bare) + 500  # a 2 m disc, not a point
+    h = disc.shape[0]
+    rows = np.nonzero((disc[..., 1] > disc[..., 0] + 0.05) & (disc[..., 1] > disc[..., 2] + 0.05)
+                      & ~((bare[..., 1] > bare[..., 0] + 0.05) & (bare[..., 1] > bare[..., 2] + 0.05)))[0]
+    assert rows.mean() > h / 2  # the goal at y = 4 of 20 is in the lower half: y points up
