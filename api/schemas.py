@@ -223,19 +223,6 @@ class DatasetPublic(BaseModel):
     summary: dict[str, Any]
 
 
-class EvaluationPublic(BaseModel):
-    model_config = ConfigDict(from_attributes=True)
-
-    id: str
-    job_id: str | None
-    model_id: str | None
-    bundle_id: str | None
-    config: EvaluationRunConfig
-    metrics: EvaluationMetrics
-    per_scenario: list[GroupStats]
-    taxonomy: list[dict[str, Any]] = Field(default_factory=list)
-
-
 class EvaluationSummaryPublic(BaseModel):
     """An evaluation in a list: its config and headline metrics (the per-scenario table and taxonomy are in
     ``GET /v1/evaluations/{id}``)."""
@@ -248,6 +235,11 @@ class EvaluationSummaryPublic(BaseModel):
     bundle_id: str | None
     config: EvaluationRunConfig
     metrics: EvaluationMetrics
+
+
+class EvaluationPublic(EvaluationSummaryPublic):
+    per_scenario: list[GroupStats]
+    taxonomy: list[dict[str, Any]] = Field(default_factory=list)
 
 
 class EvaluationsPublic(BaseModel):

@@ -23,6 +23,7 @@ from foresight.store.models import (
     Evaluation,
     FailureTaxonomy,
     GateResult,
+    Job,
 )
 from foresight.store.session import session_factory
 
@@ -123,15 +124,19 @@ def episodes_file(engine: Engine, store_root: Path, ident: str) -> Path | None:
 
 
 def episode_trace_file(engine: Engine, store_root: Path, ident: str, name: str) -> Path | None:
-    """The file ``name`` (a work-directory-relative trace name) of an evaluation's job; None when absent. Read from
-    the job's folder (written with its records) rather than the artifact rows, so one path rule serves both."""
+    """The file ``name`` (a work-directory-relative trace name) of an evaluation's job or, sharded, of one of its
+    shard jobs; None when absent."""
     with session_factory(engine)() as session:
         row = _get(session, Evaluation, ident, "evaluation")
-        job_id = row.job_id
-    if job_id is None:
-        return None
-    path = folders.resolve_under(store_root, f"{folders.job_dir(store_root, job_id)}/{name}")
-    return path if path.is_file() else None
+        if row.job_id is None:
+            return None
+        # a sharded evaluation's episodes ran in its shard jobs: their folders hold the traces
+        shards = session.scalars(select(Job.id).where(Job.parent_id == row.job_id)).all()
+    for job_id in (row.job_id, *shards):
+        path = folders.resolve_under(store_root, f"{folders.job_dir(store_root, job_id)}/{name}")
+        if path.is_file():
+            return path
+    return None
 
 
 def comparison_setup(engine: Engine, ident: str) -> dict[str, Any] | None:

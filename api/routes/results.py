@@ -22,6 +22,12 @@ from foresight.store import queue, results
 router = APIRouter(tags=["results"])
 
 
+def full_id(engine: Any, ident: str) -> str:
+    """An evaluation or campaign id (a job's) given by a short id, as the CLI prints; ``ID:RANK[:SUITE]`` cells too."""
+    head, sep, rest = ident.partition(":")
+    return queue.resolve_id(engine, head) + sep + rest
+
+
 @router.get("/datasets")
 def read_datasets(engine: EngineDep) -> list[DatasetPublic]:
     """Datasets, oldest first."""
@@ -60,7 +66,8 @@ def read_evaluations(
 
 @router.get("/evaluations/{evaluation_id}", responses=responses(404))
 def read_evaluation(evaluation_id: Ident, engine: EngineDep) -> EvaluationPublic:
-    """Metrics, the per-scenario table and the failure taxonomy of an evaluation."""
+    """Metrics, the per-scenario table and the failure taxonomy of an evaluation (id or a short id of its job)."""
+    evaluation_id = full_id(engine, evaluation_id)
     row, taxonomy = results.evaluation(engine, evaluation_id)
     out = EvaluationPublic.model_validate(row)
     out.taxonomy = taxonomy
@@ -70,7 +77,7 @@ def read_evaluation(evaluation_id: Ident, engine: EngineDep) -> EvaluationPublic
 @router.get("/campaigns/{campaign_id}", responses=responses(404))
 def read_campaign(campaign_id: Ident, engine: EngineDep) -> CampaignPublic:
     """A campaign's ranked cells, best cell and gate results."""
-    row, cells, gates = results.campaign(engine, campaign_id)
+    row, cells, gates = results.campaign(engine, full_id(engine, campaign_id))
     return CampaignPublic(id=row.id, job_id=row.job_id, config=row.config, best=row.best, cells=cells, gates=gates)
 
 
@@ -78,7 +85,7 @@ def read_campaign(campaign_id: Ident, engine: EngineDep) -> CampaignPublic:
 def read_evaluation_episodes(evaluation_id: Ident, engine: EngineDep, settings: SettingsDep) -> list[EpisodePublic]:
     """Every episode of an evaluation (failures first): outcome, failure label, and the URL of its trace for the
     episode player (``trace`` is None where the evaluation stored none, e.g. before traces were kept)."""
-    return episode_list(engine, settings, evaluation_id)
+    return episode_list(engine, settings, full_id(engine, evaluation_id))
 
 
 @router.get("/evaluations/{evaluation_id}/episodes/{scenario}/{seed}", responses=responses(404))
@@ -88,6 +95,7 @@ def read_episode_trace(evaluation_id: Ident, scenario: Ident, seed: int, engine:
     tolerance, walls, collision, logged forecasts; what the dashboard's episode player draws."""
     from foresight.core.evaluation.episode_trace import read_compact, trace_name
 
+    evaluation_id = full_id(engine, evaluation_id)
     path = results.episode_trace_file(engine, settings.store_root, evaluation_id, trace_name(scenario, seed))
     if path is None:
         raise queue.JobNotFound(f"evaluation {evaluation_id} stored no trace of {scenario} seed {seed}")
@@ -134,6 +142,8 @@ def compare_evaluations(engine: EngineDep, settings: SettingsDep, a: Annotated[I
 def compare_results(engine: Any, settings: Any, a: str, b: str) -> dict[str, Any]:
     """The body of ``GET /v1/compare`` (the dashboard's compare page renders the same)."""
     from foresight.core.evaluation.delta import deltas, diff_configs, paired_deltas, what_differs
+
+    a, b = full_id(engine, a), full_id(engine, b)
 
     (kind_a, config_a, sum_a), (kind_b, config_b, sum_b) = (results.comparison_operand(engine, a),
                                                             results.comparison_operand(engine, b))

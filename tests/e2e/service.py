@@ -84,3 +84,15 @@ class Up:
         except subprocess.TimeoutExpired:
             os.killpg(self.proc.pid, signal.SIGKILL)
             self.proc.wait(timeout=10)
+
+
+def wait_job(client: httpx.Client, job_id: str, timeout_s: float = 600.0) -> dict:
+    """The job once it finished (succeeded, failed or cancelled), polling the API; AssertionError after the timeout."""
+    deadline = time.monotonic() + timeout_s
+    job: dict = {}
+    while time.monotonic() < deadline:
+        job = client.get(f"/v1/jobs/{job_id}").json()
+        if job["status"] in ("succeeded", "failed", "cancelled"):
+            return job
+        time.sleep(1.0)
+    raise AssertionError(f"job {job_id} still {job.get('status')} after {timeout_s} s")

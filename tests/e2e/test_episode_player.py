@@ -5,12 +5,11 @@ the same episodes compared from the Results page. Screenshots under out/screensh
 
 from __future__ import annotations
 
-import time
 from collections.abc import Iterator
 
 import pytest
 
-from tests.e2e.service import Up
+from tests.e2e.service import Up, wait_job
 from tests.e2e.test_dashboard import chromium, page, screenshot_dir  # noqa: F401 (fixtures)
 
 #: goal-seeking robot into dense crowds: collisions within a few seconds; a gate it cannot pass
@@ -29,20 +28,10 @@ def service(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Up]:
         up.stop()
 
 
-def _wait(api, job_id: str, timeout_s: float = 120.0) -> dict:  # noqa: ANN001
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        job = api.get(f"/v1/jobs/{job_id}").json()
-        if job["status"] in ("succeeded", "failed", "cancelled"):
-            return job
-        time.sleep(0.5)
-    raise AssertionError(f"job {job_id} did not finish in {timeout_s} s")
-
-
 def test_gate_badge_episode_list_and_player(service: Up, page) -> None:  # noqa: ANN001, F811
     api = service.client()
     job_id = api.post("/v1/jobs", json={"spec": EVALUATE}).json()["id"]
-    job = _wait(api, job_id)
+    job = wait_job(api, job_id)
     assert job["status"] == "succeeded" and job["verdict"] == "failed_gate", (job, service.log())
     shots = screenshot_dir()
 
@@ -89,7 +78,7 @@ def test_gate_badge_episode_list_and_player(service: Up, page) -> None:  # noqa:
     # the same episodes with another planner: the Results page (planner and model columns, verdicts) links the
     # two, and the compare page leads with what differs, then the paired metric deltas
     other = api.post("/v1/jobs", json={"spec": {**EVALUATE, "planner": {"name": "social_force"}}}).json()["id"]
-    assert _wait(api, other)["status"] == "succeeded"
+    assert wait_job(api, other)["status"] == "succeeded"
     page.goto(f"{service.url}/ui/results")
     assert "GATE FAILED" in page.text_content("table.results")
     assert [c.text_content() for c in page.locator("td.planner").all()][:2] == ["social_force", "goal"]

@@ -11,13 +11,12 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
 import yaml
 
-from tests.e2e.service import REPO, TOKEN, Up
+from tests.e2e.service import REPO, TOKEN, Up, wait_job
 
 SMOKE = REPO / "configs" / "pipelines" / "smoke.yaml"
 CHILD_STAGES = ["collect", "hardcase", "mix", "train", "evaluate", "diagnose", "campaign"]
@@ -25,16 +24,6 @@ SECTIONS = ["## Verdict", "## Stages", "## Gates", "## Best campaign variant", "
             "## Training curves", "## Artifacts"]
 
 pytestmark = pytest.mark.slow
-
-
-def _wait(client, job_id: str, timeout_s: float = 600.0) -> dict:  # noqa: ANN001
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        job = client.get(f"/v1/jobs/{job_id}").json()
-        if job["status"] in ("succeeded", "failed", "cancelled"):
-            return job
-        time.sleep(1.0)
-    raise AssertionError(f"pipeline {job_id} still {job['status']} after {timeout_s} s")
 
 
 def test_smoke_pipeline_through_the_service(tmp_path: Path) -> None:
@@ -56,7 +45,7 @@ def test_smoke_pipeline_through_the_service(tmp_path: Path) -> None:
                 [sys.executable, "-m", "foresight.cli.main", "pipeline", "run", "-f", str(failing_file), "--url", up.url,
                  "--token", TOKEN],
                 cwd=REPO, env={**os.environ, **up.env}, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-            job = _wait(client, job_id)
+            job = wait_job(client, job_id)
             assert job["status"] == "succeeded", (job.get("error"), up.log())
             result = job["result"]
             assert result["passed"] and result["exit_code"] == 0 and result["promoted"]

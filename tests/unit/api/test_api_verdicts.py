@@ -100,6 +100,9 @@ def test_compare_leads_with_what_differs_api_and_page(client, auth, engine) -> N
     body = client.get("/v1/compare", params={"a": ids[0], "b": ids[1]}).json()
     assert list(body["differs"]) == ["planner", "model"]  # not the matrix, episodes or horizon: those are the same
     assert body["differs"]["planner"] == {"a": "goal", "b": "predictive"}
+    short = client.get("/v1/compare", params={"a": ids[0][:12], "b": ids[1][:12]}).json()
+    assert short["a"] == ids[0] and short["differs"] == body["differs"]  # short ids, as the CLI prints them
+    assert client.get(f"/v1/evaluations/{ids[0][:12]}").json()["id"] == ids[0]
     same = client.get("/v1/compare", params={"a": ids[0], "b": ids[0]}).json()
     assert same["differs"] == {} and same["config_diff"] == {}
     page = client.get("/ui/compare", params={"a": ids[0], "b": ids[1]})

@@ -10,7 +10,7 @@ from typing import Any
 import pytest
 from sqlalchemy import select
 
-from foresight.store import folders, queue
+from foresight.store import folders, queue, results
 from foresight.store.models import Campaign, CampaignCell, Evaluation
 from foresight.store.registry import sync_bundles
 from tests.results import without
@@ -80,6 +80,13 @@ def test_one_worker_runs_a_sharded_evaluation_alone_with_the_unsharded_result(se
     assert {"evaluation.json", "episodes.jsonl", "report.html"} <= names
     folder = folders.resolve_under(settings.store_root, folders.job_dir(settings.store_root, parent_id))
     assert len((folder / "episodes.jsonl").read_text().splitlines()) == 6
+    # every episode's trace (written by the shard that ran it) is found through the parent's evaluation
+    from foresight.core.evaluation.episode_trace import trace_name
+    from foresight.core.evaluation.runner import read_records
+
+    for rec in read_records(folder / "episodes.jsonl"):
+        path = results.episode_trace_file(engine, settings.store_root, parent_id, trace_name(rec.scenario, rec.seed))
+        assert path is not None and path.parent.parent.name != parent_id  # in a shard's folder
 
 
 def test_one_worker_runs_a_sharded_campaign_alone_with_the_unsharded_ranking(engine, start_worker) -> None:  # noqa: ANN001
