@@ -134,7 +134,7 @@ def compare_evaluations(engine: EngineDep, settings: SettingsDep, a: Annotated[I
     """Two evaluations or campaign cells (``CAMPAIGN_ID:RANK[:hard]``) side by side: what differs first (``differs``:
     planner, model, matrix, episodes, horizon, from each side's canonical ``setup``), the resolved-config diff
     key by key and the headline metric deltas B - A with 95 % intervals. Two evaluations of the same
-    (scenario, seed) episodes are paired (McNemar / Wilcoxon p-values, paired bootstrap intervals); the other
+    (scenario, seed) episodes are paired (McNemar / Wilcoxon p-values with matching intervals); the other
     metrics, and results of other episodes, use MOVER from each side's intervals (``method`` per metric)."""
     return compare_results(engine, settings, a, b)
 
