@@ -41,6 +41,8 @@ class StepLog:
     diagnostics: list[dict[str, Any] | None] = field(default_factory=list)  #: only when keep_diagnostics
     predictions: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)  #: (step, ids, pos, times)
     sources: set[str] = field(default_factory=set)  #: forecast sources seen
+    #: per logged prediction: its (N, T) per-axis std [m] when the planner reported one (episode player), else None
+    spreads: list[np.ndarray | None] = field(default_factory=list)
 
 
 class RecordingPlanner:
@@ -94,6 +96,7 @@ class RecordingPlanner:
         if pred is not None and step % PREDICTION_STRIDE == 0:  # the same sample in evaluations and diagnostics
             self.log.predictions.append((step, np.asarray(pred["ped_ids"]), np.asarray(pred["positions"]),
                                          np.asarray(pred["times"])))
+            self.log.spreads.append(np.asarray(pred["sigma"]) if pred.get("sigma") is not None else None)
 
 
 def prediction_quality(trace: Any, predictions: list, dt: float) -> tuple[PredictionQuality, dict[int, float]]:

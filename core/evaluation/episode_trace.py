@@ -2,7 +2,8 @@
 
 Written next to ``episodes.jsonl`` as ``traces/<scenario>__<seed>.json.gz``: the robot's pose and command per
 frame, the pedestrians present (true ids), the goal with its tolerance, the radii, the map's walls, the collision,
-and the planner's logged forecasts (every ``PREDICTION_STRIDE``-th decision). Positions are rounded to a
+and the planner's logged forecasts (every ``PREDICTION_STRIDE``-th decision) with their per-axis
+standard deviation when the planner reports one. Positions are rounded to a
 centimetre and at most ``MAX_FRAMES`` frames are kept (a longer episode keeps every k-th step and its last), so a
 file stays around 100 KB whatever the horizon. The full-resolution ``.npz`` trace remains the diagnostics' job.
 """
@@ -47,7 +48,7 @@ def compact_trace(run: Any, map_def: Any) -> dict[str, Any]:
     for t in rows:
         present = ids[t] >= 0
         peds.append([[int(i), *p] for i, p in zip(ids[t][present].tolist(), _r(pos[t][present]), strict=True)])
-    forecasts = run.log.predictions
+    forecasts = list(zip(run.log.predictions, run.log.spreads or [None] * len(run.log.predictions), strict=True))
     if len(forecasts) > MAX_FORECASTS:
         keep = np.linspace(0, len(forecasts) - 1, MAX_FORECASTS).round().astype(int)
         forecasts = [forecasts[i] for i in keep]
@@ -67,7 +68,8 @@ def compact_trace(run: Any, map_def: Any) -> dict[str, Any]:
             "point": _r(trace.collision_point) if np.isfinite(trace.collision_point).all() else None,
             "ped_id": rec.taxonomy.critical_ped_id},
         "forecasts": [{"step": int(step), "ids": np.asarray(fids).astype(int).tolist(), "times": _r(times, 3),
-                       "positions": _r(fpos)} for step, fids, fpos, times in forecasts],
+                       "positions": _r(fpos), "sigma": None if sigma is None else _r(sigma)}
+                      for (step, fids, fpos, times), sigma in forecasts],
     }  # fmt: skip
 
 

@@ -93,6 +93,9 @@
       const now = new Map(peds.map((p) => [p[0], p]));
       f.ids.forEach((id, i) => {
         const p = now.get(id);
+        if (f.sigma) { // 1-sigma discs along the forecast: its spread, as the planner used it
+          f.positions[i].forEach((q, k) => circle(q[0], q[1], f.sigma[i][k], "rgba(191,135,0,0.08)", null));
+        }
         line((p ? [[p[1], p[2]]] : []).concat(f.positions[i]), "#bf8700", 1.5);
       });
     }
@@ -161,7 +164,8 @@
     facts.textContent = tr.planner + " · outcome " + tr.outcome + (tr.label ? " (" + tr.label + ")" : "") +
       " · " + tr.steps + " steps of " + tr.dt + " s" + (tr.stride > 1 ? " (every " + tr.stride + "th shown)" : "") +
       " · robot radius " + tr.robot_radius + " m, goal tolerance " + tr.goal_tolerance + " m" +
-      (tr.forecasts.length ? " · " + tr.forecasts.length + " logged forecasts" : " · no forecasts recorded");
+      (tr.forecasts.length ? " · " + tr.forecasts.length + " logged forecasts" +
+        (tr.forecasts[0].sigma ? " with their spread (1σ discs)" : "") : " · no forecasts recorded");
     go(0);
     root.dataset.ready = "1";
   }).catch((err) => {

@@ -83,7 +83,7 @@ class PredictivePlanner:
             "candidates_evaluated": n_eval,
             "forecast_source": fc.source,
             "forecast_extended_steps": extra,
-            "predictions": {"ped_ids": fc.ped_ids, "positions": fc.positions, "times": fc.times},
+            "predictions": {"ped_ids": fc.ped_ids, "positions": fc.positions, "times": fc.times, "sigma": fc.sigma},
             "plan_ms": (time.perf_counter() - t0) * 1e3,
         }
         return v, w

@@ -51,4 +51,6 @@ def test_forecasts_are_kept_and_long_episodes_are_thinned(tmp_path: Path, monkey
     assert tr["forecasts"], "the predictive planner's logged forecasts are in the trace"
     f = tr["forecasts"][0]
     assert len(f["ids"]) == len(f["positions"]) and all(len(p) == len(f["times"]) for p in f["positions"])
+    assert f["sigma"] is not None and len(f["sigma"]) == len(f["ids"])  # the forecast's spread, per point
+    assert all(len(s) == len(f["times"]) and min(s) >= 0 for s in f["sigma"])
     assert path.stat().st_size < 200_000
