@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -296,7 +297,12 @@ class Refs:
                                 exit_code=exit_code, client=self.client if self._client else None)
         ctx = _context(self.args, self.roots, self.models)
         result = KINDS[kind].run(stage.config_of(spec), ctx)
-        emit(result, self.args.json, lambda r: text(r, f"artifacts in {ctx.workdir.resolve()}"))
+        from foresight.core.reports.stage import write_report  # as a worker does: the report page of the run
+
+        pages = write_report(kind, result, ctx.workdir, lambda m: print(m, file=sys.stderr))
+        where = f"artifacts in {ctx.workdir.resolve()}" + "".join(
+            f"\nreport: {p.resolve()}" for p in pages if p.name == "report.html")
+        emit(result, self.args.json, lambda r: text(r, where))
         return exit_code(result)
 
 

@@ -24,6 +24,15 @@ def test_evaluate_json_and_gate_exit_code(tmp_path: Path, capsys: pytest.Capture
     assert main([*argv, "--min-success", "0.0"]) == 0
 
 
+def test_a_local_run_writes_its_report_page_and_names_it(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    rc = main(["evaluate", "--matrix", MATRIX, "--planner", "goal", "--scenarios", "crossing_low",
+               "--seeds-per-scenario", "1", "--max-steps", "20", "--out", str(tmp_path), "--local"])
+    out = capsys.readouterr().out
+    assert rc in (0, 2) and f"report: {(tmp_path / 'report.html').resolve()}" in out
+    assert (tmp_path / "report.html").is_file() and (tmp_path / "report.md").is_file()
+    assert len(list((tmp_path / "traces").glob("*.json.gz"))) == 1  # the episode's trace for the player
+
+
 def test_bad_input_is_one_error_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     rc = main(["evaluate", "--matrix", MATRIX, "--planner", "predictive", "--model", "no-such-model",
                "--scenarios", "crossing_low", "--out", str(tmp_path), "--local"])
