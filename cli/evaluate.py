@@ -36,10 +36,10 @@ def _common(p: argparse.ArgumentParser, *, planner: bool = True) -> None:
         p.add_argument("--planner-config", help="the planner's config as JSON or YAML, e.g. '{\"speed\": 0.8}' or, "
                        "for an external planner, '{command: NAME}'")
         p.add_argument("--model", help="model id or cv (predictive planner; --local: also a checkpoint path)")
-        p.add_argument("--override", action="append", metavar="KEY=VALUE",
-                       help="run the matrix under other conditions: a scenario key (dotted, e.g. "
-                            "robot_config.radius=0.5; a bare simulation_config key such as ped_speed_tier=typical) "
-                            "set in every scenario; repeatable")
+    p.add_argument("--override", action="append", metavar="KEY=VALUE",
+                   help="run the matrix under other conditions: a scenario key (dotted, e.g. "
+                        "robot_config.radius=0.5; a bare simulation_config key such as ped_speed_tier=typical) "
+                        "set in every scenario; repeatable")
     p.add_argument("--max-steps", type=int, help="horizon override for smoke runs (default: each scenario's)")
     p.add_argument("--bundle", help="server: config bundle id; --matrix/--seeds/--grid are names inside it")
     p.add_argument("--out", help="--local: work folder for the artifacts (default: a new temporary folder)")
@@ -358,6 +358,7 @@ def campaign_cmd(args: argparse.Namespace) -> int:
         "bundle": refs.bundle, "matrix": refs.names["--matrix"], "seed_manifest": refs.names["--seeds"],
         "grid": refs.names["--grid"], "checkpoints": [refs.model(c, "--checkpoints") for c in args.checkpoints],
         "max_steps": args.max_steps, "seeds_per_scenario": args.seeds_per_scenario, "scenarios": _names(args.scenarios),
+        "scenario_overrides": overrides(args.override),
         "planner": planner_spec(args.planner, None, refs.models, default=False, config=args.planner_config,
                                 local=refs.local),
     }

@@ -56,6 +56,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     co.add_argument("--policy", choices=["goal", "goal_noisy"])
     co.add_argument("--max-steps", type=int)
     co.add_argument("--max-agents", type=int)
+    co.add_argument("--override", action="append", metavar="KEY=VALUE",
+                    help="collect under other conditions, as foresight evaluate --override (repeatable)")
     _outputs(co)
     co.set_defaults(func=collect_cmd)
 
@@ -173,11 +175,13 @@ def import_cmd(args: argparse.Namespace) -> int:
 
 
 def collect_cmd(args: argparse.Namespace) -> int:
+    from foresight.cli.evaluate import overrides
     from foresight.core.predict.collect import CollectResult
 
     flags = {"scenarios": args.scenarios.split(",") if args.scenarios else None,
              "seeds_per_scenario": args.seeds_per_scenario, "base_seed": args.base_seed, "policy": args.policy,
-             "max_steps": args.max_steps, "max_agents": args.max_agents}
+             "max_steps": args.max_steps, "max_agents": args.max_agents,
+             "scenario_overrides": overrides(args.override) or None}
     values = {**_section(args.config, args.section), **{k: v for k, v in flags.items() if v is not None}}
     if not args.local:
         stage.local_only(args, out="--out")

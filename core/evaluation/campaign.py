@@ -155,6 +155,7 @@ def _fingerprint(rp: ResolvedPlanner, config: CampaignConfig, hard: list, glob: 
         "bundle": config.bundle, "matrix": config.matrix, "hard": hard, "global": glob, "max_steps": config.max_steps,
         "metrics": config.metrics.model_dump(), "taxonomy": config.taxonomy.model_dump(),
         "bootstrap": config.bootstrap.model_dump(), "code": code_version(),
+        **({"overrides": config.scenario_overrides} if config.scenario_overrides else {}),
     }
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()
 
@@ -284,7 +285,8 @@ class CampaignPlan:
 
 def prepare_campaign(config: CampaignConfig, ctx: StageContext) -> CampaignPlan:
     """Load the suites and the grid, resolve every cell's planner, check every checkpoint fits every scenario."""
-    sel = dict(bundle=config.bundle, matrix=config.matrix, max_steps=config.max_steps)
+    sel = dict(bundle=config.bundle, matrix=config.matrix, max_steps=config.max_steps,
+               scenario_overrides=config.scenario_overrides)
     path, matrix, hard = load_selection(EpisodeSelection(**sel, seed_manifest=config.seed_manifest), ctx)
     _, _, glob = load_selection(
         EpisodeSelection(**sel, scenarios=config.scenarios, seeds_per_scenario=config.seeds_per_scenario), ctx)
@@ -296,7 +298,8 @@ def prepare_campaign(config: CampaignConfig, ctx: StageContext) -> CampaignPlan:
     scenarios = [matrix.get(s) for s in dict.fromkeys(s for s, _ in [*glob, *hard])]
     for rp in {rp.model_id: rp for _, rp in cells_rp}.values():  # every checkpoint fits before any episode
         preflight(rp, scenarios)
-    settings = EpisodeSettings(str(path), config.max_steps, config.metrics, config.taxonomy)
+    settings = EpisodeSettings(str(path), config.max_steps, config.metrics, config.taxonomy,
+                               overrides=config.scenario_overrides)
     return CampaignPlan(path, matrix, hard, glob, cells_rp, settings)
 
 

@@ -119,6 +119,7 @@ class CampaignConfig(_Config):
     planner: PlannerSpec = Field(default_factory=planner_spec)  #: base planner config the variants modify
     seeds_per_scenario: int | None = Field(default=None, ge=1, le=1000)  #: global suite seeds
     max_steps: int | None = Field(default=None, ge=1, le=MAX_EPISODE_STEPS)
+    scenario_overrides: dict[str, Any] = Field(default_factory=dict)  #: both suites' conditions (EpisodeSelection's)
     gate: ClosedLoopGateConfig | None = None
     metrics: MetricsConfig = MetricsConfig()
     taxonomy: TaxonomyConfig = TaxonomyConfig()

@@ -69,3 +69,21 @@ def test_override_errors_name_the_key(tmp_path: Path, capsys: pytest.CaptureFixt
     assert main([*base, "--override", "simulation_config.no_such_key=1"]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "simulation_config.no_such_key: unsupported key" in err[0]
+
+
+def test_campaign_takes_overrides_into_both_suites_and_its_fingerprints(tmp_path: Path) -> None:
+    from foresight.core.evaluation.campaign import _fingerprint, prepare_campaign
+    from foresight.core.evaluation.config import CampaignConfig
+    from foresight.core.stages.context import StageContext
+
+    over = {"simulation_config": {"ped_speed_tier": "realistic", "nonreactive_fraction": 1.0}}
+    base = dict(seed_manifest="seeds/classic_eval_hard_smoke.yaml", variants=[{"name": "default"}],
+                scenarios=["crossing_low"], seeds_per_scenario=1)
+    ctx = StageContext(workdir=tmp_path, resolve_bundle=lambda ident: BUILTIN_CONFIG_ROOT)
+    plain_cfg, over_cfg = CampaignConfig(**base), CampaignConfig(**base, scenario_overrides=over)
+    plain, plan = prepare_campaign(plain_cfg, ctx), prepare_campaign(over_cfg, ctx)
+    assert plan.settings.overrides == over
+    for s in plan.matrix.scenarios:
+        assert s.scenario.simulation_config.nonreactive_fraction == 1.0
+    fp = [_fingerprint(p.cells[0][1], c, p.hard, p.glob) for p, c in ((plain, plain_cfg), (plan, over_cfg))]
+    assert fp[0] != fp[1]  # a resumed campaign never reuses a cell run under other conditions
