@@ -146,6 +146,7 @@ class Scene:
 
     ped_future: np.ndarray  #: (N, K, 2) forecast positions at ``times`` [m] (relevant peds only)
     ped_sigma: np.ndarray  #: (N, K) per-axis std of those positions [m]
+    ped_room: np.ndarray  #: (N,) room a waiting pedestrian is expected to make [m] (added to its clearance)
     times: np.ndarray  #: (K,) seconds ahead [s]
     contact: float  #: centre distance of contact: robot radius + ped radius + extra margins [m]
     robot_radius: float  #: true robot radius [m] (static clearance)
@@ -183,7 +184,8 @@ def pedestrian_terms(pos: np.ndarray, speed: np.ndarray, scene: Scene, cfg: Pred
     ``risk`` is the expected number of contact steps, the sum of P(contact) = Phi(-clearance / sigma).
     A robot standing still is held to the same terms as a moving one: a pedestrian who does not see
     the robot walks into it all the same. After a stall the soft margins shrink by
-    ``stall_margin_relief`` x assertiveness; the contact distance and the chance margin never do.
+    ``stall_margin_relief`` x assertiveness, and a pedestrian forecast to stand (waiting for the
+    robot) is expected to make room; the contact with a walking pedestrian never shrinks.
     """
     B = pos.shape[0]
     s = cfg.safety
@@ -193,7 +195,7 @@ def pedestrian_terms(pos: np.ndarray, speed: np.ndarray, scene: Scene, cfg: Pred
         return {"collision": z, "risk": z, "near_miss": z, "ttc": z, "hard_clearance": z,
                 "min_clearance": np.full(B, np.inf)}
     relief = 1.0 - s.stall_margin_relief * scene.assertiveness
-    clear = _reactive_clearance(pos, fut, scene, s.yield_speed, s.yield_range)  # (B, N, K)
+    clear = _reactive_clearance(pos, fut, scene, s.yield_speed, s.yield_range) + scene.ped_room[:, None]  # (B, N, K)
     nearest = clear.min(axis=1)  # (B, K) over pedestrians
     hard = np.maximum(relief * s.hard_clearance_distance - nearest, 0.0).max(axis=1)
     band = relief * max(s.near_distance, s.ttc_distance)

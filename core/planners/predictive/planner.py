@@ -117,19 +117,30 @@ class PredictivePlanner:
         dt_f = float(times[1] - times[0]) if len(times) > 1 else float(times[0])
         extra_s = cfg.search.extra_horizon_s + (cfg.search.horizon_boost_s if cfg.search.adaptive_horizon and near else 0.0)
         extra = int(round(extra_s / dt_f))
+        room = self._waiting_room(fut, times, assertive)
         fut, sigma, times = extend_forecast(fut, sigma, times, extra)
         if len(fut):  # exact culling: pedestrians no rollout can bring within any term's range
             if extra:
                 dist = np.sqrt(np.add.reduce((fut - p0) ** 2, axis=-1))
             gap = dist - contact - _reach(float(obs.robot_velocity[0]), limits, times)
             keep = gap.min(axis=1) <= C.influence_range(cfg, float(times[-1]), limits.v_max, float(sigma.max()))
-            fut, sigma = fut[keep], sigma[keep]
+            fut, sigma, room = fut[keep], sigma[keep], room[keep]
         scene = C.Scene(
-            ped_future=fut, ped_sigma=sigma, times=times, contact=contact, robot_radius=obs.robot_radius, route=route,
+            ped_future=fut, ped_sigma=sigma, ped_room=room, times=times, contact=contact, robot_radius=obs.robot_radius, route=route,
             phi0=phi0, assertiveness=assertive, static=self._static_field(obs), start=np.asarray(obs.robot_pose, dtype=float),
             prev_command=self._prev, max_speed=limits.v_max, max_turn_rate=limits.w_max,
         )
         return scene, near, extra
+
+    def _waiting_room(self, fut: np.ndarray, times: np.ndarray, assertive: float) -> np.ndarray:
+        """(N,) room [m] each pedestrian is expected to make: ``waiting_room`` x assertiveness for one forecast
+        to stand (mean speed over the forecast below ``waiting_speed``: waiting for the robot), else 0."""
+        s = self.config.safety
+        if assertive <= 0 or len(fut) == 0:
+            return np.zeros(len(fut))
+        span = float(times[-1] - times[0]) if len(times) > 1 else 1.0
+        speed = np.hypot(*(fut[:, -1] - fut[:, 0]).T) / span
+        return np.where(speed < s.waiting_speed, assertive * s.waiting_room, 0.0)
 
     def _assertiveness(self, phi0: float, now: float, dt: float) -> float:
         """0..1: ramps up while route progress over the last ``stall_after_s`` is below ``stall_progress``.

@@ -194,3 +194,25 @@ def test_contact_probability_is_the_normal_tail():
     exact = np.array([0.5 * math.erfc(x / math.sqrt(2)) for x in z])
     assert np.max(np.abs(contact_probability(z) - exact)) < 0.01
     assert contact_probability(np.array([RISK_CUTOFF, 10.0])).tolist() == [0.0, 0.0]
+
+
+def test_after_a_stall_only_a_standing_pedestrian_is_expected_to_make_room():
+    """A pedestrian forecast to stand near a stalled robot is waiting for it; one who walks on never makes room."""
+    m = corridor_map()
+    waiting = PredictivePlannerConfig.from_dict({"safety": {"waiting_room": 0.7}})
+    p = _planner(m, waiting)
+    times = PLANNER_TIMEBASE.times
+    standing = np.repeat([[[7.0, 10.0]]], len(times), axis=1)  # (1, K, 2)
+    walking = np.array([7.0, 10.0]) + times[None, :, None] * np.array([0.0, 1.3])
+    assert p._waiting_room(standing, times, 0.0).tolist() == [0.0]  # no stall, no room
+    assert p._waiting_room(standing, times, 1.0).tolist() == [pytest.approx(p.config.safety.waiting_room)]
+    assert p._waiting_room(walking, times, 1.0).tolist() == [0.0]
+    creep = np.array([[0.3, 0.0]])
+    obs = observation(m, velocity=(0.0, 0.0), peds=[(7.6, 10.0)], step=0)
+    fresh = p.score_commands(obs, creep)[1]
+    stalled = _planner(m, waiting)
+    for k in range(80):  # 8 s standing still: assertiveness ramps to 1
+        stalled._assertiveness(stalled._route(obs).start(obs.robot_pose[:2]), 0.1 * k, 0.1)
+    late = stalled.score_commands(observation(m, velocity=(0.0, 0.0), peds=[(7.6, 10.0)], step=80), creep)[1]
+    assert late["risk"][0] < fresh["risk"][0] and late["collision"][0] < fresh["collision"][0]
+    assert _planner(m)._waiting_room(standing, times, 1.0).tolist() == [0.0]  # off by default
