@@ -38,14 +38,23 @@ class Cluster:
         self.address = f"127.0.0.1:{self.port}"
         self.env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0"}
         self.tmp = tmp
+        self.head: subprocess.Popen | None = None
         self.node: subprocess.Popen | None = None
 
+    def _spawn(self, *args: str) -> subprocess.Popen:
+        """``ray start ... --block`` in a session of its own: killing its process group stops exactly that node
+        (never ``ray stop``, which stops every Ray process of the user on the machine)."""
+        return subprocess.Popen([RAY, "start", *args, "--num-cpus", "1", "--block"], env=self.env,
+                                start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
     def start(self) -> None:
-        subprocess.run([RAY, "start", "--head", "--num-cpus", "1", "--port", str(self.port), "--include-dashboard",
-                        "false", "--disable-usage-stats"], env=self.env, check=True, capture_output=True, timeout=120)
-        self.node = subprocess.Popen([RAY, "start", "--address", self.address, "--num-cpus", "1", "--block"],
-                                     env=self.env, start_new_session=True, stdout=subprocess.DEVNULL,
-                                     stderr=subprocess.DEVNULL)  # fmt: skip
+        self.head = self._spawn("--head", "--port", str(self.port), "--include-dashboard", "false",
+                                "--disable-usage-stats")
+        self.wait_cpus(1)
+        self.start_node()
+
+    def start_node(self) -> None:
+        self.node = self._spawn("--address", self.address)
         self.wait_cpus(2)
 
     def nodes_alive(self) -> int:
@@ -67,9 +76,10 @@ class Cluster:
         self.node.wait(timeout=30)
 
     def stop(self) -> None:
-        if self.node is not None and self.node.poll() is None:
-            self.kill_node()
-        subprocess.run([RAY, "stop", "--force"], env=self.env, capture_output=True, timeout=120)
+        for proc in (self.node, self.head):
+            if proc is not None and proc.poll() is None:
+                os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait(timeout=30)
 
 
 _ALIVE = "import ray, sys; ray.init(address=sys.argv[1], logging_level='ERROR', log_to_driver=False); " \
@@ -146,11 +156,7 @@ def test_node_killed_mid_run_loses_and_duplicates_nothing(cluster: Cluster, tmp_
     assert cluster.nodes_alive() == 1  # the second node is really gone
     assert sorted((r.scenario, r.seed) for r in records) == sorted({(r.scenario, r.seed) for r in records})
     assert [without(r.model_dump(mode="json"), NOISE) for r in records] == _local_records(tmp_path)
-    # a fresh second node for the tests after this one
-    cluster.node = subprocess.Popen([RAY, "start", "--address", cluster.address, "--num-cpus", "1", "--block"],
-                                    env=cluster.env, start_new_session=True, stdout=subprocess.DEVNULL,
-                                    stderr=subprocess.DEVNULL)  # fmt: skip
-    cluster.wait_cpus(2)
+    cluster.start_node()  # a fresh second node for the tests after this one
 
 
 def test_cancelled_job_leaves_no_ray_task_running(cluster: Cluster, tmp_path: Path) -> None:
