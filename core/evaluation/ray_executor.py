@@ -110,8 +110,8 @@ def run_on_ray(jobs: list[Any], make_worker: Callable[[], Any], ctx: Any) -> Ite
 
     connect(int(ctx.workers or 1))
     task = ray.remote(num_cpus=1, max_retries=MAX_RETRIES, retry_exceptions=False)(_episode)
-    checkpoints = {j.planner.checkpoint_sha256: Path(j.planner.model_path).read_bytes()
-                   for j in jobs if j.planner.learned}
+    paths = {j.planner.checkpoint_sha256: j.planner.model_path for j in jobs if j.planner.learned}
+    checkpoints = {sha: Path(path).read_bytes() for sha, path in paths.items()}  # each file read once per run
     refs = [ray.put(make_worker), ray.put(checkpoints)]
     token = uuid.uuid4().hex
     pending = {task.remote(token, *refs, job): job.index for job in jobs}
