@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import errno
 import hashlib
-import os
 import re
-import tempfile
 from pathlib import Path, PurePosixPath, PureWindowsPath
+
+from foresight.core import files
 
 _DRIVE = re.compile(r"^[A-Za-z]:[\\/]")
 
@@ -70,18 +70,8 @@ def sha256_file(path: Path) -> str:
 
 
 def write_atomic(path: Path, data: bytes) -> None:
-    """Write ``data`` to a temporary file beside ``path``, then rename it into place."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    """Write ``data`` through a temporary beside ``path`` and a rename, flushed to the disk (registry uploads)."""
+    files.write_bytes(path, data, fsync=True)
 
 
 def scan(root: Path, relative_dir: str) -> list[dict]:

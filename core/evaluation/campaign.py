@@ -21,6 +21,7 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from foresight.core import files
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.aggregate import SuiteSummary, summarise
 from foresight.core.evaluation.config import CampaignConfig, EpisodeSelection, GridVariant, variant_spec
@@ -210,7 +211,7 @@ def finish_cell(config: CampaignConfig, ctx: StageContext, rp: ResolvedPlanner, 
     cell = CellResult(key=key, fingerprint=fingerprint, checkpoint=checkpoint, variant=rp.variant or rp.name,
                       planner=planner_provenance(rp), hard=hs, global_=gs, integrity=integrity,
                       ranking_key=ranking_key(hs, gs, integrity.ok), episodes_file=episodes)
-    ctx.artifact(f"cells/{key}.json").write_text(cell.model_dump_json(indent=2))
+    files.write_text(ctx.artifact(f"cells/{key}.json"), cell.model_dump_json(indent=2))
     return cell
 
 
@@ -326,8 +327,8 @@ def campaign_result(config: CampaignConfig, ctx: StageContext, plan: CampaignPla
         artifacts={"summary": "campaign_summary.json", "report": "campaign_report.md", "cells": "cells/"},
         wall_s=time.perf_counter() - t0, config=config.model_dump(mode="json"),
     )
-    ctx.artifact("campaign_summary.json").write_text(result.model_dump_json(indent=2))
-    ctx.artifact("campaign_report.md").write_text(report(result))
+    files.write_text(ctx.artifact("campaign_summary.json"), result.model_dump_json(indent=2))
+    files.write_text(ctx.artifact("campaign_report.md"), report(result))
     return result
 
 

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, Field
 
+from foresight.core import files
 from foresight.core.evaluation.config import DiagnosticsConfig
 from foresight.core.evaluation.episode import EpisodeRun
 from foresight.core.evaluation.metrics import derive
@@ -189,7 +190,7 @@ def _write_seed(run: EpisodeRun, scenario: Any, config: DiagnosticsConfig, ctx: 
     name, seed = run.record.scenario, run.record.seed
     trace_name = f"diagnostics/trace_{name}_{seed}.json"
     steps = step_trace(run, config.max_predicted_peds)
-    ctx.artifact(trace_name).write_text(SeedTrace(
+    files.write_text(ctx.artifact(trace_name), SeedTrace(
         scenario=name, seed=seed, horizon=run.geometry.horizon, dt=run.trace.dt, record=run.record, steps=steps,
     ).model_dump_json())
     render = replay = None
@@ -228,8 +229,8 @@ def run_diagnostics(config: DiagnosticsConfig, ctx: StageContext) -> Diagnostics
         artifacts={"summary": "diagnostics.json", "report": "diagnostics_report.md"}, wall_s=time.perf_counter() - t0,
         config=config.model_dump(mode="json"),
     )
-    ctx.artifact("diagnostics.json").write_text(json.dumps(result.model_dump(mode="json"), indent=2))
-    ctx.artifact("diagnostics_report.md").write_text(report(result))
+    files.write_text(ctx.artifact("diagnostics.json"), json.dumps(result.model_dump(mode="json"), indent=2))
+    files.write_text(ctx.artifact("diagnostics_report.md"), report(result))
     return result
 
 

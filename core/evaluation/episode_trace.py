@@ -19,6 +19,8 @@ from typing import Any
 
 import numpy as np
 
+from foresight.core import files
+
 FORMAT = "foresight.episode-trace/1"
 MAX_FRAMES = 1200  #: frames kept per episode (every k-th step beyond it)
 MAX_FORECASTS = 150  #: logged forecasts kept per episode (evenly thinned beyond it)
@@ -74,8 +76,7 @@ def compact_trace(run: Any, map_def: Any) -> dict[str, Any]:
 
 
 def write_compact(path: Path, data: dict[str, Any]) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_bytes(gzip.compress(json.dumps(data, separators=(",", ":")).encode(), mtime=0))
+    files.write_bytes(path, gzip.compress(json.dumps(data, separators=(",", ":")).encode(), mtime=0))
     return path
 
 

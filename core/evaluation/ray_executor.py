@@ -29,6 +29,8 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from foresight.core import files
+
 RAY_ADDRESS_ENV = "FORESIGHT_RAY_ADDRESS"
 MAX_RETRIES = 3  #: attempts after a lost node or worker process
 POLL_S = 0.25  #: [s] how often the driver checks for cancellation while episodes run
@@ -68,10 +70,7 @@ def _checkpoint_file(sha256: str, blob: bytes) -> str:
     """The checkpoint from the object store as a local file (one per content hash and machine)."""
     path = Path(tempfile.gettempdir()) / "foresight-ray-checkpoints" / f"{sha256}.pt"
     if not path.is_file():
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(f".{os.getpid()}.tmp")
-        tmp.write_bytes(blob)
-        tmp.replace(path)
+        files.write_bytes(path, blob)
     return str(path)
 
 

@@ -19,6 +19,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel
 
+from foresight.core import files
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.aggregate import Aggregates, GroupStats, aggregate, summarise
 from foresight.core.evaluation.config import EpisodeSelection, EvaluationConfig
@@ -288,9 +289,7 @@ def seed_source(sel: EpisodeSelection) -> str:
 
 
 def write_records(path: Path, records: list[EpisodeRecord]) -> None:
-    with open(path, "w") as f:
-        for r in records:
-            f.write(json.dumps(r.model_dump(mode="json")) + "\n")
+    files.write_text(path, "".join(json.dumps(r.model_dump(mode="json")) + "\n" for r in records))
 
 
 def read_records(path: Path) -> list[EpisodeRecord]:
@@ -342,7 +341,7 @@ def finish_evaluation(config: EvaluationConfig, records: list[EpisodeRecord], pr
     """The result of every episode's records (in episode-list order); writes the evaluation's artifacts."""
     result = evaluation_result(config, records, prep.pairs, prep.planner, ctx, time.perf_counter() - t0)
     write_records(ctx.artifact("episodes.jsonl"), records)
-    ctx.artifact("evaluation.json").write_text(json.dumps(result.model_dump(mode="json"), indent=2))
+    files.write_text(ctx.artifact("evaluation.json"), json.dumps(result.model_dump(mode="json"), indent=2))
     return result
 
 

@@ -27,6 +27,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel
 
+from foresight.core import files
 from foresight.core.errors import CoreError
 from foresight.core.evaluation.campaign import (
     CampaignPlan,
@@ -123,7 +124,7 @@ def _write_shard(ctx: StageContext, stage: str, shard: ShardRef, fingerprint: st
     result = ShardResult(stage=stage, index=shard.index, count=shard.count, fingerprint=fingerprint, total=total,
                          items=items, episodes=len(records), outcomes=dict(Counter(r.outcome for r in records)),
                          code_version=code_version(), wall_s=time.perf_counter() - t0)
-    ctx.artifact(SHARD_FILE).write_text(result.model_dump_json(indent=2))
+    files.write_text(ctx.artifact(SHARD_FILE), result.model_dump_json(indent=2))
     return result
 
 

@@ -13,6 +13,7 @@ from typing import Any
 
 import yaml
 
+from foresight.core import files
 from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.maps.io import file_sha256, load_map
 from foresight.core.maps.model import MapDef
@@ -165,7 +166,5 @@ def refresh_checksums(path: str | Path, *, write: bool = True) -> dict[str, tupl
         text = text.replace(e.source_sha256, new)
         changed[map_id] = (e.source_sha256, new)
     if write and changed:
-        tmp = registry.path.with_suffix(".tmp")
-        tmp.write_text(text, encoding="utf-8")
-        tmp.replace(registry.path)
+        files.write_text(registry.path, text)
     return changed

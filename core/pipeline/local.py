@@ -15,6 +15,7 @@ from typing import Any
 
 from pydantic import BaseModel
 
+from foresight.core import files
 from foresight.core.errors import NotFoundError
 from foresight.core.pipeline.runbook import ChildRun
 from foresight.core.predict.collect import CollectResult
@@ -39,7 +40,7 @@ class LocalChildren:
         return json.loads(self.registry_path.read_text()) if self.registry_path.is_file() else {}
 
     def _save_registry(self, data: dict[str, Any]) -> None:
-        self.registry_path.write_text(json.dumps(data, indent=2))
+        files.write_text(self.registry_path, json.dumps(data, indent=2))
 
     def resolve_model(self, ident: str) -> Path:
         entry = self._registry().get(ident)
@@ -77,7 +78,7 @@ class LocalChildren:
         result = read_result(kind, stage_kind.run(config, sub))
         wall = time.perf_counter() - t0
         data = result.model_dump(mode="json", by_alias=True)
-        done.write_text(json.dumps({"spec": spec, "result": data, "wall_s": wall}, indent=2, default=str))
+        files.write_text(done, json.dumps({"spec": spec, "result": data, "wall_s": wall}, indent=2, default=str))
         if self.reports:
             from foresight.core.reports.stage import write_report  # matplotlib: only when reports are wanted
 

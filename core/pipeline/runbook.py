@@ -31,6 +31,7 @@ from typing import Any, TypeVar
 
 from pydantic import BaseModel
 
+from foresight.core import files
 from foresight.core.errors import ConfigError, CoreError
 from foresight.core.evaluation.campaign import CampaignResult
 from foresight.core.evaluation.gates import GATE_FAILED_EXIT, GateResult
@@ -176,14 +177,14 @@ def run_pipeline(config: PipelineConfig, ctx: StageContext, run_child: RunChild,
         )
 
     def publish(s: PipelineSummary) -> None:
-        ctx.artifact("pipeline_summary.json").write_text(s.model_dump_json(indent=2))
+        files.write_text(ctx.artifact("pipeline_summary.json"), s.model_dump_json(indent=2))
         try:
             write_pipeline_report(s, ctx.workdir, campaign=results.of("campaign", CampaignResult),
                                   training=results.training)
         except Exception as exc:  # a report is a by-product: never hide the pipeline's own outcome
             ctx.log(f"pipeline report failed: {exc!r}")
 
-    ctx.artifact("pipeline_config.json").write_text(config.model_dump_json(indent=2))
+    files.write_text(ctx.artifact("pipeline_config.json"), config.model_dump_json(indent=2))
     for stage, kind in stages:
         entry = entries[stage]
         span = WEIGHT[stage] / total

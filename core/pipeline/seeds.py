@@ -22,6 +22,7 @@ from typing import Any
 
 import yaml
 
+from foresight.core import files
 from foresight.core.errors import ConfigError
 from foresight.core.yamlio import load_yaml
 
@@ -109,9 +110,8 @@ def read_manifest_pairs(path: str | Path) -> set[tuple[str, int]]:
 def write_manifest(path: str | Path, seeds: dict[str, list[int]], description: str, header: str = "") -> Path:
     """Write the wrapped manifest form (``description`` + ``seeds``) with a comment header."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     body = yaml.safe_dump({"description": description, "seeds": seeds}, sort_keys=False, default_flow_style=None,
                           width=120)
     comment = "".join(f"# {line}".rstrip() + "\n" for line in header.strip().splitlines()) if header else ""
-    path.write_text(comment + body)
+    files.write_text(path, comment + body)
     return path

@@ -18,6 +18,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from foresight.core import files
 from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.predict.features import FRAME_CONVENTIONS, feature_dim, feature_names
 from foresight.core.predict.quality import summarize
@@ -126,11 +127,11 @@ def save_dataset(ds: Dataset, path: Path) -> dict[str, Any]:
     ds.validate(str(path))
     path = Path(path)
     meta_json = json.dumps(ds.meta.to_json(), sort_keys=True)
-    with path.open("wb") as fh:
+    with files.replacing(path) as tmp, tmp.open("wb") as fh:
         np.savez_compressed(fh, **{k: getattr(ds, k) for k in ARRAYS}, meta_json=np.array(meta_json))
     record = {"path": str(path), "sha256": file_sha256(path), "meta": ds.meta.to_json(),
               "summary": summarize(ds)}
-    path.with_suffix(".json").write_text(json.dumps(record, indent=2, sort_keys=True))
+    files.write_text(path.with_suffix(".json"), json.dumps(record, indent=2, sort_keys=True))
     return record
 
 

@@ -23,6 +23,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
 from PIL import Image
 
+from foresight.core import files
 from foresight.core.maps.model import MapDef
 from foresight.core.render.figure import map_axes
 from foresight.core.render.map_view import draw_map
@@ -207,7 +208,8 @@ def _encode(blit: _Blitter, steps: np.ndarray, draw: Any, path: Path, frame_ms: 
     for t in steps:
         draw(int(t))
         frames.append(blit.frame().quantize(palette=palette, dither=Image.Dither.NONE))
-    frames[0].save(path, save_all=True, append_images=frames[1:], duration=frame_ms, loop=0)
+    with files.replacing(path) as tmp:
+        frames[0].save(tmp, format="GIF", save_all=True, append_images=frames[1:], duration=frame_ms, loop=0)
     return path
 
 

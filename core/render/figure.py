@@ -12,6 +12,7 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from foresight.core import files
 from foresight.core.errors import ConfigError
 from foresight.core.maps.model import MapDef
 
@@ -45,7 +46,7 @@ def save(fig: Figure, path: str | Path) -> Path:
         raise ConfigError(
             f"unsupported picture format {p.suffix!r}; use one of {sorted(FORMATS)}", source=p, item="path"
         )
-    p.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
-    fig.savefig(p, format=fmt)
+    with files.replacing(p) as tmp:
+        fig.savefig(tmp, format=fmt)
     return p

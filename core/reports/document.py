@@ -14,6 +14,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from foresight.core import files
+
 CSS = """
 body{font-family:system-ui,-apple-system,"Segoe UI",sans-serif;max-width:1100px;margin:1.5em auto;padding:0 1em;
 color:#222;line-height:1.45}
@@ -146,8 +148,8 @@ class Document:
         workdir = Path(workdir)
         workdir.mkdir(parents=True, exist_ok=True)
         md, page = workdir / f"{stem}.md", workdir / f"{stem}.html"
-        md.write_text(self.markdown())
-        page.write_text(self.html())
+        files.write_text(md, self.markdown())
+        files.write_text(page, self.html())
         return [md, page]
 
 

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from foresight.core import files
 from foresight.core.errors import ConfigError
 
 FORMAT = "foresight.trace/1"
@@ -98,11 +99,13 @@ class Trace:
     def save(self, path: str | Path) -> Path:
         """Write the trimmed arrays and the metadata (JSON) to one compressed .npz."""
         path = Path(path)
-        np.savez_compressed(
-            path, robot=self.robot, command=self.command, ped_ids=self.ped_ids, ped_pos=self.ped_pos,
-            ped_vel=self.ped_vel, collision_point=self.collision_point, meta=np.array(json.dumps(self.metadata())),
-        )
-        return path if path.suffix == ".npz" else path.with_name(path.name + ".npz")
+        path = path if path.suffix == ".npz" else path.with_name(path.name + ".npz")  # np.savez's naming
+        with files.replacing(path) as tmp, tmp.open("wb") as fh:
+            np.savez_compressed(
+                fh, robot=self.robot, command=self.command, ped_ids=self.ped_ids, ped_pos=self.ped_pos,
+                ped_vel=self.ped_vel, collision_point=self.collision_point, meta=np.array(json.dumps(self.metadata())),
+            )
+        return path
 
     @classmethod
     def load(cls, path: str | Path) -> Trace:

@@ -16,6 +16,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, create_model
 
+from foresight.core import files
 from foresight.core.evaluation.campaign import run_campaign
 from foresight.core.evaluation.config import (
     CampaignConfig,
@@ -95,7 +96,7 @@ def run_sleep(config: SleepConfig, ctx: StageContext) -> dict[str, Any]:
             time.sleep(config.seconds / config.steps)
             ctx.progress((i + 1) / config.steps, f"step {i + 1}/{config.steps}")
     if config.artifact:
-        ctx.artifact(config.artifact).write_text(f"slept {config.seconds} s\n")
+        files.write_text(ctx.artifact(config.artifact), f"slept {config.seconds} s\n")
     if config.fail:
         raise RuntimeError(config.fail)
     return {"slept_s": config.seconds}

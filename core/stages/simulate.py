@@ -11,6 +11,7 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from foresight.core import files
 from foresight.core.errors import ConfigError
 from foresight.core.stages.context import StageContext
 from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident, Name, Seed, resolve_in_bundle
@@ -85,5 +86,5 @@ def run_simulate(config: SimulateConfig, ctx: StageContext) -> SimulateResult:
     for e in episodes:
         outcomes[e.outcome] = outcomes.get(e.outcome, 0) + 1
     out = SimulateResult(episodes=episodes, outcomes=outcomes, code_version=code_version())
-    ctx.artifact("simulate.json").write_text(json.dumps(out.model_dump(), indent=2))
+    files.write_text(ctx.artifact("simulate.json"), json.dumps(out.model_dump(), indent=2))
     return out

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from foresight.core import files
 from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.predict.features import feature_names
 from foresight.core.predict.nn.model import ModelConfig, TrajectoryModel, build_model
@@ -40,10 +41,8 @@ def make_checkpoint(model: TrajectoryModel, timebase: TimeBase, frame_convention
 
 def save_checkpoint(payload: dict[str, Any], path: Path) -> None:
     """Atomic write (temp file + rename), so an interrupted save never leaves a half file."""
-    path = Path(path)
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    torch.save(payload, tmp)
-    tmp.replace(path)
+    with files.replacing(path) as tmp:
+        torch.save(payload, tmp)
 
 
 def checkpoint_bytes(path: Path, expect_sha256: str | None = None) -> tuple[bytes, str]:

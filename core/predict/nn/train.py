@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from foresight.core import files
 from foresight.core.errors import ConfigError
 from foresight.core.predict.dataset import Dataset, file_sha256, load_dataset, resolve_dataset_path
 from foresight.core.predict.features import length_channels, mirror_signs
@@ -247,5 +248,5 @@ def _finish(config, ctx, history, selection, cv, stats, dataset_info, started) -
 def _write_summary(summary: TrainingSummary, ctx: StageContext) -> TrainResult:
     """Write ``training_summary.json`` (one run or an ensemble) and the stage result it implies."""
     path = ctx.artifact("training_summary.json")
-    path.write_text(summary.model_dump_json(indent=2))
+    files.write_text(path, summary.model_dump_json(indent=2))
     return summary.result(str(path))
