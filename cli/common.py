@@ -74,6 +74,25 @@ def local_context(workdir: Path | None, bundles: dict[str, Path], *, quiet: bool
                         resolve_data_root=resolve_data_root)
 
 
+def finish_local(kind: str, result: Any, workdir: Path) -> list[Path]:
+    """What a worker does after a stage, for an in-process run: the report page (its paths returned) and, with
+    FORESIGHT_MLFLOW_TRACKING_URI set, the copy to MLflow (a failure is a warning line on stderr)."""
+    import sys
+
+    from foresight.core.reports.stage import write_report
+    from foresight.store.settings import Settings
+    from foresight.worker import mlflow_export
+
+    def log(message: str) -> None:
+        print(message, file=sys.stderr)
+
+    pages = write_report(kind, result, workdir, log)
+    settings = Settings()
+    mlflow_export.export_run(mlflow_export.target(settings.mlflow_tracking_uri, settings.mlflow_experiment), kind,
+                             result, workdir, log)
+    return pages
+
+
 def progress_bar(*, quiet: bool) -> Any:
     """The CLI's one progress-bar style (rich, on stderr): in-process runs and followed server jobs alike."""
     from rich.console import Console

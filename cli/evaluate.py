@@ -13,14 +13,13 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import tempfile
 from pathlib import Path
 from typing import Any
 
 from foresight.cli import stage
 from foresight.cli.client import add_connection_args
-from foresight.cli.common import emit, local_context
+from foresight.cli.common import emit, finish_local, local_context
 from foresight.core.errors import ConfigError
 from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
 
@@ -297,9 +296,7 @@ class Refs:
                                 exit_code=exit_code, client=self.client if self._client else None)
         ctx = _context(self.args, self.roots, self.models)
         result = KINDS[kind].run(stage.config_of(spec), ctx)
-        from foresight.core.reports.stage import write_report  # as a worker does: the report page of the run
-
-        pages = write_report(kind, result, ctx.workdir, lambda m: print(m, file=sys.stderr))
+        pages = finish_local(kind, result, ctx.workdir)  # as a worker does: the report page, the MLflow copy
         where = f"artifacts in {ctx.workdir.resolve()}" + "".join(
             f"\nreport: {p.resolve()}" for p in pages if p.name == "report.html")
         emit(result, self.args.json, lambda r: text(r, where))

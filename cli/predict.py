@@ -13,7 +13,7 @@ import tempfile
 from pathlib import Path
 
 from foresight.cli import stage
-from foresight.cli.common import build_config, emit, local_context, matrix_ref
+from foresight.cli.common import build_config, emit, finish_local, local_context, matrix_ref
 from foresight.core.errors import ConfigError
 
 
@@ -254,6 +254,9 @@ def train_cmd(args: argparse.Namespace) -> int:
                                                      Path(r.checkpoint).name))  # fmt: skip
     from foresight.core.predict.nn.train import run_train
 
-    result = run_train(stage.config_of(stage.spec("train", values)), _ctx(args))
-    emit(result, args.json, lambda r: text(r, ""))
+    ctx = _ctx(args)
+    result = run_train(stage.config_of(stage.spec("train", values)), ctx)
+    pages = finish_local("train", result, ctx.workdir)  # as a worker does: the report page, the MLflow copy
+    emit(result, args.json, lambda r: text(r, "".join(f"\nreport: {p.resolve()}" for p in pages
+                                                     if p.name == "report.html")))
     return exit_code(result)

@@ -55,6 +55,10 @@ class Settings(BaseSettings):
     max_job_steps: int = Field(DEFAULT_STEP_BUDGET, ge=1)
     #: named data roots on the worker's disk (``name=path,name=path``); specs name them, never the paths
     data_roots: str = ""
+    #: MLflow tracking server that finished train/evaluate/campaign runs are copied to (empty: none;
+    #: worker.mlflow_export, extra ``foresight[mlflow]``)
+    mlflow_tracking_uri: str = ""
+    mlflow_experiment: str = "foresight"  #: the MLflow experiment those runs go to (created on first use)
     #: the shared reference material; its ``reference/ethucy`` is data root ``ethucy`` unless one is named so
     shared: Path = DEFAULT_SHARED
 

@@ -34,6 +34,7 @@ from foresight.store import folders, queue, records
 from foresight.store.registry import Resolver
 from foresight.store.session import Engine
 from foresight.store.settings import REPO_ROOT, Settings
+from foresight.worker import mlflow_export
 from foresight.worker.children import ChildRunner
 from foresight.worker.retry import decide_retry
 
@@ -85,6 +86,8 @@ class JobWorker:
         self.on_progress = on_progress
         self.parent_stop = parent_stop
         self.resolver = Resolver(settings, engine)
+        #: where finished runs are copied (FORESIGHT_MLFLOW_TRACKING_URI); None: nowhere
+        self.mlflow = mlflow_export.target(settings.mlflow_tracking_uri, settings.mlflow_experiment)
         self._held: dict[str, Held] = {}
         self._lock = threading.Lock()
         self._stopping = threading.Event()
@@ -215,6 +218,9 @@ class JobWorker:
                 from foresight.core.reports.stage import write_report
 
                 write_report(job["kind"], result, workdir, ctx.log)
+                # before the job is finished, so a succeeded job's MLflow run exists; an outage is a log line
+                mlflow_export.export_run(self.mlflow, job["kind"], result, workdir, ctx.log, job_id=job["id"],
+                                         parent_id=job.get("parent_id"))
         except Cancelled:
             if held.lost:
                 raise queue.LeaseLost(f"job {job['id']}: lease lost while running") from None

@@ -1,6 +1,6 @@
-"""The architecture's import rules, checked on the source: core is pure; torch and matplotlib stay in their corners;
-only the store talks to the database; api and worker never import each other; no import cycles (imports inside
-functions count: a cycle held together by a lazy import is still a cycle)."""
+"""The architecture's import rules, checked on the source: core is pure; torch, matplotlib and mlflow stay in their
+corners; only the store talks to the database; api and worker never import each other; no import cycles (imports
+inside functions count: a cycle held together by a lazy import is still a cycle)."""
 
 from __future__ import annotations
 
@@ -176,3 +176,9 @@ def test_only_the_store_imports_sqlalchemy_or_alembic() -> None:
                  if _imports(p) & {"sqlalchemy", "alembic"} and REPO / "store" not in p.parents
                  and REPO / "migrations" not in p.parents]  # fmt: skip
     assert offenders == []
+
+
+def test_only_the_exporter_imports_mlflow() -> None:
+    """The MLflow client (network I/O, an optional extra) lives in one worker-side module."""
+    offenders = [str(p.relative_to(REPO)) for p in _modules().values() if "mlflow" in _imports(p)]
+    assert offenders == ["worker/mlflow_export.py"]

@@ -155,7 +155,8 @@ def run_train(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | Non
     opt = torch.optim.AdamW(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
     dataset_info = {"id": config.dataset, "sha256": file_sha256(ds_path), "source": ds.meta.source,
                     "config_hash": ds.meta.generator_config_hash, "max_agents": ds.meta.max_agents,
-                    "frame_convention": ds.meta.frame_convention, "lineage": ds.meta.lineage}
+                    "frame_convention": ds.meta.frame_convention, "lineage": ds.meta.lineage,
+                    "timebase": ds.meta.timebase.to_dict()}
     history, selection, start = [], Selection(proxy_enabled=proxy is not None and config.proxy_every > 0), 1
     last_path = ctx.artifact("checkpoints/last.pt")
     if config.resume and last_path.is_file():
