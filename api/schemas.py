@@ -43,6 +43,22 @@ JobSpec = Annotated[_job_spec_type(), AfterValidator(_known_data_root)]
 
 
 # Jobs
+Tag = Annotated[str, Field(min_length=1, max_length=100, pattern=r"^[A-Za-z0-9][A-Za-z0-9._:/=+\-]*$",
+                           description="a label such as 'baseline' or 'ablation:no-pred'")]
+JobName = Annotated[str, Field(min_length=1, max_length=200, pattern=r"^[^\x00-\x1f\x7f]+$",
+                               description="what the run is called (need not be unique)")]
+JobNote = Annotated[str, Field(max_length=10_000, pattern=r"^[^\x00-\x08\x0b\x0c\x0e-\x1f\x7f]*$",
+                               description="free text: why the run was made, what was seen")]
+MAX_TAGS = 20  #: tags per job
+
+
+def _unique(tags: list[str]) -> list[str]:
+    return list(dict.fromkeys(tags))
+
+
+Tags = Annotated[list[Tag], Field(max_length=MAX_TAGS), AfterValidator(_unique)]
+
+
 class JobCreate(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
@@ -52,6 +68,25 @@ class JobCreate(BaseModel):
     max_attempts: int | None = Field(None, ge=1, le=20, description="claims before a lost job fails")
     idempotency_key: str | None = Field(None, min_length=1, max_length=200, pattern=r"^[\x21-\x7e]+$")
     parent_id: Ident | None = None
+    name: JobName | None = None
+    tags: Tags = Field(default_factory=list)
+    note: JobNote = ""
+
+    def labels(self) -> dict[str, Any]:
+        return {"name": self.name, "tags": self.tags, "note": self.note}
+
+
+class JobUpdate(BaseModel):
+    """Change a job's labels (any status): fields left out stay as they are; ``name: null`` removes the name.
+    ``tags`` replaces the tag list, ``add_tags`` / ``remove_tags`` edit it."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    name: JobName | None = None
+    note: JobNote | None = None
+    tags: Tags | None = None
+    add_tags: Tags = Field(default_factory=list)
+    remove_tags: Tags = Field(default_factory=list)
 
 
 class ArtifactPublic(BaseModel):
@@ -77,6 +112,9 @@ class JobPublic(BaseModel):
     timeout_s: float | None
     idempotency_key: str | None
     parent_id: str | None
+    name: str | None = None
+    tags: list[str] = Field(default_factory=list)
+    note: str = ""
     cancel_requested: bool
     progress: float
     message: str
@@ -111,6 +149,7 @@ def job_public(row: dict[str, Any], artifacts: list[dict] | None = None, childre
         id=row["id"], kind=row["kind"], status=row["status"], spec=row["spec"], priority=row["priority"],
         attempts=row["attempts"], max_attempts=row["max_attempts"], timeout_s=row["timeout_s"],
         idempotency_key=row["idempotency_key"], parent_id=row["parent_id"], cancel_requested=row["cancel_requested"],
+        name=row.get("name"), tags=row.get("tags") or [], note=row.get("note") or "",
         progress=row["progress"], message=row["message"], error=error, result=row["result"],
         verdict=verdict(row["kind"], row["result"]) if row["status"] == "succeeded" else None,
         worker=row["lease_owner"], created_at=iso(row["created_at"]), started_at=iso(row["started_at"]),

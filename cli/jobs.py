@@ -1,4 +1,4 @@
-"""Client commands for jobs: `foresight submit` and `foresight jobs ls|show|cancel|retry|wait|logs|delete|download`."""
+"""Client commands for jobs: `foresight submit` and `foresight jobs ls|show|edit|cancel|retry|wait|logs|delete|download`."""
 
 from __future__ import annotations
 
@@ -26,6 +26,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     submit.add_argument("--priority", type=int, default=0)
     submit.add_argument("--timeout", type=float, help="[s] run time limit")
     submit.add_argument("--key", help="idempotency key: resubmitting with it returns the same job")
+    add_label_args(submit)
     submit.add_argument("--wait", action="store_true", help="follow the job with a progress bar until it ends "
                         "(exit 0 succeeded, 2 succeeded with a failed gate or integrity verdict, 1 failed)")
     submit.add_argument("--json", action="store_true")
@@ -36,6 +37,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     ls = jobs.add_parser("ls", help="list jobs, newest first")
     ls.add_argument("--status", action="append", help="filter (repeatable)")
     ls.add_argument("--kind", action="append", help="filter (repeatable)")
+    ls.add_argument("--tag", action="append", help="jobs with this tag (repeatable: every tag given)")
+    ls.add_argument("--name", help="jobs of this exact name")
+    ls.add_argument("-q", "--query", help="text in a job's name or note (case-insensitive)")
     ls.add_argument("--limit", type=int, default=20)
     ls.add_argument("--offset", type=int, default=0)
     ls.add_argument("--json", action="store_true")
@@ -55,6 +59,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         if name == "wait":
             p.add_argument("--timeout", type=float, help="[s] give up after this long (exit 2)")
             p.add_argument("--quiet", action="store_true", help="no progress bar")
+    edit = jobs.add_parser("edit", help="rename a job, add or remove tags, set its note")
+    edit.add_argument("job_id")
+    edit.add_argument("--name", help="new name ('' removes it)")
+    edit.add_argument("--tag", action="append", default=[], help="add a tag (repeatable)")
+    edit.add_argument("--untag", action="append", default=[], help="remove a tag (repeatable)")
+    edit.add_argument("--note", help="new note ('-' reads it from stdin)")
+    edit.add_argument("--json", action="store_true")
+    edit.set_defaults(func=cmd_edit)
     dl = jobs.add_parser("download", help="download an artifact of a job")
     dl.add_argument("job_id")
     dl.add_argument("name")
@@ -62,6 +74,23 @@ def register(sub: argparse._SubParsersAction) -> None:
     dl.set_defaults(func=cmd_download)
     for p in jobs.choices.values():
         add_connection_args(p)
+
+
+def add_label_args(parser: argparse.ArgumentParser) -> None:
+    """``--name``, ``--tag`` (repeatable) and ``--note`` of a submission (shown and filterable later)."""
+    parser.add_argument("--name", help="what to call the job (shown in lists; `jobs ls --name`)")
+    parser.add_argument("--tag", action="append", default=[], help="a tag (repeatable; `jobs ls --tag`)")
+    parser.add_argument("--note", help="free text kept with the job")
+
+
+def labels_body(args: argparse.Namespace) -> dict[str, Any]:
+    """The label fields of a submission body from :func:`add_label_args` options."""
+    body: dict[str, Any] = {"tags": args.tag} if args.tag else {}
+    if args.name:
+        body["name"] = args.name
+    if args.note:
+        body["note"] = args.note
+    return body
 
 
 def read_spec(path: str | None) -> dict[str, Any]:
@@ -89,8 +118,9 @@ GATE_FAILED_EXIT = 2  #: a finished job whose gate or integrity verdict failed (
 def _line(job: dict[str, Any]) -> str:
     err = f"  {job['error']['type']}: {job['error']['message'][:80]}" if job.get("error") else ""
     verdict = f"  {job['verdict'].upper()}" if job.get("verdict") and job["verdict"] != "passed" else ""
+    labels = "".join([f"  {job['name']!r}" if job.get("name") else "", *(f" #{t}" for t in job.get("tags") or ())])
     return (f"{job['id']}  {job['kind']:<10} {job['status']:<10} {100 * job['progress']:5.1f}%  "
-            f"{job['created_at'][:19]}{verdict}{err}")
+            f"{job['created_at'][:19]}{verdict}{labels}{err}")
 
 
 def exit_code(job: dict[str, Any]) -> int:
@@ -105,7 +135,7 @@ def cmd_submit(args: argparse.Namespace) -> int:
     spec = read_spec(args.file)
     if spec.get("kind", args.kind) != args.kind:
         raise ConfigError(f"spec says kind {spec['kind']!r} but {args.kind!r} was given", source=args.file, item="kind")
-    body: dict[str, Any] = {"spec": {**spec, "kind": args.kind}, "priority": args.priority}
+    body: dict[str, Any] = {"spec": {**spec, "kind": args.kind}, "priority": args.priority, **labels_body(args)}
     if args.timeout is not None:
         body["timeout_s"] = args.timeout
     if args.key:
@@ -151,6 +181,9 @@ def cmd_ls(args: argparse.Namespace) -> int:
         params["status"] = args.status
     if args.kind:
         params["kind"] = args.kind
+    for key, value in (("tag", args.tag), ("name", args.name), ("q", args.query)):
+        if value:
+            params[key] = value
     page = Client.from_args(args).get("/v1/jobs", params=params)
     lines = [_line(j) for j in page["data"]]
     lines.append(f"{len(page['data'])} of {page['count']} jobs")
@@ -165,8 +198,22 @@ def cmd_show(args: argparse.Namespace) -> int:
         lines = json.dumps(job["result"], indent=2).splitlines()
         more = f"\n  ... {len(lines) - SHOW_LINES} more lines (--json for all)" if len(lines) > SHOW_LINES else ""
         text.append("result: " + "\n".join(lines[:SHOW_LINES]) + more)
+    if job.get("note"):
+        text.insert(1, "note: " + job["note"])
     text += [f"artifact: {a['name']} ({a['size']} bytes)" for a in job.get("artifacts") or []]
     _print(job, args.json, "\n".join(text))
+    return 0
+
+
+def cmd_edit(args: argparse.Namespace) -> int:
+    body: dict[str, Any] = {"add_tags": args.tag, "remove_tags": args.untag}
+    if args.name is not None:
+        body["name"] = args.name or None
+    if args.note is not None:
+        body["note"] = sys.stdin.read() if args.note == "-" else args.note
+    job = Client.from_args(args).patch(f"/v1/jobs/{args.job_id}", json=body)
+    note = f"\nnote: {job['note']}" if job.get("note") else ""
+    _print(job, args.json, _line(job) + note)
     return 0
 
 

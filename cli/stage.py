@@ -27,10 +27,14 @@ CHECKPOINT_SUFFIXES = (".pt", ".pth", ".ckpt")
 
 
 def add_mode_args(p: argparse.ArgumentParser, *, json_flag: bool = True) -> None:
-    """``--local``, ``--no-wait``, ``--key``, the connection flags and (by default) ``--json``."""
+    """``--local``, ``--no-wait``, ``--key``, the job labels (``--name``, ``--tag``, ``--note``), the connection
+    flags and (by default) ``--json``."""
+    from foresight.cli.jobs import add_label_args
+
     p.add_argument("--local", action="store_true", help="run in-process instead of submitting to the server")
     p.add_argument("--no-wait", action="store_true", help="submit, print the job id and return (server mode)")
     p.add_argument("--key", help="idempotency key: resubmitting with it returns the same job (server mode)")
+    add_label_args(p)
     add_connection_args(p)
     if json_flag:
         p.add_argument("--json", action="store_true",
@@ -145,6 +149,10 @@ def submit(args: argparse.Namespace, spec_obj: BaseModel, *, text: Callable[[Any
     body: dict[str, Any] = {"spec": {**spec_obj.model_dump(mode="json", exclude_unset=True, by_alias=True), "kind": kind}}
     if getattr(args, "key", None):
         body["idempotency_key"] = args.key
+    if hasattr(args, "tag"):
+        from foresight.cli.jobs import labels_body
+
+        body.update(labels_body(args))
     try:
         job = client.post("/v1/jobs", json=body)
     except ServerUnreachable as exc:

@@ -20,6 +20,7 @@ from sqlalchemy import (
     String,
     Text,
     UniqueConstraint,
+    text,
 )
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
@@ -81,6 +82,20 @@ class Job(Base):
     created_at: Mapped[float] = mapped_column(Float)
     started_at: Mapped[float | None] = mapped_column(Float)
     finished_at: Mapped[float | None] = mapped_column(Float)
+    # what a researcher calls the run (set at submission, editable later: ``store.labels``)
+    name: Mapped[str | None] = mapped_column(String(200), index=True)
+    tags: Mapped[list[Any]] = mapped_column(JSON, default=list, server_default=text("'[]'"))  #: copy of job_tags, in order
+    note: Mapped[str] = mapped_column(Text, default="", server_default="")
+
+
+class JobTag(Base):
+    """One tag of a job: the index the job list's ``?tag=`` filter reads (``jobs.tags`` keeps their order)."""
+
+    __tablename__ = "job_tags"
+    __table_args__ = (Index("ix_job_tags_tag", "tag", "job_id"),)
+
+    job_id: Mapped[str] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
+    tag: Mapped[str] = mapped_column(String(100), primary_key=True)
 
 
 #: the claim's order (priority first, then oldest): one index walk, no sort, however long the queue

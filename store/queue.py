@@ -39,6 +39,7 @@ from sqlalchemy import (
 from sqlalchemy.exc import IntegrityError
 
 from foresight.store import folders
+from foresight.store import labels as labels_store
 from foresight.store.models import FINISHED, Artifact, Dataset, Job, JobEvent, JobStatus, Model, Worker
 from foresight.store.session import is_sqlite, write_tx
 
@@ -53,7 +54,7 @@ FINISHED_VALUES = tuple(s.value for s in FINISHED)
 
 # The hot path (claim, heartbeat, progress, finish) runs prebuilt textual statements: building SQLAlchemy
 # expressions per call cost more than the statements themselves (~1 ms a job on a busy 2-core machine).
-_JOB_TYPES = {"spec": JSON, "result": JSON, "cancel_requested": Boolean}
+_JOB_TYPES = {"spec": JSON, "result": JSON, "tags": JSON, "cancel_requested": Boolean}
 _CLAIM = """
 UPDATE jobs SET status = 'running', lease_owner = :owner, lease_expires_at = :expires, attempts = attempts + 1,
                 started_at = :now, progress = 0.0, message = ''
@@ -75,10 +76,10 @@ _CLAIM_PG_SQL = (
     .columns(**_JOB_TYPES)
 )
 _SUBMIT_COLUMNS = ("id", "kind", "spec", "status", "priority", "attempts", "max_attempts", "timeout_s", "idempotency_key",
-                   "parent_id", "cancel_requested", "progress", "message", "created_at")
+                   "parent_id", "cancel_requested", "progress", "message", "created_at", "name", "tags", "note")
 _SUBMIT_SQL = (
     text(f"INSERT INTO jobs ({', '.join(_SUBMIT_COLUMNS)}) VALUES ({', '.join(':' + c for c in _SUBMIT_COLUMNS)}) RETURNING *")
-    .bindparams(bindparam("spec", type_=JSON), bindparam("cancel_requested", type_=Boolean))
+    .bindparams(bindparam("spec", type_=JSON), bindparam("tags", type_=JSON), bindparam("cancel_requested", type_=Boolean))
     .columns(**_JOB_TYPES)
 )
 _ANY_QUEUED_SQL = text("SELECT 1 FROM jobs WHERE status = 'queued' AND kind IN :kinds LIMIT 1").bindparams(
@@ -126,6 +127,7 @@ def _sqlite_job(cur: Any) -> dict[str, Any] | None:
     job = dict(zip([d[0] for d in cur.description], rows[0], strict=True))
     job["spec"] = json.loads(job["spec"]) if job["spec"] is not None else None
     job["result"] = json.loads(job["result"]) if job["result"] is not None else None
+    job["tags"] = json.loads(job["tags"]) if job["tags"] is not None else []
     job["cancel_requested"] = bool(job["cancel_requested"])
     return job
 
@@ -195,11 +197,14 @@ def _get(conn: Connection, job_id: str) -> dict[str, Any]:
 
 
 def _new_row(kind: str, spec: dict[str, Any], priority: int, timeout_s: float | None, max_attempts: int,
-             idempotency_key: str | None, parent_id: str | None) -> dict[str, Any]:  # fmt: skip
+             idempotency_key: str | None, parent_id: str | None, labels: dict[str, Any] | None) -> dict[str, Any]:  # fmt: skip
+    """A job row; ``labels`` the optional ``name``, ``tags`` and ``note`` (``store.labels``)."""
+    labels = labels or {}
     return dict(
         id=new_id(), kind=kind, spec=spec, status=QUEUED, priority=priority, attempts=0,
         max_attempts=max_attempts, timeout_s=timeout_s, idempotency_key=idempotency_key, parent_id=parent_id,
         cancel_requested=False, progress=0.0, message="", created_at=time.time(),
+        name=labels.get("name"), tags=list(labels.get("tags") or []), note=labels.get("note") or "",
     )  # fmt: skip
 
 
@@ -213,13 +218,15 @@ def submit(
     max_attempts: int = 3,
     idempotency_key: str | None = None,
     parent_id: str | None = None,
+    labels: dict[str, Any] | None = None,
 ) -> tuple[dict[str, Any], bool]:
-    """Queue a job; returns ``(job, created)``. A known idempotency key returns its job (``created`` False)."""
+    """Queue a job; returns ``(job, created)``. A known idempotency key returns its job (``created`` False).
+    ``labels``: the job's optional ``name``, ``tags`` and ``note``."""
     if idempotency_key is not None:
         existing = find_by_key(engine, idempotency_key)
         if existing is not None:
             return _same_submission(existing, kind, spec), False
-    row = _new_row(kind, spec, priority, timeout_s, max_attempts, idempotency_key, parent_id)
+    row = _new_row(kind, spec, priority, timeout_s, max_attempts, idempotency_key, parent_id, labels)
     if idempotency_key is None and parent_id is None and is_sqlite(engine):
         done = threading.Event()
         failed: list[BaseException] = []
@@ -231,6 +238,7 @@ def submit(
     try:
         with write_tx(engine) as conn:
             job = conn.execute(_SUBMIT_SQL, row).mappings().one()
+            labels_store.insert_tags(conn, [row])
             _add_event(conn, row["id"], "status", QUEUED)
     except IntegrityError:
         existing = find_by_key(engine, idempotency_key) if idempotency_key else None
@@ -241,7 +249,8 @@ def submit(
 
 
 async def submit_plain(engine: Engine, *, kind: str, spec: dict[str, Any], priority: int = 0,
-                       timeout_s: float | None = None, max_attempts: int = 3) -> dict[str, Any]:  # fmt: skip
+                       timeout_s: float | None = None, max_attempts: int = 3,
+                       labels: dict[str, Any] | None = None) -> dict[str, Any]:  # fmt: skip
     """Queue a job without idempotency key or parent from the event loop, on SQLite: the request waits on a
     future while the engine's submission thread (:class:`SubmitBatcher`) writes it, so it holds no thread."""
     import asyncio
@@ -253,7 +262,7 @@ async def submit_plain(engine: Engine, *, kind: str, spec: dict[str, Any], prior
         if not future.done():
             future.set_exception(error) if error is not None else future.set_result(None)
 
-    row = _new_row(kind, spec, priority, timeout_s, max_attempts, None, None)
+    row = _new_row(kind, spec, priority, timeout_s, max_attempts, None, None, labels)
     _batcher(engine).put(row, lambda error: loop.call_soon_threadsafe(settle, error))
     await future
     return {**_JOB_DEFAULTS, **row}
@@ -298,6 +307,7 @@ class SubmitBatcher:
             try:
                 with write_tx(self.engine) as conn:
                     conn.execute(insert(jobs), [row for row, _ in batch])
+                    labels_store.insert_tags(conn, [row for row, _ in batch])
                     conn.execute(_EVENT_SQL, [{"job_id": row["id"], "at": row["created_at"], "type": "status",
                                                "message": QUEUED, "progress": None} for row, _ in batch])  # fmt: skip
             except Exception as exc:  # noqa: BLE001 (every submission of the batch fails the same way)
@@ -621,9 +631,10 @@ def delete_job(engine: Engine, job_id: str) -> list[dict[str, Any]]:
     return arts
 
 
-def list_filter(statuses: Sequence[str] = (), kinds: Sequence[str] = (), parent_id: str | None = None) -> list:
-    """The WHERE terms of the job list."""
-    where = []
+def list_filter(statuses: Sequence[str] = (), kinds: Sequence[str] = (), parent_id: str | None = None,
+                name: str | None = None, tags: Sequence[str] = (), q: str | None = None) -> list:  # fmt: skip
+    """The WHERE terms of the job list (labels: ``store.labels.label_filter``)."""
+    where = labels_store.label_filter(name, tags, q)
     if statuses:
         where.append(jobs.c.status.in_(list(statuses)))
     if kinds:
@@ -640,10 +651,10 @@ def list_page_query(where: list, limit: int, offset: int):  # noqa: ANN201
 
 def list_jobs(
     engine: Engine, *, statuses: Sequence[str] = (), kinds: Sequence[str] = (), parent_id: str | None = None,
-    limit: int = 50, offset: int = 0,
+    name: str | None = None, tags: Sequence[str] = (), q: str | None = None, limit: int = 50, offset: int = 0,
 ) -> tuple[int, list[dict[str, Any]]]:  # fmt: skip
-    """``(total matching, one page of jobs)``, newest first, filtered by status, kind and parent."""
-    where = list_filter(statuses, kinds, parent_id)
+    """``(total matching, one page of jobs)``, newest first, filtered by status, kind, parent and labels."""
+    where = list_filter(statuses, kinds, parent_id, name, tags, q)
     with engine.connect() as conn:
         count = conn.execute(select(func.count()).select_from(jobs).where(*where)).scalar_one()
         rows = [dict(r) for r in conn.execute(list_page_query(where, limit, offset)).mappings()]

@@ -18,9 +18,19 @@ from foresight.api import admission
 from foresight.api.bodies import BoundedJsonRoute
 from foresight.api.deps import EngineDep, ResolverDep, SettingsDep, WriteAuth
 from foresight.api.errors import AUTH, responses
-from foresight.api.schemas import Ident, JobCreate, JobPublic, JobsPublic, KindPublic, job_public
+from foresight.api.schemas import (
+    MAX_TAGS,
+    Ident,
+    JobCreate,
+    JobPublic,
+    JobsPublic,
+    JobUpdate,
+    KindPublic,
+    Tag,
+    job_public,
+)
 from foresight.core.stages.kinds import KINDS
-from foresight.store import folders, queue
+from foresight.store import folders, labels, queue
 from foresight.store.models import JobStatus
 from foresight.store.session import is_sqlite
 
@@ -87,13 +97,15 @@ async def create_job(body: JobCreate, engine: EngineDep, settings: SettingsDep, 
     timeout_s = body.timeout_s or settings.job_timeout_s
     if body.idempotency_key is None and body.parent_id is None and is_sqlite(engine):
         job, created = await queue.submit_plain(engine, kind=spec["kind"], spec=spec, priority=body.priority,
-                                                timeout_s=timeout_s, max_attempts=max_attempts), True  # fmt: skip
+                                                timeout_s=timeout_s, max_attempts=max_attempts,
+                                                labels=body.labels()), True  # fmt: skip
     else:
         if body.parent_id is not None:
             await run_in_threadpool(queue.get_job, engine, body.parent_id)  # 404 when unknown
         job, created = await run_in_threadpool(functools.partial(
             queue.submit, engine, kind=spec["kind"], spec=spec, priority=body.priority, timeout_s=timeout_s,
             max_attempts=max_attempts, idempotency_key=body.idempotency_key, parent_id=body.parent_id,
+            labels=body.labels(),
         ))  # fmt: skip
     code = status.HTTP_201_CREATED if created else status.HTTP_200_OK
     return Response(job_public(job).model_dump_json(), status_code=code, media_type="application/json")
@@ -105,12 +117,16 @@ def read_jobs(
     status_: Annotated[list[JobStatus] | None, Query(alias="status")] = None,
     kind: Annotated[list[KindName] | None, Query(max_length=50)] = None,
     parent_id: Ident | None = None,
+    name: Annotated[str | None, Query(min_length=1, max_length=200, description="exact job name")] = None,
+    tag: Annotated[list[Tag] | None, Query(max_length=MAX_TAGS, description="jobs with every tag given")] = None,
+    q: Annotated[str | None, Query(min_length=1, max_length=200, description="text in the name or note")] = None,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
     offset: Annotated[int, Query(ge=0, le=10_000_000)] = 0,
 ) -> JobsPublic:
-    """Jobs, newest first, filtered by status, kind and parent."""
+    """Jobs, newest first, filtered by status, kind, parent, name, tags (all of them) and free text."""
     count, rows = queue.list_jobs(engine, statuses=[s.value for s in status_ or ()], kinds=kind or (),
-                                  parent_id=parent_id, limit=limit, offset=offset)  # fmt: skip
+                                  parent_id=parent_id, name=name, tags=tag or (), q=q, limit=limit,
+                                  offset=offset)  # fmt: skip
     return JobsPublic(data=[job_public(r) for r in rows], count=count, limit=limit, offset=offset)
 
 
@@ -175,6 +191,16 @@ def read_job_events(
     start = last_event_id if last_event_id is not None else after
     return StreamingResponse(_sse(engine, job_id, start), media_type="text/event-stream",
                              headers={"Cache-Control": "no-cache"})  # fmt: skip
+
+
+@router.patch("/{job_id}", dependencies=[WriteAuth], responses=responses(*AUTH, 404))
+def update_job(job_id: JobId, body: JobUpdate, engine: EngineDep) -> JobPublic:
+    """Rename a job, edit its tags or note (any status; the spec and result never change)."""
+    fields = body.model_fields_set
+    labels.edit(engine, job_id, name=body.name if "name" in fields else labels.UNSET,
+                note=body.note if "note" in fields and body.note is not None else labels.UNSET,
+                tags=body.tags, add=body.add_tags, remove=body.remove_tags)  # fmt: skip
+    return job_public(queue.get_job(engine, job_id))
 
 
 @router.post("/{job_id}/cancel", dependencies=[WriteAuth], responses=responses(*AUTH, 404, 409))

@@ -22,6 +22,8 @@ PAGE_SIZE = 50
 
 StatusFilter = Annotated[list[JobStatus] | None, Query(alias="status")]
 KindFilter = Annotated[list[str] | None, Query(max_length=50)]
+TagFilter = Annotated[list[str] | None, Query(max_length=20)]
+TextFilter = Annotated[str | None, Query(max_length=200)]
 
 
 @router.get("/")
@@ -35,35 +37,44 @@ def job_verdict(job: dict[str, Any]) -> Verdict | None:
     return verdict(job["kind"], job["result"]) if job["status"] == queue.SUCCEEDED else None
 
 
-def _jobs(request: Request, status: list[JobStatus] | None, kind: list[str] | None, offset: int) -> dict[str, Any]:
+def _jobs(request: Request, status: list[JobStatus] | None, kind: list[str] | None, offset: int,
+          tag: list[str] | None = None, q: str | None = None) -> dict[str, Any]:  # fmt: skip
+    tags = [t for t in tag or [] if t]
     count, data = queue.list_jobs(request.app.state.engine, statuses=[s.value for s in status or []], kinds=kind or [],
-                                  limit=PAGE_SIZE, offset=offset)  # fmt: skip
+                                  tags=tags, q=q or None, limit=PAGE_SIZE, offset=offset)  # fmt: skip
     for job in data:
         job["report"] = files.report_of(request, job["id"]) if job["status"] == queue.SUCCEEDED else None
         job["verdict"] = job_verdict(job)
-    filters = urlencode([("status", s.value) for s in status or []] + [("kind", k) for k in kind or []])
+    filters = urlencode([("status", s.value) for s in status or []] + [("kind", k) for k in kind or []]
+                        + [("tag", t) for t in tags] + ([("q", q)] if q else []))
     return {"jobs": data, "count": count, "offset": offset, "page_size": PAGE_SIZE, "filters": filters}
 
 
 @pages.get("/jobs")
 def jobs_page(
-    request: Request, status: StatusFilter = None, kind: KindFilter = None, offset: Annotated[int, Query(ge=0)] = 0
+    request: Request, status: StatusFilter = None, kind: KindFilter = None, offset: Annotated[int, Query(ge=0)] = 0,
+    tag: TagFilter = None, q: TextFilter = None,
 ) -> HTMLResponse:
-    """All jobs, newest first, filtered by status and kind; rows refresh themselves."""
+    """All jobs, newest first, filtered by status, kind, tags and text in the name or note; rows refresh
+    themselves."""
+    from foresight.store import labels
+
     query = request.url.query
     return page(
         request, "jobs.html", title="Jobs", nav="jobs", statuses=[s.value for s in JobStatus], kinds=sorted(KINDS),
         selected_status=[s.value for s in status or []], selected_kind=kind or [],
-        rows_url="/ui/jobs/rows" + (f"?{query}" if query else ""), **_jobs(request, status, kind, offset),
+        known_tags=labels.known_tags(request.app.state.engine), selected_tag=[t for t in tag or [] if t], q=q or "",
+        rows_url="/ui/jobs/rows" + (f"?{query}" if query else ""), **_jobs(request, status, kind, offset, tag, q),
     )  # fmt: skip
 
 
 @pages.get("/jobs/rows")
 def jobs_rows(
-    request: Request, status: StatusFilter = None, kind: KindFilter = None, offset: Annotated[int, Query(ge=0)] = 0
+    request: Request, status: StatusFilter = None, kind: KindFilter = None, offset: Annotated[int, Query(ge=0)] = 0,
+    tag: TagFilter = None, q: TextFilter = None,
 ) -> HTMLResponse:
     """The table body of the jobs page (polled by the page)."""
-    return page(request, "_job_rows.html", **_jobs(request, status, kind, offset))
+    return page(request, "_job_rows.html", **_jobs(request, status, kind, offset, tag, q))
 
 
 def _job(request: Request, job_id: str) -> dict[str, Any]:
