@@ -40,14 +40,12 @@ def merged_tags(current: Sequence[str], *, replace: Sequence[str] | None, add: S
 
 
 def edit(engine: Engine, job_id: str, *, name: Any = UNSET, note: Any = UNSET, tags: Sequence[str] | None = None,
-         add: Sequence[str] = (), remove: Sequence[str] = ()) -> None:  # fmt: skip
-    """Change a job's labels (any status); :class:`~store.queue.JobNotFound` for an unknown job."""
-    from foresight.store.queue import JobNotFound
-
+         add: Sequence[str] = (), remove: Sequence[str] = ()) -> bool:  # fmt: skip
+    """Change a job's labels (any status); False when there is no such job."""
     with write_tx(engine) as conn:
         current = conn.execute(select(jobs.c.tags).where(jobs.c.id == job_id)).first()
         if current is None:
-            raise JobNotFound(f"no job with id {job_id!r}")
+            return False
         values: dict[str, Any] = {}
         if name is not UNSET:
             values["name"] = name
@@ -60,6 +58,7 @@ def edit(engine: Engine, job_id: str, *, name: Any = UNSET, note: Any = UNSET, t
             insert_tags(conn, [{"id": job_id, "tags": new}])
         if values:
             conn.execute(update(jobs).where(jobs.c.id == job_id).values(**values))
+    return True
 
 
 def label_filter(name: str | None = None, tags: Sequence[str] = (), q: str | None = None) -> list:

@@ -197,9 +197,11 @@ def read_job_events(
 def update_job(job_id: JobId, body: JobUpdate, engine: EngineDep) -> JobPublic:
     """Rename a job, edit its tags or note (any status; the spec and result never change)."""
     fields = body.model_fields_set
-    labels.edit(engine, job_id, name=body.name if "name" in fields else labels.UNSET,
-                note=body.note if "note" in fields and body.note is not None else labels.UNSET,
-                tags=body.tags, add=body.add_tags, remove=body.remove_tags)  # fmt: skip
+    found = labels.edit(engine, job_id, name=body.name if "name" in fields else labels.UNSET,
+                        note=body.note if "note" in fields and body.note is not None else labels.UNSET,
+                        tags=body.tags, add=body.add_tags, remove=body.remove_tags)  # fmt: skip
+    if not found:
+        raise queue.JobNotFound(f"no job with id {job_id!r}")
     return job_public(queue.get_job(engine, job_id))
 
 
