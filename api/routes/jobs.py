@@ -118,14 +118,14 @@ def read_jobs(
     kind: Annotated[list[KindName] | None, Query(max_length=50)] = None,
     parent_id: Ident | None = None,
     name: Annotated[str | None, Query(min_length=1, max_length=200, description="exact job name")] = None,
-    tag: Annotated[list[Tag] | None, Query(max_length=MAX_TAGS, description="jobs with every tag given")] = None,
+    tag: Annotated[list[Tag], Query(max_length=MAX_TAGS, description="jobs with every tag given")] = [],  # noqa: B006
     q: Annotated[str | None, Query(min_length=1, max_length=200, description="text in the name or note")] = None,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
     offset: Annotated[int, Query(ge=0, le=10_000_000)] = 0,
 ) -> JobsPublic:
     """Jobs, newest first, filtered by status, kind, parent, name, tags (all of them) and free text."""
     count, rows = queue.list_jobs(engine, statuses=[s.value for s in status_ or ()], kinds=kind or (),
-                                  parent_id=parent_id, name=name, tags=tag or (), q=q, limit=limit,
+                                  parent_id=parent_id, name=name, tags=tag, q=q, limit=limit,
                                   offset=offset)  # fmt: skip
     return JobsPublic(data=[job_public(r) for r in rows], count=count, limit=limit, offset=offset)
 
