@@ -12,7 +12,7 @@ from starlette.routing import Match
 from foresight.api import errors, web
 from foresight.api.deps import KnownQuery, ReadAuth
 from foresight.api.http_metrics import HttpMetrics, MetricsMiddleware, route_templates
-from foresight.api.routes import bundles, jobs, models, ops, planners, results
+from foresight.api.routes import bundles, jobs, listing, models, ops, planners, results
 from foresight.core.planners.external import operator_commands
 from foresight.core.version import code_version
 from foresight.store.registry import Resolver, load_shipped_models, sync_bundles
@@ -79,7 +79,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     read_codes = errors.responses(*errors.AUTH) if settings.read_requires_token else {}
     app.include_router(ops.router)
     app.include_router(ops.read_router, dependencies=read_auth, responses=read_codes)
-    for module in (jobs, models, bundles, results, planners):
+    for module in (jobs, models, bundles, listing, results, planners):
         app.include_router(module.router, prefix="/v1", dependencies=[*read_auth, KnownQuery], responses=read_codes)
     web.install(app)  # the dashboard: /ui pages over the same store
     app.add_middleware(AllowMiddleware, router=app.router)

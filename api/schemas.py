@@ -226,6 +226,8 @@ class ModelPublic(BaseModel):
 class ModelsPublic(BaseModel):
     data: list[ModelPublic]
     count: int
+    limit: int | None = None
+    offset: int = 0
 
 
 # Bundles
@@ -274,6 +276,8 @@ class EvaluationSummaryPublic(BaseModel):
     bundle_id: str | None
     config: EvaluationRunConfig
     metrics: EvaluationMetrics
+    name: str | None = Field(None, description="its job's name")
+    tags: list[str] = Field(default_factory=list, description="its job's tags")
 
 
 class EvaluationPublic(EvaluationSummaryPublic):
@@ -304,6 +308,26 @@ class CampaignCellPublic(BaseModel):
     rank: int
     params: CellParams
     metrics: CellMetrics
+
+
+class CampaignSummaryPublic(BaseModel):
+    """A campaign in a list: what it ran and its best cell's headline (the cells are in ``GET /v1/campaigns/{id}``)."""
+
+    id: str
+    job_id: str | None
+    config: dict[str, Any] = Field(description="matrix, seed_manifest, grid, horizon")
+    best: CellParams | None = Field(description="checkpoint and variant of the best cell")
+    best_metrics: dict[str, Any] | None = Field(description="the best cell's suites: success, collision rates")
+    name: str | None = None
+    tags: list[str] = Field(default_factory=list)
+    created_at: datetime
+
+
+class CampaignsPublic(BaseModel):
+    data: list[CampaignSummaryPublic]
+    count: int
+    limit: int
+    offset: int
 
 
 class CampaignPublic(BaseModel):

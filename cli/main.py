@@ -26,6 +26,7 @@ COMMAND_MODULES = [
     "foresight.cli.predict",
     "foresight.cli.pipeline",
     "foresight.cli.report",
+    "foresight.cli.results",
 ]
 
 

@@ -18,6 +18,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     ls = models.add_parser("ls", help="list registered models")
     ls.add_argument("--status")
     ls.add_argument("--tag")
+    ls.add_argument("--limit", type=int, help="page size (default: every model)")
+    ls.add_argument("--offset", type=int, default=0)
     ls.set_defaults(func=cmd_ls)
     show = models.add_parser("show", help="one registry entry")
     show.add_argument("model_id")
@@ -62,9 +64,10 @@ def _line(m: dict) -> str:
 
 
 def cmd_ls(args: argparse.Namespace) -> int:
-    params = {k: v for k, v in (("status", args.status), ("tag", args.tag)) if v}
+    params = {k: v for k, v in (("status", args.status), ("tag", args.tag), ("limit", args.limit),
+                                ("offset", args.offset)) if v}  # fmt: skip
     page = Client.from_args(args).get("/v1/models", params=params)
-    _out(page, args.json, "\n".join([_line(m) for m in page["data"]] + [f"{page['count']} models"]))
+    _out(page, args.json, "\n".join([_line(m) for m in page["data"]] + [f"{len(page['data'])} of {page['count']} models"]))
     return 0
 
 

@@ -22,10 +22,15 @@ def read_models(
     engine: EngineDep,
     status_: Annotated[ModelStatus | None, Query(alias="status")] = None,
     tag: Annotated[str | None, Query(max_length=100)] = None,
+    limit: Annotated[int | None, Query(ge=1, le=500, description="page size (default: every entry)")] = None,
+    offset: Annotated[int, Query(ge=0, le=10_000_000)] = 0,
 ) -> ModelsPublic:
-    """Registry entries (shipped read-only entries included), filtered by status or tag."""
+    """Registry entries, oldest first (shipped read-only entries included), filtered by status or tag; ``count``
+    is the number matching, ``limit``/``offset`` select a page."""
     rows = registry.models(engine, status=status_.value if status_ is not None else None, tag=tag)
-    return ModelsPublic(data=[ModelPublic.model_validate(m) for m in rows], count=len(rows))
+    page = rows[offset: offset + limit if limit is not None else None]
+    return ModelsPublic(data=[ModelPublic.model_validate(m) for m in page], count=len(rows), limit=limit,
+                        offset=offset)
 
 
 class YamlResponse(PlainTextResponse):

@@ -13,8 +13,6 @@ from foresight.api.schemas import (
     DatasetPublic,
     EpisodePublic,
     EvaluationPublic,
-    EvaluationsPublic,
-    EvaluationSummaryPublic,
     Ident,
 )
 from foresight.store import queue, results
@@ -48,20 +46,6 @@ def read_data_roots(settings: SettingsDep) -> list[dict[str, Any]]:
 
     return [{"name": name, "folds": [f for f in FOLDS if (path / f).is_dir()]}
             for name, path in sorted(settings.named_data_roots.items())]
-
-
-@router.get("/evaluations")
-def read_evaluations(
-    engine: EngineDep,
-    model_id: Ident | None = None,
-    bundle: Ident | None = None,
-    limit: Annotated[int, Query(ge=1, le=500)] = 50,
-    offset: Annotated[int, Query(ge=0, le=10_000_000)] = 0,
-) -> EvaluationsPublic:
-    """Evaluations, newest first, filtered by model id and bundle; config and headline metrics of each."""
-    count, rows = results.evaluations(engine, model_id=model_id, bundle_id=bundle, limit=limit, offset=offset)
-    return EvaluationsPublic(data=[EvaluationSummaryPublic.model_validate(r) for r in rows], count=count, limit=limit,
-                             offset=offset)
 
 
 @router.get("/evaluations/{evaluation_id}", responses=responses(404))
