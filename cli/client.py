@@ -40,7 +40,8 @@ def describe(detail: Any) -> str:
 
 
 def add_connection_args(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--url", help="server URL (default: $FORESIGHT_API_URL or http://127.0.0.1:8000)")
+    parser.add_argument("--url", help="server URL (default: $FORESIGHT_API_URL, else the running `foresight up` of the "
+                        "data dir, else http://127.0.0.1:8000)")
     parser.add_argument("--token", help="write token (default: $FORESIGHT_API_TOKEN or the data dir's token)")
 
 
@@ -52,7 +53,7 @@ class Client:
     @classmethod
     def from_args(cls, args: argparse.Namespace) -> Client:
         settings = Settings()
-        return cls(getattr(args, "url", None) or settings.api_url, getattr(args, "token", None) or settings.client_token())
+        return cls(getattr(args, "url", None) or settings.client_url, getattr(args, "token", None) or settings.client_token())
 
     def request(self, method: str, path: str, **kwargs: Any) -> Any:
         try:

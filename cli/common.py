@@ -42,6 +42,21 @@ def build_config(model: type[BaseModel], values: dict[str, Any]) -> Any:
         raise ConfigError(first["msg"], source="command line", item=field) from None
 
 
+def local_workdir(out: str | Path | None, name: str) -> Path:
+    """A ``--local`` run's work folder: ``--out``, else a new ``<data dir>/runs/NAME-<time>-<hex>`` (the per-user data
+    folder, so runs are found again from any terminal; delete old ones freely)."""
+    if out:
+        return Path(out)
+    import secrets
+    import time
+
+    from foresight.store.settings import Settings
+
+    folder = Settings().local_runs / f"{name}-{time.strftime('%Y%m%d-%H%M%S')}-{secrets.token_hex(3)}"
+    folder.mkdir(parents=True)
+    return folder
+
+
 def local_context(workdir: Path | None, bundles: dict[str, Path], *, quiet: bool) -> StageContext:
     """A StageContext for in-process runs, with a progress line on stderr unless quiet."""
     from foresight.core.errors import NotFoundError

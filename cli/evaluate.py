@@ -13,13 +13,12 @@ from __future__ import annotations
 
 import argparse
 import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
 from foresight.cli import stage
 from foresight.cli.client import add_connection_args
-from foresight.cli.common import emit, finish_local, local_context
+from foresight.cli.common import emit, finish_local, local_context, local_workdir
 from foresight.core.errors import ConfigError
 from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
 
@@ -41,7 +40,8 @@ def _common(p: argparse.ArgumentParser, *, planner: bool = True) -> None:
                         "set in every scenario; repeatable")
     p.add_argument("--max-steps", type=int, help="horizon override for smoke runs (default: each scenario's)")
     p.add_argument("--bundle", help="server: config bundle id; --matrix/--seeds/--grid are names inside it")
-    p.add_argument("--out", help="--local: work folder for the artifacts (default: a new temporary folder)")
+    p.add_argument("--out", help="--local: work folder for the artifacts (default: a new folder under "
+                   "<data dir>/runs)")
     p.add_argument("--workers", type=int, help="--local: parallel episode processes (default 1; the server's "
                                                "workers use FORESIGHT_STAGE_WORKERS)")
     p.add_argument("--executor", choices=["local", "ray"], help="where episodes run: local processes (default) or "
@@ -205,8 +205,7 @@ def _inline_config(text: str) -> dict[str, Any]:
 
 
 def _context(args: argparse.Namespace, roots: dict[str, Path], models: ModelArgs):
-    out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix=f"foresight-{args.command}-"))
-    ctx = local_context(out, roots, quiet=args.json)
+    ctx = local_context(local_workdir(args.out, args.command), roots, quiet=args.json)
     ctx.resolve_model = models.resolve
     ctx.workers = max(1, int(args.workers or 1))
     return ctx

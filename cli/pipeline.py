@@ -16,7 +16,6 @@ import signal
 import socket
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -40,7 +39,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     run = actions.add_parser("run", help="run a pipeline config (on the server by default)")
     run.add_argument("-f", "--file", required=True, help="pipeline YAML (e.g. configs/pipelines/quickstart.yaml)")
     run.add_argument("--local", action="store_true", help="run every stage in-process, no server")
-    run.add_argument("--out", help="--local: work folder (default: a new temporary folder; reruns resume)")
+    run.add_argument("--out", help="--local: work folder (default: a new folder under <data dir>/runs; reruns "
+                     "with --out resume)")
     run.add_argument("--workers", type=int, help="processes per episode stage (overrides the config's workers)")
     run.add_argument("--no-wait", action="store_true", help="submit and print the job id")
     run.add_argument("--key", help="idempotency key of the submission")
@@ -97,7 +97,7 @@ def _stage_lines(result: PipelineResult) -> list[str]:
 
 
 def run_local(config_path: str, out: str | None, workers: int | None, quiet: bool) -> tuple[PipelineResult, Path]:
-    from foresight.cli.common import local_context
+    from foresight.cli.common import local_context, local_workdir
     from foresight.cli.evaluate import ModelArgs
     from foresight.core.pipeline.config import PipelineConfig
     from foresight.core.pipeline.local import LocalChildren
@@ -106,7 +106,7 @@ def run_local(config_path: str, out: str | None, workers: int | None, quiet: boo
     config = PipelineConfig.model_validate(read_pipeline(config_path, workers))
     if config.bundle != BUILTIN_BUNDLE:
         raise ConfigError("--local runs use the builtin bundle (configs/)", source=config_path, item="bundle")
-    workdir = Path(out) if out else Path(tempfile.mkdtemp(prefix=f"foresight-pipeline-{config.name}-"))
+    workdir = local_workdir(out, f"pipeline-{config.name}")
     ctx = local_context(workdir, {BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT}, quiet=quiet)
     ctx.workers = config.workers or 1
     if not quiet:

@@ -9,11 +9,10 @@ Exit codes: 0 ok, 2 training gates failed (summary written), 1 error (or a faile
 from __future__ import annotations
 
 import argparse
-import tempfile
 from pathlib import Path
 
 from foresight.cli import stage
-from foresight.cli.common import build_config, emit, finish_local, local_context, matrix_ref
+from foresight.cli.common import build_config, emit, finish_local, local_context, local_workdir, matrix_ref
 from foresight.core.errors import ConfigError
 
 
@@ -78,13 +77,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _outputs(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--out", help="--local: work folder (default: a new temporary folder)")
+    p.add_argument("--out", help="--local: work folder (default: a new folder under <data dir>/runs)")
     stage.add_mode_args(p)
 
 
 def _ctx(args: argparse.Namespace, bundles: dict[str, Path] | None = None):
-    out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix=f"foresight-{args.command}-"))
-    return local_context(out, bundles or {}, quiet=args.json)
+    return local_context(local_workdir(args.out, args.command), bundles or {}, quiet=args.json)
 
 
 def _section(path: str | None, key: str) -> dict:

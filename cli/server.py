@@ -8,6 +8,7 @@ import os
 import signal
 import subprocess
 import sys
+from pathlib import Path
 
 from foresight.store.settings import Settings
 
@@ -127,17 +128,28 @@ def cmd_worker(args: argparse.Namespace) -> int:
 
 
 def cmd_up(args: argparse.Namespace) -> int:
-    """Migrate, start a worker process, serve in this one; stopping the server stops the worker."""
+    """Migrate, start a worker process, serve in this one; stopping the server stops the worker.
+
+    While it runs, ``<data dir>/server.json`` says where (URL and pid): a CLI client in any folder finds the server
+    and its token through the per-user data dir, whatever the port."""
+    import json
+
     from foresight.store.session import upgrade
 
     _logging(args.log_level)
     settings = Settings()
     upgrade(settings.resolved_database_url)
     settings.server_token()  # create the data dir's token before the client needs it
-    token = "FORESIGHT_API_TOKEN" if settings.api_token else str(settings.token_file().resolve())
-    print(f"foresight up: dashboard http://{args.host}:{args.port}/ui · data {settings.data_dir.resolve()} · "
-          f"write token in {token} (clients in another folder: export FORESIGHT_DATA_DIR="
-          f"{settings.data_dir.resolve()})", file=sys.stderr, flush=True)
+    host = "127.0.0.1" if args.host in ("0.0.0.0", "::", "") else args.host
+    url = f"http://{host}:{args.port}"
+    data = settings.data_dir.resolve()
+    token = "$FORESIGHT_API_TOKEN" if settings.api_token else str(settings.token_file().resolve())
+    print(f"foresight up: dashboard {url}/ui\n  data folder  {data}\n  write token  {token}\n"
+          f"  clients in any folder use both (FORESIGHT_DATA_DIR={data} for another user or data folder)",
+          file=sys.stderr, flush=True)  # fmt: skip
+    server_file = settings.server_file()
+    server_file.parent.mkdir(parents=True, exist_ok=True)
+    server_file.write_text(json.dumps({"url": url, "pid": os.getpid()}) + "\n")
     worker = subprocess.Popen(
         [sys.executable, "-m", "foresight.cli.main", "worker", "--concurrency", str(args.concurrency)], env=os.environ.copy()
     )
@@ -149,4 +161,16 @@ def cmd_up(args: argparse.Namespace) -> int:
             worker.wait(timeout=settings.shutdown_grace_s + 10)
         except subprocess.TimeoutExpired:
             worker.kill()
+        _forget(server_file)
     return 0
+
+
+def _forget(server_file: Path) -> None:
+    """Remove ``server.json`` if it is still this process's (another `up` may have started on the data dir since)."""
+    import json
+
+    try:
+        if json.loads(server_file.read_text()).get("pid") == os.getpid():
+            server_file.unlink()
+    except (OSError, ValueError, AttributeError):
+        pass

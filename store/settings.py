@@ -5,6 +5,7 @@ Built by whoever starts a component (the app factory, the worker, the CLI), neve
 
 from __future__ import annotations
 
+import json
 import os
 import secrets
 from pathlib import Path
@@ -17,21 +18,33 @@ from foresight.core.stages.budget import DEFAULT_STEP_BUDGET
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 TOKEN_FILE = "api-token"
+SERVER_FILE = "server.json"  #: written by `foresight up`: where its API listens (and its pid), for the CLI client
+DEFAULT_API_URL = "http://127.0.0.1:8000"
+
+
+def default_data_dir() -> Path:
+    """The per-user data folder, ``$XDG_DATA_HOME/foresight`` (else ``~/.local/share/foresight``): one place for
+    the local server's database, store and token, so the CLI finds them from any folder of any terminal."""
+    base = os.environ.get("XDG_DATA_HOME") or Path.home() / ".local" / "share"
+    return Path(base) / "foresight"
+
+
 class Settings(BaseSettings):
     """Everything the API server, the worker and the CLI client need to know about their environment."""
 
     model_config = SettingsConfigDict(env_prefix="FORESIGHT_", extra="ignore")
 
-    #: folder for the embedded SQLite database, the default artifact store and the generated token
-    data_dir: Path = Path(".foresight")
+    #: folder for the embedded SQLite database, the default artifact store, the generated token and ``--local``
+    #: runs' work folders; per user (:func:`default_data_dir`), not per current directory
+    data_dir: Path = Field(default_factory=default_data_dir)
     #: SQLAlchemy URL; empty means ``sqlite:///<data_dir>/foresight.db``
     database_url: str = ""
     #: artifact root; empty means ``<data_dir>/store``
     store: Path | None = None
     #: bearer token for write endpoints; empty means a generated one kept in ``<data_dir>/api-token``
     api_token: str = ""
-    #: base URL the CLI client talks to
-    api_url: str = "http://127.0.0.1:8000"
+    #: base URL the CLI client talks to; empty: the running `foresight up` of this data dir, else DEFAULT_API_URL
+    api_url: str = ""
     #: extra config roots registered as bundles at start-up (``os.pathsep``-separated in the environment)
     config_dirs: str = ""
     #: close the read endpoints too (they are open by default)
@@ -66,6 +79,32 @@ class Settings(BaseSettings):
     @classmethod
     def _strip_slash(cls, value: str) -> str:
         return value.rstrip("/")
+
+    @field_validator("data_dir")
+    @classmethod
+    def _expand(cls, value: Path) -> Path:
+        return value.expanduser()
+
+    @property
+    def client_url(self) -> str:
+        """Where the CLI client sends requests: ``FORESIGHT_API_URL``, else the URL ``foresight up`` recorded in the
+        data dir while it runs (any port, any folder it was started from), else :data:`DEFAULT_API_URL`."""
+        if self.api_url:
+            return self.api_url
+        try:
+            server = json.loads(self.server_file().read_text())
+            os.kill(int(server["pid"]), 0)  # a server that died without removing its file is not used
+            return str(server["url"]).rstrip("/")
+        except (OSError, ValueError, KeyError, TypeError):
+            return DEFAULT_API_URL
+
+    def server_file(self) -> Path:
+        return self.data_dir / SERVER_FILE
+
+    @property
+    def local_runs(self) -> Path:
+        """The parent of ``--local`` runs' work folders that have no ``--out``."""
+        return self.data_dir / "runs"
 
     @property
     def resolved_database_url(self) -> str:

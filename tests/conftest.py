@@ -10,6 +10,20 @@ import pytest
 REPO = Path(__file__).resolve().parent.parent
 
 
+def pytest_configure(config: pytest.Config) -> None:
+    """Tests never touch the user's own data folder (~/.local/share/foresight): processes that set no
+    FORESIGHT_DATA_DIR of their own (servers, --local runs without --out) share one temporary folder."""
+    import tempfile
+
+    os.environ["FORESIGHT_DATA_DIR"] = tempfile.mkdtemp(prefix="foresight-test-data-")
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    import shutil
+
+    shutil.rmtree(os.environ.get("FORESIGHT_DATA_DIR", ""), ignore_errors=True)
+
+
 def shared_root() -> Path:
     """The shared material folder: $FORESIGHT_SHARED, else ../shared beside the repository."""
     return Path(os.environ.get("FORESIGHT_SHARED", REPO.parent / "shared")).resolve()

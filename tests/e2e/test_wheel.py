@@ -80,7 +80,7 @@ def test_a_user_folder_runs_the_service_and_a_local_evaluation(installed: tuple[
     port = free_port()
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV", "PYTHONHOME")}
     env |= {"PATH": f"{venv / 'bin'}:{env['PATH']}", "FORESIGHT_API_TOKEN": "wheel-token", "PYTHONUNBUFFERED": "1",
-            "FORESIGHT_HEARTBEAT_S": "0.3", "FORESIGHT_POLL_S": "0.05"}  # fmt: skip
+            "FORESIGHT_HEARTBEAT_S": "0.3", "FORESIGHT_POLL_S": "0.05", "FORESIGHT_DATA_DIR": str(work / "data")}  # fmt: skip
     server = subprocess.Popen([venv / "bin" / "foresight", "up", "--port", str(port)], env=env, cwd=work,
                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)  # fmt: skip
     try:
