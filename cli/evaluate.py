@@ -44,8 +44,7 @@ def _common(p: argparse.ArgumentParser, *, planner: bool = True) -> None:
                    "<data dir>/runs)")
     p.add_argument("--workers", type=int, help="--local: parallel episode processes (default 1; the server's "
                                                "workers use FORESIGHT_STAGE_WORKERS)")
-    p.add_argument("--executor", choices=["local", "ray"], help="where episodes run: local processes (default) or "
-                   "Ray tasks on the cluster at FORESIGHT_RAY_ADDRESS (else a local Ray instance)")
+    p.add_argument("--executor", choices=["local", "ray"], help=stage.EXECUTOR_HELP)
     stage.add_mode_args(p)
 
 
@@ -284,7 +283,7 @@ class Refs:
         return spec
 
     def run(self, kind: str, values: dict[str, Any], text, exit_code=lambda r: 0) -> int:  # noqa: ANN001
-        """Submit the ``kind`` job, or run its stage function in-process (``--local``; ``shards`` ignored)."""
+        """Submit the ``kind`` job, or run its stage function in-process (``--local``)."""
         from foresight.core.stages.kinds import KINDS
 
         if self.args.executor:
@@ -330,6 +329,8 @@ def _evaluation_text(r: Any, where: str) -> str:
     lines += ["", f"failures: {fails}", f"gate: {r.status}"]
     lines += [f"  {c.name}: {'ok' if c.passed else 'FAIL'} ({c.value} vs {c.threshold}) {c.detail}".rstrip()
               for c in r.gate.checks]
+    if r.execution is not None:
+        lines.append(f"ran on: {r.execution.describe()}")
     lines.append(where)
     return "\n".join(lines)
 

@@ -55,6 +55,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     co.add_argument("--policy", choices=["goal", "goal_noisy"])
     co.add_argument("--max-steps", type=int)
     co.add_argument("--max-agents", type=int)
+    co.add_argument("--executor", choices=["local", "ray"], help=stage.EXECUTOR_HELP)
     co.add_argument("--override", action="append", metavar="KEY=VALUE",
                     help="collect under other conditions, as foresight evaluate --override (repeatable)")
     _outputs(co)
@@ -72,6 +73,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     tr.add_argument("--config", help="training config YAML (its 'train' mapping, or the whole file)")
     tr.add_argument("--epochs", type=int)
     tr.add_argument("--threads", type=int)
+    tr.add_argument("--executor", choices=["local", "ray"], help="where the closed-loop proxy's episodes run: "
+                    "local processes (default) or Ray tasks on the cluster at FORESIGHT_RAY_ADDRESS")
     _outputs(tr)
     tr.set_defaults(func=train_cmd)
 
@@ -179,7 +182,7 @@ def collect_cmd(args: argparse.Namespace) -> int:
     flags = {"scenarios": args.scenarios.split(",") if args.scenarios else None,
              "seeds_per_scenario": args.seeds_per_scenario, "base_seed": args.base_seed, "policy": args.policy,
              "max_steps": args.max_steps, "max_agents": args.max_agents,
-             "scenario_overrides": overrides(args.override) or None}
+             "scenario_overrides": overrides(args.override) or None, "executor": args.executor}
     values = {**_section(args.config, args.section), **{k: v for k, v in flags.items() if v is not None}}
     if not args.local:
         stage.local_only(args, out="--out")
@@ -235,6 +238,11 @@ def train_cmd(args: argparse.Namespace) -> int:
     values = {**_train_values(args.config), **{k: v for k, v in overrides.items() if v is not None}}
     if values.get("dataset") is None:
         raise ConfigError("no dataset: give --dataset or a config with train.dataset", source=args.config)
+    if args.executor:
+        if not isinstance(values.get("proxy"), dict):
+            raise ConfigError("--executor picks where the closed-loop proxy's episodes run, and this training "
+                              "has no proxy (train.proxy)", source=args.config, item="--executor")
+        values["proxy"] = {**values["proxy"], "executor": args.executor}
 
     def text(r: TrainResult, where: str, checkpoint: str | None = None) -> str:
         return (f"{checkpoint or r.checkpoint}: epoch {r.best_epoch} val ADE {r.val_ade:.3f} FDE {r.val_fde:.3f} "

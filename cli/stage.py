@@ -23,6 +23,10 @@ from foresight.cli.common import build_config
 from foresight.core.errors import ConfigError, CoreError
 from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
 
+#: the ``--executor`` flag of every stage command that runs episodes
+EXECUTOR_HELP = ("where episodes run: local processes (default) or Ray tasks on the cluster at FORESIGHT_RAY_ADDRESS "
+                 "(else a local Ray instance)")
+
 CHECKPOINT_SUFFIXES = (".pt", ".pth", ".ckpt")
 
 

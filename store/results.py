@@ -124,19 +124,13 @@ def episodes_file(engine: Engine, store_root: Path, ident: str) -> Path | None:
 
 
 def episode_trace_file(engine: Engine, store_root: Path, ident: str, name: str) -> Path | None:
-    """The file ``name`` (a work-directory-relative trace name) of an evaluation's job or, sharded, of one of its
-    shard jobs; None when absent."""
+    """The file ``name`` (a work-directory-relative trace name) of an evaluation's job; None when absent."""
     with session_factory(engine)() as session:
         row = _get(session, Evaluation, ident, "evaluation")
         if row.job_id is None:
             return None
-        # a sharded evaluation's episodes ran in its shard jobs: their folders hold the traces
-        shards = session.scalars(select(Job.id).where(Job.parent_id == row.job_id)).all()
-    for job_id in (row.job_id, *shards):
-        path = folders.resolve_under(store_root, f"{folders.job_dir(store_root, job_id)}/{name}")
-        if path.is_file():
-            return path
-    return None
+    path = folders.resolve_under(store_root, f"{folders.job_dir(store_root, row.job_id)}/{name}")
+    return path if path.is_file() else None
 
 
 def comparison_setup(engine: Engine, ident: str) -> dict[str, Any] | None:

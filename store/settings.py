@@ -62,7 +62,7 @@ class Settings(BaseSettings):
     sqlite_busy_timeout_ms: int = Field(30000, ge=0)  #: [ms]
     #: processes a stage may use for parallel episodes (``StageContext.workers``); worker slots are threads
     stage_workers: int = Field(1, ge=1, le=256)
-    #: [s] limit of one attempt of a job that sets no ``timeout_s`` of its own (children of pipelines and shards too)
+    #: [s] limit of one attempt of a job that sets no ``timeout_s`` of its own (children of pipelines too)
     job_timeout_s: float = Field(12 * 3600.0, gt=0, le=7 * 86400)
     #: simulation steps one job may ask for (episodes x horizon), checked at submission and before a stage runs
     max_job_steps: int = Field(DEFAULT_STEP_BUDGET, ge=1)

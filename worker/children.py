@@ -1,4 +1,4 @@
-"""Child jobs run in their parent's own worker slot: the pipeline's stages and a sharded run's shards.
+"""Child jobs run in their parent's own worker slot: the pipeline's stages.
 
 The worker gives every stage a child-job facility (``ctx.children(role, workers)``, a :class:`ChildRunner`).
 A parent submits real job rows (``parent_id`` = the parent, an idempotency key it derives from its own id), so

@@ -94,7 +94,7 @@ def _episodes(request: Request, job: dict[str, Any]) -> list[Any]:
 
     try:
         return episode_list(request.app.state.engine, request.app.state.settings, job["id"])
-    except queue.JobNotFound:  # no evaluation row (e.g. the job is a shard's parent still merging)
+    except queue.JobNotFound:  # no evaluation row (e.g. one written before rows were kept)
         return []
 
 

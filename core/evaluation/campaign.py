@@ -4,9 +4,8 @@ Ranking is the reference's (code) order: descending lexicographic on (hard succe
 clearance, global clearance, global average speed); cells with integrity violations rank last. Each
 finished cell is written to ``cells/`` with a fingerprint of everything that determines it, so a
 resumed campaign skips finished cells. The optional closed-loop gate compares the best cell with the
-baseline variant on the same checkpoint; a failing gate is a result with exit code 2. A service worker may run
-a campaign's (cell, episode) work list as shard jobs instead (``shards`` > 1, core.evaluation.shards); their
-merge builds the same cells through :func:`finish_cell` and :func:`campaign_result`.
+baseline variant on the same checkpoint; a failing gate is a result with exit code 2. A cell's episodes run on
+the campaign's executor (``local`` or ``ray``: core.evaluation.runner.run_jobs), with the same result.
 """
 
 from __future__ import annotations
@@ -49,6 +48,7 @@ from foresight.core.evaluation.runner import (
 from foresight.core.evaluation.stats import ALPHA, MIN_PAIRS
 from foresight.core.scenarios.model import ScenarioMatrix
 from foresight.core.stages.context import StageContext
+from foresight.core.stages.execution import Execution, execution
 from foresight.core.version import code_version
 
 CELL_FORMAT = "foresight.campaign_cell/1"
@@ -108,6 +108,7 @@ class CampaignResult(BaseModel):
     hard_episodes: int
     global_episodes: int
     code_version: str
+    execution: Execution | None = None  #: which executor ran the episodes, on how many CPUs (None: older results)
     artifacts: dict[str, str]
     wall_s: float
     config: dict  #: the stage config as given (with defaults)
@@ -324,6 +325,7 @@ def campaign_result(config: CampaignConfig, ctx: StageContext, plan: CampaignPla
         ranked=ranked, gate=gate, best_vs_reference={k: list(v) for k, v in diff.items()}, cells_run=ran, cells_resumed=len(cells) - ran, matrix=config.matrix,
         seed_manifest=config.seed_manifest, grid=config.grid or "inline", horizon=str(config.max_steps or "scenario"),
         hard_episodes=len(hard), global_episodes=len(glob), code_version=code_version(),
+        execution=execution(config.executor, ctx.workers),
         artifacts={"summary": "campaign_summary.json", "report": "campaign_report.md", "cells": "cells/"},
         wall_s=time.perf_counter() - t0, config=config.model_dump(mode="json"),
     )

@@ -5,7 +5,7 @@ Inputs are named by bundle id + bundle-relative path and by model id, never by s
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
@@ -16,16 +16,19 @@ from foresight.core.evaluation.metrics import MetricsConfig
 from foresight.core.evaluation.plannerspec import PlannerSpec, planner_spec
 from foresight.core.evaluation.taxonomy import TaxonomyConfig
 from foresight.core.scenarios.model import MAX_EPISODE_STEPS
+from foresight.core.stages.execution import Executor
 from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident, Name
 
 StartMethod = Literal["spawn", "fork", "forkserver"]
-#: where episodes run: ``local`` (this process, or a process pool of the stage's workers) or ``ray`` (one task per
-#: episode on the cluster at FORESIGHT_RAY_ADDRESS, else a local Ray instance); results do not depend on it
-Executor = Literal["local", "ray"]
-MAX_SHARDS = 64  #: most shard jobs one evaluation or campaign is split into
-#: ``shards`` of an evaluation or campaign: a service worker splits the episodes into this many shard jobs that any
-#: worker may run (core.evaluation.shards); the result is the same for any value, and in-process runs ignore it
-Shards = Annotated[int, Field(ge=1, le=MAX_SHARDS)]
+
+
+def refuse_shards(data: Any) -> Any:
+    """``shards`` (shard child jobs) is gone: episodes spread over machines on Ray. A spec still sending it gets
+    this one error, naming what to use instead, rather than an anonymous "extra input"."""
+    if isinstance(data, dict) and "shards" in data:
+        raise ValueError("'shards' was removed: to spread episodes over machines use 'executor: ray' "
+                         "(a Ray cluster at FORESIGHT_RAY_ADDRESS, see README 'Scaling out')")
+    return data
 
 
 class _Config(BaseModel):
@@ -60,7 +63,8 @@ class EvaluationConfig(EpisodeSelection):
     bootstrap: BootstrapConfig = BootstrapConfig()
     start_method: StartMethod = "spawn"  #: worker processes (results do not depend on it)
     executor: Executor = "local"
-    shards: Shards = 1  #: shard jobs a service worker splits the episodes into (results do not depend on it)
+
+    _no_shards = model_validator(mode="before")(refuse_shards)
 
 
 class DiagnosticsConfig(EpisodeSelection):
@@ -126,7 +130,8 @@ class CampaignConfig(_Config):
     bootstrap: BootstrapConfig = BootstrapConfig()
     start_method: StartMethod = "spawn"
     executor: Executor = "local"
-    shards: Shards = 1  #: shard jobs a service worker splits the cells' episodes into (results do not depend on it)
+
+    _no_shards = model_validator(mode="before")(refuse_shards)
 
     @model_validator(mode="after")
     def _grid(self) -> CampaignConfig:
@@ -136,44 +141,4 @@ class CampaignConfig(_Config):
             variant_spec(self.planner, variant, None)
         if len(set(self.checkpoints)) != len(self.checkpoints):
             raise ValueError("checkpoints listed twice")
-        return self
-
-
-class ShardRef(_Config):
-    """Which slice of a sharded run a shard job holds: every ``count``-th episode from ``index`` on."""
-
-    index: int = Field(ge=0, lt=MAX_SHARDS)
-    count: int = Field(ge=2, le=MAX_SHARDS)
-
-    @model_validator(mode="after")
-    def _in_range(self) -> ShardRef:
-        if self.index >= self.count:
-            raise ValueError(f"shard index {self.index} is not below the shard count {self.count}")
-        return self
-
-
-def _check_shard(shard: ShardRef, shards: int) -> None:
-    if shard.count != shards:
-        raise ValueError(f"shard count {shard.count} differs from shards {shards}")
-
-
-class EvaluationShardConfig(EvaluationConfig):
-    """One shard job of a sharded evaluation: the parent's config as given, plus which slice to run."""
-
-    shard: ShardRef
-
-    @model_validator(mode="after")
-    def _shard(self) -> EvaluationShardConfig:
-        _check_shard(self.shard, self.shards)
-        return self
-
-
-class CampaignShardConfig(CampaignConfig):
-    """One shard job of a sharded campaign: the parent's config as given, plus which slice to run."""
-
-    shard: ShardRef
-
-    @model_validator(mode="after")
-    def _shard(self) -> CampaignShardConfig:
-        _check_shard(self.shard, self.shards)
         return self

@@ -31,6 +31,7 @@ from foresight.core.evaluation.runner import (
 )
 from foresight.core.evaluation.taxonomy import TaxonomyConfig, count_labels
 from foresight.core.stages.context import StageContext
+from foresight.core.stages.execution import Execution, execution
 from foresight.core.version import code_version
 
 
@@ -62,6 +63,7 @@ class DiagnosticsResult(BaseModel):
     seeds: list[SeedSummary]
     planner: PlannerProvenance
     code_version: str
+    execution: Execution | None = None  #: which executor ran the episodes, on how many CPUs (None: older results)
     artifacts: dict[str, str]
     wall_s: float
     config: dict  #: the stage config as given (with defaults)
@@ -226,6 +228,7 @@ def run_diagnostics(config: DiagnosticsConfig, ctx: StageContext) -> Diagnostics
         episodes=len(seeds), solved=outcomes.get("success", 0), outcomes=outcomes,
         taxonomy=count_labels([s.label for s in seeds]), taxonomy_config=config.taxonomy, seeds=seeds,
         planner=planner_provenance(rp), code_version=code_version(),
+        execution=execution(config.executor, ctx.workers),
         artifacts={"summary": "diagnostics.json", "report": "diagnostics_report.md"}, wall_s=time.perf_counter() - t0,
         config=config.model_dump(mode="json"),
     )

@@ -1,10 +1,14 @@
-"""Episodes as Ray tasks: the data plane of evaluate, diagnose and campaign when their ``executor`` is ``ray``.
+"""Episodes as Ray tasks: the data plane of evaluate, diagnose, campaign, collect and training's proxy selection
+when their ``executor`` is ``ray``.
 
 The job queue stays the control plane (submission, leases, status, results); here every episode is one Ray
 task on whatever nodes the cluster has. Why these choices:
 
 - The run's settings, matrix and checkpoint bytes enter the object store once per run (``ray.put``); each worker
   process builds one EpisodeWorker per run and reuses it, so nothing is sent or rebuilt per episode.
+- At most ``WINDOW_PER_CPU`` tasks per cluster CPU are in flight (:func:`run_tasks`): a new one is submitted as
+  one finishes, and each result is handed on and dropped from the object store when it arrives. So a run of
+  10^6 episodes holds a few thousand futures, not 10^6, and the driver's memory does not grow with pending work.
 - A task is retried when its node or worker process dies (``MAX_RETRIES``), never because it raised: a planner
   error is already a recorded episode outcome, and anything else is a bug that must fail the job.
 - Results are gathered by job index and each index is taken once, so a retried task never yields a duplicate;
@@ -14,44 +18,77 @@ task on whatever nodes the cluster has. Why these choices:
   every task not yet finished.
 
 The cluster is ``FORESIGHT_RAY_ADDRESS`` (e.g. ``ray://head:10001`` or ``head:6379``); without it a local Ray
-instance with the stage's worker count is started for the process. Ray itself is an optional extra.
+instance with the stage's worker count is started for the process. An address nobody answers at is one
+:class:`RayUnreachable` line naming it, within ``CONNECT_TIMEOUT_S``. Ray itself is an optional extra.
 """
 
 from __future__ import annotations
 
 import os
+import socket
 import tempfile
 import threading
 import uuid
 from collections import OrderedDict
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from foresight.core import files
+from foresight.core.errors import CoreError
 
 RAY_ADDRESS_ENV = "FORESIGHT_RAY_ADDRESS"
 MAX_RETRIES = 3  #: attempts after a lost node or worker process
 POLL_S = 0.25  #: [s] how often the driver checks for cancellation while episodes run
+WINDOW_PER_CPU = 4  #: tasks in flight per cluster CPU: enough to keep every CPU busy, few enough to stay small
+CONNECT_TIMEOUT_S = 5.0  #: [s] to open a TCP connection to the cluster's address before joining it
 
 _connect_lock = threading.Lock()
 
 
+class RayUnreachable(CoreError):
+    """Nothing answers at the configured Ray address (or Ray refused to join it)."""
+
+
+def _host_port(address: str) -> tuple[str, int] | None:
+    """(host, port) of ``head:6379`` or ``ray://head:10001``; None for addresses Ray resolves itself (``auto``)."""
+    rest = address.split("://", 1)[-1]
+    host, sep, port = rest.rpartition(":")
+    return (host.strip("[]"), int(port)) if sep and host and port.isdigit() else None
+
+
+def _check_reachable(address: str) -> None:
+    hp = _host_port(address)
+    if hp is None:
+        return
+    try:
+        socket.create_connection(hp, timeout=CONNECT_TIMEOUT_S).close()
+    except OSError as exc:
+        raise RayUnreachable(f"Ray cluster at {address} ({RAY_ADDRESS_ENV}) is unreachable: {exc.strerror or exc}; "
+                             "start it (ray start --head) or correct the address") from None
+
+
 def connect(cpus: int) -> str:
     """Join the cluster at ``FORESIGHT_RAY_ADDRESS``, or start a local instance with ``cpus`` CPUs, once per
-    process; the address in use."""
+    process; the address in use. :class:`RayUnreachable` (one line naming the address) when it cannot."""
     import ray
 
     with _connect_lock:
+        address = os.environ.get(RAY_ADDRESS_ENV) or None
         if not ray.is_initialized():
-            address = os.environ.get(RAY_ADDRESS_ENV) or None
             quiet = {"include_dashboard": False, "log_to_driver": False, "logging_level": "ERROR"}
             if address:
-                ray.init(address=address, **quiet)
+                _check_reachable(address)
+                try:
+                    ray.init(address=address, **quiet)
+                except (ConnectionError, RuntimeError, TimeoutError) as exc:
+                    first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+                    raise RayUnreachable(f"cannot join the Ray cluster at {address} ({RAY_ADDRESS_ENV}): "
+                                         f"{first}") from None
             else:
                 ray.init(address="local", num_cpus=max(1, cpus), **quiet)  # a new instance, never a running one
-        return os.environ.get(RAY_ADDRESS_ENV) or "local"
+        return address or "local"
 
 
 def cluster_cpus() -> int:
@@ -59,6 +96,13 @@ def cluster_cpus() -> int:
     import ray
 
     return int(ray.cluster_resources().get("CPU", 0))
+
+
+def cluster_gpus() -> int:
+    """GPUs the connected cluster offers (training asks for one when there is any)."""
+    import ray
+
+    return int(ray.cluster_resources().get("GPU", 0))
 
 
 # ------------------------------------------------------------------------------ inside a Ray worker process
@@ -80,11 +124,7 @@ def _episode(token: str, make_worker: Callable[[], Any], checkpoints: dict[str, 
     from foresight.core.evaluation.episode import EpisodeRun
 
     os.environ.setdefault("OMP_NUM_THREADS", "1")  # one torch thread: trajectories independent of the executor
-    worker = _WORKERS.get(token)
-    if worker is None:
-        worker = _WORKERS[token] = make_worker()
-        while len(_WORKERS) > 4:
-            _WORKERS.popitem(last=False)
+    worker = _cached_worker(token, make_worker)
     planner = job.planner
     if planner.learned:
         planner = replace(planner, model_path=_checkpoint_file(planner.checkpoint_sha256,
@@ -96,11 +136,63 @@ def _episode(token: str, make_worker: Callable[[], Any], checkpoints: dict[str, 
     return index, (replace(item, record=record) if isinstance(item, EpisodeRun) else record)
 
 
+def _cached_worker(token: str, make_worker: Callable[..., Any], *args: Any) -> Any:
+    """This process's executor of run ``token`` (built on its first task, reused by the run's later ones)."""
+    worker = _WORKERS.get(token)
+    if worker is None:
+        worker = _WORKERS[token] = make_worker(*args)
+        while len(_WORKERS) > 4:
+            _WORKERS.popitem(last=False)
+    return worker
+
+
+def _worker_task(token: str, make_worker: Callable[..., Any], checkpoint: tuple[str, bytes] | None,
+                     job: Any) -> Any:
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    path = None if checkpoint is None else _checkpoint_file(*checkpoint)
+    return _cached_worker(token, make_worker, path).run(job)
+
+
 # ------------------------------------------------------------------------------ the driver
 
 
+def run_tasks(task: Any, shared: tuple[Any, ...], items: Iterable[Any], ctx: Any,
+              window: int | None = None) -> Iterator[Any]:
+    """``task.remote(*shared, item)`` for every item, at most ``window`` (default ``WINDOW_PER_CPU`` x cluster
+    CPUs) in flight; each result as its task finishes (any order). Checks ``ctx`` for cancellation every
+    ``POLL_S``; leaving early (cancelled, an error, the caller stops) force-cancels the tasks in flight."""
+    import ray
+
+    window = max(1, window or WINDOW_PER_CPU * max(1, cluster_cpus()))
+    todo = iter(items)
+    pending: set[Any] = set()
+
+    def fill() -> None:
+        while len(pending) < window:
+            item = next(todo, _END)
+            if item is _END:
+                return
+            pending.add(task.remote(*shared, item))
+
+    try:
+        fill()
+        while pending:
+            done, _ = ray.wait(list(pending), num_returns=len(pending), timeout=POLL_S, fetch_local=True)
+            for ref in done:
+                pending.discard(ref)
+                yield ray.get(ref)
+            fill()
+            ctx.check_cancelled()
+    finally:
+        for ref in pending:
+            ray.cancel(ref, force=True)
+
+
+_END = object()
+
+
 def run_on_ray(jobs: list[Any], make_worker: Callable[[], Any], ctx: Any) -> Iterator[tuple[int, Any]]:
-    """(index, result) of every job as its task finishes; cancels the unfinished tasks when left early.
+    """(index, result) of every episode job as its task finishes; cancels the unfinished tasks when left early.
 
     ``make_worker`` (picklable, e.g. a partial of the run's EpisodeWorker with its settings and matrix) builds the
     executor of one worker process; it travels through the object store once.
@@ -111,16 +203,24 @@ def run_on_ray(jobs: list[Any], make_worker: Callable[[], Any], ctx: Any) -> Ite
     task = ray.remote(num_cpus=1, max_retries=MAX_RETRIES, retry_exceptions=False)(_episode)
     paths = {j.planner.checkpoint_sha256: j.planner.model_path for j in jobs if j.planner.learned}
     checkpoints = {sha: Path(path).read_bytes() for sha, path in paths.items()}  # each file read once per run
-    refs = [ray.put(make_worker), ray.put(checkpoints)]
-    token = uuid.uuid4().hex
-    pending = {task.remote(token, *refs, job): job.index for job in jobs}
-    try:
-        while pending:
-            done, _ = ray.wait(list(pending), num_returns=len(pending), timeout=POLL_S, fetch_local=True)
-            for ref in done:
-                del pending[ref]
-                yield ray.get(ref)
-            ctx.check_cancelled()
-    finally:
-        for ref in pending:
-            ray.cancel(ref, force=True)
+    shared = (uuid.uuid4().hex, ray.put(make_worker), ray.put(checkpoints))
+    yield from run_tasks(task, shared, jobs, ctx)
+
+
+def run_workers_on_ray(jobs: list[Any], make_worker: Callable[[str | None], Any], model_path: str | None,
+                       ctx: Any) -> Iterator[Any]:
+    """``worker.run(job)`` of every job as its task finishes, ``worker`` = ``make_worker(checkpoint file or
+    None)`` built once per Ray worker process and run (e.g. collect's CollectWorker); the checkpoint's bytes travel
+    through the object store once per run."""
+    import hashlib
+
+    import ray
+
+    connect(int(ctx.workers or 1))
+    task = ray.remote(num_cpus=1, max_retries=MAX_RETRIES, retry_exceptions=False)(_worker_task)
+    checkpoint = None
+    if model_path is not None:
+        blob = Path(model_path).read_bytes()
+        checkpoint = (hashlib.sha256(blob).hexdigest(), blob)
+    shared = (uuid.uuid4().hex, ray.put(make_worker), ray.put(checkpoint))
+    yield from run_tasks(task, shared, jobs, ctx)

@@ -33,6 +33,7 @@ from foresight.core.evaluation.taxonomy import TaxonomyConfig
 from foresight.core.planners.external import release_planner_processes
 from foresight.core.scenarios.model import ScenarioMatrix
 from foresight.core.stages.context import StageContext
+from foresight.core.stages.execution import Execution, execution
 from foresight.core.stages.refs import resolve_in_bundle
 from foresight.core.version import code_version
 
@@ -245,6 +246,7 @@ class EvaluationResult(BaseModel):
     seed_source: str  #: "matrix", "N per scenario" or the seed manifest
     horizon: str  #: "scenario" or the override
     workers: int
+    execution: Execution | None = None  #: which executor ran the episodes, on how many CPUs (None: older results)
     aggregates: Aggregates
     taxonomy: dict[str, int]
     taxonomy_config: TaxonomyConfig
@@ -308,7 +310,7 @@ class PreparedEvaluation:
 
 
 def prepare_evaluation(config: EvaluationConfig, ctx: StageContext) -> PreparedEvaluation:
-    """Select the episodes and resolve the planner (shared by a whole run, its shards and their merge)."""
+    """Select the episodes and resolve the planner (what a run needs before its first episode)."""
     path, matrix, pairs = load_selection(config, ctx)
     rp = resolve_planner(config.planner, ctx)
     preflight(rp, [matrix.get(name) for name in dict.fromkeys(s for s, _ in pairs)])
@@ -320,8 +322,7 @@ def prepare_evaluation(config: EvaluationConfig, ctx: StageContext) -> PreparedE
 def run_evaluation(config: EvaluationConfig, ctx: StageContext) -> EvaluationResult:
     """Evaluate one planner config on a matrix; writes evaluation.json and episodes.jsonl under ctx.workdir.
 
-    ``config.shards`` is for the service (the worker splits the episodes into shard jobs, see
-    core.evaluation.shards); run here in-process, every episode runs in this call, with the same result.
+    Episodes run on ``config.executor`` (a local process pool, or Ray tasks on a cluster), with the same result.
     """
     t0 = time.perf_counter()
     prep = prepare_evaluation(config, ctx)
@@ -357,6 +358,7 @@ def evaluation_result(config: EvaluationConfig, records: list[EpisodeRecord], pa
         collision_rate=summary.collision.rate, episodes=len(records), planner=planner_provenance(rp),
         code_version=code_version(), bundle=config.bundle, matrix=config.matrix, seed_source=seed_source(config),
         horizon=str(config.max_steps) if config.max_steps else "scenario", workers=int(ctx.workers or 1),
+        execution=execution(config.executor, ctx.workers),
         aggregates=aggs, taxonomy=aggs.overall.taxonomy, taxonomy_config=config.taxonomy,
         metrics_config=config.metrics, integrity=integrity, gate=gate,
         artifacts={"summary": "evaluation.json", "episodes": "episodes.jsonl"}, wall_s=wall_s,

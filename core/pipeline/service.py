@@ -3,7 +3,7 @@
 Each stage is a real job row (``parent_id`` = the pipeline, idempotency key ``pipeline:<id>:<stage>``) with
 its own progress, artifacts and result records (datasets, evaluations, campaigns), exactly as if it had been
 submitted alone: the pipeline submits it, then runs that very row itself through the worker's own code path, or
-waits for the worker that took it first (``ctx.children``, the child-job facility sharded runs use too). So a
+waits for the worker that took it first (``ctx.children``, the worker's child-job facility). So a
 single worker with one slot never waits on its own children.
 
 Resume: a retried (or reclaimed) pipeline finds its children by key: succeeded ones are not run again, a

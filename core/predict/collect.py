@@ -5,11 +5,14 @@ Base collection = every selected scenario × ``seeds_per_scenario`` seeds derive
 the (scenario, seed) pairs of a TRAINING seed manifest (never the evaluation manifest). The
 driving policy is selectable (goal-seeking, goal-seeking with noise, or any registered planner),
 so the data can cover the states the planner itself visits. Episodes are split train/val here,
-before any oversampling.
+before any oversampling. Each episode depends only on (scenario, seed, policy), so its samples are the same on
+either ``executor`` (this process, or one Ray task per episode: core.evaluation.ray_executor).
 """
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Callable, Iterable
 from typing import Any, Literal
 
 import numpy as np
@@ -33,6 +36,7 @@ from foresight.core.predict.timebase import PLANNER_TIMEBASE, TimeBase
 from foresight.core.scenarios.model import MAX_EPISODE_STEPS
 from foresight.core.sim.observation import Observation
 from foresight.core.stages.context import StageContext
+from foresight.core.stages.execution import Execution, Executor, execution
 from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident, Name, resolve_in_bundle
 
 
@@ -67,6 +71,7 @@ class CollectConfig(BaseModel):
     check_quality: bool = True
     #: deep-merged into every scenario after the matrix's own overrides (as EpisodeSelection.scenario_overrides)
     scenario_overrides: dict[str, Any] = Field(default_factory=dict)
+    executor: Executor = "local"  #: where episodes run (the dataset does not depend on it)
 
 
 class DatasetSummary(BaseModel):
@@ -89,6 +94,7 @@ class CollectResult(BaseModel):
     sha256: str
     summary: DatasetSummary
     outcomes: dict[str, int]
+    execution: Execution | None = None  #: which executor ran the episodes, on how many CPUs (collect only)
 
 
 class _Recorder:
@@ -115,7 +121,13 @@ class _Recorder:
         return np.stack([self.waypoints.get(t, last) for t in range(steps + 1)])
 
 
-def _policy(config: CollectConfig, ctx: StageContext):
+def _model_path(config: CollectConfig, ctx: StageContext) -> str | None:
+    """The checkpoint file of a ``planner`` policy's model (None: no model, or constant velocity)."""
+    model = (config.planner or {}).get("model") if config.policy == "planner" else None
+    return None if model in (None, "cv") else str(ctx.resolve_model(model))
+
+
+def _policy(config: CollectConfig, model_path: str | None):
     from foresight.core.planners.goal import GoalSeeking
 
     if config.policy == "goal":
@@ -128,11 +140,36 @@ def _policy(config: CollectConfig, ctx: StageContext):
     if "name" not in spec:
         raise ConfigError("policy 'planner' needs planner.name", item="planner.name")
     model = spec.get("model")
-    if model not in (None, "cv"):
+    if model_path is not None:
         from foresight.core.predict.nn.checkpoint import load_predictor
 
-        model = load_predictor(ctx.resolve_model(model))
+        model = load_predictor(model_path)
     return make_planner(spec["name"], spec.get("config"), model=model)
+
+
+#: one episode to collect: (index, scenario name, seed, role, split)
+CollectJob = tuple[int, str, int, str, str]
+
+
+class CollectWorker:
+    """Rolls out a run's episodes one by one with its policy (reset per episode: episodes are independent)."""
+
+    def __init__(self, config: CollectConfig, matrix: Any, model_path: str | None = None,
+                 check: Callable[[], None] | None = None):
+        self.config, self.matrix, self.check = config, matrix, check
+        self.timebase = config.timebase.build()
+        self.recorder = _Recorder(_policy(config, model_path))
+
+    def run(self, job: CollectJob) -> tuple[int, EpisodeRecord, Any, str]:
+        """(index, episode record, its samples, outcome) of one episode."""
+        from foresight.core.sim.episode import run_episode
+
+        index, name, seed, role, split = job
+        result = run_episode(self.matrix.get(name), seed, self.recorder, max_steps=self.config.max_steps,
+                             check=self.check)
+        samples = samples_from_trace(result.trace, self.timebase, self.config.max_agents,
+                                     self.recorder.waypoint_array(result.trace.steps), self.config.sample_every)
+        return index, EpisodeRecord(name, int(seed), split, role), samples, result.outcome
 
 
 def episode_list(config: CollectConfig, matrix, manifest_path=None) -> list[tuple[Any, int, str]]:
@@ -160,7 +197,6 @@ def _refuse_evaluation_episodes(jobs, path, matrix) -> None:
 
 def run_collect(config: CollectConfig, ctx: StageContext) -> CollectResult:
     from foresight.core.scenarios.loader import load_matrix
-    from foresight.core.sim.episode import run_episode
 
     root = ctx.resolve_bundle(config.bundle)
     matrix = load_matrix(resolve_in_bundle(root, config.matrix), overrides=config.scenario_overrides)
@@ -170,17 +206,28 @@ def run_collect(config: CollectConfig, ctx: StageContext) -> CollectResult:
         _refuse_evaluation_episodes(jobs, resolve_in_bundle(root, config.evaluation_seeds), matrix)
     timebase = config.timebase.build()
     splits = assign_splits(len(jobs), config.val_fraction, config.split_seed)
-    recorder = _Recorder(_policy(config, ctx))
-    episodes, outcomes = [], {}
-    for i, (scenario, seed, role) in enumerate(jobs):
+    items = [(i, s.name, int(seed), role, splits[i]) for i, (s, seed, role) in enumerate(jobs)]
+    model_path = _model_path(config, ctx)
+    ctx.check_cancelled()
+    results: Iterable[tuple[int, EpisodeRecord, Any, str]]
+    if config.executor == "ray":
+        from foresight.core.evaluation.ray_executor import run_workers_on_ray
+
+        results = run_workers_on_ray(items, functools.partial(CollectWorker, config, matrix), model_path, ctx)
+    else:
+        worker = CollectWorker(config, matrix, model_path, ctx.check_cancelled)
+        results = (worker.run(item) for item in items)
+    done: list[tuple[EpisodeRecord, Any, str] | None] = [None] * len(items)
+    for n, (i, rec, samples, outcome) in enumerate(results, start=1):
+        done[i] = (rec, samples, outcome)
+        ctx.progress(n / len(items), f"{rec.scenario} seed {rec.seed}: {outcome}")
         ctx.check_cancelled()
-        ctx.progress(i / len(jobs), f"{scenario.name} seed {seed}")
-        result = run_episode(scenario, seed, recorder, max_steps=config.max_steps, check=ctx.check_cancelled)
-        outcomes[result.outcome] = outcomes.get(result.outcome, 0) + 1
-        samples = samples_from_trace(result.trace, timebase, config.max_agents,
-                                     recorder.waypoint_array(result.trace.steps), config.sample_every)
-        episodes.append((EpisodeRecord(scenario.name, int(seed), splits[i], role), samples))
-    generator = {"stage": "collect", **config.model_dump(mode="json")}
+    episodes, outcomes = [], {}
+    for rec, samples, outcome in (d for d in done if d is not None):  # episode order, whoever ran them
+        outcomes[outcome] = outcomes.get(outcome, 0) + 1
+        episodes.append((rec, samples))
+    # the executor is where episodes ran, not what they are: the dataset (and its hash) does not name it
+    generator = {"stage": "collect", **config.model_dump(mode="json", exclude={"executor"})}
     meta = DatasetMeta(timebase, config.max_agents, "robot", "sim", [], generator=generator)
     ds = dataset_from_episodes(episodes, meta)
     path = ctx.artifact(config.output)
@@ -188,7 +235,8 @@ def run_collect(config: CollectConfig, ctx: StageContext) -> CollectResult:
         check_quality(ds, str(path))
     record = save_dataset(ds, path)
     ctx.progress(1.0, f"{len(ds)} samples from {len(jobs)} episodes")
-    return CollectResult(dataset=config.output, sha256=record["sha256"], summary=record["summary"], outcomes=outcomes)
+    return CollectResult(dataset=config.output, sha256=record["sha256"], summary=record["summary"], outcomes=outcomes,
+                         execution=execution(config.executor, ctx.workers if config.executor == "ray" else 1))
 
 
 class MixConfig(BaseModel):

@@ -17,6 +17,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from foresight.core.errors import ConfigError
 from foresight.core.stages.context import StageContext
+from foresight.core.stages.execution import Executor
 from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident
 
 
@@ -29,6 +30,7 @@ class ProxySpec(BaseModel):
     seeds_per_scenario: int | None = Field(default=None, ge=1)
     max_steps: int | None = Field(default=None, ge=1)
     planner_config: dict[str, Any] = Field(default_factory=dict)  #: predictive planner config (defaults fill the rest)
+    executor: Executor = "local"  #: where the proxy's episodes run (its scores do not depend on it)
 
 
 CANDIDATE = "proxy-candidate"
@@ -68,7 +70,8 @@ def evaluation_proxy(spec: ProxySpec, ctx: StageContext):
         config = EvaluationConfig(
             bundle=spec.bundle, matrix=spec.matrix, seed_manifest=spec.seed_manifest, scenarios=spec.scenarios,
             seeds_per_scenario=spec.seeds_per_scenario, max_steps=spec.max_steps,
-            planner={"name": "predictive", "config": spec.planner_config, "model": CANDIDATE if path else "cv"})
+            planner={"name": "predictive", "config": spec.planner_config, "model": CANDIDATE if path else "cv"},
+            executor=spec.executor)
         result = run_evaluation(config, sub)
         return result.aggregates.overall, read_records(sub.workdir / result.artifacts["episodes"])
 

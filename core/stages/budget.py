@@ -2,7 +2,7 @@
 
 Sizes count every episode at its full horizon (``max_steps`` or the scenario's ``max_episode_steps``), the
 most it can cost. The service checks them at submission (422 naming the fields and the budget) and the
-worker again before a stage starts (child jobs of pipelines and shards never pass the API).
+worker again before a stage starts (child jobs of pipelines never pass the API).
 """
 
 from __future__ import annotations

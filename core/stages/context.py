@@ -29,7 +29,7 @@ ChildProgress = Callable[[str, float, str], None]
 
 
 class ChildJobs(Protocol):
-    """The child jobs of the running job (a pipeline's stages, a sharded run's shards), from whoever runs it.
+    """The child jobs of the running job (a pipeline's stages), from whoever runs it.
 
     A child is a real job (its own progress, artifacts and records) submitted under an idempotency key, so a
     retried parent finds it again; :meth:`run` runs queued children in the parent's own slot and waits for

@@ -18,17 +18,9 @@ from pydantic import BaseModel, ConfigDict, Field, create_model
 
 from foresight.core import files
 from foresight.core.evaluation.campaign import run_campaign
-from foresight.core.evaluation.config import (
-    CampaignConfig,
-    CampaignShardConfig,
-    DiagnosticsConfig,
-    EvaluationConfig,
-    EvaluationShardConfig,
-)
+from foresight.core.evaluation.config import CampaignConfig, DiagnosticsConfig, EvaluationConfig
 from foresight.core.evaluation.diagnostics import run_diagnostics
 from foresight.core.evaluation.runner import run_evaluation
-from foresight.core.evaluation.sharded import run_sharded
-from foresight.core.evaluation.shards import run_campaign_shard, run_evaluation_shard
 from foresight.core.pipeline.config import PipelineConfig
 from foresight.core.pipeline.service import run_pipeline_job
 from foresight.core.predict.collect import CollectConfig, MixConfig, run_collect, run_mix
@@ -51,8 +43,6 @@ class JobKind:
     description: str = ""
     #: create ``ctx.workdir`` before the run (stages write into it); False: only ``ctx.artifact`` creates it
     make_workdir: bool = True
-    #: a config with ``shards`` > 1 runs as shard child jobs and their merge (core.evaluation.sharded)
-    sharded: bool = False
     spec: type[BaseModel] = field(init=False)  #: the config plus ``kind: Literal[name]``: the API's job spec
     result: type[BaseModel] | None = field(init=False)  #: what ``run`` returns (core.stages.results; None: a dict)
 
@@ -71,10 +61,7 @@ class JobKind:
     def execute(self, spec: BaseModel | dict[str, Any], ctx: StageContext) -> dict[str, Any]:
         """Run a job's spec in ``ctx``; the result as JSON (what the job row and the report hold)."""
         config = self.config_of(spec)
-        if self.sharded and getattr(config, "shards", 1) > 1:
-            result = run_sharded(self.name, config, ctx)
-        else:
-            result = self.run(config, ctx)
+        result = self.run(config, ctx)
         return result.model_dump(mode="json", by_alias=True) if isinstance(result, BaseModel) else dict(result or {})
 
 
@@ -129,15 +116,11 @@ KINDS: dict[str, JobKind] = {k.name: k for k in (
     JobKind("predict_eval", PredictEvalConfig, run_predict_eval,
             "ADE/FDE of a predictor on a dataset or ETH/UCY fold"),
     JobKind("evaluate", EvaluationConfig, run_evaluation,
-            "evaluate a planner on a scenario matrix", sharded=True),
-    JobKind("evaluate_shard", EvaluationShardConfig, run_evaluation_shard,
-            "one shard of an evaluation with shards > 1 (submitted by its parent evaluate job)"),
+            "evaluate a planner on a scenario matrix"),
     JobKind("diagnose", DiagnosticsConfig, run_diagnostics,
             "hard-seed diagnostics: trace every seed of a manifest"),
     JobKind("campaign", CampaignConfig, run_campaign,
-            "checkpoints x planner-grid variants with quality gates", sharded=True),
-    JobKind("campaign_shard", CampaignShardConfig, run_campaign_shard,
-            "one shard of a campaign with shards > 1 (submitted by its parent campaign job)"),
+            "checkpoints x planner-grid variants with quality gates"),
     JobKind("import_dataset", ImportDatasetConfig, run_import_dataset,
             "import an ETH/UCY fold of a named data root as a dataset"),
     JobKind("pipeline", PipelineConfig, run_pipeline_job,

@@ -12,11 +12,11 @@ from pydantic import BaseModel, ValidationError
 from foresight.core.evaluation.campaign import CampaignResult
 from foresight.core.evaluation.diagnostics import DiagnosticsResult
 from foresight.core.evaluation.runner import EvaluationResult
-from foresight.core.evaluation.shards import ShardResult
 from foresight.core.pipeline.summary import PipelineResult
 from foresight.core.predict.collect import CollectResult
 from foresight.core.predict.evaluation import PredictEvalResult
 from foresight.core.predict.train_config import TrainResult
+from foresight.core.stages.execution import Execution
 from foresight.core.stages.simulate import SimulateResult
 
 #: stage kind -> its result model
@@ -27,10 +27,8 @@ RESULTS: dict[str, type[BaseModel]] = {
     "train": TrainResult,
     "predict_eval": PredictEvalResult,
     "evaluate": EvaluationResult,
-    "evaluate_shard": ShardResult,
     "diagnose": DiagnosticsResult,
     "campaign": CampaignResult,
-    "campaign_shard": ShardResult,
     "pipeline": PipelineResult,
 }
 
@@ -80,3 +78,17 @@ def planner_and_model(kind: str, data: Any) -> tuple[str | None, str | None]:
     if isinstance(result, PipelineResult):
         return None, result.model_id
     return None, None
+
+
+def execution_of(kind: str, data: Any) -> Execution | None:
+    """Which executor ran a ``kind`` job's episodes and on how many CPUs (None: the kind runs no episodes, or the
+    result predates the record)."""
+    if kind not in RESULTS or data is None:
+        return None
+    try:
+        result = read_result(kind, data)
+    except ValidationError:
+        return None
+    if isinstance(result, EvaluationResult | CampaignResult | DiagnosticsResult | CollectResult):
+        return result.execution
+    return None

@@ -1,6 +1,7 @@
-"""Chaos on PostgreSQL (issue 15): workers SIGKILLed at random moments during a sharded evaluation, and the
-server SIGKILLed during a burst of submissions. Every acknowledged job and every episode record must exist
-exactly once afterwards."""
+"""Chaos on PostgreSQL (issue 15): workers SIGKILLed at random moments during a campaign, and the server SIGKILLed
+during a burst of submissions. Every acknowledged job and every committed episode record must exist exactly once
+afterwards (a reclaimed campaign resumes from its finished cells and runs each unfinished cell's episodes again,
+whole)."""
 
 from __future__ import annotations
 
@@ -16,8 +17,10 @@ import httpx
 
 from .service import Service, wait_job
 
-EVALUATE = {"kind": "evaluate", "scenarios": ["crossing_low", "head_on_corridor_high"], "seeds_per_scenario": 4,
-            "max_steps": 300, "planner": {"name": "goal"}, "shards": 4}
+#: six cells of ~10 short episodes each: several moments to be killed at, each a different amount of work done
+CAMPAIGN = {"kind": "campaign", "scenarios": ["crossing_low", "head_on_corridor_high"], "seeds_per_scenario": 4,
+            "max_steps": 300, "planner": {"name": "goal"}, "seed_manifest": "seeds/classic_eval_hard_smoke.yaml",
+            "variants": [{"name": f"speed{v}", "config": {"speed": v}} for v in (0.6, 0.8, 1.0, 1.2, 1.4, 1.6)]}
 
 
 def _all_jobs(client: httpx.Client) -> list[dict]:
@@ -82,7 +85,7 @@ def test_server_killed_during_submissions_loses_and_doubles_nothing(tmp_path: Pa
         service.stop()
 
 
-def test_workers_killed_at_random_during_a_sharded_evaluation(tmp_path: Path, pg_url: str) -> None:
+def test_workers_killed_at_random_during_a_campaign(tmp_path: Path, pg_url: str) -> None:
     service = Service(tmp_path, database_url=pg_url)
     rng = random.Random(7)
     try:
@@ -90,30 +93,33 @@ def test_workers_killed_at_random_during_a_sharded_evaluation(tmp_path: Path, pg
         service.serve()
         workers = [service.worker(), service.worker()]
         with service.client() as client:
-            resp = client.post("/v1/jobs", json={"spec": EVALUATE})
+            resp = client.post("/v1/jobs", json={"spec": CAMPAIGN})
             assert resp.status_code == 201, resp.text
-            parent_id = resp.json()["id"]
+            job_id = resp.json()["id"]
             kills = 0
             deadline = time.time() + 60
             while kills < 3 and time.time() < deadline:
                 time.sleep(rng.uniform(1.0, 4.0))
-                if client.get(f"/v1/jobs/{parent_id}").json()["status"] not in ("queued", "running"):
+                if client.get(f"/v1/jobs/{job_id}").json()["status"] not in ("queued", "running"):
                     break
                 victim = workers.pop(rng.randrange(len(workers)))
                 victim.send_signal(signal.SIGKILL)
                 victim.wait()
                 workers.append(service.worker())
                 kills += 1
-            parent = wait_job(client, parent_id, timeout=300)
-            assert parent["status"] == "succeeded", (parent["error"], service.logs())
-            assert kills >= 1
-            records = [json.loads(line) for line in
-                       client.get(f"/v1/jobs/{parent_id}/artifacts/episodes.jsonl").text.splitlines() if line.strip()]
-            episodes = Counter((r["scenario"], r["seed"]) for r in records)
-            assert len(episodes) == 8 and set(episodes.values()) == {1}, episodes
-            assert client.get(f"/v1/evaluations/{parent_id}").json()["metrics"]["episodes"] == 8  # one row per job id
-            for child in parent["children"]:
-                shard = client.get(f"/v1/jobs/{child}").json()
-                assert shard["status"] == "succeeded" and shard["error"] is None, shard
+            job = wait_job(client, job_id, timeout=300)
+            assert job["status"] == "succeeded", (job["error"], service.logs())
+            assert kills >= 1 and job["attempts"] >= 2  # killed mid-run at least once, then reclaimed
+            result = job["result"]
+            assert result["cells_run"] + result["cells_resumed"] == 6 and result["cells_resumed"] >= 1
+            expected = None
+            for cell in result["ranked"]:  # every cell's episodes exactly once, the same episodes in every cell
+                text = client.get(f"/v1/jobs/{job_id}/artifacts/{cell['episodes_file']}").text
+                episodes = Counter((r["scenario"], r["seed"]) for r in map(json.loads, text.splitlines()) if r)
+                assert set(episodes.values()) == {1}, (cell["key"], episodes)
+                assert expected in (None, set(episodes)), cell["key"]
+                expected = set(episodes)
+            record = client.get(f"/v1/campaigns/{job_id}").json()  # one campaign row, one row per cell
+            assert sorted(c["params"]["variant"] for c in record["cells"]) == sorted(v["name"] for v in CAMPAIGN["variants"])
     finally:
         service.stop()
