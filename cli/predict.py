@@ -73,8 +73,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     tr.add_argument("--config", help="training config YAML (its 'train' mapping, or the whole file)")
     tr.add_argument("--epochs", type=int)
     tr.add_argument("--threads", type=int)
-    tr.add_argument("--executor", choices=["local", "ray"], help="where the closed-loop proxy's episodes run: "
-                    "local processes (default) or Ray tasks on the cluster at FORESIGHT_RAY_ADDRESS")
+    tr.add_argument("--executor", choices=["local", "ray"], help="ray: train as a Ray task (on a GPU node when the "
+                    "cluster has one) and run the closed-loop proxy's episodes as Ray tasks; default local")
     _outputs(tr)
     tr.set_defaults(func=train_cmd)
 
@@ -239,10 +239,9 @@ def train_cmd(args: argparse.Namespace) -> int:
     if values.get("dataset") is None:
         raise ConfigError("no dataset: give --dataset or a config with train.dataset", source=args.config)
     if args.executor:
-        if not isinstance(values.get("proxy"), dict):
-            raise ConfigError("--executor picks where the closed-loop proxy's episodes run, and this training "
-                              "has no proxy (train.proxy)", source=args.config, item="--executor")
-        values["proxy"] = {**values["proxy"], "executor": args.executor}
+        values["executor"] = args.executor
+        if isinstance(values.get("proxy"), dict):
+            values["proxy"] = {**values["proxy"], "executor": args.executor}
 
     def text(r: TrainResult, where: str, checkpoint: str | None = None) -> str:
         return (f"{checkpoint or r.checkpoint}: epoch {r.best_epoch} val ADE {r.val_ade:.3f} FDE {r.val_fde:.3f} "
@@ -258,7 +257,7 @@ def train_cmd(args: argparse.Namespace) -> int:
                             text=lambda r, ref: text(r, f"\n{ref}\nregister it: foresight models register MODEL_ID "
                                                         f"--job {ref.id} --artifact {Path(r.checkpoint).name}",
                                                      Path(r.checkpoint).name))  # fmt: skip
-    from foresight.core.predict.nn.train import run_train
+    from foresight.core.stages.kinds import run_train  # executor local: in this process; ray: a Ray task
 
     ctx = _ctx(args)
     result = run_train(stage.config_of(stage.spec("train", values)), ctx)

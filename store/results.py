@@ -23,7 +23,6 @@ from foresight.store.models import (
     Evaluation,
     FailureTaxonomy,
     GateResult,
-    Job,
 )
 from foresight.store.session import session_factory
 

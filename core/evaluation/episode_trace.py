@@ -75,8 +75,15 @@ def compact_trace(run: Any, map_def: Any) -> dict[str, Any]:
     }  # fmt: skip
 
 
-def write_compact(path: Path, data: dict[str, Any]) -> Path:
-    files.write_bytes(path, gzip.compress(json.dumps(data, separators=(",", ":")).encode(), mtime=0))
+def compact_bytes(data: dict[str, Any]) -> bytes:
+    """A compact trace as the bytes of its file (gzipped JSON, reproducible: no timestamp)."""
+    return gzip.compress(json.dumps(data, separators=(",", ":")).encode(), mtime=0)
+
+
+def write_compact(path: Path, data: dict[str, Any] | bytes) -> Path:
+    """Write a compact trace (or the :func:`compact_bytes` of one) to ``path``."""
+    files.write_bytes(path, data if isinstance(data, bytes) else compact_bytes(data))
+    return path
     return path
 
 

@@ -118,7 +118,8 @@ def _checkpoint_file(sha256: str, blob: bytes) -> str:
     return str(path)
 
 
-def _episode(token: str, make_worker: Callable[[], Any], checkpoints: dict[str, bytes], job: Any) -> tuple[int, Any]:
+def _episode(token: str, make_worker: Callable[[], Any], checkpoints: dict[str, bytes],
+             job: Any) -> tuple[int, Any, tuple[str, bytes] | None]:
     import ray
 
     from foresight.core.evaluation.episode import EpisodeRun
@@ -129,11 +130,11 @@ def _episode(token: str, make_worker: Callable[[], Any], checkpoints: dict[str, 
     if planner.learned:
         planner = replace(planner, model_path=_checkpoint_file(planner.checkpoint_sha256,
                                                                checkpoints[planner.checkpoint_sha256]))
-    index, item = worker.run(replace(job, planner=planner))
+    index, item, trace = worker.run_traced(replace(job, planner=planner))
     node = ray.get_runtime_context().get_node_id()
     record = item.record if isinstance(item, EpisodeRun) else item
     record = record.model_copy(update={"timing": record.timing.model_copy(update={"node": node})})
-    return index, (replace(item, record=record) if isinstance(item, EpisodeRun) else record)
+    return index, (replace(item, record=record) if isinstance(item, EpisodeRun) else record), trace
 
 
 def _cached_worker(token: str, make_worker: Callable[..., Any], *args: Any) -> Any:
@@ -191,8 +192,10 @@ def run_tasks(task: Any, shared: tuple[Any, ...], items: Iterable[Any], ctx: Any
 _END = object()
 
 
-def run_on_ray(jobs: list[Any], make_worker: Callable[[], Any], ctx: Any) -> Iterator[tuple[int, Any]]:
-    """(index, result) of every episode job as its task finishes; cancels the unfinished tasks when left early.
+def run_on_ray(jobs: list[Any], make_worker: Callable[[], Any],
+               ctx: Any) -> Iterator[tuple[int, Any, tuple[str, bytes] | None]]:
+    """(index, result, compact trace as (name, bytes) or None) of every episode job as its task finishes; cancels
+    the unfinished tasks when left early.
 
     ``make_worker`` (picklable, e.g. a partial of the run's EpisodeWorker with its settings and matrix) builds the
     executor of one worker process; it travels through the object store once.

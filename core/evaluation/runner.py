@@ -123,16 +123,33 @@ class EpisodeWorker:
         self.check = check
 
     def run(self, job: Job) -> tuple[int, Any]:
+        """(index, record or EpisodeRun) of one episode; its compact trace written under ``trace_root``."""
+        index, item, trace = self.run_traced(job)
+        if trace is not None:
+            write_trace(self.settings, trace)
+        return index, item
+
+    def run_traced(self, job: Job) -> tuple[int, Any, tuple[str, bytes] | None]:
+        """:meth:`run`, with the trace returned as (name, file bytes) rather than written (a Ray node need not
+        share the driver's disk: the driver writes it)."""
         s = self.settings
         scenario = self.matrix.get(job.scenario)
         run = run_one(scenario, job.seed, job.planner, max_steps=s.max_steps,
                       metrics_cfg=s.metrics, taxonomy_cfg=s.taxonomy, keep_diagnostics=s.keep_diagnostics,
                       simulator=self.sim, check=self.check)
+        trace = None
         if s.trace_root is not None:
-            from foresight.core.evaluation.episode_trace import compact_trace, trace_name, write_compact
+            from foresight.core.evaluation.episode_trace import compact_bytes, compact_trace, trace_name
 
-            write_compact(Path(s.trace_root) / trace_name(job.scenario, job.seed), compact_trace(run, scenario.map))
-        return job.index, (run if s.keep_diagnostics else run.record)
+            trace = (trace_name(job.scenario, job.seed), compact_bytes(compact_trace(run, scenario.map)))
+        return job.index, (run if s.keep_diagnostics else run.record), trace
+
+
+def write_trace(settings: EpisodeSettings, trace: tuple[str, bytes]) -> None:
+    from foresight.core.evaluation.episode_trace import write_compact
+
+    assert settings.trace_root is not None
+    write_compact(Path(settings.trace_root) / trace[0], trace[1])
 
 
 POLL_S = 0.25  #: [s] how often a parent waiting on pool processes checks for cancellation
@@ -186,7 +203,14 @@ def run_jobs(
         from foresight.core.scenarios.loader import load_matrix
 
         matrix = matrix or load_matrix(settings.matrix_path, overrides=settings.overrides)
-        collect(run_on_ray(local, functools.partial(EpisodeWorker, settings, matrix), ctx))
+
+        def written(results: Iterable[tuple[int, Any, tuple[str, bytes] | None]]) -> Iterable[tuple[int, Any]]:
+            for index, item, trace in results:  # each trace stored here as it arrives
+                if trace is not None:
+                    write_trace(settings, trace)
+                yield index, item
+
+        collect(written(run_on_ray(local, functools.partial(EpisodeWorker, settings, matrix), ctx)))
         return [r for r in out if r is not None]
     # a learned model runs in worker processes even with one worker: one torch thread each, so the
     # numbers (and hence trajectories) do not depend on the worker count

@@ -11,6 +11,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.gates import GateCheck, GateResult
 from foresight.core.predict.proxy import ProxySpec
+from foresight.core.stages.execution import Execution, Executor
 from foresight.core.stages.refs import Seed
 from foresight.core.yamlio import load_yaml
 
@@ -53,6 +54,8 @@ class TrainConfig(_Strict):
     resume: bool = True  #: continue from checkpoints/last.pt in the work dir when present
     allow_degenerate: bool = False  #: skip the fail-fast dataset checks (recorded in the summary)
     gates: GateConfig = GateConfig()
+    #: ray: training runs as one Ray task, on a GPU node when the cluster has one (core.stages.ray_train)
+    executor: Executor = "local"
 
     @field_validator("augment_scale")
     @classmethod
@@ -72,6 +75,7 @@ class TrainResult(BaseModel):
     cv_val_fde: float
     selection_mode: str
     gates_passed: bool
+    execution: Execution | None = None  #: set when it ran as a Ray task: where, on how many CPUs/GPUs
 
 
 class _Summary(BaseModel):

@@ -14,13 +14,17 @@ Executor = Literal["local", "ray"]
 
 class Execution(BaseModel):
     executor: Executor
-    cpus: int  #: local: the episode processes it may use (the stage's workers); ray: the cluster's CPUs at the start
+    #: local: the processes it may use (the stage's workers); ray: the cluster's CPUs at the start (a training
+    #: task: the CPUs it holds)
+    cpus: int
+    gpus: int = 0  #: GPUs it holds (a training task on a GPU node)
     address: str | None = None  #: ray: the cluster's address, or "local" for an instance started for the run
 
     def describe(self) -> str:
         """E.g. ``ray, 8 CPUs at head:6379`` or ``local, 2 CPUs``."""
         at = f" at {self.address}" if self.address and self.address != "local" else ""
-        return f"{self.executor}, {self.cpus} CPU{'s' if self.cpus != 1 else ''}{at}"
+        gpus = f", {self.gpus} GPU{'s' if self.gpus != 1 else ''}" if self.gpus else ""
+        return f"{self.executor}, {self.cpus} CPU{'s' if self.cpus != 1 else ''}{gpus}{at}"
 
 
 def execution(executor: Executor, workers: int | None) -> Execution:

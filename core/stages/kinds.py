@@ -90,6 +90,10 @@ def run_sleep(config: SleepConfig, ctx: StageContext) -> dict[str, Any]:
 
 
 def run_train(config: TrainConfig, ctx: StageContext) -> TrainResult:
+    if config.executor == "ray":  # one Ray task, on a GPU node when there is one
+        from foresight.core.stages.ray_train import train_on_ray
+
+        return train_on_ray(config, ctx)
     from foresight.core.predict.nn.train import run_train as train  # torch: imported by training jobs only
 
     return train(config, ctx)

@@ -180,3 +180,14 @@ def test_oversized_submission_is_413(client, auth) -> None:  # noqa: ANN001
     r = client.post("/v1/jobs", json=body, headers=auth)
     assert r.status_code == 413 and "bytes" in r.json()["detail"]
     assert _count(client) == 0
+
+
+@pytest.mark.parametrize("kind", ["evaluate", "campaign"])
+def test_a_spec_with_the_removed_shards_field_is_a_422_naming_the_ray_executor(client, auth, kind) -> None:  # noqa: ANN001
+    spec = {"kind": kind, "shards": 4, **({"seed_manifest": "seeds/classic_eval_hard_smoke.yaml",
+                                           "variants": [{"name": "a"}]} if kind == "campaign" else {})}
+    r = client.post("/v1/jobs", json={"spec": spec}, headers=auth)
+    assert r.status_code == 422, r.text
+    messages = [e["msg"] for e in r.json()["detail"]]
+    assert any("'shards' was removed" in m and "executor: ray" in m for m in messages), messages
+    assert _count(client) == 0

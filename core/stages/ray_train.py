@@ -1,0 +1,99 @@
+"""The train stage as one Ray task (``executor: ray``): on a GPU node when the cluster has a GPU, else on a CPU.
+
+The task asks for ``num_gpus=1`` when the cluster offers any GPU (so Ray places it on such a node) and for
+``threads`` CPUs otherwise. It runs the very training function a local job runs, in a scratch folder of the node
+that runs it, so nothing assumes a shared disk: the dataset (and, with a closed-loop proxy, the proxy's config
+bundle) travels to it through the object store, and every file training wrote (``model.pt``, ``checkpoints/``,
+the summary) comes back into the job's work folder, in the same checkpoint format. A resumed job sends its
+``checkpoints/last.pt`` along, so training continues where it stopped wherever it runs.
+
+While the task runs, the driver checks for cancellation every ``POLL_S`` and force-cancels the task when asked;
+progress is reported when the task starts and when it returns (the node cannot reach the job's progress row).
+"""
+
+from __future__ import annotations
+
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from foresight.core.stages.context import StageContext
+from foresight.core.stages.execution import Execution
+
+RESUME_FILE = "checkpoints/last.pt"
+
+
+def _files(root: Path) -> dict[str, bytes]:
+    return {p.relative_to(root).as_posix(): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
+
+
+def _write(root: Path, files: dict[str, bytes]) -> None:
+    for rel, blob in files.items():
+        path = root / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(blob)
+
+
+def _train_task(config: dict[str, Any], dataset: bytes, bundle: dict[str, bytes] | None,
+                resume: dict[str, bytes]) -> tuple[dict[str, Any], dict[str, bytes], dict[str, float]]:
+    """Inside the Ray task: train in a scratch folder; (result JSON, files written, resources the task holds)."""
+    import ray
+
+    from foresight.core.predict.nn.train import run_train
+    from foresight.core.predict.train_config import TrainConfig
+
+    scratch = Path(tempfile.mkdtemp(prefix="foresight-ray-train-"))
+    try:
+        (scratch / "dataset.npz").write_bytes(dataset)
+        if bundle is not None:
+            _write(scratch / "bundle", bundle)
+        work = scratch / "work"
+        work.mkdir()
+        _write(work, resume)
+        ctx = StageContext(workdir=work, local_files=False, resolve_dataset=lambda _: scratch / "dataset.npz",
+                           resolve_bundle=lambda _: scratch / "bundle")
+        cfg = TrainConfig.model_validate({**config, "executor": "local"})
+        result = run_train(cfg, ctx).model_dump(mode="json")
+        return result, _files(work), dict(ray.get_runtime_context().get_assigned_resources())
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+
+
+def train_on_ray(config: Any, ctx: StageContext) -> Any:
+    """Run ``config`` (a TrainConfig with ``executor: ray``) as one Ray task; its TrainResult, whose checkpoint and
+    artifacts are in ``ctx.workdir`` as a local run leaves them."""
+    import ray
+
+    from foresight.core.evaluation.ray_executor import POLL_S, cluster_gpus, connect
+    from foresight.core.predict.dataset import resolve_dataset_path
+    from foresight.core.predict.train_config import TrainingSummary, TrainResult
+
+    address = connect(int(ctx.workers or 1))
+    gpus = 1 if cluster_gpus() > 0 else 0
+    dataset = resolve_dataset_path(config.dataset, ctx).read_bytes()
+    proxy = config.proxy if config.proxy_every > 0 else None
+    bundle = None if proxy is None else _files(ctx.resolve_bundle(proxy.bundle))
+    last = ctx.workdir / RESUME_FILE
+    resume = {RESUME_FILE: last.read_bytes()} if config.resume and last.is_file() else {}
+    options: dict[str, Any] = {"num_gpus": 1, "num_cpus": 1} if gpus else {"num_cpus": config.threads}
+    task = ray.remote(max_retries=1, retry_exceptions=False)(_train_task).options(**options)
+    ctx.progress(0.0, f"training as a Ray task ({'1 GPU' if gpus else f'{config.threads} CPU'}) at {address}")
+    ref = task.remote(config.model_dump(mode="json"), dataset, bundle, resume)
+    try:
+        while not ray.wait([ref], timeout=POLL_S)[0]:
+            ctx.check_cancelled()
+        data, files, held = ray.get(ref)
+    except BaseException:
+        ray.cancel(ref, force=True)
+        raise
+    ctx.workdir.mkdir(parents=True, exist_ok=True)
+    _write(ctx.workdir, files)
+    # paths the node wrote name its scratch folder: name this work folder's files instead
+    checkpoint, summary_path = ctx.workdir / "model.pt", ctx.workdir / Path(TrainResult.model_validate(data).summary).name
+    summary = TrainingSummary.model_validate_json(summary_path.read_text())
+    summary = summary.model_copy(update={"checkpoint": str(checkpoint)})
+    summary_path.write_text(summary.model_dump_json(indent=2))
+    execution = Execution(executor="ray", cpus=int(held.get("CPU", 0)), gpus=int(held.get("GPU", 0)), address=address)
+    ctx.progress(1.0, f"trained as a Ray task ({execution.describe()})")
+    return summary.result(str(summary_path)).model_copy(update={"execution": execution})
