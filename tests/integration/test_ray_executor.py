@@ -25,7 +25,7 @@ from .service import free_port
 
 pytestmark = pytest.mark.slow
 REPO = Path(__file__).resolve().parents[2]
-COLLECT = {"scenarios": ["crossing_low", "head_on_corridor_high"], "seeds_per_scenario": 2, "max_steps": 80,
+COLLECT = {"scenarios": ["crossing_low", "head_on_corridor_high"], "seeds_per_scenario": 2, "max_steps": 120,
            "policy": "goal_noisy"}
 
 
