@@ -84,7 +84,6 @@ def write_compact(path: Path, data: dict[str, Any] | bytes) -> Path:
     """Write a compact trace (or the :func:`compact_bytes` of one) to ``path``."""
     files.write_bytes(path, data if isinstance(data, bytes) else compact_bytes(data))
     return path
-    return path
 
 
 def read_compact(path: Path) -> dict[str, Any]:

@@ -18,6 +18,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from foresight.core import files
 from foresight.core.stages.context import StageContext
 from foresight.core.stages.execution import Execution
 
@@ -28,11 +29,9 @@ def _files(root: Path) -> dict[str, bytes]:
     return {p.relative_to(root).as_posix(): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
 
 
-def _write(root: Path, files: dict[str, bytes]) -> None:
-    for rel, blob in files.items():
-        path = root / rel
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_bytes(blob)
+def _write(root: Path, contents: dict[str, bytes]) -> None:
+    for rel, blob in contents.items():
+        files.write_bytes(root / rel, blob)
 
 
 def _train_task(config: dict[str, Any], dataset: bytes, bundle: dict[str, bytes] | None,
@@ -83,17 +82,17 @@ def train_on_ray(config: Any, ctx: StageContext) -> Any:
     try:
         while not ray.wait([ref], timeout=POLL_S)[0]:
             ctx.check_cancelled()
-        data, files, held = ray.get(ref)
+        data, written, held = ray.get(ref)
     except BaseException:
         ray.cancel(ref, force=True)
         raise
     ctx.workdir.mkdir(parents=True, exist_ok=True)
-    _write(ctx.workdir, files)
+    _write(ctx.workdir, written)
     # paths the node wrote name its scratch folder: name this work folder's files instead
     checkpoint, summary_path = ctx.workdir / "model.pt", ctx.workdir / Path(TrainResult.model_validate(data).summary).name
     summary = TrainingSummary.model_validate_json(summary_path.read_text())
     summary = summary.model_copy(update={"checkpoint": str(checkpoint)})
-    summary_path.write_text(summary.model_dump_json(indent=2))
+    files.write_text(summary_path, summary.model_dump_json(indent=2))
     execution = Execution(executor="ray", cpus=int(held.get("CPU", 0)), gpus=int(held.get("GPU", 0)), address=address)
     ctx.progress(1.0, f"trained as a Ray task ({execution.describe()})")
     return summary.result(str(summary_path)).model_copy(update={"execution": execution})
