@@ -80,9 +80,12 @@ def test_never_more_than_the_window_in_flight(ray_instance: None) -> None:
             pulled.append(i)
             yield i
 
+    def square(x: int) -> int:  # defined here: pickled by value, so Ray workers need not import this module
+        return x * x
+
     ahead = []
     results = []
-    task = ray.remote(num_cpus=1)(_square)
+    task = ray.remote(num_cpus=1)(square)
     for value in ray_executor.run_tasks(task, (), items(), StageContext(workdir=Path(".")), window=3):
         results.append(value)
         ahead.append(len(pulled) - len(results))  # submitted but not yet handed back
@@ -90,11 +93,10 @@ def test_never_more_than_the_window_in_flight(ray_instance: None) -> None:
     assert max(ahead) <= 3 - 1 and len(pulled) == 12  # the one just handed back was one of the 3
 
 
-def _square(x: int) -> int:
-    return x * x
-
-
 def test_a_raising_planner_on_ray_is_a_recorded_episode_outcome(ray_instance: None, tmp_path: Path) -> None:
+    from foresight.core.planners.registry import register
+
+    register("tests.unit.planners.user_planner:broken_factory")  # Ray workers import it by name
     config = EvaluationConfig(scenarios=["crossing_low"], seeds_per_scenario=2, max_steps=50, executor="ray",
                               planner={"name": "tests.unit.planners.user_planner:broken_factory"})
     result = run_evaluation(config, _ctx(tmp_path))
@@ -105,7 +107,9 @@ def test_a_raising_planner_on_ray_is_a_recorded_episode_outcome(ray_instance: No
 def test_an_unreachable_ray_address_is_one_line_naming_it(tmp_path: Path) -> None:
     address = f"127.0.0.1:{free_port()}"  # nothing listens there
     env = {**os.environ, "FORESIGHT_RAY_ADDRESS": address, "RAY_AUTH_MODE": "disabled"}
+    matrix = BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml"
     out = subprocess.run([str(Path(sys.executable).with_name("foresight")), "evaluate", "--local", "--executor", "ray",
+                          "--matrix", str(matrix),
                           "--scenarios", "crossing_low", "--seeds-per-scenario", "1", "--max-steps", "20",
                           "--planner", "goal", "--out", str(tmp_path)], env=env, capture_output=True, text=True,
                          timeout=120)  # fmt: skip
