@@ -69,6 +69,22 @@ def components(config: EvaluationConfig, root: Path, tasks: int) -> dict:
         write_records(ctx.workdir / "episodes.jsonl", [item for _, item, _ in runs])
     store_ms = 1000 * (time.perf_counter() - t0) / (20 * len(runs))
 
+    # the driver keeps every record until the run's aggregates are computed: memory and aggregation per record
+    import tracemalloc
+
+    from foresight.core.evaluation.aggregate import aggregate
+    from foresight.core.evaluation.record import EpisodeRecord
+
+    records = [item for _, item, _ in runs]
+    tracemalloc.start()
+    before = tracemalloc.get_traced_memory()[0]
+    copies = [EpisodeRecord.model_validate_json(r.model_dump_json()) for r in records * 50]
+    held_b = (tracemalloc.get_traced_memory()[0] - before) / len(copies)
+    tracemalloc.stop()
+    t0 = time.perf_counter()
+    aggregate(copies)
+    aggregate_ms = 1000 * (time.perf_counter() - t0) / len(copies)
+
     ray.init(address="local", num_cpus=2, include_dashboard=False, log_to_driver=False, logging_level="ERROR")
     try:
         task = ray.remote(num_cpus=1)(_noop)
@@ -81,7 +97,8 @@ def components(config: EvaluationConfig, root: Path, tasks: int) -> dict:
     return {"noop_tasks": n, "noop_tasks_per_s": round(n / wall, 1), "scheduling_ms_per_task": round(1000 * wall / n, 2),
             "window": ray_executor.WINDOW_PER_CPU * 2, "record_bytes_mean": round(sum(record_b) / len(record_b)),
             "trace_bytes_mean": round(sum(trace_b) / max(1, len(trace_b))), "run_shared_bytes": shared_b,
-            "store_ms_per_episode": round(store_ms, 3)}
+            "store_ms_per_episode": round(store_ms, 3), "driver_bytes_per_record": round(held_b),
+            "aggregate_ms_per_record": round(aggregate_ms, 3), "aggregated_records": len(copies)}
 
 
 def _noop(x: int) -> int:
