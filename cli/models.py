@@ -47,7 +47,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     up = bundles.add_parser("upload", help="upload a folder or a zip/tar archive as a bundle")
     up.add_argument("name", help="bundle id")
     up.add_argument("path", help="folder (packed as tar.gz) or archive file")
+    up.add_argument("--replace", action="store_true", help="replace the files of an uploaded bundle of that id "
+                    "(refused while queued or running jobs use it)")
     up.set_defaults(func=cmd_bundles_upload)
+    bdel = bundles.add_parser("delete", help="delete an uploaded bundle (refused while queued or running jobs use it)")
+    bdel.add_argument("name", help="bundle id")
+    bdel.set_defaults(func=cmd_bundles_delete)
     for group in (models, bundles):
         for p in group.choices.values():
             add_connection_args(p)
@@ -128,7 +133,14 @@ def pack(path: Path) -> tuple[bytes, str]:
 
 def cmd_bundles_upload(args: argparse.Namespace) -> int:
     data, ctype = pack(Path(args.path))
-    bundle = Client.from_args(args).post("/v1/bundles", params={"name": args.name}, content=data,
+    params = {"name": args.name, **({"replace": "true"} if args.replace else {})}
+    bundle = Client.from_args(args).post("/v1/bundles", params=params, content=data,
                                          headers={"Content-Type": ctype})  # fmt: skip
     _out(bundle, args.json, f"{bundle['id']}: {len(bundle['files'])} files, matrices {bundle['scenarios']}")
+    return 0
+
+
+def cmd_bundles_delete(args: argparse.Namespace) -> int:
+    Client.from_args(args).delete(f"/v1/bundles/{args.name}")
+    _out({"deleted": args.name}, args.json, f"deleted bundle {args.name}")
     return 0

@@ -146,8 +146,9 @@ def _check_yaml_refs(value: Any, file: str, root: Path, where: str = "") -> None
             raise ConfigError(f"path {value!r} leaves the bundle", source=file, item=where)
 
 
-def save_upload(engine: Engine, settings: Settings, ident: str, data: bytes) -> Bundle:
-    """Validate an uploaded zip/tar bundle and store it under ``bundles/<id>``; ConfigError when invalid."""
+def save_upload(engine: Engine, settings: Settings, ident: str, data: bytes, *, replace: bool = False) -> Bundle:
+    """Validate an uploaded zip/tar bundle and store it under ``bundles/<id>``; ConfigError when invalid.
+    ``replace``: swap out the files of an uploaded bundle of that id (``store.bundles.replace_upload``)."""
     from foresight.core.scenarios.loader import load_matrix
 
     if not IDENT.match(ident) or ident == BUILTIN_BUNDLE:
@@ -182,17 +183,26 @@ def save_upload(engine: Engine, settings: Settings, ident: str, data: bytes) -> 
                 raise ConfigError(str(exc), source=rel) from None
         stored = f"bundles/{ident}"
         dest = folders.resolve_under(settings.store_root, stored)
-        if dest.exists():
+        if dest.exists() and not replace:
             raise FileExistsError(ident)
         dest.parent.mkdir(parents=True, exist_ok=True)
         staging = Path(tempfile.mkdtemp(prefix=f".{ident}.", dir=dest.parent))
+        old = None
         try:  # a full disk (or any failure) leaves no staging folder behind
             for rel in files:
                 folders.write_atomic(staging / rel, (root / rel).read_bytes())
+            if dest.exists():  # replace: the old files step aside (a staging-named folder gc knows), then go
+                old = Path(tempfile.mkdtemp(prefix=f".{ident}.", dir=dest.parent)) / "old"
+                dest.rename(old)
             staging.rename(dest)
         except BaseException:
+            if old is not None and old.exists() and not dest.exists():
+                old.rename(dest)
             shutil.rmtree(staging, ignore_errors=True)
             raise
+        finally:
+            if old is not None:
+                shutil.rmtree(old.parent, ignore_errors=True)
     _put_bundle(engine, ident, "upload", dest, stored, hashlib.sha256(data).hexdigest())
     with session_factory(engine)() as session:
         return session.get(Bundle, ident)

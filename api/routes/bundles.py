@@ -4,13 +4,13 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from fastapi import APIRouter, Query, Request, status
+from fastapi import APIRouter, Query, Request, Response, status
 
 from foresight.api.deps import EngineDep, ResolverDep, SettingsDep, WriteAuth
 from foresight.api.errors import AUTH, responses
 from foresight.api.schemas import BundlePublic, BundlesPublic, Ident, ScenarioPublic
 from foresight.core.errors import ConfigError
-from foresight.store import queue, registry
+from foresight.store import bundles, queue, registry
 from foresight.store.models import Bundle
 from foresight.store.registry import MAX_BUNDLE_BYTES, save_upload
 
@@ -31,18 +31,14 @@ def read_bundles(engine: EngineDep) -> BundlesPublic:
     return BundlesPublic(data=[BundlePublic.model_validate(b) for b in rows], count=len(rows))
 
 
-@router.post("", status_code=status.HTTP_201_CREATED, dependencies=[WriteAuth], responses=responses(*AUTH, 409),
-             openapi_extra={"requestBody": {"required": True, "content": {
-                 "application/zip": {"schema": {"type": "string", "format": "binary"}},
-                 "application/x-tar": {"schema": {"type": "string", "format": "binary"}},
-                 "application/gzip": {"schema": {"type": "string", "format": "binary"}}}}})  # fmt: skip
-async def create_bundle(
-    request: Request, engine: EngineDep, settings: SettingsDep,
-    name: Annotated[Ident, Query(description="bundle id")],
-) -> BundlePublic:  # fmt: skip
-    """Upload a zip or tar of YAML files and maps (the raw archive is the body); validated before it is stored."""
-    if registry.bundle(engine, name) is not None:
-        raise queue.Conflict(f"a bundle with id {name!r} already exists")
+ARCHIVE_BODY = {"requestBody": {"required": True, "content": {
+    "application/zip": {"schema": {"type": "string", "format": "binary"}},
+    "application/x-tar": {"schema": {"type": "string", "format": "binary"}},
+    "application/gzip": {"schema": {"type": "string", "format": "binary"}}}}}  # fmt: skip
+
+
+async def _archive(request: Request) -> bytes:
+    """The raw archive body, refused past MAX_BUNDLE_BYTES before it is all read."""
     declared = int(request.headers.get("content-length") or 0)
     if declared > MAX_BUNDLE_BYTES:
         raise ConfigError(f"archive larger than {MAX_BUNDLE_BYTES} bytes", source="upload")
@@ -51,13 +47,55 @@ async def create_bundle(
         data += chunk
         if len(data) > MAX_BUNDLE_BYTES:
             raise ConfigError(f"archive larger than {MAX_BUNDLE_BYTES} bytes", source="upload")
+    return bytes(data)
+
+
+@router.post("", status_code=status.HTTP_201_CREATED, dependencies=[WriteAuth],
+             responses={200: {"model": BundlePublic, "description": "replaced (replace=true)"}, **responses(*AUTH, 409)},
+             openapi_extra=ARCHIVE_BODY)  # fmt: skip
+async def create_bundle(
+    request: Request, response: Response, engine: EngineDep, settings: SettingsDep,
+    name: Annotated[Ident, Query(description="bundle id")],
+    replace: Annotated[bool, Query(description="replace an uploaded bundle of that id (as PUT)")] = False,
+) -> BundlePublic:  # fmt: skip
+    """Upload a zip or tar of YAML files and maps (the raw archive is the body); validated before it is stored.
+    An existing id is a 409 unless ``replace=true`` (then 200, as PUT)."""
     from starlette.concurrency import run_in_threadpool
 
+    if replace and registry.bundle(engine, name) is not None:
+        data = await _archive(request)
+        row = await run_in_threadpool(bundles.replace_upload, engine, settings, name, data)
+        response.status_code = status.HTTP_200_OK
+        return BundlePublic.model_validate(row)
+    if registry.bundle(engine, name) is not None:
+        raise queue.Conflict(f"a bundle with id {name!r} already exists (replace it: PUT /v1/bundles/{name}, "
+                             "or `foresight bundles upload --replace`)")  # fmt: skip
+    data = await _archive(request)
     try:
-        row = await run_in_threadpool(save_upload, engine, settings, name, bytes(data))
+        row = await run_in_threadpool(save_upload, engine, settings, name, data)
     except FileExistsError:
         raise queue.Conflict(f"a bundle with id {name!r} already exists") from None
     return BundlePublic.model_validate(row)
+
+
+@router.put("/{bundle_id}", dependencies=[WriteAuth], responses=responses(*AUTH, 404, 409), openapi_extra=ARCHIVE_BODY)
+async def replace_bundle(bundle_id: Ident, request: Request, engine: EngineDep, settings: SettingsDep) -> BundlePublic:
+    """Replace an uploaded bundle's files with a new archive (validated as an upload). 409 for project and
+    config-folder bundles and while queued or running jobs use it (naming them)."""
+    from starlette.concurrency import run_in_threadpool
+
+    await run_in_threadpool(bundles.check_replaceable, engine, bundle_id)  # before reading a large body
+    data = await _archive(request)
+    return BundlePublic.model_validate(await run_in_threadpool(bundles.replace_upload, engine, settings, bundle_id, data))
+
+
+@router.delete("/{bundle_id}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[WriteAuth],
+               responses=responses(*AUTH, 404, 409))  # fmt: skip
+def delete_bundle(bundle_id: Ident, engine: EngineDep, settings: SettingsDep) -> Response:
+    """Delete an uploaded bundle and its files (records that ran on it keep its name). 409 for project and
+    config-folder bundles and while queued or running jobs use it (naming them)."""
+    bundles.delete_upload(engine, settings, bundle_id)
+    return Response(status_code=status.HTTP_204_NO_CONTENT)
 
 
 @router.get("/{bundle_id}", responses=responses(404))
