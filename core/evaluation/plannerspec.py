@@ -147,27 +147,27 @@ def sha256_file(path: Path) -> str:
     return h.hexdigest()
 
 
-_MODELS: dict[tuple[str, str], Any] = {}  #: (path, sha256 of the bytes loaded) -> predictor, per process
+_MODELS: dict[tuple[str, str, str | None], Any] = {}  #: (path, sha256 of the bytes loaded, id) -> predictor, per process
 
 
-def load_model(path: str, sha256: str | None = None) -> Any:
+def load_model(path: str, sha256: str | None = None, name: str | None = None) -> Any:
     """Load a checkpoint into a predictor once per process and file content (imports torch only here).
 
     The bytes loaded must hash to ``sha256`` (None: any; the predictor's ``sha256`` says what was loaded), so
     a file rewritten between resolving and loading, or while worker processes start, fails the run instead
-    of being used under another checksum."""
-    if sha256 is not None and (path, sha256) in _MODELS:
-        return _MODELS[path, sha256]
-    predictor = _load_model(path, sha256)
-    _MODELS[path, predictor.sha256] = predictor
+    of being used under another checksum. ``name``: the model id its errors name (default: the file's stem)."""
+    if sha256 is not None and (path, sha256, name) in _MODELS:
+        return _MODELS[path, sha256, name]
+    predictor = _load_model(path, sha256, name)
+    _MODELS[path, predictor.sha256, name] = predictor
     return predictor
 
 
-def _load_model(path: str, sha256: str | None) -> Any:
+def _load_model(path: str, sha256: str | None, name: str | None) -> Any:
     from foresight.core.predict.nn.checkpoint import load_predictor
 
     try:
-        return load_predictor(Path(path), expect_sha256=sha256)
+        return load_predictor(Path(path), expect_sha256=sha256, name=name)
     except pickle.UnpicklingError as exc:  # a file torch cannot read at all (not only a wrong payload)
         raise ConfigError(f"not a readable checkpoint ({str(exc).splitlines()[0]})", source=path) from None
 
@@ -178,7 +178,7 @@ def build_planner(rp: ResolvedPlanner) -> Planner:
 
     model = None
     if rp.model_id != NO_MODEL:
-        model = load_model(rp.model_path, rp.checkpoint_sha256) if rp.model_path else CV
+        model = load_model(rp.model_path, rp.checkpoint_sha256, rp.model_id) if rp.model_path else CV
     return make_planner(rp.name, rp.config, model=model)
 
 
@@ -194,7 +194,7 @@ def _model(spec: PlannerSpecBase, takes_model: bool, ctx: StageContext) -> tuple
     path = Path(ctx.resolve_model(ident))
     if not path.is_file():
         raise ConfigError("checkpoint file not found", source=path, item=ident)
-    sha = load_model(str(path)).sha256  # a bad model stops the run here, before any episode
+    sha = load_model(str(path), name=ident).sha256  # a bad model stops the run here, before any episode
     return ident, sha, str(path)  # later loads (worker processes) check their bytes against this checksum
 
 

@@ -114,7 +114,8 @@ class LearnedForecaster(_PredictorForecaster):
     def __init__(self, predictor: Predictor, max_agents: int | None = None):
         frame = getattr(predictor, "frame_convention", "robot")
         if frame != "robot":
-            raise ConfigError(f"model {predictor.name!r} was trained in the {frame!r} frame; the planner feeds "
-                              "robot-frame features (train it on simulator data)", item="model")
+            raise ConfigError(f"model {predictor.name!r} was trained in the {frame!r} frame (robot-less data such as "
+                              "ETH/UCY); the planner feeds robot-frame features: use a model trained on simulator "
+                              "data", item="model")
         slots = max_agents if max_agents is not None else getattr(predictor, "max_agents", None)
         super().__init__(predictor, slots, f"learned:{predictor.name}", getattr(predictor, "uncertainty", LEARNED_SIGMA))
