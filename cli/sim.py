@@ -21,13 +21,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     ls.set_defaults(func=scenarios_list)
 
     sim = sub.add_parser("sim", help="run the simulator").add_subparsers(dest="action", required=True)
-    run = sim.add_parser("run", help="one episode with the goal-seeking robot")
+    run = sim.add_parser("run", help="one episode with a planner (default: the goal-seeking robot)")
     run.add_argument("--matrix", required=True, help="scenario matrix YAML (server: a name in --bundle, or a file "
                                                      "in the project's configs/)")
     run.add_argument("--bundle", help="server: config bundle id; --matrix is a name inside it")
     run.add_argument("--scenario", required=True)
     run.add_argument("--seed", type=int, required=True)
     run.add_argument("--render", help="write a PNG/SVG of the episode here (server: downloaded from the job)")
+    run.add_argument("--planner", default="goal", help="planner name (as for evaluate; default goal) or a planner YAML")
+    run.add_argument("--planner-config", help="the planner's config as inline JSON/YAML")
+    run.add_argument("--model", help="predictive planner: model id or cv (--local: also a checkpoint path; default: "
+                     "the default predictor)")
     stage.add_mode_args(run)
     run.set_defaults(func=sim_run)
 
@@ -69,18 +73,29 @@ def _table(rows: list[dict]) -> str:
 
 
 def sim_run(args: argparse.Namespace) -> int:
+    from foresight.cli.evaluate import ModelArgs, planner_spec
+
     values = {"scenarios": [args.scenario], "seeds": [args.seed], "render": bool(args.render)}
+    models = ModelArgs()
     if not args.local:
+        client = stage.Client.from_args(args)
+        planner = planner_spec(args.planner, None, models, default=False, config=args.planner_config, local=False)
+        if args.model is not None:
+            planner["model"] = stage.model_id(args.model, "--model")
+        elif planner.get("name") == "predictive" and "model" not in planner:
+            planner["model"] = stage.server_default_model(client)
         bundle, names = stage.bundle_names(args.bundle, {"--matrix": args.matrix})
-        spec = stage.spec("simulate", {**values, "bundle": bundle, "matrix": names["--matrix"]})
-        return stage.submit(args, spec, result_model=SimulateResult, after=_download_render(args.render),
+        spec = stage.spec("simulate", {**values, "bundle": bundle, "matrix": names["--matrix"], "planner": planner})
+        return stage.submit(args, spec, client=client, result_model=SimulateResult, after=_download_render(args.render),
                             text=lambda r, ref: f"{_episode_line(r.episodes[0])}\n{ref}")
     if args.bundle:
         raise ConfigError("--bundle names a server bundle; --local runs take a --matrix file", source="command line",
                           item="--bundle")
     bundle, rel, roots = matrix_ref(args.matrix)
-    config = stage.config_of(stage.spec("simulate", {**values, "bundle": bundle, "matrix": rel}))
+    planner = planner_spec(args.planner, args.model, models, config=args.planner_config)
+    config = stage.config_of(stage.spec("simulate", {**values, "bundle": bundle, "matrix": rel, "planner": planner}))
     ctx = local_context(None, roots, quiet=True)
+    ctx.resolve_model = models.resolve
     result = run_simulate(config, ctx)
     episode = result.episodes[0]
     if args.render and episode.render:

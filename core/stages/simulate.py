@@ -1,4 +1,4 @@
-"""Stage `simulate`: run episodes of a scenario matrix with a simple controller, render and summarise.
+"""Stage `simulate`: run episodes of a scenario matrix with a planner (goal-seeking by default), render and summarise.
 
 It is the simulator demo and the smallest end-to-end slice of the service (one spec, one job,
 JSON back). Heavier stages (collect, evaluate, campaign) follow the same shape.
@@ -7,12 +7,19 @@ JSON back). Heavier stages (collect, evaluate, campaign) follow the same shape.
 from __future__ import annotations
 
 import json
-from typing import Literal
+from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from foresight.core import files
 from foresight.core.errors import ConfigError
+from foresight.core.evaluation.plannerspec import (
+    PlannerSpec,
+    build_planner,
+    planner_spec,
+    preflight,
+    resolve_planner,
+)
 from foresight.core.stages.context import StageContext
 from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident, Name, Seed, resolve_in_bundle
 from foresight.core.version import code_version
@@ -27,8 +34,14 @@ class SimulateConfig(BaseModel):
     matrix: BundlePath = "scenarios/classic_interactions.yaml"
     scenarios: list[Name] | None = Field(default=None, max_length=1000)
     seeds: list[Seed] | None = Field(default=None, max_length=1000)
-    planner: Literal["goal"] = "goal"
+    #: any planner an evaluation takes (name, config, model); a bare name is short for ``{name: NAME}``
+    planner: PlannerSpec = Field(default_factory=lambda: planner_spec(name="goal"))
     render: bool = True
+
+    @field_validator("planner", mode="before")
+    @classmethod
+    def _name_only(cls, value: Any) -> Any:
+        return {"name": value} if isinstance(value, str) else value
 
 
 class EpisodeSummary(BaseModel):
@@ -40,6 +53,8 @@ class EpisodeSummary(BaseModel):
     min_distance: float | None  #: closest robot-pedestrian centre distance [m]; None without pedestrians
     wall_s: float
     render: str | None = None  #: artifact name of the PNG
+    planner: str = "goal"  #: the planner's name
+    model_id: str = "none"  #: its model id, "cv", or "none" (planners without a predictor)
 
 
 class SimulateResult(BaseModel):
@@ -49,7 +64,6 @@ class SimulateResult(BaseModel):
 
 
 def run_simulate(config: SimulateConfig, ctx: StageContext) -> SimulateResult:
-    from foresight.core.planners.goal import GoalSeeking
     from foresight.core.scenarios.loader import load_matrix
     from foresight.core.sim.episode import run_episode
 
@@ -63,11 +77,13 @@ def run_simulate(config: SimulateConfig, ctx: StageContext) -> SimulateResult:
             jobs.append((scenario, seed))
     if not jobs:
         raise ConfigError("no episodes selected", source=config.matrix)
+    planner = resolve_planner(config.planner, ctx)  # a bad config or model stops here, before any episode
+    preflight(planner, [scenario for scenario, _ in jobs])
     episodes = []
     for i, (scenario, seed) in enumerate(jobs):
         ctx.check_cancelled()
         ctx.progress(i / len(jobs), f"{scenario.name} seed {seed}")
-        result = run_episode(scenario, seed, GoalSeeking(), check=ctx.check_cancelled)
+        result = run_episode(scenario, seed, build_planner(planner), check=ctx.check_cancelled)
         render_name = None
         if config.render:
             from foresight.core.render.trace import render_trace
@@ -78,7 +94,7 @@ def run_simulate(config: SimulateConfig, ctx: StageContext) -> SimulateResult:
             EpisodeSummary(
                 scenario=scenario.name, seed=seed, outcome=result.outcome, steps=result.steps,
                 pedestrians=int(result.trace.ped_ids.shape[1]), min_distance=result.min_distance,
-                wall_s=result.wall_s, render=render_name,
+                wall_s=result.wall_s, render=render_name, planner=planner.name, model_id=planner.model_id,
             )
         )
     ctx.progress(1.0, "done")

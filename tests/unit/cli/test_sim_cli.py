@@ -43,6 +43,21 @@ def test_sim_run_json_and_render(reference_matrix_path: Path, tmp_path: Path, ca
     assert (again["outcome"], again["steps"], again["min_distance"]) == (first["outcome"], first["steps"], first["min_distance"])
 
 
+def test_sim_run_chooses_the_planner(tmp_path: Path, capsys) -> None:
+    args = ["sim", "run", "--local", "--json", "--matrix", str(OUR_MATRIX), "--scenario", "crossing_low", "--seed",
+            "1000"]  # fmt: skip
+    assert main(args) == 0
+    assert _json(capsys)["planner"] == "goal"  # the default, as before
+    assert main([*args, "--planner", "orca"]) == 0
+    orca = _json(capsys)
+    assert (orca["planner"], orca["model_id"]) == ("orca", "none") and orca["steps"] > 0
+    assert main([*args, "--planner", "predictive", "--model", "cv"]) == 0
+    predictive = _json(capsys)
+    assert (predictive["planner"], predictive["model_id"]) == ("predictive", "cv")
+    assert main([*args, "--planner", "orcaa"]) == 1
+    assert "unknown planner 'orcaa' (installed: predictive, orca" in capsys.readouterr().err
+
+
 def test_sim_run_unknown_scenario_is_one_line_error(reference_matrix_path: Path, capsys) -> None:
     rc = main(["sim", "run", "--matrix", str(reference_matrix_path), "--scenario", "nope", "--seed", "1", "--local"])
     err = capsys.readouterr().err.strip().splitlines()
