@@ -156,13 +156,10 @@ def submit_and_follow(client: Any, spec: dict[str, Any], *, as_json: bool, wait:
 
 def follow_pipeline(client: Any, job_id: str, *, quiet: bool) -> dict[str, Any]:
     """Poll the pipeline job until it ends: one line per child stage as it starts and ends, and a bar."""
-    from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+    from foresight.cli.common import progress_bar
 
-    console = Console(stderr=True)
     seen: dict[str, str] = {}
-    with Progress(TextColumn("pipeline"), BarColumn(), TextColumn("{task.percentage:>5.1f}%"), TimeElapsedColumn(),
-                  TextColumn("{task.fields[message]}"), console=console, disable=quiet, transient=False) as bar:
+    with progress_bar(quiet=quiet) as bar:
         task = bar.add_task("pipeline", total=1.0, message="")
         while True:
             job = client.get(f"/v1/jobs/{job_id}")
@@ -289,12 +286,14 @@ def cmd_mine(args: argparse.Namespace) -> int:
         exclude |= read_manifest_pairs(path)
     scenarios = [s.strip() for s in args.scenarios.split(",") if s.strip()] if args.scenarios else None
 
-    def progress(fraction: float, message: str) -> None:
-        print(f"\r{100 * fraction:5.1f}% {message[:70]:<70}", end="", file=sys.stderr, flush=True)
+    from foresight.cli.common import progress_bar
 
-    found = mine_failures(args.matrix, seeds=seeds, baseline=args.baseline, per_scenario=args.per_scenario,
-                          scenarios=scenarios, exclude=exclude, progress=progress)
-    print(file=sys.stderr)
+    with progress_bar(quiet=False) as bar:
+        task = bar.add_task("mine-seeds", total=1.0, message="")
+        found = mine_failures(args.matrix, seeds=seeds, baseline=args.baseline, per_scenario=args.per_scenario,
+                              scenarios=scenarios, exclude=exclude,
+                              progress=lambda fraction, message: bar.update(task, completed=fraction,
+                                                                            message=message[:60]))  # fmt: skip
     command = " ".join(["foresight pipeline mine-seeds", *_argv_for(args)])
     header = (f"Mined by: {command}\nSeeds where the {args.baseline} baseline does not reach the goal, the first "
               f"{args.per_scenario} per scenario in seed order\n(candidate seeds: "

@@ -17,6 +17,7 @@ run never falls back to constant velocity unnoticed: ``"cv"``, a ``Forecaster``,
 
 from __future__ import annotations
 
+import difflib
 import importlib
 import importlib.metadata
 import threading
@@ -206,6 +207,8 @@ def entry(name: str, *, load: bool = False) -> PlannerEntry:
         register(name)
         return _LOCAL[name]
     hint = "; module:attr planners run in-process only (--local, foresight.evaluate)" if ":" in name else ""
+    close = difflib.get_close_matches(name, list(installed()), n=1)
+    hint += f"; did you mean {close[0]!r}?" if close else ""
     raise NotFoundError(f"unknown planner {name!r} (installed: {', '.join(installed())}){hint}")
 
 

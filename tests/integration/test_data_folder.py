@@ -53,6 +53,14 @@ def test_up_in_one_folder_and_the_cli_in_another(tmp_path: Path) -> None:
                                 capture_output=True, text=True, timeout=60)  # fmt: skip
         assert listed.returncode == 0, listed.stderr
         assert job["id"] in {j["id"] for j in json.loads(listed.stdout)["data"]}
+        read, write = os.pipe()  # `foresight jobs ls | head`: the reader is gone before the first line
+        os.close(read)
+        try:
+            piped = subprocess.run([sys.executable, "-m", "foresight.cli.main", "jobs", "ls"], cwd=b, env=env,
+                                   stdout=write, stderr=subprocess.PIPE, text=True, timeout=60)  # fmt: skip
+        finally:
+            os.close(write)
+        assert piped.returncode == 0 and "Broken pipe" not in piped.stderr, piped.stderr
     finally:
         os.killpg(up.pid, signal.SIGTERM)
         try:

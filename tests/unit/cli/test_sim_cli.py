@@ -55,7 +55,8 @@ def test_sim_run_chooses_the_planner(tmp_path: Path, capsys) -> None:
     predictive = _json(capsys)
     assert (predictive["planner"], predictive["model_id"]) == ("predictive", "cv")
     assert main([*args, "--planner", "orcaa"]) == 1
-    assert "unknown planner 'orcaa' (installed: predictive, orca" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "unknown planner 'orcaa' (installed: predictive, orca" in err and "did you mean 'orca'?" in err
 
 
 def test_sim_run_unknown_scenario_is_one_line_error(reference_matrix_path: Path, capsys) -> None:
