@@ -76,3 +76,29 @@ def campaigns(engine: Engine, *, matrix: str | None = None, grid: str | None = N
     ]  # fmt: skip
     where = [t for t in terms if t is not None] + _label_terms(Campaign.job_id, name, tags)
     return _page(engine, Campaign, where, limit, offset)
+
+
+def campaign_grid_cells(engine: Engine, campaign_id: str) -> list[Any]:
+    """A campaign's cells as ``core.reports.grid_plot.GridCell`` (resolved planner config and both suites),
+    from its job's result; from the stored cells (no configs: plotted against the variant) when the job is gone.
+    ``store.queue.JobNotFound`` for an unknown campaign."""
+    from foresight.core.evaluation.aggregate import SuiteSummary
+    from foresight.core.evaluation.campaign import CampaignResult
+    from foresight.core.reports.grid_plot import GridCell
+    from foresight.store import queue, results
+
+    row, cells, _ = results.campaign(engine, campaign_id)
+    job = None
+    if row.job_id is not None:
+        try:
+            job = queue.get_job(engine, row.job_id)
+        except queue.JobNotFound:
+            job = None
+    if job is not None and job["result"]:
+        result = CampaignResult.model_validate(job["result"])
+        return [GridCell(c.checkpoint, c.variant, c.planner.config, {"global": c.global_, "hard": c.hard})
+                for c in result.ranked]  # fmt: skip
+    return [GridCell(c["params"]["checkpoint"], c["params"]["variant"], {},
+                     {s: SuiteSummary.model_validate(m) for s, m in (c["metrics"] or {}).items()
+                      if s in ("global", "hard") and m})
+            for c in cells]  # fmt: skip

@@ -3,11 +3,12 @@ model, matrix, grid, verdict) and by their job's labels (name, tags), one page a
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Query
 
 from foresight.api.deps import EngineDep
+from foresight.api.errors import responses
 from foresight.api.schemas import (
     MAX_TAGS,
     CampaignsPublic,
@@ -77,3 +78,16 @@ def read_campaigns(
                               "episodes": best[s]["episodes"]} for s in ("global", "hard") if s in best} if best else None,
         ))  # fmt: skip
     return CampaignsPublic(data=data, count=count, limit=limit, offset=offset)
+
+
+@router.get("/campaigns/{campaign_id}/grid", responses=responses(404))
+def read_campaign_grid(campaign_id: Ident, engine: EngineDep) -> list[dict[str, Any]]:
+    """The campaign's metrics against each planner-grid parameter it varied (keys whose resolved values differ
+    between cells; ``variant`` when none does): per metric (success, collision) a series per checkpoint and
+    suite, each point a variant with its rate and 95 % interval. What the dashboard's campaign page plots."""
+    from dataclasses import asdict
+
+    from foresight.api.routes.results import full_id
+    from foresight.core.reports.grid_plot import parameter_plots
+
+    return [asdict(p) for p in parameter_plots(listing.campaign_grid_cells(engine, full_id(engine, campaign_id)))]

@@ -8,7 +8,7 @@ from urllib.parse import urlencode
 from fastapi import APIRouter, Depends, Query, Request
 from fastapi.responses import HTMLResponse, RedirectResponse, Response
 
-from foresight.api.web import catalog, files
+from foresight.api.web import campaigns, catalog, files
 from foresight.api.web.auth import PageNotFound, read_access
 from foresight.api.web.render import page
 from foresight.core.stages.kinds import KINDS
@@ -145,4 +145,5 @@ def compare_page(request: Request, a: Annotated[str | None, Query(max_length=200
 
 router.include_router(pages)
 router.include_router(catalog.router)
+router.include_router(campaigns.router)
 router.include_router(files.router)

@@ -1,0 +1,33 @@
+"""Dashboard page of a campaign: its ranked cells and its metrics plotted against every planner-grid parameter it
+varied (success and collision, one line per checkpoint and suite), drawn as inline SVG on the server."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter, Depends, Request
+from fastapi.responses import HTMLResponse
+
+from foresight.api.web.auth import PageNotFound, read_access
+from foresight.api.web.render import page
+from foresight.store import listing, queue, results
+
+router = APIRouter(prefix="/ui", include_in_schema=False, dependencies=[Depends(read_access)])
+
+
+@router.get("/campaigns/{campaign_id}")
+def campaign_page(request: Request, campaign_id: str) -> HTMLResponse:
+    """Ranked cells, the gate, and a chart per varied grid parameter and metric (a short job id works too)."""
+    from markupsafe import Markup
+
+    from foresight.core.reports.grid_plot import METRICS, VARIANT_AXIS, chart_svg, parameter_plots
+
+    engine = request.app.state.engine
+    try:
+        ident = queue.resolve_id(engine, campaign_id)
+        row, cells, gates = results.campaign(engine, ident)
+        grid = listing.campaign_grid_cells(engine, ident)
+    except queue.JobNotFound as exc:
+        raise PageNotFound(str(exc)) from None
+    plots = parameter_plots(grid)
+    charts = [(p.parameter, [Markup(chart_svg(p, m)) for m in METRICS]) for p in plots]
+    return page(request, "campaign.html", title=f"Campaign {ident[:12]}", nav="results", campaign=row, cells=cells,
+                gates=gates, charts=charts, by_variant=[p.parameter for p in plots] == [VARIANT_AXIS])  # fmt: skip
