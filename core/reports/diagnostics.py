@@ -48,18 +48,53 @@ def _forecasts_at(steps: list[TraceStep], t: int) -> tuple[int, list[PredictedVs
     return t, []
 
 
-def _moment(workdir: Path, seed: SeedSummary, trace: SeedTrace, mapdef: MapDef | None) -> str | None:
+def _plan(step: TraceStep, dt: float) -> Any:
+    """The robot's plan at a step: a path the planner logged (``chosen``: plan/path/trajectory as (K, 2)), else
+    its command rolled out for PLAN_S seconds; None without a command."""
+    from foresight.core.render.moment import rollout
+
+    for key in ("plan", "path", "trajectory"):
+        logged = (step.chosen or {}).get(key)
+        if isinstance(logged, list) and logged and all(isinstance(p, list) and len(p) >= 2 for p in logged):
+            return [p[:2] for p in logged]
+    if step.command is None or None in step.command[:2] or None in step.robot[:3]:
+        return None
+    return rollout(step.robot[:3], step.command[:2], dt)  # type: ignore[arg-type]
+
+
+def _pedestrians_at(sim_trace: Any, t: int) -> list[tuple[int, Any, Any]]:
+    """(id, position, velocity) of the pedestrians in the scene at step ``t`` of a full episode trace."""
+    if sim_trace is None or t > sim_trace.steps:
+        return []
+    ids, pos, vel = sim_trace.ped_ids[t], sim_trace.ped_pos[t], sim_trace.ped_vel[t]
+    return [(int(i), pos[k], vel[k]) for k, i in enumerate(ids) if i >= 0]
+
+
+def _moment(workdir: Path, seed: SeedSummary, trace: SeedTrace, mapdef: MapDef | None,
+            sim_trace: Any = None) -> str | None:  # fmt: skip
     if not trace.steps:
         return None
     t = min(_critical_step(trace), len(trace.steps) - 1)
     made_at, rows = _forecasts_at(trace.steps, t)
+    at = trace.steps[made_at]
     path, rel = figure_path(workdir, f"moment_{seed.scenario}_{seed.seed}.png")
-    title = (f"{seed.scenario} seed {seed.seed}: step {t} ({t * trace.dt:.1f} s), "
-             f"forecast made at step {made_at}")
+    title = (f"{seed.scenario} seed {seed.seed}: step {t} ({t * trace.dt:.1f} s)"
+             + (f", forecast made at step {made_at}" if rows else ""))
     render_critical_moment([s.robot[:2] for s in trace.steps], made_at, [r.model_dump() for r in rows], path,
                            mapdef=mapdef, title=title, collision_point=trace.record.collision_point,
-                           robot_radius=_robot_radius(seed))
+                           robot_radius=_robot_radius(seed), heading=at.robot[2], plan=_plan(at, trace.dt),
+                           pedestrians=_pedestrians_at(sim_trace, made_at))
     return rel
+
+
+def _sim_trace(workdir: Path, seed: SeedSummary) -> Any:
+    """The episode's full trace (``diagnostics/trace_<scenario>_<seed>.npz``) when stored, else None."""
+    npz = workdir / f"diagnostics/trace_{seed.scenario}_{seed.seed}.npz"
+    if not npz.is_file():
+        return None
+    from foresight.core.sim.trace import Trace
+
+    return Trace.load(npz)
 
 
 def _robot_radius(seed: SeedSummary) -> float:
@@ -107,7 +142,7 @@ def _seed_section(doc: Document, workdir: Path, seed: SeedSummary, mapdef: MapDe
     trace_json = None
     if existing(workdir, seed.trace):
         trace_json = read(SeedTrace, workdir / seed.trace)
-        moment = _moment(workdir, seed, trace_json, mapdef)
+        moment = _moment(workdir, seed, trace_json, mapdef, trace if trace is not None else _sim_trace(workdir, seed))
         if moment:
             doc.image(moment, "Critical moment: predicted (dashed) vs actual (solid) futures of the nearest pedestrians")
         doc.links([("per-step trace (JSON)", seed.trace)])
