@@ -21,7 +21,7 @@ pytestmark = pytest.mark.slow
 
 #: three goal-planner variants differing in one numeric key (speed), on one scenario and the smoke hard seeds
 CAMPAIGN = {"kind": "campaign", "planner": {"name": "goal"}, "scenarios": ["crossing_low"], "seeds_per_scenario": 1,
-            "max_steps": 200, "seed_manifest": "seeds/classic_eval_hard_smoke.yaml",
+            "max_steps": 500, "seed_manifest": "seeds/classic_eval_hard_smoke.yaml",
             "variants": [{"name": f"speed{v}", "config": {"speed": v}} for v in (0.6, 1.0, 1.4)]}  # fmt: skip
 
 

@@ -1,0 +1,61 @@
+"""Job labels and the result lists' JSON-path filters on PostgreSQL (the scale-out database), as on SQLite:
+tags written by the PostgreSQL submission path, edited, and filtered with a record's planner, matrix and verdict."""
+
+from __future__ import annotations
+
+import os
+import uuid
+from collections.abc import Iterator
+
+import pytest
+from sqlalchemy import text
+
+from foresight.store import labels, listing, queue, records
+from foresight.store.session import make_engine, upgrade
+from tests.unit.reports import data
+
+PG_ADMIN = "postgresql+psycopg://postgres@127.0.0.1:5432/test"
+
+
+@pytest.fixture
+def pg() -> Iterator:  # noqa: ANN401
+    try:
+        admin = make_engine(PG_ADMIN, pool_size=1)
+        with admin.connect() as conn:
+            conn.execute(text("SELECT 1"))
+    except Exception as exc:  # noqa: BLE001
+        if os.environ.get("CI") == "true":
+            pytest.fail(f"PostgreSQL at 127.0.0.1:5432 unreachable: {exc}")
+        pytest.skip(f"PostgreSQL at 127.0.0.1:5432 unreachable: {exc}")
+    name = f"foresight_test_{uuid.uuid4().hex[:10]}"
+    with admin.connect().execution_options(isolation_level="AUTOCOMMIT") as conn:
+        conn.execute(text(f'CREATE DATABASE "{name}"'))
+    url = PG_ADMIN.rsplit("/", 1)[0] + f"/{name}"
+    try:
+        upgrade(url)
+        engine = make_engine(url)
+        yield engine
+        engine.dispose()
+    finally:
+        with admin.connect().execution_options(isolation_level="AUTOCOMMIT") as conn:
+            conn.execute(text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
+        admin.dispose()
+
+
+def test_labels_and_record_filters_on_postgres(pg) -> None:  # noqa: ANN001
+    job, _ = queue.submit(pg, kind="evaluate", spec={"kind": "evaluate"},
+                          labels={"name": "n1", "tags": ["a", "b"], "note": "Hello there"})  # fmt: skip
+    assert queue.get_job(pg, job["id"])["tags"] == ["a", "b"]
+    claimed = queue.claim(pg, "w", ["evaluate"], 30)
+    result = data.evaluation(failures=True)
+    result["config"] = {**result.get("config", {}), "matrix": "m.yaml", "planner": {"name": "orca"}}
+    queue.finish(pg, job["id"], "w", claimed["attempts"], result)
+    with pg.begin() as conn:
+        records.RECORDERS["evaluate"](conn, queue.get_job(pg, job["id"]), result, "")
+    assert queue.list_jobs(pg, tags=["a", "b"], q="HELLO")[0] == 1 and queue.list_jobs(pg, tags=["c"])[0] == 0
+    assert labels.edit(pg, job["id"], add=["c"], remove=["a"])
+    assert queue.get_job(pg, job["id"])["tags"] == ["b", "c"] and queue.list_jobs(pg, tags=["a"])[0] == 0
+    count, rows = listing.evaluations(pg, planner="orca", matrix="m.yaml", verdict="failed_gate", tags=["c"], name="n1")
+    assert count == 1 and rows[0].name == "n1" and rows[0].tags == ["b", "c"]
+    assert listing.evaluations(pg, planner="goal")[0] == 0
+    assert listing.campaigns(pg, matrix="m.yaml", model="cv", tags=["c"])[0] == 0
