@@ -10,6 +10,7 @@ the campaign's executor (``local`` or ``ray``: core.evaluation.runner.run_jobs),
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import re
@@ -39,10 +40,11 @@ from foresight.core.evaluation.runner import (
     Job,
     PlannerProvenance,
     bundle_file,
+    expected_cost,
+    iter_jobs,
     load_selection,
     planner_provenance,
     read_records,
-    run_jobs,
     write_records,
 )
 from foresight.core.evaluation.stats import ALPHA, MIN_PAIRS
@@ -184,14 +186,36 @@ def _load_cell(ctx: StageContext, key: str, fingerprint: str) -> CellResult | No
     return cell if cell.fingerprint == fingerprint else None
 
 
-def _run_cell(config: CampaignConfig, ctx: StageContext, matrix: ScenarioMatrix, settings: EpisodeSettings,
-              rp: ResolvedPlanner, hard: list[tuple[str, int]], glob: list[tuple[str, int]],
-              key: str, fingerprint: str, checkpoint: str) -> CellResult:
-    union = suite_union(hard, glob)
-    jobs = [Job(i, s, seed, rp) for i, (s, seed) in enumerate(union)]
-    records = run_jobs(jobs, settings, ctx, matrix=matrix, start_method=config.start_method,
-                       executor=config.executor)
-    return finish_cell(config, ctx, rp, hard, glob, records, key, fingerprint, checkpoint)
+def _run_cells(config: CampaignConfig, ctx: StageContext, plan: CampaignPlan, todo: list[int],
+               cells: list[CellResult | None]) -> None:
+    """Run the cells ``todo`` (indices into ``plan.cells``), filling ``cells``.
+
+    Their episodes are ONE stream of jobs, cell after cell (each cell's costliest episodes first), so an executor
+    with more CPUs than a cell has episodes (a Ray cluster) works on the next cells while a cell's last episodes
+    finish, rather than idling through every cell's tail. A cell is finished and written (``cells/<key>.json``,
+    the resume point) as soon as its last episode is in."""
+    union = suite_union(plan.hard, plan.glob)
+    order = sorted(range(len(union)), key=lambda k: -expected_cost(plan.matrix, union[k][0], config.max_steps))
+    jobs: list[Job] = []
+    where: list[tuple[int, int]] = []  #: job position -> (cell, position in the cell's episode list)
+    for i in todo:
+        for k in order:
+            jobs.append(Job(len(jobs), union[k][0], union[k][1], plan.cells[i][1]))
+            where.append((i, k))
+    got: dict[int, list] = {i: [None] * len(union) for i in todo}
+    left = dict.fromkeys(todo, len(union))
+    with contextlib.closing(iter_jobs(jobs, plan.settings, ctx, matrix=plan.matrix, start_method=config.start_method,
+                                      executor=config.executor, longest_first=False)) as results:
+        for done, (pos, record) in enumerate(results, start=1):
+            i, k = where[pos]
+            got[i][k] = record
+            left[i] -= 1
+            if left[i] == 0:
+                checkpoint, rp = plan.cells[i]
+                cells[i] = finish_cell(config, ctx, rp, plan.hard, plan.glob, got.pop(i), plan.cell_key(i),
+                                       cell_fingerprint(config, plan, i), checkpoint)
+                ctx.progress(done / len(jobs), f"{plan.cell_key(i)}: done ({len(todo) - len(got)}/{len(todo)} cells)")
+            ctx.check_cancelled()
 
 
 def suite_union(hard: list[tuple[str, int]], glob: list[tuple[str, int]]) -> list[tuple[str, int]]:
@@ -252,21 +276,14 @@ def run_campaign(config: CampaignConfig, ctx: StageContext) -> CampaignResult:
     """Run (or resume) every cell, rank, gate; writes campaign_summary.json and campaign_report.md."""
     t0 = time.perf_counter()
     plan = prepare_campaign(config, ctx)
-    hard, glob = plan.hard, plan.glob
-    cells: list[CellResult] = []
-    ran = 0
-    for i, (ck, rp) in enumerate(plan.cells):
-        ctx.check_cancelled()
-        key = _cell_key(ck, rp.variant or rp.name)
-        fp = _fingerprint(rp, config, hard, glob)
-        cell = _load_cell(ctx, key, fp)
-        ctx.progress(i / len(plan.cells), f"{key}: {'resumed' if cell else 'running'}")
-        if cell is None:
-            cell = _run_cell(config, ctx, plan.matrix, plan.settings, rp, hard, glob, key, fp, ck)
-            ran += 1
-        cells.append(cell)
+    cells: list[CellResult | None] = [_load_cell(ctx, plan.cell_key(i), cell_fingerprint(config, plan, i))
+                                      for i in range(len(plan.cells))]
+    todo = [i for i, cell in enumerate(cells) if cell is None]
+    ctx.progress(0.0, f"{len(cells) - len(todo)} cells resumed, {len(todo)} to run")
+    if todo:
+        _run_cells(config, ctx, plan, todo, cells)
     ctx.progress(1.0, "done")
-    return campaign_result(config, ctx, plan, cells, ran, t0)
+    return campaign_result(config, ctx, plan, [c for c in cells if c is not None], len(todo), t0)
 
 
 @dataclass(frozen=True)

@@ -7,12 +7,13 @@ worker count. Workers are plain ``multiprocessing`` processes (spawn by default:
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import multiprocessing as mp
 import os
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -174,28 +175,21 @@ def expected_cost(matrix: ScenarioMatrix, name: str, max_steps: int | None) -> f
     return (max_steps or cfg.max_episode_steps) * (1.0 + 100.0 * cfg.ped_density)
 
 
-def run_jobs(
+def iter_jobs(
     jobs: list[Job], settings: EpisodeSettings, ctx: StageContext, *, matrix: ScenarioMatrix | None = None,
-    start_method: str = "spawn", on_record: Callable[[int, int, EpisodeRecord], None] | None = None,
-    executor: str = "local",
-) -> list[Any]:
-    """Run every job (``local``: in-process with one worker, else a process pool; ``ray``: one Ray task per
-    episode, core.evaluation.ray_executor); results in job order, the same for either executor.
+    start_method: str = "spawn", executor: str = "local", longest_first: bool = True,
+) -> Iterator[tuple[int, Any]]:
+    """(position in ``jobs``, result) of every job as it finishes, in any order (``local``: in-process with one
+    worker, else a process pool; ``ray``: one Ray task per episode, core.evaluation.ray_executor). Each result is
+    the same for either executor. Close the iterator when leaving early (``contextlib.closing``): that stops the
+    pool or cancels the Ray tasks.
 
-    Results are EpisodeRecords, or EpisodeRuns when ``settings.keep_diagnostics``.
+    ``longest_first`` (with ``matrix`` and several workers): start the costliest episodes first (less idle tail);
+    False keeps the given order. Results are EpisodeRecords, or EpisodeRuns when ``settings.keep_diagnostics``.
     """
-    out: list[Any] = [None] * len(jobs)
     workers = max(1, min(int(ctx.workers or 1), len(jobs)))
-
-    def collect(results: Iterable[tuple[int, Any]]) -> None:
-        for done, (i, item) in enumerate(results, start=1):
-            out[i] = item
-            if on_record is not None:
-                on_record(done, len(jobs), item.record if isinstance(item, EpisodeRun) else item)
-            ctx.check_cancelled()
-
     local = [Job(pos, j.scenario, j.seed, j.planner) for pos, j in enumerate(jobs)]
-    if matrix is not None and workers > 1:  # longest first: less idle tail; output order is by index anyway
+    if longest_first and matrix is not None and workers > 1:
         local.sort(key=lambda j: -expected_cost(matrix, j.scenario, settings.max_steps))
     ctx.check_cancelled()
     if executor == "ray":
@@ -203,27 +197,41 @@ def run_jobs(
         from foresight.core.scenarios.loader import load_matrix
 
         matrix = matrix or load_matrix(settings.matrix_path, overrides=settings.overrides)
-
-        def written(results: Iterable[tuple[int, Any, tuple[str, bytes] | None]]) -> Iterable[tuple[int, Any]]:
-            for index, item, trace in results:  # each trace stored here as it arrives
-                if trace is not None:
-                    write_trace(settings, trace)
-                yield index, item
-
-        collect(written(run_on_ray(local, functools.partial(EpisodeWorker, settings, matrix), ctx)))
-        return [r for r in out if r is not None]
+        for index, item, trace in run_on_ray(local, functools.partial(EpisodeWorker, settings, matrix), ctx):
+            if trace is not None:  # each trace stored here as it arrives
+                write_trace(settings, trace)
+            yield index, item
+        return
     # a learned model runs in worker processes even with one worker: one torch thread each, so the
     # numbers (and hence trajectories) do not depend on the worker count
     if workers == 1 and not any(j.planner.learned for j in jobs):
         worker = EpisodeWorker(settings, matrix, ctx.check_cancelled)
         try:
-            collect(worker.run(j) for j in local)
+            for job in local:
+                yield worker.run(job)
         finally:
             release_planner_processes()  # this thread's external planner processes (a pool's die with it)
     else:
         pool_ctx = mp.get_context(start_method)
         with pool_ctx.Pool(workers, initializer=_init_pool_worker, initargs=(settings,)) as pool:
-            collect(_polled(pool.imap_unordered(_run_pool_job, local, chunksize=1), len(local), ctx))
+            yield from _polled(pool.imap_unordered(_run_pool_job, local, chunksize=1), len(local), ctx)
+
+
+def run_jobs(
+    jobs: list[Job], settings: EpisodeSettings, ctx: StageContext, *, matrix: ScenarioMatrix | None = None,
+    start_method: str = "spawn", on_record: Callable[[int, int, EpisodeRecord], None] | None = None,
+    executor: str = "local",
+) -> list[Any]:
+    """Every job's result (:func:`iter_jobs`) in job order, the same for either executor; ``on_record(done,
+    total, record)`` as each arrives."""
+    out: list[Any] = [None] * len(jobs)
+    with contextlib.closing(iter_jobs(jobs, settings, ctx, matrix=matrix, start_method=start_method,
+                                      executor=executor)) as results:
+        for done, (i, item) in enumerate(results, start=1):
+            out[i] = item
+            if on_record is not None:
+                on_record(done, len(jobs), item.record if isinstance(item, EpisodeRun) else item)
+            ctx.check_cancelled()
     return [r for r in out if r is not None]
 
 

@@ -1,6 +1,6 @@
 """Episodes on a real two-node Ray cluster (``ray start --head`` and ``ray start --address``, 1 CPU each, separate
-processes): an evaluation submitted over HTTP with ``executor: ray`` runs on both nodes and its records equal the
-local executor's; a node SIGKILLed mid-run loses no episode and duplicates none; a cancelled job leaves no task
+processes): an evaluation and a campaign submitted over HTTP with ``executor: ray`` run on both nodes and their
+records equal the local executor's; a node SIGKILLed mid-run loses no episode and duplicates none; a cancelled job leaves no task
 holding a CPU. The cluster is stopped at the end."""
 
 from __future__ import annotations
@@ -29,6 +29,9 @@ pytestmark = pytest.mark.slow
 RAY = str(Path(sys.executable).with_name("ray"))
 EVALUATE = {"kind": "evaluate", "scenarios": ["crossing_low", "head_on_corridor_high"], "seeds_per_scenario": 3,
             "max_steps": 150, "planner": {"name": "predictive", "model": "cv"}}
+CAMPAIGN = {"kind": "campaign", "scenarios": ["crossing_low"], "seeds_per_scenario": 2, "max_steps": 150,
+            "seed_manifest": "seeds/classic_eval_hard_smoke.yaml", "planner": {"name": "predictive", "model": "cv"},
+            "variants": [{"name": "base"}, {"name": "slow", "config": {"max_speed_ratio": 0.8}}]}
 #: execution facts, not outcomes: wall-clock values, the node, the code version
 NOISE = {"timing", "code_version"}
 
@@ -131,6 +134,35 @@ def test_evaluation_over_http_runs_on_both_nodes_and_equals_local(cluster: Clust
     records = [json.loads(line) for line in lines]
     assert len({r["timing"]["node"] for r in records}) == 2  # both nodes ran episodes
     assert [without(r, NOISE) for r in records] == _local_records(tmp_path)
+
+
+def test_campaign_over_http_runs_on_both_nodes_and_equals_local(cluster: Cluster, tmp_path: Path) -> None:
+    from foresight.cli.common import local_context
+    from foresight.core.evaluation.campaign import run_campaign
+    from foresight.core.evaluation.config import CampaignConfig
+
+    service = Service(tmp_path, ray_address=cluster.address)
+    try:
+        service.migrate()
+        service.serve()
+        service.worker()
+        with service.client() as client:
+            resp = client.post("/v1/jobs", json={"spec": {**CAMPAIGN, "executor": "ray"}})
+            assert resp.status_code == 201, resp.text
+            job = wait_job(client, resp.json()["id"], timeout=240)
+            assert job["status"] == "succeeded", (job["error"], service.logs())
+            cells = {c["key"]: [json.loads(line) for line in client.get(
+                f"/v1/jobs/{job['id']}/artifacts/{c['episodes_file']}").text.splitlines()] for c in job["result"]["ranked"]}
+    finally:
+        service.stop()
+    assert job["result"]["execution"]["executor"] == "ray" and job["result"]["execution"]["cpus"] == 2
+    assert len({r["timing"]["node"] for records in cells.values() for r in records}) == 2  # both nodes ran episodes
+    ctx = local_context(tmp_path / "local", {"builtin": BUILTIN_CONFIG_ROOT}, quiet=True)
+    local = run_campaign(CampaignConfig(**{k: v for k, v in CAMPAIGN.items() if k != "kind"}), ctx)
+    assert set(cells) == {c.key for c in local.ranked}
+    for c in local.ranked:
+        expected = [without(r.model_dump(mode="json"), NOISE) for r in read_records(ctx.workdir / c.episodes_file)]
+        assert [without(r, NOISE) for r in cells[c.key]] == expected, c.key
 
 
 def test_node_killed_mid_run_loses_and_duplicates_nothing(cluster: Cluster, tmp_path: Path) -> None:
