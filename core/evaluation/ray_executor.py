@@ -9,6 +9,9 @@ task on whatever nodes the cluster has. Why these choices:
 - At most ``WINDOW_PER_CPU`` tasks per cluster CPU are in flight (:func:`run_tasks`): a new one is submitted as
   one finishes, and each result is handed on and dropped from the object store when it arrives. So a run of
   10^6 episodes holds a few thousand futures, not 10^6, and the driver's memory does not grow with pending work.
+- A task is one episode, or a chunk of up to ``MAX_CHUNK`` once a run has many more episodes than the cluster has
+  CPUs (:func:`chunk_size`): Ray's per-task cost in the driver (~2 ms here) would otherwise cap a big cluster of
+  short episodes at a few hundred episodes/s.
 - A task is retried when its node or worker process dies (``MAX_RETRIES``), never because it raised: a planner
   error is already a recorded episode outcome, and anything else is a bug that must fail the job.
 - Results are gathered by job index and each index is taken once, so a retried task never yields a duplicate;
@@ -42,6 +45,8 @@ RAY_ADDRESS_ENV = "FORESIGHT_RAY_ADDRESS"
 MAX_RETRIES = 3  #: attempts after a lost node or worker process
 POLL_S = 0.25  #: [s] how often the driver checks for cancellation while episodes run
 WINDOW_PER_CPU = 4  #: tasks in flight per cluster CPU: enough to keep every CPU busy, few enough to stay small
+CHUNKS_PER_CPU = 16  #: a run is cut into chunks of several episodes only when it has more tasks than this per CPU
+MAX_CHUNK = 16  #: most episodes in one task (bounds the work a lost node's retry repeats)
 CONNECT_TIMEOUT_S = 5.0  #: [s] to open a TCP connection to the cluster's address before joining it
 
 _connect_lock = threading.Lock()
@@ -118,23 +123,33 @@ def _checkpoint_file(sha256: str, blob: bytes) -> str:
     return str(path)
 
 
-def _episode(token: str, make_worker: Callable[[], Any], checkpoints: dict[str, bytes],
-             job: Any) -> tuple[int, Any, tuple[str, bytes] | None]:
+def _episodes(token: str, make_worker: Callable[[], Any], checkpoints: dict[str, bytes],
+              jobs: list[Any]) -> list[tuple[int, Any, tuple[str, bytes] | None]]:
+    """One task: a chunk of episode jobs, one after another in this worker process."""
     import ray
 
     from foresight.core.evaluation.episode import EpisodeRun
 
     os.environ.setdefault("OMP_NUM_THREADS", "1")  # one torch thread: trajectories independent of the executor
     worker = _cached_worker(token, make_worker)
-    planner = job.planner
-    if planner.learned:
-        planner = replace(planner, model_path=_checkpoint_file(planner.checkpoint_sha256,
-                                                               checkpoints[planner.checkpoint_sha256]))
-    index, item, trace = worker.run_traced(replace(job, planner=planner))
     node = ray.get_runtime_context().get_node_id()
-    record = item.record if isinstance(item, EpisodeRun) else item
-    record = record.model_copy(update={"timing": record.timing.model_copy(update={"node": node})})
-    return index, (replace(item, record=record) if isinstance(item, EpisodeRun) else record), trace
+    out = []
+    for job in jobs:
+        planner = job.planner
+        if planner.learned:
+            planner = replace(planner, model_path=_checkpoint_file(planner.checkpoint_sha256,
+                                                                   checkpoints[planner.checkpoint_sha256]))
+        index, item, trace = worker.run_traced(replace(job, planner=planner))
+        record = item.record if isinstance(item, EpisodeRun) else item
+        record = record.model_copy(update={"timing": record.timing.model_copy(update={"node": node})})
+        out.append((index, (replace(item, record=record) if isinstance(item, EpisodeRun) else record), trace))
+    return out
+
+
+def chunk_size(episodes: int, cpus: int) -> int:
+    """Episodes per task: one while a run is small next to the cluster, more (at most ``MAX_CHUNK``) once there are
+    over ``CHUNKS_PER_CPU`` tasks per CPU to go round, so a driver keeps up with many CPUs of short episodes."""
+    return max(1, min(MAX_CHUNK, episodes // (CHUNKS_PER_CPU * max(1, cpus))))
 
 
 def _cached_worker(token: str, make_worker: Callable[..., Any], *args: Any) -> Any:
@@ -178,7 +193,9 @@ def run_tasks(task: Any, shared: tuple[Any, ...], items: Iterable[Any], ctx: Any
     try:
         fill()
         while pending:
-            done, _ = ray.wait(list(pending), num_returns=len(pending), timeout=POLL_S, fetch_local=True)
+            done, _ = ray.wait(list(pending), num_returns=1, timeout=POLL_S, fetch_local=True)
+            if done:  # and every other one finished meanwhile: refill the window without waiting on the slowest
+                done, _ = ray.wait(list(pending), num_returns=len(pending), timeout=0, fetch_local=False)
             for ref in done:
                 pending.discard(ref)
                 yield ray.get(ref)
@@ -203,11 +220,13 @@ def run_on_ray(jobs: list[Any], make_worker: Callable[[], Any],
     import ray
 
     connect(int(ctx.workers or 1))
-    task = ray.remote(num_cpus=1, max_retries=MAX_RETRIES, retry_exceptions=False)(_episode)
+    task = ray.remote(num_cpus=1, max_retries=MAX_RETRIES, retry_exceptions=False)(_episodes)
     paths = {j.planner.checkpoint_sha256: j.planner.model_path for j in jobs if j.planner.learned}
     checkpoints = {sha: Path(path).read_bytes() for sha, path in paths.items()}  # each file read once per run
     shared = (uuid.uuid4().hex, ray.put(make_worker), ray.put(checkpoints))
-    yield from run_tasks(task, shared, jobs, ctx)
+    size = chunk_size(len(jobs), cluster_cpus())
+    for results in run_tasks(task, shared, (jobs[i:i + size] for i in range(0, len(jobs), size)), ctx):
+        yield from results
 
 
 def run_workers_on_ray(jobs: list[Any], make_worker: Callable[[str | None], Any], model_path: str | None,
