@@ -29,7 +29,7 @@ pytestmark = pytest.mark.slow
 RAY = str(Path(sys.executable).with_name("ray"))
 EVALUATE = {"kind": "evaluate", "scenarios": ["crossing_low", "head_on_corridor_high"], "seeds_per_scenario": 3,
             "max_steps": 150, "planner": {"name": "predictive", "model": "cv"}}
-CAMPAIGN = {"kind": "campaign", "scenarios": ["crossing_low"], "seeds_per_scenario": 2, "max_steps": 150,
+CAMPAIGN = {"kind": "campaign", "scenarios": ["crossing_low"], "seeds_per_scenario": 1, "max_steps": 100,
             "seed_manifest": "seeds/classic_eval_hard_smoke.yaml", "planner": {"name": "predictive", "model": "cv"},
             "variants": [{"name": "base"}, {"name": "slow", "config": {"max_speed_ratio": 0.8}}]}
 #: execution facts, not outcomes: wall-clock values, the node, the code version
