@@ -715,10 +715,12 @@ def find_artifact(engine: Engine, job_id: str, name: str) -> dict[str, Any]:
 
 
 def finished_jobs(engine: Engine, kinds: Sequence[str], limit: int) -> list[dict[str, Any]]:
-    """The newest succeeded or failed jobs of ``kinds`` (id, kind, status, result, finished_at, created_at)."""
+    """The newest succeeded or failed jobs of ``kinds`` (id, kind, status, result, finished_at, created_at, name,
+    tags)."""
     with engine.connect() as conn:
         rows = conn.execute(
-            select(jobs.c.id, jobs.c.kind, jobs.c.status, jobs.c.result, jobs.c.finished_at, jobs.c.created_at)
+            select(jobs.c.id, jobs.c.kind, jobs.c.status, jobs.c.result, jobs.c.finished_at, jobs.c.created_at,
+                   jobs.c.name, jobs.c.tags)
             .where(jobs.c.kind.in_(list(kinds)), jobs.c.status.in_([SUCCEEDED, FAILED]))
             .order_by(jobs.c.created_at.desc()).limit(limit)
         ).mappings().all()  # fmt: skip

@@ -57,6 +57,8 @@ def test_evaluations_by_planner_matrix_verdict_and_labels(client, auth, engine) 
     assert page["data"][1]["tags"] == ["baseline", "orca"]
     rest = client.get("/v1/evaluations", params={"limit": 2, "offset": 2}).json()
     assert [e["id"] for e in rest["data"]] == [a] and rest["data"][0]["name"] == "goal baseline"
+    results_page = client.get("/ui/results").text
+    assert "goal baseline" in results_page and 'href="/ui/jobs?tag=orca"' in results_page  # labels on the Results page
     r = client.get("/v1/evaluations", params={"planer": "orca"})
     assert r.status_code == 422 and r.json()["detail"][0]["loc"] == ["query", "planer"]
     assert "planner" in r.json()["detail"][0]["msg"]
