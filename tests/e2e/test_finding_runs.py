@@ -87,6 +87,14 @@ def test_cli_labels_lists_and_jobs_page_tag_filter(service: Up, campaign: str, p
     assert "'mpc trial' #trial" in text and "1 of 1 jobs" in text
     edited = _cli(service, "jobs", "edit", ids["untagged"][:12], "--tag", "baseline", "--name", "now tagged")
     assert edited.returncode == 0 and "'now tagged' #baseline" in edited.stdout
+    stage = _cli(service, "evaluate", "--matrix", "configs/scenarios/classic_interactions.yaml", "--scenarios",
+                 "crossing_low", "--seeds-per-scenario", "1", "--planner", "goal", "--no-wait", "--json",
+                 "--name", "from a stage command", "--tag", "stage-cli", "--note", "labels on stage commands too")  # fmt: skip
+    assert stage.returncode == 0, stage.stderr
+    submitted = json.loads(stage.stdout)
+    assert (submitted["name"], submitted["tags"], submitted["note"]) == ("from a stage command", ["stage-cli"],
+                                                                         "labels on stage commands too")  # fmt: skip
+    service.client().post(f"/v1/jobs/{submitted['id']}/cancel")
     bad = _cli(service, "jobs", "edit", ids["untagged"], "--tag", "has space")
     assert bad.returncode == 1 and len(bad.stderr.strip().splitlines()) == 1 and "tags" in bad.stderr
 
