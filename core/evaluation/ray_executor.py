@@ -129,10 +129,15 @@ def _episodes(token: str, make_worker: Callable[[], Any], checkpoints: dict[str,
     import ray
 
     from foresight.core.evaluation.episode import EpisodeRun
+    from foresight.core.evaluation.episode_trace import write_compact
 
     os.environ.setdefault("OMP_NUM_THREADS", "1")  # one torch thread: trajectories independent of the executor
     worker = _cached_worker(token, make_worker)
     node = ray.get_runtime_context().get_node_id()
+    # a node that sees the job's folder (a shared store, or the driver's own machine) writes its traces itself,
+    # in parallel with every other node; elsewhere they travel back and the driver writes them
+    root = worker.settings.trace_root
+    shared = root is not None and Path(root).is_dir()
     out = []
     for job in jobs:
         planner = job.planner
@@ -140,6 +145,9 @@ def _episodes(token: str, make_worker: Callable[[], Any], checkpoints: dict[str,
             planner = replace(planner, model_path=_checkpoint_file(planner.checkpoint_sha256,
                                                                    checkpoints[planner.checkpoint_sha256]))
         index, item, trace = worker.run_traced(replace(job, planner=planner))
+        if shared and trace is not None:
+            write_compact(Path(root) / trace[0], trace[1])
+            trace = None
         record = item.record if isinstance(item, EpisodeRun) else item
         record = record.model_copy(update={"timing": record.timing.model_copy(update={"node": node})})
         out.append((index, (replace(item, record=record) if isinstance(item, EpisodeRun) else record), trace))

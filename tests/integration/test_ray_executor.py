@@ -101,6 +101,7 @@ def test_a_raising_planner_on_ray_is_a_recorded_episode_outcome(ray_instance: No
                               planner={"name": "tests.unit.planners.user_planner:broken_factory"})
     result = run_evaluation(config, _ctx(tmp_path))
     assert result.episodes == 2 and result.taxonomy.get("planner_error") == 2  # recorded, not retried, not failed
+    assert len(list((tmp_path / "traces").glob("*.json.gz"))) == 2  # every episode's trace in the job's folder
     assert result.execution is not None and result.execution.executor == "ray" and result.execution.cpus == 2
 
 
