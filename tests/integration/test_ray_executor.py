@@ -2,7 +2,7 @@
 (the same dataset bytes), at most a window of tasks is ever in flight, a planner that raises is a recorded episode
 outcome (no retry loop, no failed job), every result names its executor and CPUs, training as a Ray task falls back
 to a CPU on a cluster without GPUs and writes the checkpoint a local run writes, and an address nobody answers at
-is one readable line naming it (CLI exit != 0). Heavier cluster behaviour (two nodes, a node killed, cancellation)
+is one readable line naming it (CLI exit != 0; a service job fails with it). Heavier cluster behaviour (two nodes, a node killed, cancellation)
 is tests/integration/test_ray_cluster.py."""
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from foresight.core.predict.collect import CollectConfig, run_collect
 from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
 from foresight.core.stages.results import execution_of
 
-from .service import free_port
+from .service import Service, free_port, wait_job
 
 pytestmark = pytest.mark.slow
 REPO = Path(__file__).resolve().parents[2]
@@ -117,6 +117,22 @@ def test_an_unreachable_ray_address_is_one_line_naming_it(tmp_path: Path) -> Non
     assert out.returncode != 0
     lines = [line for line in out.stderr.splitlines() if line.strip()]
     assert len(lines) == 1 and address in lines[0] and "unreachable" in lines[0], out.stderr
+
+    # a service job with that address fails, its error that same one line
+    service = Service(tmp_path / "service", ray_address=address)
+    try:
+        service.migrate()
+        service.serve()
+        service.worker()
+        with service.client() as client:
+            spec = {"kind": "evaluate", "scenarios": ["crossing_low"], "seeds_per_scenario": 1, "max_steps": 20,
+                    "planner": {"name": "goal"}, "executor": "ray"}
+            job = wait_job(client, client.post("/v1/jobs", json={"spec": spec}).json()["id"], timeout=120)
+    finally:
+        service.stop()
+    assert job["status"] == "failed", job
+    message = job["error"]["message"]
+    assert address in message and "unreachable" in message and "\n" not in message, job["error"]
 
 
 def test_training_as_a_ray_task_falls_back_to_a_cpu_and_writes_the_local_checkpoint(ray_instance: None,
