@@ -11,14 +11,14 @@ from foresight.api.web import files, previews
 from foresight.api.web.auth import PageNotFound, read_access
 from foresight.api.web.render import page
 from foresight.core.errors import NotFoundError
-from foresight.core.stages.results import planner_and_model, verdict
+from foresight.core.reports.pipeline import headline
+from foresight.core.stages.results import planner_and_model, typed_result, verdict
 from foresight.store import folders, queue, registry, results
 from foresight.store.models import Bundle
 
 router = APIRouter(prefix="/ui", include_in_schema=False, dependencies=[Depends(read_access)])
 RESULT_KINDS = {"evaluate": "Evaluations", "campaign": "Campaigns", "diagnose": "Diagnostics",
                 "pipeline": "Pipelines", "train": "Training"}  # fmt: skip
-HEADLINE = ("status", "success_rate", "collision_rate", "episodes", "best", "exit_code")
 RESULT_LIMIT = 200
 
 
@@ -27,14 +27,6 @@ def models_page(request: Request) -> HTMLResponse:
     """The registry: status, lineage, metrics, provenance; promote buttons for run-time entries."""
     rows = registry.models(request.app.state.engine)
     return page(request, "models.html", title="Models", nav="models", models=rows)
-
-
-def _headline(result: dict[str, Any] | None) -> dict[str, Any]:
-    result = result or {}
-    out = {k: result[k] for k in HEADLINE if k in result and not isinstance(result[k], dict | list)}
-    if isinstance(result.get("best"), dict):
-        out["best"] = result["best"].get("name") or result["best"].get("variant") or "yes"
-    return out
 
 
 @router.get("/results")
@@ -46,7 +38,7 @@ def results_page(request: Request) -> HTMLResponse:
     sections: dict[str, list[dict[str, Any]]] = {title: [] for title in RESULT_KINDS.values()}
     for row in rows:
         sections[RESULT_KINDS[row["kind"]]].append(dict(
-            row, headline=_headline(row["result"]), records=records.get(row["id"], []),
+            row, headline=headline(row["kind"], typed_result(row["kind"], row["result"])), records=records.get(row["id"], []),
             report=files.report_of(request, row["id"]), verdict=verdict(row["kind"], row["result"]),
             subject=planner_and_model(row["kind"], row["result"]),
         ))  # fmt: skip

@@ -16,7 +16,7 @@ from pydantic import BaseModel
 from foresight.core.evaluation.campaign import CampaignResult
 from foresight.core.evaluation.diagnostics import DiagnosticsResult
 from foresight.core.evaluation.runner import EvaluationResult
-from foresight.core.pipeline.summary import PipelineSummary, best_from_campaign
+from foresight.core.pipeline.summary import PipelineResult, PipelineSummary, best_from_campaign
 from foresight.core.predict.collect import CollectResult
 from foresight.core.predict.train_config import TrainingSummary, TrainResult
 from foresight.core.reports.campaign import ranking_figure
@@ -44,6 +44,9 @@ def headline(kind: str, result: BaseModel | None) -> str:
     if kind in ("collect", "mix") and isinstance(result, CollectResult):
         s = result.summary
         return f"{s.samples} samples from {s.episodes} episodes" + (f"; outcomes {result.outcomes}" if result.outcomes else "")
+    if kind == "pipeline" and isinstance(result, PipelineResult):
+        gates = "gates passed" if result.passed else f"gate failed: {', '.join(result.failed_gates)}"
+        return f"{gates}; model {result.model_id or '-'} {'promoted' if result.promoted else 'not promoted'}"
     return ""
 
 

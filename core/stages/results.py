@@ -39,6 +39,17 @@ def read_result(kind: str, data: Any) -> BaseModel:
     return data if isinstance(data, model) else model.model_validate(data)
 
 
+def typed_result(kind: str, data: Any) -> BaseModel | None:
+    """A job row's result as its kind's model; None where the kind has none, the job has no result, or the result
+    is not this version's model (an old row): readers that only display something skip it rather than fail."""
+    if kind not in RESULTS or data is None:
+        return None
+    try:
+        return read_result(kind, data)
+    except ValidationError:
+        return None
+
+
 #: a finished job's quality verdict: its gates passed, a gate failed, or the integrity checks failed
 Verdict = Literal["passed", "failed_gate", "failed_integrity"]
 
@@ -47,12 +58,7 @@ def verdict(kind: str, data: Any) -> Verdict | None:
     """The gate/integrity verdict of a ``kind`` job's result (None: the kind has no gate, none was configured, or
     the result is not this version's model). One rule for the API's job status, the dashboard's badges and the
     CLI's exit codes (2 for a failed verdict, as ``foresight evaluate`` exits)."""
-    if kind not in RESULTS or data is None:
-        return None
-    try:
-        result = read_result(kind, data)
-    except ValidationError:
-        return None
+    result = typed_result(kind, data)
     if isinstance(result, TrainResult):
         return "passed" if result.gates_passed else "failed_gate"
     if isinstance(result, EvaluationResult):
@@ -64,12 +70,7 @@ def verdict(kind: str, data: Any) -> Verdict | None:
 
 def planner_and_model(kind: str, data: Any) -> tuple[str | None, str | None]:
     """(planner name, model id) a result was produced with, for result tables (None where the kind has none)."""
-    if kind not in RESULTS or data is None:
-        return None, None
-    try:
-        result = read_result(kind, data)
-    except ValidationError:
-        return None, None
+    result = typed_result(kind, data)
     if isinstance(result, EvaluationResult | DiagnosticsResult):
         return result.planner.name, result.planner.model_id
     if isinstance(result, CampaignResult) and result.best is not None:

@@ -34,6 +34,9 @@ def test_a_failed_gate_is_in_the_job_status_and_on_the_dashboard(client, auth, e
     results = client.get("/ui/results").text
     assert "GATE FAILED" in results and "<th>planner</th><th>model</th>" in results
     assert '<td class="planner">predictive</td>' in results  # the fixture's planner provenance
+    assert "success 70.0%, collision 10.0% over 10 episodes; gate FAILED" in results  # from the typed result
+    _finished_evaluation(client, auth, engine, {"success_rate": 0.5})  # an old row: not this version's model
+    assert client.get("/ui/results").status_code == 200
 
 
 def test_verdict_and_subject_from_typed_results() -> None:
