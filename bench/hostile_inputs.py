@@ -1,6 +1,8 @@
 """The issue-15 probe's hostile inputs through the core readers: how fast each is refused and what it costs.
 
-Prints one JSON object: per case the outcome (the error's first 100 characters) and the CPU seconds it took.
+Prints one JSON object: per case the outcome (the error's first 100 characters) and the CPU seconds it took,
+and a ``summary``: inputs tried, handled (refused with a clear error within 2 s of CPU, or a valid input read),
+and the corrupted archives (``tests.archives.mangled``) that neither read nor failed with a ConfigError.
 Memory is bounded by the readers' limits (archives: 50 MiB of content; tests/unit/limits assert the RSS).
 Run: ``.venv/bin/python bench/hostile_inputs.py``.
 """
@@ -15,10 +17,11 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # tests.archives: the archive generator
 
 from foresight.core.archive import read_archive  # noqa: E402
+from foresight.core.errors import ConfigError  # noqa: E402
 from foresight.core.limits import check_nesting  # noqa: E402
 from foresight.core.maps.svg import parse_svg_text  # noqa: E402
 from foresight.core.yamlio import load_yaml  # noqa: E402
-from tests.archives import hostile  # noqa: E402
+from tests.archives import hostile, mangled  # noqa: E402
 
 
 def alias_bomb(levels: int) -> str:
@@ -56,7 +59,19 @@ def main() -> None:
     }
     for name, (data, _, _) in hostile().items():
         cases[f"archive: {name} ({len(data)} bytes)"] = lambda d=data: read_archive(d, max_bytes=50 << 20, max_files=2000)
-    print(json.dumps({name: measure(fn) for name, fn in cases.items()}, indent=1))
+    out = {name: measure(fn) for name, fn in cases.items()}
+    unclear = []
+    for i, data in enumerate(mangled(seed=7, count=200)):
+        try:
+            read_archive(data, max_bytes=50 << 20, max_files=2000)
+        except ConfigError:
+            continue
+        except Exception as exc:  # noqa: BLE001 - what is reported
+            unclear.append(f"{i}: {type(exc).__name__}: {exc}"[:100])
+    handled = sum(r["outcome"] != "accepted" and r["cpu_s"] < 2 for r in out.values())
+    out["summary"] = {"hostile_inputs_tried": len(cases), "hostile_inputs_refused_within_2s": handled,
+                      "corrupted_archives_tried": 200, "corrupted_archives_without_a_clear_error": unclear}
+    print(json.dumps(out, indent=1))
 
 
 if __name__ == "__main__":
