@@ -140,3 +140,40 @@ def mangled(seed: int, count: int) -> list[bytes]:
                 data = bytearray(b"\0")
         out.append(bytes(data))
     return out
+
+
+#: member names a fuzzed archive draws from: valid bundle paths, traversal, absolute, odd and over-long names
+MEMBER_NAMES = ("scenarios/m.yaml", "maps/a.svg", "maps/a.yaml", "seeds/s.yaml", "../escape.yaml", "/etc/abs.yaml",
+                "scenarios/../../up.yaml", "a/./b.yaml", "dir/", "C:\\win.yaml", "n\0ul.yaml", "ü/ñ.yaml", "x" * 300)
+MEMBER_BODIES = (b"scenarios: []\n", b"scenarios:\n  - name: a\n    map_file: ../maps/a.svg\n", b"<svg/>",
+                 b"a: &a [1]\nb: [*a, *a]\n", b"[" * 300, b"\xff\xfe not utf-8", b"", b"\0" * 4096)
+FORMATS = ("zip", "zip-stored", "w", "w:gz", "w:bz2", "w:xz")
+
+
+def _pack(fmt: str, files: dict[str, bytes]) -> bytes:
+    if fmt.startswith("zip"):
+        return zip_of(files, zipfile.ZIP_STORED if fmt == "zip-stored" else zipfile.ZIP_DEFLATED)
+    return tar_of(files, fmt)
+
+
+def archive_strategy():  # noqa: ANN201 (hypothesis is a test dependency: imported here only)
+    """A Hypothesis strategy of bundle archives: zip or tar (plain, gz, bz2, xz) of drawn member names and
+    bodies, then a few drawn corruptions (a byte overwritten, the tail cut, a slice repeated), or none."""
+    from hypothesis import strategies as st
+
+    @st.composite
+    def archives(draw) -> bytes:  # noqa: ANN001
+        files = draw(st.dictionaries(st.sampled_from(MEMBER_NAMES), st.sampled_from(MEMBER_BODIES), min_size=1,
+                                     max_size=4))
+        data = bytearray(_pack(draw(st.sampled_from(FORMATS)), files))
+        for _ in range(draw(st.integers(0, 3))):
+            op, at = draw(st.sampled_from(("set", "cut", "repeat"))), draw(st.integers(0, max(len(data) - 1, 0)))
+            if op == "set":
+                data[at] = draw(st.integers(0, 255))
+            elif op == "cut":
+                del data[max(at, 1):]
+            else:
+                data[at:at] = data[at: at + draw(st.integers(1, 64))]
+        return bytes(data)
+
+    return archives()
