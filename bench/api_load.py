@@ -2,6 +2,8 @@
 
 Phases (each on a fresh temporary data dir unless --database-url is given):
 1. status reads: ``GET /v1/jobs/{id}`` over existing jobs, ``--clients`` concurrent keep-alive connections;
+   ``status_reads_busy``: the same while the server's worker runs a CPU-bound evaluation (clients polling a
+   running job, the usual case; on a 2-core machine the worker's episodes compete with the server for CPU);
 2. submissions: ``POST /v1/jobs`` (an empty ``sleep`` job) the same way, while the server's worker runs them;
 3. claims: ``--claim-jobs`` empty jobs queued in the database, then ``--claim-workers`` worker processes
    drain the queue; throughput = jobs / (last finish − first claim).
@@ -29,8 +31,10 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
 TOKEN = "bench-token"
+BUSY_JOB = {"kind": "evaluate", "seeds_per_scenario": 30, "max_steps": 300, "planner": {"name": "goal"}}
 TARGETS = {
     "status_reads": {"min_rps": 800, "max_p99_ms": 100},
+    "status_reads_busy": {"min_rps": 800, "max_p99_ms": 100},
     "submissions": {"min_rps": 150, "max_p99_ms": 250},
     "claims": {"min_jobs_per_s": 200},
 }
@@ -170,6 +174,8 @@ def bench_http(database_url: str | None, clients: int, duration: float, server_w
             out = {}
             if "status_reads" in phases:
                 out["status_reads"] = _load(port, [_get(f"/v1/jobs/{i}") for i in ids], clients, duration, server.pid)
+            if "status_reads_busy" in phases:
+                out["status_reads_busy"] = _load_while_busy(port, ids, clients, duration, server.pid)
             if "submissions" in phases:
                 out["submissions"] = _load(port, [_post("/v1/jobs", {"spec": {"kind": "sleep"}})], clients, duration,
                                            server.pid)  # fmt: skip
@@ -180,6 +186,23 @@ def bench_http(database_url: str | None, clients: int, duration: float, server_w
             except subprocess.TimeoutExpired:
                 server.kill()
     return out
+
+
+def _load_while_busy(port: int, ids: list[str], clients: int, duration: float, server_pid: int) -> dict:
+    """Status reads while the worker runs :data:`BUSY_JOB` (started first, cancelled after)."""
+    import httpx
+
+    with httpx.Client(base_url=f"http://127.0.0.1:{port}", headers={"Authorization": f"Bearer {TOKEN}"}) as c:
+        while c.get("/v1/jobs", params={"status": "queued", "limit": 1}).json()["count"]:
+            time.sleep(0.2)  # the sleep jobs drained: the worker is free
+        busy = c.post("/v1/jobs", json={"spec": BUSY_JOB}).json()["id"]
+        while c.get(f"/v1/jobs/{busy}").json()["status"] != "running":
+            time.sleep(0.1)
+        time.sleep(2)  # its episodes under way
+        try:
+            return _load(port, [_get(f"/v1/jobs/{i}") for i in [busy, *ids]], clients, duration, server_pid)
+        finally:
+            c.post(f"/v1/jobs/{busy}/cancel")
 
 
 def bench_claims(database_url: str | None, jobs: int, workers: int) -> dict:
@@ -243,7 +266,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--server-workers", type=int, default=1, help="`foresight up --workers`")
     parser.add_argument("--database-url", help="benchmark this database instead of a temporary SQLite file")
     parser.add_argument("--phases", default="status_reads,submissions,claims",
-                        help="comma-separated subset of status_reads, submissions, claims (default: all)")  # fmt: skip
+                        help="comma-separated subset of status_reads, status_reads_busy, submissions, claims "
+                             "(default: status_reads, submissions, claims)")  # fmt: skip
     args = parser.parse_args(argv)
     phases = tuple(p.strip() for p in args.phases.split(","))
     unknown = set(phases) - set(TARGETS)
@@ -252,7 +276,7 @@ def main(argv: list[str] | None = None) -> int:
 
     load0 = round(os.getloadavg()[0], 2)
     result: dict = {}
-    if {"status_reads", "submissions"} & set(phases):
+    if {"status_reads", "status_reads_busy", "submissions"} & set(phases):
         result.update(bench_http(args.database_url, args.clients, args.duration, args.server_workers, phases))
     if "claims" in phases:
         result["claims"] = bench_claims(args.database_url, args.claim_jobs, args.claim_workers)
@@ -269,7 +293,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.json:
         print(json.dumps(result, indent=2))
         return 0
-    for p in ("status_reads", "submissions"):
+    for p in ("status_reads", "status_reads_busy", "submissions"):
         if p in result:
             r = result[p]
             print(f"{p + ':':14s}{r['rps']} req/s, p50 {r['p50_ms']} ms, p99 {r['p99_ms']} ms, errors {r['errors']}")

@@ -127,6 +127,9 @@ def cmd_worker(args: argparse.Namespace) -> int:
     return 0
 
 
+UP_WORKER_NICE = 5  #: how much lower the CPU priority of the worker `foresight up` starts is than the server's
+
+
 def cmd_up(args: argparse.Namespace) -> int:
     """Migrate, start a worker process, serve in this one; stopping the server stops the worker.
 
@@ -150,8 +153,12 @@ def cmd_up(args: argparse.Namespace) -> int:
     server_file = settings.server_file()
     server_file.parent.mkdir(parents=True, exist_ok=True)
     server_file.write_text(json.dumps({"url": url, "pid": os.getpid()}) + "\n")
+    # The worker runs at a lower CPU priority than the server: its episodes are batch work, the server's
+    # requests are waited on. On a machine where both share the cores, status reads during a running job
+    # otherwise queue behind the episodes (bench/api_load.py --phases status_reads_busy).
     worker = subprocess.Popen(
-        [sys.executable, "-m", "foresight.cli.main", "worker", "--concurrency", str(args.concurrency)], env=os.environ.copy()
+        [sys.executable, "-m", "foresight.cli.main", "worker", "--concurrency", str(args.concurrency)], env=os.environ.copy(),
+        preexec_fn=lambda: os.nice(UP_WORKER_NICE),  # noqa: PLW1509 (before the server starts any thread)
     )
     try:
         _serve(settings, args)
