@@ -6,7 +6,7 @@ bodies that conform to the documented response schema, invalid input refused wit
 without the token. One check is left out: ``positive_data_acceptance`` (every schema-valid request is
 accepted) cannot hold here, because some rules are not JSON Schema: a campaign gives exactly one of grid or
 variants, an uploaded archive must unpack, spec strings must not be server paths; a 422 for those is right.
-Three phases: every operation alone (100 examples per operation and mode), the stateful phase (sequences that
+Three phases: every operation alone (EXAMPLES per operation and mode), the stateful phase (sequences that
 follow the links schemathesis infers between operations: a listed id fed to its read, cancel, retry, promote and
 delete), and bundle uploads whose bodies are zip/tar variants from ``tests.archives`` (corrupted, traversal names,
 bombs of aliases and nesting). Examples are derandomized (Hypothesis derives its seed from the test), so a
@@ -36,9 +36,10 @@ from tests.archives import archive_strategy
 from tests.unit.api.conftest import TOKEN
 
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
-#: per operation and generation mode (FORESIGHT_SCHEMATHESIS_EXAMPLES overrides): 100 take ~2.5 min on the loaded
-#: 2-core machine, ~60 % of it in Hypothesis/schemathesis generating cases and ~40 % in the in-process calls
-EXAMPLES = int(os.environ.get("FORESIGHT_SCHEMATHESIS_EXAMPLES", "100"))
+#: per operation and generation mode; FORESIGHT_SCHEMATHESIS_EXAMPLES=100 for the deep run (it passes; this file then
+#: takes 2.5 min at load 10 on the 2-core machine and 5-10 min at load 12-18, ~60 % of it Hypothesis/schemathesis
+#: generating cases, ~40 % the in-process calls: over the suite's budget for one file, so 25 by default)
+EXAMPLES = int(os.environ.get("FORESIGHT_SCHEMATHESIS_EXAMPLES", "25"))
 #: stateful sequences of up to STEPS calls (FORESIGHT_SCHEMATHESIS_SEQUENCES overrides: 25 take ~5 s, 50 ~60 s)
 SEQUENCES, STEPS = int(os.environ.get("FORESIGHT_SCHEMATHESIS_SEQUENCES", "25")), 8
 
