@@ -4,6 +4,7 @@ a temporary SQLite file), followed to the end, and read back over the API."""
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 from .service import Service
@@ -17,6 +18,10 @@ def _job(proc) -> dict:  # noqa: ANN001
 
 def test_collect_train_evaluate_through_the_stage_commands(service: Service) -> None:
     service.serve("up")
+    up = service.procs[-1]
+    (worker,) = Path(f"/proc/{up.pid}/task/{up.pid}/children").read_text().split()
+    # the worker's episodes yield the CPU to the server's requests (clients poll while jobs run)
+    assert os.getpriority(os.PRIO_PROCESS, int(worker)) == os.getpriority(os.PRIO_PROCESS, up.pid) + 5
 
     collect = service.cli("collect", "--scenarios", "crossing_low,crossing_medium", "--seeds-per-scenario", "2",
                           "--max-steps", "80", "--json")  # fmt: skip
