@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import uuid
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -55,3 +57,39 @@ def corpus_dir(shared_dir: Path) -> Path:
 @pytest.fixture(scope="session")
 def reference_matrix_path(reference_dir: Path) -> Path:
     return reference_dir / "configs" / "scenarios" / "classic_interactions.yaml"
+
+
+PG_DSN = "host=127.0.0.1 port=5432 user=postgres dbname=test"
+
+
+def pg_available() -> str | None:
+    """None when the PostgreSQL at 127.0.0.1:5432 answers, else why not."""
+    import psycopg
+
+    try:
+        psycopg.connect(PG_DSN, connect_timeout=3).close()
+    except Exception as exc:  # noqa: BLE001
+        return str(exc)
+    return None
+
+
+@pytest.fixture
+def pg_url() -> Iterator[str]:
+    """A freshly created (empty, un-migrated) PostgreSQL database, dropped afterwards; fails under CI=true when
+    PostgreSQL is unreachable, skips elsewhere."""
+    import psycopg
+
+    why = pg_available()
+    if why is not None:
+        msg = f"PostgreSQL at 127.0.0.1:5432 unreachable: {why}"
+        if os.environ.get("CI") == "true":
+            pytest.fail(msg)
+        pytest.skip(msg)
+    name = f"foresight_test_{uuid.uuid4().hex[:10]}"
+    with psycopg.connect(PG_DSN, autocommit=True) as conn:
+        conn.execute(f'CREATE DATABASE "{name}"')
+    try:
+        yield f"postgresql+psycopg://postgres@127.0.0.1:5432/{name}"
+    finally:
+        with psycopg.connect(PG_DSN, autocommit=True) as conn:
+            conn.execute(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)')

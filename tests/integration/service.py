@@ -15,7 +15,6 @@ import httpx
 
 REPO = Path(__file__).resolve().parents[2]
 TOKEN = "integration-token"
-PG_ADMIN = "postgresql+psycopg://postgres@127.0.0.1:5432/test"
 
 
 def wait_job(client: httpx.Client, job_id: str, timeout: float = 90) -> dict:
@@ -121,14 +120,3 @@ class Service:
             except subprocess.TimeoutExpired:
                 proc.kill()
                 proc.wait()
-
-
-def pg_available() -> str | None:
-    """None when PostgreSQL answers, else why not."""
-    import psycopg
-
-    try:
-        psycopg.connect("host=127.0.0.1 port=5432 user=postgres dbname=test", connect_timeout=3).close()
-    except Exception as exc:  # noqa: BLE001
-        return str(exc)
-    return None

@@ -3,43 +3,22 @@ tags written by the PostgreSQL submission path, edited, and filtered with a reco
 
 from __future__ import annotations
 
-import os
-import uuid
 from collections.abc import Iterator
 
 import pytest
-from sqlalchemy import text
 
 from foresight.store import labels, listing, queue, records
 from foresight.store.session import make_engine, upgrade
 from tests.unit.reports import data
 
-PG_ADMIN = "postgresql+psycopg://postgres@127.0.0.1:5432/test"
-
 
 @pytest.fixture
-def pg() -> Iterator:  # noqa: ANN401
-    try:
-        admin = make_engine(PG_ADMIN, pool_size=1)
-        with admin.connect() as conn:
-            conn.execute(text("SELECT 1"))
-    except Exception as exc:  # noqa: BLE001
-        if os.environ.get("CI") == "true":
-            pytest.fail(f"PostgreSQL at 127.0.0.1:5432 unreachable: {exc}")
-        pytest.skip(f"PostgreSQL at 127.0.0.1:5432 unreachable: {exc}")
-    name = f"foresight_test_{uuid.uuid4().hex[:10]}"
-    with admin.connect().execution_options(isolation_level="AUTOCOMMIT") as conn:
-        conn.execute(text(f'CREATE DATABASE "{name}"'))
-    url = PG_ADMIN.rsplit("/", 1)[0] + f"/{name}"
-    try:
-        upgrade(url)
-        engine = make_engine(url)
-        yield engine
-        engine.dispose()
-    finally:
-        with admin.connect().execution_options(isolation_level="AUTOCOMMIT") as conn:
-            conn.execute(text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
-        admin.dispose()
+def pg(pg_url: str) -> Iterator:  # noqa: ANN401
+    """An engine on a fresh PostgreSQL database migrated to head."""
+    upgrade(pg_url)
+    engine = make_engine(pg_url)
+    yield engine
+    engine.dispose()
 
 
 def test_labels_and_record_filters_on_postgres(pg) -> None:  # noqa: ANN001

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import os
-import uuid
 from pathlib import Path
 
 import pytest
@@ -12,8 +10,6 @@ from alembic.migration import MigrationContext
 
 from foresight.store.models import Base
 from foresight.store.session import NotMigratedError, check_migrated, make_engine, upgrade
-
-PG_ADMIN = "postgresql+psycopg://postgres@127.0.0.1:5432/test"
 
 
 def _diff(url: str) -> list:
@@ -72,25 +68,6 @@ def test_sqlite_uses_wal_and_busy_timeout(tmp_path: Path) -> None:
         assert conn.exec_driver_sql("PRAGMA busy_timeout").scalar() == 1234
 
 
-def test_postgres_head_matches_models() -> None:
-    from sqlalchemy import text
-
-    try:
-        admin = make_engine(PG_ADMIN, pool_size=1)
-        with admin.connect() as conn:
-            conn.execute(text("SELECT 1"))
-    except Exception as exc:  # noqa: BLE001
-        if os.environ.get("CI") == "true":
-            pytest.fail(f"PostgreSQL at 127.0.0.1:5432 unreachable: {exc}")
-        pytest.skip(f"PostgreSQL at 127.0.0.1:5432 unreachable: {exc}")
-    name = f"foresight_test_{uuid.uuid4().hex[:10]}"
-    with admin.connect().execution_options(isolation_level="AUTOCOMMIT") as conn:
-        conn.execute(text(f'CREATE DATABASE "{name}"'))
-    url = PG_ADMIN.rsplit("/", 1)[0] + f"/{name}"
-    try:
-        upgrade(url)
-        assert _diff(url) == []
-    finally:
-        with admin.connect().execution_options(isolation_level="AUTOCOMMIT") as conn:
-            conn.execute(text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
-        admin.dispose()
+def test_postgres_head_matches_models(pg_url: str) -> None:
+    upgrade(pg_url)
+    assert _diff(pg_url) == []
