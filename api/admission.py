@@ -23,7 +23,7 @@ def context(settings: Settings, resolver: Resolver) -> StageContext:
 
 
 def named_ids(spec: Any) -> list[tuple[str, str]]:
-    """(model | dataset, id) of every stored input a spec names by id."""
+    """(model | dataset, id) of every stored input a spec names by id (every model named is one a planner drives)."""
     from foresight.core.evaluation.config import CampaignConfig
     from foresight.core.predict.collect import CollectConfig, MixConfig
     from foresight.core.predict.train_config import TrainConfig
@@ -54,9 +54,9 @@ def _matrix(path: Path, overrides: dict[str, Any] | None = None) -> Any:
 
 
 def admit(spec: Any, settings: Settings, resolver: Resolver) -> None:
-    """NotFoundError (404) for an unknown bundle, matrix, scenario, model or dataset; ConfigError (422) for a
-    job larger than ``settings.max_job_steps`` simulation steps."""
+    """NotFoundError (404) for an unknown bundle, matrix, scenario, model or dataset; ConfigError (422) for a model
+    a planner cannot drive (trained in another frame) or a job larger than ``settings.max_job_steps`` simulation steps."""
     ctx = context(settings, resolver)
     for what, ident in named_ids(spec):
-        (resolver.model_row if what == "model" else resolver.dataset)(ident)
+        (resolver.planner_model if what == "model" else resolver.dataset)(ident)
     check_budget(work_size(spec, ctx, _matrix), settings.max_job_steps)

@@ -253,6 +253,18 @@ class Resolver:
             raise NotFoundError(f"unknown model id {ident!r}")
         return row
 
+    def planner_model(self, ident: str) -> Model:
+        """:meth:`model_row` of a model a planner will drive: ConfigError (422) at submission when it was trained in
+        another frame than the robot's (robot-less data such as ETH/UCY), which every planner's features use.
+        Registration records the checkpoint's frame in ``lineage``; shipped models are simulator-trained."""
+        row = self.model_row(ident)
+        frame = row.lineage.get("frame_convention", "robot")
+        if frame != "robot":
+            raise ConfigError(f"model {row.id!r} was trained in the {frame!r} frame (robot-less data such as ETH/UCY); "
+                              "planners feed robot-frame features: use a model trained on simulator data",
+                              item="planner.model")
+        return row
+
     def model(self, ident: str) -> Path:
         """The checkpoint of a registered model after hashing its content, every time: a cache keyed by
         (mtime, size) let a checkpoint rewritten in place with both restored pass as the registered one."""
@@ -296,7 +308,8 @@ def register_checkpoint(engine: Engine, settings: Settings, *, model_id: str, jo
         checkpoint = _checkpoint(settings, art.path, art.sha256, name)
         session.add(Model(
             id=model_id, status=status, checkpoint=art.path, sha256=art.sha256,
-            time_base=meta["time_base"] if "time_base" in meta else dict(checkpoint["timebase"]), lineage=meta.get("lineage", {}),
+            time_base=meta["time_base"] if "time_base" in meta else dict(checkpoint["timebase"]),
+            lineage={**meta.get("lineage", {}), "frame_convention": checkpoint["feature_schema"]["frame_convention"]},
             training=meta.get("training", {}), metrics=meta.get("metrics", {}), tags=meta.get("tags", []),
             provenance=meta.get("provenance") or f"job {job_id}", read_only=False, job_id=job_id,
             created_at=time.time(),

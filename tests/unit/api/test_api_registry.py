@@ -152,3 +152,36 @@ def test_register_promote_delete(client, auth, engine, settings) -> None:  # noq
     assert client.delete("/v1/models/m2", headers=auth).status_code == 409  # the default
     assert client.delete("/v1/models/m1", headers=auth).status_code == 204
     assert "m2" in client.get("/v1/models/export").text
+
+
+def test_a_model_trained_in_another_frame_is_refused_at_submission(client, auth, engine, settings) -> None:  # noqa: ANN001
+    """An ETH/UCY-style (pedestrian-frame) checkpoint registers, but a planner spec naming it is a 422 naming the model
+    id before anything is queued; the same spec with the simulator-trained model is accepted."""
+    from foresight.core.predict.nn.checkpoint import read_checkpoint, save_checkpoint
+    from foresight.store import folders, queue
+
+    job = client.post("/v1/jobs", json={"spec": {"kind": "sleep"}}, headers=auth).json()
+    c = queue.claim(engine, "w", ["sleep"], 30)
+    payload = read_checkpoint(REPO_ROOT / "model" / "predictor-sim-default.pt")
+    for name, frame in (("robot.pt", "robot"), ("ethucy.pt", "pedestrian")):
+        payload["feature_schema"]["frame_convention"] = frame
+        save_checkpoint(payload, folders.resolve_under(settings.store_root, f"jobs/{job['id']}/{name}"))
+    queue.finish(engine, job["id"], "w", c["attempts"], {}, folders.scan(settings.store_root, f"jobs/{job['id']}"))
+    for ident, name in (("sim-1", "robot.pt"), ("eth-1", "ethucy.pt")):
+        body = {"id": ident, "job_id": job["id"], "artifact": name}
+        assert client.post("/v1/models", json=body, headers=auth).status_code == 201
+    assert client.get("/v1/models/eth-1").json()["lineage"]["frame_convention"] == "pedestrian"
+    before = client.get("/v1/jobs").json()["count"]
+    spec = {"kind": "evaluate", "bundle": "builtin", "matrix": "scenarios/classic_interactions.yaml",
+            "scenarios": ["crossing_low"], "seeds_per_scenario": 1, "planner": {"name": "predictive", "model": "eth-1"}}
+    refused = client.post("/v1/jobs", json={"spec": spec}, headers=auth)
+    assert refused.status_code == 422, refused.text
+    assert "model 'eth-1' was trained in the 'pedestrian' frame" in refused.text and "planner.model" in refused.text
+    campaign = {"kind": "campaign", "bundle": "builtin", "matrix": "scenarios/classic_interactions.yaml",
+                "seed_manifest": "seeds/classic_eval_hard_smoke.yaml", "grid": "planners/predictive_grid_v1.yaml",
+                "checkpoints": ["sim-1", "eth-1"]}
+    refused = client.post("/v1/jobs", json={"spec": campaign}, headers=auth)
+    assert refused.status_code == 422 and "model 'eth-1'" in refused.text, refused.text
+    assert client.get("/v1/jobs").json()["count"] == before  # nothing queued
+    spec["planner"]["model"] = "sim-1"
+    assert client.post("/v1/jobs", json={"spec": spec}, headers=auth).status_code == 201
