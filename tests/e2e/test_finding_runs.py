@@ -16,6 +16,7 @@ import pytest
 
 from tests.e2e.service import REPO, TOKEN, Up, wait_job
 from tests.e2e.test_dashboard import chromium, page, screenshot_dir  # noqa: F401 (fixtures)
+from tests.readme import section_blocks
 
 pytestmark = pytest.mark.slow
 
@@ -50,11 +51,8 @@ def _cli(up: Up, *args: str) -> subprocess.CompletedProcess:
 
 
 def _readme_block() -> str:
-    text = (REPO / "README.md").read_text()
-    section = text.split("### Finding and organising runs", 1)[1].split("\n#", 1)[0]
-    blocks = re.findall(r"```bash\n(.*?)```", section, flags=re.S)
-    assert len(blocks) == 1
-    return blocks[0]
+    (block,) = section_blocks("Finding and organising runs", "bash")
+    return block.code
 
 
 def test_readme_block_runs_as_written(service: Up, campaign: str, tmp_path: Path) -> None:

@@ -12,13 +12,13 @@ from pathlib import Path
 
 import pytest
 
+from tests.readme import section_blocks
+
 REPO = Path(__file__).resolve().parents[3]
 
 
 def _blocks() -> list[tuple[str, str]]:
-    text = (REPO / "README.md").read_text()
-    section = text.split("## Evaluate your own planner", 1)[1].split("\n## ", 1)[0]
-    return re.findall(r"```(python|bash)\n(.*?)```", section, flags=re.S)
+    return [(b.lang, b.code) for b in section_blocks("Evaluate your own planner")]
 
 
 def test_the_section_has_the_three_routes_and_the_environment() -> None:

@@ -1,0 +1,305 @@
+"""Every ```bash block of README.md is either run here as written (from a scratch folder that looks like the
+repository root: `.venv`, `configs` and `../shared` resolve), run by another test, or on the explicit exclusion list
+below with its reason; an excluded block's `foresight` commands must still exist with every flag they use. A new
+block that is none of these fails `test_every_bash_block_is_run_or_excluded`, so the README cannot drift.
+
+The service section runs against a real `foresight up` (its own line, on a free port) with a temporary HOME: the
+token and `server.json` land in `~/.local/share/foresight` as README says, and the placeholders (JOB_ID, EVAL_ID,
+DATASET_ID, CAMPAIGN_ID, ...) become the ids the earlier commands printed."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shlex
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import httpx
+import pytest
+import yaml
+
+from tests.conftest import shared_root
+from tests.e2e.service import REPO, free_port, wait_job
+from tests.readme import blocks, commands, section_blocks
+
+pytestmark = pytest.mark.slow
+
+VENV_BIN = Path(sys.executable).parent
+
+
+@dataclass(frozen=True)
+class Elsewhere:
+    test: str  #: the test file that runs the block as written
+
+
+@dataclass(frozen=True)
+class Excluded:
+    reason: str
+
+
+RUN_HERE = "run here"
+
+#: every bash block of README.md, by (section, index among the section's blocks): run here, elsewhere, or why not
+BASH_BLOCKS: dict[tuple[str, int], str | Elsewhere | Excluded] = {
+    ("Two commands on a fresh machine", 0): Excluded(
+        "full size: `make demo` is the 9-minute quickstart pipeline, `make test` the whole suite (the Makefile "
+        "targets are checked)"),
+    ("Installing the package elsewhere", 0): Excluded(
+        "installs from a package index; tests/e2e/test_wheel.py installs the built wheel (the pinned torch and the "
+        "extras are checked)"),
+    ("The simulator", 0): RUN_HERE,
+    ("Importing the reference system's files", 0): RUN_HERE,
+    ("The service", 0): RUN_HERE,
+    ("The service", 1): RUN_HERE,
+    ("Finding and organising runs", 0): Elsewhere("tests/e2e/test_finding_runs.py"),
+    ("Scaling out", 0): Excluded("a multi-node Ray cluster (`ray start` on the head and on every machine)"),
+    ("Scaling out", 1): Excluded("a SLURM batch script (sbatch, srun, scontrol on 16 nodes)"),
+    ("Evaluate your own planner", 1): Elsewhere("tests/unit/library/test_readme_routes.py"),
+    ("Evaluate your own planner", 2): Elsewhere("tests/unit/library/test_readme_routes.py"),
+}  # fmt: skip
+
+#: the excluded blocks' shell words that are not ours to check (SLURM and shell syntax of the batch script)
+NOT_OURS = {"srun", "sleep", "for", "done", "scontrol"}
+
+
+def test_every_bash_block_is_run_or_excluded() -> None:
+    found = {b.key for b in blocks("bash")}
+    assert found - BASH_BLOCKS.keys() == set(), "README bash blocks neither run by a test nor excluded (add them)"
+    assert BASH_BLOCKS.keys() - found == set(), "README lost these bash blocks (update BASH_BLOCKS)"
+    for (section, _), how in BASH_BLOCKS.items():
+        if isinstance(how, Elsewhere):
+            assert section in (REPO / how.test).read_text(), f"{how.test} does not read README's {section!r}"
+
+
+def _help(argv: list[str]) -> str:
+    proc = subprocess.run([*argv, "--help"], capture_output=True, text=True, timeout=120, cwd=REPO)
+    assert proc.returncode == 0, f"{' '.join(argv)} --help: {proc.stderr[-2000:]}"
+    return proc.stdout
+
+
+def _check_foresight(words: list[str]) -> None:
+    """`foresight SUB... --help` exists and lists every --flag the README line uses."""
+    path = [w for w in words[1:] if not w.startswith("-")]
+    flags = {w.split("=", 1)[0] for w in words if w.startswith("--")}
+    for n in range(len(path), 0, -1):  # the longest command path that has a help (the rest are positionals)
+        proc = subprocess.run([str(VENV_BIN / "foresight"), *path[:n], "--help"], capture_output=True, text=True,
+                              timeout=120)  # fmt: skip
+        if proc.returncode == 0:
+            missing = [f for f in flags if not re.search(rf"{re.escape(f)}\b", proc.stdout)]
+            assert not missing, f"`foresight {' '.join(path[:n])}` has no {missing} (README: {' '.join(words)})"
+            return
+    raise AssertionError(f"no such command: {' '.join(words)}")
+
+
+@pytest.mark.parametrize("key", [k for k, how in BASH_BLOCKS.items() if isinstance(how, Excluded)], ids=str)
+def test_excluded_blocks_commands_and_flags_exist(key: tuple[str, int]) -> None:
+    (block,) = [b for b in blocks("bash") if b.key == key]
+    makefile, pyproject = (REPO / "Makefile").read_text(), (REPO / "pyproject.toml").read_text()
+    checked = 0
+    for line in commands(block.code):
+        if re.match(r"\w+=\(", line):  # a shell array of the batch script
+            continue
+        words = shlex.split(line, comments=True)
+        while words and re.fullmatch(r"\w+=.*", words[0]):  # environment assignments
+            words = words[1:]
+        if not words or words[0] in NOT_OURS:
+            continue
+        if "ray" in words and words[words.index("ray") + 1] == "start":  # also inside `srun ... ray start ...`
+            ray = words[words.index("ray") :]
+            ray_help = _help([str(VENV_BIN / "ray"), "start"])
+            missing = [w for w in ray if w.startswith("--") and w.split("=", 1)[0] not in ray_help]
+            assert not missing, f"`ray start` has no {missing}"
+        elif Path(words[0]).name == "foresight":
+            _check_foresight(words)
+        elif words[0] == "make":
+            assert re.search(rf"^{words[1]}:", makefile, flags=re.M), f"Makefile has no target {words[1]}"
+        elif words[:2] == ["pip", "install"]:
+            pin = re.fullmatch(r"torch==(.+)", words[2])
+            if pin:
+                assert f"torch=={pin.group(1)}" in makefile, "README's torch pin differs from the Makefile's"
+            else:
+                extras = re.fullmatch(r"foresight\[(.+)\]", words[2])
+                assert extras, f"unexpected pip install in README: {line}"
+                for extra in extras.group(1).split(","):
+                    assert re.search(rf"^{extra} = \[", pyproject, flags=re.M), f"pyproject.toml has no extra {extra}"
+        else:
+            raise AssertionError(f"README's excluded block {key} runs {words[0]!r}: check it here or list it")
+        checked += 1
+    assert checked, f"nothing checked in {key}"
+
+
+# ---------------------------------------------------------------- running blocks as written
+
+
+@pytest.fixture(scope="module")
+def scratch(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A folder standing in for the repository root (`.venv`, `configs` linked; `../shared` beside it), so that
+    what the commands write (maps, reports, renders) stays out of the checkout."""
+    root = tmp_path_factory.mktemp("readme")
+    (root / "shared").symlink_to(shared_root())
+    work = root / "repo"
+    work.mkdir()
+    for name in (".venv", "configs", "examples"):
+        (work / name).symlink_to(REPO / name)
+    (root / "home").mkdir()
+    return work
+
+
+def _env(scratch: Path, **extra: str) -> dict[str, str]:
+    """A user's shell: the scratch HOME (so ~/.local/share/foresight is the data folder), nothing of the tests'."""
+    return {"PATH": f"{VENV_BIN}:/usr/bin:/bin", "HOME": str(scratch.parent / "home"), "LANG": "C.UTF-8",
+            "FORESIGHT_SHARED": str(shared_root()), **extra}  # fmt: skip
+
+
+def _run(cmd: str, scratch: Path, prelude: str = "", ok: tuple[int, ...] = (0,), **env: str) -> str:
+    proc = subprocess.run(["bash", "-e", "-o", "pipefail", "-c", f"{prelude}\n{cmd}"], cwd=scratch,
+                          env=_env(scratch, **env), capture_output=True, text=True, timeout=300)  # fmt: skip
+    assert proc.returncode in ok, f"README command failed ({proc.returncode}): {cmd}\n{proc.stderr[-3000:]}"
+    return proc.stdout
+
+
+def test_simulator_section_runs_as_written(scratch: Path, shared_dir: Path) -> None:
+    listing, episode, demo = commands(section_blocks("The simulator", "bash")[0].code)
+    assert "crossing_low" in _run(listing, scratch)
+    record = json.loads(_run(episode, scratch))
+    assert record["scenario"] == "classic_cross_trap_high" and record["seed"] == 102, record
+    assert record["outcome"] in ("success", "timeout", "collision_pedestrian", "collision_static")
+    assert Path("/tmp/ep.png").stat().st_size > 0
+    out = _run(demo, scratch)
+    assert "outcomes:" in out and any((scratch / "out" / "demo" / "renders").glob("*.png")), out
+
+
+def test_importing_reference_files_runs_as_written(scratch: Path, shared_dir: Path) -> None:
+    show, convert, render, evaluate = commands(section_blocks("Importing the reference system's files", "bash")[0].code)
+    assert _run(show, scratch).strip()
+    _run(convert, scratch)
+    assert yaml.safe_load((scratch / "doorway.yaml").read_text())
+    _run(render, scratch)
+    assert (scratch / "doorway.png").stat().st_size > 0
+    # 230 episodes are minutes here: the same command on one scenario, one seed, a 100-step horizon
+    small = evaluate.replace("--seeds-per-scenario 10", "--seeds-per-scenario 1 --scenarios classic_cross_trap_low "
+                             "--max-steps 100")  # fmt: skip
+    result = json.loads(_run(small, scratch, ok=(0, 2)))
+    assert result["episodes"] == 1, result
+
+
+# ---------------------------------------------------------------- the service section
+
+
+@dataclass
+class Service:
+    port: int
+    proc: subprocess.Popen
+    token: str
+    work: Path
+
+    @property
+    def url(self) -> str:
+        return f"http://127.0.0.1:{self.port}"
+
+    def client(self) -> httpx.Client:
+        return httpx.Client(base_url=self.url, headers={"Authorization": f"Bearer {self.token}"}, timeout=30)
+
+
+#: a small campaign for the compare example's CAMPAIGN_ID:1 (README submits none), started first to run meanwhile
+CAMPAIGN = {"kind": "campaign", "planner": {"name": "goal"}, "scenarios": ["crossing_low"], "seeds_per_scenario": 1,
+            "max_steps": 200, "seed_manifest": "seeds/classic_eval_hard_smoke.yaml",
+            "variants": [{"name": f"speed{v}", "config": {"speed": v}} for v in (0.8, 1.2)]}  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def service(scratch: Path) -> Iterator[Service]:
+    """README's `foresight up` line on a free port, with the scratch HOME: a fresh data folder and token."""
+    up = commands(section_blocks("The service", "bash")[0].code)[0]
+    assert "--port 8000" in up
+    port = free_port()
+    log = (scratch.parent / "up.log").open("w")
+    proc = subprocess.Popen(["bash", "-c", f"exec {up.replace('--port 8000', f'--port {port}')}"], cwd=scratch,
+                            env={**_env(scratch), "FORESIGHT_POLL_S": "0.05", "FORESIGHT_HEARTBEAT_S": "0.3",
+                                 "FORESIGHT_SHUTDOWN_GRACE_S": "1"},
+                            stdout=log, stderr=subprocess.STDOUT, start_new_session=True)  # fmt: skip
+    token_file = scratch.parent / "home/.local/share/foresight/api-token"
+    try:
+        deadline = time.monotonic() + 90
+        while True:
+            assert proc.poll() is None, (scratch.parent / "up.log").read_text()[-3000:]
+            assert time.monotonic() < deadline, "foresight up not ready in 90 s"
+            try:
+                if token_file.is_file() and httpx.get(f"http://127.0.0.1:{port}/v1/workers").json()["count"] >= 1:
+                    break
+            except (httpx.HTTPError, KeyError, ValueError):
+                pass
+            time.sleep(0.3)
+        yield Service(port, proc, token_file.read_text().strip(), scratch)
+    finally:
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGINT)
+            try:
+                proc.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait(timeout=10)
+
+
+def _curl_spec() -> dict:
+    """The job spec of README's curl submission (its `-d` body)."""
+    curl = section_blocks("The service", "bash")[1].code
+    return json.loads(re.search(r"-d '(.*?)'", curl, flags=re.S).group(1))["spec"]
+
+
+def test_service_section_runs_as_written(service: Service, scratch: Path) -> None:
+    with service.client() as api:
+        r = api.post("/v1/jobs", json={"spec": CAMPAIGN, "name": "readme campaign"})
+        assert r.status_code == 201, r.text
+        campaign_id = r.json()["id"]
+    cli, curls = (commands(b.code) for b in section_blocks("The service", "bash"))
+    lines = dict(zip(("up", "submit", "evaluate", "import", "train", "jobs", "models", "compare", "report"), cli, strict=True))
+    assert len(cli) == 9, cli
+    # `spec.yaml`: the spec README's curl example submits, as YAML
+    (scratch / "spec.yaml").write_text(yaml.safe_dump(_curl_spec()))
+    _run(lines["submit"], scratch, ok=(0, 2))
+    with service.client() as api:
+        eval_a = api.get("/v1/jobs", params={"kind": "evaluate"}).json()["data"][0]["id"]
+    evaluation = json.loads(_run(lines["evaluate"], scratch, ok=(0, 2)))
+    eval_b = evaluation["job_id"] if "job_id" in evaluation else evaluation["id"]
+    assert evaluation["episodes"] >= 1
+    _run(lines["import"], scratch)
+    with service.client() as api:
+        jobs = api.get("/v1/jobs", params={"kind": "import_dataset"}).json()["data"]
+        dataset_id = jobs[0]["result"]["dataset_id"]
+    train_job = _run(lines["train"].replace("DATASET_ID", dataset_id), scratch).strip()
+    assert re.fullmatch(r"[0-9a-f]{12,32}", train_job), train_job
+    listed = json.loads(_run(lines["jobs"], scratch))
+    assert {j["kind"] for j in listed["data"]} >= {"evaluate", "import_dataset", "train", "campaign"}
+    assert "default" in _run(lines["models"], scratch)
+    diff = _run(lines["compare"].replace("EVAL_A", eval_a).replace("EVAL_B", eval_b), scratch)
+    assert diff.strip()
+    _run(lines["report"].replace("JOB_ID", eval_a), scratch)
+    assert (scratch / "report" / "report.md").is_file() and (scratch / "report" / "report.html").is_file()
+
+    token = curls[0]
+    assert token.startswith("TOKEN=")
+    posted = json.loads(_run(curls[1].replace("localhost:8000", f"localhost:{service.port}"), scratch, token))
+    assert posted["spec"]["kind"] == "evaluate", posted
+    with service.client() as api:
+        assert wait_job(api, posted["id"], timeout_s=120)["status"] == "succeeded"
+        assert wait_job(api, campaign_id, timeout_s=120)["status"] == "succeeded"
+    ids = {"JOB_ID": posted["id"], "EVAL_ID": eval_b, "CAMPAIGN_ID": campaign_id}
+    outputs = []
+    for curl in curls[2:]:
+        for name, value in ids.items():
+            curl = curl.replace(name, value)
+        curl = re.sub(r"\bID\b", eval_a, curl).replace("localhost:8000", f"localhost:{service.port}")
+        outputs.append(json.loads(_run(curl, scratch, token)))
+    job, ev, compared, models = outputs
+    assert job["status"] == "succeeded" and job["result"]["episodes"] == 2, job
+    assert ev["episodes"] >= 1 and "taxonomy" in ev, ev
+    assert "config_diff" in compared or "deltas" in compared, compared
+    assert models["count"] >= 1, models
