@@ -4,6 +4,7 @@ commands as written read them from here, so the README is the one copy of each e
 from __future__ import annotations
 
 import re
+import shlex
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -46,6 +47,19 @@ def section_blocks(section: str, lang: str | None = None) -> list[Block]:
 
 
 def commands(code: str) -> list[str]:
-    """A block's commands: continuation lines joined, blank lines and whole-line comments dropped."""
-    joined = re.sub(r"\\\n\s*", " ", code)
-    return [line.strip() for line in joined.splitlines() if line.strip() and not line.lstrip().startswith("#")]
+    """A block's commands: continuation lines joined, a quoted string across lines kept whole (a JSON body), blank
+    lines and whole-line comments dropped."""
+    out: list[str] = []
+    pending = ""
+    for line in re.sub(r"\\\n\s*", " ", code).splitlines():
+        if not pending and (not line.strip() or line.lstrip().startswith("#")):
+            continue
+        pending = f"{pending}\n{line}" if pending else line.strip()
+        try:
+            shlex.split(pending, comments=True)
+        except ValueError:  # an open quote: the command goes on on the next line
+            continue
+        out.append(pending)
+        pending = ""
+    assert not pending, f"unclosed quote in README block: {pending}"
+    return out
