@@ -20,6 +20,8 @@ from foresight.core.predict.timebase import TimeBase
 from foresight.core.predict.uncertainty import CV_SIGMA, LEARNED_SIGMA, GrowingSigma
 from foresight.core.sim.observation import Observation
 
+SIGMA_FLOOR = 0.02  #: [m] a model's spread is never taken below this (as the envelopes' sigma0)
+
 
 @dataclass(frozen=True)
 class Forecast:
@@ -77,7 +79,11 @@ class _PredictorForecaster:
         if n:
             k = n if self.max_agents is None else min(n, self.max_agents)
             near = _pad(feats.features[:k], feats.mask[:k], self.max_agents)
-            ego[:k] = self.predictor.predict(near[0][None], near[1][None])[0, :k]
+            if getattr(self.predictor, "has_sigma", False):  # the model's own spread
+                pos, spread = self.predictor.predict_dist(near[0][None], near[1][None])
+                ego[:k], sigma[:k] = pos[0, :k], np.maximum(spread[0, :k], SIGMA_FLOOR)
+            else:
+                ego[:k] = self.predictor.predict(near[0][None], near[1][None])[0, :k]
             if k < n:
                 ego[k:] = self._cv.predict(feats.features[None, k:], feats.mask[None, k:])[0]
                 sigma[k:] = CV_SIGMA(times)
@@ -107,8 +113,9 @@ class LearnedForecaster(_PredictorForecaster):
     """A learned Predictor (its own time base and slot count) on the nearest pedestrians.
 
     Pedestrians beyond the model's ``max_agents`` nearest get constant velocity, and ``source``
-    says so (``learned+cv_far:<name>``); nothing falls back silently. The forecast's spread is the
-    predictor's ``uncertainty`` when it has one, else the calibrated envelope ``LEARNED_SIGMA``.
+    says so (``learned+cv_far:<name>``); nothing falls back silently. The forecast's spread is the model's own
+    (``has_sigma``: a sigma head, floored at ``SIGMA_FLOOR``), else the predictor's ``uncertainty`` when it has
+    one, else the calibrated envelope ``LEARNED_SIGMA`` (checkpoints without a sigma head).
     """
 
     def __init__(self, predictor: Predictor, max_agents: int | None = None):

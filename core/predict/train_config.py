@@ -41,6 +41,8 @@ class TrainConfig(_Strict):
     blocks: int = Field(default=2, ge=0, le=8)  #: K message-passing blocks
     edge_dim: int = Field(default=16, ge=0, le=256)  #: relative position/velocity edge embedding width (0 = none; core.predict.nn.model)
     local_frame: bool = True  #: encode/decode each pedestrian in its own frame (core.predict.nn.model)
+    sigma_head: bool = False  #: also predict a per-step spread (Gaussian NLL of the mean's error; core.predict.nn.model)
+    nll_weight: float = Field(default=0.1, gt=0)  #: weight of the spread's NLL in the loss (its head reads detached inputs)
     ensemble: int = Field(default=1, ge=1, le=16)  #: > 1: train that many members (seeds seed, seed+1, ...), each selected as usual; the checkpoint averages them
     loss: Literal["smooth_l1", "euclidean"] = "smooth_l1"  #: euclidean: the mean displacement error itself (what ADE scores)
     loss_beta: float = Field(default=0.2, gt=0)  #: SmoothL1 beta [m]
@@ -115,6 +117,9 @@ class EpochRecord(EpochScore):
     val_runtime_s: float | None = None
     train_samples: int | None = None
     val_samples: int | None = None
+    val_nll: float | None = None  #: models with a sigma head: Gaussian NLL of the validation points
+    val_cover1: float | None = None  #: fraction of validation truths within 1 sigma of the mean (calibrated: 0.393)
+    val_cover2: float | None = None  #: ... within 2 sigma (calibrated: 0.865)
 
 
 class EnsembleScore(EpochScore):

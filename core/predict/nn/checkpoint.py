@@ -91,11 +91,24 @@ class TorchPredictor:
         if threads:
             torch.set_num_threads(threads)
 
+    @property
+    def has_sigma(self) -> bool:
+        """Whether the model predicts its own spread (a sigma head); else forecasts use a calibrated envelope."""
+        return bool(getattr(self.model.config, "sigma_head", False))
+
     def predict(self, features: np.ndarray, mask: np.ndarray) -> np.ndarray:
         check_batch(np.asarray(features), np.asarray(mask), self.timebase, self.name)
         with torch.inference_mode():
             out = self.model(torch.as_tensor(features, dtype=torch.float32), torch.as_tensor(mask, dtype=torch.float32))
         return out.numpy()
+
+    def predict_dist(self, features: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(B, N, T, 2) positions and (B, N, T) per-axis std [m]; only when :attr:`has_sigma`."""
+        check_batch(np.asarray(features), np.asarray(mask), self.timebase, self.name)
+        with torch.inference_mode():
+            pos, sigma = self.model.forward_dist(torch.as_tensor(features, dtype=torch.float32),
+                                                 torch.as_tensor(mask, dtype=torch.float32))
+        return pos.numpy(), sigma.numpy()
 
 
 def load_predictor(path: Path, expect_timebase: TimeBase | None = None, name: str | None = None,

@@ -12,7 +12,12 @@ Shapes: B samples, N slots, F features per slot (``core.predict.features``), h h
   relative to the receiver, which is what interactions (avoidance, following) depend on;
 - decoder: per-step displacements d_k (B, N, T, 2) added to the constant-velocity step v0·dt and
   summed over time: p_k = p_0 + sum_{j<=k} (v0·dt + d_j). The model starts as constant velocity
-  and learns corrections to it.
+  and learns corrections to it;
+- sigma head (``sigma_head``, new models): per-step per-axis std of an isotropic Gaussian around each position,
+  sigma_k = envelope(t_k) · exp(s_k) with the calibrated constant-velocity-like envelope
+  (``core.predict.uncertainty.LEARNED_SIGMA``) and s_k = 3 tanh(MLP(h)/3) (starts AT the envelope, bounded to
+  e^±3 of it). It reads the final embedding DETACHED and is trained by the Gaussian NLL of the mean's (detached)
+  error, so the mean is trained exactly as without it; old checkpoints (no head) keep the fixed envelope.
 
 ``local_frame`` (the default for new models): each pedestrian is encoded in its OWN frame (origin
 = its current position, x = its current velocity direction; the ego x axis when it stands still):
@@ -35,6 +40,7 @@ from torch import nn
 from torch.nn import functional as F
 
 from foresight.core.predict.features import current_index, feature_dim
+from foresight.core.predict.uncertainty import LEARNED_SIGMA
 
 
 @dataclass(frozen=True)
@@ -47,6 +53,7 @@ class ModelConfig:
     edge_dim: int = 0  #: width of the relative-geometry edge embeddings (0 = none, as checkpoints before them)
     local_frame: bool = False  #: encode/decode each pedestrian in its own frame (False = checkpoints before it)
     members: int = 1  #: > 1: an ensemble of that many independently trained models, predictions averaged
+    sigma_head: bool = False  #: predict a per-step spread (False = checkpoints before it: the fixed envelope)
 
     @property
     def input_dim(self) -> int:
@@ -125,6 +132,13 @@ class TrajectoryModel(nn.Module):
         self.decoder = nn.Sequential(nn.Linear(c.hidden, c.hidden), nn.ReLU(), nn.Linear(c.hidden, 2 * c.horizon))
         nn.init.zeros_(self.decoder[-1].weight)  # start exactly at constant velocity
         nn.init.zeros_(self.decoder[-1].bias)
+        self.sigma_decoder = None
+        if c.sigma_head:
+            self.sigma_decoder = nn.Sequential(nn.Linear(c.hidden, c.hidden), nn.ReLU(), nn.Linear(c.hidden, c.horizon))
+            nn.init.zeros_(self.sigma_decoder[-1].weight)  # start exactly at the envelope
+            nn.init.zeros_(self.sigma_decoder[-1].bias)
+            times = torch.arange(1, c.horizon + 1, dtype=torch.float32) * c.dt
+            self.register_buffer("envelope", torch.from_numpy(LEARNED_SIGMA(times.numpy())).float(), persistent=False)
         self._px = current_index(c.history, "px")
         self._vx = current_index(c.history, "vx")
 
@@ -135,24 +149,35 @@ class TrajectoryModel(nn.Module):
         forward, made on the first such call per input shape: the same ATen ops in the same order
         (bit-identical outputs), without ~60 Python-dispatched ops (0.46 -> 0.26 ms per call measured).
         """
-        if (features.shape[0] == 1 and not self.training and torch.is_inference_mode_enabled()
-                and not torch.jit.is_tracing()):  # an outer trace (export) records the eager ops
-            return self._traced(features, mask)
+        if self._use_trace(features):
+            return self._traced(features, mask, False)
         return self._forward(features, mask)
 
-    def _traced(self, features: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+    def forward_dist(self, features: torch.Tensor, mask: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """(positions (B, N, T, 2), sigma (B, N, T) per-axis std [m]); only for a model with ``sigma_head``."""
+        if self.sigma_decoder is None:
+            raise ValueError("this model has no sigma head (config.sigma_head is False)")
+        if self._use_trace(features):
+            return self._traced(features, mask, True)
+        return self._forward(features, mask, with_sigma=True)
+
+    def _use_trace(self, features: torch.Tensor) -> bool:
+        return (features.shape[0] == 1 and not self.training and torch.is_inference_mode_enabled()
+                and not torch.jit.is_tracing())  # an outer trace (export) records the eager ops
+
+    def _traced(self, features: torch.Tensor, mask: torch.Tensor, with_sigma: bool):
         cache = self.__dict__.setdefault("_trace_cache", {})  # a plain attribute: not in state_dict
-        key = (tuple(features.shape), features.dtype, tuple(mask.shape), mask.dtype)
+        key = (tuple(features.shape), features.dtype, tuple(mask.shape), mask.dtype, with_sigma)
         fn = cache.get(key)
         if fn is None:
-            if len(cache) >= 4:  # a handful of slot counts per process; never grow without bound
-                return self._forward(features, mask)
+            if len(cache) >= 8:  # a handful of slot counts per process; never grow without bound
+                return self._forward(features, mask, with_sigma)
             with warnings.catch_warnings():  # torch 2.13 marks jit.trace deprecated; it is what removes the overhead
                 warnings.simplefilter("ignore")
                 try:
-                    fn = torch.jit.trace(_Eager(self), (features, mask), check_trace=False)
+                    fn = torch.jit.trace(_Eager(self, with_sigma), (features, mask), check_trace=False)
                 except (AttributeError, RuntimeError):  # a torch without tracing: the eager forward, same result
-                    fn = self._forward
+                    fn = _Eager(self, with_sigma)
             cache[key] = fn
         return fn(features, mask)
 
@@ -161,7 +186,7 @@ class TrajectoryModel(nn.Module):
         state.pop("_trace_cache", None)  # traces share the weights; rebuilt on demand after unpickling
         return state
 
-    def _forward(self, features: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+    def _forward(self, features: torch.Tensor, mask: torch.Tensor, with_sigma: bool = False):
         B, N, _ = features.shape
         m = mask.unsqueeze(-1)
         p0 = features[..., self._px : self._px + 2]
@@ -186,18 +211,23 @@ class TrajectoryModel(nn.Module):
         if local:  # back from each pedestrian's frame: the inverse rotation
             delta = delta @ rot
         steps = delta + (v0 * self.config.dt).unsqueeze(2)
-        return (p0.unsqueeze(2) + torch.cumsum(steps, dim=2)) * m.unsqueeze(-1)
+        positions = (p0.unsqueeze(2) + torch.cumsum(steps, dim=2)) * m.unsqueeze(-1)
+        if not with_sigma:
+            return positions
+        s = 3.0 * torch.tanh(self.sigma_decoder(h.detach()) / 3.0)  # (B, N, T), |s| < 3
+        return positions, self.envelope * torch.exp(s)
 
 
 class _Eager(nn.Module):
     """The eager forward of a TrajectoryModel, as the module to trace (tracing calls forward)."""
 
-    def __init__(self, model: TrajectoryModel):
+    def __init__(self, model: TrajectoryModel, with_sigma: bool = False):
         super().__init__()
         self.model = model
+        self.with_sigma = with_sigma
 
-    def forward(self, features: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
-        return self.model._forward(features, mask)
+    def forward(self, features: torch.Tensor, mask: torch.Tensor):
+        return self.model._forward(features, mask, self.with_sigma)
 
 
 class EnsembleModel(nn.Module):
@@ -211,6 +241,13 @@ class EnsembleModel(nn.Module):
 
     def forward(self, features: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
         return torch.stack([m(features, mask) for m in self.members]).mean(dim=0)
+
+    def forward_dist(self, features: torch.Tensor, mask: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """The mixture's mean and per-axis spread: sigma^2 = mean of the members' sigma^2 + the members' spread."""
+        outs = [m.forward_dist(features, mask) for m in self.members]
+        pos = torch.stack([p for p, _ in outs])  # (M, B, N, T, 2)
+        var = torch.stack([s for _, s in outs]).pow(2).mean(dim=0) + pos.var(dim=0, unbiased=False).mean(dim=-1)
+        return pos.mean(dim=0), var.sqrt()
 
 
 def build_model(config: ModelConfig) -> nn.Module:
@@ -235,6 +272,16 @@ def masked_loss(kind: str, pred: torch.Tensor, target: torch.Tensor, target_mask
     if kind == "euclidean":
         return masked_euclidean(pred, target, target_mask)
     return masked_smooth_l1(pred, target, target_mask, beta)
+
+
+def masked_gaussian_nll(pred: torch.Tensor, sigma: torch.Tensor, target: torch.Tensor,
+                        target_mask: torch.Tensor) -> torch.Tensor:
+    """Mean negative log-likelihood (without log 2 pi) of valid points under an isotropic 2D Gaussian of per-axis std
+    ``sigma`` (B, N, T) around ``pred``: 2 log sigma + |pred - target|^2 / (2 sigma^2). The error is detached: the
+    spread learns how wrong the mean is, never the mean how to suit the spread."""
+    sq = ((pred.detach() - target) ** 2).sum(-1)
+    nll = 2.0 * torch.log(sigma) + sq / (2.0 * sigma**2)
+    return (nll * target_mask).sum() / target_mask.sum().clamp(min=1.0)
 
 
 def masked_ade_fde(pred: torch.Tensor, target: torch.Tensor, target_mask: torch.Tensor) -> tuple[torch.Tensor, ...]:
