@@ -16,7 +16,8 @@ Shapes: B samples, N slots, F features per slot (``core.predict.features``), h h
 - sigma head (``sigma_head``, new models): per-step per-axis std of an isotropic Gaussian around each position,
   sigma_k = envelope(t_k) · exp(s_k) with the calibrated constant-velocity-like envelope
   (``core.predict.uncertainty.LEARNED_SIGMA``) and s_k = 3 tanh(MLP(h)/3) (starts AT the envelope, bounded to
-  e^±3 of it). It reads the final embedding DETACHED and is trained by the Gaussian NLL of the mean's (detached)
+  e^±3 of it), made non-decreasing in t by a running maximum (the planner extends the spread at its final rate,
+  which must not be negative). It reads the final embedding DETACHED and is trained by the Gaussian NLL of the mean's (detached)
   error, so the mean is trained exactly as without it; old checkpoints (no head) keep the fixed envelope.
 
 ``local_frame`` (the default for new models): each pedestrian is encoded in its OWN frame (origin
@@ -215,7 +216,7 @@ class TrajectoryModel(nn.Module):
         if not with_sigma:
             return positions
         s = 3.0 * torch.tanh(self.sigma_decoder(h.detach()) / 3.0)  # (B, N, T), |s| < 3
-        return positions, self.envelope * torch.exp(s)
+        return positions, torch.cummax(self.envelope * torch.exp(s), dim=-1).values  # never shrinks with t
 
 
 class _Eager(nn.Module):

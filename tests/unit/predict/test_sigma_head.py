@@ -75,6 +75,7 @@ def test_training_fits_a_calibrated_spread_and_the_forecast_carries_it(tmp_path,
     for k in range(5):
         fc = f.update(make_obs(k, (0.0, 0.0, 0.0), [1, 2], [[0.2 * k, 0.0], [3.0, 3.0 - 0.1 * k]]))
     assert fc.sigma.shape == (2, TB.horizon) and np.all(fc.sigma >= 0.02)
+    assert np.all(np.diff(fc.sigma, axis=1) >= 0)  # the spread never shrinks with the forecast's age
     assert not np.allclose(fc.sigma, np.tile(LEARNED_SIGMA(fc.times), (2, 1)))  # the model's, not the envelope
     ckpt = read_checkpoint(tmp_path / "model.pt")
     assert ckpt["model_config"]["sigma_head"] is True and "val_cover1" in ckpt["metrics"]
