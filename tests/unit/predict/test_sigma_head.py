@@ -93,3 +93,20 @@ def test_checkpoint_without_the_flag_loads_with_the_envelope(tmp_path, curving_d
     for k in range(3):
         fc = f.update(make_obs(k, (0.0, 0.0, 0.0), [1], [[0.2 * k, 0.0]]))
     np.testing.assert_allclose(fc.sigma, LEARNED_SIGMA(fc.times)[None])
+
+
+def test_the_shipped_realistic_candidate_predicts_its_spread():
+    """model/registry.yaml's predictor-sim-realistic: checksum as listed, a sigma head, a spread growing with t."""
+    from pathlib import Path
+
+    import yaml
+
+    repo = Path(__file__).resolve().parents[3]
+    entry = next(m for m in yaml.safe_load((repo / "model/registry.yaml").read_text())["models"]
+                 if m["id"] == "predictor-sim-realistic")
+    predictor = load_predictor(repo / entry["path"], expect_timebase=TB, expect_sha256=entry["sha256"])
+    assert predictor.has_sigma and entry["status"] != "default"
+    f = LearnedForecaster(predictor)
+    for k in range(5):
+        fc = f.update(make_obs(k, (0.0, 0.0, 0.0), [1, 2], [[2.0 + 0.25 * k, 0.0], [3.0, 3.0 - 0.25 * k]]))
+    assert np.all(np.diff(fc.sigma, axis=1) >= 0) and fc.sigma[:, -1].max() < 1.0
