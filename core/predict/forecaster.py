@@ -81,7 +81,7 @@ class _PredictorForecaster:
             near = _pad(feats.features[:k], feats.mask[:k], self.max_agents)
             if getattr(self.predictor, "has_sigma", False):  # the model's own spread
                 pos, spread = self.predictor.predict_dist(near[0][None], near[1][None])
-                ego[:k], sigma[:k] = pos[0, :k], np.maximum(spread[0, :k], SIGMA_FLOOR)
+                ego[:k], sigma[:k] = pos[0, :k], np.maximum(spread[0, :k].astype(np.float64), SIGMA_FLOOR)
             else:
                 ego[:k] = self.predictor.predict(near[0][None], near[1][None])[0, :k]
             if k < n:

@@ -109,4 +109,5 @@ def test_the_shipped_realistic_candidate_predicts_its_spread():
     f = LearnedForecaster(predictor)
     for k in range(5):
         fc = f.update(make_obs(k, (0.0, 0.0, 0.0), [1, 2], [[2.0 + 0.25 * k, 0.0], [3.0, 3.0 - 0.25 * k]]))
-    assert np.all(np.diff(fc.sigma, axis=1) >= 0) and fc.sigma[:, -1].max() < 1.0
+    assert np.all(np.diff(fc.sigma, axis=1) >= 0) and np.all(fc.sigma >= 0.02)
+    assert np.all(fc.sigma <= LEARNED_SIGMA(fc.times) * np.exp(3.0) + 1e-6)  # the head's bound around the envelope
