@@ -5,10 +5,12 @@ block that is none of these fails `test_every_bash_block_is_run_or_excluded`, so
 
 The service section runs against a real `foresight up` (its own line, on a free port) with a temporary HOME: the
 token and `server.json` land in `~/.local/share/foresight` as README says, and the placeholders (JOB_ID, EVAL_ID,
-DATASET_ID, CAMPAIGN_ID, ...) become the ids the earlier commands printed."""
+DATASET_ID, CAMPAIGN_ID, ...) become the ids the earlier commands printed. The `foresight ...` commands README quotes
+in its prose must exist with the options they show (checked against the CLI's parser)."""
 
 from __future__ import annotations
 
+import argparse
 import itertools
 import json
 import os
@@ -28,7 +30,7 @@ import yaml
 
 from tests.conftest import shared_root
 from tests.e2e.service import REPO, free_port, wait_job
-from tests.readme import blocks, commands, section_blocks
+from tests.readme import README, blocks, commands, section_blocks
 
 pytestmark = pytest.mark.slow
 
@@ -311,3 +313,36 @@ def test_service_section_runs_as_written(service: Service, scratch: Path) -> Non
     assert ev["metrics"]["episodes"] >= 1 and ev["per_scenario"] and "taxonomy" in ev, ev
     assert "config_diff" in compared or "deltas" in compared, compared
     assert models["count"] >= 1, models
+
+
+# ---------------------------------------------------------------- commands quoted in README's prose
+
+
+def _inline_commands() -> list[str]:
+    """Every `foresight ...` command README quotes inline (`[--opt]` optional parts and `a|b` alternatives included)."""
+    text = re.sub(r"```.*?```", "", README.read_text(), flags=re.S)
+    return sorted({" ".join(m.split()) for m in re.findall(r"`(?:\.venv/bin/)?(foresight [^`]*)`", text)})
+
+
+def _parser_options(words: list[str]) -> tuple[list[str], set[str]]:
+    """The command path of `words` that exists in the CLI's parser, and the option strings its parser takes."""
+    from foresight.cli.main import build_parser
+
+    parser, path = build_parser(), []
+    for word in words:
+        subs = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+        if not subs or word not in subs[0].choices:
+            break
+        parser, path = subs[0].choices[word], [*path, word]
+    return path, {o for a in parser._actions for o in a.option_strings}
+
+
+@pytest.mark.parametrize("line", _inline_commands())
+def test_inline_commands_and_flags_exist(line: str) -> None:
+    words = shlex.split(line.replace("[", " ").replace("]", " "))[1:]
+    first, *rest = words
+    for alternative in first.split("|"):  # `evaluate|diagnose`
+        path, options = _parser_options([alternative, *rest])
+        assert path, f"README quotes `{line}`: foresight has no command {alternative!r}"
+        flags = {w.split("=", 1)[0] for w in words if w.startswith("-")}
+        assert flags <= options, f"README quotes `{line}`: `foresight {' '.join(path)}` has no {flags - options}"
