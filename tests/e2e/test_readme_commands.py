@@ -346,3 +346,21 @@ def test_inline_commands_and_flags_exist(line: str) -> None:
         assert path, f"README quotes `{line}`: foresight has no command {alternative!r}"
         flags = {w.split("=", 1)[0] for w in words if w.startswith("-")}
         assert flags <= options, f"README quotes `{line}`: `foresight {' '.join(path)}` has no {flags - options}"
+
+
+def _bench_commands() -> list[str]:
+    """Every `bench/...py` command README quotes (the benchmarks' table included): minutes to hours each."""
+    quoted = re.findall(r"`(?:nice -n 5 )?(?:\.venv/bin/python )?(bench/[^`]*)`", README.read_text())
+    return sorted({" ".join(m.split()) for m in quoted})
+
+
+@pytest.mark.parametrize("line", _bench_commands())
+def test_benchmark_commands_and_flags_exist(line: str) -> None:
+    """Benchmarks are not run here (minutes to an hour each); each script named exists and declares each flag."""
+    script, *args = line.split()
+    files = sorted(REPO.glob(script))
+    assert files, f"README quotes `{line}`: no {script}"
+    for path in files:
+        source = path.read_text()
+        missing = [a for a in args if a.startswith("--") and f'"{a}"' not in source]
+        assert not missing, f"README quotes `{line}`: {path.relative_to(REPO)} declares no {missing}"
