@@ -13,9 +13,11 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
+import httpx
 import pytest
 
 from foresight.core.evaluation.config import EvaluationConfig
@@ -117,21 +119,31 @@ def _local_records(tmp: Path) -> list[dict]:
     return [without(r.model_dump(mode="json"), NOISE) for r in read_records(ctx.workdir / "episodes.jsonl")]
 
 
-def test_evaluation_over_http_runs_on_both_nodes_and_equals_local(cluster: Cluster, tmp_path: Path) -> None:
+def _run_over_http(cluster: Cluster, tmp_path: Path, spec: dict,
+                   read: Callable[[httpx.Client, dict], Any]) -> tuple[dict, Any]:
+    """Submit ``spec`` with the Ray executor to a real server + worker on ``cluster``; the succeeded job and what
+    ``read(client, job)`` fetched from the server before it stopped."""
     service = Service(tmp_path, ray_address=cluster.address)
     try:
         service.migrate()
         service.serve()
         service.worker()
         with service.client() as client:
-            resp = client.post("/v1/jobs", json={"spec": {**EVALUATE, "executor": "ray"}})
+            resp = client.post("/v1/jobs", json={"spec": {**spec, "executor": "ray"}})
             assert resp.status_code == 201, resp.text
             job = wait_job(client, resp.json()["id"], timeout=240)
             assert job["status"] == "succeeded", (job["error"], service.logs())
-            lines = client.get(f"/v1/jobs/{job['id']}/artifacts/episodes.jsonl").text.splitlines()
+            return job, read(client, job)
     finally:
         service.stop()
-    records = [json.loads(line) for line in lines]
+
+
+def _episodes(client: httpx.Client, job_id: str, name: str) -> list[dict]:
+    return [json.loads(line) for line in client.get(f"/v1/jobs/{job_id}/artifacts/{name}").text.splitlines()]
+
+
+def test_evaluation_over_http_runs_on_both_nodes_and_equals_local(cluster: Cluster, tmp_path: Path) -> None:
+    _, records = _run_over_http(cluster, tmp_path, EVALUATE, lambda c, job: _episodes(c, job["id"], "episodes.jsonl"))
     assert len({r["timing"]["node"] for r in records}) == 2  # both nodes ran episodes
     assert [without(r, NOISE) for r in records] == _local_records(tmp_path)
 
@@ -141,20 +153,8 @@ def test_campaign_over_http_runs_on_both_nodes_and_equals_local(cluster: Cluster
     from foresight.core.evaluation.campaign import run_campaign
     from foresight.core.evaluation.config import CampaignConfig
 
-    service = Service(tmp_path, ray_address=cluster.address)
-    try:
-        service.migrate()
-        service.serve()
-        service.worker()
-        with service.client() as client:
-            resp = client.post("/v1/jobs", json={"spec": {**CAMPAIGN, "executor": "ray"}})
-            assert resp.status_code == 201, resp.text
-            job = wait_job(client, resp.json()["id"], timeout=240)
-            assert job["status"] == "succeeded", (job["error"], service.logs())
-            cells = {c["key"]: [json.loads(line) for line in client.get(
-                f"/v1/jobs/{job['id']}/artifacts/{c['episodes_file']}").text.splitlines()] for c in job["result"]["ranked"]}
-    finally:
-        service.stop()
+    job, cells = _run_over_http(cluster, tmp_path, CAMPAIGN, lambda c, job: {
+        cell["key"]: _episodes(c, job["id"], cell["episodes_file"]) for cell in job["result"]["ranked"]})
     assert job["result"]["execution"]["executor"] == "ray" and job["result"]["execution"]["cpus"] == 2
     assert len({r["timing"]["node"] for records in cells.values() for r in records}) == 2  # both nodes ran episodes
     ctx = local_context(tmp_path / "local", {"builtin": BUILTIN_CONFIG_ROOT}, quiet=True)
