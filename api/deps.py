@@ -50,35 +50,48 @@ async def require_read(request: Request, credentials: Annotated[HTTPAuthorizatio
         _check_token(request, credentials)
 
 
-_KNOWN_QUERY: dict[int, frozenset[str]] = {}
+_KNOWN_QUERY: dict[int, tuple[frozenset[str], frozenset[str]]] = {}
 
 
-def _query_names(dependant: Any) -> set[str]:
-    """The query parameter names a route's handler and its dependencies declare."""
+def _query_names(dependant: Any) -> tuple[set[str], set[str]]:
+    """The query parameter names a route's handler and its dependencies declare, and those of them that take
+    one value (not a list)."""
+    from fastapi.dependencies.utils import field_annotation_is_sequence
+
     names = {p.alias for p in dependant.query_params}
+    single = {p.alias for p in dependant.query_params if not field_annotation_is_sequence(p.field_info.annotation)}
     for sub in dependant.dependencies:
-        names |= _query_names(sub)
-    return names
+        sub_names, sub_single = _query_names(sub)
+        names, single = names | sub_names, single | sub_single
+    return names, single
 
 
 async def known_query(request: Request) -> None:
     """Refuse query parameters the route does not declare (a typo such as ``?stauts=`` would otherwise be
-    silently ignored and answer for everything): 422 naming the parameter and the known ones."""
+    silently ignored and answer for everything), and a one-value parameter given twice (``?name=a&name=b``
+    would silently mean ``b``): 422 naming the parameter."""
     if not request.query_params:
         return
     route = request.scope.get("route")
     dependant = getattr(route, "dependant", None)
     if dependant is None:
         return
-    known = _KNOWN_QUERY.get(id(route))
-    if known is None:
-        known = _KNOWN_QUERY[id(route)] = frozenset(_query_names(dependant))
-    unknown = sorted(set(request.query_params) - known)
+    if id(route) not in _KNOWN_QUERY:
+        names, single = _query_names(dependant)
+        _KNOWN_QUERY[id(route)] = frozenset(names), frozenset(single)
+    known, single = _KNOWN_QUERY[id(route)]
+    query = request.query_params
+    unknown = sorted(set(query) - known)
     if unknown:
         expected = ", ".join(sorted(known)) or "none"
-        raise RequestValidationError([{"loc": ("query", name), "type": "extra_forbidden", "input": request.query_params[name],
+        raise RequestValidationError([{"loc": ("query", name), "type": "extra_forbidden", "input": query[name],
                                        "msg": f"unknown query parameter {name!r} (this endpoint takes: {expected})"}
                                       for name in unknown])  # fmt: skip
+    repeated = sorted(name for name in single & set(query) if len(query.getlist(name)) > 1)
+    if repeated:
+        raise RequestValidationError([{"loc": ("query", name), "type": "too_long", "input": query.getlist(name),
+                                       "msg": f"query parameter {name!r} takes one value, got {len(query.getlist(name))}"}
+                                      for name in repeated])  # fmt: skip
 
 
 SettingsDep = Annotated[Settings, Depends(get_settings)]

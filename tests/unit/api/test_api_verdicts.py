@@ -68,6 +68,16 @@ def test_unknown_query_parameters_are_422_naming_them(client) -> None:  # noqa: 
     assert client.get("/v1/models", params={"x": "1"}).status_code == 422
 
 
+def test_a_one_value_query_parameter_given_twice_is_422_naming_it(client) -> None:  # noqa: ANN001
+    """``?name=a&name=b`` used to mean ``b`` silently (schemathesis' negative phase found it on /v1/campaigns);
+    list parameters such as ``tag`` still repeat."""
+    for path in ("/v1/jobs", "/v1/campaigns", "/v1/evaluations"):
+        r = client.get(path, params=[("name", "a"), ("name", "b")])
+        assert r.status_code == 422, (path, r.text)
+        assert r.json()["detail"][0]["loc"] == ["query", "name"] and "takes one value, got 2" in r.json()["detail"][0]["msg"]
+        assert client.get(path, params=[("tag", "a"), ("tag", "b")]).status_code == 200
+
+
 def test_evaluations_list_with_filters_and_pagination(client, auth, engine) -> None:  # noqa: ANN001
     from foresight.store import records
 
