@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import os
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -12,14 +11,10 @@ from pathlib import Path
 
 import httpx
 
+from tests.integration.service import free_port, wait_job  # noqa: F401 (the e2e tests' helpers too)
+
 REPO = Path(__file__).resolve().parents[2]
 TOKEN = "e2e-dashboard-token"
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 class Up:
@@ -84,15 +79,3 @@ class Up:
         except subprocess.TimeoutExpired:
             os.killpg(self.proc.pid, signal.SIGKILL)
             self.proc.wait(timeout=10)
-
-
-def wait_job(client: httpx.Client, job_id: str, timeout_s: float = 600.0) -> dict:
-    """The job once it finished (succeeded, failed or cancelled), polling the API; AssertionError after the timeout."""
-    deadline = time.monotonic() + timeout_s
-    job: dict = {}
-    while time.monotonic() < deadline:
-        job = client.get(f"/v1/jobs/{job_id}").json()
-        if job["status"] in ("succeeded", "failed", "cancelled"):
-            return job
-        time.sleep(1.0)
-    raise AssertionError(f"job {job_id} still {job.get('status')} after {timeout_s} s")

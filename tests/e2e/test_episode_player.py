@@ -31,7 +31,7 @@ def service(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Up]:
 def test_gate_badge_episode_list_and_player(service: Up, page) -> None:  # noqa: ANN001, F811
     api = service.client()
     job_id = api.post("/v1/jobs", json={"spec": EVALUATE}).json()["id"]
-    job = wait_job(api, job_id)
+    job = wait_job(api, job_id, timeout=600)
     assert job["status"] == "succeeded" and job["verdict"] == "failed_gate", (job, service.log())
     shots = screenshot_dir()
 
@@ -78,7 +78,7 @@ def test_gate_badge_episode_list_and_player(service: Up, page) -> None:  # noqa:
     # the same episodes with another planner: the Results page (planner and model columns, verdicts) links the
     # two, and the compare page leads with what differs, then the paired metric deltas
     other = api.post("/v1/jobs", json={"spec": {**EVALUATE, "planner": {"name": "social_force"}}}).json()["id"]
-    assert wait_job(api, other)["status"] == "succeeded"
+    assert wait_job(api, other, timeout=600)["status"] == "succeeded"
     page.goto(f"{service.url}/ui/results")
     assert "GATE FAILED" in page.text_content("table.results")
     assert [c.text_content() for c in page.locator("td.planner").all()][:2] == ["social_force", "goal"]

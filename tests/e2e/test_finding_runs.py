@@ -119,7 +119,7 @@ def test_cli_labels_lists_and_jobs_page_tag_filter(service: Up, campaign: str, p
 
 
 def test_campaign_grid_plots_in_the_browser(service: Up, campaign: str, page) -> None:  # noqa: ANN001, F811
-    job = wait_job(service.client(), campaign, timeout_s=300)
+    job = wait_job(service.client(), campaign, timeout=300)
     assert job["status"] == "succeeded", job.get("error") or service.log()
     found = _cli(service, "campaigns", "ls", "--tag", "grid", "--json")
     assert found.returncode == 0 and [c["id"] for c in json.loads(found.stdout)["data"]] == [campaign]

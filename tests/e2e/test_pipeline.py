@@ -45,7 +45,7 @@ def test_smoke_pipeline_through_the_service(tmp_path: Path) -> None:
                 [sys.executable, "-m", "foresight.cli.main", "pipeline", "run", "-f", str(failing_file), "--url", up.url,
                  "--token", TOKEN],
                 cwd=REPO, env={**os.environ, **up.env}, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-            job = wait_job(client, job_id)
+            job = wait_job(client, job_id, timeout=600)
             assert job["status"] == "succeeded", (job.get("error"), up.log())
             result = job["result"]
             assert result["passed"] and result["exit_code"] == 0 and result["promoted"]

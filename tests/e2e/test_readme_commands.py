@@ -299,8 +299,8 @@ def test_service_section_runs_as_written(service: Service, scratch: Path) -> Non
     posted = json.loads(_run(curls[1].replace("localhost:8000", f"localhost:{service.port}"), scratch, token))
     assert posted["spec"]["kind"] == "evaluate", posted
     with service.client() as api:
-        assert wait_job(api, posted["id"], timeout_s=120)["status"] == "succeeded"
-        assert wait_job(api, campaign_id, timeout_s=120)["status"] == "succeeded"
+        assert wait_job(api, posted["id"], timeout=120)["status"] == "succeeded"
+        assert wait_job(api, campaign_id, timeout=120)["status"] == "succeeded"
     ids = {"JOB_ID": posted["id"], "EVAL_ID": eval_b, "CAMPAIGN_ID": campaign_id}
     outputs = []
     for curl in curls[2:]:
