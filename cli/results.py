@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Callable
 from typing import Any
 
 from foresight.cli.client import Client, add_connection_args
@@ -41,29 +42,33 @@ def _pct(x: float | None) -> str:
     return "   -  " if x is None else f"{100 * x:5.1f}%"
 
 
-def cmd_evaluations(args: argparse.Namespace) -> int:
-    page = _page(args, "/v1/evaluations")
-    lines = []
-    for e in page["data"]:
-        stage, m = e["config"]["stage"], e["metrics"]
-        planner = (stage.get("planner") or {}).get("name", "?")
-        lines.append(f"{e['id'][:12]}  {planner:<12} {e.get('model_id') or '-':<22} success {_pct(m['success_rate'])}  "
-                     f"collisions {_pct(m['collision_rate'])}  n={m['episodes']:<4} {m['status']:<16} "
-                     f"{stage.get('matrix', '')}{_labels(e)}")  # fmt: skip
-    lines.append(f"{len(page['data'])} of {page['count']} evaluations")
+def _evaluation_line(e: dict[str, Any]) -> str:
+    stage, m = e["config"]["stage"], e["metrics"]
+    planner = (stage.get("planner") or {}).get("name", "?")
+    return (f"{e['id'][:12]}  {planner:<12} {e.get('model_id') or '-':<22} success {_pct(m['success_rate'])}  "
+            f"collisions {_pct(m['collision_rate'])}  n={m['episodes']:<4} {m['status']:<16} "
+            f"{stage.get('matrix', '')}{_labels(e)}")  # fmt: skip
+
+
+def _campaign_line(c: dict[str, Any]) -> str:
+    best = c.get("best") or {}
+    glob = (c.get("best_metrics") or {}).get("global") or {}
+    return (f"{c['id'][:12]}  {c['created_at'][:19]}  grid {c['config'].get('grid', '-'):<36} best "
+            f"{best.get('variant', '-')}@{best.get('checkpoint', '-')} global success {_pct(glob.get('success'))}"
+            f"{_labels(c)}")  # fmt: skip
+
+
+def _print_page(args: argparse.Namespace, group: str, line: Callable[[dict[str, Any]], str]) -> int:
+    """One page of ``GET /v1/{group}``: the JSON page with --json, else a line per item and the count."""
+    page = _page(args, f"/v1/{group}")
+    lines = [*map(line, page["data"]), f"{len(page['data'])} of {page['count']} {group}"]
     print(json.dumps(page, indent=2) if args.json else "\n".join(lines))
     return 0
+
+
+def cmd_evaluations(args: argparse.Namespace) -> int:
+    return _print_page(args, "evaluations", _evaluation_line)
 
 
 def cmd_campaigns(args: argparse.Namespace) -> int:
-    page = _page(args, "/v1/campaigns")
-    lines = []
-    for c in page["data"]:
-        best = c.get("best") or {}
-        glob = (c.get("best_metrics") or {}).get("global") or {}
-        lines.append(f"{c['id'][:12]}  {c['created_at'][:19]}  grid {c['config'].get('grid', '-'):<36} best "
-                     f"{best.get('variant', '-')}@{best.get('checkpoint', '-')} global success {_pct(glob.get('success'))}"
-                     f"{_labels(c)}")  # fmt: skip
-    lines.append(f"{len(page['data'])} of {page['count']} campaigns")
-    print(json.dumps(page, indent=2) if args.json else "\n".join(lines))
-    return 0
+    return _print_page(args, "campaigns", _campaign_line)
