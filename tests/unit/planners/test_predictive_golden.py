@@ -70,6 +70,10 @@ def _cases() -> dict[str, dict]:
     # standing robot blocked by a group: assertiveness ramps up over the steps
     cases["stall"] = {"steps": [{"pose": (5.0, 10.0, 0.0), "velocity": (0.0, 0.0), "peds": [(7.6, 10.2), (7.8, 9.4)]}
                                 for _ in range(45)]}
+    # the non-default pedestrian-term paths: pedestrians assumed to step away, waiting ones to make room
+    reactive = {"safety": {"yield_speed": 0.3, "waiting_room": 0.7}}
+    cases["crowd16_reactive"] = {"config": reactive, "steps": [dict(s) for s in steps]}
+    cases["stall_reactive"] = {"config": reactive, "steps": [dict(s) for s in cases["stall"]["steps"]]}
     pos, vel = _crowd(16, 7, centre=(8.0, 10.0), spread=3.0)
     crowd_step = {"pose": (5.0, 10.0, 0.1), "velocity": (1.0, 0.0), "peds": pos, "ped_vels": vel}
     cases["extended_horizon"] = {"config": {"search": {"extra_horizon_s": 0.8, "adaptive_horizon": True,
