@@ -195,23 +195,25 @@ def pedestrian_terms(pos: np.ndarray, speed: np.ndarray, scene: Scene, cfg: Pred
         return {"collision": z, "risk": z, "near_miss": z, "ttc": z, "hard_clearance": z,
                 "min_clearance": np.full(B, np.inf)}
     relief = 1.0 - s.stall_margin_relief * scene.assertiveness
-    clear = _reactive_clearance(pos, fut, scene, s.yield_speed, s.yield_range)  # (B, N, K), a fresh array
+    # (N, K, B) with the rollouts innermost: numpy's loops run over B (tens to hundreds) instead of K (~20)
+    clear = _reactive_clearance(pos, fut, scene, s.yield_speed, s.yield_range)
     if np.logical_or.reduce(scene.ped_room != 0, axis=None):
-        clear += scene.ped_room[:, None]
-    nearest = np.minimum.reduce(clear, axis=1)  # (B, K) over pedestrians
-    hard = np.maximum.reduce(np.maximum(relief * s.hard_clearance_distance - nearest, 0.0), axis=1)
+        clear += scene.ped_room[:, None, None]
+    nearest = np.minimum.reduce(clear, axis=0)  # (K, B) over pedestrians
+    hard = np.maximum.reduce(np.maximum(relief * s.hard_clearance_distance - nearest, 0.0), axis=0)
     band = relief * max(s.near_distance, s.ttc_distance)
     soft = relief * (s.collision_margin + s.speed_clearance_gain * speed)  # (B, K)
     chance = s.confidence * sigma  # (N, K)
-    # beyond every margin + band and RISK_CUTOFF sigmas a (rollout, pedestrian, step) adds exact zeros to every
+    # beyond every margin + band and RISK_CUTOFF sigmas a (pedestrian, step, rollout) adds exact zeros to every
     # term below, so only the entries inside are gathered (a few % of them in a crowd) and summed per rollout
     reach = np.maximum(chance + band + np.maximum.reduce(soft, axis=None), RISK_CUTOFF * sigma)  # (N, K)
-    b, n, k = np.nonzero(clear < reach)
-    c = clear[b, n, k]
+    n, k, b = np.nonzero(clear < reach[..., None])
+    c = clear[n, k, b]
     excess = soft[b, k] + chance[n, k] - c  # > 0 inside the collision margin
     disc = (s.discount ** np.arange(len(scene.times)))[k]
 
     def per_rollout(values: np.ndarray) -> np.ndarray:
+        # each rollout's entries in (pedestrian, step) order, whatever the layout: the same sums
         return np.bincount(b, values, minlength=B)
 
     return {
@@ -220,7 +222,7 @@ def pedestrian_terms(pos: np.ndarray, speed: np.ndarray, scene: Scene, cfg: Pred
         "near_miss": per_rollout(np.maximum(excess + relief * s.near_distance, 0.0) * disc),
         "ttc": per_rollout(np.maximum(excess + relief * s.ttc_distance, 0.0) / scene.times[k]),
         "hard_clearance": hard,
-        "min_clearance": np.minimum.reduce(nearest, axis=1),
+        "min_clearance": np.minimum.reduce(nearest, axis=0),
     }
 
 
@@ -236,7 +238,7 @@ def contact_probability(z: np.ndarray) -> np.ndarray:
 
 
 def _reactive_clearance(pos: np.ndarray, fut: np.ndarray, scene: Scene, speed: float, reach: float) -> np.ndarray:
-    """Clearance (B, N, K) [m] between each rollout and each forecast pedestrian, who steps away from the robot.
+    """Clearance (N, K, B) [m] between each forecast pedestrian and each rollout, the pedestrian stepping away.
 
     Pedestrians repelled by a robot closing in (the crowd model's robot force) step away from it,
     which a forecast made without the robot's plan cannot know: within ``reach`` metres of contact a
@@ -244,16 +246,22 @@ def _reactive_clearance(pos: np.ndarray, fut: np.ndarray, scene: Scene, speed: f
     closer it is, and the displacement accumulates along the forecast steps. ``speed`` 0 assumes
     nothing of the kind (pedestrians who do not see the robot): the plain clearance.
     """
-    dx = pos[:, None, :, 0] - fut[None, :, :, 0]  # (B, N, K) robot minus pedestrian
-    dy = pos[:, None, :, 1] - fut[None, :, :, 1]
-    clear = np.sqrt(dx * dx + dy * dy) - scene.contact
-    K = clear.shape[-1]
+    # robot coordinates as contiguous (K, B) rows; the differences (N, K, B) are then squared, summed and rooted
+    # in place: two large temporaries instead of seven (freed large arrays cost page faults on the next decision)
+    dx = np.ascontiguousarray(pos[..., 0].T) - fut[..., 0, None]  # robot minus pedestrian
+    dy = np.ascontiguousarray(pos[..., 1].T) - fut[..., 1, None]
+    dx *= dx
+    dy *= dy
+    dx += dy
+    clear = np.sqrt(dx, out=dx)
+    clear -= scene.contact
+    K = clear.shape[1]
     if speed <= 0 or reach <= 0 or K < 2:
         return clear
-    stepped = np.logical_or.reduce(clear[..., :-1] < reach, axis=-1)  # (B, N): pairs ever within reach
-    if not stepped.any():  # every other pair is never pushed: its clearance is the plain one
+    n, b = np.nonzero(np.logical_or.reduce(clear[:, :-1] < reach, axis=1))  # pairs ever within reach
+    if not len(n):  # every other pair is never pushed: its clearance is the plain one
         return clear
-    rel = np.stack([dx[stepped], dy[stepped]], axis=-1)  # (A, K, 2)
+    rel = pos[b] - fut[n]  # (A, K, 2) robot minus pedestrian
     off = np.zeros((len(rel), 2))  # accumulated displacement of each pedestrian (x, y)
     out = np.empty(rel.shape[:2])
     for k in range(K):
@@ -262,7 +270,7 @@ def _reactive_clearance(pos: np.ndarray, fut: np.ndarray, scene: Scene, speed: f
         out[:, k] = d - scene.contact
         push = speed * scene.time_steps[k] * np.clip(1.0 - out[:, k] / reach, 0.0, 1.0) / np.maximum(d, 1e-6)
         off -= push[:, None] * e
-    clear[stepped] = out
+    clear[n, :, b] = out
     return clear
 
 
