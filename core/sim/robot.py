@@ -187,7 +187,8 @@ def _held_speeds(vw0: np.ndarray, cmds: np.ndarray, limits: RobotLimits, dt: flo
     """``_tracking_speeds`` as (..., 2, n) [v; omega] when every sequence holds ONE command within the limits
     (the planner's rollouts), else None: the same ramp formulas, v and omega in one array op each and
     without the run detection (numpy's per-call overhead dominates at the planner's sizes)."""
-    if not np.logical_and.reduce(cmds[..., 1:, :] == cmds[..., :1, :], axis=None):
+    flat = cmds.reshape(cmds.shape[:-2] + (-1,))  # (..., 2 n): each step equal to the one before it
+    if not np.logical_and.reduce(flat[..., 2:] == flat[..., :-2], axis=None):
         return None
     lo, hi, down, up = _ramp_limits(limits, dt)
     if not np.logical_and.reduce((vw0 >= lo[:, 0]) & (vw0 <= hi[:, 0]), axis=None):

@@ -289,7 +289,7 @@ def evaluate(roll: Rollouts, scene: Scene, cfg: PredictivePlannerConfig) -> tupl
     v_max * dt_forecast = 0.4 m between them, covered by ``static_margin`` plus the field's bound).
     """
     s, wt = cfg.safety, cfg.weights
-    ev = roll.states[:, roll.eval_index]  # (B, K, 5)
+    ev = roll.states.take(roll.eval_index, axis=1)  # (B, K, 5); take: a fancy index on axis 1 is ~4x slower
     pos = ev[..., :2]
     speed = np.abs(ev[..., 3])
     terms = pedestrian_terms(pos, speed, scene, cfg)
@@ -302,7 +302,7 @@ def evaluate(roll: Rollouts, scene: Scene, cfg: PredictivePlannerConfig) -> tupl
     K = len(roll.eval_index)  # means below: np.add.reduce / K is what ndarray.mean computes, without its wrapper
     terms["static_collision"] = np.add.reduce(sc < s.static_margin, axis=1, dtype=float)
     terms["static"] = np.add.reduce(np.maximum(0.0, s.static_margin + s.static_soft_distance - sc), axis=1) / K
-    cmd = roll.commands[:, roll.eval_index]  # (B, K, 2)
+    cmd = roll.commands.take(roll.eval_index, axis=1)  # (B, K, 2)
     terms["velocity"] = np.add.reduce(np.abs(cmd[..., 0]), axis=1) / K / scene.max_speed
     terms["turn"] = np.add.reduce(np.abs(cmd[..., 1]), axis=1) / K / scene.max_turn_rate
     terms["smoothness"] = (np.abs(roll.commands[:, 0, 0] - scene.prev_command[0]) / scene.max_speed

@@ -194,30 +194,27 @@ class PredictivePlanner:
         cmds = np.repeat(first[:, None, :], S, axis=1)  # (C, S, 2)
         states = rollout(np.repeat(state0[None], len(first), axis=0), cmds, limits, sim_dt)
         total, terms = C.evaluate(C.Rollouts(states, idx, cmds), scene, cfg)
-        pool = (cmds, states, total)
-        pool_terms = [terms]  # per evaluation; only the best sequence's are read, so never concatenated
+        evals = [(cmds, states, total, terms)]  # (commands, states, totals, terms) of each evaluation, in order
         n_eval = len(first)
         branch = self._candidates(None)
+        M = len(branch)
         for b in bounds:
-            keep = np.argsort(pool[2], kind="stable")[: cfg.search.beam_width]
-            p_cmds, p_states = pool[0][keep], pool[1][keep]
-            M = len(branch)
+            keep = np.argsort(_joined(evals, 2), kind="stable")[: cfg.search.beam_width]
+            p_cmds, p_states = _joined(evals, 0)[keep], _joined(evals, 1)[keep]
             new_cmds = np.repeat(p_cmds, M, axis=0)
             new_cmds[:, b:] = np.tile(branch, (len(keep), 1))[:, None, :]
             tail = rollout(np.repeat(p_states[:, b - 1], M, axis=0), new_cmds[:, b:], limits, sim_dt)
             new_states = np.concatenate([np.repeat(p_states[:, :b], M, axis=0), tail], axis=1)
             t_new, terms_new = C.evaluate(C.Rollouts(new_states, idx, new_cmds), scene, cfg)
             n_eval += len(new_cmds)
-            pool = tuple(np.concatenate([a, b]) for a, b in zip(pool, (new_cmds, new_states, t_new), strict=True))
-            pool_terms.append(terms_new)
-        best = int(np.argmin(pool[2]))
-        rest = best
-        for terms in pool_terms:  # the evaluation that holds ``best``
-            size = len(next(iter(terms.values())))
-            if rest < size:
-                break
-            rest -= size
-        return pool[0][best], {k: v[rest] for k, v in terms.items()}, float(pool[2][best]), n_eval
+            evals.append((new_cmds, new_states, t_new, terms_new))
+        best = int(np.argmin(_joined(evals, 2)))
+        e = 0
+        while best >= len(evals[e][2]):  # find the evaluation that holds ``best``
+            best -= len(evals[e][2])
+            e += 1
+        cmds, _, total, terms = evals[e]
+        return cmds[best], {k: v[best] for k, v in terms.items()}, float(total[best]), n_eval
 
     def _steps(self, times: np.ndarray, sim_dt: float) -> tuple[np.ndarray, int, list[int]]:
         """Rollout step of each forecast time, rollout length and segment boundaries; cached per time grid."""
@@ -249,6 +246,12 @@ def _boundaries(segments_s: tuple[float, ...], sim_dt: float, S: int) -> list[in
         raise ConfigError(f"segments {segments_s} s leave no second segment inside the {S * sim_dt:.1f} s horizon",
                           item="search.segments_s")
     return out
+
+
+def _joined(evals: list[tuple], field: int) -> np.ndarray:
+    """One field of every evaluation so far, in order (the first one's own array while it is alone: the default
+    search has one branching round, so its states and commands are never copied into a pool)."""
+    return evals[0][field] if len(evals) == 1 else np.concatenate([e[field] for e in evals])
 
 
 def _segments(cmds: np.ndarray) -> list[tuple[int, float, float]]:
