@@ -54,6 +54,7 @@ class PredictivePlanner:
         self._assert = 0.0
         self._limits = RobotLimits.from_config(robot)
         self._cands: dict[bool | None, np.ndarray] = {}
+        self._held: dict[tuple[bool, int], np.ndarray] = {}
         self._step_cache: dict[tuple, tuple] = {}
         self._route_cache: tuple | None = None
         self._prev = np.zeros(2)
@@ -177,6 +178,15 @@ class PredictivePlanner:
                                  else first_candidates(cfg.sampling, self._limits, cfg.max_speed_ratio, near))
         return self._cands[near]
 
+    def _held_commands(self, near: bool, steps: int) -> np.ndarray:
+        """The first-segment candidates held for ``steps`` simulator steps (C, steps, 2); cached per episode, read-only."""
+        key = (near, steps)
+        if key not in self._held:
+            held = np.repeat(self._candidates(near)[:, None, :], steps, axis=1)
+            held.flags.writeable = False
+            self._held[key] = held
+        return self._held[key]
+
     def _static_field(self, obs: Observation) -> C.StaticClearance:
         """One distance field per static geometry object (the simulator keeps one per map)."""
         if self._static is None or self._static.static is not obs.static:
@@ -191,7 +201,7 @@ class PredictivePlanner:
         idx, S, bounds = self._steps(scene.times, sim_dt)
         state0 = np.concatenate([obs.robot_pose, obs.robot_velocity]).astype(float)
         first = self._candidates(near)
-        cmds = np.repeat(first[:, None, :], S, axis=1)  # (C, S, 2)
+        cmds = self._held_commands(near, S)  # (C, S, 2)
         states = rollout(np.repeat(state0[None], len(first), axis=0), cmds, limits, sim_dt)
         total, terms = C.evaluate(C.Rollouts(states, idx, cmds), scene, cfg)
         evals = [(cmds, states, total, terms)]  # (commands, states, totals, terms) of each evaluation, in order
