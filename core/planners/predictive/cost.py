@@ -147,6 +147,7 @@ class Scene:
     ped_future: np.ndarray  #: (N, K, 2) forecast positions at ``times`` [m] (relevant peds only)
     ped_sigma: np.ndarray  #: (N, K) per-axis std of those positions [m]
     ped_room: np.ndarray  #: (N,) room a waiting pedestrian is expected to make [m] (added to its clearance)
+    ped_yield: np.ndarray  #: (N,) speed [m/s] at which each pedestrian is assumed to step away from the robot
     times: np.ndarray  #: (K,) seconds ahead [s]
     contact: float  #: centre distance of contact: robot radius + ped radius + extra margins [m]
     robot_radius: float  #: true robot radius [m] (static clearance)
@@ -196,7 +197,7 @@ def pedestrian_terms(pos: np.ndarray, speed: np.ndarray, scene: Scene, cfg: Pred
                 "min_clearance": np.full(B, np.inf)}
     relief = 1.0 - s.stall_margin_relief * scene.assertiveness
     # (N, K, B) with the rollouts innermost: numpy's loops run over B (tens to hundreds) instead of K (~20)
-    clear = _reactive_clearance(pos, fut, scene, s.yield_speed, s.yield_range)
+    clear = _reactive_clearance(pos, fut, scene, scene.ped_yield, s.yield_range)
     if np.logical_or.reduce(scene.ped_room != 0, axis=None):
         clear += scene.ped_room[:, None, None]
     nearest = np.minimum.reduce(clear, axis=0)  # (K, B) over pedestrians
@@ -239,14 +240,14 @@ def contact_probability(z: np.ndarray) -> np.ndarray:
     return np.where(z < RISK_CUTOFF, 1.0 / (1.0 + np.exp(1.702 * np.minimum(z, RISK_CUTOFF))), 0.0)
 
 
-def _reactive_clearance(pos: np.ndarray, fut: np.ndarray, scene: Scene, speed: float, reach: float) -> np.ndarray:
+def _reactive_clearance(pos: np.ndarray, fut: np.ndarray, scene: Scene, speed: np.ndarray, reach: float) -> np.ndarray:
     """Clearance (N, K, B) [m] between each forecast pedestrian and each rollout, the pedestrian stepping away.
 
     Pedestrians repelled by a robot closing in (the crowd model's robot force) step away from it,
-    which a forecast made without the robot's plan cannot know: within ``reach`` metres of contact a
-    pedestrian is displaced away from the rolled-out robot at up to ``speed`` m/s, linearly more the
-    closer it is, and the displacement accumulates along the forecast steps. ``speed`` 0 assumes
-    nothing of the kind (pedestrians who do not see the robot): the plain clearance.
+    which a forecast made without the robot's plan cannot know: within ``reach`` metres of contact
+    pedestrian n is displaced away from the rolled-out robot at up to ``speed[n]`` m/s, linearly more
+    the closer it is, and the displacement accumulates along the forecast steps. ``speed[n]`` 0 assumes
+    nothing of the kind (a pedestrian who does not see the robot): the plain clearance.
     """
     # robot coordinates as contiguous (K, B) rows; the differences (N, K, B) are then squared, summed and rooted
     # in place: two large temporaries instead of seven (freed large arrays cost page faults on the next decision)
@@ -258,11 +259,13 @@ def _reactive_clearance(pos: np.ndarray, fut: np.ndarray, scene: Scene, speed: f
     clear = np.sqrt(dx, out=dx)
     clear -= scene.contact
     K = clear.shape[1]
-    if speed <= 0 or reach <= 0 or K < 2:
+    if reach <= 0 or K < 2 or not np.logical_or.reduce(speed > 0, axis=None):
         return clear
-    n, b = np.nonzero(np.logical_or.reduce(clear[:, :-1] < reach, axis=1))  # pairs ever within reach
+    pushed = np.logical_or.reduce(clear[:, :-1] < reach, axis=1) & (speed > 0)[:, None]  # (N, B) ever within reach
+    n, b = np.nonzero(pushed)
     if not len(n):  # every other pair is never pushed: its clearance is the plain one
         return clear
+    speed = speed[n]  # (A,)
     rel = pos[b] - fut[n]  # (A, K, 2) robot minus pedestrian
     off = np.zeros((len(rel), 2))  # accumulated displacement of each pedestrian (x, y)
     out = np.empty(rel.shape[:2])

@@ -8,7 +8,9 @@ robot can wait, but waiting is no refuge: a pedestrian forecast to walk into a s
 as much as one the robot drives into, so the search turns away, speeds up or gives way early
 instead. Pedestrian terms read the forecast's spread (a chance margin and the contact probability,
 see ``cost``); after a few seconds without route progress the soft margins shrink (stall
-assertiveness), never the contact distance. Deterministic: no randomness, stable sorts.
+assertiveness), never the contact distance, and the robot commits: pedestrians standing near it
+are taken to wait for it, to stay and to step back as it edges forward (a doorway standoff ends),
+until one is seen to hold its ground. Deterministic: no randomness, stable sorts.
 """
 
 from __future__ import annotations
@@ -52,6 +54,8 @@ class PredictivePlanner:
         self.forecaster.reset()
         self._phi_hist: deque[tuple[float, float]] = deque()
         self._assert = 0.0
+        self._holds: set[int] = set()  #: pedestrians seen to hold their ground against the robot
+        self._probes: dict[int, tuple[float, np.ndarray, float]] = {}  #: id -> (since [s], position, gap) under test
         self._limits = RobotLimits.from_config(robot)
         self._cands: dict[bool | None, np.ndarray] = {}
         self._held: dict[tuple[bool, int], np.ndarray] = {}
@@ -70,7 +74,7 @@ class PredictivePlanner:
         t0 = time.perf_counter()
         self.forecaster.observe(obs)
         fc = self.forecaster.forecast()
-        scene, near, extra = self._scene(obs, fc.positions, fc.sigma, fc.times)
+        scene, near, extra = self._scene(obs, fc.positions, fc.sigma, fc.times, fc.ped_ids)
         best_cmds, best_terms, best_total, n_eval = self._search(obs, scene, near)
         v, w = float(best_cmds[0, 0]), float(best_cmds[0, 1])
         self._prev = np.array([v, w])
@@ -93,7 +97,7 @@ class PredictivePlanner:
         """Cost (B,) and terms of constant commands (B, 2) held over the horizon (tests, diagnostics)."""
         self.forecaster.observe(obs)
         fc = self.forecaster.forecast()
-        scene, _, _ = self._scene(obs, fc.positions, fc.sigma, fc.times)
+        scene, _, _ = self._scene(obs, fc.positions, fc.sigma, fc.times, fc.ped_ids)
         idx = eval_steps(scene.times, obs.dt)
         cmds = np.repeat(np.asarray(commands, dtype=float)[:, None, :], int(idx[-1]) + 1, axis=1)
         state0 = np.concatenate([obs.robot_pose, obs.robot_velocity]).astype(float)
@@ -102,7 +106,7 @@ class PredictivePlanner:
 
     # -- decision pieces -------------------------------------------------------------------------
     def _scene(self, obs: Observation, positions: np.ndarray, sigma: np.ndarray,
-               times: np.ndarray) -> tuple[C.Scene, bool, int]:
+               times: np.ndarray, fc_ids: np.ndarray) -> tuple[C.Scene, bool, int]:
         cfg, limits = self.config, self._limits
         p0 = obs.robot_pose[:2]
         route = self._route(obs)
@@ -119,19 +123,57 @@ class PredictivePlanner:
         extra_s = cfg.search.extra_horizon_s + (cfg.search.horizon_boost_s if cfg.search.adaptive_horizon and near else 0.0)
         extra = int(round(extra_s / dt_f))
         room = self._waiting_room(fut, times, assertive)
+        waiting = self._waiting(obs, fc_ids, contact)
+        yielding = np.zeros(len(fut))
+        if assertive >= COMMIT_ASSERTIVENESS and waiting.any():  # yielded long enough: commit (see _waiting)
+            fut, sigma = fut.copy(), sigma.copy()
+            fut[waiting], sigma[waiting] = fut[waiting, :1], np.minimum(sigma[waiting, :1], COMMIT_SIGMA)
+            yielding[waiting] = cfg.safety.yield_speed
         fut, sigma, times = extend_forecast(fut, sigma, times, extra)
         if len(fut):  # exact culling: pedestrians no rollout can bring within any term's range
             if extra:
                 dist = np.sqrt(np.add.reduce((fut - p0) ** 2, axis=-1))
             gap = dist - contact - _reach(float(obs.robot_velocity[0]), limits, times)
             keep = gap.min(axis=1) <= C.influence_range(cfg, float(times[-1]), limits.v_max, float(sigma.max()))
-            fut, sigma, room = fut[keep], sigma[keep], room[keep]
+            fut, sigma, room, yielding = fut[keep], sigma[keep], room[keep], yielding[keep]
         scene = C.Scene(
-            ped_future=fut, ped_sigma=sigma, ped_room=room, times=times, contact=contact, robot_radius=obs.robot_radius, route=route,
+            ped_future=fut, ped_sigma=sigma, ped_room=room, ped_yield=yielding, times=times, contact=contact, robot_radius=obs.robot_radius, route=route,
             phi0=phi0, assertiveness=assertive, static=self._static_field(obs), start=np.asarray(obs.robot_pose, dtype=float),
             prev_command=self._prev, max_speed=limits.v_max, max_turn_rate=limits.w_max,
         )
         return scene, near, extra
+
+    def _waiting(self, obs: Observation, ids: np.ndarray, contact: float) -> np.ndarray:
+        """(N,) mask of the forecast pedestrians (``ids``) taken to wait for the robot: standing, not seen to hold ground.
+
+        A pedestrian standing near a robot is often waiting for it and steps back as it edges forward
+        (how doorway and corridor standoffs end); one who stands for another reason does not. So the
+        robot tests it: a standing pedestrian that stays put for ``yield_test_s`` while the robot closes
+        in within ``yield_range`` + ``YIELD_PROBE_SLACK`` of contact holds its ground, and is never
+        taken to wait for the robot again this episode.
+        """
+        s = self.config.safety
+        if s.yield_speed <= 0 or len(obs.ped_ids) == 0:
+            return np.zeros(len(ids), dtype=bool)
+        p = np.asarray(obs.robot_pose[:2], dtype=float)
+        gap = np.hypot(*(obs.ped_positions - p).T) - contact
+        standing = np.hypot(*np.asarray(obs.ped_velocities).T) < s.waiting_speed
+        probes = {}
+        for i in np.flatnonzero(standing & (gap <= s.yield_range + YIELD_PROBE_SLACK)).tolist():
+            pid, pos, g = int(obs.ped_ids[i]), obs.ped_positions[i], float(gap[i])
+            if pid in self._holds:
+                continue
+            t0, pos0, g0 = self._probes.get(pid, (obs.time, pos, g))
+            if obs.time - t0 >= s.yield_test_s - 1e-9:
+                if g0 - g >= YIELD_PROBE_CLOSING and np.hypot(*(pos - pos0)) < YIELD_PROBE_CLOSING:
+                    self._holds.add(pid)  # the robot came closer, the pedestrian did not move: it holds its ground
+                    continue
+                t0, pos0, g0 = obs.time, pos, g  # no verdict: test again from here
+            probes[pid] = (t0, pos0, g0)
+        self._probes = probes
+        waiting = {pid for pid, stand in zip(obs.ped_ids.tolist(), standing.tolist(), strict=True)
+                   if stand and pid not in self._holds}
+        return np.array([pid in waiting for pid in np.asarray(ids).tolist()], dtype=bool)
 
     def _waiting_room(self, fut: np.ndarray, times: np.ndarray, assertive: float) -> np.ndarray:
         """(N,) room [m] each pedestrian is expected to make: ``waiting_room`` x assertiveness for one forecast
@@ -235,6 +277,16 @@ class PredictivePlanner:
             S = int(idx[-1]) + 1
             cached = self._step_cache[key] = (idx, S, _boundaries(self.config.search.segments_s, sim_dt, S))
         return cached
+
+
+#: stall assertiveness from which the robot, having yielded, commits to edging past pedestrians who wait for it
+COMMIT_ASSERTIVENESS = 0.5
+#: the spread [m] it then allows a waiting pedestrian's position: it trusts it to stand (and tests that, below)
+COMMIT_SIGMA = 0.1
+#: a standing pedestrian is under test from this far beyond ``yield_range`` [m]; it holds its ground if the robot
+#: closed in by at least ``YIELD_PROBE_CLOSING`` [m] during the test while it moved less than that
+YIELD_PROBE_SLACK = 0.3
+YIELD_PROBE_CLOSING = 0.1
 
 
 def _reach(v0: float, limits: RobotLimits, times: np.ndarray) -> np.ndarray:

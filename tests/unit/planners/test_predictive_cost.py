@@ -94,18 +94,45 @@ def test_static_field_never_overestimates_clearance():
     assert field(np.array([[-1.0, 5.0]]))[0] < 0  # outside the map
 
 
-def test_pedestrians_are_predicted_to_make_room_for_a_slow_robot():
-    """The reactive clearance lets a pedestrian step away from an edging robot, not from a fast one."""
+def test_after_a_stall_a_waiting_pedestrian_is_trusted_to_make_room_for_a_slow_robot():
+    """Yield, then commit: a standing pedestrian near a stalled robot is taken to step away from an edging robot."""
     m = corridor_map()
-    obs = observation(m, velocity=(0.0, 0.0), peds=[(6.5, 10.0)])  # 0.1 m beyond the 1.4 m contact distance
+    obs = observation(m, velocity=(0.0, 0.0), peds=[(6.5, 10.0)])  # standing 0.1 m beyond the 1.4 m contact distance
     creep = np.array([[0.3, 0.0]])
-    reactive = PredictivePlannerConfig.from_dict({"safety": {"yield_speed": 0.3}})
-    t_rigid = _planner(m).score_commands(obs, creep)[1]  # the default: forecasts taken as they are
-    t_react = _planner(m, reactive).score_commands(obs, creep)[1]
-    assert t_react["collision"][0] < t_rigid["collision"][0]
-    fast = _planner(m, reactive).score_commands(observation(m, velocity=(2.0, 0.0), peds=[(9.0, 10.0)]),
-                                                np.array([[2.0, 0.0]]))[1]
-    assert fast["collision"][0] > 0
+
+    def collision(config: dict, assertiveness: float) -> float:
+        p = _planner(m, PredictivePlannerConfig.from_dict(config))
+        p._assert = assertiveness  # 1: as after a few seconds without route progress
+        return float(p.score_commands(obs, creep)[1]["collision"][0])
+
+    nobody_waits = {"safety": {"yield_speed": 0.0}}
+    assert collision({}, 1.0) < collision(nobody_waits, 1.0)  # committed: the pedestrian is expected to step back
+    assert collision({}, 0.0) == pytest.approx(collision(nobody_waits, 0.0))  # at ease nobody is assumed to
+
+
+def test_a_walking_pedestrian_is_never_taken_to_wait():
+    m = corridor_map()
+    p = _planner(m)
+    walking = observation(m, velocity=(0.0, 0.0), peds=[(6.5, 10.0)], ped_vels=[(-1.0, 0.0)])
+    assert not p._waiting(walking, walking.ped_ids, contact=1.4).any()
+    standing = observation(m, velocity=(0.0, 0.0), peds=[(6.5, 10.0)])
+    assert p._waiting(standing, standing.ped_ids, contact=1.4).all()
+
+
+@pytest.mark.parametrize("steps_back", [False, True])
+def test_a_pedestrian_who_holds_its_ground_while_the_robot_closes_in_is_not_trusted_again(steps_back):
+    """The trust is tested: standing put for ``yield_test_s`` while the robot closes in revokes it for the episode."""
+    m = corridor_map()
+    p = _planner(m)
+    test_steps = int(round(p.config.safety.yield_test_s / 0.1))
+    waiting = None
+    for step in range(test_steps + 5):
+        robot_x = 5.0 + 0.02 * step  # edging forward at 0.2 m/s
+        ped_x = 7.0 + (0.03 * step if steps_back else 0.0)  # the pedestrian steps back faster, or not at all
+        obs = observation(m, pose=(robot_x, 10.0, 0.0), velocity=(0.2, 0.0), peds=[(ped_x, 10.0)], step=step)
+        waiting = p._waiting(obs, obs.ped_ids, contact=1.4)
+    assert bool(waiting[0]) is steps_back
+    assert (0 in p._holds) is not steps_back
 
 
 def test_assertiveness_grows_while_stalled_and_decays_with_progress():

@@ -1,9 +1,11 @@
 """Predictive planner decisions on hand-built scenes stay what they were (recorded fixture).
 
 The fixture ``predictive_golden.json`` holds the command, cost, command sequence and evaluation
-count of every decision below. Re-recorded on 2026-11-24 after one deliberate behaviour change
-(uncertainty-aware pedestrian terms, no standing-still discount, contact never shrunk, 4 s horizon;
-issue 12); before that it held the decisions of the planner before its rollout was vectorised.
+count of every decision below. Re-recorded on 2026-11-24 after two deliberate behaviour changes of
+issue 12: uncertainty-aware pedestrian terms, no standing-still discount, contact never shrunk, 4 s
+horizon; then "yield, then commit" (after a stall, standing pedestrians are trusted to make room
+until one holds its ground). Before that it held the decisions of the planner before its rollout
+was vectorised.
 Speed-ups must not change decisions: commands and sequences must match exactly, costs to
 floating-point rounding. The independent checks of behaviour are in ``test_predictive_planner.py``
 and ``test_predictive_cost.py`` (full speed on a free route, a crossing solved, a standing robot
@@ -70,10 +72,10 @@ def _cases() -> dict[str, dict]:
     # standing robot blocked by a group: assertiveness ramps up over the steps
     cases["stall"] = {"steps": [{"pose": (5.0, 10.0, 0.0), "velocity": (0.0, 0.0), "peds": [(7.6, 10.2), (7.8, 9.4)]}
                                 for _ in range(45)]}
-    # the non-default pedestrian-term paths: pedestrians assumed to step away, waiting ones to make room
-    reactive = {"safety": {"yield_speed": 0.3, "waiting_room": 0.7}}
-    cases["crowd16_reactive"] = {"config": reactive, "steps": [dict(s) for s in steps]}
-    cases["stall_reactive"] = {"config": reactive, "steps": [dict(s) for s in cases["stall"]["steps"]]}
+    # the non-default pedestrian-term paths: no waiting pedestrian trusted to step away, waiting ones to make room
+    other = {"safety": {"yield_speed": 0.0, "waiting_room": 0.7}}
+    cases["crowd16_nobody_waits"] = {"config": other, "steps": [dict(s) for s in steps]}
+    cases["stall_nobody_waits"] = {"config": other, "steps": [dict(s) for s in cases["stall"]["steps"]]}
     pos, vel = _crowd(16, 7, centre=(8.0, 10.0), spread=3.0)
     crowd_step = {"pose": (5.0, 10.0, 0.1), "velocity": (1.0, 0.0), "peds": pos, "ped_vels": vel}
     cases["extended_horizon"] = {"config": {"search": {"extra_horizon_s": 0.8, "adaptive_horizon": True,
