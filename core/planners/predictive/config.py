@@ -80,14 +80,14 @@ class SafetyConfig(_Frozen):
     #: 0 collisions) but slow walkers taken for waiting ones collide (no repulsion: 2.9 % -> 11.6 % collisions)
     waiting_room: float = Field(default=0.0, ge=0)
     waiting_speed: float = Field(default=0.25, ge=0)
-    #: yield, then commit: after a stall (assertiveness 0.5) a pedestrian standing (slower than ``waiting_speed``)
+    #: yield, then commit: after a stall (assertiveness 0.8) a pedestrian standing (slower than ``waiting_speed``)
     #: near the robot is taken to wait for it: to stay put and step away from it at up to this [m/s] as it edges
     #: forward, until seen to hold its ground (within ``yield_range`` + 0.3 m of contact for ``yield_test_s``
     #: while the robot closed in, it did not move). Walking pedestrians never are (many never see the robot).
-    #: 0: nobody is (the planner before 2026-11-24). Reference defaults, 69 episodes: 0.826 -> 0.899
+    #: 0: nobody is (the planner before 2026-11-24). Reference defaults, 69 episodes: 0.826 -> 0.913
     yield_speed: float = Field(default=0.3, ge=0)
     yield_range: float = Field(default=1.2, ge=0)  #: ... starting this far beyond contact [m]
-    yield_test_s: float = Field(default=3.0, gt=0)  #: [s]; 1 s: 0.812 (reacting people step back slowly)
+    yield_test_s: float = Field(default=3.0, gt=0)  #: [s]; 1 s: 0.812 at commit 0.5 (reacting people step back slowly)
     static_field_resolution: float = Field(default=0.1, ge=0, le=0.5)  #: [m]; 0 = exact distance queries
 
 
