@@ -32,9 +32,8 @@ def curving_episode(seed: int, steps: int = 80):
     return make_trace(robot, ids, pos), np.tile([[8.0, 0.0]], (steps + 1, 1))
 
 
-@pytest.fixture(scope="session")
-def curving_dataset(tmp_path_factory):
-    """A small simulator-like dataset on the planner time base, saved to disk; returns its path."""
+def write_curving_dataset(path):
+    """A small simulator-like dataset on the planner time base, saved at ``path``; returns the path."""
     n = 16
     splits = assign_splits(n, 0.25, 0)
     eps = []
@@ -42,6 +41,11 @@ def curving_dataset(tmp_path_factory):
         trace, wps = curving_episode(i)
         eps.append((EpisodeRecord("arcs", i, splits[i]), samples_from_trace(trace, PLANNER_TIMEBASE, 6, wps, 1)))
     ds = dataset_from_episodes(eps, DatasetMeta(PLANNER_TIMEBASE, 6, "robot", "sim", [], generator={"arcs": n}))
-    path = tmp_path_factory.mktemp("data") / "arcs.npz"
     save_dataset(ds, path)
     return path
+
+
+@pytest.fixture(scope="session")
+def curving_dataset(tmp_path_factory):
+    """:func:`write_curving_dataset` in a session folder."""
+    return write_curving_dataset(tmp_path_factory.mktemp("data") / "arcs.npz")
