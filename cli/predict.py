@@ -73,6 +73,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     tr.add_argument("--config", help="training config YAML (its 'train' mapping, or the whole file)")
     tr.add_argument("--epochs", type=int)
     tr.add_argument("--threads", type=int)
+    tr.add_argument("--device", choices=["auto", "cpu", "cuda"], help="torch device where training runs (auto: cuda "
+                    "when it sees a GPU, else cpu); overrides the config's")
     tr.add_argument("--executor", choices=["local", "ray"], help="ray: train as a Ray task (on a GPU node when the "
                     "cluster has one) and run the closed-loop proxy's episodes as Ray tasks; default local")
     _outputs(tr)
@@ -234,7 +236,7 @@ def mix_cmd(args: argparse.Namespace) -> int:
 def train_cmd(args: argparse.Namespace) -> int:
     from foresight.core.predict.train_config import TrainResult
 
-    overrides = {"dataset": args.dataset, "epochs": args.epochs, "threads": args.threads}
+    overrides = {"dataset": args.dataset, "epochs": args.epochs, "threads": args.threads, "device": args.device}
     values = {**_train_values(args.config), **{k: v for k, v in overrides.items() if v is not None}}
     if values.get("dataset") is None:
         raise ConfigError("no dataset: give --dataset or a config with train.dataset", source=args.config)
@@ -244,8 +246,9 @@ def train_cmd(args: argparse.Namespace) -> int:
             values["proxy"] = {**values["proxy"], "executor": args.executor}
 
     def text(r: TrainResult, where: str, checkpoint: str | None = None) -> str:
+        on = f", trained on {r.device}" if r.device else ""
         return (f"{checkpoint or r.checkpoint}: epoch {r.best_epoch} val ADE {r.val_ade:.3f} FDE {r.val_fde:.3f} "
-                f"(CV {r.cv_val_ade:.3f}/{r.cv_val_fde:.3f}), gates {'passed' if r.gates_passed else 'FAILED'}{where}")
+                f"(CV {r.cv_val_ade:.3f}/{r.cv_val_fde:.3f}), gates {'passed' if r.gates_passed else 'FAILED'}{on}{where}")
 
     def exit_code(r: TrainResult) -> int:
         return 0 if r.gates_passed else 2

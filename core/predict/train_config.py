@@ -50,6 +50,9 @@ class TrainConfig(_Strict):
     augment_mirror: bool = False  #: mirror a random half of each batch across the ego x axis (y -> -y)
     augment_scale: tuple[float, float] | None = None  #: scale each sample's lengths/speeds and targets by a factor drawn log-uniformly from [lo, hi]
     threads: int = Field(default=1, ge=1, le=64)  #: torch intra-op threads (1: small matmuls gain little from more, and shared cores thrash)
+    #: torch device of the model and data: auto = cuda when torch sees a GPU where training runs (a Ray task given
+    #: one), else cpu; cuda without a GPU fails there (core.predict.nn.device); shuffling draws stay on the CPU
+    device: Literal["auto", "cpu", "cuda"] = "auto"
     val_split: str = "val"  #: which recorded split validates (val; test only for held-out checks)
     proxy_every: int = Field(default=0, ge=0)  #: epochs between proxy evaluations (0 = off)
     proxy: ProxySpec | None = None  #: closed-loop proxy episodes (training hard seeds) when proxy_every > 0
@@ -77,6 +80,7 @@ class TrainResult(BaseModel):
     cv_val_fde: float
     selection_mode: str
     gates_passed: bool
+    device: str | None = None  #: the torch device that trained (cpu, cuda); None in results from before devices
     execution: Execution | None = None  #: set when it ran as a Ray task: where, on how many CPUs/GPUs
 
 
@@ -198,6 +202,7 @@ class TrainingSummary(_Summary):
     checkpoint: str
     total_runtime_s: float
     code_version: str
+    device: str | None = None  #: the torch device that trained (cpu, cuda; config.device is what was asked)
 
     def gate_result(self) -> GateResult:
         """The training gate as a GateResult (each check with its value and threshold)."""
@@ -211,7 +216,7 @@ class TrainingSummary(_Summary):
         return TrainResult(checkpoint=self.checkpoint, summary=path, best_epoch=self.best.epoch,
                            val_ade=self.best.val_ade, val_fde=self.best.val_fde, cv_val_ade=self.cv_val.ade,
                            cv_val_fde=self.cv_val.fde, selection_mode=self.selection_mode,
-                           gates_passed=self.quality_gates.passed)
+                           gates_passed=self.quality_gates.passed, device=self.device)
 
 
 def load_config(path: Path, model: type[BaseModel], key: str | None = None) -> BaseModel:

@@ -74,7 +74,8 @@ def build_training_document(summary: TrainingSummary, workdir: Path) -> Document
     if best.proxy:
         doc.text(f"Proxy evaluation of the selected checkpoint: success {pct(best.proxy.success)}, "
                  f"clearance {fmt(best.proxy.clearance, 2, ' m')}.")
-    doc.text(f"Checkpoint `{summary.checkpoint}`, code `{summary.code_version}`, "
+    on = f"trained on {summary.device}, " if summary.device else ""
+    doc.text(f"Checkpoint `{summary.checkpoint}`, code `{summary.code_version}`, {on}"
              f"{fmt(summary.total_runtime_s, 1, ' s')}.")
     doc.section("Training curves")
     if history:

@@ -19,12 +19,14 @@ class Execution(BaseModel):
     cpus: int
     gpus: int = 0  #: GPUs it holds (a training task on a GPU node)
     address: str | None = None  #: ray: the cluster's address, or "local" for an instance started for the run
+    device: str | None = None  #: a training task: the torch device that trained (cpu, cuda)
 
     def describe(self) -> str:
-        """E.g. ``ray, 8 CPUs at head:6379`` or ``local, 2 CPUs``."""
+        """E.g. ``ray, 8 CPUs at head:6379``, ``ray, 1 CPU, 1 GPU at head:6379, trained on cuda`` or ``local, 2 CPUs``."""
         at = f" at {self.address}" if self.address and self.address != "local" else ""
         gpus = f", {self.gpus} GPU{'s' if self.gpus != 1 else ''}" if self.gpus else ""
-        return f"{self.executor}, {self.cpus} CPU{'s' if self.cpus != 1 else ''}{gpus}{at}"
+        on = f", trained on {self.device}" if self.device else ""
+        return f"{self.executor}, {self.cpus} CPU{'s' if self.cpus != 1 else ''}{gpus}{at}{on}"
 
 
 def execution(executor: Executor, workers: int | None) -> Execution:

@@ -1,7 +1,8 @@
 """The train stage as one Ray task (``executor: ray``): on a GPU node when the cluster has a GPU, else on a CPU.
 
-The task asks for ``num_gpus=1`` when the cluster offers any GPU (so Ray places it on such a node) and for
-``threads`` CPUs otherwise. It runs the very training function a local job runs, in a scratch folder of the node
+The task asks for ``num_gpus=1`` when the cluster offers any GPU and ``device`` is not ``cpu`` (so Ray places it on
+such a node, where ``device: auto`` resolves to cuda) and for ``threads`` CPUs otherwise; ``device: cuda`` on a
+cluster without a GPU fails before anything is sent. It runs the very training function a local job runs, in a scratch folder of the node
 that runs it, so nothing assumes a shared disk: the dataset (and, with a closed-loop proxy, the proxy's config
 bundle) travels to it through the object store, and every file training wrote (``model.pt``, ``checkpoints/``,
 the summary) comes back into the job's work folder, in the same checkpoint format. A resumed job sends its
@@ -64,12 +65,16 @@ def train_on_ray(config: Any, ctx: StageContext) -> Any:
     artifacts are in ``ctx.workdir`` as a local run leaves them."""
     import ray
 
+    from foresight.core.errors import ConfigError
     from foresight.core.evaluation.ray_executor import POLL_S, cluster_gpus, connect
     from foresight.core.predict.dataset import resolve_dataset_path
     from foresight.core.predict.train_config import TrainingSummary, TrainResult
 
     address = connect(int(ctx.workers or 1))
-    gpus = 1 if cluster_gpus() > 0 else 0
+    gpus = 1 if config.device != "cpu" and cluster_gpus() > 0 else 0
+    if config.device == "cuda" and not gpus:
+        raise ConfigError(f"device: cuda, but the Ray cluster at {address} has no GPU (use device: auto or cpu)",
+                          item="device")
     dataset = resolve_dataset_path(config.dataset, ctx).read_bytes()
     proxy = config.proxy if config.proxy_every > 0 else None
     bundle = None if proxy is None else _files(ctx.resolve_bundle(proxy.bundle))
@@ -93,6 +98,7 @@ def train_on_ray(config: Any, ctx: StageContext) -> Any:
     summary = TrainingSummary.model_validate_json(summary_path.read_text())
     summary = summary.model_copy(update={"checkpoint": str(checkpoint)})
     files.write_text(summary_path, summary.model_dump_json(indent=2))
-    execution = Execution(executor="ray", cpus=int(held.get("CPU", 0)), gpus=int(held.get("GPU", 0)), address=address)
+    execution = Execution(executor="ray", cpus=int(held.get("CPU", 0)), gpus=int(held.get("GPU", 0)), address=address,
+                          device=summary.device)
     ctx.progress(1.0, f"trained as a Ray task ({execution.describe()})")
     return summary.result(str(summary_path)).model_copy(update={"execution": execution})

@@ -1,9 +1,10 @@
 """The Ray executor on a real local Ray instance (one per module, 2 CPUs): collect on Ray equals collect in-process
 (the same dataset bytes), at most a window of tasks is ever in flight, a planner that raises is a recorded episode
 outcome (no retry loop, no failed job), every result names its executor and CPUs, training as a Ray task falls back
-to a CPU on a cluster without GPUs and writes the checkpoint a local run writes, and an address nobody answers at
-is one readable line naming it (CLI exit != 0; a service job fails with it). Heavier cluster behaviour (two nodes, a node killed, cancellation)
-is tests/integration/test_ray_cluster.py."""
+to a CPU on a cluster without GPUs (device: cuda there is an error naming ``device``) and writes the checkpoint a
+local run writes, and an address nobody answers at is one readable line naming it (CLI exit != 0; a service job
+fails with it). Heavier cluster behaviour (two nodes, a node killed, cancellation) is
+tests/integration/test_ray_cluster.py."""
 
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ from pathlib import Path
 
 import pytest
 
+from foresight.core.errors import ConfigError
 from foresight.core.evaluation.config import EvaluationConfig
 from foresight.core.evaluation.runner import run_evaluation
 from foresight.core.predict.collect import CollectConfig, run_collect
@@ -152,9 +154,14 @@ def test_training_as_a_ray_task_falls_back_to_a_cpu_and_writes_the_local_checkpo
     on_ray = train(TrainConfig(**fast, executor="ray"), _ctx(tmp_path / "ray"))
     assert on_ray.execution is not None and on_ray.execution.executor == "ray"
     assert on_ray.execution.gpus == 0 and on_ray.execution.cpus == 1  # no GPU here: one CPU
+    assert local.device == on_ray.device == on_ray.execution.device == "cpu"  # device: auto on a CPU
+    assert on_ray.execution.describe().endswith(", trained on cpu")
     assert Path(on_ray.checkpoint) == tmp_path / "ray" / "model.pt" and Path(on_ray.summary).parent == tmp_path / "ray"
     assert (on_ray.best_epoch, on_ray.val_ade, on_ray.val_fde) == (local.best_epoch, local.val_ade, local.val_fde)
     a, b = read_checkpoint(local.checkpoint), read_checkpoint(on_ray.checkpoint)
     assert a["model"].keys() == b["model"].keys()
     assert all(torch.equal(a["model"][k], b["model"][k]) for k in a["model"])  # same weights, same format
     load_predictor(on_ray.checkpoint)  # and it loads as any checkpoint does
+    with pytest.raises(ConfigError, match="device: cuda, but the Ray cluster .* has no GPU") as err:
+        train(TrainConfig(**fast, executor="ray", device="cuda"), _ctx(tmp_path / "cuda"))
+    assert err.value.item == "device"

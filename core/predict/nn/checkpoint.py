@@ -19,6 +19,7 @@ import torch
 from foresight.core import files
 from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.predict.features import feature_names
+from foresight.core.predict.nn.device import to_cpu
 from foresight.core.predict.nn.model import ModelConfig, TrajectoryModel, build_model
 from foresight.core.predict.predictor import check_batch
 from foresight.core.predict.timebase import TimeBase
@@ -31,8 +32,10 @@ REQUIRED = ("format", "model_config", "model", "timebase", "feature_schema", "da
 
 def make_checkpoint(model: TrajectoryModel, timebase: TimeBase, frame_convention: str, dataset: dict[str, Any],
                     metrics: dict[str, Any], epoch: int, **extra: Any) -> dict[str, Any]:
+    """The checkpoint dict of ``model``; its weights on the CPU whatever device trained it, so the file loads
+    anywhere in the same format."""
     return {
-        "format": FORMAT, "model_config": model.config.to_dict(), "model": model.state_dict(),
+        "format": FORMAT, "model_config": model.config.to_dict(), "model": to_cpu(model.state_dict()),
         "timebase": timebase.to_dict(),
         "feature_schema": {"names": feature_names(timebase.history), "frame_convention": frame_convention},
         "dataset": dataset, "metrics": metrics, "epoch": epoch, "code_version": code_version(), **extra,

@@ -77,7 +77,9 @@ def local_inputs(features: torch.Tensor, history: int) -> tuple[torch.Tensor, to
     pos, vel, valid = steps[..., 0:2], steps[..., 2:4], steps[..., 4:5]
     p0, v0 = pos[..., -1, :], vel[..., -1, :]
     speed = torch.linalg.vector_norm(v0, dim=-1, keepdim=True)
-    unit_x, row2 = (_UNIT_X, _ROW2) if features.dtype == torch.float32 else (_UNIT_X.to(features.dtype), _ROW2.to(features.dtype))
+    same = features.dtype == torch.float32 and features.device.type == "cpu"  # the constants as they are (no .to)
+    unit_x, row2 = (_UNIT_X, _ROW2) if same else (_UNIT_X.to(features.device, features.dtype),
+                                                   _ROW2.to(features.device, features.dtype))
     u = torch.where(speed > STILL, v0 / speed.clamp(min=STILL), unit_x)  # (c, s)
     rot = torch.stack([u, u.flip(-1) * row2], dim=-2)  # rows (c, s), (-s, c)
     ego = features[..., 5 * H:]
@@ -168,7 +170,7 @@ class TrajectoryModel(nn.Module):
 
     def _traced(self, features: torch.Tensor, mask: torch.Tensor, with_sigma: bool):
         cache = self.__dict__.setdefault("_trace_cache", {})  # a plain attribute: not in state_dict
-        key = (tuple(features.shape), features.dtype, tuple(mask.shape), mask.dtype, with_sigma)
+        key = (tuple(features.shape), features.dtype, features.device, tuple(mask.shape), mask.dtype, with_sigma)
         fn = cache.get(key)
         if fn is None:
             if len(cache) >= 8:  # a handful of slot counts per process; never grow without bound

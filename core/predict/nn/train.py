@@ -24,6 +24,7 @@ from foresight.core.predict.dataset import Dataset, file_sha256, load_dataset, r
 from foresight.core.predict.features import length_channels, mirror_signs
 from foresight.core.predict.metrics import ade_fde
 from foresight.core.predict.nn.checkpoint import make_checkpoint, read_checkpoint, save_checkpoint
+from foresight.core.predict.nn.device import resolve_device, to_cpu
 from foresight.core.predict.nn.model import (
     EnsembleModel,
     ModelConfig,
@@ -55,8 +56,8 @@ _CHECKPOINT_METRICS = ("val_loss", "val_ade", "val_fde", "val_nll", "val_cover1"
 ProxyCallback = Callable[[Path], dict[str, float]]
 
 
-def _tensors(ds: Dataset, index: np.ndarray) -> dict[str, torch.Tensor]:
-    return {k: torch.from_numpy(np.ascontiguousarray(getattr(ds, k)[index])) for k in
+def _tensors(ds: Dataset, index: np.ndarray, device: torch.device) -> dict[str, torch.Tensor]:
+    return {k: torch.from_numpy(np.ascontiguousarray(getattr(ds, k)[index])).to(device) for k in
             ("state", "mask", "target", "target_mask")}
 
 
@@ -89,11 +90,14 @@ def evaluate(model: TrajectoryModel, data: dict[str, torch.Tensor], beta: float,
 
 
 def train_epoch(model, opt, data: dict[str, torch.Tensor], config: TrainConfig, epoch: int) -> dict[str, float]:
+    """One pass in shuffled batches on the data's device; every random draw comes from one CPU generator seeded by
+    (seed, epoch), so the batches and augmentations are the same on any device."""
     model.train()
+    device = data["state"].device
     gen = torch.Generator().manual_seed(config.seed * 1_000_003 + epoch)
-    order = torch.randperm(len(data["state"]), generator=gen)
-    signs = torch.from_numpy(mirror_signs(model.config.history)) if config.augment_mirror else None
-    lengths = torch.from_numpy(length_channels(model.config.history)) if config.augment_scale else None
+    order = torch.randperm(len(data["state"]), generator=gen).to(device)
+    signs = torch.from_numpy(mirror_signs(model.config.history)).to(device) if config.augment_mirror else None
+    lengths = torch.from_numpy(length_channels(model.config.history)).to(device) if config.augment_scale else None
     loss_sum = err = pts = ferr = fin = 0.0
     for i in range(0, len(order), config.batch_size):
         idx = order[i:i + config.batch_size]
@@ -122,7 +126,7 @@ def train_epoch(model, opt, data: dict[str, torch.Tensor], config: TrainConfig, 
 
 def _mirror_half(b: dict[str, torch.Tensor], signs: torch.Tensor, gen: torch.Generator) -> dict[str, torch.Tensor]:
     """Mirror a random half of the batch across the ego x axis (features by ``signs``, targets' y)."""
-    flip = torch.rand(len(b["state"]), generator=gen) < 0.5
+    flip = torch.rand(len(b["state"]), generator=gen).to(b["state"].device) < 0.5
     out = dict(b)
     out["state"] = torch.where(flip[:, None, None], b["state"] * signs, b["state"])
     ty = torch.where(flip[:, None, None], -b["target"][..., 1], b["target"][..., 1])
@@ -134,7 +138,7 @@ def _scale(b: dict[str, torch.Tensor], lengths: torch.Tensor, bounds: tuple[floa
            gen: torch.Generator) -> dict[str, torch.Tensor]:
     """Every sample's length channels and targets times one factor, log-uniform in ``bounds``."""
     lo, hi = math.log(bounds[0]), math.log(bounds[1])
-    f = torch.exp(lo + (hi - lo) * torch.rand(len(b["state"]), generator=gen))[:, None, None]
+    f = torch.exp(lo + (hi - lo) * torch.rand(len(b["state"]), generator=gen).to(b["state"].device))[:, None, None]
     return {**b, "state": b["state"] * (1.0 + (f - 1.0) * lengths), "target": b["target"] * f[..., None]}
 
 
@@ -153,8 +157,9 @@ def cv_metrics(ds: Dataset, index: np.ndarray) -> dict[str, float]:
 
 def run_train(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | None = None) -> TrainResult:
     """Train on ``config.dataset``; resume from ``checkpoints/last.pt`` in the work dir when present."""
+    device = resolve_device(config.device)  # first: cuda without a GPU fails before anything is loaded
     if config.ensemble > 1:
-        return _train_ensemble(config, ctx, proxy)
+        return _train_ensemble(config, ctx, proxy, device)
     started = time.time()
     torch.set_num_threads(config.threads)
     if proxy is None and config.proxy is not None and config.proxy_every > 0:
@@ -165,14 +170,14 @@ def run_train(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | Non
     ds = load_dataset(ds_path)
     stats = summarize(ds) if config.allow_degenerate else check_quality(ds, str(ds_path))
     tr_idx, va_idx = ds.split_indices("train"), ds.split_indices(config.val_split)
-    train_data, val_data = _tensors(ds, tr_idx), _tensors(ds, va_idx)
+    train_data, val_data = _tensors(ds, tr_idx, device), _tensors(ds, va_idx, device)
     cv = cv_metrics(ds, va_idx)
     tb = ds.meta.timebase
     mcfg = ModelConfig(tb.history, tb.horizon, tb.dt, config.hidden, config.blocks, config.edge_dim,
                        config.local_frame, sigma_head=config.sigma_head)
     with torch.random.fork_rng():
         torch.manual_seed(config.seed)
-        model = TrajectoryModel(mcfg)
+        model = TrajectoryModel(mcfg).to(device)  # initialised on the CPU: the same weights on any device
     opt = torch.optim.AdamW(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
     dataset_info = {"id": config.dataset, "sha256": file_sha256(ds_path), "source": ds.meta.source,
                     "config_hash": ds.meta.generator_config_hash, "max_agents": ds.meta.max_agents,
@@ -211,13 +216,14 @@ def run_train(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | Non
         history.append(rec)
         if selection.offer(rec):
             save_checkpoint({**payload, "selection": selection.to_dict()}, ctx.artifact("model.pt"))
-        save_checkpoint({**payload, "optimizer": opt.state_dict(),
+        save_checkpoint({**payload, "optimizer": to_cpu(opt.state_dict()),
                          "train_state": {"history": history, "selection": selection.to_dict()}}, last_path)
         ctx.progress(epoch / config.epochs, f"epoch {epoch}: val ade {va['ade']:.3f} fde {va['fde']:.3f}")
-    return _finish(config, ctx, history, selection, cv, stats, dataset_info, started)
+    return _finish(config, ctx, history, selection, cv, stats, dataset_info, started, device)
 
 
-def _train_ensemble(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | None) -> TrainResult:
+def _train_ensemble(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | None,
+                    device: torch.device) -> TrainResult:
     """Members in ``members/<k>/`` (complete, resumable runs with seeds seed + k, each selected as usual), then
     ``model.pt`` averaging them and a summary with the ensemble's validation metrics and gates (``history``: the
     first member's curves; every member's summary is in its folder)."""
@@ -235,7 +241,8 @@ def _train_ensemble(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback
     ds_path = resolve_dataset_path(config.dataset, ctx)
     ds = load_dataset(ds_path)
     va_idx = ds.split_indices(config.val_split)
-    va, cv = evaluate(model, _tensors(ds, va_idx), config.loss_beta, loss=config.loss), cv_metrics(ds, va_idx)
+    va = evaluate(model.to(device), _tensors(ds, va_idx, device), config.loss_beta, loss=config.loss)
+    cv = cv_metrics(ds, va_idx)
     best = EnsembleScore(epoch=max(r.best_epoch for r in results), val_loss=va["loss"], val_ade=va["ade"],
                          val_fde=va["fde"], member_epochs=[r.best_epoch for r in results])
     cv_val = AdeFde(**cv)
@@ -251,18 +258,18 @@ def _train_ensemble(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback
                  for k, r in enumerate(results)],
         selection_mode=f"ensemble of {k_total} ({results[0].selection_mode} each)",
         quality_gates=training_gate(config.gates, best, cv_val), checkpoint=str(ctx.artifact("model.pt")),
-        total_runtime_s=time.time() - started, code_version=code_version(),
+        total_runtime_s=time.time() - started, code_version=code_version(), device=device.type,
     )
     return _write_summary(summary, ctx)
 
 
-def _finish(config, ctx, history, selection, cv, stats, dataset_info, started) -> TrainResult:
+def _finish(config, ctx, history, selection, cv, stats, dataset_info, started, device) -> TrainResult:
     best, cv_val = EpochRecord.model_validate(selection.best), AdeFde(**cv)
     summary = TrainingSummary(
         config=config.model_dump(), dataset=dataset_info, dataset_stats=stats, cv_val=cv_val, history=history,
         best=best, selection=SelectionState.model_validate(selection.to_dict()), selection_mode=selection.mode,
         quality_gates=training_gate(config.gates, best, cv_val), checkpoint=str(ctx.artifact("model.pt")),
-        total_runtime_s=time.time() - started, code_version=code_version(),
+        total_runtime_s=time.time() - started, code_version=code_version(), device=device.type,
     )
     return _write_summary(summary, ctx)
 
