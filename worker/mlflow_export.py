@@ -134,7 +134,7 @@ def _training(content: RunContent, result: TrainResult, workdir: Path) -> None:
         "config_hash": config_hash(summary.config), "code_version": summary.code_version,
         "seed": str(summary.config.get("seed")), "dt": str(timebase.get("dt")),
         "data_hash": str(summary.dataset.get("sha256")), "dataset": str(summary.dataset.get("id")),
-        "selection_mode": summary.selection_mode,
+        "selection_mode": summary.selection_mode, "device": str(summary.device),  # config.device: what was asked
         # a model id exists once the checkpoint is registered (foresight models register): its sha256 names it
         "checkpoint_sha256": file_sha256(_in(workdir, result.checkpoint)),
     })

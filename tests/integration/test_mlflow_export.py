@@ -15,6 +15,7 @@ from pathlib import Path
 
 import httpx
 import pytest
+import torch
 
 from foresight.store import queue
 from foresight.store.registry import sync_bundles
@@ -108,6 +109,7 @@ def _check_training(url: str, run) -> None:  # noqa: ANN001
     params, metrics = run.data.params, run.data.metrics
     assert params["config.epochs"] == "2" and params["seed"] == "0" and params["dt"] == "0.2"
     assert len(params["data_hash"]) == 64 and len(params["checkpoint_sha256"]) == 64 and params["code_version"]
+    assert params["config.device"] == "auto" and params["device"] == ("cuda" if torch.cuda.is_available() else "cpu")
     assert {"best.val_ade", "best.cv_val_ade", "gates_passed", "train_loss"} <= set(metrics)
     curve = MlflowClient(tracking_uri=url).get_metric_history(run.info.run_id, "val_ade")
     assert sorted(m.step for m in curve) == [1, 2]  # one point per epoch
