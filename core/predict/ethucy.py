@@ -27,7 +27,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.predict.dataset import Dataset, DatasetMeta, EpisodeRecord, save_dataset
-from foresight.core.predict.features import Window, extract_features, gather_history, world_to_ego
+from foresight.core.predict.features import Window, extract_features, world_to_ego
 from foresight.core.predict.mixing import dataset_from_episodes
 from foresight.core.predict.samples import SampleArrays
 from foresight.core.predict.timebase import ETHUCY_TIMEBASE, TimeBase
@@ -72,36 +72,57 @@ def focal_windows(rows: np.ndarray, span: int) -> Iterator[tuple[int, np.ndarray
                 yield int(pid), frames[i : i + span]
 
 
+class _SceneTable:
+    """One scene file as dense (frames, pedestrians) arrays: a window's history, future and neighbours' targets are
+    then a few index operations instead of a search per frame and sample. Where a file repeats a (frame, id) row the
+    first one counts, as the per-frame match it replaces did."""
+
+    def __init__(self, rows: np.ndarray):
+        frame, ped = rows[:, 0].astype(np.int64), rows[:, 1].astype(np.int64)
+        self.frames, f_idx = np.unique(frame, return_inverse=True)
+        self.peds, p_idx = np.unique(ped, return_inverse=True)
+        _, first = np.unique(f_idx * len(self.peds) + p_idx, return_index=True)
+        self.pos = np.zeros((len(self.frames), len(self.peds), 2))  #: [m]
+        self.present = np.zeros((len(self.frames), len(self.peds)), dtype=bool)
+        self.pos[f_idx[first], p_idx[first]] = rows[first, 2:4]
+        self.present[f_idx[first], p_idx[first]] = True
+        order = np.argsort(f_idx, kind="stable")  # each frame's ids in file order
+        self.ids = np.split(ped[order], np.cumsum(np.bincount(f_idx, minlength=len(self.frames)))[:-1])
+
+    def rows_of(self, frames: np.ndarray) -> np.ndarray:
+        return np.searchsorted(self.frames, frames)
+
+    def cols_of(self, ids: np.ndarray) -> np.ndarray:
+        return np.searchsorted(self.peds, ids)
+
+
 def scene_samples(rows: np.ndarray, timebase: TimeBase, max_agents: int, neighbour_targets: bool = False) -> SampleArrays:
     """All focal-pedestrian windows of one scene file, on ``timebase`` (neighbours' futures as targets too when
     ``neighbour_targets``; for training splits only)."""
     k = _stride(timebase)
     H, T = timebase.history, timebase.horizon
     span = (H + T - 1) * k + 1
-    by_frame = {int(f): (rows[rows[:, 0] == f, 1].astype(np.int64), rows[rows[:, 0] == f, 2:4])
-                for f in np.unique(rows[:, 0])}
+    scene = _SceneTable(rows)
     out = {n: [] for n in ("state", "target", "mask", "target_mask")}
     for pid, frames in focal_windows(rows, span):
-        grid = frames[::k]  # H + T grid points
-        obs = [by_frame[int(f)] for f in grid[:H]]
-        ids = obs[-1][0]
+        grid = scene.rows_of(frames[::k])  # H + T grid points (all annotated: the focal pedestrian is there)
+        ids = scene.ids[grid[H - 1]]
         ids = np.concatenate([[pid], ids[ids != pid]])
-        hist, valid = gather_history([o[0] for o in obs], [o[1] for o in obs], 1, H, ids)
+        cols = scene.cols_of(ids)
+        hist, valid = scene.pos[grid[:H]][:, cols].transpose(1, 0, 2), scene.present[grid[:H]][:, cols].T
         d = hist[0, -1] - hist[0, -2] if H > 1 else np.zeros(2)
         heading = float(np.arctan2(d[1], d[0])) if np.hypot(*d) > 1e-9 else 0.0
         w = Window(np.array([*hist[0, -1], heading]), np.zeros(2), None, ids, hist, valid)
         f = extract_features(w, timebase, max_agents)
-        future = np.array([by_frame[int(g)][1][by_frame[int(g)][0] == pid][0] for g in grid[H:]])
         target = np.zeros((max_agents, T, 2), np.float32)
         tmask = np.zeros((max_agents, T), np.float32)
-        target[0], tmask[0] = world_to_ego(future, f.origin, f.heading), 1.0
+        target[0], tmask[0] = world_to_ego(scene.pos[grid[H:], cols[0]], f.origin, f.heading), 1.0
         if neighbour_targets:
-            for step, g in enumerate(grid[H:]):
-                gid, gpos = by_frame.get(int(g), (np.zeros(0, np.int64), np.zeros((0, 2))))
-                match = (f.ped_ids[1:, None] == gid[None, :]) & (f.ped_ids[1:, None] >= 0)
-                found = np.nonzero(match.any(axis=1))[0] + 1
-                target[found, step] = world_to_ego(gpos[match[found - 1].argmax(axis=1)], f.origin, f.heading)
-                tmask[found, step] = 1.0
+            slots = np.nonzero(f.ped_ids[1:] >= 0)[0] + 1
+            seen = scene.present[grid[H:]][:, scene.cols_of(f.ped_ids[slots])].T  # (slots, T)
+            future = world_to_ego(scene.pos[grid[H:]][:, scene.cols_of(f.ped_ids[slots])], f.origin, f.heading)
+            target[slots] = np.where(seen[..., None], future.transpose(1, 0, 2), 0.0)
+            tmask[slots] = seen
         for name, value in (("state", f.features), ("mask", f.mask), ("target", target), ("target_mask", tmask)):
             out[name].append(value)
     n = len(out["state"])

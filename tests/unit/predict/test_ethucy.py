@@ -43,6 +43,18 @@ def test_observed_only_frame_and_backward_velocity():
     assert n.target_mask[0].tolist() == [[1, 1], [1, 0], [0, 0]]
 
 
+def test_a_repeated_frame_and_id_row_counts_once_the_first():
+    tb = TimeBase(0.4, 3, 2)
+    focal = [(0, 0.0, 0.0), (10, 0.4, 0.0), (20, 0.8, 0.0), (30, 0.8, 0.4), (40, 0.8, 0.8)]
+    rows = np.vstack([_scene({1: focal, 2: [(20, 2.0, 1.0), (30, 3.0, 1.0)]}), [[20, 2, 50.0, 50.0], [30, 2, 9.0, 9.0]]])
+    s = scene_samples(rows, tb, max_agents=3, neighbour_targets=True)
+    names = feature_names(3)
+    for slot in (1, 2):  # the frame lists pedestrian 2 twice: two slots, both at its first row's position
+        nb = dict(zip(names, s.state[0, slot], strict=True))
+        assert (nb["px[0]"], nb["py[0]"]) == pytest.approx((1.2, 1.0))
+    np.testing.assert_allclose(s.target[0, 1:, 0], [[2.2, 1.0], [2.2, 1.0]], atol=1e-6)  # its future: not (9, 9)
+
+
 def test_neighbour_targets_leave_windows_and_focal_targets_unchanged():
     tb = TimeBase(0.4, 3, 4)
     walk = {1: [(f * 10, f * 0.4, 0.0) for f in range(12)], 2: [(f * 10, 5.0, f * 0.3) for f in range(3, 12)]}
