@@ -602,8 +602,9 @@ def request_cancel(engine: Engine, job_id: str) -> str:
     raise Conflict(f"job {job_id} is already {job['status']}; only queued or running jobs can be cancelled")
 
 
-def retry(engine: Engine, job_id: str) -> None:
-    """Queue a failed or cancelled job again, with a fresh attempt count."""
+def retry(engine: Engine, job_id: str) -> dict[str, Any]:
+    """Queue a failed or cancelled job again, with a fresh attempt count; the job as queued (read in the same
+    transaction: a worker may claim it the moment it commits)."""
     with write_tx(engine) as conn:
         n = conn.execute(
             update(jobs)
@@ -613,7 +614,7 @@ def retry(engine: Engine, job_id: str) -> None:
         ).rowcount  # fmt: skip
         if n:
             _add_event(conn, job_id, "status", f"{QUEUED} (retry)")
-            return
+            return _get(conn, job_id)
         job = _get(conn, job_id)
     raise Conflict(f"job {job_id} is {job['status']}; only failed or cancelled jobs can be retried")
 

@@ -215,8 +215,7 @@ def cancel_job(job_id: JobId, engine: EngineDep) -> JobPublic:
 @router.post("/{job_id}/retry", dependencies=[WriteAuth], responses=responses(*AUTH, 404, 409))
 def retry_job(job_id: JobId, engine: EngineDep) -> JobPublic:
     """Queue a failed or cancelled job again (409 otherwise)."""
-    queue.retry(engine, job_id)
-    return job_public(queue.get_job(engine, job_id))
+    return job_public(queue.retry(engine, job_id))  # as queued, even when a worker claims it at once
 
 
 @router.delete("/{job_id}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[WriteAuth],

@@ -77,9 +77,10 @@ def test_retry_only_failed_or_cancelled(engine) -> None:  # noqa: ANN001
     assert queue.fail_or_retry(engine, job["id"], "w1", claimed["attempts"], "RuntimeError", "boom", retry=False) == "failed"
     failed = queue.get_job(engine, job["id"])
     assert (failed["error_type"], failed["error_message"]) == ("RuntimeError", "boom")
-    queue.retry(engine, job["id"])
-    again = queue.get_job(engine, job["id"])
+    again = queue.retry(engine, job["id"])  # the row as queued, whoever claims it next
+    assert again == queue.get_job(engine, job["id"])
     assert again["status"] == "queued" and again["attempts"] == 0 and again["error_type"] is None
+    assert queue.claim(engine, "w2", ["sleep"], 10)["id"] == job["id"] and again["status"] == "queued"
 
 
 def test_fail_or_retry_requeues_while_attempts_remain(engine) -> None:  # noqa: ANN001
