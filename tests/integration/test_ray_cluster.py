@@ -42,7 +42,10 @@ class Cluster:
     def __init__(self, tmp: Path):
         self.port = free_port()
         self.address = f"127.0.0.1:{self.port}"
-        self.env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0"}
+        # GCS health checks every 0.5 s, a node dead after 4 failed ones: a killed node is noticed in ~2 s instead of
+        # ~15 s (3 s x 5, Ray's default); a check fails only on a refused connection or no answer in 10 s
+        self.env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0", "RAY_health_check_period_ms": "500",
+                    "RAY_health_check_failure_threshold": "4"}
         self.tmp = tmp
         self.head: subprocess.Popen | None = None
         self.node: subprocess.Popen | None = None
