@@ -171,9 +171,7 @@ class PredictivePlanner:
                 t0, pos0, g0 = obs.time, pos, g  # no verdict: test again from here
             probes[pid] = (t0, pos0, g0)
         self._probes = probes
-        waiting = {pid for pid, stand in zip(obs.ped_ids.tolist(), standing.tolist(), strict=True)
-                   if stand and pid not in self._holds}
-        return np.array([pid in waiting for pid in np.asarray(ids).tolist()], dtype=bool)
+        return np.isin(ids, list(set(obs.ped_ids[standing].tolist()) - self._holds))
 
     def _waiting_room(self, fut: np.ndarray, times: np.ndarray, assertive: float) -> np.ndarray:
         """(N,) room [m] each pedestrian is expected to make: ``waiting_room`` x assertiveness for one forecast
