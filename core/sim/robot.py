@@ -56,8 +56,24 @@ class RobotLimits:
 
 
 def wrap_angle(a: np.ndarray | float) -> np.ndarray | float:
-    """Angle(s) wrapped to [-pi, pi) [rad]."""
-    return (a + np.pi) % (2 * np.pi) - np.pi
+    """Angle(s) wrapped to [-pi, pi) [rad]: (a + pi) % 2 pi - pi.
+
+    For arrays within one period of the range (the rollouts' headings, differences of two headings) the floor
+    remainder is taken by adding or subtracting 2 pi once, which is exactly what ``%`` computes there (fmod is
+    exact and returns t itself for |t| < 2 pi, numpy then adds 2 pi to a negative one; t - 2 pi is exact for t in
+    [2 pi, 4 pi] by Sterbenz's lemma): the same bits, without numpy's slow float remainder (~3x faster).
+    """
+    if not isinstance(a, np.ndarray) or a.size < 16:
+        return (a + np.pi) % _TWO_PI - np.pi
+    t = a + np.pi
+    if not (np.minimum.reduce(t, axis=None) >= -_TWO_PI and np.maximum.reduce(t, axis=None) < 2 * _TWO_PI):
+        return t % _TWO_PI - np.pi  # (NaN fails the test too)
+    t = np.where(t < 0, t + _TWO_PI, np.where(t >= _TWO_PI, t - _TWO_PI, t))
+    t -= np.pi
+    return t
+
+
+_TWO_PI = 2 * np.pi
 
 
 def _clip(a, lo: float, hi: float):

@@ -21,6 +21,7 @@ import numpy as np
 from foresight.core.planners.predictive.config import PredictivePlannerConfig
 from foresight.core.sim.geometry import SegmentSet, grid_distance
 from foresight.core.sim.observation import StaticGeometry
+from foresight.core.sim.robot import wrap_angle
 
 TERMS = (
     "progress", "collision", "risk", "near_miss", "ttc", "progress_risk", "hard_clearance",
@@ -44,6 +45,7 @@ class RoutePotential:
         self.goal = full[-1]
         self.switch_radius = switch_radius
         self.goal_tolerance = goal_tolerance
+        self._goal_is_last = len(full) <= lookahead  #: the last waypoint looked at is the goal (its distances reused)
 
     def __call__(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Potential (B,) [m] at the end of rollouts ``pts`` (B, T, 2), and the active waypoint (B, 2) there.
@@ -62,7 +64,8 @@ class RoutePotential:
             end = reached[:, -1]
             phi = np.where(end, d[:, -1] + self.after[j], phi)
             idx += end
-        done = np.logical_or.reduce(_distance(pts, self.goal) <= self.goal_tolerance, axis=1)
+        goal_d = d if self._goal_is_last else _distance(pts, self.goal)  # d: to the last waypoint looked at
+        done = np.logical_or.reduce(goal_d <= self.goal_tolerance, axis=1)
         return np.where(done, 0.0, phi), self.waypoints[idx]
 
     def start(self, p0: np.ndarray) -> float:
@@ -210,10 +213,12 @@ def pedestrian_terms(pos: np.ndarray, speed: np.ndarray, scene: Scene, cfg: Pred
     reach = np.maximum(chance + band + np.maximum.reduce(soft, axis=None), RISK_CUTOFF * sigma)  # (N, K)
     inside = np.flatnonzero(clear < reach[..., None])  # np.nonzero's (n, k, b), ~7x faster at these sizes
     nk, b = np.divmod(inside, B)
-    n, k = np.divmod(nk, clear.shape[1])
+    k = nk % clear.shape[1]
     c = clear.reshape(-1)[inside]
-    excess = soft[b, k] + chance[n, k] - c  # > 0 inside the collision margin
-    disc = (s.discount ** np.arange(len(scene.times)))[k]
+    # flat gathers (nk = n K + k is (n, k)'s flat index in (N, K)): ~3x faster than the 2-D fancy index
+    sig = sigma.reshape(-1).take(nk)
+    excess = soft.reshape(-1).take(b * clear.shape[1] + k) + s.confidence * sig - c  # > 0 inside the collision margin
+    disc = (s.discount ** np.arange(len(scene.times))).take(k)
 
     def per_rollout(values: np.ndarray) -> np.ndarray:
         # each rollout's entries in (pedestrian, step) order, whatever the layout: the same sums
@@ -221,7 +226,7 @@ def pedestrian_terms(pos: np.ndarray, speed: np.ndarray, scene: Scene, cfg: Pred
 
     return {
         "collision": per_rollout(np.maximum(excess, 0.0) * disc),
-        "risk": per_rollout(contact_probability(c / sigma[n, k]) * disc),
+        "risk": per_rollout(contact_probability(c / sig) * disc),
         "near_miss": per_rollout(np.maximum(excess + relief * s.near_distance, 0.0) * disc),
         "ttc": per_rollout(np.maximum(excess + relief * s.ttc_distance, 0.0) / scene.times[k]),
         "hard_clearance": hard,
@@ -314,7 +319,7 @@ def evaluate(roll: Rollouts, scene: Scene, cfg: PredictivePlannerConfig) -> tupl
                            + np.abs(roll.commands[:, 0, 1] - scene.prev_command[1]) / scene.max_turn_rate)
     # mean (not terminal) heading error: a terminal error lets every decision postpone turning in place
     bearing = np.arctan2(target[:, None, 1] - pos[..., 1], target[:, None, 0] - pos[..., 0])  # (B, K)
-    terms["heading"] = np.add.reduce(np.abs((bearing - ev[..., 2] + np.pi) % (2 * np.pi) - np.pi), axis=1) / K / np.pi
+    terms["heading"] = np.add.reduce(np.abs(wrap_angle(bearing - ev[..., 2])), axis=1) / K / np.pi
     total = -wt.goal * terms["progress"]
     for name in TERMS[1:]:
         total += getattr(wt, name) * terms[name]

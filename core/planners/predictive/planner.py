@@ -171,7 +171,9 @@ class PredictivePlanner:
                 t0, pos0, g0 = obs.time, pos, g  # no verdict: test again from here
             probes[pid] = (t0, pos0, g0)
         self._probes = probes
-        return np.isin(ids, list(set(obs.ped_ids[standing].tolist()) - self._holds))
+        trusted = [pid for pid in obs.ped_ids[standing].tolist() if pid not in self._holds]
+        # np.isin by one comparison table: its sorting machinery cost ~50 us per decision at these sizes
+        return np.logical_or.reduce(ids[:, None] == np.array(trusted, dtype=np.int64), axis=1)
 
     def _waiting_room(self, fut: np.ndarray, times: np.ndarray, assertive: float) -> np.ndarray:
         """(N,) room [m] each pedestrian is expected to make: ``waiting_room`` x assertiveness for one forecast

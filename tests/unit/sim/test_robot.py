@@ -170,3 +170,25 @@ def test_robot_rollout_dispatches_on_the_kind():
     hol = RobotLimits(kind="holonomic")
     _assert_same_states(robot_rollout(state0, cmds, hol, DT), _stepped(state0, cmds, hol, holonomic_step), tol=0.0)
     _assert_same_states(robot_rollout(state0, cmds, RobotLimits(), DT), _stepped(state0, cmds, RobotLimits()))
+
+
+def test_wrap_angle_is_the_floor_remainder_bit_for_bit():
+    """The array fast path (one period added or subtracted) gives exactly (a + pi) % 2 pi - pi."""
+    rng = np.random.default_rng(3)
+    edges = []
+    for c in (-3 * np.pi, -np.pi, 0.0, np.pi, 3 * np.pi):  # each boundary and 40 representable numbers either side
+        for side in (-np.inf, np.inf):
+            x = c
+            for _ in range(40):
+                x = np.nextafter(x, side)
+                edges.append(x)
+        edges.append(c)
+    near = [np.array(edges), rng.uniform(-3 * np.pi, 3 * np.pi, 100_000), rng.uniform(-1e-9, 1e-9, 1000) + np.pi]
+    far = [rng.uniform(-50.0, 50.0, 1000), np.array([np.nan, 1.0] * 10), np.array([np.inf, 0.5] * 10)]
+    for a in near + far + [x.astype(np.float32) for x in near]:
+        with np.errstate(invalid="ignore"):  # inf % 2 pi is nan
+            expected = (a + np.pi) % (2 * np.pi) - np.pi
+            got = wrap_angle(a)
+        assert got.dtype == expected.dtype
+        np.testing.assert_array_equal(got.view(f"i{got.itemsize}"), expected.view(f"i{got.itemsize}"))
+    assert wrap_angle(3 * np.pi) == (3 * np.pi + np.pi) % (2 * np.pi) - np.pi  # scalars as before
