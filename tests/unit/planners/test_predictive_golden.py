@@ -141,7 +141,8 @@ def test_learned_decisions_match_the_recorded_ones(name):
         assert g["command"] == e["command"], (name, k)
         assert g["sequence"] == e["sequence"], (name, k)
         assert (g["evaluated"], g["near_field"]) == (e["evaluated"], e["near_field"]), (name, k)
-        assert g["cost"] == pytest.approx(e["cost"], rel=1e-6, abs=1e-6), (name, k)  # float32 model
+        # float32 model: its kernels differ between CPUs (another Xeon moved a cost by 4.7e-6 relative)
+        assert g["cost"] == pytest.approx(e["cost"], rel=1e-4, abs=1e-4), (name, k)
 
 
 if __name__ == "__main__":
