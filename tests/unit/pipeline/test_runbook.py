@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 from pathlib import Path
 from typing import Any
 
@@ -188,6 +190,28 @@ def test_the_shipped_pipeline_configs_validate_and_build_every_stage_config() ->
         proxy = stage_config(config, "train", inputs).proxy
         assert (proxy.matrix, proxy.seed_manifest) == (config.selection.matrix, config.selection.seeds)
         assert sizes["selection"] >= 3
+
+
+def test_the_default_model_is_regenerated_by_one_pipeline_config_with_the_shipped_recipe() -> None:
+    """configs/pipelines/default-model.yaml is a whole pipeline (one command regenerates the shipped default), and
+    its training stage is the recipe recorded in the shipped model's training summary, key for key."""
+    config = load_pipeline_config(BUILTIN_CONFIG_ROOT / "pipelines" / "default-model.yaml")
+    inputs = {"base": "b", "hardcase": "h", "mixed": "m", "model": "cand"}
+    ctx = StageContext(workdir=Path("."), resolve_bundle=lambda ident: BUILTIN_CONFIG_ROOT)
+    assert check_seed_separation(config, ctx)["training_seeds"] > 0
+    assert config.diagnose is None and config.hardcase is not None
+    train = stage_config(config, "train", inputs).model_dump(mode="json")
+    shipped = json.loads((BUILTIN_CONFIG_ROOT.parent / "model" / "predictor-sim-default.training_summary.json")
+                         .read_text())["config"]
+    def same(ours: Any, theirs: Any) -> bool:  # keys added to a section since (defaults) do not count
+        if isinstance(theirs, dict) and isinstance(ours, dict):
+            return all(same(ours.get(k), v) for k, v in theirs.items())
+        return ours == theirs
+
+    differing = {k for k in shipped if k not in ("dataset", "device") and not same(train.get(k), shipped[k])}
+    assert not differing, f"the pipeline trains another recipe than the shipped model's: {sorted(differing)}"
+    assert train["dataset"] == "m"  # the mixed (base + hard-case x3) dataset, as shipped
+    assert stage_config(config, "collect", inputs).seeds_per_scenario == 48
 
 
 def test_the_two_manifests_must_differ_and_sections_cannot_rewire_them() -> None:
