@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-
 from pathlib import Path
 from typing import Any
 
@@ -14,6 +13,7 @@ from foresight.core.pipeline.config import PipelineConfig, load_pipeline_config,
 from foresight.core.pipeline.runbook import ChildRun, StageFailed, check_seed_separation, run_pipeline
 from foresight.core.stages.context import Cancelled, StageContext
 from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
+from tests.conftest import REPO
 from tests.unit.reports import data
 
 SMOKE = BUILTIN_CONFIG_ROOT / "pipelines" / "smoke.yaml"
@@ -192,6 +192,13 @@ def test_the_shipped_pipeline_configs_validate_and_build_every_stage_config() ->
         assert sizes["selection"] >= 3
 
 
+def _covers(ours: Any, theirs: Any) -> bool:
+    """``ours`` holds every value of ``theirs`` (keys a section gained since, with their defaults, do not count)."""
+    if isinstance(theirs, dict) and isinstance(ours, dict):
+        return all(_covers(ours.get(k), v) for k, v in theirs.items())
+    return ours == theirs
+
+
 def test_the_default_model_is_regenerated_by_one_pipeline_config_with_the_shipped_recipe() -> None:
     """configs/pipelines/default-model.yaml is a whole pipeline (one command regenerates the shipped default), and
     its training stage is the recipe recorded in the shipped model's training summary, key for key."""
@@ -201,14 +208,8 @@ def test_the_default_model_is_regenerated_by_one_pipeline_config_with_the_shippe
     assert check_seed_separation(config, ctx)["training_seeds"] > 0
     assert config.diagnose is None and config.hardcase is not None
     train = stage_config(config, "train", inputs).model_dump(mode="json")
-    shipped = json.loads((BUILTIN_CONFIG_ROOT.parent / "model" / "predictor-sim-default.training_summary.json")
-                         .read_text())["config"]
-    def same(ours: Any, theirs: Any) -> bool:  # keys added to a section since (defaults) do not count
-        if isinstance(theirs, dict) and isinstance(ours, dict):
-            return all(same(ours.get(k), v) for k, v in theirs.items())
-        return ours == theirs
-
-    differing = {k for k in shipped if k not in ("dataset", "device") and not same(train.get(k), shipped[k])}
+    shipped = json.loads((REPO / "model" / "predictor-sim-default.training_summary.json").read_text())["config"]
+    differing = {k for k in shipped if k not in ("dataset", "device") and not _covers(train.get(k), shipped[k])}
     assert not differing, f"the pipeline trains another recipe than the shipped model's: {sorted(differing)}"
     assert train["dataset"] == "m"  # the mixed (base + hard-case x3) dataset, as shipped
     assert stage_config(config, "collect", inputs).seeds_per_scenario == 48
