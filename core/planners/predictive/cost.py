@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -36,7 +37,11 @@ class RoutePotential:
     so passing a waypoint is never penalised; the final goal counts as reached inside ``goal_tolerance``.
     """
 
-    def __init__(self, route: np.ndarray, switch_radius: float, goal_tolerance: float, lookahead: int = 3):
+    def __init__(self, route: np.ndarray, switch_radius: float, goal_tolerance: float, lookahead: int = 3,
+                 distance: Callable[[np.ndarray], Callable[[np.ndarray], np.ndarray]] | None = None):
+        """``distance(waypoint)``: a function measuring the way to that waypoint from points (..., 2), e.g.
+        around the walls (``geodesic``); default the straight line. Waypoint switches and the goal test
+        are the simulator's, by straight-line distance, either way."""
         full = np.asarray(route, dtype=float).reshape(-1, 2)
         seg = np.linalg.norm(np.diff(full, axis=0), axis=1)
         after = np.concatenate([np.cumsum(seg[::-1])[::-1], [0.0]])  # (K,) route length after waypoint j
@@ -46,6 +51,7 @@ class RoutePotential:
         self.switch_radius = switch_radius
         self.goal_tolerance = goal_tolerance
         self._goal_is_last = len(full) <= lookahead  #: the last waypoint looked at is the goal (its distances reused)
+        self._ways = [None if distance is None else distance(w) for w in self.waypoints]
 
     def __call__(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Potential (B,) [m] at the end of rollouts ``pts`` (B, T, 2), and the active waypoint (B, 2) there.
@@ -55,14 +61,14 @@ class RoutePotential:
         episode ends there, whichever waypoint is active, as in the simulator).
         """
         d = _distance(pts, self.waypoints[0])  # (B, T) to the active waypoint
-        phi = d[:, -1] + self.after[0]
+        phi = self._way(0, pts[:, -1], d[:, -1]) + self.after[0]
         idx = np.zeros(len(pts), dtype=np.int64)
         reached = np.ones(d.shape, dtype=bool)  # (B, T) waypoint j - 1 active at that step
         for j in range(1, len(self.waypoints)):
             reached = np.logical_or.accumulate(reached & (d <= self.switch_radius), axis=1)
             d = _distance(pts, self.waypoints[j])
             end = reached[:, -1]
-            phi = np.where(end, d[:, -1] + self.after[j], phi)
+            phi = np.where(end, self._way(j, pts[:, -1], d[:, -1]) + self.after[j], phi)
             idx += end
         goal_d = d if self._goal_is_last else _distance(pts, self.goal)  # d: to the last waypoint looked at
         done = np.logical_or.reduce(goal_d <= self.goal_tolerance, axis=1)
@@ -73,7 +79,13 @@ class RoutePotential:
         x, y = float(p0[0]), float(p0[1])
         if math.hypot(x - self.goal[0], y - self.goal[1]) <= self.goal_tolerance:
             return 0.0
+        if self._ways[0] is not None:
+            return float(self._ways[0](np.array([x, y]))) + float(self.after[0])
         return math.hypot(x - self.waypoints[0, 0], y - self.waypoints[0, 1]) + float(self.after[0])
+
+    def _way(self, j: int, end: np.ndarray, straight: np.ndarray) -> np.ndarray:
+        """Way [m] from rollout end points (B, 2) to waypoint j: its distance function's, else ``straight``."""
+        return straight if self._ways[j] is None else self._ways[j](end)
 
 
 def _distance(pts: np.ndarray, point: np.ndarray) -> np.ndarray:

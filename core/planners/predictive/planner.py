@@ -25,6 +25,7 @@ from foresight.core.errors import ConfigError
 from foresight.core.planners.base import EpisodeInfo
 from foresight.core.planners.predictive import cost as C
 from foresight.core.planners.predictive.config import PredictivePlannerConfig
+from foresight.core.planners.predictive.geodesic import GeodesicDistance
 from foresight.core.planners.predictive.rollout import eval_steps, extend_forecast, rollout
 from foresight.core.planners.predictive.sampling import branch_commands, first_candidates
 from foresight.core.predict.forecaster import Forecaster
@@ -208,8 +209,11 @@ class PredictivePlanner:
         route = np.asarray(obs.route, dtype=float)
         key = (route.tobytes(), route.shape, obs.goal_tolerance)
         if self._route_cache is None or self._route_cache[0] != key:
+            res = self.config.search.geodesic_resolution
+            clearance = obs.robot_radius + self.config.safety.static_margin
+            way = None if res <= 0 else (lambda w: GeodesicDistance(obs.static, w, clearance, res))
             self._route_cache = (key, C.RoutePotential(route, switch_radius=obs.goal_tolerance,
-                                                       goal_tolerance=obs.goal_tolerance))
+                                                       goal_tolerance=obs.goal_tolerance, distance=way))
         return self._route_cache[1]
 
     def _candidates(self, near: bool | None) -> np.ndarray:
