@@ -51,11 +51,12 @@ class SearchConfig(_Frozen):
     beam_width: int = Field(default=6, ge=1, le=64)
     branch_speed_ratios: tuple[float, ...] = (0.0, 0.5, 1.0)  #: later-segment speeds, ratios of max speed
     branch_turn_rate_count: int = Field(default=5, ge=1, le=21)  #: later-segment turn rates over +-w_max
-    #: grid [m] of the route potential's distances around the walls (``geodesic``); 0 = straight lines. Off by
-    #: default: 0.2 on the 230-episode reference matrix (paired, straight-only : geodesic-only) reference 0.865 ->
-    #: 0.878 (7 : 10), typical speed 0.896 -> 0.891 (8 : 7), nobody yields 0.774 / 6.5 % -> 0.791 / 5.2 % (2 : 6);
-    #: doorway failures 13 / 21 / 27 -> 7 / 18 / 21, but bottleneck high loses 4 of 10 (it keeps off the walls)
-    geodesic_resolution: float = Field(default=0.0, ge=0, le=1)
+    #: grid [m] of the route potential's distances around the walls (``geodesic``); 0 = straight lines (the planner
+    #: before 2026-11-24, grid variant ``straight_line``). Reference matrix, 230 paired episodes per condition
+    #: (straight-only : around-only successes): reference 0.865 -> 0.887 (5 : 10), typical speed 0.896 -> 0.917
+    #: (1 : 6), nobody yields 0.774 / 6.5 % -> 0.800 / 5.7 % (1 : 7); 7 : 23 in all, McNemar p = 0.005. A 0.2 m grid
+    #: scored 7 : 10, 8 : 7, 2 : 6 (bottleneck high lost 4 of 10 at reference and typical speed)
+    geodesic_resolution: float = Field(default=0.1, ge=0, le=1)
     adaptive_horizon: bool = False  #: lengthen the horizon by ``horizon_boost_s`` in the near field
     horizon_boost_s: float = Field(default=0.0, ge=0, le=5)
 

@@ -68,7 +68,8 @@ class RoutePotential:
             reached = np.logical_or.accumulate(reached & (d <= self.switch_radius), axis=1)
             d = _distance(pts, self.waypoints[j])
             end = reached[:, -1]
-            phi = np.where(end, self._way(j, pts[:, -1], d[:, -1]) + self.after[j], phi)
+            if self._ways[j] is None or np.logical_or.reduce(end):  # a way is measured only where it is needed
+                phi = np.where(end, self._way(j, pts[:, -1], d[:, -1]) + self.after[j], phi)
             idx += end
         goal_d = d if self._goal_is_last else _distance(pts, self.goal)  # d: to the last waypoint looked at
         done = np.logical_or.reduce(goal_d <= self.goal_tolerance, axis=1)

@@ -9,7 +9,8 @@ has no such minima. Computed once per (map, waypoint, radius) with Dijkstra on a
 within ~3 % of the true one in every direction), and read by bilinear interpolation.
 A node too close to a wall takes its nearest free node's distance plus the step to it, so a point
 there (a rollout that breaks the static margin, which its own term penalises) still gets a finite
-value, continuous up to the middle of the wall, and no path cuts through a wall.
+value, continuous up to the middle of the wall, and no path cuts through a wall. Where no way
+round exists (the target walled off), the straight line is all there is to measure.
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ class GeodesicDistance:
         self.resolution = resolution
         self.target = np.asarray(target, dtype=float)
         self.field = _field(static, (float(self.target[0]), float(self.target[1])), clearance, resolution)
+        self._walled_off = not bool(np.isfinite(self.field).all())  #: some space has no way round to the target
 
     def __call__(self, pts: np.ndarray) -> np.ndarray:
         """Distance (...) at points (..., 2): the straight line where the grid's path is no longer than its
@@ -42,7 +44,11 @@ class GeodesicDistance:
         excess. Continuous (the larger of two continuous functions) and exact in the open, where a bare grid
         metric would bend every rollout's progress towards the grid's directions."""
         straight = np.sqrt((pts[..., 0] - self.target[0]) ** 2 + (pts[..., 1] - self.target[1]) ** 2)
-        return np.maximum(straight, self._grid(pts) / (1.0 + GRID_EXCESS))
+        if not self._walled_off:
+            return np.maximum(straight, self._grid(pts) / (1.0 + GRID_EXCESS))
+        with np.errstate(invalid="ignore"):  # inf x 0 weights beside walled-off space: nan, read as no way round
+            way = np.maximum(straight, self._grid(pts) / (1.0 + GRID_EXCESS))
+        return np.where(np.isfinite(way), way, straight)
 
     def _grid(self, pts: np.ndarray) -> np.ndarray:
         """The grid's path length (...) at points (..., 2), bilinear between nodes; points off the map are clamped."""
@@ -95,7 +101,6 @@ def _field(static: StaticGeometry, target: tuple[float, float], clearance: float
     # a node too close to a wall: the way from its nearest free node plus the step to it (never through the wall)
     gap, (ni, nj) = distance_transform_edt(~free.reshape(nx, ny), return_indices=True)
     dist = dist[(ni * ny + nj).reshape(-1)] + gap.reshape(-1) * resolution
-    dist[~np.isfinite(dist)] = float(np.max(dist[np.isfinite(dist)], initial=0.0)) + resolution  # walled-off space
     field = dist.reshape(nx, ny)
     field.flags.writeable = False
     _FIELDS[key] = field

@@ -72,13 +72,21 @@ def test_route_potential_and_planner_use_it_when_asked():
                          distance=lambda w: GeodesicDistance(obs.static, w, CLEAR, 0.2))
     assert pot.start(obs.robot_pose[:2]) == pytest.approx(float(GeodesicDistance(obs.static, TARGET, CLEAR, 0.2)(
         obs.robot_pose[:2])))
-    cfg = PredictivePlannerConfig.from_dict({"search": {"geodesic_resolution": 0.2}})
-    planner = PredictivePlanner(cfg, ConstantVelocityForecaster(PLANNER_TIMEBASE))
+    planner = PredictivePlanner(None, ConstantVelocityForecaster(PLANNER_TIMEBASE))  # the default: around the walls
     planner.reset(info_for(m))
     planner.plan(obs)
-    straight = PredictivePlanner(None, ConstantVelocityForecaster(PLANNER_TIMEBASE))
+    cfg = PredictivePlannerConfig.from_dict({"search": {"geodesic_resolution": 0.0}})
+    straight = PredictivePlanner(cfg, ConstantVelocityForecaster(PLANNER_TIMEBASE))
     straight.reset(info_for(m))
     straight.plan(obs)
     # measured round the wall, the robot has further to go than in a straight line
     assert planner._route(obs).start(obs.robot_pose[:2]) > straight._route(obs).start(obs.robot_pose[:2]) + 1.0
     assert math.isclose(straight._route(obs).start(obs.robot_pose[:2]), float(np.hypot(*(obs.robot_pose[:2] - TARGET))))
+
+
+def test_a_walled_off_target_falls_back_to_the_straight_line():
+    """No way round (a wall across the whole map): the straight line is all there is to measure, not a flat field."""
+    full = corridor_map(obstacles=(((14.0, 0.0), (16.0, 0.0), (16.0, 20.0), (14.0, 20.0)),))
+    g = GeodesicDistance(StaticMap(full), TARGET, CLEAR, 0.2)
+    pts = np.array([[5.0, 10.0], [10.0, 10.0], [12.0, 4.0]])
+    assert g(pts) == pytest.approx(np.hypot(*(pts - TARGET).T))
