@@ -32,6 +32,12 @@ class SamplingConfig(_Frozen):
     near_field_turn_rates: tuple[float, ...] = ()  #: extra near-field turn rates [rad/s]
     near_field_speed_ratios: tuple[float, ...] = (0.1, 0.2, 0.35)
     near_field_speed_cap: float = Field(default=1.0, gt=0, le=1)  #: speed ratio cap inside the near field
+    #: point turns: turn in place by each angle [rad], then drive straight at each speed ratio (``sampling.turn_then_go``;
+    #: () = none, the planner before 2026-11-24). Reference matrix, 230 paired episodes per condition, against none:
+    #: reference 0.887 -> 0.913 (5 : 11, the hard seed cross_trap_medium 102 solved again), typical speed
+    #: 0.917 -> 0.930 (1 : 4), nobody yields 0.800 / 5.7 % -> 0.796 / 6.5 % (3 : 2)
+    turn_then_go: tuple[float, ...] = (-1.6, -1.2, -0.8, -0.4, 0.4, 0.8, 1.2, 1.6)
+    turn_then_go_speeds: tuple[float, ...] = (0.25, 0.5)
 
     @model_validator(mode="after")
     def _ratios_in_range(self) -> SamplingConfig:

@@ -27,7 +27,7 @@ from foresight.core.planners.predictive import cost as C
 from foresight.core.planners.predictive.config import PredictivePlannerConfig
 from foresight.core.planners.predictive.geodesic import GeodesicDistance
 from foresight.core.planners.predictive.rollout import eval_steps, extend_forecast, rollout
-from foresight.core.planners.predictive.sampling import branch_commands, first_candidates
+from foresight.core.planners.predictive.sampling import branch_commands, first_candidates, turn_then_go
 from foresight.core.predict.forecaster import Forecaster
 from foresight.core.sim.observation import Observation
 from foresight.core.sim.robot import RobotLimits
@@ -59,7 +59,7 @@ class PredictivePlanner:
         self._probes: dict[int, tuple[float, np.ndarray, float]] = {}  #: id -> (since [s], position, gap) under test
         self._limits = RobotLimits.from_config(robot)
         self._cands: dict[bool | None, np.ndarray] = {}
-        self._held: dict[tuple[bool, int], np.ndarray] = {}
+        self._held: dict[tuple, np.ndarray] = {}
         self._step_cache: dict[tuple, tuple] = {}
         self._route_cache: tuple | None = None
         self._prev = np.zeros(2)
@@ -233,6 +233,15 @@ class PredictivePlanner:
             self._held[key] = held
         return self._held[key]
 
+    def _turns(self, steps: int, dt: float) -> np.ndarray:
+        """The turn-then-go sequences (P, steps, 2); cached per episode, read-only."""
+        key = ("turns", steps)
+        if key not in self._held:
+            seqs = turn_then_go(self.config.sampling, self._limits, steps, dt, self.config.max_speed_ratio)
+            seqs.flags.writeable = False
+            self._held[key] = seqs
+        return self._held[key]
+
     def _static_field(self, obs: Observation) -> C.StaticClearance:
         """One distance field per static geometry object (the simulator keeps one per map)."""
         if self._static is None or self._static.static is not obs.static:
@@ -246,12 +255,13 @@ class PredictivePlanner:
         sim_dt = obs.dt
         idx, S, bounds = self._steps(scene.times, sim_dt)
         state0 = np.concatenate([obs.robot_pose, obs.robot_velocity]).astype(float)
-        first = self._candidates(near)
         cmds = self._held_commands(near, S)  # (C, S, 2)
-        states = rollout(np.repeat(state0[None], len(first), axis=0), cmds, limits, sim_dt)
+        if cfg.sampling.turn_then_go:
+            cmds = np.concatenate([cmds, self._turns(S, sim_dt)])
+        states = rollout(np.repeat(state0[None], len(cmds), axis=0), cmds, limits, sim_dt)
         total, terms = C.evaluate(C.Rollouts(states, idx, cmds), scene, cfg)
         evals = [(cmds, states, total, terms)]  # (commands, states, totals, terms) of each evaluation, in order
-        n_eval = len(first)
+        n_eval = len(cmds)
         branch = self._candidates(None)
         M = len(branch)
         for b in bounds:

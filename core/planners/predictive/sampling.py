@@ -51,3 +51,18 @@ def branch_commands(cfg: SearchConfig, limits: RobotLimits, speed_ratio: float) 
     rates = turn_rate_grid(count, limits.w_max) if count > 1 else np.zeros(1)
     cands = np.vstack([_product(speeds, rates), [[0.0, 0.0]]])
     return np.unique(cands, axis=0)
+
+
+def turn_then_go(cfg: SamplingConfig, limits: RobotLimits, steps: int, dt: float, speed_ratio: float) -> np.ndarray:
+    """(P, steps, 2) sequences that turn in place by each of ``cfg.turn_then_go`` [rad] at the full turn rate, then
+    drive straight at each of ``cfg.turn_then_go_speeds`` x v_max: how a robot backed into a corner beside a door
+    faces it and goes in. A held (v, omega) is an arc, and an arc cannot do that."""
+    rows = []
+    for angle in cfg.turn_then_go:
+        turn = min(steps, max(1, int(round(abs(angle) / limits.w_max / dt))))
+        for ratio in cfg.turn_then_go_speeds:
+            seq = np.zeros((steps, 2))
+            seq[:turn, 1] = np.sign(angle) * limits.w_max
+            seq[turn:, 0] = min(ratio, speed_ratio) * limits.v_max
+            rows.append(seq)
+    return np.array(rows).reshape(-1, steps, 2)

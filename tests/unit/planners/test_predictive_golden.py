@@ -5,8 +5,10 @@ count of every decision below. Re-recorded on 2026-11-24 after two deliberate be
 issue 12: uncertainty-aware pedestrian terms, no standing-still discount, contact never shrunk, 4 s
 horizon; then "yield, then commit" (after a stall, standing pedestrians are trusted to make room
 until one holds its ground); then route progress measured around the walls (``geodesic``: only
-``wall_ahead`` changed, the robot now drives round the wall; the other costs moved by 1e-14). Before
-that it held the decisions of the planner before its rollout was vectorised.
+``wall_ahead`` changed, the robot now drives round the wall; the other costs moved by 1e-14); then point
+turns among the first candidates (turn in place, then drive straight: most cases now start with a
+sharp turn where they started with an arc, and every evaluation count grew by the 16 sequences).
+Before that it held the decisions of the planner before its rollout was vectorised.
 Speed-ups must not change decisions: commands and sequences must match exactly, costs to
 floating-point rounding. The independent checks of behaviour are in ``test_predictive_planner.py``
 and ``test_predictive_cost.py`` (full speed on a free route, a crossing solved, a standing robot
