@@ -224,20 +224,15 @@ class PredictivePlanner:
                                  else first_candidates(cfg.sampling, self._limits, cfg.max_speed_ratio, near))
         return self._cands[near]
 
-    def _held_commands(self, near: bool, steps: int) -> np.ndarray:
-        """The first-segment candidates held for ``steps`` simulator steps (C, steps, 2); cached per episode, read-only."""
+    def _first_sequences(self, near: bool, steps: int, dt: float) -> np.ndarray:
+        """The first round's sequences (C + P, steps, 2): the first-segment candidates held to the horizon, then the
+        point turns (``sampling.turn_then_go``); cached per episode, read-only."""
         key = (near, steps)
         if key not in self._held:
+            cfg = self.config
             held = np.repeat(self._candidates(near)[:, None, :], steps, axis=1)
-            held.flags.writeable = False
-            self._held[key] = held
-        return self._held[key]
-
-    def _turns(self, steps: int, dt: float) -> np.ndarray:
-        """The turn-then-go sequences (P, steps, 2); cached per episode, read-only."""
-        key = ("turns", steps)
-        if key not in self._held:
-            seqs = turn_then_go(self.config.sampling, self._limits, steps, dt, self.config.max_speed_ratio)
+            turns = turn_then_go(cfg.sampling, self._limits, steps, dt, cfg.max_speed_ratio)
+            seqs = np.concatenate([held, turns]) if len(turns) else held
             seqs.flags.writeable = False
             self._held[key] = seqs
         return self._held[key]
@@ -255,9 +250,7 @@ class PredictivePlanner:
         sim_dt = obs.dt
         idx, S, bounds = self._steps(scene.times, sim_dt)
         state0 = np.concatenate([obs.robot_pose, obs.robot_velocity]).astype(float)
-        cmds = self._held_commands(near, S)  # (C, S, 2)
-        if cfg.sampling.turn_then_go:
-            cmds = np.concatenate([cmds, self._turns(S, sim_dt)])
+        cmds = self._first_sequences(near, S, sim_dt)  # (C + P, S, 2)
         states = rollout(np.repeat(state0[None], len(cmds), axis=0), cmds, limits, sim_dt)
         total, terms = C.evaluate(C.Rollouts(states, idx, cmds), scene, cfg)
         evals = [(cmds, states, total, terms)]  # (commands, states, totals, terms) of each evaluation, in order
