@@ -67,14 +67,38 @@ class GeodesicDistance:
 GRID_EXCESS = 0.03
 
 _FIELDS: OrderedDict[tuple, np.ndarray] = OrderedDict()  # per process: a matrix repeats maps and waypoints
+_GRAPHS: OrderedDict[tuple, tuple] = OrderedDict()  # per process: one free-space graph per map serves every waypoint
 
 
 def _field(static: StaticGeometry, target: tuple[float, float], clearance: float, resolution: float) -> np.ndarray:
     segs = np.ascontiguousarray(static.segments, dtype=float)
-    key = (segs.tobytes(), float(static.width), float(static.height), target, clearance, resolution)
+    space = (segs.tobytes(), float(static.width), float(static.height), clearance, resolution)
+    key = (*space, target)
     if key in _FIELDS:
         _FIELDS.move_to_end(key)
         return _FIELDS[key]
+    graph, free, nearest, gap = _graph(space, segs, static, clearance, resolution)
+    nx, ny = gap.shape
+    # the source: the free node nearest the target (a waypoint close to a wall still pulls from the free side)
+    gi = np.clip(np.round(np.array(target) / resolution).astype(int), 0, [nx - 1, ny - 1])
+    src = int(nearest[gi[0], gi[1]])
+    sx, sy = divmod(src, ny)
+    offset = float(np.hypot(sx * resolution - target[0], sy * resolution - target[1]))
+    dist = dijkstra(graph, directed=False, indices=src) + offset
+    # a node too close to a wall: the way from its nearest free node plus the step to it (never through the wall)
+    field = (dist[nearest.reshape(-1)] + gap.reshape(-1) * resolution).reshape(nx, ny)
+    field.flags.writeable = False
+    _FIELDS[key] = field
+    while len(_FIELDS) > 32:
+        _FIELDS.popitem(last=False)
+    return field
+
+
+def _graph(space: tuple, segs: np.ndarray, static: StaticGeometry, clearance: float, resolution: float) -> tuple:
+    """The free nodes' 16-connected graph (CSR), the free mask, each node's nearest free node and the gap to it."""
+    if space in _GRAPHS:
+        _GRAPHS.move_to_end(space)
+        return _GRAPHS[space]
     nx = int(np.ceil(static.width / resolution)) + 1
     ny = int(np.ceil(static.height / resolution)) + 1
     xs, ys = np.arange(nx) * resolution, np.arange(ny) * resolution
@@ -90,20 +114,8 @@ def _field(static: StaticGeometry, target: tuple[float, float], clearance: float
         lengths.append(np.full(int(ok.sum()), resolution * float(np.hypot(di, dj))))
     graph = coo_matrix((np.concatenate(lengths), (np.concatenate(rows), np.concatenate(cols))),
                        shape=(nx * ny, nx * ny)).tocsr()
-    # the source: the free node nearest the target (a waypoint close to a wall still pulls from the free side)
-    gi = np.clip(np.round(np.array(target) / resolution).astype(int), 0, [nx - 1, ny - 1])
-    nodes = np.flatnonzero(free) if free.any() else np.arange(nx * ny)
-    px, py = np.divmod(nodes, ny)
-    src = int(nodes[np.argmin((px - gi[0]) ** 2 + (py - gi[1]) ** 2)])
-    sx, sy = divmod(src, ny)
-    offset = float(np.hypot(sx * resolution - target[0], sy * resolution - target[1]))
-    dist = dijkstra(graph, directed=False, indices=src) + offset
-    # a node too close to a wall: the way from its nearest free node plus the step to it (never through the wall)
     gap, (ni, nj) = distance_transform_edt(~free.reshape(nx, ny), return_indices=True)
-    dist = dist[(ni * ny + nj).reshape(-1)] + gap.reshape(-1) * resolution
-    field = dist.reshape(nx, ny)
-    field.flags.writeable = False
-    _FIELDS[key] = field
-    while len(_FIELDS) > 32:
-        _FIELDS.popitem(last=False)
-    return field
+    _GRAPHS[space] = out = (graph, free, ni * ny + nj, gap)
+    while len(_GRAPHS) > 4:
+        _GRAPHS.popitem(last=False)
+    return out
