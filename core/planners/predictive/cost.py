@@ -6,7 +6,8 @@ compared 0.2 s robot steps with 0.1 s forecast steps and used 0.25 m radii for a
 Static terms use the distance to obstacle edges and map bounds at every simulator step of the
 rollout (the reference had no static term at all; walls were its biggest failure class).
 Progress is measured along the route (waypoints), not straight to the goal, so the robot follows
-the route around obstacles between it and the goal.
+the route around obstacles between it and the goal, and the way to each waypoint is measured around
+the walls (``geodesic``), so a robot pushed off its route behind a wall is not stuck there.
 """
 
 from __future__ import annotations
