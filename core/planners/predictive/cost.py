@@ -21,7 +21,7 @@ from functools import cached_property
 import numpy as np
 
 from foresight.core.planners.predictive.config import PredictivePlannerConfig
-from foresight.core.sim.geometry import SegmentSet, grid_distance
+from foresight.core.sim.geometry import SegmentSet, grid_distance, grid_interpolate
 from foresight.core.sim.observation import StaticGeometry
 from foresight.core.sim.robot import wrap_angle
 
@@ -117,25 +117,13 @@ class StaticClearance:
         if self.resolution <= 0:
             d = np.asarray(self.static.distance(pts), dtype=float)
         else:
-            d = self._interpolate(x, y) - self.bound
+            d = grid_interpolate(self.field, self.resolution, x, y) - self.bound
         # rollouts rarely leave the map: four reductions decide that no point is outside (then d is the answer)
         if (np.minimum.reduce(x, axis=None) >= 0 and np.maximum.reduce(x, axis=None) <= self.width
                 and np.minimum.reduce(y, axis=None) >= 0 and np.maximum.reduce(y, axis=None) <= self.height):
             return d
         outside = (x < 0) | (x > self.width) | (y < 0) | (y > self.height)
         return np.where(outside, -1.0, d)
-
-    def _interpolate(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        nx, ny = self.field.shape
-        gx = np.minimum(np.maximum(x / self.resolution, 0), nx - 1.000001)  # np.clip, without its dispatch
-        gy = np.minimum(np.maximum(y / self.resolution, 0), ny - 1.000001)
-        i, j = gx.astype(np.int64), gy.astype(np.int64)
-        ax, ay = gx - i, gy - j
-        bx, by = 1 - ax, 1 - ay
-        flat = self.field.reshape(-1)  # f[i, j] = flat[i * ny + j]: one gather per corner
-        c = i * ny + j
-        return ((flat[c] * bx + flat[c + ny] * ax) * by
-                + (flat[c + 1] * bx + flat[c + ny + 1] * ax) * ay)
 
 
 _FIELDS: OrderedDict[tuple, np.ndarray] = OrderedDict()  # per-process cache: maps repeat across episodes

@@ -22,7 +22,7 @@ from scipy.ndimage import distance_transform_edt
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from foresight.core.sim.geometry import SegmentSet, grid_distance
+from foresight.core.sim.geometry import SegmentSet, grid_distance, grid_interpolate
 from foresight.core.sim.observation import StaticGeometry
 
 #: node offsets of the 16-connected grid: the 8 neighbours and the 8 knight moves
@@ -43,24 +43,13 @@ class GeodesicDistance:
         worst-case excess (``GRID_EXCESS``) over it, i.e. in sight of the target, else the grid's path less that
         excess. Continuous (the larger of two continuous functions) and exact in the open, where a bare grid
         metric would bend every rollout's progress towards the grid's directions."""
-        straight = np.sqrt((pts[..., 0] - self.target[0]) ** 2 + (pts[..., 1] - self.target[1]) ** 2)
+        x, y = pts[..., 0], pts[..., 1]
+        straight = np.sqrt((x - self.target[0]) ** 2 + (y - self.target[1]) ** 2)
         if not self._walled_off:
-            return np.maximum(straight, self._grid(pts) / (1.0 + GRID_EXCESS))
+            return np.maximum(straight, grid_interpolate(self.field, self.resolution, x, y) / (1.0 + GRID_EXCESS))
         with np.errstate(invalid="ignore"):  # inf x 0 weights beside walled-off space: nan, read as no way round
-            way = np.maximum(straight, self._grid(pts) / (1.0 + GRID_EXCESS))
+            way = np.maximum(straight, grid_interpolate(self.field, self.resolution, x, y) / (1.0 + GRID_EXCESS))
         return np.where(np.isfinite(way), way, straight)
-
-    def _grid(self, pts: np.ndarray) -> np.ndarray:
-        """The grid's path length (...) at points (..., 2), bilinear between nodes; points off the map are clamped."""
-        nx, ny = self.field.shape
-        gx = np.minimum(np.maximum(pts[..., 0] / self.resolution, 0), nx - 1.000001)
-        gy = np.minimum(np.maximum(pts[..., 1] / self.resolution, 0), ny - 1.000001)
-        i, j = gx.astype(np.int64), gy.astype(np.int64)
-        ax, ay = gx - i, gy - j
-        flat = self.field.reshape(-1)
-        c = i * ny + j
-        return ((flat[c] * (1 - ax) + flat[c + ny] * ax) * (1 - ay)
-                + (flat[c + 1] * (1 - ax) + flat[c + ny + 1] * ax) * ay)
 
 
 #: the 16-connected grid's longest path relative to the straight line, over all directions (2.75 %), rounded up
