@@ -109,7 +109,7 @@ class StaticClearance:
         self.width, self.height = float(static.width), float(static.height)
         self.resolution = resolution
         if resolution > 0:
-            self.field = _distance_field(static, resolution)
+            self.field = distance_field(static, resolution)
             self.bound = resolution / np.sqrt(2.0)
 
     def __call__(self, pts: np.ndarray) -> np.ndarray:
@@ -129,7 +129,7 @@ class StaticClearance:
 _FIELDS: OrderedDict[tuple, np.ndarray] = OrderedDict()  # per-process cache: maps repeat across episodes
 
 
-def _distance_field(static: StaticGeometry, resolution: float) -> np.ndarray:
+def distance_field(static: StaticGeometry, resolution: float) -> np.ndarray:
     """static.distance on the grid i*resolution, j*resolution over the map, (nx, ny), cached by geometry content."""
     segs = np.ascontiguousarray(static.segments, dtype=float)
     key = (segs.tobytes(), float(static.width), float(static.height), resolution)

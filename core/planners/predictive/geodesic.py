@@ -22,7 +22,8 @@ from scipy.ndimage import distance_transform_edt
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from foresight.core.sim.geometry import SegmentSet, grid_distance, grid_interpolate
+from foresight.core.planners.predictive.cost import distance_field
+from foresight.core.sim.geometry import grid_interpolate
 from foresight.core.sim.observation import StaticGeometry
 
 #: node offsets of the 16-connected grid: the 8 neighbours and the 8 knight moves
@@ -66,7 +67,7 @@ def _field(static: StaticGeometry, target: tuple[float, float], clearance: float
     if key in _FIELDS:
         _FIELDS.move_to_end(key)
         return _FIELDS[key]
-    graph, free, nearest, gap = _graph(space, segs, static, clearance, resolution)
+    graph, free, nearest, gap = _graph(space, static, clearance, resolution)
     nx, ny = gap.shape
     # the source: the free node nearest the target (a waypoint close to a wall still pulls from the free side)
     gi = np.clip(np.round(np.array(target) / resolution).astype(int), 0, [nx - 1, ny - 1])
@@ -83,15 +84,14 @@ def _field(static: StaticGeometry, target: tuple[float, float], clearance: float
     return field
 
 
-def _graph(space: tuple, segs: np.ndarray, static: StaticGeometry, clearance: float, resolution: float) -> tuple:
+def _graph(space: tuple, static: StaticGeometry, clearance: float, resolution: float) -> tuple:
     """The free nodes' 16-connected graph (CSR), the free mask, each node's nearest free node and the gap to it."""
     if space in _GRAPHS:
         _GRAPHS.move_to_end(space)
         return _GRAPHS[space]
-    nx = int(np.ceil(static.width / resolution)) + 1
-    ny = int(np.ceil(static.height / resolution)) + 1
-    xs, ys = np.arange(nx) * resolution, np.arange(ny) * resolution
-    free = (grid_distance(SegmentSet(segs), xs, ys) >= clearance).reshape(-1)
+    clear = distance_field(static, resolution)  # the static clearance term's own table, when on the same grid
+    nx, ny = clear.shape
+    free = (clear >= clearance).reshape(-1)
     index = np.arange(nx * ny).reshape(nx, ny)
     rows, cols, lengths = [], [], []
     for di, dj in _MOVES:
