@@ -26,7 +26,8 @@ from foresight.core.planners.predictive.cost import distance_field
 from foresight.core.sim.geometry import grid_interpolate
 from foresight.core.sim.observation import StaticGeometry
 
-#: node offsets of the 16-connected grid: the 8 neighbours and the 8 knight moves
+#: node offsets of the 16-connected grid (the 8 neighbours and the 8 knight moves), one of each opposite pair: the
+#: graph is undirected
 _MOVES = np.array([(1, 0), (0, 1), (1, 1), (1, -1), (2, 1), (1, 2), (2, -1), (1, -2)])
 
 
@@ -67,7 +68,7 @@ def _field(static: StaticGeometry, target: tuple[float, float], clearance: float
     if key in _FIELDS:
         _FIELDS.move_to_end(key)
         return _FIELDS[key]
-    graph, free, nearest, gap = _graph(space, static, clearance, resolution)
+    graph, nearest, gap = _graph(space, static, clearance, resolution)
     nx, ny = gap.shape
     # the source: the free node nearest the target (a waypoint close to a wall still pulls from the free side)
     gi = np.clip(np.round(np.array(target) / resolution).astype(int), 0, [nx - 1, ny - 1])
@@ -85,7 +86,7 @@ def _field(static: StaticGeometry, target: tuple[float, float], clearance: float
 
 
 def _graph(space: tuple, static: StaticGeometry, clearance: float, resolution: float) -> tuple:
-    """The free nodes' 16-connected graph (CSR), the free mask, each node's nearest free node and the gap to it."""
+    """The free nodes' 16-connected graph (CSR), each node's nearest free node (flat index) and the gap to it."""
     if space in _GRAPHS:
         _GRAPHS.move_to_end(space)
         return _GRAPHS[space]
@@ -104,7 +105,7 @@ def _graph(space: tuple, static: StaticGeometry, clearance: float, resolution: f
     graph = coo_matrix((np.concatenate(lengths), (np.concatenate(rows), np.concatenate(cols))),
                        shape=(nx * ny, nx * ny)).tocsr()
     gap, (ni, nj) = distance_transform_edt(~free.reshape(nx, ny), return_indices=True)
-    _GRAPHS[space] = out = (graph, free, ni * ny + nj, gap)
+    _GRAPHS[space] = out = (graph, ni * ny + nj, gap)
     while len(_GRAPHS) > 4:
         _GRAPHS.popitem(last=False)
     return out
