@@ -38,7 +38,7 @@ class GeodesicDistance:
         self.resolution = resolution
         self.target = np.asarray(target, dtype=float)
         self.field = _field(static, (float(self.target[0]), float(self.target[1])), clearance, resolution)
-        self._walled_off = not bool(np.isfinite(self.field).all())  #: some space has no way round to the target
+        self._walled_off = bool(np.isnan(self.field).any())  #: some space has no way round to the target (nan there)
 
     def __call__(self, pts: np.ndarray) -> np.ndarray:
         """Distance (...) at points (..., 2): the straight line where the grid's path is no longer than its
@@ -47,11 +47,8 @@ class GeodesicDistance:
         metric would bend every rollout's progress towards the grid's directions."""
         x, y = pts[..., 0], pts[..., 1]
         straight = np.sqrt((x - self.target[0]) ** 2 + (y - self.target[1]) ** 2)
-        if not self._walled_off:
-            return np.maximum(straight, grid_interpolate(self.field, self.resolution, x, y) / (1.0 + GRID_EXCESS))
-        with np.errstate(invalid="ignore"):  # inf x 0 weights beside walled-off space: nan, read as no way round
-            way = np.maximum(straight, grid_interpolate(self.field, self.resolution, x, y) / (1.0 + GRID_EXCESS))
-        return np.where(np.isfinite(way), way, straight)
+        way = np.maximum(straight, grid_interpolate(self.field, self.resolution, x, y) / (1.0 + GRID_EXCESS))
+        return np.where(np.isnan(way), straight, way) if self._walled_off else way  # nan beside walled-off space
 
 
 #: the 16-connected grid's longest path relative to the straight line, over all directions (2.75 %), rounded up
@@ -76,6 +73,7 @@ def _field(static: StaticGeometry, target: tuple[float, float], clearance: float
     sx, sy = divmod(src, ny)
     offset = float(np.hypot(sx * resolution - target[0], sy * resolution - target[1]))
     dist = dijkstra(graph, directed=False, indices=src) + offset
+    dist[np.isinf(dist)] = np.nan  # no way round: nan interpolates quietly (inf x 0 would warn) and is read as such
     # a node too close to a wall: the way from its nearest free node plus the step to it (never through the wall)
     field = (dist[nearest.reshape(-1)] + gap.reshape(-1) * resolution).reshape(nx, ny)
     field.flags.writeable = False

@@ -2,9 +2,9 @@
 
 One decision: one batched forecaster call; first-segment candidates (dense in the near field)
 rolled out with the simulator's own kinematics (``core.sim.robot.unicycle_rollout``) and held to the
-horizon, plus point turns (turn in place, then straight: how a robot in a corner faces a door); the best ``beam_width`` sequences are extended with a coarser command set; the first
-command of the cheapest sequence seen is returned. Braking (0, 0) is always a candidate, so the
-robot can wait, but waiting is no refuge: a pedestrian forecast to walk into a standing robot costs
+horizon, plus point turns (turn in place, then straight: how a robot in a corner faces a door); the
+best ``beam_width`` sequences are extended with a coarser command set; the first command of the
+cheapest sequence seen is returned. Braking (0, 0) is always a candidate, so the robot can wait, but waiting is no refuge: a pedestrian forecast to walk into a standing robot costs
 as much as one the robot drives into, so the search turns away, speeds up or gives way early
 instead. Pedestrian terms read the forecast's spread (a chance margin and the contact probability,
 see ``cost``); after a few seconds without route progress the soft margins shrink (stall
@@ -59,7 +59,7 @@ class PredictivePlanner:
         self._probes: dict[int, tuple[float, np.ndarray, float]] = {}  #: id -> (since [s], position, gap) under test
         self._limits = RobotLimits.from_config(robot)
         self._cands: dict[bool | None, np.ndarray] = {}
-        self._held: dict[tuple, np.ndarray] = {}
+        self._firsts: dict[tuple, np.ndarray] = {}  #: (near field, steps) -> the first round's sequences
         self._step_cache: dict[tuple, tuple] = {}
         self._route_cache: tuple | None = None
         self._prev = np.zeros(2)
@@ -228,14 +228,14 @@ class PredictivePlanner:
         """The first round's sequences (C + P, steps, 2): the first-segment candidates held to the horizon, then the
         point turns (``sampling.turn_then_go``); cached per episode, read-only."""
         key = (near, steps)
-        if key not in self._held:
+        if key not in self._firsts:
             cfg = self.config
             held = np.repeat(self._candidates(near)[:, None, :], steps, axis=1)
             turns = turn_then_go(cfg.sampling, self._limits, steps, dt, cfg.max_speed_ratio)
             seqs = np.concatenate([held, turns]) if len(turns) else held
             seqs.flags.writeable = False
-            self._held[key] = seqs
-        return self._held[key]
+            self._firsts[key] = seqs
+        return self._firsts[key]
 
     def _static_field(self, obs: Observation) -> C.StaticClearance:
         """One distance field per static geometry object (the simulator keeps one per map)."""

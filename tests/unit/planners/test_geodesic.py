@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from foresight.core.errors import ConfigError
 from foresight.core.planners.predictive.config import PredictivePlannerConfig
 from foresight.core.planners.predictive.cost import RoutePotential
 from foresight.core.planners.predictive.geodesic import GeodesicDistance
@@ -90,3 +91,11 @@ def test_a_walled_off_target_falls_back_to_the_straight_line():
     g = GeodesicDistance(StaticMap(full), TARGET, CLEAR, 0.2)
     pts = np.array([[5.0, 10.0], [10.0, 10.0], [12.0, 4.0]])
     assert g(pts) == pytest.approx(np.hypot(*(pts - TARGET).T))
+
+
+@pytest.mark.parametrize("resolution", [0.001, 0.04])
+def test_a_grid_finer_than_the_bound_is_a_config_error_naming_the_field(resolution):
+    with pytest.raises(ConfigError) as exc:
+        PredictivePlannerConfig.from_dict({"search": {"geodesic_resolution": resolution}})
+    assert exc.value.item == "search" and "geodesic_resolution" in str(exc.value)
+    assert PredictivePlannerConfig.from_dict({"search": {"geodesic_resolution": 0.0}}).search.geodesic_resolution == 0

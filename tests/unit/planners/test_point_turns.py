@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from foresight.core.errors import ConfigError
 from foresight.core.planners.predictive.config import PredictivePlannerConfig, SamplingConfig
 from foresight.core.planners.predictive.planner import PredictivePlanner
 from foresight.core.planners.predictive.sampling import turn_then_go
@@ -46,3 +47,9 @@ def test_a_robot_facing_the_wall_beside_a_door_turns_and_goes_instead_of_standin
     first_steps, v0, w0 = out["sequence"][0]
     assert v0 == 0.0 and abs(w0) == pytest.approx(1.0)  # it turns in place first
     assert out["cost"] < stuck["cost"]
+
+
+def test_point_turns_never_drive_backwards():
+    with pytest.raises(ConfigError) as exc:
+        PredictivePlannerConfig.from_dict({"sampling": {"turn_then_go_speeds": [-0.5]}})
+    assert "turn_then_go_speeds" in str(exc.value)
