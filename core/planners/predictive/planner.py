@@ -123,7 +123,7 @@ class PredictivePlanner:
         dt_f = float(times[1] - times[0]) if len(times) > 1 else float(times[0])
         extra_s = cfg.search.extra_horizon_s + (cfg.search.horizon_boost_s if cfg.search.adaptive_horizon and near else 0.0)
         extra = int(round(extra_s / dt_f))
-        room = self._waiting_room(fut, times, assertive)
+        room = self._waiting_room(fut, times, assertive) + self._receding_room(fut, times, p0, float(obs.robot_velocity[0]))
         waiting = self._waiting(obs, fc_ids, contact)
         yielding = np.zeros(len(fut))
         if assertive >= COMMIT_ASSERTIVENESS and waiting.any():  # yielded long enough: commit (see _waiting)
@@ -185,6 +185,20 @@ class PredictivePlanner:
         span = float(times[-1] - times[0]) if len(times) > 1 else 1.0
         speed = np.hypot(*(fut[:, -1] - fut[:, 0]).T) / span
         return np.where(speed < s.waiting_speed, assertive * s.waiting_room, 0.0)
+
+    def _receding_room(self, fut: np.ndarray, times: np.ndarray, p0: np.ndarray, v: float) -> np.ndarray:
+        """(N,) room [m] of pedestrians walking away from the robot's position (forecast start): ``receding_room``
+        x min(1, speed away / ``receding_speed``), 0 for those standing or coming closer, all of it faded out
+        as the robot's speed ``v`` rises from half of ``receding_max_speed`` x v_max to all of it."""
+        s = self.config.safety
+        top = s.receding_max_speed * self._limits.v_max
+        slow = min(max(2.0 * (1.0 - v / top), 0.0), 1.0)
+        if s.receding_room <= 0 or slow <= 0 or len(fut) == 0 or len(times) < 2:
+            return np.zeros(len(fut))
+        vel = (fut[:, 1] - fut[:, 0]) / float(times[1] - times[0])
+        away = fut[:, 0] - p0
+        speed_away = np.add.reduce(vel * away, axis=1) / np.maximum(np.sqrt(np.add.reduce(away * away, axis=1)), 1e-6)
+        return slow * s.receding_room * np.clip(speed_away / s.receding_speed, 0.0, 1.0)
 
     def _assertiveness(self, phi0: float, now: float, dt: float) -> float:
         """0..1: ramps up while route progress over the last ``stall_after_s`` is below ``stall_progress``.

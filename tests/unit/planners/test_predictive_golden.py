@@ -7,7 +7,9 @@ horizon; then "yield, then commit" (after a stall, standing pedestrians are trus
 until one holds its ground); then route progress measured around the walls (``geodesic``: only
 ``wall_ahead`` changed, the robot now drives round the wall; the other costs moved by 1e-14); then point
 turns among the first candidates (turn in place, then drive straight: most cases now start with a
-sharp turn where they started with an arc, and every evaluation count grew by the 16 sequences).
+sharp turn where they started with an arc, and every evaluation count grew by the 16 sequences); then room for
+pedestrians walking away from a slow robot (``receding_room``: with constant velocity the three crowd cases changed, with the learned model all six,
+whose forecasts set the pedestrians moving).
 Before that it held the decisions of the planner before its rollout was vectorised.
 Speed-ups must not change decisions: commands and sequences must match exactly, costs to
 floating-point rounding. The independent checks of behaviour are in ``test_predictive_planner.py``
