@@ -151,7 +151,9 @@ class Scene:
 
     ped_future: np.ndarray  #: (N, K, 2) forecast positions at ``times`` [m] (relevant peds only)
     ped_sigma: np.ndarray  #: (N, K) per-axis std of those positions [m]
-    ped_room: np.ndarray  #: (N,) room a waiting pedestrian is expected to make [m] (added to its clearance)
+    #: (N,) room [m] added to each pedestrian's clearance: expected of one waiting for the robot (``waiting_room``) or
+    #: allowed one walking away from a slow robot (``receding_room``)
+    ped_room: np.ndarray
     ped_yield: np.ndarray  #: (N,) speed [m/s] at which each pedestrian is assumed to step away from the robot
     times: np.ndarray  #: (K,) seconds ahead [s]
     contact: float  #: centre distance of contact: robot radius + ped radius + extra margins [m]
