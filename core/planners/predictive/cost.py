@@ -155,6 +155,8 @@ class Scene:
     #: allowed one walking away from a slow robot (``receding_room``)
     ped_room: np.ndarray
     ped_yield: np.ndarray  #: (N,) speed [m/s] at which each pedestrian is assumed to step away from the robot
+    ped_straight: np.ndarray  #: (A,) pedestrians (indices) also held to a straight line: the nearer one counts
+    ped_lines: np.ndarray  #: (A, K, 2) their straight lines at ``times`` (current position and velocity) [m]
     times: np.ndarray  #: (K,) seconds ahead [s]
     contact: float  #: centre distance of contact: robot radius + ped radius + extra margins [m]
     robot_radius: float  #: true robot radius [m] (static clearance)
@@ -205,6 +207,9 @@ def pedestrian_terms(pos: np.ndarray, speed: np.ndarray, scene: Scene, cfg: Pred
     relief = 1.0 - s.stall_margin_relief * scene.assertiveness
     # (N, K, B) with the rollouts innermost: numpy's loops run over B (tens to hundreds) instead of K (~20)
     clear = _reactive_clearance(pos, fut, scene, scene.ped_yield, s.yield_range)
+    if len(scene.ped_straight):
+        a = scene.ped_straight
+        clear[a] = np.minimum(clear[a], _reactive_clearance(pos, scene.ped_lines, scene, scene.ped_yield[a], s.yield_range))
     if np.logical_or.reduce(scene.ped_room != 0, axis=None):
         clear += scene.ped_room[:, None, None]
     nearest = np.minimum.reduce(clear, axis=0)  # (K, B) over pedestrians

@@ -10,7 +10,9 @@ instead. Pedestrian terms read the forecast's spread (a chance margin and the co
 see ``cost``); after a few seconds without route progress the soft margins shrink (stall
 assertiveness), never the contact distance, and the robot commits: pedestrians standing near it
 are taken to wait for it, to stay and to step back as it edges forward (a doorway standoff ends),
-until one is seen to hold its ground. Deterministic: no randomness, stable sorts.
+until one is seen to hold its ground. An option (``safety.straight_speed``, off by default) also holds walkers
+closing in on a slow robot to their straight line, for crowds known not to yield. Deterministic: no randomness,
+stable sorts.
 """
 
 from __future__ import annotations
@@ -57,6 +59,8 @@ class PredictivePlanner:
         self._assert = 0.0
         self._holds: set[int] = set()  #: pedestrians seen to hold their ground against the robot
         self._probes: dict[int, tuple[float, np.ndarray, float]] = {}  #: id -> (since [s], position, gap) under test
+        self._reacted: set[int] = set()  #: pedestrians seen to give way to the robot (no straight line for them)
+        self._past: deque[tuple[float, np.ndarray, np.ndarray]] = deque()  #: (time, ids, velocities) over REACTION_WINDOW_S
         self._limits = RobotLimits.from_config(robot)
         self._cands: dict[bool | None, np.ndarray] = {}
         self._firsts: dict[tuple, np.ndarray] = {}  #: (near field, steps) -> the first round's sequences
@@ -131,14 +135,20 @@ class PredictivePlanner:
             fut[waiting], sigma[waiting] = fut[waiting, :1], np.minimum(sigma[waiting, :1], COMMIT_SIGMA)
             yielding[waiting] = cfg.safety.yield_speed
         fut, sigma, times = extend_forecast(fut, sigma, times, extra)
+        straight, lines = self._straight_lines(obs, fc_ids, times, p0, float(obs.robot_velocity[0]))
         if len(fut):  # exact culling: pedestrians no rollout can bring within any term's range
             if extra:
                 dist = np.sqrt(np.add.reduce((fut - p0) ** 2, axis=-1))
+            if len(lines):  # either way a pedestrian may walk counts
+                dist[straight] = np.minimum(dist[straight], np.sqrt(np.add.reduce((lines - p0) ** 2, axis=-1)))
             gap = dist - contact - _reach(float(obs.robot_velocity[0]), limits, times)
             keep = gap.min(axis=1) <= C.influence_range(cfg, float(times[-1]), limits.v_max, float(sigma.max()))
             fut, sigma, room, yielding = fut[keep], sigma[keep], room[keep], yielding[keep]
+            lines = lines[keep[straight]]
+            straight = straight[keep]
         scene = C.Scene(
-            ped_future=fut, ped_sigma=sigma, ped_room=room, ped_yield=yielding, times=times, contact=contact, robot_radius=obs.robot_radius, route=route,
+            ped_future=fut, ped_sigma=sigma, ped_room=room, ped_yield=yielding, ped_straight=np.flatnonzero(straight),
+            ped_lines=lines, times=times, contact=contact, robot_radius=obs.robot_radius, route=route,
             phi0=phi0, assertiveness=assertive, static=self._static_field(obs), start=np.asarray(obs.robot_pose, dtype=float),
             prev_command=self._prev, max_speed=limits.v_max, max_turn_rate=limits.w_max,
         )
@@ -199,6 +209,54 @@ class PredictivePlanner:
         away = fut[:, 0] - p0
         speed_away = np.add.reduce(vel * away, axis=1) / np.maximum(np.sqrt(np.add.reduce(away * away, axis=1)), 1e-6)
         return slow * s.receding_room * np.clip(speed_away / s.receding_speed, 0.0, 1.0)
+
+    def _straight_lines(self, obs: Observation, ids: np.ndarray, times: np.ndarray, p0: np.ndarray,
+                        v: float) -> tuple[np.ndarray, np.ndarray]:
+        """(N,) mask of the forecast pedestrians (``ids``) walking towards a slow robot, and their straight lines
+        (A, K, 2): where each would be at ``times`` at its current velocity.
+
+        A forecast of someone walking at the robot may bend away (a turn at a waypoint, a step aside for the
+        robot); one who does not see the robot walks straight on into it. While the robot is slow (below
+        ``straight_max_speed`` x v_max: standing, creeping, waiting at a door) pedestrians closing in on it at
+        ``straight_speed`` [m/s] or more are held to both (the nearer of forecast and straight line counts),
+        except those seen to give way to the robot (``_note_reactions``).
+        """
+        s = self.config.safety
+        none = np.zeros(len(ids), dtype=bool), np.zeros((0, len(times), 2))
+        if s.straight_speed <= 0 or len(ids) == 0:
+            return none
+        self._note_reactions(obs, p0)
+        if v >= s.straight_max_speed * self._limits.v_max:
+            return none
+        row = np.argmax(ids[:, None] == obs.ped_ids[None, :], axis=1)  # forecast order -> observation order
+        pos, vel = obs.ped_positions[row], obs.ped_velocities[row]
+        to_robot = p0 - pos
+        closing = np.add.reduce(vel * to_robot, axis=1) / np.maximum(np.sqrt(np.add.reduce(to_robot ** 2, axis=1)), 1e-6)
+        mask = closing >= s.straight_speed
+        if self._reacted:
+            mask &= ~np.logical_or.reduce(ids[:, None] == np.array(sorted(self._reacted), dtype=np.int64), axis=1)
+        if not mask.any():
+            return none
+        return mask, pos[mask, None, :] + times[None, :, None] * vel[mask, None, :]
+
+    def _note_reactions(self, obs: Observation, p0: np.ndarray) -> None:
+        """Marks pedestrians seen to give way: within ``REACTION_RANGE`` of contact, their velocity changed by at
+        least ``REACTION_DV`` [m/s] away from the robot over the last ``REACTION_WINDOW_S`` (slowed down on their way
+        to it, or turned off). Someone who sees the robot and makes way for it is taken to go on doing so."""
+        self._past.append((obs.time, obs.ped_ids, obs.ped_velocities))
+        while self._past[0][0] < obs.time - REACTION_WINDOW_S - 1e-9:
+            self._past.popleft()
+        t_old, ids_old, vel_old = self._past[0]
+        if obs.time - t_old < REACTION_WINDOW_S - 1e-9 or len(obs.ped_ids) == 0 or len(ids_old) == 0:
+            return
+        same = obs.ped_ids[:, None] == ids_old[None, :]  # (now, then)
+        seen = np.logical_or.reduce(same, axis=1)
+        dv = obs.ped_velocities - vel_old[np.argmax(same, axis=1)]
+        away = obs.ped_positions - p0
+        dist = np.sqrt(np.add.reduce(away * away, axis=1))
+        gave_way = np.add.reduce(dv * away, axis=1) >= REACTION_DV * np.maximum(dist, 1e-6)
+        near = dist - obs.robot_radius - obs.ped_radius <= REACTION_RANGE
+        self._reacted.update(obs.ped_ids[seen & near & gave_way].tolist())
 
     def _assertiveness(self, phi0: float, now: float, dt: float) -> float:
         """0..1: ramps up while route progress over the last ``stall_after_s`` is below ``stall_progress``.
@@ -300,6 +358,11 @@ class PredictivePlanner:
         return cached
 
 
+#: a pedestrian whose velocity changed by REACTION_DV [m/s] away from the robot within REACTION_WINDOW_S [s], within
+#: REACTION_RANGE [m] of contact, is seen to give way to the robot (``_note_reactions``)
+REACTION_DV = 0.1
+REACTION_WINDOW_S = 2.0
+REACTION_RANGE = 3.0
 #: stall assertiveness from which the robot, having yielded, commits to edging past pedestrians who wait for it
 #: (reference defaults, 69 episodes: 0.5 -> 0.928 but a hard seed lost behind a slow group; 0.8 -> 0.913, 7/7)
 COMMIT_ASSERTIVENESS = 0.8
