@@ -135,19 +135,21 @@ class PredictivePlanner:
             fut[waiting], sigma[waiting] = fut[waiting, :1], np.minimum(sigma[waiting, :1], COMMIT_SIGMA)
             yielding[waiting] = cfg.safety.yield_speed
         fut, sigma, times = extend_forecast(fut, sigma, times, extra)
-        straight, lines = self._straight_lines(obs, fc_ids, times, p0, float(obs.robot_velocity[0]))
+        straight = self._straight_lines(obs, fc_ids, times, p0, float(obs.robot_velocity[0]))
         if len(fut):  # exact culling: pedestrians no rollout can bring within any term's range
             if extra:
                 dist = np.sqrt(np.add.reduce((fut - p0) ** 2, axis=-1))
-            if len(lines):  # either way a pedestrian may walk counts
-                dist[straight] = np.minimum(dist[straight], np.sqrt(np.add.reduce((lines - p0) ** 2, axis=-1)))
+            if straight is not None:  # either way a pedestrian may walk counts
+                mask, lines = straight
+                dist[mask] = np.minimum(dist[mask], np.sqrt(np.add.reduce((lines - p0) ** 2, axis=-1)))
             gap = dist - contact - _reach(float(obs.robot_velocity[0]), limits, times)
             keep = gap.min(axis=1) <= C.influence_range(cfg, float(times[-1]), limits.v_max, float(sigma.max()))
             fut, sigma, room, yielding = fut[keep], sigma[keep], room[keep], yielding[keep]
-            lines = lines[keep[straight]]
-            straight = straight[keep]
+            if straight is not None:
+                straight = np.flatnonzero(mask[keep]), lines[keep[mask]]
+        line_ids, lines = straight or (NO_LINES, np.zeros((0, len(times), 2)))
         scene = C.Scene(
-            ped_future=fut, ped_sigma=sigma, ped_room=room, ped_yield=yielding, ped_straight=np.flatnonzero(straight),
+            ped_future=fut, ped_sigma=sigma, ped_room=room, ped_yield=yielding, ped_straight=line_ids,
             ped_lines=lines, times=times, contact=contact, robot_radius=obs.robot_radius, route=route,
             phi0=phi0, assertiveness=assertive, static=self._static_field(obs), start=np.asarray(obs.robot_pose, dtype=float),
             prev_command=self._prev, max_speed=limits.v_max, max_turn_rate=limits.w_max,
@@ -183,8 +185,7 @@ class PredictivePlanner:
             probes[pid] = (t0, pos0, g0)
         self._probes = probes
         trusted = [pid for pid in obs.ped_ids[standing].tolist() if pid not in self._holds]
-        # np.isin by one comparison table: its sorting machinery cost ~50 us per decision at these sizes
-        return np.logical_or.reduce(ids[:, None] == np.array(trusted, dtype=np.int64), axis=1)
+        return _member(ids, trusted)
 
     def _waiting_room(self, fut: np.ndarray, times: np.ndarray, assertive: float) -> np.ndarray:
         """(N,) room [m] each pedestrian is expected to make: ``waiting_room`` x assertiveness for one forecast
@@ -205,15 +206,13 @@ class PredictivePlanner:
         slow = min(max(2.0 * (1.0 - v / top), 0.0), 1.0)
         if s.receding_room <= 0 or slow <= 0 or len(fut) == 0 or len(times) < 2:
             return np.zeros(len(fut))
-        vel = (fut[:, 1] - fut[:, 0]) / float(times[1] - times[0])
-        away = fut[:, 0] - p0
-        speed_away = np.add.reduce(vel * away, axis=1) / np.maximum(np.sqrt(np.add.reduce(away * away, axis=1)), 1e-6)
+        speed_away = _along((fut[:, 1] - fut[:, 0]) / float(times[1] - times[0]), fut[:, 0] - p0)
         return slow * s.receding_room * np.clip(speed_away / s.receding_speed, 0.0, 1.0)
 
     def _straight_lines(self, obs: Observation, ids: np.ndarray, times: np.ndarray, p0: np.ndarray,
-                        v: float) -> tuple[np.ndarray, np.ndarray]:
+                        v: float) -> tuple[np.ndarray, np.ndarray] | None:
         """(N,) mask of the forecast pedestrians (``ids``) walking towards a slow robot, and their straight lines
-        (A, K, 2): where each would be at ``times`` at its current velocity.
+        (A, K, 2): where each would be at ``times`` at its current velocity; None for none.
 
         A forecast of someone walking at the robot may bend away (a turn at a waypoint, a step aside for the
         robot); one who does not see the robot walks straight on into it. While the robot is slow (below
@@ -222,21 +221,18 @@ class PredictivePlanner:
         except those seen to give way to the robot (``_note_reactions``).
         """
         s = self.config.safety
-        none = np.zeros(len(ids), dtype=bool), np.zeros((0, len(times), 2))
         if s.straight_speed <= 0 or len(ids) == 0:
-            return none
+            return None
         self._note_reactions(obs, p0)
         if v >= s.straight_max_speed * self._limits.v_max:
-            return none
+            return None
         row = np.argmax(ids[:, None] == obs.ped_ids[None, :], axis=1)  # forecast order -> observation order
         pos, vel = obs.ped_positions[row], obs.ped_velocities[row]
-        to_robot = p0 - pos
-        closing = np.add.reduce(vel * to_robot, axis=1) / np.maximum(np.sqrt(np.add.reduce(to_robot ** 2, axis=1)), 1e-6)
-        mask = closing >= s.straight_speed
+        mask = _along(vel, p0 - pos) >= s.straight_speed  # closing in
         if self._reacted:
-            mask &= ~np.logical_or.reduce(ids[:, None] == np.array(sorted(self._reacted), dtype=np.int64), axis=1)
+            mask &= ~_member(ids, self._reacted)
         if not mask.any():
-            return none
+            return None
         return mask, pos[mask, None, :] + times[None, :, None] * vel[mask, None, :]
 
     def _note_reactions(self, obs: Observation, p0: np.ndarray) -> None:
@@ -253,9 +249,8 @@ class PredictivePlanner:
         seen = np.logical_or.reduce(same, axis=1)
         dv = obs.ped_velocities - vel_old[np.argmax(same, axis=1)]
         away = obs.ped_positions - p0
-        dist = np.sqrt(np.add.reduce(away * away, axis=1))
-        gave_way = np.add.reduce(dv * away, axis=1) >= REACTION_DV * np.maximum(dist, 1e-6)
-        near = dist - obs.robot_radius - obs.ped_radius <= REACTION_RANGE
+        gave_way = _along(dv, away) >= REACTION_DV
+        near = np.sqrt(np.add.reduce(away * away, axis=1)) - obs.robot_radius - obs.ped_radius <= REACTION_RANGE
         self._reacted.update(obs.ped_ids[seen & near & gave_way].tolist())
 
     def _assertiveness(self, phi0: float, now: float, dt: float) -> float:
@@ -372,6 +367,22 @@ COMMIT_SIGMA = 0.1
 #: closed in by at least ``YIELD_PROBE_CLOSING`` [m] during the test while it moved less than that
 YIELD_PROBE_SLACK = 0.3
 YIELD_PROBE_CLOSING = 0.1
+
+
+NO_LINES = np.zeros(0, dtype=np.int64)  #: no pedestrian held to a straight line
+
+
+def _member(ids: np.ndarray, pool) -> np.ndarray:
+    """(N,) mask: which ``ids`` are in ``pool`` (an iterable of ints). np.isin by one comparison table: its sorting
+    machinery cost ~50 us per decision at these sizes."""
+    return np.logical_or.reduce(ids[:, None] == np.array(list(pool), dtype=np.int64), axis=1)
+
+
+def _along(vectors: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """(N,) component of each vector (N, 2) along its direction (N, 2) [same unit], e.g. a walking speed towards
+    the robot."""
+    norm = np.sqrt(np.add.reduce(directions * directions, axis=1))
+    return np.add.reduce(vectors * directions, axis=1) / np.maximum(norm, 1e-6)
 
 
 def _reach(v0: float, limits: RobotLimits, times: np.ndarray) -> np.ndarray:
