@@ -114,8 +114,10 @@ class Simulator:
         )
         self.route.waypoints.flags.writeable = False
         self.robot = np.array([*self.route.start, self.route.heading, 0.0, 0.0])
+        start_clear = (self.clear if cfg.robot_spawn_clearance is None  # the crowd's distance at the start
+                       else self.limits.radius + cfg.ped_radius + cfg.robot_spawn_clearance)
         pop = build_population(map_def, cfg, self.crowd_params, pop_rng, spread_rng,
-                               lambda pts: self._free(pts, self.robot[None, :2]))
+                               lambda pts: self._free(pts, self.robot[None, :2], start_clear))
         pop.pos = self.static.push_off_edges(pop.pos, 2 * self.crowd_params.wall_clearance)
         self.replay = ReplayCrowd(scenario.replay, self.horizon, self.dt) if scenario.replay is not None else None
         if self.replay is not None and pop.n:
@@ -136,12 +138,13 @@ class Simulator:
         self._record()
         return self._observation()
 
-    def _free(self, pts: np.ndarray, avoid: np.ndarray) -> np.ndarray:
-        """Accept points outside obstacles and farther than collision distance + margin from ``avoid`` (K, 2)."""
+    def _free(self, pts: np.ndarray, avoid: np.ndarray, clear: float | None = None) -> np.ndarray:
+        """Accept points outside obstacles and farther than ``clear`` (default: collision distance + margin) from
+        ``avoid`` (K, 2)."""
         ok = ~self.static.inside_obstacle(pts)
         if len(avoid):
             d2 = ((pts[:, None, :] - avoid[None, :, :]) ** 2).sum(axis=2).min(axis=1)
-            ok &= d2 > self.clear**2
+            ok &= d2 > (self.clear if clear is None else clear) ** 2
         return ok
 
     def _respawn_ok(self, pts: np.ndarray) -> np.ndarray:

@@ -43,6 +43,25 @@ def test_no_pedestrian_spawns_within_collision_distance_of_the_robot():
         assert d.min() > obs.robot_radius + obs.ped_radius + 0.5 - 1e-9
 
 
+def test_robot_spawn_clearance_keeps_the_starting_crowd_farther_away_and_only_at_the_start():
+    """A scenario's ``robot_spawn_clearance`` (the stress suite: 3 m) replaces the reference's 0.5 m at reset."""
+    far = scenario(street_map(), name="street", ped_density=0.08, max_episode_steps=300, robot_spawn_clearance=3.0)
+    near_before = 0
+    for seed in range(40):
+        before, after = Simulator().reset(STREET, seed), Simulator().reset(far, seed)
+        contact = after.robot_radius + after.ped_radius
+        near_before += int((np.hypot(*(before.ped_positions - before.robot_pose[:2]).T) <= contact + 3.0).any())
+        d = np.hypot(*(after.ped_positions - after.robot_pose[:2]).T)
+        assert d.min() > contact + 3.0 - 1e-9, seed
+        assert len(after.ped_positions) == len(before.ped_positions)  # moved along their routes, none dropped
+    assert near_before >= 10  # the street's crowd does start that close without it
+
+
+def test_a_negative_robot_spawn_clearance_is_refused_by_name():
+    with pytest.raises(ValueError, match="robot_spawn_clearance"):
+        scenario(street_map(), name="street", robot_spawn_clearance=-1.0)
+
+
 def test_stopping_zone_covers_the_braking_distance_ahead_only():
     robot = np.array([0.0, 0.0, 0.0, 2.0, 0.0])  # 2 m/s along +x, decel 1 m/s^2: 2 m to stop
     pts = np.array([[3.5, 0.0], [3.0, 1.5], [4.0, 0.0], [-3.5, 0.0], [0.0, 2.5], [1.0, 3.0]])
