@@ -6,6 +6,11 @@ holds id -1 before and after, as the trace convention has it), moves linearly be
 divides the annotation interval, the recorded instants fall on steps and the positions there are
 the recorded ones exactly. Velocity is the slope of the segment the step lies in (the last
 segment's at the final annotation). Everything is computed once at reset: a step is an index.
+
+One exception to the recording: nobody walks out of thin air into a robot. A pedestrian whose track would
+begin within collision distance + margin of the robot (where the recording's person was in fact walking
+before the annotation began, or came out of a door the robot now blocks) is left out of the episode
+(:meth:`ReplayCrowd.admit`), as the synthetic crowd never spawns there either.
 """
 
 from __future__ import annotations
@@ -38,6 +43,18 @@ class ReplayCrowd:
                 self.vel[:, k] = np.where(self.present[:, k, None], slope, 0.0)
         self.ids = np.where(self.present, self.track_ids[None, :], -1)
         self.n = n
+        self.withheld: list[int] = []  #: track ids left out (``admit``)
+
+    def admit(self, t: int, robot_xy: np.ndarray, clear: float) -> None:
+        """Leaves out every track appearing at step t within ``clear`` [m] (centre distance) of the robot."""
+        new = self.present[t] if t == 0 else self.present[t] & ~self.present[t - 1]
+        if not new.any():
+            return
+        near = new & (np.hypot(*(self.pos[t] - robot_xy).T) <= clear)
+        if near.any():
+            self.present[t:, near] = False
+            self.ids[t:, near] = -1
+            self.withheld.extend(self.track_ids[near].tolist())
 
     def present_pos(self, t: int) -> np.ndarray:
         """(M, 2) positions of the pedestrians present at step t."""

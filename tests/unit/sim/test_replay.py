@@ -87,6 +87,20 @@ def test_replayed_pedestrians_ignore_the_robot_and_collisions_are_detected(tmp_p
     assert d <= 1.4 < np.hypot(*(tr.ped_pos[-2, 0] - tr.robot[-2, :2]))
 
 
+def test_a_pedestrian_who_would_appear_inside_the_robot_is_left_out(tmp_path: Path, scene_root: Path) -> None:
+    # ped 2's track begins at (6, 1) at step 20: a robot standing 0.5 m from there would be hit out of thin air
+    k2 = 1  # slot of ped 2 (ids sorted)
+    sim, obs = _stand(_matrix(tmp_path, scene_root, robot_start=[6.0, 1.5], robot_goal=[1.0, -1.5]).scenarios[0])
+    tr = sim.trace
+    assert tr.outcome == "timeout" and (tr.ped_ids[:, k2] == -1).all()
+    assert 2 not in {int(i) for o in obs for i in o.ped_ids} and tr.metadata()["replay_withheld"] == [2]
+    # 3.2 m away it appears as recorded, and the others are never touched
+    far, _ = _stand(_matrix(tmp_path / "b", scene_root, robot_start=[3.0, 0.0], robot_goal=[-0.5, 3.0]).scenarios[0])
+    assert (far.trace.ped_ids[20:49, k2] == 2).all() and far.trace.metadata()["replay_withheld"] == []
+    others = [k for k in range(tr.ped_ids.shape[1]) if k != k2]
+    assert np.array_equal(tr.ped_pos[:, others], far.trace.ped_pos[: tr.steps + 1, others])
+
+
 def test_replay_is_deterministic(tmp_path: Path, scene_root: Path) -> None:
     scen = _matrix(tmp_path, scene_root).scenarios[0]
     a, _ = _stand(scen, 3)
