@@ -70,9 +70,10 @@ class SimulationConfig(_Strict):
     nonreactive_fraction: float = Field(default=0.0, ge=0, le=1)  #: share of peds that ignore the robot entirely
     late_reaction_fraction: float = Field(default=0.0, ge=0, le=1)  #: share of the other peds that notice it late
     late_reaction_distance: float = Field(default=2.0, gt=0)  #: centre distance at which a late ped reacts [m]
-    #: clearance [m] beyond contact that the crowd keeps from the robot's start when an episode begins (groups that
-    #: would start nearer are placed elsewhere on their route); None = the reference's 0.5 m. A walker placed 0.5 m
-    #: from a standing robot and heading at it collides within a second whatever the planner does
+    #: clearance [m] beyond contact that pedestrians keep from the robot where they spawn: at the start (groups that
+    #: would start nearer are placed elsewhere on their route) and when they respawn (a group waits while the robot
+    #: is that near its spawn zone; a replayed track that would begin that near is left out). None = the reference's
+    #: 0.5 m. A walker placed 0.5 m from a robot and heading at it collides within a second whatever the planner does
     robot_spawn_clearance: float | None = Field(default=None, ge=0, le=10)
     population_size: int | None = Field(default=None, ge=0, le=5000)  #: force an exact route+zone ped count
     groups: float | None = Field(default=None, ge=0, le=1)  #: reference group_crossing share; read by no physics (like the reference)

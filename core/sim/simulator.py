@@ -103,7 +103,8 @@ class Simulator:
         robot_rng, pop_rng, spread_rng, self.rng, attention_rng = episode_generators(scenario.name, seed, 5)
         if cfg.route_spawn_seed is not None:
             spread_rng = episode_generators(scenario.name, cfg.route_spawn_seed, 4)[2]
-        self.clear = self.limits.radius + cfg.ped_radius + self.crowd_params.robot_spawn_margin
+        margin = self.crowd_params.robot_spawn_margin if cfg.robot_spawn_clearance is None else cfg.robot_spawn_clearance
+        self.clear = self.limits.radius + cfg.ped_radius + margin  # no pedestrian (re)spawns nearer the robot
         singles = np.array([sp.start for sp in map_def.single_pedestrians], dtype=float).reshape(-1, 2)
         # the robot starts clear of scripted peds and, where the zone allows, not touching a wall
         self.route: RobotRoute = sample_robot_route(
@@ -114,10 +115,8 @@ class Simulator:
         )
         self.route.waypoints.flags.writeable = False
         self.robot = np.array([*self.route.start, self.route.heading, 0.0, 0.0])
-        start_clear = (self.clear if cfg.robot_spawn_clearance is None  # the crowd's distance at the start
-                       else self.limits.radius + cfg.ped_radius + cfg.robot_spawn_clearance)
         pop = build_population(map_def, cfg, self.crowd_params, pop_rng, spread_rng,
-                               lambda pts: self._free(pts, self.robot[None, :2], start_clear))
+                               lambda pts: self._free(pts, self.robot[None, :2]))
         pop.pos = self.static.push_off_edges(pop.pos, 2 * self.crowd_params.wall_clearance)
         self.replay = ReplayCrowd(scenario.replay, self.horizon, self.dt) if scenario.replay is not None else None
         if self.replay is not None and pop.n:
@@ -142,13 +141,12 @@ class Simulator:
         self._record()
         return self._observation()
 
-    def _free(self, pts: np.ndarray, avoid: np.ndarray, clear: float | None = None) -> np.ndarray:
-        """Accept points outside obstacles and farther than ``clear`` (default: collision distance + margin) from
-        ``avoid`` (K, 2)."""
+    def _free(self, pts: np.ndarray, avoid: np.ndarray) -> np.ndarray:
+        """Accept points outside obstacles and farther than collision distance + margin from ``avoid`` (K, 2)."""
         ok = ~self.static.inside_obstacle(pts)
         if len(avoid):
             d2 = ((pts[:, None, :] - avoid[None, :, :]) ** 2).sum(axis=2).min(axis=1)
-            ok &= d2 > (self.clear if clear is None else clear) ** 2
+            ok &= d2 > self.clear**2
         return ok
 
     def _respawn_ok(self, pts: np.ndarray) -> np.ndarray:

@@ -146,3 +146,30 @@ def test_non_finite_command_is_refused():
     sim.reset(STREET, 0)
     with pytest.raises(Exception, match="non-finite command"):
         sim.step((float("nan"), 0.0))
+
+
+def test_robot_spawn_clearance_holds_for_respawns_too():
+    """A robot standing at the edge of the spawn zone: with ``robot_spawn_clearance`` 3 m no group respawns within 3 m of contact
+    (it waits), with the reference's 0.5 m some do."""
+    m = open_map(robot_start=(1.0, 9.0, 2.0, 2.0), robot_goal=(37.0, 9.5),
+                 ped_spawn=(Zone.from_rect(6.0, 7.0, 6.0, 6.0),), ped_goal=(Zone.from_rect(22.0, 15.0, 2.0, 2.0),),
+                 ped_routes=(Route(spawn_id=0, goal_id=0, waypoints=((9.0, 16.0), (9.5, 16.0))),))
+    standing = np.array([6.5, 10.0, 0.0, 0.0, 0.0])  # at the edge of the spawn zone
+    nearest = {}
+    for clearance in (None, 3.0):
+        scen = scenario(m, name="respawn_here", population_size=8, max_peds_per_group=1, max_episode_steps=300,
+                        robot_spawn_clearance=clearance)
+        sim, respawned = Simulator(), []
+        for seed in range(3):
+            obs = sim.reset(scen, seed)
+            ids = obs.ped_ids.copy()
+            while not sim.done:
+                sim.robot = standing.copy()
+                obs, _ = sim.step((0.0, 0.0))
+                new = ~np.isin(obs.ped_ids, ids)
+                ids = np.union1d(ids, obs.ped_ids)
+                respawned += np.hypot(*(obs.ped_positions[new] - standing[:2]).T).tolist()
+        assert len(respawned) > 10, clearance
+        nearest[clearance] = min(respawned) - sim.limits.radius - sim.ped_radius
+    # positions are read after the step: a respawned pedestrian walked < 0.3 m since
+    assert nearest[3.0] > 3.0 - 0.3 and nearest[None] < 2.0
