@@ -1,4 +1,4 @@
-"""`foresight scenarios list`, `foresight sim run` and `foresight sim demo`."""
+"""`foresight scenarios list` and `check`, `foresight sim run` and `foresight sim demo`."""
 
 from __future__ import annotations
 
@@ -19,6 +19,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     ls.add_argument("--matrix", required=True, help="scenario matrix YAML")
     ls.add_argument("--json", action="store_true")
     ls.set_defaults(func=scenarios_list)
+    chk = scen.add_parser("check", help="episodes lost before a planner can act: a standing robot walked into "
+                                        "within the first seconds (exit 1 if any)")
+    chk.add_argument("--matrix", required=True, help="scenario matrix YAML")
+    chk.add_argument("--override", action="append", metavar="KEY=VALUE",
+                     help="check under other conditions, as foresight evaluate --override (repeatable)")
+    chk.add_argument("--seeds-per-scenario", type=int, help="the first N of each scenario's seeds (default: all)")
+    chk.add_argument("--seconds", type=float, default=1.5, help="how long the robot stands [s] (default 1.5)")
+    chk.add_argument("--json", action="store_true")
+    chk.set_defaults(func=scenarios_check)
 
     sim = sub.add_parser("sim", help="run the simulator").add_subparsers(dest="action", required=True)
     run = sim.add_parser("run", help="one episode with a planner (default: the goal-seeking robot)")
@@ -60,6 +69,29 @@ def scenarios_list(args: argparse.Namespace) -> int:
     ]
     emit(rows, args.json, _table)
     return 0
+
+
+def scenarios_check(args: argparse.Namespace) -> int:
+    from dataclasses import asdict
+
+    from foresight.cli.evaluate import overrides
+    from foresight.core.scenarios.loader import load_matrix
+    from foresight.core.sim.spawn_check import early_contacts
+
+    if not 0 < args.seconds <= 60:
+        raise ConfigError(f"expected 0 < seconds <= 60, got {args.seconds}", source="command line", item="--seconds")
+    matrix = load_matrix(Path(args.matrix), overrides=overrides(args.override))
+    n = args.seeds_per_scenario
+    seeds = {s.name: list(s.scenario.seeds)[:n] for s in matrix.scenarios} if n else None
+    episodes = sum(len(seeds[s.name]) if seeds else len(s.scenario.seeds) for s in matrix.scenarios)
+    lost = early_contacts(matrix.scenarios, args.seconds, seeds)
+    report = {"matrix": args.matrix, "seconds": args.seconds, "episodes": episodes,
+              "lost": [asdict(c) for c in lost]}
+    emit(report, args.json, lambda r: "\n".join(
+        [f"{r['episodes']} episodes, a robot standing still for {r['seconds']:g} s: "
+         + (f"{len(r['lost'])} walked into (lost before a planner can act)" if r["lost"] else "none walked into")]
+        + [f"  {c['scenario']} seed {c['seed']}: contact at {c['time_s']:g} s" for c in r["lost"]]))
+    return 1 if lost else 0
 
 
 def _table(rows: list[dict]) -> str:

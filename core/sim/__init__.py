@@ -21,7 +21,9 @@ differences:
   others notices it late, only within ``late_reaction_distance`` (``attention``); the reference has
   every pedestrian feel the robot within 3.35 m;
 - replay scenarios (``Scenario.replay``) move recorded ETH/UCY pedestrians along their tracks (``replay``);
-- no pedestrian spawns (or respawns) within r_robot + r_ped + 0.5 m of the robot; the robot's
+- no pedestrian spawns (or respawns) within r_robot + r_ped + 0.5 m of the robot (a scenario's
+  ``robot_spawn_clearance`` instead of 0.5 where set; a replayed track that would begin there is left
+  out; ``spawn_check`` finds episodes a standing robot loses anyway); the robot's
   start keeps the same distance from scripted peds and, where its zone allows, does not touch a
   wall (robot_sf starts some head-on corridor / T-intersection episodes in collision); a group
   whose spawn zone is blocked waits;

@@ -107,3 +107,23 @@ def test_maps_rehash_updates_a_stale_registry(tmp_path: Path, capsys) -> None:
     assert main(["maps", "rehash", str(root / "registry.yaml")]) == 0
     capsys.readouterr()
     assert main(["maps", "rehash", str(root / "registry.yaml"), "--check"]) == 0
+
+
+def test_scenarios_check_finds_episodes_lost_at_spawn(shared_dir: Path, capsys) -> None:
+    """The stress suite passes; under version 1's spawn rule (0.5 m) some standing robots are walked into: exit 1."""
+    stress = str(REPO / "configs" / "scenarios" / "stress.yaml")
+    assert main(["scenarios", "check", "--matrix", stress, "--seeds-per-scenario", "3", "--json"]) == 0
+    assert _json(capsys)["lost"] == []
+    args = ["scenarios", "check", "--matrix", stress, "--seeds-per-scenario", "3", "--override", "robot_spawn_clearance=0.5"]
+    assert main([*args, "--json"]) == 1
+    report = _json(capsys)
+    assert report["episodes"] == 22 * 3 + 36 and report["lost"]
+    assert all(c["time_s"] <= 1.5 and c["scenario"] in {"head_on_corridor_nr30", "head_on_corridor_nr100", "bottleneck_nr30",
+               "bottleneck_nr100", "t_intersection_nr30", "t_intersection_nr100", "merging_nr30"} for c in report["lost"])
+    assert main(args) == 1 and "walked into (lost before a planner can act)" in capsys.readouterr().out
+
+
+def test_scenarios_check_refuses_a_bad_duration(capsys) -> None:
+    assert main(["scenarios", "check", "--matrix", str(OUR_MATRIX), "--seconds", "0"]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--seconds" in err[0]
