@@ -81,11 +81,9 @@ def scenarios_check(args: argparse.Namespace) -> int:
     if not 0 < args.seconds <= 60:
         raise ConfigError(f"expected 0 < seconds <= 60, got {args.seconds}", source="command line", item="--seconds")
     matrix = load_matrix(Path(args.matrix), overrides=overrides(args.override))
-    n = args.seeds_per_scenario
-    seeds = {s.name: list(s.scenario.seeds)[:n] for s in matrix.scenarios} if n else None
-    episodes = sum(len(seeds[s.name]) if seeds else len(s.scenario.seeds) for s in matrix.scenarios)
+    seeds = {s.name: list(s.scenario.seeds)[: args.seeds_per_scenario] for s in matrix.scenarios}
     lost = early_contacts(matrix.scenarios, args.seconds, seeds)
-    report = {"matrix": args.matrix, "seconds": args.seconds, "episodes": episodes,
+    report = {"matrix": args.matrix, "seconds": args.seconds, "episodes": sum(map(len, seeds.values())),
               "lost": [asdict(c) for c in lost]}
     emit(report, args.json, lambda r: "\n".join(
         [f"{r['episodes']} episodes, a robot standing still for {r['seconds']:g} s: "

@@ -121,8 +121,6 @@ class Simulator:
         self.replay = ReplayCrowd(scenario.replay, self.horizon, self.dt) if scenario.replay is not None else None
         if self.replay is not None and pop.n:
             raise CoreError(f"{scenario.name}: a replay scenario has only its recorded pedestrians")
-        if self.replay is not None:
-            self.replay.admit(0, self.robot[:2], self.clear)
         params, robot_radius, _ = self._robot_repulsion()
         reach = reaction_ranges(pop.n, cfg, params.robot_cutoff(robot_radius), attention_rng)
         self._build_crowd(pop, map_def, reach)
@@ -132,7 +130,8 @@ class Simulator:
                                   # what a picture of the trace draws: the goal, its tolerance, the robot's body
                                   "goal": [float(v) for v in self.route.goal], "goal_tolerance": float(self.route.tolerance),
                                   "robot_radius": float(self.limits.radius)})
-        if self.replay is not None:
+        if self.replay is not None:  # no recorded pedestrian appears where the robot stands
+            self.replay.admit(0, self.robot[:2], self.clear)
             self._trace.meta["replay_withheld"] = self.replay.withheld  # the list grows as the episode runs
         self.static_check = StaticChecker(self.static, self.limits.radius)
         self.t = 0
