@@ -20,7 +20,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     ls.add_argument("--json", action="store_true")
     ls.set_defaults(func=scenarios_list)
     chk = scen.add_parser("check", help="episodes lost before a planner can act: a standing robot walked into "
-                                        "within the first seconds (exit 2 if any, as a failed gate)")
+                                        "within the first seconds (exit 1 if any)")
     chk.add_argument("--matrix", required=True, help="scenario matrix YAML")
     chk.add_argument("--override", action="append", metavar="KEY=VALUE",
                      help="check under other conditions, as foresight evaluate --override (repeatable)")
@@ -89,7 +89,7 @@ def scenarios_check(args: argparse.Namespace) -> int:
         [f"{r['episodes']} episodes, a robot standing still for {r['seconds']:g} s: "
          + (f"{len(r['lost'])} walked into (lost before a planner can act)" if r["lost"] else "none walked into")]
         + [f"  {c['scenario']} seed {c['seed']}: contact at {c['time_s']:g} s" for c in r["lost"]]))
-    return 2 if lost else 0  # a failed check, as a failed gate; 1 is bad input
+    return 1 if lost else 0
 
 
 def _table(rows: list[dict]) -> str:
