@@ -28,6 +28,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     chk.add_argument("--seconds", type=float, default=1.5, help="how long the robot stands [s] (default 1.5)")
     chk.add_argument("--json", action="store_true")
     chk.set_defaults(func=scenarios_check)
+    rch = scen.add_parser("reachable", help="episodes no robot could solve: space-time reachability of the goal "
+                                            "against the crowd as it walks (exact where nobody reacts to the robot)")
+    rch.add_argument("--matrix", required=True, help="scenario matrix YAML")
+    rch.add_argument("--override", action="append", metavar="KEY=VALUE",
+                     help="under other conditions, as foresight evaluate --override (repeatable)")
+    rch.add_argument("--scenarios", help="comma-separated scenario names (default: all)")
+    rch.add_argument("--seeds-per-scenario", type=int, help="the first N of each scenario's seeds (default: all)")
+    rch.add_argument("--episodes", help="an evaluation's episodes.jsonl (evaluate --local --out DIR): its success "
+                                        "on the reachable episodes")
+    rch.add_argument("--json", action="store_true")
+    rch.set_defaults(func=scenarios_reachable)
 
     sim = sub.add_parser("sim", help="run the simulator").add_subparsers(dest="action", required=True)
     run = sim.add_parser("run", help="one episode with a planner (default: the goal-seeking robot)")
@@ -90,6 +101,57 @@ def scenarios_check(args: argparse.Namespace) -> int:
          + (f"{len(r['lost'])} walked into (lost before a planner can act)" if r["lost"] else "none walked into")]
         + [f"  {c['scenario']} seed {c['seed']}: contact at {c['time_s']:g} s" for c in r["lost"]]))
     return 1 if lost else 0
+
+
+def scenarios_reachable(args: argparse.Namespace) -> int:
+    from foresight.cli.evaluate import overrides
+    from foresight.core.scenarios.loader import load_matrix
+    from foresight.core.sim.feasibility import reachability
+
+    matrix = load_matrix(Path(args.matrix), overrides=overrides(args.override))
+    chosen = [matrix.get(n.strip()) for n in args.scenarios.split(",")] if args.scenarios else list(matrix.scenarios)
+    if args.seeds_per_scenario is not None and args.seeds_per_scenario < 1:
+        raise ConfigError(f"expected a positive count, got {args.seeds_per_scenario}", source="command line",
+                          item="--seeds-per-scenario")
+    outcomes = _outcomes(args.episodes) if args.episodes else None
+    rows = []
+    for s in chosen:
+        for seed in list(s.scenario.seeds)[: args.seeds_per_scenario]:
+            r = reachability(s, int(seed))
+            rows.append({"scenario": r.scenario, "seed": r.seed, "reachable": r.reachable, "first_step": r.first_step,
+                         "peds_react": r.peds_react})
+    report: dict = {"matrix": args.matrix, "episodes": len(rows), "reachable": sum(r["reachable"] for r in rows),
+                    "unreachable": [r for r in rows if not r["reachable"]], "approximate": any(r["peds_react"] for r in rows)}
+    if outcomes is not None:
+        ok = [r for r in rows if r["reachable"]]
+        missing = [f"{r['scenario']} {r['seed']}" for r in ok if (r["scenario"], r["seed"]) not in outcomes]
+        if missing:
+            raise ConfigError(f"no episode for {missing[0]} (and {len(missing) - 1} more)", source=args.episodes)
+        wins = sum(outcomes[r["scenario"], r["seed"]] == "success" for r in ok)
+        report["success_on_reachable"] = {"successes": wins, "episodes": len(ok), "rate": wins / len(ok) if ok else None}
+    emit(report, args.json, _reachable_text)
+    return 0
+
+
+def _outcomes(path: str) -> dict[tuple[str, int], str]:
+    """(scenario, seed) -> outcome of an evaluation's episodes.jsonl; a bad file is a ConfigError naming it."""
+    try:
+        lines = Path(path).read_text().splitlines()
+        return {(e["scenario"], int(e["seed"])): e["outcome"] for e in map(json.loads, filter(None, lines))}
+    except FileNotFoundError:
+        raise ConfigError("file does not exist", source=path) from None
+    except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
+        raise ConfigError(f"expected episode records with scenario, seed and outcome: {exc}", source=path) from None
+
+
+def _reachable_text(r: dict) -> str:
+    lines = [f"{r['episodes']} episodes: {r['reachable']} reachable, {len(r['unreachable'])} no robot could solve"
+             + (" (approximate: pedestrians react to the robot)" if r["approximate"] else "")]
+    lines += [f"  {u['scenario']} seed {u['seed']}: goal unreachable" for u in r["unreachable"]]
+    if "success_on_reachable" in r:
+        s = r["success_on_reachable"]
+        lines.append(f"success on the reachable episodes: {s['successes']}/{s['episodes']}")
+    return "\n".join(lines)
 
 
 def _table(rows: list[dict]) -> str:

@@ -127,3 +127,36 @@ def test_scenarios_check_refuses_a_bad_duration(capsys) -> None:
     assert main(["scenarios", "check", "--matrix", str(OUR_MATRIX), "--seconds", "0"]) != 0
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--seconds" in err[0]
+
+
+def test_scenarios_reachable_names_the_episodes_no_robot_could_solve(shared_dir: Path, tmp_path: Path, capsys) -> None:
+    """Nobody yields at typical speed: the high-density bottleneck cannot be crossed in time, the medium one can;
+    an evaluation's outcomes are scored on the reachable episodes only."""
+    classic = str(shared_dir / "reference/robot_sf/configs/scenarios/classic_interactions.yaml")
+    args = ["scenarios", "reachable", "--matrix", classic, "--override", "ped_speed_tier=typical",
+            "--override", "peds_have_robot_repulsion=false", "--seeds-per-scenario", "1",
+            "--scenarios", "classic_bottleneck_high,classic_bottleneck_medium"]
+    episodes = tmp_path / "episodes.jsonl"
+    episodes.write_text(json.dumps({"scenario": "classic_bottleneck_medium", "seed": 131, "outcome": "success"}) + "\n"
+                        + json.dumps({"scenario": "classic_bottleneck_high", "seed": 131, "outcome": "timeout"}) + "\n")
+    assert main([*args, "--episodes", str(episodes), "--json"]) == 0
+    report = _json(capsys)
+    assert report["episodes"] == 2 and report["reachable"] == 1 and not report["approximate"]
+    assert [(u["scenario"], u["seed"]) for u in report["unreachable"]] == [("classic_bottleneck_high", 131)]
+    assert report["success_on_reachable"] == {"successes": 1, "episodes": 1, "rate": 1.0}
+    assert main(args) == 0 and "classic_bottleneck_high seed 131: goal unreachable" in capsys.readouterr().out
+
+
+def test_scenarios_reachable_refuses_an_evaluation_without_the_episodes(shared_dir: Path, tmp_path: Path, capsys) -> None:
+    classic = str(shared_dir / "reference/robot_sf/configs/scenarios/classic_interactions.yaml")
+    other = tmp_path / "episodes.jsonl"
+    other.write_text(json.dumps({"scenario": "classic_doorway_low", "seed": 141, "outcome": "success"}) + "\n")
+    args = ["scenarios", "reachable", "--matrix", classic, "--scenarios", "classic_bottleneck_medium",
+            "--seeds-per-scenario", "1", "--episodes", str(other)]
+    assert main(args) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "episodes.jsonl" in err[0] and "classic_bottleneck_medium 131" in err[0]
+    other.write_text("not json\n")
+    assert main(args) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "expected episode records" in err[0]

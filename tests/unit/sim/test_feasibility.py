@@ -1,0 +1,72 @@
+"""Space-time reachability (``core.sim.feasibility``): hand-built episodes both ways, timing against the
+straight-line bound, and soundness against episodes a real planner solved."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from foresight.core.planners.registry import make_planner
+from foresight.core.scenarios.loader import load_matrix
+from foresight.core.sim.episode import run_episode
+from foresight.core.sim.feasibility import reachability
+
+from .scenes import open_map, scenario, walker
+
+# a 3 m wide corridor (y 8.5 .. 11.5) from x 15 to 25: a 2 m robot cannot pass a walker in it
+CORRIDOR = (((15.0, 0.0), (25.0, 0.0), (25.0, 8.5), (15.0, 8.5)), ((15.0, 11.5), (25.0, 11.5), (25.0, 30.0), (15.0, 30.0)))
+
+
+def corridor(blocker_at: tuple[float, float], **sim) -> object:
+    """The robot drives from x 2 to x 37 along y 10 through the corridor; one walker stands at ``blocker_at``."""
+    m = open_map(obstacles=CORRIDOR, robot_start=(1.5, 9.5, 1.0, 1.0), robot_goal=(36.5, 9.5),
+                 singles=(walker("w", blocker_at, blocker_at, speed=0.0),))
+    return scenario(m, peds_have_robot_repulsion=False, max_episode_steps=400, **sim)
+
+
+def test_a_walker_standing_in_a_one_lane_corridor_makes_the_goal_unreachable():
+    r = reachability(corridor((20.0, 10.0)), 1)
+    assert not r.reachable and r.first_step is None
+    assert not r.peds_react  # nobody reacts to the robot: the verdict is exact
+
+
+def test_the_same_walker_beside_the_corridor_leaves_it_reachable_in_straight_line_time():
+    r = reachability(corridor((8.0, 20.0)), 1)
+    assert r.reachable
+    way = 36.0 - 2.0 - 1.5  # start x to goal x, less the goal tolerance (robot radius 1 + goal radius 0.5)
+    fastest = way / (2.0 * 1.12) / 0.1  # the relaxed robot is at most 12 % faster than v_max (2 m/s)
+    assert fastest - 1 <= r.first_step <= way / 2.0 / 0.1 + 3
+
+
+def test_a_walker_coming_through_the_corridor_is_waited_for_when_there_is_time():
+    walking = open_map(obstacles=CORRIDOR, robot_start=(1.5, 9.5, 1.0, 1.0), robot_goal=(36.5, 9.5),
+                       singles=(walker("w", (30.0, 10.0), (6.0, 10.0), speed=1.2),))
+    long_enough = reachability(scenario(walking, peds_have_robot_repulsion=False, max_episode_steps=600), 1)
+    assert long_enough.reachable
+    assert long_enough.first_step > 200  # not through the corridor before the walker is: it waited (straight ~160)
+    too_short = reachability(scenario(walking, peds_have_robot_repulsion=False, max_episode_steps=long_enough.first_step - 5), 1)
+    assert not too_short.reachable
+
+
+@pytest.mark.parametrize(("name", "seed"), [("classic_doorway_low", 141), ("classic_group_crossing_medium", 131)])
+def test_every_episode_a_planner_solved_is_reachable_no_later(shared_dir: Path, name: str, seed: int):
+    """Soundness: the relaxed robot can do whatever the real one did, so a success is never called unreachable."""
+    matrix = load_matrix(shared_dir / "reference/robot_sf/configs/scenarios/classic_interactions.yaml",
+                         overrides={"simulation_config": {"ped_speed_tier": "typical", "peds_have_robot_repulsion": False}})
+    sc = matrix.get(name)
+    ep = run_episode(sc, seed, make_planner("goal"))
+    r = reachability(sc, seed)
+    if ep.outcome == "success":
+        assert r.reachable and r.first_step <= ep.steps
+    assert r.reachable  # these two are solvable (the predictive planner solves them)
+
+
+def test_reference_bottleneck_high_is_unreachable_when_nobody_yields(shared_dir: Path):
+    """Three walkers who do not see the robot fill the 4.3 m corridor single file for most of the episode."""
+    matrix = load_matrix(shared_dir / "reference/robot_sf/configs/scenarios/classic_interactions.yaml",
+                         overrides={"simulation_config": {"ped_speed_tier": "typical", "peds_have_robot_repulsion": False}})
+    r = reachability(matrix.get("classic_bottleneck_high"), 131)
+    assert not r.reachable
+    assert math.isclose(r.horizon, 500)
