@@ -34,7 +34,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     rch.add_argument("--override", action="append", metavar="KEY=VALUE",
                      help="under other conditions, as foresight evaluate --override (repeatable)")
     rch.add_argument("--scenarios", help="comma-separated scenario names (default: all)")
-    rch.add_argument("--seeds-per-scenario", type=int, help="the first N of each scenario's seeds (default: all)")
+    rch.add_argument("--seeds-per-scenario", type=int, help="N seeds per scenario, as foresight evaluate's (default: "
+                                                            "the matrix's own)")
     rch.add_argument("--episodes", help="an evaluation's episodes.jsonl (evaluate --local --out DIR): its success "
                                         "on the reachable episodes")
     rch.add_argument("--json", action="store_true")
@@ -105,6 +106,7 @@ def scenarios_check(args: argparse.Namespace) -> int:
 
 def scenarios_reachable(args: argparse.Namespace) -> int:
     from foresight.cli.evaluate import overrides
+    from foresight.core.evaluation.runner import expand_seeds
     from foresight.core.scenarios.loader import load_matrix
     from foresight.core.sim.feasibility import reachability
 
@@ -116,7 +118,7 @@ def scenarios_reachable(args: argparse.Namespace) -> int:
     outcomes = _outcomes(args.episodes) if args.episodes else None
     rows = []
     for s in chosen:
-        for seed in list(s.scenario.seeds)[: args.seeds_per_scenario]:
+        for seed in expand_seeds(s.scenario.seeds, args.seeds_per_scenario):
             r = reachability(s, int(seed))
             rows.append({"scenario": r.scenario, "seed": r.seed, "reachable": r.reachable, "first_step": r.first_step,
                          "peds_react": r.peds_react})

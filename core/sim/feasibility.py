@@ -63,14 +63,17 @@ def reachability(scenario: ResolvedScenario, seed: int, grid: float = GRID) -> R
     inside = sim.static.inside_obstacle(cells.reshape(-1, 2)).reshape(nx, ny)
     free = (sim.static.distance(cells) > limits.radius - corner) & ~inside
     at_goal = np.hypot(cells[..., 0] - goal[0], cells[..., 1] - goal[1]) <= tol + corner
-    # reach per step in cells: half a cell more lets the lattice walk keep up with any straight line (at most
-    # 12 % faster than v_max at 0.1 m cells and 0.2 m steps; more would add up to a faster robot over the steps)
-    move = _disc(limits.v_max * dt / grid + 0.5)
+    # reach per step in cells: the speed the robot can have by then from rest (its acceleration limit), half a cell
+    # more so that the lattice walk keeps up with any straight line (at most 12 % faster than v_max at 0.1 m cells
+    # and 0.2 m steps; more would add up to a faster robot over the steps)
+    discs: dict[float, list[tuple[int, int]]] = {}
     contact = limits.radius + sim.ped_radius - corner  # the simulator's contact, judged at its steps as it does
     reach = np.zeros((nx, ny), dtype=bool)
     i0, j0 = int(round(start[0] / grid)), int(round(start[1] / grid))
     reach[max(i0 - 1, 0):i0 + 2, max(j0 - 1, 0):j0 + 2] = True
     for t in range(1, sim.horizon + 1):
+        cells_per_step = round(min(limits.v_max, limits.accel * t * dt) * dt / grid + 0.5, 6)
+        move = discs.setdefault(cells_per_step, _disc(cells_per_step))
         reach = _dilate(reach, move) & free & ~_occupied(peds[t], contact, grid, nx, ny)
         if (reach & at_goal).any():
             return Reachability(scenario.name, int(seed), True, t, sim.horizon, _reacts(scenario))
