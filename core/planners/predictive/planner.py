@@ -28,7 +28,7 @@ from foresight.core.planners.base import EpisodeInfo
 from foresight.core.planners.predictive import cost as C
 from foresight.core.planners.predictive.config import PredictivePlannerConfig
 from foresight.core.planners.predictive.geodesic import GeodesicDistance
-from foresight.core.planners.predictive.rollout import eval_steps, extend_forecast, rollout
+from foresight.core.planners.predictive.rollout import FrameRollouts, eval_steps, extend_forecast, rollout
 from foresight.core.planners.predictive.sampling import branch_commands, first_candidates, turn_then_go
 from foresight.core.predict.forecaster import Forecaster
 from foresight.core.sim.observation import Observation
@@ -62,6 +62,7 @@ class PredictivePlanner:
         self._reacted: set[int] = set()  #: pedestrians seen to give way to the robot (no straight line for them)
         self._past: deque[tuple[float, np.ndarray, np.ndarray]] = deque()  #: (time, ids, velocities) over REACTION_WINDOW_S
         self._limits = RobotLimits.from_config(robot)
+        self._frames = FrameRollouts(self._limits, info.dt)
         self._cands: dict[bool | None, np.ndarray] = {}
         self._firsts: dict[tuple, np.ndarray] = {}  #: (near field, steps) -> the first round's sequences
         self._step_cache: dict[tuple, tuple] = {}
@@ -313,12 +314,11 @@ class PredictivePlanner:
     def _search(self, obs: Observation, scene: C.Scene, near: bool) -> tuple[np.ndarray, dict, float, int]:
         """Beam search; returns the best sequence's commands (S, 2), its terms, its cost and #evaluations."""
         cfg = self.config
-        limits = self._limits
         sim_dt = obs.dt
         idx, S, bounds = self._steps(scene.times, sim_dt)
         state0 = np.concatenate([obs.robot_pose, obs.robot_velocity]).astype(float)
         cmds = self._first_sequences(near, S, sim_dt)  # (C + P, S, 2)
-        states = rollout(np.repeat(state0[None], len(cmds), axis=0), cmds, limits, sim_dt)
+        states = self._frames(state0[None], cmds, ("first", near, S))
         total, terms = C.evaluate(C.Rollouts(states, idx, cmds), scene, cfg)
         evals = [(cmds, states, total, terms)]  # (commands, states, totals, terms) of each evaluation, in order
         n_eval = len(cmds)
@@ -329,7 +329,7 @@ class PredictivePlanner:
             p_cmds, p_states = _joined(evals, 0)[keep], _joined(evals, 1)[keep]
             new_cmds = np.repeat(p_cmds, M, axis=0)
             new_cmds[:, b:] = np.tile(branch, (len(keep), 1))[:, None, :]
-            tail = rollout(np.repeat(p_states[:, b - 1], M, axis=0), new_cmds[:, b:], limits, sim_dt)
+            tail = self._frames(p_states[:, b - 1], new_cmds[:M, b:], ("branch", b, S))
             new_states = np.concatenate([np.repeat(p_states[:, :b], M, axis=0), tail], axis=1)
             t_new, terms_new = C.evaluate(C.Rollouts(new_states, idx, new_cmds), scene, cfg)
             n_eval += len(new_cmds)

@@ -9,7 +9,10 @@ until one holds its ground); then route progress measured around the walls (``ge
 turns among the first candidates (turn in place, then drive straight: most cases now start with a
 sharp turn where they started with an arc, and every evaluation count grew by the 16 sequences); then room for
 pedestrians walking away from a slow robot (``receding_room``: with constant velocity the three crowd cases changed, with the learned model all six,
-whose forecasts set the pedestrians moving).
+whose forecasts set the pedestrians moving). On 2026-11-25 only ``ped_ahead`` was re-recorded: rollouts are now the
+robot-frame ones turned and moved to the robot's pose (``FrameRollouts``, positions equal to ~1e-15 m), and its first
+decision is an exact left/right tie (the pedestrian dead ahead on the robot's line, both costs equal to 1e-15),
+which now breaks the other way; its later steps follow from that one. Every other decision is unchanged.
 Before that it held the decisions of the planner before its rollout was vectorised.
 Speed-ups must not change decisions: commands and sequences must match exactly, costs to
 floating-point rounding. The independent checks of behaviour are in ``test_predictive_planner.py``
