@@ -23,6 +23,7 @@ RATES: dict[str, Callable[[EpisodeRecord], bool]] = {
     "collision_static": lambda r: r.outcome == "collision_static",
     "timeout": lambda r: r.outcome == "timeout",
     "error": lambda r: r.outcome == "error",
+    "unsolvable": lambda r: r.taxonomy.reachable is False,  #: failed where no robot could reach the goal in time
 }
 
 #: mean name -> value of a record (None = not applicable, excluded)

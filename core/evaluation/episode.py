@@ -201,4 +201,18 @@ def run_one(scenario: ResolvedScenario, seed: int, rp: ResolvedPlanner, *, max_s
     planner.finish(outcome)
     record, geom = record_of(scenario, seed, sim, rp, outcome=outcome, error=error, log=planner.log,
                              wall_s=time.perf_counter() - t0, metrics_cfg=metrics_cfg, taxonomy_cfg=taxonomy_cfg)
+    if outcome in ("timeout", "collision_pedestrian") and (taxonomy_cfg or TaxonomyConfig()).check_reachability:
+        reachable = reachability_checked(scenario, seed, max_steps)
+        if reachable is not None:
+            record = record.model_copy(update={"taxonomy": record.taxonomy.model_copy(update={"reachable": reachable})})
     return EpisodeRun(record=record, trace=sim.trace, log=planner.log, geometry=geom)
+
+
+def reachability_checked(scenario: ResolvedScenario, seed: int, max_steps: int | None = None) -> bool | None:
+    """Whether any robot could have reached the goal (``core.sim.feasibility``), where that has an answer: None
+    where pedestrians react to the robot (their paths depend on what it does)."""
+    from foresight.core.sim.feasibility import peds_react, reachability
+
+    if peds_react(scenario):
+        return None
+    return reachability(scenario, seed, max_steps=max_steps).reachable

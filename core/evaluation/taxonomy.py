@@ -65,6 +65,9 @@ class TaxonomyConfig(BaseModel):
     prediction_miss_error: float = Field(default=1.0, gt=0)  #: mean predictor error on the involved ped above this [m]
     fault_lookback_s: float = Field(default=3.0, gt=0)  #: the conflict is visible at most this long before contact [s]
     fault_extension_s: float = Field(default=1.0, ge=0)  #: an escape must stay clear this long past the contact [s]
+    #: failed episodes where nobody reacts to the robot: could any robot have reached the goal? (``reachable``;
+    #: core.sim.feasibility, about 0.5 s per failed episode)
+    check_reachability: bool = True
 
 
 class TaxonomyResult(BaseModel):
@@ -74,6 +77,9 @@ class TaxonomyResult(BaseModel):
     critical_step: int | None = None
     avoidable: bool | None = None  #: pedestrian collisions: an admissible motion from the decision step avoids it
     decision_step: int | None = None  #: pedestrian collisions: the state the escape check starts from
+    #: failures where nobody reacts to the robot: False = no robot could have reached the goal in time (the episode
+    #: measures no planner), True = one could; None: not checked (a success, or pedestrians who react to the robot)
+    reachable: bool | None = None
 
 
 def _critical(d: Derived, step: int | None) -> tuple[int, int] | None:

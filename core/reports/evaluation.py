@@ -11,6 +11,7 @@ from typing import Any
 
 from foresight.core.evaluation.aggregate import GroupStats
 from foresight.core.evaluation.runner import EvaluationResult, PlannerProvenance
+from foresight.core.evaluation.stats import RateEstimate
 from foresight.core.render.charts import rate_bars, taxonomy_bars
 from foresight.core.reports.common import (
     figure_path,
@@ -57,12 +58,25 @@ def _summary(doc: Document, res: EvaluationResult) -> None:
         ["static collisions", rate_text(rates["collision_static"])],
         ["timeouts", rate_text(rates["timeout"])],
         ["errors", rate_text(rates["error"])],
+        *_unsolvable_rows(rates),
         ["planner", f"`{planner_label(planner)}` (config `{planner.config_hash[:12]}`)"],
         ["model", f"`{planner.model_id}` (checkpoint `{planner.checkpoint_sha256[:12]}`)"],
         ["scenarios", f"{res.bundle}: {res.matrix}, seeds {res.seed_source}, horizon {res.horizon}"],
         ["code version", f"`{res.code_version}`"],
         ["run", f"{res.workers} workers, {fmt(res.wall_s, 1, ' s')}"],
     ])
+
+
+def _unsolvable_rows(rates: dict[str, RateEstimate]) -> list[list[str]]:
+    """Failures no robot could have turned into a success (``taxonomy.reachable`` False), and the success rate on
+    the rest; none for results recorded before the check, or without such episodes."""
+    if "unsolvable" not in rates or not rates["unsolvable"].count:
+        return []
+    bad, ok = rates["unsolvable"], rates["success"]
+    solvable = ok.n - bad.count
+    share = f" ({pct(ok.count / solvable)})" if solvable else ""
+    return [["unsolvable: no robot could reach the goal in time", rate_text(bad)],
+            ["success on the solvable episodes", f"{ok.count}/{solvable}{share}"]]
 
 
 def _gate_and_integrity(doc: Document, res: EvaluationResult) -> None:

@@ -38,11 +38,12 @@ class Reachability:
     peds_react: bool  #: pedestrians feel the robot: their paths were recorded around a standing one (approximate)
 
 
-def crowd_paths(scenario: ResolvedScenario, seed: int) -> tuple[Simulator, list[np.ndarray]]:
+def crowd_paths(scenario: ResolvedScenario, seed: int,
+                max_steps: int | None = None) -> tuple[Simulator, list[np.ndarray]]:
     """The pedestrians' positions (N_t, 2) at steps 0..horizon around a robot that stands at its start (contacts
     with it do not end the recording)."""
     sim = Simulator()
-    obs = sim.reset(scenario, int(seed))
+    obs = sim.reset(scenario, int(seed), max_steps=max_steps)
     out = [np.asarray(obs.ped_positions, dtype=float)]
     while sim.t < sim.horizon:
         sim.done = False  # a pedestrian walking into the standing robot does not end the recording
@@ -51,9 +52,11 @@ def crowd_paths(scenario: ResolvedScenario, seed: int) -> tuple[Simulator, list[
     return sim, out
 
 
-def reachability(scenario: ResolvedScenario, seed: int, grid: float = GRID) -> Reachability:
-    """Whether a relaxed robot (see the module docstring) can reach the goal in this episode, and when."""
-    sim, peds = crowd_paths(scenario, seed)
+def reachability(scenario: ResolvedScenario, seed: int, grid: float = GRID,
+                 max_steps: int | None = None) -> Reachability:
+    """Whether a relaxed robot (see the module docstring) can reach the goal in this episode (within ``max_steps``,
+    default the scenario's horizon), and when."""
+    sim, peds = crowd_paths(scenario, seed, max_steps)
     start, goal, tol = sim.robot[:2].copy(), sim.route.waypoints[-1], sim.route.tolerance  # it stood at its start
     dt, limits = sim.dt, sim.limits
     nx, ny = int(np.ceil(sim.static.width / grid)) + 1, int(np.ceil(sim.static.height / grid)) + 1
@@ -76,13 +79,13 @@ def reachability(scenario: ResolvedScenario, seed: int, grid: float = GRID) -> R
         move = discs.setdefault(cells_per_step, _disc(cells_per_step))
         reach = _dilate(reach, move) & free & ~_occupied(peds[t], contact, grid, nx, ny)
         if (reach & at_goal).any():
-            return Reachability(scenario.name, int(seed), True, t, sim.horizon, _reacts(scenario))
+            return Reachability(scenario.name, int(seed), True, t, sim.horizon, peds_react(scenario))
         if not reach.any():
             break
-    return Reachability(scenario.name, int(seed), False, None, sim.horizon, _reacts(scenario))
+    return Reachability(scenario.name, int(seed), False, None, sim.horizon, peds_react(scenario))
 
 
-def _reacts(scenario: ResolvedScenario) -> bool:
+def peds_react(scenario: ResolvedScenario) -> bool:
     """Whether any pedestrian feels the robot (then the recorded crowd is the one around a standing robot)."""
     cfg = scenario.scenario.simulation_config
     if scenario.replay is not None or not cfg.peds_have_robot_repulsion:

@@ -23,7 +23,7 @@ def corridor(blocker_at: tuple[float, float], **sim) -> object:
     """The robot drives from x 2 to x 37 along y 10 through the corridor; one walker stands at ``blocker_at``."""
     m = open_map(obstacles=CORRIDOR, robot_start=(1.5, 9.5, 1.0, 1.0), robot_goal=(36.5, 9.5),
                  singles=(walker("w", blocker_at, blocker_at, speed=0.0),))
-    return scenario(m, peds_have_robot_repulsion=False, max_episode_steps=400, **sim)
+    return scenario(m, **{"peds_have_robot_repulsion": False, "max_episode_steps": 400, **sim})
 
 
 def test_a_walker_standing_in_a_one_lane_corridor_makes_the_goal_unreachable():
