@@ -82,7 +82,9 @@ def cell(records: list) -> dict:
     n = len(records)
     counts = {"success": sum(r.success for r in records), "collision": sum(r.collision for r in records),
               "timeout": sum(r.outcome == "timeout" for r in records)}
-    return {"episodes": n, **{k: rate(c, n).model_dump(exclude={"n"}) for k, c in counts.items()}}
+    unsolvable = sum(r.taxonomy.reachable is False for r in records)  # no robot could have reached the goal
+    return {"episodes": n, **{k: rate(c, n).model_dump(exclude={"n"}) for k, c in counts.items()},
+            "unsolvable": unsolvable}
 
 
 def suite_table(folders: dict[str, Path], groups: dict[str, str]) -> dict[str, dict[str, dict]]:
