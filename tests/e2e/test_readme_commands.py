@@ -171,10 +171,12 @@ def _run(cmd: str, scratch: Path, prelude: str = "", ok: tuple[int, ...] = (0,),
 
 
 def test_simulator_section_runs_as_written(scratch: Path, shared_dir: Path) -> None:
-    listing, check, episode, demo = commands(section_blocks("The simulator", "bash")[0].code)
+    listing, check, reachable, episode, demo = commands(section_blocks("The simulator", "bash")[0].code)
     assert "crossing_low" in _run(listing, scratch)
     report = json.loads(_run(check, scratch))
     assert report["episodes"] == 256 and report["lost"] == [], report
+    verdict = json.loads(_run(reachable, scratch))  # nobody yields: the crowded corridor cannot be crossed in time
+    assert verdict["episodes"] == 2 and verdict["reachable"] == 0 and not verdict["approximate"], verdict
     record = json.loads(_run(episode, scratch))
     assert record["scenario"] == "classic_cross_trap_high" and record["seed"] == 102, record
     assert record["outcome"] in ("success", "timeout", "collision_pedestrian", "collision_static")
