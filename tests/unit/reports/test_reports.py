@@ -251,3 +251,15 @@ def test_a_renamed_result_field_is_an_error_naming_it_not_a_dash(tmp_path: Path)
     with pytest.raises(ValidationError, match="planner.config_hash"):
         write_evaluation_report(renamed, tmp_path)
     assert not (tmp_path / "report.md").exists()
+
+
+def test_evaluation_report_counts_success_on_the_solvable_episodes(tmp_path: Path) -> None:
+    """Two of the three failures no robot could have avoided: the summary says so and scores the other 8 episodes;
+    a result recorded before the reachability check (no such rate) shows neither row."""
+    res = data.evaluation(failures=True)
+    md_old, _ = _read(write_evaluation_report(res, tmp_path / "old"))
+    assert "solvable" not in md_old
+    res["aggregates"]["overall"]["rates"]["unsolvable"] = data.rate_d(2, 10)
+    md, _ = _read(write_evaluation_report(res, tmp_path / "new"))
+    assert "| unsolvable: no robot could reach the goal in time | 20.0% [" in md
+    assert "| success on the solvable episodes | 7/8 (87.5%) |" in md
