@@ -8,7 +8,7 @@ import shutil
 from pathlib import Path
 
 from foresight.cli import stage
-from foresight.cli.common import build_config, emit, local_context, matrix_ref
+from foresight.cli.common import build_config, emit, local_context, matrix_ref, progress_bar
 from foresight.core.errors import ConfigError
 from foresight.core.stages.simulate import SimulateConfig, SimulateResult, run_simulate
 
@@ -116,19 +116,22 @@ def scenarios_reachable(args: argparse.Namespace) -> int:
         raise ConfigError(f"expected a positive count, got {args.seeds_per_scenario}", source="command line",
                           item="--seeds-per-scenario")
     outcomes = _outcomes(args.episodes) if args.episodes else None
+    episodes = [(s, seed) for s in chosen for seed in expand_seeds(s.scenario.seeds, args.seeds_per_scenario)]
+    missing = [f"{s.name} {seed}" for s, seed in episodes if outcomes is not None and (s.name, seed) not in outcomes]
+    if missing:  # before the work: the evaluation must hold every episode asked about
+        raise ConfigError(f"no episode for {missing[0]} (and {len(missing) - 1} more)", source=args.episodes)
     rows = []
-    for s in chosen:
-        for seed in expand_seeds(s.scenario.seeds, args.seeds_per_scenario):
+    with progress_bar(quiet=args.json) as bar:  # about 0.5 s an episode
+        task = bar.add_task("reachable", total=len(episodes), message="")
+        for s, seed in episodes:
             r = reachability(s, int(seed))
             rows.append({"scenario": r.scenario, "seed": r.seed, "reachable": r.reachable, "first_step": r.first_step,
                          "peds_react": r.peds_react})
+            bar.update(task, advance=1, message=f"{s.name} {seed}")
     report: dict = {"matrix": args.matrix, "episodes": len(rows), "reachable": sum(r["reachable"] for r in rows),
                     "unreachable": [r for r in rows if not r["reachable"]], "approximate": any(r["peds_react"] for r in rows)}
     if outcomes is not None:
         ok = [r for r in rows if r["reachable"]]
-        missing = [f"{r['scenario']} {r['seed']}" for r in ok if (r["scenario"], r["seed"]) not in outcomes]
-        if missing:
-            raise ConfigError(f"no episode for {missing[0]} (and {len(missing) - 1} more)", source=args.episodes)
         wins = sum(outcomes[r["scenario"], r["seed"]] == "success" for r in ok)
         report["success_on_reachable"] = {"successes": wins, "episodes": len(ok), "rate": wins / len(ok) if ok else None}
     emit(report, args.json, _reachable_text)
