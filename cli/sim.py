@@ -1,4 +1,4 @@
-"""`foresight scenarios list` and `check`, `foresight sim run` and `foresight sim demo`."""
+"""`foresight scenarios list`, `check` and `reachable`, `foresight sim run` and `foresight sim demo`."""
 
 from __future__ import annotations
 
@@ -21,18 +21,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     ls.set_defaults(func=scenarios_list)
     chk = scen.add_parser("check", help="episodes lost before a planner can act: a standing robot walked into "
                                         "within the first seconds (exit 1 if any)")
-    chk.add_argument("--matrix", required=True, help="scenario matrix YAML")
-    chk.add_argument("--override", action="append", metavar="KEY=VALUE",
-                     help="check under other conditions, as foresight evaluate --override (repeatable)")
+    _matrix_options(chk)
     chk.add_argument("--seeds-per-scenario", type=int, help="the first N of each scenario's seeds (default: all)")
     chk.add_argument("--seconds", type=float, default=1.5, help="how long the robot stands [s] (default 1.5)")
     chk.add_argument("--json", action="store_true")
     chk.set_defaults(func=scenarios_check)
     rch = scen.add_parser("reachable", help="episodes no robot could solve: space-time reachability of the goal "
                                             "against the crowd as it walks (exact where nobody reacts to the robot)")
-    rch.add_argument("--matrix", required=True, help="scenario matrix YAML")
-    rch.add_argument("--override", action="append", metavar="KEY=VALUE",
-                     help="under other conditions, as foresight evaluate --override (repeatable)")
+    _matrix_options(rch)
     rch.add_argument("--scenarios", help="comma-separated scenario names (default: all)")
     rch.add_argument("--seeds-per-scenario", type=int, help="N seeds per scenario, as foresight evaluate's (default: "
                                                             "the matrix's own)")
@@ -60,6 +56,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     demo.add_argument("--out", default="out/demo", help="folder for renders and the summary")
     demo.add_argument("--json", action="store_true")
     demo.set_defaults(func=demo_run)
+
+
+def _matrix_options(p: argparse.ArgumentParser) -> None:
+    """--matrix and --override of the commands that look at a matrix's episodes under chosen conditions."""
+    p.add_argument("--matrix", required=True, help="scenario matrix YAML")
+    p.add_argument("--override", action="append", metavar="KEY=VALUE",
+                   help="under other conditions, as foresight evaluate --override (repeatable)")
 
 
 def scenarios_list(args: argparse.Namespace) -> int:
@@ -117,9 +120,10 @@ def scenarios_reachable(args: argparse.Namespace) -> int:
                           item="--seeds-per-scenario")
     outcomes = _outcomes(args.episodes) if args.episodes else None
     episodes = [(s, seed) for s in chosen for seed in expand_seeds(s.scenario.seeds, args.seeds_per_scenario)]
-    missing = [f"{s.name} {seed}" for s, seed in episodes if outcomes is not None and (s.name, seed) not in outcomes]
-    if missing:  # before the work: the evaluation must hold every episode asked about
-        raise ConfigError(f"no episode for {missing[0]} (and {len(missing) - 1} more)", source=args.episodes)
+    if outcomes is not None:  # before the work: the evaluation must hold every episode asked about
+        missing = [f"{s.name} {seed}" for s, seed in episodes if (s.name, seed) not in outcomes]
+        if missing:
+            raise ConfigError(f"no episode for {missing[0]} (and {len(missing) - 1} more)", source=args.episodes)
     rows = []
     with progress_bar(quiet=args.json) as bar:  # about 0.5 s an episode
         task = bar.add_task("reachable", total=len(episodes), message="")
