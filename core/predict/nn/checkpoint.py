@@ -20,6 +20,7 @@ from foresight.core import files
 from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.predict.features import feature_names
 from foresight.core.predict.nn.device import to_cpu
+from foresight.core.predict.nn.inference import ModelForward
 from foresight.core.predict.nn.model import ModelConfig, TrajectoryModel, build_model
 from foresight.core.predict.predictor import check_batch
 from foresight.core.predict.timebase import TimeBase
@@ -81,7 +82,11 @@ def _decode(data: bytes, path: Path) -> dict[str, Any]:
 
 
 class TorchPredictor:
-    """A trained model behind the :class:`core.predict.predictor.Predictor` interface (numpy in/out)."""
+    """A trained model behind the :class:`core.predict.predictor.Predictor` interface (numpy in/out).
+
+    One sample (B = 1: a planner decision) runs the NumPy copy of the forward pass (``inference``: the weights are
+    read at the first such call, so the model must be trained by then); batches run the torch model.
+    """
 
     def __init__(self, model: TrajectoryModel, timebase: TimeBase, name: str, frame_convention: str = "robot",
                  max_agents: int | None = None, threads: int | None = None, sha256: str | None = None):
@@ -91,6 +96,7 @@ class TorchPredictor:
         self.name = name
         self.frame_convention = frame_convention
         self.max_agents = max_agents
+        self._numpy: ModelForward | None = None
         if threads:
             torch.set_num_threads(threads)
 
@@ -101,6 +107,8 @@ class TorchPredictor:
 
     def predict(self, features: np.ndarray, mask: np.ndarray) -> np.ndarray:
         check_batch(np.asarray(features), np.asarray(mask), self.timebase, self.name)
+        if len(features) == 1:
+            return self._one_sample().positions(*_sample(features, mask))[None]
         with torch.inference_mode():
             out = self.model(torch.as_tensor(features, dtype=torch.float32), torch.as_tensor(mask, dtype=torch.float32))
         return out.numpy()
@@ -108,10 +116,23 @@ class TorchPredictor:
     def predict_dist(self, features: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(B, N, T, 2) positions and (B, N, T) per-axis std [m]; only when :attr:`has_sigma`."""
         check_batch(np.asarray(features), np.asarray(mask), self.timebase, self.name)
+        if len(features) == 1:
+            pos, sigma = self._one_sample().distribution(*_sample(features, mask))
+            return pos[None], sigma[None]
         with torch.inference_mode():
             pos, sigma = self.model.forward_dist(torch.as_tensor(features, dtype=torch.float32),
                                                  torch.as_tensor(mask, dtype=torch.float32))
         return pos.numpy(), sigma.numpy()
+
+    def _one_sample(self) -> ModelForward:
+        if self._numpy is None:
+            self._numpy = ModelForward(self.model)
+        return self._numpy
+
+
+def _sample(features: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The one sample of a batch as float32 arrays (N, F), (N,)."""
+    return np.asarray(features[0], dtype=np.float32), np.asarray(mask[0], dtype=np.float32)
 
 
 def load_predictor(path: Path, expect_timebase: TimeBase | None = None, name: str | None = None,

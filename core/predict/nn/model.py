@@ -33,7 +33,6 @@ features (``core.predict.features``) are unchanged: the frame change is a fixed 
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import asdict, dataclass, replace
 
 import torch
@@ -148,46 +147,14 @@ class TrajectoryModel(nn.Module):
     def forward(self, features: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
         """features (B, N, F), mask (B, N) -> future positions (B, N, T, 2) in the features' frame.
 
-        One planner decision (B = 1, eval, inference mode) runs a TorchScript trace of this same
-        forward, made on the first such call per input shape: the same ATen ops in the same order
-        (bit-identical outputs), without ~60 Python-dispatched ops (0.46 -> 0.26 ms per call measured).
-        """
-        if self._use_trace(features):
-            return self._traced(features, mask, False)
+        A planner decision (one sample) runs the NumPy copy of this forward instead (``inference``)."""
         return self._forward(features, mask)
 
     def forward_dist(self, features: torch.Tensor, mask: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """(positions (B, N, T, 2), sigma (B, N, T) per-axis std [m]); only for a model with ``sigma_head``."""
         if self.sigma_decoder is None:
             raise ValueError("this model has no sigma head (config.sigma_head is False)")
-        if self._use_trace(features):
-            return self._traced(features, mask, True)
         return self._forward(features, mask, with_sigma=True)
-
-    def _use_trace(self, features: torch.Tensor) -> bool:
-        return (features.shape[0] == 1 and not self.training and torch.is_inference_mode_enabled()
-                and not torch.jit.is_tracing())  # an outer trace (export) records the eager ops
-
-    def _traced(self, features: torch.Tensor, mask: torch.Tensor, with_sigma: bool):
-        cache = self.__dict__.setdefault("_trace_cache", {})  # a plain attribute: not in state_dict
-        key = (tuple(features.shape), features.dtype, features.device, tuple(mask.shape), mask.dtype, with_sigma)
-        fn = cache.get(key)
-        if fn is None:
-            if len(cache) >= 8:  # a handful of slot counts per process; never grow without bound
-                return self._forward(features, mask, with_sigma)
-            with warnings.catch_warnings():  # torch 2.13 marks jit.trace deprecated; it is what removes the overhead
-                warnings.simplefilter("ignore")
-                try:
-                    fn = torch.jit.trace(_Eager(self, with_sigma), (features, mask), check_trace=False)
-                except (AttributeError, RuntimeError):  # a torch without tracing: the eager forward, same result
-                    fn = _Eager(self, with_sigma)
-            cache[key] = fn
-        return fn(features, mask)
-
-    def __getstate__(self) -> dict:
-        state = dict(self.__dict__)
-        state.pop("_trace_cache", None)  # traces share the weights; rebuilt on demand after unpickling
-        return state
 
     def _forward(self, features: torch.Tensor, mask: torch.Tensor, with_sigma: bool = False):
         B, N, _ = features.shape
@@ -219,18 +186,6 @@ class TrajectoryModel(nn.Module):
             return positions
         s = 3.0 * torch.tanh(self.sigma_decoder(h.detach()) / 3.0)  # (B, N, T), |s| < 3
         return positions, torch.cummax(self.envelope * torch.exp(s), dim=-1).values  # never shrinks with t
-
-
-class _Eager(nn.Module):
-    """The eager forward of a TrajectoryModel, as the module to trace (tracing calls forward)."""
-
-    def __init__(self, model: TrajectoryModel, with_sigma: bool = False):
-        super().__init__()
-        self.model = model
-        self.with_sigma = with_sigma
-
-    def forward(self, features: torch.Tensor, mask: torch.Tensor):
-        return self.model._forward(features, mask, self.with_sigma)
 
 
 class EnsembleModel(nn.Module):
