@@ -6,11 +6,16 @@ import argparse
 import json
 import shutil
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from foresight.cli import stage
 from foresight.cli.common import build_config, emit, local_context, matrix_ref, progress_bar
 from foresight.core.errors import ConfigError
 from foresight.core.stages.simulate import SimulateConfig, SimulateResult, run_simulate
+
+if TYPE_CHECKING:
+    from foresight.core.scenarios.model import ResolvedScenario
+    from foresight.core.sim.feasibility import Reachability
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -34,6 +39,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                                                             "the matrix's own)")
     rch.add_argument("--episodes", help="an evaluation's episodes.jsonl (evaluate --local --out DIR): its success "
                                         "on the reachable episodes")
+    rch.add_argument("--pictures", metavar="DIR", help="also draw each verdict: DIR/reach_<scenario>_<seed>.png (when "
+                                                       "each place became reachable, the crowd, start and goal)")
     rch.add_argument("--json", action="store_true")
     rch.set_defaults(func=scenarios_reachable)
 
@@ -124,22 +131,40 @@ def scenarios_reachable(args: argparse.Namespace) -> int:
         missing = [f"{s.name} {seed}" for s, seed in episodes if (s.name, seed) not in outcomes]
         if missing:
             raise ConfigError(f"no episode for {missing[0]} (and {len(missing) - 1} more)", source=args.episodes)
+    pictures = Path(args.pictures) if args.pictures else None
+    if pictures is not None:
+        pictures.mkdir(parents=True, exist_ok=True)
     rows = []
-    with progress_bar(quiet=args.json) as bar:  # about 0.5 s an episode
+    with progress_bar(quiet=args.json) as bar:  # about 0.5 s an episode (a picture about as much again)
         task = bar.add_task("reachable", total=len(episodes), message="")
         for s, seed in episodes:
-            r = reachability(s, int(seed))
+            r = reachability(s, int(seed), keep_map=pictures is not None)
             rows.append({"scenario": r.scenario, "seed": r.seed, "reachable": r.reachable, "first_step": r.first_step,
                          "peds_react": r.peds_react})
+            if pictures is not None:
+                rows[-1]["picture"] = str(_reach_picture(r, s, pictures))
             bar.update(task, advance=1, message=f"{s.name} {seed}")
     report: dict = {"matrix": args.matrix, "episodes": len(rows), "reachable": sum(r["reachable"] for r in rows),
                     "unreachable": [r for r in rows if not r["reachable"]], "approximate": any(r["peds_react"] for r in rows)}
+    if pictures is not None:
+        report["pictures"] = [r["picture"] for r in rows]
     if outcomes is not None:
         ok = [r for r in rows if r["reachable"]]
         wins = sum(outcomes[r["scenario"], r["seed"]] == "success" for r in ok)
         report["success_on_reachable"] = {"successes": wins, "episodes": len(ok), "rate": wins / len(ok) if ok else None}
     emit(report, args.json, _reachable_text)
     return 0
+
+
+def _reach_picture(r: Reachability, scenario: ResolvedScenario, folder: Path) -> Path:
+    """Draw one verdict (``core.render.reachability``) into ``folder``; returns the file."""
+    from foresight.core.render.reachability import render_reachability
+
+    when = f"goal reachable at {r.first_step * r.where.dt:g} s" if r.reachable else (
+        f"goal unreachable within {r.horizon * r.where.dt:g} s")
+    title = f"{r.scenario} seed {r.seed}: {when}" + (" (approximate)" if r.peds_react else "")
+    return render_reachability(r.where, scenario.map, folder / f"reach_{r.scenario}_{r.seed}.png", title=title,
+                               ped_radius=scenario.scenario.simulation_config.ped_radius)
 
 
 def _outcomes(path: str) -> dict[tuple[str, int], str]:
@@ -160,6 +185,8 @@ def _reachable_text(r: dict) -> str:
     if "success_on_reachable" in r:
         s = r["success_on_reachable"]
         lines.append(f"success on the reachable episodes: {s['successes']}/{s['episodes']}")
+    if "pictures" in r:
+        lines.append(f"{len(r['pictures'])} pictures in {Path(r['pictures'][0]).parent}" if r["pictures"] else "no pictures")
     return "\n".join(lines)
 
 

@@ -16,7 +16,7 @@ admitted as they would be for a robot standing there.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -24,6 +24,19 @@ from foresight.core.scenarios.model import ResolvedScenario
 from foresight.core.sim.simulator import Simulator
 
 GRID = 0.1  #: [m] cell size of the reachable set
+
+
+@dataclass(frozen=True, eq=False)
+class ReachMap:
+    """Where the relaxed robot could be when: what a picture of the verdict shows (``core.render.reachability``)."""
+
+    grid: float  #: [m] cell size; cell (i, j) is centred at (i grid, j grid)
+    first_step: np.ndarray  #: (nx, ny) first step each cell was reachable, -1 never (up to the verdict's step)
+    crowd: list[np.ndarray]  #: pedestrian positions (N_t, 2) at steps 0..that step
+    start: np.ndarray  #: (2,) the robot's start [m]
+    goal: np.ndarray  #: (2,) its goal [m]
+    tolerance: float  #: goal tolerance [m]
+    dt: float  #: simulator step [s]
 
 
 @dataclass(frozen=True)
@@ -36,6 +49,7 @@ class Reachability:
     first_step: int | None  #: earliest step the relaxed robot is within the goal tolerance; None if never
     horizon: int
     peds_react: bool  #: pedestrians feel the robot: their paths were recorded around a standing one (approximate)
+    where: ReachMap | None = field(default=None, compare=False, repr=False)  #: with ``keep_map`` only
 
 
 def crowd_paths(scenario: ResolvedScenario, seed: int,
@@ -53,9 +67,9 @@ def crowd_paths(scenario: ResolvedScenario, seed: int,
 
 
 def reachability(scenario: ResolvedScenario, seed: int, grid: float = GRID,
-                 max_steps: int | None = None) -> Reachability:
+                 max_steps: int | None = None, keep_map: bool = False) -> Reachability:
     """Whether a relaxed robot (see the module docstring) can reach the goal in this episode (within ``max_steps``,
-    default the scenario's horizon), and when."""
+    default the scenario's horizon), and when; ``keep_map`` also keeps where it could be when (``Reachability.where``)."""
     sim, peds = crowd_paths(scenario, seed, max_steps)
     start, goal, tol = sim.robot[:2].copy(), sim.route.waypoints[-1], sim.route.tolerance  # it stood at its start
     dt, limits = sim.dt, sim.limits
@@ -74,15 +88,20 @@ def reachability(scenario: ResolvedScenario, seed: int, grid: float = GRID,
     reach = np.zeros((nx, ny), dtype=bool)
     i0, j0 = int(round(start[0] / grid)), int(round(start[1] / grid))
     reach[max(i0 - 1, 0):i0 + 2, max(j0 - 1, 0):j0 + 2] = True
+    first = np.where(reach, 0, -1) if keep_map else None
+    t, found = 0, False
     for t in range(1, sim.horizon + 1):
         cells_per_step = round(min(limits.v_max, limits.accel * t * dt) * dt / grid + 0.5, 6)
         move = discs.setdefault(cells_per_step, _disc(cells_per_step))
         reach = _dilate(reach, move) & free & ~_occupied(peds[t], contact, grid, nx, ny)
-        if (reach & at_goal).any():
-            return Reachability(scenario.name, int(seed), True, t, sim.horizon, peds_react(scenario))
-        if not reach.any():
+        if first is not None:
+            first[reach & (first < 0)] = t
+        found = bool((reach & at_goal).any())
+        if found or not reach.any():
             break
-    return Reachability(scenario.name, int(seed), False, None, sim.horizon, peds_react(scenario))
+    where = None if first is None else ReachMap(grid, first, peds[:t + 1], start, np.asarray(goal, dtype=float),
+                                                float(tol), dt)
+    return Reachability(scenario.name, int(seed), found, t if found else None, sim.horizon, peds_react(scenario), where)
 
 
 def peds_react(scenario: ResolvedScenario) -> bool:

@@ -177,6 +177,9 @@ def test_simulator_section_runs_as_written(scratch: Path, shared_dir: Path) -> N
     assert report["episodes"] == 256 and report["lost"] == [], report
     verdict = json.loads(_run(reachable, scratch))  # nobody yields: the crowded corridor cannot be crossed in time
     assert verdict["episodes"] == 2 and verdict["reachable"] == 0 and not verdict["approximate"], verdict
+    assert [Path(p).name for p in verdict["pictures"]] == ["reach_classic_bottleneck_high_131.png",
+                                                          "reach_classic_bottleneck_high_132.png"], verdict
+    assert all((scratch / p).stat().st_size > 0 for p in verdict["pictures"])
     record = json.loads(_run(episode, scratch))
     assert record["scenario"] == "classic_cross_trap_high" and record["seed"] == 102, record
     assert record["outcome"] in ("success", "timeout", "collision_pedestrian", "collision_static")

@@ -160,3 +160,20 @@ def test_scenarios_reachable_refuses_an_evaluation_without_the_episodes(shared_d
     assert main(args) != 0
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "expected episode records" in err[0]
+
+
+def test_scenarios_reachable_draws_each_verdict(shared_dir: Path, tmp_path: Path, capsys) -> None:
+    """--pictures DIR: one PNG per episode, listed in the report; the map under it is the scenario's."""
+    classic = str(shared_dir / "reference/robot_sf/configs/scenarios/classic_interactions.yaml")
+    out = tmp_path / "pictures"
+    args = ["scenarios", "reachable", "--matrix", classic, "--override", "ped_speed_tier=typical",
+            "--override", "peds_have_robot_repulsion=false", "--seeds-per-scenario", "1",
+            "--scenarios", "classic_bottleneck_high,classic_bottleneck_medium", "--pictures", str(out), "--json"]
+    assert main(args) == 0
+    report = _json(capsys)
+    assert report["pictures"] == [str(out / "reach_classic_bottleneck_high_131.png"),
+                                  str(out / "reach_classic_bottleneck_medium_131.png")]
+    for p in report["pictures"]:
+        data = Path(p).read_bytes()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000
+    assert report["unreachable"][0]["picture"] == report["pictures"][0]

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from foresight.core.planners.registry import make_planner
@@ -71,3 +72,22 @@ def test_reference_bottleneck_high_is_unreachable_when_nobody_yields(shared_dir:
     r = reachability(matrix.get("classic_bottleneck_high"), 131)
     assert not r.reachable
     assert math.isclose(r.horizon, 500)
+
+
+def test_the_kept_map_says_where_the_relaxed_robot_could_be_when():
+    """Behind a walker standing in the one-lane corridor nothing is ever reachable; before it, each place is first
+    reachable no earlier than the fastest straight line allows; the verdict is the one without the map."""
+    blocked = corridor((20.0, 10.0))
+    r = reachability(blocked, 1, keep_map=True)
+    assert r == reachability(blocked, 1)  # the map changes nothing of the verdict
+    w = r.where
+    first, g = w.first_step, w.grid
+    assert first[round(w.start[0] / g), round(w.start[1] / g)] == 0
+    assert (first[round(30.0 / g):, :] < 0).all()  # beyond the walker (x >= 21.4 blocked in the corridor): never
+    i, j = np.nonzero(first > 0)
+    dist = np.hypot(i * g - w.start[0], j * g - w.start[1])
+    assert (dist <= first[i, j] * w.dt * 2.0 * 1.12 + 2 * g).all()  # no faster than 12 % over v_max (2 m/s)
+    assert len(w.crowd) == r.horizon + 1  # searched to the end: the robot can always wait before the walker
+    open_way = reachability(corridor((8.0, 20.0)), 1, keep_map=True)
+    assert open_way.where.first_step.max() == open_way.first_step  # kept up to the step the goal was reached
+    assert len(open_way.where.crowd) == open_way.first_step + 1
