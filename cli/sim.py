@@ -146,6 +146,7 @@ def scenarios_reachable(args: argparse.Namespace) -> int:
             bar.update(task, advance=1, message=f"{s.name} {seed}")
     report: dict = {"matrix": args.matrix, "episodes": len(rows), "reachable": sum(r["reachable"] for r in rows),
                     "unreachable": [r for r in rows if not r["reachable"]], "approximate": any(r["peds_react"] for r in rows)}
+    report["verdicts"] = rows  # every episode: reachable, first_step (when the relaxed robot could be at the goal)
     if pictures is not None:
         report["pictures"] = [r["picture"] for r in rows]
     if outcomes is not None:

@@ -144,6 +144,8 @@ def test_scenarios_reachable_names_the_episodes_no_robot_could_solve(shared_dir:
     assert report["episodes"] == 2 and report["reachable"] == 1 and not report["approximate"]
     assert [(u["scenario"], u["seed"]) for u in report["unreachable"]] == [("classic_bottleneck_high", 131)]
     assert report["success_on_reachable"] == {"successes": 1, "episodes": 1, "rate": 1.0}
+    medium = report["verdicts"][1]
+    assert medium["scenario"] == "classic_bottleneck_medium" and medium["reachable"] and 100 < medium["first_step"] < 500
     assert main(args) == 0 and "classic_bottleneck_high seed 131: goal unreachable" in capsys.readouterr().out
 
 
