@@ -133,6 +133,8 @@ def scenarios_reachable(args: argparse.Namespace) -> int:
             raise ConfigError(f"no episode for {missing[0]} (and {len(missing) - 1} more)", source=args.episodes)
     pictures = Path(args.pictures) if args.pictures else None
     if pictures is not None:
+        if pictures.exists() and not pictures.is_dir():
+            raise ConfigError("expected a folder for the pictures, found a file", source=pictures, item="--pictures")
         pictures.mkdir(parents=True, exist_ok=True)
     rows = []
     with progress_bar(quiet=args.json) as bar:  # about 0.5 s an episode (a picture about as much again)

@@ -179,3 +179,9 @@ def test_scenarios_reachable_draws_each_verdict(shared_dir: Path, tmp_path: Path
         data = Path(p).read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000
     assert report["unreachable"][0]["picture"] == report["pictures"][0]
+    taken = tmp_path / "a_file"
+    taken.write_text("x")
+    assert main([*args[:-3], "--pictures", str(taken)]) != 0  # a file where the folder should be: one line
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "a_file" in err[0] and "expected a folder" in err[0]
+    assert taken.read_text() == "x"
