@@ -29,9 +29,9 @@ def render_reachability(where: ReachMap, mapdef: MapDef, path: str | Path, *, ti
     up to the verdict's step and the pedestrians there (discs of ``ped_radius``), start and goal; returns the path."""
     fig, ax = map_axes(mapdef, title=title, extra_width_in=1.6)
     draw_map(ax, mapdef, routes=False, legend=False)
-    seconds = np.ma.masked_less(where.first_step, 0).astype(float) * where.dt
+    seconds = np.ma.masked_less(where.reached_at, 0).astype(float) * where.dt
     g = where.grid
-    nx, ny = where.first_step.shape
+    nx, ny = where.reached_at.shape
     im = ax.imshow(seconds.T, origin="lower", extent=(-g / 2, (nx - 0.5) * g, -g / 2, (ny - 0.5) * g), cmap=CMAP,
                    alpha=0.8, zorder=3, interpolation="nearest")
     fig.colorbar(im, ax=ax, label="first reachable [s]", fraction=0.04, pad=0.02)

@@ -31,7 +31,7 @@ class ReachMap:
     """Where the relaxed robot could be when: what a picture of the verdict shows (``core.render.reachability``)."""
 
     grid: float  #: [m] cell size; cell (i, j) is centred at (i grid, j grid)
-    first_step: np.ndarray  #: (nx, ny) first step each cell was reachable, -1 never (up to the verdict's step)
+    reached_at: np.ndarray  #: (nx, ny) first step each cell was reachable, -1 never (up to the verdict's step)
     crowd: list[np.ndarray]  #: pedestrian positions (N_t, 2) at steps 0..that step
     start: np.ndarray  #: (2,) the robot's start [m]
     goal: np.ndarray  #: (2,) its goal [m]

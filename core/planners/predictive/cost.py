@@ -255,7 +255,7 @@ def contact_probability(z: np.ndarray) -> np.ndarray:
 
 
 def _reactive_clearance(pos: np.ndarray, fut: np.ndarray, scene: Scene, speed: np.ndarray, reach: float) -> np.ndarray:
-    """Clearance (N, K, B) [m] between each forecast pedestrian and each rollout, the pedestrian stepping away.
+    """Clearance (N, K, B) [m, float32] between each forecast pedestrian and each rollout, the pedestrian stepping away.
 
     Pedestrians repelled by a robot closing in (the crowd model's robot force) step away from it,
     which a forecast made without the robot's plan cannot know: within ``reach`` metres of contact

@@ -81,7 +81,7 @@ def test_the_kept_map_says_where_the_relaxed_robot_could_be_when():
     r = reachability(blocked, 1, keep_map=True)
     assert r == reachability(blocked, 1)  # the map changes nothing of the verdict
     w = r.where
-    first, g = w.first_step, w.grid
+    first, g = w.reached_at, w.grid
     assert first[round(w.start[0] / g), round(w.start[1] / g)] == 0
     assert (first[round(30.0 / g):, :] < 0).all()  # beyond the walker (x >= 21.4 blocked in the corridor): never
     i, j = np.nonzero(first > 0)
@@ -89,5 +89,5 @@ def test_the_kept_map_says_where_the_relaxed_robot_could_be_when():
     assert (dist <= first[i, j] * w.dt * 2.0 * 1.12 + 2 * g).all()  # no faster than 12 % over v_max (2 m/s)
     assert len(w.crowd) == r.horizon + 1  # searched to the end: the robot can always wait before the walker
     open_way = reachability(corridor((8.0, 20.0)), 1, keep_map=True)
-    assert open_way.where.first_step.max() == open_way.first_step  # kept up to the step the goal was reached
+    assert open_way.where.reached_at.max() == open_way.first_step  # kept up to the step the goal was reached
     assert len(open_way.where.crowd) == open_way.first_step + 1
