@@ -137,7 +137,7 @@ def scenarios_reachable(args: argparse.Namespace) -> int:
             raise ConfigError("expected a folder for the pictures, found a file", source=pictures, item="--pictures")
         pictures.mkdir(parents=True, exist_ok=True)
     rows = []
-    with progress_bar(quiet=args.json) as bar:  # about 0.5 s an episode (a picture about as much again)
+    with progress_bar(quiet=args.json) as bar:  # about 1 s an episode (a picture about half as much again)
         task = bar.add_task("reachable", total=len(episodes), message="")
         for s, seed in episodes:
             r = reachability(s, int(seed), keep_map=pictures is not None)

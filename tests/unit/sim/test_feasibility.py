@@ -37,9 +37,23 @@ def test_the_same_walker_beside_the_corridor_leaves_it_reachable_in_straight_lin
     r = reachability(corridor((8.0, 20.0)), 1)
     assert r.reachable
     way = 36.0 - 2.0 - 1.5  # start x to goal x, less the goal tolerance (robot radius 1 + goal radius 0.5)
-    fastest = way / (2.0 * 1.12) / 0.1  # the relaxed robot is at most 12 % faster than v_max (2 m/s)
-    from_rest = (2.0 / 1.0 / 2 + way / 2.0) / 0.1  # the real one, accelerating at 1 m/s^2 to 2 m/s
-    assert fastest + 5 <= r.first_step <= from_rest + 3  # and the relaxed one accelerates no faster than it
+    assert _from_rest(way) - 3 <= r.first_step <= _from_rest(way) + 3  # as fast as the real robot, not faster
+
+
+def _from_rest(way: float) -> float:
+    """Steps (0.1 s) the robot needs for ``way`` [m] from rest, accelerating at 1 m/s^2 to 2 m/s."""
+    return (2.0 / 1.0 / 2 + way / 2.0) / 0.1
+
+
+@pytest.mark.parametrize("goal", [(30.0, 25.0), (36.0, 10.0)])
+def test_a_slanted_run_across_an_open_map_takes_the_robots_own_time(goal: tuple[float, float]):
+    """Not faster off the grid's axes either: a lattice that re-rounds every step would let the relaxed robot gain
+    up to a cell per axis per step (the verdict before 2026-11-25 reached this goal ~6 % early)."""
+    sc = scenario(open_map(robot_start=(1.5, 1.5, 1.0, 1.0), robot_goal=goal), peds_have_robot_repulsion=False,
+                  max_episode_steps=400)
+    r = reachability(sc, 1, keep_map=True)
+    way = float(np.hypot(*(r.where.goal - r.where.start))) - r.where.tolerance
+    assert _from_rest(way) - 3 <= r.first_step <= _from_rest(way) + 3
 
 
 def test_a_walker_coming_through_the_corridor_is_waited_for_when_there_is_time():
@@ -86,7 +100,7 @@ def test_the_kept_map_says_where_the_relaxed_robot_could_be_when():
     assert (first[round(30.0 / g):, :] < 0).all()  # beyond the walker (x >= 21.4 blocked in the corridor): never
     i, j = np.nonzero(first > 0)
     dist = np.hypot(i * g - w.start[0], j * g - w.start[1])
-    assert (dist <= first[i, j] * w.dt * 2.0 * 1.12 + 2 * g).all()  # no faster than 12 % over v_max (2 m/s)
+    assert (dist <= first[i, j] * w.dt * 2.0 + 2 * g).all()  # no faster than v_max (2 m/s), up to the grid's slack
     assert len(w.crowd) == r.horizon + 1  # searched to the end: the robot can always wait before the walker
     open_way = reachability(corridor((8.0, 20.0)), 1, keep_map=True)
     assert open_way.where.reached_at.max() == open_way.first_step  # kept up to the step the goal was reached
