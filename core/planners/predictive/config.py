@@ -63,6 +63,13 @@ class SearchConfig(_Frozen):
     #: (1 : 6), nobody yields 0.774 / 6.5 % -> 0.800 / 5.7 % (1 : 7); 7 : 23 in all, McNemar p = 0.005. A 0.2 m grid
     #: scored 7 : 10, 8 : 7, 2 : 6 (bottleneck high lost 4 of 10 at reference and typical speed)
     geodesic_resolution: float = Field(default=0.1, ge=0, le=1)
+    #: the last decision's sequence, one step on, is a candidate too (receding horizon with a memory): a plan begun,
+    #: such as a point turn, can be carried out instead of being replaced by whichever fixed candidate is cheapest
+    #: (near-ties flipped the robot between a point turn and driving on, step after step, at a fraction of its speed).
+    #: Reference matrix, 230 paired episodes per condition, off -> on (off-only : on-only): reference defaults
+    #: 0.948 -> 0.957 (4 : 6), typical speed 0.939 -> 0.935 (5 : 4), nobody yields 0.791 -> 0.813 (4 : 9, collisions
+    #: 13 -> 13); stress v2 0.906 -> 0.918 (4 : 7, collisions 13 -> 9); 17 : 26 in all; 2-4 % less time to the goal
+    keep_plan: bool = True
     adaptive_horizon: bool = False  #: lengthen the horizon by ``horizon_boost_s`` in the near field
     horizon_boost_s: float = Field(default=0.0, ge=0, le=5)
 

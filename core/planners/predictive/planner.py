@@ -32,7 +32,7 @@ from foresight.core.planners.predictive.rollout import FrameRollouts, eval_steps
 from foresight.core.planners.predictive.sampling import branch_commands, first_candidates, turn_then_go
 from foresight.core.predict.forecaster import Forecaster
 from foresight.core.sim.observation import Observation
-from foresight.core.sim.robot import RobotLimits
+from foresight.core.sim.robot import RobotLimits, unicycle_step
 
 
 class PredictivePlanner:
@@ -68,6 +68,7 @@ class PredictivePlanner:
         self._step_cache: dict[tuple, tuple] = {}
         self._route_cache: tuple | None = None
         self._prev = np.zeros(2)
+        self._plan: tuple[np.ndarray, np.ndarray] | None = None  #: the last decision's commands (S, 2), states (S, 5)
         self._diag = None
 
     @property
@@ -81,7 +82,7 @@ class PredictivePlanner:
         self.forecaster.observe(obs)
         fc = self.forecaster.forecast()
         scene, near, extra = self._scene(obs, fc.positions, fc.sigma, fc.times, fc.ped_ids)
-        best_cmds, best_terms, best_total, n_eval = self._search(obs, scene, near)
+        best_cmds, best_terms, best_total, n_eval, kept = self._search(obs, scene, near)
         v, w = float(best_cmds[0, 0]), float(best_cmds[0, 1])
         self._prev = np.array([v, w])
         self._diag = {
@@ -92,6 +93,7 @@ class PredictivePlanner:
             "near_field": near,
             "assertiveness": scene.assertiveness,
             "candidates_evaluated": n_eval,
+            "kept_plan": kept,  #: the command carries out the last decision's plan (``search.keep_plan``)
             "forecast_source": fc.source,
             "forecast_extended_steps": extra,
             "predictions": {"ped_ids": fc.ped_ids, "positions": fc.positions, "times": fc.times, "sigma": fc.sigma},
@@ -311,14 +313,18 @@ class PredictivePlanner:
             self._static = C.StaticClearance(obs.static, self.config.safety.static_field_resolution)
         return self._static
 
-    def _search(self, obs: Observation, scene: C.Scene, near: bool) -> tuple[np.ndarray, dict, float, int]:
-        """Beam search; returns the best sequence's commands (S, 2), its terms, its cost and #evaluations."""
+    def _search(self, obs: Observation, scene: C.Scene, near: bool) -> tuple[np.ndarray, dict, float, int, bool]:
+        """Beam search; returns the best sequence's commands (S, 2), its terms, its cost, #evaluations and whether it
+        is the last decision's plan carried on."""
         cfg = self.config
         sim_dt = obs.dt
         idx, S, bounds = self._steps(scene.times, sim_dt)
         state0 = np.concatenate([obs.robot_pose, obs.robot_velocity]).astype(float)
         cmds = self._first_sequences(near, S, sim_dt)  # (C + P, S, 2)
         states = self._frames(state0[None], cmds, ("first", near, S))
+        kept = self._kept_plan(state0, S, sim_dt) if cfg.search.keep_plan else None
+        if kept is not None:
+            cmds, states = np.concatenate([cmds, kept[0][None]]), np.concatenate([states, kept[1][None]])
         total, terms = C.evaluate(C.Rollouts(states, idx, cmds), scene, cfg)
         evals = [(cmds, states, total, terms)]  # (commands, states, totals, terms) of each evaluation, in order
         n_eval = len(cmds)
@@ -339,8 +345,26 @@ class PredictivePlanner:
         while best >= len(evals[e][2]):  # find the evaluation that holds ``best``
             best -= len(evals[e][2])
             e += 1
-        cmds, _, total, terms = evals[e]
-        return cmds[best], {k: v[best] for k, v in terms.items()}, float(total[best]), n_eval
+        cmds, states, total, terms = evals[e]
+        self._plan = cmds[best], states[best]
+        carried_on = kept is not None and e == 0 and best == len(cmds) - 1  # the kept plan is the first round's last
+        return cmds[best], {k: v[best] for k, v in terms.items()}, float(total[best]), n_eval, carried_on
+
+    def _kept_plan(self, state0: np.ndarray, S: int, dt: float) -> tuple[np.ndarray, np.ndarray] | None:
+        """The last decision's sequence one step on, its last command held, and its rollout (``search.keep_plan``).
+
+        The robot carried out the plan's first command with the rollout's own kinematics, so it stands where the
+        plan's first state is and the rest of that rollout is this plan's, but for one more step at the end;
+        anything else (the first decision, another horizon, a robot moved otherwise) gets no kept plan."""
+        if self._plan is None or len(self._plan[0]) != S:
+            return None
+        cmds, states = self._plan
+        if np.max(np.abs(states[0, [0, 1, 3, 4]] - state0[[0, 1, 3, 4]])) > 1e-6:
+            return None
+        cmds = np.concatenate([cmds[1:], cmds[-1:]])
+        last = unicycle_step(states[-1], cmds[-1], self._limits, dt)
+        return cmds, np.concatenate([states[1:], last[None]])
+
 
     def _steps(self, times: np.ndarray, sim_dt: float) -> tuple[np.ndarray, int, list[int]]:
         """Rollout step of each forecast time, rollout length and segment boundaries; cached per time grid."""
