@@ -70,6 +70,13 @@ class SearchConfig(_Frozen):
     #: 0.948 -> 0.957 (4 : 6), typical speed 0.939 -> 0.935 (5 : 4), nobody yields 0.791 -> 0.813 (4 : 9, collisions
     #: 13 -> 13); stress v2 0.906 -> 0.918 (4 : 7, collisions 13 -> 9); 17 : 26 in all; 2-4 % less time to the goal
     keep_plan: bool = True
+    #: a rollout that reaches the goal earlier counts as that much more progress (v_max x the time it has left), so
+    #: the robot does not slow down once every candidate reaches the goal within the horizon (all of them scored 0:
+    #: the robot slowed down in sight of the goal and timed out within metres of it). Reference matrix, 230 paired
+    #: episodes per condition, off -> on (off-only : on-only): reference 0.957 -> 0.965 (0 : 2), typical speed 0.935
+    #: -> 0.948 (0 : 3), nobody yields 0.813 -> 0.830 (0 : 4, collisions 13 -> 12); stress v2 0.918 -> 0.926 (2 : 4);
+    #: 2 : 13 in all, McNemar p = 0.007; 5-7 % less time to the goal
+    arrival_credit: bool = True
     adaptive_horizon: bool = False  #: lengthen the horizon by ``horizon_boost_s`` in the near field
     horizon_boost_s: float = Field(default=0.0, ge=0, le=5)
 

@@ -54,12 +54,13 @@ class RoutePotential:
         self._goal_is_last = len(full) <= lookahead  #: the last waypoint looked at is the goal (its distances reused)
         self._ways = [None if distance is None else distance(w) for w in self.waypoints]
 
-    def __call__(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def __call__(self, pts: np.ndarray, credit: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """Potential (B,) [m] at the end of rollouts ``pts`` (B, T, 2), and the active waypoint (B, 2) there.
 
         Waypoint j becomes active from the first step inside ``switch_radius`` of waypoint j - 1 (once
         j - 1 was active); the potential is zero if any step came inside the goal tolerance (the
-        episode ends there, whichever waypoint is active, as in the simulator).
+        episode ends there, whichever waypoint is active, as in the simulator), less ``credit`` [m] for
+        every step of the rollout left after the first such step: an earlier arrival is worth more.
         """
         d = _distance(pts, self.waypoints[0])  # (B, T) to the active waypoint
         phi = self._way(0, pts[:, -1], d[:, -1]) + self.after[0]
@@ -73,8 +74,10 @@ class RoutePotential:
                 phi = np.where(end, self._way(j, pts[:, -1], d[:, -1]) + self.after[j], phi)
             idx += end
         goal_d = d if self._goal_is_last else _distance(pts, self.goal)  # d: to the last waypoint looked at
-        done = np.logical_or.reduce(goal_d <= self.goal_tolerance, axis=1)
-        return np.where(done, 0.0, phi), self.waypoints[idx]
+        inside = goal_d <= self.goal_tolerance
+        done = np.logical_or.reduce(inside, axis=1)
+        at_goal = -credit * (inside.shape[1] - 1 - np.argmax(inside, axis=1)) if credit else 0.0
+        return np.where(done, at_goal, phi), self.waypoints[idx]
 
     def start(self, p0: np.ndarray) -> float:
         """Potential at the current position (the active waypoint is the observation's)."""
@@ -314,7 +317,8 @@ def evaluate(roll: Rollouts, scene: Scene, cfg: PredictivePlannerConfig) -> tupl
     pos = ev[..., :2]
     speed = np.abs(ev[..., 3])
     terms = pedestrian_terms(pos, speed, scene, cfg)
-    phi_end, target = scene.route(pos)
+    early = scene.max_speed * float(scene.times[1] - scene.times[0]) if cfg.search.arrival_credit and len(scene.times) > 1 else 0.0
+    phi_end, target = scene.route(pos, early)
     progress = scene.phi0 - phi_end
     min_c = terms.pop("min_clearance")
     terms["progress"] = progress

@@ -17,6 +17,9 @@ Later that day (session 12) the robot-pedestrian distances became float32 (half 
 decision's largest arrays): costs moved by up to 4e-6 relative, ``ped_ahead``'s tie broke back, every other
 command and sequence stayed; the fixture was re-recorded. The learned fixture was kept as recorded with the torch
 forward: the NumPy forward a decision now runs (``core.predict.nn.inference``) reproduces it.
+Session 13 (2026-11-25): an earlier arrival at the goal counts as progress (``search.arrival_credit``): only the cost
+of ``waypoints``' second decision changed (its rollouts reach the goal; command and sequence unchanged); the CV
+fixture was re-recorded, the learned one (no goal in reach) is unchanged.
 Before that it held the decisions of the planner before its rollout was vectorised.
 Speed-ups must not change decisions: commands and sequences must match exactly, costs to
 float32 rounding. The independent checks of behaviour are in ``test_predictive_planner.py``
