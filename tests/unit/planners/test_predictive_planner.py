@@ -63,6 +63,33 @@ def test_drives_at_full_speed_on_a_free_route():
     assert v == pytest.approx(2.0) and w == pytest.approx(0.0)
 
 
+def _approach(arrival_credit: bool) -> list[float]:
+    """Commanded speeds [m/s] on a free route from 11 m before the goal at full speed until within its tolerance."""
+    from foresight.core.sim.robot import RobotLimits, unicycle_step
+
+    m = corridor_map()
+    p = PredictivePlanner(PredictivePlannerConfig.from_dict({"search": {"arrival_credit": arrival_credit}}),
+                          ConstantVelocityForecaster(PLANNER_TIMEBASE))
+    p.reset(info_for(m))
+    state, speeds = np.array([16.0, 10.0, 0.0, 2.0, 0.0]), []
+    for k in range(80):
+        if np.hypot(state[0] - 27.0, state[1] - 10.0) <= 2.0:  # the observation's goal tolerance
+            break
+        v, w = p.plan(observation(m, pose=state[:3], velocity=state[3:], step=k))
+        speeds.append(v)
+        state = unicycle_step(state, np.array([v, w]), RobotLimits(), 0.1)
+    return speeds
+
+
+def test_keeps_full_speed_up_to_the_goal():
+    """Every rollout that reaches the goal within the horizon once scored the same progress, so the robot slowed down
+    in sight of the goal; an earlier arrival now counts as more progress (``search.arrival_credit``)."""
+    fast = _approach(True)
+    assert set(fast) == {2.0} and len(fast) <= 46  # 9 m at 2 m/s (45 steps, 46 with rounding): full speed throughout
+    slowed = _approach(False)
+    assert min(slowed) <= 1.0 and len(slowed) > 50
+
+
 def test_solves_a_crossing_episode():
     """Closed loop in the simulator: a pedestrian crosses the robot's straight route; reach the goal without contact."""
     ped = SinglePedestrian(id="c1", start=(15.0, 3.0), goal=(15.0, 18.0), speed_m_s=0.5)
