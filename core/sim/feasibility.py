@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from foresight.core.scenarios.model import ResolvedScenario
+from foresight.core.sim.robot import RobotLimits
 from foresight.core.sim.simulator import Simulator
 
 GRID = 0.1  #: [m] cell size of the reachable set
@@ -110,8 +111,8 @@ class _Space:
         return bool((reach & self.at_goal).any())
 
 
-def _reach(space: _Space, cell: tuple[int, int], limits, dt: float, horizon: int,
-                     grid: float) -> tuple[int, bool]:
+def _reach(space: _Space, cell: tuple[int, int], limits: RobotLimits, dt: float, horizon: int,
+           grid: float) -> tuple[int, bool]:
     """The relaxed robot's first step at the goal (step, True), or where it stopped (step, False).
 
     A cell is reachable at step t when it is allowed then and, for every look-back j (``LOOK_BACK`` and the start),
@@ -144,10 +145,11 @@ def _reach(space: _Space, cell: tuple[int, int], limits, dt: float, horizon: int
 #: [steps] windows over which the relaxed robot's travel is bounded (besides the whole run from its start): the
 #: one-step window moves the set, the longer ones keep the per-window slack from adding up to a faster robot
 LOOK_BACK = (1, 2, 4, 8, 16)
-_SLACK = np.sqrt(2.0) + 1e-4  #: [cells] a cell index moves by less than one cell more than its point, per axis
+#: [cells] a cell index moves by less than one cell more than its point, per axis (1e-4: the float32 distances' rounding)
+_SLACK = np.sqrt(2.0) + 1e-4
 
 
-def _travel(limits, dt: float, horizon: int) -> np.ndarray:
+def _travel(limits: RobotLimits, dt: float, horizon: int) -> np.ndarray:
     """(horizon + 1,) the farthest [m] the robot can be from its start after each step, from rest: each step moves
     it at most dt x its speed after that step's acceleration (the simulator's order), capped at v_max (backwards
     too where it may: at most as fast)."""

@@ -365,7 +365,6 @@ class PredictivePlanner:
         last = unicycle_step(states[-1], cmds[-1], self._limits, dt)
         return cmds, np.concatenate([states[1:], last[None]])
 
-
     def _steps(self, times: np.ndarray, sim_dt: float) -> tuple[np.ndarray, int, list[int]]:
         """Rollout step of each forecast time, rollout length and segment boundaries; cached per time grid."""
         key = (times.tobytes(), sim_dt)
