@@ -55,24 +55,25 @@ class Reachability:
 
 
 def crowd_paths(scenario: ResolvedScenario, seed: int,
-                max_steps: int | None = None) -> tuple[Simulator, list[np.ndarray]]:
-    """The pedestrians' positions (N_t, 2) at steps 0..horizon around a robot that stands at its start (contacts
-    with it do not end the recording)."""
+                max_steps: int | None = None) -> tuple[Simulator, list[np.ndarray], list[np.ndarray]]:
+    """The pedestrians' positions (N_t, 2) and ids (N_t,) at steps 0..horizon around a robot that stands at its start
+    (contacts with it do not end the recording)."""
     sim = Simulator()
     obs = sim.reset(scenario, int(seed), max_steps=max_steps)
-    out = [np.asarray(obs.ped_positions, dtype=float)]
+    pos, ids = [np.asarray(obs.ped_positions, dtype=float)], [np.asarray(obs.ped_ids, dtype=np.int64)]
     while sim.t < sim.horizon:
         sim.done = False  # a pedestrian walking into the standing robot does not end the recording
         obs, _ = sim.step((0.0, 0.0))
-        out.append(np.asarray(obs.ped_positions, dtype=float))
-    return sim, out
+        pos.append(np.asarray(obs.ped_positions, dtype=float))
+        ids.append(np.asarray(obs.ped_ids, dtype=np.int64))
+    return sim, pos, ids
 
 
 def reachability(scenario: ResolvedScenario, seed: int, grid: float = GRID,
                  max_steps: int | None = None, keep_map: bool = False) -> Reachability:
     """Whether a relaxed robot (see the module docstring) can reach the goal in this episode (within ``max_steps``,
     default the scenario's horizon), and when; ``keep_map`` also keeps where it could be when (``Reachability.where``)."""
-    sim, peds = crowd_paths(scenario, seed, max_steps)
+    sim, peds, _ = crowd_paths(scenario, seed, max_steps)
     start, goal, tol = sim.robot[:2].copy(), sim.route.waypoints[-1], sim.route.tolerance  # it stood at its start
     dt, limits = sim.dt, sim.limits
     nx, ny = int(np.ceil(sim.static.width / grid)) + 1, int(np.ceil(sim.static.height / grid)) + 1

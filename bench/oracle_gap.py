@@ -1,0 +1,115 @@
+"""How much better prediction could help: the predictive planner with the future itself as its forecast.
+
+On a matrix where nobody reacts to the robot (default: the reference classic matrix at typical walking speed with
+``peds_have_robot_repulsion: false``, 10 seeds per scenario), each episode is run with the oracle forecaster
+(``core.predict.oracle``: every pedestrian's recorded future) and with the learned default model and constant
+velocity, same planner, same episodes. The oracle's success is what perfect prediction would reach with this planner;
+the gap to it is what a better predictor could still win, and the oracle's own failures are the planner's. Episodes
+where someone reacts to the robot are run too but flagged (``approximate``: the recording was made around a standing
+robot). ``--json`` prints ONE object: per forecaster success / collision / timeout counts and rates, failures per
+scenario, and paired counts (oracle-only : other-only successes) with McNemar's exact p.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+from collections import Counter
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO))
+
+from foresight.core.errors import CoreError  # noqa: E402
+from foresight.core.evaluation.runner import expand_seeds  # noqa: E402
+from foresight.core.scenarios.loader import load_matrix  # noqa: E402
+
+SHARED = Path(os.environ.get("FORESIGHT_SHARED", REPO.parent / "shared"))
+REF = SHARED / "reference" / "robot_sf" / "configs" / "scenarios" / "classic_interactions.yaml"
+BLIND = {"simulation_config": {"ped_speed_tier": "typical", "peds_have_robot_repulsion": False}}
+CHECKPOINT = REPO / "model" / "predictor-sim-default.pt"
+
+
+def _episode(args: tuple[str, str, int, str, int | None]) -> tuple[str, int, str, str]:
+    """(scenario, seed, forecaster, outcome) of one episode (runs in a worker process)."""
+    matrix_path, name, seed, which, max_steps = args
+    from foresight.core.planners.predictive.planner import PredictivePlanner
+    from foresight.core.planners.registry import make_forecaster
+    from foresight.core.predict.nn.checkpoint import load_predictor
+    from foresight.core.predict.oracle import OracleForecaster
+    from foresight.core.sim.episode import run_episode
+
+    sc = load_matrix(Path(matrix_path), overrides=BLIND).get(name)
+    if which == "oracle":
+        forecaster = OracleForecaster.for_episode(sc, seed, max_steps)
+    else:
+        forecaster = make_forecaster("cv" if which == "cv" else load_predictor(CHECKPOINT))
+    res = run_episode(sc, seed, PredictivePlanner(None, forecaster), max_steps=max_steps)
+    return name, seed, which, res.outcome
+
+
+def mcnemar(a: int, b: int) -> float:
+    """Two-sided exact McNemar p for a : b discordant pairs."""
+    n, k = a + b, min(a, b)
+    return 1.0 if n == 0 else min(1.0, 2 * sum(math.comb(n, i) for i in range(k + 1)) / 2**n)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--matrix", default=str(REF), help="scenario matrix (run with nobody yielding at typical speed)")
+    ap.add_argument("--seeds-per-scenario", type=int, default=10)
+    ap.add_argument("--scenarios", default=None, help="comma-separated names (default: all)")
+    ap.add_argument("--forecasters", default="oracle,learned,cv", help="of oracle, learned, cv; the first is the reference")
+    ap.add_argument("--max-steps", type=int, default=None, help="horizon override for smoke runs")
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args()
+    from foresight.core.sim.feasibility import peds_react
+
+    try:
+        matrix = load_matrix(Path(args.matrix), overrides=BLIND)
+        chosen = [matrix.get(n.strip()) for n in args.scenarios.split(",")] if args.scenarios else list(matrix.scenarios)
+    except CoreError as exc:
+        sys.exit(f"oracle_gap: {exc}")
+    which = [w.strip() for w in args.forecasters.split(",")]
+    unknown = [w for w in which if w not in ("oracle", "learned", "cv")]
+    if unknown:
+        sys.exit(f"--forecasters: unknown {unknown[0]!r}, expected oracle, learned or cv")
+    jobs = [(args.matrix, s.name, int(seed), w, args.max_steps)
+            for s in chosen for seed in expand_seeds(s.scenario.seeds, args.seeds_per_scenario) for w in which]
+    t0 = time.perf_counter()
+    with ProcessPoolExecutor(max_workers=args.workers) as pool:
+        rows = list(pool.map(_episode, jobs, chunksize=1))
+    outcome = {(n, s, w): o for n, s, w, o in rows}
+    episodes = sorted({(n, s) for n, s, _, _ in rows})
+    out: dict = {"benchmark": "oracle_gap", "matrix": args.matrix, "overrides": BLIND, "episodes": len(episodes),
+                 "approximate": any(peds_react(s) for s in chosen), "wall_s": round(time.perf_counter() - t0, 1),
+                 "forecasters": {}, "paired": {}}
+    for w in which:
+        got = Counter(outcome[e + (w,)] for e in episodes)
+        fails = Counter(e[0] for e in episodes if outcome[e + (w,)] != "success")
+        out["forecasters"][w] = {"success": got["success"], "success_rate": got["success"] / len(episodes),
+                                 "collisions": got["collision_pedestrian"] + got["collision_static"],
+                                 "timeouts": got["timeout"], "failures_per_scenario": dict(sorted(fails.items()))}
+    ref = which[0]
+    won = {w: {e for e in episodes if outcome[e + (w,)] == "success"} for w in which}
+    for w in which[1:]:
+        a, b = len(won[ref] - won[w]), len(won[w] - won[ref])
+        out["paired"][f"{ref}_vs_{w}"] = {f"{ref}_only": a, f"{w}_only": b, "mcnemar_p": mcnemar(a, b)}
+    if args.json:
+        print(json.dumps(out))
+        return
+    for w, r in out["forecasters"].items():
+        print(f"{w:>8}: {r['success']}/{len(episodes)} = {r['success_rate']:.3f}, collisions {r['collisions']}, "
+              f"timeouts {r['timeouts']}")
+    for k, r in out["paired"].items():
+        print(f"{k}: {list(r.values())[:2]}, p = {r['mcnemar_p']:.3g}")
+
+
+if __name__ == "__main__":
+    main()
