@@ -6,20 +6,20 @@ On a matrix where nobody reacts to the robot (default: the reference classic mat
 velocity, same planner, same episodes. The oracle's success is what perfect prediction would reach with this planner;
 the gap to it is what a better predictor could still win, and the oracle's own failures are the planner's. Episodes
 where someone reacts to the robot are run too but flagged (``approximate``: the recording was made around a standing
-robot). ``--json`` prints ONE object: per forecaster success / collision / timeout counts and rates, failures per
-scenario, and paired counts (oracle-only : other-only successes) with McNemar's exact p.
+robot). ``--json`` prints ONE object: per forecaster success / collision / timeout counts and rates (success with its
+Wilson 95 % interval), failures per scenario, and paired counts (oracle-only : other-only successes) with McNemar's exact p.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import sys
 import time
 from collections import Counter
 from concurrent.futures import ProcessPoolExecutor
+from functools import cache
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
@@ -27,6 +27,7 @@ sys.path.insert(0, str(REPO))
 
 from foresight.core.errors import CoreError  # noqa: E402
 from foresight.core.evaluation.runner import expand_seeds  # noqa: E402
+from foresight.core.evaluation.stats import mcnemar_p, wilson_interval  # noqa: E402
 from foresight.core.scenarios.loader import load_matrix  # noqa: E402
 
 SHARED = Path(os.environ.get("FORESIGHT_SHARED", REPO.parent / "shared"))
@@ -35,28 +36,35 @@ BLIND = {"simulation_config": {"ped_speed_tier": "typical", "peds_have_robot_rep
 CHECKPOINT = REPO / "model" / "predictor-sim-default.pt"
 
 
+@cache
+def _matrix(path: str):  # noqa: ANN202
+    """The matrix with nobody yielding, loaded once per worker process."""
+    return load_matrix(Path(path), overrides=BLIND)
+
+
+@cache
+def _learned():  # noqa: ANN202
+    """The default model, loaded once per worker process."""
+    from foresight.core.predict.nn.checkpoint import load_predictor
+
+    return load_predictor(CHECKPOINT)
+
+
 def _episode(args: tuple[str, str, int, str, int | None]) -> tuple[str, int, str, str]:
     """(scenario, seed, forecaster, outcome) of one episode (runs in a worker process)."""
     matrix_path, name, seed, which, max_steps = args
     from foresight.core.planners.predictive.planner import PredictivePlanner
     from foresight.core.planners.registry import make_forecaster
-    from foresight.core.predict.nn.checkpoint import load_predictor
     from foresight.core.predict.oracle import OracleForecaster
     from foresight.core.sim.episode import run_episode
 
-    sc = load_matrix(Path(matrix_path), overrides=BLIND).get(name)
+    sc = _matrix(matrix_path).get(name)
     if which == "oracle":
         forecaster = OracleForecaster.for_episode(sc, seed, max_steps)
     else:
-        forecaster = make_forecaster("cv" if which == "cv" else load_predictor(CHECKPOINT))
+        forecaster = make_forecaster("cv" if which == "cv" else _learned())
     res = run_episode(sc, seed, PredictivePlanner(None, forecaster), max_steps=max_steps)
     return name, seed, which, res.outcome
-
-
-def mcnemar(a: int, b: int) -> float:
-    """Two-sided exact McNemar p for a : b discordant pairs."""
-    n, k = a + b, min(a, b)
-    return 1.0 if n == 0 else min(1.0, 2 * sum(math.comb(n, i) for i in range(k + 1)) / 2**n)
 
 
 def main() -> None:
@@ -72,7 +80,7 @@ def main() -> None:
     from foresight.core.sim.feasibility import peds_react
 
     try:
-        matrix = load_matrix(Path(args.matrix), overrides=BLIND)
+        matrix = _matrix(args.matrix)
         chosen = [matrix.get(n.strip()) for n in args.scenarios.split(",")] if args.scenarios else list(matrix.scenarios)
     except CoreError as exc:
         sys.exit(f"oracle_gap: {exc}")
@@ -94,13 +102,14 @@ def main() -> None:
         got = Counter(outcome[e + (w,)] for e in episodes)
         fails = Counter(e[0] for e in episodes if outcome[e + (w,)] != "success")
         out["forecasters"][w] = {"success": got["success"], "success_rate": got["success"] / len(episodes),
+                                 "success_interval": wilson_interval(got["success"], len(episodes)),
                                  "collisions": got["collision_pedestrian"] + got["collision_static"],
                                  "timeouts": got["timeout"], "failures_per_scenario": dict(sorted(fails.items()))}
     ref = which[0]
     won = {w: {e for e in episodes if outcome[e + (w,)] == "success"} for w in which}
     for w in which[1:]:
         a, b = len(won[ref] - won[w]), len(won[w] - won[ref])
-        out["paired"][f"{ref}_vs_{w}"] = {f"{ref}_only": a, f"{w}_only": b, "mcnemar_p": mcnemar(a, b)}
+        out["paired"][f"{ref}_vs_{w}"] = {f"{ref}_only": a, f"{w}_only": b, "mcnemar_p": mcnemar_p(a, b)}
     if args.json:
         print(json.dumps(out))
         return
