@@ -29,7 +29,12 @@ from foresight.core.planners.predictive import cost as C
 from foresight.core.planners.predictive.config import PredictivePlannerConfig
 from foresight.core.planners.predictive.geodesic import GeodesicDistance
 from foresight.core.planners.predictive.rollout import FrameRollouts, eval_steps, extend_forecast, rollout
-from foresight.core.planners.predictive.sampling import branch_commands, first_candidates, turn_then_go
+from foresight.core.planners.predictive.sampling import (
+    branch_commands,
+    first_candidates,
+    turn_then_go,
+    veer_then_straight,
+)
 from foresight.core.predict.forecaster import Forecaster
 from foresight.core.sim.observation import Observation
 from foresight.core.sim.robot import RobotLimits, unicycle_step
@@ -295,14 +300,17 @@ class PredictivePlanner:
         return self._cands[near]
 
     def _first_sequences(self, near: bool, steps: int, dt: float) -> np.ndarray:
-        """The first round's sequences (C + P, steps, 2): the first-segment candidates held to the horizon, then the
-        point turns (``sampling.turn_then_go``); cached per episode, read-only."""
+        """The first round's sequences (C + P + V, steps, 2): the first-segment candidates held to the horizon, then the
+        point turns (``sampling.turn_then_go``) and the swerves (``sampling.veer_turn_rates``); cached per episode,
+        read-only."""
         key = (near, steps)
         if key not in self._firsts:
             cfg = self.config
             held = np.repeat(self._candidates(near)[:, None, :], steps, axis=1)
             turns = turn_then_go(cfg.sampling, self._limits, steps, dt, cfg.max_speed_ratio)
-            seqs = np.concatenate([held, turns]) if len(turns) else held
+            first = max(1, int(round(cfg.search.segments_s[0] / dt))) if cfg.search.segments_s else steps
+            veers = veer_then_straight(cfg.sampling, self._limits, steps, first, cfg.max_speed_ratio)
+            seqs = np.concatenate([held, turns, veers])
             seqs.flags.writeable = False
             self._firsts[key] = seqs
         return self._firsts[key]

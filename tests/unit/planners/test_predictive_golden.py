@@ -20,6 +20,10 @@ forward: the NumPy forward a decision now runs (``core.predict.nn.inference``) r
 Session 13 (2026-11-25): an earlier arrival at the goal counts as progress (``search.arrival_credit``): only the cost
 of ``waypoints``' second decision changed (its rollouts reach the goal; command and sequence unchanged); the CV
 fixture was re-recorded, the learned one (no goal in reach) is unchanged.
+Later that day swerves joined the first candidates (``sampling.veer_turn_rates``: turn for the first segment at speed,
+then straight on): every evaluation count grew by the 8 sequences, and where a swerve is cheaper the command changed
+(constant velocity: ``crowd16``'s and ``crowd16_nobody_waits``' fifth decisions; learned: ``crossing``, ``crowd16``,
+``ped_ahead`` and ``stall``, which now pull out at speed where they crept on an arc); both fixtures were re-recorded.
 Before that it held the decisions of the planner before its rollout was vectorised.
 Speed-ups must not change decisions: commands and sequences must match exactly, costs to
 float32 rounding. The independent checks of behaviour are in ``test_predictive_planner.py``
