@@ -308,8 +308,7 @@ class PredictivePlanner:
             cfg = self.config
             held = np.repeat(self._candidates(near)[:, None, :], steps, axis=1)
             turns = turn_then_go(cfg.sampling, self._limits, steps, dt, cfg.max_speed_ratio)
-            first = max(1, int(round(cfg.search.segments_s[0] / dt))) if cfg.search.segments_s else steps
-            veers = veer_then_straight(cfg.sampling, self._limits, steps, first, cfg.max_speed_ratio)
+            veers = veer_then_straight(cfg.sampling, self._limits, steps, dt, cfg.max_speed_ratio)
             seqs = np.concatenate([held, turns, veers])
             seqs.flags.writeable = False
             self._firsts[key] = seqs

@@ -68,15 +68,17 @@ def turn_then_go(cfg: SamplingConfig, limits: RobotLimits, steps: int, dt: float
     return np.array(rows).reshape(-1, steps, 2)
 
 
-def veer_then_straight(cfg: SamplingConfig, limits: RobotLimits, steps: int, turn_steps: int, speed_ratio: float) -> np.ndarray:
+def veer_then_straight(cfg: SamplingConfig, limits: RobotLimits, steps: int, dt: float, speed_ratio: float) -> np.ndarray:
     """(P, steps, 2) sequences that drive at each of ``cfg.veer_speeds`` x v_max turning at each of
-    ``cfg.veer_turn_rates`` x w_max for ``turn_steps`` (the first segment), then straight on at that speed: how a robot
+    ``cfg.veer_turn_rates`` x w_max for each of ``cfg.veer_durations_s``, then straight on at that speed: how a robot
     pulls out to pass slower walkers. Held to the horizon the same turn is a circle, which never enters the beam."""
     rows = []
-    for rate in cfg.veer_turn_rates:
-        for ratio in cfg.veer_speeds:
-            seq = np.zeros((steps, 2))
-            seq[:, 0] = min(ratio, speed_ratio) * limits.v_max
-            seq[:min(turn_steps, steps), 1] = np.clip(rate, -1.0, 1.0) * limits.w_max
-            rows.append(seq)
+    for duration in cfg.veer_durations_s:
+        turn = min(steps, max(1, int(round(duration / dt))))
+        for rate in cfg.veer_turn_rates:
+            for ratio in cfg.veer_speeds:
+                seq = np.zeros((steps, 2))
+                seq[:, 0] = min(ratio, speed_ratio) * limits.v_max
+                seq[:turn, 1] = np.clip(rate, -1.0, 1.0) * limits.w_max
+                rows.append(seq)
     return np.array(rows).reshape(-1, steps, 2)

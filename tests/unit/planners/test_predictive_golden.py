@@ -24,6 +24,8 @@ Later that day swerves joined the first candidates (``sampling.veer_turn_rates``
 then straight on): every evaluation count grew by the 8 sequences, and where a swerve is cheaper the command changed
 (constant velocity: ``crowd16``'s and ``crowd16_nobody_waits``' fifth decisions; learned: ``crossing``, ``crowd16``,
 ``ped_ahead`` and ``stall``, which now pull out at speed where they crept on an arc); both fixtures were re-recorded.
+Then swerves that turn for 1.6 s as well (``veer_durations_s``, 8 more sequences): constant velocity ``backwards_allowed``,
+``crossing``, ``turning_start`` and ``wall_ahead``, learned ``crowd16`` changed one or two decisions each; re-recorded.
 Before that it held the decisions of the planner before its rollout was vectorised.
 Speed-ups must not change decisions: commands and sequences must match exactly, costs to
 float32 rounding. The independent checks of behaviour are in ``test_predictive_planner.py``

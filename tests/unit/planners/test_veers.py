@@ -1,4 +1,4 @@
-"""Swerves: pull out at speed for the first segment, then straight on; how a robot behind slower walkers passes them."""
+"""Swerves: turn at speed for a while, then straight on; how a robot behind slower walkers pulls out and passes them."""
 
 from __future__ import annotations
 
@@ -22,15 +22,17 @@ WALK = np.array([0.6, 0.0])
 
 
 def test_sequences_turn_for_the_first_segment_then_drive_straight_at_one_speed():
-    cfg = SamplingConfig(veer_turn_rates=(-1.0, 0.5), veer_speeds=(0.5, 1.0))
-    seqs = veer_then_straight(cfg, RobotLimits(), steps=40, turn_steps=8, speed_ratio=1.0)
+    cfg = SamplingConfig(veer_turn_rates=(-1.0, 0.5), veer_speeds=(0.5, 1.0), veer_durations_s=(0.8,))
+    seqs = veer_then_straight(cfg, RobotLimits(), steps=40, dt=0.1, speed_ratio=1.0)
     assert seqs.shape == (4, 40, 2)
     right_fast, left_slow = seqs[1], seqs[2]  # -1.0 x w_max at 2 m/s, +0.5 x w_max at 1 m/s
     assert np.all(right_fast[:8] == [2.0, -1.0]) and np.all(right_fast[8:] == [2.0, 0.0])
     assert np.all(left_slow[:8] == [1.0, 0.5]) and np.all(left_slow[8:] == [1.0, 0.0])
-    capped = veer_then_straight(cfg, RobotLimits(), steps=40, turn_steps=8, speed_ratio=0.25)
+    capped = veer_then_straight(cfg, RobotLimits(), steps=40, dt=0.1, speed_ratio=0.25)
     assert capped[..., 0].max() == pytest.approx(0.5)  # the config's speed cap holds
-    assert veer_then_straight(SamplingConfig(veer_turn_rates=()), RobotLimits(), 40, 8, 1.0).shape == (0, 40, 2)
+    assert veer_then_straight(SamplingConfig(veer_turn_rates=()), RobotLimits(), 40, 0.1, 1.0).shape == (0, 40, 2)
+    longer = veer_then_straight(SamplingConfig(veer_durations_s=(0.4, 1.6)), RobotLimits(), 40, 0.1, 1.0)
+    assert longer.shape == (16, 40, 2) and np.count_nonzero(longer[0, :, 1]) == 4 and np.count_nonzero(longer[8, :, 1]) == 16
 
 
 def _drive(rates: tuple[float, ...], decisions: int = 80) -> tuple[np.ndarray, np.ndarray, float]:
@@ -56,7 +58,10 @@ def test_a_robot_behind_slower_walkers_pulls_out_and_passes_them_only_with_swerv
     assert behind[0] < peds[:, 0].max()  # the held arcs alone: still behind the file
 
 
-def test_swerves_never_drive_backwards():
+def test_swerves_never_drive_backwards_nor_turn_for_no_time():
     with pytest.raises(ConfigError) as exc:
         PredictivePlannerConfig.from_dict({"sampling": {"veer_speeds": [-0.5]}})
     assert "veer_speeds" in str(exc.value)
+    with pytest.raises(ConfigError) as exc:
+        PredictivePlannerConfig.from_dict({"sampling": {"veer_durations_s": [0.8, 0.0]}})
+    assert "veer_durations_s" in str(exc.value)
