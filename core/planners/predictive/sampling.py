@@ -79,6 +79,6 @@ def veer_then_straight(cfg: SamplingConfig, limits: RobotLimits, steps: int, dt:
             for ratio in cfg.veer_speeds:
                 seq = np.zeros((steps, 2))
                 seq[:, 0] = min(ratio, speed_ratio) * limits.v_max
-                seq[:turn, 1] = np.clip(rate, -1.0, 1.0) * limits.w_max
+                seq[:turn, 1] = rate * limits.w_max
                 rows.append(seq)
     return np.array(rows).reshape(-1, steps, 2)

@@ -21,7 +21,7 @@ FILE = np.array([[8.5, 10.0], [9.7, 10.0], [10.9, 10.0]])
 WALK = np.array([0.6, 0.0])
 
 
-def test_sequences_turn_for_the_first_segment_then_drive_straight_at_one_speed():
+def test_sequences_turn_for_each_duration_then_drive_straight_at_one_speed():
     cfg = SamplingConfig(veer_turn_rates=(-1.0, 0.5), veer_speeds=(0.5, 1.0), veer_durations_s=(0.8,))
     seqs = veer_then_straight(cfg, RobotLimits(), steps=40, dt=0.1, speed_ratio=1.0)
     assert seqs.shape == (4, 40, 2)
@@ -58,10 +58,13 @@ def test_a_robot_behind_slower_walkers_pulls_out_and_passes_them_only_with_swerv
     assert behind[0] < peds[:, 0].max()  # the held arcs alone: still behind the file
 
 
-def test_swerves_never_drive_backwards_nor_turn_for_no_time():
+def test_swerves_never_drive_backwards_turn_for_no_time_or_beyond_the_limit():
     with pytest.raises(ConfigError) as exc:
         PredictivePlannerConfig.from_dict({"sampling": {"veer_speeds": [-0.5]}})
     assert "veer_speeds" in str(exc.value)
     with pytest.raises(ConfigError) as exc:
         PredictivePlannerConfig.from_dict({"sampling": {"veer_durations_s": [0.8, 0.0]}})
     assert "veer_durations_s" in str(exc.value)
+    with pytest.raises(ConfigError) as exc:
+        PredictivePlannerConfig.from_dict({"sampling": {"veer_turn_rates": [1.5]}})
+    assert "veer_turn_rates" in str(exc.value)
