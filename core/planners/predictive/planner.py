@@ -2,7 +2,8 @@
 
 One decision: one batched forecaster call; first-segment candidates (dense in the near field)
 rolled out with the simulator's own kinematics (``core.sim.robot.unicycle_rollout``) and held to the
-horizon, plus point turns (turn in place, then straight: how a robot in a corner faces a door); the
+horizon, plus point turns (turn in place, then straight: how a robot in a corner faces a door) and swerves
+(turn at speed for a while, then straight: how a robot behind slower walkers pulls out to pass them); the
 best ``beam_width`` sequences are extended with a coarser command set; the first command of the
 cheapest sequence seen is returned. Braking (0, 0) is always a candidate, so the robot can wait, but waiting is no refuge: a pedestrian forecast to walk into a standing robot costs
 as much as one the robot drives into, so the search turns away, speeds up or gives way early
