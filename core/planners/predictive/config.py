@@ -163,6 +163,7 @@ class SafetyConfig(_Frozen):
     yield_range: float = Field(default=1.2, ge=0)  #: ... starting this far beyond contact [m]
     yield_test_s: float = Field(default=3.0, gt=0)  #: [s]; 1 s: 0.812 at commit 0.5 (reacting people step back slowly)
     static_field_resolution: float = Field(default=0.1, ge=0, le=0.5)  #: [m]; 0 = exact distance queries
+    lane_memory_s: float = Field(default=20.0, gt=0)  #: how long a walker's pass is remembered (decay time) [s]
 
 
 class WeightsConfig(_Frozen):
@@ -181,6 +182,7 @@ class WeightsConfig(_Frozen):
     turn: float = Field(default=0.1, ge=0)
     smoothness: float = Field(default=0.3, ge=0)  #: change of the first command from the last one
     heading: float = Field(default=1.0, ge=0)  #: mean heading error to the active waypoint over the horizon
+    lane: float = Field(default=2.0, ge=0)  #: per walker lately through where a rollout ends at rest (``traffic``)
 
 
 class PredictivePlannerConfig(_Frozen):

@@ -27,7 +27,7 @@ from foresight.core.sim.robot import wrap_angle
 
 TERMS = (
     "progress", "collision", "risk", "near_miss", "ttc", "progress_risk", "hard_clearance",
-    "static", "static_collision", "velocity", "turn", "smoothness", "heading",
+    "static", "static_collision", "velocity", "turn", "smoothness", "heading", "lane",
 )
 
 
@@ -171,6 +171,7 @@ class Scene:
     prev_command: np.ndarray  #: (2,) last command (v, omega)
     max_speed: float
     max_turn_rate: float
+    traffic: Callable[[np.ndarray], np.ndarray] | None = None  #: walkers lately passing at points (``traffic``)
 
     @cached_property
     def time_steps(self) -> np.ndarray:
@@ -335,6 +336,9 @@ def evaluate(roll: Rollouts, scene: Scene, cfg: PredictivePlannerConfig) -> tupl
     # mean (not terminal) heading error: a terminal error lets every decision postpone turning in place
     bearing = np.arctan2(target[:, None, 1] - pos[..., 1], target[:, None, 0] - pos[..., 0])  # (B, K)
     terms["heading"] = np.add.reduce(np.abs(wrap_angle(bearing - ev[..., 2])), axis=1) / K / np.pi
+    # waiting in a lane: the walkers lately through the rollout's end point, in full for a robot ending at rest
+    terms["lane"] = (scene.traffic(pos[:, -1]) * np.maximum(0.0, 1.0 - speed[:, -1] / scene.max_speed)
+                     if scene.traffic is not None else np.zeros(len(pos)))
     total = -wt.goal * terms["progress"]
     for name in TERMS[1:]:
         total += getattr(wt, name) * terms[name]

@@ -29,6 +29,7 @@ from foresight.core.planners.base import EpisodeInfo
 from foresight.core.planners.predictive import cost as C
 from foresight.core.planners.predictive.config import PredictivePlannerConfig
 from foresight.core.planners.predictive.geodesic import GeodesicDistance
+from foresight.core.planners.predictive.traffic import TrafficMap
 from foresight.core.planners.predictive.rollout import FrameRollouts, eval_steps, extend_forecast, rollout
 from foresight.core.planners.predictive.sampling import (
     branch_commands,
@@ -75,6 +76,7 @@ class PredictivePlanner:
         self._route_cache: tuple | None = None
         self._prev = np.zeros(2)
         self._plan: tuple[np.ndarray, np.ndarray] | None = None  #: the last decision's commands (S, 2), states (S, 5)
+        self._traffic: TrafficMap | None = None
         self._diag = None
 
     @property
@@ -162,8 +164,19 @@ class PredictivePlanner:
             ped_lines=lines, times=times, contact=contact, robot_radius=obs.robot_radius, route=route,
             phi0=phi0, assertiveness=assertive, static=self._static_field(obs), start=np.asarray(obs.robot_pose, dtype=float),
             prev_command=self._prev, max_speed=limits.v_max, max_turn_rate=limits.w_max,
+            traffic=self._lanes(obs, contact),
         )
         return scene, near, extra
+
+    def _lanes(self, obs: Observation, contact: float) -> TrafficMap | None:
+        """The episode's traffic map, brought up to date (None while ``weights.lane`` is 0)."""
+        if self.config.weights.lane <= 0:
+            return None
+        if self._traffic is None:
+            self._traffic = TrafficMap(obs.static.width, obs.static.height, contact,
+                                       memory_s=self.config.safety.lane_memory_s)
+        self._traffic.observe(obs.time, obs.ped_positions, obs.ped_velocities)
+        return self._traffic
 
     def _waiting(self, obs: Observation, ids: np.ndarray, contact: float) -> np.ndarray:
         """(N,) mask of the forecast pedestrians (``ids``) taken to wait for the robot: standing, not seen to hold ground.

@@ -26,6 +26,9 @@ then straight on): every evaluation count grew by the 8 sequences, and where a s
 ``ped_ahead`` and ``stall``, which now pull out at speed where they crept on an arc); both fixtures were re-recorded.
 Then swerves that turn for 1.6 s as well (``veer_durations_s``, 8 more sequences): constant velocity ``backwards_allowed``,
 ``crossing``, ``turning_start`` and ``wall_ahead``, learned ``crowd16`` changed one or two decisions each; re-recorded.
+Session 15: waiting where people have lately walked through costs (``weights.lane``, ``traffic``): no command or
+sequence changed; the costs of seven decisions whose best plan ends at rest beside the scenes' walkers grew by up to
+0.5; both fixtures re-recorded.
 Before that it held the decisions of the planner before its rollout was vectorised.
 Speed-ups must not change decisions: commands and sequences must match exactly, costs to
 float32 rounding. The independent checks of behaviour are in ``test_predictive_planner.py``

@@ -39,7 +39,8 @@ def _drive(rates: tuple[float, ...], decisions: int = 80) -> tuple[np.ndarray, n
     """Closed loop behind the file (the robot moved by the simulator's kinematics, the walkers at constant velocity):
     the robot's last state, the walkers' last positions and the smallest gap [m] between robot and walkers."""
     m = corridor_map(obstacles=WALLS)
-    cfg = PredictivePlannerConfig.from_dict({"sampling": {"veer_turn_rates": list(rates)}})
+    # lanes off: a robot held up in the walkers' own lane is charged for it, which alone can pull it out (test_lanes)
+    cfg = PredictivePlannerConfig.from_dict({"sampling": {"veer_turn_rates": list(rates)}, "weights": {"lane": 0}})
     planner = PredictivePlanner(cfg, ConstantVelocityForecaster(PLANNER_TIMEBASE))
     planner.reset(info_for(m))
     state, gap = np.array([5.0, 10.0, 0.0, 0.6, 0.0]), np.inf
