@@ -29,7 +29,6 @@ from foresight.core.planners.base import EpisodeInfo
 from foresight.core.planners.predictive import cost as C
 from foresight.core.planners.predictive.config import PredictivePlannerConfig
 from foresight.core.planners.predictive.geodesic import GeodesicDistance
-from foresight.core.planners.predictive.traffic import TrafficMap
 from foresight.core.planners.predictive.rollout import FrameRollouts, eval_steps, extend_forecast, rollout
 from foresight.core.planners.predictive.sampling import (
     branch_commands,
@@ -37,6 +36,7 @@ from foresight.core.planners.predictive.sampling import (
     turn_then_go,
     veer_then_straight,
 )
+from foresight.core.planners.predictive.traffic import TrafficMap
 from foresight.core.predict.forecaster import Forecaster
 from foresight.core.sim.observation import Observation
 from foresight.core.sim.robot import RobotLimits, unicycle_step

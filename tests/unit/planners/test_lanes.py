@@ -12,6 +12,7 @@ from foresight.core.errors import ConfigError
 from foresight.core.planners.predictive.config import PredictivePlannerConfig
 from foresight.core.planners.predictive.planner import PredictivePlanner
 from foresight.core.planners.predictive.traffic import TrafficMap
+from foresight.core.planners.registry import make_forecaster
 from foresight.core.predict.forecaster import ConstantVelocityForecaster
 from foresight.core.predict.nn.checkpoint import load_predictor
 from foresight.core.predict.timebase import PLANNER_TIMEBASE
@@ -93,8 +94,6 @@ def test_a_robot_waiting_at_a_doorway_no_longer_stands_in_the_stream_of_people_w
 
     def outcome(lane: float) -> str:
         cfg = PredictivePlannerConfig.from_dict({"weights": {"lane": lane}})
-        from foresight.core.planners.registry import make_forecaster
-
         return run_episode(scenario, 144, PredictivePlanner(cfg, make_forecaster(predictor))).outcome
 
     assert outcome(2.0) == "success"
