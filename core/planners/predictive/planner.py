@@ -7,7 +7,8 @@ horizon, plus point turns (turn in place, then straight: how a robot in a corner
 best ``beam_width`` sequences are extended with a coarser command set; the first command of the
 cheapest sequence seen is returned. Braking (0, 0) is always a candidate, so the robot can wait, but waiting is no refuge: a pedestrian forecast to walk into a standing robot costs
 as much as one the robot drives into, so the search turns away, speeds up or gives way early
-instead. Pedestrian terms read the forecast's spread (a chance margin and the contact probability,
+instead, and waiting where walkers have lately passed costs too (``traffic``: the next one through a doorway is
+often not in view yet). Pedestrian terms read the forecast's spread (a chance margin and the contact probability,
 see ``cost``); after a few seconds without route progress the soft margins shrink (stall
 assertiveness), never the contact distance, and the robot commits: pedestrians standing near it
 are taken to wait for it, to stay and to step back as it edges forward (a doorway standoff ends),
