@@ -1,5 +1,5 @@
-"""Realistic conditions: the stress suite (configs/scenarios/stress.yaml) and its training seeds (complete, realistic,
-disjoint), and our matrix's crowd defaults."""
+"""Realistic conditions: the stress suite (configs/scenarios/stress.yaml) and its training and replication seeds
+(complete, realistic, disjoint), and our matrix's crowd defaults."""
 
 from __future__ import annotations
 
@@ -15,6 +15,7 @@ from foresight.core.sim.spawn_check import early_contacts
 REPO = Path(__file__).resolve().parents[3]
 MATRIX = REPO / "configs" / "scenarios" / "stress.yaml"
 TRAIN = REPO / "configs" / "seeds" / "stress_train.yaml"
+REPLICATION = REPO / "configs" / "seeds" / "stress_replication.yaml"
 ARCHETYPES = {"crossing", "cross_trap", "head_on_corridor", "overtaking", "bottleneck", "doorway", "merging",
               "t_intersection", "group_crossing", "station_platform", "urban_crossing"}
 
@@ -55,6 +56,20 @@ def test_training_seeds_cover_the_synthetic_scenarios_and_never_an_evaluation_se
         assert not set(train.seeds[name]) & set(m.get(name).scenario.seeds)
 
 
+def test_replication_seeds_are_new_episodes_of_every_synthetic_scenario(shared_dir: Path) -> None:
+    """A second sample of the suite's conditions: no evaluation seed of any scenario, no training seed, and no
+    episode lost before a planner can act (the suite's own spawn guarantee)."""
+    m = load_matrix(MATRIX)
+    rep, train = load_seed_manifest(REPLICATION, m), load_seed_manifest(TRAIN, m)
+    synthetic = {s.name for s in m.scenarios if s.scenario.replay is None}
+    assert set(rep.scenario_names) == synthetic
+    evaluation = {x for s in m.scenarios for x in s.scenario.seeds}
+    for name in synthetic:
+        assert len(set(rep.seeds[name])) == 10
+        assert not set(rep.seeds[name]) & (evaluation | set(train.seeds[name]))
+    assert early_contacts([s for s in m.scenarios if s.name in rep.seeds], seeds=rep.seeds) == []
+
+
 def test_replay_part_covers_the_five_scenes_with_at_least_30_episodes(shared_dir: Path) -> None:
     m = load_matrix(MATRIX)
     replay = [s for s in m.scenarios if s.scenario.replay is not None]
@@ -71,10 +86,12 @@ def test_files_are_what_the_generator_writes(tmp_path: Path, shared_dir: Path) -
     spec = importlib.util.spec_from_file_location("make_stress_suite", REPO / "bench" / "make_stress_suite.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    module.main(["--out", str(tmp_path / "stress.yaml"), "--train-out", str(tmp_path / "train.yaml")])
+    module.main(["--out", str(tmp_path / "stress.yaml"), "--train-out", str(tmp_path / "train.yaml"),
+                 "--replication-out", str(tmp_path / "replication.yaml")])
     stale = "configs/ differ from what the generator writes: run `.venv/bin/python bench/make_stress_suite.py`"
     assert (tmp_path / "stress.yaml").read_text() == MATRIX.read_text(), stale
     assert (tmp_path / "train.yaml").read_text() == TRAIN.read_text(), stale
+    assert (tmp_path / "replication.yaml").read_text() == REPLICATION.read_text(), stale
 
 
 def test_our_matrix_defaults_to_realistic_crowds_and_the_reference_keeps_its_own(reference_matrix_path: Path) -> None:
