@@ -1,9 +1,11 @@
 """Navigation table: success / collision / timeout with 95 % Wilson intervals per family, for every planner.
 
-Suites (``--suites``, default all three; each runs at its scenarios' own seeds and horizons):
+Suites (``--suites``, default all four; each runs at its scenarios' own seeds and horizons):
 
 - ``stress``: configs/scenarios/stress.yaml (realistic speeds; 30 % and 100 % of the pedestrians ignore the robot;
   replayed ETH/UCY scenes), grouped by condition and family;
+- ``stress_replication``: the same synthetic conditions on new seeds (configs/seeds/stress_replication.yaml: evaluation
+  seed + 10, never tuned or trained on), to see whether what the suite shows holds on episodes nobody looked at;
 - ``reference_typical``: the reference's classic matrix (shared/reference/robot_sf) with ``ped_speed_tier: typical``;
 - ``reference_typical_blind``: the same and ``peds_have_robot_repulsion: false`` (nobody yields to the robot);
 - or ``--matrix M [--override KEY=VALUE ...]``: any matrix under any conditions, as suite ``custom``.
@@ -14,6 +16,10 @@ folder (``--out``/<suite>/<planner>: evaluation.json, episodes.jsonl) is kept; `
 instead of re-running it, so a long table can be built in parts. ``--seeds-per-scenario N`` (the first N of each
 scenario's seeds) and ``--scenarios`` make partial runs cheap. Prints ONE JSON object (``--json``) or a Markdown table,
 and lists every group where a baseline beats a predictive planner (higher success, or equal with fewer collisions).
+With both predictive columns, each suite also gets the paired comparison of the learned model against constant
+velocity on the same episodes (``learned_vs_cv``: failed episodes of each, how many fewer, the discordant successes
+learned-only : cv-only and their exact McNemar p, which issue 12 asks to be below 0.01; no p below
+``core.evaluation.stats.MIN_PAIRS`` pairs).
 """
 
 from __future__ import annotations
@@ -29,10 +35,12 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 SHARED = Path(os.environ.get("FORESIGHT_SHARED", REPO.parent / "shared"))
 REFERENCE = SHARED / "reference/robot_sf/configs/scenarios/classic_interactions.yaml"
-SUITES = {  #: name -> (matrix, --override values)
-    "stress": (REPO / "configs/scenarios/stress.yaml", []),
-    "reference_typical": (REFERENCE, ["ped_speed_tier=typical"]),
-    "reference_typical_blind": (REFERENCE, ["ped_speed_tier=typical", "peds_have_robot_repulsion=false"]),
+STRESS = REPO / "configs/scenarios/stress.yaml"
+SUITES = {  #: name -> (matrix, --override values, seed manifest or None for the scenarios' own seeds)
+    "stress": (STRESS, [], None),
+    "stress_replication": (STRESS, [], REPO / "configs/seeds/stress_replication.yaml"),
+    "reference_typical": (REFERENCE, ["ped_speed_tier=typical"], None),
+    "reference_typical_blind": (REFERENCE, ["ped_speed_tier=typical", "peds_have_robot_repulsion=false"], None),
 }
 PLANNERS = {  #: column name -> foresight evaluate arguments
     "predictive (learned)": ["--planner", "predictive"],
@@ -45,7 +53,8 @@ SLUG = {"predictive (learned)": "predictive_learned", "predictive (cv)": "predic
 BASELINES = ("orca", "social_force", "goal")
 
 
-def run_one(suite: str, matrix: Path, overrides: list[str], planner: str, args: argparse.Namespace) -> Path:
+def run_one(suite: str, matrix: Path, overrides: list[str], seeds: Path | None, planner: str,
+            args: argparse.Namespace) -> Path:
     """The work folder of one (suite, planner) evaluation, run now unless --reuse finds it finished."""
     out = Path(args.out) / suite / SLUG.get(planner, planner)
     if args.reuse and (out / "evaluation.json").is_file():
@@ -53,7 +62,9 @@ def run_one(suite: str, matrix: Path, overrides: list[str], planner: str, args: 
     cmd = [str(REPO / ".venv/bin/foresight"), "evaluate", "--matrix", str(matrix), *PLANNERS[planner], "--local",
            "--json", "--workers", str(args.workers), "--out", str(out), "--min-success", "0"]
     cmd += [x for o in overrides for x in ("--override", o)]
-    if args.seeds_per_scenario:
+    if seeds is not None:
+        cmd += ["--seeds", str(seeds)]
+    elif args.seeds_per_scenario:
         cmd += ["--seeds-per-scenario", str(args.seeds_per_scenario)]
     if args.scenarios:
         cmd += ["--scenarios", args.scenarios]
@@ -87,13 +98,32 @@ def cell(records: list) -> dict:
             "unsolvable": unsolvable}
 
 
-def suite_table(folders: dict[str, Path], groups: dict[str, str]) -> dict[str, dict[str, dict]]:
-    """{group: {planner: cell}} with per-condition and overall rows after the families."""
+def records_of(folder: Path) -> list:
     from foresight.core.evaluation.record import EpisodeRecord
 
+    return [EpisodeRecord.model_validate_json(line) for line in (folder / "episodes.jsonl").read_text().splitlines()]
+
+
+def learned_vs_cv(learned: list, cv: list) -> dict:
+    """The paired comparison on the (scenario, seed) episodes both ran: failures, how many fewer, McNemar."""
+    from foresight.core.evaluation.stats import MIN_PAIRS, mcnemar_p
+
+    a = {(r.scenario, r.seed): r.success for r in learned}
+    b = {(r.scenario, r.seed): r.success for r in cv}
+    pairs = sorted(set(a) & set(b))
+    fail_l, fail_c = sum(not a[k] for k in pairs), sum(not b[k] for k in pairs)
+    only_l, only_c = sum(a[k] and not b[k] for k in pairs), sum(b[k] and not a[k] for k in pairs)
+    return {"pairs": len(pairs), "failed_learned": fail_l, "failed_cv": fail_c,
+            "fewer_failures": round(1 - fail_l / fail_c, 3) if fail_c else None,
+            "learned_only": only_l, "cv_only": only_c,
+            "mcnemar_p": mcnemar_p(only_l, only_c) if len(pairs) >= MIN_PAIRS else None}
+
+
+def suite_table(folders: dict[str, Path], groups: dict[str, str]) -> dict[str, dict[str, dict]]:
+    """{group: {planner: cell}} with per-condition and overall rows after the families."""
     table: dict[str, dict[str, dict]] = {}
     for planner, folder in folders.items():
-        records = [EpisodeRecord.model_validate_json(line) for line in (folder / "episodes.jsonl").read_text().splitlines()]
+        records = records_of(folder)
         by: dict[str, list] = {}
         for r in records:
             group = groups[r.scenario]
@@ -137,6 +167,11 @@ def markdown(result: dict) -> str:
             name = f"**{group}**" if group.startswith("all") else group
             lines.append(f"| {name} (n={cells[planners[0]]['episodes']}) | " + " | ".join(vals) + " |")
         lines.append("")
+        if "learned_vs_cv" in t:
+            c = t["learned_vs_cv"]
+            p = "n/a" if c["mcnemar_p"] is None else f"{c['mcnemar_p']:.3g}"
+            lines += [f"learned vs cv, {c['pairs']} paired episodes: {c['failed_learned']} vs {c['failed_cv']} failed, "
+                      f"learned-only : cv-only successes {c['learned_only']} : {c['cv_only']}, McNemar p = {p}", ""]
     return "\n".join(lines)
 
 
@@ -156,18 +191,25 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--reuse", action="store_true", help="take finished work folders under --out instead of re-running")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    suites = {"custom": (Path(args.matrix), args.override)} if args.matrix else {
+    unknown = [s for s in args.suites.split(",") if s and s not in SUITES]
+    if unknown and not args.matrix:
+        ap.error(f"unknown suite {unknown[0]!r}; expected one of {', '.join(SUITES)}")
+    suites = {"custom": (Path(args.matrix), args.override, None)} if args.matrix else {
         s: SUITES[s] for s in args.suites.split(",") if s}
     by_slug = {SLUG.get(p, p): p for p in PLANNERS}
     planners = [by_slug[p] for p in args.planners.split(",") if p]
     result: dict = {"command": ["bench/navigation_table.py", *(argv if argv is not None else sys.argv[1:])],
                     "suites": {}, "runs": {}}
-    for suite, (matrix, overrides) in suites.items():
-        folders = {p: run_one(suite, matrix, overrides, p, args) for p in planners}
+    for suite, (matrix, overrides, seeds) in suites.items():
+        folders = {p: run_one(suite, matrix, overrides, seeds, p, args) for p in planners}
         summaries = {p: EvaluationResult.model_validate_json((f / "evaluation.json").read_text())
                      for p, f in folders.items()}
         result["suites"][suite] = {"matrix": str(matrix), "overrides": overrides,
+                                   "seeds": None if seeds is None else str(seeds),
                                    "groups": suite_table(folders, groups_of(matrix, overrides))}
+        if {"predictive (learned)", "predictive (cv)"} <= set(folders):
+            result["suites"][suite]["learned_vs_cv"] = learned_vs_cv(records_of(folders["predictive (learned)"]),
+                                                                     records_of(folders["predictive (cv)"]))
         result["runs"][suite] = {p: {"folder": str(folders[p]), "wall_s": round(s.wall_s, 1),
                                      "code_version": s.code_version, "episodes": s.episodes}
                                  for p, s in summaries.items()}

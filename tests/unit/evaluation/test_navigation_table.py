@@ -1,0 +1,50 @@
+"""bench/navigation_table.py: the paired learned-vs-constant-velocity comparison each suite reports, and its suites."""
+
+from __future__ import annotations
+
+import importlib.util
+import subprocess
+import sys
+from pathlib import Path
+
+from tests.unit.evaluation.traces import record
+
+BENCH = Path(__file__).resolve().parents[3] / "bench" / "navigation_table.py"
+
+
+def _bench():
+    spec = importlib.util.spec_from_file_location("navigation_table", BENCH)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _runs(outcomes: str, scenario: str = "s_low") -> list:
+    """One record per character: s = success, c = collision, t = timeout; seeds 0, 1, ..."""
+    kind = {"s": "success", "c": "collision_pedestrian", "t": "timeout"}
+    return [record(scenario, seed, kind[o]) for seed, o in enumerate(outcomes)]
+
+
+def test_learned_vs_cv_counts_failures_and_discordant_pairs_on_common_episodes() -> None:
+    nav = _bench()
+    learned = _runs("s" * 20 + "sssct")  # 25 episodes, 2 failures
+    cv = _runs("s" * 20 + "ccsst") + _runs("t", scenario="only_cv")  # an episode learned never ran: not a pair
+    c = nav.learned_vs_cv(learned, cv)
+    assert (c["pairs"], c["failed_learned"], c["failed_cv"]) == (25, 2, 3)
+    assert (c["learned_only"], c["cv_only"]) == (2, 1)  # seeds 21, 22 : seed 23
+    assert c["fewer_failures"] == round(1 - 2 / 3, 3)
+    assert c["mcnemar_p"] == 1.0  # 2 : 1 is no evidence
+
+
+def test_no_p_value_below_the_minimum_number_of_pairs() -> None:
+    nav = _bench()
+    c = nav.learned_vs_cv(_runs("sssss"), _runs("ccccc"))
+    assert (c["learned_only"], c["cv_only"], c["mcnemar_p"]) == (5, 0, None)
+
+
+def test_the_replication_suite_runs_the_replication_seeds_and_an_unknown_suite_is_refused() -> None:
+    nav = _bench()
+    matrix, overrides, seeds = nav.SUITES["stress_replication"]
+    assert matrix == nav.SUITES["stress"][0] and seeds.name == "stress_replication.yaml" and seeds.is_file()
+    bad = subprocess.run([sys.executable, str(BENCH), "--suites", "stress,no_such_suite"], capture_output=True, text=True)
+    assert bad.returncode == 2 and "unknown suite 'no_such_suite'" in bad.stderr
