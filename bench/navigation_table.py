@@ -4,11 +4,15 @@ Suites (``--suites``, default all four; each runs at its scenarios' own seeds an
 
 - ``stress``: configs/scenarios/stress.yaml (realistic speeds; 30 % and 100 % of the pedestrians ignore the robot;
   replayed ETH/UCY scenes), grouped by condition and family;
-- ``stress_replication``: the same synthetic conditions on new seeds (configs/seeds/stress_replication.yaml: evaluation
-  seed + 10, never tuned or trained on), to see whether what the suite shows holds on episodes nobody looked at;
-- ``reference_typical``: the reference's classic matrix (shared/reference/robot_sf) with ``ped_speed_tier: typical``;
+- ``reference_defaults``: the reference's classic matrix (shared/reference/robot_sf) as it is;
+- ``reference_typical``: the same with ``ped_speed_tier: typical``;
 - ``reference_typical_blind``: the same and ``peds_have_robot_repulsion: false`` (nobody yields to the robot);
 - or ``--matrix M [--override KEY=VALUE ...]``: any matrix under any conditions, as suite ``custom``.
+
+``--replication`` runs each suite on new episodes of the same conditions instead (suite ``<name>_replication``): the
+stress suite's synthetic scenarios on configs/seeds/stress_replication.yaml (evaluation seed + 10), the reference
+matrix on configs/seeds/reference_replication.yaml (each scenario's seeds 11-20): episodes nobody tuned a planner or
+trained a model on, to see whether what a suite shows holds on episodes nobody looked at.
 
 Planners (``--planners``, default all): predictive with the default learned model, predictive with constant-velocity
 forecasts, ORCA, social force, goal-seeking. Every (suite, planner) is one ``foresight evaluate --local`` run whose work
@@ -36,12 +40,14 @@ REPO = Path(__file__).resolve().parent.parent
 SHARED = Path(os.environ.get("FORESIGHT_SHARED", REPO.parent / "shared"))
 REFERENCE = SHARED / "reference/robot_sf/configs/scenarios/classic_interactions.yaml"
 STRESS = REPO / "configs/scenarios/stress.yaml"
-SUITES = {  #: name -> (matrix, --override values, seed manifest or None for the scenarios' own seeds)
-    "stress": (STRESS, [], None),
-    "stress_replication": (STRESS, [], REPO / "configs/seeds/stress_replication.yaml"),
-    "reference_typical": (REFERENCE, ["ped_speed_tier=typical"], None),
-    "reference_typical_blind": (REFERENCE, ["ped_speed_tier=typical", "peds_have_robot_repulsion=false"], None),
+SUITES = {  #: name -> (matrix, --override values)
+    "stress": (STRESS, []),
+    "reference_defaults": (REFERENCE, []),
+    "reference_typical": (REFERENCE, ["ped_speed_tier=typical"]),
+    "reference_typical_blind": (REFERENCE, ["ped_speed_tier=typical", "peds_have_robot_repulsion=false"]),
 }
+REPLICATION = {STRESS: REPO / "configs/seeds/stress_replication.yaml",  #: matrix -> its replication seeds
+               REFERENCE: REPO / "configs/seeds/reference_replication.yaml"}
 PLANNERS = {  #: column name -> foresight evaluate arguments
     "predictive (learned)": ["--planner", "predictive"],
     "predictive (cv)": ["--planner", "predictive", "--model", "cv"],
@@ -189,13 +195,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", default=str(REPO / "out" / "navigation"), help="work folders of the evaluations")
     ap.add_argument("--reuse", action="store_true", help="take finished work folders under --out instead of re-running")
+    ap.add_argument("--replication", action="store_true",
+                    help="run each suite on its replication seeds (new episodes of the same conditions)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     unknown = [s for s in args.suites.split(",") if s and s not in SUITES]
     if unknown and not args.matrix:
         ap.error(f"unknown suite {unknown[0]!r}; expected one of {', '.join(SUITES)}")
+    if args.replication and args.matrix:
+        ap.error("--replication runs the named suites on their replication seeds; it does not apply to --matrix")
     suites = {"custom": (Path(args.matrix), args.override, None)} if args.matrix else {
-        s: SUITES[s] for s in args.suites.split(",") if s}
+        f"{s}_replication" if args.replication else s: (*SUITES[s], REPLICATION[SUITES[s][0]] if args.replication else None)
+        for s in args.suites.split(",") if s}
     by_slug = {SLUG.get(p, p): p for p in PLANNERS}
     planners = [by_slug[p] for p in args.planners.split(",") if p]
     result: dict = {"command": ["bench/navigation_table.py", *(argv if argv is not None else sys.argv[1:])],

@@ -42,9 +42,11 @@ def test_no_p_value_below_the_minimum_number_of_pairs() -> None:
     assert (c["learned_only"], c["cv_only"], c["mcnemar_p"]) == (5, 0, None)
 
 
-def test_the_replication_suite_runs_the_replication_seeds_and_an_unknown_suite_is_refused() -> None:
+def test_every_suite_has_replication_seeds_and_bad_arguments_are_refused() -> None:
     nav = _bench()
-    matrix, overrides, seeds = nav.SUITES["stress_replication"]
-    assert matrix == nav.SUITES["stress"][0] and seeds.name == "stress_replication.yaml" and seeds.is_file()
+    for matrix, _ in nav.SUITES.values():
+        assert nav.REPLICATION[matrix].is_file()
     bad = subprocess.run([sys.executable, str(BENCH), "--suites", "stress,no_such_suite"], capture_output=True, text=True)
     assert bad.returncode == 2 and "unknown suite 'no_such_suite'" in bad.stderr
+    both = subprocess.run([sys.executable, str(BENCH), "--matrix", "m.yaml", "--replication"], capture_output=True, text=True)
+    assert both.returncode == 2 and "does not apply to --matrix" in both.stderr

@@ -95,3 +95,18 @@ def test_stress_selection_manifests_are_training_seeds_only() -> None:
     for size, minimum in (("quick", 30), ("smoke", 3)):
         pairs = set(load_seed_manifest(SEEDS / f"stress_train_{size}.yaml", stress).pairs())
         assert len(pairs) >= minimum and pairs <= full and not pairs & own
+
+
+def test_reference_replication_seeds_are_the_ten_after_the_measured_ones(reference_matrix_path) -> None:  # noqa: ANN001
+    """Every scenario of the reference's matrix, 10 seeds each, none of the 10 that ``--seeds-per-scenario 10`` runs
+    (where issue 12's numbers were measured and the planner tuned), none a training seed."""
+    from foresight.core.evaluation.runner import expand_seeds
+
+    matrix = load_matrix(reference_matrix_path)
+    manifest = load_seed_manifest(SEEDS / "reference_replication.yaml", matrix)
+    assert set(manifest.scenario_names) == set(matrix.names)
+    training = set().union(*(read_manifest_pairs(p) for p in TRAINING))
+    for s in matrix.scenarios:
+        seeds = manifest.seeds[s.name]
+        assert len(set(seeds)) == 10 and not set(seeds) & set(expand_seeds(tuple(s.scenario.seeds), 10))
+        assert not {(s.name, x) for x in seeds} & training
