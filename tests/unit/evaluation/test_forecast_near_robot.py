@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import gzip
-import importlib.util
 import json
 import subprocess
 import sys
@@ -11,14 +10,10 @@ from pathlib import Path
 
 import pytest
 
-BENCH = Path(__file__).resolve().parents[3] / "bench" / "forecast_near_robot.py"
+from tests.unit.bench_scripts import BENCH as BENCH_DIR
+from tests.unit.bench_scripts import load_bench
 
-
-def _bench():
-    spec = importlib.util.spec_from_file_location("forecast_near_robot", BENCH)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+BENCH = BENCH_DIR / "forecast_near_robot.py"
 
 
 def _trace(scenario: str = "doorway_nr100") -> dict:
@@ -34,7 +29,7 @@ def _trace(scenario: str = "doorway_nr100") -> dict:
 
 
 def test_errors_per_walker_and_band() -> None:
-    nav = _bench()
+    nav = load_bench("forecast_near_robot")
     out = sorted(nav.trace_errors(_trace()))
     assert [o[0] for o in out] == ["far", "near"]
     (_, far_ade, far_fde), (_, near_ade, near_fde) = out

@@ -2,21 +2,14 @@
 
 from __future__ import annotations
 
-import importlib.util
 import subprocess
 import sys
-from pathlib import Path
 
+from tests.unit.bench_scripts import BENCH as BENCH_DIR
+from tests.unit.bench_scripts import load_bench
 from tests.unit.evaluation.traces import record
 
-BENCH = Path(__file__).resolve().parents[3] / "bench" / "navigation_table.py"
-
-
-def _bench():
-    spec = importlib.util.spec_from_file_location("navigation_table", BENCH)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+BENCH = BENCH_DIR / "navigation_table.py"
 
 
 def _runs(outcomes: str, scenario: str = "s_low") -> list:
@@ -26,7 +19,7 @@ def _runs(outcomes: str, scenario: str = "s_low") -> list:
 
 
 def test_learned_vs_cv_counts_failures_and_discordant_pairs_on_common_episodes() -> None:
-    nav = _bench()
+    nav = load_bench("navigation_table")
     learned = _runs("s" * 20 + "sssct")  # 25 episodes, 2 failures
     cv = _runs("s" * 20 + "ccsst") + _runs("t", scenario="only_cv")  # an episode learned never ran: not a pair
     c = nav.learned_vs_cv(learned, cv)
@@ -37,13 +30,13 @@ def test_learned_vs_cv_counts_failures_and_discordant_pairs_on_common_episodes()
 
 
 def test_no_p_value_below_the_minimum_number_of_pairs() -> None:
-    nav = _bench()
+    nav = load_bench("navigation_table")
     c = nav.learned_vs_cv(_runs("sssss"), _runs("ccccc"))
     assert (c["learned_only"], c["cv_only"], c["mcnemar_p"]) == (5, 0, None)
 
 
 def test_every_suite_has_replication_seeds_and_bad_arguments_are_refused() -> None:
-    nav = _bench()
+    nav = load_bench("navigation_table")
     for matrix, _ in nav.SUITES.values():
         assert nav.REPLICATION[matrix].is_file()
     bad = subprocess.run([sys.executable, str(BENCH), "--suites", "stress,no_such_suite"], capture_output=True, text=True)

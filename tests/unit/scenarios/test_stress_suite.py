@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 
 import numpy as np
@@ -11,6 +10,7 @@ import numpy as np
 from foresight.core.scenarios.loader import load_matrix
 from foresight.core.scenarios.seeds import load_seed_manifest
 from foresight.core.sim.spawn_check import early_contacts
+from tests.unit.bench_scripts import load_bench
 
 REPO = Path(__file__).resolve().parents[3]
 MATRIX = REPO / "configs" / "scenarios" / "stress.yaml"
@@ -83,10 +83,7 @@ def test_replay_part_covers_the_five_scenes_with_at_least_30_episodes(shared_dir
 
 
 def test_files_are_what_the_generator_writes(tmp_path: Path, shared_dir: Path) -> None:
-    spec = importlib.util.spec_from_file_location("make_stress_suite", REPO / "bench" / "make_stress_suite.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    module.main(["--out", str(tmp_path / "stress.yaml"), "--train-out", str(tmp_path / "train.yaml"),
+    load_bench("make_stress_suite").main(["--out", str(tmp_path / "stress.yaml"), "--train-out", str(tmp_path / "train.yaml"),
                  "--replication-out", str(tmp_path / "replication.yaml")])
     stale = "configs/ differ from what the generator writes: run `.venv/bin/python bench/make_stress_suite.py`"
     assert (tmp_path / "stress.yaml").read_text() == MATRIX.read_text(), stale
