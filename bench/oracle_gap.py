@@ -37,9 +37,9 @@ CHECKPOINT = REPO / "model" / "predictor-sim-default.pt"
 
 
 @cache
-def _matrix(path: str):  # noqa: ANN202
-    """The matrix with nobody yielding, loaded once per worker process."""
-    return load_matrix(Path(path), overrides=BLIND)
+def _matrix(path: str, as_is: bool = False):  # noqa: ANN202
+    """The matrix with nobody yielding (or unchanged: ``--as-is``), loaded once per worker process."""
+    return load_matrix(Path(path), overrides=None if as_is else BLIND)
 
 
 @cache
@@ -50,15 +50,15 @@ def _learned():  # noqa: ANN202
     return load_predictor(CHECKPOINT)
 
 
-def _episode(args: tuple[str, str, int, str, int | None]) -> tuple[str, int, str, str]:
+def _episode(args: tuple[str, str, int, str, int | None, bool]) -> tuple[str, int, str, str]:
     """(scenario, seed, forecaster, outcome) of one episode (runs in a worker process)."""
-    matrix_path, name, seed, which, max_steps = args
+    matrix_path, name, seed, which, max_steps, as_is = args
     from foresight.core.planners.predictive.planner import PredictivePlanner
     from foresight.core.planners.registry import make_forecaster
     from foresight.core.predict.oracle import OracleForecaster
     from foresight.core.sim.episode import run_episode
 
-    sc = _matrix(matrix_path).get(name)
+    sc = _matrix(matrix_path, as_is).get(name)
     if which == "oracle":
         forecaster = OracleForecaster.for_episode(sc, seed, max_steps)
     else:
@@ -75,27 +75,34 @@ def main() -> None:
     ap.add_argument("--forecasters", default="oracle,learned,cv", help="of oracle, learned, cv; the first is the reference")
     ap.add_argument("--max-steps", type=int, default=None, help="horizon override for smoke runs")
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--as-is", action="store_true",
+                    help="run the matrix's own conditions (every chosen scenario must have nobody reacting to the robot, "
+                         "e.g. the stress suite's *_nr100 and replay_* scenarios)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     from foresight.core.sim.feasibility import peds_react
 
     try:
-        matrix = _matrix(args.matrix)
+        matrix = _matrix(args.matrix, args.as_is)
         chosen = [matrix.get(n.strip()) for n in args.scenarios.split(",")] if args.scenarios else list(matrix.scenarios)
     except CoreError as exc:
         sys.exit(f"oracle_gap: {exc}")
+    reacting = [s.name for s in chosen if peds_react(s)]
+    if args.as_is and reacting:
+        sys.exit(f"oracle_gap: --as-is: scenario {reacting[0]!r} has pedestrians who react to the robot (the oracle's "
+                 "recorded future would not hold); choose scenarios where nobody does")
     which = [w.strip() for w in args.forecasters.split(",")]
     unknown = [w for w in which if w not in ("oracle", "learned", "cv")]
     if unknown:
         sys.exit(f"--forecasters: unknown {unknown[0]!r}, expected oracle, learned or cv")
-    jobs = [(args.matrix, s.name, int(seed), w, args.max_steps)
+    jobs = [(args.matrix, s.name, int(seed), w, args.max_steps, args.as_is)
             for s in chosen for seed in expand_seeds(s.scenario.seeds, args.seeds_per_scenario) for w in which]
     t0 = time.perf_counter()
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
         rows = list(pool.map(_episode, jobs, chunksize=1))
     outcome = {(n, s, w): o for n, s, w, o in rows}
     episodes = sorted({(n, s) for n, s, _, _ in rows})
-    out: dict = {"benchmark": "oracle_gap", "matrix": args.matrix, "overrides": BLIND, "episodes": len(episodes),
+    out: dict = {"benchmark": "oracle_gap", "matrix": args.matrix, "overrides": None if args.as_is else BLIND, "episodes": len(episodes),
                  "approximate": any(peds_react(s) for s in chosen), "wall_s": round(time.perf_counter() - t0, 1),
                  "forecasters": {}, "paired": {}}
     for w in which:

@@ -70,3 +70,17 @@ def test_the_oracle_gap_bench_runs_paired_and_refuses_an_unknown_scenario(shared
                          capture_output=True, text=True, env=env, timeout=120)
     assert bad.returncode == 1 and "no scenario named 'no_such_scenario'" in bad.stderr
     assert len(bad.stderr.strip().splitlines()) == 1
+
+
+def test_the_oracle_gap_bench_as_is_refuses_a_scenario_where_people_react():
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[3]
+    run = subprocess.run([sys.executable, str(repo / "bench" / "oracle_gap.py"), "--matrix",
+                          str(repo / "configs" / "scenarios" / "stress.yaml"), "--as-is",
+                          "--scenarios", "crossing_nr100,crossing_nr30", "--json"],
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 1 and "'crossing_nr30' has pedestrians who react" in run.stderr
+    assert len(run.stderr.strip().splitlines()) == 1
