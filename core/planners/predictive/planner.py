@@ -55,6 +55,7 @@ class PredictivePlanner:
         self._prev = np.zeros(2)
         self._static: C.StaticClearance | None = None
         self._limits: RobotLimits | None = None
+        self._frames: FrameRollouts | None = None  #: kept across episodes of the same robot and dt
 
     def reset(self, info: EpisodeInfo) -> None:
         self.forecaster.timebase.stride(info.dt)  # ConfigError unless the forecast grid is whole sim steps
@@ -70,7 +71,8 @@ class PredictivePlanner:
         self._reacted: set[int] = set()  #: pedestrians seen to give way to the robot (no straight line for them)
         self._past: deque[tuple[float, np.ndarray, np.ndarray]] = deque()  #: (time, ids, velocities) over REACTION_WINDOW_S
         self._limits = RobotLimits.from_config(robot)
-        self._frames = FrameRollouts(self._limits, info.dt)
+        if self._frames is None or self._frames.limits != self._limits or self._frames.dt != info.dt:
+            self._frames = FrameRollouts(self._limits, info.dt)  # else its rollouts serve this episode too
         self._cands: dict[bool | None, np.ndarray] = {}
         self._firsts: dict[tuple, np.ndarray] = {}  #: (near field, steps) -> the first round's sequences
         self._step_cache: dict[tuple, tuple] = {}

@@ -57,7 +57,7 @@ class FrameRollouts:
             done = self._local.get((key, v, w))
             if done is None:
                 if len(self._local) >= self.capacity:
-                    self._local.clear()
+                    del self._local[next(iter(self._local))]  # the oldest stored (dicts keep insertion order)
                 start = np.repeat(np.array([[0.0, 0.0, 0.0, v, w]]), len(commands), axis=0)
                 done = self._local[(key, v, w)] = rollout(start, commands, self.limits, self.dt)
             local.append(done)
