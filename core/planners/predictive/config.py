@@ -160,6 +160,13 @@ class SafetyConfig(_Frozen):
     #: while the robot closed in, it did not move). Walking pedestrians never are (many never see the robot).
     #: 0: nobody is (the planner before 2026-11-24). Reference defaults, 69 episodes: 0.826 -> 0.913
     yield_speed: float = Field(default=0.3, ge=0)
+    #: lingering: a pedestrian within ``yield_range`` of contact now and ``standing_stays_s`` [s] ago, who moved less than
+    #: 0.5 m in between, is forecast on its own velocity (standing, shuffling), not on the model's forecast, which for
+    #: people by the robot has them walk off (the model learned from people who make room). 0 = off (before session
+    #: 17; grid variant ``no_lingering``). Reference matrix and stress suite, paired, off-only : on-only successes:
+    #: stress 0 : 1 with collisions 7 -> 5, new seeds 1 : 0; reference defaults 1 : 2, new seeds 0 : 1; typical speed
+    #: 1 : 1, new seeds 0 : 0; nobody yields 0 : 0 both
+    standing_stays_s: float = Field(default=1.5, ge=0)
     yield_range: float = Field(default=1.2, ge=0)  #: ... starting this far beyond contact [m]
     yield_test_s: float = Field(default=3.0, gt=0)  #: [s]; 1 s: 0.812 at commit 0.5 (reacting people step back slowly)
     static_field_resolution: float = Field(default=0.1, ge=0, le=0.5)  #: [m]; 0 = exact distance queries

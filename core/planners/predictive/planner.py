@@ -12,9 +12,10 @@ often not in view yet). Pedestrian terms read the forecast's spread (a chance ma
 see ``cost``); after a few seconds without route progress the soft margins shrink (stall
 assertiveness), never the contact distance, and the robot commits: pedestrians standing near it
 are taken to wait for it, to stay and to step back as it edges forward (a doorway standoff ends),
-until one is seen to hold its ground. An option (``safety.straight_speed``, off by default) also holds walkers
-closing in on a slow robot to their straight line, for crowds known not to yield. Deterministic: no randomness,
-stable sorts.
+until one is seen to hold its ground; before that, people lingering by the robot are forecast to stay
+(``_lingering``: a model that learned from people who make room has them walk off). An option
+(``safety.straight_speed``, off by default) also holds walkers closing in on a slow robot to their straight line,
+for crowds known not to yield. Deterministic: no randomness, stable sorts.
 """
 
 from __future__ import annotations
@@ -66,6 +67,7 @@ class PredictivePlanner:
         self.forecaster.reset()
         self._phi_hist: deque[tuple[float, float]] = deque()
         self._assert = 0.0
+        self._seen: deque[tuple[float, np.ndarray, np.ndarray]] = deque()  #: (time, ids, positions) (``_lingering``)
         self._holds: set[int] = set()  #: pedestrians seen to hold their ground against the robot
         self._probes: dict[int, tuple[float, np.ndarray, float]] = {}  #: id -> (since [s], position, gap) under test
         self._reacted: set[int] = set()  #: pedestrians seen to give way to the robot (no straight line for them)
@@ -144,6 +146,11 @@ class PredictivePlanner:
         room = self._waiting_room(fut, times, assertive) + self._receding_room(fut, times, p0, float(obs.robot_velocity[0]))
         waiting = self._waiting(obs, fc_ids, contact)
         yielding = np.zeros(len(fut))
+        lingering = self._lingering(obs, fc_ids, contact)
+        if lingering.any():  # lingered by the robot for a while: not making room for it, whatever the model expects
+            row = np.argmax(fc_ids[lingering, None] == obs.ped_ids[None, :], axis=1)
+            fut = fut.copy()
+            fut[lingering] = obs.ped_positions[row, None, :] + times[None, :, None] * obs.ped_velocities[row, None, :]
         if assertive >= COMMIT_ASSERTIVENESS and waiting.any():  # yielded long enough: commit (see _waiting)
             fut, sigma = fut.copy(), sigma.copy()
             fut[waiting], sigma[waiting] = fut[waiting, :1], np.minimum(sigma[waiting, :1], COMMIT_SIGMA)
@@ -211,6 +218,26 @@ class PredictivePlanner:
         self._probes = probes
         trusted = [pid for pid in obs.ped_ids[standing].tolist() if pid not in self._holds]
         return _member(ids, trusted)
+
+    def _lingering(self, obs: Observation, ids: np.ndarray, contact: float) -> np.ndarray:
+        """(N,) mask of the forecast pedestrians (``ids``) lingering by the robot: within ``yield_range`` of contact
+        now and then, and moved less than ``LINGER_DISTANCE`` over the last ``standing_stays_s`` [s] (0 = never)."""
+        s = self.config.safety
+        if s.standing_stays_s <= 0:
+            return np.zeros(len(ids), dtype=bool)
+        p = np.asarray(obs.robot_pose[:2], dtype=float)
+        self._seen.append((obs.time, obs.ped_ids, obs.ped_positions))
+        while len(self._seen) > 1 and self._seen[1][0] <= obs.time - s.standing_stays_s + 1e-9:
+            self._seen.popleft()
+        t_old, ids_old, pos_old = self._seen[0]
+        if obs.time - t_old < s.standing_stays_s - 1e-9 or len(obs.ped_ids) == 0 or len(ids_old) == 0:
+            return np.zeros(len(ids), dtype=bool)
+        same = obs.ped_ids[:, None] == ids_old[None, :]  # (now, then)
+        now, then = obs.ped_positions, pos_old[np.argmax(same, axis=1)]
+        near_now = np.hypot(*(now - p).T) - contact <= s.yield_range
+        near_then = np.hypot(*(then - p).T) - contact <= s.yield_range
+        linger = same.any(axis=1) & near_now & near_then & (np.hypot(*(now - then).T) < LINGER_DISTANCE)
+        return _member(ids, obs.ped_ids[linger].tolist()) if linger.any() else np.zeros(len(ids), dtype=bool)
 
     def _waiting_room(self, fut: np.ndarray, times: np.ndarray, assertive: float) -> np.ndarray:
         """(N,) room [m] each pedestrian is expected to make: ``waiting_room`` x assertiveness for one forecast
@@ -408,6 +435,7 @@ REACTION_RANGE = 3.0
 #: stall assertiveness from which the robot, having yielded, commits to edging past pedestrians who wait for it
 #: (reference defaults, 69 episodes: 0.5 -> 0.928 but a hard seed lost behind a slow group; 0.8 -> 0.913, 7/7)
 COMMIT_ASSERTIVENESS = 0.8
+LINGER_DISTANCE = 0.5  #: [m] a pedestrian by the robot that moved less over ``standing_stays_s`` lingers there
 #: the spread [m] it then allows a waiting pedestrian's position: it trusts it to stand (and tests that, below)
 COMMIT_SIGMA = 0.1
 #: a standing pedestrian is under test from this far beyond ``yield_range`` [m]; it holds its ground if the robot
