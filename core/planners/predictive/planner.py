@@ -435,13 +435,13 @@ REACTION_RANGE = 3.0
 #: stall assertiveness from which the robot, having yielded, commits to edging past pedestrians who wait for it
 #: (reference defaults, 69 episodes: 0.5 -> 0.928 but a hard seed lost behind a slow group; 0.8 -> 0.913, 7/7)
 COMMIT_ASSERTIVENESS = 0.8
-LINGER_DISTANCE = 0.5  #: [m] a pedestrian by the robot that moved less over ``standing_stays_s`` lingers there
 #: the spread [m] it then allows a waiting pedestrian's position: it trusts it to stand (and tests that, below)
 COMMIT_SIGMA = 0.1
 #: a standing pedestrian is under test from this far beyond ``yield_range`` [m]; it holds its ground if the robot
 #: closed in by at least ``YIELD_PROBE_CLOSING`` [m] during the test while it moved less than that
 YIELD_PROBE_SLACK = 0.3
 YIELD_PROBE_CLOSING = 0.1
+LINGER_DISTANCE = 0.5  #: [m] a pedestrian by the robot that moved less over ``standing_stays_s`` lingers there
 
 
 NO_LINES = np.zeros(0, dtype=np.int64)  #: no pedestrian held to a straight line
