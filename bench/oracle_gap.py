@@ -102,8 +102,8 @@ def main() -> None:
         rows = list(pool.map(_episode, jobs, chunksize=1))
     outcome = {(n, s, w): o for n, s, w, o in rows}
     episodes = sorted({(n, s) for n, s, _, _ in rows})
-    out: dict = {"benchmark": "oracle_gap", "matrix": args.matrix, "overrides": None if args.as_is else BLIND, "episodes": len(episodes),
-                 "approximate": any(peds_react(s) for s in chosen), "wall_s": round(time.perf_counter() - t0, 1),
+    out: dict = {"benchmark": "oracle_gap", "matrix": args.matrix, "overrides": None if args.as_is else BLIND,
+                 "episodes": len(episodes), "approximate": bool(reacting), "wall_s": round(time.perf_counter() - t0, 1),
                  "forecasters": {}, "paired": {}}
     for w in which:
         got = Counter(outcome[e + (w,)] for e in episodes)
