@@ -106,6 +106,8 @@ def train_epoch(model, opt, data: dict[str, torch.Tensor], config: TrainConfig, 
             b = _mirror_half(b, signs, gen)
         if lengths is not None:
             b = _scale(b, lengths, config.augment_scale, gen)
+        if config.augment_jitter > 0:
+            b = _jitter(b, config.augment_jitter, model.config.history, model.config.dt, gen)
         if config.sigma_head:
             pred, sigma = model.forward_dist(b["state"], b["mask"])
             loss = (masked_loss(config.loss, pred, b["target"], b["target_mask"], config.loss_beta)
@@ -140,6 +142,26 @@ def _scale(b: dict[str, torch.Tensor], lengths: torch.Tensor, bounds: tuple[floa
     lo, hi = math.log(bounds[0]), math.log(bounds[1])
     f = torch.exp(lo + (hi - lo) * torch.rand(len(b["state"]), generator=gen).to(b["state"].device))[:, None, None]
     return {**b, "state": b["state"] * (1.0 + (f - 1.0) * lengths), "target": b["target"] * f[..., None]}
+
+
+def _jitter(b: dict[str, torch.Tensor], std: float, history: int, dt: float, gen: torch.Generator) -> dict[str, torch.Tensor]:
+    """Gaussian noise on every valid past position of every slot, the current one kept (the ego frame's origin), its
+    standard deviation drawn per sample uniformly from [0, ``std``] [m] (clean and noisy tracks alike, so the model
+    can tell them apart by their history); each step's velocity recomputed as the features define it
+    ((p[h] - p[h-1]) / dt where both are valid)."""
+    state = b["state"]
+    B, N, _ = state.shape
+    step = state[..., : 5 * history].reshape(B, N, history, 5)
+    valid = step[..., 4]
+    scale = std * torch.rand((B, 1, 1, 1), generator=gen)
+    noise = (scale * torch.randn((B, N, history, 2), generator=gen)).to(state.device)
+    noise[:, :, -1] = 0.0
+    pos = step[..., :2] + noise * valid[..., None]
+    both = valid[..., 1:] * valid[..., :-1]
+    vel = torch.zeros_like(pos)
+    vel[:, :, 1:] = (pos[:, :, 1:] - pos[:, :, :-1]) / dt * both[..., None]
+    step = torch.cat([pos, vel, valid[..., None]], dim=-1).reshape(B, N, 5 * history)
+    return {**b, "state": torch.cat([step, state[..., 5 * history:]], dim=-1)}
 
 
 def epoch_lr(config: TrainConfig, epoch: int) -> float:

@@ -166,3 +166,29 @@ def test_scale_augmentation_scales_lengths_and_targets_together():
     assert row["valid[0]"] == 1.0 and row["goal_ux"] == 1.0 and row["ego_w"] == 1.0
     with pytest.raises(ValueError, match="augment_scale"):
         TrainConfig(dataset="d.npz", augment_scale=(2.0, 1.0))
+
+
+def test_jitter_augmentation_moves_past_positions_and_recomputes_velocities():
+    """Noise on past positions only (the current one is the frame's origin), each velocity the features' own
+    difference of the noisy positions, invalid steps and the ego channels untouched; no noise = the same rows."""
+    import numpy as np
+
+    from foresight.core.predict.features import Window, extract_features
+    from foresight.core.predict.nn.train import _jitter
+    from foresight.core.predict.timebase import TimeBase
+
+    tb = TimeBase(dt=0.4, history=4, horizon=3)
+    hist = np.array([[[0.0, 0.0], [0.5, 0.1], [1.0, 0.1], [1.6, 0.2]], [[3.0, 1.0], [3.0, 1.4], [3.1, 1.8], [3.1, 2.2]]])
+    valid = np.array([[True, True, True, True], [False, True, True, True]])
+    f = extract_features(Window(np.array([1.6, 0.2, 0.1]), np.zeros(2), None, np.array([1, 2]), hist, valid), tb, 3)
+    state = torch.from_numpy(np.repeat(f.features[None], 5, axis=0))
+    same = _jitter({"state": state}, 0.0, 4, 0.4, torch.Generator().manual_seed(0))["state"]
+    assert torch.allclose(same, state, atol=1e-5)
+    out = _jitter({"state": state}, 0.1, 4, 0.4, torch.Generator().manual_seed(0))["state"]
+    steps, before = out[..., :20].reshape(5, 3, 4, 5), state[..., :20].reshape(5, 3, 4, 5)
+    assert torch.equal(steps[:, :, -1, :2], before[:, :, -1, :2])  # current positions kept
+    assert (steps[:, :2, :-1, :2] != before[:, :2, :-1, :2]).any() and torch.equal(steps[:, 1, 0], before[:, 1, 0])
+    assert torch.allclose(steps[:, :, 1:, 2:4], (steps[:, :, 1:, :2] - steps[:, :, :-1, :2]) / 0.4
+                          * (steps[:, :, 1:, 4:5] * steps[:, :, :-1, 4:5]), atol=1e-5)
+    assert torch.equal(out[..., 20:], state[..., 20:]) and torch.equal(steps[..., 4], before[..., 4])
+    assert torch.equal(out[:, 2], state[:, 2])  # an empty slot stays empty
