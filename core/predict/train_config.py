@@ -49,9 +49,9 @@ class TrainConfig(_Strict):
     grad_clip: float = Field(default=1.0, gt=0)
     augment_mirror: bool = False  #: mirror a random half of each batch across the ego x axis (y -> -y)
     augment_scale: tuple[float, float] | None = None  #: scale each sample's lengths/speeds and targets by a factor drawn log-uniformly from [lo, hi]
-    #: up to this std [m] (drawn per sample) of Gaussian noise on every observed past position (the current one stays: it is the frame's origin),
-    #: velocities recomputed from the noisy positions: teaches the model not to trust one step's velocity (annotated
-    #: tracks jitter and stall); 0 = off
+    #: up to this std [m] (drawn per sample) of Gaussian noise on every observed past position (the current one stays:
+    #: it is the frame's origin), velocities recomputed from the noisy positions: teaches the model not to trust one
+    #: step's velocity (annotated tracks jitter and stall); 0 = off
     augment_jitter: float = Field(default=0.0, ge=0, le=1)
     threads: int = Field(default=1, ge=1, le=64)  #: torch intra-op threads (1: small matmuls gain little from more, and shared cores thrash)
     #: torch device of the model and data: auto = cuda when torch sees a GPU where training runs (a Ray task given

@@ -21,7 +21,7 @@ import torch
 from foresight.core import files
 from foresight.core.errors import ConfigError
 from foresight.core.predict.dataset import Dataset, file_sha256, load_dataset, resolve_dataset_path
-from foresight.core.predict.features import length_channels, mirror_signs
+from foresight.core.predict.features import STEP_CHANNELS, length_channels, mirror_signs
 from foresight.core.predict.metrics import ade_fde
 from foresight.core.predict.nn.checkpoint import make_checkpoint, read_checkpoint, save_checkpoint
 from foresight.core.predict.nn.device import resolve_device, to_cpu
@@ -149,10 +149,10 @@ def _jitter(b: dict[str, torch.Tensor], std: float, history: int, dt: float, gen
     standard deviation drawn per sample uniformly from [0, ``std``] [m] (clean and noisy tracks alike, so the model
     can tell them apart by their history); each step's velocity recomputed as the features define it
     ((p[h] - p[h-1]) / dt where both are valid)."""
-    state = b["state"]
+    state, width = b["state"], len(STEP_CHANNELS) * history  # per step: px, py, vx, vy, valid
     B, N, _ = state.shape
-    step = state[..., : 5 * history].reshape(B, N, history, 5)
-    valid = step[..., 4]
+    step = state[..., :width].reshape(B, N, history, len(STEP_CHANNELS))
+    valid = step[..., STEP_CHANNELS.index("valid")]
     scale = std * torch.rand((B, 1, 1, 1), generator=gen)
     noise = (scale * torch.randn((B, N, history, 2), generator=gen)).to(state.device)
     noise[:, :, -1] = 0.0
@@ -160,8 +160,8 @@ def _jitter(b: dict[str, torch.Tensor], std: float, history: int, dt: float, gen
     both = valid[..., 1:] * valid[..., :-1]
     vel = torch.zeros_like(pos)
     vel[:, :, 1:] = (pos[:, :, 1:] - pos[:, :, :-1]) / dt * both[..., None]
-    step = torch.cat([pos, vel, valid[..., None]], dim=-1).reshape(B, N, 5 * history)
-    return {**b, "state": torch.cat([step, state[..., 5 * history:]], dim=-1)}
+    step = torch.cat([pos, vel, valid[..., None]], dim=-1).reshape(B, N, width)
+    return {**b, "state": torch.cat([step, state[..., width:]], dim=-1)}
 
 
 def epoch_lr(config: TrainConfig, epoch: int) -> float:
