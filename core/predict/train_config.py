@@ -53,6 +53,9 @@ class TrainConfig(_Strict):
     #: it is the frame's origin), velocities recomputed from the noisy positions: teaches the model not to trust one
     #: step's velocity (annotated tracks jitter and stall); 0 = off
     augment_jitter: float = Field(default=0.0, ge=0, le=1)
+    #: the trained model predicts the mean of its forecast and the mirror image of its forecast of the mirrored scene
+    #: (twice the inference cost; training and checkpoint selection see the network alone)
+    mirror_average: bool = False
     threads: int = Field(default=1, ge=1, le=64)  #: torch intra-op threads (1: small matmuls gain little from more, and shared cores thrash)
     #: torch device of the model and data: auto = cuda when torch sees a GPU where training runs (a Ray task given
     #: one), else cpu; cuda without a GPU fails there (core.predict.nn.device); shuffling draws stay on the CPU

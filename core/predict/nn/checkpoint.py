@@ -21,6 +21,7 @@ from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.predict.features import feature_names
 from foresight.core.predict.nn.device import to_cpu
 from foresight.core.predict.nn.inference import ModelForward
+from foresight.core.predict.nn.mirror import mirror_mean, mirror_mixture
 from foresight.core.predict.nn.model import ModelConfig, TrajectoryModel, build_model
 from foresight.core.predict.predictor import check_batch
 from foresight.core.predict.timebase import TimeBase
@@ -105,8 +106,18 @@ class TorchPredictor:
         """Whether the model predicts its own spread (a sigma head); else forecasts use a calibrated envelope."""
         return bool(getattr(self.model.config, "sigma_head", False))
 
+    @property
+    def mirror_average(self) -> bool:
+        """Whether forecasts average the network with its mirror twin (``core.predict.nn.mirror``)."""
+        return bool(getattr(self.model.config, "mirror_average", False))
+
     def predict(self, features: np.ndarray, mask: np.ndarray) -> np.ndarray:
         check_batch(np.asarray(features), np.asarray(mask), self.timebase, self.name)
+        if self.mirror_average:
+            return mirror_mean(self._predict, np.asarray(features, np.float32), mask, self.timebase.history)
+        return self._predict(features, mask)
+
+    def _predict(self, features: np.ndarray, mask: np.ndarray) -> np.ndarray:
         if len(features) == 1:
             return self._one_sample().positions(*_sample(features, mask))[None]
         with torch.inference_mode():
@@ -116,6 +127,11 @@ class TorchPredictor:
     def predict_dist(self, features: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(B, N, T, 2) positions and (B, N, T) per-axis std [m]; only when :attr:`has_sigma`."""
         check_batch(np.asarray(features), np.asarray(mask), self.timebase, self.name)
+        if self.mirror_average:
+            return mirror_mixture(self._predict_dist, np.asarray(features, np.float32), mask, self.timebase.history)
+        return self._predict_dist(features, mask)
+
+    def _predict_dist(self, features: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if len(features) == 1:
             pos, sigma = self._one_sample().distribution(*_sample(features, mask))
             return pos[None], sigma[None]

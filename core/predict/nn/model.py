@@ -54,6 +54,9 @@ class ModelConfig:
     local_frame: bool = False  #: encode/decode each pedestrian in its own frame (False = checkpoints before it)
     members: int = 1  #: > 1: an ensemble of that many independently trained models, predictions averaged
     sigma_head: bool = False  #: predict a per-step spread (False = checkpoints before it: the fixed envelope)
+    #: forecast = the mean of the network's forecast and the mirror image of its forecast of the mirrored scene
+    #: (``core.predict.nn.mirror``): left/right symmetric by construction; applied where a checkpoint predicts
+    mirror_average: bool = False
 
     @property
     def input_dim(self) -> int:

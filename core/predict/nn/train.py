@@ -196,7 +196,7 @@ def run_train(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | Non
     cv = cv_metrics(ds, va_idx)
     tb = ds.meta.timebase
     mcfg = ModelConfig(tb.history, tb.horizon, tb.dt, config.hidden, config.blocks, config.edge_dim,
-                       config.local_frame, sigma_head=config.sigma_head)
+                       config.local_frame, sigma_head=config.sigma_head, mirror_average=config.mirror_average)
     with torch.random.fork_rng():
         torch.manual_seed(config.seed)
         model = TrajectoryModel(mcfg).to(device)  # initialised on the CPU: the same weights on any device
