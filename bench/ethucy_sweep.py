@@ -1,0 +1,117 @@
+"""ETH/UCY training variants side by side: every (variant, fold) pair is one ``predict-eval --train`` run of that fold,
+spread over worker processes (CPU workers with one thread each, and optionally CUDA workers on a GPU machine).
+
+A variant is the training config with some fields overridden. Prints per variant the 5-fold average ADE/FDE (the
+number the issue's ETH/UCY target reads), each fold's, and constant velocity's on the same samples.
+Usage: python bench/ethucy_sweep.py --ethucy ../shared/reference/ethucy [--config configs/training/ethucy.yaml]
+         [--variant NAME='{"batch_size": 512}' ...] [--workers 2] [--gpu-workers 0] [--folds eth,hotel] [--json]
+Without --variant it runs the config as it is (variant ``config``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import multiprocessing as mp
+import os
+import tempfile
+import time
+from pathlib import Path
+
+from foresight.core.predict.ethucy import FOLDS
+
+
+def run_one(args: tuple[str, dict, str, str, str, str]) -> dict:  # (variant, train, fold, root, device, workdir)
+    """One fold of one variant, trained and scored in-process (the same stage ``foresight predict-eval`` runs)."""
+    name, train, fold, root, device, workdir = args
+    if device == "cpu":
+        os.environ["CUDA_VISIBLE_DEVICES"] = ""
+    from foresight.core.predict.evaluation import PredictEvalConfig, run_predict_eval
+    from foresight.core.stages.context import StageContext
+
+    started = time.time()
+    work = Path(workdir) / name / fold
+    work.mkdir(parents=True, exist_ok=True)
+    config = PredictEvalConfig(train={**train, "device": device, "threads": 1}, ethucy=root, folds=[fold])
+    result = run_predict_eval(config, StageContext(workdir=work, local_files=True)).folds[fold]
+    return {"variant": name, "fold": fold, "device": device, "seconds": round(time.time() - started, 1),
+            "ade": result.ade, "fde": result.fde, "cv_ade": result.cv_ade, "cv_fde": result.cv_fde,
+            "samples": result.samples}
+
+
+def _worker(jobs, results, device: str) -> None:
+    while True:
+        job = jobs.get()
+        if job is None:
+            return
+        try:
+            results.put(run_one((*job[:4], device, job[4])))
+        except Exception as exc:  # noqa: BLE001 - reported per job, the sweep goes on
+            results.put({"variant": job[0], "fold": job[2], "error": f"{type(exc).__name__}: {exc}"})
+
+
+def table(rows: list[dict], folds: list[str]) -> dict[str, dict]:
+    """Per variant with every fold scored: 5-fold averages and each fold's ADE/FDE."""
+    out = {}
+    for name in dict.fromkeys(r["variant"] for r in rows):
+        done = {r["fold"]: r for r in rows if r["variant"] == name and "ade" in r}
+        if set(done) != set(folds):
+            out[name] = {"incomplete": sorted(set(folds) - set(done))}
+            continue
+        out[name] = {**{k: round(sum(done[f][k] for f in folds) / len(folds), 4) for k in ("ade", "fde", "cv_ade", "cv_fde")},
+                     "folds": {f: [round(done[f]["ade"], 4), round(done[f]["fde"], 4)] for f in folds},
+                     "seconds": round(sum(done[f]["seconds"] for f in folds), 1)}
+    return out
+
+
+def main() -> None:
+    import yaml
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--ethucy", required=True, help="ETH/UCY root (<fold>/train|val|test)")
+    ap.add_argument("--config", default="configs/training/ethucy.yaml")
+    ap.add_argument("--variant", action="append", default=[], metavar="NAME=JSON")
+    ap.add_argument("--folds", default=",".join(FOLDS))
+    ap.add_argument("--workers", type=int, default=2, help="CPU worker processes (one torch thread each)")
+    ap.add_argument("--gpu-workers", type=int, default=0, help="worker processes training on CUDA")
+    ap.add_argument("--out", help="work folder (default: a temporary one)")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args()
+    raw = yaml.safe_load(Path(args.config).read_text())
+    base = raw.get("train", raw)
+    variants = {"config": {}} if not args.variant else {}
+    for item in args.variant:
+        name, _, overrides = item.partition("=")
+        try:
+            variants[name] = json.loads(overrides or "{}")
+        except json.JSONDecodeError as exc:
+            raise SystemExit(f"--variant {name}: overrides are not JSON ({exc.msg})") from None
+    folds = args.folds.split(",")
+    if unknown := set(folds) - set(FOLDS):
+        raise SystemExit(f"--folds: unknown {sorted(unknown)} (expected some of {', '.join(FOLDS)})")
+    workdir = args.out or tempfile.mkdtemp(prefix="ethucy_sweep_")
+    ctx = mp.get_context("spawn")
+    jobs, results = ctx.Queue(), ctx.Queue()
+    todo = [(name, {**base, **over}, fold, args.ethucy, workdir) for name, over in variants.items() for fold in folds]
+    devices = ["cuda"] * args.gpu_workers + ["cpu"] * args.workers
+    for job in todo:
+        jobs.put(job)
+    for _ in devices:
+        jobs.put(None)
+    procs = [ctx.Process(target=_worker, args=(jobs, results, d)) for d in devices]
+    for p in procs:
+        p.start()
+    rows = []
+    for _ in todo:
+        rows.append(results.get())
+        if not args.json:
+            print(json.dumps(rows[-1]), flush=True)
+    for p in procs:
+        p.join()
+    report = {"benchmark": "ethucy_sweep", "config": args.config, "variants": variants, "folds": folds,
+              "table": table(rows, folds), "errors": [r for r in rows if "error" in r]}
+    print(json.dumps(report, indent=None if args.json else 1))
+
+
+if __name__ == "__main__":
+    main()
