@@ -2,8 +2,10 @@
 
 The feature frames are left/right symmetric (``features.mirror_signs``), so the mirror image of the forecast of the
 mirrored scene is as good a forecast as the forecast itself. A network trained with mirrored samples is only
-approximately symmetric; averaging the two forecasts removes its asymmetric part (a free two-member ensemble:
-on ETH/UCY 0.002-0.011 m of ADE per model). Works on NumPy arrays and torch tensors alike.
+approximately symmetric; averaging the two forecasts removes its asymmetric part (a two-member ensemble for the price
+of a second forward pass: on ETH/UCY 0.002-0.011 m of ADE per single model, 0.001 for an ensemble of three). Only for
+models trained on mirrored scenes (``TrainConfig`` refuses it otherwise): where walkers keep a side, as the
+simulator's do, the mirror twin forecasts a world that does not exist. Works on NumPy arrays and torch tensors alike.
 """
 
 from __future__ import annotations

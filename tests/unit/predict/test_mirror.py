@@ -4,6 +4,7 @@ and its mirror twin, so its forecast of the mirrored scene is exactly the mirror
 from dataclasses import replace
 
 import numpy as np
+import pytest
 
 from foresight.core.predict.features import mirror_signs
 from foresight.core.predict.nn.checkpoint import TorchPredictor
@@ -59,7 +60,7 @@ def test_train_config_switch_reaches_the_checkpoint(tmp_path, curving_dataset):
     from foresight.core.stages.context import StageContext
 
     cfg = TrainConfig(dataset=str(curving_dataset), epochs=1, batch_size=64, hidden=16, blocks=1, threads=1,
-                      ensemble=2, mirror_average=True)
+                      ensemble=2, augment_mirror=True, mirror_average=True)
     run_train(cfg, StageContext(workdir=tmp_path))
     model, member = load_predictor(tmp_path / "model.pt"), load_predictor(tmp_path / "members" / "0" / "model.pt")
     assert model.mirror_average and member.mirror_average and model.model.config.members == 2
@@ -68,3 +69,15 @@ def test_train_config_switch_reaches_the_checkpoint(tmp_path, curving_dataset):
     signs = mirror_signs(ds.meta.timebase.history)
     np.testing.assert_allclose(model.predict(x * signs, m), model.predict(x, m) * FLIP, atol=1e-4)
     assert not TrainConfig(dataset="d").mirror_average  # off by default: the planner's forecasts cost one pass
+
+
+def test_mirror_average_without_mirrored_training_is_refused(tmp_path):
+    """A model trained where walkers keep a side would average with a forecast of a world that does not exist."""
+    from foresight.core.errors import ConfigError
+    from foresight.core.predict.train_config import TrainConfig, load_config
+
+    path = tmp_path / "train.yaml"
+    path.write_text("train:\n  dataset: d\n  mirror_average: true\n")
+    with pytest.raises(ConfigError, match="mirror_average needs augment_mirror"):
+        load_config(path, TrainConfig, "train")
+    assert TrainConfig(dataset="d", augment_mirror=True, mirror_average=True).mirror_average
