@@ -86,6 +86,8 @@ def main() -> None:
             variants[name] = json.loads(overrides or "{}")
         except json.JSONDecodeError as exc:
             raise SystemExit(f"--variant {name}: overrides are not JSON ({exc.msg})") from None
+    if not Path(args.ethucy).is_dir():
+        raise SystemExit(f"--ethucy {args.ethucy}: not a folder (expected the ETH/UCY root with <fold>/train|val|test)")
     folds = args.folds.split(",")
     if unknown := set(folds) - set(FOLDS):
         raise SystemExit(f"--folds: unknown {sorted(unknown)} (expected some of {', '.join(FOLDS)})")

@@ -23,10 +23,14 @@ def test_table_averages_complete_variants_only():
     assert out["b"] == {"incomplete": ["hotel"]}  # no average from some folds
 
 
-def test_bad_arguments_are_one_line_errors():
-    fold = subprocess.run([sys.executable, str(SWEEP), "--ethucy", "x", "--folds", "mars"], capture_output=True, text=True)
+def test_bad_arguments_are_one_line_errors(tmp_path):
+    root = subprocess.run([sys.executable, str(SWEEP), "--ethucy", str(tmp_path / "none")], capture_output=True, text=True)
+    assert root.returncode != 0 and "none: not a folder" in root.stderr
+    fold = subprocess.run([sys.executable, str(SWEEP), "--ethucy", str(tmp_path), "--folds", "mars"], capture_output=True,
+                          text=True)
     assert fold.returncode != 0 and "--folds: unknown ['mars']" in fold.stderr
-    var = subprocess.run([sys.executable, str(SWEEP), "--ethucy", "x", "--variant", "a={"], capture_output=True, text=True)
+    var = subprocess.run([sys.executable, str(SWEEP), "--ethucy", str(tmp_path), "--variant", "a={"], capture_output=True,
+                         text=True)
     assert var.returncode != 0 and "--variant a: overrides are not JSON" in var.stderr
 
 
