@@ -209,7 +209,7 @@ def run_train(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | Non
     last_path = ctx.artifact("checkpoints/last.pt")
     if config.resume and last_path.is_file():
         state = read_checkpoint(last_path)
-        if state["dataset"].get("sha256") != dataset_info["sha256"] or state["model_config"] != mcfg.to_dict():
+        if state["dataset"].get("sha256") != dataset_info["sha256"] or ModelConfig(**state["model_config"]) != mcfg:
             raise ConfigError("cannot resume: checkpoints/last.pt was trained on another dataset or model config "
                               "(use a new work dir or resume: false)", source=last_path, item="resume")
         model.load_state_dict(state["model"])

@@ -1,4 +1,5 @@
 import json
+from pathlib import Path
 
 import pytest
 import torch
@@ -119,6 +120,19 @@ def test_resume_refuses_another_model_config(tmp_path, curving_dataset):
     with pytest.raises(ConfigError, match="cannot resume"):
         run_train(TrainConfig(dataset=str(curving_dataset), **{**FAST, "epochs": 2, "hidden": 8}),
                   StageContext(workdir=tmp_path))
+
+
+def test_resume_accepts_a_checkpoint_written_before_newer_model_fields(tmp_path, curving_dataset):
+    """A run interrupted before a model field existed (here ``mirror_average``) resumes: absent means its default."""
+    from foresight.core.predict.nn.checkpoint import save_checkpoint
+
+    run_train(TrainConfig(dataset=str(curving_dataset), **{**FAST, "epochs": 1}), StageContext(workdir=tmp_path))
+    last = tmp_path / "checkpoints" / "last.pt"
+    state = read_checkpoint(last)
+    del state["model_config"]["mirror_average"]
+    save_checkpoint(state, last)
+    res = run_train(TrainConfig(dataset=str(curving_dataset), **{**FAST, "epochs": 2}), StageContext(workdir=tmp_path))
+    assert [h["epoch"] for h in json.loads(Path(res.summary).read_text())["history"]] == [1, 2]
 
 
 def test_cosine_schedule_is_a_function_of_the_epoch():
