@@ -27,6 +27,7 @@ import schemathesis
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis.errors import Unsatisfiable
 from schemathesis import GenerationMode
+from schemathesis.core.parameters import ParameterLocation
 from schemathesis.specs.openapi.checks import negative_data_rejection, positive_data_acceptance
 
 from foresight.api.main import create_app
@@ -153,7 +154,14 @@ def test_stateful_sequences_conform(api: tuple) -> None:
             return {"headers": AUTH}
 
         def validate_response(self, response, case: schemathesis.Case, **kwargs) -> None:  # noqa: ANN001, ANN003
-            case.validate_response(response, headers=AUTH, excluded_checks=[positive_data_acceptance])
+            excluded = [positive_data_acceptance]
+            negated = {loc for loc, info in case.meta.components.items() if info.mode == GenerationMode.NEGATIVE}
+            if negated and negated <= {ParameterLocation.QUERY}:
+                # a query string carries text only: a tag "negated" to a number or a one-item array arrives as a valid
+                # value (a schemathesis false positive, cf. its issue 3056); the per-operation negative test above
+                # checks that invalid query values are refused
+                excluded.append(negative_data_rejection)
+            case.validate_response(response, headers=AUTH, excluded_checks=excluded)
 
     Workflow.run(settings=settings(SETTINGS, max_examples=SEQUENCES, stateful_step_count=STEPS))
     assert len(called) >= 8, sorted(called)  # the links lead through lists, reads and writes
