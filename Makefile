@@ -7,7 +7,8 @@ PY      = $(VENV)/bin/python
 STAMP   = $(VENV)/.foresight-installed
 # the planner plugin the tests evaluate (an entry point in the group foresight.planners)
 TOY_PLUGIN = tests/plugins/toy_planner
-# test processes (pytest-xdist): most tests wait on servers, workers and subprocesses, so two share two cores well
+# test processes (pytest-xdist): most tests wait on servers, workers and subprocesses, so two share two cores well;
+# --dist loadscope: each test module whole in one process (its module fixtures built once; tests/conftest.py)
 TEST_WORKERS ?= 2
 
 .PHONY: install browser test demo lint bench clean
@@ -29,7 +30,7 @@ browser:
 		echo "warning: chromium is not installed; the browser test needs it (apt-get install chromium)"
 
 test: install browser
-	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadgroup
+	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadscope
 
 demo: install
 	$(VENV)/bin/foresight demo

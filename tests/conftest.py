@@ -26,6 +26,26 @@ def pytest_unconfigure(config: pytest.Config) -> None:
     shutil.rmtree(os.environ.get("FORESIGHT_DATA_DIR", ""), ignore_errors=True)
 
 
+#: test modules that start Ray: run in one test process, one after the other (two clusters at once contend for Ray's
+#: fixed default ports and the two cores)
+RAY_MODULES = {"tests/integration/test_ray_cluster.py", "tests/integration/test_ray_executor.py"}
+
+
+def pytest_xdist_make_scheduler(config: pytest.Config, log):  # noqa: ANN001, ANN201
+    """``make test`` (``-n 2 --dist loadscope``): each test module runs whole in one process, so a module fixture
+    (a service, a wheel install, an MLflow server) is built once, and the Ray modules share one process."""
+    if config.getvalue("dist") != "loadscope":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    class ModuleScheduling(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            module = nodeid.split("::", 1)[0]
+            return "ray" if module in RAY_MODULES else module
+
+    return ModuleScheduling(config, log)
+
+
 def shared_root() -> Path:
     """The shared material folder: $FORESIGHT_SHARED, else ../shared beside the repository."""
     return Path(os.environ.get("FORESIGHT_SHARED", REPO.parent / "shared")).resolve()

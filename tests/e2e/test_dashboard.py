@@ -25,7 +25,7 @@ JOB_TIMEOUT_S = 90.0
 EVALUATE = {"kind": "evaluate", "planner": {"name": "goal"}, "scenarios": ["crossing_low", "head_on_corridor_low"],
             "seeds_per_scenario": 1, "max_steps": 60}  # fmt: skip
 
-pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("dashboard")]  # its tests share one module fixture: one test process (make test: --dist loadgroup)
+pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")

@@ -18,7 +18,7 @@ from tests.e2e.service import REPO, TOKEN, Up, wait_job
 from tests.e2e.test_dashboard import chromium, page, screenshot_dir  # noqa: F401 (fixtures)
 from tests.readme import section_blocks
 
-pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("finding_runs")]  # its tests share one module fixture: one test process (make test: --dist loadgroup)
+pytestmark = pytest.mark.slow
 
 #: three goal-planner variants differing in one numeric key (speed), on one scenario and the smoke hard seeds
 CAMPAIGN = {"kind": "campaign", "planner": {"name": "goal"}, "scenarios": ["crossing_low"], "seeds_per_scenario": 1,

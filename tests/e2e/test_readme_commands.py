@@ -32,7 +32,7 @@ from tests.conftest import shared_root
 from tests.e2e.service import REPO, free_port, wait_job
 from tests.readme import README, blocks, commands, section_blocks
 
-pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("readme_commands")]  # its tests share one module fixture: one test process (make test: --dist loadgroup)
+pytestmark = pytest.mark.slow
 
 VENV_BIN = Path(sys.executable).parent
 

@@ -20,7 +20,7 @@ import yaml
 from tests.integration.service import free_port, wait_job
 
 REPO = Path(__file__).resolve().parents[2]
-pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("wheel")]  # its tests share one module fixture: one test process (make test: --dist loadgroup)
+pytestmark = pytest.mark.slow
 
 #: run-time files the service reads beside its code (one of each kind)
 PACKAGE_DATA = [

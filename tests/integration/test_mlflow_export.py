@@ -24,8 +24,6 @@ from foresight.store.settings import Settings
 
 from .service import REPO, free_port
 
-pytestmark = pytest.mark.xdist_group("mlflow")  # its tests share one module fixture: one test process (make test: --dist loadgroup)
-
 SMOKE_TRAIN = ["--config", str(REPO / "configs" / "training" / "smoke.yaml"), "--epochs", "2"]
 MATRIX = REPO / "configs" / "scenarios" / "classic_interactions.yaml"
 SMOKE_EVAL = {"scenarios": ["crossing_low"], "seeds_per_scenario": 1, "max_steps": 40, "planner": {"name": "goal"}}

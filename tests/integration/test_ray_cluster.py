@@ -27,9 +27,7 @@ from tests.results import without
 
 from .service import Service, free_port, wait_job
 
-#: one test process runs every Ray test (make test runs two, --dist loadgroup): two clusters at once would contend
-#: for Ray's fixed default ports and the two cores
-pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("ray")]
+pytestmark = pytest.mark.slow
 RAY = str(Path(sys.executable).with_name("ray"))
 EVALUATE = {"kind": "evaluate", "scenarios": ["crossing_low", "head_on_corridor_high"], "seeds_per_scenario": 3,
             "max_steps": 150, "planner": {"name": "predictive", "model": "cv"}}

@@ -25,7 +25,7 @@ from foresight.core.stages.results import execution_of
 
 from .service import Service, free_port, wait_job
 
-pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("ray")]  # one test process runs the Ray tests (test_ray_cluster)
+pytestmark = pytest.mark.slow
 REPO = Path(__file__).resolve().parents[2]
 COLLECT = {"scenarios": ["crossing_low", "head_on_corridor_high"], "seeds_per_scenario": 2, "max_steps": 120,
            "policy": "goal_noisy"}

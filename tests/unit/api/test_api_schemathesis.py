@@ -36,8 +36,6 @@ from foresight.store.settings import Settings
 from tests.archives import archive_strategy
 from tests.unit.api.conftest import TOKEN
 
-pytestmark = pytest.mark.xdist_group("schemathesis")  # its tests share one module fixture: one test process (make test: --dist loadgroup)
-
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
 #: per operation and generation mode (issue 15: at least 100). On the quiet 2-core machine the file takes ~2 min
 #: (100 examples 101 s, 100 sequences 19 s; ~60 % of it Hypothesis/schemathesis generating cases); lower them with

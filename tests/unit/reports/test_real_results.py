@@ -19,8 +19,6 @@ from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
 
 from .data import assert_page, assert_picture, campaign
 
-pytestmark = pytest.mark.xdist_group("real_results")  # its tests share one module fixture: one test process (make test: --dist loadgroup)
-
 
 @pytest.fixture(scope="module")
 def evaluated(tmp_path_factory: pytest.TempPathFactory) -> tuple[EvaluationResult, Path]:
