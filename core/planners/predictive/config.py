@@ -94,6 +94,11 @@ class SearchConfig(_Frozen):
     #: -> 0.948 (0 : 3), nobody yields 0.813 -> 0.830 (0 : 4, collisions 13 -> 12); stress v2 0.918 -> 0.926 (2 : 4);
     #: 2 : 13 in all, McNemar p = 0.007; 5-7 % less time to the goal
     arrival_credit: bool = True
+    #: a rollout's steps after it reached the goal cost nothing: the episode ends there (as in the simulator), so a
+    #: pedestrian or wall the rollout would meet beyond the goal is never met. Off -> on, 946 paired episodes (reference,
+    #: typical speed, nobody yields, stress v2): one changed, typical speed 0.957 -> 0.961 (0 : 1, a doorway whose goal
+    #: lies just past the door, walkers coming through it)
+    ends_at_goal: bool = True
     adaptive_horizon: bool = False  #: lengthen the horizon by ``horizon_boost_s`` in the near field
     horizon_boost_s: float = Field(default=0.0, ge=0, le=5)
 

@@ -54,8 +54,9 @@ class RoutePotential:
         self._goal_is_last = len(full) <= lookahead  #: the last waypoint looked at is the goal (its distances reused)
         self._ways = [None if distance is None else distance(w) for w in self.waypoints]
 
-    def __call__(self, pts: np.ndarray, credit: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-        """Potential (B,) [m] at the end of rollouts ``pts`` (B, T, 2), and the active waypoint (B, 2) there.
+    def __call__(self, pts: np.ndarray, credit: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Potential (B,) [m] at the end of rollouts ``pts`` (B, T, 2), the active waypoint (B, 2) there and the
+        step of arrival (B,): the first step inside the goal tolerance, T where none is.
 
         Waypoint j becomes active from the first step inside ``switch_radius`` of waypoint j - 1 (once
         j - 1 was active); the potential is zero if any step came inside the goal tolerance (the
@@ -76,8 +77,9 @@ class RoutePotential:
         goal_d = d if self._goal_is_last else _distance(pts, self.goal)  # d: to the last waypoint looked at
         inside = goal_d <= self.goal_tolerance
         done = np.logical_or.reduce(inside, axis=1)
-        at_goal = -credit * (inside.shape[1] - 1 - np.argmax(inside, axis=1)) if credit else 0.0
-        return np.where(done, at_goal, phi), self.waypoints[idx]
+        first = np.argmax(inside, axis=1)
+        at_goal = -credit * (inside.shape[1] - 1 - first) if credit else 0.0
+        return np.where(done, at_goal, phi), self.waypoints[idx], np.where(done, first, inside.shape[1])
 
     def start(self, p0: np.ndarray) -> float:
         """Potential at the current position (the active waypoint is the observation's)."""
@@ -188,7 +190,8 @@ class Rollouts:
     commands: np.ndarray  #: (B, S, 2) commanded (v, omega) per simulator step
 
 
-def pedestrian_terms(pos: np.ndarray, speed: np.ndarray, scene: Scene, cfg: PredictivePlannerConfig) -> dict[str, np.ndarray]:
+def pedestrian_terms(pos: np.ndarray, speed: np.ndarray, scene: Scene, cfg: PredictivePlannerConfig,
+                     gone: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Collision, risk, near-miss, TTC and hard-clearance terms (B,) and the minimum clearance (B,) [m].
 
     ``pos`` (B, K, 2) and ``speed`` (B, K) are the robot's at the forecast times; each forecast
@@ -199,7 +202,8 @@ def pedestrian_terms(pos: np.ndarray, speed: np.ndarray, scene: Scene, cfg: Pred
     A robot standing still is held to the same terms as a moving one: a pedestrian who does not see
     the robot walks into it all the same. After a stall the soft margins shrink by
     ``stall_margin_relief`` x assertiveness, and a pedestrian forecast to stand (waiting for the
-    robot) is expected to make room; the contact with a walking pedestrian never shrinks.
+    robot) is expected to make room; the contact with a walking pedestrian never shrinks. ``gone`` (B, K): steps
+    after the rollout's arrival at the goal, which meet nobody.
     """
     B = pos.shape[0]
     s = cfg.safety
@@ -216,6 +220,8 @@ def pedestrian_terms(pos: np.ndarray, speed: np.ndarray, scene: Scene, cfg: Pred
         clear[a] = np.minimum(clear[a], _reactive_clearance(pos, scene.ped_lines, scene, scene.ped_yield[a], s.yield_range))
     if np.logical_or.reduce(scene.ped_room != 0, axis=None):
         clear += scene.ped_room[:, None, None].astype(np.float32)
+    if gone is not None:
+        clear[:, gone.T] = np.inf
     nearest = np.minimum.reduce(clear, axis=0)  # (K, B) over pedestrians
     hard = np.maximum.reduce(np.maximum(relief * s.hard_clearance_distance - nearest, 0.0), axis=0)
     band = relief * max(s.near_distance, s.ttc_distance)
@@ -317,15 +323,20 @@ def evaluate(roll: Rollouts, scene: Scene, cfg: PredictivePlannerConfig) -> tupl
     ev = roll.states.take(roll.eval_index, axis=1)  # (B, K, 5); take: a fancy index on axis 1 is ~4x slower
     pos = ev[..., :2]
     speed = np.abs(ev[..., 3])
-    terms = pedestrian_terms(pos, speed, scene, cfg)
     early = scene.max_speed * float(scene.times[1] - scene.times[0]) if cfg.search.arrival_credit and len(scene.times) > 1 else 0.0
-    phi_end, target = scene.route(pos, early)
+    phi_end, target, arrival = scene.route(pos, early)
+    K = len(roll.eval_index)
+    # the episode ends on arrival: what a rollout would meet after it never happens (None while no rollout arrives)
+    gone = (np.arange(K) > arrival[:, None]) if cfg.search.ends_at_goal and np.minimum.reduce(arrival) < K - 1 else None
+    terms = pedestrian_terms(pos, speed, scene, cfg, gone)
     progress = scene.phi0 - phi_end
     min_c = terms.pop("min_clearance")
     terms["progress"] = progress
     terms["progress_risk"] = np.maximum(0.0, progress) * np.maximum(0.0, s.progress_risk_distance - min_c)
     sc = scene.static(pos) - scene.robot_radius  # (B, K)
-    K = len(roll.eval_index)  # means below: np.add.reduce / K is what ndarray.mean computes, without its wrapper
+    if gone is not None:
+        sc[gone] = np.inf
+    # means below: np.add.reduce / K is what ndarray.mean computes, without its wrapper
     terms["static_collision"] = np.add.reduce(sc < s.static_margin, axis=1, dtype=float)
     terms["static"] = np.add.reduce(np.maximum(0.0, s.static_margin + s.static_soft_distance - sc), axis=1) / K
     cmd = roll.commands.take(roll.eval_index, axis=1)  # (B, K, 2)
@@ -339,6 +350,8 @@ def evaluate(roll: Rollouts, scene: Scene, cfg: PredictivePlannerConfig) -> tupl
     # waiting in a lane: the walkers lately through the rollout's end point, in full for a robot ending at rest
     terms["lane"] = (scene.traffic(pos[:, -1]) * np.maximum(0.0, 1.0 - speed[:, -1] / scene.max_speed)
                      if scene.traffic is not None else np.zeros(len(pos)))
+    if gone is not None:
+        terms["lane"] = np.where(arrival < K, 0.0, terms["lane"])  # nobody waits in a lane after arriving
     total = -wt.goal * terms["progress"]
     for name in TERMS[1:]:
         total += getattr(wt, name) * terms[name]

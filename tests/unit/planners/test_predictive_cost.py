@@ -243,3 +243,18 @@ def test_after_a_stall_only_a_standing_pedestrian_is_expected_to_make_room():
     late = stalled.score_commands(observation(m, velocity=(0.0, 0.0), peds=[(7.6, 10.0)], step=80), creep)[1]
     assert late["risk"][0] < fresh["risk"][0] and late["collision"][0] < fresh["collision"][0]
     assert _planner(m)._waiting_room(standing, times, 1.0).tolist() == [0.0]  # off by default
+
+
+def test_what_a_rollout_meets_after_arriving_costs_nothing():
+    """The episode ends at the goal: a pedestrian and a wall just beyond it are never met (``search.ends_at_goal``)."""
+    wall = ((13.0, 0.0), (14.0, 0.0), (14.0, 20.0), (13.0, 20.0))
+    m = corridor_map(obstacles=(wall,))
+    obs = observation(m, pose=(5.0, 10.0, 0.0), velocity=(2.0, 0.0), route=((10.0, 10.0),), peds=[(12.0, 10.0)])
+    cmds = np.array([[2.0, 0.0]])  # reaches the goal's 2 m tolerance at x = 8 within a second, then drives on
+    off = PredictivePlannerConfig.from_dict({"search": {"ends_at_goal": False}})
+    _, beyond = _planner(m, off).score_commands(obs, cmds)
+    _, ends = _planner(m).score_commands(obs, cmds)
+    assert beyond["collision"][0] > 0 and beyond["static_collision"][0] > 0  # met after the goal, when counted
+    assert ends["collision"][0] == 0 and ends["static_collision"][0] == 0 and ends["hard_clearance"][0] == 0
+    short = _planner(m).score_commands(obs, np.array([[0.0, 0.0]]))[1]  # short of the goal it is still there
+    assert short["progress"][0] < ends["progress"][0]

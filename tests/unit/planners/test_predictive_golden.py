@@ -29,6 +29,9 @@ Then swerves that turn for 1.6 s as well (``veer_durations_s``, 8 more sequences
 Session 15: waiting where people have lately walked through costs (``weights.lane``, ``traffic``): no command or
 sequence changed; the costs of seven decisions whose best plan ends at rest beside the scenes' walkers grew by up to
 0.5; both fixtures re-recorded.
+Session 21: what a rollout meets after reaching the goal costs nothing (``search.ends_at_goal``: the episode ends
+there): ``waypoints``' second decision, 1.6 m inside the goal's tolerance at 2 m/s, no longer brakes for the map's
+edge beyond it (0.5 -> 1.5 m/s); the CV fixture was re-recorded, the learned one is unchanged.
 Before that it held the decisions of the planner before its rollout was vectorised.
 Speed-ups must not change decisions: commands and sequences must match exactly, costs to
 float32 rounding. The independent checks of behaviour are in ``test_predictive_planner.py``
