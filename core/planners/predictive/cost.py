@@ -327,7 +327,7 @@ def evaluate(roll: Rollouts, scene: Scene, cfg: PredictivePlannerConfig) -> tupl
     phi_end, target, arrival = scene.route(pos, early)
     K = len(roll.eval_index)
     # the episode ends on arrival: what a rollout would meet after it never happens (None while no rollout arrives)
-    gone = (np.arange(K) > arrival[:, None]) if cfg.search.ends_at_goal and np.minimum.reduce(arrival) < K - 1 else None
+    gone = (np.arange(K) > arrival[:, None]) if cfg.search.ends_at_goal and np.minimum.reduce(arrival) < K else None
     terms = pedestrian_terms(pos, speed, scene, cfg, gone)
     progress = scene.phi0 - phi_end
     min_c = terms.pop("min_clearance")
