@@ -51,13 +51,18 @@ class SamplingConfig(_Frozen):
     veer_turn_rates: tuple[float, ...] = (-1.0, -0.5, 0.5, 1.0)
     veer_speeds: tuple[float, ...] = (0.5, 1.0)
     veer_durations_s: tuple[float, ...] = (0.8, 1.6)  #: how long each swerve turns [s] before it drives straight on
+    #: backing off: reverse speeds (ratios of v_max, driven backwards) added to the first-segment and the later-segment
+    #: commands, only for a robot that may drive backwards (``robot_config.allow_backwards``; the reference robots may
+    #: not, and their candidates are unchanged). () = never back off
+    reverse_speed_ratios: tuple[float, ...] = (0.25, 0.5)
 
     @model_validator(mode="after")
     def _ratios_in_range(self) -> SamplingConfig:
-        for name in ("speed_ratios", "near_field_speed_ratios", "turn_then_go_speeds", "veer_speeds"):
+        for name in ("speed_ratios", "near_field_speed_ratios", "turn_then_go_speeds", "veer_speeds",
+                     "reverse_speed_ratios"):
             bad = [r for r in getattr(self, name) if not 0.0 <= r <= 1.0]
             if bad:
-                raise ValueError(f"{name} must lie in [0, 1] (no reverse driving), got {bad}")
+                raise ValueError(f"{name} must lie in [0, 1] (ratios of the speed limit), got {bad}")
         if any(not -1.0 <= r <= 1.0 for r in self.veer_turn_rates):
             raise ValueError(f"veer_turn_rates are ratios of the turn-rate limit in [-1, 1], got {list(self.veer_turn_rates)}")
         if any(d <= 0 for d in self.veer_durations_s):

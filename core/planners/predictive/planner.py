@@ -35,6 +35,7 @@ from foresight.core.planners.predictive.rollout import FrameRollouts, eval_steps
 from foresight.core.planners.predictive.sampling import (
     branch_commands,
     first_candidates,
+    reverse_speeds,
     turn_then_go,
     veer_then_straight,
 )
@@ -143,7 +144,8 @@ class PredictivePlanner:
         dt_f = float(times[1] - times[0]) if len(times) > 1 else float(times[0])
         extra_s = cfg.search.extra_horizon_s + (cfg.search.horizon_boost_s if cfg.search.adaptive_horizon and near else 0.0)
         extra = int(round(extra_s / dt_f))
-        room = self._waiting_room(fut, times, assertive) + self._receding_room(fut, times, p0, float(obs.robot_velocity[0]))
+        speed = abs(float(obs.robot_velocity[0]))  # a robot that may back off drives backwards at negative v
+        room = self._waiting_room(fut, times, assertive) + self._receding_room(fut, times, p0, speed)
         waiting = self._waiting(obs, fc_ids, contact)
         yielding = np.zeros(len(fut))
         lingering = self._lingering(obs, fc_ids, contact)
@@ -156,14 +158,14 @@ class PredictivePlanner:
             fut[waiting], sigma[waiting] = fut[waiting, :1], np.minimum(sigma[waiting, :1], COMMIT_SIGMA)
             yielding[waiting] = cfg.safety.yield_speed
         fut, sigma, times = extend_forecast(fut, sigma, times, extra)
-        straight = self._straight_lines(obs, fc_ids, times, p0, float(obs.robot_velocity[0]))
+        straight = self._straight_lines(obs, fc_ids, times, p0, speed)
         if len(fut):  # exact culling: pedestrians no rollout can bring within any term's range
             if extra:
                 dist = np.sqrt(np.add.reduce((fut - p0) ** 2, axis=-1))
             if straight is not None:  # either way a pedestrian may walk counts
                 mask, lines = straight
                 dist[mask] = np.minimum(dist[mask], np.sqrt(np.add.reduce((lines - p0) ** 2, axis=-1)))
-            gap = dist - contact - _reach(float(obs.robot_velocity[0]), limits, times)
+            gap = dist - contact - _reach(speed, limits, times)
             keep = gap.min(axis=1) <= C.influence_range(cfg, float(times[-1]), limits.v_max, float(sigma.max()))
             fut, sigma, room, yielding = fut[keep], sigma[keep], room[keep], yielding[keep]
             if straight is not None:
@@ -339,7 +341,8 @@ class PredictivePlanner:
         """First-segment commands (near field or not), or the later-segment set for ``None``; cached per episode."""
         if near not in self._cands:
             cfg = self.config
-            self._cands[near] = (branch_commands(cfg.search, self._limits, cfg.max_speed_ratio) if near is None
+            back = reverse_speeds(cfg.sampling, self._limits, cfg.max_speed_ratio)
+            self._cands[near] = (branch_commands(cfg.search, self._limits, cfg.max_speed_ratio, back) if near is None
                                  else first_candidates(cfg.sampling, self._limits, cfg.max_speed_ratio, near))
         return self._cands[near]
 
@@ -461,10 +464,13 @@ def _along(vectors: np.ndarray, directions: np.ndarray) -> np.ndarray:
 
 
 def _reach(v0: float, limits: RobotLimits, times: np.ndarray) -> np.ndarray:
-    """Farthest the robot can travel [m] by each time (K,) from speed v0 under its acceleration and speed limits."""
-    t_acc = max(0.0, limits.v_max - v0) / limits.accel
+    """Farthest the robot can travel [m] by each time (K,) from speed v0 >= 0 (a magnitude, either way) under its
+    acceleration and speed limits (a robot that may drive backwards speeds up backwards at its braking rate)."""
+    rate = limits.accel if limits.v_min >= 0 else max(limits.accel, limits.decel)
+    top = max(limits.v_max, -limits.v_min)
+    t_acc = max(0.0, top - v0) / rate
     ta = np.minimum(times, t_acc)
-    return v0 * ta + 0.5 * limits.accel * ta**2 + limits.v_max * np.maximum(0.0, times - t_acc)
+    return v0 * ta + 0.5 * rate * ta**2 + top * np.maximum(0.0, times - t_acc)
 
 
 def _boundaries(segments_s: tuple[float, ...], sim_dt: float, S: int) -> list[int]:

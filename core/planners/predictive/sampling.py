@@ -40,13 +40,27 @@ def first_candidates(cfg: SamplingConfig, limits: RobotLimits, speed_ratio: floa
     if near_field:
         near = turn_rate_grid(cfg.near_field_turn_rate_count, limits.w_max, cfg.near_field_turn_rates)
         rates = np.unique(np.concatenate([rates, near]))
+    speeds = np.concatenate([speeds, reverse_speeds(cfg, limits, cap)])
     cands = np.vstack([_product(speeds, rates), [[0.0, 0.0]]])
     return np.unique(cands, axis=0)
 
 
-def branch_commands(cfg: SearchConfig, limits: RobotLimits, speed_ratio: float) -> np.ndarray:
-    """(M, 2) commands tried for every later segment of a beam entry (a coarser set; braking included)."""
+def reverse_speeds(cfg: SamplingConfig, limits: RobotLimits, speed_ratio: float) -> np.ndarray:
+    """Backwards speeds [m/s] (negative) of ``cfg.reverse_speed_ratios``, capped like the forward ones; none for a
+    robot that may not drive backwards (``limits.v_min`` 0)."""
+    if limits.v_min >= 0:
+        return np.zeros(0)
+    ratios = np.minimum(np.asarray(cfg.reverse_speed_ratios, dtype=float), speed_ratio)
+    return np.maximum(-ratios * limits.v_max, limits.v_min)
+
+
+def branch_commands(cfg: SearchConfig, limits: RobotLimits, speed_ratio: float,
+                    reverse: np.ndarray | None = None) -> np.ndarray:
+    """(M, 2) commands tried for every later segment of a beam entry (a coarser set; braking included), with the
+    ``reverse`` speeds [m/s] (``reverse_speeds``) too."""
     speeds = np.minimum(np.asarray(cfg.branch_speed_ratios, dtype=float), speed_ratio) * limits.v_max
+    if reverse is not None:
+        speeds = np.concatenate([speeds, reverse])
     count = cfg.branch_turn_rate_count
     rates = turn_rate_grid(count, limits.w_max) if count > 1 else np.zeros(1)
     cands = np.vstack([_product(speeds, rates), [[0.0, 0.0]]])
