@@ -51,15 +51,16 @@ class SamplingConfig(_Frozen):
     veer_turn_rates: tuple[float, ...] = (-1.0, -0.5, 0.5, 1.0)
     veer_speeds: tuple[float, ...] = (0.5, 1.0)
     veer_durations_s: tuple[float, ...] = (0.8, 1.6)  #: how long each swerve turns [s] before it drives straight on
-    #: backing off, a last resort: when the best plan forward still expects contact (its collision term > 0), the
-    #: search runs again with these reverse speeds (ratios of v_max, driven backwards) among the first- and the
-    #: later-segment commands, and the cheaper plan wins; only for a robot that may drive backwards
-    #: (``robot_config.allow_backwards``; the reference robots may not, so nothing changes for them). () = never.
-    #: Always among the commands instead (commit 5d0aa42), paired on the same episodes with backwards allowed,
-    #: without-only : with-only successes: nobody yields 195 -> 196 with collisions 6 -> 3 (1 : 2), its new seeds
-    #: 197 both with collisions 8 -> 1, but the stress suite 244 -> 237 (8 : 1, p = 0.04: robots backing away from
-    #: bottleneck walkers until the time ran out), reference defaults 225 -> 222 (5 : 2), typical speed 221 -> 220
-    reverse_speed_ratios: tuple[float, ...] = (0.25, 0.5)
+    #: backing off: reverse speeds (ratios of v_max, driven backwards) among the first- and the later-segment commands,
+    #: only for a robot that may drive backwards (``robot_config.allow_backwards``; the reference robots may not).
+    #: () = never (the default: it costs crowds that react). Paired on the same episodes with backwards allowed,
+    #: () -> (0.25, 0.5), ()-only : (0.25, 0.5)-only successes: nobody yields 195 -> 196 with collisions 6 -> 3 (1 : 2),
+    #: on its new seeds 197 both with collisions 8 -> 1; but the stress suite 244 -> 237 with collisions 5 -> 7 (8 : 1,
+    #: p = 0.04: robots backing away from bottleneck walkers until the time ran out), typical speed 221 -> 220 (4 : 3),
+    #: reference defaults 225 -> 222 (5 : 2). Only where the best plan forward expects contact: stress 241, nobody
+    #: yields 194 with 4 collisions; that and reverse speeds in the first segment only: stress 240; that and at most
+    #: 2 s of backing without a break: stress 239 (session 23)
+    reverse_speed_ratios: tuple[float, ...] = ()
 
     @model_validator(mode="after")
     def _ratios_in_range(self) -> SamplingConfig:

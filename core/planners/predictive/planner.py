@@ -58,7 +58,6 @@ class PredictivePlanner:
         self._static: C.StaticClearance | None = None
         self._limits: RobotLimits | None = None
         self._frames: FrameRollouts | None = None  #: kept across episodes of the same robot and dt
-        self._backs_off = False  #: the robot may drive backwards and the config backs off (``reverse_speeds``)
 
     def reset(self, info: EpisodeInfo) -> None:
         self.forecaster.timebase.stride(info.dt)  # ConfigError unless the forecast grid is whole sim steps
@@ -75,10 +74,9 @@ class PredictivePlanner:
         self._reacted: set[int] = set()  #: pedestrians seen to give way to the robot (no straight line for them)
         self._past: deque[tuple[float, np.ndarray, np.ndarray]] = deque()  #: (time, ids, velocities) over REACTION_WINDOW_S
         self._limits = RobotLimits.from_config(robot)
-        self._backs_off = reverse_speeds(self.config.sampling, self._limits, self.config.max_speed_ratio).size > 0
         if self._frames is None or self._frames.limits != self._limits or self._frames.dt != info.dt:
             self._frames = FrameRollouts(self._limits, info.dt)  # else its rollouts serve this episode too
-        self._cands: dict[tuple, np.ndarray] = {}
+        self._cands: dict[bool | None, np.ndarray] = {}
         self._firsts: dict[tuple, np.ndarray] = {}  #: (near field, steps) -> the first round's sequences
         self._step_cache: dict[tuple, tuple] = {}
         self._route_cache: tuple | None = None
@@ -98,13 +96,7 @@ class PredictivePlanner:
         self.forecaster.observe(obs)
         fc = self.forecaster.forecast()
         scene, near, extra = self._scene(obs, fc.positions, fc.sigma, fc.times, fc.ped_ids)
-        best_cmds, best_terms, best_total, n_eval, kept, plan = self._search(obs, scene, near)
-        if self._backs_off and best_terms["collision"] > 0:  # every plan forward expects contact: back off?
-            back = self._search(obs, scene, near, back=True)
-            n_eval += back[3]
-            if back[2] < best_total:
-                best_cmds, best_terms, best_total, _, kept, plan = back
-        self._plan = plan
+        best_cmds, best_terms, best_total, n_eval, kept = self._search(obs, scene, near)
         v, w = float(best_cmds[0, 0]), float(best_cmds[0, 1])
         self._prev = np.array([v, w])
         self._diag = {
@@ -345,26 +337,23 @@ class PredictivePlanner:
                                                        goal_tolerance=obs.goal_tolerance, distance=way))
         return self._route_cache[1]
 
-    def _candidates(self, near: bool | None, back: bool = False) -> np.ndarray:
-        """First-segment commands (near field or not), or the later-segment set for ``None``, with the reverse speeds
-        when ``back``; cached per episode."""
-        key = (near, back)
-        if key not in self._cands:
+    def _candidates(self, near: bool | None) -> np.ndarray:
+        """First-segment commands (near field or not), or the later-segment set for ``None``; cached per episode."""
+        if near not in self._cands:
             cfg = self.config
-            reverse = reverse_speeds(cfg.sampling, self._limits, cfg.max_speed_ratio) if back else None
-            self._cands[key] = (
-                branch_commands(cfg.search, self._limits, cfg.max_speed_ratio, reverse) if near is None
-                else first_candidates(cfg.sampling, self._limits, cfg.max_speed_ratio, near, reverse))
-        return self._cands[key]
+            back = reverse_speeds(cfg.sampling, self._limits, cfg.max_speed_ratio)
+            self._cands[near] = (branch_commands(cfg.search, self._limits, cfg.max_speed_ratio, back) if near is None
+                                 else first_candidates(cfg.sampling, self._limits, cfg.max_speed_ratio, near))
+        return self._cands[near]
 
-    def _first_sequences(self, near: bool, steps: int, dt: float, back: bool = False) -> np.ndarray:
+    def _first_sequences(self, near: bool, steps: int, dt: float) -> np.ndarray:
         """The first round's sequences (C + P + V, steps, 2): the first-segment candidates held to the horizon, then the
         point turns (``sampling.turn_then_go``) and the swerves (``sampling.veer_turn_rates``); cached per episode,
         read-only."""
-        key = (near, steps, back)
+        key = (near, steps)
         if key not in self._firsts:
             cfg = self.config
-            held = np.repeat(self._candidates(near, back)[:, None, :], steps, axis=1)
+            held = np.repeat(self._candidates(near)[:, None, :], steps, axis=1)
             turns = turn_then_go(cfg.sampling, self._limits, steps, dt, cfg.max_speed_ratio)
             veers = veer_then_straight(cfg.sampling, self._limits, steps, dt, cfg.max_speed_ratio)
             seqs = np.concatenate([held, turns, veers])
@@ -378,31 +367,29 @@ class PredictivePlanner:
             self._static = C.StaticClearance(obs.static, self.config.safety.static_field_resolution)
         return self._static
 
-    def _search(self, obs: Observation, scene: C.Scene, near: bool,
-                back: bool = False) -> tuple[np.ndarray, dict, float, int, bool, tuple[np.ndarray, np.ndarray]]:
-        """Beam search (``back``: the reverse speeds among the commands too); returns the best sequence's commands
-        (S, 2), its terms, its cost, #evaluations, whether it is the last decision's plan carried on, and the plan
-        (commands (S, 2), states (S, 5)) to keep."""
+    def _search(self, obs: Observation, scene: C.Scene, near: bool) -> tuple[np.ndarray, dict, float, int, bool]:
+        """Beam search; returns the best sequence's commands (S, 2), its terms, its cost, #evaluations and whether it
+        is the last decision's plan carried on."""
         cfg = self.config
         sim_dt = obs.dt
         idx, S, bounds = self._steps(scene.times, sim_dt)
         state0 = np.concatenate([obs.robot_pose, obs.robot_velocity]).astype(float)
-        cmds = self._first_sequences(near, S, sim_dt, back)  # (C + P, S, 2)
-        states = self._frames(state0[None], cmds, ("first", near, S, back))
+        cmds = self._first_sequences(near, S, sim_dt)  # (C + P, S, 2)
+        states = self._frames(state0[None], cmds, ("first", near, S))
         kept = self._kept_plan(state0, S, sim_dt) if cfg.search.keep_plan else None
         if kept is not None:
             cmds, states = np.concatenate([cmds, kept[0][None]]), np.concatenate([states, kept[1][None]])
         total, terms = C.evaluate(C.Rollouts(states, idx, cmds), scene, cfg)
         evals = [(cmds, states, total, terms)]  # (commands, states, totals, terms) of each evaluation, in order
         n_eval = len(cmds)
-        branch = self._candidates(None, back)
+        branch = self._candidates(None)
         M = len(branch)
         for b in bounds:
             keep = np.argsort(_joined(evals, 2), kind="stable")[: cfg.search.beam_width]
             p_cmds, p_states = _joined(evals, 0)[keep], _joined(evals, 1)[keep]
             new_cmds = np.repeat(p_cmds, M, axis=0)
             new_cmds[:, b:] = np.tile(branch, (len(keep), 1))[:, None, :]
-            tail = self._frames(p_states[:, b - 1], new_cmds[:M, b:], ("branch", b, S, back))
+            tail = self._frames(p_states[:, b - 1], new_cmds[:M, b:], ("branch", b, S))
             new_states = np.concatenate([np.repeat(p_states[:, :b], M, axis=0), tail], axis=1)
             t_new, terms_new = C.evaluate(C.Rollouts(new_states, idx, new_cmds), scene, cfg)
             n_eval += len(new_cmds)
@@ -413,9 +400,9 @@ class PredictivePlanner:
             best -= len(evals[e][2])
             e += 1
         cmds, states, total, terms = evals[e]
+        self._plan = cmds[best], states[best]
         carried_on = kept is not None and e == 0 and best == len(cmds) - 1  # the kept plan is the first round's last
-        return (cmds[best], {k: v[best] for k, v in terms.items()}, float(total[best]), n_eval, carried_on,
-                (cmds[best], states[best]))
+        return cmds[best], {k: v[best] for k, v in terms.items()}, float(total[best]), n_eval, carried_on
 
     def _kept_plan(self, state0: np.ndarray, S: int, dt: float) -> tuple[np.ndarray, np.ndarray] | None:
         """The last decision's sequence one step on, its last command held, and its rollout (``search.keep_plan``).

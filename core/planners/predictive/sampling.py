@@ -27,13 +27,11 @@ def _product(speeds: np.ndarray, rates: np.ndarray) -> np.ndarray:
     return np.stack([v.ravel(), w.ravel()], axis=1)
 
 
-def first_candidates(cfg: SamplingConfig, limits: RobotLimits, speed_ratio: float, near_field: bool,
-                     reverse: np.ndarray | None = None) -> np.ndarray:
+def first_candidates(cfg: SamplingConfig, limits: RobotLimits, speed_ratio: float, near_field: bool) -> np.ndarray:
     """(C, 2) first-segment commands, sorted by (v, omega); always contains the braking command (0, 0).
 
     ``speed_ratio`` caps every speed (the config's max_speed_ratio); inside the near field the cap
-    is also ``near_field_speed_cap`` and the slow speeds and finer turn rates are added; ``reverse`` speeds [m/s]
-    (``reverse_speeds``) are added as they are.
+    is also ``near_field_speed_cap`` and the slow speeds and finer turn rates are added.
     """
     cap = min(speed_ratio, cfg.near_field_speed_cap) if near_field else speed_ratio
     ratios = list(cfg.speed_ratios) + (list(cfg.near_field_speed_ratios) if near_field else [])
@@ -42,8 +40,7 @@ def first_candidates(cfg: SamplingConfig, limits: RobotLimits, speed_ratio: floa
     if near_field:
         near = turn_rate_grid(cfg.near_field_turn_rate_count, limits.w_max, cfg.near_field_turn_rates)
         rates = np.unique(np.concatenate([rates, near]))
-    if reverse is not None:
-        speeds = np.concatenate([speeds, reverse])
+    speeds = np.concatenate([speeds, reverse_speeds(cfg, limits, cap)])
     cands = np.vstack([_product(speeds, rates), [[0.0, 0.0]]])
     return np.unique(cands, axis=0)
 

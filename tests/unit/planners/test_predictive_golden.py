@@ -32,10 +32,8 @@ sequence changed; the costs of seven decisions whose best plan ends at rest besi
 Session 21: what a rollout meets after reaching the goal costs nothing (``search.ends_at_goal``: the episode ends
 there): ``waypoints``' second decision, 1.6 m inside the goal's tolerance at 2 m/s, no longer brakes for the map's
 edge beyond it (0.5 -> 1.5 m/s); the CV fixture was re-recorded, the learned one is unchanged.
-Session 23: a robot that may drive backwards backs off as a last resort (``sampling.reverse_speed_ratios``: when the
-best plan forward expects contact, a second search with reverse speeds among the commands): only ``backwards_allowed``
-changed, its first decision backs away from the crowd at 1 m/s (cost 2993 -> 2495) where it turned in place (610
-evaluations: both searches); the CV fixture was re-recorded, the learned one (no such robot) is unchanged.
+Session 23: a robot that may drive backwards can back off (``sampling.reverse_speed_ratios``, off by default): no
+decision changed.
 Before that it held the decisions of the planner before its rollout was vectorised.
 Speed-ups must not change decisions: commands and sequences must match exactly, costs to
 float32 rounding. The independent checks of behaviour are in ``test_predictive_planner.py``

@@ -117,8 +117,7 @@ def test_solves_a_crossing_episode():
     assert min_gap < 8.0  # the pedestrian really was on the way
 
 
-def _dead_end_decision(allow_backwards: bool, reverse: tuple[float, ...] = (0.25, 0.5),
-                       walker_x: float = 13.5) -> tuple[float, float]:
+def _dead_end_decision(allow_backwards: bool, reverse: tuple[float, ...] = (0.25, 0.5)) -> tuple[float, float]:
     """A robot standing in a 3 m corridor (no room to let anyone by, none to turn round in time), a walker coming
     straight at it at 1.2 m/s: the speed a robot that may or may not drive backwards commands, and its plan's
     collision term."""
@@ -131,9 +130,8 @@ def _dead_end_decision(allow_backwards: bool, reverse: tuple[float, ...] = (0.25
     p = PredictivePlanner(PredictivePlannerConfig.from_dict({"sampling": {"reverse_speed_ratios": reverse}}),
                           ConstantVelocityForecaster(PLANNER_TIMEBASE))
     p.reset(EpisodeInfo(scenario=scen, seed=0, dt=0.1, robot_radius=1.0, ped_radius=0.4))
-    for step in range(12):  # the forecast reads the walker's velocity off its track; it ends at walker_x
-        v, _ = p.plan(observation(m, pose=(10.0, 10.0, 0.0), velocity=(0.0, 0.0),
-                                  peds=[(walker_x + 0.12 * (11 - step), 10.0)],
+    for step in range(12):  # the forecast reads the walker's velocity off its track; it ends 3.5 m away
+        v, _ = p.plan(observation(m, pose=(10.0, 10.0, 0.0), velocity=(0.0, 0.0), peds=[(14.82 - 0.12 * step, 10.0)],
                                   ped_vels=[(-1.2, 0.0)], step=step))
     return v, p.diagnostics["terms"]["collision"]
 
@@ -144,9 +142,8 @@ def test_a_robot_that_may_drive_backwards_backs_off_from_a_walker_it_cannot_let_
     v_off, collision_off = _dead_end_decision(allow_backwards=True, reverse=())  # the switch off: never backwards
     assert v_off >= 0 and collision_off > 10 * collision  # it stands, and expects the walker to walk into it
     assert _dead_end_decision(allow_backwards=False) == (v_off, collision_off)  # the reference robots may not
-    # a last resort: with the walker far enough for a plan forward without contact, the robot does as one that may not
-    far = _dead_end_decision(allow_backwards=True, walker_x=20.0)
-    assert far == _dead_end_decision(allow_backwards=False, walker_x=20.0) and far[0] >= 0 and far[1] == 0
+    default = PredictivePlannerConfig().sampling.reverse_speed_ratios
+    assert _dead_end_decision(allow_backwards=True, reverse=default) == (v_off, collision_off)  # off by default
 
 
 def test_backing_off_adds_no_candidate_for_a_robot_that_may_not():
@@ -154,10 +151,11 @@ def test_backing_off_adds_no_candidate_for_a_robot_that_may_not():
     from foresight.core.planners.predictive.sampling import first_candidates, reverse_speeds
     from foresight.core.sim.robot import RobotLimits
 
-    cfg = SamplingConfig()
+    cfg = SamplingConfig(reverse_speed_ratios=(0.25, 0.5))
     assert reverse_speeds(cfg, RobotLimits(), 1.0).size == 0
+    assert reverse_speeds(SamplingConfig(), RobotLimits(v_min=-2.0), 1.0).size == 0  # off by default
     assert reverse_speeds(cfg, RobotLimits(v_min=-2.0), 1.0).tolist() == [-0.5, -1.0]
     assert reverse_speeds(cfg, RobotLimits(v_min=-2.0), 0.3).tolist() == [-0.5, -0.6]  # capped like forward speeds
     plain = first_candidates(cfg, RobotLimits(), 1.0, near_field=True)
     assert plain[:, 0].min() == 0.0
-    assert first_candidates(SamplingConfig(reverse_speed_ratios=()), RobotLimits(v_min=-2.0), 1.0, True).tolist() == plain.tolist()
+    assert first_candidates(SamplingConfig(), RobotLimits(v_min=-2.0), 1.0, True).tolist() == plain.tolist()
