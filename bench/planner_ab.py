@@ -3,8 +3,8 @@ episode of one process pool, and each variant is compared with the first on the 
 
 Why one pool: a planner change is judged on every condition issue 12 names (realistic speed, nobody yields, the
 stress suite, the reference defaults), paired, and one pool keeps every core busy across suites and variants (on a
-lent GPU machine's 16 cores the 936 episodes of the four suites at their own seeds ran in about 75 s per variant;
-``foresight evaluate`` per suite and variant starts and fills a pool each time).
+lent GPU machine's 16 cores its prototype ran 936 episodes per variant, four suites of 220-256 episodes, in about 75 s
+per variant; ``foresight evaluate`` per suite and variant starts and fills a pool each time).
 
 Suites as in ``bench/navigation_table.py`` (stress, reference_defaults, reference_typical, reference_typical_blind;
 ``--replication`` for their new seeds); ``--seeds-per-scenario 10`` gives issue 12's reference matrix of 230 episodes.
