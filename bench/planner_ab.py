@@ -9,8 +9,9 @@ per variant; ``foresight evaluate`` per suite and variant starts and fills a poo
 Suites as in ``bench/navigation_table.py`` (stress, reference_defaults, reference_typical, reference_typical_blind;
 ``--replication`` for their new seeds); ``--seeds-per-scenario 10`` gives issue 12's reference matrix of 230 episodes.
 ``--override KEY=VALUE`` applies to every suite (``robot_config.allow_backwards=true``: a robot that may back off).
-A variant is ``NAME=JSON``, the predictive planner's config (``{}``: its defaults); ``--model`` (default: the shipped
-learned model; ``cv``) drives them all. Episodes are deterministic, so the pairs are exact: the same variant twice
+A variant is ``NAME=JSON``, the predictive planner's config (``{}``: its defaults), with an optional ``"model"`` key of
+its own (``cv``, a checkpoint) instead of ``--model`` (default: the shipped learned model): ``--variant learned='{}'
+--variant cv='{"model": "cv"}'`` is issue 12's learned-vs-constant-velocity comparison on every suite at once. Episodes are deterministic, so the pairs are exact: the same variant twice
 reads 0 : 0. Prints ONE JSON object with ``--json``: per suite and variant the outcome counts with Wilson intervals,
 and per suite each later variant against the first: successes first-only : variant-only, exact McNemar p (none below
 ``core.evaluation.stats.MIN_PAIRS`` pairs), collisions first-only : variant-only. ``--out DIR`` keeps every
@@ -63,7 +64,8 @@ def episodes(args: argparse.Namespace, variants: dict[str, dict]) -> tuple[list[
 
     model_file = REPO / "model" / "predictor-sim-default.pt"
     ctx = StageContext(workdir=Path(args.out or "."), resolve_model=lambda ident: model_file if ident == "default" else Path(ident))
-    planners = {name: resolve_planner({"name": "predictive", "config": cfg, "model": args.model}, ctx)
+    planners = {name: resolve_planner({"name": "predictive", "config": {k: v for k, v in cfg.items() if k != "model"},
+                                       "model": cfg.get("model", args.model)}, ctx)
                 for name, cfg in variants.items()}
     matrices, jobs = {}, []
     wanted = set(args.scenarios.split(",")) if args.scenarios else None

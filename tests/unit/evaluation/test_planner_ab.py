@@ -38,12 +38,14 @@ def test_the_same_variant_twice_reads_the_same_episodes(tmp_path) -> None:
     done = subprocess.run(
         [sys.executable, str(BENCH), "--variant", "a={}", "--variant", 'b={"weights": {"goal": 6.0}}', "--suites",
          "reference_defaults", "--scenarios", "classic_doorway_low", "--seeds-per-scenario", "1", "--workers", "2",
-         "--out", str(tmp_path), "--json"], capture_output=True, text=True, timeout=600)
+         "--variant", 'cv={"model": "cv"}', "--out", str(tmp_path), "--json"],
+        capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
     suite = json.loads(done.stdout)["suites"]["reference_defaults"]
     assert suite["variants"]["a"]["episodes"] == suite["variants"]["b"]["episodes"] == 1
     assert suite["paired"]["b"]["changed"] == [] and suite["paired"]["b"]["mcnemar_p"] is None
-    assert len((tmp_path / "episodes.jsonl").read_text().splitlines()) == 2
+    assert suite["paired"]["cv"]["pairs"] == 1  # a variant with its own model (constant velocity) is paired too
+    assert len((tmp_path / "episodes.jsonl").read_text().splitlines()) == 3
 
 
 def test_bad_arguments_are_refused_in_one_line() -> None:
