@@ -11,10 +11,11 @@ Suites as in ``bench/navigation_table.py`` (stress, reference_defaults, referenc
 ``--override KEY=VALUE`` applies to every suite (``robot_config.allow_backwards=true``: a robot that may back off).
 A variant is ``NAME=JSON``, the predictive planner's config (``{}``: its defaults), with an optional ``"model"`` key of
 its own (``cv``, a checkpoint) instead of ``--model`` (default: the shipped learned model): ``--variant learned='{}'
---variant cv='{"model": "cv"}'`` is issue 12's learned-vs-constant-velocity comparison on every suite at once. Episodes are deterministic, so the pairs are exact: the same variant twice
-reads 0 : 0. Prints ONE JSON object with ``--json``: per suite and variant the outcome counts with Wilson intervals,
-and per suite each later variant against the first: successes first-only : variant-only, exact McNemar p (none below
-``core.evaluation.stats.MIN_PAIRS`` pairs), collisions first-only : variant-only. ``--out DIR`` keeps every
+--variant cv='{"model": "cv"}'`` is issue 12's learned-vs-constant-velocity comparison on every suite at once.
+Episodes are deterministic, so the pairs are exact: the same variant twice reads 0 : 0. Prints ONE JSON object with
+``--json``: per suite and variant the outcome counts with Wilson intervals, and per suite each later variant against
+the first: successes first-only : variant-only, exact McNemar p (none below ``core.evaluation.stats.MIN_PAIRS``
+pairs), collisions first-only : variant-only. ``--out DIR`` keeps every
 episode's outcome (episodes.jsonl).
 
 Usage: python bench/planner_ab.py --variant base='{}' --variant back='{"sampling": {"reverse_speed_ratios": [0.25, 0.5]}}'
@@ -47,7 +48,7 @@ def _episode(job: tuple[str, str, str, int]) -> dict:
     from foresight.core.sim.simulator import Simulator
 
     variant, suite, scenario, seed = job
-    sim = _JOBS.setdefault("sim", Simulator())
+    sim = _JOBS.get("sim") or _JOBS.setdefault("sim", Simulator())  # built once per worker, not per episode
     rec = run_one(_JOBS["matrices"][suite].get(scenario), seed, _JOBS["planners"][variant], simulator=sim).record
     return {"variant": variant, "suite": suite, "scenario": scenario, "seed": seed, "outcome": rec.outcome}
 

@@ -341,9 +341,10 @@ class PredictivePlanner:
         """First-segment commands (near field or not), or the later-segment set for ``None``; cached per episode."""
         if near not in self._cands:
             cfg = self.config
-            back = reverse_speeds(cfg.sampling, self._limits, cfg.max_speed_ratio)
-            self._cands[near] = (branch_commands(cfg.search, self._limits, cfg.max_speed_ratio, back) if near is None
-                                 else first_candidates(cfg.sampling, self._limits, cfg.max_speed_ratio, near))
+            self._cands[near] = (
+                branch_commands(cfg.search, self._limits, cfg.max_speed_ratio,
+                                reverse_speeds(cfg.sampling, self._limits, cfg.max_speed_ratio)) if near is None
+                else first_candidates(cfg.sampling, self._limits, cfg.max_speed_ratio, near))
         return self._cands[near]
 
     def _first_sequences(self, near: bool, steps: int, dt: float) -> np.ndarray:
