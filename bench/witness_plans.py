@@ -1,0 +1,159 @@
+"""Scripted plans with the robot's own dynamics: one that reaches the goal proves an episode solvable.
+
+``foresight scenarios reachable`` decides reachability for a relaxed robot, a disc that may step sideways at once:
+its "unreachable" is a proof, its "reachable" is not (a 2 m robot turning at 1 rad/s may not have that step). This
+is the other side. Every plan of a family runs in the simulator itself, with the scenario's robot and the crowd
+reacting to it as to any robot; a plan that arrives without contact is a *witness* that the episode can be solved.
+No witness among many plans is evidence, not proof, that no robot could.
+
+The family: the goal driven at directly; drives through one point of each ``--via`` grid in turn (the product of
+the grids), then to the goal; and for each ``--hold`` point and ``--release`` time, a drive there, a stand until
+that time, then on through the ``--after`` points to the goal. The driver steers at its target at up to the turn-rate
+limit and drives at full speed times cos^2 of its heading error. ``--json`` prints ONE object: per scenario the
+seeds with a witness and, per seed, the number of witnesses and the earliest arrival's plan.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import multiprocessing as mp
+import os
+import sys
+import time
+from itertools import product
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from navigation_table import REFERENCE  # noqa: E402
+
+Point = tuple[float, float]
+Plan = tuple[tuple[Point, ...], tuple[Point, float] | None, tuple[Point, ...]]  #: (vias, (hold, release) or None, afters)
+REACHED = 0.6  #: a target point counts as reached this close [m]
+_JOBS: dict = {}  #: what a forked worker reads: the loaded matrix
+
+
+class Scripted:
+    """Drives a :data:`Plan`: via points, then the hold (stand there until the release time), then the after points,
+    then the goal."""
+
+    name = "scripted"
+    diagnostics = None
+
+    def __init__(self, plan: Plan):
+        vias, hold, afters = plan
+        self.stops = [(p, None) for p in vias] + ([hold] if hold else []) + [(p, None) for p in afters]
+
+    def reset(self, info: object) -> None:
+        self.i = 0
+
+    def plan(self, obs: object) -> tuple[float, float]:
+        x, y, th = obs.robot_pose
+        while self.i < len(self.stops):
+            (px, py), release = self.stops[self.i]
+            if math.hypot(px - x, py - y) >= REACHED:
+                break
+            if release is not None and obs.time < release:
+                return 0.0, 0.0
+            self.i += 1
+        tx, ty = self.stops[self.i][0] if self.i < len(self.stops) else obs.goal
+        err = (math.atan2(ty - y, tx - x) - th + math.pi) % (2 * math.pi) - math.pi
+        lim = obs.robot_limits
+        return lim["v_max"] * max(0.0, math.cos(err)) ** 2, max(-lim["w_max"], min(lim["w_max"], 3.0 * err))
+
+
+def axis(part: str) -> list[float]:
+    """Values of ``START:STOP:STEP`` (ends included) or of one number."""
+    nums = [float(v) for v in part.split(":")]
+    if len(nums) == 1:
+        return nums
+    if len(nums) != 3 or nums[2] <= 0 or nums[1] < nums[0]:
+        raise ValueError(f"{part!r}: expected START:STOP:STEP with STEP > 0 and STOP >= START, or one number")
+    return [round(float(v), 6) for v in np.arange(nums[0], nums[1] + nums[2] / 2, nums[2])]
+
+
+def grid(spec: str) -> list[Point]:
+    """Points of ``X0:X1:DX,Y0:Y1:DY`` (either axis may be one number)."""
+    parts = spec.split(",")
+    if len(parts) != 2:
+        raise ValueError(f"{spec!r}: expected X,Y with each a number or START:STOP:STEP")
+    return [(x, y) for x in axis(parts[0]) for y in axis(parts[1])]
+
+
+def plans(args: argparse.Namespace) -> list[Plan]:
+    """The family: direct, every via combination, every (hold, release)."""
+    vias = [tuple(c) for c in product(*(grid(g) for g in args.via))] if args.via else []
+    afters = tuple(p for a in args.after for p in grid(a))
+    holds = [(p, t) for h in args.hold for p in grid(h) for t in axis(args.release)]
+    return [((), None, ()), *((v, None, ()) for v in vias), *(((), h, afters) for h in holds)]
+
+
+def _episode(job: tuple[str, int, Plan]) -> tuple[str, int, Plan, str, int]:
+    from foresight.core.sim.episode import run_episode
+    from foresight.core.sim.simulator import Simulator
+
+    scenario, seed, plan = job
+    sim = _JOBS.get("sim") or _JOBS.setdefault("sim", Simulator())
+    res = run_episode(_JOBS["matrix"].get(scenario), seed, Scripted(plan), simulator=sim)
+    return scenario, seed, plan, res.outcome, res.steps
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--matrix", default=str(REFERENCE), help="scenario matrix (default: the reference matrix)")
+    ap.add_argument("--scenarios", required=True, help="comma-separated scenario names")
+    ap.add_argument("--override", action="append", default=[], metavar="KEY=VALUE", help="as foresight evaluate")
+    ap.add_argument("--seeds-per-scenario", type=int, default=10)
+    ap.add_argument("--via", action="append", default=[], metavar="X0:X1:DX,Y0:Y1:DY", help="a grid of via points")
+    ap.add_argument("--hold", action="append", default=[], metavar="X,Y", help="holding points (grids too)")
+    ap.add_argument("--release", default="0:40:2", metavar="T0:T1:DT", help="release times of a hold [s]")
+    ap.add_argument("--after", action="append", default=[], metavar="X,Y", help="points after a hold, in order")
+    ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    from foresight.cli.evaluate import overrides
+    from foresight.core.errors import CoreError
+    from foresight.core.evaluation.runner import expand_seeds
+    from foresight.core.scenarios.loader import load_matrix
+
+    try:
+        family = plans(args)
+        matrix = load_matrix(args.matrix, overrides=overrides(args.override) or None)
+        names = args.scenarios.split(",")
+        if missing := [n for n in names if n not in matrix.names]:
+            raise ValueError(f"no scenario {missing[0]!r} in {args.matrix}")
+        seeds = {n: expand_seeds(matrix.get(n).scenario.seeds, args.seeds_per_scenario) for n in names}
+    except (ValueError, CoreError) as exc:
+        sys.exit(f"witness_plans: {exc}")
+    _JOBS["matrix"] = matrix
+    jobs = [(n, s, p) for n in names for s in seeds[n] for p in family]
+    started, found = time.time(), {(n, s): [] for n in names for s in seeds[n]}
+    with mp.get_context("fork").Pool(max(1, min(args.workers, len(jobs)))) as pool:
+        for scenario, seed, plan, outcome, steps in pool.imap_unordered(_episode, jobs, chunksize=8):
+            if outcome == "success":
+                found[scenario, seed].append((steps, plan))
+    dt = matrix.get(names[0]).scenario.simulation_config.dt
+    result = {"benchmark": "witness_plans", "matrix": args.matrix, "overrides": args.override, "plans": len(family),
+              "seconds": round(time.time() - started, 1), "scenarios": {}}
+    for n in names:
+        per_seed = []
+        for s in seeds[n]:
+            wins = sorted(found[n, s], key=lambda w: w[0])
+            best = None if not wins else {"arrival_s": round(wins[0][0] * dt, 1), "via": wins[0][1][0],
+                                          "hold": wins[0][1][1], "after": wins[0][1][2]}
+            per_seed.append({"seed": s, "witnesses": len(wins), "best": best})
+        result["scenarios"][n] = {"seeds": len(per_seed), "witnessed": sum(p["witnesses"] > 0 for p in per_seed),
+                                  "per_seed": per_seed}
+    if args.json:
+        print(json.dumps(result))
+    else:
+        for n, r in result["scenarios"].items():
+            print(f"{n}: {r['witnessed']} / {r['seeds']} seeds with a witness among {len(family)} plans")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

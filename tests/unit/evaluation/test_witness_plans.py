@@ -1,0 +1,71 @@
+"""bench/witness_plans.py: the plan family, the scripted driver, a real run both ways, and refused arguments."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from types import SimpleNamespace
+
+import numpy as np
+
+from tests.unit.bench_scripts import BENCH as BENCH_DIR
+from tests.unit.bench_scripts import load_bench
+
+BENCH = BENCH_DIR / "witness_plans.py"
+NOBODY_YIELDS = ["--override", "ped_speed_tier=typical", "--override", "peds_have_robot_repulsion=false"]
+
+
+def test_the_family_is_the_direct_drive_every_via_combination_and_every_hold_release() -> None:
+    wp = load_bench("witness_plans")
+    assert wp.grid("1:2:0.5,3") == [(1.0, 3.0), (1.5, 3.0), (2.0, 3.0)]
+    args = SimpleNamespace(via=["0:1:1,0", "5,5:6:1"], hold=["9,9"], release="10:14:2", after=["7,7"])
+    family = wp.plans(args)
+    assert len(family) == 1 + 2 * 2 + 3
+    assert family[0] == ((), None, ())
+    assert ((0.0, 0.0), (5.0, 6.0)) in [f[0] for f in family]
+    assert family[-1] == ((), ((9.0, 9.0), 14.0), ((7.0, 7.0),))
+
+
+def test_the_driver_stands_at_its_hold_until_the_release_then_drives_on() -> None:
+    wp = load_bench("witness_plans")
+    driver = wp.Scripted(((), ((0.0, 0.0), 5.0), ()))
+    driver.reset(None)
+
+    def obs(t: float, pose: tuple[float, float, float]) -> SimpleNamespace:
+        return SimpleNamespace(robot_pose=np.array(pose), time=t, goal=np.array([10.0, 0.0]),
+                               robot_limits={"v_max": 2.0, "w_max": 1.0})
+
+    assert driver.plan(obs(4.9, (0.1, 0.0, 0.0))) == (0.0, 0.0)  # at the hold before its release: stands
+    v, w = driver.plan(obs(5.0, (0.1, 0.0, 0.0)))
+    assert v == 2.0 and w == 0.0  # released: full speed at the goal straight ahead
+    v, w = driver.plan(obs(5.1, (0.1, 0.0, np.pi / 2)))
+    assert v < 1e-9 and w == -1.0  # facing away by 90 degrees: turns at the limit without driving
+
+
+def test_a_real_run_finds_a_witness_where_the_corridor_is_free_and_none_where_a_walker_blocks_its_mouth() -> None:
+    done = subprocess.run(
+        [sys.executable, str(BENCH), "--scenarios", "classic_bottleneck_low,classic_bottleneck_medium",
+         "--seeds-per-scenario", "1", *NOBODY_YIELDS, "--via", "20:21:1,11.5", "--workers", "2", "--json"],
+        capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    out = json.loads(done.stdout)
+    assert out["plans"] == 3
+    low, medium = out["scenarios"]["classic_bottleneck_low"], out["scenarios"]["classic_bottleneck_medium"]
+    assert low["witnessed"] == 1 and 5.0 < low["per_seed"][0]["best"]["arrival_s"] < 50.0
+    assert medium["witnessed"] == 0 and medium["per_seed"][0] == {"seed": 131, "witnesses": 0, "best": None}
+
+
+def test_bad_arguments_are_refused_in_one_line() -> None:
+    def run(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, str(BENCH), "--scenarios", "classic_bottleneck_low", *args],
+                              capture_output=True, text=True, timeout=300)
+
+    backwards = run("--via", "3:1:1,2")
+    assert backwards.returncode != 0 and "'3:1:1': expected START:STOP:STEP" in backwards.stderr
+    assert len(backwards.stderr.strip().splitlines()) == 1
+    no_y = run("--hold", "3")
+    assert no_y.returncode != 0 and "'3': expected X,Y" in no_y.stderr
+    unknown = subprocess.run([sys.executable, str(BENCH), "--scenarios", "no_such_scenario"], capture_output=True,
+                             text=True, timeout=300)
+    assert unknown.returncode != 0 and "no scenario 'no_such_scenario'" in unknown.stderr
