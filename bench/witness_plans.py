@@ -8,9 +8,9 @@ No witness among many plans is evidence, not proof, that no robot could.
 
 The family: the goal driven at directly; drives through one point of each ``--via`` grid in turn (the product of
 the grids), then to the goal; and for each ``--hold`` point and ``--release`` time, a drive there, a stand until
-that time, then on through the ``--after`` points to the goal. The driver steers at its target at up to the turn-rate
-limit and drives at full speed times cos^2 of its heading error. ``--json`` prints ONE object: per scenario the
-seeds with a witness and, per seed, the number of witnesses and the earliest arrival's plan.
+that time, then on through one point of each ``--after`` grid in turn to the goal. The driver steers at its target
+at up to the turn-rate limit and drives at full speed times cos^2 of its heading error. ``--json`` prints ONE
+object: per scenario the seeds with a witness and, per seed, the number of witnesses and the earliest arrival's plan.
 """
 
 from __future__ import annotations
@@ -84,11 +84,11 @@ def grid(spec: str) -> list[Point]:
 
 
 def plans(args: argparse.Namespace) -> list[Plan]:
-    """The family: direct, every via combination, every (hold, release)."""
+    """The family: direct, every via combination, every (hold, release, after combination)."""
     vias = [tuple(c) for c in product(*(grid(g) for g in args.via))] if args.via else []
-    afters = tuple(p for a in args.after for p in grid(a))
+    afters = [tuple(c) for c in product(*(grid(g) for g in args.after))]  # [()] without --after
     holds = [(p, t) for h in args.hold for p in grid(h) for t in axis(args.release)]
-    return [((), None, ()), *((v, None, ()) for v in vias), *(((), h, afters) for h in holds)]
+    return [((), None, ()), *((v, None, ()) for v in vias), *(((), h, a) for h in holds for a in afters)]
 
 
 def _episode(job: tuple[str, int, Plan]) -> tuple[str, int, Plan, str, int]:
@@ -110,7 +110,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--via", action="append", default=[], metavar="X0:X1:DX,Y0:Y1:DY", help="a grid of via points")
     ap.add_argument("--hold", action="append", default=[], metavar="X,Y", help="holding points (grids too)")
     ap.add_argument("--release", default="0:40:2", metavar="T0:T1:DT", help="release times of a hold [s]")
-    ap.add_argument("--after", action="append", default=[], metavar="X,Y", help="points after a hold, in order")
+    ap.add_argument("--after", action="append", default=[], metavar="X,Y", help="a grid of points after a hold")
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)

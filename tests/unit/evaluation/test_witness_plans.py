@@ -19,12 +19,13 @@ NOBODY_YIELDS = ["--override", "ped_speed_tier=typical", "--override", "peds_hav
 def test_the_family_is_the_direct_drive_every_via_combination_and_every_hold_release() -> None:
     wp = load_bench("witness_plans")
     assert wp.grid("1:2:0.5,3") == [(1.0, 3.0), (1.5, 3.0), (2.0, 3.0)]
-    args = SimpleNamespace(via=["0:1:1,0", "5,5:6:1"], hold=["9,9"], release="10:14:2", after=["7,7"])
+    args = SimpleNamespace(via=["0:1:1,0", "5,5:6:1"], hold=["9,9"], release="10:14:2", after=["7,7:8:1"])
     family = wp.plans(args)
-    assert len(family) == 1 + 2 * 2 + 3
+    assert len(family) == 1 + 2 * 2 + 3 * 2
     assert family[0] == ((), None, ())
     assert ((0.0, 0.0), (5.0, 6.0)) in [f[0] for f in family]
-    assert family[-1] == ((), ((9.0, 9.0), 14.0), ((7.0, 7.0),))
+    assert family[-1] == ((), ((9.0, 9.0), 14.0), ((7.0, 8.0),))
+    assert wp.plans(SimpleNamespace(via=[], hold=["9,9"], release="1", after=[]))[-1] == ((), ((9.0, 9.0), 1.0), ())
 
 
 def test_the_driver_stands_at_its_hold_until_the_release_then_drives_on() -> None:
