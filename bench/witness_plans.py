@@ -9,8 +9,9 @@ No witness among many plans is evidence, not proof, that no robot could.
 The family: the goal driven at directly; drives through one point of each ``--via`` grid in turn (the product of
 the grids), then to the goal; and for each ``--hold`` point and ``--release`` time, a drive there, a stand until
 that time, then on through one point of each ``--after`` grid in turn to the goal. The driver steers at its target
-at up to the turn-rate limit and drives at full speed times cos^2 of its heading error. ``--json`` prints ONE
-object: per scenario the seeds with a witness and, per seed, the number of witnesses and the earliest arrival's plan.
+at up to the turn-rate limit and drives at full speed times cos^2 of its heading error (a holonomic robot heads
+straight at it at full speed). ``--json`` prints ONE object: per scenario the seeds with a witness and, per seed,
+the number of witnesses and the earliest arrival's plan.
 """
 
 from __future__ import annotations
@@ -60,8 +61,11 @@ class Scripted:
                 return 0.0, 0.0
             self.i += 1
         tx, ty = self.stops[self.i][0] if self.i < len(self.stops) else obs.goal
-        err = (math.atan2(ty - y, tx - x) - th + math.pi) % (2 * math.pi) - math.pi
         lim = obs.robot_limits
+        if lim.get("holonomic", 0.0):  # a world-frame velocity (vx, vy): straight at the target
+            d = max(math.hypot(tx - x, ty - y), 1e-9)
+            return lim["v_max"] * (tx - x) / d, lim["v_max"] * (ty - y) / d
+        err = (math.atan2(ty - y, tx - x) - th + math.pi) % (2 * math.pi) - math.pi
         return lim["v_max"] * max(0.0, math.cos(err)) ** 2, max(-lim["w_max"], min(lim["w_max"], 3.0 * err))
 
 

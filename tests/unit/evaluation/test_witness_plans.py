@@ -42,6 +42,10 @@ def test_the_driver_stands_at_its_hold_until_the_release_then_drives_on() -> Non
     assert v == 2.0 and w == 0.0  # released: full speed at the goal straight ahead
     v, w = driver.plan(obs(5.1, (0.1, 0.0, np.pi / 2)))
     assert v < 1e-9 and w == -1.0  # facing away by 90 degrees: turns at the limit without driving
+    holonomic = obs(6.0, (0.0, 0.0, 0.0))
+    holonomic.robot_limits["holonomic"] = 1.0
+    vx, vy = driver.plan(SimpleNamespace(**{**vars(holonomic), "goal": np.array([0.0, -10.0])}))
+    assert abs(vx) < 1e-12 and vy == -2.0  # a holonomic robot is sent a world-frame velocity straight at the goal
 
 
 def test_a_real_run_finds_a_witness_where_the_corridor_is_free_and_none_where_a_walker_blocks_its_mouth() -> None:
