@@ -34,6 +34,7 @@ from navigation_table import REFERENCE  # noqa: E402
 Point = tuple[float, float]
 Plan = tuple[tuple[Point, ...], tuple[Point, float] | None, tuple[Point, ...]]  #: (vias, (hold, release) or None, afters)
 REACHED = 0.6  #: a target point counts as reached this close [m]
+MAX_EPISODES = 1_000_000  #: plans x episodes one run may take (grids multiply: a few minutes per 100,000 here)
 _JOBS: dict = {}  #: what a forked worker reads: the loaded matrix
 
 
@@ -130,6 +131,9 @@ def main(argv: list[str] | None = None) -> int:
         if missing := [n for n in names if n not in matrix.names]:
             raise ValueError(f"no scenario {missing[0]!r} in {args.matrix}")
         seeds = {n: expand_seeds(matrix.get(n).scenario.seeds, args.seeds_per_scenario) for n in names}
+        if (size := len(family) * sum(map(len, seeds.values()))) > MAX_EPISODES:
+            raise ValueError(f"{len(family)} plans x {size // len(family)} episodes = {size} runs, over the "
+                             f"{MAX_EPISODES} one run may take: coarser grids or fewer seeds")
     except (ValueError, CoreError) as exc:
         sys.exit(f"witness_plans: {exc}")
     _JOBS["matrix"] = matrix
@@ -139,11 +143,10 @@ def main(argv: list[str] | None = None) -> int:
         for scenario, seed, plan, outcome, steps in pool.imap_unordered(_episode, jobs, chunksize=8):
             if outcome == "success":
                 found[scenario, seed].append((steps, plan))
-    dt = matrix.get(names[0]).scenario.simulation_config.dt
     result = {"benchmark": "witness_plans", "matrix": args.matrix, "overrides": args.override, "plans": len(family),
               "seconds": round(time.time() - started, 1), "scenarios": {}}
     for n in names:
-        per_seed = []
+        per_seed, dt = [], matrix.get(n).scenario.simulation_config.dt
         for s in seeds[n]:
             wins = sorted(found[n, s], key=lambda w: w[0])
             best = None if not wins else {"arrival_s": round(wins[0][0] * dt, 1), "via": wins[0][1][0],

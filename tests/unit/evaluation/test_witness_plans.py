@@ -71,6 +71,8 @@ def test_bad_arguments_are_refused_in_one_line() -> None:
     assert len(backwards.stderr.strip().splitlines()) == 1
     no_y = run("--hold", "3")
     assert no_y.returncode != 0 and "'3': expected X,Y" in no_y.stderr
+    huge = run("--via", "0:999:1,0:999:1")
+    assert huge.returncode != 0 and "over the 1000000 one run may take" in huge.stderr
     unknown = subprocess.run([sys.executable, str(BENCH), "--scenarios", "no_such_scenario"], capture_output=True,
                              text=True, timeout=300)
     assert unknown.returncode != 0 and "no scenario 'no_such_scenario'" in unknown.stderr
