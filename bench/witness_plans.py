@@ -11,7 +11,8 @@ the grids), then to the goal; and for each ``--hold`` point and ``--release`` ti
 that time, then on through one point of each ``--after`` grid in turn to the goal. The driver steers at its target
 at up to the turn-rate limit and drives at full speed times cos^2 of its heading error (a holonomic robot heads
 straight at it at full speed). ``--json`` prints ONE object: per scenario the seeds with a witness and, per seed,
-the number of witnesses and the earliest arrival's plan.
+the number of witnesses and the earliest arrival's plan. ``--episodes`` takes an evaluation's episodes.jsonl and tries
+only the episodes it failed: which of a planner's failures could a robot with its limits have solved?
 """
 
 from __future__ import annotations
@@ -96,6 +97,24 @@ def plans(args: argparse.Namespace) -> list[Plan]:
     return [((), None, ()), *((v, None, ()) for v in vias), *(((), h, a) for h in holds for a in afters)]
 
 
+def failures(path: Path, names: list[str]) -> dict[tuple[str, int], str]:
+    """(scenario, seed) -> outcome of the episodes of ``names`` that an evaluation did not solve."""
+    out = {}
+    try:
+        lines = path.read_text().splitlines()
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot read it ({exc.strerror})") from None
+    for i, line in enumerate(lines, 1):
+        try:
+            row = json.loads(line)
+            key, outcome = (str(row["scenario"]), int(row["seed"])), str(row["outcome"])
+        except (ValueError, KeyError, TypeError):
+            raise ValueError(f"{path}: line {i}: expected a JSON episode record with scenario, seed and outcome") from None
+        if key[0] in names and outcome != "success":
+            out[key] = outcome
+    return out
+
+
 def _episode(job: tuple[str, int, Plan]) -> tuple[str, int, Plan, str, int]:
     from foresight.core.sim.episode import run_episode
     from foresight.core.sim.simulator import Simulator
@@ -116,6 +135,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--hold", action="append", default=[], metavar="X,Y", help="holding points (grids too)")
     ap.add_argument("--release", default="0:40:2", metavar="T0:T1:DT", help="release times of a hold [s]")
     ap.add_argument("--after", action="append", default=[], metavar="X,Y", help="a grid of points after a hold")
+    ap.add_argument("--episodes", type=Path, metavar="FILE",
+                    help="an evaluation's episodes.jsonl (evaluate --local --out DIR): only its failed episodes")
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
@@ -131,6 +152,9 @@ def main(argv: list[str] | None = None) -> int:
         if missing := [n for n in names if n not in matrix.names]:
             raise ValueError(f"no scenario {missing[0]!r} in {args.matrix}")
         seeds = {n: expand_seeds(matrix.get(n).scenario.seeds, args.seeds_per_scenario) for n in names}
+        outcomes = failures(args.episodes, names) if args.episodes else {}
+        if args.episodes:
+            seeds = {n: sorted(s for (m, s) in outcomes if m == n) for n in names}
         if (size := len(family) * sum(map(len, seeds.values()))) > MAX_EPISODES:
             raise ValueError(f"{len(family)} plans x {size // len(family)} episodes = {size} runs, over the "
                              f"{MAX_EPISODES} one run may take: coarser grids or fewer seeds")
@@ -151,14 +175,16 @@ def main(argv: list[str] | None = None) -> int:
             wins = sorted(found[n, s], key=lambda w: w[0])
             best = None if not wins else {"arrival_s": round(wins[0][0] * dt, 1), "via": wins[0][1][0],
                                           "hold": wins[0][1][1], "after": wins[0][1][2]}
-            per_seed.append({"seed": s, "witnesses": len(wins), "best": best})
+            per_seed.append({"seed": s, "witnesses": len(wins), "best": best,
+                             **({"planner_outcome": outcomes[n, s]} if outcomes else {})})
         result["scenarios"][n] = {"seeds": len(per_seed), "witnessed": sum(p["witnesses"] > 0 for p in per_seed),
                                   "per_seed": per_seed}
     if args.json:
         print(json.dumps(result))
     else:
         for n, r in result["scenarios"].items():
-            print(f"{n}: {r['witnessed']} / {r['seeds']} seeds with a witness among {len(family)} plans")
+            what = "of its failed episodes" if args.episodes else "seeds"
+            print(f"{n}: {r['witnessed']} / {r['seeds']} {what} with a witness among {len(family)} plans")
     return 0
 
 
