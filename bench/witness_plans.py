@@ -97,24 +97,6 @@ def plans(args: argparse.Namespace) -> list[Plan]:
     return [((), None, ()), *((v, None, ()) for v in vias), *(((), h, a) for h in holds for a in afters)]
 
 
-def failures(path: Path, names: list[str]) -> dict[tuple[str, int], str]:
-    """(scenario, seed) -> outcome of the episodes of ``names`` that an evaluation did not solve."""
-    out = {}
-    try:
-        lines = path.read_text().splitlines()
-    except OSError as exc:
-        raise ValueError(f"{path}: cannot read it ({exc.strerror})") from None
-    for i, line in enumerate(lines, 1):
-        try:
-            row = json.loads(line)
-            key, outcome = (str(row["scenario"]), int(row["seed"])), str(row["outcome"])
-        except (ValueError, KeyError, TypeError):
-            raise ValueError(f"{path}: line {i}: expected a JSON episode record with scenario, seed and outcome") from None
-        if key[0] in names and outcome != "success":
-            out[key] = outcome
-    return out
-
-
 def _episode(job: tuple[str, int, Plan]) -> tuple[str, int, Plan, str, int]:
     from foresight.core.sim.episode import run_episode
     from foresight.core.sim.simulator import Simulator
@@ -142,7 +124,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     from foresight.cli.evaluate import overrides
     from foresight.core.errors import CoreError
-    from foresight.core.evaluation.runner import expand_seeds
+    from foresight.core.evaluation.runner import expand_seeds, read_outcomes
     from foresight.core.scenarios.loader import load_matrix
 
     try:
@@ -151,10 +133,11 @@ def main(argv: list[str] | None = None) -> int:
         names = args.scenarios.split(",")
         if missing := [n for n in names if n not in matrix.names]:
             raise ValueError(f"no scenario {missing[0]!r} in {args.matrix}")
-        seeds = {n: expand_seeds(matrix.get(n).scenario.seeds, args.seeds_per_scenario) for n in names}
-        outcomes = failures(args.episodes, names) if args.episodes else {}
-        if args.episodes:
+        if args.episodes:  # the evaluation's failures among the scenarios asked about
+            outcomes = {k: o for k, o in read_outcomes(args.episodes).items() if k[0] in names and o != "success"}
             seeds = {n: sorted(s for (m, s) in outcomes if m == n) for n in names}
+        else:
+            outcomes, seeds = {}, {n: expand_seeds(matrix.get(n).scenario.seeds, args.seeds_per_scenario) for n in names}
         if (size := len(family) * sum(map(len, seeds.values()))) > MAX_EPISODES:
             raise ValueError(f"{len(family)} plans x {size // len(family)} episodes = {size} runs, over the "
                              f"{MAX_EPISODES} one run may take: coarser grids or fewer seeds")

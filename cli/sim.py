@@ -116,7 +116,7 @@ def scenarios_check(args: argparse.Namespace) -> int:
 
 def scenarios_reachable(args: argparse.Namespace) -> int:
     from foresight.cli.evaluate import overrides
-    from foresight.core.evaluation.runner import expand_seeds
+    from foresight.core.evaluation.runner import expand_seeds, read_outcomes
     from foresight.core.scenarios.loader import load_matrix
     from foresight.core.sim.feasibility import reachability
 
@@ -125,7 +125,7 @@ def scenarios_reachable(args: argparse.Namespace) -> int:
     if args.seeds_per_scenario is not None and args.seeds_per_scenario < 1:
         raise ConfigError(f"expected a positive count, got {args.seeds_per_scenario}", source="command line",
                           item="--seeds-per-scenario")
-    outcomes = _outcomes(args.episodes) if args.episodes else None
+    outcomes = read_outcomes(args.episodes) if args.episodes else None
     episodes = [(s, seed) for s in chosen for seed in expand_seeds(s.scenario.seeds, args.seeds_per_scenario)]
     if outcomes is not None:  # before the work: the evaluation must hold every episode asked about
         missing = [f"{s.name} {seed}" for s, seed in episodes if (s.name, seed) not in outcomes]
@@ -168,17 +168,6 @@ def _reach_picture(r: Reachability, scenario: ResolvedScenario, folder: Path) ->
     title = f"{r.scenario} seed {r.seed}: {when}" + (" (approximate)" if r.peds_react else "")
     return render_reachability(r.where, scenario.map, folder / f"reach_{r.scenario}_{r.seed}.png", title=title,
                                ped_radius=scenario.scenario.simulation_config.ped_radius)
-
-
-def _outcomes(path: str) -> dict[tuple[str, int], str]:
-    """(scenario, seed) -> outcome of an evaluation's episodes.jsonl; a bad file is a ConfigError naming it."""
-    try:
-        lines = Path(path).read_text().splitlines()
-        return {(e["scenario"], int(e["seed"])): e["outcome"] for e in map(json.loads, filter(None, lines))}
-    except FileNotFoundError:
-        raise ConfigError("file does not exist", source=path) from None
-    except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
-        raise ConfigError(f"expected episode records with scenario, seed and outcome: {exc}", source=path) from None
 
 
 def _reachable_text(r: dict) -> str:

@@ -330,6 +330,18 @@ def read_records(path: Path) -> list[EpisodeRecord]:
     return [EpisodeRecord.model_validate_json(line) for line in Path(path).read_text().splitlines() if line.strip()]
 
 
+def read_outcomes(path: str | Path) -> dict[tuple[str, int], str]:
+    """(scenario, seed) -> outcome of an evaluation's episodes.jsonl, reading only those three keys of each record (so
+    records of older or other versions serve too); a bad file is a ConfigError naming it."""
+    try:
+        lines = Path(path).read_text().splitlines()
+        return {(e["scenario"], int(e["seed"])): e["outcome"] for e in map(json.loads, filter(None, lines))}
+    except FileNotFoundError:
+        raise ConfigError("file does not exist", source=path) from None
+    except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
+        raise ConfigError(f"expected episode records with scenario, seed and outcome: {exc}", source=path) from None
+
+
 @dataclass(frozen=True)
 class PreparedEvaluation:
     """What an evaluation runs: its matrix, the (scenario, seed) episode list in order, the resolved planner."""
