@@ -33,6 +33,9 @@ def rollout(state0: np.ndarray, commands: np.ndarray, limits: RobotLimits, dt: f
     return unicycle_rollout(state0, commands, limits, dt)
 
 
+SPEED_DECIMALS = 12  #: start speeds are rounded to this many decimals (floating-point noise) before the lookup
+
+
 class FrameRollouts:
     """``rollout`` of fixed command sets, each done once per starting speed in the robot's frame, then turned and
     moved to the robot's pose.
@@ -41,7 +44,9 @@ class FrameRollouts:
     (v, omega) and the commands, so a decision's rollouts are the stored ones for its speeds, rotated
     and translated (equal to ``rollout`` up to floating-point rounding). The planner's command sets are
     fixed per episode and its speeds come from a few ramps, so most decisions reuse stored rollouts:
-    the rollout was a quarter of a decision's time.
+    the rollout was a quarter of a decision's time. Speeds are looked up to ``SPEED_DECIMALS`` (a ramp reaches
+    0.3 as 0.1 + 0.2 and as 0.30000000000000004: one speed, one stored rollout, done from the rounded speed), and
+    the least recently used rollout makes room for a new one.
     """
 
     def __init__(self, limits: RobotLimits, dt: float, capacity: int = 512):
@@ -53,13 +58,14 @@ class FrameRollouts:
         start by start; ``key`` names the command set (the same key, the same commands). Headings come out
         unwrapped (every use of them is periodic)."""
         local = []
-        for v, w in states0[:, 3:].tolist():
-            done = self._local.get((key, v, w))
+        for v, w in np.round(states0[:, 3:], SPEED_DECIMALS).tolist():
+            done = self._local.pop((key, v, w), None)  # stored again below: the last used is the last in the dict
             if done is None:
                 if len(self._local) >= self.capacity:
-                    del self._local[next(iter(self._local))]  # the oldest stored (dicts keep insertion order)
+                    del self._local[next(iter(self._local))]  # the least recently used (dicts keep insertion order)
                 start = np.repeat(np.array([[0.0, 0.0, 0.0, v, w]]), len(commands), axis=0)
-                done = self._local[(key, v, w)] = rollout(start, commands, self.limits, self.dt)
+                done = rollout(start, commands, self.limits, self.dt)
+            self._local[(key, v, w)] = done
             local.append(done)
         local = local[0][None] if len(local) == 1 else np.stack(local)  # (P, B, n, 5)
         s0 = states0[:, None, None, :]

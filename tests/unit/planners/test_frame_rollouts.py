@@ -44,3 +44,30 @@ def test_the_same_speeds_reuse_the_stored_rollout_and_other_commands_do_not():
     assert len(frames._local) == 2
     want = rollout(np.repeat(np.array([[1.0, 2.0, 0.3, 0.5, 0.1]]), len(other), axis=0), other, limits, dt)
     np.testing.assert_allclose(c[..., :2], want[..., :2], atol=1e-9)
+
+
+def test_speeds_that_differ_in_their_last_bits_share_one_stored_rollout():
+    """A ramp reaches 0.3 m/s as 0.1 + 0.2 = 0.30000000000000004 and as 0.3: one speed, one rollout."""
+    rng = np.random.default_rng(5)
+    limits, dt = RobotLimits(), 0.1
+    frames = FrameRollouts(limits, dt)
+    cmds = _commands(rng)
+    a = frames(np.array([[0.0, 0.0, 0.0, 0.1 + 0.2, 0.1]]), cmds, "a")
+    b = frames(np.array([[0.0, 0.0, 0.0, 0.3, 0.1]]), cmds, "a")
+    assert 0.1 + 0.2 != 0.3 and len(frames._local) == 1
+    np.testing.assert_array_equal(a, b)
+    frames(np.array([[0.0, 0.0, 0.0, 0.31, 0.1]]), cmds, "a")  # another speed: another rollout
+    assert len(frames._local) == 2
+
+
+def test_the_least_recently_used_rollout_makes_room():
+    rng = np.random.default_rng(6)
+    limits, dt = RobotLimits(), 0.1
+    frames = FrameRollouts(limits, dt, capacity=2)
+    cmds = _commands(rng)
+    start = {v: np.array([[0.0, 0.0, 0.0, v, 0.0]]) for v in (0.5, 1.0, 1.5)}
+    frames(start[0.5], cmds, "a")
+    frames(start[1.0], cmds, "a")
+    frames(start[0.5], cmds, "a")  # used again: 1.0 is now the least recently used
+    frames(start[1.5], cmds, "a")
+    assert sorted(v for _, v, _ in frames._local) == [0.5, 1.5]
