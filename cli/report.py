@@ -117,6 +117,13 @@ def compare_text(result: dict[str, Any]) -> str:
                      f"  {_method(m)}")
     lines.append(f"* significant: paired p < {ALPHA} (McNemar exact / Wilcoxon signed-rank), unpaired the interval "
                  f"excludes 0; never with fewer than {MIN_PAIRS} episodes")
+    if result.get("changed_episodes") is not None:  # paired evaluations: the discordant episodes by name
+        from foresight.core.evaluation.compare import changed_lines
+        from foresight.core.evaluation.delta import EpisodeChange
+
+        changed = [EpisodeChange.model_validate(e) for e in result["changed_episodes"]]
+        lines += ["", f"episodes that ended otherwise ({len(changed)}; the dashboard's compare page plays each "
+                  "side by side):", *changed_lines(changed)]
     return "\n".join(lines)
 
 

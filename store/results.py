@@ -124,12 +124,18 @@ def episodes_file(engine: Engine, store_root: Path, ident: str) -> Path | None:
 
 def episode_trace_file(engine: Engine, store_root: Path, ident: str, name: str) -> Path | None:
     """The file ``name`` (a work-directory-relative trace name) of an evaluation's job; None when absent."""
+    return episode_trace_files(engine, store_root, ident, [name])[0]
+
+
+def episode_trace_files(engine: Engine, store_root: Path, ident: str, names: list[str]) -> list[Path | None]:
+    """:func:`episode_trace_file` of several names, the evaluation looked up once."""
     with session_factory(engine)() as session:
         row = _get(session, Evaluation, ident, "evaluation")
         if row.job_id is None:
-            return None
-    path = folders.resolve_under(store_root, f"{folders.job_dir(store_root, row.job_id)}/{name}")
-    return path if path.is_file() else None
+            return [None] * len(names)
+    job = folders.job_dir(store_root, row.job_id)
+    paths = [folders.resolve_under(store_root, f"{job}/{name}") for name in names]
+    return [p if p.is_file() else None for p in paths]
 
 
 def comparison_setup(engine: Engine, ident: str) -> dict[str, Any] | None:

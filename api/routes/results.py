@@ -119,13 +119,21 @@ def compare_evaluations(engine: EngineDep, settings: SettingsDep, a: Annotated[I
     planner, model, matrix, episodes, horizon, from each side's canonical ``setup``), the resolved-config diff
     key by key and the headline metric deltas B - A with 95 % intervals. Two evaluations of the same
     (scenario, seed) episodes are paired (McNemar / Wilcoxon p-values with matching intervals); the other
-    metrics, and results of other episodes, use MOVER from each side's intervals (``method`` per metric)."""
+    metrics, and results of other episodes, use MOVER from each side's intervals (``method`` per metric).
+    ``changed_episodes`` (paired evaluations only, else None): the episodes whose outcome differs, each with the
+    URL of a player showing both runs of it side by side."""
     return compare_results(engine, settings, a, b)
 
 
 def compare_results(engine: Any, settings: Any, a: str, b: str) -> dict[str, Any]:
     """The body of ``GET /v1/compare`` (the dashboard's compare page renders the same)."""
-    from foresight.core.evaluation.delta import deltas, diff_configs, paired_deltas, what_differs
+    from foresight.core.evaluation.delta import (
+        changed_episodes,
+        deltas,
+        diff_configs,
+        paired_deltas,
+        what_differs,
+    )
 
     a, b = full_id(engine, a), full_id(engine, b)
 
@@ -135,6 +143,21 @@ def compare_results(engine: Any, settings: Any, a: str, b: str) -> dict[str, Any
     paired = paired_deltas(ra, rb) if ra and rb else None
     metrics = {**deltas(sum_a, sum_b), **(paired or {})}
     setup_a, setup_b = results.comparison_setup(engine, a), results.comparison_setup(engine, b)
+    changed = changed_episodes(ra, rb) if paired is not None else None
     return {"a": a, "b": b, "sources": {"a": kind_a, "b": kind_b}, "setup": {"a": setup_a, "b": setup_b},
             "differs": what_differs(setup_a, setup_b) if setup_a and setup_b else None,
-            "config_diff": diff_configs(config_a, config_b), "paired": paired is not None, "metrics": {k: v.model_dump() for k, v in metrics.items()}}
+            "config_diff": diff_configs(config_a, config_b), "paired": paired is not None, "metrics": {k: v.model_dump() for k, v in metrics.items()},
+            "changed_episodes": None if changed is None else _with_players(engine, settings, a, b, changed)}
+
+
+def _with_players(engine: Any, settings: Any, a: str, b: str, changed: list[Any]) -> list[dict[str, Any]]:
+    """Changed episodes with the URL of their side-by-side player (None unless both evaluations stored the trace)."""
+    from urllib.parse import urlencode
+
+    from foresight.core.evaluation.episode_trace import trace_name
+
+    names = [trace_name(e.scenario, e.seed) for e in changed]
+    stored = [results.episode_trace_files(engine, settings.store_root, ident, names) for ident in (a, b)]
+    return [{**e.model_dump(), "player": "/ui/compare/episode?" + urlencode(
+        {"a": a, "b": b, "scenario": e.scenario, "seed": e.seed}) if pa and pb else None}
+            for e, pa, pb in zip(changed, *stored, strict=True)]

@@ -125,6 +125,24 @@ def episode_page(request: Request, evaluation_id: str, scenario: str, seed: int)
                 scenario=scenario, seed=seed, data_url=data_url)
 
 
+@pages.get("/compare/episode")
+def episode_pair_page(request: Request, a: Annotated[str, Query(max_length=200)], b: Annotated[str, Query(max_length=200)],
+                      scenario: Annotated[str, Query(max_length=200)], seed: int) -> HTMLResponse:
+    """One episode of two evaluations side by side on one clock (a comparison's changed episodes link here)."""
+    from foresight.api.routes.results import full_id
+    from foresight.store import results
+
+    engine = request.app.state.engine
+    try:
+        a, b = full_id(engine, a), full_id(engine, b)
+        for ident in (a, b):
+            results.evaluation(engine, ident)  # both must be evaluations (the traces are theirs)
+    except queue.JobNotFound as exc:
+        raise PageNotFound(str(exc)) from None
+    return page(request, "episode_pair.html", title=f"{scenario} seed {seed}: A and B", nav="compare", a=a, b=b,
+                scenario=scenario, seed=seed)
+
+
 @pages.get("/compare")
 def compare_page(request: Request, a: Annotated[str | None, Query(max_length=200)] = None,
                  b: Annotated[str | None, Query(max_length=200)] = None) -> HTMLResponse:

@@ -15,7 +15,7 @@ from pydantic import BaseModel
 
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.aggregate import BootstrapConfig, aggregate
-from foresight.core.evaluation.delta import Delta, paired_deltas
+from foresight.core.evaluation.delta import Delta, EpisodeChange, changed_episodes, paired_deltas
 from foresight.core.evaluation.record import EpisodeRecord
 from foresight.core.evaluation.runner import read_records
 from foresight.core.evaluation.stats import ALPHA, MIN_PAIRS
@@ -42,6 +42,7 @@ class Comparison(BaseModel):
     families: list[FamilyRow]
     families_where_a_baseline_is_better: list[str]
     paired: dict[str, dict[str, Delta]] = {}  #: planner -> headline metric -> planner - reference, paired
+    changed: dict[str, list[EpisodeChange]] = {}  #: planner -> episodes whose outcome differs (a: the reference's)
 
 
 def _better(a: PlannerCell, b: PlannerCell) -> bool:
@@ -86,6 +87,7 @@ def compare(runs: dict[str, list[EpisodeRecord]], reference: str) -> Comparison:
         overall={label: _cell(a.overall) for label, a in aggs.items()}, families=rows,
         families_where_a_baseline_is_better=[r.family for r in rows if r.better_than_reference],
         paired=paired(None),
+        changed={label: changed_episodes(runs[reference], runs[label]) or [] for label in others},
     )
 
 
@@ -121,4 +123,17 @@ def table(c: Comparison) -> str:
         lines.append(f"| {row.family} | {cells} | {', '.join(row.better_than_reference) or '-'} | {tests} |")
     lines.append(f"\npaired on the same (scenario, seed) episodes; * = McNemar exact p < {ALPHA} with at least "
                  f"{MIN_PAIRS} pairs")
+    for p in others:
+        lines += ["", f"episodes where {p} ends otherwise than {c.reference}:", *changed_lines(c.changed.get(p, []))]
     return "\n".join(lines) + "\n"
+
+
+SHOWN_CHANGES = 20  #: changed episodes a text listing shows
+
+
+def changed_lines(changed: list[EpisodeChange]) -> list[str]:
+    """The text listing of changed episodes (the first ``SHOWN_CHANGES``; ``--json`` has them all)."""
+    lines = [f"  {e.scenario} {e.seed}: {e.a} -> {e.b}" for e in changed[:SHOWN_CHANGES]] or ["  none"]
+    if len(changed) > SHOWN_CHANGES:
+        lines.append(f"  ... and {len(changed) - SHOWN_CHANGES} more (--json lists every one)")
+    return lines

@@ -142,6 +142,25 @@ def paired_deltas(a: Sequence[EpisodeRecord], b: Sequence[EpisodeRecord]) -> dic
             for name, get in EPISODE_VALUES.items()}
 
 
+class EpisodeChange(BaseModel):
+    """One paired episode whose outcome differs between A and B: where a paired test's discordant pairs are."""
+
+    scenario: str
+    seed: int
+    a: str  #: A's outcome (success, timeout, collision_pedestrian, ...)
+    b: str  #: B's outcome
+
+
+def changed_episodes(a: Sequence[EpisodeRecord], b: Sequence[EpisodeRecord]) -> list[EpisodeChange] | None:
+    """The (scenario, seed) episodes whose outcome differs, in that order; None when the two ran other episodes.
+    The episodes a success delta's McNemar test counts are the ones here where exactly one side succeeded."""
+    if not a or pair_keys(a) != pair_keys(b):
+        return None
+    by_pair = {(r.scenario, r.seed): r.outcome for r in b}
+    return [EpisodeChange(scenario=r.scenario, seed=r.seed, a=r.outcome, b=by_pair[(r.scenario, r.seed)])
+            for r in sorted(a, key=lambda r: (r.scenario, r.seed)) if r.outcome != by_pair[(r.scenario, r.seed)]]
+
+
 def flatten(value: Any, prefix: str = "") -> dict[str, Any]:
     """Nested mappings as dotted keys (lists and scalars are leaves)."""
     if not isinstance(value, Mapping):

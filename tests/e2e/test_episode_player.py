@@ -90,3 +90,25 @@ def test_gate_badge_episode_list_and_player(service: Up, page) -> None:  # noqa:
     assert rows.count() == 1 and cells == ["planner", "goal", "social_force"], cells
     assert "paired on the same episodes" in page.text_content("#differs")
     page.screenshot(path=str(shots / "compare.png"), full_page=True)
+
+    # the episodes that ended otherwise, by name, each one click from a side-by-side player on one clock
+    # (the predictive planner gets out of the way where the goal-seeking robot collides)
+    third = api.post("/v1/jobs", json={"spec": {**EVALUATE, "planner": {"name": "predictive", "model": "cv"}}}).json()["id"]
+    assert wait_job(api, third, timeout=600)["status"] == "succeeded"
+    a, b = job_id, third
+    changed = api.get("/v1/compare", params={"a": a, "b": b}).json()["changed_episodes"]
+    page.goto(f"{service.url}/ui/compare?a={a}&b={b}")
+    assert changed and all(e["a"] != e["b"] and e["player"] for e in changed), changed
+    assert page.locator("table.changed tbody tr").count() == len(changed)
+    page.locator("table.changed a.watch-pair").first.click()
+    page.wait_for_selector('#player[data-ready="1"]', timeout=15_000)
+    first = changed[0]
+    assert f"{first['scenario']} seed {first['seed']}" in page.text_content("h1")
+    assert page.locator(".pane").count() == 2
+    for side in "ab":
+        assert f"outcome {first[side]}" in page.text_content(f"#pane-{side} .facts")  # each pane its own run
+    page.click("#fwd")
+    page.click("#fwd")
+    assert page.get_attribute("#player", "data-step") == "2"
+    assert [page.get_attribute(f"#pane-{s}", "data-frame") for s in "ab"] == ["2", "2"]  # one clock for both
+    page.screenshot(path=str(shots / "compare-side-by-side.png"), full_page=True)

@@ -95,3 +95,52 @@ def test_evaluations_of_the_same_episodes_are_paired(client, engine, settings) -
     assert body["metrics"]["min_clearance"]["test"] == "wilcoxon_signed_rank"
     other = client.get("/v1/compare", params={"a": "eval-a", "b": "eval-c"}).json()  # other episodes: unpaired
     assert other["paired"] is False and other["metrics"]["success"]["method"] == "unpaired_mover"
+
+
+def test_paired_evaluations_list_the_episodes_that_ended_otherwise(client, engine, settings) -> None:  # noqa: ANN001
+    """The discordant pairs behind the McNemar test by name, with a side-by-side player where both kept the trace."""
+    from foresight.core.evaluation.episode_trace import trace_name
+
+    a = [record("s_low", s, "timeout" if s in (3, 5) else "success") for s in range(6)]
+    b = [record("s_low", s, "collision_pedestrian" if s == 1 else "success") for s in range(6)]
+    _store_with_episodes(engine, settings, {"eval-a": a, "eval-b": b, "eval-c": b[:4]})
+    for ident in ("eval-a", "eval-b"):  # both stored seed 3's trace; only eval-a stored seed 5's
+        for seed in (3, 5) if ident == "eval-a" else (3,):
+            path = settings.store_root / "jobs" / ident / trace_name("s_low", seed)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_bytes(b"")
+    body = client.get("/v1/compare", params={"a": "eval-a", "b": "eval-b"}).json()
+    changed = body["changed_episodes"]
+    assert [(e["scenario"], e["seed"], e["a"], e["b"]) for e in changed] == [
+        ("s_low", 1, "success", "collision_pedestrian"), ("s_low", 3, "timeout", "success"),
+        ("s_low", 5, "timeout", "success")]
+    assert [e["player"] for e in changed] == [
+        None, "/ui/compare/episode?a=eval-a&b=eval-b&scenario=s_low&seed=3", None]
+    assert body["metrics"]["success"]["discordant"] == [1, 2]  # the same pairs, counted
+    assert client.get("/v1/compare", params={"a": "eval-a", "b": "eval-c"}).json()["changed_episodes"] is None
+    from foresight.cli.report import compare_text  # what `foresight compare A B` prints of this body
+
+    assert ("episodes that ended otherwise (3; the dashboard's compare page plays each side by side):\n"
+            "  s_low 1: success -> collision_pedestrian\n  s_low 3: timeout -> success\n") in compare_text(body)
+
+
+def test_compare_page_lists_them_and_links_the_side_by_side_player(client, engine, settings) -> None:  # noqa: ANN001
+    from foresight.core.evaluation.episode_trace import trace_name
+
+    a = [record("s_low", s, "timeout" if s == 2 else "success") for s in range(4)]
+    b = [record("s_low", s, "success") for s in range(4)]
+    _store_with_episodes(engine, settings, {"eval-a": a, "eval-b": b})
+    for ident in ("eval-a", "eval-b"):
+        path = settings.store_root / "jobs" / ident / trace_name("s_low", 2)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(b"")
+    text = client.get("/ui/compare", params={"a": "eval-a", "b": "eval-b"}).text
+    assert "Episodes that ended otherwise (1)" in text
+    link = "/ui/compare/episode?a=eval-a&amp;b=eval-b&amp;scenario=s_low&amp;seed=2"
+    assert f'<a class="watch-pair" href="{link}">' in text
+    pair = client.get("/ui/compare/episode", params={"a": "eval-a", "b": "eval-b", "scenario": "s_low", "seed": 2})
+    assert pair.status_code == 200
+    for ident, side in (("eval-a", "a"), ("eval-b", "b")):  # one pane per run, each reading its own trace
+        assert f'id="pane-{side}" data-trace="/v1/evaluations/{ident}/episodes/s_low/2"' in pair.text
+    missing = client.get("/ui/compare/episode", params={"a": "eval-a", "b": "nope", "scenario": "s_low", "seed": 2})
+    assert missing.status_code == 404 and "nope" in missing.text

@@ -150,3 +150,22 @@ def test_compare_table_marks_a_paired_difference_with_enough_episodes() -> None:
     c = compare({"learned": learned, "cv": cv}, reference="cv")
     assert c.paired["learned"]["success"].discordant == (0, 10) and c.paired["learned"]["success"].significant
     assert f"+33 pp, p={2 / 2**10:.2g} *" in table(c)
+
+
+def test_compare_names_the_episodes_that_ended_otherwise() -> None:
+    """The discordant pairs behind the paired test, by (scenario, seed), in the JSON and (capped) in the table."""
+    from foresight.core.evaluation.compare import SHOWN_CHANGES, compare, table
+    from foresight.core.evaluation.delta import changed_episodes
+
+    ours = [record("cross_low", 2, "timeout", speed=0.5), record("cross_low", 1), record("door_low", 1)]
+    orca = [record("cross_low", 1), record("cross_low", 2), record("door_low", 1, "collision_pedestrian", ped_y=0.0)]
+    c = compare({"predictive": ours, "orca": orca}, reference="predictive")
+    assert [(e.scenario, e.seed, e.a, e.b) for e in c.changed["orca"]] == [
+        ("cross_low", 2, "timeout", "success"), ("door_low", 1, "success", "collision_pedestrian")]
+    text = table(c)
+    assert "episodes where orca ends otherwise than predictive:\n  cross_low 2: timeout -> success\n" in text
+    assert changed_episodes(ours, orca[:2]) is None  # other episodes: nothing is paired
+    many = [record("cross_low", s, "timeout", speed=0.5) for s in range(SHOWN_CHANGES + 5)]
+    fine = [record("cross_low", s) for s in range(SHOWN_CHANGES + 5)]
+    listing = table(compare({"a": many, "b": fine}, reference="a"))
+    assert listing.count(": timeout -> success") == SHOWN_CHANGES and "... and 5 more (--json lists every one)" in listing
