@@ -25,7 +25,7 @@ from foresight.core import files
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.aggregate import SuiteSummary, summarise
 from foresight.core.evaluation.config import CampaignConfig, EpisodeSelection, GridVariant, variant_spec
-from foresight.core.evaluation.delta import Delta, paired_deltas
+from foresight.core.evaluation.delta import Delta, EpisodeChange, changed_episodes, paired_deltas
 from foresight.core.evaluation.gates import GATE_FAILED_EXIT, ClosedLoopGateResult, closed_loop_gate
 from foresight.core.evaluation.integrity import IntegrityReport, check_integrity
 from foresight.core.evaluation.plannerspec import (
@@ -66,6 +66,8 @@ class CellMetrics(BaseModel):
     global_: SuiteSummary = Field(alias="global")
     #: suite (hard, global) -> headline metric -> paired delta vs the baseline cell (same episodes)
     vs_baseline: dict[str, dict[str, Delta] | None] | None = None
+    #: suite -> the episodes whose outcome differs from the baseline cell's (a: the baseline's, b: this cell's)
+    changed_vs_baseline: dict[str, list[EpisodeChange]] | None = None
 
 
 class CellParams(BaseModel):
@@ -88,7 +90,8 @@ class CellResult(CellMetrics, CellParams):
     baseline: str | None = None  #: key of the baseline cell it is compared with (same checkpoint)
 
     def metrics(self) -> CellMetrics:
-        return CellMetrics(hard=self.hard, global_=self.global_, vs_baseline=self.vs_baseline)
+        return CellMetrics(hard=self.hard, global_=self.global_, vs_baseline=self.vs_baseline,
+                           changed_vs_baseline=self.changed_vs_baseline)
 
     def params(self) -> CellParams:
         return CellParams(checkpoint=self.checkpoint, variant=self.variant)
@@ -258,9 +261,11 @@ def with_paired_stats(config: CampaignConfig, ctx: StageContext, plan: CampaignP
         if b is None or b.key == c.key:
             out.append(c)
             continue
-        vs = {suite: paired_deltas([records[b.key][p] for p in pairs], [records[c.key][p] for p in pairs])
-              for suite, pairs in (("hard", plan.hard), ("global", plan.glob))}
-        out.append(c.model_copy(update={"baseline": b.key, "vs_baseline": vs}))
+        vs, changed = {}, {}
+        for suite, pairs in (("hard", plan.hard), ("global", plan.glob)):
+            ours, theirs = [records[b.key][p] for p in pairs], [records[c.key][p] for p in pairs]
+            vs[suite], changed[suite] = paired_deltas(ours, theirs), changed_episodes(ours, theirs) or []
+        out.append(c.model_copy(update={"baseline": b.key, "vs_baseline": vs, "changed_vs_baseline": changed}))
     return out
 
 

@@ -11,6 +11,7 @@ from typing import Any
 
 from foresight.core.evaluation.aggregate import SuiteSummary
 from foresight.core.evaluation.campaign import CampaignResult, CellResult
+from foresight.core.evaluation.compare import SHOWN_CHANGES
 from foresight.core.evaluation.delta import Delta
 from foresight.core.evaluation.stats import ALPHA, MIN_PAIRS
 from foresight.core.render.charts import ranking_chart, taxonomy_bars
@@ -88,6 +89,13 @@ def _paired(doc: Document, cells: list[CellResult]) -> None:
              f"episodes: success by McNemar's exact test (discordant pairs baseline-only / variant-only), clearance by "
              f"the Wilcoxon signed-rank test; * = p < {ALPHA} with at least {MIN_PAIRS} pairs.")
     doc.table(["cell", "suite", "success delta", "McNemar p", "clearance delta", "Wilcoxon p"], rows)
+    changed = [(cell_name(c), suite, ep) for c in cells for suite, eps in (c.changed_vs_baseline or {}).items()
+               for ep in eps]
+    if changed:
+        doc.text("The episodes that ended otherwise than in the baseline cell (baseline -> cell), the discordant "
+                 f"pairs by name (the first {SHOWN_CHANGES}; the cell files list them all):")
+        doc.table(["cell", "suite", "scenario", "seed", "baseline", "cell"],
+                  [[name, suite, e.scenario, e.seed, e.a, e.b] for name, suite, e in changed[:SHOWN_CHANGES]])
 
 
 def _taxonomy(doc: Document, workdir: Path, cells: list[CellResult]) -> None:

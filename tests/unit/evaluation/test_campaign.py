@@ -89,6 +89,11 @@ def test_campaign_runs_ranks_and_resumes(bundle: Path, tmp_path: Path) -> None:
     hard = careful.vs_baseline["hard"]["success"]
     assert hard.method == "paired" and hard.n_pairs == 1 and not hard.significant  # 1 pair: never marked
     assert careful.vs_baseline["global"]["min_clearance"].n_pairs == 2
+    # and names the episodes that ended otherwise: those where one side succeeded are McNemar's discordant pairs
+    assert set(careful.changed_vs_baseline) == {"hard", "global"} and base.changed_vs_baseline is None
+    for suite, changed_eps in careful.changed_vs_baseline.items():
+        flips = [e for e in changed_eps if (e.a == "success") != (e.b == "success")]
+        assert len(flips) == sum(careful.vs_baseline[suite]["success"].discordant or (0, 0))
     assert "Paired against the baseline cell" in (work / "campaign_report.md").read_text()
     again = run_campaign(_config(), _ctx(bundle, work))
     assert (again.cells_run, again.cells_resumed) == (0, 2)

@@ -240,6 +240,10 @@ def test_campaign_report_shows_the_paired_tests_against_the_baseline(tmp_path: P
     md, _ = _read(write_campaign_report(res, tmp_path))
     assert "### Paired against the baseline variant" in md
     assert f"| careful @ cv | hard | +37.5 pp | {2 / 2**9:.3g} (0/9) * | +0.21 m |" in md
+    res["ranked"][0]["changed_vs_baseline"] = {"hard": [{"scenario": "door_high", "seed": 7, "a": "timeout",
+                                                         "b": "success"}], "global": []}
+    md, _ = _read(write_campaign_report(res, tmp_path))
+    assert "| careful @ cv | hard | door_high | 7 | timeout | success |" in md
 
 
 def test_a_renamed_result_field_is_an_error_naming_it_not_a_dash(tmp_path: Path) -> None:
