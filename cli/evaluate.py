@@ -81,6 +81,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "--local: evaluation work folders (with episodes.jsonl), optionally LABEL=FOLDER")
     cm.add_argument("--local", action="store_true", help="compare local evaluation work folders in-process")
     cm.add_argument("--reference", help="--local: label of the planner under test (default: the first run)")
+    cm.add_argument("--players", type=Path, metavar="DIR",
+                    help="--local: write the changed episodes as side-by-side player pages (HTML) under DIR")
     cm.add_argument("--json", action="store_true")
     add_connection_args(cm)
     cm.set_defaults(func=compare_cmd)
@@ -365,21 +367,26 @@ def campaign_cmd(args: argparse.Namespace) -> int:
 
 
 def compare_cmd(args: argparse.Namespace) -> int:
-    from foresight.core.evaluation.compare import compare, load_run, table
+    from foresight.core.evaluation.compare import compare, load_run, table, write_players
 
     if not args.local:
+        if args.players:
+            raise ConfigError("--players writes pages from local work folders (--local); the dashboard's compare "
+                              "page plays a server's episodes side by side", source="command line", item="players")
         from foresight.cli.report import compare_remote
 
         return compare_remote(args)
 
-    runs = {}
+    runs, folders = {}, {}
     for item in args.runs:
         label, _, folder = item.rpartition("=")
         name, records = load_run(Path(folder))
         label = label or name
         if label in runs:
             raise ConfigError(f"two runs are labelled {label!r}; name them LABEL=FOLDER", source="command line")
-        runs[label] = records
+        runs[label], folders[label] = records, Path(folder)
     result = compare(runs, args.reference or next(iter(runs)))
+    if args.players:
+        result = write_players(result, folders, args.players)
     emit(result, args.json, table)
     return 0

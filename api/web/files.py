@@ -57,8 +57,10 @@ def read_job_file(request: Request, job_id: Annotated[str, PathParam(max_length=
 
 @router.get("/ui/static/{name}")
 def read_static(name: str) -> FileResponse:
-    """The dashboard's CSS and script (no CDN: the pages work offline)."""
-    files = {p.name: p for p in STATIC.iterdir() if p.is_file()}
+    """The dashboard's CSS and scripts (no CDN: the pages work offline); the episode player is core's."""
+    from foresight.core.render.player import PLAYER_JS
+
+    files = {p.name: p for p in STATIC.iterdir() if p.is_file()} | {PLAYER_JS.name: PLAYER_JS}
     if name not in files:
         raise PageNotFound(f"no static file {name}")
     return FileResponse(files[name], headers={"Cache-Control": "no-cache"})

@@ -9,6 +9,7 @@ difference is significant only from ``MIN_PAIRS`` episodes on.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 from pydantic import BaseModel
@@ -19,6 +20,8 @@ from foresight.core.evaluation.delta import Delta, EpisodeChange, changed_episod
 from foresight.core.evaluation.record import EpisodeRecord
 from foresight.core.evaluation.runner import read_records
 from foresight.core.evaluation.stats import ALPHA, MIN_PAIRS
+
+SHOWN_CHANGES = 20  #: changed episodes a text listing shows (and ``write_players`` writes) per planner
 
 
 class PlannerCell(BaseModel):
@@ -43,6 +46,7 @@ class Comparison(BaseModel):
     families_where_a_baseline_is_better: list[str]
     paired: dict[str, dict[str, Delta]] = {}  #: planner -> headline metric -> planner - reference, paired
     changed: dict[str, list[EpisodeChange]] = {}  #: planner -> episodes whose outcome differs (a: the reference's)
+    players: dict[str, list[str]] = {}  #: planner -> side-by-side player pages written of them (``write_players``)
 
 
 def _better(a: PlannerCell, b: PlannerCell) -> bool:
@@ -91,6 +95,30 @@ def compare(runs: dict[str, list[EpisodeRecord]], reference: str) -> Comparison:
     )
 
 
+def write_players(c: Comparison, folders: dict[str, Path], out: Path, limit: int = SHOWN_CHANGES) -> Comparison:
+    """For every planner, its first ``limit`` changed episodes as side-by-side player pages (the reference's run
+    and its own, ``core.render.player``) under ``out/<planner>/``, where both work folders kept the episode's
+    compact trace; the comparison with ``players`` filled in."""
+    from foresight.core.evaluation.episode_trace import read_compact, trace_name
+    from foresight.core.render.player import write_player
+
+    written: dict[str, list[str]] = {}
+    for label, changed in c.changed.items():
+        written[label] = []
+        for e in changed[:limit]:
+            name = trace_name(e.scenario, e.seed)
+            paths = [folders[side] / name for side in (c.reference, label)]
+            if not all(p.is_file() for p in paths):
+                continue
+            traces = [(f"{side}: {outcome}", read_compact(p))
+                      for side, outcome, p in zip((c.reference, label), (e.a, e.b), paths, strict=True)]
+            page = out / re.sub(r"[^A-Za-z0-9._-]", "_", label) / Path(name).name.replace(".json.gz", ".html")
+            write_player(page, traces, f"{e.scenario} seed {e.seed}: {c.reference} and {label}",
+                         "One clock for both runs of the episode; a pane whose episode ended holds its last frame.")
+            written[label].append(str(page))
+    return c.model_copy(update={"players": written})
+
+
 def load_run(workdir: Path) -> tuple[str, list[EpisodeRecord]]:
     """(planner label, records) of an evaluation work folder (its episodes.jsonl)."""
     records = read_records(Path(workdir) / "episodes.jsonl")
@@ -125,10 +153,10 @@ def table(c: Comparison) -> str:
                  f"{MIN_PAIRS} pairs")
     for p in others:
         lines += ["", f"episodes where {p} ends otherwise than {c.reference}:", *changed_lines(c.changed.get(p, []))]
+        if p in c.players:
+            lines.append(f"  {len(c.players[p])} side-by-side player pages" + (
+                f" in {Path(c.players[p][0]).parent}" if c.players[p] else " (no episode with both traces)"))
     return "\n".join(lines) + "\n"
-
-
-SHOWN_CHANGES = 20  #: changed episodes a text listing shows
 
 
 def changed_lines(changed: list[EpisodeChange]) -> list[str]:

@@ -69,6 +69,7 @@ def test_the_wheel_holds_the_run_time_files_under_one_namespace(installed: tuple
     assert [n for n in PACKAGE_DATA if n not in names] == []
     assert any(n.startswith("foresight/migrations/versions/") and n.endswith(".py") for n in names)
     assert any(n.startswith("foresight/api/web/static/") for n in names)
+    assert "foresight/core/render/player.js" in names  # the episode player (dashboard and compare --local pages)
     tops = {n.split("/")[0] for n in names}
     assert tops == {"foresight", next(t for t in tops if t.endswith(".dist-info"))}  # no generic top-level name
     assert not any(n.endswith(".pyc") for n in names)

@@ -1,8 +1,10 @@
-// Episode player: draws evaluated episodes' stored compact traces (GET /v1/evaluations/ID/episodes/S/SEED) on
-// canvases, world y up, with play/pause, a time slider and frame steps. One pane per trace (.pane[data-trace]):
-// the episode page has one, the compare page's side-by-side player two, on one clock (a pane whose episode
-// ended shows its last frame). State for tests and links: #player[data-frame, data-step, data-ready] and each
-// .pane[data-frame]; a pane's .event shows its collision from its step on.
+// Episode player: draws evaluated episodes' compact traces (core.evaluation.episode_trace) on canvases, world y
+// up, with play/pause, a time slider and frame steps. One pane per trace: .pane[data-trace] fetches it (the
+// dashboard: GET /v1/evaluations/ID/episodes/S/SEED), .pane[data-trace-script] reads it from the JSON script
+// element of that id (a standalone page: core.render.player). The episode page has one pane, a side-by-side
+// player two, on one clock (a pane whose episode ended shows its last frame). State for tests and links:
+// #player[data-frame, data-step, data-ready] and each .pane[data-frame]; a pane's .event shows its collision
+// from its step on.
 "use strict";
 (function () {
   const root = document.getElementById("player");
@@ -203,7 +205,14 @@
     });
   }
 
-  Promise.allSettled(scenes.map(({pane}) => fetchTrace(pane.dataset.trace))).then((got) => {
+  function paneTrace(pane) {
+    if (pane.dataset.traceScript) {
+      return Promise.resolve().then(() => JSON.parse(document.getElementById(pane.dataset.traceScript).textContent));
+    }
+    return fetchTrace(pane.dataset.trace);
+  }
+
+  Promise.allSettled(scenes.map(({pane}) => paneTrace(pane))).then((got) => {
     got.forEach((g, i) => (g.status === "fulfilled" ? scenes[i].scene.load(g.value) : scenes[i].scene.fail(g.reason)));
     const loaded = scenes.filter(({scene}) => scene.trace());
     if (loaded.length < scenes.length) return; // every pane says what failed; no clock without all of them
