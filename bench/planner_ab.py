@@ -15,12 +15,14 @@ its own (``cv``, a checkpoint) instead of ``--model`` (default: the shipped lear
 Episodes are deterministic, so the pairs are exact: the same variant twice reads 0 : 0. Prints ONE JSON object with
 ``--json``: per suite and variant the outcome counts with Wilson intervals, and per suite each later variant against
 the first: successes first-only : variant-only, exact McNemar p (none below ``core.evaluation.stats.MIN_PAIRS``
-pairs), collisions first-only : variant-only. ``--out DIR`` keeps every
-episode's outcome (episodes.jsonl).
+pairs), collisions first-only : variant-only, and the episodes that ended otherwise (``changed``). ``--out DIR``
+keeps every episode's outcome (episodes.jsonl). ``--players DIR`` writes the first 20 changed episodes of each
+variant and suite as side-by-side player pages (the first variant's run and the variant's, ``core.render.player``:
+open one in a browser) under ``DIR/<suite>/<variant>/``, and lists them in ``players``.
 
 Usage: python bench/planner_ab.py --variant base='{}' --variant back='{"sampling": {"reverse_speed_ratios": [0.25, 0.5]}}'
          [--suites stress,reference_typical_blind] [--seeds-per-scenario 10] [--replication] [--override KEY=VALUE]
-         [--scenarios a,b] [--model cv] [--workers 2] [--out DIR] [--json]
+         [--scenarios a,b] [--model cv] [--workers 2] [--out DIR] [--players DIR] [--json]
 """
 
 from __future__ import annotations
@@ -29,7 +31,9 @@ import argparse
 import json
 import multiprocessing as mp
 import os
+import shutil
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -49,8 +53,34 @@ def _episode(job: tuple[str, str, str, int]) -> dict:
 
     variant, suite, scenario, seed = job
     sim = _JOBS.get("sim") or _JOBS.setdefault("sim", Simulator())  # built once per worker, not per episode
-    rec = run_one(_JOBS["matrices"][suite].get(scenario), seed, _JOBS["planners"][variant], simulator=sim).record
-    return {"variant": variant, "suite": suite, "scenario": scenario, "seed": seed, "outcome": rec.outcome}
+    resolved = _JOBS["matrices"][suite].get(scenario)
+    run = run_one(resolved, seed, _JOBS["planners"][variant], simulator=sim)
+    if _JOBS.get("traces"):  # --players: every episode's compact trace, until the changed ones are known
+        from foresight.core.evaluation.episode_trace import compact_trace, trace_name, write_compact
+
+        write_compact(_JOBS["traces"] / variant / suite / trace_name(scenario, seed), compact_trace(run, resolved.map))
+    return {"variant": variant, "suite": suite, "scenario": scenario, "seed": seed, "outcome": run.record.outcome}
+
+
+def write_players(result: dict, traces: Path, out: Path, variants: list[str]) -> None:
+    """Each suite's changed episodes (the first ``SHOWN_CHANGES`` per variant) as side-by-side player pages of the
+    first variant's run and the variant's; their paths go into the result's ``players`` entries."""
+    from foresight.core.evaluation.compare import SHOWN_CHANGES
+    from foresight.core.evaluation.episode_trace import read_compact, trace_name
+    from foresight.core.render.player import write_player
+
+    first = variants[0]
+    for suite, entry in result.items():
+        for v, paired in entry["paired"].items():
+            paired["players"] = []
+            for scenario, seed, a, b in paired["changed"][:SHOWN_CHANGES]:
+                name = trace_name(scenario, seed)
+                runs = [(f"{first}: {a}", read_compact(traces / first / suite / name)),
+                        (f"{v}: {b}", read_compact(traces / v / suite / name))]
+                page = out / suite / v / Path(name).name.replace(".json.gz", ".html")
+                write_player(page, runs, f"{scenario} seed {seed} ({suite}): {first} and {v}",
+                             "One clock for both runs of the episode; a pane whose episode ended holds its last frame.")
+                paired["players"].append(str(page))
 
 
 def episodes(args: argparse.Namespace, variants: dict[str, dict]) -> tuple[list[tuple], dict, dict]:
@@ -146,6 +176,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--model", default="default", help="default (the shipped learned model), cv, or a checkpoint")
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--out", help="folder for episodes.jsonl")
+    ap.add_argument("--players", type=Path, metavar="DIR", help="the changed episodes as side-by-side player pages")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     variants = parse_variants(args.variant)
@@ -160,7 +191,8 @@ def main(argv: list[str] | None = None) -> int:
         sys.exit(f"planner_ab: {exc}")
     if not jobs:
         sys.exit("planner_ab: no episodes selected (check --scenarios)")
-    _JOBS.update(matrices=matrices, planners=planners)
+    traces = Path(tempfile.mkdtemp(prefix="planner_ab_traces_")) if args.players else None
+    _JOBS.update(matrices=matrices, planners=planners, traces=traces)
     started, rows = time.time(), []
     with mp.get_context("fork").Pool(max(1, min(args.workers, len(jobs)))) as pool:
         for i, row in enumerate(pool.imap_unordered(_episode, jobs, chunksize=1), 1):
@@ -170,9 +202,14 @@ def main(argv: list[str] | None = None) -> int:
     if args.out:
         Path(args.out).mkdir(parents=True, exist_ok=True)
         (Path(args.out) / "episodes.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
+    suites = summary(rows, list(variants))
+    if traces is not None:
+        try:
+            write_players(suites, traces, args.players, list(variants))
+        finally:
+            shutil.rmtree(traces, ignore_errors=True)
     result = {"benchmark": "planner_ab", "model": args.model, "overrides": args.override,
-              "replication": args.replication, "seconds": round(time.time() - started, 1),
-              "suites": summary(rows, list(variants))}
+              "replication": args.replication, "seconds": round(time.time() - started, 1), "suites": suites}
     if args.json:
         print(json.dumps(result))
         return 0

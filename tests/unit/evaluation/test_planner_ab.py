@@ -60,3 +60,24 @@ def test_bad_arguments_are_refused_in_one_line() -> None:
     assert key.returncode != 0 and "no_such_key" in key.stderr
     scenario = run("--variant", "a={}", "--suites", "reference_defaults", "--scenarios", "no_such_scenario")
     assert scenario.returncode != 0 and "no scenario 'no_such_scenario'" in scenario.stderr
+
+
+def test_players_show_the_changed_episodes_side_by_side(tmp_path) -> None:
+    """--players: a variant crawling at 5 % of the speed times out where the first succeeds; that episode is written
+    as one page holding both runs (and the temporary traces are gone)."""
+    import tempfile
+    from pathlib import Path
+
+    before = set(Path(tempfile.gettempdir()).glob("planner_ab_traces_*"))
+    done = subprocess.run(
+        [sys.executable, str(BENCH), "--variant", "a={}", "--variant", 'slow={"max_speed_ratio": 0.05}', "--suites",
+         "reference_defaults", "--scenarios", "classic_head_on_corridor_low", "--seeds-per-scenario", "1",
+         "--workers", "2", "--players", str(tmp_path / "p"), "--json"],
+        capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    paired = json.loads(done.stdout)["suites"]["reference_defaults"]["paired"]["slow"]
+    assert paired["changed"] == [["classic_head_on_corridor_low", 111, "success", "timeout"]]
+    assert paired["players"] == [str(tmp_path / "p/reference_defaults/slow/classic_head_on_corridor_low__111.html")]
+    page = Path(paired["players"][0]).read_text()
+    assert page.count('class="pane"') == 2 and "<h2>a: success</h2>" in page and "<h2>slow: timeout</h2>" in page
+    assert set(Path(tempfile.gettempdir()).glob("planner_ab_traces_*")) == before
