@@ -66,8 +66,8 @@ def write_players(result: dict, traces: Path, out: Path, variants: list[str]) ->
     """Each suite's changed episodes (the first ``SHOWN_CHANGES`` per variant) as side-by-side player pages of the
     first variant's run and the variant's; their paths go into the result's ``players`` entries."""
     from foresight.core.evaluation.compare import SHOWN_CHANGES
-    from foresight.core.evaluation.episode_trace import read_compact, trace_name
-    from foresight.core.render.player import write_player
+    from foresight.core.evaluation.episode_trace import trace_name
+    from foresight.core.render.player import write_pair
 
     first = variants[0]
     for suite, entry in result.items():
@@ -75,12 +75,9 @@ def write_players(result: dict, traces: Path, out: Path, variants: list[str]) ->
             paired["players"] = []
             for scenario, seed, a, b in paired["changed"][:SHOWN_CHANGES]:
                 name = trace_name(scenario, seed)
-                runs = [(f"{first}: {a}", read_compact(traces / first / suite / name)),
-                        (f"{v}: {b}", read_compact(traces / v / suite / name))]
+                runs = [(first, a, traces / first / suite / name), (v, b, traces / v / suite / name)]
                 page = out / suite / v / Path(name).name.replace(".json.gz", ".html")
-                write_player(page, runs, f"{scenario} seed {seed} ({suite}): {first} and {v}",
-                             "One clock for both runs of the episode; a pane whose episode ended holds its last frame.")
-                paired["players"].append(str(page))
+                paired["players"].append(str(write_pair(page, runs, f"{scenario} seed {seed} ({suite}): {first} and {v}")))
 
 
 def episodes(args: argparse.Namespace, variants: dict[str, dict]) -> tuple[list[tuple], dict, dict]:

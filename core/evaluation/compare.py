@@ -99,23 +99,19 @@ def write_players(c: Comparison, folders: dict[str, Path], out: Path, limit: int
     """For every planner, its first ``limit`` changed episodes as side-by-side player pages (the reference's run
     and its own, ``core.render.player``) under ``out/<planner>/``, where both work folders kept the episode's
     compact trace; the comparison with ``players`` filled in."""
-    from foresight.core.evaluation.episode_trace import read_compact, trace_name
-    from foresight.core.render.player import write_player
+    from foresight.core.evaluation.episode_trace import trace_name
+    from foresight.core.render.player import write_pair
 
     written: dict[str, list[str]] = {}
     for label, changed in c.changed.items():
         written[label] = []
         for e in changed[:limit]:
             name = trace_name(e.scenario, e.seed)
-            paths = [folders[side] / name for side in (c.reference, label)]
-            if not all(p.is_file() for p in paths):
+            runs = [(c.reference, e.a, folders[c.reference] / name), (label, e.b, folders[label] / name)]
+            if not all(trace.is_file() for _, _, trace in runs):
                 continue
-            traces = [(f"{side}: {outcome}", read_compact(p))
-                      for side, outcome, p in zip((c.reference, label), (e.a, e.b), paths, strict=True)]
             page = out / re.sub(r"[^A-Za-z0-9._-]", "_", label) / Path(name).name.replace(".json.gz", ".html")
-            write_player(page, traces, f"{e.scenario} seed {e.seed}: {c.reference} and {label}",
-                         "One clock for both runs of the episode; a pane whose episode ended holds its last frame.")
-            written[label].append(str(page))
+            written[label].append(str(write_pair(page, runs, f"{e.scenario} seed {e.seed}: {c.reference} and {label}")))
     return c.model_copy(update={"players": written})
 
 

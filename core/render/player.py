@@ -61,3 +61,16 @@ def player_page(traces: list[tuple[str, dict[str, Any]]], title: str, note: str 
 def write_player(path: str | Path, traces: list[tuple[str, dict[str, Any]]], title: str, note: str = "") -> Path:
     """Write :func:`player_page` to ``path`` (atomically); returns the path."""
     return files.write_text(Path(path), player_page(traces, title, note))
+
+
+#: what a side-by-side page says of its clock
+PAIR_NOTE = "One clock for both runs of the episode; a pane whose episode ended holds its last frame."
+
+
+def write_pair(path: str | Path, runs: list[tuple[str, str, Path]], title: str) -> Path:
+    """A side-by-side page of one episode's runs, each (label, outcome, its compact trace file): the panes are
+    headed "label: outcome"."""
+    from foresight.core.evaluation.episode_trace import read_compact
+
+    return write_player(path, [(f"{label}: {outcome}", read_compact(trace)) for label, outcome, trace in runs],
+                        title, PAIR_NOTE)
