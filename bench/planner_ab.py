@@ -31,6 +31,7 @@ import argparse
 import json
 import multiprocessing as mp
 import os
+import re
 import shutil
 import sys
 import tempfile
@@ -76,8 +77,8 @@ def write_players(result: dict, traces: Path, out: Path, variants: list[str]) ->
             for scenario, seed, a, b in paired["changed"][:SHOWN_CHANGES]:
                 name = trace_name(scenario, seed)
                 runs = [(first, a, traces / first / suite / name), (v, b, traces / v / suite / name)]
-                page = out / suite / v / Path(name).name.replace(".json.gz", ".html")
-                paired["players"].append(str(write_pair(page, runs, f"{scenario} seed {seed} ({suite}): {first} and {v}")))
+                title = f"{scenario} seed {seed} ({suite}): {first} and {v}"
+                paired["players"].append(str(write_pair(out / suite, v, scenario, seed, runs, title)))
 
 
 def episodes(args: argparse.Namespace, variants: dict[str, dict]) -> tuple[list[tuple], dict, dict]:
@@ -156,8 +157,9 @@ def parse_variants(items: list[str]) -> dict[str, dict]:
             cfg = json.loads(raw) if sep else None
         except json.JSONDecodeError as exc:
             sys.exit(f"--variant {name}: not JSON ({exc})")
-        if not name or not isinstance(cfg, dict) or name in variants:
-            sys.exit(f"--variant {item!r}: expected a new NAME=JSON object, e.g. base='{{}}'")
+        if not re.fullmatch(r"[A-Za-z0-9._-]+", name) or name in (".", "..") or not isinstance(cfg, dict) or name in variants:
+            sys.exit(f"--variant {item!r}: expected a new NAME=JSON object (NAME of letters, digits, '.', '_', '-'), "
+                     "e.g. base='{}'")
         variants[name] = cfg
     return variants
 
@@ -188,6 +190,11 @@ def main(argv: list[str] | None = None) -> int:
         sys.exit(f"planner_ab: {exc}")
     if not jobs:
         sys.exit("planner_ab: no episodes selected (check --scenarios)")
+    if args.players:  # before the work: a folder that cannot be written is refused now, not after every episode
+        try:
+            args.players.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            sys.exit(f"planner_ab: --players {args.players}: cannot write there ({exc.strerror})")
     traces = Path(tempfile.mkdtemp(prefix="planner_ab_traces_")) if args.players else None
     _JOBS.update(matrices=matrices, planners=planners, traces=traces)
     started, rows = time.time(), []

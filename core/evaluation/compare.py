@@ -9,7 +9,6 @@ difference is significant only from ``MIN_PAIRS`` episodes on.
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 from pydantic import BaseModel
@@ -110,8 +109,8 @@ def write_players(c: Comparison, folders: dict[str, Path], out: Path, limit: int
             runs = [(c.reference, e.a, folders[c.reference] / name), (label, e.b, folders[label] / name)]
             if not all(trace.is_file() for _, _, trace in runs):
                 continue
-            page = out / re.sub(r"[^A-Za-z0-9._-]", "_", label) / Path(name).name.replace(".json.gz", ".html")
-            written[label].append(str(write_pair(page, runs, f"{e.scenario} seed {e.seed}: {c.reference} and {label}")))
+            title = f"{e.scenario} seed {e.seed}: {c.reference} and {label}"
+            written[label].append(str(write_pair(out, label, e.scenario, e.seed, runs, title)))
     return c.model_copy(update={"players": written})
 
 

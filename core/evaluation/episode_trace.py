@@ -27,9 +27,21 @@ MAX_FORECASTS = 150  #: logged forecasts kept per episode (evenly thinned beyond
 TRACES = "traces"  #: the folder of an evaluation's work directory that holds them
 
 
+def safe_name(text: str) -> str:
+    """``text`` as one file or folder name: characters other than letters, digits, '.', '_' and '-' become '_',
+    and no name is '.' or '..'."""
+    name = re.sub(r"[^A-Za-z0-9._-]", "_", text)
+    return f"_{name}" if name in (".", "..") else name
+
+
+def episode_stem(scenario: str, seed: int) -> str:
+    """An episode's file name without its suffix: ``<scenario>__<seed>``."""
+    return f"{safe_name(scenario)}__{int(seed)}"
+
+
 def trace_name(scenario: str, seed: int) -> str:
     """The work-directory-relative file of an episode's compact trace."""
-    return f"{TRACES}/{re.sub(r'[^A-Za-z0-9._-]', '_', scenario)}__{int(seed)}.json.gz"
+    return f"{TRACES}/{episode_stem(scenario, seed)}.json.gz"
 
 
 def _r(a: Any, digits: int = 2) -> Any:

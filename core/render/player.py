@@ -67,10 +67,11 @@ def write_player(path: str | Path, traces: list[tuple[str, dict[str, Any]]], tit
 PAIR_NOTE = "One clock for both runs of the episode; a pane whose episode ended holds its last frame."
 
 
-def write_pair(path: str | Path, runs: list[tuple[str, str, Path]], title: str) -> Path:
-    """A side-by-side page of one episode's runs, each (label, outcome, its compact trace file): the panes are
-    headed "label: outcome"."""
-    from foresight.core.evaluation.episode_trace import read_compact
+def write_pair(out: Path, folder: str, scenario: str, seed: int, runs: list[tuple[str, str, Path]], title: str) -> Path:
+    """A side-by-side page of one episode's runs, each (label, outcome, its compact trace file), written as
+    ``out/<folder>/<scenario>__<seed>.html`` (names made safe); the panes are headed "label: outcome"."""
+    from foresight.core.evaluation.episode_trace import episode_stem, read_compact, safe_name
 
-    return write_player(path, [(f"{label}: {outcome}", read_compact(trace)) for label, outcome, trace in runs],
+    return write_player(out / safe_name(folder) / f"{episode_stem(scenario, seed)}.html",
+                        [(f"{label}: {outcome}", read_compact(trace)) for label, outcome, trace in runs],
                         title, PAIR_NOTE)

@@ -60,6 +60,12 @@ def test_bad_arguments_are_refused_in_one_line() -> None:
     assert key.returncode != 0 and "no_such_key" in key.stderr
     scenario = run("--variant", "a={}", "--suites", "reference_defaults", "--scenarios", "no_such_scenario")
     assert scenario.returncode != 0 and "no scenario 'no_such_scenario'" in scenario.stderr
+    path_like = run("--variant", "a/../../x={}")  # a name is a folder name of --players: no path in it
+    assert path_like.returncode != 0 and "NAME of letters, digits" in path_like.stderr
+    players = run("--variant", "a={}", "--suites", "reference_defaults", "--scenarios", "classic_doorway_low",
+                  "--players", "/proc/no_such_folder")  # refused before any episode runs
+    assert players.returncode != 0 and "--players /proc/no_such_folder: cannot write there" in players.stderr
+    assert "episodes" not in players.stderr and len(players.stderr.strip().splitlines()) == 1
 
 
 def test_players_show_the_changed_episodes_side_by_side(tmp_path) -> None:

@@ -36,3 +36,10 @@ def test_players_needs_local_work_folders() -> None:
                           cwd=REPO, capture_output=True, text=True, timeout=120)  # fmt: skip
     assert done.returncode != 0 and "--players writes pages from local work folders" in done.stderr
     assert len(done.stderr.strip().splitlines()) == 1, done.stderr
+
+
+def test_file_names_from_labels_stay_inside_their_folder() -> None:
+    from foresight.core.evaluation.episode_trace import episode_stem, safe_name, trace_name
+
+    assert [safe_name(t) for t in ("predictive[cv]", "..", ".", "a/../b")] == ["predictive_cv_", "_..", "_.", "a_.._b"]
+    assert episode_stem("door/high", 7) == "door_high__7" and trace_name("door/high", 7) == "traces/door_high__7.json.gz"
