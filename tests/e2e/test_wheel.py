@@ -105,6 +105,8 @@ def test_a_user_folder_runs_the_service_and_a_local_evaluation(installed: tuple[
             assert job["status"] == "succeeded", job
             assert job["result"]["episodes"] == 2
             assert job["result"]["planner"]["checkpoint_sha256"] == _shipped_sha256()
+            player = client.get("/ui/static/player.js")  # the episode player: core's package data, served
+            assert player.status_code == 200 and "data-trace-script" in player.text
     finally:
         server.terminate()
         out = server.communicate(timeout=60)[0]
