@@ -7,6 +7,7 @@ Rows come back detached (their columns loaded), for response models to validate 
 from __future__ import annotations
 
 from collections import defaultdict
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -16,7 +17,6 @@ from foresight.core.evaluation.aggregate import GroupStats, SuiteSummary
 from foresight.core.evaluation.runner import EvaluationMetrics
 from foresight.store import folders, queue
 from foresight.store.models import (
-    Artifact,
     Campaign,
     CampaignCell,
     Dataset,
@@ -112,30 +112,83 @@ def records_by_job(engine: Engine) -> dict[str, list[tuple[str, str]]]:
     return out
 
 
-def episodes_file(engine: Engine, store_root: Path, ident: str) -> Path | None:
-    """An evaluation's episode records file (its job's ``episodes.jsonl``); None for other ids or when gone."""
+@dataclass(frozen=True)
+class RunFolder:
+    """Where a result's episodes are: an evaluation's job folder or a campaign cell's ``cells/<key>/`` in its job's
+    folder, each with ``episodes.jsonl`` and the episodes' compact traces (``traces/``)."""
+
+    path: Path
+    #: a cell's suite: its (scenario, seed) episodes in order (the folder holds both suites'); None: every record
+    episodes: list[tuple[str, int]] | None = None
+
+    def records(self) -> list[Any] | None:
+        """The episode records (of the suite, for a cell), None when the file is gone."""
+        from foresight.core.evaluation.runner import read_records
+
+        path = self.path / "episodes.jsonl"
+        if not path.is_file():
+            return None
+        records = read_records(path)
+        if self.episodes is None:
+            return records
+        by_pair = {(r.scenario, r.seed): r for r in records}
+        return [by_pair[p] for p in self.episodes if p in by_pair]
+
+    def trace(self, name: str) -> Path | None:
+        """The file ``name`` (a trace name, ``core.evaluation.episode_trace.trace_name``) in the folder, if there."""
+        path = self.path / name
+        return path if path.is_file() and path.resolve().is_relative_to(self.path.resolve()) else None
+
+
+def run_folder(engine: Engine, store_root: Path, ident: str) -> RunFolder | None:
+    """The run folder of an evaluation id or a campaign cell ``CAMPAIGN_ID:RANK[:SUITE]``; None where the record keeps
+    none (a row without its job, a cell written before cells kept their folders). JobNotFound for an unknown id."""
     with session_factory(engine)() as session:
         row = session.get(Evaluation, ident)
-        art = None if row is None or row.job_id is None else session.scalars(
-            select(Artifact).where(Artifact.job_id == row.job_id, Artifact.name == "episodes.jsonl")).first()
-    path = None if art is None else folders.resolve_under(store_root, art.path)
-    return path if path is not None and path.is_file() else None
-
-
-def episode_trace_file(engine: Engine, store_root: Path, ident: str, name: str) -> Path | None:
-    """The file ``name`` (a work-directory-relative trace name) of an evaluation's job; None when absent."""
-    return episode_trace_files(engine, store_root, ident, [name])[0]
+        if row is not None:
+            return None if row.job_id is None else RunFolder(store_root / folders.job_dir(store_root, row.job_id))
+    cell = campaign_cell(engine, ident)
+    if cell is None or cell.job_id is None or cell.cell.run_dir is None or cell.result.suites is None:
+        return None
+    job = store_root / folders.job_dir(store_root, cell.job_id)
+    return RunFolder(job / cell.cell.run_dir, [tuple(p) for p in cell.result.suites[cell.suite]])
 
 
 def episode_trace_files(engine: Engine, store_root: Path, ident: str, names: list[str]) -> list[Path | None]:
-    """:func:`episode_trace_file` of several names, the evaluation looked up once."""
+    """The files ``names`` (trace names) of an evaluation's or campaign cell's run folder; None where absent."""
+    found = run_folder(engine, store_root, ident)
+    return [None if found is None else found.trace(name) for name in names]
+
+
+@dataclass(frozen=True)
+class CellRun:
+    """A campaign cell as its campaign job's result holds it."""
+
+    job_id: str | None
+    config: dict[str, Any]  #: the campaign row's config
+    result: Any  #: core.evaluation.campaign.CampaignResult
+    cell: Any  #: core.evaluation.campaign.CellResult
+    suite: str  #: global or hard
+
+
+def campaign_cell(engine: Engine, ident: str) -> CellRun | None:
+    """The cell ``CAMPAIGN_ID:RANK[:SUITE]`` (rank 1 = best) from its job's result; None when the job keeps no result.
+    JobNotFound for an unknown campaign, rank or suite."""
+    from foresight.core.evaluation.campaign import CampaignResult
+
+    campaign_id, _, rest = ident.partition(":")
+    rank, _, suite = rest.partition(":")
     with session_factory(engine)() as session:
-        row = _get(session, Evaluation, ident, "evaluation")
-        if row.job_id is None:
-            return [None] * len(names)
-    job = folders.job_dir(store_root, row.job_id)
-    paths = [folders.resolve_under(store_root, f"{job}/{name}") for name in names]
-    return [p if p.is_file() else None for p in paths]
+        found = _get(session, Campaign, campaign_id, "campaign")
+        job = None if found.job_id is None else queue.get_job(engine, found.job_id)
+    if (suite or "global") not in SUITES:
+        raise queue.JobNotFound(f"a campaign cell's suite is global or hard, not {suite!r}")
+    if job is None or job["result"] is None:
+        return None
+    result = CampaignResult.model_validate(job["result"])
+    if not rank.isdigit() or not 1 <= int(rank) <= len(result.ranked):
+        raise queue.JobNotFound(f"campaign {campaign_id!r} has no cell of rank {rank}")
+    return CellRun(found.job_id, found.config, result, result.ranked[int(rank) - 1], suite or "global")
 
 
 def comparison_setup(engine: Engine, ident: str) -> dict[str, Any] | None:
@@ -144,7 +197,6 @@ def comparison_setup(engine: Engine, ident: str) -> dict[str, Any] | None:
     None for a record without its run config or job result (rows written before they were kept)."""
     from pydantic import ValidationError
 
-    from foresight.core.evaluation.campaign import CampaignResult
     from foresight.core.evaluation.config import EvaluationConfig
     from foresight.core.evaluation.delta import run_setup
     from foresight.core.evaluation.runner import seed_source
@@ -158,16 +210,10 @@ def comparison_setup(engine: Engine, ident: str) -> dict[str, Any] | None:
                 return None
             return run_setup(stage.planner.name, row.model_id or stage.planner.model, stage.bundle, stage.matrix,
                              seed_source(stage), stage.max_steps)
-        campaign_id, _, rest = ident.partition(":")
-        rank, _, suite = rest.partition(":")
-        found = _get(session, Campaign, campaign_id, "campaign")
-        job = None if found.job_id is None else queue.get_job(engine, found.job_id)
-    if job is None or job["result"] is None:
+    found = campaign_cell(engine, ident)
+    if found is None:
         return None
-    result = CampaignResult.model_validate(job["result"])
-    if not rank.isdigit() or not 1 <= int(rank) <= len(result.ranked):
-        raise queue.JobNotFound(f"campaign {campaign_id!r} has no cell of rank {rank}")
-    cell = result.ranked[int(rank) - 1]
-    episodes = (f"hard suite, manifest {found.config.get('seed_manifest')}" if suite == "hard" else "global suite")
-    return run_setup(f"{cell.planner.name} ({cell.variant})", cell.planner.model_id, None, found.config.get("matrix"),
-                     episodes, found.config.get("horizon"))
+    cell, config = found.cell, found.config
+    episodes = f"hard suite, manifest {config.get('seed_manifest')}" if found.suite == "hard" else "global suite"
+    return run_setup(f"{cell.planner.name} ({cell.variant})", cell.planner.model_id, None, config.get("matrix"),
+                     episodes, config.get("horizon"))

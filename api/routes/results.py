@@ -77,13 +77,32 @@ def read_episode_trace(evaluation_id: Ident, scenario: Ident, seed: int, engine:
                        settings: SettingsDep) -> dict[str, Any]:
     """One episode's compact trace (core.evaluation.episode_trace): robot, pedestrians with ids, goal and
     tolerance, walls, collision, logged forecasts; what the dashboard's episode player draws."""
+    return _trace(engine, settings, full_id(engine, evaluation_id), scenario, seed)
+
+
+@router.get("/campaigns/{campaign_id}/cells/{rank}/episodes/{scenario}/{seed}", responses=responses(404))
+def read_cell_episode_trace(campaign_id: Ident, rank: int, scenario: Ident, seed: int, engine: EngineDep,
+                            settings: SettingsDep) -> dict[str, Any]:
+    """One episode's compact trace as a campaign cell (rank 1 = best) ran it: the same shape as an evaluation's."""
+    return _trace(engine, settings, f"{full_id(engine, campaign_id)}:{rank}", scenario, seed)
+
+
+def _trace(engine: Any, settings: Any, ident: str, scenario: str, seed: int) -> dict[str, Any]:
     from foresight.core.evaluation.episode_trace import read_compact, trace_name
 
-    evaluation_id = full_id(engine, evaluation_id)
-    path = results.episode_trace_file(engine, settings.store_root, evaluation_id, trace_name(scenario, seed))
+    path = results.episode_trace_files(engine, settings.store_root, ident, [trace_name(scenario, seed)])[0]
     if path is None:
-        raise queue.JobNotFound(f"evaluation {evaluation_id} stored no trace of {scenario} seed {seed}")
+        what = "evaluation" if ":" not in ident else "campaign cell"
+        raise queue.JobNotFound(f"{what} {ident} stored no trace of {scenario} seed {seed}")
     return read_compact(path)
+
+
+def trace_url(ident: str, scenario: str, seed: int) -> str:
+    """The API URL of one episode's trace of an evaluation id or campaign cell ``CAMPAIGN_ID:RANK[:SUITE]``."""
+    campaign_id, cell, rest = ident.partition(":")
+    if not cell:
+        return f"/v1/evaluations/{ident}/episodes/{scenario}/{seed}"
+    return f"/v1/campaigns/{campaign_id}/cells/{rest.partition(':')[0]}/episodes/{scenario}/{seed}"
 
 
 def episode_list(engine: Any, settings: Any, evaluation_id: str) -> list[EpisodePublic]:
@@ -96,7 +115,7 @@ def episode_list(engine: Any, settings: Any, evaluation_id: str) -> list[Episode
         records = []
     out = []
     for r in records:
-        has = results.episode_trace_file(engine, settings.store_root, evaluation_id, trace_name(r.scenario, r.seed))
+        has = results.episode_trace_files(engine, settings.store_root, evaluation_id, [trace_name(r.scenario, r.seed)])[0]
         out.append(EpisodePublic(
             scenario=r.scenario, seed=r.seed, outcome=r.outcome, label=r.taxonomy.label, steps=r.steps,
             trace=f"/v1/evaluations/{evaluation_id}/episodes/{r.scenario}/{r.seed}" if has else None,
@@ -105,11 +124,10 @@ def episode_list(engine: Any, settings: Any, evaluation_id: str) -> list[Episode
 
 
 def _episodes(engine: EngineDep, settings: SettingsDep, ident: str) -> list[Any] | None:
-    """An evaluation's episode records (its job's episodes.jsonl), None for campaign cells or when gone."""
-    from foresight.core.evaluation.runner import read_records
-
-    path = results.episodes_file(engine, settings.store_root, ident)
-    return read_records(path) if path is not None else None
+    """The episode records of an evaluation or of a campaign cell's suite (its run folder's episodes.jsonl), None
+    where none are kept."""
+    found = results.run_folder(engine, settings.store_root, ident)
+    return None if found is None else found.records()
 
 
 @router.get("/compare", responses=responses(404))
@@ -117,11 +135,11 @@ def compare_evaluations(engine: EngineDep, settings: SettingsDep, a: Annotated[I
                         b: Annotated[Ident, Query()]) -> dict[str, Any]:
     """Two evaluations or campaign cells (``CAMPAIGN_ID:RANK[:hard]``) side by side: what differs first (``differs``:
     planner, model, matrix, episodes, horizon, from each side's canonical ``setup``), the resolved-config diff
-    key by key and the headline metric deltas B - A with 95 % intervals. Two evaluations of the same
-    (scenario, seed) episodes are paired (McNemar / Wilcoxon p-values with matching intervals); the other
-    metrics, and results of other episodes, use MOVER from each side's intervals (``method`` per metric).
-    ``changed_episodes`` (paired evaluations only, else None): the episodes whose outcome differs, each with the
-    URL of a player showing both runs of it side by side."""
+    key by key and the headline metric deltas B - A with 95 % intervals. Two results of the same (scenario, seed)
+    episodes (evaluations, or cells of campaigns that kept their cells' run folders) are paired (McNemar / Wilcoxon
+    p-values with matching intervals); the other metrics, and results of other episodes, use MOVER from each side's
+    intervals (``method`` per metric). ``changed_episodes`` (paired results only, else None): the episodes whose
+    outcome differs, each with the URL of a player showing both runs of it side by side."""
     return compare_results(engine, settings, a, b)
 
 
@@ -151,7 +169,7 @@ def compare_results(engine: Any, settings: Any, a: str, b: str) -> dict[str, Any
 
 
 def _with_players(engine: Any, settings: Any, a: str, b: str, changed: list[Any]) -> list[dict[str, Any]]:
-    """Changed episodes with the URL of their side-by-side player (None unless both evaluations stored the trace)."""
+    """Changed episodes with the URL of their side-by-side player (None unless both results stored the trace)."""
     from urllib.parse import urlencode
 
     from foresight.core.evaluation.episode_trace import trace_name

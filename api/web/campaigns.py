@@ -28,6 +28,20 @@ def campaign_page(request: Request, campaign_id: str) -> HTMLResponse:
     except queue.JobNotFound as exc:
         raise PageNotFound(str(exc)) from None
     plots = parameter_plots(grid)
+    baselines = _baseline_ranks(engine, row.job_id)
     charts = [(p.parameter, [Markup(chart_svg(p, m)) for m in METRICS]) for p in plots]
     return page(request, "campaign.html", title=f"Campaign {ident[:12]}", nav="results", campaign=row, cells=cells,
-                gates=gates, charts=charts, by_variant=[p.parameter for p in plots] == [VARIANT_AXIS])  # fmt: skip
+                gates=gates, charts=charts, by_variant=[p.parameter for p in plots] == [VARIANT_AXIS],
+                baselines=baselines)  # fmt: skip
+
+
+def _baseline_ranks(engine: object, job_id: str | None) -> dict[int, int]:
+    """Rank of each cell -> rank of the baseline cell it is paired with (from the campaign job's result)."""
+    from foresight.core.evaluation.campaign import CampaignResult
+
+    job = None if job_id is None else queue.get_job(engine, job_id)
+    if job is None or job["result"] is None:
+        return {}
+    ranked = CampaignResult.model_validate(job["result"]).ranked
+    rank = {c.key: i for i, c in enumerate(ranked, start=1)}
+    return {i: rank[c.baseline] for i, c in enumerate(ranked, start=1) if c.baseline in rank}

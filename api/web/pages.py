@@ -128,19 +128,23 @@ def episode_page(request: Request, evaluation_id: str, scenario: str, seed: int)
 @pages.get("/compare/episode")
 def episode_pair_page(request: Request, a: Annotated[str, Query(max_length=200)], b: Annotated[str, Query(max_length=200)],
                       scenario: Annotated[str, Query(max_length=200)], seed: int) -> HTMLResponse:
-    """One episode of two evaluations side by side on one clock (a comparison's changed episodes link here)."""
-    from foresight.api.routes.results import full_id
+    """One episode of two evaluations or campaign cells side by side on one clock (a comparison's changed episodes
+    link here)."""
+    from foresight.api.routes.results import full_id, trace_url
     from foresight.store import results
 
     engine = request.app.state.engine
     try:
         a, b = full_id(engine, a), full_id(engine, b)
-        for ident in (a, b):
-            results.evaluation(engine, ident)  # both must be evaluations (the traces are theirs)
+        configs = [results.comparison_operand(engine, ident)[1] for ident in (a, b)]  # evaluations or campaign cells
     except queue.JobNotFound as exc:
         raise PageNotFound(str(exc)) from None
+    sides = [(side, ident, trace_url(ident, scenario, seed),
+              f"/ui/jobs/{ident}" if ":" not in ident else f"/ui/campaigns/{ident.partition(':')[0]}",
+              config.get("variant") if ":" in ident else None)
+             for side, ident, config in zip("AB", (a, b), configs, strict=True)]
     return page(request, "episode_pair.html", title=f"{scenario} seed {seed}: A and B", nav="compare", a=a, b=b,
-                scenario=scenario, seed=seed)
+                scenario=scenario, seed=seed, sides=sides)
 
 
 @pages.get("/compare")

@@ -6,6 +6,10 @@ finished cell is written to ``cells/`` with a fingerprint of everything that det
 resumed campaign skips finished cells. The optional closed-loop gate compares the best cell with the
 baseline variant on the same checkpoint; a failing gate is a result with exit code 2. A cell's episodes run on
 the campaign's executor (``local`` or ``ray``: core.evaluation.runner.run_jobs), with the same result.
+
+Each cell is also a run folder, ``cells/<key>/``, laid out as an evaluation's work folder: its ``episodes.jsonl``
+and its episodes' compact traces under ``traces/``. So two cells compare paired and play side by side as two
+evaluations do (``foresight compare --local A=RUN/cells/X B=RUN/cells/Y --players OUT``, the API's cell ids).
 """
 
 from __future__ import annotations
@@ -87,6 +91,7 @@ class CellResult(CellMetrics, CellParams):
     integrity: IntegrityReport
     ranking_key: list[float]
     episodes_file: str
+    run_dir: str | None = None  #: the cell's run folder (episodes.jsonl, traces/); None for cells written before
     baseline: str | None = None  #: key of the baseline cell it is compared with (same checkpoint)
 
     def metrics(self) -> CellMetrics:
@@ -112,6 +117,8 @@ class CampaignResult(BaseModel):
     horizon: str
     hard_episodes: int
     global_episodes: int
+    #: suite (hard, global) -> its (scenario, seed) episodes in order: a cell's records of one suite (None: older)
+    suites: dict[str, list[tuple[str, int]]] | None = None
     code_version: str
     execution: Execution | None = None  #: which executor ran the episodes, on how many CPUs (None: older results)
     artifacts: dict[str, str]
@@ -203,7 +210,7 @@ def _run_cells(config: CampaignConfig, ctx: StageContext, plan: CampaignPlan, to
     where: list[tuple[int, int]] = []  #: job position -> (cell, position in the cell's episode list)
     for i in todo:
         for k in order:
-            jobs.append(Job(len(jobs), union[k][0], union[k][1], plan.cells[i][1]))
+            jobs.append(Job(len(jobs), union[k][0], union[k][1], plan.cells[i][1], trace_dir=cell_dir(plan.cell_key(i))))
             where.append((i, k))
     got: dict[int, list] = {i: [None] * len(union) for i in todo}
     left = dict.fromkeys(todo, len(union))
@@ -221,6 +228,11 @@ def _run_cells(config: CampaignConfig, ctx: StageContext, plan: CampaignPlan, to
             ctx.check_cancelled()
 
 
+def cell_dir(key: str) -> str:
+    """A cell's run folder, relative to the campaign's work folder."""
+    return f"cells/{key}"
+
+
 def suite_union(hard: list[tuple[str, int]], glob: list[tuple[str, int]]) -> list[tuple[str, int]]:
     """A cell's episodes: the global suite, then the hard episodes not in it (each runs once)."""
     return list(dict.fromkeys([*glob, *hard]))
@@ -234,11 +246,11 @@ def finish_cell(config: CampaignConfig, ctx: StageContext, rp: ResolvedPlanner, 
     hard_recs, glob_recs = [by_pair[p] for p in hard], [by_pair[p] for p in glob]
     integrity = check_integrity(records, expected=union)
     hs, gs = summarise(hard_recs, config.bootstrap), summarise(glob_recs, config.bootstrap)
-    episodes = f"cells/{key}.jsonl"
+    episodes = f"{cell_dir(key)}/episodes.jsonl"
     write_records(ctx.artifact(episodes), records)
     cell = CellResult(key=key, fingerprint=fingerprint, checkpoint=checkpoint, variant=rp.variant or rp.name,
                       planner=planner_provenance(rp), hard=hs, global_=gs, integrity=integrity,
-                      ranking_key=ranking_key(hs, gs, integrity.ok), episodes_file=episodes)
+                      ranking_key=ranking_key(hs, gs, integrity.ok), episodes_file=episodes, run_dir=cell_dir(key))
     files.write_text(ctx.artifact(f"cells/{key}.json"), cell.model_dump_json(indent=2))
     return cell
 
@@ -323,7 +335,7 @@ def prepare_campaign(config: CampaignConfig, ctx: StageContext) -> CampaignPlan:
     for rp in {rp.model_id: rp for _, rp in cells_rp}.values():  # every checkpoint fits before any episode
         preflight(rp, scenarios)
     settings = EpisodeSettings(str(path), config.max_steps, config.metrics, config.taxonomy,
-                               overrides=config.scenario_overrides)
+                               overrides=config.scenario_overrides, trace_root=str(ctx.workdir))
     return CampaignPlan(path, matrix, hard, glob, cells_rp, settings)
 
 
@@ -346,7 +358,8 @@ def campaign_result(config: CampaignConfig, ctx: StageContext, plan: CampaignPla
         status=status, exit_code=0 if gate is None or gate.passed else GATE_FAILED_EXIT, best=ranked[0],
         ranked=ranked, gate=gate, best_vs_reference={k: list(v) for k, v in diff.items()}, cells_run=ran, cells_resumed=len(cells) - ran, matrix=config.matrix,
         seed_manifest=config.seed_manifest, grid=config.grid or "inline", horizon=str(config.max_steps or "scenario"),
-        hard_episodes=len(hard), global_episodes=len(glob), code_version=code_version(),
+        hard_episodes=len(hard), global_episodes=len(glob), suites={"hard": hard, "global": glob},
+        code_version=code_version(),
         execution=execution(config.executor, ctx.workers),
         artifacts={"summary": "campaign_summary.json", "report": "campaign_report.md", "cells": "cells/"},
         wall_s=time.perf_counter() - t0, config=config.model_dump(mode="json"),

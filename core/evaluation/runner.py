@@ -14,7 +14,7 @@ import multiprocessing as mp
 import os
 import time
 from collections.abc import Callable, Iterable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -45,6 +45,7 @@ class Job:
     scenario: str
     seed: int
     planner: ResolvedPlanner
+    trace_dir: str = ""  #: the folder (under ``EpisodeSettings.trace_root``) of its trace: a campaign cell's own
 
 
 @dataclass(frozen=True)
@@ -142,7 +143,8 @@ class EpisodeWorker:
         if s.trace_root is not None:
             from foresight.core.evaluation.episode_trace import compact_bytes, compact_trace, trace_name
 
-            trace = (trace_name(job.scenario, job.seed), compact_bytes(compact_trace(run, scenario.map)))
+            name = trace_name(job.scenario, job.seed)
+            trace = (f"{job.trace_dir}/{name}" if job.trace_dir else name, compact_bytes(compact_trace(run, scenario.map)))
         return job.index, (run if s.keep_diagnostics else run.record), trace
 
 
@@ -188,7 +190,7 @@ def iter_jobs(
     False keeps the given order. Results are EpisodeRecords, or EpisodeRuns when ``settings.keep_diagnostics``.
     """
     workers = max(1, min(int(ctx.workers or 1), len(jobs)))
-    local = [Job(pos, j.scenario, j.seed, j.planner) for pos, j in enumerate(jobs)]
+    local = [replace(j, index=pos) for pos, j in enumerate(jobs)]
     if longest_first and matrix is not None and workers > 1:
         local.sort(key=lambda j: -expected_cost(matrix, j.scenario, settings.max_steps))
     ctx.check_cancelled()

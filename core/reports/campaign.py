@@ -96,6 +96,12 @@ def _paired(doc: Document, cells: list[CellResult]) -> None:
                  f"pairs by name (the first {SHOWN_CHANGES}; the cell files list them all):")
         doc.table(["cell", "suite", "scenario", "seed", "baseline", "cell"],
                   [[name, suite, e.scenario, e.seed, e.a, e.b] for name, suite, e in changed[:SHOWN_CHANGES]])
+        c = next((c for c in cells if c.changed_vs_baseline and c.run_dir and c.baseline), None)
+        if c is not None:  # each cell's run folder holds its episodes and their traces: one command plays them
+            doc.text(f"Watch them side by side: `foresight compare --local baseline=cells/{c.baseline} "
+                     f"cell={c.run_dir} --players pages` (in the campaign's folder) writes a player page for each "
+                     f"episode of that cell, and the same for any other cell; on the service, the dashboard's compare "
+                     f"page of two cells links them.")
 
 
 def _taxonomy(doc: Document, workdir: Path, cells: list[CellResult]) -> None:

@@ -112,3 +112,36 @@ def test_gate_badge_episode_list_and_player(service: Up, page) -> None:  # noqa:
     assert page.get_attribute("#player", "data-step") == "2"
     assert [page.get_attribute(f"#pane-{s}", "data-frame") for s in "ab"] == ["2", "2"]  # one clock for both
     page.screenshot(path=str(shots / "compare-side-by-side.png"), full_page=True)
+
+
+#: two planner-grid variants on the same episodes: the crawling one runs out of time where the other arrives
+CAMPAIGN = {"kind": "campaign", "seed_manifest": "seeds/classic_eval_hard_smoke.yaml", "scenarios": ["crossing_low"],
+            "seeds_per_scenario": 1, "max_steps": 200,
+            "variants": [{"name": "base"}, {"name": "crawl", "config": {"max_speed_ratio": 0.1}}]}
+
+
+def test_campaign_cells_played_side_by_side(service: Up, page) -> None:  # noqa: ANN001, F811
+    """From a campaign's page to a cell's comparison with the baseline cell, to one changed episode in both cells."""
+    api = service.client()
+    job_id = api.post("/v1/jobs", json={"spec": CAMPAIGN}).json()["id"]
+    job = wait_job(api, job_id, timeout=600)
+    assert job["status"] == "succeeded", (job, service.log())
+    crawl = next(i for i, c in enumerate(job["result"]["ranked"], start=1) if c["variant"] == "crawl")
+
+    page.goto(f"{service.url}/ui/campaigns/{job_id}")
+    row = page.locator("table.cells tbody tr").nth(crawl - 1)
+    assert "ended otherwise" in row.text_content()
+    row.locator("a", has_text="ended otherwise").click()
+    page.wait_for_selector("#changed")
+    assert "paired on the same episodes" in page.text_content("#differs")
+    assert ("crossing_low", "1000") in [tuple(c.text_content() for c in r.locator("td").all()[:2])
+                                        for r in page.locator("table.changed tbody tr").all()]
+    page.locator("table.changed a.watch-pair").first.click()
+    page.wait_for_selector('#player[data-ready="1"]', timeout=15_000)
+    assert page.locator(".pane").count() == 2
+    assert [page.text_content(f"#pane-{s} h2").split("· ")[-1] for s in "ab"] == ["variant base", "variant crawl"]
+    outcomes = [page.text_content(f"#pane-{s} .facts") for s in "ab"]
+    assert outcomes[0] != outcomes[1] and all("outcome" in o for o in outcomes), outcomes
+    page.click("#fwd")
+    assert [page.get_attribute(f"#pane-{s}", "data-frame") for s in "ab"] == ["1", "1"]
+    page.screenshot(path=str(screenshot_dir() / "campaign-cells-side-by-side.png"), full_page=True)

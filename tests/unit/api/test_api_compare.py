@@ -144,3 +144,58 @@ def test_compare_page_lists_them_and_links_the_side_by_side_player(client, engin
         assert f'id="pane-{side}" data-trace="/v1/evaluations/{ident}/episodes/s_low/2"' in pair.text
     missing = client.get("/ui/compare/episode", params={"a": "eval-a", "b": "nope", "scenario": "s_low", "seed": 2})
     assert missing.status_code == 404 and "nope" in missing.text
+
+
+def test_two_campaign_cells_are_paired_with_their_changed_episodes_played_side_by_side(
+        client, auth, engine, settings) -> None:  # noqa: ANN001
+    """A real (tiny) campaign run in its job's folder: each cell keeps its episodes and their traces, so two cells
+    compare paired like two evaluations, per suite, and each changed episode plays side by side."""
+    from foresight.core.evaluation.campaign import run_campaign
+    from foresight.core.evaluation.config import CampaignConfig
+    from foresight.core.stages.context import StageContext
+    from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+    from foresight.store import queue, records
+
+    spec = {"kind": "campaign", "seed_manifest": "seeds/classic_eval_hard_smoke.yaml", "scenarios": ["crossing_low"],
+            "seeds_per_scenario": 2,
+            "max_steps": 200, "variants": [{"name": "base"}, {"name": "crawl", "config": {"max_speed_ratio": 0.1}}]}
+    job_id = client.post("/v1/jobs", json={"spec": spec}, headers=auth).json()["id"]
+    claimed = queue.claim(engine, "w", ["campaign"], 30)
+    work = settings.store_root / "jobs" / job_id
+    work.mkdir(parents=True)
+    config = CampaignConfig.model_validate({k: v for k, v in spec.items() if k != "kind"})
+    result = run_campaign(config, StageContext(workdir=work, resolve_bundle=lambda _b: BUILTIN_CONFIG_ROOT)).model_dump(
+        mode="json")
+    queue.finish(engine, job_id, "w", claimed["attempts"], result)
+    with engine.begin() as conn:
+        records.RECORDERS["campaign"](conn, queue.get_job(engine, job_id), result, f"jobs/{job_id}")
+    rank = {c["variant"]: i for i, c in enumerate(result["ranked"], start=1)}
+    base, crawl = f"{job_id[:12]}:{rank['base']}", f"{job_id}:{rank['crawl']}"  # a short campaign id works too
+
+    body = client.get("/v1/compare", params={"a": base, "b": crawl}).json()
+    assert body["paired"] is True and body["metrics"]["success"]["n_pairs"] == 2  # the global suite's 2 episodes
+    changed = body["changed_episodes"]
+    assert [(e["seed"], e["a"], e["b"]) for e in changed] == [(1000, "success", "timeout"), (1001, "success", "timeout")]
+    hard = client.get("/v1/compare", params={"a": f"{base}:hard", "b": f"{crawl}:hard"}).json()
+    ran = next(c for c in result["ranked"] if c["variant"] == "crawl")["changed_vs_baseline"]["hard"]  # as the run saw
+    got = [{k: e[k] for k in ("scenario", "seed", "a", "b")} for e in hard["changed_episodes"]]
+    assert got == ran and got and {(e["scenario"], e["seed"]) for e in got} <= {tuple(p) for p in result["suites"]["hard"]}
+
+    # each changed episode: a player page of both cells' runs, and each side's trace from its own cell
+    player = changed[0]["player"]
+    assert player.startswith("/ui/compare/episode?")
+    page = client.get(player)
+    assert page.status_code == 200, page.text
+    traces = [t.split('"')[0] for t in page.text.split('data-trace="')[1:]]
+    assert traces == [f"/v1/campaigns/{job_id}/cells/{rank[v]}/episodes/crossing_low/1000" for v in ("base", "crawl")]
+    runs = [client.get(t).json() for t in traces]
+    assert runs[0] != runs[1] and all(r["frames"] for r in runs)
+    assert len(runs[1]["frames"]) > len(runs[0]["frames"])  # the crawling robot ran out of time, the other arrived
+
+    # the campaign page links each cell to its comparison with the baseline cell, counting what ended otherwise
+    campaign_page = client.get(f"/ui/campaigns/{job_id}").text
+    assert f"/ui/compare?a={job_id}:{rank['base']}&amp;b={job_id}:{rank['crawl']}" in campaign_page
+    assert "2 episodes ended otherwise" in campaign_page
+    missing = client.get(f"/v1/campaigns/{job_id}/cells/{rank['base']}/episodes/crossing_low/7")
+    assert missing.status_code == 404 and "campaign cell" in missing.json()["detail"]
+    assert client.get(f"/v1/campaigns/{job_id}/cells/9/episodes/crossing_low/1000").status_code == 404

@@ -95,6 +95,20 @@ def test_campaign_runs_ranks_and_resumes(bundle: Path, tmp_path: Path) -> None:
         flips = [e for e in changed_eps if (e.a == "success") != (e.b == "success")]
         assert len(flips) == sum(careful.vs_baseline[suite]["success"].discordant or (0, 0))
     assert "Paired against the baseline cell" in (work / "campaign_report.md").read_text()
+    # each cell is a run folder like an evaluation's: its episodes and every one's trace, so it compares locally
+    from foresight.core.evaluation.compare import compare, load_run
+    from foresight.core.evaluation.episode_trace import read_compact, trace_name
+
+    assert first.suites == {"hard": [("crossing_high", 3)],
+                            "global": [("crossing_low", 1000), ("head_on_corridor_high", 1200)]}
+    for cell in first.ranked:
+        label, recs = load_run(work / cell.run_dir)
+        assert label == cell.variant and {(r.scenario, r.seed) for r in recs} == {*first.suites["hard"],
+                                                                                  *first.suites["global"]}
+        for r in recs:
+            assert len(read_compact(work / cell.run_dir / trace_name(r.scenario, r.seed))["frames"]) == r.steps + 1
+    local = compare({"base": load_run(work / base.run_dir)[1], "careful": load_run(work / careful.run_dir)[1]}, "base")
+    assert local.changed["careful"] == [*careful.changed_vs_baseline["global"], *careful.changed_vs_baseline["hard"]]
     again = run_campaign(_config(), _ctx(bundle, work))
     assert (again.cells_run, again.cells_resumed) == (0, 2)
     assert [c.model_dump() for c in again.ranked] == [c.model_dump() for c in first.ranked]
