@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Query
 
@@ -80,6 +80,14 @@ def read_episode_trace(evaluation_id: Ident, scenario: Ident, seed: int, engine:
     return _trace(engine, settings, full_id(engine, evaluation_id), scenario, seed)
 
 
+@router.get("/campaigns/{campaign_id}/cells/{rank}/episodes", responses=responses(404))
+def read_cell_episodes(campaign_id: Ident, rank: int, engine: EngineDep, settings: SettingsDep,
+                       suite: Annotated[Literal["global", "hard"], Query()] = "global") -> list[EpisodePublic]:
+    """Every episode of a campaign cell's suite (rank 1 = best; failures first), with the URLs of its trace and
+    player (None where the cell kept none: cells written before cells kept their run folders)."""
+    return episode_list(engine, settings, f"{full_id(engine, campaign_id)}:{rank}:{suite}")
+
+
 @router.get("/campaigns/{campaign_id}/cells/{rank}/episodes/{scenario}/{seed}", responses=responses(404))
 def read_cell_episode_trace(campaign_id: Ident, rank: int, scenario: Ident, seed: int, engine: EngineDep,
                             settings: SettingsDep) -> dict[str, Any]:
@@ -99,27 +107,34 @@ def _trace(engine: Any, settings: Any, ident: str, scenario: str, seed: int) -> 
 
 def trace_url(ident: str, scenario: str, seed: int) -> str:
     """The API URL of one episode's trace of an evaluation id or campaign cell ``CAMPAIGN_ID:RANK[:SUITE]``."""
+    return f"/v1{_episode_path(ident, scenario, seed)}"
+
+
+def player_url(ident: str, scenario: str, seed: int) -> str:
+    """The dashboard URL of one episode's player, of an evaluation id or campaign cell."""
+    return f"/ui{_episode_path(ident, scenario, seed)}"
+
+
+def _episode_path(ident: str, scenario: str, seed: int) -> str:
     campaign_id, cell, rest = ident.partition(":")
     if not cell:
-        return f"/v1/evaluations/{ident}/episodes/{scenario}/{seed}"
-    return f"/v1/campaigns/{campaign_id}/cells/{rest.partition(':')[0]}/episodes/{scenario}/{seed}"
+        return f"/evaluations/{ident}/episodes/{scenario}/{seed}"
+    return f"/campaigns/{campaign_id}/cells/{rest.partition(':')[0]}/episodes/{scenario}/{seed}"
 
 
-def episode_list(engine: Any, settings: Any, evaluation_id: str) -> list[EpisodePublic]:
-    """The episodes of an evaluation, failures first (by label), then in run order."""
+def episode_list(engine: Any, settings: Any, ident: str) -> list[EpisodePublic]:
+    """The episodes of an evaluation or of a campaign cell's suite, failures first (by label), then in run order."""
     from foresight.core.evaluation.episode_trace import trace_name
 
-    records = _episodes(engine, settings, evaluation_id)
+    records = _episodes(engine, settings, ident)
     if records is None:
-        results.evaluation(engine, evaluation_id)  # 404 for an unknown id
+        results.comparison_operand(engine, ident)  # 404 for an unknown id
         records = []
-    out = []
-    for r in records:
-        has = results.episode_trace_files(engine, settings.store_root, evaluation_id, [trace_name(r.scenario, r.seed)])[0]
-        out.append(EpisodePublic(
-            scenario=r.scenario, seed=r.seed, outcome=r.outcome, label=r.taxonomy.label, steps=r.steps,
-            trace=f"/v1/evaluations/{evaluation_id}/episodes/{r.scenario}/{r.seed}" if has else None,
-            player=f"/ui/evaluations/{evaluation_id}/episodes/{r.scenario}/{r.seed}" if has else None))
+    stored = results.episode_trace_files(engine, settings.store_root, ident, [trace_name(r.scenario, r.seed) for r in records])
+    out = [EpisodePublic(scenario=r.scenario, seed=r.seed, outcome=r.outcome, label=r.taxonomy.label, steps=r.steps,
+                         trace=trace_url(ident, r.scenario, r.seed) if has else None,
+                         player=player_url(ident, r.scenario, r.seed) if has else None)
+           for r, has in zip(records, stored, strict=True)]
     return sorted(out, key=lambda e: e.outcome == "success")
 
 

@@ -35,6 +35,39 @@ def campaign_page(request: Request, campaign_id: str) -> HTMLResponse:
                 baselines=baselines)  # fmt: skip
 
 
+@router.get("/campaigns/{campaign_id}/cells/{rank}")
+def cell_page(request: Request, campaign_id: str, rank: int) -> HTMLResponse:
+    """One cell's episodes, suite by suite (hard first), failures first, each one click from the episode player."""
+    from foresight.api.routes.results import episode_list
+
+    engine = request.app.state.engine
+    try:
+        ident = f"{queue.resolve_id(engine, campaign_id)}:{rank}"
+        _, config, _ = results.comparison_operand(engine, ident)
+        suites = [(suite, episode_list(engine, request.app.state.settings, f"{ident}:{suite}"))
+                  for suite in ("hard", "global")]
+    except queue.JobNotFound as exc:
+        raise PageNotFound(str(exc)) from None
+    return page(request, "campaign_cell.html", title=f"Cell {rank} of campaign {ident[:12]}", nav="results",
+                campaign_id=ident.partition(":")[0], rank=rank, variant=config.get("variant"),
+                checkpoint=config.get("checkpoint"), suites=suites)
+
+
+@router.get("/campaigns/{campaign_id}/cells/{rank}/episodes/{scenario}/{seed}")
+def cell_episode_page(request: Request, campaign_id: str, rank: int, scenario: str, seed: int) -> HTMLResponse:
+    """The episode player on one episode as a campaign cell ran it."""
+    from foresight.api.routes.results import trace_url
+
+    try:
+        ident = f"{queue.resolve_id(request.app.state.engine, campaign_id)}:{rank}"
+        _, config, _ = results.comparison_operand(request.app.state.engine, ident)
+    except queue.JobNotFound as exc:
+        raise PageNotFound(str(exc)) from None
+    return page(request, "episode.html", title=f"{scenario} seed {seed}", nav="results", scenario=scenario, seed=seed,
+                data_url=trace_url(ident, scenario, seed), source=f"campaign cell {rank} ({config.get('variant')})",
+                source_url=f"/ui/campaigns/{ident.partition(':')[0]}/cells/{rank}", source_id=ident)
+
+
 def _baseline_ranks(engine: object, job_id: str | None) -> dict[int, int]:
     """Rank of each cell -> rank of the baseline cell it is paired with (from the campaign job's result)."""
     from foresight.core.evaluation.campaign import CampaignResult

@@ -121,8 +121,9 @@ def job_summary(request: Request, job_id: str) -> HTMLResponse:
 def episode_page(request: Request, evaluation_id: str, scenario: str, seed: int) -> HTMLResponse:
     """The episode player: the stored compact trace drawn on a canvas, with play/pause and a time slider."""
     data_url = f"/v1/evaluations/{evaluation_id}/episodes/{scenario}/{seed}"
-    return page(request, "episode.html", title=f"{scenario} seed {seed}", nav="results", evaluation_id=evaluation_id,
-                scenario=scenario, seed=seed, data_url=data_url)
+    return page(request, "episode.html", title=f"{scenario} seed {seed}", nav="results", scenario=scenario, seed=seed,
+                data_url=data_url, source="evaluation", source_url=f"/ui/jobs/{evaluation_id}#episodes",
+                source_id=evaluation_id)
 
 
 @pages.get("/compare/episode")

@@ -145,3 +145,14 @@ def test_campaign_cells_played_side_by_side(service: Up, page) -> None:  # noqa:
     page.click("#fwd")
     assert [page.get_attribute(f"#pane-{s}", "data-frame") for s in "ab"] == ["1", "1"]
     page.screenshot(path=str(screenshot_dir() / "campaign-cells-side-by-side.png"), full_page=True)
+
+    # and a cell's own episodes, suite by suite, failures first, each one click from the player
+    page.goto(f"{service.url}/ui/campaigns/{job_id}")
+    page.locator("table.cells tbody tr").nth(crawl - 1).locator("a.cell-episodes").click()
+    page.wait_for_selector("section#hard table.episodes")
+    first = page.locator("section#global table.episodes tbody tr").first
+    assert first.locator("td").nth(2).text_content() == "timeout"
+    first.locator("a.watch").click()
+    page.wait_for_selector('#player[data-ready="1"]', timeout=15_000)
+    assert "crossing_low" in page.text_content("h1") and "campaign cell" in page.text_content("h1")
+    assert "outcome timeout" in page.text_content("#facts")

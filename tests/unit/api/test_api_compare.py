@@ -196,6 +196,19 @@ def test_two_campaign_cells_are_paired_with_their_changed_episodes_played_side_b
     campaign_page = client.get(f"/ui/campaigns/{job_id}").text
     assert f"/ui/compare?a={job_id}:{rank['base']}&amp;b={job_id}:{rank['crawl']}" in campaign_page
     assert "2 episodes ended otherwise" in campaign_page
+    # a cell's episodes, suite by suite, failures first, each with its trace and its player
+    listed = client.get(f"/v1/campaigns/{job_id[:12]}/cells/{rank['crawl']}/episodes").json()
+    assert [(e["seed"], e["outcome"]) for e in listed] == [(1000, "timeout"), (1001, "timeout")]
+    assert listed[0]["player"] == f"/ui/campaigns/{job_id}/cells/{rank['crawl']}/episodes/crossing_low/1000"
+    assert client.get(listed[0]["trace"]).json() == runs[1]
+    hard_listed = client.get(f"/v1/campaigns/{job_id}/cells/{rank['crawl']}/episodes", params={"suite": "hard"}).json()
+    assert {(e["scenario"], e["seed"]) for e in hard_listed} == {tuple(p) for p in result["suites"]["hard"]}
+    assert all(e["player"] for e in hard_listed)
+    cell_page = client.get(f"/ui/campaigns/{job_id}/cells/{rank['crawl']}").text
+    assert cell_page.count('class="watch"') == len(listed) + len(hard_listed) and "variant crawl" in cell_page
+    player_page = client.get(listed[0]["player"])
+    assert player_page.status_code == 200 and f'data-trace="{listed[0]["trace"]}"' in player_page.text
+    assert client.get(f"/ui/campaigns/{job_id}/cells/9").status_code == 404
     missing = client.get(f"/v1/campaigns/{job_id}/cells/{rank['base']}/episodes/crossing_low/7")
     assert missing.status_code == 404 and "campaign cell" in missing.json()["detail"]
     assert client.get(f"/v1/campaigns/{job_id}/cells/9/episodes/crossing_low/1000").status_code == 404
