@@ -1,4 +1,6 @@
-"""`foresight evaluations ls` and `foresight campaigns ls`: find runs by what they ran and by their labels."""
+"""`foresight evaluations ls` and `foresight campaigns ls`: find runs by what they ran and by their labels;
+`foresight evaluations episodes ID` and `foresight campaigns episodes ID RANK`: a run's episodes, failures first, each
+with the dashboard URL of its player."""
 
 from __future__ import annotations
 
@@ -26,6 +28,17 @@ def register(sub: argparse._SubParsersAction) -> None:
         ls.add_argument("--json", action="store_true")
         add_connection_args(ls)
         ls.set_defaults(func=func, filters=(*filters, "name", "tag"))
+        eps = actions.add_parser("episodes", help="an evaluation's episodes, failures first, with their players' URLs"
+                                 if group == "evaluations" else "a campaign cell's episodes (rank 1 = best), failures "
+                                 "first, with their players' URLs")
+        eps.add_argument("id", help=f"the {group[:-1]}'s id (or its job's, a unique prefix of 8+)")
+        if group == "campaigns":
+            eps.add_argument("rank", type=int, help="the cell's rank (1 = best)")
+            eps.add_argument("--suite", choices=("global", "hard"), default="global")
+        eps.add_argument("--failed", action="store_true", help="only the episodes that did not succeed")
+        eps.add_argument("--json", action="store_true")
+        add_connection_args(eps)
+        eps.set_defaults(func=cmd_episodes)
 
 
 def _page(args: argparse.Namespace, path: str) -> dict[str, Any]:
@@ -72,3 +85,24 @@ def cmd_evaluations(args: argparse.Namespace) -> int:
 
 def cmd_campaigns(args: argparse.Namespace) -> int:
     return _print_page(args, "campaigns", _campaign_line)
+
+
+def cmd_episodes(args: argparse.Namespace) -> int:
+    """``GET /v1/evaluations/ID/episodes`` or ``/v1/campaigns/ID/cells/RANK/episodes``: a line per episode."""
+    client = Client.from_args(args)
+    if getattr(args, "rank", None) is None:
+        episodes = client.get(f"/v1/evaluations/{args.id}/episodes")
+    else:
+        episodes = client.get(f"/v1/campaigns/{args.id}/cells/{args.rank}/episodes", params={"suite": args.suite})
+    if args.failed:
+        episodes = [e for e in episodes if e["outcome"] != "success"]
+    if args.json:
+        print(json.dumps(episodes, indent=2))
+        return 0
+    base = str(client.http.base_url).rstrip("/")
+    for e in episodes:
+        watch = f"{base}{e['player']}" if e["player"] else "(no trace)"
+        print(f"{e['scenario']:<36} {e['seed']:>6}  {e['outcome']:<22} {e['label'] or '':<36} {e['steps']:>5}  {watch}")
+    failed = sum(e["outcome"] != "success" for e in episodes)
+    print(f"{len(episodes)} episodes, {failed} not successful")
+    return 0

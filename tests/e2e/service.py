@@ -66,6 +66,13 @@ class Up:
     def client(self) -> httpx.Client:
         return httpx.Client(base_url=self.url, headers={"Authorization": f"Bearer {TOKEN}"}, timeout=30)
 
+    def cli(self, *args: str) -> subprocess.CompletedProcess:
+        """``foresight ARGS`` as a user runs it against this service (its URL, token and data folder)."""
+        env = {**os.environ, "FORESIGHT_API_URL": self.url, "FORESIGHT_API_TOKEN": TOKEN,
+               "FORESIGHT_DATA_DIR": str(self.tmp / "data")}  # fmt: skip
+        return subprocess.run([sys.executable, "-m", "foresight.cli.main", *args], env=env, cwd=REPO,
+                              capture_output=True, text=True, timeout=120)  # fmt: skip
+
     def log(self) -> str:
         return self.log_path.read_text()[-6000:] if self.log_path.is_file() else ""
 

@@ -5,6 +5,7 @@ the same episodes compared from the Results page. Screenshots under out/screensh
 
 from __future__ import annotations
 
+import json
 from collections.abc import Iterator
 
 import pytest
@@ -51,6 +52,9 @@ def test_gate_badge_episode_list_and_player(service: Up, page) -> None:  # noqa:
     page.locator("table.episodes a.watch").first.click()
     page.wait_for_selector('#player[data-ready="1"]', timeout=15_000)
     assert page.url.endswith(first["player"])
+
+    listed = service.cli("evaluations", "episodes", job_id[:12], "--json")  # the same list from the CLI
+    assert listed.returncode == 0 and json.loads(listed.stdout) == episodes, listed.stderr
 
     trace = api.get(first["trace"]).json()
     collision = trace["collision"]

@@ -5,7 +5,6 @@ and a real campaign's grid plots page. Screenshots go to ``out/screenshots/`` (`
 from __future__ import annotations
 
 import json
-import os
 import re
 import subprocess
 import sys
@@ -43,13 +42,6 @@ def campaign(service: Up) -> str:
     return r.json()["id"]
 
 
-def _cli(up: Up, *args: str) -> subprocess.CompletedProcess:
-    env = {**os.environ, "FORESIGHT_API_URL": up.url, "FORESIGHT_API_TOKEN": TOKEN,
-           "FORESIGHT_DATA_DIR": str(up.tmp / "data")}  # fmt: skip
-    return subprocess.run([sys.executable, "-m", "foresight.cli.main", *args], env=env, cwd=REPO, capture_output=True,
-                          text=True, timeout=120)  # fmt: skip
-
-
 def _readme_block() -> str:
     (block,) = section_blocks("Finding and organising runs", "bash")
     return block.code
@@ -75,17 +67,17 @@ def test_readme_block_runs_as_written(service: Up, campaign: str, tmp_path: Path
 def test_cli_labels_lists_and_jobs_page_tag_filter(service: Up, campaign: str, page) -> None:  # noqa: ANN001, F811
     ids = {}
     for name, tags in (("orca baseline", ["baseline", "orca"]), ("mpc trial", ["trial"]), ("untagged", [])):
-        proc = _cli(service, "submit", "sleep", "--name", name, *[f"--tag={t}" for t in tags], "--note", f"{name} note",
+        proc = service.cli("submit", "sleep", "--name", name, *[f"--tag={t}" for t in tags], "--note", f"{name} note",
                     "--json")  # fmt: skip
         assert proc.returncode == 0, proc.stderr
         ids[name] = json.loads(proc.stdout)["id"]
-    listed = _cli(service, "jobs", "ls", "--tag", "baseline", "--json")
+    listed = service.cli("jobs", "ls", "--tag", "baseline", "--json")
     assert listed.returncode == 0 and [j["id"] for j in json.loads(listed.stdout)["data"]] == [ids["orca baseline"]]
-    text = _cli(service, "jobs", "ls", "--tag", "trial").stdout
+    text = service.cli("jobs", "ls", "--tag", "trial").stdout
     assert "'mpc trial' #trial" in text and "1 of 1 jobs" in text
-    edited = _cli(service, "jobs", "edit", ids["untagged"][:12], "--tag", "baseline", "--name", "now tagged")
+    edited = service.cli("jobs", "edit", ids["untagged"][:12], "--tag", "baseline", "--name", "now tagged")
     assert edited.returncode == 0 and "'now tagged' #baseline" in edited.stdout
-    stage = _cli(service, "evaluate", "--matrix", "configs/scenarios/classic_interactions.yaml", "--scenarios",
+    stage = service.cli("evaluate", "--matrix", "configs/scenarios/classic_interactions.yaml", "--scenarios",
                  "crossing_low", "--seeds-per-scenario", "1", "--planner", "goal", "--no-wait", "--json",
                  "--name", "from a stage command", "--tag", "stage-cli", "--note", "labels on stage commands too")  # fmt: skip
     assert stage.returncode == 0, stage.stderr
@@ -93,7 +85,7 @@ def test_cli_labels_lists_and_jobs_page_tag_filter(service: Up, campaign: str, p
     assert (submitted["name"], submitted["tags"], submitted["note"]) == ("from a stage command", ["stage-cli"],
                                                                          "labels on stage commands too")  # fmt: skip
     service.client().post(f"/v1/jobs/{submitted['id']}/cancel")
-    bad = _cli(service, "jobs", "edit", ids["untagged"], "--tag", "has space")
+    bad = service.cli("jobs", "edit", ids["untagged"], "--tag", "has space")
     assert bad.returncode == 1 and len(bad.stderr.strip().splitlines()) == 1 and "tags" in bad.stderr
 
     page.goto(f"{service.url}/ui/jobs")
@@ -121,8 +113,21 @@ def test_cli_labels_lists_and_jobs_page_tag_filter(service: Up, campaign: str, p
 def test_campaign_grid_plots_in_the_browser(service: Up, campaign: str, page) -> None:  # noqa: ANN001, F811
     job = wait_job(service.client(), campaign, timeout=300)
     assert job["status"] == "succeeded", job.get("error") or service.log()
-    found = _cli(service, "campaigns", "ls", "--tag", "grid", "--json")
+    found = service.cli("campaigns", "ls", "--tag", "grid", "--json")
     assert found.returncode == 0 and [c["id"] for c in json.loads(found.stdout)["data"]] == [campaign]
+    # a cell's episodes of one suite, failures first, each with the URL of its player
+    hard = service.cli("campaigns", "episodes", campaign[:12], "1", "--suite", "hard", "--json")
+    episodes = json.loads(hard.stdout)
+    assert hard.returncode == 0 and len(episodes) == 6 and all(e["player"] for e in episodes), hard.stderr
+    outcomes = [e["outcome"] == "success" for e in episodes]
+    assert outcomes == sorted(outcomes)  # failures first
+    text = service.cli("campaigns", "episodes", campaign[:12], "1", "--suite", "hard").stdout.splitlines()
+    assert [line.split()[-1] for line in text[:-1]] == [f"{service.url}{e['player']}" for e in episodes]
+    assert text[-1] == f"6 episodes, {outcomes.count(False)} not successful"
+    failed = service.cli("campaigns", "episodes", campaign[:12], "1", "--suite", "hard", "--failed").stdout
+    assert len(failed.splitlines()) == outcomes.count(False) + 1
+    bad = service.cli("campaigns", "episodes", campaign[:12], "9")
+    assert bad.returncode != 0 and "rank 9" in bad.stderr and len(bad.stderr.strip().splitlines()) == 1
     page.goto(f"{service.url}/ui/jobs/{campaign}")
     page.click("#grid-link")
     page.wait_for_selector("svg.grid-chart")
