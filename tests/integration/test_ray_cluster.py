@@ -155,9 +155,21 @@ def test_campaign_over_http_runs_on_both_nodes_and_equals_local(cluster: Cluster
     from foresight.cli.common import local_context
     from foresight.core.evaluation.campaign import run_campaign
     from foresight.core.evaluation.config import CampaignConfig
+    from foresight.core.evaluation.episode_trace import read_compact, trace_name
 
-    job, cells = _run_over_http(cluster, tmp_path, CAMPAIGN, lambda c, job: {
-        cell["key"]: _episodes(c, job["id"], cell["episodes_file"]) for cell in job["result"]["ranked"]})
+    def read(c: httpx.Client, job: dict) -> tuple[dict, dict]:
+        """Each cell's records, and each cell's first global-suite episode with its trace as the service serves it
+        (a Ray node wrote it into the cell's own run folder)."""
+        ranked = job["result"]["ranked"]
+        records = {cell["key"]: _episodes(c, job["id"], cell["episodes_file"]) for cell in ranked}
+        traces = {}
+        for rank, cell in enumerate(ranked, start=1):
+            listed = c.get(f"/v1/campaigns/{job['id']}/cells/{rank}/episodes").json()
+            assert listed and all(e["trace"] for e in listed), listed
+            traces[cell["key"]] = (listed[0], c.get(listed[0]["trace"]).json())
+        return records, traces
+
+    job, (cells, traces) = _run_over_http(cluster, tmp_path, CAMPAIGN, read)
     assert job["result"]["execution"]["executor"] == "ray" and job["result"]["execution"]["cpus"] == 2
     assert len({r["timing"]["node"] for records in cells.values() for r in records}) == 2  # both nodes ran episodes
     ctx = local_context(tmp_path / "local", {"builtin": BUILTIN_CONFIG_ROOT}, quiet=True)
@@ -166,6 +178,9 @@ def test_campaign_over_http_runs_on_both_nodes_and_equals_local(cluster: Cluster
     for c in local.ranked:
         expected = [without(r.model_dump(mode="json"), NOISE) for r in read_records(ctx.workdir / c.episodes_file)]
         assert [without(r, NOISE) for r in cells[c.key]] == expected, c.key
+        episode, trace = traces[c.key]
+        local_trace = read_compact(ctx.workdir / c.run_dir / trace_name(episode["scenario"], episode["seed"]))
+        assert trace["robot"] == local_trace["robot"] and trace["outcome"] == episode["outcome"], c.key
 
 
 def test_node_killed_mid_run_loses_and_duplicates_nothing(cluster: Cluster, tmp_path: Path) -> None:
