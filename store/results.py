@@ -143,15 +143,16 @@ class RunFolder:
 def run_folder(engine: Engine, store_root: Path, ident: str) -> RunFolder | None:
     """The run folder of an evaluation id or a campaign cell ``CAMPAIGN_ID:RANK[:SUITE]``; None where the record keeps
     none (a row without its job, a cell written before cells kept their folders). JobNotFound for an unknown id."""
-    with session_factory(engine)() as session:
-        row = session.get(Evaluation, ident)
-        if row is not None:
-            return None if row.job_id is None else RunFolder(store_root / folders.job_dir(store_root, row.job_id))
+    if ":" not in ident:
+        with session_factory(engine)() as session:
+            row = _get(session, Evaluation, ident, "evaluation")
+        return None if row.job_id is None else RunFolder(folders.resolve_under(store_root,
+                                                                               folders.job_dir(store_root, row.job_id)))
     cell = campaign_cell(engine, ident)
     if cell is None or cell.job_id is None or cell.cell.run_dir is None or cell.result.suites is None:
         return None
-    job = store_root / folders.job_dir(store_root, cell.job_id)
-    return RunFolder(job / cell.cell.run_dir, [tuple(p) for p in cell.result.suites[cell.suite]])
+    path = folders.resolve_under(store_root, f"{folders.job_dir(store_root, cell.job_id)}/{cell.cell.run_dir}")
+    return RunFolder(path, [tuple(p) for p in cell.result.suites[cell.suite]])
 
 
 def episode_trace_files(engine: Engine, store_root: Path, ident: str, names: list[str]) -> list[Path | None]:
