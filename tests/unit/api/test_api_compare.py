@@ -118,6 +118,11 @@ def test_paired_evaluations_list_the_episodes_that_ended_otherwise(client, engin
         None, "/ui/compare/episode?a=eval-a&b=eval-b&scenario=s_low&seed=3", None]
     assert body["metrics"]["success"]["discordant"] == [1, 2]  # the same pairs, counted
     assert client.get("/v1/compare", params={"a": "eval-a", "b": "eval-c"}).json()["changed_episodes"] is None
+    # a trace not stored, and one of no such evaluation: 404s that say which
+    gone = client.get("/v1/evaluations/eval-b/episodes/s_low/5")
+    assert gone.status_code == 404 and "evaluation eval-b stored no trace of s_low seed 5" in gone.json()["detail"]
+    unknown = client.get("/v1/evaluations/eval-zz/episodes/s_low/5")
+    assert unknown.status_code == 404 and "no evaluation with id 'eval-zz'" in unknown.json()["detail"], unknown.text
     from foresight.cli.report import compare_text  # what `foresight compare A B` prints of this body
 
     assert ("episodes that ended otherwise (3; the dashboard's compare page plays each side by side):\n"
