@@ -135,6 +135,7 @@ def test_campaign_cells_played_side_by_side(service: Up, page) -> None:  # noqa:
     page.goto(f"{service.url}/ui/campaigns/{job_id}")
     row = page.locator("table.cells tbody tr").nth(crawl - 1)
     assert "ended otherwise" in row.text_content()
+    page.screenshot(path=str(screenshot_dir() / "campaign-cells.png"), full_page=True)
     row.locator("a", has_text="ended otherwise").click()
     page.wait_for_selector("#changed")
     assert "paired on the same episodes" in page.text_content("#differs")
@@ -154,6 +155,7 @@ def test_campaign_cells_played_side_by_side(service: Up, page) -> None:  # noqa:
     page.goto(f"{service.url}/ui/campaigns/{job_id}")
     page.locator("table.cells tbody tr").nth(crawl - 1).locator("a.cell-episodes").click()
     page.wait_for_selector("section#hard table.episodes")
+    page.screenshot(path=str(screenshot_dir() / "campaign-cell-episodes.png"), full_page=True)
     first = page.locator("section#global table.episodes tbody tr").first
     assert first.locator("td").nth(2).text_content() == "timeout"
     first.locator("a.watch").click()
