@@ -115,8 +115,15 @@ def write_players(c: Comparison, folders: dict[str, Path], out: Path, limit: int
 
 
 def load_run(workdir: Path) -> tuple[str, list[EpisodeRecord]]:
-    """(planner label, records) of an evaluation work folder (its episodes.jsonl)."""
-    records = read_records(Path(workdir) / "episodes.jsonl")
+    """(planner label, records) of an evaluation work folder or a campaign cell's (its episodes.jsonl)."""
+    path = Path(workdir) / "episodes.jsonl"
+    if not path.is_file():
+        cells = sorted(f.parent.name for f in (Path(workdir) / "cells").glob("*/episodes.jsonl"))
+        hint = (f"a campaign's folder: compare its cells, {', '.join(f'cells/{c}' for c in cells[:4])}"
+                f"{' ...' if len(cells) > 4 else ''}" if cells else
+                "the folder of `foresight evaluate --local --out DIR`, or a campaign's cells/<key>")
+        raise ConfigError(f"no episodes.jsonl here ({hint})", source=workdir)
+    records = read_records(path)
     if not records:
         raise ConfigError("no episodes", source=workdir)
     r = records[0]

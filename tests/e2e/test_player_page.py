@@ -50,3 +50,28 @@ def test_changed_episodes_as_player_pages_played_from_the_file(tmp_path: Path, p
     assert page.get_attribute("#player", "data-step") == "2"
     assert [page.get_attribute(f"#pane-{i}", "data-frame") for i in (0, 1)] == ["2", "2"]
     page.screenshot(path=str(screenshot_dir() / "compare-local-player.png"), full_page=True)
+
+
+def test_a_local_campaigns_cells_compare_and_play_like_evaluations(tmp_path: Path) -> None:
+    """`foresight campaign --local`: each cell is a run folder, so `compare --local` pairs two cells and writes their
+    changed episodes as pages; the campaign's own folder is refused in one line that names its cells."""
+    grid = tmp_path / "grid.yaml"
+    grid.write_text("variants:\n  - name: base\n    config: {}\n  - name: crawl\n    config: {max_speed_ratio: 0.1}\n")
+    run = tmp_path / "campaign"
+    _cli("campaign", "--local", "--matrix", "configs/scenarios/classic_interactions.yaml", "--seeds",
+         "configs/seeds/classic_eval_hard_smoke.yaml", "--grid", str(grid), "--planner", "predictive", "--checkpoints",
+         "cv", "--scenarios", "crossing_low", "--seeds-per-scenario", "1", "--max-steps", "200", "--out", str(run),
+         "--workers", "2", "--json")  # fmt: skip
+    summary = json.loads((run / "campaign_summary.json").read_text())
+    cells = {c["variant"]: run / c["run_dir"] for c in summary["ranked"]}
+    result = json.loads(_cli("compare", "--local", f"base={cells['base']}", f"crawl={cells['crawl']}", "--players",
+                             str(tmp_path / "p"), "--json"))
+    crawl = next(c for c in summary["ranked"] if c["variant"] == "crawl")
+    by_campaign = {(e["scenario"], e["seed"]) for eps in crawl["changed_vs_baseline"].values() for e in eps}
+    assert {(e["scenario"], e["seed"]) for e in result["changed"]["crawl"]} == by_campaign and by_campaign
+    assert len(result["players"]["crawl"]) == len(by_campaign)  # every episode's trace kept in both cells
+    refused = subprocess.run([sys.executable, "-m", "foresight.cli.main", "compare", "--local", f"a={run}",
+                              f"b={cells['crawl']}"], cwd=REPO, capture_output=True, text=True, timeout=120)  # fmt: skip
+    assert refused.returncode != 0 and len(refused.stderr.strip().splitlines()) == 1, refused.stderr
+    assert "no episodes.jsonl here (a campaign's folder: compare its cells" in refused.stderr
+    assert f"cells/{cells['base'].name}" in refused.stderr
