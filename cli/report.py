@@ -94,11 +94,13 @@ def compare_remote(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(result, indent=2))
         return 0
-    print(compare_text(result))
+    print(compare_text(result, str(Client.from_args(args).http.base_url).rstrip("/")))
     return 0
 
 
-def compare_text(result: dict[str, Any]) -> str:
+def compare_text(result: dict[str, Any], base_url: str = "") -> str:
+    """The text of a ``GET /v1/compare`` body; each changed episode with its side-by-side player's URL (on
+    ``base_url``) where both results kept its trace."""
     lines = [f"A = {result['a']}    B = {result['b']}", ""]
     differs = result.get("differs")
     if differs is not None:  # what was run differently leads: planner, model, matrix, episodes, horizon
@@ -122,8 +124,9 @@ def compare_text(result: dict[str, Any]) -> str:
         from foresight.core.evaluation.delta import EpisodeChange
 
         changed = [EpisodeChange.model_validate(e) for e in result["changed_episodes"]]
-        lines += ["", f"episodes that ended otherwise ({len(changed)}; the dashboard's compare page plays each "
-                  "side by side):", *changed_lines(changed)]
+        links = [f"{base_url}{e['player']}" if e.get("player") else None for e in result["changed_episodes"]]
+        lines += ["", f"episodes that ended otherwise ({len(changed)}; each with its side-by-side player where both "
+                  "kept the trace):", *changed_lines(changed, links)]
     return "\n".join(lines)
 
 

@@ -16,6 +16,7 @@ from pydantic import BaseModel
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.aggregate import BootstrapConfig, aggregate
 from foresight.core.evaluation.delta import Delta, EpisodeChange, changed_episodes, paired_deltas
+from foresight.core.evaluation.episode_trace import episode_stem
 from foresight.core.evaluation.record import EpisodeRecord
 from foresight.core.evaluation.runner import read_records
 from foresight.core.evaluation.stats import ALPHA, MIN_PAIRS
@@ -154,16 +155,22 @@ def table(c: Comparison) -> str:
     lines.append(f"\npaired on the same (scenario, seed) episodes; * = McNemar exact p < {ALPHA} with at least "
                  f"{MIN_PAIRS} pairs")
     for p in others:
-        lines += ["", f"episodes where {p} ends otherwise than {c.reference}:", *changed_lines(c.changed.get(p, []))]
+        changed = c.changed.get(p, [])
+        pages = {Path(page).stem: page for page in c.players.get(p, [])}
+        links = [pages.get(episode_stem(e.scenario, e.seed)) for e in changed]
+        lines += ["", f"episodes where {p} ends otherwise than {c.reference}:", *changed_lines(changed, links)]
         if p in c.players:
             lines.append(f"  {len(c.players[p])} side-by-side player pages" + (
                 f" in {Path(c.players[p][0]).parent}" if c.players[p] else " (no episode with both traces)"))
     return "\n".join(lines) + "\n"
 
 
-def changed_lines(changed: list[EpisodeChange]) -> list[str]:
-    """The text listing of changed episodes (the first ``SHOWN_CHANGES``; ``--json`` has them all)."""
-    lines = [f"  {e.scenario} {e.seed}: {e.a} -> {e.b}" for e in changed[:SHOWN_CHANGES]] or ["  none"]
+def changed_lines(changed: list[EpisodeChange], links: list[str | None] | None = None) -> list[str]:
+    """The text listing of changed episodes (the first ``SHOWN_CHANGES``; ``--json`` has them all), each followed by
+    its link where ``links`` (one per episode) has one."""
+    links = links or [None] * len(changed)
+    lines = [f"  {e.scenario} {e.seed}: {e.a} -> {e.b}" + (f"  {link}" if link else "")
+             for e, link in zip(changed[:SHOWN_CHANGES], links, strict=False)] or ["  none"]
     if len(changed) > SHOWN_CHANGES:
         lines.append(f"  ... and {len(changed) - SHOWN_CHANGES} more (--json lists every one)")
     return lines

@@ -70,6 +70,11 @@ def test_a_local_campaigns_cells_compare_and_play_like_evaluations(tmp_path: Pat
     by_campaign = {(e["scenario"], e["seed"]) for eps in crawl["changed_vs_baseline"].values() for e in eps}
     assert {(e["scenario"], e["seed"]) for e in result["changed"]["crawl"]} == by_campaign and by_campaign
     assert len(result["players"]["crawl"]) == len(by_campaign)  # every episode's trace kept in both cells
+    text = _cli("compare", "--local", f"base={cells['base']}", f"crawl={cells['crawl']}", "--players",
+                str(tmp_path / "p"))  # each changed episode named with its page
+    for page_path in result["players"]["crawl"]:
+        stem = Path(page_path).stem
+        assert any(line.endswith(f"  {page_path}") and stem.replace("__", " ") in line for line in text.splitlines())
     refused = subprocess.run([sys.executable, "-m", "foresight.cli.main", "compare", "--local", f"a={run}",
                               f"b={cells['crawl']}"], cwd=REPO, capture_output=True, text=True, timeout=120)  # fmt: skip
     assert refused.returncode != 0 and len(refused.stderr.strip().splitlines()) == 1, refused.stderr

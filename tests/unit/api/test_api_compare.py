@@ -125,8 +125,10 @@ def test_paired_evaluations_list_the_episodes_that_ended_otherwise(client, engin
     assert unknown.status_code == 404 and "no evaluation with id 'eval-zz'" in unknown.json()["detail"], unknown.text
     from foresight.cli.report import compare_text  # what `foresight compare A B` prints of this body
 
-    assert ("episodes that ended otherwise (3; the dashboard's compare page plays each side by side):\n"
-            "  s_low 1: success -> collision_pedestrian\n  s_low 3: timeout -> success\n") in compare_text(body)
+    assert ("episodes that ended otherwise (3; each with its side-by-side player where both kept the trace):\n"
+            "  s_low 1: success -> collision_pedestrian\n"
+            "  s_low 3: timeout -> success  http://h:1/ui/compare/episode?a=eval-a&b=eval-b&scenario=s_low&seed=3\n"
+            "  s_low 5: timeout -> success") in compare_text(body, "http://h:1")
 
 
 def test_compare_page_lists_them_and_links_the_side_by_side_player(client, engine, settings) -> None:  # noqa: ANN001
