@@ -149,10 +149,10 @@ def run_folder(engine: Engine, store_root: Path, ident: str) -> RunFolder | None
         return None if row.job_id is None else RunFolder(folders.resolve_under(store_root,
                                                                                folders.job_dir(store_root, row.job_id)))
     cell = campaign_cell(engine, ident)
-    if cell is None or cell.job_id is None or cell.cell.run_dir is None or cell.result.suites is None:
+    if cell is None or cell.job_id is None or cell.cell.run_dir is None or cell.suites is None:
         return None
     path = folders.resolve_under(store_root, f"{folders.job_dir(store_root, cell.job_id)}/{cell.cell.run_dir}")
-    return RunFolder(path, [tuple(p) for p in cell.result.suites[cell.suite]])
+    return RunFolder(path, [tuple(p) for p in cell.suites[cell.suite]])
 
 
 def episode_trace_files(engine: Engine, store_root: Path, ident: str, names: list[str]) -> list[Path | None]:
@@ -167,15 +167,15 @@ class CellRun:
 
     job_id: str | None
     config: dict[str, Any]  #: the campaign row's config
-    result: Any  #: core.evaluation.campaign.CampaignResult
     cell: Any  #: core.evaluation.campaign.CellResult
     suite: str  #: global or hard
+    suites: dict[str, list[tuple[str, int]]] | None  #: the campaign's suites (None: a result from before they were kept)
 
 
 def campaign_cell(engine: Engine, ident: str) -> CellRun | None:
     """The cell ``CAMPAIGN_ID:RANK[:SUITE]`` (rank 1 = best) from its job's result; None when the job keeps no result.
     JobNotFound for an unknown campaign, rank or suite."""
-    from foresight.core.evaluation.campaign import CampaignResult
+    from foresight.core.evaluation.campaign import CampaignCells
 
     campaign_id, _, rest = ident.partition(":")
     rank, _, suite = rest.partition(":")
@@ -186,10 +186,10 @@ def campaign_cell(engine: Engine, ident: str) -> CellRun | None:
         raise queue.JobNotFound(f"a campaign cell's suite is global or hard, not {suite!r}")
     if job is None or job["result"] is None:
         return None
-    result = CampaignResult.model_validate(job["result"])
+    result = CampaignCells.model_validate(job["result"])
     if not rank.isdigit() or not 1 <= int(rank) <= len(result.ranked):
         raise queue.JobNotFound(f"campaign {campaign_id!r} has no cell of rank {rank}")
-    return CellRun(found.job_id, found.config, result, result.ranked[int(rank) - 1], suite or "global")
+    return CellRun(found.job_id, found.config, result.cell(int(rank)), suite or "global", result.suites)
 
 
 def comparison_setup(engine: Engine, ident: str) -> dict[str, Any] | None:

@@ -28,7 +28,7 @@ def campaign_page(request: Request, campaign_id: str) -> HTMLResponse:
     except queue.JobNotFound as exc:
         raise PageNotFound(str(exc)) from None
     plots = parameter_plots(grid)
-    baselines = _baseline_ranks(engine, row.job_id)
+    baselines = _baseline_ranks(cells)
     charts = [(p.parameter, [Markup(chart_svg(p, m)) for m in METRICS]) for p in plots]
     return page(request, "campaign.html", title=f"Campaign {ident[:12]}", nav="results", campaign=row, cells=cells,
                 gates=gates, charts=charts, by_variant=[p.parameter for p in plots] == [VARIANT_AXIS],
@@ -68,13 +68,11 @@ def cell_episode_page(request: Request, campaign_id: str, rank: int, scenario: s
                 source_url=f"/ui/campaigns/{ident.partition(':')[0]}/cells/{rank}", source_id=ident)
 
 
-def _baseline_ranks(engine: object, job_id: str | None) -> dict[int, int]:
-    """Rank of each cell -> rank of the baseline cell it is paired with (from the campaign job's result)."""
-    from foresight.core.evaluation.campaign import CampaignResult
-
-    job = None if job_id is None else queue.get_job(engine, job_id)
-    if job is None or job["result"] is None:
-        return {}
-    ranked = CampaignResult.model_validate(job["result"]).ranked
-    rank = {c.key: i for i, c in enumerate(ranked, start=1)}
-    return {i: rank[c.baseline] for i, c in enumerate(ranked, start=1) if c.baseline in rank}
+def _baseline_ranks(cells: list[dict]) -> dict[int, int]:
+    """Rank of each cell paired with a baseline cell -> that cell's rank: of the same checkpoint, the one cell
+    compared with none (``core.evaluation.campaign.with_paired_stats``)."""
+    # the rows' metrics as stored (CellMetrics of this version, or an older shape without the key: not paired)
+    paired = {c["rank"]: (c["metrics"] or {}).get("vs_baseline") is not None for c in cells}
+    base = {c["params"]["checkpoint"]: c["rank"] for c in cells if not paired[c["rank"]]}
+    return {c["rank"]: base[c["params"]["checkpoint"]] for c in cells
+            if paired[c["rank"]] and c["params"]["checkpoint"] in base}

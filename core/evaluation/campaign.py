@@ -21,7 +21,7 @@ import re
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
@@ -124,6 +124,18 @@ class CampaignResult(BaseModel):
     artifacts: dict[str, str]
     wall_s: float
     config: dict  #: the stage config as given (with defaults)
+
+
+class CampaignCells(BaseModel):
+    """The part of a :class:`CampaignResult` that a lookup of one cell reads: the ranked cells, each validated only
+    when asked for (:meth:`cell`; a grid of 10^4 cells is a result of tens of MB), and the suites."""
+
+    ranked: list[dict[str, Any]]
+    suites: dict[str, list[tuple[str, int]]] | None = None
+
+    def cell(self, rank: int) -> CellResult:
+        """The cell of ``rank`` (1 = best)."""
+        return CellResult.model_validate(self.ranked[rank - 1])
 
 
 def load_variants(config: CampaignConfig, ctx: StageContext) -> list[GridVariant]:
