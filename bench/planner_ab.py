@@ -31,7 +31,6 @@ import argparse
 import json
 import multiprocessing as mp
 import os
-import re
 import shutil
 import sys
 import tempfile
@@ -150,6 +149,8 @@ def summary(rows: list[dict], variants: list[str]) -> dict:
 
 def parse_variants(items: list[str]) -> dict[str, dict]:
     """``NAME=JSON`` items -> {name: config}; a malformed one exits with one readable line."""
+    from foresight.core.evaluation.episode_trace import safe_name
+
     variants: dict[str, dict] = {}
     for item in items:
         name, sep, raw = item.partition("=")
@@ -157,7 +158,7 @@ def parse_variants(items: list[str]) -> dict[str, dict]:
             cfg = json.loads(raw) if sep else None
         except json.JSONDecodeError as exc:
             sys.exit(f"--variant {name}: not JSON ({exc})")
-        if not re.fullmatch(r"[A-Za-z0-9._-]+", name) or name in (".", "..") or not isinstance(cfg, dict) or name in variants:
+        if not name or safe_name(name) != name or not isinstance(cfg, dict) or name in variants:  # a file name
             sys.exit(f"--variant {item!r}: expected a new NAME=JSON object (NAME of letters, digits, '.', '_', '-'), "
                      "e.g. base='{}'")
         variants[name] = cfg

@@ -155,12 +155,6 @@ def run_folder(engine: Engine, store_root: Path, ident: str) -> RunFolder | None
     return RunFolder(path, [tuple(p) for p in cell.suites[cell.suite]])
 
 
-def episode_trace_files(engine: Engine, store_root: Path, ident: str, names: list[str]) -> list[Path | None]:
-    """The files ``names`` (trace names) of an evaluation's or campaign cell's run folder; None where absent."""
-    found = run_folder(engine, store_root, ident)
-    return [None if found is None else found.trace(name) for name in names]
-
-
 @dataclass(frozen=True)
 class CellRun:
     """A campaign cell as its campaign job's result holds it."""

@@ -98,7 +98,8 @@ def read_cell_episode_trace(campaign_id: Ident, rank: int, scenario: Ident, seed
 def _trace(engine: Any, settings: Any, ident: str, scenario: str, seed: int) -> dict[str, Any]:
     from foresight.core.evaluation.episode_trace import read_compact, trace_name
 
-    path = results.episode_trace_files(engine, settings.store_root, ident, [trace_name(scenario, seed)])[0]
+    folder = results.run_folder(engine, settings.store_root, ident)
+    path = None if folder is None else folder.trace(trace_name(scenario, seed))
     if path is None:
         what = "evaluation" if ":" not in ident else "campaign cell"
         raise queue.JobNotFound(f"{what} {ident} stored no trace of {scenario} seed {seed}")
@@ -126,23 +127,23 @@ def episode_list(engine: Any, settings: Any, ident: str) -> list[EpisodePublic]:
     """The episodes of an evaluation or of a campaign cell's suite, failures first (by label), then in run order."""
     from foresight.core.evaluation.episode_trace import trace_name
 
-    records = _episodes(engine, settings, ident)
+    folder = results.run_folder(engine, settings.store_root, ident)
+    records = _records(folder)
     if records is None:
         results.comparison_operand(engine, ident)  # 404 for an unknown id
         records = []
-    stored = results.episode_trace_files(engine, settings.store_root, ident, [trace_name(r.scenario, r.seed) for r in records])
-    out = [EpisodePublic(scenario=r.scenario, seed=r.seed, outcome=r.outcome, label=r.taxonomy.label, steps=r.steps,
-                         trace=trace_url(ident, r.scenario, r.seed) if has else None,
-                         player=player_url(ident, r.scenario, r.seed) if has else None)
-           for r, has in zip(records, stored, strict=True)]
+    out = []
+    for r in records:
+        has = folder is not None and folder.trace(trace_name(r.scenario, r.seed)) is not None
+        out.append(EpisodePublic(scenario=r.scenario, seed=r.seed, outcome=r.outcome, label=r.taxonomy.label,
+                                 steps=r.steps, trace=trace_url(ident, r.scenario, r.seed) if has else None,
+                                 player=player_url(ident, r.scenario, r.seed) if has else None))
     return sorted(out, key=lambda e: e.outcome == "success")
 
 
-def _episodes(engine: EngineDep, settings: SettingsDep, ident: str) -> list[Any] | None:
-    """The episode records of an evaluation or of a campaign cell's suite (its run folder's episodes.jsonl), None
-    where none are kept."""
-    found = results.run_folder(engine, settings.store_root, ident)
-    return None if found is None else found.records()
+def _records(folder: results.RunFolder | None) -> list[Any] | None:
+    """The episode records of a run folder (a campaign cell's: of its suite), None where none are kept."""
+    return None if folder is None else folder.records()
 
 
 @router.get("/compare", responses=responses(404))
@@ -172,7 +173,8 @@ def compare_results(engine: Any, settings: Any, a: str, b: str) -> dict[str, Any
 
     (kind_a, config_a, sum_a), (kind_b, config_b, sum_b) = (results.comparison_operand(engine, a),
                                                             results.comparison_operand(engine, b))
-    ra, rb = _episodes(engine, settings, a), _episodes(engine, settings, b)
+    folders = {ident: results.run_folder(engine, settings.store_root, ident) for ident in (a, b)}
+    ra, rb = _records(folders[a]), _records(folders[b])
     paired = paired_deltas(ra, rb) if ra and rb else None
     metrics = {**deltas(sum_a, sum_b), **(paired or {})}
     setup_a, setup_b = results.comparison_setup(engine, a), results.comparison_setup(engine, b)
@@ -180,17 +182,17 @@ def compare_results(engine: Any, settings: Any, a: str, b: str) -> dict[str, Any
     return {"a": a, "b": b, "sources": {"a": kind_a, "b": kind_b}, "setup": {"a": setup_a, "b": setup_b},
             "differs": what_differs(setup_a, setup_b) if setup_a and setup_b else None,
             "config_diff": diff_configs(config_a, config_b), "paired": paired is not None, "metrics": {k: v.model_dump() for k, v in metrics.items()},
-            "changed_episodes": None if changed is None else _with_players(engine, settings, a, b, changed)}
+            "changed_episodes": None if changed is None else _with_players(folders, a, b, changed)}
 
 
-def _with_players(engine: Any, settings: Any, a: str, b: str, changed: list[Any]) -> list[dict[str, Any]]:
+def _with_players(folders: dict[str, Any], a: str, b: str, changed: list[Any]) -> list[dict[str, Any]]:
     """Changed episodes with the URL of their side-by-side player (None unless both results stored the trace)."""
     from urllib.parse import urlencode
 
     from foresight.core.evaluation.episode_trace import trace_name
 
-    names = [trace_name(e.scenario, e.seed) for e in changed]
-    stored = [results.episode_trace_files(engine, settings.store_root, ident, names) for ident in (a, b)]
+    def both(e: Any) -> bool:
+        return all(folders[i] is not None and folders[i].trace(trace_name(e.scenario, e.seed)) for i in (a, b))
+
     return [{**e.model_dump(), "player": "/ui/compare/episode?" + urlencode(
-        {"a": a, "b": b, "scenario": e.scenario, "seed": e.seed}) if pa and pb else None}
-            for e, pa, pb in zip(changed, *stored, strict=True)]
+        {"a": a, "b": b, "scenario": e.scenario, "seed": e.seed}) if both(e) else None} for e in changed]

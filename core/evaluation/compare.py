@@ -119,7 +119,9 @@ def load_run(workdir: Path) -> tuple[str, list[EpisodeRecord]]:
     """(planner label, records) of an evaluation work folder or a campaign cell's (its episodes.jsonl)."""
     path = Path(workdir) / "episodes.jsonl"
     if not path.is_file():
-        cells = sorted(f.parent.name for f in (Path(workdir) / "cells").glob("*/episodes.jsonl"))
+        from foresight.core.evaluation.campaign import cell_dir
+
+        cells = sorted(f.parent.name for f in Path(workdir).glob(f"{cell_dir('*')}/episodes.jsonl"))
         hint = (f"a campaign's folder: compare its cells, {', '.join(f'cells/{c}' for c in cells[:4])}"
                 f"{' ...' if len(cells) > 4 else ''}" if cells else
                 "the folder of `foresight evaluate --local --out DIR`, or a campaign's cells/<key>")
