@@ -8,9 +8,9 @@ No witness among many plans is evidence, not proof, that no robot could.
 
 The family: the goal driven at directly; drives through one point of each ``--via`` grid in turn (the product of
 the grids), then to the goal; and for each ``--hold`` point and ``--release`` time, a drive there, a stand until
-that time, then on through one point of each ``--after`` grid in turn to the goal. The driver steers at its target
-at up to the turn-rate limit and drives at full speed times cos^2 of its heading error (a holonomic robot heads
-straight at it at full speed). ``--json`` prints ONE object: per scenario the seeds with a witness and, per seed,
+that time, then on through one point of each ``--after`` grid in turn to the goal. Each plan is driven by the
+``scripted`` planner (``core.planners.scripted``). ``foresight scenarios witness`` searches a family built from each
+episode's route instead, for any map; this bench keeps hand-drawn grids for questions about one map. ``--json`` prints ONE object: per scenario the seeds with a witness and, per seed,
 the number of witnesses and the earliest arrival's plan. ``--episodes`` takes an evaluation's episodes.jsonl and tries
 only the episodes it failed: which of a planner's failures could a robot with its limits have solved?
 """
@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import multiprocessing as mp
 import os
 import sys
@@ -34,41 +33,8 @@ from navigation_table import REFERENCE  # noqa: E402
 
 Point = tuple[float, float]
 Plan = tuple[tuple[Point, ...], tuple[Point, float] | None, tuple[Point, ...]]  #: (vias, (hold, release) or None, afters)
-REACHED = 0.6  #: a target point counts as reached this close [m]
 MAX_EPISODES = 1_000_000  #: plans x episodes one run may take (grids multiply: a few minutes per 100,000 here)
 _JOBS: dict = {}  #: what a forked worker reads: the loaded matrix
-
-
-class Scripted:
-    """Drives a :data:`Plan`: via points, then the hold (stand there until the release time), then the after points,
-    then the goal."""
-
-    name = "scripted"
-    diagnostics = None
-
-    def __init__(self, plan: Plan):
-        vias, hold, afters = plan
-        self.stops = [(p, None) for p in vias] + ([hold] if hold else []) + [(p, None) for p in afters]
-
-    def reset(self, info: object) -> None:
-        self.i = 0
-
-    def plan(self, obs: object) -> tuple[float, float]:
-        x, y, th = obs.robot_pose
-        while self.i < len(self.stops):
-            (px, py), release = self.stops[self.i]
-            if math.hypot(px - x, py - y) >= REACHED:
-                break
-            if release is not None and obs.time < release:
-                return 0.0, 0.0
-            self.i += 1
-        tx, ty = self.stops[self.i][0] if self.i < len(self.stops) else obs.goal
-        lim = obs.robot_limits
-        if lim.get("holonomic", 0.0):  # a world-frame velocity (vx, vy): straight at the target
-            d = max(math.hypot(tx - x, ty - y), 1e-9)
-            return lim["v_max"] * (tx - x) / d, lim["v_max"] * (ty - y) / d
-        err = (math.atan2(ty - y, tx - x) - th + math.pi) % (2 * math.pi) - math.pi
-        return lim["v_max"] * max(0.0, math.cos(err)) ** 2, max(-lim["w_max"], min(lim["w_max"], 3.0 * err))
 
 
 def axis(part: str) -> list[float]:
@@ -98,12 +64,15 @@ def plans(args: argparse.Namespace) -> list[Plan]:
 
 
 def _episode(job: tuple[str, int, Plan]) -> tuple[str, int, Plan, str, int]:
+    from foresight.core.planners.scripted import Scripted, ScriptedConfig
     from foresight.core.sim.episode import run_episode
     from foresight.core.sim.simulator import Simulator
 
     scenario, seed, plan = job
     sim = _JOBS.get("sim") or _JOBS.setdefault("sim", Simulator())
-    res = run_episode(_JOBS["matrix"].get(scenario), seed, Scripted(plan), simulator=sim)
+    vias, hold, afters = plan
+    config = ScriptedConfig(via=vias, hold=hold[0] if hold else None, release_s=hold[1] if hold else 0.0, after=afters)
+    res = run_episode(_JOBS["matrix"].get(scenario), seed, Scripted(config), simulator=sim)
     return scenario, seed, plan, res.outcome, res.steps
 
 

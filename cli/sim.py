@@ -1,4 +1,4 @@
-"""`foresight scenarios list`, `check` and `reachable`, `foresight sim run` and `foresight sim demo`."""
+"""`foresight scenarios list`, `check` and `reachable` (and `witness`, from ``cli.witness``), `foresight sim run` and `foresight sim demo`."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import shutil
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from foresight.cli import stage
+from foresight.cli import stage, witness
 from foresight.cli.common import build_config, emit, local_context, matrix_ref, progress_bar
 from foresight.core.errors import ConfigError
 from foresight.core.stages.simulate import SimulateConfig, SimulateResult, run_simulate
@@ -43,6 +43,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                                                        "each place became reachable, the crowd, start and goal)")
     rch.add_argument("--json", action="store_true")
     rch.set_defaults(func=scenarios_reachable)
+    witness.add_parser(scen)
 
     sim = sub.add_parser("sim", help="run the simulator").add_subparsers(dest="action", required=True)
     run = sim.add_parser("run", help="one episode with a planner (default: the goal-seeking robot)")

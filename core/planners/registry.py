@@ -2,7 +2,7 @@
 
 Names come from four places, all behind the same :class:`PlannerEntry`:
 
-- the built-ins (``predictive``, ``orca``, ``social_force``, ``goal``);
+- the built-ins (``predictive``, ``orca``, ``social_force``, ``goal``, ``scripted``);
 - ``external``: a separate process speaking the JSON-lines protocol (``core.planners.external``); its config
   names one of the operator-configured commands, never a command line;
 - installed plugins: every entry point of the group ``foresight.planners`` (see ``core.planners.base``);
@@ -33,7 +33,7 @@ from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.planners.base import PLANNER_API_VERSION, Planner
 
 PLUGIN_GROUP = "foresight.planners"
-BUILTIN_NAMES = ("predictive", "orca", "social_force", "goal")
+BUILTIN_NAMES = ("predictive", "orca", "social_force", "goal", "scripted")
 
 
 class NoConfig(BaseModel):
@@ -83,6 +83,7 @@ def _builtins() -> list[PlannerEntry]:
     from foresight.core.planners.goal import GoalSeeking, GoalSeekingConfig
     from foresight.core.planners.orca import OrcaConfig, OrcaPlanner
     from foresight.core.planners.predictive.config import PredictivePlannerConfig
+    from foresight.core.planners.scripted import Scripted, ScriptedConfig
     from foresight.core.planners.social_force import SocialForceConfig, SocialForcePlanner
 
     return [
@@ -94,6 +95,8 @@ def _builtins() -> list[PlannerEntry]:
                      description="social-force robot"),
         PlannerEntry("goal", GoalSeekingConfig, lambda c, m: GoalSeeking(c), "builtin",
                      description="goal seeking along the route, ignores pedestrians"),
+        PlannerEntry("scripted", ScriptedConfig, lambda c, m: Scripted(c), "builtin",
+                     description="a fixed plan (via points, a wait until a release time, then on): a witness"),
         PlannerEntry("external", ExternalPlannerConfig, lambda c, m: build_external(c), "external",
                      description="an operator-configured process speaking the JSON-lines planner protocol"),
     ]

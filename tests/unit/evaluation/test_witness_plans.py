@@ -1,4 +1,4 @@
-"""bench/witness_plans.py: the plan family, the scripted driver, a real run both ways, and refused arguments."""
+"""bench/witness_plans.py: the plan family (its driver is the scripted planner), a real run both ways, and refused arguments."""
 
 from __future__ import annotations
 
@@ -6,8 +6,6 @@ import json
 import subprocess
 import sys
 from types import SimpleNamespace
-
-import numpy as np
 
 from tests.unit.bench_scripts import BENCH as BENCH_DIR
 from tests.unit.bench_scripts import load_bench
@@ -26,26 +24,6 @@ def test_the_family_is_the_direct_drive_every_via_combination_and_every_hold_rel
     assert ((0.0, 0.0), (5.0, 6.0)) in [f[0] for f in family]
     assert family[-1] == ((), ((9.0, 9.0), 14.0), ((7.0, 8.0),))
     assert wp.plans(SimpleNamespace(via=[], hold=["9,9"], release="1", after=[]))[-1] == ((), ((9.0, 9.0), 1.0), ())
-
-
-def test_the_driver_stands_at_its_hold_until_the_release_then_drives_on() -> None:
-    wp = load_bench("witness_plans")
-    driver = wp.Scripted(((), ((0.0, 0.0), 5.0), ()))
-    driver.reset(None)
-
-    def obs(t: float, pose: tuple[float, float, float]) -> SimpleNamespace:
-        return SimpleNamespace(robot_pose=np.array(pose), time=t, goal=np.array([10.0, 0.0]),
-                               robot_limits={"v_max": 2.0, "w_max": 1.0})
-
-    assert driver.plan(obs(4.9, (0.1, 0.0, 0.0))) == (0.0, 0.0)  # at the hold before its release: stands
-    v, w = driver.plan(obs(5.0, (0.1, 0.0, 0.0)))
-    assert v == 2.0 and w == 0.0  # released: full speed at the goal straight ahead
-    v, w = driver.plan(obs(5.1, (0.1, 0.0, np.pi / 2)))
-    assert v < 1e-9 and w == -1.0  # facing away by 90 degrees: turns at the limit without driving
-    holonomic = obs(6.0, (0.0, 0.0, 0.0))
-    holonomic.robot_limits["holonomic"] = 1.0
-    vx, vy = driver.plan(SimpleNamespace(**{**vars(holonomic), "goal": np.array([0.0, -10.0])}))
-    assert abs(vx) < 1e-12 and vy == -2.0  # a holonomic robot is sent a world-frame velocity straight at the goal
 
 
 def test_a_real_run_finds_a_witness_where_the_corridor_is_free_and_none_where_a_walker_blocks_its_mouth() -> None:

@@ -1,0 +1,111 @@
+"""`foresight scenarios witness`: which episodes a robot with the scenario's limits can solve, shown by a plan that does
+(``core.evaluation.witness``); with an evaluation's episodes, which of its failures were the planner's to win."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from foresight.core.errors import ConfigError
+
+MAX_SEARCHES = 2_000  #: episodes one command may search (each up to ``max_plans`` plans)
+
+
+def add_parser(scen: argparse._SubParsersAction) -> None:
+    w = scen.add_parser("witness", help="episodes a robot with these limits can solve: a scripted plan along the route "
+                                        "(or a wait at a point of it until a release time) that arrives without "
+                                        "contact, run with the crowd reacting to it")
+    w.add_argument("--matrix", required=True, help="scenario matrix YAML")
+    w.add_argument("--override", action="append", metavar="KEY=VALUE",
+                   help="under other conditions, as foresight evaluate --override (repeatable; default with --episodes: "
+                        "the evaluation's own, from its evaluation.json)")
+    w.add_argument("--scenarios", help="comma-separated scenario names (default: all)")
+    w.add_argument("--seeds-per-scenario", type=int, help="N seeds per scenario, as foresight evaluate's (default: the "
+                                                          "matrix's own; with --episodes: the evaluation's)")
+    w.add_argument("--episodes", help="an evaluation's episodes.jsonl (evaluate --local --out DIR): only its failed "
+                                      "episodes")
+    w.add_argument("--players", metavar="DIR", help="each witness as a player page, beside the planner's run where "
+                                                    "--episodes' folder kept its trace: DIR/<scenario>__<seed>.html")
+    w.add_argument("--max-plans", type=int, default=5000, help="plans tried at most per episode (default 5000)")
+    w.add_argument("--workers", type=int, default=1, help="processes running plans (default 1)")
+    w.add_argument("--json", action="store_true")
+    w.set_defaults(func=scenarios_witness)
+
+
+def scenarios_witness(args: argparse.Namespace) -> int:
+    from foresight.cli.common import emit, progress_bar
+    from foresight.cli.evaluate import overrides
+    from foresight.core.evaluation.episode_trace import trace_name
+    from foresight.core.evaluation.runner import expand_seeds, read_outcomes
+    from foresight.core.evaluation.witness import WitnessSettings, search, write_player
+    from foresight.core.scenarios.loader import load_matrix
+
+    if args.workers < 1:
+        raise ConfigError(f"expected at least 1 worker, got {args.workers}", source="command line", item="--workers")
+    if args.players and not args.episodes:
+        raise ConfigError("--players shows the planner's run beside each witness: give its --episodes",
+                          source="command line", item="--players")
+    try:
+        settings = WitnessSettings(max_plans=args.max_plans)
+    except ValueError:
+        raise ConfigError(f"expected 1 to 20000 plans, got {args.max_plans}", source="command line",
+                          item="--max-plans") from None
+    conditions = overrides(args.override) if args.override else _evaluation_conditions(args.episodes)
+    matrix = load_matrix(Path(args.matrix), overrides=conditions or None)
+    chosen = [matrix.get(n.strip()) for n in args.scenarios.split(",")] if args.scenarios else list(matrix.scenarios)
+    outcomes = read_outcomes(args.episodes) if args.episodes else None
+    if outcomes is None:
+        episodes = [(s, seed) for s in chosen for seed in expand_seeds(s.scenario.seeds, args.seeds_per_scenario)]
+    else:  # the evaluation's failures, in its order, among the scenarios asked about
+        names = {s.name for s in chosen}
+        failed = [(name, seed) for (name, seed), outcome in outcomes.items() if outcome != "success"]
+        episodes = [(matrix.get(name), seed) for name, seed in failed if name in names or not args.scenarios]
+    if len(episodes) > MAX_SEARCHES:
+        raise ConfigError(f"{len(episodes)} episodes to search, over the {MAX_SEARCHES} one command may take: fewer "
+                          "scenarios or seeds", source="command line", item="--scenarios")
+    players = Path(args.players) if args.players else None
+    traces = Path(args.episodes).parent if args.episodes else None
+    rows: list[dict[str, Any]] = []
+    with progress_bar(quiet=args.json) as bar:
+        task = bar.add_task("witness", total=len(episodes), message="")
+        for s, seed in episodes:
+            w = search(s, int(seed), settings, workers=args.workers)
+            row: dict[str, Any] = {**w.model_dump(mode="json"), "summary": w.summary()}
+            if outcomes is not None:
+                row["planner_outcome"] = outcomes[s.name, seed]
+            if players is not None and w.found:
+                row["player"] = str(write_player(players, s, w, traces / trace_name(s.name, seed), row["planner_outcome"]))
+            rows.append(row)
+            bar.update(task, advance=1, message=f"{s.name} {seed}")
+    report = {"matrix": args.matrix, "overrides": conditions, "settings": settings.model_dump(mode="json"),
+              "failed_only": outcomes is not None, "searched": len(rows),
+              "witnessed": sum(r["plan"] is not None for r in rows), "episodes": rows}
+    emit(report, args.json, _text)
+    return 0
+
+
+def _evaluation_conditions(episodes: str | None) -> dict[str, Any]:
+    """The scenario overrides an evaluation ran under (its evaluation.json beside episodes.jsonl), {} for none."""
+    if not episodes:
+        return {}
+    path = Path(episodes).parent / "evaluation.json"
+    if not path.is_file():
+        return {}
+    try:
+        return json.loads(path.read_text())["config"].get("scenario_overrides") or {}
+    except (json.JSONDecodeError, KeyError, TypeError, AttributeError):
+        raise ConfigError("expected an evaluation's result with its config", source=path) from None
+
+
+def _text(r: dict[str, Any]) -> str:
+    what = "failed episodes" if r["failed_only"] else "episodes"
+    lines = [f"{r['witnessed']} of {r['searched']} {what} witnessed solvable by a robot with these limits"
+             + (f" (conditions: {json.dumps(r['overrides'])})" if r["overrides"] else "")]
+    for e in r["episodes"]:
+        outcome = f" ({e['planner_outcome']})" if "planner_outcome" in e else ""
+        lines.append(f"  {e['scenario']} seed {e['seed']}{outcome}: {e['summary']}")
+        if "player" in e:
+            lines.append(f"    watch: {e['player']}")
+    return "\n".join(lines)

@@ -1,0 +1,197 @@
+"""Witnesses: a scripted plan that reaches the goal without contact proves that a robot with the episode's limits
+could have solved it.
+
+Why: a failed episode is the planner's to fix only if it could be solved. Where nobody reacts to the robot,
+``core.sim.feasibility`` decides that for a relaxed robot (its "unreachable" is a proof, its "reachable" is not);
+where the crowd reacts, the crowd's paths depend on the robot and nothing short of running the robot can tell.
+So the plans run in the simulator itself, with the episode's robot and its crowd reacting to it as to any robot.
+
+The family is built from the episode's route, so it serves any map: the route driven as is, then, for waiting
+points every ``spacing`` metres along it (and ``offsets`` to either side), a drive there, a stand until a release
+time (every ``release_step_s`` seconds, as late as the rest of the route still fits the horizon at full speed), and
+the rest of the route. Release times are tried coarse to fine (every 8 steps first, then the 4s, 2s and 1s between),
+so a search cut short by ``max_plans`` has spread its tries over the whole episode. The first plan in that order
+to arrive is the witness; none among the plans tried is evidence, not proof, that no robot could.
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing as mp
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from foresight.core.planners.scripted import Scripted, ScriptedConfig
+from foresight.core.scenarios.model import ResolvedScenario
+
+#: a waiting point needs this much room [m] beyond the robot's radius from every wall and obstacle
+WALL_ROOM = 0.1
+
+
+class WitnessSettings(BaseModel):
+    """The plan family and the search's bounds."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    spacing: float = Field(default=1.0, ge=0.25, le=10)  #: [m] between waiting points along the route
+    offsets: tuple[float, ...] = (0.0, -0.5, 0.5)  #: [m] waiting points to the route's left (+) and right (-)
+    release_step_s: float = Field(default=1.0, ge=0.1, le=30)  #: [s] between release times
+    max_plans: int = Field(default=5000, ge=1, le=20_000)  #: plans tried at most per episode
+    max_seconds: float = Field(default=300.0, gt=0, le=7200)  #: wall time per episode [s]; the search stops after it
+
+
+class Witness(BaseModel):
+    """The search's answer for one episode: the witness plan and when it arrives, or none among the plans tried."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    scenario: str
+    seed: int
+    plans: int  #: plans in the family
+    tried: int  #: plans run (all of them, or up to the first witness, ``max_plans`` or ``max_seconds``)
+    plan: ScriptedConfig | None = None  #: the witness, None where none was found
+    arrival_s: float | None = None  #: when the witness reaches the goal [s]
+    seconds: float  #: wall time of the search [s]
+
+    @property
+    def found(self) -> bool:
+        return self.plan is not None
+
+    def summary(self) -> str:
+        """One line: the witness and its arrival, or how many plans found none."""
+        if self.plan is not None:
+            return (f"solvable: {self.plan.describe()} arrives at {self.arrival_s:g} s "
+                    f"(plan {self.tried} of {self.plans})")
+        cut = f" ({self.tried} of {self.plans} tried)" if self.tried < self.plans else ""
+        return f"no witness among {self.tried} plans{cut}: not proof that no robot could"
+
+
+def route_plans(scenario: ResolvedScenario, seed: int, settings: WitnessSettings | None = None) -> list[ScriptedConfig]:
+    """The family for one episode, in the order it is tried (the route driven as is first)."""
+    from foresight.core.sim.geometry import points_in_polygons
+    from foresight.core.sim.simulator import Simulator
+
+    s = settings or WitnessSettings()
+    sim = Simulator()
+    obs = sim.reset(scenario, seed)
+    path = np.vstack([obs.robot_pose[:2], obs.route]).astype(float)  # start, the waypoints, the goal
+    seg = np.hypot(*np.diff(path, axis=0).T)
+    total = float(seg.sum())
+    v_max = float(obs.robot_limits["v_max"])
+    horizon = scenario.scenario.simulation_config.max_episode_steps * obs.dt
+    obstacles = [np.asarray(p, dtype=float) for p in scenario.map.obstacles]
+    room = obs.robot_radius + WALL_ROOM
+    waypoints = [tuple(map(float, p)) for p in obs.route[:-1]]  # the goal is the driver's last target anyway
+    direct = ScriptedConfig(via=tuple(waypoints))
+    holds: list[tuple[tuple[int, float, float, float], ScriptedConfig]] = []
+    for along in np.arange(0.0, max(total - obs.goal_tolerance, 0.0), s.spacing):
+        i = min(int(np.searchsorted(np.cumsum(seg), along, side="right")), len(seg) - 1)
+        start_i = float(np.sum(seg[:i]))
+        u = (path[i + 1] - path[i]) / max(seg[i], 1e-9)
+        on_route = path[i] + (along - start_i) * u
+        earliest = along / v_max
+        latest = horizon - (total - along) / v_max
+        releases = np.arange(math.ceil(earliest / s.release_step_s), math.floor(latest / s.release_step_s) + 1)
+        for off in s.offsets:
+            p = on_route + off * np.array([-u[1], u[0]])
+            if (np.any(points_in_polygons(p[None], obstacles)) or obs.static.distance(p[None])[0] < room
+                    or not (0 <= p[0] <= obs.static.width and 0 <= p[1] <= obs.static.height)):
+                continue
+            hold = (round(float(p[0]), 3), round(float(p[1]), 3))
+            plan = dict(via=tuple(waypoints[:i]), hold=hold, after=tuple(waypoints[i:]))
+            for k in releases.tolist():
+                holds.append(((_level(k), k, along, off), ScriptedConfig(**plan, release_s=round(k * s.release_step_s, 3))))
+    holds.sort(key=lambda h: h[0])
+    return [direct, *(plan for _, plan in holds)]
+
+
+def _level(k: int) -> int:
+    """Coarse-to-fine rank of the k-th release time: multiples of 8 first, then of 4, of 2, then the rest."""
+    return next(level for level, every in enumerate((8, 4, 2, 1)) if k % every == 0)
+
+
+_SCENARIO: dict[str, Any] = {}  #: what a forked worker reads: the scenario and seed searched, its simulator
+
+
+def _arrival(plan: ScriptedConfig) -> float | None:
+    """Run one plan (in a worker): its arrival time [s], None where it did not arrive."""
+    from foresight.core.sim.episode import run_episode
+    from foresight.core.sim.simulator import Simulator
+
+    sim = _SCENARIO.get("sim") or _SCENARIO.setdefault("sim", Simulator())
+    res = run_episode(_SCENARIO["scenario"], _SCENARIO["seed"], Scripted(plan), simulator=sim)
+    return round(res.steps * sim.dt, 3) if res.outcome == "success" else None
+
+
+def search(scenario: ResolvedScenario, seed: int, settings: WitnessSettings | None = None, workers: int = 1,
+           check: Callable[[], None] | None = None) -> Witness:
+    """Try the family in order until a plan arrives, ``max_plans`` are tried or ``max_seconds`` pass.
+
+    The answer does not depend on ``workers``: results are read in the family's order and the first arrival wins.
+    ``check`` (e.g. a job's cancel check) is called between plans."""
+    s = settings or WitnessSettings()
+    t0 = time.monotonic()
+    family = route_plans(scenario, seed, s)
+    todo = family[: s.max_plans]
+    tried, found, arrival = 0, None, None
+    _SCENARIO.clear()
+    _SCENARIO.update(scenario=scenario, seed=int(seed))
+    for plan, arrived in _runs(todo, workers):
+        tried += 1
+        if arrived is not None:
+            found, arrival = plan, arrived
+            break
+        if check is not None:
+            check()
+        if time.monotonic() - t0 > s.max_seconds:
+            break
+    return Witness(scenario=scenario.name, seed=int(seed), plans=len(family), tried=tried, plan=found,
+                   arrival_s=arrival, seconds=round(time.monotonic() - t0, 1))
+
+
+def _runs(plans: list[ScriptedConfig], workers: int) -> Iterator[tuple[ScriptedConfig, float | None]]:
+    """(plan, arrival) in the plans' order, from ``workers`` forked processes (in this one for 1); stopping early
+    ends the pool."""
+    if workers <= 1 or len(plans) < 2:
+        for plan in plans:
+            yield plan, _arrival(plan)
+        return
+    with mp.get_context("fork").Pool(min(workers, len(plans))) as pool:
+        yield from zip(plans, pool.imap(_arrival, plans, chunksize=2), strict=True)
+
+
+
+def witness_run(scenario: ResolvedScenario, seed: int, plan: ScriptedConfig) -> Any:
+    """The witness's episode, recorded as any run (``EpisodeRun``: record, trace, geometry)."""
+    from foresight.core.evaluation.episode import run_one
+    from foresight.core.evaluation.plannerspec import NO_MODEL, ResolvedPlanner
+    from foresight.core.planners.base import config_hash
+
+    config = plan.model_dump(mode="json")
+    rp = ResolvedPlanner(name="scripted", variant="witness", config=config, config_hash=config_hash(config),
+                         model_id=NO_MODEL, checkpoint_sha256=NO_MODEL)
+    return run_one(scenario, seed, rp)
+
+
+def write_player(out: Path, scenario: ResolvedScenario, witness: Witness, planner_trace: Path | None = None,
+                 planner_outcome: str | None = None) -> Path:
+    """A player page of the witness, beside the planner's own run where its compact trace is given:
+    ``out/<scenario>__<seed>.html``."""
+    from foresight.core.evaluation.episode_trace import compact_trace, episode_stem, read_compact
+    from foresight.core.render import player
+
+    if witness.plan is None:
+        raise ValueError(f"{witness.scenario} seed {witness.seed} has no witness to play")
+    panes = []
+    if planner_trace is not None and planner_trace.is_file():
+        panes.append((f"planner: {planner_outcome or 'its run'}", read_compact(planner_trace)))
+    run = witness_run(scenario, witness.seed, witness.plan)
+    panes.append((f"witness: {witness.plan.describe()}", compact_trace(run, scenario.map)))
+    title = f"{witness.scenario} seed {witness.seed}: the planner and a witness"
+    return player.write_player(out / f"{episode_stem(witness.scenario, witness.seed)}.html", panes, title,
+                               player.PAIR_NOTE)

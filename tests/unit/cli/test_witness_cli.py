@@ -1,0 +1,63 @@
+"""`foresight scenarios witness` on a real evaluation's failures: which of them a robot with these limits could
+solve, the witness watched beside the planner's run, and the witness replayed as a planner by `foresight sim run`."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from foresight.cli.main import main
+
+
+def _json(capsys) -> dict:
+    return json.loads(capsys.readouterr().out)
+
+
+def test_an_evaluations_failures_get_witnesses_and_players(reference_matrix_path: Path, tmp_path: Path, capsys) -> None:
+    matrix = str(reference_matrix_path)
+    run = tmp_path / "goal"  # (exit 2 below: the goal-seeking robot fails the evaluation's quality gate)
+    assert main(["evaluate", "--local", "--matrix", matrix, "--planner", "goal", "--scenarios", "classic_doorway_medium",
+                 "--seeds-per-scenario", "3", "--override", "ped_speed_tier=typical", "--out", str(run), "--json"]) in (0, 2)
+    capsys.readouterr()
+    outcomes = {json.loads(line)["seed"]: json.loads(line)["outcome"] for line in (run / "episodes.jsonl").open()}
+    failed = sorted(seed for seed, outcome in outcomes.items() if outcome != "success")
+    assert failed  # the goal-seeking robot walks into the stream at least once
+    players = tmp_path / "players"
+    args = ["scenarios", "witness", "--matrix", matrix, "--episodes", str(run / "episodes.jsonl"), "--max-plans", "80"]
+    assert main([*args, "--players", str(players), "--workers", "2", "--json"]) == 0
+    report = _json(capsys)
+    # the evaluation's own conditions (its evaluation.json), only its failed episodes
+    assert report["overrides"] == {"simulation_config": {"ped_speed_tier": "typical"}} and report["failed_only"]
+    assert [e["seed"] for e in report["episodes"]] == failed
+    assert [e["planner_outcome"] for e in report["episodes"]] == [outcomes[s] for s in failed]
+    witnessed = [e for e in report["episodes"] if e["plan"] is not None]
+    assert report["witnessed"] == len(witnessed) >= 1
+    first = witnessed[0]
+    page = Path(first["player"])
+    assert page == players / f"classic_doorway_medium__{first['seed']}.html"
+    html = page.read_text()
+    assert f"planner: {first['planner_outcome']}" in html and "witness: " in html and html.count("application/json") == 2
+    # the witness is a planner like any other: `foresight evaluate` replays it under the same conditions, and it arrives
+    replay = tmp_path / "replay"
+    assert main(["evaluate", "--local", "--matrix", matrix, "--planner", "scripted", "--planner-config",
+                 json.dumps(first["plan"]), "--scenarios", "classic_doorway_medium", "--seeds-per-scenario", "3",
+                 "--override", "ped_speed_tier=typical", "--out", str(replay), "--json"]) in (0, 2)
+    capsys.readouterr()
+    again = {json.loads(line)["seed"]: json.loads(line) for line in (replay / "episodes.jsonl").open()}[first["seed"]]
+    assert again["outcome"] == "success" and again["steps"] * 0.1 == pytest.approx(first["arrival_s"])
+    assert main([*args, "--override", "ped_speed_tier=typical"]) == 0  # and as text, one line per episode
+    out = capsys.readouterr().out
+    assert "witnessed solvable by a robot with these limits" in out and "arrives at" in out
+
+
+def test_bad_arguments_are_refused_in_one_line(reference_matrix_path: Path, tmp_path: Path, capsys) -> None:
+    base = ["scenarios", "witness", "--matrix", str(reference_matrix_path), "--scenarios", "classic_doorway_low"]
+    for extra, words in ((["--players", str(tmp_path)], "give its --episodes"),
+                         (["--max-plans", "0"], "expected 1 to 20000 plans"),
+                         (["--workers", "0"], "expected at least 1 worker"),
+                         (["--episodes", str(tmp_path / "none.jsonl")], "file does not exist")):
+        assert main([*base, *extra]) != 0
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and words in err[0], (extra, err)
