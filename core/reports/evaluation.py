@@ -137,6 +137,10 @@ def _failed(doc: Document, res: EvaluationResult) -> None:
     if failed:
         doc.table(["scenario", "seed", "outcome", "label"],
                   [[f.scenario, f.seed, f.outcome, f.label or "-"] for f in failed])
+        doc.text(f"Which could a robot with these limits have solved? `foresight scenarios witness --matrix {res.matrix} "
+                 "--episodes episodes.jsonl --players witnesses` (run in this folder, with the matrix's path) searches "
+                 "plans along each failed episode's route under this evaluation's conditions, and shows each witness "
+                 "beside this run.")
     else:
         doc.note("Every episode succeeded.")
 

@@ -171,7 +171,7 @@ def _run(cmd: str, scratch: Path, prelude: str = "", ok: tuple[int, ...] = (0,),
 
 
 def test_simulator_section_runs_as_written(scratch: Path, shared_dir: Path) -> None:
-    listing, check, reachable, episode, demo = commands(section_blocks("The simulator", "bash")[0].code)
+    listing, check, reachable, witness, episode, demo = commands(section_blocks("The simulator", "bash")[0].code)
     assert "crossing_low" in _run(listing, scratch)
     report = json.loads(_run(check, scratch))
     assert report["episodes"] == 256 and report["lost"] == [], report
@@ -180,6 +180,9 @@ def test_simulator_section_runs_as_written(scratch: Path, shared_dir: Path) -> N
     assert [Path(p).name for p in verdict["pictures"]] == ["reach_classic_bottleneck_high_131.png",
                                                           "reach_classic_bottleneck_high_132.png"], verdict
     assert all((scratch / p).stat().st_size > 0 for p in verdict["pictures"])
+    found = json.loads(_run(witness, scratch))  # typical speed: waiting for a gap in the door's stream solves 142
+    assert [(e["seed"], e["plan"] is not None) for e in found["episodes"]] == [(141, False), (142, True)], found
+    assert found["episodes"][1]["plan"]["hold"] and 0 < found["episodes"][1]["arrival_s"] < 50, found
     record = json.loads(_run(episode, scratch))
     assert record["scenario"] == "classic_cross_trap_high" and record["seed"] == 102, record
     assert record["outcome"] in ("success", "timeout", "collision_pedestrian", "collision_static")

@@ -66,12 +66,13 @@ def test_evaluation_report(tmp_path: Path) -> None:
     assert "| head_on_corridor_high | 5 | 60.0% [" in md and "1200, 1204" in md
     assert "| timeout_freeze | 1 |" in md and "freeze_min_s = 3.0" in md
     assert "`m-7`" in md and "FAILED" in md and "| success_rate | FAIL | 0.700 | 0.800 |" in md
+    assert "`foresight scenarios witness --matrix " in md and "--episodes episodes.jsonl --players witnesses`" in md
 
 
 def test_evaluation_without_failures_keeps_its_sections(tmp_path: Path) -> None:
     md, page = _read(write_evaluation_report(data.evaluation(failures=False), tmp_path))
     _sections(md, page, EVAL_SECTIONS)
-    assert "No failed episodes" in md and "Every episode succeeded" in md
+    assert "No failed episodes" in md and "Every episode succeeded" in md and "scenarios witness" not in md
     assert not (tmp_path / "figures" / "taxonomy_per_family.png").exists()
     assert "success 100.0%" in md and "PASSED" in md
 
