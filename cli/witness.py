@@ -28,7 +28,8 @@ def add_parser(scen: argparse._SubParsersAction) -> None:
                                       "episodes")
     w.add_argument("--players", metavar="DIR", help="each witness as a player page, beside the planner's run where "
                                                     "--episodes' folder kept its trace: DIR/<scenario>__<seed>.html")
-    w.add_argument("--max-plans", type=int, default=5000, help="plans tried at most per episode (default 5000)")
+    w.add_argument("--max-plans", type=int, help="plans tried at most per episode (default 2000; and at most two "
+                                                  "minutes an episode)")
     w.add_argument("--workers", type=int, default=1, help="processes running plans (default 1)")
     w.add_argument("--json", action="store_true")
     w.set_defaults(func=scenarios_witness)
@@ -48,7 +49,7 @@ def scenarios_witness(args: argparse.Namespace) -> int:
         raise ConfigError("--players shows the planner's run beside each witness: give its --episodes",
                           source="command line", item="--players")
     try:
-        settings = WitnessSettings(max_plans=args.max_plans)
+        settings = WitnessSettings(**({} if args.max_plans is None else {"max_plans": args.max_plans}))
     except ValueError:
         raise ConfigError(f"expected 1 to 20000 plans, got {args.max_plans}", source="command line",
                           item="--max-plans") from None

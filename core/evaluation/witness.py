@@ -41,8 +41,8 @@ class WitnessSettings(BaseModel):
     spacing: float = Field(default=1.0, ge=0.25, le=10)  #: [m] between waiting points along the route
     offsets: tuple[float, ...] = (0.0, -0.5, 0.5)  #: [m] waiting points to the route's left (+) and right (-)
     release_step_s: float = Field(default=1.0, ge=0.1, le=30)  #: [s] between release times
-    max_plans: int = Field(default=5000, ge=1, le=20_000)  #: plans tried at most per episode
-    max_seconds: float = Field(default=300.0, gt=0, le=7200)  #: wall time per episode [s]; the search stops after it
+    max_plans: int = Field(default=2000, ge=1, le=20_000)  #: plans tried at most per episode
+    max_seconds: float = Field(default=120.0, gt=0, le=7200)  #: wall time per episode [s]; the search stops after it
 
 
 class Witness(BaseModel):
