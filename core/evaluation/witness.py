@@ -9,8 +9,8 @@ So the plans run in the simulator itself, with the episode's robot and its crowd
 The family is built from the episode's route, so it serves any map: the route driven as is, then, for waiting
 points every ``spacing`` metres along it (and ``offsets`` to either side), a drive there, a stand until a release
 time (every ``release_step_s`` seconds, as late as the rest of the route still fits the horizon at full speed), and
-the rest of the route. Release times are tried coarse to fine (every 8 steps first, then the 4s, 2s and 1s between),
-so a search cut short by ``max_plans`` has spread its tries over the whole episode. The first plan in that order
+the rest of the route. Release times are tried coarse to fine (every 8th first, then the 4th, 2nd and the rest
+between), so a search cut short by ``max_plans`` has spread its tries over the whole episode. The first plan in that order
 to arrive is the witness; none among the plans tried is evidence, not proof, that no robot could.
 """
 
@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 import multiprocessing as mp
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -81,7 +81,8 @@ def route_plans(scenario: ResolvedScenario, seed: int, settings: WitnessSettings
     obs = sim.reset(scenario, seed)
     path = np.vstack([obs.robot_pose[:2], obs.route]).astype(float)  # start, the waypoints, the goal
     seg = np.hypot(*np.diff(path, axis=0).T)
-    total = float(seg.sum())
+    ends = np.cumsum(seg)  #: route length at the end of each segment
+    total = float(ends[-1])
     v_max = float(obs.robot_limits["v_max"])
     horizon = scenario.scenario.simulation_config.max_episode_steps * obs.dt
     obstacles = [np.asarray(p, dtype=float) for p in scenario.map.obstacles]
@@ -90,10 +91,9 @@ def route_plans(scenario: ResolvedScenario, seed: int, settings: WitnessSettings
     direct = ScriptedConfig(via=tuple(waypoints))
     holds: list[tuple[tuple[int, float, float, float], ScriptedConfig]] = []
     for along in np.arange(0.0, max(total - obs.goal_tolerance, 0.0), s.spacing):
-        i = min(int(np.searchsorted(np.cumsum(seg), along, side="right")), len(seg) - 1)
-        start_i = float(np.sum(seg[:i]))
+        i = min(int(np.searchsorted(ends, along, side="right")), len(seg) - 1)  # the segment holding it
         u = (path[i + 1] - path[i]) / max(seg[i], 1e-9)
-        on_route = path[i] + (along - start_i) * u
+        on_route = path[i] + (along - (ends[i] - seg[i])) * u
         earliest = along / v_max
         latest = horizon - (total - along) / v_max
         releases = np.arange(math.ceil(earliest / s.release_step_s), math.floor(latest / s.release_step_s) + 1)
@@ -128,12 +128,11 @@ def _arrival(plan: ScriptedConfig) -> float | None:
     return round(res.steps * sim.dt, 3) if res.outcome == "success" else None
 
 
-def search(scenario: ResolvedScenario, seed: int, settings: WitnessSettings | None = None, workers: int = 1,
-           check: Callable[[], None] | None = None) -> Witness:
+def search(scenario: ResolvedScenario, seed: int, settings: WitnessSettings | None = None, workers: int = 1) -> Witness:
     """Try the family in order until a plan arrives, ``max_plans`` are tried or ``max_seconds`` pass.
 
-    The answer does not depend on ``workers``: results are read in the family's order and the first arrival wins.
-    ``check`` (e.g. a job's cancel check) is called between plans."""
+    Within ``max_plans`` the answer does not depend on ``workers``: results are read in the family's order and the
+    first arrival wins (``max_seconds`` is wall time, so where it cuts depends on the machine)."""
     s = settings or WitnessSettings()
     t0 = time.monotonic()
     family = route_plans(scenario, seed, s)
@@ -146,8 +145,6 @@ def search(scenario: ResolvedScenario, seed: int, settings: WitnessSettings | No
         if arrived is not None:
             found, arrival = plan, arrived
             break
-        if check is not None:
-            check()
         if time.monotonic() - t0 > s.max_seconds:
             break
     return Witness(scenario=scenario.name, seed=int(seed), plans=len(family), tried=tried, plan=found,
@@ -163,7 +160,6 @@ def _runs(plans: list[ScriptedConfig], workers: int) -> Iterator[tuple[ScriptedC
         return
     with mp.get_context("fork").Pool(min(workers, len(plans))) as pool:
         yield from zip(plans, pool.imap(_arrival, plans, chunksize=2), strict=True)
-
 
 
 def witness_run(scenario: ResolvedScenario, seed: int, plan: ScriptedConfig) -> Any:
