@@ -42,7 +42,7 @@ def test_plugin_campaign_external_planners_and_bad_specs(tmp_path: Path) -> None
 
             # bad input: each a 422 naming what is wrong, nothing queued
             text = _refused(client, {"name": "dwa"})
-            assert "unknown planner 'dwa'" in text and "predictive, orca, social_force, goal, external" in text
+            assert "unknown planner 'dwa'" in text and "predictive, orca, social_force, goal, scripted, external" in text
             assert "toy" in text
             assert "'rm -rf /' is not configured by the operator" in _refused(
                 client, {"name": "external", "config": {"command": "rm -rf /"}})
