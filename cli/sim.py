@@ -9,7 +9,15 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from foresight.cli import stage, witness
-from foresight.cli.common import build_config, emit, local_context, matrix_ref, progress_bar
+from foresight.cli.common import (
+    build_config,
+    emit,
+    episode_options,
+    local_context,
+    matrix_options,
+    matrix_ref,
+    progress_bar,
+)
 from foresight.core.errors import ConfigError
 from foresight.core.stages.simulate import SimulateConfig, SimulateResult, run_simulate
 
@@ -26,19 +34,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     ls.set_defaults(func=scenarios_list)
     chk = scen.add_parser("check", help="episodes lost before a planner can act: a standing robot walked into "
                                         "within the first seconds (exit 1 if any)")
-    _matrix_options(chk)
+    matrix_options(chk)
     chk.add_argument("--seeds-per-scenario", type=int, help="the first N of each scenario's seeds (default: all)")
     chk.add_argument("--seconds", type=float, default=1.5, help="how long the robot stands [s] (default 1.5)")
     chk.add_argument("--json", action="store_true")
     chk.set_defaults(func=scenarios_check)
     rch = scen.add_parser("reachable", help="episodes no robot could solve: space-time reachability of the goal "
                                             "against the crowd as it walks (exact where nobody reacts to the robot)")
-    _matrix_options(rch)
-    rch.add_argument("--scenarios", help="comma-separated scenario names (default: all)")
-    rch.add_argument("--seeds-per-scenario", type=int, help="N seeds per scenario, as foresight evaluate's (default: "
-                                                            "the matrix's own)")
-    rch.add_argument("--episodes", help="an evaluation's episodes.jsonl (evaluate --local --out DIR): its success "
-                                        "on the reachable episodes")
+    episode_options(rch, "its success on the reachable episodes")
     rch.add_argument("--pictures", metavar="DIR", help="also draw each verdict: DIR/reach_<scenario>_<seed>.png (when "
                                                        "each place became reachable, the crowd, start and goal)")
     rch.add_argument("--json", action="store_true")
@@ -64,13 +67,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     demo.add_argument("--out", default="out/demo", help="folder for renders and the summary")
     demo.add_argument("--json", action="store_true")
     demo.set_defaults(func=demo_run)
-
-
-def _matrix_options(p: argparse.ArgumentParser) -> None:
-    """--matrix and --override of the commands that look at a matrix's episodes under chosen conditions."""
-    p.add_argument("--matrix", required=True, help="scenario matrix YAML")
-    p.add_argument("--override", action="append", metavar="KEY=VALUE",
-                   help="under other conditions, as foresight evaluate --override (repeatable)")
 
 
 def scenarios_list(args: argparse.Namespace) -> int:

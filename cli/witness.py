@@ -8,6 +8,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from foresight.cli.common import episode_options
 from foresight.core.errors import ConfigError
 
 MAX_SEARCHES = 2_000  #: episodes one command may search (each up to ``max_plans`` plans)
@@ -17,15 +18,8 @@ def add_parser(scen: argparse._SubParsersAction) -> None:
     w = scen.add_parser("witness", help="episodes a robot with these limits can solve: a scripted plan along the route "
                                         "(or a wait at a point of it until a release time) that arrives without "
                                         "contact, run with the crowd reacting to it")
-    w.add_argument("--matrix", required=True, help="scenario matrix YAML")
-    w.add_argument("--override", action="append", metavar="KEY=VALUE",
-                   help="under other conditions, as foresight evaluate --override (repeatable; default with --episodes: "
-                        "the evaluation's own, from its evaluation.json)")
-    w.add_argument("--scenarios", help="comma-separated scenario names (default: all)")
-    w.add_argument("--seeds-per-scenario", type=int, help="N seeds per scenario, as foresight evaluate's (default: the "
-                                                          "matrix's own; with --episodes: the evaluation's)")
-    w.add_argument("--episodes", help="an evaluation's episodes.jsonl (evaluate --local --out DIR): only its failed "
-                                      "episodes")
+    episode_options(w, "only its failed episodes, under its own conditions",
+                    conditions="; default with --episodes: the evaluation's own, from its evaluation.json")
     w.add_argument("--players", metavar="DIR", help="each witness as a player page, beside the planner's run where "
                                                     "--episodes' folder kept its trace: DIR/<scenario>__<seed>.html")
     w.add_argument("--max-plans", type=int, help="plans tried at most per episode (default 2000; and at most two "
