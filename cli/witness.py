@@ -88,9 +88,14 @@ def _evaluation_conditions(episodes: str | None) -> dict[str, Any]:
     path = Path(episodes).parent / "evaluation.json"
     if not path.is_file():
         return {}
+    from pydantic import ValidationError
+
+    from foresight.core.evaluation.config import EvaluationConfig
+    from foresight.core.evaluation.runner import EvaluationResult
+
     try:
-        return json.loads(path.read_text())["config"].get("scenario_overrides") or {}
-    except (json.JSONDecodeError, KeyError, TypeError, AttributeError):
+        return EvaluationConfig.model_validate(EvaluationResult.model_validate_json(path.read_text()).config).scenario_overrides
+    except (ValidationError, ValueError, ConfigError):
         raise ConfigError("expected an evaluation's result with its config", source=path) from None
 
 
