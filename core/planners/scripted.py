@@ -24,17 +24,18 @@ from foresight.core.sim.observation import Observation
 Point = tuple[float, float]
 REACHED = 0.6  #: a target point counts as reached this close [m]
 TURN_GAIN = 3.0  #: turn rate per radian of heading error [1/s], clipped to the robot's limit
+MAX_POINTS = 1000  #: points a plan may name before and after its stand (a config is a bounded job input)
 
 
 class ScriptedConfig(BaseModel):
     """The plan: ``via`` points in turn, then ``hold`` (stand there until ``release_s``), then ``after``, then the goal."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
-    via: tuple[Point, ...] = ()  #: [m] points driven through first
+    via: tuple[Point, ...] = Field(default=(), max_length=MAX_POINTS)  #: [m] points driven through first
     hold: Point | None = None  #: [m] where to stand until the release time (None: no stand)
     release_s: float = Field(default=0.0, ge=0)  #: [s] episode time at which the stand ends
-    after: tuple[Point, ...] = ()  #: [m] points driven through after the stand
+    after: tuple[Point, ...] = Field(default=(), max_length=MAX_POINTS)  #: [m] points driven through after the stand
 
     def describe(self) -> str:
         """One line, e.g. ``via (30.00, 16.00); wait at (24.50, 14.80) until 21 s; then (18.70, 12.46)``."""

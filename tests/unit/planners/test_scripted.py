@@ -52,3 +52,9 @@ def test_it_is_a_registered_planner_and_says_what_it_does() -> None:
     with pytest.raises(ConfigError) as late:
         make_planner("scripted", {"release_s": -1})
     assert late.value.item == "scripted.release_s"
+    with pytest.raises(ConfigError) as nan:
+        make_planner("scripted", {"hold": [float("nan"), 1.0]})
+    assert nan.value.item.startswith("scripted.hold")
+    with pytest.raises(ConfigError) as many:
+        make_planner("scripted", {"via": [[0.0, 0.0]] * 1001})
+    assert many.value.item == "scripted.via"
