@@ -24,6 +24,8 @@ def add_parser(scen: argparse._SubParsersAction) -> None:
                                                     "--episodes' folder kept its trace: DIR/<scenario>__<seed>.html")
     w.add_argument("--max-plans", type=int, help="plans tried at most per episode (default 2000; and at most two "
                                                   "minutes an episode)")
+    w.add_argument("--min-clearance", type=float, default=0.0, metavar="M",
+                   help="room [m] a witness keeps from every pedestrian (default 0: any plan without contact)")
     w.add_argument("--workers", type=int, default=1, help="processes running plans (default 1)")
     w.add_argument("--json", action="store_true")
     w.set_defaults(func=scenarios_witness)
@@ -42,8 +44,11 @@ def scenarios_witness(args: argparse.Namespace) -> int:
     if args.players and not args.episodes:
         raise ConfigError("--players shows the planner's run beside each witness: give its --episodes",
                           source="command line", item="--players")
+    if not 0 <= args.min_clearance <= 2:  # also refuses nan
+        raise ConfigError(f"expected 0 to 2 m, got {args.min_clearance}", source="command line", item="--min-clearance")
     try:
-        settings = WitnessSettings(**({} if args.max_plans is None else {"max_plans": args.max_plans}))
+        settings = WitnessSettings(min_clearance=args.min_clearance,
+                                   **({} if args.max_plans is None else {"max_plans": args.max_plans}))
     except ValueError:
         raise ConfigError(f"expected 1 to 20000 plans, got {args.max_plans}", source="command line",
                           item="--max-plans") from None
@@ -101,7 +106,9 @@ def _evaluation_conditions(episodes: str | None) -> dict[str, Any]:
 
 def _text(r: dict[str, Any]) -> str:
     what = "failed episodes" if r["failed_only"] else "episodes"
-    lines = [f"{r['witnessed']} of {r['searched']} {what} witnessed solvable by a robot with these limits"
+    room = r["settings"]["min_clearance"]
+    keeping = f", keeping {room:g} m from every pedestrian" if room else ""
+    lines = [f"{r['witnessed']} of {r['searched']} {what} witnessed solvable by a robot with these limits{keeping}"
              + (f" (conditions: {json.dumps(r['overrides'])})" if r["overrides"] else "")]
     for e in r["episodes"]:
         outcome = f" ({e['planner_outcome']})" if "planner_outcome" in e else ""

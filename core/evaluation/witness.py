@@ -12,6 +12,13 @@ time (every ``release_step_s`` seconds, as late as the rest of the route still f
 the rest of the route. Release times are tried coarse to fine (every 8th first, then the 4th, 2nd and the rest
 between), so a search cut short by ``max_plans`` has spread its tries over the whole episode. The first plan in that order
 to arrive is the witness; none among the plans tried is evidence, not proof, that no robot could.
+
+How close a witness passes matters as much as that it arrives: a plan that slips past a walker with 2 cm to spare
+proves the episode solvable only for a robot that drives with no margin at all, which no planner that is safe
+among people would do (``doorway_medium`` 147 at typical speed: the witness passes within 0.02 m while the
+forecast said 0.03-0.12 m). So each witness reports its closest approach to a pedestrian (``clearance_m``), and
+``min_clearance`` asks for witnesses that keep that much room: a planner is answerable for the failures solvable
+with the margin it is meant to keep.
 """
 
 from __future__ import annotations
@@ -43,6 +50,8 @@ class WitnessSettings(BaseModel):
     release_step_s: float = Field(default=1.0, ge=0.1, le=30)  #: [s] between release times
     max_plans: int = Field(default=2000, ge=1, le=20_000)  #: plans tried at most per episode
     max_seconds: float = Field(default=120.0, gt=0, le=7200)  #: wall time per episode [s]; the search stops after it
+    #: [m] room a witness keeps from every pedestrian at every step (0: any plan that arrives without contact)
+    min_clearance: float = Field(default=0.0, ge=0, le=2)
 
 
 class Witness(BaseModel):
@@ -56,6 +65,8 @@ class Witness(BaseModel):
     tried: int  #: plans run (all of them, or up to the first witness, ``max_plans`` or ``max_seconds``)
     plan: ScriptedConfig | None = None  #: the witness, None where none was found
     arrival_s: float | None = None  #: when the witness reaches the goal [s]
+    clearance_m: float | None = None  #: the witness's closest approach to a pedestrian [m] (None: none on the map)
+    wall_clearance_m: float | None = None  #: its closest approach to a wall, an obstacle or the map's edge [m]
     seconds: float  #: wall time of the search [s]
 
     @property
@@ -65,7 +76,10 @@ class Witness(BaseModel):
     def summary(self) -> str:
         """One line: the witness and its arrival, or how many plans found none."""
         if self.plan is not None:
-            return (f"solvable: {self.plan.describe()} arrives at {self.arrival_s:g} s "
+            room = "" if self.clearance_m is None else f", {self.clearance_m:.2f} m from the closest pedestrian"
+            if self.wall_clearance_m is not None:
+                room += f" and {self.wall_clearance_m:.2f} m from the closest wall"
+            return (f"solvable: {self.plan.describe()} arrives at {self.arrival_s:g} s{room} "
                     f"(plan {self.tried} of {self.plans})")
         cut = f" ({self.tried} of {self.plans} tried)" if self.tried < self.plans else ""
         return f"no witness among {self.tried} plans{cut}: not proof that no robot could"
@@ -118,14 +132,19 @@ def _level(k: int) -> int:
 _SCENARIO: dict[str, Any] = {}  #: what a forked worker reads: the scenario and seed searched, its simulator
 
 
-def _arrival(plan: ScriptedConfig) -> float | None:
-    """Run one plan (in a worker): its arrival time [s], None where it did not arrive."""
+def _arrival(plan: ScriptedConfig) -> tuple[float, float | None, float] | None:
+    """Run one plan (in a worker): its arrival time [s] and closest approaches to a pedestrian and to a wall [m], None
+    where it did not arrive or came closer to a pedestrian than the search's ``min_clearance``."""
     from foresight.core.sim.episode import run_episode
     from foresight.core.sim.simulator import Simulator
 
     sim = _SCENARIO.get("sim") or _SCENARIO.setdefault("sim", Simulator())
     res = run_episode(_SCENARIO["scenario"], _SCENARIO["seed"], Scripted(plan), simulator=sim)
-    return round(res.steps * sim.dt, 3) if res.outcome == "success" else None
+    room = res.min_clearance
+    if res.outcome != "success" or (room is not None and room < _SCENARIO["min_clearance"]):
+        return None
+    wall = float(np.min(sim.static.distance(res.trace.robot[:, :2]))) - sim.limits.radius
+    return round(res.steps * sim.dt, 3), None if room is None else round(room, 3), round(wall, 3)
 
 
 def search(scenario: ResolvedScenario, seed: int, settings: WitnessSettings | None = None, workers: int = 1) -> Witness:
@@ -137,21 +156,22 @@ def search(scenario: ResolvedScenario, seed: int, settings: WitnessSettings | No
     t0 = time.monotonic()
     family = route_plans(scenario, seed, s)
     todo = family[: s.max_plans]
-    tried, found, arrival = 0, None, None
+    tried, found, arrival, room, wall = 0, None, None, None, None
     _SCENARIO.clear()
-    _SCENARIO.update(scenario=scenario, seed=int(seed))
+    _SCENARIO.update(scenario=scenario, seed=int(seed), min_clearance=s.min_clearance)
     for plan, arrived in _runs(todo, workers):
         tried += 1
         if arrived is not None:
-            found, arrival = plan, arrived
+            found, (arrival, room, wall) = plan, arrived
             break
         if time.monotonic() - t0 > s.max_seconds:
             break
     return Witness(scenario=scenario.name, seed=int(seed), plans=len(family), tried=tried, plan=found,
-                   arrival_s=arrival, seconds=round(time.monotonic() - t0, 1))
+                   arrival_s=arrival, clearance_m=room, wall_clearance_m=wall,
+                   seconds=round(time.monotonic() - t0, 1))
 
 
-def _runs(plans: list[ScriptedConfig], workers: int) -> Iterator[tuple[ScriptedConfig, float | None]]:
+def _runs(plans: list[ScriptedConfig], workers: int) -> Iterator[tuple[ScriptedConfig, tuple | None]]:
     """(plan, arrival) in the plans' order, from ``workers`` forked processes (in this one for 1); stopping early
     ends the pool."""
     if workers <= 1 or len(plans) < 2:

@@ -47,9 +47,10 @@ def test_an_evaluations_failures_get_witnesses_and_players(reference_matrix_path
     capsys.readouterr()
     again = {json.loads(line)["seed"]: json.loads(line) for line in (replay / "episodes.jsonl").open()}[first["seed"]]
     assert again["outcome"] == "success" and again["steps"] * 0.1 == pytest.approx(first["arrival_s"])
-    assert main([*args, "--override", "ped_speed_tier=typical"]) == 0  # and as text, one line per episode
+    assert main([*args, "--override", "ped_speed_tier=typical", "--min-clearance", "0.2"]) == 0  # as text, with room
     out = capsys.readouterr().out
-    assert "witnessed solvable by a robot with these limits" in out and "arrives at" in out
+    assert "witnessed solvable by a robot with these limits, keeping 0.2 m from every pedestrian" in out
+    assert "arrives at" in out and "m from the closest pedestrian" in out
 
 
 def test_bad_arguments_are_refused_in_one_line(reference_matrix_path: Path, tmp_path: Path, capsys) -> None:
@@ -57,6 +58,7 @@ def test_bad_arguments_are_refused_in_one_line(reference_matrix_path: Path, tmp_
     for extra, words in ((["--players", str(tmp_path)], "give its --episodes"),
                          (["--max-plans", "0"], "expected 1 to 20000 plans"),
                          (["--workers", "0"], "expected at least 1 worker"),
+                         (["--min-clearance", "nan"], "expected 0 to 2 m"),
                          (["--episodes", str(tmp_path / "none.jsonl")], "file does not exist")):
         assert main([*base, *extra]) != 0
         err = capsys.readouterr().err.strip().splitlines()

@@ -60,6 +60,21 @@ def test_a_wait_solves_the_doorway_that_driving_straight_through_loses(matrix) -
     assert "arrives at" in found.summary() and f"plan {found.tried} of {found.plans}" in found.summary()
 
 
+def test_a_witness_reports_how_close_it_passes_and_a_margin_asks_for_room(matrix) -> None:
+    scenario = matrix.get("classic_doorway_medium")
+    tight = search(scenario, 147, WitnessSettings(max_plans=50))
+    # the first witness slips past a walker: its closest approach, as the replayed run records it independently
+    run = witness_run(scenario, 147, tight.plan)
+    assert tight.clearance_m == pytest.approx(run.record.safety.min_clearance, abs=1e-3)
+    assert 0 <= tight.clearance_m < 0.1 and f"{tight.clearance_m:.2f} m from the closest pedestrian" in tight.summary()
+    assert tight.wall_clearance_m is not None and 0 <= tight.wall_clearance_m < 1
+    roomy = search(scenario, 147, WitnessSettings(max_plans=50, min_clearance=0.3))
+    assert roomy.found and roomy.plan != tight.plan and roomy.tried > tight.tried
+    replay = witness_run(scenario, 147, roomy.plan)
+    assert replay.record.outcome == "success" and replay.record.safety.min_clearance >= 0.3
+    assert roomy.clearance_m == pytest.approx(replay.record.safety.min_clearance, abs=1e-3)
+
+
 def test_a_search_cut_short_says_so_and_proves_nothing(matrix) -> None:
     scenario = matrix.get("classic_doorway_high")
     cut = search(scenario, 141, WitnessSettings(max_plans=12))
