@@ -26,6 +26,12 @@ def add_parser(scen: argparse._SubParsersAction) -> None:
                                                   "minutes an episode)")
     w.add_argument("--min-clearance", type=float, default=0.0, metavar="M",
                    help="room [m] a witness keeps from every pedestrian (default 0: any plan without contact)")
+    w.add_argument("--min-wall-clearance", type=float, default=0.0, metavar="M",
+                   help="room [m] a witness keeps from every wall, obstacle and the map's edge (default 0)")
+    w.add_argument("--price", action="store_true",
+                   help="replay each witness with the planner riding along (the evaluation's, else the predictive "
+                        "planner with the default model) and say where its own cost would have left the witness's "
+                        "course, and for which terms")
     w.add_argument("--workers", type=int, default=1, help="processes running plans (default 1)")
     w.add_argument("--json", action="store_true")
     w.set_defaults(func=scenarios_witness)
@@ -44,10 +50,11 @@ def scenarios_witness(args: argparse.Namespace) -> int:
     if args.players and not args.episodes:
         raise ConfigError("--players shows the planner's run beside each witness: give its --episodes",
                           source="command line", item="--players")
-    if not 0 <= args.min_clearance <= 2:  # also refuses nan
-        raise ConfigError(f"expected 0 to 2 m, got {args.min_clearance}", source="command line", item="--min-clearance")
+    for flag, value in (("--min-clearance", args.min_clearance), ("--min-wall-clearance", args.min_wall_clearance)):
+        if not 0 <= value <= 2:  # also refuses nan
+            raise ConfigError(f"expected 0 to 2 m, got {value}", source="command line", item=flag)
     try:
-        settings = WitnessSettings(min_clearance=args.min_clearance,
+        settings = WitnessSettings(min_clearance=args.min_clearance, min_wall_clearance=args.min_wall_clearance,
                                    **({} if args.max_plans is None else {"max_plans": args.max_plans}))
     except ValueError:
         raise ConfigError(f"expected 1 to 20000 plans, got {args.max_plans}", source="command line",
@@ -65,6 +72,7 @@ def scenarios_witness(args: argparse.Namespace) -> int:
     if len(episodes) > MAX_SEARCHES:
         raise ConfigError(f"{len(episodes)} episodes to search, over the {MAX_SEARCHES} one command may take: fewer "
                           "scenarios or seeds", source="command line", item="--scenarios")
+    pricer = _pricing_planner(args.episodes) if args.price else None
     players = Path(args.players) if args.players else None
     traces = Path(args.episodes).parent if args.episodes else None
     rows: list[dict[str, Any]] = []
@@ -75,6 +83,11 @@ def scenarios_witness(args: argparse.Namespace) -> int:
             row: dict[str, Any] = {**w.model_dump(mode="json"), "summary": w.summary()}
             if outcomes is not None:
                 row["planner_outcome"] = outcomes[s.name, seed]
+            if pricer is not None and w.found:
+                from foresight.core.evaluation.witness_cost import price_witness
+
+                cost = price_witness(s, int(seed), w.plan, pricer)
+                row["priced"] = {**cost.model_dump(mode="json"), "summary": cost.summary()}
             if players is not None and w.found:
                 row["player"] = str(write_player(players, s, w, traces / trace_name(s.name, seed), row["planner_outcome"]))
             rows.append(row)
@@ -86,33 +99,57 @@ def scenarios_witness(args: argparse.Namespace) -> int:
     return 0
 
 
-def _evaluation_conditions(episodes: str | None) -> dict[str, Any]:
-    """The scenario overrides an evaluation ran under (its evaluation.json beside episodes.jsonl), {} for none."""
-    if not episodes:
-        return {}
-    path = Path(episodes).parent / "evaluation.json"
-    if not path.is_file():
-        return {}
+def _pricing_planner(episodes: str | None) -> Any:
+    """The planner that prices the witnesses: the evaluation's own (its evaluation.json), else the predictive planner
+    with the shipped default model."""
+    from foresight.cli.evaluate import ModelArgs
+    from foresight.core.evaluation.plannerspec import resolve_planner
+    from foresight.core.stages.context import StageContext
+
+    models = ModelArgs()
+    spec: dict[str, Any] = {"name": "predictive", "model": models.default()}
+    if episodes and (Path(episodes).parent / "evaluation.json").is_file():
+        spec = _evaluation(episodes)[1].planner.model_dump(mode="json")
+    if spec.get("name") != "predictive":
+        raise ConfigError(f"--price rides the predictive planner along; the evaluation ran {spec.get('name')!r}",
+                          source="command line", item="--price")
+    return resolve_planner(spec, StageContext(workdir=Path("."), resolve_model=models.resolve))
+
+
+def _evaluation(episodes: str) -> tuple[Path, Any]:
+    """The evaluation.json beside ``episodes`` and its typed config."""
     from pydantic import ValidationError
 
     from foresight.core.evaluation.config import EvaluationConfig
     from foresight.core.evaluation.runner import EvaluationResult
 
+    path = Path(episodes).parent / "evaluation.json"
     try:
-        return EvaluationConfig.model_validate(EvaluationResult.model_validate_json(path.read_text()).config).scenario_overrides
+        return path, EvaluationConfig.model_validate(EvaluationResult.model_validate_json(path.read_text()).config)
     except (ValidationError, ValueError, ConfigError):
         raise ConfigError("expected an evaluation's result with its config", source=path) from None
 
 
+def _evaluation_conditions(episodes: str | None) -> dict[str, Any]:
+    """The scenario overrides an evaluation ran under (its evaluation.json beside episodes.jsonl), {} for none."""
+    if not episodes:
+        return {}
+    if not (Path(episodes).parent / "evaluation.json").is_file():
+        return {}
+    return _evaluation(episodes)[1].scenario_overrides
+
+
 def _text(r: dict[str, Any]) -> str:
     what = "failed episodes" if r["failed_only"] else "episodes"
-    room = r["settings"]["min_clearance"]
-    keeping = f", keeping {room:g} m from every pedestrian" if room else ""
+    room, wall = r["settings"]["min_clearance"], r["settings"]["min_wall_clearance"]
+    keeping = (f", keeping {room:g} m from every pedestrian" if room else "") + (f", {wall:g} m from the walls" if wall else "")
     lines = [f"{r['witnessed']} of {r['searched']} {what} witnessed solvable by a robot with these limits{keeping}"
              + (f" (conditions: {json.dumps(r['overrides'])})" if r["overrides"] else "")]
     for e in r["episodes"]:
         outcome = f" ({e['planner_outcome']})" if "planner_outcome" in e else ""
         lines.append(f"  {e['scenario']} seed {e['seed']}{outcome}: {e['summary']}")
+        if "priced" in e:
+            lines.append(f"    priced: {e['priced']['summary']}")
         if "player" in e:
             lines.append(f"    watch: {e['player']}")
     return "\n".join(lines)

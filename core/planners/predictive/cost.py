@@ -20,7 +20,7 @@ from functools import cached_property
 
 import numpy as np
 
-from foresight.core.planners.predictive.config import PredictivePlannerConfig
+from foresight.core.planners.predictive.config import PredictivePlannerConfig, WeightsConfig
 from foresight.core.sim.geometry import SegmentSet, grid_distance, grid_interpolate
 from foresight.core.sim.observation import StaticGeometry
 from foresight.core.sim.robot import wrap_angle
@@ -352,7 +352,13 @@ def evaluate(roll: Rollouts, scene: Scene, cfg: PredictivePlannerConfig) -> tupl
                      if scene.traffic is not None else np.zeros(len(pos)))
     if gone is not None:
         terms["lane"] = np.where(arrival < K, 0.0, terms["lane"])  # nobody waits in a lane after arriving
-    total = -wt.goal * terms["progress"]
+    parts = weighted(terms, wt)
+    total = parts["progress"]
     for name in TERMS[1:]:
-        total += getattr(wt, name) * terms[name]
+        total += parts[name]
     return total, terms
+
+
+def weighted(terms: dict[str, np.ndarray], wt: WeightsConfig) -> dict[str, np.ndarray]:
+    """Each term's share of the total cost: its weight times it (progress counted negatively, at the goal weight)."""
+    return {name: (-wt.goal if name == "progress" else getattr(wt, name)) * terms[name] for name in TERMS}

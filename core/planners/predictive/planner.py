@@ -83,6 +83,7 @@ class PredictivePlanner:
         self._prev = np.zeros(2)
         self._plan: tuple[np.ndarray, np.ndarray] | None = None  #: the last decision's commands (S, 2), states (S, 5)
         self._traffic: TrafficMap | None = None
+        self._decided: tuple[np.ndarray, C.Scene, float] | None = None  #: the last decision's state, scene and dt
         self._diag = None
 
     @property
@@ -97,6 +98,7 @@ class PredictivePlanner:
         fc = self.forecaster.forecast()
         scene, near, extra = self._scene(obs, fc.positions, fc.sigma, fc.times, fc.ped_ids)
         best_cmds, best_terms, best_total, n_eval, kept = self._search(obs, scene, near)
+        self._decided = (np.concatenate([obs.robot_pose, obs.robot_velocity]).astype(float), scene, obs.dt)
         v, w = float(best_cmds[0, 0]), float(best_cmds[0, 1])
         self._prev = np.array([v, w])
         self._diag = {
@@ -125,6 +127,19 @@ class PredictivePlanner:
         state0 = np.concatenate([obs.robot_pose, obs.robot_velocity]).astype(float)
         states = rollout(np.repeat(state0[None], len(cmds), axis=0), cmds, self._limits, obs.dt)
         return C.evaluate(C.Rollouts(states, idx, cmds), scene, self.config)
+
+    def price(self, commands: np.ndarray) -> tuple[float, dict[str, float]]:
+        """Cost and each term's weighted share (``cost.weighted``) of a command sequence (n, 2) from the last decision's
+        state, judged against that decision's forecast: what this planner made of a course it did not choose (a
+        witness's). Commands beyond the horizon are dropped; a shorter sequence is held at its last command."""
+        if self._decided is None:
+            raise RuntimeError("PredictivePlanner.price() called before plan(obs)")
+        state0, scene, dt = self._decided
+        idx, S, _ = self._steps(scene.times, dt)
+        cmds = np.asarray(commands, dtype=float).reshape(-1, 2)[:S]
+        cmds = np.concatenate([cmds, np.repeat(cmds[-1:], S - len(cmds), axis=0)])[None]
+        total, terms = C.evaluate(C.Rollouts(rollout(state0[None], cmds, self._limits, dt), idx, cmds), scene, self.config)
+        return float(total[0]), {k: float(v[0]) for k, v in C.weighted(terms, self.config.weights).items()}
 
     # -- decision pieces -------------------------------------------------------------------------
     def _scene(self, obs: Observation, positions: np.ndarray, sigma: np.ndarray,

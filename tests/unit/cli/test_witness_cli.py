@@ -47,10 +47,27 @@ def test_an_evaluations_failures_get_witnesses_and_players(reference_matrix_path
     capsys.readouterr()
     again = {json.loads(line)["seed"]: json.loads(line) for line in (replay / "episodes.jsonl").open()}[first["seed"]]
     assert again["outcome"] == "success" and again["steps"] * 0.1 == pytest.approx(first["arrival_s"])
+    assert main([*args, "--price"]) != 0  # only the predictive planner rides along, not this evaluation's goal robot
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--price rides the predictive planner along; the evaluation ran 'goal'" in err[0]
     assert main([*args, "--override", "ped_speed_tier=typical", "--min-clearance", "0.2"]) == 0  # as text, with room
     out = capsys.readouterr().out
     assert "witnessed solvable by a robot with these limits, keeping 0.2 m from every pedestrian" in out
     assert "arrives at" in out and "m from the closest pedestrian" in out
+
+
+def test_the_predictive_planner_prices_each_witness(reference_matrix_path: Path, capsys) -> None:
+    args = ["scenarios", "witness", "--matrix", str(reference_matrix_path), "--scenarios", "classic_head_on_corridor_low",
+            "--seeds-per-scenario", "1", "--override", "ped_speed_tier=typical", "--max-plans", "5", "--price"]
+    assert main([*args, "--json"]) == 0
+    (row,) = _json(capsys)["episodes"]
+    assert row["plan"] is not None and row["clearance_m"] < 0.3  # the route as is passes the walkers close
+    priced = row["priced"]
+    assert priced["planner"].startswith("predictive ") and priced["decisions"]
+    assert any(d["witness_cost"] > d["chosen_cost"] and "collision" in d["dearer"] for d in priced["decisions"])
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert "    priced: the planner's own cost would have left the witness's course while it drives, at " in out
 
 
 def test_bad_arguments_are_refused_in_one_line(reference_matrix_path: Path, tmp_path: Path, capsys) -> None:
@@ -59,6 +76,7 @@ def test_bad_arguments_are_refused_in_one_line(reference_matrix_path: Path, tmp_
                          (["--max-plans", "0"], "expected 1 to 20000 plans"),
                          (["--workers", "0"], "expected at least 1 worker"),
                          (["--min-clearance", "nan"], "expected 0 to 2 m"),
+                         (["--min-wall-clearance", "-1"], "expected 0 to 2 m"),
                          (["--episodes", str(tmp_path / "none.jsonl")], "file does not exist")):
         assert main([*base, *extra]) != 0
         err = capsys.readouterr().err.strip().splitlines()

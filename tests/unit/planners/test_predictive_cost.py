@@ -258,3 +258,19 @@ def test_what_a_rollout_meets_after_arriving_costs_nothing():
     assert ends["collision"][0] == 0 and ends["static_collision"][0] == 0 and ends["hard_clearance"][0] == 0
     short = _planner(m).score_commands(obs, np.array([[0.0, 0.0]]))[1]  # short of the goal it is still there
     assert short["progress"][0] < ends["progress"][0]
+
+
+def test_price_of_the_chosen_course_is_its_cost_and_a_course_into_a_walker_costs_more():
+    """``price``: a course the planner did not choose, judged against the decision's own forecast (a witness's)."""
+    m = corridor_map()
+    p = _planner(m)
+    with pytest.raises(RuntimeError, match="before plan"):
+        p.price(np.array([[1.0, 0.0]]))
+    p.plan(observation(m, peds=[(9.0, 10.0)], ped_vels=[(-1.0, 0.0)]))
+    diag = p.diagnostics
+    chosen = np.concatenate([np.repeat([[v, w]], n, axis=0) for n, v, w in diag["sequence"]])
+    cost, parts = p.price(chosen)
+    assert cost == pytest.approx(diag["cost"], abs=1e-9)  # the same cost, recomputed from the commands alone
+    assert sum(parts.values()) == pytest.approx(cost) and parts["progress"] <= 0  # weighted shares of it
+    head_on, into = p.price(np.array([[2.0, 0.0]]))  # held: straight at the walker coming down the corridor
+    assert head_on > cost and into["collision"] > parts["collision"]
