@@ -26,8 +26,6 @@ def add_parser(scen: argparse._SubParsersAction) -> None:
                                                   "minutes an episode)")
     w.add_argument("--min-clearance", type=float, default=0.0, metavar="M",
                    help="room [m] a witness keeps from every pedestrian (default 0: any plan without contact)")
-    w.add_argument("--min-wall-clearance", type=float, default=0.0, metavar="M",
-                   help="room [m] a witness keeps from every wall, obstacle and the map's edge (default 0)")
     w.add_argument("--price", action="store_true",
                    help="replay each witness with the planner riding along (the evaluation's, else the predictive "
                         "planner with the default model) and say where its own cost would have left the witness's "
@@ -50,11 +48,10 @@ def scenarios_witness(args: argparse.Namespace) -> int:
     if args.players and not args.episodes:
         raise ConfigError("--players shows the planner's run beside each witness: give its --episodes",
                           source="command line", item="--players")
-    for flag, value in (("--min-clearance", args.min_clearance), ("--min-wall-clearance", args.min_wall_clearance)):
-        if not 0 <= value <= 2:  # also refuses nan
-            raise ConfigError(f"expected 0 to 2 m, got {value}", source="command line", item=flag)
+    if not 0 <= args.min_clearance <= 2:  # also refuses nan
+        raise ConfigError(f"expected 0 to 2 m, got {args.min_clearance}", source="command line", item="--min-clearance")
     try:
-        settings = WitnessSettings(min_clearance=args.min_clearance, min_wall_clearance=args.min_wall_clearance,
+        settings = WitnessSettings(min_clearance=args.min_clearance,
                                    **({} if args.max_plans is None else {"max_plans": args.max_plans}))
     except ValueError:
         raise ConfigError(f"expected 1 to 20000 plans, got {args.max_plans}", source="command line",
@@ -141,8 +138,8 @@ def _evaluation_conditions(episodes: str | None) -> dict[str, Any]:
 
 def _text(r: dict[str, Any]) -> str:
     what = "failed episodes" if r["failed_only"] else "episodes"
-    room, wall = r["settings"]["min_clearance"], r["settings"]["min_wall_clearance"]
-    keeping = (f", keeping {room:g} m from every pedestrian" if room else "") + (f", {wall:g} m from the walls" if wall else "")
+    room = r["settings"]["min_clearance"]
+    keeping = f", keeping {room:g} m from every pedestrian" if room else ""
     lines = [f"{r['witnessed']} of {r['searched']} {what} witnessed solvable by a robot with these limits{keeping}"
              + (f" (conditions: {json.dumps(r['overrides'])})" if r["overrides"] else "")]
     for e in r["episodes"]:

@@ -76,7 +76,6 @@ def test_bad_arguments_are_refused_in_one_line(reference_matrix_path: Path, tmp_
                          (["--max-plans", "0"], "expected 1 to 20000 plans"),
                          (["--workers", "0"], "expected at least 1 worker"),
                          (["--min-clearance", "nan"], "expected 0 to 2 m"),
-                         (["--min-wall-clearance", "-1"], "expected 0 to 2 m"),
                          (["--episodes", str(tmp_path / "none.jsonl")], "file does not exist")):
         assert main([*base, *extra]) != 0
         err = capsys.readouterr().err.strip().splitlines()

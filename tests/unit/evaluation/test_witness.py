@@ -73,9 +73,6 @@ def test_a_witness_reports_how_close_it_passes_and_a_margin_asks_for_room(matrix
     replay = witness_run(scenario, 147, roomy.plan)
     assert replay.record.outcome == "success" and replay.record.safety.min_clearance >= 0.3
     assert roomy.clearance_m == pytest.approx(replay.record.safety.min_clearance, abs=1e-3)
-    # room from the walls is asked for apart: the tight witness scrapes the door's post, so it is no longer one
-    walled = search(scenario, 147, WitnessSettings(max_plans=12, min_wall_clearance=tight.wall_clearance_m + 0.01))
-    assert walled.plan != tight.plan and (not walled.found or walled.wall_clearance_m > tight.wall_clearance_m)
 
 
 def test_a_search_cut_short_says_so_and_proves_nothing(matrix) -> None:
