@@ -54,9 +54,13 @@ def _matrix(path: Path, overrides: dict[str, Any] | None = None) -> Any:
 
 
 def admit(spec: Any, settings: Settings, resolver: Resolver) -> None:
-    """NotFoundError (404) for an unknown bundle, matrix, scenario, model or dataset; ConfigError (422) for a model
+    """NotFoundError (404) for an unknown bundle, matrix, scenario, model, dataset or evaluation; ConfigError (422) for a model
     a planner cannot drive (trained in another frame) or a job larger than ``settings.max_job_steps`` simulation steps."""
+    from foresight.core.evaluation.witness_job import WitnessConfig
+
     ctx = context(settings, resolver)
     for what, ident in named_ids(spec):
         (resolver.planner_model if what == "model" else resolver.dataset)(ident)
+    if isinstance(spec, WitnessConfig) and spec.evaluation is not None:
+        resolver.run(spec.evaluation)  # an evaluation that keeps its run folder (its episodes and traces)
     check_budget(work_size(spec, ctx, _matrix), settings.max_job_steps)

@@ -216,7 +216,17 @@ class Resolver:
 
     def __init__(self, settings: Settings, engine: Engine):
         self.settings = settings
+        self.engine = engine
         self.sessions = session_factory(engine)
+
+    def run(self, ident: str) -> Path:
+        """An evaluation id -> its run folder (``results.run_folder``); NotFoundError where it keeps none."""
+        from foresight.store.results import run_folder
+
+        found = run_folder(self.engine, self.settings.store_root, ident)
+        if found is None:
+            raise NotFoundError(f"evaluation {ident!r} keeps no run folder")
+        return found.path
 
     def bundle_root(self, row: Bundle) -> Path:
         if row.source == "upload":

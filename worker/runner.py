@@ -278,6 +278,7 @@ class JobWorker:
             resolve_model=self.resolver.model,
             resolve_bundle=self.resolver.bundle,
             resolve_data_root=self.settings.data_root,
+            resolve_run=self.resolver.run,
             local_files=False,  # a spec names inputs by id only
             workers=self.stage_workers,
             job_id=job["id"],

@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 import multiprocessing as mp
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -148,8 +148,10 @@ def _arrival(plan: ScriptedConfig) -> tuple[float, float | None, float] | None:
     return round(res.steps * sim.dt, 3), None if room is None else round(room, 3), round(wall, 3)
 
 
-def search(scenario: ResolvedScenario, seed: int, settings: WitnessSettings | None = None, workers: int = 1) -> Witness:
-    """Try the family in order until a plan arrives, ``max_plans`` are tried or ``max_seconds`` pass.
+def search(scenario: ResolvedScenario, seed: int, settings: WitnessSettings | None = None, workers: int = 1,
+           check: Callable[[], None] | None = None) -> Witness:
+    """Try the family in order until a plan arrives, ``max_plans`` are tried or ``max_seconds`` pass; ``check`` (a
+    job's cancellation test) is called after every plan and stops the search by raising.
 
     Within ``max_plans`` the answer does not depend on ``workers``: results are read in the family's order and the
     first arrival wins (``max_seconds`` is wall time, so where it cuts depends on the machine)."""
@@ -165,6 +167,8 @@ def search(scenario: ResolvedScenario, seed: int, settings: WitnessSettings | No
         if arrived is not None:
             found, (arrival, room, wall) = plan, arrived
             break
+        if check is not None:
+            check()
         if time.monotonic() - t0 > s.max_seconds:
             break
     return Witness(scenario=scenario.name, seed=int(seed), plans=len(family), tried=tried, plan=found,

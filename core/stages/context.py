@@ -76,7 +76,8 @@ class StageContext:
     ``check_cancelled()`` raises :class:`Cancelled` when the job was cancelled; long loops call it
     between units of work (episodes, batches, epochs).
     The ``resolve_*`` callables turn ids into local files (dataset file, model checkpoint,
-    config-bundle root directory, named data root such as ``ethucy``); the service backs them with its
+    config-bundle root directory, named data root such as ``ethucy``, an evaluation's run folder); the service backs
+    them with its
     store, registry and settings. ``local_files``: whether a stage may also take a local file path where an
     id is expected: True for library and in-process (``--local``) runs; a service worker sets False, so a job
     spec can never make the server read a path of the submitter's choosing.
@@ -92,6 +93,8 @@ class StageContext:
     resolve_model: Callable[[str], Path] = field(default_factory=lambda: _not_available("model"))
     resolve_bundle: Callable[[str], Path] = field(default_factory=lambda: _not_available("bundle"))
     resolve_data_root: Callable[[str], Path] = field(default_factory=lambda: _not_available("data root"))
+    #: an evaluation id -> its run folder (episodes.jsonl, evaluation.json, traces/)
+    resolve_run: Callable[[str], Path] = field(default_factory=lambda: _not_available("evaluation run"))
     local_files: bool = True
     workers: int = 1  #: processes a stage may use for parallel episodes
     job_id: str | None = None

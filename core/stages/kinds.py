@@ -21,6 +21,7 @@ from foresight.core.evaluation.campaign import run_campaign
 from foresight.core.evaluation.config import CampaignConfig, DiagnosticsConfig, EvaluationConfig
 from foresight.core.evaluation.diagnostics import run_diagnostics
 from foresight.core.evaluation.runner import run_evaluation
+from foresight.core.evaluation.witness_job import WitnessConfig, run_witness
 from foresight.core.pipeline.config import PipelineConfig
 from foresight.core.pipeline.service import run_pipeline_job
 from foresight.core.predict.collect import CollectConfig, MixConfig, run_collect, run_mix
@@ -125,6 +126,9 @@ KINDS: dict[str, JobKind] = {k.name: k for k in (
             "hard-seed diagnostics: trace every seed of a manifest"),
     JobKind("campaign", CampaignConfig, run_campaign,
             "checkpoints x planner-grid variants with quality gates"),
+    JobKind("witness", WitnessConfig, run_witness,
+            "which episodes (or an evaluation's failures) a robot with these limits can solve: a scripted plan that "
+            "arrives, found in the simulator; optionally priced by the planner riding along"),
     JobKind("import_dataset", ImportDatasetConfig, run_import_dataset,
             "import an ETH/UCY fold of a named data root as a dataset"),
     JobKind("pipeline", PipelineConfig, run_pipeline_job,

@@ -12,6 +12,7 @@ from pydantic import BaseModel, ValidationError
 from foresight.core.evaluation.campaign import CampaignResult
 from foresight.core.evaluation.diagnostics import DiagnosticsResult
 from foresight.core.evaluation.runner import EvaluationResult
+from foresight.core.evaluation.witness_job import WitnessResult
 from foresight.core.pipeline.summary import PipelineResult
 from foresight.core.predict.collect import CollectResult
 from foresight.core.predict.evaluation import PredictEvalResult
@@ -30,6 +31,7 @@ RESULTS: dict[str, type[BaseModel]] = {
     "diagnose": DiagnosticsResult,
     "campaign": CampaignResult,
     "pipeline": PipelineResult,
+    "witness": WitnessResult,
 }
 
 

@@ -35,8 +35,8 @@ def test_an_evaluations_failures_get_witnesses_and_players(reference_matrix_path
     witnessed = [e for e in report["episodes"] if e["plan"] is not None]
     assert report["witnessed"] == len(witnessed) >= 1
     first = witnessed[0]
-    page = Path(first["player"])
-    assert page == players / f"classic_doorway_medium__{first['seed']}.html"
+    assert first["player"] == f"classic_doorway_medium__{first['seed']}.html"  # in the job's folder: --players DIR
+    page = players / first["player"]
     html = page.read_text()
     assert f"planner: {first['planner_outcome']}" in html and "witness: " in html and html.count("application/json") == 2
     # the witness is a planner like any other: `foresight evaluate` replays it under the same conditions, and it arrives
@@ -49,7 +49,7 @@ def test_an_evaluations_failures_get_witnesses_and_players(reference_matrix_path
     assert again["outcome"] == "success" and again["steps"] * 0.1 == pytest.approx(first["arrival_s"])
     assert main([*args, "--price"]) != 0  # only the predictive planner rides along, not this evaluation's goal robot
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "--price rides the predictive planner along; the evaluation ran 'goal'" in err[0]
+    assert len(err) == 1 and "priced by the predictive planner riding along; the evaluation ran 'goal'" in err[0]
     assert main([*args, "--override", "ped_speed_tier=typical", "--min-clearance", "0.2"]) == 0  # as text, with room
     out = capsys.readouterr().out
     assert "witnessed solvable by a robot with these limits, keeping 0.2 m from every pedestrian" in out
