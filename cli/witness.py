@@ -35,7 +35,7 @@ def add_parser(scen: argparse._SubParsersAction) -> None:
 
 def scenarios_witness(args: argparse.Namespace) -> int:
     """Builds the ``witness`` job's spec (the API takes the same, naming an evaluation by id) and runs it in-process."""
-    from foresight.cli.common import emit, local_context
+    from foresight.cli.common import emit, finish_local, local_context
     from foresight.cli.evaluate import ModelArgs, bundle_of, overrides
     from foresight.cli.stage import config_of, spec
     from foresight.core.stages.kinds import KINDS
@@ -68,7 +68,9 @@ def scenarios_witness(args: argparse.Namespace) -> int:
     ctx = local_context(Path(args.players) if args.players else None, roots, quiet=args.json)
     ctx.resolve_model, ctx.workers = models.resolve, args.workers
     result = KINDS["witness"].run(config_of(spec("witness", {k: v for k, v in values.items() if v is not None})), ctx)
-    emit(result, args.json, lambda r: _text(r, Path(args.players) if args.players else None))
+    players = Path(args.players) if args.players else None
+    report = [p for p in finish_local("witness", result, players) if p.name == "report.html"] if players else []
+    emit(result, args.json, lambda r: _text(r, players) + "".join(f"\nreport: {p.resolve()}" for p in report))
     return 0
 
 

@@ -18,6 +18,7 @@ from foresight.core.reports.diagnostics import write_diagnostics_report
 from foresight.core.reports.evaluation import write_evaluation_report
 from foresight.core.reports.pipeline import write_pipeline_report
 from foresight.core.reports.training import write_training_report
+from foresight.core.reports.witness import write_witness_report
 
 REPORTERS: dict[str, Callable[..., list[Path]]] = {
     "evaluate": write_evaluation_report,
@@ -25,6 +26,7 @@ REPORTERS: dict[str, Callable[..., list[Path]]] = {
     "campaign": write_campaign_report,
     "train": write_training_report,
     "pipeline": write_pipeline_report,
+    "witness": write_witness_report,
 }
 
 

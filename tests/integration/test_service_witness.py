@@ -36,6 +36,8 @@ def test_an_evaluations_failures_get_witnesses_as_a_job(service: Service) -> Non
         assert r["witnessed"] == len(found) >= 1 and all(e["player"] for e in found)
         page = client.get(f"/v1/jobs/{job['id']}/artifacts/{found[0]['player']}")
         assert page.status_code == 200 and "witness: " in page.text and "planner: " in page.text
+        report = client.get(f"/v1/jobs/{job['id']}/artifacts/report.html")
+        assert report.status_code == 200 and f'href="{found[0]["player"]}"' in report.text
         # the witness replays as any run: the scripted planner under the same conditions arrives when it said
         replay = {"spec": {**body["spec"], "planner": {"name": "scripted", "config": found[0]["plan"]}}}
         again = wait_job(client, client.post("/v1/jobs", json=replay).json()["id"])

@@ -38,6 +38,8 @@ def test_an_evaluations_failures_get_witnesses_and_players(reference_matrix_path
     assert first["player"] == f"classic_doorway_medium__{first['seed']}.html"  # in the job's folder: --players DIR
     page = players / first["player"]
     html = page.read_text()
+    report = (players / "report.html").read_text()  # the job's report: every episode, and a link to each player
+    assert "Witnesses: " in report and f'href="{first["player"]}"' in report and "closest pedestrian" in report
     assert f"planner: {first['planner_outcome']}" in html and "witness: " in html and html.count("application/json") == 2
     # the witness is a planner like any other: `foresight evaluate` replays it under the same conditions, and it arrives
     replay = tmp_path / "replay"
