@@ -19,7 +19,8 @@ def add_parser(scen: argparse._SubParsersAction) -> None:
     episode_options(w, "only its failed episodes, under its own conditions",
                     conditions="; default with --episodes: the evaluation's own, from its evaluation.json")
     w.add_argument("--players", metavar="DIR", help="each witness as a player page, beside the planner's run where "
-                                                    "--episodes' folder kept its trace: DIR/<scenario>__<seed>.html")
+                                                    "--episodes' folder kept its trace: DIR/<scenario>__<seed>.html, "
+                                                    "and DIR/report.html listing them all")
     w.add_argument("--max-plans", type=int, help="plans tried at most per episode (default 2000; and at most two "
                                                   "minutes an episode)")
     w.add_argument("--min-clearance", type=float, default=0.0, metavar="M",

@@ -15,7 +15,7 @@ to arrive is the witness; none among the plans tried is evidence, not proof, tha
 
 How close a witness passes matters as much as that it arrives: a plan that slips past a walker with 2 cm to spare
 proves the episode solvable only for a robot that drives with no margin at all, which no planner that is safe
-among people would do (``doorway_medium`` 147 at typical speed: the witness passes within 0.02 m while the
+among people would do (``doorway_medium`` 147 at typical speed: the first witness passes within 0.01 m while the
 forecast said 0.03-0.12 m). So each witness reports its closest approach to a pedestrian (``clearance_m``), and
 ``min_clearance`` asks for witnesses that keep that much room: a planner is answerable for the failures solvable with
 the margin it is meant to keep. The closest approach to a wall is reported too (``wall_clearance_m``), not asked for:
