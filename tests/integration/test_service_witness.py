@@ -3,6 +3,8 @@ under its own conditions, each witness played beside the planner's run from the 
 
 from __future__ import annotations
 
+import time
+
 from .service import Service, wait_job
 
 
@@ -44,3 +46,15 @@ def test_an_evaluations_failures_get_witnesses_as_a_job(service: Service) -> Non
         rows = client.get(f"/v1/evaluations/{again['id']}/episodes").json()
         (row,) = [e for e in rows if (e["scenario"], e["seed"]) == (found[0]["scenario"], found[0]["seed"])]
         assert row["outcome"] == "success" and row["steps"] * 0.1 == found[0]["arrival_s"]
+
+        # a long search (every doorway episode, up to 2,000 plans each) stops within seconds of a cancel
+        long = {"kind": "witness", "scenarios": ["doorway_high"], "seeds_per_scenario": 10}
+        job_id = client.post("/v1/jobs", json={"spec": long}).json()["id"]
+        deadline = time.time() + 60
+        while client.get(f"/v1/jobs/{job_id}").json()["status"] != "running" and time.time() < deadline:
+            time.sleep(0.1)
+        time.sleep(1.0)  # searching
+        asked = time.time()
+        client.post(f"/v1/jobs/{job_id}/cancel")
+        assert wait_job(client, job_id, timeout=15)["status"] == "cancelled"
+        assert time.time() - asked < 10
