@@ -95,6 +95,22 @@ def read_cell_episode_trace(campaign_id: Ident, rank: int, scenario: Ident, seed
     return _trace(engine, settings, f"{full_id(engine, campaign_id)}:{rank}", scenario, seed)
 
 
+@router.get("/jobs/{job_id}/witnesses/{scenario}/{seed}", responses=responses(404))
+def read_witness_trace(job_id: Ident, scenario: Ident, seed: int, engine: EngineDep,
+                       settings: SettingsDep) -> dict[str, Any]:
+    """The compact trace of a witness job's witness for one episode (the same shape as an evaluation's episode
+    trace): what the dashboard plays beside the planner's run of that episode."""
+    from foresight.core.evaluation.episode_trace import read_compact, trace_name
+    from foresight.store import folders
+
+    job = queue.get_job(engine, full_id(engine, job_id))
+    root = settings.store_root
+    path = folders.resolve_under(root, folders.job_dir(root, job["id"])) / trace_name(scenario, seed)
+    if job["kind"] != "witness" or not path.is_file():
+        raise queue.JobNotFound(f"job {job['id']} found no witness for {scenario} seed {seed}")
+    return read_compact(path)
+
+
 def _trace(engine: Any, settings: Any, ident: str, scenario: str, seed: int) -> dict[str, Any]:
     from foresight.core.evaluation.episode_trace import read_compact, trace_name
 

@@ -6,6 +6,7 @@ from typing import Annotated, Any
 from urllib.parse import urlencode
 
 from fastapi import APIRouter, Depends, Query, Request
+from fastapi import Path as PathParam
 from fastapi.responses import HTMLResponse, RedirectResponse, Response
 
 from foresight.api.web import campaigns, catalog, files
@@ -85,7 +86,36 @@ def _job(request: Request, job_id: str) -> dict[str, Any]:
     job["report"] = files.report_of(request, job_id)
     job["verdict"] = job_verdict(job)
     job["episodes"] = _episodes(request, job) if job["kind"] == "evaluate" and job["status"] == queue.SUCCEEDED else []
+    job["witnesses"] = _witnesses(job) if job["kind"] == "witness" else None
     return job
+
+
+def _witnesses(job: dict[str, Any]) -> Any:
+    """A witness job's typed result (None while it runs, or for a result of another version)."""
+    from foresight.core.stages.results import typed_result
+
+    return typed_result("witness", job.get("result"))
+
+
+@pages.get("/jobs/{job_id}/witnesses/{scenario}/{seed}")
+def witness_page(request: Request, job_id: str, scenario: Annotated[str, PathParam(max_length=200)],
+                 seed: int) -> HTMLResponse:
+    """A witness beside the planner's own run of the episode (the evaluation the job searched), on one clock."""
+    from foresight.api.routes.results import trace_url
+
+    job = _job(request, job_id)
+    found = job["witnesses"]
+    row = next((e for e in found.episodes if (e.scenario, e.seed) == (scenario, seed) and e.trace), None) if found else None
+    if row is None:
+        raise PageNotFound(f"job {job_id} found no witness for {scenario} seed {seed}")
+    sides = []
+    if found.evaluation is not None and found.failed_only:
+        sides.append(("planner", row.planner_outcome or "", trace_url(found.evaluation, scenario, seed),
+                      f"/ui/jobs/{found.evaluation}"))
+    sides.append(("witness", row.plan.describe(), f"/v1/jobs/{job['id']}/witnesses/{scenario}/{seed}",
+                  f"/ui/jobs/{job['id']}"))
+    return page(request, "witness.html", title=f"{scenario} seed {seed}: a witness", nav="jobs", job=job, row=row,
+                sides=sides)
 
 
 def _episodes(request: Request, job: dict[str, Any]) -> list[Any]:

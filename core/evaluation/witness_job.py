@@ -14,13 +14,15 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.config import EpisodeSelection, EvaluationConfig
+from foresight.core.evaluation.episode_trace import compact_trace, trace_name, write_compact
 from foresight.core.evaluation.plannerspec import PlannerSpec, resolve_planner
-from foresight.core.evaluation.witness import Witness, WitnessSettings, search, write_player
+from foresight.core.evaluation.witness import Witness, WitnessSettings, search, witness_run, write_player
 from foresight.core.evaluation.witness_cost import WitnessCost, price_witness
+from foresight.core.scenarios.model import ResolvedScenario
 from foresight.core.stages.context import StageContext
 from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident
 
@@ -44,12 +46,6 @@ class WitnessConfig(EpisodeSelection):
     planner: PlannerSpec | None = None
     players: bool = False  #: each witness beside the planner's run (where the evaluation kept its trace)
 
-    @model_validator(mode="after")
-    def _whole_episodes(self) -> WitnessConfig:
-        if self.max_steps is not None:
-            raise ValueError("max_steps: a witness is searched over its scenario's whole horizon")
-        return self
-
 
 class WitnessEpisode(Witness):
     """One episode searched: the witness (or none) and what comes with it."""
@@ -57,6 +53,7 @@ class WitnessEpisode(Witness):
     planner_outcome: str | None = None  #: the evaluation's outcome of this episode
     priced: WitnessCost | None = None
     player: str | None = None  #: the player page, relative to the job's folder
+    trace: str | None = None  #: the witness's compact trace, relative to the job's folder (the dashboard plays it)
 
 
 class WitnessResult(BaseModel):
@@ -75,7 +72,6 @@ class WitnessResult(BaseModel):
 
 
 def run_witness(config: WitnessConfig, ctx: StageContext) -> WitnessResult:
-    from foresight.core.evaluation.episode_trace import trace_name
     from foresight.core.evaluation.runner import load_selection, read_outcomes
 
     run, evaluation = _evaluation(config.evaluation, ctx) if config.evaluation else (None, None)
@@ -89,6 +85,8 @@ def run_witness(config: WitnessConfig, ctx: StageContext) -> WitnessResult:
         fill.update(seeds_per_scenario=None, seed_manifest=None)
         if not config.scenario_overrides:
             fill["scenario_overrides"] = evaluation.scenario_overrides
+        if config.max_steps is None:  # a failure within a shorter horizon is judged within it
+            fill["max_steps"] = evaluation.max_steps
     sel = config.model_copy(update=fill)
     _, matrix, pairs = load_selection(sel, ctx)
     outcomes = read_outcomes(run / "episodes.jsonl") if run is not None else None
@@ -102,13 +100,17 @@ def run_witness(config: WitnessConfig, ctx: StageContext) -> WitnessResult:
     rows: list[WitnessEpisode] = []
     for i, (name, seed) in enumerate(pairs):
         ctx.check_cancelled()
-        scenario = matrix.get(name)
+        scenario = _within(matrix.get(name), sel.max_steps)
         w = search(scenario, int(seed), config.settings, workers=ctx.workers, check=ctx.check_cancelled)
         extra: dict[str, Any] = {}
         if outcomes is not None:
             extra["planner_outcome"] = outcomes[name, seed]
         if pricer is not None and w.plan is not None:
             extra["priced"] = price_witness(scenario, int(seed), w.plan, pricer)
+        if w.plan is not None:  # its run, as an evaluation keeps one: the dashboard plays it beside the planner's
+            extra["trace"] = trace_name(name, seed)
+            write_compact(ctx.artifact(extra["trace"]), compact_trace(witness_run(scenario, int(seed), w.plan),
+                                                                      scenario.map))
         if config.players and w.plan is not None:
             trace = run / trace_name(name, seed) if run is not None else None
             page = write_player(ctx.workdir, scenario, w, trace, extra.get("planner_outcome"))
@@ -118,6 +120,16 @@ def run_witness(config: WitnessConfig, ctx: StageContext) -> WitnessResult:
     return WitnessResult(matrix=sel.matrix, evaluation=config.evaluation, overrides=sel.scenario_overrides,
                          settings=config.settings, failed_only=outcomes is not None, searched=len(rows),
                          witnessed=sum(r.found for r in rows), episodes=rows)
+
+
+def _within(scenario: ResolvedScenario, max_steps: int | None) -> ResolvedScenario:
+    """The scenario with its horizon cut to ``max_steps`` (an evaluation's smoke horizon), so every plan, its player
+    and its price run within it."""
+    sim = scenario.scenario.simulation_config
+    if max_steps is None or max_steps >= sim.max_episode_steps:
+        return scenario
+    inner = scenario.scenario.model_copy(update={"simulation_config": sim.model_copy(update={"max_episode_steps": max_steps})})
+    return scenario.model_copy(update={"scenario": inner})
 
 
 def _evaluation(ref: str, ctx: StageContext) -> tuple[Path, EvaluationConfig | None]:

@@ -168,6 +168,34 @@ def test_dashboard_follows_a_job_to_its_report(service: Up, page, capsys: pytest
         print(f"\ndashboard screenshots: {shots / 'dashboard-jobs.png'}, {shots / 'dashboard-job.png'}, {path}")
 
 
+def test_an_evaluations_failures_get_witnesses_from_its_page(service: Up, page) -> None:  # noqa: ANN001
+    """The evaluation's page submits a witness job for its failures and follows it to its report and players."""
+    page.on("dialog", lambda dialog: dialog.accept(TOKEN) if dialog.type == "prompt" else dialog.accept())
+    api = service.client()
+    spec = {"kind": "evaluate", "planner": {"name": "goal"}, "scenarios": ["crossing_medium"], "seeds_per_scenario": 3,
+            "scenario_overrides": {"simulation_config": {"ped_speed_tier": "typical"}}}
+    evaluation = api.post("/v1/jobs", json={"spec": spec, "priority": 30}).json()["id"]
+    deadline = time.monotonic() + JOB_TIMEOUT_S
+    while api.get(f"/v1/jobs/{evaluation}").json()["status"] != "succeeded" and time.monotonic() < deadline:
+        time.sleep(0.3)
+    page.goto(f"{service.url}/ui/jobs/{evaluation}")
+    button = page.locator("#witness-btn")
+    assert "failed episode" in button.inner_text()
+    assert '"price": false' in button.get_attribute("data-body")  # the goal robot does not price a course
+    button.click()  # asks for the token, submits, and follows the new job on its own page
+    page.wait_for_url(lambda url: "/ui/jobs/" in url and evaluation not in url, timeout=10_000)
+    witness = page.url.rsplit("/", 1)[-1]
+    assert api.get(f"/v1/jobs/{witness}").json()["spec"]["evaluation"] == evaluation
+    page.wait_for_selector("#witnesses a.watch", timeout=60_000)  # the page reloads itself when the job has ended
+    assert api.get(f"/v1/jobs/{witness}").json()["status"] == "succeeded"
+    assert page.locator("#report-link").count() == 1  # and its report
+    page.click("#witnesses a.watch >> nth=0")
+    page.wait_for_selector('#player[data-ready="1"]', timeout=15_000)  # the planner's run and the witness, one clock
+    assert page.locator(".pane").count() == 2 and "planner" in page.inner_text("#pane-planner h2")
+    assert "witness" in page.inner_text("#pane-witness h2")
+    page.screenshot(path=str(screenshot_dir() / "dashboard-witness.png"), full_page=True)
+
+
 def test_dashboard_map_previews_and_models(service: Up, page) -> None:  # noqa: ANN001
     page.goto(f"{service.url}/ui/bundles")
     page.click("text=scenarios/classic_interactions.yaml")

@@ -38,6 +38,12 @@ def test_an_evaluations_failures_get_witnesses_as_a_job(service: Service) -> Non
         assert r["witnessed"] == len(found) >= 1 and all(e["player"] for e in found)
         page = client.get(f"/v1/jobs/{job['id']}/artifacts/{found[0]['player']}")
         assert page.status_code == 200 and "witness: " in page.text and "planner: " in page.text
+        # the witness's run as the player draws it, beside the evaluation's own trace of the episode
+        scenario, seed = found[0]["scenario"], found[0]["seed"]
+        trace = client.get(f"/v1/jobs/{job['id']}/witnesses/{scenario}/{seed}")
+        assert trace.status_code == 200 and trace.json()["steps"] * 0.1 == found[0]["arrival_s"]
+        assert client.get(f"/v1/jobs/{job['id']}/witnesses/{scenario}/99999").status_code == 404
+        assert client.get(f"/v1/jobs/{ev['id']}/witnesses/{scenario}/{seed}").status_code == 404  # not a witness job
         report = client.get(f"/v1/jobs/{job['id']}/artifacts/report.html")
         assert report.status_code == 200 and f'href="{found[0]["player"]}"' in report.text
         # the witness replays as any run: the scripted planner under the same conditions arrives when it said

@@ -91,6 +91,10 @@
     el.disabled = true;
     try {
       const out = await post(el.dataset.url, el.dataset.body);
+      if (el.dataset.open && out.id) {  // a job submitted from the page: follow it on its own page
+        location.href = el.dataset.open.replace("{id}", encodeURIComponent(out.id));
+        return;
+      }
       flash((out.id ? out.id.substring(0, 12) + ": " : "") + (el.dataset.done || out.status || "done"));
       await refresh();
     } catch (e) {
