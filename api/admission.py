@@ -19,7 +19,8 @@ from foresight.store.settings import Settings
 def context(settings: Settings, resolver: Resolver) -> StageContext:
     """A context that resolves ids as a worker does (never local files); it runs nothing."""
     return StageContext(workdir=settings.store_root, resolve_bundle=resolver.bundle, resolve_model=resolver.model,
-                        resolve_dataset=resolver.dataset, resolve_data_root=settings.data_root, local_files=False)
+                        resolve_dataset=resolver.dataset, resolve_data_root=settings.data_root,
+                        resolve_run=resolver.run, local_files=False)
 
 
 def named_ids(spec: Any) -> list[tuple[str, str]]:
@@ -56,11 +57,11 @@ def _matrix(path: Path, overrides: dict[str, Any] | None = None) -> Any:
 def admit(spec: Any, settings: Settings, resolver: Resolver) -> None:
     """NotFoundError (404) for an unknown bundle, matrix, scenario, model, dataset or evaluation; ConfigError (422) for a model
     a planner cannot drive (trained in another frame) or a job larger than ``settings.max_job_steps`` simulation steps."""
-    from foresight.core.evaluation.witness_job import WitnessConfig
+    from foresight.core.evaluation.witness_job import WitnessConfig, plan_search
 
     ctx = context(settings, resolver)
     for what, ident in named_ids(spec):
         (resolver.planner_model if what == "model" else resolver.dataset)(ident)
-    if isinstance(spec, WitnessConfig) and spec.evaluation is not None:
-        resolver.run(spec.evaluation)  # an evaluation that keeps its run folder (its episodes and traces)
+    if isinstance(spec, WitnessConfig):  # its evaluation (kept with its run folder), matrix, scenarios and size
+        plan_search(spec, ctx)
     check_budget(work_size(spec, ctx, _matrix), settings.max_job_steps)

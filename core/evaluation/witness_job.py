@@ -11,6 +11,7 @@ in the job's folder).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +23,7 @@ from foresight.core.evaluation.episode_trace import compact_trace, trace_name, w
 from foresight.core.evaluation.plannerspec import PlannerSpec, resolve_planner
 from foresight.core.evaluation.witness import Witness, WitnessSettings, search, witness_run, write_player
 from foresight.core.evaluation.witness_cost import WitnessCost, price_witness
-from foresight.core.scenarios.model import ResolvedScenario
+from foresight.core.scenarios.model import ResolvedScenario, ScenarioMatrix
 from foresight.core.stages.context import StageContext
 from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident
 
@@ -71,7 +72,21 @@ class WitnessResult(BaseModel):
     episodes: list[WitnessEpisode]
 
 
-def run_witness(config: WitnessConfig, ctx: StageContext) -> WitnessResult:
+@dataclass(frozen=True)
+class Search:
+    """What a witness config searches: the evaluation (its run folder, config and outcomes) and the episodes."""
+
+    run: Path | None
+    evaluation: EvaluationConfig | None
+    selection: WitnessConfig  #: the config with the evaluation's matrix, conditions and horizon filled in
+    matrix: ScenarioMatrix
+    pairs: list[tuple[str, int]]  #: (scenario, seed) in the evaluation's (or the matrix's) order
+    outcomes: dict[tuple[str, int], str] | None
+
+
+def plan_search(config: WitnessConfig, ctx: StageContext) -> Search:
+    """The episodes a witness config searches; an unknown evaluation, matrix or scenario, or too many episodes, fail
+    here (the API's admission calls it before queueing: 404 / 422)."""
     from foresight.core.evaluation.runner import load_selection, read_outcomes
 
     run, evaluation = _evaluation(config.evaluation, ctx) if config.evaluation else (None, None)
@@ -96,7 +111,13 @@ def run_witness(config: WitnessConfig, ctx: StageContext) -> WitnessResult:
     if len(pairs) > MAX_SEARCHES:
         raise ConfigError(f"{len(pairs)} episodes to search, over the {MAX_SEARCHES} one job may take: fewer scenarios "
                           "or seeds", item="scenarios")
-    pricer = _pricer(config, evaluation, ctx) if config.price else None
+    return Search(run, evaluation, sel, matrix, pairs, outcomes)
+
+
+def run_witness(config: WitnessConfig, ctx: StageContext) -> WitnessResult:
+    found = plan_search(config, ctx)
+    run, sel, matrix, pairs, outcomes = found.run, found.selection, found.matrix, found.pairs, found.outcomes
+    pricer = _pricer(config, found.evaluation, ctx) if config.price else None
     rows: list[WitnessEpisode] = []
     for i, (name, seed) in enumerate(pairs):
         ctx.check_cancelled()

@@ -23,6 +23,10 @@ def test_an_evaluations_failures_get_witnesses_as_a_job(service: Service) -> Non
         # an unknown evaluation: refused before anything is queued
         missing = client.post("/v1/jobs", json={"spec": {"kind": "witness", "evaluation": "no-such-job"}})
         assert missing.status_code == 404 and "no-such-job" in missing.text
+        unknown = client.post("/v1/jobs", json={"spec": {"kind": "witness", "scenarios": ["no_such_scenario"]}})
+        assert unknown.status_code == 404 and "no_such_scenario" in unknown.text
+        listed_before = client.get("/v1/jobs", params={"kind": "witness"}).json()["count"]
+        assert listed_before == 0  # nothing queued by the refused submissions
         bad = client.post("/v1/jobs", json={"spec": {"kind": "witness", "settings": {"max_plans": 0}}})
         assert bad.status_code == 422 and "max_plans" in bad.text
 
