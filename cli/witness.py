@@ -66,10 +66,10 @@ def scenarios_witness(args: argparse.Namespace) -> int:
         values["scenario_overrides"] = overrides(args.override)
     if args.price and not args.episodes:
         values["planner"] = {"name": "predictive", "model": models.default()}
-    ctx = local_context(Path(args.players) if args.players else None, roots, quiet=args.json)
+    players = Path(args.players) if args.players else None
+    ctx = local_context(players, roots, quiet=args.json)
     ctx.resolve_model, ctx.workers = models.resolve, args.workers
     result = KINDS["witness"].run(config_of(spec("witness", {k: v for k, v in values.items() if v is not None})), ctx)
-    players = Path(args.players) if args.players else None
     report = [p for p in finish_local("witness", result, players) if p.name == "report.html"] if players else []
     emit(result, args.json, lambda r: _text(r, players) + "".join(f"\nreport: {p.resolve()}" for p in report))
     return 0

@@ -200,9 +200,9 @@ def witness_run(scenario: ResolvedScenario, seed: int, plan: ScriptedConfig) -> 
 
 
 def write_player(out: Path, scenario: ResolvedScenario, witness: Witness, planner_trace: Path | None = None,
-                 planner_outcome: str | None = None) -> Path:
+                 planner_outcome: str | None = None, witness_trace: dict[str, Any] | None = None) -> Path:
     """A player page of the witness, beside the planner's own run where its compact trace is given:
-    ``out/<scenario>__<seed>.html``."""
+    ``out/<scenario>__<seed>.html``; ``witness_trace``: the witness's compact trace where the caller has it already."""
     from foresight.core.evaluation.episode_trace import compact_trace, episode_stem, read_compact
     from foresight.core.render import player
 
@@ -211,8 +211,9 @@ def write_player(out: Path, scenario: ResolvedScenario, witness: Witness, planne
     panes = []
     if planner_trace is not None and planner_trace.is_file():
         panes.append((f"planner: {planner_outcome or 'its run'}", read_compact(planner_trace)))
-    run = witness_run(scenario, witness.seed, witness.plan)
-    panes.append((f"witness: {witness.plan.describe()}", compact_trace(run, scenario.map)))
+    if witness_trace is None:
+        witness_trace = compact_trace(witness_run(scenario, witness.seed, witness.plan), scenario.map)
+    panes.append((f"witness: {witness.plan.describe()}", witness_trace))
     title = f"{witness.scenario} seed {witness.seed}: the planner and a witness"
     return player.write_player(out / f"{episode_stem(witness.scenario, witness.seed)}.html", panes, title,
                                player.PAIR_NOTE)

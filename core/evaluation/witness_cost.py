@@ -122,8 +122,9 @@ class _Replay:
 
 
 def price_witness(scenario: ResolvedScenario, seed: int, plan: ScriptedConfig, planner: ResolvedPlanner,
-                  every_s: float = 0.5) -> WitnessCost:
-    """The witness's run replayed with ``planner`` (the predictive planner) shadowing it, priced every ``every_s``."""
+                  every_s: float = 0.5, run: Any = None) -> WitnessCost:
+    """The witness's run replayed with ``planner`` (the predictive planner) shadowing it, priced every ``every_s``;
+    ``run``: the witness's recorded run (``witness.witness_run``) where the caller has it already."""
     from foresight.core.evaluation.witness import witness_run
     from foresight.core.sim.episode import run_episode
     from foresight.core.sim.simulator import Simulator
@@ -132,7 +133,7 @@ def price_witness(scenario: ResolvedScenario, seed: int, plan: ScriptedConfig, p
     if not hasattr(shadow, "price"):
         raise ConfigError(f"pricing a witness needs a planner that can price a course (the predictive planner), "
                           f"not {planner.name!r}", item="planner")
-    run = witness_run(scenario, seed, plan)
+    run = run if run is not None else witness_run(scenario, seed, plan)
     sim = Simulator()
     every = max(1, int(round(every_s / scenario.scenario.simulation_config.dt)))
     replay = _Replay(np.asarray(run.trace.command, dtype=float), shadow, every)

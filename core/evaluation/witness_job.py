@@ -126,16 +126,17 @@ def run_witness(config: WitnessConfig, ctx: StageContext) -> WitnessResult:
         extra: dict[str, Any] = {}
         if outcomes is not None:
             extra["planner_outcome"] = outcomes[name, seed]
-        if pricer is not None and w.plan is not None:
-            extra["priced"] = price_witness(scenario, int(seed), w.plan, pricer)
-        if w.plan is not None:  # its run, as an evaluation keeps one: the dashboard plays it beside the planner's
+        if w.plan is not None:  # its run, once, kept as an evaluation keeps one (the dashboard plays it), priced, played
+            witnessed = witness_run(scenario, int(seed), w.plan)
+            compact = compact_trace(witnessed, scenario.map)
             extra["trace"] = trace_name(name, seed)
-            write_compact(ctx.artifact(extra["trace"]), compact_trace(witness_run(scenario, int(seed), w.plan),
-                                                                      scenario.map))
-        if config.players and w.plan is not None:
-            trace = run / trace_name(name, seed) if run is not None else None
-            page = write_player(ctx.workdir, scenario, w, trace, extra.get("planner_outcome"))
-            extra["player"] = page.relative_to(ctx.workdir).as_posix()
+            write_compact(ctx.artifact(extra["trace"]), compact)
+            if pricer is not None:
+                extra["priced"] = price_witness(scenario, int(seed), w.plan, pricer, run=witnessed)
+            if config.players:
+                trace = run / trace_name(name, seed) if run is not None else None
+                page = write_player(ctx.workdir, scenario, w, trace, extra.get("planner_outcome"), compact)
+                extra["player"] = page.relative_to(ctx.workdir).as_posix()
         rows.append(WitnessEpisode(**w.model_dump(), **extra))
         ctx.progress((i + 1) / len(pairs), f"{name} {seed}: {'witness' if w.found else 'none'}")
     return WitnessResult(matrix=sel.matrix, evaluation=config.evaluation, overrides=sel.scenario_overrides,

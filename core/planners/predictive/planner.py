@@ -83,7 +83,7 @@ class PredictivePlanner:
         self._prev = np.zeros(2)
         self._plan: tuple[np.ndarray, np.ndarray] | None = None  #: the last decision's commands (S, 2), states (S, 5)
         self._traffic: TrafficMap | None = None
-        self._decided: tuple[np.ndarray, C.Scene, float] | None = None  #: the last decision's state, scene and dt
+        self._decided: tuple[Observation, C.Scene] | None = None  #: the last decision's observation and scene
         self._diag = None
 
     @property
@@ -98,7 +98,7 @@ class PredictivePlanner:
         fc = self.forecaster.forecast()
         scene, near, extra = self._scene(obs, fc.positions, fc.sigma, fc.times, fc.ped_ids)
         best_cmds, best_terms, best_total, n_eval, kept = self._search(obs, scene, near)
-        self._decided = (np.concatenate([obs.robot_pose, obs.robot_velocity]).astype(float), scene, obs.dt)
+        self._decided = (obs, scene)
         v, w = float(best_cmds[0, 0]), float(best_cmds[0, 1])
         self._prev = np.array([v, w])
         self._diag = {
@@ -134,7 +134,8 @@ class PredictivePlanner:
         witness's). Commands beyond the horizon are dropped; a shorter sequence is held at its last command."""
         if self._decided is None:
             raise RuntimeError("PredictivePlanner.price() called before plan(obs)")
-        state0, scene, dt = self._decided
+        obs, scene = self._decided
+        state0, dt = np.concatenate([obs.robot_pose, obs.robot_velocity]).astype(float), obs.dt
         idx, S, _ = self._steps(scene.times, dt)
         cmds = np.asarray(commands, dtype=float).reshape(-1, 2)[:S]
         cmds = np.concatenate([cmds, np.repeat(cmds[-1:], S - len(cmds), axis=0)])[None]
