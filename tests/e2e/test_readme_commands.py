@@ -328,9 +328,18 @@ def test_service_section_runs_as_written(service: Service, scratch: Path) -> Non
 # ---------------------------------------------------------------- commands quoted in README's prose
 
 
+#: README and the journal it points to for its history: the commands both quote are checked alike
+QUOTING = (README, REPO / "docs" / "journal.md")
+
+
+def _quoting_text() -> str:
+    return "\n".join(path.read_text() for path in QUOTING)
+
+
 def _inline_commands() -> list[str]:
-    """Every `foresight ...` command README quotes inline (`[--opt]` optional parts and `a|b` alternatives included)."""
-    text = re.sub(r"```.*?```", "", README.read_text(), flags=re.S)
+    """Every `foresight ...` command README (or the journal) quotes inline (`[--opt]` optional parts and `a|b`
+    alternatives included)."""
+    text = re.sub(r"```.*?```", "", _quoting_text(), flags=re.S)
     return sorted({" ".join(m.split()) for m in re.findall(r"`(?:\.venv/bin/)?(foresight [^`]*)`", text)})
 
 
@@ -353,14 +362,15 @@ def test_inline_commands_and_flags_exist(line: str) -> None:
     first, *rest = words
     for alternative in first.split("|"):  # `evaluate|diagnose`
         path, options = _parser_options([alternative, *rest])
-        assert path, f"README quotes `{line}`: foresight has no command {alternative!r}"
+        assert path, f"README or docs/journal.md quotes `{line}`: foresight has no command {alternative!r}"
         flags = {w.split("=", 1)[0] for w in words if w.startswith("-")}
-        assert flags <= options, f"README quotes `{line}`: `foresight {' '.join(path)}` has no {flags - options}"
+        assert flags <= options, f"README or docs/journal.md quotes `{line}`: `foresight {' '.join(path)}` has no {flags - options}"
 
 
 def _bench_commands() -> list[str]:
-    """Every `bench/...py` command README quotes (the benchmarks' table included): minutes to hours each."""
-    quoted = re.findall(r"`(?:nice -n 5 )?(?:\.venv/bin/python )?(bench/[^`]*)`", README.read_text())
+    """Every `bench/...py` command README (or the journal) quotes (the benchmarks' table included): minutes to hours
+    each."""
+    quoted = re.findall(r"`(?:nice -n 5 )?(?:\.venv/bin/python )?(bench/[^`]*)`", _quoting_text())
     return sorted({" ".join(m.split()) for m in quoted})
 
 
@@ -369,8 +379,8 @@ def test_benchmark_commands_and_flags_exist(line: str) -> None:
     """Benchmarks are not run here (minutes to an hour each); each script named exists and declares each flag."""
     script, *args = line.split()
     files = sorted(REPO.glob(script))
-    assert files, f"README quotes `{line}`: no {script}"
+    assert files, f"README or docs/journal.md quotes `{line}`: no {script}"
     for path in files:
         source = path.read_text()
         missing = [a for a in args if a.startswith("--") and f'"{a}"' not in source]
-        assert not missing, f"README quotes `{line}`: {path.relative_to(REPO)} declares no {missing}"
+        assert not missing, f"README or docs/journal.md quotes `{line}`: {path.relative_to(REPO)} declares no {missing}"
