@@ -5,8 +5,9 @@ block that is none of these fails `test_every_bash_block_is_run_or_excluded`, so
 
 The service section runs against a real `foresight up` (its own line, on a free port) with a temporary HOME: the
 token and `server.json` land in `~/.local/share/foresight` as README says, and the placeholders (JOB_ID, EVAL_ID,
-DATASET_ID, CAMPAIGN_ID, ...) become the ids the earlier commands printed. The `foresight ...` commands README quotes
-in its prose must exist with the options they show (checked against the CLI's parser)."""
+DATASET_ID, CAMPAIGN_ID, ...) become the ids the earlier commands printed. The `foresight ...` and `bench/...` commands
+README and its journal (docs/journal.md) quote in their prose must exist with the options they show (checked against
+the CLI's parser and the scripts' declared flags)."""
 
 from __future__ import annotations
 
