@@ -47,7 +47,8 @@ HEADER = """\
 # - replay_*: recorded ETH/UCY pedestrians (eth, hotel, univ, zara1, zara2) who follow their recorded paths and
 #   ignore the robot, in the scene's walkable bounds; the robot crosses the main flow. Episodes chosen by
 #   core.scenarios.replay.select_episodes (most pedestrians crossing the robot's path, non-overlapping 20 s
-#   windows; recordings only, never a planner's result). One seed each: a replay is the same for every seed.
+#   windows; recordings only, never a planner's result). One seed each: the recorded crowd is the same for every
+#   seed (another seed only moves the robot's start and goal by centimetres within their zones).
 """
 
 
