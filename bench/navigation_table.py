@@ -18,8 +18,10 @@ Planners (``--planners``, default all): predictive with the default learned mode
 forecasts, ORCA, social force, goal-seeking. Every (suite, planner) is one ``foresight evaluate --local`` run whose work
 folder (``--out``/<suite>/<planner>: evaluation.json, episodes.jsonl) is kept; ``--reuse`` takes a finished folder
 instead of re-running it, so a long table can be built in parts. ``--seeds-per-scenario N`` (the first N of each
-scenario's seeds) and ``--scenarios`` make partial runs cheap. Prints ONE JSON object (``--json``) or a Markdown table,
-and lists every group where a baseline beats a predictive planner (higher success, or equal with fewer collisions).
+scenario's seeds, extended by the next ones where it has fewer: the stress suite's replays, one seed each, then run
+N times, the robot's start and goal moved by centimetres) and ``--scenarios`` make partial runs cheap. Prints ONE
+JSON object (``--json``) or a Markdown table, and lists every group where a baseline beats a predictive planner
+(higher success, or equal with fewer collisions).
 With both predictive columns, each suite also gets the paired comparison of the learned model against constant
 velocity on the same episodes (``learned_vs_cv``: failed episodes of each, how many fewer, the discordant successes
 learned-only : cv-only and their exact McNemar p, which issue 12 asks to be below 0.01; no p below
@@ -190,7 +192,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--override", action="append", default=[], metavar="KEY=VALUE", help="with --matrix (repeatable)")
     ap.add_argument("--planners", default=",".join(SLUG.get(p, p) for p in PLANNERS),
                     help="comma-separated, of predictive_learned, predictive_cv, orca, social_force, goal")
-    ap.add_argument("--seeds-per-scenario", type=int, help="the first N seeds of each scenario (default: all its own)")
+    ap.add_argument("--seeds-per-scenario", type=int,
+                    help="the first N seeds of each scenario, extended by the next ones where it has fewer "
+                    "(default: all its own)")
     ap.add_argument("--scenarios", help="comma-separated scenario names (default: all)")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", default=str(REPO / "out" / "navigation"), help="work folders of the evaluations")

@@ -169,7 +169,9 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--variant", action="append", required=True, help="NAME=JSON planner config (first: the reference)")
     ap.add_argument("--suites", default=",".join(SUITES), help=f"comma-separated, of {', '.join(SUITES)}")
-    ap.add_argument("--seeds-per-scenario", type=int, help="the first N of each scenario's seeds (default: its own)")
+    ap.add_argument("--seeds-per-scenario", type=int,
+                    help="the first N of each scenario's seeds, extended by the next ones where it has fewer "
+                    "(default: its own)")
     ap.add_argument("--replication", action="store_true", help="the suites' new seeds (as navigation_table.py)")
     ap.add_argument("--override", action="append", default=[], metavar="KEY=VALUE", help="applied to every suite")
     ap.add_argument("--scenarios", help="comma-separated scenario names (default: all)")

@@ -51,7 +51,9 @@ def _common(p: argparse.ArgumentParser, *, planner: bool = True) -> None:
 def register(sub: argparse._SubParsersAction) -> None:
     ev = sub.add_parser("evaluate", help="evaluate a planner on a scenario matrix")
     _common(ev)
-    ev.add_argument("--seeds-per-scenario", type=int, help="N seeds per scenario (default: the matrix's own)")
+    ev.add_argument("--seeds-per-scenario", type=int,
+                    help="N seeds per scenario: its own first, extended by the next ones where it has fewer "
+                    "(default: the matrix's own)")
     ev.add_argument("--seeds", help="seed manifest YAML: only these (scenario, seed) episodes")
     ev.add_argument("--scenarios", help="comma-separated scenario names (default: all)")
     ev.add_argument("--min-success", type=float, help="evaluation gate success floor (default 0.3)")
