@@ -124,9 +124,7 @@ class PredictivePlanner:
         scene, _, _ = self._scene(obs, fc.positions, fc.sigma, fc.times, fc.ped_ids)
         idx = eval_steps(scene.times, obs.dt)
         cmds = np.repeat(np.asarray(commands, dtype=float)[:, None, :], int(idx[-1]) + 1, axis=1)
-        state0 = np.concatenate([obs.robot_pose, obs.robot_velocity]).astype(float)
-        states = rollout(np.repeat(state0[None], len(cmds), axis=0), cmds, self._limits, obs.dt)
-        return C.evaluate(C.Rollouts(states, idx, cmds), scene, self.config)
+        return self._cost(obs, scene, idx, cmds)
 
     def price(self, commands: np.ndarray) -> tuple[float, dict[str, float]]:
         """Cost and each term's weighted share (``cost.weighted``) of a command sequence (n, 2) from the last decision's
@@ -135,12 +133,18 @@ class PredictivePlanner:
         if self._decided is None:
             raise RuntimeError("PredictivePlanner.price() called before plan(obs)")
         obs, scene = self._decided
-        state0, dt = np.concatenate([obs.robot_pose, obs.robot_velocity]).astype(float), obs.dt
-        idx, S, _ = self._steps(scene.times, dt)
+        idx, S, _ = self._steps(scene.times, obs.dt)
         cmds = np.asarray(commands, dtype=float).reshape(-1, 2)[:S]
         cmds = np.concatenate([cmds, np.repeat(cmds[-1:], S - len(cmds), axis=0)])[None]
-        total, terms = C.evaluate(C.Rollouts(rollout(state0[None], cmds, self._limits, dt), idx, cmds), scene, self.config)
+        total, terms = self._cost(obs, scene, idx, cmds)
         return float(total[0]), {k: float(v[0]) for k, v in C.weighted(terms, self.config.weights).items()}
+
+    def _cost(self, obs: Observation, scene: C.Scene, idx: np.ndarray,
+              cmds: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """Cost (B,) and terms of command sequences (B, S, 2) rolled out from the robot's state in ``obs``."""
+        state0 = np.concatenate([obs.robot_pose, obs.robot_velocity]).astype(float)
+        states = rollout(np.repeat(state0[None], len(cmds), axis=0), cmds, self._limits, obs.dt)
+        return C.evaluate(C.Rollouts(states, idx, cmds), scene, self.config)
 
     # -- decision pieces -------------------------------------------------------------------------
     def _scene(self, obs: Observation, positions: np.ndarray, sigma: np.ndarray,
