@@ -1,8 +1,9 @@
 """ETH/UCY training variants side by side: every (variant, fold) pair is one ``predict-eval --train`` run of that fold,
 spread over worker processes (CPU workers with one thread each, and optionally CUDA workers on a GPU machine).
 
-A variant is the training config with some fields overridden. Prints per variant the 5-fold average ADE/FDE (the
-number the issue's ETH/UCY target reads), each fold's, and constant velocity's on the same samples.
+A variant is the training config with some fields overridden (and ``reverse_train``, the stage's own key, beside
+them). Prints per variant the 5-fold average ADE/FDE (the number the issue's ETH/UCY target reads), each fold's, and
+constant velocity's on the same samples.
 Usage: python bench/ethucy_sweep.py --ethucy ../shared/reference/ethucy [--config configs/training/ethucy.yaml]
          [--variant NAME='{"batch_size": 512}' ...] [--workers 2] [--gpu-workers 0] [--folds eth,hotel] [--json]
 Without --variant it runs the config as it is (variant ``config``).
@@ -19,10 +20,13 @@ import time
 from pathlib import Path
 
 from foresight.core.predict.ethucy import FOLDS
+from foresight.core.predict.evaluation import FILE_KEYS
 
 
 def run_one(args: tuple[str, dict, str, str, str, str]) -> dict:  # (variant, train, fold, root, device, workdir)
-    """One fold of one variant, trained and scored in-process (the same stage ``foresight predict-eval`` runs)."""
+    """One fold of one variant, trained and scored in-process (the same stage ``foresight predict-eval`` runs);
+    ``train`` may hold the stage's own ``FILE_KEYS`` (from the config file's top level or a variant) besides the
+    training config's fields."""
     name, train, fold, root, device, workdir = args
     if device == "cpu":
         os.environ["CUDA_VISIBLE_DEVICES"] = ""
@@ -32,7 +36,9 @@ def run_one(args: tuple[str, dict, str, str, str, str]) -> dict:  # (variant, tr
     started = time.time()
     work = Path(workdir) / name / fold
     work.mkdir(parents=True, exist_ok=True)
-    config = PredictEvalConfig(train={**train, "device": device, "threads": 1}, ethucy=root, folds=[fold])
+    own = {k: train[k] for k in FILE_KEYS if k in train}
+    train = {k: v for k, v in train.items() if k not in FILE_KEYS}
+    config = PredictEvalConfig(train={**train, "device": device, "threads": 1}, ethucy=root, folds=[fold], **own)
     result = run_predict_eval(config, StageContext(workdir=work, local_files=True)).folds[fold]
     return {"variant": name, "fold": fold, "device": device, "seconds": round(time.time() - started, 1),
             "ade": result.ade, "fde": result.fde, "cv_ade": result.cv_ade, "cv_fde": result.cv_fde,
@@ -78,7 +84,7 @@ def main() -> None:
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     raw = yaml.safe_load(Path(args.config).read_text())
-    base = raw.get("train", raw)
+    base = {**raw.get("train", raw), **{k: raw[k] for k in FILE_KEYS if "train" in raw and k in raw}}
     variants = {"config": {}} if not args.variant else {}
     for item in args.variant:
         name, _, overrides = item.partition("=")

@@ -106,14 +106,26 @@ def _train_values(path: str | None) -> dict:
     return _section(path, "train")
 
 
+def _eval_values(path: str | None) -> dict:
+    """The predict-eval stage's own keys in a training config file, beside its ``train`` mapping (``FILE_KEYS``)."""
+    if path is None:
+        return {}
+    from foresight.core.predict.evaluation import FILE_KEYS
+    from foresight.core.scenarios.loader import read_yaml
+
+    data = read_yaml(Path(path))
+    return {k: data[k] for k in FILE_KEYS if isinstance(data, dict) and "train" in data and k in data}
+
+
 def predict_eval_cmd(args: argparse.Namespace) -> int:
     from foresight.core.predict.evaluation import PredictEvalResult
 
-    train = None
+    train, own = None, {}
     if args.train:
         train = {k: v for k, v in _train_values(args.config).items() if k != "dataset"}
+        own = _eval_values(args.config)
     values = {"model": args.model, "train": train, "ethucy": args.ethucy, "dataset": args.dataset,
-              "folds": [args.fold] if args.fold else None, "split": args.split}
+              "folds": [args.fold] if args.fold else None, "split": args.split, **own}
     if not args.local:
         stage.local_only(args, out="--out")
         if args.ethucy is not None and Path(args.ethucy).expanduser().is_dir():

@@ -134,6 +134,14 @@ def scene_samples(rows: np.ndarray, timebase: TimeBase, max_agents: int, neighbo
                         np.stack(out["target_mask"]), np.arange(n, dtype=np.int64))
 
 
+def reverse_time(rows: np.ndarray) -> np.ndarray:
+    """The scene played backwards, rows (frame, ped_id, x, y) with frame f renumbered first + last - f (annotated
+    frames stay FRAME_STEP apart, so every window of the scene is a window of the reversed one, read backwards)."""
+    out = rows.copy()
+    out[:, 0] = rows[:, 0].min() + rows[:, 0].max() - rows[:, 0]
+    return out[np.argsort(out[:, 0], kind="stable")]
+
+
 def fold_files(root: Path, fold: str) -> dict[str, list[Path]]:
     """{split: files} of a fold folder, after checking that no test scene leaks into train/val."""
     if fold not in FOLDS:
@@ -154,23 +162,32 @@ def fold_files(root: Path, fold: str) -> dict[str, list[Path]]:
 
 
 def import_fold(root: Path, fold: str, timebase: TimeBase = ETHUCY_TIMEBASE, max_agents: int = 12,
-                splits: tuple[str, ...] = ("train", "val", "test"), neighbour_targets: tuple[str, ...] = ()) -> Dataset:
+                splits: tuple[str, ...] = ("train", "val", "test"), neighbour_targets: tuple[str, ...] = (),
+                reversed_splits: tuple[str, ...] = ()) -> Dataset:
     """One dataset with the fold's train, val and test files as episodes of those splits; the splits named in
-    ``neighbour_targets`` (training only: never test) also carry the neighbours' futures."""
+    ``neighbour_targets`` (training only: never test) also carry the neighbours' futures, and each file of the splits
+    in ``reversed_splits`` (training only) is followed by that scene played backwards (``reverse_time``)."""
     if "test" in neighbour_targets:
         raise ConfigError("neighbour targets on the test split would change what is scored", item="neighbour_targets")
+    if "test" in reversed_splits:
+        raise ConfigError("a reversed test scene would change what is scored", item="reversed_splits")
     files = fold_files(root, fold)
     episodes = []
     for split in splits:
         for path in files[split]:
             rec = EpisodeRecord(scenario=f"{split}/{path.stem}", seed=None, split=split, role="real")
-            episodes.append((rec, scene_samples(read_scene(path), timebase, max_agents, split in neighbour_targets)))
+            rows = read_scene(path)
+            episodes.append((rec, scene_samples(rows, timebase, max_agents, split in neighbour_targets)))
+            if split in reversed_splits:
+                rec = EpisodeRecord(scenario=f"{split}/{path.stem}~reversed", seed=None, split=split, role="real")
+                episodes.append((rec, scene_samples(reverse_time(rows), timebase, max_agents, split in neighbour_targets)))
     meta = DatasetMeta(timebase=timebase, max_agents=max_agents, frame_convention="focal_pedestrian",
                        source="real", episodes=[],
                        generator={"kind": "ethucy", "fold": fold, "splits": list(splits),
                                   "files": {s: [p.name for p in files[s]] for s in splits},
                                   "frame_step": FRAME_STEP, "frame_dt": FRAME_DT, "max_agents": max_agents,
-                                  **({"neighbour_targets": list(neighbour_targets)} if neighbour_targets else {})})
+                                  **({"neighbour_targets": list(neighbour_targets)} if neighbour_targets else {}),
+                                  **({"reversed_splits": list(reversed_splits)} if reversed_splits else {})})
     return dataset_from_episodes(episodes, meta)
 
 

@@ -18,6 +18,10 @@ from foresight.core.predict.predictor import ConstantVelocityPredictor
 from foresight.core.predict.timebase import ETHUCY_TIMEBASE
 from foresight.core.stages.context import StageContext
 
+#: the stage's own keys that a training config file (``configs/training/ethucy.yaml``) may hold beside its ``train``
+#: mapping: what each fold trains on, where ``train`` says how
+FILE_KEYS = ("reverse_train",)
+
 
 class PredictEvalConfig(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
@@ -29,6 +33,10 @@ class PredictEvalConfig(BaseModel):
     dataset: str | None = None  #: dataset id or .npz path (instead of ethucy)
     split: str = "test"  #: held-out split of ``dataset`` (test, else val when it has no test episodes; "all")
     max_agents: int = Field(default=12, ge=1)  #: slots per ETH/UCY sample
+    #: ETH/UCY with ``train``: each fold also trains on its training scenes played backwards (twice the windows;
+    #: people walk much alike either way). Validation and test stay as recorded. 5-fold average, one member each
+    #: (session 30): 0.4683 -> 0.4624 ADE, every fold lower
+    reverse_train: bool = False
 
     @model_validator(mode="after")
     def _one_each(self) -> PredictEvalConfig:
@@ -36,6 +44,8 @@ class PredictEvalConfig(BaseModel):
             raise ValueError("give exactly one of model (cv | checkpoint) and train")
         if (self.ethucy is None) == (self.dataset is None):
             raise ValueError("give exactly one of ethucy and dataset")
+        if self.reverse_train and (self.train is None or self.ethucy is None):
+            raise ValueError("reverse_train plays ETH/UCY training scenes backwards: it needs train and ethucy")
         return self
 
 
@@ -113,7 +123,8 @@ def run_predict_eval(config: PredictEvalConfig, ctx: StageContext) -> PredictEva
         for i, fold in enumerate(names):
             ctx.check_cancelled()
             ctx.progress(i / len(names), f"fold {fold}")
-            ds = import_fold(root, fold, ETHUCY_TIMEBASE, config.max_agents, splits)
+            ds = import_fold(root, fold, ETHUCY_TIMEBASE, config.max_agents, splits,
+                             reversed_splits=("train",) if config.reverse_train else ())
             folds[fold] = _score(config, ds, "test", ctx, fold)
     else:
         path = resolve_dataset_path(config.dataset, ctx)

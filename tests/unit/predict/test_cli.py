@@ -51,3 +51,31 @@ def test_eval_all_samples_of_a_held_out_dataset(tmp_path, curving_dataset, capsy
                "--out", str(tmp_path), "--local"])
     out = json.loads(capsys.readouterr().out)
     assert rc == 0 and out["folds"]["arcs"]["samples"] == len(load_dataset(curving_dataset))
+
+
+def test_training_scenes_played_backwards_when_the_config_says_so(tmp_path, capsys):
+    from foresight.core.predict.dataset import load_dataset
+
+    root = tmp_path / "ethucy"
+    walk = "\n".join(f"{f * 10}\t1\t{0.4 * f:.2f}\t{0.02 * f * f:.3f}" for f in range(25))  # a curve, not a line
+    for split, name in (("train", "crowds_zara02_train.txt"), ("val", "crowds_zara02_val.txt"),
+                        ("test", "crowds_zara01.txt")):
+        (root / "zara1" / split).mkdir(parents=True)
+        (root / "zara1" / split / name).write_text(walk + "\n")
+    datasets = {}
+    for reverse in (False, True):
+        cfg = tmp_path / f"t{reverse}.yaml"
+        cfg.write_text(f"reverse_train: {str(reverse).lower()}\ntrain:\n  epochs: 1\n  hidden: 8\n  blocks: 1\n"
+                       "  allow_degenerate: true\n")
+        rc = main(["predict-eval", "--train", "--config", str(cfg), "--ethucy", str(root), "--fold", "zara1",
+                   "--out", str(tmp_path / f"run{reverse}"), "--json", "--local"])
+        out = json.loads(capsys.readouterr().out)
+        assert rc == 0 and out["folds"]["zara1"]["samples"] == 6  # the test scene is scored as recorded either way
+        datasets[reverse] = load_dataset(tmp_path / f"run{reverse}" / "zara1" / "dataset.npz")
+    plain, both = datasets[False], datasets[True]
+    assert [len(d.split_indices(s)) for d in (plain, both) for s in ("train", "val")] == [6, 6, 12, 6]
+    assert [e.scenario for e in both.meta.episodes if e.split == "train"] == [
+        "train/crowds_zara02_train", "train/crowds_zara02_train~reversed"]
+    # the curve played backwards turns the other way in each walker's own frame
+    fwd, back = plain.split_indices("train"), both.split_indices("train")[6:]
+    assert (plain.target[fwd, 0, -1, 1] > 0).all() and (both.target[back, 0, -1, 1] < 0).all()

@@ -92,3 +92,38 @@ def test_cv_reproduces_reference_on_hotel(shared_dir):
     r = evaluate_predictor(ConstantVelocityPredictor(ETHUCY_TIMEBASE), ds, "test")
     assert r["samples"] == 1197
     assert r["ade"] == pytest.approx(0.32, abs=0.01) and r["fde"] == pytest.approx(0.61, abs=0.01)
+
+
+def test_a_scene_played_backwards():
+    from foresight.core.predict.ethucy import reverse_time
+
+    tb = TimeBase(0.4, 3, 2)
+    focal = [(0, 0.0, 0.0), (10, 0.4, 0.0), (20, 0.8, 0.0), (30, 0.8, 0.4), (40, 0.8, 0.8)]  # +x, then a left turn
+    rows = _scene({1: focal, 2: [(20, 2.0, 1.0), (30, 3.0, 1.0)]})
+    back = reverse_time(rows)
+    assert back[:, 0].tolist() == sorted(back[:, 0].tolist()) and set(np.diff(np.unique(back[:, 0]))) == {10.0}
+    np.testing.assert_array_equal(np.sort(reverse_time(back), axis=0), np.sort(rows, axis=0))
+    s = scene_samples(back, tb, max_agents=3)
+    assert len(s) == 1
+    # backwards it walks -y from (0.8, 0.8) to (0.8, 0.0), then turns right to -x: (0.4, 0) and (0, 0) lie 0.4 and
+    # 0.8 m to its right in its own frame (x ahead, y left)
+    np.testing.assert_allclose(s.target[0, 0], [[0.0, -0.4], [0.0, -0.8]], atol=1e-6)
+    names = feature_names(3)
+    nb = dict(zip(names, s.state[0, 1], strict=True))  # the neighbour's frame 30 is now its frame 10: seen before now
+    assert nb["valid[-1]"] == 1 and nb["valid[0]"] == 1
+
+
+def test_reversed_scenes_never_on_the_test_split(tmp_path):
+    with pytest.raises(ConfigError, match="reversed test scene"):
+        import_fold(tmp_path, "zara1", reversed_splits=("test",))
+
+
+def test_reverse_train_needs_training_on_ethucy():
+    from pydantic import ValidationError
+
+    from foresight.core.predict.evaluation import PredictEvalConfig
+
+    assert PredictEvalConfig(train={}, ethucy="ethucy", reverse_train=True).reverse_train
+    for kwargs in ({"model": "cv", "ethucy": "ethucy"}, {"train": {}, "dataset": "d.npz"}):
+        with pytest.raises(ValidationError, match="reverse_train"):
+            PredictEvalConfig(reverse_train=True, **kwargs)
