@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from foresight.core.errors import ConfigError
 from foresight.core.predict.dataset import Dataset, load_dataset, resolve_dataset_path, save_dataset
@@ -46,7 +46,23 @@ class PredictEvalConfig(BaseModel):
             raise ValueError("give exactly one of ethucy and dataset")
         if self.reverse_train and (self.train is None or self.ethucy is None):
             raise ValueError("reverse_train plays ETH/UCY training scenes backwards: it needs train and ethucy")
+        if self.train is not None:
+            _check_train(self.train)
         return self
+
+
+def _check_train(train: dict[str, Any]) -> None:
+    """Refuse ``train`` fields that training would refuse, before any fold is imported or trained (the dataset is
+    each fold's own, so it is not checked here)."""
+    from foresight.core.predict.train_config import TrainConfig
+
+    try:
+        TrainConfig.model_validate({**train, "dataset": "fold"})
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        key = ".".join(str(p) for p in err["loc"])
+        hint = f" ({key} belongs beside the train mapping, not in it)" if key in FILE_KEYS else ""
+        raise ValueError(f"train.{key}: {err['msg']}{hint}") from None
 
 
 class Score(BaseModel):

@@ -79,3 +79,14 @@ def test_training_scenes_played_backwards_when_the_config_says_so(tmp_path, caps
     # the curve played backwards turns the other way in each walker's own frame
     fwd, back = plain.split_indices("train"), both.split_indices("train")[6:]
     assert (plain.target[fwd, 0, -1, 1] > 0).all() and (both.target[back, 0, -1, 1] < 0).all()
+
+
+@pytest.mark.parametrize(("text", "named"), [("train:\n  epochz: 1\n", "train.epochz"),
+                                             ("reverse_train: true\nepochs: 1\n", "beside the train mapping")])
+def test_a_bad_training_key_is_refused_before_any_fold_is_trained(tmp_path, capsys, text, named):
+    (tmp_path / "t.yaml").write_text(text)
+    rc = main(["predict-eval", "--train", "--config", str(tmp_path / "t.yaml"), "--ethucy", str(tmp_path),
+               "--fold", "zara1", "--out", str(tmp_path / "run"), "--local"])
+    err = capsys.readouterr().err
+    assert rc == 1 and named in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "run").exists()
