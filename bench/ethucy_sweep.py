@@ -23,11 +23,10 @@ from foresight.core.predict.ethucy import FOLDS
 from foresight.core.predict.evaluation import FILE_KEYS
 
 
-def run_one(args: tuple[str, dict, str, str, str, str]) -> dict:  # (variant, train, fold, root, device, workdir)
+def run_one(args: tuple[str, dict, str, str, str, str]) -> dict:  # (variant, stage, fold, root, device, workdir)
     """One fold of one variant, trained and scored in-process (the same stage ``foresight predict-eval`` runs);
-    ``train`` may hold the stage's own ``FILE_KEYS`` (from the config file's top level or a variant) besides the
-    training config's fields."""
-    name, train, fold, root, device, workdir = args
+    ``stage``: the stage's values, ``train`` and its own ``FILE_KEYS`` (``stage_values``)."""
+    name, stage, fold, root, device, workdir = args
     if device == "cpu":
         os.environ["CUDA_VISIBLE_DEVICES"] = ""
     from foresight.core.predict.evaluation import PredictEvalConfig, run_predict_eval
@@ -36,13 +35,18 @@ def run_one(args: tuple[str, dict, str, str, str, str]) -> dict:  # (variant, tr
     started = time.time()
     work = Path(workdir) / name / fold
     work.mkdir(parents=True, exist_ok=True)
-    own = {k: train[k] for k in FILE_KEYS if k in train}
-    train = {k: v for k, v in train.items() if k not in FILE_KEYS}
-    config = PredictEvalConfig(train={**train, "device": device, "threads": 1}, ethucy=root, folds=[fold], **own)
+    config = PredictEvalConfig(**{**stage, "train": {**stage["train"], "device": device, "threads": 1}}, ethucy=root,
+                               folds=[fold])
     result = run_predict_eval(config, StageContext(workdir=work, local_files=True)).folds[fold]
     return {"variant": name, "fold": fold, "device": device, "seconds": round(time.time() - started, 1),
             "ade": result.ade, "fde": result.fde, "cv_ade": result.cv_ade, "cv_fde": result.cv_fde,
             "samples": result.samples}
+
+
+def stage_values(values: dict) -> dict:
+    """A variant's merged values as the stage's: the training config's fields under ``train``, ``FILE_KEYS`` beside."""
+    return {"train": {k: v for k, v in values.items() if k not in FILE_KEYS},
+            **{k: values[k] for k in FILE_KEYS if k in values}}
 
 
 def _worker(jobs, results, device: str) -> None:
@@ -100,7 +104,8 @@ def main() -> None:
     workdir = args.out or tempfile.mkdtemp(prefix="ethucy_sweep_")
     ctx = mp.get_context("spawn")
     jobs, results = ctx.Queue(), ctx.Queue()
-    todo = [(name, {**base, **over}, fold, args.ethucy, workdir) for name, over in variants.items() for fold in folds]
+    todo = [(name, stage_values({**base, **over}), fold, args.ethucy, workdir)
+            for name, over in variants.items() for fold in folds]
     devices = ["cuda"] * args.gpu_workers + ["cpu"] * args.workers
     for job in todo:
         jobs.put(job)

@@ -23,6 +23,12 @@ def test_table_averages_complete_variants_only():
     assert out["b"] == {"incomplete": ["hotel"]}  # no average from some folds
 
 
+def test_the_stage_keys_of_a_variant_go_beside_its_training_config():
+    stage_values = load_bench("ethucy_sweep").stage_values
+    assert stage_values({"epochs": 3, "reverse_train": True}) == {"train": {"epochs": 3}, "reverse_train": True}
+    assert stage_values({"epochs": 3}) == {"train": {"epochs": 3}}
+
+
 def test_bad_arguments_are_one_line_errors(tmp_path):
     root = subprocess.run([sys.executable, str(SWEEP), "--ethucy", str(tmp_path / "none")], capture_output=True, text=True)
     assert root.returncode != 0 and "none: not a folder" in root.stderr
