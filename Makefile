@@ -36,6 +36,7 @@ demo: install
 	$(VENV)/bin/foresight demo
 
 lint: install
+	$(VENV)/bin/ruff format --check .
 	$(VENV)/bin/ruff check .
 
 bench: install

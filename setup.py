@@ -30,7 +30,9 @@ setup(
     package_dir={"foresight": "foresight", **{f"foresight.{f}": f for f in folders}},
     package_data={
         "foresight.api": ["web/templates/*", "web/static/*"],
-        "foresight.core": ["render/*.js"],  # the episode player (the dashboard serves it; compare --local embeds it)
+        "foresight.core": [
+            "render/*.js"
+        ],  # the episode player (the dashboard serves it; compare --local embeds it)
         **{f"foresight.{f}": ["**/*"] for f in DATA},
     },
     exclude_package_data={"": ["*.pyc"]},

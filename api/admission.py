@@ -18,9 +18,15 @@ from foresight.store.settings import Settings
 
 def context(settings: Settings, resolver: Resolver) -> StageContext:
     """A context that resolves ids as a worker does (never local files); it runs nothing."""
-    return StageContext(workdir=settings.store_root, resolve_bundle=resolver.bundle, resolve_model=resolver.model,
-                        resolve_dataset=resolver.dataset, resolve_data_root=settings.data_root,
-                        resolve_run=resolver.run, local_files=False)
+    return StageContext(
+        workdir=settings.store_root,
+        resolve_bundle=resolver.bundle,
+        resolve_model=resolver.model,
+        resolve_dataset=resolver.dataset,
+        resolve_data_root=settings.data_root,
+        resolve_run=resolver.run,
+        local_files=False,
+    )
 
 
 def named_ids(spec: Any) -> list[tuple[str, str]]:
@@ -62,6 +68,8 @@ def admit(spec: Any, settings: Settings, resolver: Resolver) -> None:
     ctx = context(settings, resolver)
     for what, ident in named_ids(spec):
         (resolver.planner_model if what == "model" else resolver.dataset)(ident)
-    if isinstance(spec, WitnessConfig):  # its evaluation (kept with its run folder), matrix, scenarios and size
+    if isinstance(
+        spec, WitnessConfig
+    ):  # its evaluation (kept with its run folder), matrix, scenarios and size
         plan_search(spec, ctx)
     check_budget(work_size(spec, ctx, _matrix), settings.max_job_steps)

@@ -41,11 +41,15 @@ def _check_token(request: Request, credentials: HTTPAuthorizationCredentials | N
         raise HTTPException(status.HTTP_403_FORBIDDEN, "invalid bearer token")
 
 
-async def require_write(request: Request, credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)]) -> None:
+async def require_write(
+    request: Request, credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)]
+) -> None:
     _check_token(request, credentials)
 
 
-async def require_read(request: Request, credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)]) -> None:
+async def require_read(
+    request: Request, credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)]
+) -> None:
     if request.app.state.settings.read_requires_token:
         _check_token(request, credentials)
 
@@ -59,7 +63,9 @@ def _query_names(dependant: Any) -> tuple[set[str], set[str]]:
     from fastapi.dependencies.utils import field_annotation_is_sequence
 
     names = {p.alias for p in dependant.query_params}
-    single = {p.alias for p in dependant.query_params if not field_annotation_is_sequence(p.field_info.annotation)}
+    single = {
+        p.alias for p in dependant.query_params if not field_annotation_is_sequence(p.field_info.annotation)
+    }
     for sub in dependant.dependencies:
         sub_names, sub_single = _query_names(sub)
         names, single = names | sub_names, single | sub_single

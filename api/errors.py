@@ -69,7 +69,9 @@ def install(app: FastAPI) -> None:
 
     @app.exception_handler(HTTPException)
     async def _http(request: Request, exc: HTTPException) -> JSONResponse:
-        if exc.status_code == 400:  # FastAPI could not parse the body (e.g. JSON that is not UTF-8): bad input
+        if (
+            exc.status_code == 400
+        ):  # FastAPI could not parse the body (e.g. JSON that is not UTF-8): bad input
             msg = "the request body could not be parsed (a JSON body must be UTF-8 JSON)"
             return _json(422, [{"loc": ["body"], "msg": msg, "type": "body_invalid"}])
         return await http_exception_handler(request, exc)
@@ -104,8 +106,11 @@ def install(app: FastAPI) -> None:
     async def _os_error(request: Request, exc: OSError) -> JSONResponse:
         if is_full_disk(exc):
             logger.error("store full on %s %s: %s", request.method, request.url.path, exc)
-            return _json(507, "the server's store is full (no space left on device); nothing was stored - "
-                              "retry once space is freed (foresight store gc lists orphaned files)")
+            return _json(
+                507,
+                "the server's store is full (no space left on device); nothing was stored - "
+                "retry once space is freed (foresight store gc lists orphaned files)",
+            )
         return await _internal(request, exc)
 
     @app.exception_handler(Exception)

@@ -27,7 +27,9 @@ class HttpMetrics:
     """Request counts and latency histograms of one app."""
 
     def __init__(self) -> None:
-        self.templates: dict[int, str] = {}  #: id(route) -> its full path template (see :func:`route_templates`)
+        self.templates: dict[
+            int, str
+        ] = {}  #: id(route) -> its full path template (see :func:`route_templates`)
         self.requests: dict[tuple[str, str, str], int] = {}
         #: (method, route) -> per-bucket counts (not cumulative; the last one is +Inf), sum of seconds
         self.latency: dict[tuple[str, str], tuple[list[int], list[float]]] = {}
@@ -52,7 +54,9 @@ class HttpMetrics:
             "# TYPE foresight_http_requests_total counter",
         ]
         for (method, route, status), n in sorted(requests):
-            lines.append(f'foresight_http_requests_total{{method="{method}",route="{_esc(route)}",status="{status}"}} {n}')
+            lines.append(
+                f'foresight_http_requests_total{{method="{method}",route="{_esc(route)}",status="{status}"}} {n}'
+            )
         lines += [
             "# HELP foresight_http_request_duration_seconds Time until the response started, per route.",
             "# TYPE foresight_http_request_duration_seconds histogram",
@@ -62,7 +66,9 @@ class HttpMetrics:
             cumulative = 0
             for bound, n in zip((*BUCKETS, "+Inf"), counts, strict=True):
                 cumulative += n
-                lines.append(f'foresight_http_request_duration_seconds_bucket{{{labels},le="{bound}"}} {cumulative}')
+                lines.append(
+                    f'foresight_http_request_duration_seconds_bucket{{{labels},le="{bound}"}} {cumulative}'
+                )
             lines.append(f"foresight_http_request_duration_seconds_sum{{{labels}}} {total:.6f}")
             lines.append(f"foresight_http_request_duration_seconds_count{{{labels}}} {cumulative}")
         return lines
@@ -76,7 +82,9 @@ def route_templates(app: Any) -> dict[int, str]:
     """
     try:
         from fastapi.routing import iter_route_contexts
-    except ImportError:  # FastAPI before lazy inclusion: app.routes is flat and route.path is the full template
+    except (
+        ImportError
+    ):  # FastAPI before lazy inclusion: app.routes is flat and route.path is the full template
         return {id(r): r.path for r in app.routes if isinstance(getattr(r, "path", None), str)}
     return {id(c.original_route): c.path_format for c in iter_route_contexts(app.routes) if c.path_format}
 

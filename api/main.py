@@ -53,7 +53,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     """The API app for ``settings``; refuses (NotMigratedError) a database that is not at the latest migration."""
     settings = settings or Settings()
     operator_commands()  # a malformed FORESIGHT_EXTERNAL_PLANNERS stops the start, naming the variable
-    engine = make_engine(settings.resolved_database_url, busy_timeout_ms=settings.sqlite_busy_timeout_ms, pool_size=20)
+    engine = make_engine(
+        settings.resolved_database_url, busy_timeout_ms=settings.sqlite_busy_timeout_ms, pool_size=20
+    )
     revision = check_migrated(engine)
     settings.store_root.mkdir(parents=True, exist_ok=True)
     sync_bundles(engine, settings)
@@ -80,7 +82,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(ops.router)
     app.include_router(ops.read_router, dependencies=read_auth, responses=read_codes)
     for module in (jobs, models, bundles, listing, results, planners):
-        app.include_router(module.router, prefix="/v1", dependencies=[*read_auth, KnownQuery], responses=read_codes)
+        app.include_router(
+            module.router, prefix="/v1", dependencies=[*read_auth, KnownQuery], responses=read_codes
+        )
     web.install(app)  # the dashboard: /ui pages over the same store
     app.add_middleware(AllowMiddleware, router=app.router)
     app.state.http_metrics.templates = route_templates(app)
@@ -108,8 +112,11 @@ class AllowMiddleware:
     async def __call__(self, scope: dict, receive: Any, send: Any) -> None:
         if scope["type"] != "http" or scope["method"] != "OPTIONS":
             return await self.app(scope, receive, send)
-        methods = {m for m in _METHODS
-                   if any(r.matches({**scope, "method": m})[0] == Match.FULL for r in self.router.routes)}
+        methods = {
+            m
+            for m in _METHODS
+            if any(r.matches({**scope, "method": m})[0] == Match.FULL for r in self.router.routes)
+        }
         if not methods:
             return await self.app(scope, receive, send)
         allow = ", ".join(sorted(methods | {"OPTIONS"}))

@@ -43,12 +43,32 @@ JobSpec = Annotated[_job_spec_type(), AfterValidator(_known_data_root)]
 
 
 # Jobs
-Tag = Annotated[str, Field(min_length=1, max_length=100, pattern=r"^[A-Za-z0-9][A-Za-z0-9._:/=+\-]*$",
-                           description="a label such as 'baseline' or 'ablation:no-pred'")]
-JobName = Annotated[str, Field(min_length=1, max_length=200, pattern=r"^[^\x00-\x1f\x7f]+$",
-                               description="what the run is called (need not be unique)")]
-JobNote = Annotated[str, Field(max_length=10_000, pattern=r"^[^\x00-\x08\x0b\x0c\x0e-\x1f\x7f]*$",
-                               description="free text: why the run was made, what was seen")]
+Tag = Annotated[
+    str,
+    Field(
+        min_length=1,
+        max_length=100,
+        pattern=r"^[A-Za-z0-9][A-Za-z0-9._:/=+\-]*$",
+        description="a label such as 'baseline' or 'ablation:no-pred'",
+    ),
+]
+JobName = Annotated[
+    str,
+    Field(
+        min_length=1,
+        max_length=200,
+        pattern=r"^[^\x00-\x1f\x7f]+$",
+        description="what the run is called (need not be unique)",
+    ),
+]
+JobNote = Annotated[
+    str,
+    Field(
+        max_length=10_000,
+        pattern=r"^[^\x00-\x08\x0b\x0c\x0e-\x1f\x7f]*$",
+        description="free text: why the run was made, what was seen",
+    ),
+]
 MAX_TAGS = 20  #: tags per job
 
 
@@ -120,8 +140,11 @@ class JobPublic(BaseModel):
     message: str
     error: JobError | None
     result: dict[str, Any] | None
-    verdict: Verdict | None = Field(None, description="a succeeded job's gate/integrity verdict (None: no gate); "
-                                    "failed_gate / failed_integrity are results, not crashes (CLI exit code 2)")
+    verdict: Verdict | None = Field(
+        None,
+        description="a succeeded job's gate/integrity verdict (None: no gate); "
+        "failed_gate / failed_integrity are results, not crashes (CLI exit code 2)",
+    )
     worker: str | None
     created_at: datetime
     started_at: datetime | None
@@ -137,12 +160,21 @@ class JobsPublic(BaseModel):
     offset: int
 
 
-def job_public(row: dict[str, Any], artifacts: list[dict] | None = None, children: list[str] | None = None) -> JobPublic:
-    error = JobError(type=row["error_type"], message=row["error_message"] or "") if row["error_type"] else None
+def job_public(
+    row: dict[str, Any], artifacts: list[dict] | None = None, children: list[str] | None = None
+) -> JobPublic:
+    error = (
+        JobError(type=row["error_type"], message=row["error_message"] or "") if row["error_type"] else None
+    )
     arts = None
     if artifacts is not None:
         arts = [
-            ArtifactPublic(name=a["name"], size=a["size"], sha256=a["sha256"], url=f"/v1/jobs/{row['id']}/artifacts/{a['name']}")
+            ArtifactPublic(
+                name=a["name"],
+                size=a["size"],
+                sha256=a["sha256"],
+                url=f"/v1/jobs/{row['id']}/artifacts/{a['name']}",
+            )
             for a in artifacts
         ]
     return JobPublic(
@@ -317,7 +349,9 @@ class CampaignSummaryPublic(BaseModel):
     job_id: str | None
     config: dict[str, Any] = Field(description="matrix, seed_manifest, grid, horizon")
     best: CellParams | None = Field(description="checkpoint and variant of the best cell")
-    best_metrics: dict[str, Any] | None = Field(description="the best cell's suites: success, collision rates")
+    best_metrics: dict[str, Any] | None = Field(
+        description="the best cell's suites: success, collision rates"
+    )
     name: str | None = None
     tags: list[str] = Field(default_factory=list)
     created_at: datetime

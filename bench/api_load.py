@@ -95,7 +95,9 @@ async def _request(reader: asyncio.StreamReader, writer: asyncio.StreamWriter, r
     return status
 
 
-async def _client_loop(port: int, requests: list[bytes], stop_at: float, latencies: list[float], errors: list[int]) -> None:
+async def _client_loop(
+    port: int, requests: list[bytes], stop_at: float, latencies: list[float], errors: list[int]
+) -> None:
     reader, writer = await asyncio.open_connection("127.0.0.1", port)
     i = 0
     try:
@@ -119,7 +121,9 @@ def _load(port: int, requests: list[bytes], clients: int, duration: float, serve
     async def main() -> None:
         stop_at = time.perf_counter() + duration
         per_client = [requests[i::clients] or requests for i in range(clients)]
-        await asyncio.gather(*(_client_loop(port, per_client[i], stop_at, latencies, errors) for i in range(clients)))
+        await asyncio.gather(
+            *(_client_loop(port, per_client[i], stop_at, latencies, errors) for i in range(clients))
+        )
 
     t0, server0, own0 = time.perf_counter(), _tree_cpu_s(server_pid), time.process_time()
     asyncio.run(main())
@@ -158,8 +162,13 @@ def _tree_cpu_s(pid: int) -> float:
     return total + sum(_tree_cpu_s(int(c)) for c in children)
 
 
-def bench_http(database_url: str | None, clients: int, duration: float, server_workers: int,
-               phases: tuple[str, ...] = ("status_reads", "submissions")) -> dict:
+def bench_http(
+    database_url: str | None,
+    clients: int,
+    duration: float,
+    server_workers: int,
+    phases: tuple[str, ...] = ("status_reads", "submissions"),
+) -> dict:
     import httpx
 
     with tempfile.TemporaryDirectory(prefix="foresight-bench-") as tmp:
@@ -169,11 +178,15 @@ def bench_http(database_url: str | None, clients: int, duration: float, server_w
                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)  # fmt: skip
         try:
             _wait_healthy(port)
-            with httpx.Client(base_url=f"http://127.0.0.1:{port}", headers={"Authorization": f"Bearer {TOKEN}"}) as c:
+            with httpx.Client(
+                base_url=f"http://127.0.0.1:{port}", headers={"Authorization": f"Bearer {TOKEN}"}
+            ) as c:
                 ids = [c.post("/v1/jobs", json={"spec": {"kind": "sleep"}}).json()["id"] for _ in range(200)]
             out = {}
             if "status_reads" in phases:
-                out["status_reads"] = _load(port, [_get(f"/v1/jobs/{i}") for i in ids], clients, duration, server.pid)
+                out["status_reads"] = _load(
+                    port, [_get(f"/v1/jobs/{i}") for i in ids], clients, duration, server.pid
+                )
             if "status_reads_busy" in phases:
                 out["status_reads_busy"] = _load_while_busy(port, ids, clients, duration, server.pid)
             if "submissions" in phases:
@@ -227,7 +240,9 @@ def bench_claims(database_url: str | None, jobs: int, workers: int) -> dict:
                 for i in range(jobs)]  # fmt: skip
         with write_tx(engine) as conn:
             conn.execute(insert(queue.jobs), rows)
-        procs = [_cli(env, "worker", stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL) for _ in range(workers)]
+        procs = [
+            _cli(env, "worker", stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL) for _ in range(workers)
+        ]
         cpu = 0.0
         try:
             deadline = time.time() + 300
@@ -240,7 +255,9 @@ def bench_claims(database_url: str | None, jobs: int, workers: int) -> dict:
                     break
                 time.sleep(0.2)
             with engine.connect() as conn:
-                first, last = conn.execute(select(func.min(queue.jobs.c.started_at), func.max(queue.jobs.c.finished_at))).one()
+                first, last = conn.execute(
+                    select(func.min(queue.jobs.c.started_at), func.max(queue.jobs.c.finished_at))
+                ).one()
                 owners = conn.execute(select(func.count(func.distinct(queue.jobs.c.lease_owner)))).scalar()
             cpu = sum(_cpu_s(p.pid) for p in procs)  # includes each worker's start-up (imports)
         finally:
@@ -281,10 +298,19 @@ def main(argv: list[str] | None = None) -> int:
     if "claims" in phases:
         result["claims"] = bench_claims(args.database_url, args.claim_jobs, args.claim_workers)
     result["targets"] = {p: TARGETS[p] for p in phases}
-    result["machine"] = {"cpus": os.cpu_count(), "loadavg_1m_at_start": load0, "loadavg_1m_at_end": round(os.getloadavg()[0], 2)}
+    result["machine"] = {
+        "cpus": os.cpu_count(),
+        "loadavg_1m_at_start": load0,
+        "loadavg_1m_at_end": round(os.getloadavg()[0], 2),
+    }
 
     def http_ok(r: dict, target: dict) -> bool:
-        return r["rps"] >= target["min_rps"] and r["p99_ms"] is not None and r["p99_ms"] <= target["max_p99_ms"] and r["errors"] == 0
+        return (
+            r["rps"] >= target["min_rps"]
+            and r["p99_ms"] is not None
+            and r["p99_ms"] <= target["max_p99_ms"]
+            and r["errors"] == 0
+        )
 
     result["meets_targets"] = {
         p: (result[p]["jobs_per_s"] or 0) >= TARGETS[p]["min_jobs_per_s"] if p == "claims" else http_ok(result[p], TARGETS[p])
@@ -296,10 +322,14 @@ def main(argv: list[str] | None = None) -> int:
     for p in ("status_reads", "status_reads_busy", "submissions"):
         if p in result:
             r = result[p]
-            print(f"{p + ':':14s}{r['rps']} req/s, p50 {r['p50_ms']} ms, p99 {r['p99_ms']} ms, errors {r['errors']}")
+            print(
+                f"{p + ':':14s}{r['rps']} req/s, p50 {r['p50_ms']} ms, p99 {r['p99_ms']} ms, errors {r['errors']}"
+            )
     if "claims" in result:
         c = result["claims"]
-        print(f"claims:       {c['jobs_per_s']} jobs/s ({c['done']}/{c['jobs']} jobs, {c['workers']} workers, {c['database']})")
+        print(
+            f"claims:       {c['jobs_per_s']} jobs/s ({c['done']}/{c['jobs']} jobs, {c['workers']} workers, {c['database']})"
+        )
     return 0
 
 

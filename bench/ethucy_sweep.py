@@ -23,7 +23,9 @@ from foresight.core.predict.ethucy import FOLDS
 from foresight.core.predict.evaluation import FILE_KEYS
 
 
-def run_one(args: tuple[str, dict, str, str, str, str]) -> dict:  # (variant, stage, fold, root, device, workdir)
+def run_one(
+    args: tuple[str, dict, str, str, str, str],
+) -> dict:  # (variant, stage, fold, root, device, workdir)
     """One fold of one variant, trained and scored in-process (the same stage ``foresight predict-eval`` runs);
     ``stage``: the stage's values, ``train`` and its own ``FILE_KEYS`` (``stage_values``)."""
     name, stage, fold, root, device, workdir = args
@@ -35,18 +37,29 @@ def run_one(args: tuple[str, dict, str, str, str, str]) -> dict:  # (variant, st
     started = time.time()
     work = Path(workdir) / name / fold
     work.mkdir(parents=True, exist_ok=True)
-    config = PredictEvalConfig(**{**stage, "train": {**stage["train"], "device": device, "threads": 1}}, ethucy=root,
-                               folds=[fold])
+    config = PredictEvalConfig(
+        **{**stage, "train": {**stage["train"], "device": device, "threads": 1}}, ethucy=root, folds=[fold]
+    )
     result = run_predict_eval(config, StageContext(workdir=work, local_files=True)).folds[fold]
-    return {"variant": name, "fold": fold, "device": device, "seconds": round(time.time() - started, 1),
-            "ade": result.ade, "fde": result.fde, "cv_ade": result.cv_ade, "cv_fde": result.cv_fde,
-            "samples": result.samples}
+    return {
+        "variant": name,
+        "fold": fold,
+        "device": device,
+        "seconds": round(time.time() - started, 1),
+        "ade": result.ade,
+        "fde": result.fde,
+        "cv_ade": result.cv_ade,
+        "cv_fde": result.cv_fde,
+        "samples": result.samples,
+    }
 
 
 def stage_values(values: dict) -> dict:
     """A variant's merged values as the stage's: the training config's fields under ``train``, ``FILE_KEYS`` beside."""
-    return {"train": {k: v for k, v in values.items() if k not in FILE_KEYS},
-            **{k: values[k] for k in FILE_KEYS if k in values}}
+    return {
+        "train": {k: v for k, v in values.items() if k not in FILE_KEYS},
+        **{k: values[k] for k in FILE_KEYS if k in values},
+    }
 
 
 def _worker(jobs, results, device: str) -> None:
@@ -68,9 +81,14 @@ def table(rows: list[dict], folds: list[str]) -> dict[str, dict]:
         if set(done) != set(folds):
             out[name] = {"incomplete": sorted(set(folds) - set(done))}
             continue
-        out[name] = {**{k: round(sum(done[f][k] for f in folds) / len(folds), 4) for k in ("ade", "fde", "cv_ade", "cv_fde")},
-                     "folds": {f: [round(done[f]["ade"], 4), round(done[f]["fde"], 4)] for f in folds},
-                     "seconds": round(sum(done[f]["seconds"] for f in folds), 1)}
+        out[name] = {
+            **{
+                k: round(sum(done[f][k] for f in folds) / len(folds), 4)
+                for k in ("ade", "fde", "cv_ade", "cv_fde")
+            },
+            "folds": {f: [round(done[f]["ade"], 4), round(done[f]["fde"], 4)] for f in folds},
+            "seconds": round(sum(done[f]["seconds"] for f in folds), 1),
+        }
     return out
 
 
@@ -97,15 +115,20 @@ def main() -> None:
         except json.JSONDecodeError as exc:
             raise SystemExit(f"--variant {name}: overrides are not JSON ({exc.msg})") from None
     if not Path(args.ethucy).is_dir():
-        raise SystemExit(f"--ethucy {args.ethucy}: not a folder (expected the ETH/UCY root with <fold>/train|val|test)")
+        raise SystemExit(
+            f"--ethucy {args.ethucy}: not a folder (expected the ETH/UCY root with <fold>/train|val|test)"
+        )
     folds = args.folds.split(",")
     if unknown := set(folds) - set(FOLDS):
         raise SystemExit(f"--folds: unknown {sorted(unknown)} (expected some of {', '.join(FOLDS)})")
     workdir = args.out or tempfile.mkdtemp(prefix="ethucy_sweep_")
     ctx = mp.get_context("spawn")
     jobs, results = ctx.Queue(), ctx.Queue()
-    todo = [(name, stage_values({**base, **over}), fold, args.ethucy, workdir)
-            for name, over in variants.items() for fold in folds]
+    todo = [
+        (name, stage_values({**base, **over}), fold, args.ethucy, workdir)
+        for name, over in variants.items()
+        for fold in folds
+    ]
     devices = ["cuda"] * args.gpu_workers + ["cpu"] * args.workers
     for job in todo:
         jobs.put(job)
@@ -121,8 +144,14 @@ def main() -> None:
             print(json.dumps(rows[-1]), flush=True)
     for p in procs:
         p.join()
-    report = {"benchmark": "ethucy_sweep", "config": args.config, "variants": variants, "folds": folds,
-              "table": table(rows, folds), "errors": [r for r in rows if "error" in r]}
+    report = {
+        "benchmark": "ethucy_sweep",
+        "config": args.config,
+        "variants": variants,
+        "folds": folds,
+        "table": table(rows, folds),
+        "errors": [r for r in rows if "error" in r],
+    }
     print(json.dumps(report, indent=None if args.json else 1))
 
 

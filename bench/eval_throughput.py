@@ -54,24 +54,46 @@ def main(argv: list[str] | None = None) -> int:
             raise NotFoundError(f"unknown model {ident!r}")
         return checkpoint
 
-    config = EvaluationConfig(bundle="local", matrix=matrix.name, planner={"name": args.planner, "model": (
-        None if model is None else ("cv" if checkpoint is None else "file:" + checkpoint.name))},
-        seeds_per_scenario=args.seeds_per_scenario, max_steps=args.max_steps)
+    config = EvaluationConfig(
+        bundle="local",
+        matrix=matrix.name,
+        planner={
+            "name": args.planner,
+            "model": (None if model is None else ("cv" if checkpoint is None else "file:" + checkpoint.name)),
+        },
+        seeds_per_scenario=args.seeds_per_scenario,
+        max_steps=args.max_steps,
+    )
     work = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="foresight-bench-eval-"))
     work.mkdir(parents=True, exist_ok=True)
-    ctx = StageContext(workdir=work, resolve_bundle=lambda _b: matrix.parent, resolve_model=resolve_model,
-                       workers=args.workers)
+    ctx = StageContext(
+        workdir=work,
+        resolve_bundle=lambda _b: matrix.parent,
+        resolve_model=resolve_model,
+        workers=args.workers,
+    )
     t0 = time.perf_counter()
     res = run_evaluation(config, ctx)
     wall = time.perf_counter() - t0
     g = res.aggregates.overall
     out = {
-        "benchmark": "eval_throughput", "matrix": str(matrix), "planner": args.planner, "model": res.planner.model_id,
-        "workers": args.workers, "cpu_count": os.cpu_count(), "episodes": res.episodes, "wall_s": round(wall, 2),
-        "episodes_per_s": round(res.episodes / wall, 3), "target_s": TARGET_S, "within_target": wall <= TARGET_S,
-        "success_rate": res.success_rate, "collision_rate": res.collision_rate,
-        "timeout_rate": g.rates["timeout"].rate, "plan_ms_mean": g.means["plan_ms_mean"].mean,
-        "plan_ms_p95_mean": g.means["plan_ms_p95"].mean, "workdir": str(work),
+        "benchmark": "eval_throughput",
+        "matrix": str(matrix),
+        "planner": args.planner,
+        "model": res.planner.model_id,
+        "workers": args.workers,
+        "cpu_count": os.cpu_count(),
+        "episodes": res.episodes,
+        "wall_s": round(wall, 2),
+        "episodes_per_s": round(res.episodes / wall, 3),
+        "target_s": TARGET_S,
+        "within_target": wall <= TARGET_S,
+        "success_rate": res.success_rate,
+        "collision_rate": res.collision_rate,
+        "timeout_rate": g.rates["timeout"].rate,
+        "plan_ms_mean": g.means["plan_ms_mean"].mean,
+        "plan_ms_p95_mean": g.means["plan_ms_p95"].mean,
+        "workdir": str(work),
     }
     if args.json:
         print(json.dumps(out, indent=2))

@@ -57,8 +57,11 @@ def coverage(err: np.ndarray, sigma: np.ndarray) -> dict[str, float]:
     sq = np.sum(err**2, axis=-1)
     radius = np.sqrt(sq) / sigma
     nll = np.log(2 * np.pi) + 2 * np.log(sigma) + sq / (2 * sigma**2)
-    return {"within_1_sigma": round(float(np.mean(radius <= 1.0)), 3),
-            "within_2_sigma": round(float(np.mean(radius <= 2.0)), 3), "nll": round(float(np.mean(nll)), 3)}
+    return {
+        "within_1_sigma": round(float(np.mean(radius <= 1.0)), 3),
+        "within_2_sigma": round(float(np.mean(radius <= 2.0)), 3),
+        "nll": round(float(np.mean(nll)), 3),
+    }
 
 
 def main() -> None:
@@ -67,9 +70,15 @@ def main() -> None:
     ap.add_argument("--seeds", default=str(REPO / "configs/seeds/stress_train.yaml"))
     ap.add_argument("--per-scenario", type=int, default=2, help="training seeds per scenario")
     ap.add_argument("--checkpoint", default=str(REPO / "model/predictor-sim-default.pt"))
-    ap.add_argument("--near", type=float, default=4.0, help="also fit on pedestrians this close to the robot [m]")
-    ap.add_argument("--seed-offset", type=int, default=0,
-                    help="add this to every training seed (100000: held-out seeds, neither trained nor evaluated on)")
+    ap.add_argument(
+        "--near", type=float, default=4.0, help="also fit on pedestrians this close to the robot [m]"
+    )
+    ap.add_argument(
+        "--seed-offset",
+        type=int,
+        default=0,
+        help="add this to every training seed (100000: held-out seeds, neither trained nor evaluated on)",
+    )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     matrix = load_matrix(args.matrix)
@@ -91,18 +100,34 @@ def main() -> None:
 
         torch.set_num_threads(1)
         predictors["learned"] = load_predictor(args.checkpoint)
-    out = {"benchmark": "forecast_calibration", "matrix": args.matrix, "seeds": args.seeds,
-           "per_scenario": args.per_scenario, "seed_offset": args.seed_offset, "times": tb.times.tolist(), "predictors": {}}
+    out = {
+        "benchmark": "forecast_calibration",
+        "matrix": args.matrix,
+        "seeds": args.seeds,
+        "per_scenario": args.per_scenario,
+        "seed_offset": args.seed_offset,
+        "times": tb.times.tolist(),
+        "predictors": {},
+    }
     for name, predictor in predictors.items():
         for subset, near in (("all", None), (f"within_{args.near:g}_m", args.near)):
             own = bool(getattr(predictor, "has_sigma", False))
-            err, sigma = errors(predictor, samples, near, own) if own else (errors(predictor, samples, near), None)
+            err, sigma = (
+                errors(predictor, samples, near, own) if own else (errors(predictor, samples, near), None)
+            )
             fit = GrowingSigma.fit(tb.times, err)
-            row = {"sigma0": round(fit.sigma0, 4), "sigma_v": round(fit.sigma_v, 4), "pedestrian_horizons": len(err),
-                   "rms_per_axis": np.sqrt(np.mean(err**2, axis=(0, 2))).round(4).tolist(),
-                   **coverage(err, np.broadcast_to(fit(tb.times), err.shape[:2]))}
+            row = {
+                "sigma0": round(fit.sigma0, 4),
+                "sigma_v": round(fit.sigma_v, 4),
+                "pedestrian_horizons": len(err),
+                "rms_per_axis": np.sqrt(np.mean(err**2, axis=(0, 2))).round(4).tolist(),
+                **coverage(err, np.broadcast_to(fit(tb.times), err.shape[:2])),
+            }
             if own:
-                row["own_sigma"] = {**coverage(err, sigma), "mean_sigma_per_step": sigma.mean(axis=0).round(4).tolist()}
+                row["own_sigma"] = {
+                    **coverage(err, sigma),
+                    "mean_sigma_per_step": sigma.mean(axis=0).round(4).tolist(),
+                }
             out["predictors"].setdefault(name, {})[subset] = row
     print(json.dumps(out) if args.json else json.dumps(out, indent=1))
 

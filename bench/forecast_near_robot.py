@@ -30,7 +30,11 @@ sys.path.insert(0, str(REPO))
 
 from foresight.core.evaluation.episode_trace import TRACES, read_compact  # noqa: E402
 
-BANDS = ((2.0, "near"), (5.0, "mid"), (float("inf"), "far"))  #: gap to the robot [m] below which a band starts
+BANDS = (
+    (2.0, "near"),
+    (5.0, "mid"),
+    (float("inf"), "far"),
+)  #: gap to the robot [m] below which a band starts
 
 
 def condition_of(scenario: str) -> str:
@@ -69,7 +73,9 @@ def summary(folder: Path) -> dict:
     groups: dict[tuple[str, str], list] = defaultdict(list)
     paths = sorted((folder / TRACES).glob("*.json.gz"))
     if not paths:
-        raise SystemExit(f"{folder}: no episode traces under {TRACES}/ (a finished `foresight evaluate --out` folder?)")
+        raise SystemExit(
+            f"{folder}: no episode traces under {TRACES}/ (a finished `foresight evaluate --out` folder?)"
+        )
     for path in paths:
         trace = read_compact(path)
         for band, *errors in trace_errors(trace):
@@ -77,8 +83,15 @@ def summary(folder: Path) -> dict:
     rows = []
     for (condition, band), errs in sorted(groups.items()):
         e = np.asarray(errs)
-        rows.append({"condition": condition, "band": band, "samples": len(e),
-                     "ade": round(float(e[:, 0].mean()), 4), "fde": round(float(e[:, 1].mean()), 4)})
+        rows.append(
+            {
+                "condition": condition,
+                "band": band,
+                "samples": len(e),
+                "ade": round(float(e[:, 0].mean()), 4),
+                "fde": round(float(e[:, 1].mean()), 4),
+            }
+        )
     return {"folder": str(folder), "episodes": len(paths), "rows": rows}
 
 
@@ -91,21 +104,33 @@ def labelled(arg: str) -> tuple[str, Path]:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("runs", nargs="+", type=labelled, metavar="LABEL=DIR",
-                    help="work folder of a finished `foresight evaluate --local --out` run, with a label")
+    ap.add_argument(
+        "runs",
+        nargs="+",
+        type=labelled,
+        metavar="LABEL=DIR",
+        help="work folder of a finished `foresight evaluate --local --out` run, with a label",
+    )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    result = {"bands_m": {name: limit for limit, name in BANDS}, "runs": {label: summary(f) for label, f in args.runs}}
+    result = {
+        "bands_m": {name: limit for limit, name in BANDS},
+        "runs": {label: summary(f) for label, f in args.runs},
+    }
     if args.json:
         print(json.dumps(result, indent=2))
         return 0
     labels = list(result["runs"])
-    cells = {label: {(r["condition"], r["band"]): r for r in run["rows"]} for label, run in result["runs"].items()}
+    cells = {
+        label: {(r["condition"], r["band"]): r for r in run["rows"]} for label, run in result["runs"].items()
+    }
     print("| condition | gap to robot | " + " | ".join(f"{x}: samples, ADE / FDE [m]" for x in labels) + " |")
     print("|---|---|" + "---|" * len(labels))
     for key in sorted({k for c in cells.values() for k in c}):
-        vals = [f"{c[key]['samples']}, {c[key]['ade']:.3f} / {c[key]['fde']:.3f}" if key in c else "–"
-                for c in (cells[x] for x in labels)]
+        vals = [
+            f"{c[key]['samples']}, {c[key]['ade']:.3f} / {c[key]['fde']:.3f}" if key in c else "–"
+            for c in (cells[x] for x in labels)
+        ]
         print(f"| {key[0]} | {key[1]} | " + " | ".join(vals) + " |")
     return 0
 

@@ -53,12 +53,19 @@ def main() -> None:
         "yaml alias bomb, 10 levels": lambda: load_yaml(alias_bomb(10), "bomb.yaml"),
         "yaml nested 20,000 deep": lambda: load_yaml("a: " + "[" * 20_000 + "]" * 20_000, "deep.yaml"),
         "svg with 100,000 nested <g>": lambda: parse_svg_text(
-            '<svg xmlns="http://www.w3.org/2000/svg" width="9" height="9">' + "<g>" * 100_000 + "</g>" * 100_000
-            + "</svg>", name="deep", source="deep.svg"),
+            '<svg xmlns="http://www.w3.org/2000/svg" width="9" height="9">'
+            + "<g>" * 100_000
+            + "</g>" * 100_000
+            + "</svg>",
+            name="deep",
+            source="deep.svg",
+        ),
         "json spec nested 100,000 deep": lambda: check_nesting(deep_json(100_000), source="body"),
     }
     for name, (data, _, _) in hostile().items():
-        cases[f"archive: {name} ({len(data)} bytes)"] = lambda d=data: read_archive(d, max_bytes=50 << 20, max_files=2000)
+        cases[f"archive: {name} ({len(data)} bytes)"] = lambda d=data: read_archive(
+            d, max_bytes=50 << 20, max_files=2000
+        )
     out = {name: measure(fn) for name, fn in cases.items()}
     unclear = []
     for i, data in enumerate(mangled(seed=7, count=200)):
@@ -69,8 +76,12 @@ def main() -> None:
         except Exception as exc:  # noqa: BLE001 - what is reported
             unclear.append(f"{i}: {type(exc).__name__}: {exc}"[:100])
     handled = sum(r["outcome"] != "accepted" and r["cpu_s"] < 2 for r in out.values())
-    out["summary"] = {"hostile_inputs_tried": len(cases), "hostile_inputs_refused_within_2s": handled,
-                      "corrupted_archives_tried": 200, "corrupted_archives_without_a_clear_error": unclear}
+    out["summary"] = {
+        "hostile_inputs_tried": len(cases),
+        "hostile_inputs_refused_within_2s": handled,
+        "corrupted_archives_tried": 200,
+        "corrupted_archives_without_a_clear_error": unclear,
+    }
     print(json.dumps(out, indent=1))
 
 

@@ -25,8 +25,19 @@ from pathlib import Path
 import yaml
 
 REPO = Path(__file__).resolve().parent.parent
-ARCHETYPES = ("crossing", "cross_trap", "head_on_corridor", "overtaking", "bottleneck", "doorway", "merging",
-              "t_intersection", "group_crossing", "station_platform", "urban_crossing")
+ARCHETYPES = (
+    "crossing",
+    "cross_trap",
+    "head_on_corridor",
+    "overtaking",
+    "bottleneck",
+    "doorway",
+    "merging",
+    "t_intersection",
+    "group_crossing",
+    "station_platform",
+    "urban_crossing",
+)
 SHARES = {"nr30": 0.3, "nr100": 1.0}  #: name suffix -> nonreactive_fraction
 #: pedestrians (re)spawn this far [m] beyond contact from the robot (simulation_config.robot_spawn_clearance). Version 1
 #: used the reference's 0.5 m: 19 of its 256 episodes ended in a collision within 1.5 s that no admissible robot
@@ -62,11 +73,23 @@ def synthetic() -> list[dict]:
     for arch in ARCHETYPES:
         base = medium_entry(arch)
         for suffix, share in SHARES.items():
-            sim = {**base["simulation_config"], "ped_speed_tier": "realistic", "nonreactive_fraction": share,
-                   "robot_spawn_clearance": SPAWN_CLEARANCE}
+            sim = {
+                **base["simulation_config"],
+                "ped_speed_tier": "realistic",
+                "nonreactive_fraction": share,
+                "robot_spawn_clearance": SPAWN_CLEARANCE,
+            }
             meta = {**base["metadata"], "condition": f"nonreactive_{share:g}"}
-            out.append({"name": f"{arch}_{suffix}", "map_id": base["map_id"], "simulation_config": sim,
-                        "robot_config": base.get("robot_config", {}), "metadata": meta, "seeds": base["seeds"]})
+            out.append(
+                {
+                    "name": f"{arch}_{suffix}",
+                    "map_id": base["map_id"],
+                    "simulation_config": sim,
+                    "robot_config": base.get("robot_config", {}),
+                    "metadata": meta,
+                    "seeds": base["seeds"],
+                }
+            )
     return out
 
 
@@ -74,9 +97,12 @@ REPLAY_HORIZON_S = 20.0  #: episode length of a replay scenario [s]
 REPLAY_DT = 0.1  #: the simulator's default step [s]
 #: scene file -> (family, seconds per annotation, episodes); univ is students001 + students003
 REPLAY_SCENES = {
-    "biwi_eth": ("replay_eth", 0.64, 7), "biwi_hotel": ("replay_hotel", 0.4, 7),
-    "students001": ("replay_univ", 0.4, 3), "students003": ("replay_univ", 0.4, 5),
-    "crowds_zara01": ("replay_zara1", 0.4, 7), "crowds_zara02": ("replay_zara2", 0.4, 7),
+    "biwi_eth": ("replay_eth", 0.64, 7),
+    "biwi_hotel": ("replay_hotel", 0.4, 7),
+    "students001": ("replay_univ", 0.4, 3),
+    "students003": ("replay_univ", 0.4, 5),
+    "crowds_zara01": ("replay_zara1", 0.4, 7),
+    "crowds_zara02": ("replay_zara2", 0.4, 7),
 }
 
 
@@ -88,16 +114,31 @@ def replay() -> list[dict]:
     root = data_root("ethucy")
     out = []
     for scene, (family, frame_dt, count) in REPLAY_SCENES.items():
-        for ep in select_episodes(scene, read_scene(scene_file(root, scene)), frame_dt, horizon_s=REPLAY_HORIZON_S,
-                                  count=count):
-            block = {"scene": scene, "start_frame": ep.start_frame, **({"frame_dt": frame_dt} if frame_dt != 0.4 else {}),
-                     "robot_start": list(ep.robot_start), "robot_goal": list(ep.robot_goal)}
-            out.append({"name": f"replay_{scene}_{ep.start_frame}", "replay": block,
-                        "simulation_config": {"max_episode_steps": round(REPLAY_HORIZON_S / REPLAY_DT)},
-                        "robot_config": {},
-                        "metadata": {"archetype": family, "condition": "replay", "crossings": ep.crossings,
-                                     "pedestrians": ep.pedestrians},
-                        "seeds": [0]})
+        for ep in select_episodes(
+            scene, read_scene(scene_file(root, scene)), frame_dt, horizon_s=REPLAY_HORIZON_S, count=count
+        ):
+            block = {
+                "scene": scene,
+                "start_frame": ep.start_frame,
+                **({"frame_dt": frame_dt} if frame_dt != 0.4 else {}),
+                "robot_start": list(ep.robot_start),
+                "robot_goal": list(ep.robot_goal),
+            }
+            out.append(
+                {
+                    "name": f"replay_{scene}_{ep.start_frame}",
+                    "replay": block,
+                    "simulation_config": {"max_episode_steps": round(REPLAY_HORIZON_S / REPLAY_DT)},
+                    "robot_config": {},
+                    "metadata": {
+                        "archetype": family,
+                        "condition": "replay",
+                        "crossings": ep.crossings,
+                        "pedestrians": ep.pedestrians,
+                    },
+                    "seeds": [0],
+                }
+            )
     return out
 
 
@@ -106,12 +147,19 @@ def flow(obj) -> str:
 
 
 def matrix_text(scenarios: list[dict]) -> str:
-    lines = [HEADER.rstrip("\n"), "metadata: {name: foresight_stress, version: 2}", "map_registry: ../maps/registry.yaml",
-             "map_search_paths: [../maps]", "scenarios:"]
+    lines = [
+        HEADER.rstrip("\n"),
+        "metadata: {name: foresight_stress, version: 2}",
+        "map_registry: ../maps/registry.yaml",
+        "map_search_paths: [../maps]",
+        "scenarios:",
+    ]
     for s in scenarios:
         first = True
         for key, value in s.items():
-            lines.append(f"{'- ' if first else '  '}{key}: {flow(value) if isinstance(value, dict | list) else value}")
+            lines.append(
+                f"{'- ' if first else '  '}{key}: {flow(value) if isinstance(value, dict | list) else value}"
+            )
             first = False
     return "\n".join(lines) + "\n"
 
@@ -126,21 +174,25 @@ def offset_seeds_text(scenarios: list[dict], offset: int, head: str, description
 
 def train_text(scenarios: list[dict]) -> str:
     return offset_seeds_text(
-        scenarios, TRAIN_OFFSET,
+        scenarios,
+        TRAIN_OFFSET,
         "# TRAINING seeds of the stress suite (configs/scenarios/stress.yaml): evaluation seed + 50000 per synthetic\n"
         "# scenario. GENERATED by `python bench/make_stress_suite.py`. Replay scenarios have none: a replayed\n"
         "# crowd is the same for every seed, so any training seed would reuse evaluation data.\n",
-        "stress suite TRAINING seeds (evaluation seed + 50000; disjoint from stress.yaml's seeds)")
+        "stress suite TRAINING seeds (evaluation seed + 50000; disjoint from stress.yaml's seeds)",
+    )
 
 
 def replication_text(scenarios: list[dict]) -> str:
     return offset_seeds_text(
-        scenarios, REPLICATION_OFFSET,
+        scenarios,
+        REPLICATION_OFFSET,
         "# REPLICATION seeds of the stress suite (configs/scenarios/stress.yaml): evaluation seed + 10 per synthetic\n"
         "# scenario, a second sample of the same conditions to check a claim made on the suite (never tuned on, never\n"
         "# trained on). GENERATED by `python bench/make_stress_suite.py`. Replays have none: a replay is the same for\n"
         "# every seed. Use: foresight evaluate --matrix configs/scenarios/stress.yaml --seeds <this file>\n",
-        "stress suite REPLICATION seeds (evaluation seed + 10; disjoint from the evaluation and training seeds)")
+        "stress suite REPLICATION seeds (evaluation seed + 10; disjoint from the evaluation and training seeds)",
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -153,9 +205,17 @@ def main(argv: list[str] | None = None) -> int:
     args.out.write_text(matrix_text(scenarios))
     args.train_out.write_text(train_text(scenarios))
     args.replication_out.write_text(replication_text(scenarios))
-    print(json.dumps({"matrix": str(args.out), "train_seeds": str(args.train_out),
-                      "replication_seeds": str(args.replication_out), "scenarios": len(scenarios),
-                      "episodes": sum(len(s["seeds"]) for s in scenarios)}))
+    print(
+        json.dumps(
+            {
+                "matrix": str(args.out),
+                "train_seeds": str(args.train_out),
+                "replication_seeds": str(args.replication_out),
+                "scenarios": len(scenarios),
+                "episodes": sum(len(s["seeds"]) for s in scenarios),
+            }
+        )
+    )
     return 0
 
 

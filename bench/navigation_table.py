@@ -48,8 +48,10 @@ SUITES = {  #: name -> (matrix, --override values)
     "reference_typical": (REFERENCE, ["ped_speed_tier=typical"]),
     "reference_typical_blind": (REFERENCE, ["ped_speed_tier=typical", "peds_have_robot_repulsion=false"]),
 }
-REPLICATION = {STRESS: REPO / "configs/seeds/stress_replication.yaml",  #: matrix -> its replication seeds
-               REFERENCE: REPO / "configs/seeds/reference_replication.yaml"}
+REPLICATION = {
+    STRESS: REPO / "configs/seeds/stress_replication.yaml",  #: matrix -> its replication seeds
+    REFERENCE: REPO / "configs/seeds/reference_replication.yaml",
+}
 PLANNERS = {  #: column name -> foresight evaluate arguments
     "predictive (learned)": ["--planner", "predictive"],
     "predictive (cv)": ["--planner", "predictive", "--model", "cv"],
@@ -61,14 +63,28 @@ SLUG = {"predictive (learned)": "predictive_learned", "predictive (cv)": "predic
 BASELINES = ("orca", "social_force", "goal")
 
 
-def run_one(suite: str, matrix: Path, overrides: list[str], seeds: Path | None, planner: str,
-            args: argparse.Namespace) -> Path:
+def run_one(
+    suite: str, matrix: Path, overrides: list[str], seeds: Path | None, planner: str, args: argparse.Namespace
+) -> Path:
     """The work folder of one (suite, planner) evaluation, run now unless --reuse finds it finished."""
     out = Path(args.out) / suite / SLUG.get(planner, planner)
     if args.reuse and (out / "evaluation.json").is_file():
         return out
-    cmd = [str(REPO / ".venv/bin/foresight"), "evaluate", "--matrix", str(matrix), *PLANNERS[planner], "--local",
-           "--json", "--workers", str(args.workers), "--out", str(out), "--min-success", "0"]
+    cmd = [
+        str(REPO / ".venv/bin/foresight"),
+        "evaluate",
+        "--matrix",
+        str(matrix),
+        *PLANNERS[planner],
+        "--local",
+        "--json",
+        "--workers",
+        str(args.workers),
+        "--out",
+        str(out),
+        "--min-success",
+        "0",
+    ]
     cmd += [x for o in overrides for x in ("--override", o)]
     if seeds is not None:
         cmd += ["--seeds", str(seeds)]
@@ -76,7 +92,9 @@ def run_one(suite: str, matrix: Path, overrides: list[str], seeds: Path | None, 
         cmd += ["--seeds-per-scenario", str(args.seeds_per_scenario)]
     if args.scenarios:
         cmd += ["--scenarios", args.scenarios]
-    print(f"[{time.strftime('%H:%M:%S')}] {suite} / {planner}: {' '.join(cmd[1:])}", file=sys.stderr, flush=True)
+    print(
+        f"[{time.strftime('%H:%M:%S')}] {suite} / {planner}: {' '.join(cmd[1:])}", file=sys.stderr, flush=True
+    )
     done = subprocess.run(cmd, capture_output=True, text=True)
     if done.returncode not in (0, 2):  # 2 = a failing gate or integrity check: still a result
         sys.exit(f"{suite} / {planner}: {done.stderr.strip()}")
@@ -91,7 +109,11 @@ def groups_of(matrix: Path, overrides: list[str]) -> dict[str, str]:
     out = {}
     for s in load_matrix(matrix, overrides=parse_overrides(overrides)).scenarios:
         condition = s.scenario.metadata.get("condition")
-        out[s.name] = f"{condition} / {s.scenario.archetype}" if condition and condition != "replay" else s.scenario.archetype
+        out[s.name] = (
+            f"{condition} / {s.scenario.archetype}"
+            if condition and condition != "replay"
+            else s.scenario.archetype
+        )
     return out
 
 
@@ -99,17 +121,26 @@ def cell(records: list) -> dict:
     from foresight.core.evaluation.stats import rate
 
     n = len(records)
-    counts = {"success": sum(r.success for r in records), "collision": sum(r.collision for r in records),
-              "timeout": sum(r.outcome == "timeout" for r in records)}
+    counts = {
+        "success": sum(r.success for r in records),
+        "collision": sum(r.collision for r in records),
+        "timeout": sum(r.outcome == "timeout" for r in records),
+    }
     unsolvable = sum(r.taxonomy.reachable is False for r in records)  # no robot could have reached the goal
-    return {"episodes": n, **{k: rate(c, n).model_dump(exclude={"n"}) for k, c in counts.items()},
-            "unsolvable": unsolvable}
+    return {
+        "episodes": n,
+        **{k: rate(c, n).model_dump(exclude={"n"}) for k, c in counts.items()},
+        "unsolvable": unsolvable,
+    }
 
 
 def records_of(folder: Path) -> list:
     from foresight.core.evaluation.record import EpisodeRecord
 
-    return [EpisodeRecord.model_validate_json(line) for line in (folder / "episodes.jsonl").read_text().splitlines()]
+    return [
+        EpisodeRecord.model_validate_json(line)
+        for line in (folder / "episodes.jsonl").read_text().splitlines()
+    ]
 
 
 def learned_vs_cv(learned: list, cv: list) -> dict:
@@ -121,10 +152,15 @@ def learned_vs_cv(learned: list, cv: list) -> dict:
     pairs = sorted(set(a) & set(b))
     fail_l, fail_c = sum(not a[k] for k in pairs), sum(not b[k] for k in pairs)
     only_l, only_c = sum(a[k] and not b[k] for k in pairs), sum(b[k] and not a[k] for k in pairs)
-    return {"pairs": len(pairs), "failed_learned": fail_l, "failed_cv": fail_c,
-            "fewer_failures": round(1 - fail_l / fail_c, 3) if fail_c else None,
-            "learned_only": only_l, "cv_only": only_c,
-            "mcnemar_p": mcnemar_p(only_l, only_c) if len(pairs) >= MIN_PAIRS else None}
+    return {
+        "pairs": len(pairs),
+        "failed_learned": fail_l,
+        "failed_cv": fail_c,
+        "fewer_failures": round(1 - fail_l / fail_c, 3) if fail_c else None,
+        "learned_only": only_l,
+        "cv_only": only_c,
+        "mcnemar_p": mcnemar_p(only_l, only_c) if len(pairs) >= MIN_PAIRS else None,
+    }
 
 
 def suite_table(folders: dict[str, Path], groups: dict[str, str]) -> dict[str, dict[str, dict]]:
@@ -153,7 +189,10 @@ def baseline_better(suites: dict[str, dict]) -> list[dict]:
             for p in (p for p in cells if p.startswith("predictive")):
                 for b in (x for x in BASELINES if x in cells):
                     s, c = cells[p], cells[b]
-                    if (c["success"]["rate"], -c["collision"]["rate"]) > (s["success"]["rate"], -s["collision"]["rate"]):
+                    if (c["success"]["rate"], -c["collision"]["rate"]) > (
+                        s["success"]["rate"],
+                        -s["collision"]["rate"],
+                    ):
                         out.append({"suite": suite, "group": group, "planner": p, "baseline": b})
     return out
 
@@ -167,19 +206,28 @@ def markdown(result: dict) -> str:
     for suite, t in result["suites"].items():
         planners = list(next(iter(t["groups"].values())))
         over = ", ".join(t["overrides"]) or "none"
-        lines += [f"**{suite}** ({Path(t['matrix']).name}, overrides: {over})", "",
-                  "| group | " + " | ".join(planners) + " |", "|---" * (len(planners) + 1) + "|"]
+        lines += [
+            f"**{suite}** ({Path(t['matrix']).name}, overrides: {over})",
+            "",
+            "| group | " + " | ".join(planners) + " |",
+            "|---" * (len(planners) + 1) + "|",
+        ]
         for group, cells in t["groups"].items():
-            vals = [f"{pct(c['success'], True)} / {pct(c['collision'], True)} / {pct(c['timeout'], False)}"
-                    for c in (cells[p] for p in planners)]
+            vals = [
+                f"{pct(c['success'], True)} / {pct(c['collision'], True)} / {pct(c['timeout'], False)}"
+                for c in (cells[p] for p in planners)
+            ]
             name = f"**{group}**" if group.startswith("all") else group
             lines.append(f"| {name} (n={cells[planners[0]]['episodes']}) | " + " | ".join(vals) + " |")
         lines.append("")
         if "learned_vs_cv" in t:
             c = t["learned_vs_cv"]
             p = "n/a" if c["mcnemar_p"] is None else f"{c['mcnemar_p']:.3g}"
-            lines += [f"learned vs cv, {c['pairs']} paired episodes: {c['failed_learned']} vs {c['failed_cv']} failed, "
-                      f"learned-only : cv-only successes {c['learned_only']} : {c['cv_only']}, McNemar p = {p}", ""]
+            lines += [
+                f"learned vs cv, {c['pairs']} paired episodes: {c['failed_learned']} vs {c['failed_cv']} failed, "
+                f"learned-only : cv-only successes {c['learned_only']} : {c['cv_only']}, McNemar p = {p}",
+                "",
+            ]
     return "\n".join(lines)
 
 
@@ -189,45 +237,84 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--suites", default=",".join(SUITES), help=f"comma-separated, of {', '.join(SUITES)}")
     ap.add_argument("--matrix", help="instead of --suites: this matrix, as suite 'custom'")
-    ap.add_argument("--override", action="append", default=[], metavar="KEY=VALUE", help="with --matrix (repeatable)")
-    ap.add_argument("--planners", default=",".join(SLUG.get(p, p) for p in PLANNERS),
-                    help="comma-separated, of predictive_learned, predictive_cv, orca, social_force, goal")
-    ap.add_argument("--seeds-per-scenario", type=int,
-                    help="the first N seeds of each scenario, extended by the next ones where it has fewer "
-                    "(default: all its own)")
+    ap.add_argument(
+        "--override", action="append", default=[], metavar="KEY=VALUE", help="with --matrix (repeatable)"
+    )
+    ap.add_argument(
+        "--planners",
+        default=",".join(SLUG.get(p, p) for p in PLANNERS),
+        help="comma-separated, of predictive_learned, predictive_cv, orca, social_force, goal",
+    )
+    ap.add_argument(
+        "--seeds-per-scenario",
+        type=int,
+        help="the first N seeds of each scenario, extended by the next ones where it has fewer "
+        "(default: all its own)",
+    )
     ap.add_argument("--scenarios", help="comma-separated scenario names (default: all)")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", default=str(REPO / "out" / "navigation"), help="work folders of the evaluations")
-    ap.add_argument("--reuse", action="store_true", help="take finished work folders under --out instead of re-running")
-    ap.add_argument("--replication", action="store_true",
-                    help="run each suite on its replication seeds (new episodes of the same conditions)")
+    ap.add_argument(
+        "--reuse", action="store_true", help="take finished work folders under --out instead of re-running"
+    )
+    ap.add_argument(
+        "--replication",
+        action="store_true",
+        help="run each suite on its replication seeds (new episodes of the same conditions)",
+    )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     unknown = [s for s in args.suites.split(",") if s and s not in SUITES]
     if unknown and not args.matrix:
         ap.error(f"unknown suite {unknown[0]!r}; expected one of {', '.join(SUITES)}")
     if args.replication and args.matrix:
-        ap.error("--replication runs the named suites on their replication seeds; it does not apply to --matrix")
-    suites = {"custom": (Path(args.matrix), args.override, None)} if args.matrix else {
-        f"{s}_replication" if args.replication else s: (*SUITES[s], REPLICATION[SUITES[s][0]] if args.replication else None)
-        for s in args.suites.split(",") if s}
+        ap.error(
+            "--replication runs the named suites on their replication seeds; it does not apply to --matrix"
+        )
+    suites = (
+        {"custom": (Path(args.matrix), args.override, None)}
+        if args.matrix
+        else {
+            f"{s}_replication" if args.replication else s: (
+                *SUITES[s],
+                REPLICATION[SUITES[s][0]] if args.replication else None,
+            )
+            for s in args.suites.split(",")
+            if s
+        }
+    )
     by_slug = {SLUG.get(p, p): p for p in PLANNERS}
     planners = [by_slug[p] for p in args.planners.split(",") if p]
-    result: dict = {"command": ["bench/navigation_table.py", *(argv if argv is not None else sys.argv[1:])],
-                    "suites": {}, "runs": {}}
+    result: dict = {
+        "command": ["bench/navigation_table.py", *(argv if argv is not None else sys.argv[1:])],
+        "suites": {},
+        "runs": {},
+    }
     for suite, (matrix, overrides, seeds) in suites.items():
         folders = {p: run_one(suite, matrix, overrides, seeds, p, args) for p in planners}
-        summaries = {p: EvaluationResult.model_validate_json((f / "evaluation.json").read_text())
-                     for p, f in folders.items()}
-        result["suites"][suite] = {"matrix": str(matrix), "overrides": overrides,
-                                   "seeds": None if seeds is None else str(seeds),
-                                   "groups": suite_table(folders, groups_of(matrix, overrides))}
+        summaries = {
+            p: EvaluationResult.model_validate_json((f / "evaluation.json").read_text())
+            for p, f in folders.items()
+        }
+        result["suites"][suite] = {
+            "matrix": str(matrix),
+            "overrides": overrides,
+            "seeds": None if seeds is None else str(seeds),
+            "groups": suite_table(folders, groups_of(matrix, overrides)),
+        }
         if {"predictive (learned)", "predictive (cv)"} <= set(folders):
-            result["suites"][suite]["learned_vs_cv"] = learned_vs_cv(records_of(folders["predictive (learned)"]),
-                                                                     records_of(folders["predictive (cv)"]))
-        result["runs"][suite] = {p: {"folder": str(folders[p]), "wall_s": round(s.wall_s, 1),
-                                     "code_version": s.code_version, "episodes": s.episodes}
-                                 for p, s in summaries.items()}
+            result["suites"][suite]["learned_vs_cv"] = learned_vs_cv(
+                records_of(folders["predictive (learned)"]), records_of(folders["predictive (cv)"])
+            )
+        result["runs"][suite] = {
+            p: {
+                "folder": str(folders[p]),
+                "wall_s": round(s.wall_s, 1),
+                "code_version": s.code_version,
+                "episodes": s.episodes,
+            }
+            for p, s in summaries.items()
+        }
     result["baseline_better"] = baseline_better(result["suites"])
     print(json.dumps(result, indent=2) if args.json else markdown(result))
     return 0

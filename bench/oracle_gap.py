@@ -69,49 +69,79 @@ def _episode(args: tuple[str, str, int, str, int | None, bool]) -> tuple[str, in
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--matrix", default=str(REF), help="scenario matrix (run with nobody yielding at typical speed)")
+    ap.add_argument(
+        "--matrix", default=str(REF), help="scenario matrix (run with nobody yielding at typical speed)"
+    )
     ap.add_argument("--seeds-per-scenario", type=int, default=10)
     ap.add_argument("--scenarios", default=None, help="comma-separated names (default: all)")
-    ap.add_argument("--forecasters", default="oracle,learned,cv", help="of oracle, learned, cv; the first is the reference")
+    ap.add_argument(
+        "--forecasters",
+        default="oracle,learned,cv",
+        help="of oracle, learned, cv; the first is the reference",
+    )
     ap.add_argument("--max-steps", type=int, default=None, help="horizon override for smoke runs")
     ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--as-is", action="store_true",
-                    help="run the matrix's own conditions (every chosen scenario must have nobody reacting to the robot, "
-                         "e.g. the stress suite's *_nr100 and replay_* scenarios)")
+    ap.add_argument(
+        "--as-is",
+        action="store_true",
+        help="run the matrix's own conditions (every chosen scenario must have nobody reacting to the robot, "
+        "e.g. the stress suite's *_nr100 and replay_* scenarios)",
+    )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     from foresight.core.sim.feasibility import peds_react
 
     try:
         matrix = _matrix(args.matrix, args.as_is)
-        chosen = [matrix.get(n.strip()) for n in args.scenarios.split(",")] if args.scenarios else list(matrix.scenarios)
+        chosen = (
+            [matrix.get(n.strip()) for n in args.scenarios.split(",")]
+            if args.scenarios
+            else list(matrix.scenarios)
+        )
     except CoreError as exc:
         sys.exit(f"oracle_gap: {exc}")
     reacting = [s.name for s in chosen if peds_react(s)]
     if args.as_is and reacting:
-        sys.exit(f"oracle_gap: --as-is: scenario {reacting[0]!r} has pedestrians who react to the robot (the oracle's "
-                 "recorded future would not hold); choose scenarios where nobody does")
+        sys.exit(
+            f"oracle_gap: --as-is: scenario {reacting[0]!r} has pedestrians who react to the robot (the oracle's "
+            "recorded future would not hold); choose scenarios where nobody does"
+        )
     which = [w.strip() for w in args.forecasters.split(",")]
     unknown = [w for w in which if w not in ("oracle", "learned", "cv")]
     if unknown:
         sys.exit(f"--forecasters: unknown {unknown[0]!r}, expected oracle, learned or cv")
-    jobs = [(args.matrix, s.name, int(seed), w, args.max_steps, args.as_is)
-            for s in chosen for seed in expand_seeds(s.scenario.seeds, args.seeds_per_scenario) for w in which]
+    jobs = [
+        (args.matrix, s.name, int(seed), w, args.max_steps, args.as_is)
+        for s in chosen
+        for seed in expand_seeds(s.scenario.seeds, args.seeds_per_scenario)
+        for w in which
+    ]
     t0 = time.perf_counter()
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
         rows = list(pool.map(_episode, jobs, chunksize=1))
     outcome = {(n, s, w): o for n, s, w, o in rows}
     episodes = sorted({(n, s) for n, s, _, _ in rows})
-    out: dict = {"benchmark": "oracle_gap", "matrix": args.matrix, "overrides": None if args.as_is else BLIND,
-                 "episodes": len(episodes), "approximate": bool(reacting), "wall_s": round(time.perf_counter() - t0, 1),
-                 "forecasters": {}, "paired": {}}
+    out: dict = {
+        "benchmark": "oracle_gap",
+        "matrix": args.matrix,
+        "overrides": None if args.as_is else BLIND,
+        "episodes": len(episodes),
+        "approximate": bool(reacting),
+        "wall_s": round(time.perf_counter() - t0, 1),
+        "forecasters": {},
+        "paired": {},
+    }
     for w in which:
         got = Counter(outcome[e + (w,)] for e in episodes)
         fails = Counter(e[0] for e in episodes if outcome[e + (w,)] != "success")
-        out["forecasters"][w] = {"success": got["success"], "success_rate": got["success"] / len(episodes),
-                                 "success_interval": wilson_interval(got["success"], len(episodes)),
-                                 "collisions": got["collision_pedestrian"] + got["collision_static"],
-                                 "timeouts": got["timeout"], "failures_per_scenario": dict(sorted(fails.items()))}
+        out["forecasters"][w] = {
+            "success": got["success"],
+            "success_rate": got["success"] / len(episodes),
+            "success_interval": wilson_interval(got["success"], len(episodes)),
+            "collisions": got["collision_pedestrian"] + got["collision_static"],
+            "timeouts": got["timeout"],
+            "failures_per_scenario": dict(sorted(fails.items())),
+        }
     ref = which[0]
     won = {w: {e for e in episodes if outcome[e + (w,)] == "success"} for w in which}
     for w in which[1:]:
@@ -121,8 +151,10 @@ def main() -> None:
         print(json.dumps(out))
         return
     for w, r in out["forecasters"].items():
-        print(f"{w:>8}: {r['success']}/{len(episodes)} = {r['success_rate']:.3f}, collisions {r['collisions']}, "
-              f"timeouts {r['timeouts']}")
+        print(
+            f"{w:>8}: {r['success']}/{len(episodes)} = {r['success_rate']:.3f}, collisions {r['collisions']}, "
+            f"timeouts {r['timeouts']}"
+        )
     for k, r in out["paired"].items():
         print(f"{k}: {list(r.values())[:2]}, p = {r['mcnemar_p']:.3g}")
 

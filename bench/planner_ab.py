@@ -58,8 +58,16 @@ def _episode(job: tuple[str, str, str, int]) -> dict:
     if _JOBS.get("traces"):  # --players: every episode's compact trace, until the changed ones are known
         from foresight.core.evaluation.episode_trace import compact_trace, trace_name, write_compact
 
-        write_compact(_JOBS["traces"] / variant / suite / trace_name(scenario, seed), compact_trace(run, resolved.map))
-    return {"variant": variant, "suite": suite, "scenario": scenario, "seed": seed, "outcome": run.record.outcome}
+        write_compact(
+            _JOBS["traces"] / variant / suite / trace_name(scenario, seed), compact_trace(run, resolved.map)
+        )
+    return {
+        "variant": variant,
+        "suite": suite,
+        "scenario": scenario,
+        "seed": seed,
+        "outcome": run.record.outcome,
+    }
 
 
 def write_players(result: dict, traces: Path, out: Path, variants: list[str]) -> None:
@@ -91,10 +99,21 @@ def episodes(args: argparse.Namespace, variants: dict[str, dict]) -> tuple[list[
     from foresight.core.stages.context import StageContext
 
     model_file = REPO / "model" / "predictor-sim-default.pt"
-    ctx = StageContext(workdir=Path(args.out or "."), resolve_model=lambda ident: model_file if ident == "default" else Path(ident))
-    planners = {name: resolve_planner({"name": "predictive", "config": {k: v for k, v in cfg.items() if k != "model"},
-                                       "model": cfg.get("model", args.model)}, ctx)
-                for name, cfg in variants.items()}
+    ctx = StageContext(
+        workdir=Path(args.out or "."),
+        resolve_model=lambda ident: model_file if ident == "default" else Path(ident),
+    )
+    planners = {
+        name: resolve_planner(
+            {
+                "name": "predictive",
+                "config": {k: v for k, v in cfg.items() if k != "model"},
+                "model": cfg.get("model", args.model),
+            },
+            ctx,
+        )
+        for name, cfg in variants.items()
+    }
     matrices, jobs = {}, []
     wanted = set(args.scenarios.split(",")) if args.scenarios else None
     for suite in args.suites.split(","):
@@ -103,13 +122,19 @@ def episodes(args: argparse.Namespace, variants: dict[str, dict]) -> tuple[list[
         if args.replication:
             pairs = list(load_seed_manifest(REPLICATION[path], m).pairs())
         else:
-            pairs = [(n, s) for n in m.names for s in expand_seeds(m.get(n).scenario.seeds, args.seeds_per_scenario)]
+            pairs = [
+                (n, s)
+                for n in m.names
+                for s in expand_seeds(m.get(n).scenario.seeds, args.seeds_per_scenario)
+            ]
         for scenario, seed in pairs:
             if wanted is None or scenario in wanted:
                 cost = expected_cost(m, scenario, None)
                 jobs += [(-cost, name, suite, scenario, seed) for name in variants]
     if wanted is not None and (missing := wanted - {n for m in matrices.values() for n in m.names}):
-        raise ConfigError(f"no scenario {sorted(missing)[0]!r} in the suites {args.suites}", item="--scenarios")
+        raise ConfigError(
+            f"no scenario {sorted(missing)[0]!r} in the suites {args.suites}", item="--scenarios"
+        )
     jobs.sort(key=lambda j: j[0])
     return [j[1:] for j in jobs], matrices, planners
 
@@ -120,24 +145,43 @@ def summary(rows: list[dict], variants: list[str]) -> dict:
 
     out: dict = {}
     for suite in dict.fromkeys(r["suite"] for r in rows):
-        got = {v: {(r["scenario"], r["seed"]): r["outcome"] for r in rows if r["suite"] == suite and r["variant"] == v}
-               for v in variants}
+        got = {
+            v: {
+                (r["scenario"], r["seed"]): r["outcome"]
+                for r in rows
+                if r["suite"] == suite and r["variant"] == v
+            }
+            for v in variants
+        }
         entry: dict = {"variants": {}, "paired": {}}
         for v, outcomes in got.items():
             n = len(outcomes)
-            counts = {k: sum(o.startswith(k) for o in outcomes.values()) for k in ("success", "collision", "timeout")}
-            entry["variants"][v] = {"episodes": n, **counts, "success_rate": counts["success"] / n if n else None,
-                                    "success_ci95": list(wilson_interval(counts["success"], n)) if n else None,
-                                    "collision_rate": counts["collision"] / n if n else None}
+            counts = {
+                k: sum(o.startswith(k) for o in outcomes.values())
+                for k in ("success", "collision", "timeout")
+            }
+            entry["variants"][v] = {
+                "episodes": n,
+                **counts,
+                "success_rate": counts["success"] / n if n else None,
+                "success_ci95": list(wilson_interval(counts["success"], n)) if n else None,
+                "collision_rate": counts["collision"] / n if n else None,
+            }
         first = got[variants[0]]
         for v in variants[1:]:
             keys = sorted(set(first) & set(got[v]))
             won = [first[k] == "success" for k in keys], [got[v][k] == "success" for k in keys]
-            hit = [first[k].startswith("collision") for k in keys], [got[v][k].startswith("collision") for k in keys]
+            hit = (
+                [first[k].startswith("collision") for k in keys],
+                [got[v][k].startswith("collision") for k in keys],
+            )
             a_only = sum(a and not b for a, b in zip(*won, strict=True))
             b_only = sum(b and not a for a, b in zip(*won, strict=True))
             entry["paired"][v] = {
-                "against": variants[0], "pairs": len(keys), "first_only": a_only, "variant_only": b_only,
+                "against": variants[0],
+                "pairs": len(keys),
+                "first_only": a_only,
+                "variant_only": b_only,
                 "mcnemar_p": mcnemar_p(a_only, b_only) if len(keys) >= MIN_PAIRS else None,
                 "collisions_first_only": sum(a and not b for a, b in zip(*hit, strict=True)),
                 "collisions_variant_only": sum(b and not a for a, b in zip(*hit, strict=True)),
@@ -158,27 +202,44 @@ def parse_variants(items: list[str]) -> dict[str, dict]:
             cfg = json.loads(raw) if sep else None
         except json.JSONDecodeError as exc:
             sys.exit(f"--variant {name}: not JSON ({exc})")
-        if not name or safe_name(name) != name or not isinstance(cfg, dict) or name in variants:  # a file name
-            sys.exit(f"--variant {item!r}: expected a new NAME=JSON object (NAME of letters, digits, '.', '_', '-'), "
-                     "e.g. base='{}'")
+        if (
+            not name or safe_name(name) != name or not isinstance(cfg, dict) or name in variants
+        ):  # a file name
+            sys.exit(
+                f"--variant {item!r}: expected a new NAME=JSON object (NAME of letters, digits, '.', '_', '-'), "
+                "e.g. base='{}'"
+            )
         variants[name] = cfg
     return variants
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--variant", action="append", required=True, help="NAME=JSON planner config (first: the reference)")
+    ap.add_argument(
+        "--variant", action="append", required=True, help="NAME=JSON planner config (first: the reference)"
+    )
     ap.add_argument("--suites", default=",".join(SUITES), help=f"comma-separated, of {', '.join(SUITES)}")
-    ap.add_argument("--seeds-per-scenario", type=int,
-                    help="the first N of each scenario's seeds, extended by the next ones where it has fewer "
-                    "(default: its own)")
-    ap.add_argument("--replication", action="store_true", help="the suites' new seeds (as navigation_table.py)")
-    ap.add_argument("--override", action="append", default=[], metavar="KEY=VALUE", help="applied to every suite")
+    ap.add_argument(
+        "--seeds-per-scenario",
+        type=int,
+        help="the first N of each scenario's seeds, extended by the next ones where it has fewer "
+        "(default: its own)",
+    )
+    ap.add_argument(
+        "--replication", action="store_true", help="the suites' new seeds (as navigation_table.py)"
+    )
+    ap.add_argument(
+        "--override", action="append", default=[], metavar="KEY=VALUE", help="applied to every suite"
+    )
     ap.add_argument("--scenarios", help="comma-separated scenario names (default: all)")
-    ap.add_argument("--model", default="default", help="default (the shipped learned model), cv, or a checkpoint")
+    ap.add_argument(
+        "--model", default="default", help="default (the shipped learned model), cv, or a checkpoint"
+    )
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--out", help="folder for episodes.jsonl")
-    ap.add_argument("--players", type=Path, metavar="DIR", help="the changed episodes as side-by-side player pages")
+    ap.add_argument(
+        "--players", type=Path, metavar="DIR", help="the changed episodes as side-by-side player pages"
+    )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     variants = parse_variants(args.variant)
@@ -193,7 +254,9 @@ def main(argv: list[str] | None = None) -> int:
         sys.exit(f"planner_ab: {exc}")
     if not jobs:
         sys.exit("planner_ab: no episodes selected (check --scenarios)")
-    if args.players:  # before the work: a folder that cannot be written is refused now, not after every episode
+    if (
+        args.players
+    ):  # before the work: a folder that cannot be written is refused now, not after every episode
         try:
             args.players.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
@@ -205,7 +268,9 @@ def main(argv: list[str] | None = None) -> int:
         for i, row in enumerate(pool.imap_unordered(_episode, jobs, chunksize=1), 1):
             rows.append(row)
             if i % 100 == 0 or i == len(jobs):
-                print(f"[{time.strftime('%H:%M:%S')}] {i} / {len(jobs)} episodes", file=sys.stderr, flush=True)
+                print(
+                    f"[{time.strftime('%H:%M:%S')}] {i} / {len(jobs)} episodes", file=sys.stderr, flush=True
+                )
     if args.out:
         Path(args.out).mkdir(parents=True, exist_ok=True)
         (Path(args.out) / "episodes.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
@@ -215,18 +280,28 @@ def main(argv: list[str] | None = None) -> int:
             write_players(suites, traces, args.players, list(variants))
         finally:
             shutil.rmtree(traces, ignore_errors=True)
-    result = {"benchmark": "planner_ab", "model": args.model, "overrides": args.override,
-              "replication": args.replication, "seconds": round(time.time() - started, 1), "suites": suites}
+    result = {
+        "benchmark": "planner_ab",
+        "model": args.model,
+        "overrides": args.override,
+        "replication": args.replication,
+        "seconds": round(time.time() - started, 1),
+        "suites": suites,
+    }
     if args.json:
         print(json.dumps(result))
         return 0
     for suite, entry in result["suites"].items():
         for v, c in entry["variants"].items():
-            print(f"{suite:26s} {v:16s} {c['success']:4d} / {c['episodes']} success, {c['collision']} collisions")
+            print(
+                f"{suite:26s} {v:16s} {c['success']:4d} / {c['episodes']} success, {c['collision']} collisions"
+            )
         for v, p in entry["paired"].items():
             mark = "n/a" if p["mcnemar_p"] is None else f"{p['mcnemar_p']:.3g}"
-            print(f"{suite:26s} {p['against']} : {v}  successes {p['first_only']} : {p['variant_only']} (p {mark}), "
-                  f"collisions {p['collisions_first_only']} : {p['collisions_variant_only']}")
+            print(
+                f"{suite:26s} {p['against']} : {v}  successes {p['first_only']} : {p['variant_only']} (p {mark}), "
+                f"collisions {p['collisions_first_only']} : {p['collisions_variant_only']}"
+            )
     return 0
 
 

@@ -40,14 +40,19 @@ from foresight.core.sim.simulator import Simulator  # noqa: E402
 def scenario(n: int) -> ResolvedScenario:
     """A 30 x 20 m map, two pillars, a robot route across it and exactly ``n`` pedestrians over the map."""
     m = MapDef(
-        name=f"latency_{n}", width=30.0, height=20.0,
+        name=f"latency_{n}",
+        width=30.0,
+        height=20.0,
         obstacles=(((10, 6), (12, 6), (12, 8), (10, 8)), ((18, 12), (20, 12), (20, 14), (18, 14))),
-        robot_spawn_zones=(Zone.from_rect(1, 9, 2, 2),), robot_goal_zones=(Zone.from_rect(27, 9, 2, 2),),
+        robot_spawn_zones=(Zone.from_rect(1, 9, 2, 2),),
+        robot_goal_zones=(Zone.from_rect(27, 9, 2, 2),),
         robot_routes=(Route(spawn_id=0, goal_id=0, waypoints=((2, 10), (28, 10))),),
         ped_crowded_zones=(Zone.from_rect(3, 2, 24, 16),),
     )
     sim = SimulationConfig(population_size=n, max_episode_steps=400, max_peds_per_group=1)
-    return ResolvedScenario(scenario=Scenario(name=f"latency_{n}", map_id=m.name, simulation_config=sim), map=m)
+    return ResolvedScenario(
+        scenario=Scenario(name=f"latency_{n}", map_id=m.name, simulation_config=sim), map=m
+    )
 
 
 def measure(n: int, model, decisions: int, seed: int = 0, planner=None) -> dict:
@@ -62,8 +67,11 @@ def measure(n: int, model, decisions: int, seed: int = 0, planner=None) -> dict:
     near: list[bool] = []  #: the timed decisions' near-field flag (denser candidate sets: the slower ones)
     while len(times) < decisions:
         obs = sim.reset(scen, seed)
-        planner.reset(EpisodeInfo(scenario=scen, seed=seed, dt=sim.dt, robot_radius=sim.limits.radius,
-                                  ped_radius=sim.ped_radius))
+        planner.reset(
+            EpisodeInfo(
+                scenario=scen, seed=seed, dt=sim.dt, robot_radius=sim.limits.radius, ped_radius=sim.ped_radius
+            )
+        )
         seed += 1
         k = 0
         while len(times) < decisions:
@@ -82,13 +90,20 @@ def measure(n: int, model, decisions: int, seed: int = 0, planner=None) -> dict:
                 break
     ms = np.asarray(times) * 1e3
     cpu_ms = np.asarray(cpu) * 1e3
-    source = "external" if planner.name == "external" else planner.diagnostics["forecast_source"].split(":")[0]
+    source = (
+        "external" if planner.name == "external" else planner.diagnostics["forecast_source"].split(":")[0]
+    )
     return {
-        "pedestrians": n, "predictor": source,
-        "p50_ms": round(float(np.percentile(ms, 50)), 3), "p95_ms": round(float(np.percentile(ms, 95)), 3),
+        "pedestrians": n,
+        "predictor": source,
+        "p50_ms": round(float(np.percentile(ms, 50)), 3),
+        "p95_ms": round(float(np.percentile(ms, 95)), 3),
         "mean_ms": round(float(ms.mean()), 3),
-        "cpu_p50_ms": round(float(np.percentile(cpu_ms, 50)), 3), "cpu_p95_ms": round(float(np.percentile(cpu_ms, 95)), 3), "first_ms": round(float(np.max(first)) * 1e3, 3),
-        "decisions": len(ms), "observed_pedestrians": int(np.median(peds)),
+        "cpu_p50_ms": round(float(np.percentile(cpu_ms, 50)), 3),
+        "cpu_p95_ms": round(float(np.percentile(cpu_ms, 95)), 3),
+        "first_ms": round(float(np.max(first)) * 1e3, 3),
+        "decisions": len(ms),
+        "observed_pedestrians": int(np.median(peds)),
         **_near_far(ms, np.asarray(near)),
     }
 
@@ -108,7 +123,9 @@ def external_planner():
 
     from foresight.core.planners.external import ENV
 
-    os.environ[ENV] = json.dumps({"reference": [sys.executable, str(REPO / "examples" / "external_planner.py")]})
+    os.environ[ENV] = json.dumps(
+        {"reference": [sys.executable, str(REPO / "examples" / "external_planner.py")]}
+    )
     return make_planner("external", {"command": "reference"})
 
 
@@ -117,9 +134,15 @@ def main() -> None:
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--pedestrians", type=int, nargs="+", default=[4, 16, 50])
     ap.add_argument("--decisions", type=int, default=400)
-    ap.add_argument("--checkpoint", type=Path, default=DEFAULT_CHECKPOINT if DEFAULT_CHECKPOINT.is_file() else None,
-                    help="learned model checkpoint (default: the shipped default predictor)")
-    ap.add_argument("--external", action="store_true", help="also time the external-planner protocol round trip")
+    ap.add_argument(
+        "--checkpoint",
+        type=Path,
+        default=DEFAULT_CHECKPOINT if DEFAULT_CHECKPOINT.is_file() else None,
+        help="learned model checkpoint (default: the shipped default predictor)",
+    )
+    ap.add_argument(
+        "--external", action="store_true", help="also time the external-planner protocol round trip"
+    )
     ap.add_argument("--external-only", action="store_true", help="time only the external-planner protocol")
     args = ap.parse_args()
     args.external |= args.external_only
@@ -143,8 +166,10 @@ def main() -> None:
         print(json.dumps(result))
     else:
         for e in entries:
-            print(f"{e['predictor']:>18} {e['pedestrians']:>3} peds  p50 {e['p50_ms']:.2f} ms  p95 {e['p95_ms']:.2f} ms"
-                  f"  (cpu p50 {e['cpu_p50_ms']:.2f}, p95 {e['cpu_p95_ms']:.2f})")
+            print(
+                f"{e['predictor']:>18} {e['pedestrians']:>3} peds  p50 {e['p50_ms']:.2f} ms  p95 {e['p95_ms']:.2f} ms"
+                f"  (cpu p50 {e['cpu_p50_ms']:.2f}, p95 {e['cpu_p95_ms']:.2f})"
+            )
 
 
 if __name__ == "__main__":

@@ -37,10 +37,15 @@ def main() -> None:
         predictor = load_predictor(args.model)
     else:
         tb = PLANNER_TIMEBASE
-        cfg = ModelConfig(tb.history, tb.horizon, tb.dt, TrainConfig.model_fields["hidden"].default,
-                          TrainConfig.model_fields["blocks"].default,
-                          TrainConfig.model_fields["edge_dim"].default,
-                      TrainConfig.model_fields["local_frame"].default)
+        cfg = ModelConfig(
+            tb.history,
+            tb.horizon,
+            tb.dt,
+            TrainConfig.model_fields["hidden"].default,
+            TrainConfig.model_fields["blocks"].default,
+            TrainConfig.model_fields["edge_dim"].default,
+            TrainConfig.model_fields["local_frame"].default,
+        )
         predictor = TorchPredictor(TrajectoryModel(cfg), tb, "default-size")
     rng = np.random.default_rng(0)
     x = rng.normal(size=(1, args.peds, feature_dim(predictor.timebase.history))).astype(np.float32)
@@ -51,12 +56,23 @@ def main() -> None:
         with torch.inference_mode():
             predictor.model(xt, mt)
 
-    times, torch_times = _times(lambda: predictor.predict(x, m), args.repeats), _times(through_torch, args.repeats)
-    out = {"median_ms": statistics.median(times), "p90_ms": float(np.percentile(times, 90)),
-           "torch_median_ms": statistics.median(torch_times), "peds": args.peds, "threads": args.threads,
-           "target_ms": 0.5}
-    print(json.dumps(out, indent=2) if args.json else
-          f"median {out['median_ms']:.3f} ms (p90 {out['p90_ms']:.3f}); torch {out['torch_median_ms']:.3f} ms")
+    times, torch_times = (
+        _times(lambda: predictor.predict(x, m), args.repeats),
+        _times(through_torch, args.repeats),
+    )
+    out = {
+        "median_ms": statistics.median(times),
+        "p90_ms": float(np.percentile(times, 90)),
+        "torch_median_ms": statistics.median(torch_times),
+        "peds": args.peds,
+        "threads": args.threads,
+        "target_ms": 0.5,
+    }
+    print(
+        json.dumps(out, indent=2)
+        if args.json
+        else f"median {out['median_ms']:.3f} ms (p90 {out['p90_ms']:.3f}); torch {out['torch_median_ms']:.3f} ms"
+    )
 
 
 def _times(call, repeats: int) -> list[float]:

@@ -31,8 +31,11 @@ from foresight.core.stages.context import StageContext  # noqa: E402
 
 
 def timed(config: EvaluationConfig, root: Path, workers: int) -> tuple[float, int]:
-    ctx = StageContext(workdir=Path(tempfile.mkdtemp(prefix="foresight-bench-scale-")), resolve_bundle=lambda _: root,
-                       workers=workers)
+    ctx = StageContext(
+        workdir=Path(tempfile.mkdtemp(prefix="foresight-bench-scale-")),
+        resolve_bundle=lambda _: root,
+        workers=workers,
+    )
     t0 = time.perf_counter()
     result = run_evaluation(config, ctx)
     return time.perf_counter() - t0, result.episodes
@@ -54,7 +57,9 @@ def components(config: EvaluationConfig, root: Path, tasks: int) -> dict:
         write_trace,
     )
 
-    ctx = StageContext(workdir=Path(tempfile.mkdtemp(prefix="foresight-bench-parts-")), resolve_bundle=lambda _: root)
+    ctx = StageContext(
+        workdir=Path(tempfile.mkdtemp(prefix="foresight-bench-parts-")), resolve_bundle=lambda _: root
+    )
     prep = prepare_evaluation(config, ctx)
     worker = EpisodeWorker(prep.settings, prep.matrix)
     runs = [worker.run_traced(Job(i, s, seed, prep.planner)) for i, (s, seed) in enumerate(prep.pairs[:12])]
@@ -97,12 +102,21 @@ def components(config: EvaluationConfig, root: Path, tasks: int) -> dict:
         wall = time.perf_counter() - t0
     finally:
         ray.shutdown()
-    return {"noop_tasks": n, "noop_tasks_per_s": round(n / wall, 1), "scheduling_ms_per_task": round(1000 * wall / n, 2),
-            "window": ray_executor.WINDOW_PER_CPU * 2, "record_bytes_mean": round(sum(record_b) / len(record_b)),
-            "trace_bytes_mean": round(sum(trace_b) / max(1, len(trace_b))), "run_shared_bytes": shared_b,
-            "store_ms_per_episode": round(trace_ms + records_ms, 3), "trace_store_ms": round(trace_ms, 3),
-            "records_store_ms": round(records_ms, 3), "driver_bytes_per_record": round(held_b),
-            "aggregate_ms_per_record": round(aggregate_ms, 3), "aggregated_records": len(copies)}
+    return {
+        "noop_tasks": n,
+        "noop_tasks_per_s": round(n / wall, 1),
+        "scheduling_ms_per_task": round(1000 * wall / n, 2),
+        "window": ray_executor.WINDOW_PER_CPU * 2,
+        "record_bytes_mean": round(sum(record_b) / len(record_b)),
+        "trace_bytes_mean": round(sum(trace_b) / max(1, len(trace_b))),
+        "run_shared_bytes": shared_b,
+        "store_ms_per_episode": round(trace_ms + records_ms, 3),
+        "trace_store_ms": round(trace_ms, 3),
+        "records_store_ms": round(records_ms, 3),
+        "driver_bytes_per_record": round(held_b),
+        "aggregate_ms_per_record": round(aggregate_ms, 3),
+        "aggregated_records": len(copies),
+    }
 
 
 def _noop(x: int) -> int:
@@ -112,7 +126,9 @@ def _noop(x: int) -> int:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--matrix", default=str(reference_matrix()))
-    ap.add_argument("--max-steps", type=int, default=150, help="horizon cap (short episodes stress the overhead)")
+    ap.add_argument(
+        "--max-steps", type=int, default=150, help="horizon cap (short episodes stress the overhead)"
+    )
     ap.add_argument("--cpus", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--tasks", type=int, default=2000, help="no-op tasks timed for Ray's scheduling cost")
     ap.add_argument("--parts-only", action="store_true", help="only the components (no episodes/s runs)")
@@ -123,28 +139,48 @@ def main(argv: list[str] | None = None) -> int:
 
     matrix = Path(args.matrix).resolve()
     out: dict = {"matrix": str(matrix), "max_steps": args.max_steps, "local": {}, "ray": {}}
-    base = EvaluationConfig(bundle="local", matrix=matrix.name, planner={"name": "predictive", "model": "cv"},
-                            max_steps=args.max_steps)
+    base = EvaluationConfig(
+        bundle="local",
+        matrix=matrix.name,
+        planner={"name": "predictive", "model": "cv"},
+        max_steps=args.max_steps,
+    )
     out["components"] = components(base, matrix.parent, args.tasks)
     for executor in ("local", "ray") if not args.parts_only else ():
         for cpus in args.cpus:
-            config = EvaluationConfig(bundle="local", matrix=matrix.name, planner={"name": "predictive", "model": "cv"},
-                                      max_steps=args.max_steps, executor=executor, start_method="fork")
+            config = EvaluationConfig(
+                bundle="local",
+                matrix=matrix.name,
+                planner={"name": "predictive", "model": "cv"},
+                max_steps=args.max_steps,
+                executor=executor,
+                start_method="fork",
+            )
             start = 0.0
             if executor == "ray":
                 t0 = time.perf_counter()
-                ray.init(address="local", num_cpus=cpus, include_dashboard=False, log_to_driver=False,
-                         logging_level="ERROR")
+                ray.init(
+                    address="local",
+                    num_cpus=cpus,
+                    include_dashboard=False,
+                    log_to_driver=False,
+                    logging_level="ERROR",
+                )
                 start = time.perf_counter() - t0
             wall, n = timed(config, matrix.parent, cpus)
             if executor == "ray":
                 ray.shutdown()
-            out[executor][str(cpus)] = {"episodes": n, "wall_s": round(wall, 2), "episodes_per_s": round(n / wall, 2),
-                                        **({"ray_start_s": round(start, 2)} if executor == "ray" else {})}
+            out[executor][str(cpus)] = {
+                "episodes": n,
+                "wall_s": round(wall, 2),
+                "episodes_per_s": round(n / wall, 2),
+                **({"ray_start_s": round(start, 2)} if executor == "ray" else {}),
+            }
     one = str(args.cpus[0])
     if not args.parts_only:
         out["ray_overhead_ms_per_episode"] = round(
-            1000 * (out["ray"][one]["wall_s"] - out["local"][one]["wall_s"]) / out["ray"][one]["episodes"], 1)
+            1000 * (out["ray"][one]["wall_s"] - out["local"][one]["wall_s"]) / out["ray"][one]["episodes"], 1
+        )
     print(json.dumps(out) if args.json else json.dumps(out, indent=2))
     return 0
 

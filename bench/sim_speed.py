@@ -33,8 +33,11 @@ def open_scenario(n: int) -> ResolvedScenario:
     """A square obstacle-free map at 0.1 peds/m^2 (side >= 20 m), one crowded zone over it, a robot route across."""
     side = max(20.0, math.sqrt(n / 0.1))
     m = MapDef(
-        name=f"open_{n}", width=side, height=side,
-        robot_spawn_zones=(Zone.from_rect(1, 1, 2, 2),), robot_goal_zones=(Zone.from_rect(side - 3, side - 3, 2, 2),),
+        name=f"open_{n}",
+        width=side,
+        height=side,
+        robot_spawn_zones=(Zone.from_rect(1, 1, 2, 2),),
+        robot_goal_zones=(Zone.from_rect(side - 3, side - 3, 2, 2),),
         robot_routes=(Route(spawn_id=0, goal_id=0, waypoints=((2, 2), (side - 2, side - 2))),),
         ped_crowded_zones=(Zone.from_rect(0.5, 0.5, side - 1, side - 1),),
     )
@@ -69,8 +72,12 @@ def measure(case: str, scenario: ResolvedScenario, seed: int, steps: int, repeat
     per = statistics.median(r[0] for r in runs)
     cpu = statistics.median(r[1] for r in runs)
     return {
-        "case": case, "pedestrians": int(n), "ms_per_step": round(per * 1e3, 4), "steps_per_s": round(1.0 / per, 1),
-        "cpu_ms_per_step": round(cpu * 1e3, 4), "cpu_steps_per_s": round(1.0 / cpu, 1) if cpu > 0 else None,
+        "case": case,
+        "pedestrians": int(n),
+        "ms_per_step": round(per * 1e3, 4),
+        "steps_per_s": round(1.0 / per, 1),
+        "cpu_ms_per_step": round(cpu * 1e3, 4),
+        "cpu_steps_per_s": round(1.0 / cpu, 1) if cpu > 0 else None,
     }
 
 
@@ -113,15 +120,20 @@ def main(argv: list[str] | None = None) -> int:
         summary[f"classic_median_{key}"] = round(statistics.median(vals), 4) if vals else None
         summary[f"classic_max_{key}"] = max(vals) if vals else None
     result = {
-        "entries": entries, "cold_start_s": cold, **summary,
-        "cpu_count": os.cpu_count(), "load_avg": os.getloadavg()[0],
+        "entries": entries,
+        "cold_start_s": cold,
+        **summary,
+        "cpu_count": os.cpu_count(),
+        "load_avg": os.getloadavg()[0],
     }
     if args.json:
         print(json.dumps(result))
     else:
         for e in entries:
-            print(f"{e['case']:45s} {e['pedestrians']:5d} peds {e['ms_per_step']:8.3f} ms/step {e['steps_per_s']:9.1f} steps/s"
-                  f"  (cpu {e['cpu_ms_per_step']:.3f} ms/step)")
+            print(
+                f"{e['case']:45s} {e['pedestrians']:5d} peds {e['ms_per_step']:8.3f} ms/step {e['steps_per_s']:9.1f} steps/s"
+                f"  (cpu {e['cpu_ms_per_step']:.3f} ms/step)"
+            )
         print(f"cold start to first step: {cold} s")
     return 0
 

@@ -29,10 +29,15 @@ def main() -> None:
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
     tb = PLANNER_TIMEBASE
-    cfg = ModelConfig(tb.history, tb.horizon, tb.dt, TrainConfig.model_fields["hidden"].default,
-                      TrainConfig.model_fields["blocks"].default,
-                      TrainConfig.model_fields["edge_dim"].default,
-                      TrainConfig.model_fields["local_frame"].default)
+    cfg = ModelConfig(
+        tb.history,
+        tb.horizon,
+        tb.dt,
+        TrainConfig.model_fields["hidden"].default,
+        TrainConfig.model_fields["blocks"].default,
+        TrainConfig.model_fields["edge_dim"].default,
+        TrainConfig.model_fields["local_frame"].default,
+    )
     torch.manual_seed(0)
     model = TrajectoryModel(cfg)
     opt = torch.optim.AdamW(model.parameters(), lr=1e-3)
@@ -55,11 +60,22 @@ def main() -> None:
         step()
         n += 1
     elapsed = time.perf_counter() - t0
-    out = {"samples_per_s": n * B / elapsed, "flops_per_sample": counter.get_total_flops() / B,
-           "threads": args.threads, "batch": B, "agents": N, "hidden": cfg.hidden, "blocks": cfg.blocks,
-           "params": sum(p.numel() for p in model.parameters()), "target_samples_per_s": 10_000}
-    print(json.dumps(out, indent=2) if args.json else
-          f"{out['samples_per_s']:.0f} samples/s, {out['flops_per_sample'] / 1e6:.2f} MFLOP/sample")
+    out = {
+        "samples_per_s": n * B / elapsed,
+        "flops_per_sample": counter.get_total_flops() / B,
+        "threads": args.threads,
+        "batch": B,
+        "agents": N,
+        "hidden": cfg.hidden,
+        "blocks": cfg.blocks,
+        "params": sum(p.numel() for p in model.parameters()),
+        "target_samples_per_s": 10_000,
+    }
+    print(
+        json.dumps(out, indent=2)
+        if args.json
+        else f"{out['samples_per_s']:.0f} samples/s, {out['flops_per_sample'] / 1e6:.2f} MFLOP/sample"
+    )
 
 
 if __name__ == "__main__":

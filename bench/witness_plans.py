@@ -32,8 +32,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from navigation_table import REFERENCE  # noqa: E402
 
 Point = tuple[float, float]
-Plan = tuple[tuple[Point, ...], tuple[Point, float] | None, tuple[Point, ...]]  #: (vias, (hold, release) or None, afters)
-MAX_EPISODES = 1_000_000  #: plans x episodes one run may take (grids multiply: a few minutes per 100,000 here)
+Plan = tuple[
+    tuple[Point, ...], tuple[Point, float] | None, tuple[Point, ...]
+]  #: (vias, (hold, release) or None, afters)
+MAX_EPISODES = (
+    1_000_000  #: plans x episodes one run may take (grids multiply: a few minutes per 100,000 here)
+)
 _JOBS: dict = {}  #: what a forked worker reads: the loaded matrix
 
 
@@ -71,23 +75,37 @@ def _episode(job: tuple[str, int, Plan]) -> tuple[str, int, Plan, str, int]:
     scenario, seed, plan = job
     sim = _JOBS.get("sim") or _JOBS.setdefault("sim", Simulator())
     vias, hold, afters = plan
-    config = ScriptedConfig(via=vias, hold=hold[0] if hold else None, release_s=hold[1] if hold else 0.0, after=afters)
+    config = ScriptedConfig(
+        via=vias, hold=hold[0] if hold else None, release_s=hold[1] if hold else 0.0, after=afters
+    )
     res = run_episode(_JOBS["matrix"].get(scenario), seed, Scripted(config), simulator=sim)
     return scenario, seed, plan, res.outcome, res.steps
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--matrix", default=str(REFERENCE), help="scenario matrix (default: the reference matrix)")
+    ap.add_argument(
+        "--matrix", default=str(REFERENCE), help="scenario matrix (default: the reference matrix)"
+    )
     ap.add_argument("--scenarios", required=True, help="comma-separated scenario names")
-    ap.add_argument("--override", action="append", default=[], metavar="KEY=VALUE", help="as foresight evaluate")
+    ap.add_argument(
+        "--override", action="append", default=[], metavar="KEY=VALUE", help="as foresight evaluate"
+    )
     ap.add_argument("--seeds-per-scenario", type=int, default=10)
-    ap.add_argument("--via", action="append", default=[], metavar="X0:X1:DX,Y0:Y1:DY", help="a grid of via points")
+    ap.add_argument(
+        "--via", action="append", default=[], metavar="X0:X1:DX,Y0:Y1:DY", help="a grid of via points"
+    )
     ap.add_argument("--hold", action="append", default=[], metavar="X,Y", help="holding points (grids too)")
     ap.add_argument("--release", default="0:40:2", metavar="T0:T1:DT", help="release times of a hold [s]")
-    ap.add_argument("--after", action="append", default=[], metavar="X,Y", help="a grid of points after a hold")
-    ap.add_argument("--episodes", type=Path, metavar="FILE",
-                    help="an evaluation's episodes.jsonl (evaluate --local --out DIR): only its failed episodes")
+    ap.add_argument(
+        "--after", action="append", default=[], metavar="X,Y", help="a grid of points after a hold"
+    )
+    ap.add_argument(
+        "--episodes",
+        type=Path,
+        metavar="FILE",
+        help="an evaluation's episodes.jsonl (evaluate --local --out DIR): only its failed episodes",
+    )
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
@@ -103,13 +121,20 @@ def main(argv: list[str] | None = None) -> int:
         if missing := [n for n in names if n not in matrix.names]:
             raise ValueError(f"no scenario {missing[0]!r} in {args.matrix}")
         if args.episodes:  # the evaluation's failures among the scenarios asked about
-            outcomes = {k: o for k, o in read_outcomes(args.episodes).items() if k[0] in names and o != "success"}
+            outcomes = {
+                k: o for k, o in read_outcomes(args.episodes).items() if k[0] in names and o != "success"
+            }
             seeds = {n: sorted(s for (m, s) in outcomes if m == n) for n in names}
         else:
-            outcomes, seeds = {}, {n: expand_seeds(matrix.get(n).scenario.seeds, args.seeds_per_scenario) for n in names}
+            outcomes, seeds = (
+                {},
+                {n: expand_seeds(matrix.get(n).scenario.seeds, args.seeds_per_scenario) for n in names},
+            )
         if (size := len(family) * sum(map(len, seeds.values()))) > MAX_EPISODES:
-            raise ValueError(f"{len(family)} plans x {size // len(family)} episodes = {size} runs, over the "
-                             f"{MAX_EPISODES} one run may take: coarser grids or fewer seeds")
+            raise ValueError(
+                f"{len(family)} plans x {size // len(family)} episodes = {size} runs, over the "
+                f"{MAX_EPISODES} one run may take: coarser grids or fewer seeds"
+            )
     except (ValueError, CoreError) as exc:
         sys.exit(f"witness_plans: {exc}")
     _JOBS["matrix"] = matrix
@@ -119,18 +144,41 @@ def main(argv: list[str] | None = None) -> int:
         for scenario, seed, plan, outcome, steps in pool.imap_unordered(_episode, jobs, chunksize=8):
             if outcome == "success":
                 found[scenario, seed].append((steps, plan))
-    result = {"benchmark": "witness_plans", "matrix": args.matrix, "overrides": args.override, "plans": len(family),
-              "seconds": round(time.time() - started, 1), "scenarios": {}}
+    result = {
+        "benchmark": "witness_plans",
+        "matrix": args.matrix,
+        "overrides": args.override,
+        "plans": len(family),
+        "seconds": round(time.time() - started, 1),
+        "scenarios": {},
+    }
     for n in names:
         per_seed, dt = [], matrix.get(n).scenario.simulation_config.dt
         for s in seeds[n]:
             wins = sorted(found[n, s], key=lambda w: w[0])
-            best = None if not wins else {"arrival_s": round(wins[0][0] * dt, 1), "via": wins[0][1][0],
-                                          "hold": wins[0][1][1], "after": wins[0][1][2]}
-            per_seed.append({"seed": s, "witnesses": len(wins), "best": best,
-                             **({"planner_outcome": outcomes[n, s]} if outcomes else {})})
-        result["scenarios"][n] = {"seeds": len(per_seed), "witnessed": sum(p["witnesses"] > 0 for p in per_seed),
-                                  "per_seed": per_seed}
+            best = (
+                None
+                if not wins
+                else {
+                    "arrival_s": round(wins[0][0] * dt, 1),
+                    "via": wins[0][1][0],
+                    "hold": wins[0][1][1],
+                    "after": wins[0][1][2],
+                }
+            )
+            per_seed.append(
+                {
+                    "seed": s,
+                    "witnesses": len(wins),
+                    "best": best,
+                    **({"planner_outcome": outcomes[n, s]} if outcomes else {}),
+                }
+            )
+        result["scenarios"][n] = {
+            "seeds": len(per_seed),
+            "witnessed": sum(p["witnesses"] > 0 for p in per_seed),
+            "per_seed": per_seed,
+        }
     if args.json:
         print(json.dumps(result))
     else:

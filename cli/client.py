@@ -40,8 +40,11 @@ def describe(detail: Any) -> str:
 
 
 def add_connection_args(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--url", help="server URL (default: $FORESIGHT_API_URL, else the running `foresight up` of the "
-                        "data dir, else http://127.0.0.1:8000)")
+    parser.add_argument(
+        "--url",
+        help="server URL (default: $FORESIGHT_API_URL, else the running `foresight up` of the "
+        "data dir, else http://127.0.0.1:8000)",
+    )
     parser.add_argument("--token", help="write token (default: $FORESIGHT_API_TOKEN or the data dir's token)")
 
 
@@ -53,7 +56,10 @@ class Client:
     @classmethod
     def from_args(cls, args: argparse.Namespace) -> Client:
         settings = Settings()
-        return cls(getattr(args, "url", None) or settings.client_url, getattr(args, "token", None) or settings.client_token())
+        return cls(
+            getattr(args, "url", None) or settings.client_url,
+            getattr(args, "token", None) or settings.client_token(),
+        )
 
     def request(self, method: str, path: str, **kwargs: Any) -> Any:
         try:
@@ -86,7 +92,9 @@ class Client:
 
     def events(self, job_id: str, after: int = 0) -> Iterator[tuple[str, dict[str, Any]]]:
         """A job's server-sent events as ``(event, data)`` until the stream ends."""
-        with self.http.stream("GET", f"/v1/jobs/{job_id}/events", params={"after": after}, timeout=None) as response:
+        with self.http.stream(
+            "GET", f"/v1/jobs/{job_id}/events", params={"after": after}, timeout=None
+        ) as response:
             if response.status_code >= 400:
                 response.read()
                 raise ApiError(response.status_code, response.json().get("detail"))

@@ -28,7 +28,11 @@ def matrix_ref(path: str) -> tuple[str, str, dict[str, Path]]:
     if not p.is_file():
         raise ConfigError("matrix file not found", source=path)
     try:
-        return BUILTIN_BUNDLE, p.relative_to(BUILTIN_CONFIG_ROOT).as_posix(), {BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT}
+        return (
+            BUILTIN_BUNDLE,
+            p.relative_to(BUILTIN_CONFIG_ROOT).as_posix(),
+            {BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT},
+        )
     except ValueError:
         return LOCAL_BUNDLE, p.name, {LOCAL_BUNDLE: p.parent, BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT}
 
@@ -86,8 +90,9 @@ def local_context(workdir: Path | None, bundles: dict[str, Path], *, quiet: bool
 
     root = workdir or Path(tempfile.mkdtemp(prefix="foresight-"))
     root.mkdir(parents=True, exist_ok=True)
-    return StageContext(workdir=root, progress=progress, resolve_bundle=resolve_bundle,
-                        resolve_data_root=resolve_data_root)
+    return StageContext(
+        workdir=root, progress=progress, resolve_bundle=resolve_bundle, resolve_data_root=resolve_data_root
+    )
 
 
 def finish_local(kind: str, result: Any, workdir: Path) -> list[Path]:
@@ -104,8 +109,13 @@ def finish_local(kind: str, result: Any, workdir: Path) -> list[Path]:
 
     pages = write_report(kind, result, workdir, log)
     settings = Settings()
-    mlflow_export.export_run(mlflow_export.target(settings.mlflow_tracking_uri, settings.mlflow_experiment), kind,
-                             result, workdir, log)
+    mlflow_export.export_run(
+        mlflow_export.target(settings.mlflow_tracking_uri, settings.mlflow_experiment),
+        kind,
+        result,
+        workdir,
+        log,
+    )
     return pages
 
 
@@ -131,8 +141,12 @@ def emit(obj: Any, as_json: bool, text: Callable[[Any], str]) -> None:
 def matrix_options(p: argparse.ArgumentParser, conditions: str = "") -> None:
     """--matrix and --override of the commands that look at a matrix's episodes under chosen conditions."""
     p.add_argument("--matrix", required=True, help="scenario matrix YAML")
-    p.add_argument("--override", action="append", metavar="KEY=VALUE",
-                   help=f"under other conditions, as foresight evaluate --override (repeatable{conditions})")
+    p.add_argument(
+        "--override",
+        action="append",
+        metavar="KEY=VALUE",
+        help=f"under other conditions, as foresight evaluate --override (repeatable{conditions})",
+    )
 
 
 def episode_options(p: argparse.ArgumentParser, episodes: str, conditions: str = "") -> None:
@@ -140,6 +154,11 @@ def episode_options(p: argparse.ArgumentParser, episodes: str, conditions: str =
     --episodes (``episodes``: what the command does with them)."""
     matrix_options(p, conditions)
     p.add_argument("--scenarios", help="comma-separated scenario names (default: all)")
-    p.add_argument("--seeds-per-scenario", type=int, help="N seeds per scenario, as foresight evaluate's (default: "
-                                                          "the matrix's own)")
-    p.add_argument("--episodes", help=f"an evaluation's episodes.jsonl (evaluate --local --out DIR): {episodes}")
+    p.add_argument(
+        "--seeds-per-scenario",
+        type=int,
+        help="N seeds per scenario, as foresight evaluate's (default: the matrix's own)",
+    )
+    p.add_argument(
+        "--episodes", help=f"an evaluation's episodes.jsonl (evaluate --local --out DIR): {episodes}"
+    )

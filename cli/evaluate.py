@@ -28,22 +28,38 @@ LOCAL_BUNDLE = "local"
 def _common(p: argparse.ArgumentParser, *, planner: bool = True) -> None:
     p.add_argument("--matrix", required=True, help="scenario matrix YAML")
     if planner:
-        p.add_argument("--planner", default="predictive", help="planner name (built-in, installed plugin, external; "
-                       "--local also module:attr) or a planner YAML ({name, config, reference_params} or a "
-                       "predictive config)")
-        p.add_argument("--planner-config", help="the planner's config as JSON or YAML, e.g. '{\"speed\": 0.8}' or, "
-                       "for an external planner, '{command: NAME}'")
+        p.add_argument(
+            "--planner",
+            default="predictive",
+            help="planner name (built-in, installed plugin, external; "
+            "--local also module:attr) or a planner YAML ({name, config, reference_params} or a "
+            "predictive config)",
+        )
+        p.add_argument(
+            "--planner-config",
+            help="the planner's config as JSON or YAML, e.g. '{\"speed\": 0.8}' or, "
+            "for an external planner, '{command: NAME}'",
+        )
         p.add_argument("--model", help="model id or cv (predictive planner; --local: also a checkpoint path)")
-    p.add_argument("--override", action="append", metavar="KEY=VALUE",
-                   help="run the matrix under other conditions: a scenario key (dotted, e.g. "
-                        "robot_config.radius=0.5; a bare simulation_config key such as ped_speed_tier=typical) "
-                        "set in every scenario; repeatable")
+    p.add_argument(
+        "--override",
+        action="append",
+        metavar="KEY=VALUE",
+        help="run the matrix under other conditions: a scenario key (dotted, e.g. "
+        "robot_config.radius=0.5; a bare simulation_config key such as ped_speed_tier=typical) "
+        "set in every scenario; repeatable",
+    )
     p.add_argument("--max-steps", type=int, help="horizon override for smoke runs (default: each scenario's)")
     p.add_argument("--bundle", help="server: config bundle id; --matrix/--seeds/--grid are names inside it")
-    p.add_argument("--out", help="--local: work folder for the artifacts (default: a new folder under "
-                   "<data dir>/runs)")
-    p.add_argument("--workers", type=int, help="--local: parallel episode processes (default 1; the server's "
-                                               "workers use FORESIGHT_STAGE_WORKERS)")
+    p.add_argument(
+        "--out", help="--local: work folder for the artifacts (default: a new folder under <data dir>/runs)"
+    )
+    p.add_argument(
+        "--workers",
+        type=int,
+        help="--local: parallel episode processes (default 1; the server's "
+        "workers use FORESIGHT_STAGE_WORKERS)",
+    )
     p.add_argument("--executor", choices=["local", "ray"], help=stage.EXECUTOR_HELP)
     stage.add_mode_args(p)
 
@@ -51,9 +67,12 @@ def _common(p: argparse.ArgumentParser, *, planner: bool = True) -> None:
 def register(sub: argparse._SubParsersAction) -> None:
     ev = sub.add_parser("evaluate", help="evaluate a planner on a scenario matrix")
     _common(ev)
-    ev.add_argument("--seeds-per-scenario", type=int,
-                    help="N seeds per scenario: its own first, extended by the next ones where it has fewer "
-                    "(default: the matrix's own)")
+    ev.add_argument(
+        "--seeds-per-scenario",
+        type=int,
+        help="N seeds per scenario: its own first, extended by the next ones where it has fewer "
+        "(default: the matrix's own)",
+    )
     ev.add_argument("--seeds", help="seed manifest YAML: only these (scenario, seed) episodes")
     ev.add_argument("--scenarios", help="comma-separated scenario names (default: all)")
     ev.add_argument("--min-success", type=float, help="evaluation gate success floor (default 0.3)")
@@ -69,7 +88,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     _common(cp, planner=False)
     cp.add_argument("--seeds", required=True, help="hard-suite seed manifest YAML (an evaluation manifest)")
     cp.add_argument("--grid", required=True, help="planner grid YAML (variants: [{name, params, config}])")
-    cp.add_argument("--planner", default="predictive", help="the planner the grid varies (a name or a planner YAML)")
+    cp.add_argument(
+        "--planner", default="predictive", help="the planner the grid varies (a name or a planner YAML)"
+    )
     cp.add_argument("--planner-config", help="the base config of that planner as JSON or YAML")
     cp.add_argument("--checkpoints", nargs="+", default=["cv"], help="model ids, checkpoint paths, or cv")
     cp.add_argument("--baseline", help="baseline variant name for the closed-loop gate")
@@ -79,12 +100,20 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     cm = sub.add_parser("compare", help="two evaluations: config diff and metric deltas (--local: work folders "
                         "side by side per family, is a baseline better anywhere?)")  # fmt: skip
-    cm.add_argument("runs", nargs="+", help="two evaluation ids or campaign cells CAMPAIGN_ID:RANK[:hard]; "
-                    "--local: evaluation work folders (with episodes.jsonl), optionally LABEL=FOLDER")
+    cm.add_argument(
+        "runs",
+        nargs="+",
+        help="two evaluation ids or campaign cells CAMPAIGN_ID:RANK[:hard]; "
+        "--local: evaluation work folders (with episodes.jsonl), optionally LABEL=FOLDER",
+    )
     cm.add_argument("--local", action="store_true", help="compare local evaluation work folders in-process")
     cm.add_argument("--reference", help="--local: label of the planner under test (default: the first run)")
-    cm.add_argument("--players", type=Path, metavar="DIR",
-                    help="--local: write the changed episodes as side-by-side player pages (HTML) under DIR")
+    cm.add_argument(
+        "--players",
+        type=Path,
+        metavar="DIR",
+        help="--local: write the changed episodes as side-by-side player pages (HTML) under DIR",
+    )
     cm.add_argument("--json", action="store_true")
     add_connection_args(cm)
     cm.set_defaults(func=compare_cmd)
@@ -143,8 +172,11 @@ class ModelArgs:
 
         entry = default_model(read_shipped(MODEL_REGISTRY))
         if entry is None:
-            raise ConfigError("no default predictor in model/registry.yaml: pass --model ID|PATH|cv",
-                              source="command line", item="model")
+            raise ConfigError(
+                "no default predictor in model/registry.yaml: pass --model ID|PATH|cv",
+                source="command line",
+                item="model",
+            )
         return str(entry["id"])
 
     def resolve(self, ident: str) -> Path:
@@ -155,8 +187,15 @@ class ModelArgs:
         return resolve_shipped(MODEL_REGISTRY, ident)
 
 
-def planner_spec(value: str, model: str | None, models: ModelArgs, *, default: bool = True,
-                 config: str | None = None, local: bool = True) -> dict[str, Any]:
+def planner_spec(
+    value: str,
+    model: str | None,
+    models: ModelArgs,
+    *,
+    default: bool = True,
+    config: str | None = None,
+    local: bool = True,
+) -> dict[str, Any]:
     """The planner part of a spec from ``--planner`` (a name or a YAML file), ``--planner-config`` and ``--model``.
 
     ``module:attr`` names in-process planners: registered here for ``--local`` runs, refused for the server.
@@ -200,8 +239,9 @@ def _inline_config(text: str) -> dict[str, Any]:
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
-        raise ConfigError(f"not JSON or YAML ({str(exc).splitlines()[0]})", source="command line",
-                          item="--planner-config") from None
+        raise ConfigError(
+            f"not JSON or YAML ({str(exc).splitlines()[0]})", source="command line", item="--planner-config"
+        ) from None
     if not isinstance(data, dict):
         raise ConfigError("expected a mapping of config keys", source="command line", item="--planner-config")
     return data
@@ -233,7 +273,9 @@ def overrides(items: list[str] | None) -> dict[str, Any]:
         for part in path[:-1]:
             node = node.setdefault(part, {})
             if not isinstance(node, dict):
-                raise ConfigError(f"{key} conflicts with another override", source="command line", item="--override")
+                raise ConfigError(
+                    f"{key} conflicts with another override", source="command line", item="--override"
+                )
         node[path[-1]] = yaml.safe_load(raw)
     return out
 
@@ -255,8 +297,11 @@ class Refs:
         self._client = None
         if self.local:
             if args.bundle:
-                raise ConfigError("--bundle names a server bundle; --local runs take files", source="command line",
-                                  item="--bundle")
+                raise ConfigError(
+                    "--bundle names a server bundle; --local runs take files",
+                    source="command line",
+                    item="--bundle",
+                )
             self.bundle, paths, self.roots = bundle_of(*files.values())
             self.names = dict(zip(files, paths, strict=True))
         else:
@@ -294,13 +339,20 @@ class Refs:
             values = {**values, "executor": self.args.executor}
         spec = stage.spec(kind, values)
         if not self.local:
-            return stage.submit(self.args, spec, text=lambda r, ref: text(r, str(ref)), result_model=KINDS[kind].result,
-                                exit_code=exit_code, client=self.client if self._client else None)
+            return stage.submit(
+                self.args,
+                spec,
+                text=lambda r, ref: text(r, str(ref)),
+                result_model=KINDS[kind].result,
+                exit_code=exit_code,
+                client=self.client if self._client else None,
+            )
         ctx = _context(self.args, self.roots, self.models)
         result = KINDS[kind].run(stage.config_of(spec), ctx)
         pages = finish_local(kind, result, ctx.workdir)  # as a worker does: the report page, the MLflow copy
         where = f"artifacts in {ctx.workdir.resolve()}" + "".join(
-            f"\nreport: {p.resolve()}" for p in pages if p.name == "report.html")
+            f"\nreport: {p.resolve()}" for p in pages if p.name == "report.html"
+        )
         emit(result, self.args.json, lambda r: text(r, where))
         return exit_code(result)
 
@@ -308,9 +360,13 @@ class Refs:
 def evaluate_cmd(args: argparse.Namespace) -> int:
     refs = Refs(args, {"--matrix": args.matrix, "--seeds": args.seeds})
     values: dict[str, Any] = {
-        "bundle": refs.bundle, "matrix": refs.names["--matrix"], "seed_manifest": refs.names["--seeds"],
-        "scenarios": _names(args.scenarios), "seeds_per_scenario": args.seeds_per_scenario,
-        "max_steps": args.max_steps, "planner": refs.planner(args.planner, args.model),
+        "bundle": refs.bundle,
+        "matrix": refs.names["--matrix"],
+        "seed_manifest": refs.names["--seeds"],
+        "scenarios": _names(args.scenarios),
+        "seeds_per_scenario": args.seeds_per_scenario,
+        "max_steps": args.max_steps,
+        "planner": refs.planner(args.planner, args.model),
         "scenario_overrides": overrides(args.override),
     }
     if args.min_success is not None:
@@ -322,17 +378,24 @@ def _evaluation_text(r: Any, where: str) -> str:
     def pct(x: Any) -> str:
         return "-" if x is None else f"{100 * x:5.1f}%"
 
-    lines = [f"{r.planner.variant or r.planner.name} (config {r.planner.config_hash[:12]}, model {r.planner.model_id}): "
-             f"{r.episodes} episodes, success {pct(r.success_rate)}, collisions {pct(r.collision_rate)}", "",
-             f"{'family':<36} {'n':>4} {'success':>8} {'collision':>9} {'clearance':>9}"]
+    lines = [
+        f"{r.planner.variant or r.planner.name} (config {r.planner.config_hash[:12]}, model {r.planner.model_id}): "
+        f"{r.episodes} episodes, success {pct(r.success_rate)}, collisions {pct(r.collision_rate)}",
+        "",
+        f"{'family':<36} {'n':>4} {'success':>8} {'collision':>9} {'clearance':>9}",
+    ]
     for g in r.aggregates.per_family:
         clr = g.means["min_clearance"].mean
-        lines.append(f"{g.key:<36} {g.episodes:>4} {pct(g.rates['success'].rate):>8} "
-                     f"{pct(g.rates['collision'].rate):>9} {'-' if clr is None else f'{clr:.2f}':>9}")
+        lines.append(
+            f"{g.key:<36} {g.episodes:>4} {pct(g.rates['success'].rate):>8} "
+            f"{pct(g.rates['collision'].rate):>9} {'-' if clr is None else f'{clr:.2f}':>9}"
+        )
     fails = ", ".join(f"{k} {v}" for k, v in r.taxonomy.items() if v) or "none"
     lines += ["", f"failures: {fails}", f"gate: {r.status}"]
-    lines += [f"  {c.name}: {'ok' if c.passed else 'FAIL'} ({c.value} vs {c.threshold}) {c.detail}".rstrip()
-              for c in r.gate.checks]
+    lines += [
+        f"  {c.name}: {'ok' if c.passed else 'FAIL'} ({c.value} vs {c.threshold}) {c.detail}".rstrip()
+        for c in r.gate.checks
+    ]
     if r.execution is not None:
         lines.append(f"ran on: {r.execution.describe()}")
     lines.append(where)
@@ -344,8 +407,12 @@ def diagnose_cmd(args: argparse.Namespace) -> int:
 
     refs = Refs(args, {"--matrix": args.matrix, "--seeds": args.seeds})
     values = {
-        "bundle": refs.bundle, "matrix": refs.names["--matrix"], "seed_manifest": refs.names["--seeds"],
-        "max_steps": args.max_steps, "planner": refs.planner(args.planner, args.model), "render": not args.no_render,
+        "bundle": refs.bundle,
+        "matrix": refs.names["--matrix"],
+        "seed_manifest": refs.names["--seeds"],
+        "max_steps": args.max_steps,
+        "planner": refs.planner(args.planner, args.model),
+        "render": not args.no_render,
         "scenario_overrides": overrides(args.override),
     }
     return refs.run("diagnose", values, lambda r, where: f"{report(r)}\n{where}")
@@ -356,12 +423,18 @@ def campaign_cmd(args: argparse.Namespace) -> int:
 
     refs = Refs(args, {"--matrix": args.matrix, "--seeds": args.seeds, "--grid": args.grid})
     values: dict[str, Any] = {
-        "bundle": refs.bundle, "matrix": refs.names["--matrix"], "seed_manifest": refs.names["--seeds"],
-        "grid": refs.names["--grid"], "checkpoints": [refs.model(c, "--checkpoints") for c in args.checkpoints],
-        "max_steps": args.max_steps, "seeds_per_scenario": args.seeds_per_scenario, "scenarios": _names(args.scenarios),
+        "bundle": refs.bundle,
+        "matrix": refs.names["--matrix"],
+        "seed_manifest": refs.names["--seeds"],
+        "grid": refs.names["--grid"],
+        "checkpoints": [refs.model(c, "--checkpoints") for c in args.checkpoints],
+        "max_steps": args.max_steps,
+        "seeds_per_scenario": args.seeds_per_scenario,
+        "scenarios": _names(args.scenarios),
         "scenario_overrides": overrides(args.override),
-        "planner": planner_spec(args.planner, None, refs.models, default=False, config=args.planner_config,
-                                local=refs.local),
+        "planner": planner_spec(
+            args.planner, None, refs.models, default=False, config=args.planner_config, local=refs.local
+        ),
     }
     if args.baseline:
         values["gate"] = {"baseline_variant": args.baseline}
@@ -373,8 +446,12 @@ def compare_cmd(args: argparse.Namespace) -> int:
 
     if not args.local:
         if args.players:
-            raise ConfigError("--players writes pages from local work folders (--local); the dashboard's compare "
-                              "page plays a server's episodes side by side", source="command line", item="players")
+            raise ConfigError(
+                "--players writes pages from local work folders (--local); the dashboard's compare "
+                "page plays a server's episodes side by side",
+                source="command line",
+                item="players",
+            )
         from foresight.cli.report import compare_remote
 
         return compare_remote(args)
@@ -385,7 +462,9 @@ def compare_cmd(args: argparse.Namespace) -> int:
         name, records = load_run(Path(folder))
         label = label or name
         if label in runs:
-            raise ConfigError(f"two runs are labelled {label!r}; name them LABEL=FOLDER", source="command line")
+            raise ConfigError(
+                f"two runs are labelled {label!r}; name them LABEL=FOLDER", source="command line"
+            )
         runs[label], folders[label] = records, Path(folder)
     result = compare(runs, args.reference or next(iter(runs)))
     if args.players:

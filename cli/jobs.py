@@ -27,13 +27,19 @@ def register(sub: argparse._SubParsersAction) -> None:
     submit.add_argument("--timeout", type=float, help="[s] run time limit")
     submit.add_argument("--key", help="idempotency key: resubmitting with it returns the same job")
     add_label_args(submit)
-    submit.add_argument("--wait", action="store_true", help="follow the job with a progress bar until it ends "
-                        "(exit 0 succeeded, 2 succeeded with a failed gate or integrity verdict, 1 failed)")
+    submit.add_argument(
+        "--wait",
+        action="store_true",
+        help="follow the job with a progress bar until it ends "
+        "(exit 0 succeeded, 2 succeeded with a failed gate or integrity verdict, 1 failed)",
+    )
     submit.add_argument("--json", action="store_true")
     add_connection_args(submit)
     submit.set_defaults(func=cmd_submit)
 
-    jobs = sub.add_parser("jobs", help="list, inspect and control jobs").add_subparsers(dest="action", required=True)
+    jobs = sub.add_parser("jobs", help="list, inspect and control jobs").add_subparsers(
+        dest="action", required=True
+    )
     ls = jobs.add_parser("ls", help="list jobs, newest first")
     ls.add_argument("--status", action="append", help="filter (repeatable)")
     ls.add_argument("--kind", action="append", help="filter (repeatable)")
@@ -118,9 +124,13 @@ GATE_FAILED_EXIT = 2  #: a finished job whose gate or integrity verdict failed (
 def _line(job: dict[str, Any]) -> str:
     err = f"  {job['error']['type']}: {job['error']['message'][:80]}" if job.get("error") else ""
     verdict = f"  {job['verdict'].upper()}" if job.get("verdict") and job["verdict"] != "passed" else ""
-    labels = "".join([f"  {job['name']!r}" if job.get("name") else "", *(f" #{t}" for t in job.get("tags") or ())])
-    return (f"{job['id']}  {job['kind']:<10} {job['status']:<10} {100 * job['progress']:5.1f}%  "
-            f"{job['created_at'][:19]}{verdict}{labels}{err}")
+    labels = "".join(
+        [f"  {job['name']!r}" if job.get("name") else "", *(f" #{t}" for t in job.get("tags") or ())]
+    )
+    return (
+        f"{job['id']}  {job['kind']:<10} {job['status']:<10} {100 * job['progress']:5.1f}%  "
+        f"{job['created_at'][:19]}{verdict}{labels}{err}"
+    )
 
 
 def exit_code(job: dict[str, Any]) -> int:
@@ -134,8 +144,14 @@ def cmd_submit(args: argparse.Namespace) -> int:
     client = Client.from_args(args)
     spec = read_spec(args.file)
     if spec.get("kind", args.kind) != args.kind:
-        raise ConfigError(f"spec says kind {spec['kind']!r} but {args.kind!r} was given", source=args.file, item="kind")
-    body: dict[str, Any] = {"spec": {**spec, "kind": args.kind}, "priority": args.priority, **labels_body(args)}
+        raise ConfigError(
+            f"spec says kind {spec['kind']!r} but {args.kind!r} was given", source=args.file, item="kind"
+        )
+    body: dict[str, Any] = {
+        "spec": {**spec, "kind": args.kind},
+        "priority": args.priority,
+        **labels_body(args),
+    }
     if args.timeout is not None:
         body["timeout_s"] = args.timeout
     if args.key:
@@ -196,7 +212,11 @@ def cmd_show(args: argparse.Namespace) -> int:
     text = [_line(job)]
     if job.get("result") is not None:
         lines = json.dumps(job["result"], indent=2).splitlines()
-        more = f"\n  ... {len(lines) - SHOW_LINES} more lines (--json for all)" if len(lines) > SHOW_LINES else ""
+        more = (
+            f"\n  ... {len(lines) - SHOW_LINES} more lines (--json for all)"
+            if len(lines) > SHOW_LINES
+            else ""
+        )
         text.append("result: " + "\n".join(lines[:SHOW_LINES]) + more)
     if job.get("note"):
         text.insert(1, "note: " + job["note"])

@@ -9,7 +9,9 @@ from foresight.cli.common import emit
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    maps = sub.add_parser("maps", help="maps: show, convert, render, rehash").add_subparsers(dest="action", required=True)
+    maps = sub.add_parser("maps", help="maps: show, convert, render, rehash").add_subparsers(
+        dest="action", required=True
+    )
     show = maps.add_parser("show", help="summary of a map (SVG or YAML)")
     show.add_argument("path")
     show.add_argument("--apply-transforms", action="store_true", help="apply SVG transforms (editor view)")
@@ -44,12 +46,17 @@ def _load(args: argparse.Namespace):
 def show_map(args: argparse.Namespace) -> int:
     m = _load(args)
     info = {
-        "name": m.name, "width": m.width, "height": m.height, "obstacles": len(m.obstacles),
-        "robot_spawn_zones": len(m.robot_spawn_zones), "robot_goal_zones": len(m.robot_goal_zones),
+        "name": m.name,
+        "width": m.width,
+        "height": m.height,
+        "obstacles": len(m.obstacles),
+        "robot_spawn_zones": len(m.robot_spawn_zones),
+        "robot_goal_zones": len(m.robot_goal_zones),
         "robot_routes": [round(r.length, 2) for r in m.robot_routes],
         "ped_routes": [round(r.length, 2) for r in m.ped_routes],
         "ped_crowded_zones": len(m.ped_crowded_zones),
-        "single_pedestrians": [p.id for p in m.single_pedestrians], "pois": sorted(m.pois),
+        "single_pedestrians": [p.id for p in m.single_pedestrians],
+        "pois": sorted(m.pois),
     }
     emit(info, args.json, lambda d: "\n".join(f"{k:<20} {v}" for k, v in d.items()))
     return 0
@@ -76,5 +83,11 @@ def rehash_registry(args: argparse.Namespace) -> int:
 
     changed = refresh_checksums(args.registry, write=not args.check)
     rows = {k: {"old": old, "new": new} for k, (old, new) in changed.items()}
-    emit(rows, args.json, lambda d: "\n".join(f"{k}: {v['old']} -> {v['new']}" for k, v in d.items()) or "all checksums current")
+    emit(
+        rows,
+        args.json,
+        lambda d: (
+            "\n".join(f"{k}: {v['old']} -> {v['new']}" for k, v in d.items()) or "all checksums current"
+        ),
+    )
     return 1 if args.check and changed else 0

@@ -47,10 +47,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     up = bundles.add_parser("upload", help="upload a folder or a zip/tar archive as a bundle")
     up.add_argument("name", help="bundle id")
     up.add_argument("path", help="folder (packed as tar.gz) or archive file")
-    up.add_argument("--replace", action="store_true", help="replace the files of an uploaded bundle of that id "
-                    "(refused while queued or running jobs use it)")
+    up.add_argument(
+        "--replace",
+        action="store_true",
+        help="replace the files of an uploaded bundle of that id "
+        "(refused while queued or running jobs use it)",
+    )
     up.set_defaults(func=cmd_bundles_upload)
-    bdel = bundles.add_parser("delete", help="delete an uploaded bundle (refused while queued or running jobs use it)")
+    bdel = bundles.add_parser(
+        "delete", help="delete an uploaded bundle (refused while queued or running jobs use it)"
+    )
     bdel.add_argument("name", help="bundle id")
     bdel.set_defaults(func=cmd_bundles_delete)
     for group in (models, bundles):
@@ -72,7 +78,11 @@ def cmd_ls(args: argparse.Namespace) -> int:
     params = {k: v for k, v in (("status", args.status), ("tag", args.tag), ("limit", args.limit),
                                 ("offset", args.offset)) if v}  # fmt: skip
     page = Client.from_args(args).get("/v1/models", params=params)
-    _out(page, args.json, "\n".join([_line(m) for m in page["data"]] + [f"{len(page['data'])} of {page['count']} models"]))
+    _out(
+        page,
+        args.json,
+        "\n".join([_line(m) for m in page["data"]] + [f"{len(page['data'])} of {page['count']} models"]),
+    )
     return 0
 
 
@@ -113,7 +123,10 @@ def cmd_export(args: argparse.Namespace) -> int:
 
 def cmd_bundles_ls(args: argparse.Namespace) -> int:
     page = Client.from_args(args).get("/v1/bundles")
-    lines = [f"{b['id']:<30} {b['source']:<10} {len(b['files']):>4} files  {', '.join(b['scenarios'])}" for b in page["data"]]
+    lines = [
+        f"{b['id']:<30} {b['source']:<10} {len(b['files']):>4} files  {', '.join(b['scenarios'])}"
+        for b in page["data"]
+    ]
     _out(page, args.json, "\n".join(lines))
     return 0
 

@@ -34,14 +34,22 @@ MATRIX = BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml"
 def register(sub: argparse._SubParsersAction) -> None:
     from foresight.cli.client import add_connection_args
 
-    pipe = sub.add_parser("pipeline", help="the runbook as one job: collect, train, evaluate, campaign, gates, promote")
+    pipe = sub.add_parser(
+        "pipeline", help="the runbook as one job: collect, train, evaluate, campaign, gates, promote"
+    )
     actions = pipe.add_subparsers(dest="action", required=True)
     run = actions.add_parser("run", help="run a pipeline config (on the server by default)")
-    run.add_argument("-f", "--file", required=True, help="pipeline YAML (e.g. configs/pipelines/quickstart.yaml)")
+    run.add_argument(
+        "-f", "--file", required=True, help="pipeline YAML (e.g. configs/pipelines/quickstart.yaml)"
+    )
     run.add_argument("--local", action="store_true", help="run every stage in-process, no server")
-    run.add_argument("--out", help="--local: work folder (default: a new folder under <data dir>/runs; reruns "
-                     "with --out resume)")
-    run.add_argument("--workers", type=int, help="processes per episode stage (overrides the config's workers)")
+    run.add_argument(
+        "--out",
+        help="--local: work folder (default: a new folder under <data dir>/runs; reruns with --out resume)",
+    )
+    run.add_argument(
+        "--workers", type=int, help="processes per episode stage (overrides the config's workers)"
+    )
     run.add_argument("--no-wait", action="store_true", help="submit and print the job id")
     run.add_argument("--key", help="idempotency key of the submission")
     run.add_argument("--json", action="store_true", help="print the result as JSON")
@@ -50,18 +58,26 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     mine = actions.add_parser("mine-seeds", help="mine a seed manifest: seeds where a baseline planner fails")
     mine.add_argument("--matrix", default=str(MATRIX), help="scenario matrix YAML")
-    mine.add_argument("--seeds", help="candidate seeds LO:HI (half open) or a comma list (default: each "
-                                      "scenario's own seeds, i.e. the evaluation seeds)")
+    mine.add_argument(
+        "--seeds",
+        help="candidate seeds LO:HI (half open) or a comma list (default: each "
+        "scenario's own seeds, i.e. the evaluation seeds)",
+    )
     mine.add_argument("--baseline", default="orca", help="baseline planner (orca, social_force, goal)")
     mine.add_argument("--per-scenario", type=int, default=2, help="failing seeds kept per scenario")
-    mine.add_argument("--exclude", action="append", default=[], help="manifest whose pairs are never picked (repeatable)")
+    mine.add_argument(
+        "--exclude", action="append", default=[], help="manifest whose pairs are never picked (repeatable)"
+    )
     mine.add_argument("--scenarios", help="comma-separated scenario names (default: all)")
     mine.add_argument("--description", default="", help="manifest description")
     mine.add_argument("-o", "--output", required=True, help="manifest YAML to write")
     mine.set_defaults(func=cmd_mine)
 
-    demo = sub.add_parser("demo", help="start a server + worker, run the quickstart pipeline through the API, "
-                                       "print the report and the gate verdict")
+    demo = sub.add_parser(
+        "demo",
+        help="start a server + worker, run the quickstart pipeline through the API, "
+        "print the report and the gate verdict",
+    )
     demo.add_argument("-f", "--file", default=str(QUICKSTART), help="pipeline YAML (default: quickstart)")
     demo.add_argument("--port", type=int, help="server port (default: a free one)")
     demo.add_argument("--concurrency", type=int, default=1, help="worker job slots")
@@ -84,19 +100,28 @@ def read_pipeline(path: str | Path, workers: int | None = None) -> dict[str, Any
 
 
 def verdict_text(result: PipelineResult) -> str:
-    head = "GATES PASSED" if result.passed else "GATES FAILED (" + (", ".join(result.failed_gates) or "?") + ")"
-    return "\n".join([f"{head}: exit code {result.exit_code}"] + ([result.promotion.replace("`", "")] if result.promotion else []))
+    head = (
+        "GATES PASSED" if result.passed else "GATES FAILED (" + (", ".join(result.failed_gates) or "?") + ")"
+    )
+    return "\n".join(
+        [f"{head}: exit code {result.exit_code}"]
+        + ([result.promotion.replace("`", "")] if result.promotion else [])
+    )
 
 
 def _stage_lines(result: PipelineResult) -> list[str]:
-    return [f"  {st.name:<9} {st.status:<12} {'-' if st.wall_s is None else f'{st.wall_s:.0f} s':>6}  {st.headline}"
-            for st in result.stages]
+    return [
+        f"  {st.name:<9} {st.status:<12} {'-' if st.wall_s is None else f'{st.wall_s:.0f} s':>6}  {st.headline}"
+        for st in result.stages
+    ]
 
 
 # ------------------------------------------------------------------------------------------ local
 
 
-def run_local(config_path: str, out: str | None, workers: int | None, quiet: bool) -> tuple[PipelineResult, Path]:
+def run_local(
+    config_path: str, out: str | None, workers: int | None, quiet: bool
+) -> tuple[PipelineResult, Path]:
     from foresight.cli.common import local_context, local_workdir
     from foresight.cli.evaluate import ModelArgs
     from foresight.core.pipeline.config import PipelineConfig
@@ -139,8 +164,15 @@ def cmd_run(args: argparse.Namespace) -> int:
 # ------------------------------------------------------------------------------------------ server
 
 
-def submit_and_follow(client: Any, spec: dict[str, Any], *, as_json: bool, wait: bool = True,
-                      key: str | None = None, store_root: Path | None = None) -> int:
+def submit_and_follow(
+    client: Any,
+    spec: dict[str, Any],
+    *,
+    as_json: bool,
+    wait: bool = True,
+    key: str | None = None,
+    store_root: Path | None = None,
+) -> int:
     body: dict[str, Any] = {"spec": {**spec, "kind": "pipeline"}}
     if key:
         body["idempotency_key"] = key
@@ -170,7 +202,9 @@ def follow_pipeline(client: Any, job_id: str, *, quiet: bool) -> dict[str, Any]:
                     if seen.get(child["id"]) != child["status"] and child["status"] != "queued":
                         seen[child["id"]] = child["status"]
                         stage = (child.get("idempotency_key") or child["kind"]).rsplit(":", 1)[-1]
-                        bar.console.print(f"  {stage:<9} {child['kind']:<9} job {child['id'][:12]}  {child['status']}")
+                        bar.console.print(
+                            f"  {stage:<9} {child['kind']:<9} job {child['id'][:12]}  {child['status']}"
+                        )
             if job["status"] in FINISHED:
                 return job
             time.sleep(1.0)
@@ -184,8 +218,18 @@ def report_outcome(client: Any, job: dict[str, Any], *, as_json: bool, store_roo
 
     result = PipelineResult.model_validate(job["result"]) if job["status"] == "succeeded" else None
     if as_json:
-        print(json.dumps({"job": job["id"], "status": job["status"], "result": job["result"], "report_url": url,
-                          "report_file": str(path) if path else None}, indent=2))
+        print(
+            json.dumps(
+                {
+                    "job": job["id"],
+                    "status": job["status"],
+                    "result": job["result"],
+                    "report_url": url,
+                    "report_file": str(path) if path else None,
+                },
+                indent=2,
+            )
+        )
     else:
         if result is not None:
             print("\n".join(_stage_lines(result)))
@@ -196,8 +240,10 @@ def report_outcome(client: Any, job: dict[str, Any], *, as_json: bool, store_roo
             print(verdict_text(result))
         else:
             err = job.get("error") or {}
-            print(f"pipeline {job['status']}: {err.get('type', '')}: {err.get('message', '')}"
-                  f"\n(retry with `foresight jobs retry {job['id']}`: finished stages are not run again)")
+            print(
+                f"pipeline {job['status']}: {err.get('type', '')}: {err.get('message', '')}"
+                f"\n(retry with `foresight jobs retry {job['id']}`: finished stages are not run again)"
+            )
     return 1 if result is None else result.exit_code
 
 
@@ -232,15 +278,31 @@ def cmd_demo(args: argparse.Namespace) -> int:
     port = args.port or _free_port()
     url = f"http://127.0.0.1:{port}"
     env = {**os.environ, "FORESIGHT_API_URL": url}
-    print(f"starting the Foresight server and a worker on {url} (database {settings.resolved_database_url}, "
-          f"store {settings.store_root})", file=sys.stderr)
+    print(
+        f"starting the Foresight server and a worker on {url} (database {settings.resolved_database_url}, "
+        f"store {settings.store_root})",
+        file=sys.stderr,
+    )
     settings.data_dir.mkdir(parents=True, exist_ok=True)
     log_path = (settings.data_dir / "demo-server.log").resolve()
     print(f"server log: {log_path}", file=sys.stderr)
     with log_path.open("a") as log:
-        proc = subprocess.Popen([sys.executable, "-m", "foresight.cli.main", "up", "--port", str(port), "--concurrency",
-                                 str(max(1, args.concurrency))], env=env, start_new_session=True,
-                                stdout=log, stderr=subprocess.STDOUT)
+        proc = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "foresight.cli.main",
+                "up",
+                "--port",
+                str(port),
+                "--concurrency",
+                str(max(1, args.concurrency)),
+            ],
+            env=env,
+            start_new_session=True,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+        )
     code = 1
     try:
         _wait_healthy(url, proc)
@@ -252,7 +314,10 @@ def cmd_demo(args: argparse.Namespace) -> int:
         code = 130
     finally:
         if args.keep_running and proc.poll() is None:
-            print(f"server still running on {url} (pid {proc.pid}); stop it with: kill {proc.pid}", file=sys.stderr)
+            print(
+                f"server still running on {url} (pid {proc.pid}); stop it with: kill {proc.pid}",
+                file=sys.stderr,
+            )
         else:
             _stop(proc)
     return code
@@ -295,10 +360,13 @@ def cmd_mine(args: argparse.Namespace) -> int:
                               progress=lambda fraction, message: bar.update(task, completed=fraction,
                                                                             message=message[:60]))  # fmt: skip
     command = " ".join(["foresight pipeline mine-seeds", *_argv_for(args)])
-    header = (f"Mined by: {command}\nSeeds where the {args.baseline} baseline does not reach the goal, the first "
-              f"{args.per_scenario} per scenario in seed order\n(candidate seeds: "
-              f"{args.seeds or 'each scenario own seeds = the evaluation seeds'}"
-              + (f"; excluding {', '.join(args.exclude)}" if args.exclude else "") + ").")
+    header = (
+        f"Mined by: {command}\nSeeds where the {args.baseline} baseline does not reach the goal, the first "
+        f"{args.per_scenario} per scenario in seed order\n(candidate seeds: "
+        f"{args.seeds or 'each scenario own seeds = the evaluation seeds'}"
+        + (f"; excluding {', '.join(args.exclude)}" if args.exclude else "")
+        + ")."
+    )
     path = write_manifest(args.output, found, args.description or f"{args.baseline} failures", header)
     print(f"{sum(len(v) for v in found.values())} seeds in {len(found)} scenarios -> {path}")
     return 0
@@ -325,4 +393,3 @@ def _rel(path: str) -> str:
         return Path(path).resolve().relative_to(BUILTIN_CONFIG_ROOT.parent).as_posix()
     except ValueError:
         return path
-

@@ -11,7 +11,9 @@ from foresight.cli.client import Client, add_connection_args
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("planners", help="list the planners and their config keys (server, or --local)")
-    p.add_argument("--local", action="store_true", help="this installation's planners instead of the server's")
+    p.add_argument(
+        "--local", action="store_true", help="this installation's planners instead of the server's"
+    )
     p.add_argument("--json", action="store_true", help="print the listing as JSON (config schemas included)")
     add_connection_args(p)
     p.set_defaults(func=planners_cmd)

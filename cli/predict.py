@@ -20,21 +20,33 @@ def register(sub: argparse._SubParsersAction) -> None:
     pe = sub.add_parser("predict-eval", help="ADE/FDE of a predictor on ETH/UCY folds or a dataset")
     who = pe.add_mutually_exclusive_group(required=True)
     who.add_argument("--model", help="model id or cv (--local: also a checkpoint path)")
-    who.add_argument("--train", action="store_true", help="train the default model (or --config) per fold first")
+    who.add_argument(
+        "--train", action="store_true", help="train the default model (or --config) per fold first"
+    )
     pe.add_argument("--config", help="training config YAML (its 'train' mapping, or the whole file)")
     data = pe.add_mutually_exclusive_group(required=True)
-    data.add_argument("--ethucy", metavar="ROOT", help="ETH/UCY data root name (GET /v1/data-roots, e.g. ethucy); "
-                      "--local also takes a folder with <fold>/train|val|test")
-    data.add_argument("--dataset", help="dataset id (--local: a .npz file), scored on its test split, else val")
+    data.add_argument(
+        "--ethucy",
+        metavar="ROOT",
+        help="ETH/UCY data root name (GET /v1/data-roots, e.g. ethucy); "
+        "--local also takes a folder with <fold>/train|val|test",
+    )
+    data.add_argument(
+        "--dataset", help="dataset id (--local: a .npz file), scored on its test split, else val"
+    )
     pe.add_argument("--fold", help="one fold (eth|hotel|univ|zara1|zara2); default all")
-    pe.add_argument("--split", help="dataset split to score: test (default; val when there is no test), val, all")
+    pe.add_argument(
+        "--split", help="dataset split to score: test (default; val when there is no test), val, all"
+    )
     _outputs(pe)
     pe.set_defaults(func=predict_eval_cmd)
 
     ds = sub.add_parser("dataset", help="prediction datasets")
     dsub = ds.add_subparsers(dest="dataset_command", required=True)
-    im = dsub.add_parser("import-ethucy", help="import one ETH/UCY fold as a dataset (server: a dataset record; "
-                                               "--local: .npz + .json files)")
+    im = dsub.add_parser(
+        "import-ethucy",
+        help="import one ETH/UCY fold as a dataset (server: a dataset record; --local: .npz + .json files)",
+    )
     im.add_argument("--root", help="data root name on the server (GET /v1/data-roots; default ethucy)")
     im.add_argument("--ethucy", help="--local: ETH/UCY root folder")
     im.add_argument("--fold", required=True)
@@ -44,7 +56,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     im.set_defaults(func=import_cmd)
 
     co = sub.add_parser("collect", help="roll out episodes and write a prediction dataset")
-    co.add_argument("--config", help="YAML whose 'collect' mapping holds CollectConfig fields (flags override)")
+    co.add_argument(
+        "--config", help="YAML whose 'collect' mapping holds CollectConfig fields (flags override)"
+    )
     co.add_argument("--section", default="collect", help="mapping of --config to read (e.g. hardcase)")
     co.add_argument("--matrix", default=None, help="scenario matrix YAML (default: builtin classic matrix)")
     co.add_argument("--hard-seeds", help="TRAINING seed manifest YAML (hard-case collection)")
@@ -56,8 +70,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     co.add_argument("--max-steps", type=int)
     co.add_argument("--max-agents", type=int)
     co.add_argument("--executor", choices=["local", "ray"], help=stage.EXECUTOR_HELP)
-    co.add_argument("--override", action="append", metavar="KEY=VALUE",
-                    help="collect under other conditions, as foresight evaluate --override (repeatable)")
+    co.add_argument(
+        "--override",
+        action="append",
+        metavar="KEY=VALUE",
+        help="collect under other conditions, as foresight evaluate --override (repeatable)",
+    )
     _outputs(co)
     co.set_defaults(func=collect_cmd)
 
@@ -73,10 +91,18 @@ def register(sub: argparse._SubParsersAction) -> None:
     tr.add_argument("--config", help="training config YAML (its 'train' mapping, or the whole file)")
     tr.add_argument("--epochs", type=int)
     tr.add_argument("--threads", type=int)
-    tr.add_argument("--device", choices=["auto", "cpu", "cuda"], help="torch device where training runs (auto: cuda "
-                    "when it sees a GPU, else cpu); overrides the config's")
-    tr.add_argument("--executor", choices=["local", "ray"], help="ray: train as a Ray task (on a GPU node when the "
-                    "cluster has one) and run the closed-loop proxy's episodes as Ray tasks; default local")
+    tr.add_argument(
+        "--device",
+        choices=["auto", "cpu", "cuda"],
+        help="torch device where training runs (auto: cuda "
+        "when it sees a GPU, else cpu); overrides the config's",
+    )
+    tr.add_argument(
+        "--executor",
+        choices=["local", "ray"],
+        help="ray: train as a Ray task (on a GPU node when the "
+        "cluster has one) and run the closed-loop proxy's episodes as Ray tasks; default local",
+    )
     _outputs(tr)
     tr.set_defaults(func=train_cmd)
 
@@ -124,22 +150,40 @@ def predict_eval_cmd(args: argparse.Namespace) -> int:
     if args.train:
         train = {k: v for k, v in _train_values(args.config).items() if k != "dataset"}
         own = _eval_values(args.config)
-    values = {"model": args.model, "train": train, "ethucy": args.ethucy, "dataset": args.dataset,
-              "folds": [args.fold] if args.fold else None, "split": args.split, **own}
+    values = {
+        "model": args.model,
+        "train": train,
+        "ethucy": args.ethucy,
+        "dataset": args.dataset,
+        "folds": [args.fold] if args.fold else None,
+        "split": args.split,
+        **own,
+    }
     if not args.local:
         stage.local_only(args, out="--out")
         if args.ethucy is not None and Path(args.ethucy).expanduser().is_dir():
             raise ConfigError(f"{args.ethucy!r} is a local folder; the server reads named data roots: pass "
                               "--ethucy NAME (GET /v1/data-roots), or run in-process with --local",
                               source="command line", item="--ethucy")  # fmt: skip
-        values.update(model=stage.model_id(args.model, "--model"), dataset=stage.dataset_id(args.dataset, "--dataset"))
-        return stage.submit(args, stage.spec("predict_eval", values), text=_score_table, result_model=PredictEvalResult)
+        values.update(
+            model=stage.model_id(args.model, "--model"), dataset=stage.dataset_id(args.dataset, "--dataset")
+        )
+        return stage.submit(
+            args, stage.spec("predict_eval", values), text=_score_table, result_model=PredictEvalResult
+        )
     from foresight.core.predict.evaluation import run_predict_eval
 
     result = run_predict_eval(stage.config_of(stage.spec("predict_eval", values)), _ctx(args))
     if args.json:
-        emit({"folds": {k: v.model_dump() for k, v in result.folds.items()}, "average": result.average.model_dump(),
-              "cv_average": result.cv_average.model_dump()}, True, str)
+        emit(
+            {
+                "folds": {k: v.model_dump() for k, v in result.folds.items()},
+                "average": result.average.model_dump(),
+                "cv_average": result.cv_average.model_dump(),
+            },
+            True,
+            str,
+        )
         return 0
     print(_score_table(result, None))
     return 0
@@ -164,17 +208,28 @@ def import_cmd(args: argparse.Namespace) -> int:
                               "(GET /v1/data-roots), or run in-process with --local", source="command line",
                               item="--ethucy")  # fmt: skip
         # validated against the core config here; the server checks the root name against its own roots
-        config = build_config(ImportDatasetConfig, {"root": args.root, "fold": args.fold, "max_agents": args.max_agents})
-        return stage.submit(args, config, kind="import_dataset", text=lambda r, ref: (
-            f"dataset {ref.id} (fold {r['fold']} of data root {r['root']}): {r['summary']['samples']} samples "
-            f"{r['summary']['samples_per_split']}\n{ref}"))
+        config = build_config(
+            ImportDatasetConfig, {"root": args.root, "fold": args.fold, "max_agents": args.max_agents}
+        )
+        return stage.submit(
+            args,
+            config,
+            kind="import_dataset",
+            text=lambda r, ref: (
+                f"dataset {ref.id} (fold {r['fold']} of data root {r['root']}): {r['summary']['samples']} samples "
+                f"{r['summary']['samples_per_split']}\n{ref}"
+            ),
+        )
     from foresight.core.predict.ethucy import ImportEthucyConfig, run_import_ethucy
 
     if args.output is None:
         raise ConfigError("--local imports need --output FILE.npz", source="command line", item="--output")
     if (args.ethucy is None) == (args.root is None):
-        raise ConfigError("give --ethucy FOLDER (or --root NAME of FORESIGHT_DATA_ROOTS)", source="command line",
-                          item="--ethucy")
+        raise ConfigError(
+            "give --ethucy FOLDER (or --root NAME of FORESIGHT_DATA_ROOTS)",
+            source="command line",
+            item="--ethucy",
+        )
     if args.ethucy is None:
         from foresight.store.settings import Settings
 
@@ -182,10 +237,16 @@ def import_cmd(args: argparse.Namespace) -> int:
     else:
         folder = Path(args.ethucy).resolve()
     out = Path(args.output).resolve()
-    config = build_config(ImportEthucyConfig, {"root": str(folder), "fold": args.fold,
-                                               "max_agents": args.max_agents, "output": out.name})
+    config = build_config(
+        ImportEthucyConfig,
+        {"root": str(folder), "fold": args.fold, "max_agents": args.max_agents, "output": out.name},
+    )
     record = run_import_ethucy(config, local_context(out.parent, {}, quiet=True))
-    emit(record["summary"], args.json, lambda s: f"{args.output}: {s['samples']} samples {s['samples_per_split']}")
+    emit(
+        record["summary"],
+        args.json,
+        lambda s: f"{args.output}: {s['samples']} samples {s['samples_per_split']}",
+    )
     return 0
 
 
@@ -193,21 +254,38 @@ def collect_cmd(args: argparse.Namespace) -> int:
     from foresight.cli.evaluate import overrides
     from foresight.core.predict.collect import CollectResult
 
-    flags = {"scenarios": args.scenarios.split(",") if args.scenarios else None,
-             "seeds_per_scenario": args.seeds_per_scenario, "base_seed": args.base_seed, "policy": args.policy,
-             "max_steps": args.max_steps, "max_agents": args.max_agents,
-             "scenario_overrides": overrides(args.override) or None, "executor": args.executor}
+    flags = {
+        "scenarios": args.scenarios.split(",") if args.scenarios else None,
+        "seeds_per_scenario": args.seeds_per_scenario,
+        "base_seed": args.base_seed,
+        "policy": args.policy,
+        "max_steps": args.max_steps,
+        "max_agents": args.max_agents,
+        "scenario_overrides": overrides(args.override) or None,
+        "executor": args.executor,
+    }
     values = {**_section(args.config, args.section), **{k: v for k, v in flags.items() if v is not None}}
     if not args.local:
         stage.local_only(args, out="--out")
         if args.matrix or args.hard_seeds or args.bundle:
-            bundle, names = stage.bundle_names(args.bundle, {"--matrix": args.matrix, "--hard-seeds": args.hard_seeds})
+            bundle, names = stage.bundle_names(
+                args.bundle, {"--matrix": args.matrix, "--hard-seeds": args.hard_seeds}
+            )
             values.update(bundle=bundle, matrix=names["--matrix"], hard_seeds=names["--hard-seeds"])
-        return stage.submit(args, stage.spec("collect", values), result_model=CollectResult, text=lambda r, ref: (
-            f"dataset {ref.id}: {r.summary.samples} samples, outcomes {r.outcomes}\n{ref}"))
+        return stage.submit(
+            args,
+            stage.spec("collect", values),
+            result_model=CollectResult,
+            text=lambda r, ref: (
+                f"dataset {ref.id}: {r.summary.samples} samples, outcomes {r.outcomes}\n{ref}"
+            ),
+        )
     if args.bundle:
-        raise ConfigError("--bundle names a server bundle; --local runs take --matrix/--hard-seeds files",
-                          source="command line", item="--bundle")
+        raise ConfigError(
+            "--bundle names a server bundle; --local runs take --matrix/--hard-seeds files",
+            source="command line",
+            item="--bundle",
+        )
     from foresight.core.predict.collect import run_collect
 
     if args.matrix or args.hard_seeds:  # local files; a --config's paths are relative to the builtin configs/
@@ -218,8 +296,11 @@ def collect_cmd(args: argparse.Namespace) -> int:
     else:
         bundles = matrix_ref(str(_builtin_matrix()))[2]
     result = run_collect(stage.config_of(stage.spec("collect", values)), _ctx(args, bundles))
-    emit(result, args.json, lambda r: f"{Path(args.out or '.') / r.dataset}: {r.summary.samples} samples, "
-         f"outcomes {r.outcomes}")
+    emit(
+        result,
+        args.json,
+        lambda r: f"{Path(args.out or '.') / r.dataset}: {r.summary.samples} samples, outcomes {r.outcomes}",
+    )
     return 0
 
 
@@ -235,9 +316,15 @@ def mix_cmd(args: argparse.Namespace) -> int:
     values = {"base": args.base, "hardcase": args.hardcase, "hardcase_repeat": args.repeat}
     if not args.local:
         stage.local_only(args, out="--out")
-        values.update(base=stage.dataset_id(args.base, "--base"), hardcase=stage.dataset_id(args.hardcase, "--hardcase"))
-        return stage.submit(args, stage.spec("mix", values), result_model=CollectResult, text=lambda r, ref: (
-            f"dataset {ref.id}: {r.summary.samples} samples\n{ref}"))
+        values.update(
+            base=stage.dataset_id(args.base, "--base"), hardcase=stage.dataset_id(args.hardcase, "--hardcase")
+        )
+        return stage.submit(
+            args,
+            stage.spec("mix", values),
+            result_model=CollectResult,
+            text=lambda r, ref: f"dataset {ref.id}: {r.summary.samples} samples\n{ref}",
+        )
     from foresight.core.predict.collect import run_mix
 
     result = run_mix(stage.config_of(stage.spec("mix", values)), _ctx(args))
@@ -248,7 +335,12 @@ def mix_cmd(args: argparse.Namespace) -> int:
 def train_cmd(args: argparse.Namespace) -> int:
     from foresight.core.predict.train_config import TrainResult
 
-    overrides = {"dataset": args.dataset, "epochs": args.epochs, "threads": args.threads, "device": args.device}
+    overrides = {
+        "dataset": args.dataset,
+        "epochs": args.epochs,
+        "threads": args.threads,
+        "device": args.device,
+    }
     values = {**_train_values(args.config), **{k: v for k, v in overrides.items() if v is not None}}
     if values.get("dataset") is None:
         raise ConfigError("no dataset: give --dataset or a config with train.dataset", source=args.config)
@@ -259,8 +351,10 @@ def train_cmd(args: argparse.Namespace) -> int:
 
     def text(r: TrainResult, where: str, checkpoint: str | None = None) -> str:
         on = f", trained on {r.device}" if r.device else ""
-        return (f"{checkpoint or r.checkpoint}: epoch {r.best_epoch} val ADE {r.val_ade:.3f} FDE {r.val_fde:.3f} "
-                f"(CV {r.cv_val_ade:.3f}/{r.cv_val_fde:.3f}), gates {'passed' if r.gates_passed else 'FAILED'}{on}{where}")
+        return (
+            f"{checkpoint or r.checkpoint}: epoch {r.best_epoch} val ADE {r.val_ade:.3f} FDE {r.val_fde:.3f} "
+            f"(CV {r.cv_val_ade:.3f}/{r.cv_val_fde:.3f}), gates {'passed' if r.gates_passed else 'FAILED'}{on}{where}"
+        )
 
     def exit_code(r: TrainResult) -> int:
         return 0 if r.gates_passed else 2
@@ -277,6 +371,9 @@ def train_cmd(args: argparse.Namespace) -> int:
     ctx = _ctx(args)
     result = run_train(stage.config_of(stage.spec("train", values)), ctx)
     pages = finish_local("train", result, ctx.workdir)  # as a worker does: the report page, the MLflow copy
-    emit(result, args.json, lambda r: text(r, "".join(f"\nreport: {p.resolve()}" for p in pages
-                                                     if p.name == "report.html")))
+    emit(
+        result,
+        args.json,
+        lambda r: text(r, "".join(f"\nreport: {p.resolve()}" for p in pages if p.name == "report.html")),
+    )
     return exit_code(result)

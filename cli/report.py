@@ -20,7 +20,9 @@ REPORT_MD, REPORT_HTML = "report.md", "report.html"
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    rp = sub.add_parser("report", help="a finished job's report (Markdown; --out DIR: HTML page with figures)")
+    rp = sub.add_parser(
+        "report", help="a finished job's report (Markdown; --out DIR: HTML page with figures)"
+    )
     rp.add_argument("job_id")
     rp.add_argument("--out", help="folder to download the report page, its figures and report.md into")
     rp.add_argument("--json", action="store_true", help="the job, its result and the report's artifact URLs")
@@ -82,8 +84,12 @@ def compare_remote(args: argparse.Namespace) -> int:
     """Two evaluation ids or campaign cells (``CAMPAIGN_ID:RANK[:hard]``): the resolved-config diff key by key and
     the headline metric deltas (B - A) with intervals."""
     if len(args.runs) != 2:
-        raise ConfigError(f"the server compares two results (got {len(args.runs)} ids); folders of local "
-                          "evaluation runs compare with --local", source="command line", item="runs")
+        raise ConfigError(
+            f"the server compares two results (got {len(args.runs)} ids); folders of local "
+            "evaluation runs compare with --local",
+            source="command line",
+            item="runs",
+        )
     for value in args.runs:
         if Path(value.rpartition("=")[2]).expanduser().exists():
             raise ConfigError(f"{value!r} is a local folder; the server compares evaluation ids (GET /v1/evaluations"
@@ -104,29 +110,45 @@ def compare_text(result: dict[str, Any], base_url: str = "") -> str:
     lines = [f"A = {result['a']}    B = {result['b']}", ""]
     differs = result.get("differs")
     if differs is not None:  # what was run differently leads: planner, model, matrix, episodes, horizon
-        lines += ["differs:"] + ([f"  {key}: {_short(v.get('a'))} -> {_short(v.get('b'))}" for key, v in differs.items()]
-                                 or ["  nothing in planner, model, matrix, episodes, horizon"]) + [""]
+        lines += (
+            ["differs:"]
+            + (
+                [f"  {key}: {_short(v.get('a'))} -> {_short(v.get('b'))}" for key, v in differs.items()]
+                or ["  nothing in planner, model, matrix, episodes, horizon"]
+            )
+            + [""]
+        )
     lines.append("config (only keys that differ):")
     diff = result.get("config_diff") or {}
-    lines += [f"  {key}: {_short(v.get('a'))} -> {_short(v.get('b'))}" for key, v in diff.items()] or ["  identical"]
+    lines += [f"  {key}: {_short(v.get('a'))} -> {_short(v.get('b'))}" for key, v in diff.items()] or [
+        "  identical"
+    ]
     sources = result.get("sources") or {}
     if sources:
         lines.insert(1, f"A: {sources.get('a')}    B: {sources.get('b')}")
     lines += ["", f"{'metric':<16}{'A':>24}{'B':>24}{'B - A [95 % interval]':>34}  method"]
     for name, m in (result.get("metrics") or {}).items():
         interval = f" [{_num(m.get('low'))}, {_num(m.get('high'))}]" + (" *" if m.get("significant") else "")
-        lines.append(f"{name:<16}{_value(m.get('a')):>24}{_value(m.get('b')):>24}{_num(m.get('delta')) + interval:>34}"
-                     f"  {_method(m)}")
-    lines.append(f"* significant: paired p < {ALPHA} (McNemar exact / Wilcoxon signed-rank), unpaired the interval "
-                 f"excludes 0; never with fewer than {MIN_PAIRS} episodes")
+        lines.append(
+            f"{name:<16}{_value(m.get('a')):>24}{_value(m.get('b')):>24}{_num(m.get('delta')) + interval:>34}"
+            f"  {_method(m)}"
+        )
+    lines.append(
+        f"* significant: paired p < {ALPHA} (McNemar exact / Wilcoxon signed-rank), unpaired the interval "
+        f"excludes 0; never with fewer than {MIN_PAIRS} episodes"
+    )
     if result.get("changed_episodes") is not None:  # paired evaluations: the discordant episodes by name
         from foresight.core.evaluation.compare import changed_lines
         from foresight.core.evaluation.delta import EpisodeChange
 
         changed = [EpisodeChange.model_validate(e) for e in result["changed_episodes"]]
         links = [f"{base_url}{e['player']}" if e.get("player") else None for e in result["changed_episodes"]]
-        lines += ["", f"episodes that ended otherwise ({len(changed)}; each with its side-by-side player where both "
-                  "kept the trace):", *changed_lines(changed, links)]
+        lines += [
+            "",
+            f"episodes that ended otherwise ({len(changed)}; each with its side-by-side player where both "
+            "kept the trace):",
+            *changed_lines(changed, links),
+        ]
     return "\n".join(lines)
 
 

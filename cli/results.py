@@ -17,7 +17,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         ("evaluations", ("planner", "model_id", "matrix", "bundle", "verdict"), cmd_evaluations),
         ("campaigns", ("matrix", "grid", "model"), cmd_campaigns),
     ):  # fmt: skip
-        actions = sub.add_parser(group, help=f"list stored {group}").add_subparsers(dest="action", required=True)
+        actions = sub.add_parser(group, help=f"list stored {group}").add_subparsers(
+            dest="action", required=True
+        )
         ls = actions.add_parser("ls", help=f"{group}, newest first, filtered")
         for name in filters:
             ls.add_argument("--" + name.replace("_", "-"), dest=name)
@@ -28,9 +30,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         ls.add_argument("--json", action="store_true")
         add_connection_args(ls)
         ls.set_defaults(func=func, filters=(*filters, "name", "tag"))
-        eps = actions.add_parser("episodes", help="an evaluation's episodes, failures first, with their players' URLs"
-                                 if group == "evaluations" else "a campaign cell's episodes (rank 1 = best), failures "
-                                 "first, with their players' URLs")
+        eps = actions.add_parser(
+            "episodes",
+            help="an evaluation's episodes, failures first, with their players' URLs"
+            if group == "evaluations"
+            else "a campaign cell's episodes (rank 1 = best), failures first, with their players' URLs",
+        )
         eps.add_argument("id", help=f"the {group[:-1]}'s id (or its job's, a unique prefix of 8+)")
         if group == "campaigns":
             eps.add_argument("rank", type=int, help="the cell's rank (1 = best)")
@@ -48,7 +53,9 @@ def _page(args: argparse.Namespace, path: str) -> dict[str, Any]:
 
 
 def _labels(item: dict[str, Any]) -> str:
-    return "".join([f"  {item['name']!r}" if item.get("name") else "", *(f" #{t}" for t in item.get("tags") or ())])
+    return "".join(
+        [f"  {item['name']!r}" if item.get("name") else "", *(f" #{t}" for t in item.get("tags") or ())]
+    )
 
 
 def _pct(x: float | None) -> str:
@@ -93,7 +100,9 @@ def cmd_episodes(args: argparse.Namespace) -> int:
     if getattr(args, "rank", None) is None:
         episodes = client.get(f"/v1/evaluations/{args.id}/episodes")
     else:
-        episodes = client.get(f"/v1/campaigns/{args.id}/cells/{args.rank}/episodes", params={"suite": args.suite})
+        episodes = client.get(
+            f"/v1/campaigns/{args.id}/cells/{args.rank}/episodes", params={"suite": args.suite}
+        )
     if args.failed:
         episodes = [e for e in episodes if e["outcome"] != "success"]
     if args.json:
@@ -102,7 +111,9 @@ def cmd_episodes(args: argparse.Namespace) -> int:
     base = str(client.http.base_url).rstrip("/")
     for e in episodes:
         watch = f"{base}{e['player']}" if e["player"] else "(no trace)"
-        print(f"{e['scenario']:<36} {e['seed']:>6}  {e['outcome']:<22} {e['label'] or '':<36} {e['steps']:>5}  {watch}")
+        print(
+            f"{e['scenario']:<36} {e['seed']:>6}  {e['outcome']:<22} {e['label'] or '':<36} {e['steps']:>5}  {watch}"
+        )
     failed = sum(e["outcome"] != "success" for e in episodes)
     print(f"{len(episodes)} episodes, {failed} not successful")
     return 0

@@ -33,8 +33,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     upgrade.add_argument("--revision", default="head")
     upgrade.set_defaults(func=cmd_db_upgrade)
 
-    store = sub.add_parser("store", help="artifact store administration").add_subparsers(dest="action", required=True)
-    gc = store.add_parser("gc", help="remove files no job, bundle, model or dataset accounts for (crashes, full disks)")
+    store = sub.add_parser("store", help="artifact store administration").add_subparsers(
+        dest="action", required=True
+    )
+    gc = store.add_parser(
+        "gc", help="remove files no job, bundle, model or dataset accounts for (crashes, full disks)"
+    )
     gc.add_argument("--dry-run", action="store_true", help="only list what would be removed")
     gc.add_argument("--json", action="store_true", help="print the report as JSON")
     gc.set_defaults(func=cmd_store_gc)
@@ -43,7 +47,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 def _server_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--host", default="127.0.0.1")
     parser.add_argument("--port", type=int, default=8000)
-    parser.add_argument("--workers", type=int, default=1, help="server processes (uvicorn workers; default 1)")
+    parser.add_argument(
+        "--workers", type=int, default=1, help="server processes (uvicorn workers; default 1)"
+    )
     parser.add_argument("--log-level", default="warning")
 
 
@@ -80,7 +86,10 @@ def cmd_store_gc(args: argparse.Namespace) -> int:
         for path in report.paths:
             print(path)
         verb = "would free" if args.dry_run else "freed"
-        print(f"{len(report.paths)} orphans; {verb} {report.bytes} bytes under {settings.store_root}", file=sys.stderr)
+        print(
+            f"{len(report.paths)} orphans; {verb} {report.bytes} bytes under {settings.store_root}",
+            file=sys.stderr,
+        )
     return 0
 
 
@@ -127,7 +136,9 @@ def cmd_worker(args: argparse.Namespace) -> int:
     return 0
 
 
-UP_WORKER_NICE = 5  #: how much lower the CPU priority of the worker `foresight up` starts is than the server's
+UP_WORKER_NICE = (
+    5  #: how much lower the CPU priority of the worker `foresight up` starts is than the server's
+)
 
 
 def cmd_up(args: argparse.Namespace) -> int:
@@ -157,7 +168,8 @@ def cmd_up(args: argparse.Namespace) -> int:
     # requests are waited on. On a machine where both share the cores, status reads during a running job
     # otherwise queue behind the episodes (bench/api_load.py --phases status_reads_busy).
     worker = subprocess.Popen(
-        [sys.executable, "-m", "foresight.cli.main", "worker", "--concurrency", str(args.concurrency)], env=os.environ.copy(),
+        [sys.executable, "-m", "foresight.cli.main", "worker", "--concurrency", str(args.concurrency)],
+        env=os.environ.copy(),
         preexec_fn=lambda: os.nice(UP_WORKER_NICE),  # noqa: PLW1509 (before the server starts any thread)
     )
     try:

@@ -27,39 +27,61 @@ if TYPE_CHECKING:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    scen = sub.add_parser("scenarios", help="inspect scenario matrices").add_subparsers(dest="action", required=True)
+    scen = sub.add_parser("scenarios", help="inspect scenario matrices").add_subparsers(
+        dest="action", required=True
+    )
     ls = scen.add_parser("list", help="list the scenarios of a matrix")
     ls.add_argument("--matrix", required=True, help="scenario matrix YAML")
     ls.add_argument("--json", action="store_true")
     ls.set_defaults(func=scenarios_list)
-    chk = scen.add_parser("check", help="episodes lost before a planner can act: a standing robot walked into "
-                                        "within the first seconds (exit 1 if any)")
+    chk = scen.add_parser(
+        "check",
+        help="episodes lost before a planner can act: a standing robot walked into "
+        "within the first seconds (exit 1 if any)",
+    )
     matrix_options(chk)
-    chk.add_argument("--seeds-per-scenario", type=int, help="the first N of each scenario's seeds (default: all)")
+    chk.add_argument(
+        "--seeds-per-scenario", type=int, help="the first N of each scenario's seeds (default: all)"
+    )
     chk.add_argument("--seconds", type=float, default=1.5, help="how long the robot stands [s] (default 1.5)")
     chk.add_argument("--json", action="store_true")
     chk.set_defaults(func=scenarios_check)
-    rch = scen.add_parser("reachable", help="episodes no robot could solve: space-time reachability of the goal "
-                                            "against the crowd as it walks (exact where nobody reacts to the robot)")
+    rch = scen.add_parser(
+        "reachable",
+        help="episodes no robot could solve: space-time reachability of the goal "
+        "against the crowd as it walks (exact where nobody reacts to the robot)",
+    )
     episode_options(rch, "its success on the reachable episodes")
-    rch.add_argument("--pictures", metavar="DIR", help="also draw each verdict: DIR/reach_<scenario>_<seed>.png (when "
-                                                       "each place became reachable, the crowd, start and goal)")
+    rch.add_argument(
+        "--pictures",
+        metavar="DIR",
+        help="also draw each verdict: DIR/reach_<scenario>_<seed>.png (when "
+        "each place became reachable, the crowd, start and goal)",
+    )
     rch.add_argument("--json", action="store_true")
     rch.set_defaults(func=scenarios_reachable)
     witness.add_parser(scen)
 
     sim = sub.add_parser("sim", help="run the simulator").add_subparsers(dest="action", required=True)
     run = sim.add_parser("run", help="one episode with a planner (default: the goal-seeking robot)")
-    run.add_argument("--matrix", required=True, help="scenario matrix YAML (server: a name in --bundle, or a file "
-                                                     "in the project's configs/)")
+    run.add_argument(
+        "--matrix",
+        required=True,
+        help="scenario matrix YAML (server: a name in --bundle, or a file in the project's configs/)",
+    )
     run.add_argument("--bundle", help="server: config bundle id; --matrix is a name inside it")
     run.add_argument("--scenario", required=True)
     run.add_argument("--seed", type=int, required=True)
     run.add_argument("--render", help="write a PNG/SVG of the episode here (server: downloaded from the job)")
-    run.add_argument("--planner", default="goal", help="planner name (as for evaluate; default goal) or a planner YAML")
+    run.add_argument(
+        "--planner", default="goal", help="planner name (as for evaluate; default goal) or a planner YAML"
+    )
     run.add_argument("--planner-config", help="the planner's config as inline JSON/YAML")
-    run.add_argument("--model", help="predictive planner: model id or cv (--local: also a checkpoint path; default: "
-                     "the default predictor)")
+    run.add_argument(
+        "--model",
+        help="predictive planner: model id or cv (--local: also a checkpoint path; default: "
+        "the default predictor)",
+    )
     stage.add_mode_args(run)
     run.set_defaults(func=sim_run)
 
@@ -98,16 +120,33 @@ def scenarios_check(args: argparse.Namespace) -> int:
     from foresight.core.sim.spawn_check import early_contacts
 
     if not 0 < args.seconds <= 60:
-        raise ConfigError(f"expected 0 < seconds <= 60, got {args.seconds}", source="command line", item="--seconds")
+        raise ConfigError(
+            f"expected 0 < seconds <= 60, got {args.seconds}", source="command line", item="--seconds"
+        )
     matrix = load_matrix(Path(args.matrix), overrides=overrides(args.override))
     seeds = {s.name: list(s.scenario.seeds)[: args.seeds_per_scenario] for s in matrix.scenarios}
     lost = early_contacts(matrix.scenarios, args.seconds, seeds)
-    report = {"matrix": args.matrix, "seconds": args.seconds, "episodes": sum(map(len, seeds.values())),
-              "lost": [asdict(c) for c in lost]}
-    emit(report, args.json, lambda r: "\n".join(
-        [f"{r['episodes']} episodes, a robot standing still for {r['seconds']:g} s: "
-         + (f"{len(r['lost'])} walked into (lost before a planner can act)" if r["lost"] else "none walked into")]
-        + [f"  {c['scenario']} seed {c['seed']}: contact at {c['time_s']:g} s" for c in r["lost"]]))
+    report = {
+        "matrix": args.matrix,
+        "seconds": args.seconds,
+        "episodes": sum(map(len, seeds.values())),
+        "lost": [asdict(c) for c in lost],
+    }
+    emit(
+        report,
+        args.json,
+        lambda r: "\n".join(
+            [
+                f"{r['episodes']} episodes, a robot standing still for {r['seconds']:g} s: "
+                + (
+                    f"{len(r['lost'])} walked into (lost before a planner can act)"
+                    if r["lost"]
+                    else "none walked into"
+                )
+            ]
+            + [f"  {c['scenario']} seed {c['seed']}: contact at {c['time_s']:g} s" for c in r["lost"]]
+        ),
+    )
     return 1 if lost else 0
 
 
@@ -118,40 +157,69 @@ def scenarios_reachable(args: argparse.Namespace) -> int:
     from foresight.core.sim.feasibility import reachability
 
     matrix = load_matrix(Path(args.matrix), overrides=overrides(args.override))
-    chosen = [matrix.get(n.strip()) for n in args.scenarios.split(",")] if args.scenarios else list(matrix.scenarios)
+    chosen = (
+        [matrix.get(n.strip()) for n in args.scenarios.split(",")]
+        if args.scenarios
+        else list(matrix.scenarios)
+    )
     if args.seeds_per_scenario is not None and args.seeds_per_scenario < 1:
-        raise ConfigError(f"expected a positive count, got {args.seeds_per_scenario}", source="command line",
-                          item="--seeds-per-scenario")
+        raise ConfigError(
+            f"expected a positive count, got {args.seeds_per_scenario}",
+            source="command line",
+            item="--seeds-per-scenario",
+        )
     outcomes = read_outcomes(args.episodes) if args.episodes else None
     episodes = [(s, seed) for s in chosen for seed in expand_seeds(s.scenario.seeds, args.seeds_per_scenario)]
     if outcomes is not None:  # before the work: the evaluation must hold every episode asked about
         missing = [f"{s.name} {seed}" for s, seed in episodes if (s.name, seed) not in outcomes]
         if missing:
-            raise ConfigError(f"no episode for {missing[0]} (and {len(missing) - 1} more)", source=args.episodes)
+            raise ConfigError(
+                f"no episode for {missing[0]} (and {len(missing) - 1} more)", source=args.episodes
+            )
     pictures = Path(args.pictures) if args.pictures else None
     if pictures is not None:
         if pictures.exists() and not pictures.is_dir():
-            raise ConfigError("expected a folder for the pictures, found a file", source=pictures, item="--pictures")
+            raise ConfigError(
+                "expected a folder for the pictures, found a file", source=pictures, item="--pictures"
+            )
         pictures.mkdir(parents=True, exist_ok=True)
     rows = []
     with progress_bar(quiet=args.json) as bar:  # about 1 s an episode (a picture about half as much again)
         task = bar.add_task("reachable", total=len(episodes), message="")
         for s, seed in episodes:
             r = reachability(s, int(seed), keep_map=pictures is not None)
-            rows.append({"scenario": r.scenario, "seed": r.seed, "reachable": r.reachable, "first_step": r.first_step,
-                         "peds_react": r.peds_react})
+            rows.append(
+                {
+                    "scenario": r.scenario,
+                    "seed": r.seed,
+                    "reachable": r.reachable,
+                    "first_step": r.first_step,
+                    "peds_react": r.peds_react,
+                }
+            )
             if pictures is not None:
                 rows[-1]["picture"] = str(_reach_picture(r, s, pictures))
             bar.update(task, advance=1, message=f"{s.name} {seed}")
-    report: dict = {"matrix": args.matrix, "episodes": len(rows), "reachable": sum(r["reachable"] for r in rows),
-                    "unreachable": [r for r in rows if not r["reachable"]], "approximate": any(r["peds_react"] for r in rows)}
-    report["verdicts"] = rows  # every episode: reachable, first_step (when the relaxed robot could be at the goal)
+    report: dict = {
+        "matrix": args.matrix,
+        "episodes": len(rows),
+        "reachable": sum(r["reachable"] for r in rows),
+        "unreachable": [r for r in rows if not r["reachable"]],
+        "approximate": any(r["peds_react"] for r in rows),
+    }
+    report["verdicts"] = (
+        rows  # every episode: reachable, first_step (when the relaxed robot could be at the goal)
+    )
     if pictures is not None:
         report["pictures"] = [r["picture"] for r in rows]
     if outcomes is not None:
         ok = [r for r in rows if r["reachable"]]
         wins = sum(outcomes[r["scenario"], r["seed"]] == "success" for r in ok)
-        report["success_on_reachable"] = {"successes": wins, "episodes": len(ok), "rate": wins / len(ok) if ok else None}
+        report["success_on_reachable"] = {
+            "successes": wins,
+            "episodes": len(ok),
+            "rate": wins / len(ok) if ok else None,
+        }
     emit(report, args.json, _reachable_text)
     return 0
 
@@ -160,22 +228,36 @@ def _reach_picture(r: Reachability, scenario: ResolvedScenario, folder: Path) ->
     """Draw one verdict (``core.render.reachability``) into ``folder``; returns the file."""
     from foresight.core.render.reachability import render_reachability
 
-    when = f"goal reachable at {r.first_step * r.where.dt:g} s" if r.reachable else (
-        f"goal unreachable within {r.horizon * r.where.dt:g} s")
+    when = (
+        f"goal reachable at {r.first_step * r.where.dt:g} s"
+        if r.reachable
+        else (f"goal unreachable within {r.horizon * r.where.dt:g} s")
+    )
     title = f"{r.scenario} seed {r.seed}: {when}" + (" (approximate)" if r.peds_react else "")
-    return render_reachability(r.where, scenario.map, folder / f"reach_{r.scenario}_{r.seed}.png", title=title,
-                               ped_radius=scenario.scenario.simulation_config.ped_radius)
+    return render_reachability(
+        r.where,
+        scenario.map,
+        folder / f"reach_{r.scenario}_{r.seed}.png",
+        title=title,
+        ped_radius=scenario.scenario.simulation_config.ped_radius,
+    )
 
 
 def _reachable_text(r: dict) -> str:
-    lines = [f"{r['episodes']} episodes: {r['reachable']} reachable, {len(r['unreachable'])} no robot could solve"
-             + (" (approximate: pedestrians react to the robot)" if r["approximate"] else "")]
+    lines = [
+        f"{r['episodes']} episodes: {r['reachable']} reachable, {len(r['unreachable'])} no robot could solve"
+        + (" (approximate: pedestrians react to the robot)" if r["approximate"] else "")
+    ]
     lines += [f"  {u['scenario']} seed {u['seed']}: goal unreachable" for u in r["unreachable"]]
     if "success_on_reachable" in r:
         s = r["success_on_reachable"]
         lines.append(f"success on the reachable episodes: {s['successes']}/{s['episodes']}")
     if "pictures" in r:
-        lines.append(f"{len(r['pictures'])} pictures in {Path(r['pictures'][0]).parent}" if r["pictures"] else "no pictures")
+        lines.append(
+            f"{len(r['pictures'])} pictures in {Path(r['pictures'][0]).parent}"
+            if r["pictures"]
+            else "no pictures"
+        )
     return "\n".join(lines)
 
 
@@ -184,7 +266,9 @@ def _table(rows: list[dict]) -> str:
     lines = [head, "-" * len(head)]
     for r in rows:
         seeds = ",".join(map(str, r["seeds"][:6])) + ("…" if len(r["seeds"]) > 6 else "")
-        lines.append(f"{r['name']:<44} {r['map']:<30} {r['density']:>7.3f} {r['pedestrians']:>5} {r['horizon']:>7}  {seeds}")
+        lines.append(
+            f"{r['name']:<44} {r['map']:<30} {r['density']:>7.3f} {r['pedestrians']:>5} {r['horizon']:>7}  {seeds}"
+        )
     lines.append(f"{len(rows)} scenarios")
     return "\n".join(lines)
 
@@ -196,21 +280,36 @@ def sim_run(args: argparse.Namespace) -> int:
     models = ModelArgs()
     if not args.local:
         client = stage.Client.from_args(args)
-        planner = planner_spec(args.planner, None, models, default=False, config=args.planner_config, local=False)
+        planner = planner_spec(
+            args.planner, None, models, default=False, config=args.planner_config, local=False
+        )
         if args.model is not None:
             planner["model"] = stage.model_id(args.model, "--model")
         elif planner.get("name") == "predictive" and "model" not in planner:
             planner["model"] = stage.server_default_model(client)
         bundle, names = stage.bundle_names(args.bundle, {"--matrix": args.matrix})
-        spec = stage.spec("simulate", {**values, "bundle": bundle, "matrix": names["--matrix"], "planner": planner})
-        return stage.submit(args, spec, client=client, result_model=SimulateResult, after=_download_render(args.render),
-                            text=lambda r, ref: f"{_episode_line(r.episodes[0])}\n{ref}")
+        spec = stage.spec(
+            "simulate", {**values, "bundle": bundle, "matrix": names["--matrix"], "planner": planner}
+        )
+        return stage.submit(
+            args,
+            spec,
+            client=client,
+            result_model=SimulateResult,
+            after=_download_render(args.render),
+            text=lambda r, ref: f"{_episode_line(r.episodes[0])}\n{ref}",
+        )
     if args.bundle:
-        raise ConfigError("--bundle names a server bundle; --local runs take a --matrix file", source="command line",
-                          item="--bundle")
+        raise ConfigError(
+            "--bundle names a server bundle; --local runs take a --matrix file",
+            source="command line",
+            item="--bundle",
+        )
     bundle, rel, roots = matrix_ref(args.matrix)
     planner = planner_spec(args.planner, args.model, models, config=args.planner_config)
-    config = stage.config_of(stage.spec("simulate", {**values, "bundle": bundle, "matrix": rel, "planner": planner}))
+    config = stage.config_of(
+        stage.spec("simulate", {**values, "bundle": bundle, "matrix": rel, "planner": planner})
+    )
     ctx = local_context(None, roots, quiet=True)
     ctx.resolve_model = models.resolve
     result = run_simulate(config, ctx)
@@ -231,7 +330,9 @@ def _download_render(target: str | None):  # noqa: ANN202
             return result
         response = client.http.get(f"/v1/jobs/{ref.id}/artifacts/{episode.render}")
         if response.status_code >= 400:
-            raise ConfigError(f"cannot download render {episode.render!r} of job {ref.id}: HTTP {response.status_code}")
+            raise ConfigError(
+                f"cannot download render {episode.render!r} of job {ref.id}: HTTP {response.status_code}"
+            )
         Path(target).write_bytes(response.content)
         rendered = episode.model_copy(update={"render": str(Path(target).resolve())})
         return result.model_copy(update={"episodes": [rendered, *result.episodes[1:]]})

@@ -24,8 +24,10 @@ from foresight.core.errors import ConfigError, CoreError
 from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
 
 #: the ``--executor`` flag of every stage command that runs episodes
-EXECUTOR_HELP = ("where episodes run: local processes (default) or Ray tasks on the cluster at FORESIGHT_RAY_ADDRESS "
-                 "(else a local Ray instance)")
+EXECUTOR_HELP = (
+    "where episodes run: local processes (default) or Ray tasks on the cluster at FORESIGHT_RAY_ADDRESS "
+    "(else a local Ray instance)"
+)
 
 CHECKPOINT_SUFFIXES = (".pt", ".pth", ".ckpt")
 
@@ -41,8 +43,11 @@ def add_mode_args(p: argparse.ArgumentParser, *, json_flag: bool = True) -> None
     add_label_args(p)
     add_connection_args(p)
     if json_flag:
-        p.add_argument("--json", action="store_true",
-                       help="print the result as JSON (server mode: the finished job, result included)")
+        p.add_argument(
+            "--json",
+            action="store_true",
+            help="print the result as JSON (server mode: the finished job, result included)",
+        )
 
 
 def spec(kind: str, values: dict[str, Any]) -> BaseModel:
@@ -123,8 +128,11 @@ def server_default_model(client: Client) -> str:
 
     entry = default_model(client.get("/v1/models")["data"])
     if entry is None:
-        raise ConfigError("the server has no default predictor: pass --model ID or cv", source="command line",
-                          item="--model")
+        raise ConfigError(
+            "the server has no default predictor: pass --model ID or cv",
+            source="command line",
+            item="--model",
+        )
     return str(entry["id"])
 
 
@@ -134,7 +142,9 @@ class JobRef(str):
     id: str
 
     def __new__(cls, job_id: str, base_url: str) -> JobRef:
-        obj = super().__new__(cls, f"job {job_id}: `foresight jobs show {job_id}`, {base_url}/ui/jobs/{job_id}")
+        obj = super().__new__(
+            cls, f"job {job_id}: `foresight jobs show {job_id}`, {base_url}/ui/jobs/{job_id}"
+        )
         obj.id = job_id
         return obj
 
@@ -150,7 +160,9 @@ def submit(args: argparse.Namespace, spec_obj: BaseModel, *, text: Callable[[Any
 
     client = client or Client.from_args(args)
     kind = kind or spec_obj.kind  # type: ignore[attr-defined]
-    body: dict[str, Any] = {"spec": {**spec_obj.model_dump(mode="json", exclude_unset=True, by_alias=True), "kind": kind}}
+    body: dict[str, Any] = {
+        "spec": {**spec_obj.model_dump(mode="json", exclude_unset=True, by_alias=True), "kind": kind}
+    }
     if getattr(args, "key", None):
         body["idempotency_key"] = args.key
     if hasattr(args, "tag"):

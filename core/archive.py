@@ -22,8 +22,17 @@ from foresight.core.errors import ConfigError
 
 CHUNK = 1 << 16  #: [bytes] read size while decompressing
 TAR_OVERHEAD = 1024  #: [bytes] per member: a tar header block plus at most one block of padding
-_READ_ERRORS = (zipfile.BadZipFile, tarfile.TarError, zlib.error, lzma.LZMAError, EOFError, OSError,
-                NotImplementedError, RuntimeError, ValueError)
+_READ_ERRORS = (
+    zipfile.BadZipFile,
+    tarfile.TarError,
+    zlib.error,
+    lzma.LZMAError,
+    EOFError,
+    OSError,
+    NotImplementedError,
+    RuntimeError,
+    ValueError,
+)
 SOURCE = "upload"
 
 
@@ -36,7 +45,9 @@ class _Budget:
     def take(self, n: int, member: str | None) -> None:
         self.used += n
         if self.used > self.max_bytes:
-            raise ConfigError(f"the archive unpacks to more than {self.max_bytes} bytes", source=SOURCE, item=member)
+            raise ConfigError(
+                f"the archive unpacks to more than {self.max_bytes} bytes", source=SOURCE, item=member
+            )
 
 
 class _Metered(io.RawIOBase):
@@ -76,14 +87,18 @@ def _zip_members(data: bytes, max_files: int, budget: _Budget) -> list[tuple[str
             raise ConfigError(f"more than {max_files} files", source=SOURCE)
         for info in infos:
             if stat.S_ISLNK(info.external_attr >> 16):
-                raise ConfigError("links and special files are not allowed", source=SOURCE, item=info.filename)
+                raise ConfigError(
+                    "links and special files are not allowed", source=SOURCE, item=info.filename
+                )
             try:
                 with archive.open(info) as handle:
                     out.append((info.filename, _read_member(handle, info.filename, budget)))
             except ConfigError:
                 raise
             except _READ_ERRORS as exc:
-                raise ConfigError(f"cannot unpack this member ({exc})", source=SOURCE, item=info.filename) from None
+                raise ConfigError(
+                    f"cannot unpack this member ({exc})", source=SOURCE, item=info.filename
+                ) from None
     return out
 
 
@@ -122,8 +137,9 @@ def _tar_members(data: bytes, max_files: int, budget: _Budget) -> list[tuple[str
     except _READ_ERRORS as exc:
         if member is None and not out:
             raise ConfigError(f"not a zip or tar archive ({exc})", source=SOURCE) from None
-        raise ConfigError(f"cannot unpack {'this member' if member else 'the archive'} ({exc})", source=SOURCE,
-                          item=member) from None
+        raise ConfigError(
+            f"cannot unpack {'this member' if member else 'the archive'} ({exc})", source=SOURCE, item=member
+        ) from None
     return out
 
 

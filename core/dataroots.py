@@ -27,7 +27,9 @@ def parse_data_roots(value: str) -> dict[str, Path]:
             continue
         name, sep, path = (x.strip() for x in entry.partition("="))
         if not sep or not path or not ROOT_NAME.match(name):
-            raise ValueError(f"data root entry {entry!r}: expected NAME=PATH (NAME: letters, digits, '.', '_', '-')")
+            raise ValueError(
+                f"data root entry {entry!r}: expected NAME=PATH (NAME: letters, digits, '.', '_', '-')"
+            )
         roots[name] = Path(path).expanduser().resolve()
     return roots
 

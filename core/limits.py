@@ -20,7 +20,9 @@ def nesting_depth(value: Any) -> int:
     deepest, stack = 0, [(value, 1)]
     while stack:
         item, depth = stack.pop()
-        children = item.values() if isinstance(item, dict) else item if isinstance(item, list | tuple) else None
+        children = (
+            item.values() if isinstance(item, dict) else item if isinstance(item, list | tuple) else None
+        )
         if children is None:
             continue
         deepest = max(deepest, depth)

@@ -24,7 +24,9 @@ class _BoundedLoader(yaml.SafeLoader):
     def compose_node(self, parent: yaml.Node | None, index: Any) -> yaml.Node:
         if self.depth >= MAX_NESTING:
             line = self.peek_event().start_mark.line + 1
-            raise ConfigError(f"nested deeper than {MAX_NESTING} levels", source=self.source, item=f"line {line}")
+            raise ConfigError(
+                f"nested deeper than {MAX_NESTING} levels", source=self.source, item=f"line {line}"
+            )
         self.depth += 1
         try:
             return super().compose_node(parent, index)
@@ -56,17 +58,26 @@ def expanded_size(root: yaml.Node, source: str | None = None) -> int:
             depth[key] = 1 + max((depth[id(k)] for k in kids), default=0)
             open_.discard(key)
             if size[key] > MAX_YAML_NODES:
-                raise ConfigError(f"aliases expand the document beyond {MAX_YAML_NODES} nodes", source=source,
-                                  item=f"line {node.start_mark.line + 1}")
+                raise ConfigError(
+                    f"aliases expand the document beyond {MAX_YAML_NODES} nodes",
+                    source=source,
+                    item=f"line {node.start_mark.line + 1}",
+                )
             if depth[key] > MAX_NESTING:
-                raise ConfigError(f"aliases nest the document deeper than {MAX_NESTING} levels", source=source,
-                                  item=f"line {node.start_mark.line + 1}")
+                raise ConfigError(
+                    f"aliases nest the document deeper than {MAX_NESTING} levels",
+                    source=source,
+                    item=f"line {node.start_mark.line + 1}",
+                )
             continue
         if key in size:
             continue
         if key in open_:
-            raise ConfigError("a recursive alias (a node that contains itself)", source=source,
-                              item=f"line {node.start_mark.line + 1}")
+            raise ConfigError(
+                "a recursive alias (a node that contains itself)",
+                source=source,
+                item=f"line {node.start_mark.line + 1}",
+            )
         open_.add(key)
         stack.append((node, True))
         stack.extend((k, False) for k in _children(node) if id(k) not in size)

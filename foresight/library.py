@@ -24,8 +24,12 @@ def _files(*refs: str | Path | None) -> tuple[str, list[str | None], dict[str, P
     from foresight.cli.evaluate import bundle_of
     from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
 
-    return bundle_of(*(None if r is None else str(r if Path(r).expanduser().is_file() else BUILTIN_CONFIG_ROOT / str(r))
-                       for r in refs))
+    return bundle_of(
+        *(
+            None if r is None else str(r if Path(r).expanduser().is_file() else BUILTIN_CONFIG_ROOT / str(r))
+            for r in refs
+        )
+    )
 
 
 def planner_name(planner: Any) -> str:
@@ -51,10 +55,20 @@ def _planner(planner: Any, config: dict[str, Any] | None, model: str | None) -> 
     return spec, models
 
 
-def evaluate(planner: Any = "predictive", *, matrix: str | Path = DEFAULT_MATRIX, scenarios: list[str] | None = None,
-             seeds: int | None = None, seed_manifest: str | Path | None = None, config: dict[str, Any] | None = None,
-             model: str | None = None, max_steps: int | None = None, workers: int = 1,
-             out: str | Path | None = None, quiet: bool = True) -> EvaluationResult:
+def evaluate(
+    planner: Any = "predictive",
+    *,
+    matrix: str | Path = DEFAULT_MATRIX,
+    scenarios: list[str] | None = None,
+    seeds: int | None = None,
+    seed_manifest: str | Path | None = None,
+    config: dict[str, Any] | None = None,
+    model: str | None = None,
+    max_steps: int | None = None,
+    workers: int = 1,
+    out: str | Path | None = None,
+    quiet: bool = True,
+) -> EvaluationResult:
     """Evaluate a planner on a scenario matrix; the same typed result as the service's ``evaluate`` job.
 
     ``matrix``: a YAML file, or a name in the built-in configs; ``seeds``: N seeds per scenario (default: the
@@ -68,8 +82,15 @@ def evaluate(planner: Any = "predictive", *, matrix: str | Path = DEFAULT_MATRIX
 
     bundle, (name, manifest), roots = _files(matrix, seed_manifest)
     planner_dict, models = _planner(planner, config, model)
-    values = {"bundle": bundle, "matrix": name, "seed_manifest": manifest, "scenarios": scenarios,
-              "seeds_per_scenario": seeds, "max_steps": max_steps, "planner": planner_dict}
+    values = {
+        "bundle": bundle,
+        "matrix": name,
+        "seed_manifest": manifest,
+        "scenarios": scenarios,
+        "seeds_per_scenario": seeds,
+        "max_steps": max_steps,
+        "planner": planner_dict,
+    }
     cfg = config_of(spec("evaluate", values))
     ctx = local_context(Path(out) if out else None, roots, quiet=quiet)
     ctx.resolve_model = models.resolve
@@ -77,9 +98,16 @@ def evaluate(planner: Any = "predictive", *, matrix: str | Path = DEFAULT_MATRIX
     return run_evaluation(cfg, ctx)
 
 
-def simulate(planner: Any = "goal", *, scenario: str, seed: int = 0, matrix: str | Path = DEFAULT_MATRIX,
-             config: dict[str, Any] | None = None, model: str | None = None,
-             max_steps: int | None = None) -> EpisodeRun:
+def simulate(
+    planner: Any = "goal",
+    *,
+    scenario: str,
+    seed: int = 0,
+    matrix: str | Path = DEFAULT_MATRIX,
+    config: dict[str, Any] | None = None,
+    model: str | None = None,
+    max_steps: int | None = None,
+) -> EpisodeRun:
     """One episode of a planner: its evaluation record (outcome, metrics, taxonomy) and the full trace."""
     from foresight.core.evaluation.episode import run_one
     from foresight.core.evaluation.plannerspec import resolve_planner

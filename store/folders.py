@@ -82,7 +82,9 @@ def scan(root: Path, relative_dir: str) -> list[dict]:
     out = []
     for path in sorted(p for p in base.rglob("*") if p.is_file() and not p.name.endswith(".tmp")):
         name = path.relative_to(base).as_posix()
-        out.append(dict(name=name, path=f"{relative_dir}/{name}", size=path.stat().st_size, sha256=sha256_file(path)))
+        out.append(
+            dict(name=name, path=f"{relative_dir}/{name}", size=path.stat().st_size, sha256=sha256_file(path))
+        )
     return out
 
 

@@ -38,7 +38,9 @@ def find_garbage(engine: Engine, root: Path, *, tmp_age_s: float = TMP_AGE_S) ->
     with engine.connect() as conn:
         jobs = set(conn.execute(select(queue.jobs.c.id)).scalars())
         bundles = set(conn.execute(select(Bundle.root).where(Bundle.source == "upload")).scalars())
-        used = set(conn.execute(select(Model.checkpoint)).scalars()) | set(conn.execute(select(Dataset.path)).scalars())
+        used = set(conn.execute(select(Model.checkpoint)).scalars()) | set(
+            conn.execute(select(Dataset.path)).scalars()
+        )
     found: list[Path] = []
     jobs_dir, bundles_dir = root / "jobs", root / "bundles"
     for folder in sorted(jobs_dir.iterdir()) if jobs_dir.is_dir() else []:
@@ -48,17 +50,23 @@ def find_garbage(engine: Engine, root: Path, *, tmp_age_s: float = TMP_AGE_S) ->
     cutoff = time.time() - tmp_age_s
     for folder in sorted(bundles_dir.iterdir()) if bundles_dir.is_dir() else []:
         staging = folder.name.startswith(".")  # an upload being written, unless it is old
-        if folder.relative_to(root).as_posix() not in bundles and not (staging and folder.stat().st_mtime >= cutoff):
+        if folder.relative_to(root).as_posix() not in bundles and not (
+            staging and folder.stat().st_mtime >= cutoff
+        ):
             found.append(folder)
     for tmp in sorted(root.rglob("*.tmp")):
         if tmp.is_file() and tmp.stat().st_mtime < cutoff and not any(p in tmp.parents for p in found):
             found.append(tmp)
-    report = Garbage([p.relative_to(root).as_posix() + ("/" if p.is_dir() else "") for p in found],
-                     sum(_size(p) for p in found))
+    report = Garbage(
+        [p.relative_to(root).as_posix() + ("/" if p.is_dir() else "") for p in found],
+        sum(_size(p) for p in found),
+    )
     return report, found
 
 
-def collect_garbage(engine: Engine, root: Path, *, dry_run: bool = False, tmp_age_s: float = TMP_AGE_S) -> Garbage:
+def collect_garbage(
+    engine: Engine, root: Path, *, dry_run: bool = False, tmp_age_s: float = TMP_AGE_S
+) -> Garbage:
     """Remove the store's orphans (or only list them with ``dry_run``)."""
     report, found = find_garbage(engine, root, tmp_age_s=tmp_age_s)
     if not dry_run:

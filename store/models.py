@@ -84,7 +84,9 @@ class Job(Base):
     finished_at: Mapped[float | None] = mapped_column(Float)
     # what a researcher calls the run (set at submission, editable later: ``store.labels``)
     name: Mapped[str | None] = mapped_column(String(200), index=True)
-    tags: Mapped[list[Any]] = mapped_column(JSON, default=list, server_default=text("'[]'"))  #: copy of job_tags, in order
+    tags: Mapped[list[Any]] = mapped_column(
+        JSON, default=list, server_default=text("'[]'")
+    )  #: copy of job_tags, in order
     note: Mapped[str] = mapped_column(Text, default="", server_default="")
 
 
@@ -111,7 +113,9 @@ class JobEvent(Base):
 
     __tablename__ = "job_events"
 
-    id: Mapped[int] = mapped_column(BigInteger().with_variant(Integer, "sqlite"), primary_key=True, autoincrement=True)
+    id: Mapped[int] = mapped_column(
+        BigInteger().with_variant(Integer, "sqlite"), primary_key=True, autoincrement=True
+    )
     job_id: Mapped[str] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), index=True)
     at: Mapped[float] = mapped_column(Float)
     type: Mapped[str] = mapped_column(String(16))  #: progress | log | status
@@ -155,7 +159,9 @@ class Bundle(Base):
 
     id: Mapped[str] = mapped_column(String(200), primary_key=True)
     source: Mapped[str] = mapped_column(String(16))
-    root: Mapped[str] = mapped_column(String(1000))  #: absolute for project/config dirs; store-relative for uploads
+    root: Mapped[str] = mapped_column(
+        String(1000)
+    )  #: absolute for project/config dirs; store-relative for uploads
     files: Mapped[list[Any]]  #: relative YAML/map file names
     scenarios: Mapped[list[Any]]  #: relative names of the scenario matrices in the bundle
     sha256: Mapped[str | None] = mapped_column(String(64))
@@ -260,7 +266,9 @@ class GateResult(Base):
 
     id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
     job_id: Mapped[str | None] = mapped_column(ForeignKey("jobs.id", ondelete="SET NULL"), index=True)
-    campaign_id: Mapped[str | None] = mapped_column(ForeignKey("campaigns.id", ondelete="CASCADE"), index=True)
+    campaign_id: Mapped[str | None] = mapped_column(
+        ForeignKey("campaigns.id", ondelete="CASCADE"), index=True
+    )
     gate: Mapped[str] = mapped_column(String(100))
     passed: Mapped[bool] = mapped_column(Boolean)
     details: Mapped[dict[str, Any]]

@@ -75,17 +75,42 @@ _CLAIM_PG_SQL = (
     .bindparams(bindparam("kinds", expanding=True))
     .columns(**_JOB_TYPES)
 )
-_SUBMIT_COLUMNS = ("id", "kind", "spec", "status", "priority", "attempts", "max_attempts", "timeout_s", "idempotency_key",
-                   "parent_id", "cancel_requested", "progress", "message", "created_at", "name", "tags", "note")
+_SUBMIT_COLUMNS = (
+    "id",
+    "kind",
+    "spec",
+    "status",
+    "priority",
+    "attempts",
+    "max_attempts",
+    "timeout_s",
+    "idempotency_key",
+    "parent_id",
+    "cancel_requested",
+    "progress",
+    "message",
+    "created_at",
+    "name",
+    "tags",
+    "note",
+)
 _SUBMIT_SQL = (
-    text(f"INSERT INTO jobs ({', '.join(_SUBMIT_COLUMNS)}) VALUES ({', '.join(':' + c for c in _SUBMIT_COLUMNS)}) RETURNING *")
-    .bindparams(bindparam("spec", type_=JSON), bindparam("tags", type_=JSON), bindparam("cancel_requested", type_=Boolean))
+    text(
+        f"INSERT INTO jobs ({', '.join(_SUBMIT_COLUMNS)}) VALUES ({', '.join(':' + c for c in _SUBMIT_COLUMNS)}) RETURNING *"
+    )
+    .bindparams(
+        bindparam("spec", type_=JSON),
+        bindparam("tags", type_=JSON),
+        bindparam("cancel_requested", type_=Boolean),
+    )
     .columns(**_JOB_TYPES)
 )
 _ANY_QUEUED_SQL = text("SELECT 1 FROM jobs WHERE status = 'queued' AND kind IN :kinds LIMIT 1").bindparams(
     bindparam("kinds", expanding=True)
 )
-_EVENT_SQL = text("INSERT INTO job_events (job_id, at, type, message, progress) VALUES (:job_id, :at, :type, :message, :progress)")
+_EVENT_SQL = text(
+    "INSERT INTO job_events (job_id, at, type, message, progress) VALUES (:job_id, :at, :type, :message, :progress)"
+)
 _HELD = "id = :id AND status = 'running' AND lease_owner = :owner AND attempts = :attempt"
 _FINISH_PG_SQL = text(
     "WITH done AS (UPDATE jobs SET status = 'succeeded', result = :result, progress = 1.0, finished_at = :now, "
@@ -165,9 +190,19 @@ def stored_text(text: str) -> str:
     return text.replace("\x00", "\\x00")
 
 
-def _add_event(conn: Connection, job_id: str, type_: str, message: str = "", progress: float | None = None) -> None:
-    conn.execute(_EVENT_SQL, {"job_id": job_id, "at": time.time(), "type": type_, "message": stored_text(message),
-                              "progress": progress})
+def _add_event(
+    conn: Connection, job_id: str, type_: str, message: str = "", progress: float | None = None
+) -> None:
+    conn.execute(
+        _EVENT_SQL,
+        {
+            "job_id": job_id,
+            "at": time.time(),
+            "type": type_,
+            "message": stored_text(message),
+            "progress": progress,
+        },
+    )
 
 
 SHORT_ID_MIN = 8  #: the shortest id prefix accepted for a job (the CLI prints 12 characters)
@@ -182,7 +217,9 @@ def resolve_id(engine: Engine, job_id: str) -> str:
         found = list(conn.execute(select(jobs.c.id).where(jobs.c.id.startswith(job_id, autoescape=True)).limit(2))
                      .scalars())  # fmt: skip
     if len(found) > 1:
-        raise JobNotFound(f"job id prefix {job_id!r} matches several jobs ({', '.join(found)}, ...): give more of it")
+        raise JobNotFound(
+            f"job id prefix {job_id!r} matches several jobs ({', '.join(found)}, ...): give more of it"
+        )
     return found[0] if found else job_id
 
 
@@ -316,7 +353,9 @@ class SubmitBatcher:
                 done(error)
 
 
-_batchers: weakref.WeakValueDictionary[int, SubmitBatcher] = weakref.WeakValueDictionary()  # by id(engine.pool)
+_batchers: weakref.WeakValueDictionary[int, SubmitBatcher] = (
+    weakref.WeakValueDictionary()
+)  # by id(engine.pool)
 _batchers_lock = threading.Lock()
 
 
@@ -374,11 +413,17 @@ def claim(
         # the driver (SQLAlchemy's per-statement work held the lock ~3x longer; API submissions wait on it)
         cur = conn.connection.dbapi_connection.cursor()
         kinds = {f"k{i}": k for i, k in enumerate(params["kinds"])}
-        cur.execute(_claim_sqlite_sql(len(kinds)), {"owner": worker_id, "expires": params["expires"], "now": now, **kinds})
+        cur.execute(
+            _claim_sqlite_sql(len(kinds)),
+            {"owner": worker_id, "expires": params["expires"], "now": now, **kinds},
+        )
         row = _sqlite_job(cur)
         if row is None:
             return None
-        cur.execute(_EVENT_SQLITE, (row["id"], now, "status", f"{RUNNING} (attempt {row['attempts']}, worker {worker_id})", None))
+        cur.execute(
+            _EVENT_SQLITE,
+            (row["id"], now, "status", f"{RUNNING} (attempt {row['attempts']}, worker {worker_id})", None),
+        )
     return row
 
 
@@ -410,7 +455,12 @@ def _no_fsync(conn: Connection) -> None:
 
 
 def _held(job_id: str, owner: str, attempt: int):  # noqa: ANN202
-    return (jobs.c.id == job_id, jobs.c.status == RUNNING, jobs.c.lease_owner == owner, jobs.c.attempts == attempt)
+    return (
+        jobs.c.id == job_id,
+        jobs.c.status == RUNNING,
+        jobs.c.lease_owner == owner,
+        jobs.c.attempts == attempt,
+    )
 
 
 def heartbeat(
@@ -433,7 +483,9 @@ def heartbeat(
     return {r.id for r in rows if r.cancel_requested}, set(held) - owned
 
 
-def report_progress(engine: Engine, job_id: str, owner: str, attempt: int, fraction: float, message: str) -> None:
+def report_progress(
+    engine: Engine, job_id: str, owner: str, attempt: int, fraction: float, message: str
+) -> None:
     with write_tx(engine) as conn:
         _no_fsync(conn)
         held = {"id": job_id, "owner": owner, "attempt": attempt}
@@ -471,9 +523,13 @@ def finish(
         if done == 0:
             raise LeaseLost(f"job {job_id}: lease lost before finishing (attempt {attempt})")
         if attempt > 1:
-            conn.execute(delete(artifacts).where(artifacts.c.job_id == job_id))  # a previous attempt's records
+            conn.execute(
+                delete(artifacts).where(artifacts.c.job_id == job_id)
+            )  # a previous attempt's records
         if new_artifacts:
-            conn.execute(insert(artifacts), [{"job_id": job_id, "created_at": now, **art} for art in new_artifacts])
+            conn.execute(
+                insert(artifacts), [{"job_id": job_id, "created_at": now, **art} for art in new_artifacts]
+            )
         if record is not None:
             record(conn)
 
@@ -535,9 +591,16 @@ def reap_stale(engine: Engine, now: float | None = None) -> dict[str, int]:
     expired = (jobs.c.status == RUNNING, jobs.c.lease_expires_at < now)
     done = dict(finished_at=now, lease_expires_at=None)
     with write_tx(engine) as conn:
-        cancelled = conn.execute(
-            update(jobs).where(*expired, jobs.c.cancel_requested).values(status=CANCELLED, **done).returning(jobs.c.id)
-        ).scalars().all()
+        cancelled = (
+            conn.execute(
+                update(jobs)
+                .where(*expired, jobs.c.cancel_requested)
+                .values(status=CANCELLED, **done)
+                .returning(jobs.c.id)
+            )
+            .scalars()
+            .all()
+        )
         failed = conn.execute(
             update(jobs)
             .where(*expired, jobs.c.attempts >= jobs.c.max_attempts)
@@ -552,13 +615,19 @@ def reap_stale(engine: Engine, now: float | None = None) -> dict[str, int]:
                     error_message="the worker stopped heartbeating; queued again")
             .returning(jobs.c.id)
         ).scalars().all()  # fmt: skip
-        for ids, message in ((cancelled, CANCELLED), (failed, f"{FAILED}: lease expired"), (requeued, f"{QUEUED}: lease expired")):
+        for ids, message in (
+            (cancelled, CANCELLED),
+            (failed, f"{FAILED}: lease expired"),
+            (requeued, f"{QUEUED}: lease expired"),
+        ):
             for job_id in ids:
                 _add_event(conn, job_id, "status", message)
     return {"cancelled": len(cancelled), "failed": len(failed), "requeued": len(requeued)}
 
 
-def register_worker(engine: Engine, worker_id: str, host: str, pid: int, concurrency: int, kinds: list[str]) -> None:
+def register_worker(
+    engine: Engine, worker_id: str, host: str, pid: int, concurrency: int, kinds: list[str]
+) -> None:
     now = time.time()
     with write_tx(engine) as conn:
         conn.execute(
@@ -575,7 +644,9 @@ def stop_worker(engine: Engine, worker_id: str) -> None:
 def prune_workers(engine: Engine, older_than_s: float = 86400.0) -> int:
     """Forget workers that stopped (or went silent) more than ``older_than_s`` ago."""
     with write_tx(engine) as conn:
-        return conn.execute(delete(workers).where(workers.c.heartbeat_at < time.time() - older_than_s)).rowcount
+        return conn.execute(
+            delete(workers).where(workers.c.heartbeat_at < time.time() - older_than_s)
+        ).rowcount
 
 
 # ------------------------------------------------------------------------------------------ caller side
@@ -622,13 +693,17 @@ def retry(engine: Engine, job_id: str) -> dict[str, Any]:
 def delete_job(engine: Engine, job_id: str) -> list[dict[str, Any]]:
     """Delete a finished job with its events; returns its artifact records (also deleted) for file clean-up."""
     with write_tx(engine) as conn:
-        arts = [dict(r) for r in conn.execute(select(artifacts).where(artifacts.c.job_id == job_id)).mappings()]
+        arts = [
+            dict(r) for r in conn.execute(select(artifacts).where(artifacts.c.job_id == job_id)).mappings()
+        ]
         conn.execute(delete(events).where(events.c.job_id == job_id))
         conn.execute(delete(artifacts).where(artifacts.c.job_id == job_id))
         n = conn.execute(delete(jobs).where(jobs.c.id == job_id, jobs.c.status.in_(FINISHED_VALUES))).rowcount
         if n == 0:
             job = _get(conn, job_id)
-            raise Conflict(f"job {job_id} is {job['status']}; only finished jobs can be deleted (cancel it first)")
+            raise Conflict(
+                f"job {job_id} is {job['status']}; only finished jobs can be deleted (cancel it first)"
+            )
     return arts
 
 
@@ -647,7 +722,9 @@ def list_filter(statuses: Sequence[str] = (), kinds: Sequence[str] = (), parent_
 
 def list_page_query(where: list, limit: int, offset: int):  # noqa: ANN201
     """One page of the job list, newest first (the order of the ``ix_jobs_*created`` indexes)."""
-    return select(jobs).where(*where).order_by(jobs.c.created_at.desc(), jobs.c.id).limit(limit).offset(offset)
+    return (
+        select(jobs).where(*where).order_by(jobs.c.created_at.desc(), jobs.c.id).limit(limit).offset(offset)
+    )
 
 
 def list_jobs(
@@ -670,7 +747,10 @@ def get_job(engine: Engine, job_id: str) -> dict[str, Any]:
 def events_after(engine: Engine, job_id: str, after_id: int, limit: int = 500) -> list[dict[str, Any]]:
     with engine.connect() as conn:
         rows = conn.execute(
-            select(events).where(events.c.job_id == job_id, events.c.id > after_id).order_by(events.c.id).limit(limit)
+            select(events)
+            .where(events.c.job_id == job_id, events.c.id > after_id)
+            .order_by(events.c.id)
+            .limit(limit)
         ).mappings()
         return [dict(r) for r in rows]
 
@@ -678,7 +758,9 @@ def events_after(engine: Engine, job_id: str, after_id: int, limit: int = 500) -
 def depth(engine: Engine) -> dict[str, dict[str, int]]:
     """Job counts per kind and status."""
     with engine.connect() as conn:
-        rows = conn.execute(select(jobs.c.kind, jobs.c.status, func.count()).group_by(jobs.c.kind, jobs.c.status))
+        rows = conn.execute(
+            select(jobs.c.kind, jobs.c.status, func.count()).group_by(jobs.c.kind, jobs.c.status)
+        )
         out: dict[str, dict[str, int]] = {}
         for kind, status, count in rows:
             out.setdefault(kind, {})[status] = count
@@ -686,13 +768,21 @@ def depth(engine: Engine) -> dict[str, dict[str, int]]:
 
 
 _JOB_BY_ID = select(jobs).where(jobs.c.id == bindparam("job_id"))
-_ARTIFACTS_OF = (select(artifacts.c.name, artifacts.c.size, artifacts.c.sha256, artifacts.c.path)
-                 .where(artifacts.c.job_id == bindparam("job_id")).order_by(artifacts.c.name))
-_CHILDREN_OF = (select(jobs.c.id, jobs.c.kind, jobs.c.status, jobs.c.progress)
-                .where(jobs.c.parent_id == bindparam("job_id")).order_by(jobs.c.created_at))
+_ARTIFACTS_OF = (
+    select(artifacts.c.name, artifacts.c.size, artifacts.c.sha256, artifacts.c.path)
+    .where(artifacts.c.job_id == bindparam("job_id"))
+    .order_by(artifacts.c.name)
+)
+_CHILDREN_OF = (
+    select(jobs.c.id, jobs.c.kind, jobs.c.status, jobs.c.progress)
+    .where(jobs.c.parent_id == bindparam("job_id"))
+    .order_by(jobs.c.created_at)
+)
 
 
-def job_detail(engine: Engine, job_id: str) -> tuple[dict[str, Any], list[dict[str, Any]], list[dict[str, Any]]]:
+def job_detail(
+    engine: Engine, job_id: str
+) -> tuple[dict[str, Any], list[dict[str, Any]], list[dict[str, Any]]]:
     """(the job, its artifacts by name, its children (id, kind, status, progress) oldest first): three indexed
     lookups on one connection (the most frequent read: clients polling)."""
     params = {"job_id": job_id}
@@ -708,7 +798,11 @@ def job_detail(engine: Engine, job_id: str) -> tuple[dict[str, Any], list[dict[s
 def find_artifact(engine: Engine, job_id: str, name: str) -> dict[str, Any]:
     """The artifact record ``name`` of a job; :class:`JobNotFound` naming the job or the artifact."""
     with engine.connect() as conn:
-        row = conn.execute(select(artifacts).where(artifacts.c.job_id == job_id, artifacts.c.name == name)).mappings().first()
+        row = (
+            conn.execute(select(artifacts).where(artifacts.c.job_id == job_id, artifacts.c.name == name))
+            .mappings()
+            .first()
+        )
     if row is None:
         get_job(engine, job_id)
         raise JobNotFound(f"job {job_id} has no artifact {name!r}")
@@ -753,8 +847,9 @@ def alive_workers(engine: Engine, heard_since: float) -> list[dict[str, Any]]:
 def oldest_queued_at(engine: Engine) -> float | None:
     """When the oldest queued job was submitted (None: nothing queued)."""
     with engine.connect() as conn:
-        return conn.execute(select(jobs.c.created_at).where(jobs.c.status == QUEUED)
-                            .order_by(jobs.c.created_at).limit(1)).scalar()
+        return conn.execute(
+            select(jobs.c.created_at).where(jobs.c.status == QUEUED).order_by(jobs.c.created_at).limit(1)
+        ).scalar()
 
 
 def delete_job_and_files(engine: Engine, store_root: Path, job_id: str) -> None:

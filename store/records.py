@@ -50,7 +50,10 @@ def evaluation(conn: Connection, job: dict[str, Any], result: dict[str, Any], jo
         metrics=evaluation_metrics(res).model_dump(mode="json"),
         per_scenario=[g.model_dump(mode="json") for g in res.aggregates.per_scenario], created_at=time.time(),
     ))  # fmt: skip
-    rows = [{"evaluation_id": job["id"], "category": k, "count": v, "examples": []} for k, v in res.taxonomy.items()]
+    rows = [
+        {"evaluation_id": job["id"], "category": k, "count": v, "examples": []}
+        for k, v in res.taxonomy.items()
+    ]
     if rows:
         conn.execute(insert(FailureTaxonomy.__table__), rows)
     _gate(conn, job, None, res.gate)
@@ -81,9 +84,18 @@ def _gate(conn: Connection, job: dict[str, Any], campaign_id: str | None, gate: 
 def pipeline_gates(conn: Connection, job: dict[str, Any], result: dict[str, Any], job_dir: str) -> None:
     """The pipeline's gate verdicts as gate-result rows (``pipeline:<gate>``), written with its final status."""
     res = PipelineResult.model_validate(result)
-    rows = [{"job_id": job["id"], "campaign_id": None, "gate": f"pipeline:{g.name}", "passed": g.passed,
-             "details": g.model_dump(mode="json"), "created_at": time.time()}
-            for g in res.summary.gates if g.passed is not None]
+    rows = [
+        {
+            "job_id": job["id"],
+            "campaign_id": None,
+            "gate": f"pipeline:{g.name}",
+            "passed": g.passed,
+            "details": g.model_dump(mode="json"),
+            "created_at": time.time(),
+        }
+        for g in res.summary.gates
+        if g.passed is not None
+    ]
     if rows:
         conn.execute(insert(GateResult.__table__), rows)
 

@@ -38,7 +38,9 @@ IDENT = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._:\-]{0,199}$")
 
 
 def bundle_files(root: Path) -> list[str]:
-    return sorted(p.relative_to(root).as_posix() for p in root.rglob("*") if p.is_file() and p.suffix in BUNDLE_SUFFIXES)
+    return sorted(
+        p.relative_to(root).as_posix() for p in root.rglob("*") if p.is_file() and p.suffix in BUNDLE_SUFFIXES
+    )
 
 
 def matrix_files(root: Path, files: list[str]) -> list[str]:
@@ -64,7 +66,9 @@ def matrix_files(root: Path, files: list[str]) -> list[str]:
     return [name for name in candidates if name not in included]
 
 
-def _put_bundle(engine: Engine, ident: str, source: str, root: Path, stored_root: str, sha: str | None) -> None:
+def _put_bundle(
+    engine: Engine, ident: str, source: str, root: Path, stored_root: str, sha: str | None
+) -> None:
     files = bundle_files(root)
     with session_factory(engine, write=True).begin() as session:
         row = session.get(Bundle, ident)
@@ -107,7 +111,11 @@ def load_shipped_models(engine: Engine, settings: Settings) -> list[str]:
             row.status = entry["status"]
             row.provenance = str(entry.get("provenance", ""))
             row.time_base, row.lineage = entry.get("time_base", {}), entry.get("lineage", {})
-            row.training, row.metrics, row.tags = entry.get("training", {}), entry.get("metrics", {}), entry.get("tags", [])
+            row.training, row.metrics, row.tags = (
+                entry.get("training", {}),
+                entry.get("metrics", {}),
+                entry.get("tags", []),
+            )
             names.append(entry["id"])
     return names
 
@@ -138,7 +146,9 @@ def _check_yaml_refs(value: Any, file: str, root: Path, where: str = "") -> None
     elif isinstance(value, list):
         for i, v in enumerate(value):
             _check_yaml_refs(v, file, root, f"{where}[{i}]")
-    elif isinstance(value, str) and ("/" in value or "\\" in value or value.endswith((".yaml", ".yml", ".svg"))):
+    elif isinstance(value, str) and (
+        "/" in value or "\\" in value or value.endswith((".yaml", ".yml", ".svg"))
+    ):
         if value.startswith(("/", "\\", "~")) or re.match(r"^[A-Za-z]:[\\/]", value):
             raise ConfigError(f"absolute path {value!r} not allowed", source=file, item=where)
         target = (root / file).parent.joinpath(value).resolve()
@@ -146,13 +156,17 @@ def _check_yaml_refs(value: Any, file: str, root: Path, where: str = "") -> None
             raise ConfigError(f"path {value!r} leaves the bundle", source=file, item=where)
 
 
-def save_upload(engine: Engine, settings: Settings, ident: str, data: bytes, *, replace: bool = False) -> Bundle:
+def save_upload(
+    engine: Engine, settings: Settings, ident: str, data: bytes, *, replace: bool = False
+) -> Bundle:
     """Validate an uploaded zip/tar bundle and store it under ``bundles/<id>``; ConfigError when invalid.
     ``replace``: swap out the files of an uploaded bundle of that id (``store.bundles.replace_upload``)."""
     from foresight.core.scenarios.loader import load_matrix
 
     if not IDENT.match(ident) or ident == BUILTIN_BUNDLE:
-        raise ConfigError("bundle id must be letters, digits, '.', '_', '-', ':' (not 'builtin')", item="name")
+        raise ConfigError(
+            "bundle id must be letters, digits, '.', '_', '-', ':' (not 'builtin')", item="name"
+        )
     members = _members(data)
     if not members:
         raise ConfigError("the archive holds no files", source="upload")
@@ -164,7 +178,9 @@ def save_upload(engine: Engine, settings: Settings, ident: str, data: bytes, *, 
             except folders.UnsafePath as exc:
                 raise ConfigError(str(exc), source="upload", item=name) from None
             if Path(rel).suffix not in BUNDLE_SUFFIXES:
-                raise ConfigError(f"file type not allowed (allowed: {sorted(BUNDLE_SUFFIXES)})", source="upload", item=rel)
+                raise ConfigError(
+                    f"file type not allowed (allowed: {sorted(BUNDLE_SUFFIXES)})", source="upload", item=rel
+                )
             folders.write_atomic(folders.resolve_under(root, rel), content)
         files = bundle_files(root)
         for rel in files:
@@ -175,7 +191,9 @@ def save_upload(engine: Engine, settings: Settings, ident: str, data: bytes, *, 
                     raise ConfigError(f"not valid YAML: {exc}", source=rel) from None
         matrices = matrix_files(root, files)
         if not matrices:
-            raise ConfigError("no scenario matrix (a YAML file with 'scenarios' or 'includes')", source="upload")
+            raise ConfigError(
+                "no scenario matrix (a YAML file with 'scenarios' or 'includes')", source="upload"
+            )
         for rel in matrices:
             try:
                 load_matrix(root / rel)
@@ -258,7 +276,9 @@ class Resolver:
         with self.sessions() as session:
             row = session.get(Model, ident)
             if row is None and ident == DEFAULT_MODEL:
-                row = default_model(session.scalars(select(Model).order_by(Model.read_only, Model.created_at)))
+                row = default_model(
+                    session.scalars(select(Model).order_by(Model.read_only, Model.created_at))
+                )
         if row is None:
             raise NotFoundError(f"unknown model id {ident!r}")
         return row
@@ -270,9 +290,11 @@ class Resolver:
         row = self.model_row(ident)
         frame = row.lineage.get("frame_convention", "robot")
         if frame != "robot":
-            raise ConfigError(f"model {row.id!r} was trained in the {frame!r} frame (robot-less data such as ETH/UCY); "
-                              "planners feed robot-frame features: use a model trained on simulator data",
-                              item="planner.model")
+            raise ConfigError(
+                f"model {row.id!r} was trained in the {frame!r} frame (robot-less data such as ETH/UCY); "
+                "planners feed robot-frame features: use a model trained on simulator data",
+                item="planner.model",
+            )
         return row
 
     def model(self, ident: str) -> Path:
@@ -283,16 +305,26 @@ class Resolver:
         if not path.is_file():
             raise NotFoundError(f"model {ident!r}: checkpoint {row.checkpoint} is missing")
         if folders.sha256_file(path) != row.sha256:
-            raise CoreError(f"model {ident!r}: checkpoint {row.checkpoint} does not match its registered sha256")
+            raise CoreError(
+                f"model {ident!r}: checkpoint {row.checkpoint} does not match its registered sha256"
+            )
         return path
 
 
 # ------------------------------------------------------------------------------------------ registration
 
 
-def register_checkpoint(engine: Engine, settings: Settings, *, model_id: str, job_id: str, artifact: str = "model.pt",
-                        metadata: dict[str, Any] | None = None, status: str = ModelStatus.candidate.value,
-                        resume: bool = False) -> dict[str, Any]:
+def register_checkpoint(
+    engine: Engine,
+    settings: Settings,
+    *,
+    model_id: str,
+    job_id: str,
+    artifact: str = "model.pt",
+    metadata: dict[str, Any] | None = None,
+    status: str = ModelStatus.candidate.value,
+    resume: bool = False,
+) -> dict[str, Any]:
     """Register the checkpoint artifact ``artifact`` of succeeded job ``job_id`` as model ``model_id``.
 
     ``metadata`` may hold time_base (when absent, read from the checkpoint), lineage, training, metrics, tags and
@@ -312,7 +344,9 @@ def register_checkpoint(engine: Engine, settings: Settings, *, model_id: str, jo
         if job["status"] != queue.SUCCEEDED:
             raise queue.Conflict(f"job {job_id} is {job['status']}; register checkpoints of succeeded jobs")
         name = folders.check_relative(artifact)
-        art = session.scalars(select(Artifact).where(Artifact.job_id == job_id, Artifact.name == name)).first()
+        art = session.scalars(
+            select(Artifact).where(Artifact.job_id == job_id, Artifact.name == name)
+        ).first()
         if art is None:
             raise queue.JobNotFound(f"job {job_id} has no artifact {name!r}")
         checkpoint = _checkpoint(settings, art.path, art.sha256, name)
@@ -359,8 +393,11 @@ def promote(engine: Engine, model_id: str, to: str = ModelStatus.promoted.value)
     with session_factory(engine, write=True).begin() as session:
         row = _run_time_model(session, model_id, "change its status there")
         if to == ModelStatus.default.value:
-            session.execute(update(Model).where(Model.status == ModelStatus.default.value, Model.id != model_id)
-                            .values(status=ModelStatus.promoted.value))
+            session.execute(
+                update(Model)
+                .where(Model.status == ModelStatus.default.value, Model.id != model_id)
+                .values(status=ModelStatus.promoted.value)
+            )
         row.status = to
     return {"model_id": model_id, "status": to}
 
@@ -376,7 +413,9 @@ def models_using(engine: Engine, model_id: str) -> list[str]:
 # ------------------------------------------------------------------------------------------ reads
 
 
-def models(engine: Engine, *, status: str | None = None, tag: str | None = None, run_time_only: bool = False) -> list[Model]:
+def models(
+    engine: Engine, *, status: str | None = None, tag: str | None = None, run_time_only: bool = False
+) -> list[Model]:
     """Registry entries, oldest first (shipped read-only entries included unless ``run_time_only``)."""
     stmt = select(Model).order_by(Model.created_at, Model.id)
     if status is not None:

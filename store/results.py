@@ -47,11 +47,23 @@ def dataset(engine: Engine, ident: str) -> Dataset:
         return _get(session, Dataset, ident, "dataset")
 
 
-def evaluations(engine: Engine, *, model_id: str | None = None, bundle_id: str | None = None, limit: int = 50,
-                offset: int = 0) -> tuple[int, list[Evaluation]]:
+def evaluations(
+    engine: Engine,
+    *,
+    model_id: str | None = None,
+    bundle_id: str | None = None,
+    limit: int = 50,
+    offset: int = 0,
+) -> tuple[int, list[Evaluation]]:
     """``(total matching, one page of evaluations)``, newest first, filtered by model and bundle."""
-    where = [c for c in (Evaluation.model_id == model_id if model_id else None,
-                         Evaluation.bundle_id == bundle_id if bundle_id else None) if c is not None]
+    where = [
+        c
+        for c in (
+            Evaluation.model_id == model_id if model_id else None,
+            Evaluation.bundle_id == bundle_id if bundle_id else None,
+        )
+        if c is not None
+    ]
     with session_factory(engine)() as session:
         count = session.scalar(select(func.count()).select_from(Evaluation).where(*where)) or 0
         rows = session.scalars(select(Evaluation).where(*where).order_by(Evaluation.created_at.desc(), Evaluation.id)
@@ -71,10 +83,15 @@ def campaign(engine: Engine, ident: str) -> tuple[Campaign, list[dict[str, Any]]
     """A campaign row, its cells by rank (rank, params, metrics) and its gate results (gate, passed, details)."""
     with session_factory(engine)() as session:
         row = _get(session, Campaign, ident, "campaign")
-        cells = session.scalars(select(CampaignCell).where(CampaignCell.campaign_id == ident).order_by(CampaignCell.rank))
+        cells = session.scalars(
+            select(CampaignCell).where(CampaignCell.campaign_id == ident).order_by(CampaignCell.rank)
+        )
         gates = session.scalars(select(GateResult).where(GateResult.campaign_id == ident))
-        return (row, [{"rank": c.rank, "params": c.params, "metrics": c.metrics} for c in cells],
-                [{"gate": g.gate, "passed": g.passed, "details": g.details} for g in gates])
+        return (
+            row,
+            [{"rank": c.rank, "params": c.params, "metrics": c.metrics} for c in cells],
+            [{"gate": g.gate, "passed": g.passed, "details": g.details} for g in gates],
+        )
 
 
 def comparison_operand(engine: Engine, ident: str) -> tuple[str, dict[str, Any], GroupStats | SuiteSummary]:
@@ -88,8 +105,10 @@ def comparison_operand(engine: Engine, ident: str) -> tuple[str, dict[str, Any],
         rank, _, suite = rest.partition(":")
         found = session.get(Campaign, campaign_id)
         if not rank.isdigit() or (suite or "global") not in SUITES or found is None:
-            raise queue.JobNotFound(f"no evaluation {ident!r} and no campaign cell of that name "
-                                    "(cells are CAMPAIGN_ID:RANK or CAMPAIGN_ID:RANK:hard, rank 1 = best)")
+            raise queue.JobNotFound(
+                f"no evaluation {ident!r} and no campaign cell of that name "
+                "(cells are CAMPAIGN_ID:RANK or CAMPAIGN_ID:RANK:hard, rank 1 = best)"
+            )
         cell = session.scalars(select(CampaignCell).where(CampaignCell.campaign_id == campaign_id,
                                                           CampaignCell.rank == int(rank))).first()  # fmt: skip
         if cell is None:
@@ -146,12 +165,17 @@ def run_folder(engine: Engine, store_root: Path, ident: str) -> RunFolder | None
     if ":" not in ident:
         with session_factory(engine)() as session:
             row = _get(session, Evaluation, ident, "evaluation")
-        return None if row.job_id is None else RunFolder(folders.resolve_under(store_root,
-                                                                               folders.job_dir(store_root, row.job_id)))
+        return (
+            None
+            if row.job_id is None
+            else RunFolder(folders.resolve_under(store_root, folders.job_dir(store_root, row.job_id)))
+        )
     cell = campaign_cell(engine, ident)
     if cell is None or cell.job_id is None or cell.cell.run_dir is None or cell.suites is None:
         return None
-    path = folders.resolve_under(store_root, f"{folders.job_dir(store_root, cell.job_id)}/{cell.cell.run_dir}")
+    path = folders.resolve_under(
+        store_root, f"{folders.job_dir(store_root, cell.job_id)}/{cell.cell.run_dir}"
+    )
     return RunFolder(path, [tuple(p) for p in cell.suites[cell.suite]])
 
 
@@ -163,7 +187,9 @@ class CellRun:
     config: dict[str, Any]  #: the campaign row's config
     cell: Any  #: core.evaluation.campaign.CellResult
     suite: str  #: global or hard
-    suites: dict[str, list[tuple[str, int]]] | None  #: the campaign's suites (None: a result from before they were kept)
+    suites: (
+        dict[str, list[tuple[str, int]]] | None
+    )  #: the campaign's suites (None: a result from before they were kept)
 
 
 def campaign_cell(engine: Engine, ident: str) -> CellRun | None:
@@ -203,12 +229,26 @@ def comparison_setup(engine: Engine, ident: str) -> dict[str, Any] | None:
                 stage = EvaluationConfig.model_validate(row.config["stage"])
             except (KeyError, ValidationError):  # a row without its stage config, or another version's
                 return None
-            return run_setup(stage.planner.name, row.model_id or stage.planner.model, stage.bundle, stage.matrix,
-                             seed_source(stage), stage.max_steps)
+            return run_setup(
+                stage.planner.name,
+                row.model_id or stage.planner.model,
+                stage.bundle,
+                stage.matrix,
+                seed_source(stage),
+                stage.max_steps,
+            )
     found = campaign_cell(engine, ident)
     if found is None:
         return None
     cell, config = found.cell, found.config
-    episodes = f"hard suite, manifest {config.get('seed_manifest')}" if found.suite == "hard" else "global suite"
-    return run_setup(f"{cell.planner.name} ({cell.variant})", cell.planner.model_id, None, config.get("matrix"),
-                     episodes, config.get("horizon"))
+    episodes = (
+        f"hard suite, manifest {config.get('seed_manifest')}" if found.suite == "hard" else "global suite"
+    )
+    return run_setup(
+        f"{cell.planner.name} ({cell.variant})",
+        cell.planner.model_id,
+        None,
+        config.get("matrix"),
+        episodes,
+        config.get("horizon"),
+    )

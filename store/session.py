@@ -146,7 +146,9 @@ def current_revision(engine: Engine) -> str | None:
         conn = engine.connect()
     except OperationalError as exc:
         url = engine.url.render_as_string(hide_password=True)
-        raise CoreError(f"cannot connect to database {url}: {str(exc.orig).strip().splitlines()[0]}") from None
+        raise CoreError(
+            f"cannot connect to database {url}: {str(exc.orig).strip().splitlines()[0]}"
+        ) from None
     with conn:
         try:
             row = conn.execute(text("SELECT version_num FROM alembic_version")).first()

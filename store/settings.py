@@ -18,7 +18,9 @@ from foresight.core.stages.budget import DEFAULT_STEP_BUDGET
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 TOKEN_FILE = "api-token"
-SERVER_FILE = "server.json"  #: written by `foresight up`: where its API listens (and its pid), for the CLI client
+SERVER_FILE = (
+    "server.json"  #: written by `foresight up`: where its API listens (and its pid), for the CLI client
+)
 DEFAULT_API_URL = "http://127.0.0.1:8000"
 
 
@@ -58,7 +60,9 @@ class Settings(BaseSettings):
     heartbeat_s: float = Field(1.0, gt=0)  #: [s] worker heartbeat and cancel-poll interval
     poll_s: float = Field(0.2, gt=0)  #: [s] idle worker's queue polling interval
     max_attempts: int = Field(3, ge=1, le=100)  #: default claims per job before a lost lease fails it
-    shutdown_grace_s: float = Field(10.0, ge=0)  #: [s] a stopping worker waits this long before releasing jobs
+    shutdown_grace_s: float = Field(
+        10.0, ge=0
+    )  #: [s] a stopping worker waits this long before releasing jobs
     sqlite_busy_timeout_ms: int = Field(30000, ge=0)  #: [ms]
     #: processes a stage may use for parallel episodes (``StageContext.workers``); worker slots are threads
     stage_workers: int = Field(1, ge=1, le=256)

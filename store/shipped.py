@@ -28,7 +28,8 @@ def default_model(entries: Iterable[T]) -> T | None:
     status ``default``, else a shipped (read-only) entry tagged ``default``."""
     entries = list(entries)
     return next((m for m in entries if _field(m, "status") == "default"), None) or next(
-        (m for m in entries if _field(m, "read_only") and "default" in (_field(m, "tags") or [])), None)
+        (m for m in entries if _field(m, "read_only") and "default" in (_field(m, "tags") or [])), None
+    )
 
 
 def shipped_status(entry: dict[str, Any]) -> str:
@@ -47,7 +48,9 @@ def read_shipped(path: Path) -> list[dict[str, Any]]:
     for i, entry in enumerate(entries):
         if not isinstance(entry, dict) or not {"id", "path", "sha256"} <= entry.keys():
             raise ConfigError("each model needs id, path and sha256", source=path, item=str(i))
-        out.append({**entry, "status": shipped_status(entry), "read_only": True, "tags": entry.get("tags", [])})
+        out.append(
+            {**entry, "status": shipped_status(entry), "read_only": True, "tags": entry.get("tags", [])}
+        )
     return out
 
 
@@ -68,5 +71,7 @@ def resolve_shipped(registry_file: Path, ident: str) -> Path:
     if not path.is_file():
         raise NotFoundError(f"model {ident!r}: checkpoint {entry['path']} is missing")
     if folders.sha256_file(path) != entry["sha256"]:
-        raise ConfigError(f"checkpoint {entry['path']} does not match its sha256", source=registry_file, item=ident)
+        raise ConfigError(
+            f"checkpoint {entry['path']} does not match its sha256", source=registry_file, item=ident
+        )
     return path

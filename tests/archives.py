@@ -44,9 +44,9 @@ def _patch_zip_sizes(data: bytes, *, size: int | None = None, crc: int | None = 
         at = out.find(sig)
         while at >= 0:
             if crc is not None:
-                out[at + crc_at: at + crc_at + 4] = struct.pack("<I", crc)
+                out[at + crc_at : at + crc_at + 4] = struct.pack("<I", crc)
             if size is not None:
-                out[at + size_at: at + size_at + 4] = struct.pack("<I", size)
+                out[at + size_at : at + size_at + 4] = struct.pack("<I", size)
             at = out.find(sig, at + 4)
     return bytes(out)
 
@@ -95,7 +95,7 @@ def link_zip(name: str = "scenarios/link.yaml") -> bytes:
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w") as z:
         info = zipfile.ZipInfo(name)
-        info.external_attr = (0o120777 << 16)
+        info.external_attr = 0o120777 << 16
         z.writestr(info, "/etc/passwd")
     return buf.getvalue()
 
@@ -106,7 +106,11 @@ def hostile() -> dict[str, tuple[bytes, str, str | None]]:
     small = {"scenarios/m.yaml": b"scenarios: []\n"}
     return {
         "zip header understates size": (zip_understated(), "", "maps/big.yaml"),
-        "zip of 80 MiB zeros": (zip_of({"maps/big.yaml": b"\0" * (80 * MIB)}), "unpacks to more than", "maps/big.yaml"),
+        "zip of 80 MiB zeros": (
+            zip_of({"maps/big.yaml": b"\0" * (80 * MIB)}),
+            "unpacks to more than",
+            "maps/big.yaml",
+        ),
         "zip bad crc": (zip_bad_crc(), "CRC", "scenarios/m.yaml"),
         "tar.bz2 4 GiB zero member": (tar_bomb(), "unpacks to more than", "maps/zero.yaml"),
         "tar.gz 4 GiB zero member": (tar_bomb(codec="gz"), "unpacks to more than", "maps/zero.yaml"),
@@ -122,9 +126,18 @@ def hostile() -> dict[str, tuple[bytes, str, str | None]]:
 def mangled(seed: int, count: int) -> list[bytes]:
     """``count`` random corruptions (flipped, cut, repeated bytes) of small valid zip, tar and tar.gz bundles."""
     rng = random.Random(seed)
-    files = {"scenarios/m.yaml": b"scenarios:\n  - name: a\n    map_file: ../maps/a.svg\n", "maps/a.svg": b"<svg/>"}
-    bases = [zip_of(files), zip_of(files, zipfile.ZIP_STORED), tar_of(files), tar_of(files, "w:gz"),
-             tar_of(files, "w:bz2"), tar_of(files, "w:xz")]
+    files = {
+        "scenarios/m.yaml": b"scenarios:\n  - name: a\n    map_file: ../maps/a.svg\n",
+        "maps/a.svg": b"<svg/>",
+    }
+    bases = [
+        zip_of(files),
+        zip_of(files, zipfile.ZIP_STORED),
+        tar_of(files),
+        tar_of(files, "w:gz"),
+        tar_of(files, "w:bz2"),
+        tar_of(files, "w:xz"),
+    ]
     out = []
     for _ in range(count):
         data = bytearray(rng.choice(bases))
@@ -135,7 +148,7 @@ def mangled(seed: int, count: int) -> list[bytes]:
             elif op < 0.8:
                 del data[at:]
             else:
-                data[at:at] = data[at: at + rng.randint(1, 64)]
+                data[at:at] = data[at : at + rng.randint(1, 64)]
             if not data:
                 data = bytearray(b"\0")
         out.append(bytes(data))
@@ -143,10 +156,31 @@ def mangled(seed: int, count: int) -> list[bytes]:
 
 
 #: member names a fuzzed archive draws from: valid bundle paths, traversal, absolute, odd and over-long names
-MEMBER_NAMES = ("scenarios/m.yaml", "maps/a.svg", "maps/a.yaml", "seeds/s.yaml", "../escape.yaml", "/etc/abs.yaml",
-                "scenarios/../../up.yaml", "a/./b.yaml", "dir/", "C:\\win.yaml", "n\0ul.yaml", "ü/ñ.yaml", "x" * 300)
-MEMBER_BODIES = (b"scenarios: []\n", b"scenarios:\n  - name: a\n    map_file: ../maps/a.svg\n", b"<svg/>",
-                 b"a: &a [1]\nb: [*a, *a]\n", b"[" * 300, b"\xff\xfe not utf-8", b"", b"\0" * 4096)
+MEMBER_NAMES = (
+    "scenarios/m.yaml",
+    "maps/a.svg",
+    "maps/a.yaml",
+    "seeds/s.yaml",
+    "../escape.yaml",
+    "/etc/abs.yaml",
+    "scenarios/../../up.yaml",
+    "a/./b.yaml",
+    "dir/",
+    "C:\\win.yaml",
+    "n\0ul.yaml",
+    "ü/ñ.yaml",
+    "x" * 300,
+)
+MEMBER_BODIES = (
+    b"scenarios: []\n",
+    b"scenarios:\n  - name: a\n    map_file: ../maps/a.svg\n",
+    b"<svg/>",
+    b"a: &a [1]\nb: [*a, *a]\n",
+    b"[" * 300,
+    b"\xff\xfe not utf-8",
+    b"",
+    b"\0" * 4096,
+)
 FORMATS = ("zip", "zip-stored", "w", "w:gz", "w:bz2", "w:xz")
 
 
@@ -163,17 +197,23 @@ def archive_strategy():  # noqa: ANN201 (hypothesis is a test dependency: import
 
     @st.composite
     def archives(draw) -> bytes:  # noqa: ANN001
-        files = draw(st.dictionaries(st.sampled_from(MEMBER_NAMES), st.sampled_from(MEMBER_BODIES), min_size=1,
-                                     max_size=4))
+        files = draw(
+            st.dictionaries(
+                st.sampled_from(MEMBER_NAMES), st.sampled_from(MEMBER_BODIES), min_size=1, max_size=4
+            )
+        )
         data = bytearray(_pack(draw(st.sampled_from(FORMATS)), files))
         for _ in range(draw(st.integers(0, 3))):
-            op, at = draw(st.sampled_from(("set", "cut", "repeat"))), draw(st.integers(0, max(len(data) - 1, 0)))
+            op, at = (
+                draw(st.sampled_from(("set", "cut", "repeat"))),
+                draw(st.integers(0, max(len(data) - 1, 0))),
+            )
             if op == "set":
                 data[at] = draw(st.integers(0, 255))
             elif op == "cut":
-                del data[max(at, 1):]
+                del data[max(at, 1) :]
             else:
-                data[at:at] = data[at: at + draw(st.integers(1, 64))]
+                data[at:at] = data[at : at + draw(st.integers(1, 64))]
         return bytes(data)
 
     return archives()

@@ -40,8 +40,13 @@ class Worker(Protocol):
     settings: Settings
     engine: Any
 
-    def child_worker(self, owner: str, workers: int | None, on_progress: ChildProgress,
-                     parent_stop: Callable[[], str | None]) -> Worker: ...
+    def child_worker(
+        self,
+        owner: str,
+        workers: int | None,
+        on_progress: ChildProgress,
+        parent_stop: Callable[[], str | None],
+    ) -> Worker: ...
 
     def run_job(self, job: dict[str, Any]) -> None: ...
 
@@ -64,7 +69,9 @@ class ChildRunner:
         self._on_progress: ChildProgress | None = None
         self.worker = worker.child_worker(self.owner, workers, self._progress, self.parent_stop)
         self._beat_stop = threading.Event()
-        self._beat = threading.Thread(target=self._beat_loop, name=f"{role}-{self.parent_id[:8]}", daemon=True)
+        self._beat = threading.Thread(
+            target=self._beat_loop, name=f"{role}-{self.parent_id[:8]}", daemon=True
+        )
         self._beat.start()
 
     def close(self) -> None:
@@ -93,11 +100,14 @@ class ChildRunner:
             return "cancel"
 
     def folder(self, child_id: str) -> Path:
-        return folders.resolve_under(self.settings.store_root, folders.job_dir(self.settings.store_root, child_id))
+        return folders.resolve_under(
+            self.settings.store_root, folders.job_dir(self.settings.store_root, child_id)
+        )
 
     def register_model(self, model_id: str, train_job: str, spec: dict[str, Any]) -> dict[str, Any]:
-        return registry.register_checkpoint(self.engine, self.settings, model_id=model_id, job_id=train_job,
-                                            metadata=spec, resume=True)
+        return registry.register_checkpoint(
+            self.engine, self.settings, model_id=model_id, job_id=train_job, metadata=spec, resume=True
+        )
 
     def promote_model(self, model_id: str, to: str) -> dict[str, Any]:
         return registry.promote(self.engine, model_id, to)
@@ -109,13 +119,24 @@ class ChildRunner:
             raise CoreError(f"{label}: there is no {kind!r} job kind")
         body = KINDS[kind].spec.model_validate({**spec, "kind": kind}).model_dump(mode="json")
         try:
-            return queue.submit(self.engine, kind=kind, spec=body, parent_id=self.parent_id, idempotency_key=key,
-                                max_attempts=self.settings.max_attempts)
+            return queue.submit(
+                self.engine,
+                kind=kind,
+                spec=body,
+                parent_id=self.parent_id,
+                idempotency_key=key,
+                max_attempts=self.settings.max_attempts,
+            )
         except queue.IdempotencyConflict:
             raise CoreError(f"{label}: its child job was submitted with a different spec") from None
 
-    def run(self, label: str, child_ids: list[str], on_progress: ChildProgress | None = None,
-            on_wait: Callable[[dict[str, dict[str, Any]]], None] | None = None) -> tuple[dict[str, dict[str, Any]], set[str]]:
+    def run(
+        self,
+        label: str,
+        child_ids: list[str],
+        on_progress: ChildProgress | None = None,
+        on_wait: Callable[[dict[str, dict[str, Any]]], None] | None = None,
+    ) -> tuple[dict[str, dict[str, Any]], set[str]]:
         """Drive ``child_ids`` until every one succeeded: claim and run queued ones here (their progress goes to
         ``on_progress``), wait for the others (calling ``on_wait(rows)`` between looks). Returns (final rows by
         id, ids run or retried by this call).
@@ -132,7 +153,9 @@ class ChildRunner:
                 if self.parent_stop() == "cancel":
                     for cid, job in rows.items():
                         if job["status"] in (queue.QUEUED, queue.RUNNING):
-                            with contextlib.suppress(queue.Conflict):  # queued: cancelled; running: asked to stop
+                            with contextlib.suppress(
+                                queue.Conflict
+                            ):  # queued: cancelled; running: asked to stop
                                 queue.request_cancel(self.engine, cid)
                 raise Cancelled(f"{self.role} stopped during {label}")
             retried = False
@@ -143,7 +166,9 @@ class ChildRunner:
                 if cid in touched:
                     if status == queue.CANCELLED:
                         raise Cancelled(f"{label} ({job['kind']} job {cid}) was cancelled")
-                    raise CoreError(f"{job['kind']} job {cid} failed: {job.get('error_type')}: {job.get('error_message')}")
+                    raise CoreError(
+                        f"{job['kind']} job {cid} failed: {job.get('error_type')}: {job.get('error_message')}"
+                    )
                 self.ctx.log(f"{label}: retrying its {status} child job {cid}")
                 queue.retry(self.engine, cid)  # resume from where it failed
                 touched.add(cid)

@@ -73,7 +73,9 @@ class RunContent:
     params: dict[str, str] = field(default_factory=dict)
     metrics: list[tuple[str, float, int]] = field(default_factory=list)  #: (key, value, step)
     tags: dict[str, str] = field(default_factory=dict)
-    artifacts: list[tuple[Path, str | None]] = field(default_factory=list)  #: (file or folder, artifact folder)
+    artifacts: list[tuple[Path, str | None]] = field(
+        default_factory=list
+    )  #: (file or folder, artifact folder)
     documents: dict[str, Any] = field(default_factory=dict)  #: artifact name -> JSON-able content
 
     def metric(self, key: str, value: float | int | bool | None, step: int = 0) -> None:
@@ -91,8 +93,14 @@ def flatten(prefix: str, value: Any) -> Iterator[tuple[str, str]]:
         yield prefix, text[:PARAM_CHARS]
 
 
-def describe(kind: str, result: BaseModel | dict[str, Any], workdir: Path, *, job_id: str | None = None,
-             parent_id: str | None = None) -> RunContent:
+def describe(
+    kind: str,
+    result: BaseModel | dict[str, Any],
+    workdir: Path,
+    *,
+    job_id: str | None = None,
+    parent_id: str | None = None,
+) -> RunContent:
     """What to log for a finished ``kind`` run whose artifacts are in ``workdir``.
 
     Tags: ``foresight.job_id`` (and ``foresight.parent_job_id``) for a service job, ``foresight.workdir`` for
@@ -130,14 +138,20 @@ def _training(content: RunContent, result: TrainResult, workdir: Path) -> None:
     summary = TrainingSummary.model_validate_json(_in(workdir, result.summary).read_text())
     timebase = summary.dataset.get("timebase") or {}
     content.params.update(dict(flatten("config", summary.config)))
-    content.params.update({
-        "config_hash": config_hash(summary.config), "code_version": summary.code_version,
-        "seed": str(summary.config.get("seed")), "dt": str(timebase.get("dt")),
-        "data_hash": str(summary.dataset.get("sha256")), "dataset": str(summary.dataset.get("id")),
-        "selection_mode": summary.selection_mode, "device": str(summary.device),  # config.device: what was asked
-        # a model id exists once the checkpoint is registered (foresight models register): its sha256 names it
-        "checkpoint_sha256": file_sha256(_in(workdir, result.checkpoint)),
-    })
+    content.params.update(
+        {
+            "config_hash": config_hash(summary.config),
+            "code_version": summary.code_version,
+            "seed": str(summary.config.get("seed")),
+            "dt": str(timebase.get("dt")),
+            "data_hash": str(summary.dataset.get("sha256")),
+            "dataset": str(summary.dataset.get("id")),
+            "selection_mode": summary.selection_mode,
+            "device": str(summary.device),  # config.device: what was asked
+            # a model id exists once the checkpoint is registered (foresight models register): its sha256 names it
+            "checkpoint_sha256": file_sha256(_in(workdir, result.checkpoint)),
+        }
+    )
     content.tags["foresight.gates"] = "passed" if result.gates_passed else "failed"
     for record in summary.history:  # the training curves, one step per epoch
         for key in ("train_loss", "val_loss", "train_ade", "val_ade", "train_fde", "val_fde"):
@@ -160,15 +174,22 @@ def _evaluation(content: RunContent, result: EvaluationResult, workdir: Path) ->
     episodes = sorted({(r.scenario, r.seed) for r in records})
     content.params.update(dict(flatten("config", result.config)))
     content.params.update(dict(flatten("planner", planner.config)))
-    content.params.update({
-        "planner_name": planner.variant or planner.name, "config_hash": planner.config_hash,
-        "code_version": result.code_version, "model_id": planner.model_id,
-        "checkpoint_sha256": planner.checkpoint_sha256, "bundle": result.bundle, "matrix": result.matrix,
-        "seeds": result.seed_source, "horizon": result.horizon,
-        "dt": ",".join(sorted({f"{r.provenance.dt:g}" for r in records})) or "none",
-        # the episode set: equal hashes mean the same (scenario, seed) episodes, so runs compare pair by pair
-        "data_hash": hashlib.sha256(json.dumps(episodes).encode()).hexdigest()[:16],
-    })
+    content.params.update(
+        {
+            "planner_name": planner.variant or planner.name,
+            "config_hash": planner.config_hash,
+            "code_version": result.code_version,
+            "model_id": planner.model_id,
+            "checkpoint_sha256": planner.checkpoint_sha256,
+            "bundle": result.bundle,
+            "matrix": result.matrix,
+            "seeds": result.seed_source,
+            "horizon": result.horizon,
+            "dt": ",".join(sorted({f"{r.provenance.dt:g}" for r in records})) or "none",
+            # the episode set: equal hashes mean the same (scenario, seed) episodes, so runs compare pair by pair
+            "data_hash": hashlib.sha256(json.dumps(episodes).encode()).hexdigest()[:16],
+        }
+    )
     content.tags["foresight.planner"] = planner.name
     content.tags["foresight.model_id"] = planner.model_id
     overall = result.aggregates.overall
@@ -180,8 +201,12 @@ def _evaluation(content: RunContent, result: EvaluationResult, workdir: Path) ->
     predicted = [r.prediction for r in records if r.prediction.samples]
     if predicted:  # the in-loop forecasts' ADE/FDE, weighted by samples (planners with a predictor)
         samples = sum(p.samples for p in predicted)
-        content.metric("prediction_ade", sum(p.ade * p.samples for p in predicted if p.ade is not None) / samples)
-        content.metric("prediction_fde", sum(p.fde * p.samples for p in predicted if p.fde is not None) / samples)
+        content.metric(
+            "prediction_ade", sum(p.ade * p.samples for p in predicted if p.ade is not None) / samples
+        )
+        content.metric(
+            "prediction_fde", sum(p.fde * p.samples for p in predicted if p.fde is not None) / samples
+        )
     for group in result.aggregates.per_family:
         content.metric(f"family.{group.key}.success_rate", group.rates["success"].rate)
         content.metric(f"family.{group.key}.collision_rate", group.rates["collision"].rate)
@@ -236,9 +261,11 @@ def export(target: MlflowTarget, content: RunContent, log: Callable[[str], None]
         now_ms = int(time.time() * 1000)
         metrics = [Metric(k, v, now_ms, step) for k, v, step in content.metrics]
         for i in range(0, len(params), 100):  # MLflow's per-request limits: 100 params, 1000 metrics
-            client.log_batch(run_id, params=params[i:i + 100])
+            client.log_batch(run_id, params=params[i : i + 100])
         for i in range(0, len(metrics), 1000):
-            client.log_batch(run_id, metrics=metrics[i:i + 1000], tags=[RunTag("mlflow.source.name", "foresight")])
+            client.log_batch(
+                run_id, metrics=metrics[i : i + 1000], tags=[RunTag("mlflow.source.name", "foresight")]
+            )
         for name, document in content.documents.items():
             client.log_dict(run_id, document, name)
         for path, folder in content.artifacts:
@@ -249,8 +276,10 @@ def export(target: MlflowTarget, content: RunContent, log: Callable[[str], None]
         client.set_terminated(run_id, "FINISHED")
     except Exception as exc:  # noqa: BLE001 - an outage, a missing extra, a refused value: a warning, not a failure
         reason = target.redact(str(exc).splitlines()[0] if str(exc) else "")
-        log(f"warning: MLflow export to {target.public_uri()} failed, the run is not copied there: "
-            f"{type(exc).__name__}: {reason[:400]}")
+        log(
+            f"warning: MLflow export to {target.public_uri()} failed, the run is not copied there: "
+            f"{type(exc).__name__}: {reason[:400]}"
+        )
         if run_id is not None:
             _mark_failed(target, run_id)
         return None
@@ -281,8 +310,16 @@ def _mark_failed(target: MlflowTarget, run_id: str) -> None:
         pass
 
 
-def export_run(target: MlflowTarget | None, kind: str, result: BaseModel | dict[str, Any], workdir: Path,
-               log: Callable[[str], None], *, job_id: str | None = None, parent_id: str | None = None) -> str | None:
+def export_run(
+    target: MlflowTarget | None,
+    kind: str,
+    result: BaseModel | dict[str, Any],
+    workdir: Path,
+    log: Callable[[str], None],
+    *,
+    job_id: str | None = None,
+    parent_id: str | None = None,
+) -> str | None:
     """Export a finished run when a target is configured and the kind is exported; never raises."""
     if target is None or kind not in EXPORTED_KINDS:
         return None

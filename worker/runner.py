@@ -70,9 +70,18 @@ class JobWorker:
     the parent's worker count, their progress forwarded and the parent's stop passed on by :meth:`beat`.
     """
 
-    def __init__(self, settings: Settings, engine: Engine, *, concurrency: int = 1, kinds: list[str] | None = None,
-                 worker_id: str | None = None, stage_workers: int | None = None,
-                 on_progress: ChildProgress | None = None, parent_stop: Callable[[], str | None] | None = None):
+    def __init__(
+        self,
+        settings: Settings,
+        engine: Engine,
+        *,
+        concurrency: int = 1,
+        kinds: list[str] | None = None,
+        worker_id: str | None = None,
+        stage_workers: int | None = None,
+        on_progress: ChildProgress | None = None,
+        parent_stop: Callable[[], str | None] | None = None,
+    ):
         self.settings = settings
         self.engine = engine
         self.concurrency = concurrency
@@ -98,11 +107,16 @@ class JobWorker:
     # ------------------------------------------------------------------ life cycle
     def run(self) -> None:
         """Run until :meth:`stop`; returns once every slot has ended."""
-        queue.register_worker(self.engine, self.id, socket.gethostname(), os.getpid(), self.concurrency, self.kinds)
+        queue.register_worker(
+            self.engine, self.id, socket.gethostname(), os.getpid(), self.concurrency, self.kinds
+        )
         logger.info("worker started", extra={"action": "start_worker", "worker": self.id})
         beat = threading.Thread(target=self._heartbeat_loop, name="heartbeat", daemon=True)
         beat.start()
-        slots = [threading.Thread(target=self._slot_loop, name=f"slot-{i}", daemon=True) for i in range(self.concurrency)]
+        slots = [
+            threading.Thread(target=self._slot_loop, name=f"slot-{i}", daemon=True)
+            for i in range(self.concurrency)
+        ]
         for t in slots:
             t.start()
         self._stopping.wait()
@@ -162,11 +176,22 @@ class JobWorker:
                 with contextlib.suppress(queue.Conflict):
                     queue.request_cancel(self.engine, job_id)
 
-    def child_worker(self, owner: str, workers: int | None, on_progress: ChildProgress,
-                     parent_stop: Callable[[], str | None]) -> JobWorker:
+    def child_worker(
+        self,
+        owner: str,
+        workers: int | None,
+        on_progress: ChildProgress,
+        parent_stop: Callable[[], str | None],
+    ) -> JobWorker:
         """A one-slot worker that runs a parent's children (lease owner ``owner``) through this code path."""
-        return JobWorker(self.settings, self.engine, worker_id=owner, stage_workers=workers or self.stage_workers,
-                         on_progress=on_progress, parent_stop=parent_stop)
+        return JobWorker(
+            self.settings,
+            self.engine,
+            worker_id=owner,
+            stage_workers=workers or self.stage_workers,
+            on_progress=on_progress,
+            parent_stop=parent_stop,
+        )
 
     def _heartbeat_loop(self) -> None:
         reap_every = max(self.settings.heartbeat_s, self.settings.lease_s / 4)
@@ -193,8 +218,12 @@ class JobWorker:
             self._execute(held)
         except queue.LeaseLost as exc:
             logger.warning("%s", exc, extra={"action": "lease_lost", "job": job["id"]})
-        except Exception:  # recording the outcome failed (database down): the lease expires, the job is reaped
-            logger.exception("could not record the outcome of job %s", job["id"], extra={"action": "record_failed"})
+        except (
+            Exception
+        ):  # recording the outcome failed (database down): the lease expires, the job is reaped
+            logger.exception(
+                "could not record the outcome of job %s", job["id"], extra={"action": "record_failed"}
+            )
         finally:
             with self._lock:
                 self._held.pop(job["id"], None)
@@ -219,15 +248,24 @@ class JobWorker:
 
                 write_report(job["kind"], result, workdir, ctx.log)
                 # before the job is finished, so a succeeded job's MLflow run exists; an outage is a log line
-                mlflow_export.export_run(self.mlflow, job["kind"], result, workdir, ctx.log, job_id=job["id"],
-                                         parent_id=job.get("parent_id"))
+                mlflow_export.export_run(
+                    self.mlflow,
+                    job["kind"],
+                    result,
+                    workdir,
+                    ctx.log,
+                    job_id=job["id"],
+                    parent_id=job.get("parent_id"),
+                )
         except Cancelled:
             if held.lost:
                 raise queue.LeaseLost(f"job {job['id']}: lease lost while running") from None
             if held.cancel_requested:
                 queue.mark_cancelled(*args)
             elif held.timed_out:
-                queue.fail_or_retry(*args, "Timeout", f"the job ran longer than {held.timeout_s:g} s", retry=False)
+                queue.fail_or_retry(
+                    *args, "Timeout", f"the job ran longer than {held.timeout_s:g} s", retry=False
+                )
             else:
                 queue.release(*args)
             return
@@ -235,8 +273,13 @@ class JobWorker:
             logger.info("job %s failed: %r", job["id"], exc, extra={"action": "job_failed", "job": job["id"]})
             message, retry = self.public_text(str(exc)), decide_retry(exc)
             if folders.is_full_disk(exc):  # the partial files are useless and hold the space others need
-                shutil.rmtree(folders.resolve_under(self.settings.store_root, workdir_rel), ignore_errors=True)
-                message, retry = f"{message} (the store is full; this attempt's partial files were removed)", False
+                shutil.rmtree(
+                    folders.resolve_under(self.settings.store_root, workdir_rel), ignore_errors=True
+                )
+                message, retry = (
+                    f"{message} (the store is full; this attempt's partial files were removed)",
+                    False,
+                )
             queue.fail_or_retry(*args, type(exc).__name__, message, retry=retry)
             return
         artifacts = folders.scan(self.settings.store_root, workdir_rel)
@@ -244,14 +287,18 @@ class JobWorker:
             folders.remove_empty(folders.resolve_under(self.settings.store_root, workdir_rel))
         record = None
         if job["kind"] in records.RECORDERS:
-            record = functools.partial(records.RECORDERS[job["kind"]], job=job, result=result, job_dir=workdir_rel)
+            record = functools.partial(
+                records.RECORDERS[job["kind"]], job=job, result=result, job_dir=workdir_rel
+            )
         queue.finish(*args, result, artifacts, record)
 
     def public_text(self, text: str) -> str:
         """``text`` with server paths made relative to the store, the project's configs or the repository
         (job errors are readable without a token)."""
         s = self.settings
-        for root in sorted({s.store_root, s.project_configs.resolve(), REPO_ROOT}, key=lambda p: -len(str(p))):
+        for root in sorted(
+            {s.store_root, s.project_configs.resolve(), REPO_ROOT}, key=lambda p: -len(str(p))
+        ):
             text = text.replace(f"{root}/", "")
         return text
 
@@ -267,7 +314,9 @@ class JobWorker:
             if fraction < 1.0 and now - held.last_progress < PROGRESS_EVERY_S:
                 return
             held.last_progress = now
-            queue.report_progress(self.engine, job["id"], self.id, job["attempts"], float(fraction), message[:2000])
+            queue.report_progress(
+                self.engine, job["id"], self.id, job["attempts"], float(fraction), message[:2000]
+            )
 
         ctx = StageContext(
             workdir=workdir,

@@ -78,15 +78,21 @@ async def create_bundle(
     return BundlePublic.model_validate(row)
 
 
-@router.put("/{bundle_id}", dependencies=[WriteAuth], responses=responses(*AUTH, 404, 409), openapi_extra=ARCHIVE_BODY)
-async def replace_bundle(bundle_id: Ident, request: Request, engine: EngineDep, settings: SettingsDep) -> BundlePublic:
+@router.put(
+    "/{bundle_id}", dependencies=[WriteAuth], responses=responses(*AUTH, 404, 409), openapi_extra=ARCHIVE_BODY
+)
+async def replace_bundle(
+    bundle_id: Ident, request: Request, engine: EngineDep, settings: SettingsDep
+) -> BundlePublic:
     """Replace an uploaded bundle's files with a new archive (validated as an upload). 409 for project and
     config-folder bundles and while queued or running jobs use it (naming them)."""
     from starlette.concurrency import run_in_threadpool
 
     await run_in_threadpool(bundles.check_replaceable, engine, bundle_id)  # before reading a large body
     data = await _archive(request)
-    return BundlePublic.model_validate(await run_in_threadpool(bundles.replace_upload, engine, settings, bundle_id, data))
+    return BundlePublic.model_validate(
+        await run_in_threadpool(bundles.replace_upload, engine, settings, bundle_id, data)
+    )
 
 
 @router.delete("/{bundle_id}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[WriteAuth],

@@ -62,26 +62,35 @@ def unsafe_paths(value: Any, loc: tuple = ()) -> list[dict[str, Any]]:
         return [e for i, v in enumerate(value) for e in unsafe_paths(v, (*loc, i))]
     if isinstance(value, str) and folders.looks_unsafe(value):
         msg = "server paths are not allowed in specs: name inputs by id or by a path relative to their bundle"
-        return [{"loc": ("body", "spec", *loc), "msg": msg, "type": "value_error.unsafe_path", "input": value}]
+        return [
+            {"loc": ("body", "spec", *loc), "msg": msg, "type": "value_error.unsafe_path", "input": value}
+        ]
     return []
 
 
 @router.get("/kinds")
 def read_job_kinds() -> list[KindPublic]:
     """The job kinds this server accepts, with their spec schemas."""
-    return [KindPublic(kind=k.name, description=k.description, spec_schema=k.spec.model_json_schema()) for k in KINDS.values()]
+    return [
+        KindPublic(kind=k.name, description=k.description, spec_schema=k.spec.model_json_schema())
+        for k in KINDS.values()
+    ]
 
 
 async def limit_body(content_length: Annotated[int | None, Header(include_in_schema=False)] = None) -> None:
     """413 before the body is validated (dependencies run first)."""
     if content_length is not None and content_length > MAX_SPEC_BYTES:
-        raise HTTPException(status.HTTP_413_REQUEST_ENTITY_TOO_LARGE, f"request body over {MAX_SPEC_BYTES} bytes")
+        raise HTTPException(
+            status.HTTP_413_REQUEST_ENTITY_TOO_LARGE, f"request body over {MAX_SPEC_BYTES} bytes"
+        )
 
 
 @router.post("", status_code=status.HTTP_201_CREATED, dependencies=[WriteAuth, Depends(limit_body)], response_model=JobPublic,
              responses={200: {"model": JobPublic, "description": "the job of a known idempotency key"},
                         **responses(*AUTH, 404, 409, 413)})  # fmt: skip
-async def create_job(body: JobCreate, engine: EngineDep, settings: SettingsDep, resolver: ResolverDep) -> Response:
+async def create_job(
+    body: JobCreate, engine: EngineDep, settings: SettingsDep, resolver: ResolverDep
+) -> Response:
     """Queue a job (201); a known idempotency key returns its job (200). Stage jobs must name known inputs
     (404) and fit the server's step budget (422); a job without ``timeout_s`` gets the server's default."""
     # async: the body is validated on the event loop anyway; a plain submission on SQLite then waits on the
@@ -91,7 +100,9 @@ async def create_job(body: JobCreate, engine: EngineDep, settings: SettingsDep, 
     errors = unsafe_paths(spec)
     if errors:
         raise RequestValidationError(errors)
-    if spec["kind"] != "sleep":  # the diagnostic kind has no inputs and no episodes (queue benchmarks submit it)
+    if (
+        spec["kind"] != "sleep"
+    ):  # the diagnostic kind has no inputs and no episodes (queue benchmarks submit it)
         await run_in_threadpool(admission.admit, body.spec, settings, resolver)
     max_attempts = body.max_attempts or settings.max_attempts
     timeout_s = body.timeout_s or settings.job_timeout_s
@@ -119,7 +130,9 @@ def read_jobs(
     parent_id: Ident | None = None,
     name: Annotated[str | None, Query(min_length=1, max_length=200, description="exact job name")] = None,
     tag: Annotated[list[Tag], Query(max_length=MAX_TAGS, description="jobs with every tag given")] = [],  # noqa: B006
-    q: Annotated[str | None, Query(min_length=1, max_length=200, description="text in the name or note")] = None,
+    q: Annotated[
+        str | None, Query(min_length=1, max_length=200, description="text in the name or note")
+    ] = None,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
     offset: Annotated[int, Query(ge=0, le=10_000_000)] = 0,
 ) -> JobsPublic:
@@ -218,8 +231,12 @@ def retry_job(job_id: JobId, engine: EngineDep) -> JobPublic:
     return job_public(queue.retry(engine, job_id))  # as queued, even when a worker claims it at once
 
 
-@router.delete("/{job_id}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[WriteAuth],
-                responses=responses(*AUTH, 404, 409))
+@router.delete(
+    "/{job_id}",
+    status_code=status.HTTP_204_NO_CONTENT,
+    dependencies=[WriteAuth],
+    responses=responses(*AUTH, 404, 409),
+)
 def delete_job(job_id: JobId, engine: EngineDep, settings: SettingsDep) -> Response:
     """Delete a finished job and its whole folder (partial files of a failed run too), keeping files that a
     model or dataset record uses."""
@@ -229,7 +246,9 @@ def delete_job(job_id: JobId, engine: EngineDep, settings: SettingsDep) -> Respo
 
 @router.get("/{job_id}/artifacts/{name:path}", response_class=FileResponse,
             responses={200: {"content": {"application/octet-stream": {}}}, **responses(404)})  # fmt: skip
-def read_job_artifact(job_id: JobId, name: str, engine: EngineDep, settings: SettingsDep, request: Request) -> FileResponse:
+def read_job_artifact(
+    job_id: JobId, name: str, engine: EngineDep, settings: SettingsDep, request: Request
+) -> FileResponse:
     """Download one artifact of a job."""
     clean = folders.check_relative(name)  # 422 for absolute names and '..'
     row = queue.find_artifact(engine, job_id, clean)

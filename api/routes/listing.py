@@ -57,7 +57,9 @@ def read_campaigns(
     engine: EngineDep,
     matrix: Text = None,
     grid: Text = None,
-    model: Annotated[str | None, Query(min_length=1, max_length=200, description="a checkpoint its cells ran")] = None,
+    model: Annotated[
+        str | None, Query(min_length=1, max_length=200, description="a checkpoint its cells ran")
+    ] = None,
     name: Name = None,
     tag: Tags = [],  # noqa: B006
     limit: Limit = 50,
@@ -90,4 +92,6 @@ def read_campaign_grid(campaign_id: Ident, engine: EngineDep) -> list[dict[str, 
     from foresight.api.routes.results import full_id
     from foresight.core.reports.grid_plot import parameter_plots
 
-    return [asdict(p) for p in parameter_plots(listing.campaign_grid_cells(engine, full_id(engine, campaign_id)))]
+    return [
+        asdict(p) for p in parameter_plots(listing.campaign_grid_cells(engine, full_id(engine, campaign_id)))
+    ]

@@ -28,29 +28,54 @@ def read_models(
     """Registry entries, oldest first (shipped read-only entries included), filtered by status or tag; ``count``
     is the number matching, ``limit``/``offset`` select a page."""
     rows = registry.models(engine, status=status_.value if status_ is not None else None, tag=tag)
-    page = rows[offset: offset + limit if limit is not None else None]
-    return ModelsPublic(data=[ModelPublic.model_validate(m) for m in page], count=len(rows), limit=limit,
-                        offset=offset)
+    page = rows[offset : offset + limit if limit is not None else None]
+    return ModelsPublic(
+        data=[ModelPublic.model_validate(m) for m in page], count=len(rows), limit=limit, offset=offset
+    )
 
 
 class YamlResponse(PlainTextResponse):
     media_type = "application/yaml"
 
 
-@router.get("/export", response_class=YamlResponse, responses={200: {"content": {"application/yaml": {"schema": {
-    "type": "object", "required": ["models"], "properties": {"models": {"type": "array", "items": {"type": "object"}}}}}}}})
+@router.get(
+    "/export",
+    response_class=YamlResponse,
+    responses={
+        200: {
+            "content": {
+                "application/yaml": {
+                    "schema": {
+                        "type": "object",
+                        "required": ["models"],
+                        "properties": {"models": {"type": "array", "items": {"type": "object"}}},
+                    }
+                }
+            }
+        }
+    },
+)
 def export_registry(engine: EngineDep) -> YamlResponse:
     """Models registered at run time, in the schema of ``model/registry.yaml``."""
     return YamlResponse(registry.export_models(registry.models(engine, run_time_only=True)))
 
 
-@router.post("", status_code=status.HTTP_201_CREATED, dependencies=[WriteAuth], responses=responses(*AUTH, 404, 409))
+@router.post(
+    "", status_code=status.HTTP_201_CREATED, dependencies=[WriteAuth], responses=responses(*AUTH, 404, 409)
+)
 def create_model(body: ModelCreate, engine: EngineDep, settings: SettingsDep) -> ModelPublic:
     """Register a checkpoint artifact of a succeeded job as a candidate (409 for a duplicate id; 422 when the
     artifact is not a checkpoint of a known format or no longer has its recorded sha256)."""
     meta = body.model_dump(include={"time_base", "lineage", "training", "metrics", "tags", "provenance"})
-    registry.register_checkpoint(engine, settings, model_id=body.id, job_id=body.job_id, artifact=body.artifact,
-                                 metadata=meta, status=body.status)
+    registry.register_checkpoint(
+        engine,
+        settings,
+        model_id=body.id,
+        job_id=body.job_id,
+        artifact=body.artifact,
+        metadata=meta,
+        status=body.status,
+    )
     return ModelPublic.model_validate(registry.model(engine, body.id))
 
 
@@ -67,8 +92,12 @@ def promote_model(model_id: Ident, engine: EngineDep, body: ModelPromote | None 
     return ModelPublic.model_validate(registry.model(engine, model_id))
 
 
-@router.delete("/{model_id}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[WriteAuth],
-                responses=responses(*AUTH, 404, 409))
+@router.delete(
+    "/{model_id}",
+    status_code=status.HTTP_204_NO_CONTENT,
+    dependencies=[WriteAuth],
+    responses=responses(*AUTH, 404, 409),
+)
 def delete_model(model_id: Ident, engine: EngineDep) -> Response:
     """Delete a registered model (409 for shipped or default models and models that records use)."""
     registry.delete_model(engine, model_id)

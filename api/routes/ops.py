@@ -25,7 +25,9 @@ def _alive_cutoff(settings) -> float:  # noqa: ANN001
 @router.get("/healthz")
 def read_health(request: Request, engine: EngineDep) -> Health:
     """Liveness and database reachability."""
-    return Health(status="ok", database=queue.ping(engine), revision=request.app.state.revision, kinds=sorted(KINDS))
+    return Health(
+        status="ok", database=queue.ping(engine), revision=request.app.state.revision, kinds=sorted(KINDS)
+    )
 
 
 @read_router.get("/v1/workers")

@@ -44,8 +44,10 @@ def read_data_roots(settings: SettingsDep) -> list[dict[str, Any]]:
     found in each; names only, the server's folders stay private."""
     from foresight.core.predict.ethucy import FOLDS
 
-    return [{"name": name, "folds": [f for f in FOLDS if (path / f).is_dir()]}
-            for name, path in sorted(settings.named_data_roots.items())]
+    return [
+        {"name": name, "folds": [f for f in FOLDS if (path / f).is_dir()]}
+        for name, path in sorted(settings.named_data_roots.items())
+    ]
 
 
 @router.get("/evaluations/{evaluation_id}", responses=responses(404))
@@ -62,42 +64,54 @@ def read_evaluation(evaluation_id: Ident, engine: EngineDep) -> EvaluationPublic
 def read_campaign(campaign_id: Ident, engine: EngineDep) -> CampaignPublic:
     """A campaign's ranked cells, best cell and gate results."""
     row, cells, gates = results.campaign(engine, full_id(engine, campaign_id))
-    return CampaignPublic(id=row.id, job_id=row.job_id, config=row.config, best=row.best, cells=cells, gates=gates)
+    return CampaignPublic(
+        id=row.id, job_id=row.job_id, config=row.config, best=row.best, cells=cells, gates=gates
+    )
 
 
 @router.get("/evaluations/{evaluation_id}/episodes", responses=responses(404))
-def read_evaluation_episodes(evaluation_id: Ident, engine: EngineDep, settings: SettingsDep) -> list[EpisodePublic]:
+def read_evaluation_episodes(
+    evaluation_id: Ident, engine: EngineDep, settings: SettingsDep
+) -> list[EpisodePublic]:
     """Every episode of an evaluation (failures first): outcome, failure label, and the URL of its trace for the
     episode player (``trace`` is None where the evaluation stored none, e.g. before traces were kept)."""
     return episode_list(engine, settings, full_id(engine, evaluation_id))
 
 
 @router.get("/evaluations/{evaluation_id}/episodes/{scenario}/{seed}", responses=responses(404))
-def read_episode_trace(evaluation_id: Ident, scenario: Ident, seed: int, engine: EngineDep,
-                       settings: SettingsDep) -> dict[str, Any]:
+def read_episode_trace(
+    evaluation_id: Ident, scenario: Ident, seed: int, engine: EngineDep, settings: SettingsDep
+) -> dict[str, Any]:
     """One episode's compact trace (core.evaluation.episode_trace): robot, pedestrians with ids, goal and
     tolerance, walls, collision, logged forecasts; what the dashboard's episode player draws."""
     return _trace(engine, settings, full_id(engine, evaluation_id), scenario, seed)
 
 
 @router.get("/campaigns/{campaign_id}/cells/{rank}/episodes", responses=responses(404))
-def read_cell_episodes(campaign_id: Ident, rank: int, engine: EngineDep, settings: SettingsDep,
-                       suite: Annotated[Literal["global", "hard"], Query()] = "global") -> list[EpisodePublic]:
+def read_cell_episodes(
+    campaign_id: Ident,
+    rank: int,
+    engine: EngineDep,
+    settings: SettingsDep,
+    suite: Annotated[Literal["global", "hard"], Query()] = "global",
+) -> list[EpisodePublic]:
     """Every episode of a campaign cell's suite (rank 1 = best; failures first), with the URLs of its trace and
     player (None where the cell kept none: cells written before cells kept their run folders)."""
     return episode_list(engine, settings, f"{full_id(engine, campaign_id)}:{rank}:{suite}")
 
 
 @router.get("/campaigns/{campaign_id}/cells/{rank}/episodes/{scenario}/{seed}", responses=responses(404))
-def read_cell_episode_trace(campaign_id: Ident, rank: int, scenario: Ident, seed: int, engine: EngineDep,
-                            settings: SettingsDep) -> dict[str, Any]:
+def read_cell_episode_trace(
+    campaign_id: Ident, rank: int, scenario: Ident, seed: int, engine: EngineDep, settings: SettingsDep
+) -> dict[str, Any]:
     """One episode's compact trace as a campaign cell (rank 1 = best) ran it: the same shape as an evaluation's."""
     return _trace(engine, settings, f"{full_id(engine, campaign_id)}:{rank}", scenario, seed)
 
 
 @router.get("/jobs/{job_id}/witnesses/{scenario}/{seed}", responses=responses(404))
-def read_witness_trace(job_id: Ident, scenario: Ident, seed: int, engine: EngineDep,
-                       settings: SettingsDep) -> dict[str, Any]:
+def read_witness_trace(
+    job_id: Ident, scenario: Ident, seed: int, engine: EngineDep, settings: SettingsDep
+) -> dict[str, Any]:
     """The compact trace of a witness job's witness for one episode (the same shape as an evaluation's episode
     trace): what the dashboard plays beside the planner's run of that episode."""
     from foresight.core.evaluation.episode_trace import read_compact, trace_name
@@ -151,9 +165,17 @@ def episode_list(engine: Any, settings: Any, ident: str) -> list[EpisodePublic]:
     out = []
     for r in records:
         has = folder is not None and folder.trace(trace_name(r.scenario, r.seed)) is not None
-        out.append(EpisodePublic(scenario=r.scenario, seed=r.seed, outcome=r.outcome, label=r.taxonomy.label,
-                                 steps=r.steps, trace=trace_url(ident, r.scenario, r.seed) if has else None,
-                                 player=player_url(ident, r.scenario, r.seed) if has else None))
+        out.append(
+            EpisodePublic(
+                scenario=r.scenario,
+                seed=r.seed,
+                outcome=r.outcome,
+                label=r.taxonomy.label,
+                steps=r.steps,
+                trace=trace_url(ident, r.scenario, r.seed) if has else None,
+                player=player_url(ident, r.scenario, r.seed) if has else None,
+            )
+        )
     return sorted(out, key=lambda e: e.outcome == "success")
 
 
@@ -163,8 +185,9 @@ def _records(folder: results.RunFolder | None) -> list[Any] | None:
 
 
 @router.get("/compare", responses=responses(404))
-def compare_evaluations(engine: EngineDep, settings: SettingsDep, a: Annotated[Ident, Query()],
-                        b: Annotated[Ident, Query()]) -> dict[str, Any]:
+def compare_evaluations(
+    engine: EngineDep, settings: SettingsDep, a: Annotated[Ident, Query()], b: Annotated[Ident, Query()]
+) -> dict[str, Any]:
     """Two evaluations or campaign cells (``CAMPAIGN_ID:RANK[:hard]``) side by side: what differs first (``differs``:
     planner, model, matrix, episodes, horizon, from each side's canonical ``setup``), the resolved-config diff
     key by key and the headline metric deltas B - A with 95 % intervals. Two results of the same (scenario, seed)
@@ -187,18 +210,27 @@ def compare_results(engine: Any, settings: Any, a: str, b: str) -> dict[str, Any
 
     a, b = full_id(engine, a), full_id(engine, b)
 
-    (kind_a, config_a, sum_a), (kind_b, config_b, sum_b) = (results.comparison_operand(engine, a),
-                                                            results.comparison_operand(engine, b))
+    (kind_a, config_a, sum_a), (kind_b, config_b, sum_b) = (
+        results.comparison_operand(engine, a),
+        results.comparison_operand(engine, b),
+    )
     folders = {ident: results.run_folder(engine, settings.store_root, ident) for ident in (a, b)}
     ra, rb = _records(folders[a]), _records(folders[b])
     paired = paired_deltas(ra, rb) if ra and rb else None
     metrics = {**deltas(sum_a, sum_b), **(paired or {})}
     setup_a, setup_b = results.comparison_setup(engine, a), results.comparison_setup(engine, b)
     changed = changed_episodes(ra, rb) if paired is not None else None
-    return {"a": a, "b": b, "sources": {"a": kind_a, "b": kind_b}, "setup": {"a": setup_a, "b": setup_b},
-            "differs": what_differs(setup_a, setup_b) if setup_a and setup_b else None,
-            "config_diff": diff_configs(config_a, config_b), "paired": paired is not None, "metrics": {k: v.model_dump() for k, v in metrics.items()},
-            "changed_episodes": None if changed is None else _with_players(folders, a, b, changed)}
+    return {
+        "a": a,
+        "b": b,
+        "sources": {"a": kind_a, "b": kind_b},
+        "setup": {"a": setup_a, "b": setup_b},
+        "differs": what_differs(setup_a, setup_b) if setup_a and setup_b else None,
+        "config_diff": diff_configs(config_a, config_b),
+        "paired": paired is not None,
+        "metrics": {k: v.model_dump() for k, v in metrics.items()},
+        "changed_episodes": None if changed is None else _with_players(folders, a, b, changed),
+    }
 
 
 def _with_players(folders: dict[str, Any], a: str, b: str, changed: list[Any]) -> list[dict[str, Any]]:
@@ -208,7 +240,17 @@ def _with_players(folders: dict[str, Any], a: str, b: str, changed: list[Any]) -
     from foresight.core.evaluation.episode_trace import trace_name
 
     def both(e: Any) -> bool:
-        return all(folders[i] is not None and folders[i].trace(trace_name(e.scenario, e.seed)) for i in (a, b))
+        return all(
+            folders[i] is not None and folders[i].trace(trace_name(e.scenario, e.seed)) for i in (a, b)
+        )
 
-    return [{**e.model_dump(), "player": "/ui/compare/episode?" + urlencode(
-        {"a": a, "b": b, "scenario": e.scenario, "seed": e.seed}) if both(e) else None} for e in changed]
+    return [
+        {
+            **e.model_dump(),
+            "player": "/ui/compare/episode?"
+            + urlencode({"a": a, "b": b, "scenario": e.scenario, "seed": e.seed})
+            if both(e)
+            else None,
+        }
+        for e in changed
+    ]

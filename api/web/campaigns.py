@@ -44,17 +44,29 @@ def cell_page(request: Request, campaign_id: str, rank: int) -> HTMLResponse:
     try:
         ident = f"{queue.resolve_id(engine, campaign_id)}:{rank}"
         _, config, _ = results.comparison_operand(engine, ident)
-        suites = [(suite, episode_list(engine, request.app.state.settings, f"{ident}:{suite}"))
-                  for suite in ("hard", "global")]
+        suites = [
+            (suite, episode_list(engine, request.app.state.settings, f"{ident}:{suite}"))
+            for suite in ("hard", "global")
+        ]
     except queue.JobNotFound as exc:
         raise PageNotFound(str(exc)) from None
-    return page(request, "campaign_cell.html", title=f"Cell {rank} of campaign {ident[:12]}", nav="results",
-                campaign_id=ident.partition(":")[0], rank=rank, variant=config.get("variant"),
-                checkpoint=config.get("checkpoint"), suites=suites)
+    return page(
+        request,
+        "campaign_cell.html",
+        title=f"Cell {rank} of campaign {ident[:12]}",
+        nav="results",
+        campaign_id=ident.partition(":")[0],
+        rank=rank,
+        variant=config.get("variant"),
+        checkpoint=config.get("checkpoint"),
+        suites=suites,
+    )
 
 
 @router.get("/campaigns/{campaign_id}/cells/{rank}/episodes/{scenario}/{seed}")
-def cell_episode_page(request: Request, campaign_id: str, rank: int, scenario: str, seed: int) -> HTMLResponse:
+def cell_episode_page(
+    request: Request, campaign_id: str, rank: int, scenario: str, seed: int
+) -> HTMLResponse:
     """The episode player on one episode as a campaign cell ran it."""
     from foresight.api.routes.results import trace_url
 
@@ -63,9 +75,18 @@ def cell_episode_page(request: Request, campaign_id: str, rank: int, scenario: s
         _, config, _ = results.comparison_operand(request.app.state.engine, ident)
     except queue.JobNotFound as exc:
         raise PageNotFound(str(exc)) from None
-    return page(request, "episode.html", title=f"{scenario} seed {seed}", nav="results", scenario=scenario, seed=seed,
-                data_url=trace_url(ident, scenario, seed), source=f"campaign cell {rank} ({config.get('variant')})",
-                source_url=f"/ui/campaigns/{ident.partition(':')[0]}/cells/{rank}", source_id=ident)
+    return page(
+        request,
+        "episode.html",
+        title=f"{scenario} seed {seed}",
+        nav="results",
+        scenario=scenario,
+        seed=seed,
+        data_url=trace_url(ident, scenario, seed),
+        source=f"campaign cell {rank} ({config.get('variant')})",
+        source_url=f"/ui/campaigns/{ident.partition(':')[0]}/cells/{rank}",
+        source_id=ident,
+    )
 
 
 def _baseline_ranks(cells: list[dict]) -> dict[int, int]:
@@ -74,5 +95,8 @@ def _baseline_ranks(cells: list[dict]) -> dict[int, int]:
     # the rows' metrics as stored (CellMetrics of this version, or an older shape without the key: not paired)
     paired = {c["rank"]: (c["metrics"] or {}).get("vs_baseline") is not None for c in cells}
     base = {c["params"]["checkpoint"]: c["rank"] for c in cells if not paired[c["rank"]]}
-    return {c["rank"]: base[c["params"]["checkpoint"]] for c in cells
-            if paired[c["rank"]] and c["params"]["checkpoint"] in base}
+    return {
+        c["rank"]: base[c["params"]["checkpoint"]]
+        for c in cells
+        if paired[c["rank"]] and c["params"]["checkpoint"] in base
+    }

@@ -61,7 +61,9 @@ def bundles_page(request: Request) -> HTMLResponse:
 @router.get("/bundles/{bundle_id}")
 def bundle_page(request: Request, bundle_id: str) -> HTMLResponse:
     """A bundle's files and scenario matrices."""
-    return page(request, "bundle.html", title=f"Bundle {bundle_id}", nav="bundles", bundle=_bundle(request, bundle_id))
+    return page(
+        request, "bundle.html", title=f"Bundle {bundle_id}", nav="bundles", bundle=_bundle(request, bundle_id)
+    )
 
 
 def _matrix(request: Request, bundle_id: str, matrix: str):  # noqa: ANN202

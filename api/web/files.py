@@ -38,7 +38,9 @@ def report_of(request: Request, job_id: str) -> str | None:
 
 
 @router.get("/ui/jobs/{job_id}/files/{name:path}", dependencies=[Depends(read_access)])
-def read_job_file(request: Request, job_id: Annotated[str, PathParam(max_length=200)], name: str) -> FileResponse:
+def read_job_file(
+    request: Request, job_id: Annotated[str, PathParam(max_length=200)], name: str
+) -> FileResponse:
     """One file of a job's folder, shown inline (HTML without scripts)."""
     try:
         queue.get_job(request.app.state.engine, job_id)

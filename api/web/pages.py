@@ -46,15 +46,23 @@ def _jobs(request: Request, status: list[JobStatus] | None, kind: list[str] | No
     for job in data:
         job["report"] = files.report_of(request, job["id"]) if job["status"] == queue.SUCCEEDED else None
         job["verdict"] = job_verdict(job)
-    filters = urlencode([("status", s.value) for s in status or []] + [("kind", k) for k in kind or []]
-                        + [("tag", t) for t in tags] + ([("q", q)] if q else []))
+    filters = urlencode(
+        [("status", s.value) for s in status or []]
+        + [("kind", k) for k in kind or []]
+        + [("tag", t) for t in tags]
+        + ([("q", q)] if q else [])
+    )
     return {"jobs": data, "count": count, "offset": offset, "page_size": PAGE_SIZE, "filters": filters}
 
 
 @pages.get("/jobs")
 def jobs_page(
-    request: Request, status: StatusFilter = None, kind: KindFilter = None, offset: Annotated[int, Query(ge=0)] = 0,
-    tag: TagFilter = None, q: TextFilter = None,
+    request: Request,
+    status: StatusFilter = None,
+    kind: KindFilter = None,
+    offset: Annotated[int, Query(ge=0)] = 0,
+    tag: TagFilter = None,
+    q: TextFilter = None,
 ) -> HTMLResponse:
     """All jobs, newest first, filtered by status, kind, tags and text in the name or note; rows refresh
     themselves."""
@@ -71,8 +79,12 @@ def jobs_page(
 
 @pages.get("/jobs/rows")
 def jobs_rows(
-    request: Request, status: StatusFilter = None, kind: KindFilter = None, offset: Annotated[int, Query(ge=0)] = 0,
-    tag: TagFilter = None, q: TextFilter = None,
+    request: Request,
+    status: StatusFilter = None,
+    kind: KindFilter = None,
+    offset: Annotated[int, Query(ge=0)] = 0,
+    tag: TagFilter = None,
+    q: TextFilter = None,
 ) -> HTMLResponse:
     """The table body of the jobs page (polled by the page)."""
     return page(request, "_job_rows.html", **_jobs(request, status, kind, offset, tag, q))
@@ -85,7 +97,9 @@ def _job(request: Request, job_id: str) -> dict[str, Any]:
         raise PageNotFound(f"no job with id {job_id}") from None
     job["report"] = files.report_of(request, job_id)
     job["verdict"] = job_verdict(job)
-    job["episodes"] = _episodes(request, job) if job["kind"] == "evaluate" and job["status"] == queue.SUCCEEDED else []
+    job["episodes"] = (
+        _episodes(request, job) if job["kind"] == "evaluate" and job["status"] == queue.SUCCEEDED else []
+    )
     job["witnesses"] = _witnesses(job) if job["kind"] == "witness" else None
     return job
 
@@ -98,24 +112,48 @@ def _witnesses(job: dict[str, Any]) -> Any:
 
 
 @pages.get("/jobs/{job_id}/witnesses/{scenario}/{seed}")
-def witness_page(request: Request, job_id: str, scenario: Annotated[str, PathParam(max_length=200)],
-                 seed: int) -> HTMLResponse:
+def witness_page(
+    request: Request, job_id: str, scenario: Annotated[str, PathParam(max_length=200)], seed: int
+) -> HTMLResponse:
     """A witness beside the planner's own run of the episode (the evaluation the job searched), on one clock."""
     from foresight.api.routes.results import trace_url
 
     job = _job(request, job_id)
     found = job["witnesses"]
-    row = next((e for e in found.episodes if (e.scenario, e.seed) == (scenario, seed) and e.trace), None) if found else None
+    row = (
+        next((e for e in found.episodes if (e.scenario, e.seed) == (scenario, seed) and e.trace), None)
+        if found
+        else None
+    )
     if row is None:
         raise PageNotFound(f"job {job_id} found no witness for {scenario} seed {seed}")
     sides = []
     if found.evaluation is not None and found.failed_only:
-        sides.append(("planner", row.planner_outcome or "", trace_url(found.evaluation, scenario, seed),
-                      f"/ui/jobs/{found.evaluation}"))
-    sides.append(("witness", row.plan.describe(), f"/v1/jobs/{job['id']}/witnesses/{scenario}/{seed}",
-                  f"/ui/jobs/{job['id']}"))
-    return page(request, "witness.html", title=f"{scenario} seed {seed}: a witness", nav="jobs", job=job, row=row,
-                sides=sides)
+        sides.append(
+            (
+                "planner",
+                row.planner_outcome or "",
+                trace_url(found.evaluation, scenario, seed),
+                f"/ui/jobs/{found.evaluation}",
+            )
+        )
+    sides.append(
+        (
+            "witness",
+            row.plan.describe(),
+            f"/v1/jobs/{job['id']}/witnesses/{scenario}/{seed}",
+            f"/ui/jobs/{job['id']}",
+        )
+    )
+    return page(
+        request,
+        "witness.html",
+        title=f"{scenario} seed {seed}: a witness",
+        nav="jobs",
+        job=job,
+        row=row,
+        sides=sides,
+    )
 
 
 def _episodes(request: Request, job: dict[str, Any]) -> list[Any]:
@@ -151,14 +189,28 @@ def job_summary(request: Request, job_id: str) -> HTMLResponse:
 def episode_page(request: Request, evaluation_id: str, scenario: str, seed: int) -> HTMLResponse:
     """The episode player: the stored compact trace drawn on a canvas, with play/pause and a time slider."""
     data_url = f"/v1/evaluations/{evaluation_id}/episodes/{scenario}/{seed}"
-    return page(request, "episode.html", title=f"{scenario} seed {seed}", nav="results", scenario=scenario, seed=seed,
-                data_url=data_url, source="evaluation", source_url=f"/ui/jobs/{evaluation_id}#episodes",
-                source_id=evaluation_id)
+    return page(
+        request,
+        "episode.html",
+        title=f"{scenario} seed {seed}",
+        nav="results",
+        scenario=scenario,
+        seed=seed,
+        data_url=data_url,
+        source="evaluation",
+        source_url=f"/ui/jobs/{evaluation_id}#episodes",
+        source_id=evaluation_id,
+    )
 
 
 @pages.get("/compare/episode")
-def episode_pair_page(request: Request, a: Annotated[str, Query(max_length=200)], b: Annotated[str, Query(max_length=200)],
-                      scenario: Annotated[str, Query(max_length=200)], seed: int) -> HTMLResponse:
+def episode_pair_page(
+    request: Request,
+    a: Annotated[str, Query(max_length=200)],
+    b: Annotated[str, Query(max_length=200)],
+    scenario: Annotated[str, Query(max_length=200)],
+    seed: int,
+) -> HTMLResponse:
     """One episode of two evaluations or campaign cells side by side on one clock (a comparison's changed episodes
     link here)."""
     from foresight.api.routes.results import full_id, trace_url
@@ -167,20 +219,40 @@ def episode_pair_page(request: Request, a: Annotated[str, Query(max_length=200)]
     engine = request.app.state.engine
     try:
         a, b = full_id(engine, a), full_id(engine, b)
-        configs = [results.comparison_operand(engine, ident)[1] for ident in (a, b)]  # evaluations or campaign cells
+        configs = [
+            results.comparison_operand(engine, ident)[1] for ident in (a, b)
+        ]  # evaluations or campaign cells
     except queue.JobNotFound as exc:
         raise PageNotFound(str(exc)) from None
-    sides = [(side, ident, trace_url(ident, scenario, seed),
-              f"/ui/jobs/{ident}" if ":" not in ident else f"/ui/campaigns/{ident.partition(':')[0]}",
-              config.get("variant") if ":" in ident else None)
-             for side, ident, config in zip("AB", (a, b), configs, strict=True)]
-    return page(request, "episode_pair.html", title=f"{scenario} seed {seed}: A and B", nav="compare", a=a, b=b,
-                scenario=scenario, seed=seed, sides=sides)
+    sides = [
+        (
+            side,
+            ident,
+            trace_url(ident, scenario, seed),
+            f"/ui/jobs/{ident}" if ":" not in ident else f"/ui/campaigns/{ident.partition(':')[0]}",
+            config.get("variant") if ":" in ident else None,
+        )
+        for side, ident, config in zip("AB", (a, b), configs, strict=True)
+    ]
+    return page(
+        request,
+        "episode_pair.html",
+        title=f"{scenario} seed {seed}: A and B",
+        nav="compare",
+        a=a,
+        b=b,
+        scenario=scenario,
+        seed=seed,
+        sides=sides,
+    )
 
 
 @pages.get("/compare")
-def compare_page(request: Request, a: Annotated[str | None, Query(max_length=200)] = None,
-                 b: Annotated[str | None, Query(max_length=200)] = None) -> HTMLResponse:
+def compare_page(
+    request: Request,
+    a: Annotated[str | None, Query(max_length=200)] = None,
+    b: Annotated[str | None, Query(max_length=200)] = None,
+) -> HTMLResponse:
     """Two evaluations or campaign cells: what differs first (planner, model, matrix, episodes, horizon), the
     metric deltas with their intervals and tests, then the config keys that differ."""
     from foresight.api.routes.results import compare_results
@@ -192,8 +264,18 @@ def compare_page(request: Request, a: Annotated[str | None, Query(max_length=200
             cmp = compare_results(request.app.state.engine, request.app.state.settings, a, b)
         except queue.JobNotFound as exc:
             error = str(exc)
-    return page(request, "compare.html", title="Compare", nav="compare", a=a, b=b, cmp=cmp, error=error,
-                min_pairs=MIN_PAIRS, status_code=404 if error else 200)
+    return page(
+        request,
+        "compare.html",
+        title="Compare",
+        nav="compare",
+        a=a,
+        b=b,
+        cmp=cmp,
+        error=error,
+        min_pairs=MIN_PAIRS,
+        status_code=404 if error else 200,
+    )
 
 
 router.include_router(pages)

@@ -38,7 +38,9 @@ def _num(value: Any, digits: int = 3) -> str:
     """A metric for a table cell: numbers rounded, ``{value, ci_low, ci_high}`` with its interval."""
     if isinstance(value, dict) and "value" in value:
         low, high = value.get("ci_low"), value.get("ci_high")
-        interval = f" [{_num(low, digits)}, {_num(high, digits)}]" if low is not None and high is not None else ""
+        interval = (
+            f" [{_num(low, digits)}, {_num(high, digits)}]" if low is not None and high is not None else ""
+        )
         return _num(value["value"], digits) + interval
     if isinstance(value, bool) or value is None:
         return str(value)

@@ -23,7 +23,9 @@ RATES: dict[str, Callable[[EpisodeRecord], bool]] = {
     "collision_static": lambda r: r.outcome == "collision_static",
     "timeout": lambda r: r.outcome == "timeout",
     "error": lambda r: r.outcome == "error",
-    "unsolvable": lambda r: r.taxonomy.reachable is False,  #: failed where no robot could reach the goal in time
+    "unsolvable": lambda r: (
+        r.taxonomy.reachable is False
+    ),  #: failed where no robot could reach the goal in time
 }
 
 #: mean name -> value of a record (None = not applicable, excluded)
@@ -83,13 +85,15 @@ def group_stats(key: str, records: list[EpisodeRecord], boot: BootstrapConfig) -
         episodes=n,
         rates={name: rate(sum(1 for r in records if pred(r)), n) for name, pred in RATES.items()},
         means={
-            name: bootstrap_mean([get(r) for r in records], samples=boot.samples, seed=boot.seed,
-                                 confidence=boot.confidence)
+            name: bootstrap_mean(
+                [get(r) for r in records], samples=boot.samples, seed=boot.seed, confidence=boot.confidence
+            )
             for name, get in MEANS.items()
         },
         failed=[
             FailedEpisode(scenario=r.scenario, seed=r.seed, outcome=r.outcome, label=r.taxonomy.label)
-            for r in records if r.outcome != "success"
+            for r in records
+            if r.outcome != "success"
         ],
         taxonomy=count_labels([r.taxonomy.label for r in records]),
     )
@@ -106,7 +110,9 @@ def _with_delta(group: GroupStats, glob: GroupStats) -> GroupStats:
     return group.model_copy(update={"delta_to_global": delta})
 
 
-def _grouped(records: Iterable[EpisodeRecord], key: Callable[[EpisodeRecord], str]) -> dict[str, list[EpisodeRecord]]:
+def _grouped(
+    records: Iterable[EpisodeRecord], key: Callable[[EpisodeRecord], str]
+) -> dict[str, list[EpisodeRecord]]:
     groups: dict[str, list[EpisodeRecord]] = {}
     for r in records:
         groups.setdefault(key(r), []).append(r)
@@ -152,7 +158,11 @@ class SuiteSummary(BaseModel):
 def summarise(records: list[EpisodeRecord], boot: BootstrapConfig | None = None) -> SuiteSummary:
     g = group_stats("suite", records, boot or BootstrapConfig())
     return SuiteSummary(
-        episodes=g.episodes, success=g.rates["success"], collision=g.rates["collision"],
-        mean_min_clearance=g.means["min_clearance"], mean_min_distance=g.means["min_distance"],
-        mean_avg_speed=g.means["avg_speed"], taxonomy=g.taxonomy,
+        episodes=g.episodes,
+        success=g.rates["success"],
+        collision=g.rates["collision"],
+        mean_min_clearance=g.means["min_clearance"],
+        mean_min_distance=g.means["min_distance"],
+        mean_avg_speed=g.means["avg_speed"],
+        taxonomy=g.taxonomy,
     )

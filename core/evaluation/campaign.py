@@ -91,12 +91,18 @@ class CellResult(CellMetrics, CellParams):
     integrity: IntegrityReport
     ranking_key: list[float]
     episodes_file: str
-    run_dir: str | None = None  #: the cell's run folder (episodes.jsonl, traces/); None for cells written before
+    run_dir: str | None = (
+        None  #: the cell's run folder (episodes.jsonl, traces/); None for cells written before
+    )
     baseline: str | None = None  #: key of the baseline cell it is compared with (same checkpoint)
 
     def metrics(self) -> CellMetrics:
-        return CellMetrics(hard=self.hard, global_=self.global_, vs_baseline=self.vs_baseline,
-                           changed_vs_baseline=self.changed_vs_baseline)
+        return CellMetrics(
+            hard=self.hard,
+            global_=self.global_,
+            vs_baseline=self.vs_baseline,
+            changed_vs_baseline=self.changed_vs_baseline,
+        )
 
     def params(self) -> CellParams:
         return CellParams(checkpoint=self.checkpoint, variant=self.variant)
@@ -108,7 +114,9 @@ class CampaignResult(BaseModel):
     best: CellResult | None
     ranked: list[CellResult]
     gate: ClosedLoopGateResult | None
-    best_vs_reference: dict[str, list]  #: resolved-config keys where the best differs from the baseline (or first) cell
+    best_vs_reference: dict[
+        str, list
+    ]  #: resolved-config keys where the best differs from the baseline (or first) cell
     cells_run: int
     cells_resumed: int
     matrix: str
@@ -120,7 +128,9 @@ class CampaignResult(BaseModel):
     #: suite (hard, global) -> its (scenario, seed) episodes in order: a cell's records of one suite (None: older)
     suites: dict[str, list[tuple[str, int]]] | None = None
     code_version: str
-    execution: Execution | None = None  #: which executor ran the episodes, on how many CPUs (None: older results)
+    execution: Execution | None = (
+        None  #: which executor ran the episodes, on how many CPUs (None: older results)
+    )
     artifacts: dict[str, str]
     wall_s: float
     config: dict  #: the stage config as given (with defaults)
@@ -162,8 +172,14 @@ def ranking_key(hard: SuiteSummary, glob: SuiteSummary, integrity_ok: bool) -> l
     def val(x: float | None) -> float:
         return float("-inf") if x is None else float(x)
 
-    return [1.0 if integrity_ok else 0.0, val(hard.success.rate), val(glob.success.rate),
-            val(hard.mean_min_clearance.mean), val(glob.mean_min_clearance.mean), val(glob.mean_avg_speed.mean)]
+    return [
+        1.0 if integrity_ok else 0.0,
+        val(hard.success.rate),
+        val(glob.success.rate),
+        val(hard.mean_min_clearance.mean),
+        val(glob.mean_min_clearance.mean),
+        val(glob.mean_avg_speed.mean),
+    ]
 
 
 def rank(cells: list[CellResult]) -> list[CellResult]:
@@ -177,10 +193,18 @@ def _cell_key(checkpoint: str, variant: str) -> str:
 
 def _fingerprint(rp: ResolvedPlanner, config: CampaignConfig, hard: list, glob: list) -> str:
     data = {
-        "config_hash": rp.config_hash, "model": rp.model_id, "checkpoint": rp.checkpoint_sha256,
-        "bundle": config.bundle, "matrix": config.matrix, "hard": hard, "global": glob, "max_steps": config.max_steps,
-        "metrics": config.metrics.model_dump(), "taxonomy": config.taxonomy.model_dump(),
-        "bootstrap": config.bootstrap.model_dump(), "code": code_version(),
+        "config_hash": rp.config_hash,
+        "model": rp.model_id,
+        "checkpoint": rp.checkpoint_sha256,
+        "bundle": config.bundle,
+        "matrix": config.matrix,
+        "hard": hard,
+        "global": glob,
+        "max_steps": config.max_steps,
+        "metrics": config.metrics.model_dump(),
+        "taxonomy": config.taxonomy.model_dump(),
+        "bootstrap": config.bootstrap.model_dump(),
+        "code": code_version(),
         **({"overrides": config.scenario_overrides} if config.scenario_overrides else {}),
     }
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()
@@ -193,7 +217,9 @@ def _checkpoints(config: CampaignConfig) -> list[str]:
     if entry(config.planner.name).takes_model:
         return list(config.checkpoints)
     if config.checkpoints != ["cv"]:
-        raise ConfigError(f"planner {config.planner.name!r} takes no model; leave checkpoints out", item="checkpoints")
+        raise ConfigError(
+            f"planner {config.planner.name!r} takes no model; leave checkpoints out", item="checkpoints"
+        )
     return [NO_MODEL]
 
 
@@ -208,8 +234,13 @@ def _load_cell(ctx: StageContext, key: str, fingerprint: str) -> CellResult | No
     return cell if cell.fingerprint == fingerprint else None
 
 
-def _run_cells(config: CampaignConfig, ctx: StageContext, plan: CampaignPlan, todo: list[int],
-               cells: list[CellResult | None]) -> None:
+def _run_cells(
+    config: CampaignConfig,
+    ctx: StageContext,
+    plan: CampaignPlan,
+    todo: list[int],
+    cells: list[CellResult | None],
+) -> None:
     """Run the cells ``todo`` (indices into ``plan.cells``), filling ``cells``.
 
     Their episodes are ONE stream of jobs, cell after cell (each cell's costliest episodes first), so an executor
@@ -217,26 +248,56 @@ def _run_cells(config: CampaignConfig, ctx: StageContext, plan: CampaignPlan, to
     finish, rather than idling through every cell's tail. A cell is finished and written (``cells/<key>.json``,
     the resume point) as soon as its last episode is in."""
     union = suite_union(plan.hard, plan.glob)
-    order = sorted(range(len(union)), key=lambda k: -expected_cost(plan.matrix, union[k][0], config.max_steps))
+    order = sorted(
+        range(len(union)), key=lambda k: -expected_cost(plan.matrix, union[k][0], config.max_steps)
+    )
     jobs: list[Job] = []
     where: list[tuple[int, int]] = []  #: job position -> (cell, position in the cell's episode list)
     for i in todo:
         for k in order:
-            jobs.append(Job(len(jobs), union[k][0], union[k][1], plan.cells[i][1], trace_dir=cell_dir(plan.cell_key(i))))
+            jobs.append(
+                Job(
+                    len(jobs),
+                    union[k][0],
+                    union[k][1],
+                    plan.cells[i][1],
+                    trace_dir=cell_dir(plan.cell_key(i)),
+                )
+            )
             where.append((i, k))
     got: dict[int, list] = {i: [None] * len(union) for i in todo}
     left = dict.fromkeys(todo, len(union))
-    with contextlib.closing(iter_jobs(jobs, plan.settings, ctx, matrix=plan.matrix, start_method=config.start_method,
-                                      executor=config.executor, longest_first=False)) as results:
+    with contextlib.closing(
+        iter_jobs(
+            jobs,
+            plan.settings,
+            ctx,
+            matrix=plan.matrix,
+            start_method=config.start_method,
+            executor=config.executor,
+            longest_first=False,
+        )
+    ) as results:
         for done, (pos, record) in enumerate(results, start=1):
             i, k = where[pos]
             got[i][k] = record
             left[i] -= 1
             if left[i] == 0:
                 checkpoint, rp = plan.cells[i]
-                cells[i] = finish_cell(config, ctx, rp, plan.hard, plan.glob, got.pop(i), plan.cell_key(i),
-                                       cell_fingerprint(config, plan, i), checkpoint)
-                ctx.progress(done / len(jobs), f"{plan.cell_key(i)}: done ({len(todo) - len(got)}/{len(todo)} cells)")
+                cells[i] = finish_cell(
+                    config,
+                    ctx,
+                    rp,
+                    plan.hard,
+                    plan.glob,
+                    got.pop(i),
+                    plan.cell_key(i),
+                    cell_fingerprint(config, plan, i),
+                    checkpoint,
+                )
+                ctx.progress(
+                    done / len(jobs), f"{plan.cell_key(i)}: done ({len(todo) - len(got)}/{len(todo)} cells)"
+                )
             ctx.check_cancelled()
 
 
@@ -250,8 +311,17 @@ def suite_union(hard: list[tuple[str, int]], glob: list[tuple[str, int]]) -> lis
     return list(dict.fromkeys([*glob, *hard]))
 
 
-def finish_cell(config: CampaignConfig, ctx: StageContext, rp: ResolvedPlanner, hard: list[tuple[str, int]],
-                glob: list[tuple[str, int]], records: list, key: str, fingerprint: str, checkpoint: str) -> CellResult:
+def finish_cell(
+    config: CampaignConfig,
+    ctx: StageContext,
+    rp: ResolvedPlanner,
+    hard: list[tuple[str, int]],
+    glob: list[tuple[str, int]],
+    records: list,
+    key: str,
+    fingerprint: str,
+    checkpoint: str,
+) -> CellResult:
     """A cell from its records (in :func:`suite_union` order); writes ``cells/<key>.json`` and ``.jsonl``."""
     union = suite_union(hard, glob)
     by_pair = {(r.scenario, r.seed): r for r in records}
@@ -260,9 +330,19 @@ def finish_cell(config: CampaignConfig, ctx: StageContext, rp: ResolvedPlanner, 
     hs, gs = summarise(hard_recs, config.bootstrap), summarise(glob_recs, config.bootstrap)
     episodes = f"{cell_dir(key)}/episodes.jsonl"
     write_records(ctx.artifact(episodes), records)
-    cell = CellResult(key=key, fingerprint=fingerprint, checkpoint=checkpoint, variant=rp.variant or rp.name,
-                      planner=planner_provenance(rp), hard=hs, global_=gs, integrity=integrity,
-                      ranking_key=ranking_key(hs, gs, integrity.ok), episodes_file=episodes, run_dir=cell_dir(key))
+    cell = CellResult(
+        key=key,
+        fingerprint=fingerprint,
+        checkpoint=checkpoint,
+        variant=rp.variant or rp.name,
+        planner=planner_provenance(rp),
+        hard=hs,
+        global_=gs,
+        integrity=integrity,
+        ranking_key=ranking_key(hs, gs, integrity.ok),
+        episodes_file=episodes,
+        run_dir=cell_dir(key),
+    )
     files.write_text(ctx.artifact(f"cells/{key}.json"), cell.model_dump_json(indent=2))
     return cell
 
@@ -272,13 +352,16 @@ def baseline_variant(config: CampaignConfig, cells: list[CellResult]) -> str:
     return config.gate.baseline_variant if config.gate else cells[0].variant
 
 
-def with_paired_stats(config: CampaignConfig, ctx: StageContext, plan: CampaignPlan,
-                      cells: list[CellResult]) -> list[CellResult]:
+def with_paired_stats(
+    config: CampaignConfig, ctx: StageContext, plan: CampaignPlan, cells: list[CellResult]
+) -> list[CellResult]:
     """Each cell with its paired comparison against the baseline variant's cell of the same checkpoint on both
     suites (same (scenario, seed) episodes: McNemar / Wilcoxon, ``core.evaluation.delta.paired_deltas``)."""
     name = baseline_variant(config, cells)
     base = {c.checkpoint: c for c in cells if c.variant == name}
-    records = {c.key: {(r.scenario, r.seed): r for r in read_records(ctx.artifact(c.episodes_file))} for c in cells}
+    records = {
+        c.key: {(r.scenario, r.seed): r for r in read_records(ctx.artifact(c.episodes_file))} for c in cells
+    }
     out = []
     for c in cells:
         b = base.get(c.checkpoint)
@@ -289,24 +372,33 @@ def with_paired_stats(config: CampaignConfig, ctx: StageContext, plan: CampaignP
         for suite, pairs in (("hard", plan.hard), ("global", plan.glob)):
             ours, theirs = [records[b.key][p] for p in pairs], [records[c.key][p] for p in pairs]
             vs[suite], changed[suite] = paired_deltas(ours, theirs), changed_episodes(ours, theirs) or []
-        out.append(c.model_copy(update={"baseline": b.key, "vs_baseline": vs, "changed_vs_baseline": changed}))
+        out.append(
+            c.model_copy(update={"baseline": b.key, "vs_baseline": vs, "changed_vs_baseline": changed})
+        )
     return out
 
 
 def _gate(config: CampaignConfig, best: CellResult, cells: list[CellResult]) -> ClosedLoopGateResult | None:
     if config.gate is None:
         return None
-    base = next(c for c in cells if c.variant == config.gate.baseline_variant and c.checkpoint == best.checkpoint)
-    return closed_loop_gate((best.key, best.hard, best.global_), (base.key, base.hard, base.global_), config.gate,
-                            paired=best.vs_baseline)
+    base = next(
+        c for c in cells if c.variant == config.gate.baseline_variant and c.checkpoint == best.checkpoint
+    )
+    return closed_loop_gate(
+        (best.key, best.hard, best.global_),
+        (base.key, base.hard, base.global_),
+        config.gate,
+        paired=best.vs_baseline,
+    )
 
 
 def run_campaign(config: CampaignConfig, ctx: StageContext) -> CampaignResult:
     """Run (or resume) every cell, rank, gate; writes campaign_summary.json and campaign_report.md."""
     t0 = time.perf_counter()
     plan = prepare_campaign(config, ctx)
-    cells: list[CellResult | None] = [_load_cell(ctx, plan.cell_key(i), cell_fingerprint(config, plan, i))
-                                      for i in range(len(plan.cells))]
+    cells: list[CellResult | None] = [
+        _load_cell(ctx, plan.cell_key(i), cell_fingerprint(config, plan, i)) for i in range(len(plan.cells))
+    ]
     todo = [i for i, cell in enumerate(cells) if cell is None]
     ctx.progress(0.0, f"{len(cells) - len(todo)} cells resumed, {len(todo)} to run")
     if todo:
@@ -333,21 +425,37 @@ class CampaignPlan:
 
 def prepare_campaign(config: CampaignConfig, ctx: StageContext) -> CampaignPlan:
     """Load the suites and the grid, resolve every cell's planner, check every checkpoint fits every scenario."""
-    sel = dict(bundle=config.bundle, matrix=config.matrix, max_steps=config.max_steps,
-               scenario_overrides=config.scenario_overrides)
+    sel = dict(
+        bundle=config.bundle,
+        matrix=config.matrix,
+        max_steps=config.max_steps,
+        scenario_overrides=config.scenario_overrides,
+    )
     path, matrix, hard = load_selection(EpisodeSelection(**sel, seed_manifest=config.seed_manifest), ctx)
     _, _, glob = load_selection(
-        EpisodeSelection(**sel, scenarios=config.scenarios, seeds_per_scenario=config.seeds_per_scenario), ctx)
+        EpisodeSelection(**sel, scenarios=config.scenarios, seeds_per_scenario=config.seeds_per_scenario), ctx
+    )
     variants = load_variants(config, ctx)
     if config.gate and config.gate.baseline_variant not in {v.name for v in variants}:
-        raise ConfigError(f"baseline variant {config.gate.baseline_variant!r} is not in the grid", item="gate")
-    cells_rp = [(ck, resolve_planner(variant_spec(config.planner, v, None if ck == NO_MODEL else ck), ctx))
-                for ck in _checkpoints(config) for v in variants]
+        raise ConfigError(
+            f"baseline variant {config.gate.baseline_variant!r} is not in the grid", item="gate"
+        )
+    cells_rp = [
+        (ck, resolve_planner(variant_spec(config.planner, v, None if ck == NO_MODEL else ck), ctx))
+        for ck in _checkpoints(config)
+        for v in variants
+    ]
     scenarios = [matrix.get(s) for s in dict.fromkeys(s for s, _ in [*glob, *hard])]
     for rp in {rp.model_id: rp for _, rp in cells_rp}.values():  # every checkpoint fits before any episode
         preflight(rp, scenarios)
-    settings = EpisodeSettings(str(path), config.max_steps, config.metrics, config.taxonomy,
-                               overrides=config.scenario_overrides, trace_root=str(ctx.workdir))
+    settings = EpisodeSettings(
+        str(path),
+        config.max_steps,
+        config.metrics,
+        config.taxonomy,
+        overrides=config.scenario_overrides,
+        trace_root=str(ctx.workdir),
+    )
     return CampaignPlan(path, matrix, hard, glob, cells_rp, settings)
 
 
@@ -355,26 +463,52 @@ def cell_fingerprint(config: CampaignConfig, plan: CampaignPlan, i: int) -> str:
     return _fingerprint(plan.cells[i][1], config, plan.hard, plan.glob)
 
 
-def campaign_result(config: CampaignConfig, ctx: StageContext, plan: CampaignPlan, cells: list[CellResult],
-                    ran: int, t0: float) -> CampaignResult:
+def campaign_result(
+    config: CampaignConfig,
+    ctx: StageContext,
+    plan: CampaignPlan,
+    cells: list[CellResult],
+    ran: int,
+    t0: float,
+) -> CampaignResult:
     """Rank the cells (in grid order), gate, write campaign_summary.json and campaign_report.md."""
     hard, glob = plan.hard, plan.glob
     cells = with_paired_stats(config, ctx, plan, cells)
     ranked = rank(cells)
     gate = _gate(config, ranked[0], cells)
-    ref = next((c for c in cells if config.gate and c.variant == config.gate.baseline_variant
-                and c.checkpoint == ranked[0].checkpoint), cells[0])
+    ref = next(
+        (
+            c
+            for c in cells
+            if config.gate
+            and c.variant == config.gate.baseline_variant
+            and c.checkpoint == ranked[0].checkpoint
+        ),
+        cells[0],
+    )
     diff = config_diff(ranked[0].planner.config, ref.planner.config)
     status = "completed" if gate is None else ("passed" if gate.passed else "failed_gate")
     result = CampaignResult(
-        status=status, exit_code=0 if gate is None or gate.passed else GATE_FAILED_EXIT, best=ranked[0],
-        ranked=ranked, gate=gate, best_vs_reference={k: list(v) for k, v in diff.items()}, cells_run=ran, cells_resumed=len(cells) - ran, matrix=config.matrix,
-        seed_manifest=config.seed_manifest, grid=config.grid or "inline", horizon=str(config.max_steps or "scenario"),
-        hard_episodes=len(hard), global_episodes=len(glob), suites={"hard": hard, "global": glob},
+        status=status,
+        exit_code=0 if gate is None or gate.passed else GATE_FAILED_EXIT,
+        best=ranked[0],
+        ranked=ranked,
+        gate=gate,
+        best_vs_reference={k: list(v) for k, v in diff.items()},
+        cells_run=ran,
+        cells_resumed=len(cells) - ran,
+        matrix=config.matrix,
+        seed_manifest=config.seed_manifest,
+        grid=config.grid or "inline",
+        horizon=str(config.max_steps or "scenario"),
+        hard_episodes=len(hard),
+        global_episodes=len(glob),
+        suites={"hard": hard, "global": glob},
         code_version=code_version(),
         execution=execution(config.executor, ctx.workers),
         artifacts={"summary": "campaign_summary.json", "report": "campaign_report.md", "cells": "cells/"},
-        wall_s=time.perf_counter() - t0, config=config.model_dump(mode="json"),
+        wall_s=time.perf_counter() - t0,
+        config=config.model_dump(mode="json"),
     )
     files.write_text(ctx.artifact("campaign_summary.json"), result.model_dump_json(indent=2))
     files.write_text(ctx.artifact("campaign_report.md"), report(result))
@@ -406,42 +540,61 @@ def report(res: CampaignResult) -> str:
     lines = ["# Planner campaign", ""]
     if res.best:
         b = res.best
-        lines += [f"Best: **{b.variant}** with checkpoint `{b.checkpoint}` (config {b.planner.config_hash[:12]}): "
-                  f"hard success {_pct(b.hard.success.rate)}, global success {_pct(b.global_.success.rate)}.", ""]
+        lines += [
+            f"Best: **{b.variant}** with checkpoint `{b.checkpoint}` (config {b.planner.config_hash[:12]}): "
+            f"hard success {_pct(b.hard.success.rate)}, global success {_pct(b.global_.success.rate)}.",
+            "",
+        ]
         if res.best_vs_reference:
-            lines += ["Best vs reference cell, resolved config keys (best, reference): "
-                      + "; ".join(f"`{k}` {v[0]} vs {v[1]}" for k, v in res.best_vs_reference.items()), ""]
-    lines += [f"Hard suite {res.hard_episodes} episodes ({res.seed_manifest}), global suite {res.global_episodes} "
-              f"episodes ({res.matrix}), horizon {res.horizon}. Cells run {res.cells_run}, resumed {res.cells_resumed}.",
-              "", "| rank | variant | checkpoint | hard success | global success | hard clearance [m] | "
-              "global clearance [m] | global speed [m/s] | global collisions | integrity |",
-              "|---|---|---|---|---|---|---|---|---|---|"]
+            lines += [
+                "Best vs reference cell, resolved config keys (best, reference): "
+                + "; ".join(f"`{k}` {v[0]} vs {v[1]}" for k, v in res.best_vs_reference.items()),
+                "",
+            ]
+    lines += [
+        f"Hard suite {res.hard_episodes} episodes ({res.seed_manifest}), global suite {res.global_episodes} "
+        f"episodes ({res.matrix}), horizon {res.horizon}. Cells run {res.cells_run}, resumed {res.cells_resumed}.",
+        "",
+        "| rank | variant | checkpoint | hard success | global success | hard clearance [m] | "
+        "global clearance [m] | global speed [m/s] | global collisions | integrity |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for i, c in enumerate(res.ranked, start=1):
-        lines.append(f"| {i} | {c.variant} | {c.checkpoint} | {_pct(c.hard.success.rate)} | "
-                     f"{_pct(c.global_.success.rate)} | {_m(c.hard.mean_min_clearance.mean)} | "
-                     f"{_m(c.global_.mean_min_clearance.mean)} | {_m(c.global_.mean_avg_speed.mean)} | "
-                     f"{_pct(c.global_.collision.rate)} | {'ok' if c.integrity.ok else 'VIOLATIONS'} |")
+        lines.append(
+            f"| {i} | {c.variant} | {c.checkpoint} | {_pct(c.hard.success.rate)} | "
+            f"{_pct(c.global_.success.rate)} | {_m(c.hard.mean_min_clearance.mean)} | "
+            f"{_m(c.global_.mean_min_clearance.mean)} | {_m(c.global_.mean_avg_speed.mean)} | "
+            f"{_pct(c.global_.collision.rate)} | {'ok' if c.integrity.ok else 'VIOLATIONS'} |"
+        )
     lines.append("")
     paired = [c for c in res.ranked if c.vs_baseline]
     if paired:
-        lines += [f"Paired against the baseline cell of the same checkpoint (same episodes; McNemar exact for success, "
-                  f"Wilcoxon signed-rank for clearance; * = p < {ALPHA} with at least {MIN_PAIRS} pairs):", "",
-                  "| variant | checkpoint | suite | success delta [95 %] | McNemar p (discordant base/variant) | "
-                  "clearance delta [m] | Wilcoxon p |", "|---|---|---|---|---|---|---|"]
+        lines += [
+            f"Paired against the baseline cell of the same checkpoint (same episodes; McNemar exact for success, "
+            f"Wilcoxon signed-rank for clearance; * = p < {ALPHA} with at least {MIN_PAIRS} pairs):",
+            "",
+            "| variant | checkpoint | suite | success delta [95 %] | McNemar p (discordant base/variant) | "
+            "clearance delta [m] | Wilcoxon p |",
+            "|---|---|---|---|---|---|---|",
+        ]
         for c in paired:
             for suite, d in (c.vs_baseline or {}).items():
                 if d:
-                    lines.append(f"| {c.variant} | {c.checkpoint} | {suite} | {_paired_text(d['success'], 100, ' pp')} | "
-                                 f"{_p_text(d['success'])} | {_paired_text(d['min_clearance'])} | "
-                                 f"{_p_text(d['min_clearance'])} |")
+                    lines.append(
+                        f"| {c.variant} | {c.checkpoint} | {suite} | {_paired_text(d['success'], 100, ' pp')} | "
+                        f"{_p_text(d['success'])} | {_paired_text(d['min_clearance'])} | "
+                        f"{_p_text(d['min_clearance'])} |"
+                    )
         lines.append("")
     if res.gate is None:
         lines.append("No closed-loop gate configured.")
     else:
         g = res.gate
         lines += [f"Closed-loop gate vs `{g.baseline}`: **{'passed' if g.passed else 'FAILED'}**", ""]
-        lines += [f"- {c.name}: {'ok' if c.passed else 'FAIL'} (value {_m(c.value)}, threshold {_m(c.threshold)})"
-                  for c in g.checks]
+        lines += [
+            f"- {c.name}: {'ok' if c.passed else 'FAIL'} (value {_m(c.value)}, threshold {_m(c.threshold)})"
+            for c in g.checks
+        ]
         delta = ", ".join(f"{k} {v:+d}" for k, v in g.hard_taxonomy.delta.items() if v)
         lines.append(f"- hard-suite taxonomy delta vs baseline: {delta or 'none'}")
     return "\n".join(lines) + "\n"

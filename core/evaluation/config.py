@@ -26,8 +26,10 @@ def refuse_shards(data: Any) -> Any:
     """``shards`` (shard child jobs) is gone: episodes spread over machines on Ray. A spec still sending it gets
     this one error, naming what to use instead, rather than an anonymous "extra input"."""
     if isinstance(data, dict) and "shards" in data:
-        raise ValueError("'shards' was removed: to spread episodes over machines use 'executor: ray' "
-                         "(a Ray cluster at FORESIGHT_RAY_ADDRESS, see README 'Scaling out')")
+        raise ValueError(
+            "'shards' was removed: to spread episodes over machines use 'executor: ray' "
+            "(a Ray cluster at FORESIGHT_RAY_ADDRESS, see README 'Scaling out')"
+        )
     return data
 
 
@@ -41,9 +43,13 @@ class EpisodeSelection(_Config):
     bundle: Ident = BUILTIN_BUNDLE
     matrix: BundlePath = "scenarios/classic_interactions.yaml"
     scenarios: list[Name] | None = Field(default=None, max_length=1000)  #: default: every scenario
-    seeds_per_scenario: int | None = Field(default=None, ge=1, le=1000)  #: own seeds, extended by max+1, max+2 ...
+    seeds_per_scenario: int | None = Field(
+        default=None, ge=1, le=1000
+    )  #: own seeds, extended by max+1, max+2 ...
     seed_manifest: BundlePath | None = None  #: only these (scenario, seed) pairs
-    max_steps: int | None = Field(default=None, ge=1, le=MAX_EPISODE_STEPS)  #: horizon override (smoke runs); default: the scenario's
+    max_steps: int | None = Field(
+        default=None, ge=1, le=MAX_EPISODE_STEPS
+    )  #: horizon override (smoke runs); default: the scenario's
     #: deep-merged into every scenario after the matrix's own overrides: run a matrix under other conditions,
     #: e.g. ``{simulation_config: {ped_speed_tier: typical, peds_have_robot_repulsion: false}}``
     scenario_overrides: dict[str, Any] = Field(default_factory=dict)
@@ -75,7 +81,9 @@ class DiagnosticsConfig(EpisodeSelection):
     metrics: MetricsConfig = MetricsConfig()
     taxonomy: TaxonomyConfig = TaxonomyConfig()
     render: bool = True  #: a PNG and an animated GIF replay per seed
-    max_predicted_peds: int = Field(default=4, ge=0, le=200)  #: per-step predicted-vs-actual for the nearest N peds
+    max_predicted_peds: int = Field(
+        default=4, ge=0, le=200
+    )  #: per-step predicted-vs-actual for the nearest N peds
     executor: Executor = "local"
 
 
@@ -92,7 +100,9 @@ def _merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
     """``base`` with ``over``'s keys, nested mappings merged key by key."""
     out = dict(base)
     for key, value in over.items():
-        out[key] = _merge(out[key], value) if isinstance(value, dict) and isinstance(out.get(key), dict) else value
+        out[key] = (
+            _merge(out[key], value) if isinstance(value, dict) and isinstance(out.get(key), dict) else value
+        )
     return out
 
 
@@ -103,9 +113,13 @@ def variant_spec(base: Any, variant: GridVariant, checkpoint: str | None) -> Any
     """
     config = base.config.model_dump(exclude_unset=True) if isinstance(base.config, BaseModel) else base.config
     try:
-        return planner_spec(name=base.name, config=_merge(config or {}, variant.config),
-                            reference_params={**(base.reference_params or {}), **variant.params} or None,
-                            variant=variant.name, model=checkpoint)
+        return planner_spec(
+            name=base.name,
+            config=_merge(config or {}, variant.config),
+            reference_params={**(base.reference_params or {}), **variant.params} or None,
+            variant=variant.name,
+            model=checkpoint,
+        )
     except ConfigError as exc:
         raise ConfigError(exc.detail, source=f"grid variant {variant.name}", item=exc.item) from None
 
@@ -117,13 +131,21 @@ class CampaignConfig(_Config):
     matrix: BundlePath = "scenarios/classic_interactions.yaml"
     seed_manifest: BundlePath  #: the hard suite: an evaluation manifest, never the training one
     grid: BundlePath | None = None  #: planner-grid YAML (``variants: [{name, params}]``)
-    variants: list[GridVariant] | None = Field(default=None, max_length=200)  #: inline grid (instead of ``grid``)
-    checkpoints: list[str] = Field(default_factory=lambda: ["cv"], min_length=1, max_length=50)  #: model ids or "cv"
-    scenarios: list[Name] | None = Field(default=None, max_length=1000)  #: global suite scenarios (default: all)
+    variants: list[GridVariant] | None = Field(
+        default=None, max_length=200
+    )  #: inline grid (instead of ``grid``)
+    checkpoints: list[str] = Field(
+        default_factory=lambda: ["cv"], min_length=1, max_length=50
+    )  #: model ids or "cv"
+    scenarios: list[Name] | None = Field(
+        default=None, max_length=1000
+    )  #: global suite scenarios (default: all)
     planner: PlannerSpec = Field(default_factory=planner_spec)  #: base planner config the variants modify
     seeds_per_scenario: int | None = Field(default=None, ge=1, le=1000)  #: global suite seeds
     max_steps: int | None = Field(default=None, ge=1, le=MAX_EPISODE_STEPS)
-    scenario_overrides: dict[str, Any] = Field(default_factory=dict)  #: both suites' conditions (EpisodeSelection's)
+    scenario_overrides: dict[str, Any] = Field(
+        default_factory=dict
+    )  #: both suites' conditions (EpisodeSelection's)
     gate: ClosedLoopGateConfig | None = None
     metrics: MetricsConfig = MetricsConfig()
     taxonomy: TaxonomyConfig = TaxonomyConfig()

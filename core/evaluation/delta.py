@@ -43,8 +43,10 @@ SUITE_FIELDS = {"success": "success", "collision": "collision", "min_clearance":
 
 #: headline metric -> per-episode value (booleans as 0/1; None = not applicable, the pair is left out)
 EPISODE_VALUES: dict[str, Callable[[EpisodeRecord], float | bool | None]] = {
-    "success": RATES["success"], "collision": RATES["collision"], **{k: MEANS[k] for k in ("min_clearance",
-                                                                                           "min_distance", "avg_speed")}}
+    "success": RATES["success"],
+    "collision": RATES["collision"],
+    **{k: MEANS[k] for k in ("min_clearance", "min_distance", "avg_speed")},
+}
 BINARY = ("success", "collision")
 
 
@@ -107,16 +109,25 @@ def pair_keys(records: Sequence[EpisodeRecord]) -> list[tuple[str, int]]:
     return sorted((r.scenario, r.seed) for r in records)
 
 
-def paired_delta(name: str, a: Sequence[float | bool | None], b: Sequence[float | bool | None], *,
-                 seed: int = 123) -> Delta:
+def paired_delta(
+    name: str, a: Sequence[float | bool | None], b: Sequence[float | bool | None], *, seed: int = 123
+) -> Delta:
     """B - A of one metric over paired episodes (``a[i]`` and ``b[i]`` from the same scenario and seed)."""
     keep = [i for i, (x, y) in enumerate(zip(a, b, strict=True)) if x is not None and y is not None]
     va = np.array([float(a[i]) for i in keep])
     vb = np.array([float(b[i]) for i in keep])
     n = len(keep)
     if n == 0:
-        return Delta(a=Estimate(value=None), b=Estimate(value=None), delta=None, low=None, high=None,
-                     significant=False, method="paired", n_pairs=0)
+        return Delta(
+            a=Estimate(value=None),
+            b=Estimate(value=None),
+            delta=None,
+            low=None,
+            high=None,
+            significant=False,
+            method="paired",
+            n_pairs=0,
+        )
     diff = vb - va
     discordant = None
     if name in BINARY:
@@ -126,9 +137,19 @@ def paired_delta(name: str, a: Sequence[float | bool | None], b: Sequence[float 
     else:
         test, p = "wilcoxon_signed_rank", wilcoxon_p(diff)
         low, high = paired_bootstrap(diff, seed=seed)
-    return Delta(a=Estimate(value=float(va.mean()), n=n), b=Estimate(value=float(vb.mean()), n=n),
-                 delta=float(diff.mean()), low=low, high=high, significant=n >= MIN_PAIRS and p < ALPHA,
-                 method="paired", test=test, n_pairs=n, discordant=discordant, p_value=p)
+    return Delta(
+        a=Estimate(value=float(va.mean()), n=n),
+        b=Estimate(value=float(vb.mean()), n=n),
+        delta=float(diff.mean()),
+        low=low,
+        high=high,
+        significant=n >= MIN_PAIRS and p < ALPHA,
+        method="paired",
+        test=test,
+        n_pairs=n,
+        discordant=discordant,
+        p_value=p,
+    )
 
 
 def paired_deltas(a: Sequence[EpisodeRecord], b: Sequence[EpisodeRecord]) -> dict[str, Delta] | None:
@@ -138,8 +159,10 @@ def paired_deltas(a: Sequence[EpisodeRecord], b: Sequence[EpisodeRecord]) -> dic
         return None
     by_pair = {(r.scenario, r.seed): r for r in b}
     pairs = [(r, by_pair[(r.scenario, r.seed)]) for r in a]
-    return {name: paired_delta(name, [get(x) for x, _ in pairs], [get(y) for _, y in pairs])
-            for name, get in EPISODE_VALUES.items()}
+    return {
+        name: paired_delta(name, [get(x) for x, _ in pairs], [get(y) for _, y in pairs])
+        for name, get in EPISODE_VALUES.items()
+    }
 
 
 class EpisodeChange(BaseModel):
@@ -157,8 +180,11 @@ def changed_episodes(a: Sequence[EpisodeRecord], b: Sequence[EpisodeRecord]) -> 
     if not a or pair_keys(a) != pair_keys(b):
         return None
     by_pair = {(r.scenario, r.seed): r.outcome for r in b}
-    return [EpisodeChange(scenario=r.scenario, seed=r.seed, a=r.outcome, b=by_pair[(r.scenario, r.seed)])
-            for r in sorted(a, key=lambda r: (r.scenario, r.seed)) if r.outcome != by_pair[(r.scenario, r.seed)]]
+    return [
+        EpisodeChange(scenario=r.scenario, seed=r.seed, a=r.outcome, b=by_pair[(r.scenario, r.seed)])
+        for r in sorted(a, key=lambda r: (r.scenario, r.seed))
+        if r.outcome != by_pair[(r.scenario, r.seed)]
+    ]
 
 
 def flatten(value: Any, prefix: str = "") -> dict[str, Any]:
@@ -174,19 +200,27 @@ def flatten(value: Any, prefix: str = "") -> dict[str, Any]:
 def diff_configs(a: Mapping[str, Any], b: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
     """Keys whose values differ between two (nested) configs, as dotted keys."""
     fa, fb = flatten(a), flatten(b)
-    return {k: {"a": fa.get(k), "b": fb.get(k)} for k in sorted(fa.keys() | fb.keys()) if fa.get(k) != fb.get(k)}
+    return {
+        k: {"a": fa.get(k), "b": fb.get(k)} for k in sorted(fa.keys() | fb.keys()) if fa.get(k) != fb.get(k)
+    }
 
 
 #: what a comparison leads with: the run-level choices two results may differ in (``run_setup``)
 SETUP_KEYS = ("planner", "model", "matrix", "episodes", "horizon")
 
 
-def run_setup(planner: str, model: str | None, bundle: str | None, matrix: str | None, episodes: str,
-              horizon: Any) -> dict[str, Any]:
+def run_setup(
+    planner: str, model: str | None, bundle: str | None, matrix: str | None, episodes: str, horizon: Any
+) -> dict[str, Any]:
     """One canonical shape of "what was run" for an evaluation and a campaign cell alike, so that their
     comparison names the real differences (planner, model, matrix, episodes, horizon) first."""
-    return {"planner": planner, "model": model or None, "matrix": f"{bundle}:{matrix}" if bundle else matrix,
-            "episodes": episodes, "horizon": None if horizon in (None, "scenario") else horizon}
+    return {
+        "planner": planner,
+        "model": model or None,
+        "matrix": f"{bundle}:{matrix}" if bundle else matrix,
+        "episodes": episodes,
+        "horizon": None if horizon in (None, "scenario") else horizon,
+    }
 
 
 def what_differs(a: Mapping[str, Any], b: Mapping[str, Any]) -> dict[str, dict[str, Any]]:

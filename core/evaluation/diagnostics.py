@@ -63,7 +63,9 @@ class DiagnosticsResult(BaseModel):
     seeds: list[SeedSummary]
     planner: PlannerProvenance
     code_version: str
-    execution: Execution | None = None  #: which executor ran the episodes, on how many CPUs (None: older results)
+    execution: Execution | None = (
+        None  #: which executor ran the episodes, on how many CPUs (None: older results)
+    )
     artifacts: dict[str, str]
     wall_s: float
     config: dict  #: the stage config as given (with defaults)
@@ -131,7 +133,9 @@ def _predicted_vs_actual(run: EpisodeRun, step: int, diag: dict[str, Any], k: in
         for r in rows:
             ok = slots.size and r <= tr.steps and tr.ped_ids[r, slots[0]] == ids[i]
             actual.append(tr.ped_pos[r, slots[0]].tolist() if ok else None)
-        out.append({"ped_id": int(ids[i]), "times": times.tolist(), "predicted": pos[i].tolist(), "actual": actual})
+        out.append(
+            {"ped_id": int(ids[i]), "times": times.tolist(), "predicted": pos[i].tolist(), "actual": actual}
+        )
     return out
 
 
@@ -141,16 +145,18 @@ def step_trace(run: EpisodeRun, max_peds: int) -> list[dict[str, Any]]:
     for t in range(d.steps):
         diag = run.log.diagnostics[t] if t < len(run.log.diagnostics) else None
         chosen = {k: v for k, v in (diag or {}).items() if k != "predictions"}
-        steps.append({
-            "step": t,
-            "robot": jsonable(run.trace.robot[t]),
-            "command": jsonable(run.trace.command[t]),
-            "min_distance": jsonable(float(d.nearest[t])),
-            "min_clearance": jsonable(float(d.clearance[t])),
-            "plan_ms": jsonable(run.log.plan_ms[t]) if t < len(run.log.plan_ms) else None,
-            "chosen": jsonable(chosen) if diag else None,
-            "predicted_vs_actual": jsonable(_predicted_vs_actual(run, t, diag, max_peds)) if diag else [],
-        })
+        steps.append(
+            {
+                "step": t,
+                "robot": jsonable(run.trace.robot[t]),
+                "command": jsonable(run.trace.command[t]),
+                "min_distance": jsonable(float(d.nearest[t])),
+                "min_clearance": jsonable(float(d.clearance[t])),
+                "plan_ms": jsonable(run.log.plan_ms[t]) if t < len(run.log.plan_ms) else None,
+                "chosen": jsonable(chosen) if diag else None,
+                "predicted_vs_actual": jsonable(_predicted_vs_actual(run, t, diag, max_peds)) if diag else [],
+            }
+        )
     return steps
 
 
@@ -158,10 +164,16 @@ def _render(run: EpisodeRun, scenario: Any, ctx: StageContext, name: str, title:
     from foresight.core.render.trace import render_trace
 
     tr, rec = run.trace, run.record
-    render_trace(tr, scenario.map, ctx.artifact(name), title=title,
-                 collision_step=rec.safety.first_collision_step,
-                 collision_point=rec.collision_point, goal=run.geometry.route[-1],
-                 robot_radius=run.geometry.robot_radius)
+    render_trace(
+        tr,
+        scenario.map,
+        ctx.artifact(name),
+        title=title,
+        collision_step=rec.safety.first_collision_step,
+        collision_point=rec.collision_point,
+        goal=run.geometry.route[-1],
+        robot_radius=run.geometry.robot_radius,
+    )
     return name
 
 
@@ -169,21 +181,38 @@ def _replay(run: EpisodeRun, scenario: Any, ctx: StageContext, name: str, title:
     from foresight.core.render.animation import render_replay
 
     rec = run.record
-    render_replay(run.trace, scenario.map, ctx.artifact(name), predictions=steps, title=title,
-                  collision_step=rec.safety.first_collision_step, collision_point=rec.collision_point,
-                  robot_radius=run.geometry.robot_radius, ped_radius=run.geometry.ped_radius)
+    render_replay(
+        run.trace,
+        scenario.map,
+        ctx.artifact(name),
+        predictions=steps,
+        title=title,
+        collision_step=rec.safety.first_collision_step,
+        collision_point=rec.collision_point,
+        robot_radius=run.geometry.robot_radius,
+        ped_radius=run.geometry.ped_radius,
+    )
     return name
 
 
 def _summary(run: EpisodeRun, trace_name: str, render_name: str | None, replay: str | None) -> SeedSummary:
     r, cmd = run.record, run.trace.command
     return SeedSummary(
-        scenario=r.scenario, seed=r.seed, outcome=r.outcome, steps=r.steps, label=r.taxonomy.label,
-        tags=list(r.taxonomy.tags), first_collision_step=r.safety.first_collision_step,
-        min_distance=r.safety.min_distance, min_clearance=r.safety.min_clearance,
+        scenario=r.scenario,
+        seed=r.seed,
+        outcome=r.outcome,
+        steps=r.steps,
+        label=r.taxonomy.label,
+        tags=list(r.taxonomy.tags),
+        first_collision_step=r.safety.first_collision_step,
+        min_distance=r.safety.min_distance,
+        min_clearance=r.safety.min_clearance,
         mean_command_v=float(cmd[:, 0].mean()) if len(cmd) else None,
         max_command_v=float(cmd[:, 0].max()) if len(cmd) else None,
-        plan_ms_mean=r.timing.plan_ms_mean, prediction_ade=r.prediction.ade, trace=trace_name, render=render_name,
+        plan_ms_mean=r.timing.plan_ms_mean,
+        prediction_ade=r.prediction.ade,
+        trace=trace_name,
+        render=render_name,
         replay=replay,
     )
 
@@ -192,9 +221,17 @@ def _write_seed(run: EpisodeRun, scenario: Any, config: DiagnosticsConfig, ctx: 
     name, seed = run.record.scenario, run.record.seed
     trace_name = f"diagnostics/trace_{name}_{seed}.json"
     steps = step_trace(run, config.max_predicted_peds)
-    files.write_text(ctx.artifact(trace_name), SeedTrace(
-        scenario=name, seed=seed, horizon=run.geometry.horizon, dt=run.trace.dt, record=run.record, steps=steps,
-    ).model_dump_json())
+    files.write_text(
+        ctx.artifact(trace_name),
+        SeedTrace(
+            scenario=name,
+            seed=seed,
+            horizon=run.geometry.horizon,
+            dt=run.trace.dt,
+            record=run.record,
+            steps=steps,
+        ).model_dump_json(),
+    )
     render = replay = None
     if config.render:
         title = f"{name} seed {seed}: {run.record.outcome} ({run.record.taxonomy.label or 'solved'})"
@@ -209,27 +246,40 @@ def run_diagnostics(config: DiagnosticsConfig, ctx: StageContext) -> Diagnostics
     path, matrix, pairs = load_selection(config, ctx)
     rp = resolve_planner(config.planner, ctx)
     preflight(rp, [matrix.get(s) for s in dict.fromkeys(s for s, _ in pairs)])
-    settings = EpisodeSettings(str(path), config.max_steps, config.metrics, config.taxonomy, keep_diagnostics=True,
-                               overrides=config.scenario_overrides)
+    settings = EpisodeSettings(
+        str(path),
+        config.max_steps,
+        config.metrics,
+        config.taxonomy,
+        keep_diagnostics=True,
+        overrides=config.scenario_overrides,
+    )
     jobs = [Job(i, name, seed, rp) for i, (name, seed) in enumerate(pairs)]
 
     def progress(done: int, total: int, rec: EpisodeRecord) -> None:
         ctx.progress(0.9 * done / total, f"{rec.scenario} seed {rec.seed}: {rec.outcome}")
 
     # the same runner as evaluations (worker processes for learned models), so a seed behaves identically
-    runs: list[EpisodeRun] = run_jobs(jobs, settings, ctx, matrix=matrix, on_record=progress,
-                                      executor=config.executor)
+    runs: list[EpisodeRun] = run_jobs(
+        jobs, settings, ctx, matrix=matrix, on_record=progress, executor=config.executor
+    )
     seeds = [_write_seed(run, matrix.get(run.record.scenario), config, ctx) for run in runs]
     ctx.progress(1.0, "done")
     outcomes: dict[str, int] = {}
     for s in seeds:
         outcomes[s.outcome] = outcomes.get(s.outcome, 0) + 1
     result = DiagnosticsResult(
-        episodes=len(seeds), solved=outcomes.get("success", 0), outcomes=outcomes,
-        taxonomy=count_labels([s.label for s in seeds]), taxonomy_config=config.taxonomy, seeds=seeds,
-        planner=planner_provenance(rp), code_version=code_version(),
+        episodes=len(seeds),
+        solved=outcomes.get("success", 0),
+        outcomes=outcomes,
+        taxonomy=count_labels([s.label for s in seeds]),
+        taxonomy_config=config.taxonomy,
+        seeds=seeds,
+        planner=planner_provenance(rp),
+        code_version=code_version(),
         execution=execution(config.executor, ctx.workers),
-        artifacts={"summary": "diagnostics.json", "report": "diagnostics_report.md"}, wall_s=time.perf_counter() - t0,
+        artifacts={"summary": "diagnostics.json", "report": "diagnostics_report.md"},
+        wall_s=time.perf_counter() - t0,
         config=config.model_dump(mode="json"),
     )
     files.write_text(ctx.artifact("diagnostics.json"), json.dumps(result.model_dump(mode="json"), indent=2))
@@ -239,16 +289,22 @@ def run_diagnostics(config: DiagnosticsConfig, ctx: StageContext) -> Diagnostics
 
 def report(res: DiagnosticsResult) -> str:
     lines = [
-        "# Hard-seed diagnostics", "",
+        "# Hard-seed diagnostics",
+        "",
         f"Planner `{res.planner.variant or res.planner.name}` (config {res.planner.config_hash[:12]}, "
-        f"model {res.planner.model_id}), code {res.code_version}.", "",
+        f"model {res.planner.model_id}), code {res.code_version}.",
+        "",
         f"Solved {res.solved}/{res.episodes}. Outcomes: "
-        + ", ".join(f"{k} {v}" for k, v in sorted(res.outcomes.items())) + ".", "",
+        + ", ".join(f"{k} {v}" for k, v in sorted(res.outcomes.items()))
+        + ".",
+        "",
         "| scenario | seed | outcome | label | tags | steps | first collision | min clearance [m] |",
         "|---|---|---|---|---|---|---|---|",
     ]
     for s in res.seeds:
         clr = f"{s.min_clearance:.2f}" if s.min_clearance is not None else "-"
-        lines.append(f"| {s.scenario} | {s.seed} | {s.outcome} | {s.label or '-'} | {', '.join(s.tags) or '-'} | "
-                     f"{s.steps} | {s.first_collision_step if s.first_collision_step is not None else '-'} | {clr} |")
+        lines.append(
+            f"| {s.scenario} | {s.seed} | {s.outcome} | {s.label or '-'} | {', '.join(s.tags) or '-'} | "
+            f"{s.steps} | {s.first_collision_step if s.first_collision_step is not None else '-'} | {clr} |"
+        )
     return "\n".join(lines) + "\n"

@@ -39,7 +39,9 @@ class StepLog:
 
     plan_ms: list[float] = field(default_factory=list)
     diagnostics: list[dict[str, Any] | None] = field(default_factory=list)  #: only when keep_diagnostics
-    predictions: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)  #: (step, ids, pos, times)
+    predictions: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = field(
+        default_factory=list
+    )  #: (step, ids, pos, times)
     sources: set[str] = field(default_factory=set)  #: forecast sources seen
     #: per logged prediction: its (N, T) per-axis std [m] when the planner reported one (episode player), else None
     spreads: list[np.ndarray | None] = field(default_factory=list)
@@ -93,13 +95,18 @@ class RecordingPlanner:
         if "forecast_source" in diag:
             self.log.sources.add(str(diag["forecast_source"]))
         pred = diag.get("predictions")
-        if pred is not None and step % PREDICTION_STRIDE == 0:  # the same sample in evaluations and diagnostics
-            self.log.predictions.append((step, np.asarray(pred["ped_ids"]), np.asarray(pred["positions"]),
-                                         np.asarray(pred["times"])))
+        if (
+            pred is not None and step % PREDICTION_STRIDE == 0
+        ):  # the same sample in evaluations and diagnostics
+            self.log.predictions.append(
+                (step, np.asarray(pred["ped_ids"]), np.asarray(pred["positions"]), np.asarray(pred["times"]))
+            )
             self.log.spreads.append(np.asarray(pred["sigma"]) if pred.get("sigma") is not None else None)
 
 
-def prediction_quality(trace: Any, predictions: list, dt: float) -> tuple[PredictionQuality, dict[int, float]]:
+def prediction_quality(
+    trace: Any, predictions: list, dt: float
+) -> tuple[PredictionQuality, dict[int, float]]:
     """ADE/FDE of the logged forecasts against the trace's true positions, and mean error per ped id."""
     T = trace.steps
     ids_all, pos_all = trace.ped_ids, trace.ped_pos
@@ -128,16 +135,25 @@ def prediction_quality(trace: Any, predictions: list, dt: float) -> tuple[Predic
                 per_ped.setdefault(int(pid), []).append(float(row_e[row_v].mean()))
     flat = np.concatenate(errs) if errs else np.zeros(0)
     fin = np.concatenate(finals) if finals else np.zeros(0)
-    quality = PredictionQuality(ade=float(flat.mean()) if flat.size else None,
-                                fde=float(fin.mean()) if fin.size else None, samples=int(flat.size))
+    quality = PredictionQuality(
+        ade=float(flat.mean()) if flat.size else None,
+        fde=float(fin.mean()) if fin.size else None,
+        samples=int(flat.size),
+    )
     return quality, {k: float(np.mean(v)) for k, v in per_ped.items()}
 
 
 def geometry_of(scenario: ResolvedScenario, sim: Any) -> EpisodeGeometry:
     """Radii, horizon and route of the episode just run (the simulator sampled the route)."""
-    return EpisodeGeometry(robot_radius=float(sim.limits.radius), ped_radius=float(sim.ped_radius),
-                           horizon=int(sim.horizon), route=np.asarray(sim.route.waypoints, dtype=float),
-                           goal_tolerance=float(sim.route.tolerance), limits=sim.limits, static=sim.static)
+    return EpisodeGeometry(
+        robot_radius=float(sim.limits.radius),
+        ped_radius=float(sim.ped_radius),
+        horizon=int(sim.horizon),
+        route=np.asarray(sim.route.waypoints, dtype=float),
+        goal_tolerance=float(sim.route.tolerance),
+        limits=sim.limits,
+        static=sim.static,
+    )
 
 
 def fallback_of(rp: ResolvedPlanner, sources: set[str]) -> str | None:
@@ -155,10 +171,19 @@ class EpisodeRun:
     geometry: EpisodeGeometry
 
 
-def record_of(scenario: ResolvedScenario, seed: int, sim: Any, rp: ResolvedPlanner, *, outcome: str,
-              error: str | None = None, log: StepLog | None = None, wall_s: float | None = None,
-              metrics_cfg: MetricsConfig | None = None,
-              taxonomy_cfg: TaxonomyConfig | None = None) -> tuple[EpisodeRecord, EpisodeGeometry]:
+def record_of(
+    scenario: ResolvedScenario,
+    seed: int,
+    sim: Any,
+    rp: ResolvedPlanner,
+    *,
+    outcome: str,
+    error: str | None = None,
+    log: StepLog | None = None,
+    wall_s: float | None = None,
+    metrics_cfg: MetricsConfig | None = None,
+    taxonomy_cfg: TaxonomyConfig | None = None,
+) -> tuple[EpisodeRecord, EpisodeGeometry]:
     """The record (metrics, taxonomy, provenance) of the episode ``sim`` just ran, and its geometry."""
     log = log or StepLog()
     trace = sim.trace
@@ -166,25 +191,53 @@ def record_of(scenario: ResolvedScenario, seed: int, sim: Any, rp: ResolvedPlann
     quality, per_ped = prediction_quality(trace, log.predictions, trace.dt)
     sc = scenario.scenario
     prov = Provenance(
-        scenario=sc.name, archetype=sc.archetype, density=sc.density_label, seed=int(seed), planner=rp.name,
-        variant=rp.variant, planner_config_hash=rp.config_hash, model_id=rp.model_id,
-        checkpoint_sha256=rp.checkpoint_sha256, code_version=code_version(), dt=float(trace.dt),
-        horizon=geom.horizon, map_sha256=scenario.map_sha256, fallback=fallback_of(rp, log.sources),
+        scenario=sc.name,
+        archetype=sc.archetype,
+        density=sc.density_label,
+        seed=int(seed),
+        planner=rp.name,
+        variant=rp.variant,
+        planner_config_hash=rp.config_hash,
+        model_id=rp.model_id,
+        checkpoint_sha256=rp.checkpoint_sha256,
+        code_version=code_version(),
+        dt=float(trace.dt),
+        horizon=geom.horizon,
+        map_sha256=scenario.map_sha256,
+        fallback=fallback_of(rp, log.sources),
     )
     kind = trace.collision_kind or None
     record = build_record(
-        trace, geom, outcome=outcome, provenance=prov, collision_kind=kind,
+        trace,
+        geom,
+        outcome=outcome,
+        provenance=prov,
+        collision_kind=kind,
         collision_step=trace.collision_step if trace.collision_step >= 0 else None,
-        collision_point=trace.collision_point if kind else None, error=error, plan_ms=log.plan_ms,
-        wall_s=wall_s, prediction=quality, prediction_error=per_ped, metrics_cfg=metrics_cfg,
+        collision_point=trace.collision_point if kind else None,
+        error=error,
+        plan_ms=log.plan_ms,
+        wall_s=wall_s,
+        prediction=quality,
+        prediction_error=per_ped,
+        metrics_cfg=metrics_cfg,
         taxonomy_cfg=taxonomy_cfg,
     )
     return record, geom
 
 
-def run_one(scenario: ResolvedScenario, seed: int, rp: ResolvedPlanner, *, max_steps: int | None = None,
-            metrics_cfg: MetricsConfig | None = None, taxonomy_cfg: TaxonomyConfig | None = None,
-            keep_diagnostics: bool = False, simulator: Any = None, check: Callable[[], None] | None = None) -> EpisodeRun:
+def run_one(
+    scenario: ResolvedScenario,
+    seed: int,
+    rp: ResolvedPlanner,
+    *,
+    max_steps: int | None = None,
+    metrics_cfg: MetricsConfig | None = None,
+    taxonomy_cfg: TaxonomyConfig | None = None,
+    keep_diagnostics: bool = False,
+    simulator: Any = None,
+    check: Callable[[], None] | None = None,
+) -> EpisodeRun:
     """Run and record one (scenario, seed, planner) episode; ``check`` as in :func:`run_episode`."""
     from foresight.core.sim.episode import run_episode
     from foresight.core.sim.simulator import Simulator
@@ -199,12 +252,27 @@ def run_one(scenario: ResolvedScenario, seed: int, rp: ResolvedPlanner, *, max_s
     except PlannerFailure as exc:
         outcome, error = "error", str(exc)
     planner.finish(outcome)
-    record, geom = record_of(scenario, seed, sim, rp, outcome=outcome, error=error, log=planner.log,
-                             wall_s=time.perf_counter() - t0, metrics_cfg=metrics_cfg, taxonomy_cfg=taxonomy_cfg)
-    if outcome in ("timeout", "collision_pedestrian") and (taxonomy_cfg or TaxonomyConfig()).check_reachability:
+    record, geom = record_of(
+        scenario,
+        seed,
+        sim,
+        rp,
+        outcome=outcome,
+        error=error,
+        log=planner.log,
+        wall_s=time.perf_counter() - t0,
+        metrics_cfg=metrics_cfg,
+        taxonomy_cfg=taxonomy_cfg,
+    )
+    if (
+        outcome in ("timeout", "collision_pedestrian")
+        and (taxonomy_cfg or TaxonomyConfig()).check_reachability
+    ):
         reachable = reachability_checked(scenario, seed, max_steps)
         if reachable is not None:
-            record = record.model_copy(update={"taxonomy": record.taxonomy.model_copy(update={"reachable": reachable})})
+            record = record.model_copy(
+                update={"taxonomy": record.taxonomy.model_copy(update={"reachable": reachable})}
+            )
     return EpisodeRun(record=record, trace=sim.trace, log=planner.log, geometry=geom)
 
 

@@ -61,8 +61,12 @@ def compact_trace(run: Any, map_def: Any) -> dict[str, Any]:
     peds = []
     for t in rows:
         present = ids[t] >= 0
-        peds.append([[int(i), *p] for i, p in zip(ids[t][present].tolist(), _r(pos[t][present]), strict=True)])
-    forecasts = list(zip(run.log.predictions, run.log.spreads or [None] * len(run.log.predictions), strict=True))
+        peds.append(
+            [[int(i), *p] for i, p in zip(ids[t][present].tolist(), _r(pos[t][present]), strict=True)]
+        )
+    forecasts = list(
+        zip(run.log.predictions, run.log.spreads or [None] * len(run.log.predictions), strict=True)
+    )
     if len(forecasts) > MAX_FORECASTS:
         keep = np.linspace(0, len(forecasts) - 1, MAX_FORECASTS).round().astype(int)
         forecasts = [forecasts[i] for i in keep]

@@ -54,9 +54,21 @@ def command_sequences(limits: RobotLimits, n_window: int, n_total: int) -> np.nd
     return cmds[combos[:, part]]
 
 
-def escape_exists(robot: np.ndarray, ped_ids: np.ndarray, ped_pos: np.ndarray, ped_vel: np.ndarray, *,
-                  start: int, contact: int, dt: float, limits: RobotLimits, robot_radius: float,
-                  ped_radius: float, extension_steps: int, static: StaticGeometry | None = None) -> bool:
+def escape_exists(
+    robot: np.ndarray,
+    ped_ids: np.ndarray,
+    ped_pos: np.ndarray,
+    ped_vel: np.ndarray,
+    *,
+    start: int,
+    contact: int,
+    dt: float,
+    limits: RobotLimits,
+    robot_radius: float,
+    ped_radius: float,
+    extension_steps: int,
+    static: StaticGeometry | None = None,
+) -> bool:
     """Whether a sampled admissible motion from state ``start`` keeps clear of every pedestrian (and of the
     map, when ``static`` is given) up to ``contact + extension_steps`` (see the module docstring).
     Arrays are the trace's (T+1, ...); the radii are the episode's (``limits`` gives the dynamics)."""

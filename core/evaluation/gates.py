@@ -48,17 +48,32 @@ class EvaluationGateConfig(BaseModel):
     min_mean_clearance: float = Field(default=0.25)  #: mean over episodes of the minimum surface gap [m]
 
 
-def evaluation_gate(summary: SuiteSummary, integrity: IntegrityReport, cfg: EvaluationGateConfig) -> GateResult:
+def evaluation_gate(
+    summary: SuiteSummary, integrity: IntegrityReport, cfg: EvaluationGateConfig
+) -> GateResult:
     success = summary.success.rate
     clearance = summary.mean_min_clearance.mean
     checks = [
-        GateCheck(name="success_rate", passed=success is not None and success >= cfg.min_success_rate,
-                  value=success, threshold=cfg.min_success_rate),
-        GateCheck(name="mean_min_clearance", passed=clearance is not None and clearance >= cfg.min_mean_clearance,
-                  value=clearance, threshold=cfg.min_mean_clearance,
-                  detail="" if clearance is not None else "no episode had pedestrians: clearance unavailable"),
-        GateCheck(name="integrity", passed=integrity.ok, value=float(len(integrity.violations)), threshold=0.0,
-                  detail="; ".join(f"{v.check} {v.scenario}#{v.seed}" for v in integrity.violations[:10])),
+        GateCheck(
+            name="success_rate",
+            passed=success is not None and success >= cfg.min_success_rate,
+            value=success,
+            threshold=cfg.min_success_rate,
+        ),
+        GateCheck(
+            name="mean_min_clearance",
+            passed=clearance is not None and clearance >= cfg.min_mean_clearance,
+            value=clearance,
+            threshold=cfg.min_mean_clearance,
+            detail="" if clearance is not None else "no episode had pedestrians: clearance unavailable",
+        ),
+        GateCheck(
+            name="integrity",
+            passed=integrity.ok,
+            value=float(len(integrity.violations)),
+            threshold=0.0,
+            detail="; ".join(f"{v.check} {v.scenario}#{v.seed}" for v in integrity.violations[:10]),
+        ),
     ]
     return _result(checks)
 
@@ -71,7 +86,9 @@ class ClosedLoopGateConfig(BaseModel):
     baseline_variant: str = Field(min_length=1)
     min_global_success_delta: float = 0.0  #: no drop in global success
     min_hard_success_delta: float = 0.0  #: no drop in hard-suite success
-    max_clearance_regression: float = Field(default=0.1, ge=0)  #: allowed drop of global mean min clearance [m]
+    max_clearance_regression: float = Field(
+        default=0.1, ge=0
+    )  #: allowed drop of global mean min clearance [m]
     fail_on_new_failure_labels: bool = False  #: a hard-suite failure mechanism the baseline never showed
     #: also require a significant paired success gain on this suite (McNemar, same episodes, >= MIN_PAIRS pairs)
     require_significant_gain: Literal["hard", "global"] | None = None
@@ -87,7 +104,8 @@ class TaxonomyComparison(BaseModel):
 def compare_taxonomy(candidate: dict[str, int], baseline: dict[str, int]) -> TaxonomyComparison:
     labels = list(dict.fromkeys([*baseline, *candidate]))
     return TaxonomyComparison(
-        candidate=candidate, baseline=baseline,
+        candidate=candidate,
+        baseline=baseline,
         delta={k: candidate.get(k, 0) - baseline.get(k, 0) for k in labels},
         new_labels=[k for k in labels if candidate.get(k, 0) > 0 and baseline.get(k, 0) == 0],
     )
@@ -97,7 +115,9 @@ class ClosedLoopGateResult(GateResult):
     candidate: str
     baseline: str
     hard_taxonomy: TaxonomyComparison
-    paired: dict[str, dict[str, Delta] | None] | None = None  #: suite -> metric -> paired delta (candidate - baseline)
+    paired: dict[str, dict[str, Delta] | None] | None = (
+        None  #: suite -> metric -> paired delta (candidate - baseline)
+    )
 
 
 def _paired_detail(paired: dict[str, dict[str, Delta] | None] | None, suite: str, metric: str) -> str:
@@ -125,24 +145,54 @@ def closed_loop_gate(
     dc = None if cc is None or bc is None else cc - bc
     tax = compare_taxonomy(chard.taxonomy, bhard.taxonomy)
     checks = [
-        GateCheck(name="global_success_delta", passed=dg >= cfg.min_global_success_delta - 1e-12, value=dg,
-                  threshold=cfg.min_global_success_delta, detail=_paired_detail(paired, "global", "success")),
-        GateCheck(name="hard_success_delta", passed=dh >= cfg.min_hard_success_delta - 1e-12, value=dh,
-                  threshold=cfg.min_hard_success_delta, detail=_paired_detail(paired, "hard", "success")),
-        GateCheck(name="global_clearance_regression", passed=dc is None or -dc <= cfg.max_clearance_regression,
-                  value=None if dc is None else -dc, threshold=cfg.max_clearance_regression,
-                  detail="" if dc is not None else "clearance unavailable"),
-        GateCheck(name="hard_new_failure_labels", passed=not (cfg.fail_on_new_failure_labels and tax.new_labels),
-                  value=float(len(tax.new_labels)), threshold=0.0, detail=", ".join(tax.new_labels)),
+        GateCheck(
+            name="global_success_delta",
+            passed=dg >= cfg.min_global_success_delta - 1e-12,
+            value=dg,
+            threshold=cfg.min_global_success_delta,
+            detail=_paired_detail(paired, "global", "success"),
+        ),
+        GateCheck(
+            name="hard_success_delta",
+            passed=dh >= cfg.min_hard_success_delta - 1e-12,
+            value=dh,
+            threshold=cfg.min_hard_success_delta,
+            detail=_paired_detail(paired, "hard", "success"),
+        ),
+        GateCheck(
+            name="global_clearance_regression",
+            passed=dc is None or -dc <= cfg.max_clearance_regression,
+            value=None if dc is None else -dc,
+            threshold=cfg.max_clearance_regression,
+            detail="" if dc is not None else "clearance unavailable",
+        ),
+        GateCheck(
+            name="hard_new_failure_labels",
+            passed=not (cfg.fail_on_new_failure_labels and tax.new_labels),
+            value=float(len(tax.new_labels)),
+            threshold=0.0,
+            detail=", ".join(tax.new_labels),
+        ),
     ]
     if cfg.require_significant_gain is not None:
         gain = ((paired or {}).get(cfg.require_significant_gain) or {}).get("success")
-        checks.append(GateCheck(
-            name=f"{cfg.require_significant_gain}_significant_success_gain",
-            passed=gain is not None and gain.significant and (gain.delta or 0.0) > 0,
-            value=None if gain is None else gain.p_value, threshold=ALPHA,
-            detail="no paired episodes (the candidate is the baseline, or other episodes)" if gain is None
-            else _paired_detail(paired, cfg.require_significant_gain, "success")))
+        checks.append(
+            GateCheck(
+                name=f"{cfg.require_significant_gain}_significant_success_gain",
+                passed=gain is not None and gain.significant and (gain.delta or 0.0) > 0,
+                value=None if gain is None else gain.p_value,
+                threshold=ALPHA,
+                detail="no paired episodes (the candidate is the baseline, or other episodes)"
+                if gain is None
+                else _paired_detail(paired, cfg.require_significant_gain, "success"),
+            )
+        )
     base = _result(checks)
-    return ClosedLoopGateResult(passed=base.passed, checks=base.checks, candidate=cname, baseline=bname,
-                                hard_taxonomy=tax, paired=paired)
+    return ClosedLoopGateResult(
+        passed=base.passed,
+        checks=base.checks,
+        candidate=cname,
+        baseline=bname,
+        hard_taxonomy=tax,
+        paired=paired,
+    )

@@ -30,8 +30,14 @@ class IntegrityReport(BaseModel):
     violations: list[Violation] = Field(default_factory=list)
 
 
-CHECKS = ["success_with_collision", "missing_provenance", "silent_fallback", "label_mismatch", "duplicate",
-          "missing_episode"]
+CHECKS = [
+    "success_with_collision",
+    "missing_provenance",
+    "silent_fallback",
+    "label_mismatch",
+    "duplicate",
+    "missing_episode",
+]
 
 
 def _record_violations(r: EpisodeRecord) -> Iterable[Violation]:
@@ -42,11 +48,16 @@ def _record_violations(r: EpisodeRecord) -> Iterable[Violation]:
         if r.collision_kind is not None or r.safety.first_collision_step is not None:
             yield v("success_with_collision", f"success with a {r.collision_kind or 'recorded'} collision")
         if r.safety.min_clearance is not None and r.safety.min_clearance < -OVERLAP_TOL:
-            yield v("success_with_collision", f"success, but the trace overlaps a pedestrian "
-                                              f"(clearance {r.safety.min_clearance:.3f} m)")
+            yield v(
+                "success_with_collision",
+                f"success, but the trace overlaps a pedestrian (clearance {r.safety.min_clearance:.3f} m)",
+            )
     p = r.provenance
-    missing = [name for name in ("scenario", "planner_config_hash", "model_id", "checkpoint_sha256", "code_version")
-               if not getattr(p, name)]
+    missing = [
+        name
+        for name in ("scenario", "planner_config_hash", "model_id", "checkpoint_sha256", "code_version")
+        if not getattr(p, name)
+    ]
     if not p.dt or p.dt <= 0:
         missing.append("dt")
     if missing:
@@ -57,17 +68,27 @@ def _record_violations(r: EpisodeRecord) -> Iterable[Violation]:
         yield v("label_mismatch", f"outcome {r.outcome} with taxonomy label {r.taxonomy.label}")
 
 
-def check_integrity(records: list[EpisodeRecord], expected: Iterable[tuple[str, int]] | None = None) -> IntegrityReport:
+def check_integrity(
+    records: list[EpisodeRecord], expected: Iterable[tuple[str, int]] | None = None
+) -> IntegrityReport:
     """Run every check; ``expected`` lists the (scenario, seed) episodes that were requested."""
     violations = [v for r in records for v in _record_violations(r)]
     keys = Counter((r.scenario, r.seed, r.planner, r.variant, r.provenance.model_id) for r in records)
     for (scenario, seed, *_), n in keys.items():
         if n > 1:
-            violations.append(Violation(check="duplicate", scenario=scenario, seed=seed, message=f"{n} records"))
+            violations.append(
+                Violation(check="duplicate", scenario=scenario, seed=seed, message=f"{n} records")
+            )
     if expected is not None:
         have = {(r.scenario, r.seed) for r in records}
         for scenario, seed in expected:
             if (scenario, seed) not in have:
-                violations.append(Violation(check="missing_episode", scenario=scenario, seed=seed,
-                                            message="requested episode has no record"))
+                violations.append(
+                    Violation(
+                        check="missing_episode",
+                        scenario=scenario,
+                        seed=seed,
+                        message="requested episode has no record",
+                    )
+                )
     return IntegrityReport(ok=not violations, checks=list(CHECKS), violations=violations)

@@ -35,11 +35,15 @@ class MetricsConfig(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     near_miss_clearance: float = Field(default=0.5, gt=0)  #: near miss: clearance in [0, this) [m]
-    intimate_clearance: float = Field(default=0.45, gt=0)  #: intimate-space intrusion below this clearance [m]
+    intimate_clearance: float = Field(
+        default=0.45, gt=0
+    )  #: intimate-space intrusion below this clearance [m]
     personal_clearance: float = Field(default=1.2, gt=0)  #: personal-space intrusion below this clearance [m]
     stalled_speed: float = Field(default=0.05, ge=0)  #: "nearly stopped" below this speed [m/s]
     progress_window_s: float = Field(default=1.5, gt=0)  #: failure-to-progress window [s]
-    progress_min: float = Field(default=0.05, ge=0)  #: route progress at most this over the window = no progress [m]
+    progress_min: float = Field(
+        default=0.05, ge=0
+    )  #: route progress at most this over the window = no progress [m]
 
 
 @dataclass(frozen=True)
@@ -174,11 +178,21 @@ def derive(trace: TraceLike, geom: EpisodeGeometry) -> Derived:
     ttc = np.where(valid, time_to_collision(rel, ped_vel - vel[:, None, :], radius), np.inf)
     nearest = dist.min(axis=1) if dist.shape[1] else np.full(T + 1, np.inf)
     return Derived(
-        steps=T, dt=float(trace.dt), robot=robot, pos=pos, speed=np.abs(v), omega=robot[:, 4], vel=vel, dist=dist,
-        nearest=nearest, clearance=nearest - radius,
+        steps=T,
+        dt=float(trace.dt),
+        robot=robot,
+        pos=pos,
+        speed=np.abs(v),
+        omega=robot[:, 4],
+        vel=vel,
+        dist=dist,
+        nearest=nearest,
+        clearance=nearest - radius,
         ttc=ttc.min(axis=1) if ttc.shape[1] else np.full(T + 1, np.inf),
         progress=route_progress(pos, _full_route(pos[0], geom.route)),
-        ped_ids=ids, ped_pos=ped_pos, ped_vel=ped_vel,
+        ped_ids=ids,
+        ped_pos=ped_pos,
+        ped_vel=ped_vel,
     )
 
 
@@ -250,8 +264,10 @@ def smoothness(d: Derived, omega_min_abs: float = 0.2) -> Smoothness:
         return float(f(x)) if x.size else 0.0
 
     return Smoothness(
-        accel_mean=stat(acc, np.mean), accel_max=stat(acc, np.max),
-        jerk_mean=stat(jerk, np.mean), jerk_max=stat(jerk, np.max),
+        accel_mean=stat(acc, np.mean),
+        accel_max=stat(acc, np.max),
+        jerk_mean=stat(jerk, np.mean),
+        jerk_max=stat(jerk, np.max),
         omega_change_mean=stat(dw, np.mean),
         omega_sign_changes=int(sign_change_steps(d.omega, omega_min_abs).size),
     )

@@ -45,7 +45,9 @@ class PlannerSpecBase(BaseModel):
 
     name: str = "predictive"
     config: Any = None  #: the planner's config model (our keys); defaults fill the rest
-    reference_params: dict[str, Any] | None = None  #: reference planner-grid keys (predictive only), mapped by the planner
+    reference_params: dict[str, Any] | None = (
+        None  #: reference planner-grid keys (predictive only), mapped by the planner
+    )
     variant: str | None = None  #: a label (campaign grid variant name)
     model: str | None = None  #: predictive only: a model id or "cv"; None = the registry's default model
 
@@ -69,7 +71,11 @@ class ModulePlannerSpec(PlannerSpecBase):
 
 def _tagger(typed: set[str]) -> Any:
     def tag(value: Any) -> str:
-        name = value.get("name", "predictive") if isinstance(value, dict) else getattr(value, "name", "predictive")
+        name = (
+            value.get("name", "predictive")
+            if isinstance(value, dict)
+            else getattr(value, "name", "predictive")
+        )
         return name if isinstance(name, str) and name in typed else OTHER
 
     return tag
@@ -77,9 +83,13 @@ def _tagger(typed: set[str]) -> Any:
 
 def _member(name: str, config_model: type[BaseModel]) -> type[PlannerSpecBase]:
     title = "".join(p.title() for p in re.split(r"[^A-Za-z0-9]+", name))
-    return create_model(f"{title}PlannerSpec", __base__=PlannerSpecBase, __doc__=f"Planner {name!r} and its config.",
-                        name=(Literal[name], name if name == "predictive" else ...),  # only it is the default
-                        config=(config_model, Field(default_factory=config_model)))
+    return create_model(
+        f"{title}PlannerSpec",
+        __base__=PlannerSpecBase,
+        __doc__=f"Planner {name!r} and its config.",
+        name=(Literal[name], name if name == "predictive" else ...),  # only it is the default
+        config=(config_model, Field(default_factory=config_model)),
+    )
 
 
 def _planner_spec_type() -> Any:
@@ -147,7 +157,9 @@ def sha256_file(path: Path) -> str:
     return h.hexdigest()
 
 
-_MODELS: dict[tuple[str, str, str | None], Any] = {}  #: (path, sha256 of the bytes loaded, id) -> predictor, per process
+_MODELS: dict[
+    tuple[str, str, str | None], Any
+] = {}  #: (path, sha256 of the bytes loaded, id) -> predictor, per process
 
 
 def load_model(path: str, sha256: str | None = None, name: str | None = None) -> Any:
@@ -207,14 +219,25 @@ def resolve_planner(spec: PlannerSpecBase | dict[str, Any], ctx: StageContext) -
     cfg = found.validate(spec.config)
     if spec.reference_params:
         if spec.name != "predictive":
-            raise ConfigError("reference planner-grid params apply to the predictive planner only",
-                              item="planner.reference_params")
-        cfg = type(cfg).from_reference_grid(spec.reference_params, base=cfg,
-                                            source=f"planner grid variant {spec.variant or '?'}")
+            raise ConfigError(
+                "reference planner-grid params apply to the predictive planner only",
+                item="planner.reference_params",
+            )
+        cfg = type(cfg).from_reference_grid(
+            spec.reference_params, base=cfg, source=f"planner grid variant {spec.variant or '?'}"
+        )
     resolved = cfg.model_dump(mode="json")
     model_id, sha, path = _model(spec, found.takes_model, ctx)
-    return ResolvedPlanner(name=spec.name, variant=spec.variant, config=resolved, config_hash=config_hash(resolved),
-                           model_id=model_id, checkpoint_sha256=sha, model_path=path, origin=found.origin)
+    return ResolvedPlanner(
+        name=spec.name,
+        variant=spec.variant,
+        config=resolved,
+        config_hash=config_hash(resolved),
+        model_id=model_id,
+        checkpoint_sha256=sha,
+        model_path=path,
+        origin=found.origin,
+    )
 
 
 def preflight(rp: ResolvedPlanner, scenarios: list[ResolvedScenario]) -> None:
@@ -225,8 +248,15 @@ def preflight(rp: ResolvedPlanner, scenarios: list[ResolvedScenario]) -> None:
         if cfg.dt in seen:
             continue
         seen.add(cfg.dt)
-        build_planner(rp).reset(EpisodeInfo(scenario=sc, seed=0, dt=cfg.dt, robot_radius=sc.scenario.robot_config.radius,
-                                            ped_radius=cfg.ped_radius))
+        build_planner(rp).reset(
+            EpisodeInfo(
+                scenario=sc,
+                seed=0,
+                dt=cfg.dt,
+                robot_radius=sc.scenario.robot_config.radius,
+                ped_radius=cfg.ped_radius,
+            )
+        )
 
 
 def config_diff(a: dict[str, Any], b: dict[str, Any], prefix: str = "") -> dict[str, tuple[Any, Any]]:

@@ -44,8 +44,12 @@ from foresight.core.errors import CoreError
 RAY_ADDRESS_ENV = "FORESIGHT_RAY_ADDRESS"
 MAX_RETRIES = 3  #: attempts after a lost node or worker process
 POLL_S = 0.25  #: [s] how often the driver checks for cancellation while episodes run
-WINDOW_PER_CPU = 4  #: tasks in flight per cluster CPU: enough to keep every CPU busy, few enough to stay small
-CHUNKS_PER_CPU = 16  #: a run is cut into chunks of several episodes only when it has more tasks than this per CPU
+WINDOW_PER_CPU = (
+    4  #: tasks in flight per cluster CPU: enough to keep every CPU busy, few enough to stay small
+)
+CHUNKS_PER_CPU = (
+    16  #: a run is cut into chunks of several episodes only when it has more tasks than this per CPU
+)
 MAX_CHUNK = 16  #: most episodes in one task (bounds the work a lost node's retry repeats)
 CONNECT_TIMEOUT_S = 5.0  #: [s] to open a TCP connection to the cluster's address before joining it
 
@@ -70,8 +74,10 @@ def _check_reachable(address: str) -> None:
     try:
         socket.create_connection(hp, timeout=CONNECT_TIMEOUT_S).close()
     except OSError as exc:
-        raise RayUnreachable(f"Ray cluster at {address} ({RAY_ADDRESS_ENV}) is unreachable: {exc.strerror or exc}; "
-                             "start it (ray start --head) or correct the address") from None
+        raise RayUnreachable(
+            f"Ray cluster at {address} ({RAY_ADDRESS_ENV}) is unreachable: {exc.strerror or exc}; "
+            "start it (ray start --head) or correct the address"
+        ) from None
 
 
 def connect(cpus: int) -> str:
@@ -89,10 +95,13 @@ def connect(cpus: int) -> str:
                     ray.init(address=address, **quiet)
                 except (ConnectionError, RuntimeError, TimeoutError) as exc:
                     first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
-                    raise RayUnreachable(f"cannot join the Ray cluster at {address} ({RAY_ADDRESS_ENV}): "
-                                         f"{first}") from None
+                    raise RayUnreachable(
+                        f"cannot join the Ray cluster at {address} ({RAY_ADDRESS_ENV}): {first}"
+                    ) from None
             else:
-                ray.init(address="local", num_cpus=max(1, cpus), **quiet)  # a new instance, never a running one
+                ray.init(
+                    address="local", num_cpus=max(1, cpus), **quiet
+                )  # a new instance, never a running one
         return address or "local"
 
 
@@ -123,15 +132,18 @@ def _checkpoint_file(sha256: str, blob: bytes) -> str:
     return str(path)
 
 
-def _episodes(token: str, make_worker: Callable[[], Any], checkpoints: dict[str, bytes],
-              jobs: list[Any]) -> list[tuple[int, Any, tuple[str, bytes] | None]]:
+def _episodes(
+    token: str, make_worker: Callable[[], Any], checkpoints: dict[str, bytes], jobs: list[Any]
+) -> list[tuple[int, Any, tuple[str, bytes] | None]]:
     """One task: a chunk of episode jobs, one after another in this worker process."""
     import ray
 
     from foresight.core.evaluation.episode import EpisodeRun
     from foresight.core.evaluation.episode_trace import write_compact
 
-    os.environ.setdefault("OMP_NUM_THREADS", "1")  # one torch thread: trajectories independent of the executor
+    os.environ.setdefault(
+        "OMP_NUM_THREADS", "1"
+    )  # one torch thread: trajectories independent of the executor
     worker = _cached_worker(token, make_worker)
     node = ray.get_runtime_context().get_node_id()
     # a node that sees the job's folder (a shared store, or the driver's own machine) writes its traces itself,
@@ -142,8 +154,12 @@ def _episodes(token: str, make_worker: Callable[[], Any], checkpoints: dict[str,
     for job in jobs:
         planner = job.planner
         if planner.learned:
-            planner = replace(planner, model_path=_checkpoint_file(planner.checkpoint_sha256,
-                                                                   checkpoints[planner.checkpoint_sha256]))
+            planner = replace(
+                planner,
+                model_path=_checkpoint_file(
+                    planner.checkpoint_sha256, checkpoints[planner.checkpoint_sha256]
+                ),
+            )
         index, item, trace = worker.run_traced(replace(job, planner=planner))
         if shared and trace is not None:
             write_compact(Path(root) / trace[0], trace[1])
@@ -170,8 +186,9 @@ def _cached_worker(token: str, make_worker: Callable[..., Any], *args: Any) -> A
     return worker
 
 
-def _worker_task(token: str, make_worker: Callable[..., Any], checkpoint: tuple[str, bytes] | None,
-                     job: Any) -> Any:
+def _worker_task(
+    token: str, make_worker: Callable[..., Any], checkpoint: tuple[str, bytes] | None, job: Any
+) -> Any:
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     path = None if checkpoint is None else _checkpoint_file(*checkpoint)
     return _cached_worker(token, make_worker, path).run(job)
@@ -180,8 +197,9 @@ def _worker_task(token: str, make_worker: Callable[..., Any], checkpoint: tuple[
 # ------------------------------------------------------------------------------ the driver
 
 
-def run_tasks(task: Any, shared: tuple[Any, ...], items: Iterable[Any], ctx: Any,
-              window: int | None = None) -> Iterator[Any]:
+def run_tasks(
+    task: Any, shared: tuple[Any, ...], items: Iterable[Any], ctx: Any, window: int | None = None
+) -> Iterator[Any]:
     """``task.remote(*shared, item)`` for every item, at most ``window`` (default ``WINDOW_PER_CPU`` x cluster
     CPUs) in flight; each result as its task finishes (any order). Checks ``ctx`` for cancellation every
     ``POLL_S``; leaving early (cancelled, an error, the caller stops) force-cancels the tasks in flight."""
@@ -202,7 +220,9 @@ def run_tasks(task: Any, shared: tuple[Any, ...], items: Iterable[Any], ctx: Any
         fill()
         while pending:
             done, _ = ray.wait(list(pending), num_returns=1, timeout=POLL_S, fetch_local=True)
-            if done:  # and every other one finished meanwhile: refill the window without waiting on the slowest
+            if (
+                done
+            ):  # and every other one finished meanwhile: refill the window without waiting on the slowest
                 done, _ = ray.wait(list(pending), num_returns=len(pending), timeout=0, fetch_local=False)
             for ref in done:
                 pending.discard(ref)
@@ -217,8 +237,9 @@ def run_tasks(task: Any, shared: tuple[Any, ...], items: Iterable[Any], ctx: Any
 _END = object()
 
 
-def run_on_ray(jobs: list[Any], make_worker: Callable[[], Any],
-               ctx: Any) -> Iterator[tuple[int, Any, tuple[str, bytes] | None]]:
+def run_on_ray(
+    jobs: list[Any], make_worker: Callable[[], Any], ctx: Any
+) -> Iterator[tuple[int, Any, tuple[str, bytes] | None]]:
     """(index, result, compact trace as (name, bytes) or None) of every episode job as its task finishes; cancels
     the unfinished tasks when left early.
 
@@ -233,12 +254,13 @@ def run_on_ray(jobs: list[Any], make_worker: Callable[[], Any],
     checkpoints = {sha: Path(path).read_bytes() for sha, path in paths.items()}  # each file read once per run
     shared = (uuid.uuid4().hex, ray.put(make_worker), ray.put(checkpoints))
     size = chunk_size(len(jobs), cluster_cpus())
-    for results in run_tasks(task, shared, (jobs[i:i + size] for i in range(0, len(jobs), size)), ctx):
+    for results in run_tasks(task, shared, (jobs[i : i + size] for i in range(0, len(jobs), size)), ctx):
         yield from results
 
 
-def run_workers_on_ray(jobs: list[Any], make_worker: Callable[[str | None], Any], model_path: str | None,
-                       ctx: Any) -> Iterator[Any]:
+def run_workers_on_ray(
+    jobs: list[Any], make_worker: Callable[[str | None], Any], model_path: str | None, ctx: Any
+) -> Iterator[Any]:
     """``worker.run(job)`` of every job as its task finishes, ``worker`` = ``make_worker(checkpoint file or
     None)`` built once per Ray worker process and run (e.g. collect's CollectWorker); the checkpoint's bytes travel
     through the object store once per run."""

@@ -56,7 +56,9 @@ class Timing(BaseModel):
     plan_ms_p95: float | None = None
     plan_ms_max: float | None = None
     wall_s: float | None = None  #: episode wall time [s]
-    node: str | None = None  #: the Ray node that ran the episode (``executor: ray``; None in-process or in a local pool)
+    node: str | None = (
+        None  #: the Ray node that ran the episode (``executor: ray``; None in-process or in a local pool)
+    )
 
 
 class PredictionQuality(BaseModel):
@@ -125,14 +127,28 @@ def build_record(
     d = derive(trace, geom)
     success = outcome == "success"
     tax = classify(
-        d, outcome, robot_radius=geom.robot_radius, ped_radius=geom.ped_radius, collision_kind=collision_kind,
-        collision_step=collision_step, prediction_error=prediction_error, cfg=taxonomy_cfg, limits=geom.limits,
+        d,
+        outcome,
+        robot_radius=geom.robot_radius,
+        ped_radius=geom.ped_radius,
+        collision_kind=collision_kind,
+        collision_step=collision_step,
+        prediction_error=prediction_error,
+        cfg=taxonomy_cfg,
+        limits=geom.limits,
         static=geom.static,
     )
     point = None if collision_point is None else tuple(float(x) for x in np.asarray(collision_point)[:2])
     return EpisodeRecord(
-        scenario=provenance.scenario, seed=provenance.seed, planner=provenance.planner, variant=provenance.variant,
-        outcome=outcome, error=error, collision_kind=collision_kind, collision_point=point, steps=d.steps,
+        scenario=provenance.scenario,
+        seed=provenance.seed,
+        planner=provenance.planner,
+        variant=provenance.variant,
+        outcome=outcome,
+        error=error,
+        collision_kind=collision_kind,
+        collision_point=point,
+        steps=d.steps,
         time_to_goal_s=d.steps * d.dt if success else None,
         time_to_goal_norm=min(1.0, d.steps / geom.horizon) if success else 1.0,
         safety=safety(d, mcfg, collision_step),

@@ -45,7 +45,9 @@ class Job:
     scenario: str
     seed: int
     planner: ResolvedPlanner
-    trace_dir: str = ""  #: the folder (under ``EpisodeSettings.trace_root``) of its trace: a campaign cell's own
+    trace_dir: str = (
+        ""  #: the folder (under ``EpisodeSettings.trace_root``) of its trace: a campaign cell's own
+    )
 
 
 @dataclass(frozen=True)
@@ -57,8 +59,12 @@ class EpisodeSettings:
     metrics: MetricsConfig
     taxonomy: TaxonomyConfig
     keep_diagnostics: bool = False  #: return whole EpisodeRuns (trace + per-step planner log), not records
-    overrides: dict[str, Any] | None = None  #: the selection's scenario_overrides (applied when a worker loads the matrix)
-    trace_root: str | None = None  #: the work directory: each episode's compact trace goes to its ``trace_name``
+    overrides: dict[str, Any] | None = (
+        None  #: the selection's scenario_overrides (applied when a worker loads the matrix)
+    )
+    trace_root: str | None = (
+        None  #: the work directory: each episode's compact trace goes to its ``trace_name``
+    )
 
 
 # ------------------------------------------------------------------------------ episode selection
@@ -83,8 +89,9 @@ def bundle_file(ctx: StageContext, bundle: str, rel: str) -> Path:
         raise ConfigError(str(exc), source=rel) from None
 
 
-def load_selection(sel: EpisodeSelection, ctx: StageContext,
-                   load: Callable[..., ScenarioMatrix] | None = None) -> tuple[Path, ScenarioMatrix, list[tuple[str, int]]]:
+def load_selection(
+    sel: EpisodeSelection, ctx: StageContext, load: Callable[..., ScenarioMatrix] | None = None
+) -> tuple[Path, ScenarioMatrix, list[tuple[str, int]]]:
     """(matrix path, matrix, [(scenario, seed), ...] in matrix order) of an episode selection; ``load(path,
     overrides=...)`` reads the matrix (default ``load_matrix``; a server may pass a cached one)."""
     from foresight.core.scenarios.loader import load_matrix
@@ -97,13 +104,18 @@ def load_selection(sel: EpisodeSelection, ctx: StageContext,
         manifest = load_seed_manifest(bundle_file(ctx, sel.bundle, sel.seed_manifest), matrix)
         pairs = [(s, seed) for s, seed in manifest.pairs() if s in names]
     else:
-        pairs = [(n, seed) for n in names for seed in expand_seeds(matrix.get(n).scenario.seeds, sel.seeds_per_scenario)]
+        pairs = [
+            (n, seed)
+            for n in names
+            for seed in expand_seeds(matrix.get(n).scenario.seeds, sel.seeds_per_scenario)
+        ]
     if not pairs:
         raise ConfigError("no episodes selected", source=sel.matrix)
     return path, matrix, pairs
 
 
 # ------------------------------------------------------------------------------ workers
+
 
 class EpisodeWorker:
     """One run's episode executor: its settings, matrix and (stateful, reused) Simulator.
@@ -113,8 +125,12 @@ class EpisodeWorker:
     its initialiser.
     """
 
-    def __init__(self, settings: EpisodeSettings, matrix: ScenarioMatrix | None = None,
-                 check: Callable[[], None] | None = None):
+    def __init__(
+        self,
+        settings: EpisodeSettings,
+        matrix: ScenarioMatrix | None = None,
+        check: Callable[[], None] | None = None,
+    ):
         """``check`` (in-process runs only) stops an episode from inside; pool processes are terminated instead."""
         from foresight.core.scenarios.loader import load_matrix
         from foresight.core.sim.simulator import Simulator
@@ -136,15 +152,26 @@ class EpisodeWorker:
         share the driver's disk: the driver writes it)."""
         s = self.settings
         scenario = self.matrix.get(job.scenario)
-        run = run_one(scenario, job.seed, job.planner, max_steps=s.max_steps,
-                      metrics_cfg=s.metrics, taxonomy_cfg=s.taxonomy, keep_diagnostics=s.keep_diagnostics,
-                      simulator=self.sim, check=self.check)
+        run = run_one(
+            scenario,
+            job.seed,
+            job.planner,
+            max_steps=s.max_steps,
+            metrics_cfg=s.metrics,
+            taxonomy_cfg=s.taxonomy,
+            keep_diagnostics=s.keep_diagnostics,
+            simulator=self.sim,
+            check=self.check,
+        )
         trace = None
         if s.trace_root is not None:
             from foresight.core.evaluation.episode_trace import compact_bytes, compact_trace, trace_name
 
             name = trace_name(job.scenario, job.seed)
-            trace = (f"{job.trace_dir}/{name}" if job.trace_dir else name, compact_bytes(compact_trace(run, scenario.map)))
+            trace = (
+                f"{job.trace_dir}/{name}" if job.trace_dir else name,
+                compact_bytes(compact_trace(run, scenario.map)),
+            )
         return job.index, (run if s.keep_diagnostics else run.record), trace
 
 
@@ -178,8 +205,14 @@ def expected_cost(matrix: ScenarioMatrix, name: str, max_steps: int | None) -> f
 
 
 def iter_jobs(
-    jobs: list[Job], settings: EpisodeSettings, ctx: StageContext, *, matrix: ScenarioMatrix | None = None,
-    start_method: str = "spawn", executor: str = "local", longest_first: bool = True,
+    jobs: list[Job],
+    settings: EpisodeSettings,
+    ctx: StageContext,
+    *,
+    matrix: ScenarioMatrix | None = None,
+    start_method: str = "spawn",
+    executor: str = "local",
+    longest_first: bool = True,
 ) -> Iterator[tuple[int, Any]]:
     """(position in ``jobs``, result) of every job as it finishes, in any order (``local``: in-process with one
     worker, else a process pool; ``ray``: one Ray task per episode, core.evaluation.ray_executor). Each result is
@@ -220,15 +253,21 @@ def iter_jobs(
 
 
 def run_jobs(
-    jobs: list[Job], settings: EpisodeSettings, ctx: StageContext, *, matrix: ScenarioMatrix | None = None,
-    start_method: str = "spawn", on_record: Callable[[int, int, EpisodeRecord], None] | None = None,
+    jobs: list[Job],
+    settings: EpisodeSettings,
+    ctx: StageContext,
+    *,
+    matrix: ScenarioMatrix | None = None,
+    start_method: str = "spawn",
+    on_record: Callable[[int, int, EpisodeRecord], None] | None = None,
     executor: str = "local",
 ) -> list[Any]:
     """Every job's result (:func:`iter_jobs`) in job order, the same for either executor; ``on_record(done,
     total, record)`` as each arrives."""
     out: list[Any] = [None] * len(jobs)
-    with contextlib.closing(iter_jobs(jobs, settings, ctx, matrix=matrix, start_method=start_method,
-                                      executor=executor)) as results:
+    with contextlib.closing(
+        iter_jobs(jobs, settings, ctx, matrix=matrix, start_method=start_method, executor=executor)
+    ) as results:
         for done, (i, item) in enumerate(results, start=1):
             out[i] = item
             if on_record is not None:
@@ -259,12 +298,21 @@ class PlannerProvenance(BaseModel):
     config_hash: str
     model_id: str
     checkpoint_sha256: str
-    origin: str = "builtin"  #: "builtin", "external", "plugin DIST VERSION" (the plugin's version) or "module"
+    origin: str = (
+        "builtin"  #: "builtin", "external", "plugin DIST VERSION" (the plugin's version) or "module"
+    )
 
 
 def planner_provenance(rp: ResolvedPlanner) -> PlannerProvenance:
-    return PlannerProvenance(name=rp.name, variant=rp.variant, config=rp.config, config_hash=rp.config_hash,
-                             model_id=rp.model_id, checkpoint_sha256=rp.checkpoint_sha256, origin=rp.origin)
+    return PlannerProvenance(
+        name=rp.name,
+        variant=rp.variant,
+        config=rp.config,
+        config_hash=rp.config_hash,
+        model_id=rp.model_id,
+        checkpoint_sha256=rp.checkpoint_sha256,
+        origin=rp.origin,
+    )
 
 
 class EvaluationResult(BaseModel):
@@ -280,7 +328,9 @@ class EvaluationResult(BaseModel):
     seed_source: str  #: "matrix", "N per scenario" or the seed manifest
     horizon: str  #: "scenario" or the override
     workers: int
-    execution: Execution | None = None  #: which executor ran the episodes, on how many CPUs (None: older results)
+    execution: Execution | None = (
+        None  #: which executor ran the episodes, on how many CPUs (None: older results)
+    )
     aggregates: Aggregates
     taxonomy: dict[str, int]
     taxonomy_config: TaxonomyConfig
@@ -310,8 +360,13 @@ class EvaluationRunConfig(BaseModel):
 
 
 def evaluation_metrics(result: EvaluationResult) -> EvaluationMetrics:
-    return EvaluationMetrics(success_rate=result.success_rate, collision_rate=result.collision_rate,
-                             episodes=result.episodes, status=result.status, overall=result.aggregates.overall)
+    return EvaluationMetrics(
+        success_rate=result.success_rate,
+        collision_rate=result.collision_rate,
+        episodes=result.episodes,
+        status=result.status,
+        overall=result.aggregates.overall,
+    )
 
 
 def evaluation_run_config(result: EvaluationResult) -> EvaluationRunConfig:
@@ -329,7 +384,11 @@ def write_records(path: Path, records: list[EpisodeRecord]) -> None:
 
 
 def read_records(path: Path) -> list[EpisodeRecord]:
-    return [EpisodeRecord.model_validate_json(line) for line in Path(path).read_text().splitlines() if line.strip()]
+    return [
+        EpisodeRecord.model_validate_json(line)
+        for line in Path(path).read_text().splitlines()
+        if line.strip()
+    ]
 
 
 def read_outcomes(path: str | Path) -> dict[tuple[str, int], str]:
@@ -341,7 +400,9 @@ def read_outcomes(path: str | Path) -> dict[tuple[str, int], str]:
     except FileNotFoundError:
         raise ConfigError("file does not exist", source=path) from None
     except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
-        raise ConfigError(f"expected episode records with scenario, seed and outcome: {exc}", source=path) from None
+        raise ConfigError(
+            f"expected episode records with scenario, seed and outcome: {exc}", source=path
+        ) from None
 
 
 @dataclass(frozen=True)
@@ -360,8 +421,14 @@ def prepare_evaluation(config: EvaluationConfig, ctx: StageContext) -> PreparedE
     path, matrix, pairs = load_selection(config, ctx)
     rp = resolve_planner(config.planner, ctx)
     preflight(rp, [matrix.get(name) for name in dict.fromkeys(s for s, _ in pairs)])
-    settings = EpisodeSettings(str(path), config.max_steps, config.metrics, config.taxonomy,
-                               overrides=config.scenario_overrides, trace_root=str(ctx.workdir))
+    settings = EpisodeSettings(
+        str(path),
+        config.max_steps,
+        config.metrics,
+        config.taxonomy,
+        overrides=config.scenario_overrides,
+        trace_root=str(ctx.workdir),
+    )
     return PreparedEvaluation(path, matrix, pairs, rp, settings)
 
 
@@ -378,13 +445,25 @@ def run_evaluation(config: EvaluationConfig, ctx: StageContext) -> EvaluationRes
     def progress(done: int, total: int, rec: EpisodeRecord) -> None:
         ctx.progress(done / total, f"{rec.scenario} seed {rec.seed}: {rec.outcome}")
 
-    records = run_jobs(jobs, prep.settings, ctx, matrix=prep.matrix, start_method=config.start_method,
-                       executor=config.executor, on_record=progress)
+    records = run_jobs(
+        jobs,
+        prep.settings,
+        ctx,
+        matrix=prep.matrix,
+        start_method=config.start_method,
+        executor=config.executor,
+        on_record=progress,
+    )
     return finish_evaluation(config, records, prep, ctx, t0)
 
 
-def finish_evaluation(config: EvaluationConfig, records: list[EpisodeRecord], prep: PreparedEvaluation,
-                      ctx: StageContext, t0: float) -> EvaluationResult:
+def finish_evaluation(
+    config: EvaluationConfig,
+    records: list[EpisodeRecord],
+    prep: PreparedEvaluation,
+    ctx: StageContext,
+    t0: float,
+) -> EvaluationResult:
     """The result of every episode's records (in episode-list order); writes the evaluation's artifacts."""
     result = evaluation_result(config, records, prep.pairs, prep.planner, ctx, time.perf_counter() - t0)
     write_records(ctx.artifact("episodes.jsonl"), records)
@@ -392,21 +471,40 @@ def finish_evaluation(config: EvaluationConfig, records: list[EpisodeRecord], pr
     return result
 
 
-def evaluation_result(config: EvaluationConfig, records: list[EpisodeRecord], pairs: list[tuple[str, int]],
-                      rp: ResolvedPlanner, ctx: StageContext, wall_s: float) -> EvaluationResult:
+def evaluation_result(
+    config: EvaluationConfig,
+    records: list[EpisodeRecord],
+    pairs: list[tuple[str, int]],
+    rp: ResolvedPlanner,
+    ctx: StageContext,
+    wall_s: float,
+) -> EvaluationResult:
     integrity = check_integrity(records, expected=pairs)
     summary = summarise(records, config.bootstrap)
     gate = evaluation_gate(summary, integrity, config.gate)
     status = "passed" if gate.passed else ("failed_integrity" if not integrity.ok else "failed_gate")
     aggs = aggregate(records, config.bootstrap)
     return EvaluationResult(
-        status=status, exit_code=gate.exit_code, success_rate=summary.success.rate,
-        collision_rate=summary.collision.rate, episodes=len(records), planner=planner_provenance(rp),
-        code_version=code_version(), bundle=config.bundle, matrix=config.matrix, seed_source=seed_source(config),
-        horizon=str(config.max_steps) if config.max_steps else "scenario", workers=int(ctx.workers or 1),
+        status=status,
+        exit_code=gate.exit_code,
+        success_rate=summary.success.rate,
+        collision_rate=summary.collision.rate,
+        episodes=len(records),
+        planner=planner_provenance(rp),
+        code_version=code_version(),
+        bundle=config.bundle,
+        matrix=config.matrix,
+        seed_source=seed_source(config),
+        horizon=str(config.max_steps) if config.max_steps else "scenario",
+        workers=int(ctx.workers or 1),
         execution=execution(config.executor, ctx.workers),
-        aggregates=aggs, taxonomy=aggs.overall.taxonomy, taxonomy_config=config.taxonomy,
-        metrics_config=config.metrics, integrity=integrity, gate=gate,
-        artifacts={"summary": "evaluation.json", "episodes": "episodes.jsonl"}, wall_s=wall_s,
+        aggregates=aggs,
+        taxonomy=aggs.overall.taxonomy,
+        taxonomy_config=config.taxonomy,
+        metrics_config=config.metrics,
+        integrity=integrity,
+        gate=gate,
+        artifacts={"summary": "evaluation.json", "episodes": "episodes.jsonl"},
+        wall_s=wall_s,
         config=config.model_dump(mode="json"),
     )

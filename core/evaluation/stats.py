@@ -128,8 +128,9 @@ def wilcoxon_p(diff: Sequence[float] | np.ndarray) -> float:
     return float(wilcoxon(d, zero_method="wilcox").pvalue)
 
 
-def paired_bootstrap(diff: Sequence[float] | np.ndarray, *, samples: int = 2000, seed: int = 123,
-                     confidence: float = 0.95) -> tuple[float, float]:
+def paired_bootstrap(
+    diff: Sequence[float] | np.ndarray, *, samples: int = 2000, seed: int = 123, confidence: float = 0.95
+) -> tuple[float, float]:
     """Percentile interval of the mean paired difference, resampling the pairs (seeded)."""
     d = np.asarray(diff, dtype=float)
     if d.size < 2:

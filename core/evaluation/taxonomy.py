@@ -48,23 +48,39 @@ class TaxonomyConfig(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    robot_fault_approach_speed: float = Field(default=0.2, ge=0)  #: robot speed toward the ped at contact above this = robot fault [m/s]
+    robot_fault_approach_speed: float = Field(
+        default=0.2, ge=0
+    )  #: robot speed toward the ped at contact above this = robot fault [m/s]
     stopped_speed: float = Field(default=0.05, ge=0)  #: nearly stopped below this [m/s]
     freeze_min_s: float = Field(default=3.0, gt=0)  #: total nearly-stopped time with a ped near [s]
-    freeze_ped_distance: float = Field(default=3.0, gt=0)  #: "pedestrian near": centre distance within this [m]
+    freeze_ped_distance: float = Field(
+        default=3.0, gt=0
+    )  #: "pedestrian near": centre distance within this [m]
     oscillation_min_sign_changes: int = Field(default=4, ge=1)  #: sign changes of omega within the window
-    oscillation_omega_min: float = Field(default=0.2, ge=0)  #: only samples with |omega| above this count [rad/s]
+    oscillation_omega_min: float = Field(
+        default=0.2, ge=0
+    )  #: only samples with |omega| above this count [rad/s]
     oscillation_window_s: float = Field(default=5.0, gt=0)  #: [s]
-    oscillation_max_progress: float = Field(default=0.5, ge=0)  #: net route progress in the window below this [m]
+    oscillation_max_progress: float = Field(
+        default=0.5, ge=0
+    )  #: net route progress in the window below this [m]
     near_miss_clearance: float = Field(default=0.5, gt=0)  #: surface clearance in [0, this) [m]
     late_reaction_ttc_s: float = Field(default=1.0, gt=0)  #: TTC when avoidance began below this = late [s]
     reaction_lookback_s: float = Field(default=10.0, gt=0)  #: how far back avoidance is searched [s]
-    reaction_min_decrease: float = Field(default=0.05, ge=0)  #: approach-speed drop that counts as avoiding [m/s]
+    reaction_min_decrease: float = Field(
+        default=0.05, ge=0
+    )  #: approach-speed drop that counts as avoiding [m/s]
     deadlock_progress: float = Field(default=0.05, ge=0)  #: route progress at most this ... [m]
     deadlock_window_s: float = Field(default=1.5, gt=0)  #: ... over this window = deadlock [s]
-    prediction_miss_error: float = Field(default=1.0, gt=0)  #: mean predictor error on the involved ped above this [m]
-    fault_lookback_s: float = Field(default=3.0, gt=0)  #: the conflict is visible at most this long before contact [s]
-    fault_extension_s: float = Field(default=1.0, ge=0)  #: an escape must stay clear this long past the contact [s]
+    prediction_miss_error: float = Field(
+        default=1.0, gt=0
+    )  #: mean predictor error on the involved ped above this [m]
+    fault_lookback_s: float = Field(
+        default=3.0, gt=0
+    )  #: the conflict is visible at most this long before contact [s]
+    fault_extension_s: float = Field(
+        default=1.0, ge=0
+    )  #: an escape must stay clear this long past the contact [s]
     #: failed episodes where nobody reacts to the robot: could any robot have reached the goal? (``reachable``;
     #: core.sim.feasibility, about 0.5 s per failed episode)
     check_reachability: bool = True
@@ -75,7 +91,9 @@ class TaxonomyResult(BaseModel):
     tags: list[Tag] = Field(default_factory=list)
     critical_ped_id: int | None = None  #: the pedestrian involved (collision, or closest approach)
     critical_step: int | None = None
-    avoidable: bool | None = None  #: pedestrian collisions: an admissible motion from the decision step avoids it
+    avoidable: bool | None = (
+        None  #: pedestrian collisions: an admissible motion from the decision step avoids it
+    )
     decision_step: int | None = None  #: pedestrian collisions: the state the escape check starts from
     #: failures where nobody reacts to the robot: False = no robot could have reached the goal in time (the episode
     #: measures no planner), True = one could; None: not checked (a success, or pedestrians who react to the robot)
@@ -117,7 +135,9 @@ def _avoidance_start(d: Derived, t: int, slot: int, cfg: TaxonomyConfig) -> int:
     first = first + int(np.flatnonzero(same)[0]) if same.any() else t
     los = d.ped_pos[first : t + 1, slot] - d.pos[first : t + 1]
     unit = los / np.maximum(np.linalg.norm(los, axis=1, keepdims=True), 1e-9)
-    proj = np.einsum("ti,ti->t", np.diff(d.vel[first : t + 1], axis=0), unit[:-1])  # own approach change per step
+    proj = np.einsum(
+        "ti,ti->t", np.diff(d.vel[first : t + 1], axis=0), unit[:-1]
+    )  # own approach change per step
     eps = 1e-9
     k = proj.size
     while k > 0 and proj[k - 1] <= eps:
@@ -164,8 +184,14 @@ def _oscillating(d: Derived, cfg: TaxonomyConfig) -> bool:
     return False
 
 
-def _primary(outcome: str, collision_kind: str | None, d: Derived, crit: tuple[int, int] | None,
-             cfg: TaxonomyConfig, avoidable: bool | None) -> Label | None:
+def _primary(
+    outcome: str,
+    collision_kind: str | None,
+    d: Derived,
+    crit: tuple[int, int] | None,
+    cfg: TaxonomyConfig,
+    avoidable: bool | None,
+) -> Label | None:
     if outcome == "success":
         return None
     if outcome == "error":
@@ -209,9 +235,19 @@ def classify(
     if ped_event and crit is not None:
         start = decision_step(d, *crit, cfg)
         avoidable = escape_exists(
-            d.robot, d.ped_ids, d.ped_pos, d.ped_vel, start=start, contact=crit[0], dt=d.dt,
-            limits=limits or RobotLimits(), robot_radius=robot_radius, ped_radius=ped_radius,
-            extension_steps=int(round(cfg.fault_extension_s / d.dt)), static=static)
+            d.robot,
+            d.ped_ids,
+            d.ped_pos,
+            d.ped_vel,
+            start=start,
+            contact=crit[0],
+            dt=d.dt,
+            limits=limits or RobotLimits(),
+            robot_radius=robot_radius,
+            ped_radius=ped_radius,
+            extension_steps=int(round(cfg.fault_extension_s / d.dt)),
+            static=static,
+        )
     label = _primary(outcome, collision_kind, d, crit, cfg, avoidable)
     tags: list[Tag] = []
     near = (d.clearance >= 0) & (d.clearance < cfg.near_miss_clearance)
@@ -225,8 +261,14 @@ def classify(
         tags.append("prediction_miss")
     if label is not None and no_progress_mask(d, cfg.deadlock_window_s, cfg.deadlock_progress).any():
         tags.append("deadlock")
-    return TaxonomyResult(label=label, tags=tags, critical_ped_id=pid if close_call else None,
-                          critical_step=crit[0] if close_call else None, avoidable=avoidable, decision_step=start)
+    return TaxonomyResult(
+        label=label,
+        tags=tags,
+        critical_ped_id=pid if close_call else None,
+        critical_step=crit[0] if close_call else None,
+        avoidable=avoidable,
+        decision_step=start,
+    )
 
 
 def count_labels(labels: list[str | None]) -> dict[str, int]:

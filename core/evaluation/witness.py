@@ -50,7 +50,9 @@ class WitnessSettings(BaseModel):
     offsets: tuple[float, ...] = (0.0, -0.5, 0.5)  #: [m] waiting points to the route's left (+) and right (-)
     release_step_s: float = Field(default=1.0, ge=0.1, le=30)  #: [s] between release times
     max_plans: int = Field(default=2000, ge=1, le=20_000)  #: plans tried at most per episode
-    max_seconds: float = Field(default=120.0, gt=0, le=7200)  #: wall time per episode [s]; the search stops after it
+    max_seconds: float = Field(
+        default=120.0, gt=0, le=7200
+    )  #: wall time per episode [s]; the search stops after it
     #: [m] room a witness keeps from every pedestrian at every step (0: any plan that arrives without contact)
     min_clearance: float = Field(default=0.0, ge=0, le=2)
 
@@ -66,8 +68,12 @@ class Witness(BaseModel):
     tried: int  #: plans run (all of them, or up to the first witness, ``max_plans`` or ``max_seconds``)
     plan: ScriptedConfig | None = None  #: the witness, None where none was found
     arrival_s: float | None = None  #: when the witness reaches the goal [s]
-    clearance_m: float | None = None  #: the witness's closest approach to a pedestrian [m] (None: none on the map)
-    wall_clearance_m: float | None = None  #: its closest approach to a wall, an obstacle or the map's edge [m]
+    clearance_m: float | None = (
+        None  #: the witness's closest approach to a pedestrian [m] (None: none on the map)
+    )
+    wall_clearance_m: float | None = (
+        None  #: its closest approach to a wall, an obstacle or the map's edge [m]
+    )
     seconds: float  #: wall time of the search [s]
 
     @property
@@ -77,16 +83,22 @@ class Witness(BaseModel):
     def summary(self) -> str:
         """One line: the witness and its arrival, or how many plans found none."""
         if self.plan is not None:
-            room = "" if self.clearance_m is None else f", {self.clearance_m:.2f} m from the closest pedestrian"
+            room = (
+                "" if self.clearance_m is None else f", {self.clearance_m:.2f} m from the closest pedestrian"
+            )
             if self.wall_clearance_m is not None:
                 room += f" and {self.wall_clearance_m:.2f} m from the closest wall"
-            return (f"solvable: {self.plan.describe()} arrives at {self.arrival_s:g} s{room} "
-                    f"(plan {self.tried} of {self.plans})")
+            return (
+                f"solvable: {self.plan.describe()} arrives at {self.arrival_s:g} s{room} "
+                f"(plan {self.tried} of {self.plans})"
+            )
         cut = f" ({self.tried} of {self.plans} tried)" if self.tried < self.plans else ""
         return f"no witness among {self.tried} plans{cut}: not proof that no robot could"
 
 
-def route_plans(scenario: ResolvedScenario, seed: int, settings: WitnessSettings | None = None) -> list[ScriptedConfig]:
+def route_plans(
+    scenario: ResolvedScenario, seed: int, settings: WitnessSettings | None = None
+) -> list[ScriptedConfig]:
     """The family for one episode, in the order it is tried (the route driven as is first)."""
     from foresight.core.sim.geometry import points_in_polygons
     from foresight.core.sim.simulator import Simulator
@@ -111,16 +123,26 @@ def route_plans(scenario: ResolvedScenario, seed: int, settings: WitnessSettings
         on_route = path[i] + (along - (ends[i] - seg[i])) * u
         earliest = along / v_max
         latest = horizon - (total - along) / v_max
-        releases = np.arange(math.ceil(earliest / s.release_step_s), math.floor(latest / s.release_step_s) + 1)
+        releases = np.arange(
+            math.ceil(earliest / s.release_step_s), math.floor(latest / s.release_step_s) + 1
+        )
         for off in s.offsets:
             p = on_route + off * np.array([-u[1], u[0]])
-            if (np.any(points_in_polygons(p[None], obstacles)) or obs.static.distance(p[None])[0] < room
-                    or not (0 <= p[0] <= obs.static.width and 0 <= p[1] <= obs.static.height)):
+            if (
+                np.any(points_in_polygons(p[None], obstacles))
+                or obs.static.distance(p[None])[0] < room
+                or not (0 <= p[0] <= obs.static.width and 0 <= p[1] <= obs.static.height)
+            ):
                 continue
             hold = (round(float(p[0]), 3), round(float(p[1]), 3))
             plan = dict(via=tuple(waypoints[:i]), hold=hold, after=tuple(waypoints[i:]))
             for k in releases.tolist():
-                holds.append(((_level(k), k, along, off), ScriptedConfig(**plan, release_s=round(k * s.release_step_s, 3))))
+                holds.append(
+                    (
+                        (_level(k), k, along, off),
+                        ScriptedConfig(**plan, release_s=round(k * s.release_step_s, 3)),
+                    )
+                )
     holds.sort(key=lambda h: h[0])
     return [direct, *(plan for _, plan in holds)]
 
@@ -148,8 +170,13 @@ def _arrival(plan: ScriptedConfig) -> tuple[float, float | None, float] | None:
     return round(res.steps * sim.dt, 3), None if room is None else round(room, 3), round(wall, 3)
 
 
-def search(scenario: ResolvedScenario, seed: int, settings: WitnessSettings | None = None, workers: int = 1,
-           check: Callable[[], None] | None = None) -> Witness:
+def search(
+    scenario: ResolvedScenario,
+    seed: int,
+    settings: WitnessSettings | None = None,
+    workers: int = 1,
+    check: Callable[[], None] | None = None,
+) -> Witness:
     """Try the family in order until a plan arrives, ``max_plans`` are tried or ``max_seconds`` pass; ``check`` (a
     job's cancellation test) is called after every plan and stops the search by raising.
 
@@ -171,9 +198,17 @@ def search(scenario: ResolvedScenario, seed: int, settings: WitnessSettings | No
             check()
         if time.monotonic() - t0 > s.max_seconds:
             break
-    return Witness(scenario=scenario.name, seed=int(seed), plans=len(family), tried=tried, plan=found,
-                   arrival_s=arrival, clearance_m=room, wall_clearance_m=wall,
-                   seconds=round(time.monotonic() - t0, 1))
+    return Witness(
+        scenario=scenario.name,
+        seed=int(seed),
+        plans=len(family),
+        tried=tried,
+        plan=found,
+        arrival_s=arrival,
+        clearance_m=room,
+        wall_clearance_m=wall,
+        seconds=round(time.monotonic() - t0, 1),
+    )
 
 
 def _runs(plans: list[ScriptedConfig], workers: int) -> Iterator[tuple[ScriptedConfig, tuple | None]]:
@@ -194,13 +229,25 @@ def witness_run(scenario: ResolvedScenario, seed: int, plan: ScriptedConfig) -> 
     from foresight.core.planners.base import config_hash
 
     config = plan.model_dump(mode="json")
-    rp = ResolvedPlanner(name="scripted", variant="witness", config=config, config_hash=config_hash(config),
-                         model_id=NO_MODEL, checkpoint_sha256=NO_MODEL)
+    rp = ResolvedPlanner(
+        name="scripted",
+        variant="witness",
+        config=config,
+        config_hash=config_hash(config),
+        model_id=NO_MODEL,
+        checkpoint_sha256=NO_MODEL,
+    )
     return run_one(scenario, seed, rp)
 
 
-def write_player(out: Path, scenario: ResolvedScenario, witness: Witness, planner_trace: Path | None = None,
-                 planner_outcome: str | None = None, witness_trace: dict[str, Any] | None = None) -> Path:
+def write_player(
+    out: Path,
+    scenario: ResolvedScenario,
+    witness: Witness,
+    planner_trace: Path | None = None,
+    planner_outcome: str | None = None,
+    witness_trace: dict[str, Any] | None = None,
+) -> Path:
     """A player page of the witness, beside the planner's own run where its compact trace is given:
     ``out/<scenario>__<seed>.html``; ``witness_trace``: the witness's compact trace where the caller has it already."""
     from foresight.core.evaluation.episode_trace import compact_trace, episode_stem, read_compact
@@ -215,5 +262,6 @@ def write_player(out: Path, scenario: ResolvedScenario, witness: Witness, planne
         witness_trace = compact_trace(witness_run(scenario, witness.seed, witness.plan), scenario.map)
     panes.append((f"witness: {witness.plan.describe()}", witness_trace))
     title = f"{witness.scenario} seed {witness.seed}: the planner and a witness"
-    return player.write_player(out / f"{episode_stem(witness.scenario, witness.seed)}.html", panes, title,
-                               player.PAIR_NOTE)
+    return player.write_player(
+        out / f"{episode_stem(witness.scenario, witness.seed)}.html", panes, title, player.PAIR_NOTE
+    )

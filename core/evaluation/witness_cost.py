@@ -25,7 +25,9 @@ from foresight.core.planners.predictive.cost import weighted
 from foresight.core.planners.scripted import ScriptedConfig
 from foresight.core.scenarios.model import ResolvedScenario
 
-SHOWN_TERMS = 3  #: terms named per decision: those the witness's course was charged most for over the planner's choice
+SHOWN_TERMS = (
+    3  #: terms named per decision: those the witness's course was charged most for over the planner's choice
+)
 
 
 class PricedDecision(BaseModel):
@@ -39,7 +41,9 @@ class PricedDecision(BaseModel):
     waiting: bool  #: the witness stands here (at rest, commanded to stay)
     chosen_cost: float  #: the planner's cost of its own choice here
     witness_cost: float  #: its cost of the witness's next commands, against the same forecast
-    dearer: dict[str, float]  #: the terms charged most for the witness's course over the choice (weighted, > 0)
+    dearer: dict[
+        str, float
+    ]  #: the terms charged most for the witness's course over the choice (weighted, > 0)
 
     @property
     def rejected(self) -> bool:
@@ -80,8 +84,10 @@ class WitnessCost(BaseModel):
                 parts.append(f"while it {what}, never ({len(mine)} decisions)")
                 continue
             terms = ", ".join(f"{k} +{v:.1f}" for k, v in list(self.dearer(waiting).items())[:SHOWN_TERMS])
-            parts.append(f"while it {what}, at {len(left)} of {len(mine)} decisions ({left[0].time_s:g}-"
-                         f"{left[-1].time_s:g} s) for {terms}")
+            parts.append(
+                f"while it {what}, at {len(left)} of {len(mine)} decisions ({left[0].time_s:g}-"
+                f"{left[-1].time_s:g} s) for {terms}"
+            )
         return "the planner's own cost would have left the witness's course " + "; ".join(parts)
 
 
@@ -106,23 +112,35 @@ class _Replay:
         self.shadow.plan(obs)
         if self.k % self.every == 0:
             chosen = self.shadow.diagnostics
-            ahead = self.commands[self.k:]
+            ahead = self.commands[self.k :]
             cost, parts = self.shadow.price(ahead)
             base = weighted(chosen["terms"], self.shadow.config.weights)
             more = {k: v - base.get(k, 0.0) for k, v in parts.items() if v - base.get(k, 0.0) > 1e-6}
             top = dict(sorted(more.items(), key=lambda kv: -kv[1])[:SHOWN_TERMS])
-            self.priced.append(PricedDecision(
-                time_s=round(float(obs.time), 3), position=(round(float(obs.robot_pose[0]), 2), round(float(obs.robot_pose[1]), 2)),
-                speed=round(float(obs.robot_velocity[0]), 2),
-                waiting=bool(abs(float(obs.robot_velocity[0])) < 1e-6 and not ahead[0].any()), chosen_cost=round(float(chosen["cost"]), 3),
-                witness_cost=round(cost, 3), dearer={k: round(v, 3) for k, v in top.items()}))
+            self.priced.append(
+                PricedDecision(
+                    time_s=round(float(obs.time), 3),
+                    position=(round(float(obs.robot_pose[0]), 2), round(float(obs.robot_pose[1]), 2)),
+                    speed=round(float(obs.robot_velocity[0]), 2),
+                    waiting=bool(abs(float(obs.robot_velocity[0])) < 1e-6 and not ahead[0].any()),
+                    chosen_cost=round(float(chosen["cost"]), 3),
+                    witness_cost=round(cost, 3),
+                    dearer={k: round(v, 3) for k, v in top.items()},
+                )
+            )
         v, w = self.commands[min(self.k, len(self.commands) - 1)]
         self.k += 1
         return float(v), float(w)
 
 
-def price_witness(scenario: ResolvedScenario, seed: int, plan: ScriptedConfig, planner: ResolvedPlanner,
-                  every_s: float = 0.5, run: Any = None) -> WitnessCost:
+def price_witness(
+    scenario: ResolvedScenario,
+    seed: int,
+    plan: ScriptedConfig,
+    planner: ResolvedPlanner,
+    every_s: float = 0.5,
+    run: Any = None,
+) -> WitnessCost:
     """The witness's run replayed with ``planner`` (the predictive planner) shadowing it, priced every ``every_s``;
     ``run``: the witness's recorded run (``witness.witness_run``) where the caller has it already."""
     from foresight.core.evaluation.witness import witness_run
@@ -131,12 +149,19 @@ def price_witness(scenario: ResolvedScenario, seed: int, plan: ScriptedConfig, p
 
     shadow = build_planner(planner)
     if not hasattr(shadow, "price"):
-        raise ConfigError(f"pricing a witness needs a planner that can price a course (the predictive planner), "
-                          f"not {planner.name!r}", item="planner")
+        raise ConfigError(
+            f"pricing a witness needs a planner that can price a course (the predictive planner), "
+            f"not {planner.name!r}",
+            item="planner",
+        )
     run = run if run is not None else witness_run(scenario, seed, plan)
     sim = Simulator()
     every = max(1, int(round(every_s / scenario.scenario.simulation_config.dt)))
     replay = _Replay(np.asarray(run.trace.command, dtype=float), shadow, every)
     run_episode(scenario, seed, replay, simulator=sim)
-    return WitnessCost(scenario=scenario.name, seed=int(seed), planner=f"{planner.name} {planner.config_hash[:12]}",
-                       decisions=replay.priced)
+    return WitnessCost(
+        scenario=scenario.name,
+        seed=int(seed),
+        planner=f"{planner.name} {planner.config_hash[:12]}",
+        decisions=replay.priced,
+    )

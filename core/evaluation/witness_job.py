@@ -54,7 +54,9 @@ class WitnessEpisode(Witness):
     planner_outcome: str | None = None  #: the evaluation's outcome of this episode
     priced: WitnessCost | None = None
     player: str | None = None  #: the player page, relative to the job's folder
-    trace: str | None = None  #: the witness's compact trace, relative to the job's folder (the dashboard plays it)
+    trace: str | None = (
+        None  #: the witness's compact trace, relative to the job's folder (the dashboard plays it)
+    )
 
 
 class WitnessResult(BaseModel):
@@ -107,10 +109,17 @@ def plan_search(config: WitnessConfig, ctx: StageContext) -> Search:
     outcomes = read_outcomes(run / "episodes.jsonl") if run is not None else None
     if outcomes is not None:  # the evaluation's failures, in its order, among the scenarios asked about
         names = {name for name, _ in pairs}
-        pairs = [(name, seed) for (name, seed), outcome in outcomes.items() if outcome != "success" and name in names]
+        pairs = [
+            (name, seed)
+            for (name, seed), outcome in outcomes.items()
+            if outcome != "success" and name in names
+        ]
     if len(pairs) > MAX_SEARCHES:
-        raise ConfigError(f"{len(pairs)} episodes to search, over the {MAX_SEARCHES} one job may take: fewer scenarios "
-                          "or seeds", item="scenarios")
+        raise ConfigError(
+            f"{len(pairs)} episodes to search, over the {MAX_SEARCHES} one job may take: fewer scenarios "
+            "or seeds",
+            item="scenarios",
+        )
     return Search(run, evaluation, sel, matrix, pairs, outcomes)
 
 
@@ -126,7 +135,9 @@ def run_witness(config: WitnessConfig, ctx: StageContext) -> WitnessResult:
         extra: dict[str, Any] = {}
         if outcomes is not None:
             extra["planner_outcome"] = outcomes[name, seed]
-        if w.plan is not None:  # its run, once, kept as an evaluation keeps one (the dashboard plays it), priced, played
+        if (
+            w.plan is not None
+        ):  # its run, once, kept as an evaluation keeps one (the dashboard plays it), priced, played
             witnessed = witness_run(scenario, int(seed), w.plan)
             compact = compact_trace(witnessed, scenario.map)
             extra["trace"] = trace_name(name, seed)
@@ -139,9 +150,16 @@ def run_witness(config: WitnessConfig, ctx: StageContext) -> WitnessResult:
                 extra["player"] = page.relative_to(ctx.workdir).as_posix()
         rows.append(WitnessEpisode(**w.model_dump(), **extra))
         ctx.progress((i + 1) / len(pairs), f"{name} {seed}: {'witness' if w.found else 'none'}")
-    return WitnessResult(matrix=sel.matrix, evaluation=config.evaluation, overrides=sel.scenario_overrides,
-                         settings=config.settings, failed_only=outcomes is not None, searched=len(rows),
-                         witnessed=sum(r.found for r in rows), episodes=rows)
+    return WitnessResult(
+        matrix=sel.matrix,
+        evaluation=config.evaluation,
+        overrides=sel.scenario_overrides,
+        settings=config.settings,
+        failed_only=outcomes is not None,
+        searched=len(rows),
+        witnessed=sum(r.found for r in rows),
+        episodes=rows,
+    )
 
 
 def _within(scenario: ResolvedScenario, max_steps: int | None) -> ResolvedScenario:
@@ -150,7 +168,9 @@ def _within(scenario: ResolvedScenario, max_steps: int | None) -> ResolvedScenar
     sim = scenario.scenario.simulation_config
     if max_steps is None or max_steps >= sim.max_episode_steps:
         return scenario
-    inner = scenario.scenario.model_copy(update={"simulation_config": sim.model_copy(update={"max_episode_steps": max_steps})})
+    inner = scenario.scenario.model_copy(
+        update={"simulation_config": sim.model_copy(update={"max_episode_steps": max_steps})}
+    )
     return scenario.model_copy(update={"scenario": inner})
 
 
@@ -167,16 +187,22 @@ def _evaluation(ref: str, ctx: StageContext) -> tuple[Path, EvaluationConfig | N
             raise ConfigError(f"evaluation {ref!r} keeps no evaluation.json", item="evaluation")
         return folder, None
     try:
-        return folder, EvaluationConfig.model_validate(EvaluationResult.model_validate_json(path.read_text()).config)
+        return folder, EvaluationConfig.model_validate(
+            EvaluationResult.model_validate_json(path.read_text()).config
+        )
     except (ValidationError, ValueError):
         raise ConfigError("expected an evaluation's result with its config", source=path) from None
 
 
 def _pricer(config: WitnessConfig, evaluation: EvaluationConfig | None, ctx: StageContext) -> Any:
     """The resolved planner that prices the witnesses."""
-    spec = config.planner or (evaluation.planner if evaluation is not None else PlannerSpec(name="predictive",
-                                                                                             model="default"))
+    spec = config.planner or (
+        evaluation.planner if evaluation is not None else PlannerSpec(name="predictive", model="default")
+    )
     if spec.name != "predictive":
-        raise ConfigError(f"a witness is priced by the predictive planner riding along; "
-                          f"{'the evaluation ran' if config.planner is None else 'got'} {spec.name!r}", item="planner")
+        raise ConfigError(
+            f"a witness is priced by the predictive planner riding along; "
+            f"{'the evaluation ran' if config.planner is None else 'got'} {spec.name!r}",
+            item="planner",
+        )
     return resolve_planner(spec, ctx)

@@ -34,8 +34,9 @@ from foresight.core.sim.simulator import Simulator
 from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
 
 DEFAULT_MATRIX = BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml"
-AGENT = ResolvedPlanner(name="gym", variant=None, config={}, config_hash=NO_MODEL, model_id=NO_MODEL,
-                        checkpoint_sha256=NO_MODEL)  #: how the records name the policy being trained
+AGENT = ResolvedPlanner(
+    name="gym", variant=None, config={}, config_hash=NO_MODEL, model_id=NO_MODEL, checkpoint_sha256=NO_MODEL
+)  #: how the records name the policy being trained
 
 
 class RewardConfig(BaseModel):
@@ -65,10 +66,19 @@ class CrowdNavEnv(gym.Env):
 
     metadata = {"render_modes": []}
 
-    def __init__(self, scenario: str | None = None, matrix: str | Path = DEFAULT_MATRIX,
-                 scenarios: list[str] | None = None, max_steps: int | None = None, max_peds: int = 8,
-                 route_points: int = 4, occupancy: bool = False, occupancy_size: int = 16,
-                 occupancy_resolution: float = 0.5, reward: RewardConfig | dict[str, Any] | None = None):
+    def __init__(
+        self,
+        scenario: str | None = None,
+        matrix: str | Path = DEFAULT_MATRIX,
+        scenarios: list[str] | None = None,
+        max_steps: int | None = None,
+        max_peds: int = 8,
+        route_points: int = 4,
+        occupancy: bool = False,
+        occupancy_size: int = 16,
+        occupancy_resolution: float = 0.5,
+        reward: RewardConfig | dict[str, Any] | None = None,
+    ):
         self.matrix = load_matrix(Path(matrix))
         names = [scenario] if scenario else (scenarios or self.matrix.names)
         self.scenarios = [self.matrix.get(n) for n in names]
@@ -76,18 +86,25 @@ class CrowdNavEnv(gym.Env):
         self.occupancy = occupancy
         self.grid = (np.arange(occupancy_size) - (occupancy_size - 1) / 2) * occupancy_resolution
         self.cell = float(occupancy_resolution)
-        self.reward_cfg = reward if isinstance(reward, RewardConfig) else RewardConfig.model_validate(reward or {})
+        self.reward_cfg = (
+            reward if isinstance(reward, RewardConfig) else RewardConfig.model_validate(reward or {})
+        )
         self.sim = Simulator()
-        first = self.sim.reset(self.scenarios[0], 0, max_steps=max_steps)  # the robot's limits: the action space
+        first = self.sim.reset(
+            self.scenarios[0], 0, max_steps=max_steps
+        )  # the robot's limits: the action space
         lim = first.robot_limits
         if lim.get("holonomic", 0.0):
             low, high = [-lim["v_max"], -lim["v_max"]], [lim["v_max"], lim["v_max"]]
         else:
             low, high = [lim["v_min"], -lim["w_max"]], [lim["v_max"], lim["w_max"]]
-        self.action_space = spaces.Box(np.array(low, np.float32), np.array(high, np.float32), dtype=np.float32)
+        self.action_space = spaces.Box(
+            np.array(low, np.float32), np.array(high, np.float32), dtype=np.float32
+        )
         inf = np.float32(1e4)  # [m], [m/s]: beyond any map
         obs_spaces = {
-            "robot": spaces.Box(-inf, inf, (3,), np.float32), "goal": spaces.Box(-inf, inf, (3,), np.float32),
+            "robot": spaces.Box(-inf, inf, (3,), np.float32),
+            "goal": spaces.Box(-inf, inf, (3,), np.float32),
             "route": spaces.Box(-inf, inf, (self.r, 2), np.float32),
             "peds": spaces.Box(-inf, inf, (self.k, 4), np.float32),
             "ped_mask": spaces.Box(0.0, 1.0, (self.k,), np.float32),
@@ -113,9 +130,13 @@ class CrowdNavEnv(gym.Env):
             peds[:n, :2] = rel[nearest] @ rot.T
             peds[:n, 2:] = obs.ped_velocities[nearest] @ rot.T
             mask[:n] = 1.0
-        out = {"robot": np.array([obs.robot_velocity[0], obs.robot_velocity[1], obs.robot_radius]),
-               "goal": np.array([goal[0], goal[1], np.hypot(*goal)]), "route": (route - here) @ rot.T,
-               "peds": peds, "ped_mask": mask}
+        out = {
+            "robot": np.array([obs.robot_velocity[0], obs.robot_velocity[1], obs.robot_radius]),
+            "goal": np.array([goal[0], goal[1], np.hypot(*goal)]),
+            "route": (route - here) @ rot.T,
+            "peds": peds,
+            "ped_mask": mask,
+        }
         if self.occupancy:
             gx, gy = np.meshgrid(self.grid, self.grid, indexing="xy")
             world = here + np.stack([gx, gy], axis=-1) @ rot  # robot frame -> world

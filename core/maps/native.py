@@ -42,8 +42,21 @@ TOP_KEYS = {
     *ROUTE_FIELDS,
 }
 PED_KEYS = {
-    "id", "start", "goal", "trajectory", "speed_m_s", "wait_at", "start_delay_s", "note", "role", "role_target_id",
-    "role_offset", "hold_until_robot_within_m", "hold_ref_point", "hold_timeout_s", "metadata",
+    "id",
+    "start",
+    "goal",
+    "trajectory",
+    "speed_m_s",
+    "wait_at",
+    "start_delay_s",
+    "note",
+    "role",
+    "role_target_id",
+    "role_offset",
+    "hold_until_robot_within_m",
+    "hold_ref_point",
+    "hold_timeout_s",
+    "metadata",
 }
 
 

@@ -162,7 +162,9 @@ def refresh_checksums(path: str | Path, *, write: bool = True) -> dict[str, tupl
         if new == e.source_sha256:
             continue
         if e.source_sha256 is None or text.count(e.source_sha256) != 1:
-            raise ConfigError("cannot update the checksum in place (missing or repeated hash)", source=path, item=map_id)
+            raise ConfigError(
+                "cannot update the checksum in place (missing or repeated hash)", source=path, item=map_id
+            )
         text = text.replace(e.source_sha256, new)
         changed[map_id] = (e.source_sha256, new)
     if write and changed:

@@ -476,8 +476,11 @@ def _parse_xml(text: str | bytes, source: str) -> ET.Element:
                 root = root if root is not None else elem
                 depth += 1 if event == "start" else -1
                 if depth > MAX_NESTING:
-                    raise ConfigError(f"elements nested deeper than {MAX_NESTING} levels", source=source,
-                                      item=f"<{elem.tag.rpartition('}')[2]}>")
+                    raise ConfigError(
+                        f"elements nested deeper than {MAX_NESTING} levels",
+                        source=source,
+                        item=f"<{elem.tag.rpartition('}')[2]}>",
+                    )
         parser.close()
     except ET.ParseError as exc:
         raise ConfigError(f"malformed XML: {exc}", source=source, item="xml") from exc

@@ -41,7 +41,9 @@ class CollectSection(CollectConfig):
     @model_validator(mode="after")
     def _no_manifest(self) -> CollectSection:
         if self.hard_seeds is not None:
-            raise ValueError("base collection takes no seed manifest; the hard-case stage uses training_seeds")
+            raise ValueError(
+                "base collection takes no seed manifest; the hard-case stage uses training_seeds"
+            )
         return self
 
 
@@ -136,19 +138,29 @@ class PipelineConfig(BaseModel):
                 continue
             for key in ("bundle", "matrix"):
                 if key in section.model_fields_set and getattr(section, key) != getattr(self, key):
-                    raise ValueError(f"{name}.{key} differs from the pipeline's {key}; set it once at the top")
-        for name, key in (("hardcase", "hard_seeds"), ("diagnose", "seed_manifest"), ("campaign", "seed_manifest")):
+                    raise ValueError(
+                        f"{name}.{key} differs from the pipeline's {key}; set it once at the top"
+                    )
+        for name, key in (
+            ("hardcase", "hard_seeds"),
+            ("diagnose", "seed_manifest"),
+            ("campaign", "seed_manifest"),
+        ):
             section = getattr(self, name)
             want = self.training_seeds if name == "hardcase" else self.evaluation_seeds
             value = getattr(section, key, None) if section is not None else None
             if value is not None and value != want:
-                raise ValueError(f"{name}.{key} must be the pipeline's "
-                                 f"{'training_seeds' if name == 'hardcase' else 'evaluation_seeds'} (or unset)")
+                raise ValueError(
+                    f"{name}.{key} must be the pipeline's "
+                    f"{'training_seeds' if name == 'hardcase' else 'evaluation_seeds'} (or unset)"
+                )
         if self.selection is not None and self.selection.seeds == self.evaluation_seeds:
             raise ValueError("selection.seeds must be a TRAINING manifest, not the evaluation_seeds")
         proxy, want = self.train.proxy, self.selection.seeds if self.selection else self.training_seeds
         if proxy is not None and proxy.seed_manifest not in (None, want):
-            raise ValueError(f"train.proxy.seed_manifest must be {want} (selection.seeds, else training_seeds) or unset")
+            raise ValueError(
+                f"train.proxy.seed_manifest must be {want} (selection.seeds, else training_seeds) or unset"
+            )
         return self
 
 
@@ -157,7 +169,9 @@ def _build(model: type[BaseModel], data: dict[str, Any], stage: str) -> Any:
         return model.model_validate(data)
     except ValidationError as exc:
         err = exc.errors()[0]
-        raise ConfigError(err["msg"], source="pipeline", item=".".join([stage, *map(str, err["loc"])])) from None
+        raise ConfigError(
+            err["msg"], source="pipeline", item=".".join([stage, *map(str, err["loc"])])
+        ) from None
 
 
 def _model(value: str | None, candidate: str) -> str:
@@ -174,25 +188,40 @@ def stage_config(config: PipelineConfig, stage: str, inputs: dict[str, str]) -> 
         return _build(CollectConfig, {**config.collect.model_dump(), **where}, stage)
     if stage == "hardcase":
         assert config.hardcase is not None
-        return _build(CollectConfig, {**config.hardcase.model_dump(), **where, "hard_seeds": config.training_seeds}, stage)
+        return _build(
+            CollectConfig,
+            {**config.hardcase.model_dump(), **where, "hard_seeds": config.training_seeds},
+            stage,
+        )
     if stage == "mix":
-        return _build(MixConfig, {**config.mix.model_dump(), "base": inputs["base"], "hardcase": inputs["hardcase"]},
-                      stage)
+        return _build(
+            MixConfig,
+            {**config.mix.model_dump(), "base": inputs["base"], "hardcase": inputs["hardcase"]},
+            stage,
+        )
     if stage == "train":
         data = config.train.model_dump()
         data["dataset"] = inputs.get("mixed") or inputs["base"]
         if config.train.proxy_every > 0:
             proxy = (config.train.proxy or ProxySpec()).model_dump()
             sel = config.selection
-            proxy.update(where, matrix=sel.matrix if sel else config.matrix, scenarios=None, seeds_per_scenario=None,
-                         seed_manifest=sel.seeds if sel else config.training_seeds)
+            proxy.update(
+                where,
+                matrix=sel.matrix if sel else config.matrix,
+                scenarios=None,
+                seeds_per_scenario=None,
+                seed_manifest=sel.seeds if sel else config.training_seeds,
+            )
             data["proxy"] = proxy
         return _build(TrainConfig, data, stage)
     if stage == "evaluate":
         data = config.evaluate.model_dump()
         data.update(where)
-        data["planner"]["model"] = _model(data["planner"].get("model"), inputs["model"]) \
-            if data["planner"]["name"] == "predictive" else data["planner"].get("model")
+        data["planner"]["model"] = (
+            _model(data["planner"].get("model"), inputs["model"])
+            if data["planner"]["name"] == "predictive"
+            else data["planner"].get("model")
+        )
         return _build(EvaluationConfig, data, stage)
     if stage == "diagnose":
         assert config.diagnose is not None
@@ -220,4 +249,6 @@ def load_pipeline_config(path: str | Path) -> PipelineConfig:
         return PipelineConfig.model_validate(data)
     except ValidationError as exc:
         err = exc.errors()[0]
-        raise ConfigError(err["msg"], source=path, item=".".join(str(p) for p in err["loc"]) or None) from None
+        raise ConfigError(
+            err["msg"], source=path, item=".".join(str(p) for p in err["loc"]) or None
+        ) from None

@@ -58,8 +58,18 @@ RUNBOOK: list[tuple[str, str]] = [
     ("promote", "promote"),
 ]  # fmt: skip
 #: relative effort of each stage, for the overall progress bar
-WEIGHT = {"collect": 1, "hardcase": 0.5, "mix": 0.1, "train": 3, "register": 0.05, "evaluate": 2, "diagnose": 1,
-          "campaign": 4, "gates": 0.01, "promote": 0.05}
+WEIGHT = {
+    "collect": 1,
+    "hardcase": 0.5,
+    "mix": 0.1,
+    "train": 3,
+    "register": 0.05,
+    "evaluate": 2,
+    "diagnose": 1,
+    "campaign": 4,
+    "gates": 0.01,
+    "promote": 0.05,
+}
 GATE_OF_STAGE = {"training": "train", "evaluation": "evaluate", "closed_loop": "campaign"}
 
 
@@ -76,7 +86,9 @@ class ChildRun:
     artifacts: dict[str, str] = field(default_factory=dict)  #: label -> link
 
 
-RunChild = Callable[[str, str, dict[str, Any], Callable[[float, str], None]], "ChildRun | BaseModel | dict[str, Any]"]
+RunChild = Callable[
+    [str, str, dict[str, Any], Callable[[float, str], None]], "ChildRun | BaseModel | dict[str, Any]"
+]
 
 
 class StageFailed(CoreError):
@@ -84,8 +96,10 @@ class StageFailed(CoreError):
 
 
 def _selection_text(config: PipelineConfig) -> str:
-    return (f"training seeds {config.training_seeds}, evaluation seeds {config.evaluation_seeds} "
-            f"(matrix {config.matrix} in bundle {config.bundle})")
+    return (
+        f"training seeds {config.training_seeds}, evaluation seeds {config.evaluation_seeds} "
+        f"(matrix {config.matrix} in bundle {config.bundle})"
+    )
 
 
 def check_seed_separation(config: PipelineConfig, ctx: StageContext) -> dict[str, int]:
@@ -100,23 +114,47 @@ def check_seed_separation(config: PipelineConfig, ctx: StageContext) -> dict[str
     _, _, train = load_selection(EpisodeSelection(**where, seed_manifest=config.training_seeds), ctx)
     _, _, hard = load_selection(EpisodeSelection(**where, seed_manifest=config.evaluation_seeds), ctx)
     ev = config.evaluate
-    _, _, glob = load_selection(EpisodeSelection(**where, scenarios=ev.scenarios, seeds_per_scenario=ev.seeds_per_scenario,
-                                                 seed_manifest=ev.seed_manifest), ctx)
+    _, _, glob = load_selection(
+        EpisodeSelection(
+            **where,
+            scenarios=ev.scenarios,
+            seeds_per_scenario=ev.seeds_per_scenario,
+            seed_manifest=ev.seed_manifest,
+        ),
+        ctx,
+    )
     cp = config.campaign
-    _, _, camp = load_selection(EpisodeSelection(**where, scenarios=cp.scenarios,
-                                                 seeds_per_scenario=cp.seeds_per_scenario), ctx)
+    _, _, camp = load_selection(
+        EpisodeSelection(**where, scenarios=cp.scenarios, seeds_per_scenario=cp.seeds_per_scenario), ctx
+    )
     sel = config.selection
-    selection = [] if sel is None else check_training_seeds(
-        ProxySpec(bundle=config.bundle, matrix=sel.matrix, seed_manifest=sel.seeds), ctx)
-    for item, what, mine in (("training_seeds", "training hard seeds", train), ("selection", "selection seeds", selection)):
+    selection = (
+        []
+        if sel is None
+        else check_training_seeds(
+            ProxySpec(bundle=config.bundle, matrix=sel.matrix, seed_manifest=sel.seeds), ctx
+        )
+    )
+    for item, what, mine in (
+        ("training_seeds", "training hard seeds", train),
+        ("selection", "selection seeds", selection),
+    ):
         for label, pairs in (("evaluation_seeds", hard), ("evaluate", glob), ("campaign global suite", camp)):
             shared = sorted(set(mine) & set(pairs))
             if shared:
-                raise ConfigError(f"{what} overlap the {label} episodes: {shared[:5]}"
-                                  + (f" (+{len(shared) - 5} more)" if len(shared) > 5 else ""),
-                                  source="pipeline", item=item)
-    return {"training_seeds": len(train), "evaluation_seeds": len(hard), "evaluate": len(glob),
-            "campaign_global": len(camp), "selection": len(selection)}
+                raise ConfigError(
+                    f"{what} overlap the {label} episodes: {shared[:5]}"
+                    + (f" (+{len(shared) - 5} more)" if len(shared) > 5 else ""),
+                    source="pipeline",
+                    item=item,
+                )
+    return {
+        "training_seeds": len(train),
+        "evaluation_seeds": len(hard),
+        "evaluate": len(glob),
+        "campaign_global": len(camp),
+        "selection": len(selection),
+    }
 
 
 @dataclass
@@ -141,15 +179,21 @@ class StageResults:
         return None if result is None else result.gate
 
 
-def run_pipeline(config: PipelineConfig, ctx: StageContext, run_child: RunChild, *, run_id: str = "local") -> PipelineResult:
+def run_pipeline(
+    config: PipelineConfig, ctx: StageContext, run_child: RunChild, *, run_id: str = "local"
+) -> PipelineResult:
     """Run (or resume) every stage through ``run_child``; write the summary; return the verdict.
 
     ``run_id`` names this run (the worker passes the pipeline job's id): the candidate model is
     ``<name>-<run_id[:8]>`` unless ``register.model_id`` is set.
     """
     t0 = time.perf_counter()
-    stages = [(s, k) for s, k in RUNBOOK if not (config.hardcase is None and s in ("hardcase", "mix"))
-              and not (config.diagnose is None and s == "diagnose")]
+    stages = [
+        (s, k)
+        for s, k in RUNBOOK
+        if not (config.hardcase is None and s in ("hardcase", "mix"))
+        and not (config.diagnose is None and s == "diagnose")
+    ]
     total = sum(WEIGHT[s] for s, _ in stages)
     done_weight = 0.0
     entries: dict[str, StageEntry] = {s: StageEntry(name=s, status="pending") for s, _ in stages}
@@ -170,17 +214,25 @@ def run_pipeline(config: PipelineConfig, ctx: StageContext, run_child: RunChild,
             if entry.status == "pending":
                 entry.status = "skipped"
         return PipelineSummary(
-            name=config.name, status=status, exit_code=exit_code, stages=list(entries.values()), gates=gates, best=best,
-            promoted_model=model_id if promoted else None, promotion=verdict["promotion"],
+            name=config.name,
+            status=status,
+            exit_code=exit_code,
+            stages=list(entries.values()),
+            gates=gates,
+            best=best,
+            promoted_model=model_id if promoted else None,
+            promotion=verdict["promotion"],
             artifacts={"summary (JSON)": "pipeline_summary.json", "config": "pipeline_config.json"},
-            code_version=_code_version(), wall_s=time.perf_counter() - t0,
+            code_version=_code_version(),
+            wall_s=time.perf_counter() - t0,
         )
 
     def publish(s: PipelineSummary) -> None:
         files.write_text(ctx.artifact("pipeline_summary.json"), s.model_dump_json(indent=2))
         try:
-            write_pipeline_report(s, ctx.workdir, campaign=results.of("campaign", CampaignResult),
-                                  training=results.training)
+            write_pipeline_report(
+                s, ctx.workdir, campaign=results.of("campaign", CampaignResult), training=results.training
+            )
         except Exception as exc:  # a report is a by-product: never hide the pipeline's own outcome
             ctx.log(f"pipeline report failed: {exc!r}")
 
@@ -190,7 +242,9 @@ def run_pipeline(config: PipelineConfig, ctx: StageContext, run_child: RunChild,
         span = WEIGHT[stage] / total
         base = done_weight / total
 
-        def progress(fraction: float, message: str, base: float = base, span: float = span, stage: str = stage) -> None:
+        def progress(
+            fraction: float, message: str, base: float = base, span: float = span, stage: str = stage
+        ) -> None:
             ctx.progress(min(base + span * max(0.0, min(1.0, fraction)), 0.999), f"{stage}: {message}")
 
         try:
@@ -201,20 +255,28 @@ def run_pipeline(config: PipelineConfig, ctx: StageContext, run_child: RunChild,
                 gates, verdict = _decide(config, results)
                 entry.status = "passed" if verdict["passed"] else "failed_gate"
                 entry.wall_s = time.perf_counter() - t
-                entry.headline = ("all required gates passed" if verdict["passed"]
-                                  else "failed: " + ", ".join(verdict["failed"]))
+                entry.headline = (
+                    "all required gates passed"
+                    if verdict["passed"]
+                    else "failed: " + ", ".join(verdict["failed"])
+                )
             elif stage == "promote":
                 if not verdict["passed"]:
                     entry.status = "skipped"
                     entry.headline = f"{model_id} stays a candidate"
                 else:
-                    run = _as_run(run_child(stage, kind, {"model_id": model_id, "to": config.promote.to}, progress), kind)
+                    run = _as_run(
+                        run_child(stage, kind, {"model_id": model_id, "to": config.promote.to}, progress),
+                        kind,
+                    )
                     _fill(entry, run, kind)
                     promoted = True
                     entry.status = "completed"
                     entry.headline = f"{model_id} -> {config.promote.to}"
-                    verdict["promotion"] = (f"Promoted `{model_id}` to {config.promote.to}: every required gate "
-                                            f"({', '.join(config.gates.require) or 'none'}) passed.")
+                    verdict["promotion"] = (
+                        f"Promoted `{model_id}` to {config.promote.to}: every required gate "
+                        f"({', '.join(config.gates.require) or 'none'}) passed."
+                    )
             else:
                 spec = _spec(config, stage, inputs, results, model_id)
                 run = _as_run(run_child(stage, kind, spec, progress), kind)
@@ -222,7 +284,9 @@ def run_pipeline(config: PipelineConfig, ctx: StageContext, run_child: RunChild,
                 if kind in RESULTS:
                     results.by_stage[stage] = run.result
                 if kind in ("collect", "mix"):
-                    inputs[{"collect": "base", "hardcase": "hardcase", "mix": "mixed"}[stage]] = run.ident or run.job_id or ""
+                    inputs[{"collect": "base", "hardcase": "hardcase", "mix": "mixed"}[stage]] = (
+                        run.ident or run.job_id or ""
+                    )
                 elif stage == "train":
                     results.training = _training_summary(run.result)
                 elif stage == "register":
@@ -244,36 +308,58 @@ def run_pipeline(config: PipelineConfig, ctx: StageContext, run_child: RunChild,
     passed = bool(verdict["passed"])
     exit_code = 0 if passed else GATE_FAILED_EXIT
     if not passed and not verdict["promotion"]:
-        verdict["promotion"] = (f"`{model_id}` stays a candidate: required gate(s) failed "
-                                f"({', '.join(verdict['failed'])}).")
+        verdict["promotion"] = (
+            f"`{model_id}` stays a candidate: required gate(s) failed ({', '.join(verdict['failed'])})."
+        )
     s = summary("passed" if passed else "failed_gate", exit_code)
     publish(s)
     ctx.progress(1.0, f"{s.status}: " + ("promoted " + model_id if promoted else "not promoted"))
     return PipelineResult(
-        name=config.name, status=s.status, exit_code=exit_code, passed=passed, failed_gates=verdict["failed"],
-        model_id=inputs.get("model"), promoted=promoted, promotion=verdict["promotion"], stages=s.stages,
+        name=config.name,
+        status=s.status,
+        exit_code=exit_code,
+        passed=passed,
+        failed_gates=verdict["failed"],
+        model_id=inputs.get("model"),
+        promoted=promoted,
+        promotion=verdict["promotion"],
+        stages=s.stages,
         summary=s,
         artifacts={"report": "report.html", "markdown": "report.md", "summary": "pipeline_summary.json"},
         wall_s=time.perf_counter() - t0,
     )
 
 
-def _spec(config: PipelineConfig, stage: str, inputs: dict[str, str], results: StageResults,
-          model_id: str) -> dict[str, Any]:
+def _spec(
+    config: PipelineConfig, stage: str, inputs: dict[str, str], results: StageResults, model_id: str
+) -> dict[str, Any]:
     if stage == "register":
         train = results.of("train", TrainResult)
         assert train is not None, "register runs after train"
         summary = results.training
         return {
-            "model_id": model_id, "status": "candidate", "train_stage": "train",
+            "model_id": model_id,
+            "status": "candidate",
+            "train_stage": "train",
             "tags": list(dict.fromkeys([*config.registration.tags, "pipeline", config.name])),
-            "lineage": {"pipeline": config.name, "datasets": {k: v for k, v in inputs.items() if k != "model"},
-                        "training_seeds": config.training_seeds, "dataset": summary.dataset if summary else None},
-            "training": {"best_epoch": train.best_epoch, "selection_mode": train.selection_mode,
-                         "config": summary.config if summary else None},
-            "metrics": train.model_dump(include={"val_ade", "val_fde", "cv_val_ade", "cv_val_fde", "gates_passed"}),
+            "lineage": {
+                "pipeline": config.name,
+                "datasets": {k: v for k, v in inputs.items() if k != "model"},
+                "training_seeds": config.training_seeds,
+                "dataset": summary.dataset if summary else None,
+            },
+            "training": {
+                "best_epoch": train.best_epoch,
+                "selection_mode": train.selection_mode,
+                "config": summary.config if summary else None,
+            },
+            "metrics": train.model_dump(
+                include={"val_ade", "val_fde", "cv_val_ade", "cv_val_fde", "gates_passed"}
+            ),
         }
-    return stage_config(config, stage, {**inputs, "model": inputs.get("model", model_id)}).model_dump(mode="json")
+    return stage_config(config, stage, {**inputs, "model": inputs.get("model", model_id)}).model_dump(
+        mode="json"
+    )
 
 
 def _decide(config: PipelineConfig, results: StageResults) -> tuple[list[Any], dict[str, Any]]:
@@ -283,7 +369,11 @@ def _decide(config: PipelineConfig, results: StageResults) -> tuple[list[Any], d
         required = name in config.gates.require
         if not required and entry.passed is None:
             entry.detail = (entry.detail + "; " if entry.detail else "") + "not required for promotion"
-        elif entry.passed is None and name == "closed_loop" and results.of("campaign", CampaignResult) is not None:
+        elif (
+            entry.passed is None
+            and name == "closed_loop"
+            and results.of("campaign", CampaignResult) is not None
+        ):
             entry.detail = "the campaign has no closed-loop gate configured"
         entries.append(entry)
         # a gate that ran and failed blocks promotion whether or not it is required: a model whose gates fail is

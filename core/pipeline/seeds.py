@@ -43,8 +43,9 @@ def parse_seed_range(text: str) -> list[int]:
             return list(range(lo, hi))
         return [int(x) for x in text.split(",") if x.strip()]
     except ValueError:
-        raise ConfigError(f"seed range {text!r}: give LO:HI (half open, 0 <= LO < HI) or a comma list",
-                          item="seeds") from None
+        raise ConfigError(
+            f"seed range {text!r}: give LO:HI (half open, 0 <= LO < HI) or a comma list", item="seeds"
+        ) from None
 
 
 def mine_failures(
@@ -70,7 +71,9 @@ def mine_failures(
     from foresight.core.sim.episode import run_episode
 
     if baseline == "predictive":
-        raise ConfigError("mine with a baseline that needs no model (orca, social_force, goal)", item="baseline")
+        raise ConfigError(
+            "mine with a baseline that needs no model (orca, social_force, goal)", item="baseline"
+        )
     matrix = load_matrix(Path(matrix_path))
     names = [matrix.get(n).name for n in scenarios] if scenarios else list(matrix.names)
     excluded = set(exclude)
@@ -110,8 +113,9 @@ def read_manifest_pairs(path: str | Path) -> set[tuple[str, int]]:
 def write_manifest(path: str | Path, seeds: dict[str, list[int]], description: str, header: str = "") -> Path:
     """Write the wrapped manifest form (``description`` + ``seeds``) with a comment header."""
     path = Path(path)
-    body = yaml.safe_dump({"description": description, "seeds": seeds}, sort_keys=False, default_flow_style=None,
-                          width=120)
+    body = yaml.safe_dump(
+        {"description": description, "seeds": seeds}, sort_keys=False, default_flow_style=None, width=120
+    )
     comment = "".join(f"# {line}".rstrip() + "\n" for line in header.strip().splitlines()) if header else ""
     files.write_text(path, comment + body)
     return path

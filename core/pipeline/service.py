@@ -43,20 +43,42 @@ class ChildJobs:
         if kind == "promote":
             row = self.jobs.promote_model(spec["model_id"], spec["to"])
             self.ctx.log(f"promoted {row['model_id']} to {row['status']}")
-            return ChildRun(result=row, ident=row["model_id"], artifacts={"model": f"/v1/models/{row['model_id']}"})
-        job, created = self.jobs.submit(f"stage {stage}", kind, spec, key=f"pipeline:{self.parent_id}:{stage}")
+            return ChildRun(
+                result=row, ident=row["model_id"], artifacts={"model": f"/v1/models/{row['model_id']}"}
+            )
+        job, created = self.jobs.submit(
+            f"stage {stage}", kind, spec, key=f"pipeline:{self.parent_id}:{stage}"
+        )
         child_id = job["id"]
         self.children[stage] = child_id
-        rows, touched = self.jobs.run(f"stage {stage}", [child_id],
-                                      on_progress=lambda _child, fraction, message: progress(fraction, message))
+        rows, touched = self.jobs.run(
+            f"stage {stage}",
+            [child_id],
+            on_progress=lambda _child, fraction, message: progress(fraction, message),
+        )
         return self._outcome(rows[child_id], resumed=not (created or child_id in touched))
 
     def _outcome(self, job: dict[str, Any], *, resumed: bool) -> ChildRun:
         # the child's report page was written by the worker code path that ran it
-        report = f"/ui/jobs/{job['id']}/files/report.html" if (self.jobs.folder(job["id"]) / "report.html").is_file() else None
-        wall = job["finished_at"] - job["started_at"] if job.get("finished_at") and job.get("started_at") else None
-        return ChildRun(result=dict(job["result"] or {}), ident=job["id"], job_id=job["id"], wall_s=wall,
-                        resumed=resumed, report=report, artifacts={"job": f"/v1/jobs/{job['id']}"})
+        report = (
+            f"/ui/jobs/{job['id']}/files/report.html"
+            if (self.jobs.folder(job["id"]) / "report.html").is_file()
+            else None
+        )
+        wall = (
+            job["finished_at"] - job["started_at"]
+            if job.get("finished_at") and job.get("started_at")
+            else None
+        )
+        return ChildRun(
+            result=dict(job["result"] or {}),
+            ident=job["id"],
+            job_id=job["id"],
+            wall_s=wall,
+            resumed=resumed,
+            report=report,
+            artifacts={"job": f"/v1/jobs/{job['id']}"},
+        )
 
     def _register(self, spec: dict[str, Any]) -> ChildRun:
         train_job = self.children.get(spec.get("train_stage", "train"))
@@ -66,8 +88,12 @@ class ChildJobs:
         row = self.jobs.register_model(spec["model_id"], train_job, {**spec, "provenance": provenance})
         if not row["resumed"]:
             self.ctx.log(f"registered {row['model_id']} (candidate) from training job {train_job}")
-        return ChildRun(result={"model_id": row["model_id"], "status": row["status"], "train_job": train_job},
-                        ident=row["model_id"], resumed=row["resumed"], artifacts={"model": f"/v1/models/{row['model_id']}"})
+        return ChildRun(
+            result={"model_id": row["model_id"], "status": row["status"], "train_job": train_job},
+            ident=row["model_id"],
+            resumed=row["resumed"],
+            artifacts={"model": f"/v1/models/{row['model_id']}"},
+        )
 
 
 def run_pipeline_job(config: PipelineConfig, ctx: StageContext) -> PipelineResult:

@@ -63,10 +63,15 @@ def best_from_campaign(result: CampaignResult) -> BestVariant | None:
     best = result.best
     if best is None:
         return None
-    return BestVariant(variant=best.variant, checkpoint=best.checkpoint, config_hash=best.planner.config_hash,
-                       hard_success=best.hard.success.rate, global_success=best.global_.success.rate,
-                       hard_clearance=best.hard.mean_min_clearance.mean,
-                       global_clearance=best.global_.mean_min_clearance.mean)
+    return BestVariant(
+        variant=best.variant,
+        checkpoint=best.checkpoint,
+        config_hash=best.planner.config_hash,
+        hard_success=best.hard.success.rate,
+        global_success=best.global_.success.rate,
+        hard_clearance=best.hard.mean_min_clearance.mean,
+        global_clearance=best.global_.mean_min_clearance.mean,
+    )
 
 
 class PipelineResult(BaseModel):

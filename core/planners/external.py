@@ -60,9 +60,15 @@ class ExternalPlannerConfig(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
-    command: str = Field(min_length=1, max_length=200)  #: a name in FORESIGHT_EXTERNAL_PLANNERS, never a command line
-    step_timeout_s: float = Field(default=1.0, gt=0, le=60)  #: deadline of one observation -> command round trip
-    start_timeout_s: float = Field(default=20.0, gt=0, le=300)  #: deadline of the process start and episode start
+    command: str = Field(
+        min_length=1, max_length=200
+    )  #: a name in FORESIGHT_EXTERNAL_PLANNERS, never a command line
+    step_timeout_s: float = Field(
+        default=1.0, gt=0, le=60
+    )  #: deadline of one observation -> command round trip
+    start_timeout_s: float = Field(
+        default=20.0, gt=0, le=300
+    )  #: deadline of the process start and episode start
     params: dict[str, Any] = Field(default_factory=dict)  #: sent to the process with every episode start
 
     @field_validator("command")
@@ -70,8 +76,10 @@ class ExternalPlannerConfig(BaseModel):
     def _configured(cls, value: str) -> str:
         known = operator_commands()
         if value not in known:
-            raise ValueError(f"external planner {value!r} is not configured by the operator (configured: "
-                             f"{', '.join(known) or 'none'}; the operator sets {ENV})")
+            raise ValueError(
+                f"external planner {value!r} is not configured by the operator (configured: "
+                f"{', '.join(known) or 'none'}; the operator sets {ENV})"
+            )
         return value
 
 
@@ -95,16 +103,23 @@ class PlannerProcess:
         self.name = name
         self._err = tempfile.NamedTemporaryFile(prefix="foresight-planner-", suffix=".log", delete=False)  # noqa: SIM115
         try:
-            self.proc = subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._err,
-                                         bufsize=0, close_fds=True)
+            self.proc = subprocess.Popen(
+                argv,
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                stderr=self._err,
+                bufsize=0,
+                close_fds=True,
+            )
         except OSError as exc:
             raise ExternalPlannerError(f"external planner {name!r} did not start: {exc}") from None
         self._buf = b""
         hello = self.request({"type": "hello", "protocol": PROTOCOL}, timeout_s, "hello", "hello")
         if hello.get("protocol") != PROTOCOL:
             self.kill()
-            raise ExternalPlannerError(f"external planner {name!r} speaks protocol {hello.get('protocol')!r}, "
-                                       f"expected {PROTOCOL}")
+            raise ExternalPlannerError(
+                f"external planner {name!r} speaks protocol {hello.get('protocol')!r}, expected {PROTOCOL}"
+            )
         self.hello = hello
 
     @property
@@ -155,7 +170,9 @@ class PlannerProcess:
         self.proc.wait()
         tail = _tail(self._err.name)
         self.kill()
-        raise ExternalPlannerError(f"external planner {self.name!r} {reason}" + (f"; stderr: {tail}" if tail else ""))
+        raise ExternalPlannerError(
+            f"external planner {self.name!r} {reason}" + (f"; stderr: {tail}" if tail else "")
+        )
 
     def kill(self) -> None:
         if self.proc.poll() is None:
@@ -223,24 +240,39 @@ def _list(a: np.ndarray) -> list:
 def observation_message(obs: Observation) -> dict[str, Any]:
     """The protocol's observation message (episode constants on step 0)."""
     msg: dict[str, Any] = {
-        "type": "observation", "step": int(obs.step), "time": float(obs.time),
+        "type": "observation",
+        "step": int(obs.step),
+        "time": float(obs.time),
         "robot": {"pose": _list(obs.robot_pose), "velocity": _list(obs.robot_velocity)},
-        "goal": _list(obs.goal), "waypoint": _list(obs.waypoint), "route": _list(obs.route),
+        "goal": _list(obs.goal),
+        "waypoint": _list(obs.waypoint),
+        "route": _list(obs.route),
         "goal_tolerance": float(obs.goal_tolerance),
-        "pedestrians": {"ids": np.asarray(obs.ped_ids).tolist(), "positions": _list(obs.ped_positions),
-                        "velocities": _list(obs.ped_velocities)},
+        "pedestrians": {
+            "ids": np.asarray(obs.ped_ids).tolist(),
+            "positions": _list(obs.ped_positions),
+            "velocities": _list(obs.ped_velocities),
+        },
     }
     if obs.step == 0:
         msg["robot_limits"] = {k: float(v) for k, v in obs.robot_limits.items()}
-        msg["static"] = {"segments": _list(obs.static.segments), "width": float(obs.static.width),
-                         "height": float(obs.static.height)}
+        msg["static"] = {
+            "segments": _list(obs.static.segments),
+            "width": float(obs.static.width),
+            "height": float(obs.static.height),
+        }
     return msg
 
 
 def start_message(info: EpisodeInfo, params: dict[str, Any]) -> dict[str, Any]:
     """The protocol's episode start message."""
-    episode = {"scenario": info.scenario.name, "seed": int(info.seed), "dt": float(info.dt),
-               "robot_radius": float(info.robot_radius), "ped_radius": float(info.ped_radius)}
+    episode = {
+        "scenario": info.scenario.name,
+        "seed": int(info.seed),
+        "dt": float(info.dt),
+        "robot_radius": float(info.robot_radius),
+        "ped_radius": float(info.ped_radius),
+    }
     return {"type": "start", "episode": episode, "params": params}
 
 
@@ -264,14 +296,17 @@ class ExternalPlanner:
     def plan(self, obs: Observation) -> tuple[float, float]:
         if self._proc is None:
             raise ExternalPlannerError("plan() before reset()")
-        reply = self._proc.request(observation_message(obs), self.config.step_timeout_s, "command",
-                                   f"step {obs.step}")
+        reply = self._proc.request(
+            observation_message(obs), self.config.step_timeout_s, "command", f"step {obs.step}"
+        )
         try:
             v, w = float(reply["v"]), float(reply["omega"])
         except (KeyError, TypeError, ValueError):
             self._proc.kill()
-            raise ExternalPlannerError(f"external planner {self.config.command!r} sent a command without numeric "
-                                       f"'v' and 'omega' at step {obs.step}: {str(reply)[:120]}") from None
+            raise ExternalPlannerError(
+                f"external planner {self.config.command!r} sent a command without numeric "
+                f"'v' and 'omega' at step {obs.step}: {str(reply)[:120]}"
+            ) from None
         diag = reply.get("diagnostics")
         self._diag = diag if isinstance(diag, dict) else None
         return v, w
@@ -289,6 +324,9 @@ def build_external(config: ExternalPlannerConfig) -> ExternalPlanner:
     """An external planner for a validated config (the command is looked up in this process's settings)."""
     commands = operator_commands()
     if config.command not in commands:
-        raise ConfigError(f"external planner {config.command!r} is not configured here", source=ENV,
-                          item="planner.config.command")
+        raise ConfigError(
+            f"external planner {config.command!r} is not configured here",
+            source=ENV,
+            item="planner.config.command",
+        )
     return ExternalPlanner(config, commands[config.command])

@@ -42,7 +42,9 @@ class GoalSeeking:
 
     def __init__(self, config: GoalSeekingConfig | None = None, **overrides: float):
         base = config or GoalSeekingConfig()
-        self.config = GoalSeekingConfig.model_validate({**base.model_dump(), **overrides}) if overrides else base
+        self.config = (
+            GoalSeekingConfig.model_validate({**base.model_dump(), **overrides}) if overrides else base
+        )
         self._rng = np.random.default_rng(0)
         self._last: dict[str, Any] | None = None
         self._target: np.ndarray | None = None

@@ -84,8 +84,16 @@ class OrcaPlanner:
                 sim.add_obstacle([(float(x), float(y)) for x, y in poly])
             sim.process_obstacles()
             for _ in range(n_agents):
-                sim.add_agent((0.0, 0.0), c.neighbor_dist, c.max_neighbors, c.time_horizon, c.time_horizon_obst,
-                              1.0, 1.0, (0.0, 0.0))
+                sim.add_agent(
+                    (0.0, 0.0),
+                    c.neighbor_dist,
+                    c.max_neighbors,
+                    c.time_horizon,
+                    c.time_horizon_obst,
+                    1.0,
+                    1.0,
+                    (0.0, 0.0),
+                )
             self._sim, self._agents = sim, n_agents
         return self._sim
 
@@ -97,8 +105,18 @@ class OrcaPlanner:
         sim = self._simulator(1 + len(obs.ped_positions))
         to_wp = np.asarray(obs.waypoint, dtype=float) - obs.robot_pose[:2]
         dist = float(np.hypot(*to_wp))
-        pref = to_wp / dist * min(c.speed_ratio * vmax, dist / max(obs.dt, 1e-9)) if dist > 1e-9 else np.zeros(2)
-        _set_agent(sim, 0, (x, y), (v * np.cos(th), v * np.sin(th)), tuple(pref), obs.robot_radius + c.radius_margin, vmax)
+        pref = (
+            to_wp / dist * min(c.speed_ratio * vmax, dist / max(obs.dt, 1e-9)) if dist > 1e-9 else np.zeros(2)
+        )
+        _set_agent(
+            sim,
+            0,
+            (x, y),
+            (v * np.cos(th), v * np.sin(th)),
+            tuple(pref),
+            obs.robot_radius + c.radius_margin,
+            vmax,
+        )
         for i, (p, u) in enumerate(zip(obs.ped_positions, obs.ped_velocities, strict=True), start=1):
             _set_agent(sim, i, tuple(p), tuple(u), tuple(u), obs.ped_radius, max(float(np.hypot(*u)), 1e-3))
         sim.do_step()
@@ -108,7 +126,9 @@ class OrcaPlanner:
         return cmd
 
 
-def _set_agent(sim: Any, i: int, pos: tuple, vel: tuple, pref: tuple, radius: float, max_speed: float) -> None:
+def _set_agent(
+    sim: Any, i: int, pos: tuple, vel: tuple, pref: tuple, radius: float, max_speed: float
+) -> None:
     """Overwrite every per-decision input of agent ``i`` (nothing carries over between decisions)."""
     sim.set_agent_position(i, (float(pos[0]), float(pos[1])))
     sim.set_agent_velocity(i, (float(vel[0]), float(vel[1])))

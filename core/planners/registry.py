@@ -87,18 +87,49 @@ def _builtins() -> list[PlannerEntry]:
     from foresight.core.planners.social_force import SocialForceConfig, SocialForcePlanner
 
     return [
-        PlannerEntry("predictive", PredictivePlannerConfig, _predictive, "builtin", takes_model=True,
-                     description="sampling-based planner against a learned (or constant-velocity) crowd forecast"),
-        PlannerEntry("orca", OrcaConfig, lambda c, m: OrcaPlanner(c), "builtin",
-                     description="ORCA velocity obstacles (RVO2) with unicycle tracking"),
-        PlannerEntry("social_force", SocialForceConfig, lambda c, m: SocialForcePlanner(c), "builtin",
-                     description="social-force robot"),
-        PlannerEntry("goal", GoalSeekingConfig, lambda c, m: GoalSeeking(c), "builtin",
-                     description="goal seeking along the route, ignores pedestrians"),
-        PlannerEntry("scripted", ScriptedConfig, lambda c, m: Scripted(c), "builtin",
-                     description="a fixed plan (via points, a wait until a release time, then on): a witness"),
-        PlannerEntry("external", ExternalPlannerConfig, lambda c, m: build_external(c), "external",
-                     description="an operator-configured process speaking the JSON-lines planner protocol"),
+        PlannerEntry(
+            "predictive",
+            PredictivePlannerConfig,
+            _predictive,
+            "builtin",
+            takes_model=True,
+            description="sampling-based planner against a learned (or constant-velocity) crowd forecast",
+        ),
+        PlannerEntry(
+            "orca",
+            OrcaConfig,
+            lambda c, m: OrcaPlanner(c),
+            "builtin",
+            description="ORCA velocity obstacles (RVO2) with unicycle tracking",
+        ),
+        PlannerEntry(
+            "social_force",
+            SocialForceConfig,
+            lambda c, m: SocialForcePlanner(c),
+            "builtin",
+            description="social-force robot",
+        ),
+        PlannerEntry(
+            "goal",
+            GoalSeekingConfig,
+            lambda c, m: GoalSeeking(c),
+            "builtin",
+            description="goal seeking along the route, ignores pedestrians",
+        ),
+        PlannerEntry(
+            "scripted",
+            ScriptedConfig,
+            lambda c, m: Scripted(c),
+            "builtin",
+            description="a fixed plan (via points, a wait until a release time, then on): a witness",
+        ),
+        PlannerEntry(
+            "external",
+            ExternalPlannerConfig,
+            lambda c, m: build_external(c),
+            "external",
+            description="an operator-configured process speaking the JSON-lines planner protocol",
+        ),
     ]
 
 
@@ -112,8 +143,10 @@ def entry_of(name: str, obj: Any, origin: str) -> PlannerEntry:
     """
     api = getattr(obj, "planner_api", PLANNER_API_VERSION)
     if api != PLANNER_API_VERSION:
-        raise ConfigError(f"planner interface version {api} is not supported (this Foresight: "
-                          f"{PLANNER_API_VERSION})", item=name)
+        raise ConfigError(
+            f"planner interface version {api} is not supported (this Foresight: {PLANNER_API_VERSION})",
+            item=name,
+        )
     doc = (getattr(obj, "__doc__", None) or "").strip().splitlines()
     description = doc[0] if doc else ""
     if hasattr(obj, "plan") and not isinstance(obj, type):
@@ -133,8 +166,9 @@ def _plugins(taken: set[str]) -> list[PlannerEntry]:
     for ep in sorted(importlib.metadata.entry_points(group=PLUGIN_GROUP), key=lambda e: e.name):
         dist = f"plugin {ep.dist.name} {ep.dist.version}" if ep.dist else "plugin"
         if ep.name in taken or ":" in ep.name:
-            warnings.warn(f"planner plugin {ep.name!r} ({dist}) ignored: the name is taken or has a ':'",
-                          stacklevel=2)
+            warnings.warn(
+                f"planner plugin {ep.name!r} ({dist}) ignored: the name is taken or has a ':'", stacklevel=2
+            )
             continue
         try:
             found.append(entry_of(ep.name, ep.load(), dist))
@@ -189,8 +223,16 @@ def register(planner: str | Any) -> str:
 
 def catalogue() -> list[dict[str, Any]]:
     """Every installed planner: name, origin, description, whether it takes a model, its config's JSON schema."""
-    return [{"name": e.name, "origin": e.origin, "description": e.description, "takes_model": e.takes_model,
-             "config_schema": e.config_model.model_json_schema()} for e in installed().values()]
+    return [
+        {
+            "name": e.name,
+            "origin": e.origin,
+            "description": e.description,
+            "takes_model": e.takes_model,
+            "config_schema": e.config_model.model_json_schema(),
+        }
+        for e in installed().values()
+    ]
 
 
 def names() -> list[str]:
@@ -227,15 +269,21 @@ def make_forecaster(model: Any) -> Any:
     from foresight.core.predict.timebase import PLANNER_TIMEBASE
 
     if model is None:
-        raise ConfigError("the predictive planner needs a model: 'cv', a forecaster or a loaded predictor",
-                          item="model")
+        raise ConfigError(
+            "the predictive planner needs a model: 'cv', a forecaster or a loaded predictor", item="model"
+        )
     if isinstance(model, str):
         if model == "cv":
             return ConstantVelocityForecaster(PLANNER_TIMEBASE)
-        raise ConfigError(f"model {model!r}: resolve ids/paths through the model registry first; "
-                          "make_planner takes 'cv', a forecaster or a predictor", item="model")
+        raise ConfigError(
+            f"model {model!r}: resolve ids/paths through the model registry first; "
+            "make_planner takes 'cv', a forecaster or a predictor",
+            item="model",
+        )
     if isinstance(model, Forecaster):
         return model
     if isinstance(model, Predictor):
         return LearnedForecaster(model)
-    raise ConfigError(f"model of type {type(model).__name__} is neither a forecaster nor a predictor", item="model")
+    raise ConfigError(
+        f"model of type {type(model).__name__} is neither a forecaster nor a predictor", item="model"
+    )

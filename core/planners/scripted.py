@@ -35,7 +35,9 @@ class ScriptedConfig(BaseModel):
     via: tuple[Point, ...] = Field(default=(), max_length=MAX_POINTS)  #: [m] points driven through first
     hold: Point | None = None  #: [m] where to stand until the release time (None: no stand)
     release_s: float = Field(default=0.0, ge=0)  #: [s] episode time at which the stand ends
-    after: tuple[Point, ...] = Field(default=(), max_length=MAX_POINTS)  #: [m] points driven through after the stand
+    after: tuple[Point, ...] = Field(
+        default=(), max_length=MAX_POINTS
+    )  #: [m] points driven through after the stand
 
     def describe(self) -> str:
         """One line, e.g. ``via (30.00, 16.00); wait at (24.50, 14.80) until 21 s; then (18.70, 12.46)``."""
@@ -57,8 +59,10 @@ class Scripted:
         self.config = config or ScriptedConfig()
         c = self.config
         self.stops: list[tuple[Point, float | None]] = (
-            [(p, None) for p in c.via] + ([(c.hold, c.release_s)] if c.hold is not None else [])
-            + [(p, None) for p in c.after])
+            [(p, None) for p in c.via]
+            + ([(c.hold, c.release_s)] if c.hold is not None else [])
+            + [(p, None) for p in c.after]
+        )
         self.i = 0
 
     def reset(self, info: EpisodeInfo) -> None:
@@ -77,10 +81,14 @@ class Scripted:
             if release is not None and obs.time < release:
                 return 0.0, 0.0
             self.i += 1
-        tx, ty = self.stops[self.i][0] if self.i < len(self.stops) else (float(obs.goal[0]), float(obs.goal[1]))
+        tx, ty = (
+            self.stops[self.i][0] if self.i < len(self.stops) else (float(obs.goal[0]), float(obs.goal[1]))
+        )
         lim = obs.robot_limits
         if lim.get("holonomic", 0.0):  # a world-frame velocity (vx, vy): straight at the target
             d = max(math.hypot(tx - x, ty - y), 1e-9)
             return lim["v_max"] * (tx - x) / d, lim["v_max"] * (ty - y) / d
         err = (math.atan2(ty - y, tx - x) - th + math.pi) % (2 * math.pi) - math.pi
-        return lim["v_max"] * max(0.0, math.cos(err)) ** 2, max(-lim["w_max"], min(lim["w_max"], TURN_GAIN * err))
+        return lim["v_max"] * max(0.0, math.cos(err)) ** 2, max(
+            -lim["w_max"], min(lim["w_max"], TURN_GAIN * err)
+        )

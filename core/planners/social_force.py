@@ -24,8 +24,10 @@ def limits_of(robot_limits: dict[str, float]) -> tuple[float, float]:
     try:
         return float(robot_limits["v_max"]), float(robot_limits["w_max"])
     except KeyError as exc:
-        raise ConfigError(f"observation robot_limits lacks {exc.args[0]!r} (have {sorted(robot_limits)})",
-                          item="robot_limits") from None
+        raise ConfigError(
+            f"observation robot_limits lacks {exc.args[0]!r} (have {sorted(robot_limits)})",
+            item="robot_limits",
+        ) from None
 
 
 def velocity_to_unicycle(
@@ -93,8 +95,13 @@ class SocialForcePlanner:
         if n > vmax:
             u *= vmax / n
         cmd = velocity_to_unicycle(u, th, vmax, wmax, c.turn_gain)
-        self._diag = {"command": cmd, "desired_velocity": u.tolist(), "force_goal": f_goal.tolist(),
-                      "force_peds": f_ped.tolist(), "force_walls": f_wall.tolist()}
+        self._diag = {
+            "command": cmd,
+            "desired_velocity": u.tolist(),
+            "force_goal": f_goal.tolist(),
+            "force_peds": f_ped.tolist(),
+            "force_walls": f_wall.tolist(),
+        }
         return cmd
 
     def _ped_force(self, obs: Observation, pos: np.ndarray) -> np.ndarray:

@@ -54,11 +54,17 @@ class CollectConfig(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
     bundle: Ident = BUILTIN_BUNDLE
     matrix: BundlePath = "scenarios/classic_interactions.yaml"
-    scenarios: list[Name] | None = Field(default=None, max_length=1000)  #: default: all of the matrix (base mode)
+    scenarios: list[Name] | None = Field(
+        default=None, max_length=1000
+    )  #: default: all of the matrix (base mode)
     seeds_per_scenario: int = Field(default=4, ge=1, le=10_000)
-    base_seed: int = Field(default=50_000, ge=0, le=2**31 - 1 - 10_000_000)  #: above the matrices' own (evaluation) seeds, all < 10000; room for base_seed + i 100000 + k
+    base_seed: int = Field(
+        default=50_000, ge=0, le=2**31 - 1 - 10_000_000
+    )  #: above the matrices' own (evaluation) seeds, all < 10000; room for base_seed + i 100000 + k
     hard_seeds: BundlePath | None = None  #: training seed manifest -> hard-case mode
-    evaluation_seeds: BundlePath | None = None  #: evaluation manifest: collecting any of its episodes is an error
+    evaluation_seeds: BundlePath | None = (
+        None  #: evaluation manifest: collecting any of its episodes is an error
+    )
     policy: Literal["goal", "goal_noisy", "planner"] = "goal"
     planner: dict[str, Any] | None = None  #: {name, config, model: "cv" | model id} when policy = planner
     timebase: TimeBaseSpec = TimeBaseSpec()
@@ -154,8 +160,13 @@ CollectJob = tuple[int, str, int, str, str]
 class CollectWorker:
     """Rolls out a run's episodes one by one with its policy (reset per episode: episodes are independent)."""
 
-    def __init__(self, config: CollectConfig, matrix: Any, model_path: str | None = None,
-                 check: Callable[[], None] | None = None):
+    def __init__(
+        self,
+        config: CollectConfig,
+        matrix: Any,
+        model_path: str | None = None,
+        check: Callable[[], None] | None = None,
+    ):
         self.config, self.matrix, self.check = config, matrix, check
         self.timebase = config.timebase.build()
         self.recorder = _Recorder(_policy(config, model_path))
@@ -165,10 +176,16 @@ class CollectWorker:
         from foresight.core.sim.episode import run_episode
 
         index, name, seed, role, split = job
-        result = run_episode(self.matrix.get(name), seed, self.recorder, max_steps=self.config.max_steps,
-                             check=self.check)
-        samples = samples_from_trace(result.trace, self.timebase, self.config.max_agents,
-                                     self.recorder.waypoint_array(result.trace.steps), self.config.sample_every)
+        result = run_episode(
+            self.matrix.get(name), seed, self.recorder, max_steps=self.config.max_steps, check=self.check
+        )
+        samples = samples_from_trace(
+            result.trace,
+            self.timebase,
+            self.config.max_agents,
+            self.recorder.waypoint_array(result.trace.steps),
+            self.config.sample_every,
+        )
         return index, EpisodeRecord(name, int(seed), split, role), samples, result.outcome
 
 
@@ -180,8 +197,11 @@ def episode_list(config: CollectConfig, matrix, manifest_path=None) -> list[tupl
         manifest = load_seed_manifest(manifest_path, matrix)
         return [(matrix.get(name), seed, "hardcase") for name, seed in manifest.pairs()]
     names = config.scenarios or matrix.names
-    return [(matrix.get(n), config.base_seed + i * 100_000 + k, "base")
-            for i, n in enumerate(names) for k in range(config.seeds_per_scenario)]
+    return [
+        (matrix.get(n), config.base_seed + i * 100_000 + k, "base")
+        for i, n in enumerate(names)
+        for k in range(config.seeds_per_scenario)
+    ]
 
 
 def _refuse_evaluation_episodes(jobs, path, matrix) -> None:
@@ -191,8 +211,11 @@ def _refuse_evaluation_episodes(jobs, path, matrix) -> None:
     held = set(load_seed_manifest(path, matrix).pairs())
     clash = [(s.name, seed) for s, seed, _ in jobs if (s.name, seed) in held]
     if clash:
-        raise ConfigError(f"{len(clash)} collected episodes are evaluation episodes, e.g. {clash[0]}",
-                          source=path, item="evaluation_seeds")
+        raise ConfigError(
+            f"{len(clash)} collected episodes are evaluation episodes, e.g. {clash[0]}",
+            source=path,
+            item="evaluation_seeds",
+        )
 
 
 def run_collect(config: CollectConfig, ctx: StageContext) -> CollectResult:
@@ -235,8 +258,13 @@ def run_collect(config: CollectConfig, ctx: StageContext) -> CollectResult:
         check_quality(ds, str(path))
     record = save_dataset(ds, path)
     ctx.progress(1.0, f"{len(ds)} samples from {len(jobs)} episodes")
-    return CollectResult(dataset=config.output, sha256=record["sha256"], summary=record["summary"], outcomes=outcomes,
-                         execution=execution(config.executor, ctx.workers if config.executor == "ray" else 1))
+    return CollectResult(
+        dataset=config.output,
+        sha256=record["sha256"],
+        summary=record["summary"],
+        outcomes=outcomes,
+        execution=execution(config.executor, ctx.workers if config.executor == "ray" else 1),
+    )
 
 
 class MixConfig(BaseModel):
@@ -251,7 +279,11 @@ def run_mix(config: MixConfig, ctx: StageContext) -> CollectResult:
     paths = {k: resolve_dataset_path(getattr(config, k), ctx) for k in ("base", "hardcase")}
     base, hard = load_dataset(paths["base"]), load_dataset(paths["hardcase"])
     mixed = mix_datasets(base, hard, config.hardcase_repeat, source=config.output)
-    mixed.meta.lineage = [{"role": k, "id": getattr(config, k), "sha256": file_sha256(p)} for k, p in paths.items()]
+    mixed.meta.lineage = [
+        {"role": k, "id": getattr(config, k), "sha256": file_sha256(p)} for k, p in paths.items()
+    ]
     mixed.meta.generator_config_hash = config_hash(mixed.meta.generator)
     record = save_dataset(mixed, ctx.artifact(config.output))
-    return CollectResult(dataset=config.output, sha256=record["sha256"], summary=record["summary"], outcomes={})
+    return CollectResult(
+        dataset=config.output, sha256=record["sha256"], summary=record["summary"], outcomes={}
+    )

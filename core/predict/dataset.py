@@ -66,8 +66,11 @@ class DatasetMeta:
     @classmethod
     def from_json(cls, d: dict[str, Any], source: str) -> DatasetMeta:
         if d.get("schema_version") != SCHEMA_VERSION:
-            raise ConfigError(f"unsupported dataset schema {d.get('schema_version')!r}, expected {SCHEMA_VERSION}",
-                              source=source, item="schema_version")
+            raise ConfigError(
+                f"unsupported dataset schema {d.get('schema_version')!r}, expected {SCHEMA_VERSION}",
+                source=source,
+                item="schema_version",
+            )
         d = dict(d)
         d["timebase"] = TimeBase.from_dict(d["timebase"], source=source)
         d["episodes"] = [EpisodeRecord(**e) for e in d["episodes"]]
@@ -93,21 +96,32 @@ class Dataset:
 
     def validate(self, source: str = "dataset") -> Dataset:
         """Raise ConfigError when the arrays do not agree with each other or with the metadata."""
-        S, N, T, F = len(self.episode), self.meta.max_agents, self.meta.timebase.horizon, \
-            feature_dim(self.meta.timebase.history)
+        S, N, T, F = (
+            len(self.episode),
+            self.meta.max_agents,
+            self.meta.timebase.horizon,
+            feature_dim(self.meta.timebase.history),
+        )
         want = {"state": (S, N, F), "target": (S, N, T, 2), "mask": (S, N), "target_mask": (S, N, T)}
         for name, shape in want.items():
             if getattr(self, name).shape != shape:
-                raise ConfigError(f"array {name} has shape {getattr(self, name).shape}, expected {shape}",
-                                  source=source, item=name)
+                raise ConfigError(
+                    f"array {name} has shape {getattr(self, name).shape}, expected {shape}",
+                    source=source,
+                    item=name,
+                )
         if S and (self.episode.min() < 0 or self.episode.max() >= len(self.meta.episodes)):
             raise ConfigError("episode index outside the episode table", source=source, item="episode")
         if self.meta.frame_convention not in FRAME_CONVENTIONS:
-            raise ConfigError(f"unknown frame convention {self.meta.frame_convention!r}", source=source,
-                              item="frame_convention")
+            raise ConfigError(
+                f"unknown frame convention {self.meta.frame_convention!r}",
+                source=source,
+                item="frame_convention",
+            )
         if self.meta.feature_names != feature_names(self.meta.timebase.history):
-            raise ConfigError("feature names differ from this code's feature layout", source=source,
-                              item="feature_names")
+            raise ConfigError(
+                "feature names differ from this code's feature layout", source=source, item="feature_names"
+            )
         if np.any(self.target_mask > self.mask[..., None]):
             raise ConfigError("target_mask set on an inactive slot", source=source, item="target_mask")
         return self
@@ -118,8 +132,14 @@ class Dataset:
         return np.flatnonzero(in_split[self.episode]) if len(self.meta.episodes) else np.zeros(0, np.int64)
 
     def subset(self, index: np.ndarray) -> Dataset:
-        return Dataset(self.state[index], self.target[index], self.mask[index], self.target_mask[index],
-                       self.episode[index], self.meta)
+        return Dataset(
+            self.state[index],
+            self.target[index],
+            self.mask[index],
+            self.target_mask[index],
+            self.episode[index],
+            self.meta,
+        )
 
 
 def save_dataset(ds: Dataset, path: Path) -> dict[str, Any]:
@@ -129,8 +149,12 @@ def save_dataset(ds: Dataset, path: Path) -> dict[str, Any]:
     meta_json = json.dumps(ds.meta.to_json(), sort_keys=True)
     with files.replacing(path) as tmp, tmp.open("wb") as fh:
         np.savez_compressed(fh, **{k: getattr(ds, k) for k in ARRAYS}, meta_json=np.array(meta_json))
-    record = {"path": str(path), "sha256": file_sha256(path), "meta": ds.meta.to_json(),
-              "summary": summarize(ds)}
+    record = {
+        "path": str(path),
+        "sha256": file_sha256(path),
+        "meta": ds.meta.to_json(),
+        "summary": summarize(ds),
+    }
     files.write_text(path.with_suffix(".json"), json.dumps(record, indent=2, sort_keys=True))
     return record
 

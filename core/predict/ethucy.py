@@ -36,8 +36,13 @@ from foresight.core.stages.refs import Ident
 
 FOLDS = ("eth", "hotel", "univ", "zara1", "zara2")
 #: scene-file prefixes of each fold's held-out scene; they must never be in that fold's train/val
-TEST_SCENES = {"eth": ("biwi_eth",), "hotel": ("biwi_hotel",), "univ": ("students001", "students003"),
-               "zara1": ("crowds_zara01",), "zara2": ("crowds_zara02",)}
+TEST_SCENES = {
+    "eth": ("biwi_eth",),
+    "hotel": ("biwi_hotel",),
+    "univ": ("students001", "students003"),
+    "zara1": ("crowds_zara01",),
+    "zara2": ("crowds_zara02",),
+}
 FRAME_STEP = 10  #: frame-index units per annotation
 FRAME_DT = 0.4  #: seconds per annotation [s]
 
@@ -56,8 +61,10 @@ def read_scene(path: Path) -> np.ndarray:
 def _stride(timebase: TimeBase) -> int:
     k = round(timebase.dt / FRAME_DT)
     if k < 1 or abs(k * FRAME_DT - timebase.dt) > 1e-6:
-        raise ConfigError(f"ETH/UCY is annotated every {FRAME_DT} s; time base dt {timebase.dt} is not a multiple",
-                          item="timebase.dt")
+        raise ConfigError(
+            f"ETH/UCY is annotated every {FRAME_DT} s; time base dt {timebase.dt} is not a multiple",
+            item="timebase.dt",
+        )
     return k
 
 
@@ -96,7 +103,9 @@ class _SceneTable:
         return np.searchsorted(self.peds, ids)
 
 
-def scene_samples(rows: np.ndarray, timebase: TimeBase, max_agents: int, neighbour_targets: bool = False) -> SampleArrays:
+def scene_samples(
+    rows: np.ndarray, timebase: TimeBase, max_agents: int, neighbour_targets: bool = False
+) -> SampleArrays:
     """All focal-pedestrian windows of one scene file, on ``timebase`` (neighbours' futures as targets too when
     ``neighbour_targets``; for training splits only)."""
     k = _stride(timebase)
@@ -120,18 +129,34 @@ def scene_samples(rows: np.ndarray, timebase: TimeBase, max_agents: int, neighbo
         if neighbour_targets:
             slots = np.nonzero(f.ped_ids[1:] >= 0)[0] + 1
             seen = scene.present[grid[H:]][:, scene.cols_of(f.ped_ids[slots])].T  # (slots, T)
-            future = world_to_ego(scene.pos[grid[H:]][:, scene.cols_of(f.ped_ids[slots])], f.origin, f.heading)
+            future = world_to_ego(
+                scene.pos[grid[H:]][:, scene.cols_of(f.ped_ids[slots])], f.origin, f.heading
+            )
             target[slots] = np.where(seen[..., None], future.transpose(1, 0, 2), 0.0)
             tmask[slots] = seen
-        for name, value in (("state", f.features), ("mask", f.mask), ("target", target), ("target_mask", tmask)):
+        for name, value in (
+            ("state", f.features),
+            ("mask", f.mask),
+            ("target", target),
+            ("target_mask", tmask),
+        ):
             out[name].append(value)
     n = len(out["state"])
     if not n:
-        return SampleArrays(np.zeros((0, max_agents, 5 * H + 5), np.float32), np.zeros((0, max_agents, T, 2), np.float32),
-                            np.zeros((0, max_agents), np.float32), np.zeros((0, max_agents, T), np.float32),
-                            np.zeros(0, np.int64))
-    return SampleArrays(np.stack(out["state"]), np.stack(out["target"]), np.stack(out["mask"]),
-                        np.stack(out["target_mask"]), np.arange(n, dtype=np.int64))
+        return SampleArrays(
+            np.zeros((0, max_agents, 5 * H + 5), np.float32),
+            np.zeros((0, max_agents, T, 2), np.float32),
+            np.zeros((0, max_agents), np.float32),
+            np.zeros((0, max_agents, T), np.float32),
+            np.zeros(0, np.int64),
+        )
+    return SampleArrays(
+        np.stack(out["state"]),
+        np.stack(out["target"]),
+        np.stack(out["mask"]),
+        np.stack(out["target_mask"]),
+        np.arange(n, dtype=np.int64),
+    )
 
 
 def reverse_time(rows: np.ndarray) -> np.ndarray:
@@ -145,7 +170,9 @@ def reverse_time(rows: np.ndarray) -> np.ndarray:
 def fold_files(root: Path, fold: str) -> dict[str, list[Path]]:
     """{split: files} of a fold folder, after checking that no test scene leaks into train/val."""
     if fold not in FOLDS:
-        raise ConfigError(f"unknown fold {fold!r}; expected one of {', '.join(FOLDS)}", source=root, item="fold")
+        raise ConfigError(
+            f"unknown fold {fold!r}; expected one of {', '.join(FOLDS)}", source=root, item="fold"
+        )
     base = Path(root) / fold
     if not base.is_dir():
         raise NotFoundError(f"ETH/UCY fold folder {base} does not exist")
@@ -153,22 +180,33 @@ def fold_files(root: Path, fold: str) -> dict[str, list[Path]]:
     for split in ("train", "val"):
         for path in files[split]:
             if path.name.startswith(TEST_SCENES[fold]):
-                raise ConfigError(f"test scene {path.stem} of fold {fold} appears in its {split} split (leakage)",
-                                  source=path, item=split)
+                raise ConfigError(
+                    f"test scene {path.stem} of fold {fold} appears in its {split} split (leakage)",
+                    source=path,
+                    item=split,
+                )
     for path in files["test"]:
         if not path.name.startswith(TEST_SCENES[fold]):
             raise ConfigError(f"{path.name} is not fold {fold}'s test scene", source=path, item="test")
     return files
 
 
-def import_fold(root: Path, fold: str, timebase: TimeBase = ETHUCY_TIMEBASE, max_agents: int = 12,
-                splits: tuple[str, ...] = ("train", "val", "test"), neighbour_targets: tuple[str, ...] = (),
-                reversed_splits: tuple[str, ...] = ()) -> Dataset:
+def import_fold(
+    root: Path,
+    fold: str,
+    timebase: TimeBase = ETHUCY_TIMEBASE,
+    max_agents: int = 12,
+    splits: tuple[str, ...] = ("train", "val", "test"),
+    neighbour_targets: tuple[str, ...] = (),
+    reversed_splits: tuple[str, ...] = (),
+) -> Dataset:
     """One dataset with the fold's train, val and test files as episodes of those splits; the splits named in
     ``neighbour_targets`` (training only: never test) also carry the neighbours' futures, and each file of the splits
     in ``reversed_splits`` (training only) is followed by that scene played backwards (``reverse_time``)."""
     if "test" in neighbour_targets:
-        raise ConfigError("neighbour targets on the test split would change what is scored", item="neighbour_targets")
+        raise ConfigError(
+            "neighbour targets on the test split would change what is scored", item="neighbour_targets"
+        )
     if "test" in reversed_splits:
         raise ConfigError("a reversed test scene would change what is scored", item="reversed_splits")
     files = fold_files(root, fold)
@@ -179,15 +217,30 @@ def import_fold(root: Path, fold: str, timebase: TimeBase = ETHUCY_TIMEBASE, max
             rows = read_scene(path)
             episodes.append((rec, scene_samples(rows, timebase, max_agents, split in neighbour_targets)))
             if split in reversed_splits:
-                rec = EpisodeRecord(scenario=f"{split}/{path.stem}~reversed", seed=None, split=split, role="real")
-                episodes.append((rec, scene_samples(reverse_time(rows), timebase, max_agents, split in neighbour_targets)))
-    meta = DatasetMeta(timebase=timebase, max_agents=max_agents, frame_convention="focal_pedestrian",
-                       source="real", episodes=[],
-                       generator={"kind": "ethucy", "fold": fold, "splits": list(splits),
-                                  "files": {s: [p.name for p in files[s]] for s in splits},
-                                  "frame_step": FRAME_STEP, "frame_dt": FRAME_DT, "max_agents": max_agents,
-                                  **({"neighbour_targets": list(neighbour_targets)} if neighbour_targets else {}),
-                                  **({"reversed_splits": list(reversed_splits)} if reversed_splits else {})})
+                rec = EpisodeRecord(
+                    scenario=f"{split}/{path.stem}~reversed", seed=None, split=split, role="real"
+                )
+                episodes.append(
+                    (rec, scene_samples(reverse_time(rows), timebase, max_agents, split in neighbour_targets))
+                )
+    meta = DatasetMeta(
+        timebase=timebase,
+        max_agents=max_agents,
+        frame_convention="focal_pedestrian",
+        source="real",
+        episodes=[],
+        generator={
+            "kind": "ethucy",
+            "fold": fold,
+            "splits": list(splits),
+            "files": {s: [p.name for p in files[s]] for s in splits},
+            "frame_step": FRAME_STEP,
+            "frame_dt": FRAME_DT,
+            "max_agents": max_agents,
+            **({"neighbour_targets": list(neighbour_targets)} if neighbour_targets else {}),
+            **({"reversed_splits": list(reversed_splits)} if reversed_splits else {}),
+        },
+    )
     return dataset_from_episodes(episodes, meta)
 
 

@@ -27,7 +27,9 @@ class PredictEvalConfig(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
     model: str | None = None  #: "cv", a model id, or (in-process runs) a checkpoint path
     train: dict[str, Any] | None = None  #: TrainConfig fields (without dataset): train one model per fold
-    ethucy: str | None = None  #: named data root (FORESIGHT_DATA_ROOTS) holding <fold>/train|val|test; in-process
+    ethucy: str | None = (
+        None  #: named data root (FORESIGHT_DATA_ROOTS) holding <fold>/train|val|test; in-process
+    )
     #: runs also take a directory
     folds: list[str] | None = None  #: default: all five
     dataset: str | None = None  #: dataset id or .npz path (instead of ethucy)
@@ -45,7 +47,9 @@ class PredictEvalConfig(BaseModel):
         if (self.ethucy is None) == (self.dataset is None):
             raise ValueError("give exactly one of ethucy and dataset")
         if self.reverse_train and (self.train is None or self.ethucy is None):
-            raise ValueError("reverse_train plays ETH/UCY training scenes backwards: it needs train and ethucy")
+            raise ValueError(
+                "reverse_train plays ETH/UCY training scenes backwards: it needs train and ethucy"
+            )
         if self.train is not None:
             _check_train(self.train)
         return self
@@ -98,9 +102,13 @@ def _predictor(config: PredictEvalConfig, ds: Dataset, ctx: StageContext, name: 
 
     data_path = ctx.artifact(f"{name}/dataset.npz")
     save_dataset(ds, data_path)
-    sub = StageContext(workdir=ctx.artifact(f"{name}/train/.keep").parent, log=ctx.log,
-                       is_cancelled=ctx.is_cancelled, progress=lambda f, m: ctx.progress(f, f"{name}: {m}"),
-                       local_files=True)  # the fold's dataset: the file this stage just wrote
+    sub = StageContext(
+        workdir=ctx.artifact(f"{name}/train/.keep").parent,
+        log=ctx.log,
+        is_cancelled=ctx.is_cancelled,
+        progress=lambda f, m: ctx.progress(f, f"{name}: {m}"),
+        local_files=True,
+    )  # the fold's dataset: the file this stage just wrote
     result = run_train(TrainConfig(**{**config.train, "dataset": str(data_path)}), sub)
     return load_predictor(Path(result.checkpoint), expect_timebase=ds.meta.timebase)
 
@@ -108,8 +116,11 @@ def _predictor(config: PredictEvalConfig, ds: Dataset, ctx: StageContext, name: 
 def _score(config: PredictEvalConfig, ds: Dataset, split: str, ctx: StageContext, name: str) -> FoldScore:
     if split == "all":
         if config.train is not None:
-            raise ConfigError("split 'all' cannot be used with training (it would score training data)",
-                              source=name, item="split")
+            raise ConfigError(
+                "split 'all' cannot be used with training (it would score training data)",
+                source=name,
+                item="split",
+            )
         ds = _all_as_test(ds)
         split = "test"
     if not len(ds.split_indices(split)):
@@ -117,8 +128,15 @@ def _score(config: PredictEvalConfig, ds: Dataset, split: str, ctx: StageContext
     predictor = _predictor(config, ds, ctx, name)
     r = evaluate_predictor(predictor, ds, split)
     cv = evaluate_predictor(ConstantVelocityPredictor(ds.meta.timebase), ds, split)
-    return FoldScore(ade=r["ade"], fde=r["fde"], samples=r["samples"], split=split, cv_ade=cv["ade"], cv_fde=cv["fde"],
-                     predictor=getattr(predictor, "name", "model"))
+    return FoldScore(
+        ade=r["ade"],
+        fde=r["fde"],
+        samples=r["samples"],
+        split=split,
+        cv_ade=cv["ade"],
+        cv_fde=cv["fde"],
+        predictor=getattr(predictor, "name", "model"),
+    )
 
 
 def _all_as_test(ds: Dataset) -> Dataset:
@@ -139,8 +157,14 @@ def run_predict_eval(config: PredictEvalConfig, ctx: StageContext) -> PredictEva
         for i, fold in enumerate(names):
             ctx.check_cancelled()
             ctx.progress(i / len(names), f"fold {fold}")
-            ds = import_fold(root, fold, ETHUCY_TIMEBASE, config.max_agents, splits,
-                             reversed_splits=("train",) if config.reverse_train else ())
+            ds = import_fold(
+                root,
+                fold,
+                ETHUCY_TIMEBASE,
+                config.max_agents,
+                splits,
+                reversed_splits=("train",) if config.reverse_train else (),
+            )
             folds[fold] = _score(config, ds, "test", ctx, fold)
     else:
         path = resolve_dataset_path(config.dataset, ctx)
@@ -149,5 +173,8 @@ def run_predict_eval(config: PredictEvalConfig, ctx: StageContext) -> PredictEva
         folds[Path(path).stem] = _score(config, ds, split, ctx, Path(path).stem)
     ctx.progress(1.0, "done")
     mean = lambda key: float(np.mean([getattr(f, key) for f in folds.values()]))  # noqa: E731
-    return PredictEvalResult(folds=folds, average=Score(ade=mean("ade"), fde=mean("fde")),
-                             cv_average=Score(ade=mean("cv_ade"), fde=mean("cv_fde")))
+    return PredictEvalResult(
+        folds=folds,
+        average=Score(ade=mean("ade"), fde=mean("fde")),
+        cv_average=Score(ade=mean("cv_ade"), fde=mean("cv_fde")),
+    )

@@ -94,7 +94,10 @@ class Features:
 
 
 def gather_history(
-    frame_ids: Sequence[np.ndarray], frame_pos: Sequence[np.ndarray], stride: int, history: int,
+    frame_ids: Sequence[np.ndarray],
+    frame_pos: Sequence[np.ndarray],
+    stride: int,
+    history: int,
     ids: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Positions of ``ids`` (M,) at H grid points ending at the last frame, by true id.
@@ -179,7 +182,7 @@ def extract_features(window: Window, timebase: TimeBase, max_agents: int | None)
     steps = np.concatenate([pos, vel, valid[..., None].astype(float)], axis=-1)  # (M, H, 5)
     out = np.zeros((n_slots, feature_dim(H)), dtype=np.float32)
     out[: len(sel), : 5 * H] = steps.reshape(len(sel), 5 * H)
-    out[: len(sel), 5 * H:] = _ego_channels(window, origin, heading)
+    out[: len(sel), 5 * H :] = _ego_channels(window, origin, heading)
     mask = np.zeros(n_slots, dtype=np.float32)
     mask[: len(sel)] = 1.0
     ids = np.full(n_slots, -1, dtype=np.int64)

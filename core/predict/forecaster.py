@@ -27,7 +27,9 @@ SIGMA_FLOOR = 0.02  #: [m] a model's spread is never taken below this (as the en
 class Forecast:
     ped_ids: np.ndarray  #: (N,) int64 true pedestrian ids (those present now)
     positions: np.ndarray  #: (N, T, 2) world frame [m] at ``times``
-    sigma: np.ndarray  #: (N, T) per-axis std [m] of each position (isotropic Gaussian, ``core.predict.uncertainty``)
+    sigma: (
+        np.ndarray
+    )  #: (N, T) per-axis std [m] of each position (isotropic Gaussian, ``core.predict.uncertainty``)
     times: np.ndarray  #: (T,) seconds ahead of the observation's time [s]
     source: str  #: which predictor made it ("constant_velocity", "learned:<name>", "learned+cv_far:<name>")
     timebase: TimeBase
@@ -121,8 +123,13 @@ class LearnedForecaster(_PredictorForecaster):
     def __init__(self, predictor: Predictor, max_agents: int | None = None):
         frame = getattr(predictor, "frame_convention", "robot")
         if frame != "robot":
-            raise ConfigError(f"model {predictor.name!r} was trained in the {frame!r} frame (robot-less data such as "
-                              "ETH/UCY); the planner feeds robot-frame features: use a model trained on simulator "
-                              "data", item="model")
+            raise ConfigError(
+                f"model {predictor.name!r} was trained in the {frame!r} frame (robot-less data such as "
+                "ETH/UCY); the planner feeds robot-frame features: use a model trained on simulator "
+                "data",
+                item="model",
+            )
         slots = max_agents if max_agents is not None else getattr(predictor, "max_agents", None)
-        super().__init__(predictor, slots, f"learned:{predictor.name}", getattr(predictor, "uncertainty", LEARNED_SIGMA))
+        super().__init__(
+            predictor, slots, f"learned:{predictor.name}", getattr(predictor, "uncertainty", LEARNED_SIGMA)
+        )

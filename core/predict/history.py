@@ -45,12 +45,15 @@ class LiveHistory:
         if self._frames and obs.step != self._frames[-1].step + 1:
             raise ConfigError(
                 f"observation step {obs.step} does not follow step {self._frames[-1].step}: "
-                "call observe() on every simulator step", item="observation.step")
+                "call observe() on every simulator step",
+                item="observation.step",
+            )
         if self._stride is None:
             self._stride = self.timebase.stride(obs.dt)
         elif abs(obs.dt - self._frames[-1].dt) > 1e-9:
-            raise ConfigError(f"simulator dt changed mid-episode ({self._frames[-1].dt} -> {obs.dt})",
-                              item="observation.dt")
+            raise ConfigError(
+                f"simulator dt changed mid-episode ({self._frames[-1].dt} -> {obs.dt})", item="observation.dt"
+            )
         ids = np.array(obs.ped_ids, dtype=np.int64)  # copies: a producer may reuse its arrays
         self._frames.append(_Frame(obs.step, obs.dt, ids, np.array(obs.ped_positions, dtype=float)))
         self._latest = obs
@@ -69,8 +72,17 @@ class LiveHistory:
         ids = self._frames[-1].ids
         ids = ids[ids >= 0]
         hist, valid = gather_history(
-            [f.ids for f in self._frames], [f.positions for f in self._frames],
-            self._stride, self.timebase.history, ids)
+            [f.ids for f in self._frames],
+            [f.positions for f in self._frames],
+            self._stride,
+            self.timebase.history,
+            ids,
+        )
         return Window(
-            ego_pose=np.asarray(now.robot_pose, float), ego_motion=np.asarray(now.robot_velocity, float),
-            goal=np.asarray(now.waypoint, float), ped_ids=ids, ped_hist=hist, hist_valid=valid)
+            ego_pose=np.asarray(now.robot_pose, float),
+            ego_motion=np.asarray(now.robot_velocity, float),
+            goal=np.asarray(now.waypoint, float),
+            ped_ids=ids,
+            ped_hist=hist,
+            hist_valid=valid,
+        )

@@ -24,12 +24,16 @@ def ade_fde(pred: np.ndarray, target: np.ndarray, target_mask: np.ndarray) -> di
     }
 
 
-def evaluate_predictor(predictor: Predictor, ds, split: str | None = None, batch: int = 4096) -> dict[str, float]:
+def evaluate_predictor(
+    predictor: Predictor, ds, split: str | None = None, batch: int = 4096
+) -> dict[str, float]:
     """ADE/FDE of ``predictor`` on a dataset's ``split`` (all samples when None); time bases must agree."""
     predictor.timebase.require_same(ds.meta.timebase, what="dataset")
     idx = np.arange(len(ds)) if split is None else ds.split_indices(split)
-    preds = [predictor.predict(ds.state[idx[i:i + batch]], ds.mask[idx[i:i + batch]])
-             for i in range(0, len(idx), batch)]
+    preds = [
+        predictor.predict(ds.state[idx[i : i + batch]], ds.mask[idx[i : i + batch]])
+        for i in range(0, len(idx), batch)
+    ]
     pred = np.concatenate(preds) if preds else np.zeros((0, *ds.target.shape[1:]), np.float32)
     out = ade_fde(pred, ds.target[idx], ds.target_mask[idx])
     out["samples"] = int(len(idx))

@@ -36,7 +36,9 @@ def dataset_from_episodes(episodes: list[tuple[EpisodeRecord, SampleArrays]], me
     parts = [s for _, s in episodes]
     if not parts:
         raise ConfigError("no episodes to build a dataset from", item="episodes")
-    cat = {k: np.concatenate([getattr(p, k) for p in parts]) for k in ("state", "target", "mask", "target_mask")}
+    cat = {
+        k: np.concatenate([getattr(p, k) for p in parts]) for k in ("state", "target", "mask", "target_mask")
+    }
     ep = np.concatenate([np.full(len(p), i, dtype=np.int64) for i, p in enumerate(parts)])
     return Dataset(**cat, episode=ep, meta=meta)
 
@@ -44,23 +46,35 @@ def dataset_from_episodes(episodes: list[tuple[EpisodeRecord, SampleArrays]], me
 def mix_datasets(base: Dataset, hard: Dataset, hardcase_repeat: int, source: str = "mix") -> Dataset:
     """base + hard-case, each hard-case TRAINING row repeated ``hardcase_repeat`` times (after the split)."""
     if hardcase_repeat < 1:
-        raise ConfigError(f"hardcase_repeat must be >= 1, got {hardcase_repeat}", source=source,
-                          item="hardcase_repeat")
+        raise ConfigError(
+            f"hardcase_repeat must be >= 1, got {hardcase_repeat}", source=source, item="hardcase_repeat"
+        )
     a, b = base.meta, hard.meta
-    for item, x, y in (("timebase", a.timebase.to_dict(), b.timebase.to_dict()), ("max_agents", a.max_agents, b.max_agents),
-                       ("frame_convention", a.frame_convention, b.frame_convention),
-                       ("feature_names", a.feature_names, b.feature_names)):
+    for item, x, y in (
+        ("timebase", a.timebase.to_dict(), b.timebase.to_dict()),
+        ("max_agents", a.max_agents, b.max_agents),
+        ("frame_convention", a.frame_convention, b.frame_convention),
+        ("feature_names", a.feature_names, b.feature_names),
+    ):
         if x != y:
-            raise ConfigError(f"base and hard-case datasets differ in {item}: {x!r} vs {y!r}", source=source, item=item)
+            raise ConfigError(
+                f"base and hard-case datasets differ in {item}: {x!r} vs {y!r}", source=source, item=item
+            )
     hard_train = np.array([e.split == "train" for e in b.episodes], dtype=bool)[hard.episode]
     reps = np.where(hard_train, hardcase_repeat, 1)
     rows = np.repeat(np.arange(len(hard)), reps)
     hard_eps = [replace(e, role="hardcase") for e in b.episodes]
-    meta = replace(a, episodes=list(a.episodes) + hard_eps,
-                   source="mixed" if a.source != b.source else a.source,
-                   generator={"mix": {"hardcase_repeat": hardcase_repeat}, "base": a.generator, "hardcase": b.generator},
-                   generator_config_hash="", lineage=[{"role": "base", "hash": a.generator_config_hash},
-                                                      {"role": "hardcase", "hash": b.generator_config_hash}])
+    meta = replace(
+        a,
+        episodes=list(a.episodes) + hard_eps,
+        source="mixed" if a.source != b.source else a.source,
+        generator={"mix": {"hardcase_repeat": hardcase_repeat}, "base": a.generator, "hardcase": b.generator},
+        generator_config_hash="",
+        lineage=[
+            {"role": "base", "hash": a.generator_config_hash},
+            {"role": "hardcase", "hash": b.generator_config_hash},
+        ],
+    )
     meta.__post_init__()
     return Dataset(
         state=np.concatenate([base.state, hard.state[rows]]),

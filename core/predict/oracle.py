@@ -27,16 +27,23 @@ class OracleForecaster:
 
     source = "oracle"
 
-    def __init__(self, positions: list[np.ndarray], ids: list[np.ndarray], dt: float,
-                 timebase: TimeBase = PLANNER_TIMEBASE, sigma: float = ORACLE_SIGMA):
+    def __init__(
+        self,
+        positions: list[np.ndarray],
+        ids: list[np.ndarray],
+        dt: float,
+        timebase: TimeBase = PLANNER_TIMEBASE,
+        sigma: float = ORACLE_SIGMA,
+    ):
         self.timebase, self.dt, self.sigma = timebase, float(dt), float(sigma)
         #: step -> id -> position
         self._steps = [dict(zip(i.tolist(), p, strict=True)) for i, p in zip(ids, positions, strict=True)]
         self._obs: Observation | None = None
 
     @classmethod
-    def for_episode(cls, scenario: ResolvedScenario, seed: int, max_steps: int | None = None,
-                    **kwargs) -> OracleForecaster:
+    def for_episode(
+        cls, scenario: ResolvedScenario, seed: int, max_steps: int | None = None, **kwargs
+    ) -> OracleForecaster:
         """The crowd of this (scenario, seed) episode recorded around a robot standing at its start."""
         from foresight.core.sim.feasibility import crowd_paths
 

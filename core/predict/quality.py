@@ -35,7 +35,9 @@ def summarize(ds) -> dict[str, Any]:
         "samples_per_split": per_split,
         "episodes_per_split": eps,
         "active_agent_ratio": float(ds.mask.mean()) if len(ds) else 0.0,
-        "active_target_ratio": float(ds.target_mask.sum() / (active * ds.target_mask.shape[-1])) if active else 0.0,
+        "active_target_ratio": float(ds.target_mask.sum() / (active * ds.target_mask.shape[-1]))
+        if active
+        else 0.0,
         "target_std_m": float(ds.target[ds.target_mask > 0].std()) if ds.target_mask.any() else 0.0,
         "final_displacement_m": {
             "mean": float(disp.mean()) if len(disp) else 0.0,
@@ -57,13 +59,26 @@ def check_quality(ds, source: str, limits: QualityLimits | None = None) -> dict[
     limits = limits or QualityLimits()
     s = summarize(ds)
     problems = [
-        (s["samples"] < limits.min_samples, "samples", f"only {s['samples']} samples (< {limits.min_samples})"),
-        (s["active_target_ratio"] <= limits.min_active_target_ratio, "target_mask",
-         f"active target ratio {s['active_target_ratio']:.4f} <= {limits.min_active_target_ratio}: no usable targets"),
-        (s["target_std_m"] <= limits.min_target_std, "target",
-         f"targets are constant (std {s['target_std_m']:.2e} m)"),
-        (s["final_displacement_m"]["mean"] <= limits.min_mean_displacement, "target",
-         f"pedestrians do not move (mean displacement {s['final_displacement_m']['mean']:.2e} m)"),
+        (
+            s["samples"] < limits.min_samples,
+            "samples",
+            f"only {s['samples']} samples (< {limits.min_samples})",
+        ),
+        (
+            s["active_target_ratio"] <= limits.min_active_target_ratio,
+            "target_mask",
+            f"active target ratio {s['active_target_ratio']:.4f} <= {limits.min_active_target_ratio}: no usable targets",
+        ),
+        (
+            s["target_std_m"] <= limits.min_target_std,
+            "target",
+            f"targets are constant (std {s['target_std_m']:.2e} m)",
+        ),
+        (
+            s["final_displacement_m"]["mean"] <= limits.min_mean_displacement,
+            "target",
+            f"pedestrians do not move (mean displacement {s['final_displacement_m']['mean']:.2e} m)",
+        ),
     ]
     for bad, item, message in problems:
         if bad:

@@ -44,15 +44,23 @@ def trace_window(trace, t: int, timebase: TimeBase, waypoints: np.ndarray | None
     stride = timebase.stride(trace.dt)
     ids = np.asarray(trace.ped_ids[t], dtype=np.int64)
     ids = ids[ids >= 0]
-    hist, valid = gather_history(trace.ped_ids[: t + 1], trace.ped_pos[: t + 1], stride, timebase.history, ids)
+    hist, valid = gather_history(
+        trace.ped_ids[: t + 1], trace.ped_pos[: t + 1], stride, timebase.history, ids
+    )
     robot = np.asarray(trace.robot[t], dtype=float)
-    return Window(ego_pose=robot[:3], ego_motion=robot[3:5],
-                  goal=None if waypoints is None else np.asarray(waypoints[t], float),
-                  ped_ids=ids, ped_hist=hist, hist_valid=valid)
+    return Window(
+        ego_pose=robot[:3],
+        ego_motion=robot[3:5],
+        goal=None if waypoints is None else np.asarray(waypoints[t], float),
+        ped_ids=ids,
+        ped_hist=hist,
+        hist_valid=valid,
+    )
 
 
-def future_targets(trace, t: int, timebase: TimeBase, slot_ids: np.ndarray, origin: np.ndarray,
-                   heading: float) -> tuple[np.ndarray, np.ndarray]:
+def future_targets(
+    trace, t: int, timebase: TimeBase, slot_ids: np.ndarray, origin: np.ndarray, heading: float
+) -> tuple[np.ndarray, np.ndarray]:
     """(N, T, 2) future positions of ``slot_ids`` in the ego frame at t, and the (N, T) mask."""
     stride = timebase.stride(trace.dt)
     n, T = len(slot_ids), timebase.horizon
@@ -72,8 +80,9 @@ def future_targets(trace, t: int, timebase: TimeBase, slot_ids: np.ndarray, orig
     return target, tmask
 
 
-def samples_from_trace(trace, timebase: TimeBase, max_agents: int, waypoints: np.ndarray | None,
-                       sample_every: int | None = None) -> SampleArrays:
+def samples_from_trace(
+    trace, timebase: TimeBase, max_agents: int, waypoints: np.ndarray | None, sample_every: int | None = None
+) -> SampleArrays:
     """Samples at steps 0, e, 2e, ... whose full horizon lies inside the trace (e = stride by default)."""
     stride = timebase.stride(trace.dt)
     every = sample_every or stride
@@ -89,7 +98,11 @@ def samples_from_trace(trace, timebase: TimeBase, max_agents: int, waypoints: np
         out["target_mask"].append(tmask * f.mask[:, None])
     if not len(steps):
         N, T = max_agents, timebase.horizon
-        return SampleArrays(np.zeros((0, N, feature_dim(timebase.history)), np.float32),
-                            np.zeros((0, N, T, 2), np.float32), np.zeros((0, N), np.float32),
-                            np.zeros((0, N, T), np.float32), steps)
+        return SampleArrays(
+            np.zeros((0, N, feature_dim(timebase.history)), np.float32),
+            np.zeros((0, N, T, 2), np.float32),
+            np.zeros((0, N), np.float32),
+            np.zeros((0, N, T), np.float32),
+            steps,
+        )
     return SampleArrays(*(np.stack(out[k]).astype(np.float32) for k in out), steps)

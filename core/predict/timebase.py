@@ -36,7 +36,9 @@ class TimeBase:
         for name in ("history", "horizon"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int | np.integer) or not 1 <= value <= 200:
-                raise ConfigError(f"{name} must be an integer in [1, 200], got {value!r}", item=f"timebase.{name}")
+                raise ConfigError(
+                    f"{name} must be an integer in [1, 200], got {value!r}", item=f"timebase.{name}"
+                )
         object.__setattr__(self, "dt", float(self.dt))
         object.__setattr__(self, "history", int(self.history))
         object.__setattr__(self, "horizon", int(self.horizon))
@@ -60,7 +62,11 @@ class TimeBase:
         return k
 
     def same_as(self, other: TimeBase) -> bool:
-        return abs(self.dt - other.dt) <= _TOL and self.history == other.history and self.horizon == other.horizon
+        return (
+            abs(self.dt - other.dt) <= _TOL
+            and self.history == other.history
+            and self.horizon == other.horizon
+        )
 
     def require_same(self, other: TimeBase, what: str = "model", source: str | None = None) -> None:
         """Raise a ConfigError naming both time bases when ``other`` differs from this one."""
@@ -80,8 +86,11 @@ class TimeBase:
     @classmethod
     def from_dict(cls, data: Any, source: str | None = None) -> TimeBase:
         if not isinstance(data, dict) or set(data) != {"dt", "history", "horizon"}:
-            raise ConfigError(f"time base must be a mapping with dt, history, horizon; got {data!r}",
-                              source=source, item="timebase")
+            raise ConfigError(
+                f"time base must be a mapping with dt, history, horizon; got {data!r}",
+                source=source,
+                item="timebase",
+            )
         try:
             return cls(dt=data["dt"], history=data["history"], horizon=data["horizon"])
         except ConfigError as exc:

@@ -35,20 +35,36 @@ class TrainConfig(_Strict):
     batch_size: int = Field(default=512, ge=1, le=65_536)
     lr: float = Field(default=2e-3, gt=0, le=10.0)
     weight_decay: float = Field(default=1e-4, ge=0, le=10.0)
-    lr_schedule: Literal["constant", "cosine"] = "constant"  #: cosine: lr * (1 + cos(pi * (epoch - 1) / epochs)) / 2
+    lr_schedule: Literal["constant", "cosine"] = (
+        "constant"  #: cosine: lr * (1 + cos(pi * (epoch - 1) / epochs)) / 2
+    )
     seed: Seed = 0
-    hidden: int = Field(default=48, ge=4, le=1024)  #: model width h (48: ~2.5 MFLOP per training sample at N=12)
+    hidden: int = Field(
+        default=48, ge=4, le=1024
+    )  #: model width h (48: ~2.5 MFLOP per training sample at N=12)
     blocks: int = Field(default=2, ge=0, le=8)  #: K message-passing blocks
-    edge_dim: int = Field(default=16, ge=0, le=256)  #: relative position/velocity edge embedding width (0 = none; core.predict.nn.model)
+    edge_dim: int = Field(
+        default=16, ge=0, le=256
+    )  #: relative position/velocity edge embedding width (0 = none; core.predict.nn.model)
     local_frame: bool = True  #: encode/decode each pedestrian in its own frame (core.predict.nn.model)
-    sigma_head: bool = False  #: also predict a per-step spread (Gaussian NLL of the mean's error; core.predict.nn.model)
-    nll_weight: float = Field(default=0.1, gt=0)  #: weight of the spread's NLL in the loss (its head reads detached inputs)
-    ensemble: int = Field(default=1, ge=1, le=16)  #: > 1: train that many members (seeds seed, seed+1, ...), each selected as usual; the checkpoint averages them
-    loss: Literal["smooth_l1", "euclidean"] = "smooth_l1"  #: euclidean: the mean displacement error itself (what ADE scores)
+    sigma_head: bool = (
+        False  #: also predict a per-step spread (Gaussian NLL of the mean's error; core.predict.nn.model)
+    )
+    nll_weight: float = Field(
+        default=0.1, gt=0
+    )  #: weight of the spread's NLL in the loss (its head reads detached inputs)
+    ensemble: int = Field(
+        default=1, ge=1, le=16
+    )  #: > 1: train that many members (seeds seed, seed+1, ...), each selected as usual; the checkpoint averages them
+    loss: Literal["smooth_l1", "euclidean"] = (
+        "smooth_l1"  #: euclidean: the mean displacement error itself (what ADE scores)
+    )
     loss_beta: float = Field(default=0.2, gt=0)  #: SmoothL1 beta [m]
     grad_clip: float = Field(default=1.0, gt=0)
     augment_mirror: bool = False  #: mirror a random half of each batch across the ego x axis (y -> -y)
-    augment_scale: tuple[float, float] | None = None  #: scale each sample's lengths/speeds and targets by a factor drawn log-uniformly from [lo, hi]
+    augment_scale: tuple[float, float] | None = (
+        None  #: scale each sample's lengths/speeds and targets by a factor drawn log-uniformly from [lo, hi]
+    )
     #: up to this std [m] (drawn per sample) of Gaussian noise on every observed past position (the current one stays:
     #: it is the frame's origin), velocities recomputed from the noisy positions: teaches the model not to trust one
     #: step's velocity (annotated tracks jitter and stall); 0 = off
@@ -58,7 +74,9 @@ class TrainConfig(_Strict):
     #: augment_mirror: where the data keep a side (the simulator's walkers pass on one), the mirror twin forecasts
     #: a world that does not exist (the default model with it: stress suite 0.953 -> 0.906)
     mirror_average: bool = False
-    threads: int = Field(default=1, ge=1, le=64)  #: torch intra-op threads (1: small matmuls gain little from more, and shared cores thrash)
+    threads: int = Field(
+        default=1, ge=1, le=64
+    )  #: torch intra-op threads (1: small matmuls gain little from more, and shared cores thrash)
     #: torch device of the model and data: auto = cuda when torch sees a GPU where training runs (a Ray task given
     #: one), else cpu; cuda without a GPU fails there (core.predict.nn.device); shuffling draws stay on the CPU
     device: Literal["auto", "cpu", "cuda"] = "auto"
@@ -75,8 +93,10 @@ class TrainConfig(_Strict):
     @classmethod
     def _mirror_needs_mirrored_data(cls, v: bool, info: ValidationInfo) -> bool:
         if v and not info.data.get("augment_mirror"):
-            raise ValueError("mirror_average needs augment_mirror: true (the model must have been trained on "
-                             "mirrored scenes for its mirror twin to be a forecast)")
+            raise ValueError(
+                "mirror_average needs augment_mirror: true (the model must have been trained on "
+                "mirrored scenes for its mirror twin to be a forecast)"
+            )
         return v
 
     @field_validator("augment_scale")
@@ -97,7 +117,9 @@ class TrainResult(BaseModel):
     cv_val_fde: float
     selection_mode: str
     gates_passed: bool
-    device: str | None = None  #: the torch device that trained (cpu, cuda); None in results from before devices
+    device: str | None = (
+        None  #: the torch device that trained (cpu, cuda); None in results from before devices
+    )
     execution: Execution | None = None  #: set when it ran as a Ray task: where, on how many CPUs/GPUs
 
 
@@ -139,7 +161,9 @@ class EpochRecord(EpochScore):
     train_samples: int | None = None
     val_samples: int | None = None
     val_nll: float | None = None  #: models with a sigma head: Gaussian NLL of the validation points
-    val_cover1: float | None = None  #: fraction of validation truths within 1 sigma of the mean (calibrated: 0.393)
+    val_cover1: float | None = (
+        None  #: fraction of validation truths within 1 sigma of the mean (calibrated: 0.393)
+    )
     val_cover2: float | None = None  #: ... within 2 sigma (calibrated: 0.865)
 
 
@@ -161,15 +185,20 @@ class TrainingGate(_Summary):
     cv: AdeFde
     checks: dict[str, bool]  #: val_ade_below_limit, val_fde_below_limit, val_ade_below_cv, val_fde_below_cv
     passed: bool
-    closed_loop: ProxyScore | None = None  #: the selected checkpoint's proxy score (with CV on the same episodes)
+    closed_loop: ProxyScore | None = (
+        None  #: the selected checkpoint's proxy score (with CV on the same episodes)
+    )
 
     def reference(self, best: EpochScore) -> dict[str, tuple[float | None, float | None]]:
         """Check name -> (value, threshold) ([m]; the closed-loop check: success rates)."""
         p = self.closed_loop
-        return {"val_ade_below_limit": (best.val_ade, self.limits.max_val_ade),
-                "val_fde_below_limit": (best.val_fde, self.limits.max_val_fde),
-                "val_ade_below_cv": (best.val_ade, self.cv.ade), "val_fde_below_cv": (best.val_fde, self.cv.fde),
-                "proxy_success_not_below_cv": (p.success if p else None, p.cv_success if p else None)}
+        return {
+            "val_ade_below_limit": (best.val_ade, self.limits.max_val_ade),
+            "val_fde_below_limit": (best.val_fde, self.limits.max_val_fde),
+            "val_ade_below_cv": (best.val_ade, self.cv.ade),
+            "val_fde_below_cv": (best.val_fde, self.cv.fde),
+            "proxy_success_not_below_cv": (p.success if p else None, p.cv_success if p else None),
+        }
 
 
 def training_gate(gates: GateConfig, best: EpochScore, cv: AdeFde) -> TrainingGate:
@@ -182,7 +211,9 @@ def training_gate(gates: GateConfig, best: EpochScore, cv: AdeFde) -> TrainingGa
     if gates.require_proxy_not_below_cv:  # closed loop, paired on the proxy episodes (core.predict.proxy)
         delta = best.proxy.vs_cv_delta if best.proxy is not None else None
         checks["proxy_success_not_below_cv"] = delta is not None and delta >= 0.0
-    return TrainingGate(limits=gates, cv=cv, checks=checks, passed=all(checks.values()), closed_loop=best.proxy)
+    return TrainingGate(
+        limits=gates, cv=cv, checks=checks, passed=all(checks.values()), closed_loop=best.proxy
+    )
 
 
 class EnsembleMember(_Summary):
@@ -224,16 +255,28 @@ class TrainingSummary(_Summary):
     def gate_result(self) -> GateResult:
         """The training gate as a GateResult (each check with its value and threshold)."""
         ref = self.quality_gates.reference(self.best)
-        return GateResult(passed=self.quality_gates.passed, checks=[
-            GateCheck(name=name, passed=ok, value=ref[name][0], threshold=ref[name][1])
-            for name, ok in self.quality_gates.checks.items()])
+        return GateResult(
+            passed=self.quality_gates.passed,
+            checks=[
+                GateCheck(name=name, passed=ok, value=ref[name][0], threshold=ref[name][1])
+                for name, ok in self.quality_gates.checks.items()
+            ],
+        )
 
     def result(self, path: str) -> TrainResult:
         """The stage result of this summary, written at ``path``."""
-        return TrainResult(checkpoint=self.checkpoint, summary=path, best_epoch=self.best.epoch,
-                           val_ade=self.best.val_ade, val_fde=self.best.val_fde, cv_val_ade=self.cv_val.ade,
-                           cv_val_fde=self.cv_val.fde, selection_mode=self.selection_mode,
-                           gates_passed=self.quality_gates.passed, device=self.device)
+        return TrainResult(
+            checkpoint=self.checkpoint,
+            summary=path,
+            best_epoch=self.best.epoch,
+            val_ade=self.best.val_ade,
+            val_fde=self.best.val_fde,
+            cv_val_ade=self.cv_val.ade,
+            cv_val_fde=self.cv_val.fde,
+            selection_mode=self.selection_mode,
+            gates_passed=self.quality_gates.passed,
+            device=self.device,
+        )
 
 
 def load_config(path: Path, model: type[BaseModel], key: str | None = None) -> BaseModel:

@@ -71,7 +71,10 @@ def prediction_steps(source: Any) -> dict[int, Forecast]:
         out = {}
         for step, v in source.items():
             ids, pos = (v["ped_ids"], v["positions"]) if isinstance(v, Mapping) else (v[0], v[1])
-            out[int(step)] = np.asarray(ids, dtype=np.int64).reshape(-1), as_floats(pos).reshape(-1, *as_floats(pos).shape[-2:])
+            out[int(step)] = (
+                np.asarray(ids, dtype=np.int64).reshape(-1),
+                as_floats(pos).reshape(-1, *as_floats(pos).shape[-2:]),
+            )
         return out
     items = list(source)
     if items and isinstance(items[0], Mapping):
@@ -100,31 +103,50 @@ class _Artists:
     peds: PatchCollection | None = None
 
     def moving(self) -> list[Any]:
-        arts = [self.trails, self.futures, self.future_ends, self.path, self.peds, self.body, self.heading,
-                self.hit, self.clock]
+        arts = [
+            self.trails,
+            self.futures,
+            self.future_ends,
+            self.path,
+            self.peds,
+            self.body,
+            self.heading,
+            self.hit,
+            self.clock,
+        ]
         return [a for a in arts if a is not None]
 
 
 def _setup(ax: Axes, robot_radius: float) -> _Artists:
-    path, = ax.plot([], [], "-", color=ROBOT_COLOUR, lw=2, zorder=6, label="robot")
-    heading, = ax.plot([], [], "-", color="black", lw=1.5, zorder=9)
+    (path,) = ax.plot([], [], "-", color=ROBOT_COLOUR, lw=2, zorder=6, label="robot")
+    (heading,) = ax.plot([], [], "-", color="black", lw=1.5, zorder=9)
     body = Circle((0, 0), robot_radius, fc=ROBOT_COLOUR, ec="black", lw=0.8, alpha=0.9, zorder=8)
     ax.add_patch(body)
     trails = LineCollection([], colors=PED_COLOUR, linewidths=1.0, alpha=0.5, zorder=5)
     futures = LineCollection([], colors=PREDICTION_COLOUR, linewidths=1.6, linestyles="--", zorder=7)
     ax.add_collection(trails)
     ax.add_collection(futures)
-    ends, = ax.plot([], [], "o", color=PREDICTION_COLOUR, ms=3, zorder=7)
-    hit, = ax.plot([], [], "x", color=COLLISION_COLOUR, ms=14, mew=3, zorder=10)
-    clock = ax.text(0.01, 0.99, "", transform=ax.transAxes, va="top", fontsize=9, zorder=11,
-                    bbox={"fc": "white", "alpha": 0.8, "lw": 0})
+    (ends,) = ax.plot([], [], "o", color=PREDICTION_COLOUR, ms=3, zorder=7)
+    (hit,) = ax.plot([], [], "x", color=COLLISION_COLOUR, ms=14, mew=3, zorder=10)
+    clock = ax.text(
+        0.01,
+        0.99,
+        "",
+        transform=ax.transAxes,
+        va="top",
+        fontsize=9,
+        zorder=11,
+        bbox={"fc": "white", "alpha": 0.8, "lw": 0},
+    )
     ax.plot([], [], "o", color=PED_COLOUR, label="pedestrian")
     ax.plot([], [], "--", color=PREDICTION_COLOUR, label="predicted future")
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
     return _Artists(path, heading, body, trails, futures, ends, hit, clock)
 
 
-def _future_segments(t: int, ids: np.ndarray, pos: np.ndarray, forecasts: dict[int, Forecast]) -> list[np.ndarray]:
+def _future_segments(
+    t: int, ids: np.ndarray, pos: np.ndarray, forecasts: dict[int, Forecast]
+) -> list[np.ndarray]:
     """Predicted polylines of the latest forecast made at or before state ``t``, starting at each ped's position."""
     made = [s for s in forecasts if s <= t]
     if not made:
@@ -141,8 +163,16 @@ def _future_segments(t: int, ids: np.ndarray, pos: np.ndarray, forecasts: dict[i
     return lines
 
 
-def _update(a: _Artists, ax: Axes, trace: Any, t: int, forecasts: dict[int, Forecast], hit_step: int | None,
-            hit_xy: np.ndarray | None, ped_radius: float) -> None:
+def _update(
+    a: _Artists,
+    ax: Axes,
+    trace: Any,
+    t: int,
+    forecasts: dict[int, Forecast],
+    hit_step: int | None,
+    hit_xy: np.ndarray | None,
+    ped_radius: float,
+) -> None:
     robot = np.asarray(trace.robot, dtype=float)
     ids, pos = np.asarray(trace.ped_ids), np.asarray(trace.ped_pos, dtype=float)
     x, y, th = robot[t, :3]
@@ -155,8 +185,15 @@ def _update(a: _Artists, ax: Axes, trace: Any, t: int, forecasts: dict[int, Fore
     if a.peds is not None:
         a.peds.remove()
     live = pos[t][ids[t] >= 0] if ids.shape[1] else np.zeros((0, 2))
-    a.peds = PatchCollection([Circle(tuple(p), ped_radius) for p in live], fc=PED_COLOUR, ec="black", lw=0.5,
-                             alpha=0.85, zorder=7, animated=True)
+    a.peds = PatchCollection(
+        [Circle(tuple(p), ped_radius) for p in live],
+        fc=PED_COLOUR,
+        ec="black",
+        lw=0.5,
+        alpha=0.85,
+        zorder=7,
+        animated=True,
+    )
     ax.add_collection(a.peds)
     lines = _future_segments(t, ids, pos, forecasts)
     a.futures.set_segments(lines)
@@ -185,7 +222,9 @@ class _Blitter:
         return Image.fromarray(np.asarray(canvas.buffer_rgba())[..., :3].copy())
 
 
-def _hit(trace: Any, robot_xy: np.ndarray, step: int | None, point: Any) -> tuple[int | None, np.ndarray | None]:
+def _hit(
+    trace: Any, robot_xy: np.ndarray, step: int | None, point: Any
+) -> tuple[int | None, np.ndarray | None]:
     step = step if step is not None else getattr(trace, "collision_step", None)
     point = point if point is not None else getattr(trace, "collision_point", None)
     if step is None or int(step) < 0:

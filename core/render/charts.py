@@ -75,8 +75,12 @@ def _errors(est: Sequence[Estimate]) -> tuple[np.ndarray, np.ndarray]:
     return vals, np.vstack([lo, hi])
 
 
-def _hbars(ax: Axes, labels: Sequence[str], series: Mapping[str, Sequence[Estimate]],
-           colours: Sequence[str] = SERIES_COLOURS) -> None:
+def _hbars(
+    ax: Axes,
+    labels: Sequence[str],
+    series: Mapping[str, Sequence[Estimate]],
+    colours: Sequence[str] = SERIES_COLOURS,
+) -> None:
     """Grouped horizontal bars (first label on top) with interval whiskers; "n/a" where a value is missing."""
     n, k = len(labels), max(len(series), 1)
     height = 0.8 / k
@@ -84,8 +88,15 @@ def _hbars(ax: Axes, labels: Sequence[str], series: Mapping[str, Sequence[Estima
     for j, (name, est) in enumerate(series.items()):
         vals, err = _errors(est)
         pos = y - 0.4 + height * (j + 0.5)
-        ax.barh(pos, np.nan_to_num(vals), height=height, xerr=err, color=colours[j % len(colours)],
-                label=name, error_kw={"elinewidth": 1, "capsize": 2, "ecolor": "black"})
+        ax.barh(
+            pos,
+            np.nan_to_num(vals),
+            height=height,
+            xerr=err,
+            color=colours[j % len(colours)],
+            label=name,
+            error_kw={"elinewidth": 1, "capsize": 2, "ecolor": "black"},
+        )
         for p, v in zip(pos, vals, strict=True):
             if np.isnan(v):
                 ax.text(0.01, p, "n/a", va="center", fontsize=6, color="0.4")
@@ -98,8 +109,14 @@ def _rows_height(n: int, per_row: float = 0.32) -> float:
     return min(max(2.4, 1.2 + per_row * n), 30.0)
 
 
-def rate_bars(labels: Sequence[str], series: Mapping[str, Sequence[Estimate]], path: str | Path, *,
-              title: str = "", xlabel: str = "rate (95 % Wilson interval)") -> Path:
+def rate_bars(
+    labels: Sequence[str],
+    series: Mapping[str, Sequence[Estimate]],
+    path: str | Path,
+    *,
+    title: str = "",
+    xlabel: str = "rate (95 % Wilson interval)",
+) -> Path:
     """Per-group rates (e.g. success and collision per scenario) as grouped bars with intervals."""
     fig, (ax,) = _figure(8.0, _rows_height(len(labels) * max(1, len(series)) / 1.6))
     _hbars(ax, labels, series)
@@ -113,14 +130,23 @@ def rate_bars(labels: Sequence[str], series: Mapping[str, Sequence[Estimate]], p
 def taxonomy_bars(groups: Mapping[str, Mapping[str, int]], path: str | Path, *, title: str = "") -> Path:
     """Failure labels per group (e.g. per family) as stacked bars of episode counts; zero labels are left out."""
     keys = list(groups)
-    labels = [lab for lab in dict.fromkeys(lab for g in groups.values() for lab in g)
-              if sum(int(g.get(lab, 0)) for g in groups.values()) > 0]
+    labels = [
+        lab
+        for lab in dict.fromkeys(lab for g in groups.values() for lab in g)
+        if sum(int(g.get(lab, 0)) for g in groups.values()) > 0
+    ]
     fig, (ax,) = _figure(8.5, _rows_height(len(keys)))
     left = np.zeros(len(keys))
     for i, lab in enumerate(labels):
         counts = np.array([int(groups[k].get(lab, 0)) for k in keys], dtype=float)
-        ax.barh(np.arange(len(keys)), counts, left=left, label=lab,
-                color=LABEL_COLOURS.get(lab, SERIES_COLOURS[i % len(SERIES_COLOURS)]), edgecolor="white")
+        ax.barh(
+            np.arange(len(keys)),
+            counts,
+            left=left,
+            label=lab,
+            color=LABEL_COLOURS.get(lab, SERIES_COLOURS[i % len(SERIES_COLOURS)]),
+            edgecolor="white",
+        )
         left += counts
     for y, total in enumerate(left):
         ax.text(total, y, f" {int(total)}", va="center", fontsize=7)
@@ -137,8 +163,15 @@ def taxonomy_bars(groups: Mapping[str, Mapping[str, int]], path: str | Path, *, 
     return save(fig, path)
 
 
-def ranking_chart(names: Sequence[str], hard: Sequence[Estimate], glob: Sequence[Estimate], path: str | Path, *,
-                  notes: Sequence[str] | None = None, title: str = "") -> Path:
+def ranking_chart(
+    names: Sequence[str],
+    hard: Sequence[Estimate],
+    glob: Sequence[Estimate],
+    path: str | Path,
+    *,
+    notes: Sequence[str] | None = None,
+    title: str = "",
+) -> Path:
     """Campaign cells in rank order (rank 1 on top): hard-suite and global success with intervals.
 
     ``notes`` (one per cell, e.g. the clearances) are printed to the right of the bars.
@@ -162,7 +195,9 @@ def _forest(ax: Axes, deltas: Mapping[str, Estimate], xlabel: str) -> None:
     y = np.arange(len(names))
     ok = ~np.isnan(vals)
     ax.errorbar(vals[ok], y[ok], xerr=err[:, ok], fmt="none", ecolor="black", elinewidth=1, capsize=3)
-    ax.scatter(vals[ok], y[ok], color="tab:blue", zorder=3)  # no good/bad colour: "better" depends on the metric
+    ax.scatter(
+        vals[ok], y[ok], color="tab:blue", zorder=3
+    )  # no good/bad colour: "better" depends on the metric
     for yy in y[~ok]:
         ax.text(0, yy, "n/a", ha="center", va="center", fontsize=7, color="0.4")
     ax.axvline(0, color="0.4", lw=1, ls="--")
@@ -172,18 +207,33 @@ def _forest(ax: Axes, deltas: Mapping[str, Estimate], xlabel: str) -> None:
     ax.grid(axis="x", alpha=0.3)
 
 
-def ab_chart(rate_deltas: Mapping[str, Estimate], mean_deltas: Mapping[str, Estimate], scenarios: Sequence[str],
-             a: Sequence[Estimate], b: Sequence[Estimate], path: str | Path, *, labels: tuple[str, str] = ("A", "B"),
-             title: str = "") -> Path:
+def ab_chart(
+    rate_deltas: Mapping[str, Estimate],
+    mean_deltas: Mapping[str, Estimate],
+    scenarios: Sequence[str],
+    a: Sequence[Estimate],
+    b: Sequence[Estimate],
+    path: str | Path,
+    *,
+    labels: tuple[str, str] = ("A", "B"),
+    title: str = "",
+) -> Path:
     """A/B view of two runs: rate deltas (B - A), mean deltas (B - A) and per-scenario success side by side."""
     height = max(_rows_height(len(scenarios) * 1.3), 1.0 + 0.45 * (len(rate_deltas) + len(mean_deltas)))
     fig = Figure(figsize=(13.0, height), dpi=DPI)
     FigureCanvasAgg(fig)
-    grid = fig.add_gridspec(2, 2, width_ratios=(1, 1.3), height_ratios=(max(len(rate_deltas), 1),
-                                                                          max(len(mean_deltas), 1)))
-    ax_rates, ax_means, ax_scen = fig.add_subplot(grid[0, 0]), fig.add_subplot(grid[1, 0]), fig.add_subplot(grid[:, 1])
+    grid = fig.add_gridspec(
+        2, 2, width_ratios=(1, 1.3), height_ratios=(max(len(rate_deltas), 1), max(len(mean_deltas), 1))
+    )
+    ax_rates, ax_means, ax_scen = (
+        fig.add_subplot(grid[0, 0]),
+        fig.add_subplot(grid[1, 0]),
+        fig.add_subplot(grid[:, 1]),
+    )
     _forest(ax_rates, rate_deltas, f"rate delta {labels[1]} - {labels[0]} (95 % interval)")
-    _forest(ax_means, mean_deltas, f"mean delta {labels[1]} - {labels[0]} (approx. 95 % interval; units per row)")
+    _forest(
+        ax_means, mean_deltas, f"mean delta {labels[1]} - {labels[0]} (approx. 95 % interval; units per row)"
+    )
     _hbars(ax_scen, scenarios, {labels[0]: a, labels[1]: b}, ("tab:gray", "tab:blue"))
     ax_scen.set_xlim(0, 1)
     ax_scen.set_xlabel("success rate per scenario (95 % Wilson interval)")
@@ -198,8 +248,13 @@ def _series(history: Sequence[Mapping[str, Any]], key: str) -> tuple[np.ndarray,
     return np.array([p[0] for p in pts], dtype=float), np.array([p[1] for p in pts], dtype=float)
 
 
-def _curve_panel(ax: Axes, history: Sequence[Mapping[str, Any]], keys: Mapping[str, str], ylabel: str,
-                 best_epoch: int | None) -> None:
+def _curve_panel(
+    ax: Axes,
+    history: Sequence[Mapping[str, Any]],
+    keys: Mapping[str, str],
+    ylabel: str,
+    best_epoch: int | None,
+) -> None:
     styles = {"train": ("tab:blue", "-"), "val": ("tab:orange", "-"), "cv": ("0.3", "--")}
     for key, name in keys.items():
         x, y = _series(history, key)
@@ -214,8 +269,9 @@ def _curve_panel(ax: Axes, history: Sequence[Mapping[str, Any]], keys: Mapping[s
     ax.legend(fontsize=7)
 
 
-def training_curves(history: Sequence[Mapping[str, Any]], path: str | Path, *, best_epoch: int | None = None,
-                    title: str = "") -> Path:
+def training_curves(
+    history: Sequence[Mapping[str, Any]], path: str | Path, *, best_epoch: int | None = None, title: str = ""
+) -> Path:
     """Loss, ADE and FDE per epoch against constant velocity; proxy success per epoch when recorded.
 
     ``history``: the training summary's per-epoch records (``epoch``, ``train_loss``, ``val_loss``,
@@ -223,11 +279,23 @@ def training_curves(history: Sequence[Mapping[str, Any]], path: str | Path, *, b
     """
     proxy = [{"epoch": r["epoch"], **r["proxy"]} for r in history if isinstance(r.get("proxy"), Mapping)]
     fig, axes = _figure(4.2 * (4 if proxy else 3), 3.6, 4 if proxy else 3)
-    _curve_panel(axes[0], history, {"train_loss": "train", "val_loss": "validation"}, "loss (SmoothL1)", best_epoch)
-    _curve_panel(axes[1], history, {"train_ade": "train", "val_ade": "validation", "cv_val_ade": "constant velocity"},
-                 "ADE [m]", best_epoch)
-    _curve_panel(axes[2], history, {"train_fde": "train", "val_fde": "validation", "cv_val_fde": "constant velocity"},
-                 "FDE [m]", best_epoch)
+    _curve_panel(
+        axes[0], history, {"train_loss": "train", "val_loss": "validation"}, "loss (SmoothL1)", best_epoch
+    )
+    _curve_panel(
+        axes[1],
+        history,
+        {"train_ade": "train", "val_ade": "validation", "cv_val_ade": "constant velocity"},
+        "ADE [m]",
+        best_epoch,
+    )
+    _curve_panel(
+        axes[2],
+        history,
+        {"train_fde": "train", "val_fde": "validation", "cv_val_fde": "constant velocity"},
+        "FDE [m]",
+        best_epoch,
+    )
     if proxy:
         _curve_panel(axes[3], proxy, {"success": "proxy success"}, "proxy success rate", best_epoch)
         axes[3].set_ylim(-0.02, 1.02)

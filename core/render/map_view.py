@@ -62,8 +62,15 @@ def _draw_single_peds(ax: Axes, mapdef: MapDef) -> None:
 def _draw_pois(ax: Axes, mapdef: MapDef) -> None:
     for i, (key, xy) in enumerate(mapdef.pois.items()):
         ax.plot(*xy, "*", color=POI_COLOUR, ms=10, label="point of interest" if i == 0 else None, zorder=5)
-        ax.annotate(mapdef.poi_labels.get(key, key), xy, textcoords="offset points", xytext=(5, -9), fontsize=7,
-                    color=POI_COLOUR, zorder=5)
+        ax.annotate(
+            mapdef.poi_labels.get(key, key),
+            xy,
+            textcoords="offset points",
+            xytext=(5, -9),
+            fontsize=7,
+            color=POI_COLOUR,
+            zorder=5,
+        )
 
 
 def draw_map(ax: Axes, mapdef: MapDef, *, routes: bool = True, legend: bool = True) -> None:

@@ -27,11 +27,15 @@ from foresight.core.render.trace import COLLISION_COLOUR, PED_COLOUR
 
 MARGIN = 4.0  #: view margin around the drawn points when no map is given [m]
 PLAN_S = 2.0  #: [s] how far the commanded motion is rolled out when the planner logged no plan
-PLAN_COLOUR = "#9467bd"  #: purple: apart from the robot's green, the pedestrians' brown and the forecasts' colour
+PLAN_COLOUR = (
+    "#9467bd"  #: purple: apart from the robot's green, the pedestrians' brown and the forecasts' colour
+)
 VELOCITY_S = 1.0  #: [s] length of a pedestrian's velocity arrow (where it would be in this time)
 
 
-def rollout(pose: Sequence[float], command: Sequence[float], dt: float, seconds: float = PLAN_S) -> np.ndarray:
+def rollout(
+    pose: Sequence[float], command: Sequence[float], dt: float, seconds: float = PLAN_S
+) -> np.ndarray:
     """(K+1, 2) positions of a unicycle at ``pose`` (x, y, heading) holding ``command`` (v, omega) for
     ``seconds``: the motion the planner chose at that step, drawn when it logged no plan of its own."""
     x, y, th = (float(v) for v in pose[:3])
@@ -87,15 +91,22 @@ def render_critical_moment(
     """
     xy = as_floats(robot_xy).reshape(-1, 2)
     step = int(min(max(step, 0), len(xy) - 1))
-    preds = [(int(f["ped_id"]), as_floats(f.get("predicted") or []).reshape(-1, 2),
-              as_floats([a if a is not None else [None, None] for a in f.get("actual") or []]).reshape(-1, 2))
-             for f in forecasts]
+    preds = [
+        (
+            int(f["ped_id"]),
+            as_floats(f.get("predicted") or []).reshape(-1, 2),
+            as_floats([a if a is not None else [None, None] for a in f.get("actual") or []]).reshape(-1, 2),
+        )
+        for f in forecasts
+    ]
     plan_xy = as_floats(plan).reshape(-1, 2) if plan is not None else np.empty((0, 2))
     peds = [(int(i), as_floats(p).reshape(2), as_floats(v).reshape(2)) for i, p, v in pedestrians]
     pts = np.concatenate([xy, plan_xy] + [p for _, p, _ in preds] + [a for _, _, a in preds]
                          + [p[None] for _, p, _ in peds])  # fmt: skip
     fig, ax = _axes(mapdef, pts, title)
-    ax.plot(xy[: step + 1, 0], xy[: step + 1, 1], "-", color=ROBOT_COLOUR, lw=2.5, label="robot until the moment")
+    ax.plot(
+        xy[: step + 1, 0], xy[: step + 1, 1], "-", color=ROBOT_COLOUR, lw=2.5, label="robot until the moment"
+    )
     ax.plot(xy[step:, 0], xy[step:, 1], ":", color=ROBOT_COLOUR, lw=1.5, label="robot afterwards")
     ax.add_patch(Circle(tuple(xy[step]), robot_radius, fc=ROBOT_COLOUR, ec="black", alpha=0.6, zorder=6))
     if heading is not None and np.isfinite(heading):
@@ -117,11 +128,27 @@ def render_critical_moment(
         first = i == 0
         start = actual[:1] if len(actual) and np.all(np.isfinite(actual[0])) else pred[:1]
         if len(actual):
-            ax.plot(actual[:, 0], actual[:, 1], "-", color=PED_COLOUR, lw=1.8, label="actual future" if first else None)
+            ax.plot(
+                actual[:, 0],
+                actual[:, 1],
+                "-",
+                color=PED_COLOUR,
+                lw=1.8,
+                label="actual future" if first else None,
+            )
         if len(pred):
-            ax.plot(pred[:, 0], pred[:, 1], "--", color=PREDICTION_COLOUR, lw=1.8, marker=".",
-                    label="predicted future" if first else None)
-            ax.add_collection(LineCollection([np.vstack([start[0], pred[0]])], colors=PREDICTION_COLOUR, lw=1))
+            ax.plot(
+                pred[:, 0],
+                pred[:, 1],
+                "--",
+                color=PREDICTION_COLOUR,
+                lw=1.8,
+                marker=".",
+                label="predicted future" if first else None,
+            )
+            ax.add_collection(
+                LineCollection([np.vstack([start[0], pred[0]])], colors=PREDICTION_COLOUR, lw=1)
+            )
         if len(start):
             ax.add_patch(Circle(tuple(start[0]), ped_radius, fc=PED_COLOUR, ec="black", alpha=0.8, zorder=7))
             ax.annotate(str(pid), tuple(start[0]), textcoords="offset points", xytext=(5, 5), fontsize=7)
@@ -130,7 +157,13 @@ def render_critical_moment(
         if np.all(np.isfinite(hit)):
             ax.plot(*hit, "x", color=COLLISION_COLOUR, ms=14, mew=3, zorder=9, label="collision")
     if not preds:
-        ax.text(0.5, 0.02, "no forecasts recorded (planner without a predictor)", transform=ax.transAxes,
-                ha="center", fontsize=8)
+        ax.text(
+            0.5,
+            0.02,
+            "no forecasts recorded (planner without a predictor)",
+            transform=ax.transAxes,
+            ha="center",
+            fontsize=8,
+        )
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
     return save(fig, path)

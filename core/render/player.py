@@ -33,10 +33,12 @@ def player_page(traces: list[tuple[str, dict[str, Any]]], title: str, note: str 
     """The HTML of a player with one pane per (label, compact trace), on one clock."""
     panes, data = [], []
     for i, (label, trace) in enumerate(traces):
-        panes.append(f'<div class="pane" id="pane-{i}" data-trace-script="trace-{i}"><h2>{html.escape(label)}</h2>'
-                     '<p class="status mono small"></p><span class="event verdict" hidden></span>'
-                     f'<canvas width="640" height="480" aria-label="episode {html.escape(label)}"></canvas>'
-                     '<p class="facts small"></p></div>')
+        panes.append(
+            f'<div class="pane" id="pane-{i}" data-trace-script="trace-{i}"><h2>{html.escape(label)}</h2>'
+            '<p class="status mono small"></p><span class="event verdict" hidden></span>'
+            f'<canvas width="640" height="480" aria-label="episode {html.escape(label)}"></canvas>'
+            '<p class="facts small"></p></div>'
+        )
         data.append(_json_script(f"trace-{i}", trace))
     return f"""<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title><style>{_STYLE}</style></head>
@@ -47,18 +49,20 @@ def player_page(traces: list[tuple[str, dict[str, Any]]], title: str, note: str 
 <button type="button" id="fwd" title="one frame on (→)">▶</button>
 <input type="range" id="slider" min="0" max="0" value="0" step="1" aria-label="time">
 <span id="clock" class="mono">t = 0.0 s</span></div>
-<div class="panes">{''.join(panes)}</div>
+<div class="panes">{"".join(panes)}</div>
 <p class="small">Blue: the robot, its path and heading; purple: its current command held 2 s; grey: pedestrians
 (true ids); amber: the logged forecasts; green: the goal and its tolerance; red: a collision. y points up.
 {html.escape(note)}</p>
 </section>
-{''.join(data)}
+{"".join(data)}
 <script>{PLAYER_JS.read_text()}</script>
 </body></html>
 """
 
 
-def write_player(path: str | Path, traces: list[tuple[str, dict[str, Any]]], title: str, note: str = "") -> Path:
+def write_player(
+    path: str | Path, traces: list[tuple[str, dict[str, Any]]], title: str, note: str = ""
+) -> Path:
     """Write :func:`player_page` to ``path`` (atomically); returns the path."""
     return files.write_text(Path(path), player_page(traces, title, note))
 
@@ -67,11 +71,16 @@ def write_player(path: str | Path, traces: list[tuple[str, dict[str, Any]]], tit
 PAIR_NOTE = "One clock for both runs of the episode; a pane whose episode ended holds its last frame."
 
 
-def write_pair(out: Path, folder: str, scenario: str, seed: int, runs: list[tuple[str, str, Path]], title: str) -> Path:
+def write_pair(
+    out: Path, folder: str, scenario: str, seed: int, runs: list[tuple[str, str, Path]], title: str
+) -> Path:
     """A side-by-side page of one episode's runs, each (label, outcome, its compact trace file), written as
     ``out/<folder>/<scenario>__<seed>.html`` (names made safe); the panes are headed "label: outcome"."""
     from foresight.core.evaluation.episode_trace import episode_stem, read_compact, safe_name
 
-    return write_player(out / safe_name(folder) / f"{episode_stem(scenario, seed)}.html",
-                        [(f"{label}: {outcome}", read_compact(trace)) for label, outcome, trace in runs],
-                        title, PAIR_NOTE)
+    return write_player(
+        out / safe_name(folder) / f"{episode_stem(scenario, seed)}.html",
+        [(f"{label}: {outcome}", read_compact(trace)) for label, outcome, trace in runs],
+        title,
+        PAIR_NOTE,
+    )

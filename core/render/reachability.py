@@ -23,8 +23,9 @@ CROWD_COLOUR = "0.35"
 TRACK_STRIDE = 3  #: draw every third recorded step of the crowd's tracks
 
 
-def render_reachability(where: ReachMap, mapdef: MapDef, path: str | Path, *, title: str | None = None,
-                        ped_radius: float = 0.4) -> Path:
+def render_reachability(
+    where: ReachMap, mapdef: MapDef, path: str | Path, *, title: str | None = None, ped_radius: float = 0.4
+) -> Path:
     """Write the picture to ``path`` (.png or .svg): the first time [s] each cell was reachable, the crowd's tracks
     up to the verdict's step and the pedestrians there (discs of ``ped_radius``), start and goal; returns the path."""
     fig, ax = map_axes(mapdef, title=title, extra_width_in=1.6)
@@ -32,8 +33,15 @@ def render_reachability(where: ReachMap, mapdef: MapDef, path: str | Path, *, ti
     seconds = np.ma.masked_less(where.reached_at, 0).astype(float) * where.dt
     g = where.grid
     nx, ny = where.reached_at.shape
-    im = ax.imshow(seconds.T, origin="lower", extent=(-g / 2, (nx - 0.5) * g, -g / 2, (ny - 0.5) * g), cmap=CMAP,
-                   alpha=0.8, zorder=3, interpolation="nearest")
+    im = ax.imshow(
+        seconds.T,
+        origin="lower",
+        extent=(-g / 2, (nx - 0.5) * g, -g / 2, (ny - 0.5) * g),
+        cmap=CMAP,
+        alpha=0.8,
+        zorder=3,
+        interpolation="nearest",
+    )
     fig.colorbar(im, ax=ax, label="first reachable [s]", fraction=0.04, pad=0.02)
     tracks = [p for p in where.crowd[::TRACK_STRIDE] if len(p)]
     if tracks:

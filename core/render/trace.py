@@ -131,12 +131,31 @@ def render_trace(
     if goal is not None:
         gxy = tuple(np.asarray(goal, dtype=float).reshape(2))
         if goal_tolerance:
-            ax.add_patch(Circle(gxy, goal_tolerance, fc="tab:green", ec="tab:green", alpha=0.18, zorder=4,
-                                label=f"goal tolerance ({goal_tolerance:g} m)"))
+            ax.add_patch(
+                Circle(
+                    gxy,
+                    goal_tolerance,
+                    fc="tab:green",
+                    ec="tab:green",
+                    alpha=0.18,
+                    zorder=4,
+                    label=f"goal tolerance ({goal_tolerance:g} m)",
+                )
+            )
         ax.plot(*gxy, "*", color="tab:red", ms=14, mec="black", zorder=7, label="goal")
     if len(robot_xy):  # the robot's body where the picture's pedestrians are (a contact looks like a contact)
-        ax.add_patch(Circle(tuple(robot_xy[shown]), robot_radius, fc="tab:blue", ec="black", alpha=0.35, lw=1,
-                            zorder=7, label=f"robot body ({robot_radius:g} m)"))
+        ax.add_patch(
+            Circle(
+                tuple(robot_xy[shown]),
+                robot_radius,
+                fc="tab:blue",
+                ec="black",
+                alpha=0.35,
+                lw=1,
+                zorder=7,
+                label=f"robot body ({robot_radius:g} m)",
+            )
+        )
     hit = _collision_xy(robot_xy, collision_step, collision_point)
     if hit is not None:
         ax.plot(*hit, "x", color=COLLISION_COLOUR, ms=14, mew=3, zorder=9, label="collision")

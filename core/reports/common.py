@@ -93,7 +93,9 @@ def verdict(passed: Any) -> str:
 
 def gate_rows(checks: list[GateCheck]) -> list[list[str]]:
     """Rows (check, verdict, value, threshold, detail) of a gate's checks."""
-    return [[c.name, "ok" if c.passed else "FAIL", fmt(c.value, 3), fmt(c.threshold, 3), c.detail] for c in checks]
+    return [
+        [c.name, "ok" if c.passed else "FAIL", fmt(c.value, 3), fmt(c.threshold, 3), c.detail] for c in checks
+    ]
 
 
 def existing(workdir: Path, rel: str | None) -> bool:

@@ -37,9 +37,14 @@ from foresight.core.reports.common import (
 from foresight.core.reports.document import Document
 
 RATE_KEYS = ("success", "collision", "collision_pedestrian", "collision_static", "timeout")
-MEAN_KEYS = {"min_clearance": "min clearance [m]", "avg_speed": "avg speed [m/s]",
-             "time_to_goal_s": "time to goal [s]", "path_efficiency": "path efficiency",
-             "near_misses": "near-miss steps", "plan_ms_mean": "planner time [ms]"}
+MEAN_KEYS = {
+    "min_clearance": "min clearance [m]",
+    "avg_speed": "avg speed [m/s]",
+    "time_to_goal_s": "time to goal [s]",
+    "path_efficiency": "path efficiency",
+    "near_misses": "near-miss steps",
+    "plan_ms_mean": "planner time [ms]",
+}
 
 
 class ComparedRun(BaseModel):
@@ -56,7 +61,12 @@ class ComparedRun(BaseModel):
 
     def setup(self) -> dict[str, str | None]:
         """The fields two runs must share for their deltas to be planner effects."""
-        return {"bundle": self.bundle, "matrix": self.matrix, "seed_source": self.seed_source, "horizon": self.horizon}
+        return {
+            "bundle": self.bundle,
+            "matrix": self.matrix,
+            "seed_source": self.seed_source,
+            "horizon": self.horizon,
+        }
 
 
 def _combined(va: float, la: float, ha: float, vb: float, lb: float, hb: float) -> Estimate:
@@ -67,8 +77,14 @@ def _combined(va: float, la: float, ha: float, vb: float, lb: float, hb: float) 
 def _delta(ea: Estimate, eb: Estimate) -> Estimate:
     if ea.value is None or eb.value is None:
         return Estimate(None)
-    return _combined(ea.value, _or(ea.low, ea.value), _or(ea.high, ea.value),
-                     eb.value, _or(eb.low, eb.value), _or(eb.high, eb.value))
+    return _combined(
+        ea.value,
+        _or(ea.low, ea.value),
+        _or(ea.high, ea.value),
+        eb.value,
+        _or(eb.low, eb.value),
+        _or(eb.high, eb.value),
+    )
 
 
 def rate_delta(a: RateEstimate | None, b: RateEstimate | None) -> Estimate:
@@ -95,30 +111,45 @@ def _success(group: GroupStats | None) -> RateEstimate | None:
     return None if group is None else group.rates["success"]
 
 
-def build_comparison_document(a: ComparedRun, b: ComparedRun, workdir: Path, labels: tuple[str, str]) -> Document:
+def build_comparison_document(
+    a: ComparedRun, b: ComparedRun, workdir: Path, labels: tuple[str, str]
+) -> Document:
     doc = Document(f"A/B comparison: {labels[0]} vs {labels[1]}")
     add_comparison(doc, a, b, workdir, labels)
     return doc
 
 
-def add_comparison(doc: Document, a: ComparedRun, b: ComparedRun, workdir: Path,
-                   labels: tuple[str, str], *, level: int = 2, figure: str = "ab_comparison.png",
-                   paired: Mapping[str, Delta] | None = None) -> None:
+def add_comparison(
+    doc: Document,
+    a: ComparedRun,
+    b: ComparedRun,
+    workdir: Path,
+    labels: tuple[str, str],
+    *,
+    level: int = 2,
+    figure: str = "ab_comparison.png",
+    paired: Mapping[str, Delta] | None = None,
+) -> None:
     """Append the comparison sections (runs, metric deltas, per-scenario success, taxonomy, verdict) to ``doc``;
     ``paired``: the runs' paired deltas when they ran the same episodes."""
     la, lb = labels
     setup_a, setup_b = a.setup(), b.setup()
     doc.section("Runs", level)
-    doc.table(["", la, lb], [
-        ["planner", a.planner.variant or a.planner.name, b.planner.variant or b.planner.name],
-        ["config hash", a.planner.config_hash[:12], b.planner.config_hash[:12]],
-        ["model", a.planner.model_id, b.planner.model_id],
-        ["episodes", a.episodes, b.episodes],
-        *[[k, setup_a[k] or "-", setup_b[k] or "-"] for k in setup_a],
-    ])
+    doc.table(
+        ["", la, lb],
+        [
+            ["planner", a.planner.variant or a.planner.name, b.planner.variant or b.planner.name],
+            ["config hash", a.planner.config_hash[:12], b.planner.config_hash[:12]],
+            ["model", a.planner.model_id, b.planner.model_id],
+            ["episodes", a.episodes, b.episodes],
+            *[[k, setup_a[k] or "-", setup_b[k] or "-"] for k in setup_a],
+        ],
+    )
     differ = [k for k in setup_a if setup_a[k] != setup_b[k]]
     if differ:
-        doc.text(f"**Warning**: the runs differ in {', '.join(differ)}; their deltas mix planner and setup effects.")
+        doc.text(
+            f"**Warning**: the runs differ in {', '.join(differ)}; their deltas mix planner and setup effects."
+        )
     oa, ob = a.aggregates.overall, b.aggregates.overall
     rates = {k: rate_delta(oa.rates[k], ob.rates[k]) for k in RATE_KEYS}
     means = {label: mean_delta(oa.means[k], ob.means[k]) for k, label in MEAN_KEYS.items()}
@@ -126,54 +157,100 @@ def add_comparison(doc: Document, a: ComparedRun, b: ComparedRun, workdir: Path,
     sb = {g.key: g for g in b.aggregates.per_scenario}
     names = list(dict.fromkeys([*sa, *sb]))
     path, rel = figure_path(workdir, figure)
-    ab_chart(rates, means, names, [rate_est(_success(sa.get(n))) for n in names],
-             [rate_est(_success(sb.get(n))) for n in names], path, labels=labels, title=f"{lb} - {la}")
+    ab_chart(
+        rates,
+        means,
+        names,
+        [rate_est(_success(sa.get(n))) for n in names],
+        [rate_est(_success(sb.get(n))) for n in names],
+        path,
+        labels=labels,
+        title=f"{lb} - {la}",
+    )
     doc.section("Metric deltas", level)
     doc.image(rel, f"Deltas {lb} - {la} with 95 % intervals, and per-scenario success side by side")
-    doc.table(["metric", la, lb, f"delta {lb} - {la} [95 % interval, unpaired]"],
-              [[k, rate_text(oa.rates[k]), rate_text(ob.rates[k]), _delta_text(rates[k], 100, " pp")]
-               for k in RATE_KEYS]
-              + [[label, mean_text(oa.means[k]), mean_text(ob.means[k]), _delta_text(means[label])]
-                 for k, label in MEAN_KEYS.items()])
+    doc.table(
+        ["metric", la, lb, f"delta {lb} - {la} [95 % interval, unpaired]"],
+        [
+            [k, rate_text(oa.rates[k]), rate_text(ob.rates[k]), _delta_text(rates[k], 100, " pp")]
+            for k in RATE_KEYS
+        ]
+        + [
+            [label, mean_text(oa.means[k]), mean_text(ob.means[k]), _delta_text(means[label])]
+            for k, label in MEAN_KEYS.items()
+        ],
+    )
     doc.section("Per-scenario success", level)
-    doc.table(["scenario", la, lb, "delta [pp]"],
-              [[n, rate_text(_success(sa.get(n))), rate_text(_success(sb.get(n))),
-                _delta_text(rate_delta(_success(sa.get(n)), _success(sb.get(n))), 100, " pp")] for n in names])
+    doc.table(
+        ["scenario", la, lb, "delta [pp]"],
+        [
+            [
+                n,
+                rate_text(_success(sa.get(n))),
+                rate_text(_success(sb.get(n))),
+                _delta_text(rate_delta(_success(sa.get(n)), _success(sb.get(n))), 100, " pp"),
+            ]
+            for n in names
+        ],
+    )
     doc.section("Failure taxonomy", level)
     ta, tb = a.taxonomy, b.taxonomy
     labels_all = [k for k in dict.fromkeys([*ta, *tb]) if ta.get(k, 0) or tb.get(k, 0)]
     if labels_all:
-        doc.table(["label", la, lb, "delta"],
-                  [[k, ta.get(k, 0), tb.get(k, 0), f"{tb.get(k, 0) - ta.get(k, 0):+d}"] for k in labels_all])
+        doc.table(
+            ["label", la, lb, "delta"],
+            [[k, ta.get(k, 0), tb.get(k, 0), f"{tb.get(k, 0) - ta.get(k, 0):+d}"] for k in labels_all],
+        )
     else:
         doc.note("Neither run had a failed episode.")
     if paired:
-        doc.table(["metric (paired)", "pairs", f"delta {lb} - {la} [95 % paired bootstrap]", "test", "p"],
-                  [[k, d.n_pairs, _delta_text(Estimate(d.delta, d.low, d.high), 100 if k in BINARY else 1),
-                    d.test or "-", fmt(d.p_value, 3) + (" *" if d.significant else "")] for k, d in paired.items()])
+        doc.table(
+            ["metric (paired)", "pairs", f"delta {lb} - {la} [95 % paired bootstrap]", "test", "p"],
+            [
+                [
+                    k,
+                    d.n_pairs,
+                    _delta_text(Estimate(d.delta, d.low, d.high), 100 if k in BINARY else 1),
+                    d.test or "-",
+                    fmt(d.p_value, 3) + (" *" if d.significant else ""),
+                ]
+                for k, d in paired.items()
+            ],
+        )
     doc.section("Verdict", level)
     ps = (paired or {}).get("success")
     if ps is not None and ps.p_value is not None:
         disc = ps.discordant or (0, 0)
-        verdict_text = ("a significant difference" if ps.significant else
-                        f"no significant difference (p < {ALPHA} with at least {MIN_PAIRS} pairs needed)")
-        doc.text(f"Success {pct(oa.rates['success'].rate)} ({la}) vs {pct(ob.rates['success'].rate)} ({lb}), paired on "
-                 f"{ps.n_pairs} episodes: delta {_delta_text(Estimate(ps.delta, ps.low, ps.high), 100, ' pp')}; "
-                 f"{disc[1]} succeed only with {lb}, {disc[0]} only with {la}; McNemar exact "
-                 f"p = {fmt(ps.p_value, 3)}: {verdict_text}. Clearance delta "
-                 f"{fmt(means['min clearance [m]'].value, 2, ' m')}.")
+        verdict_text = (
+            "a significant difference"
+            if ps.significant
+            else f"no significant difference (p < {ALPHA} with at least {MIN_PAIRS} pairs needed)"
+        )
+        doc.text(
+            f"Success {pct(oa.rates['success'].rate)} ({la}) vs {pct(ob.rates['success'].rate)} ({lb}), paired on "
+            f"{ps.n_pairs} episodes: delta {_delta_text(Estimate(ps.delta, ps.low, ps.high), 100, ' pp')}; "
+            f"{disc[1]} succeed only with {lb}, {disc[0]} only with {la}; McNemar exact "
+            f"p = {fmt(ps.p_value, 3)}: {verdict_text}. Clearance delta "
+            f"{fmt(means['min clearance [m]'].value, 2, ' m')}."
+        )
         return
     d = rates["success"]
     sig = d.value is not None and d.low is not None and d.high is not None and (d.low > 0 or d.high < 0)
-    doc.text(f"Success {pct(oa.rates['success'].rate)} ({la}) vs {pct(ob.rates['success'].rate)} ({lb}): "
-             f"delta {_delta_text(d, 100, ' pp')}, "
-             + ("the interval excludes 0 (unpaired)." if sig
-                else "the interval includes 0 (unpaired; no clear difference at this sample size).")
-             + f" Clearance delta {fmt(means['min clearance [m]'].value, 2, ' m')}.")
+    doc.text(
+        f"Success {pct(oa.rates['success'].rate)} ({la}) vs {pct(ob.rates['success'].rate)} ({lb}): "
+        f"delta {_delta_text(d, 100, ' pp')}, "
+        + (
+            "the interval excludes 0 (unpaired)."
+            if sig
+            else "the interval includes 0 (unpaired; no clear difference at this sample size)."
+        )
+        + f" Clearance delta {fmt(means['min clearance [m]'].value, 2, ' m')}."
+    )
 
 
-def write_comparison_report(a: Any, b: Any, workdir: str | Path, *, labels: tuple[str, str] = ("A", "B"),
-                            stem: str = "report") -> list[Path]:
+def write_comparison_report(
+    a: Any, b: Any, workdir: str | Path, *, labels: tuple[str, str] = ("A", "B"), stem: str = "report"
+) -> list[Path]:
     """Compare two evaluation results (models, dicts or evaluation.json paths); writes figure + report files."""
     workdir = Path(workdir)
     doc = build_comparison_document(read(ComparedRun, a), read(ComparedRun, b), workdir, labels)

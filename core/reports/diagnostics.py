@@ -78,12 +78,22 @@ def _moment(workdir: Path, seed: SeedSummary, trace: SeedTrace, mapdef: MapDef |
     made_at, rows = _forecasts_at(trace.steps, t)
     at = trace.steps[made_at]
     path, rel = figure_path(workdir, f"moment_{seed.scenario}_{seed.seed}.png")
-    title = (f"{seed.scenario} seed {seed.seed}: step {t} ({t * trace.dt:.1f} s)"
-             + (f", forecast made at step {made_at}" if rows else ""))
-    render_critical_moment([s.robot[:2] for s in trace.steps], made_at, [r.model_dump() for r in rows], path,
-                           mapdef=mapdef, title=title, collision_point=trace.record.collision_point,
-                           robot_radius=_robot_radius(seed), heading=at.robot[2], plan=_plan(at, trace.dt),
-                           pedestrians=_pedestrians_at(sim_trace, made_at))
+    title = f"{seed.scenario} seed {seed.seed}: step {t} ({t * trace.dt:.1f} s)" + (
+        f", forecast made at step {made_at}" if rows else ""
+    )
+    render_critical_moment(
+        [s.robot[:2] for s in trace.steps],
+        made_at,
+        [r.model_dump() for r in rows],
+        path,
+        mapdef=mapdef,
+        title=title,
+        collision_point=trace.record.collision_point,
+        robot_radius=_robot_radius(seed),
+        heading=at.robot[2],
+        plan=_plan(at, trace.dt),
+        pedestrians=_pedestrians_at(sim_trace, made_at),
+    )
     return rel
 
 
@@ -104,8 +114,9 @@ def _robot_radius(seed: SeedSummary) -> float:
     return max(0.1, seed.min_distance - seed.min_clearance - DEFAULT_PED_RADIUS)
 
 
-def _replay(workdir: Path, seed: SeedSummary, trace_json: SeedTrace | None, mapdef: MapDef | None,
-            trace: Any) -> str | None:
+def _replay(
+    workdir: Path, seed: SeedSummary, trace_json: SeedTrace | None, mapdef: MapDef | None, trace: Any
+) -> str | None:
     name, s = seed.scenario, seed.seed
     for rel in (seed.replay, f"diagnostics/{name}_{s}.gif", f"diagnostics/replay_{name}_{s}.gif"):
         if existing(workdir, rel):
@@ -119,32 +130,44 @@ def _replay(workdir: Path, seed: SeedSummary, trace_json: SeedTrace | None, mapd
         return None
     rel = f"diagnostics/replay_{name}_{s}.gif"
     record = trace_json.record if trace_json is not None else None
-    render_replay(trace, mapdef, workdir / rel,
-                  predictions=[st.model_dump() for st in trace_json.steps] if trace_json is not None else None,
-                  title=f"{name} seed {s}: {seed.outcome}",
-                  collision_step=record.safety.first_collision_step if record is not None else None,
-                  collision_point=record.collision_point if record is not None else None,
-                  robot_radius=_robot_radius(seed), ped_radius=DEFAULT_PED_RADIUS)
+    render_replay(
+        trace,
+        mapdef,
+        workdir / rel,
+        predictions=[st.model_dump() for st in trace_json.steps] if trace_json is not None else None,
+        title=f"{name} seed {s}: {seed.outcome}",
+        collision_step=record.safety.first_collision_step if record is not None else None,
+        collision_point=record.collision_point if record is not None else None,
+        robot_radius=_robot_radius(seed),
+        ped_radius=DEFAULT_PED_RADIUS,
+    )
     return rel
 
 
 def _seed_section(doc: Document, workdir: Path, seed: SeedSummary, mapdef: MapDef | None, trace: Any) -> None:
     doc.section(f"{seed.scenario} seed {seed.seed}: {seed.outcome}", level=3)
-    doc.bullets([
-        f"outcome **{seed.outcome}**, label {seed.label or '-'}, tags {', '.join(seed.tags) or '-'}",
-        f"steps {seed.steps}, first collision step {_or_dash(seed.first_collision_step)}",
-        f"min distance {fmt(seed.min_distance, 2, ' m')}, min clearance {fmt(seed.min_clearance, 2, ' m')}",
-        f"command speed mean {fmt(seed.mean_command_v, 2, ' m/s')}, max {fmt(seed.max_command_v, 2, ' m/s')}",
-        f"planner time {fmt(seed.plan_ms_mean, 2, ' ms')} per step, prediction ADE {fmt(seed.prediction_ade, 2, ' m')}",
-    ])
+    doc.bullets(
+        [
+            f"outcome **{seed.outcome}**, label {seed.label or '-'}, tags {', '.join(seed.tags) or '-'}",
+            f"steps {seed.steps}, first collision step {_or_dash(seed.first_collision_step)}",
+            f"min distance {fmt(seed.min_distance, 2, ' m')}, min clearance {fmt(seed.min_clearance, 2, ' m')}",
+            f"command speed mean {fmt(seed.mean_command_v, 2, ' m/s')}, max {fmt(seed.max_command_v, 2, ' m/s')}",
+            f"planner time {fmt(seed.plan_ms_mean, 2, ' ms')} per step, prediction ADE {fmt(seed.prediction_ade, 2, ' m')}",
+        ]
+    )
     if existing(workdir, seed.render):
         doc.image(str(seed.render), "Episode: robot path by time, pedestrian tracks, collision point")
     trace_json = None
     if existing(workdir, seed.trace):
         trace_json = read(SeedTrace, workdir / seed.trace)
-        moment = _moment(workdir, seed, trace_json, mapdef, trace if trace is not None else _sim_trace(workdir, seed))
+        moment = _moment(
+            workdir, seed, trace_json, mapdef, trace if trace is not None else _sim_trace(workdir, seed)
+        )
         if moment:
-            doc.image(moment, "Critical moment: predicted (dashed) vs actual (solid) futures of the nearest pedestrians")
+            doc.image(
+                moment,
+                "Critical moment: predicted (dashed) vs actual (solid) futures of the nearest pedestrians",
+            )
         doc.links([("per-step trace (JSON)", seed.trace)])
     else:
         doc.note("No per-step trace stored for this seed: no critical-moment picture.")
@@ -159,15 +182,21 @@ def _or_dash(x: Any) -> Any:
     return "-" if x is None else x
 
 
-def build_diagnostics_document(res: DiagnosticsResult, workdir: Path, maps: Mapping[str, MapDef] | None = None,
-                               traces: Mapping[tuple[str, int], Any] | None = None) -> Document:
+def build_diagnostics_document(
+    res: DiagnosticsResult,
+    workdir: Path,
+    maps: Mapping[str, MapDef] | None = None,
+    traces: Mapping[tuple[str, int], Any] | None = None,
+) -> Document:
     planner = res.planner
     label = planner.variant or planner.name
     doc = Document(f"Hard-seed diagnostics: {label}")
     doc.section("Summary")
-    doc.text(f"Solved **{res.solved}/{res.episodes}** hard seeds with planner `{label}` (config "
-             f"`{planner.config_hash[:12]}`, model `{planner.model_id}`), code `{res.code_version}`, "
-             f"{fmt(res.wall_s, 1, ' s')}.")
+    doc.text(
+        f"Solved **{res.solved}/{res.episodes}** hard seeds with planner `{label}` (config "
+        f"`{planner.config_hash[:12]}`, model `{planner.model_id}`), code `{res.code_version}`, "
+        f"{fmt(res.wall_s, 1, ' s')}."
+    )
     doc.table(["outcome", "episodes"], [[k, v] for k, v in sorted(res.outcomes.items())] or [["-", 0]])
     doc.section("Failure taxonomy")
     by_scenario: dict[str, dict[str, int]] = {}
@@ -183,10 +212,33 @@ def build_diagnostics_document(res: DiagnosticsResult, workdir: Path, maps: Mapp
     else:
         doc.note("Every hard seed was solved: nothing to classify.")
     doc.section("Hard seeds")
-    doc.table(["scenario", "seed", "outcome", "label", "tags", "steps", "first collision", "min clearance [m]",
-               "prediction ADE [m]"],
-              [[s.scenario, s.seed, s.outcome, s.label or "-", ", ".join(s.tags) or "-", s.steps,
-                _or_dash(s.first_collision_step), fmt(s.min_clearance), fmt(s.prediction_ade)] for s in res.seeds])
+    doc.table(
+        [
+            "scenario",
+            "seed",
+            "outcome",
+            "label",
+            "tags",
+            "steps",
+            "first collision",
+            "min clearance [m]",
+            "prediction ADE [m]",
+        ],
+        [
+            [
+                s.scenario,
+                s.seed,
+                s.outcome,
+                s.label or "-",
+                ", ".join(s.tags) or "-",
+                s.steps,
+                _or_dash(s.first_collision_step),
+                fmt(s.min_clearance),
+                fmt(s.prediction_ade),
+            ]
+            for s in res.seeds
+        ],
+    )
     doc.section("Episodes")
     if not res.seeds:
         doc.note("No seeds were diagnosed.")
@@ -197,8 +249,13 @@ def build_diagnostics_document(res: DiagnosticsResult, workdir: Path, maps: Mapp
     return doc
 
 
-def write_diagnostics_report(result: Any, workdir: str | Path, *, maps: Mapping[str, MapDef] | None = None,
-                             traces: Mapping[tuple[str, int], Any] | None = None) -> list[Path]:
+def write_diagnostics_report(
+    result: Any,
+    workdir: str | Path,
+    *,
+    maps: Mapping[str, MapDef] | None = None,
+    traces: Mapping[tuple[str, int], Any] | None = None,
+) -> list[Path]:
     """Write figures, replays, ``report.md`` and ``report.html`` for a diagnostics run; returns their paths.
 
     ``result``: a :class:`DiagnosticsResult`, its JSON dict or ``diagnostics.json``. ``maps``: scenario name ->
@@ -206,4 +263,6 @@ def write_diagnostics_report(result: Any, workdir: str | Path, *, maps: Mapping[
     ``traces``: (scenario, seed) -> episode Trace.
     """
     workdir = Path(workdir)
-    return publish(build_diagnostics_document(read(DiagnosticsResult, result), workdir, maps, traces), workdir)
+    return publish(
+        build_diagnostics_document(read(DiagnosticsResult, result), workdir, maps, traces), workdir
+    )

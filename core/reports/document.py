@@ -27,7 +27,10 @@ code{background:#f3f3f3;padding:0 .25em;border-radius:3px}.pass{color:#1a7f37;fo
 .fail{color:#c62828;font-weight:bold}.note{color:#555;font-style:italic}
 """
 
-_INLINE = [(re.compile(r"\*\*(.+?)\*\*"), r"<strong>\1</strong>"), (re.compile(r"`(.+?)`"), r"<code>\1</code>")]
+_INLINE = [
+    (re.compile(r"\*\*(.+?)\*\*"), r"<strong>\1</strong>"),
+    (re.compile(r"`(.+?)`"), r"<code>\1</code>"),
+]
 _VERDICT = re.compile(r"\b(PASSED|FAILED|passed|failed|ok|FAIL)\b")
 
 
@@ -124,24 +127,36 @@ class Document:
         if kind == "table":
             header, rows = data  # type: ignore[misc]
             head = "".join(f"<th>{inline_html(h)}</th>" for h in header)
-            body = "".join("<tr>" + "".join(f"<td>{_verdicts(inline_html(c))}</td>" for c in r) + "</tr>" for r in rows)
+            body = "".join(
+                "<tr>" + "".join(f"<td>{_verdicts(inline_html(c))}</td>" for c in r) + "</tr>" for r in rows
+            )
             return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
         if kind == "image":
             src, caption = data  # type: ignore[misc]
             src_attr = html.escape(src, quote=True)
-            return (f'<figure><a href="{src_attr}"><img src="{src_attr}" loading="lazy" alt="{html.escape(caption, quote=True)}">'
-                    f"</a><figcaption>{inline_html(caption)}</figcaption></figure>")
+            return (
+                f'<figure><a href="{src_attr}"><img src="{src_attr}" loading="lazy" alt="{html.escape(caption, quote=True)}">'
+                f"</a><figcaption>{inline_html(caption)}</figcaption></figure>"
+            )
         if kind == "links":
-            return "<ul>" + "".join(f'<li><a href="{html.escape(h, quote=True)}">{inline_html(label)}</a></li>'
-                                    for label, h in data) + "</ul>"  # type: ignore[union-attr]
+            return (
+                "<ul>"
+                + "".join(
+                    f'<li><a href="{html.escape(h, quote=True)}">{inline_html(label)}</a></li>'
+                    for label, h in data
+                )
+                + "</ul>"
+            )  # type: ignore[union-attr]
         raise ValueError(kind)
 
     def html(self) -> str:
         body = "\n".join(self._html_block(kind, data) for kind, data in self.blocks)
         title = inline_html(self.title)
-        return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
-                f'<meta name="viewport" content="width=device-width, initial-scale=1">'
-                f"<title>{title}</title><style>{CSS}</style></head>\n<body>\n<h1>{title}</h1>\n{body}\n</body></html>\n")
+        return (
+            f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+            f'<meta name="viewport" content="width=device-width, initial-scale=1">'
+            f"<title>{title}</title><style>{CSS}</style></head>\n<body>\n<h1>{title}</h1>\n{body}\n</body></html>\n"
+        )
 
     def write(self, workdir: str | Path, stem: str = "report") -> list[Path]:
         """Write ``<stem>.md`` and ``<stem>.html`` into ``workdir``; returns both paths."""
@@ -155,6 +170,7 @@ class Document:
 
 def _verdicts(escaped: str) -> str:
     """Colour pass/fail words in HTML (after escaping; the words contain no markup characters)."""
+
     def repl(m: re.Match[str]) -> str:
         word = m.group(1)
         cls = "pass" if word.lower() in ("passed", "ok") else "fail"

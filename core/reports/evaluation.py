@@ -48,23 +48,28 @@ def _summary(doc: Document, res: EvaluationResult) -> None:
     rates = res.aggregates.overall.rates
     planner = res.planner
     doc.section("Summary")
-    doc.text(f"Status **{res.status}** (exit code {res.exit_code}): "
-             f"{res.episodes} episodes, success {pct(res.success_rate)}, "
-             f"collision {pct(res.collision_rate)}.")
-    doc.table(["quantity", "value"], [
-        ["success rate (95 % Wilson)", rate_text(rates["success"])],
-        ["collision rate", rate_text(rates["collision"])],
-        ["pedestrian collisions", rate_text(rates["collision_pedestrian"])],
-        ["static collisions", rate_text(rates["collision_static"])],
-        ["timeouts", rate_text(rates["timeout"])],
-        ["errors", rate_text(rates["error"])],
-        *_unsolvable_rows(rates),
-        ["planner", f"`{planner_label(planner)}` (config `{planner.config_hash[:12]}`)"],
-        ["model", f"`{planner.model_id}` (checkpoint `{planner.checkpoint_sha256[:12]}`)"],
-        ["scenarios", f"{res.bundle}: {res.matrix}, seeds {res.seed_source}, horizon {res.horizon}"],
-        ["code version", f"`{res.code_version}`"],
-        ["run", f"{res.workers} workers, {fmt(res.wall_s, 1, ' s')}"],
-    ])
+    doc.text(
+        f"Status **{res.status}** (exit code {res.exit_code}): "
+        f"{res.episodes} episodes, success {pct(res.success_rate)}, "
+        f"collision {pct(res.collision_rate)}."
+    )
+    doc.table(
+        ["quantity", "value"],
+        [
+            ["success rate (95 % Wilson)", rate_text(rates["success"])],
+            ["collision rate", rate_text(rates["collision"])],
+            ["pedestrian collisions", rate_text(rates["collision_pedestrian"])],
+            ["static collisions", rate_text(rates["collision_static"])],
+            ["timeouts", rate_text(rates["timeout"])],
+            ["errors", rate_text(rates["error"])],
+            *_unsolvable_rows(rates),
+            ["planner", f"`{planner_label(planner)}` (config `{planner.config_hash[:12]}`)"],
+            ["model", f"`{planner.model_id}` (checkpoint `{planner.checkpoint_sha256[:12]}`)"],
+            ["scenarios", f"{res.bundle}: {res.matrix}, seeds {res.seed_source}, horizon {res.horizon}"],
+            ["code version", f"`{res.code_version}`"],
+            ["run", f"{res.workers} workers, {fmt(res.wall_s, 1, ' s')}"],
+        ],
+    )
 
 
 def _unsolvable_rows(rates: dict[str, RateEstimate]) -> list[list[str]]:
@@ -75,8 +80,10 @@ def _unsolvable_rows(rates: dict[str, RateEstimate]) -> list[list[str]]:
     bad, ok = rates["unsolvable"], rates["success"]
     solvable = ok.n - bad.count
     share = f" ({pct(ok.count / solvable)})" if solvable else ""
-    return [["unsolvable: no robot could reach the goal in time", rate_text(bad)],
-            ["success on the solvable episodes", f"{ok.count}/{solvable}{share}"]]
+    return [
+        ["unsolvable: no robot could reach the goal in time", rate_text(bad)],
+        ["success on the solvable episodes", f"{ok.count}/{solvable}{share}"],
+    ]
 
 
 def _gate_and_integrity(doc: Document, res: EvaluationResult) -> None:
@@ -85,12 +92,18 @@ def _gate_and_integrity(doc: Document, res: EvaluationResult) -> None:
     doc.table(["check", "result", "value", "threshold", "detail"], gate_rows(res.gate.checks))
     integ = res.integrity
     doc.section("Integrity")
-    doc.text(f"Integrity checks ({', '.join(integ.checks) or '-'}): "
-             f"**{'ok' if integ.ok else 'FAILED'}**, {len(integ.violations)} violations.")
+    doc.text(
+        f"Integrity checks ({', '.join(integ.checks) or '-'}): "
+        f"**{'ok' if integ.ok else 'FAILED'}**, {len(integ.violations)} violations."
+    )
     if integ.violations:
-        doc.table(["check", "scenario", "seed", "message"],
-                  [[v.check, v.scenario or "-", "-" if v.seed is None else v.seed, v.message]
-                   for v in integ.violations])
+        doc.table(
+            ["check", "scenario", "seed", "message"],
+            [
+                [v.check, v.scenario or "-", "-" if v.seed is None else v.seed, v.message]
+                for v in integ.violations
+            ],
+        )
 
 
 def _rate_section(doc: Document, workdir: Path, groups: list[GroupStats], title: str, name: str) -> None:
@@ -99,17 +112,41 @@ def _rate_section(doc: Document, workdir: Path, groups: list[GroupStats], title:
         doc.note("No groups at this level.")
         return
     path, rel = figure_path(workdir, name)
-    rate_bars([f"{g.key} (n={g.episodes})" for g in groups],
-              {"success": [rate_est(g.rates["success"]) for g in groups],
-               "collision": [rate_est(g.rates["collision"]) for g in groups]},
-              path, title=title)
+    rate_bars(
+        [f"{g.key} (n={g.episodes})" for g in groups],
+        {
+            "success": [rate_est(g.rates["success"]) for g in groups],
+            "collision": [rate_est(g.rates["collision"]) for g in groups],
+        },
+        path,
+        title=title,
+    )
     doc.image(rel, f"{title}: success and collision rates with 95 % Wilson intervals")
-    doc.table(["group", "episodes", "success", "collision", "timeout", "Δ success vs global", "min clearance [m]",
-               "failed seeds"],
-              [[g.key, g.episodes, rate_text(g.rates["success"]), rate_text(g.rates["collision"]),
-                rate_text(g.rates["timeout"]), _delta_pp(g.delta_to_global["success_rate"]),
-                mean_text(g.means["min_clearance"]), ", ".join(str(f.seed) for f in g.failed) or "-"]
-               for g in groups])
+    doc.table(
+        [
+            "group",
+            "episodes",
+            "success",
+            "collision",
+            "timeout",
+            "Δ success vs global",
+            "min clearance [m]",
+            "failed seeds",
+        ],
+        [
+            [
+                g.key,
+                g.episodes,
+                rate_text(g.rates["success"]),
+                rate_text(g.rates["collision"]),
+                rate_text(g.rates["timeout"]),
+                _delta_pp(g.delta_to_global["success_rate"]),
+                mean_text(g.means["min_clearance"]),
+                ", ".join(str(f.seed) for f in g.failed) or "-",
+            ]
+            for g in groups
+        ],
+    )
 
 
 def _delta_pp(x: Any) -> str:
@@ -135,12 +172,16 @@ def _failed(doc: Document, res: EvaluationResult) -> None:
     doc.section("Failed episodes")
     failed = [f for g in res.aggregates.per_scenario for f in g.failed] or res.aggregates.overall.failed
     if failed:
-        doc.table(["scenario", "seed", "outcome", "label"],
-                  [[f.scenario, f.seed, f.outcome, f.label or "-"] for f in failed])
-        doc.text(f"Which could a robot with these limits have solved? `foresight scenarios witness --matrix {res.matrix} "
-                 "--episodes episodes.jsonl --players witnesses` (run in this folder, with the matrix's path) searches "
-                 "plans along each failed episode's route under this evaluation's conditions, and shows each witness "
-                 "beside this run.")
+        doc.table(
+            ["scenario", "seed", "outcome", "label"],
+            [[f.scenario, f.seed, f.outcome, f.label or "-"] for f in failed],
+        )
+        doc.text(
+            f"Which could a robot with these limits have solved? `foresight scenarios witness --matrix {res.matrix} "
+            "--episodes episodes.jsonl --players witnesses` (run in this folder, with the matrix's path) searches "
+            "plans along each failed episode's route under this evaluation's conditions, and shows each witness "
+            "beside this run."
+        )
     else:
         doc.note("Every episode succeeded.")
 
@@ -148,7 +189,9 @@ def _failed(doc: Document, res: EvaluationResult) -> None:
 def _metrics(doc: Document, res: EvaluationResult) -> None:
     doc.section("Metrics")
     means = res.aggregates.overall.means
-    rows = [[label, mean_text(means[key], digits)] for key, (label, digits) in MEAN_ROWS.items() if key in means]
+    rows = [
+        [label, mean_text(means[key], digits)] for key, (label, digits) in MEAN_ROWS.items() if key in means
+    ]
     rows += [[key, mean_text(m)] for key, m in means.items() if key not in MEAN_ROWS]
     if rows:
         doc.text("Means over episodes with 95 % bootstrap intervals (episodes without a value are excluded).")
@@ -161,15 +204,30 @@ def build_evaluation_document(res: EvaluationResult, workdir: Path, title: str |
     doc = Document(title or f"Evaluation: {planner_label(res.planner)}")
     _summary(doc, res)
     _gate_and_integrity(doc, res)
-    _rate_section(doc, workdir, res.aggregates.per_scenario, "Success and collisions per scenario",
-                  "success_per_scenario.png")
+    _rate_section(
+        doc,
+        workdir,
+        res.aggregates.per_scenario,
+        "Success and collisions per scenario",
+        "success_per_scenario.png",
+    )
     _rate_section(doc, workdir, res.aggregates.per_family, "Per family", "success_per_family.png")
     dens = res.aggregates.per_family_density
     doc.section("Per family and density")
     if dens:
-        doc.table(["family/density", "episodes", "success", "collision", "Δ success vs global"],
-                  [[g.key, g.episodes, rate_text(g.rates["success"]), rate_text(g.rates["collision"]),
-                    _delta_pp(g.delta_to_global["success_rate"])] for g in dens])
+        doc.table(
+            ["family/density", "episodes", "success", "collision", "Δ success vs global"],
+            [
+                [
+                    g.key,
+                    g.episodes,
+                    rate_text(g.rates["success"]),
+                    rate_text(g.rates["collision"]),
+                    _delta_pp(g.delta_to_global["success_rate"]),
+                ]
+                for g in dens
+            ],
+        )
     else:
         doc.note("No family x density groups.")
     _taxonomy(doc, workdir, res)

@@ -110,7 +110,9 @@ def parameter_plots(cells: list[GridCell]) -> list[ParameterPlot]:
                         continue
                     est = getattr(summary, metric)
                     line = lines.setdefault((cell.checkpoint, suite), Series(cell.checkpoint, suite))
-                    line.points.append(Point(x_at[id(cell)], est.rate, est.low, est.high, cell.variant, est.n))
+                    line.points.append(
+                        Point(x_at[id(cell)], est.rate, est.low, est.high, cell.variant, est.n)
+                    )
             for line in lines.values():
                 line.points.sort(key=lambda p: p.x)
             series[metric] = list(lines.values())
@@ -151,13 +153,19 @@ def chart_svg(plot: ParameterPlot, metric: str) -> str:
            f'<text x="{LEFT}" y="16" font-size="13" font-weight="bold">{escape(title)}</text>',
            f'<rect x="{LEFT}" y="{TOP}" width="{pw}" height="{ph}" fill="none" stroke="#999"/>']  # fmt: skip
     for y in (0.0, 0.25, 0.5, 0.75, 1.0):
-        out.append(f'<line x1="{LEFT}" x2="{LEFT + pw}" y1="{py(y):.1f}" y2="{py(y):.1f}" stroke="#ddd"/>'
-                   f'<text x="{LEFT - 6}" y="{py(y) + 4:.1f}" font-size="10" text-anchor="end">{100 * y:.0f} %</text>')
+        out.append(
+            f'<line x1="{LEFT}" x2="{LEFT + pw}" y1="{py(y):.1f}" y2="{py(y):.1f}" stroke="#ddd"/>'
+            f'<text x="{LEFT - 6}" y="{py(y) + 4:.1f}" font-size="10" text-anchor="end">{100 * y:.0f} %</text>'
+        )
     ticks = plot.ticks or [(x, _fmt(x)) for x in sorted(set(xs))]
     for x, label in ticks:
-        out.append(f'<line x1="{px(x):.1f}" x2="{px(x):.1f}" y1="{TOP + ph}" y2="{TOP + ph + 4}" stroke="#666"/>'
-                   f'<text x="{px(x):.1f}" y="{TOP + ph + 16}" font-size="10" text-anchor="middle">{escape(label)}</text>')
-    out.append(f'<text x="{LEFT + pw / 2}" y="{H - 8}" font-size="11" text-anchor="middle">{escape(plot.parameter)}</text>')
+        out.append(
+            f'<line x1="{px(x):.1f}" x2="{px(x):.1f}" y1="{TOP + ph}" y2="{TOP + ph + 4}" stroke="#666"/>'
+            f'<text x="{px(x):.1f}" y="{TOP + ph + 16}" font-size="10" text-anchor="middle">{escape(label)}</text>'
+        )
+    out.append(
+        f'<text x="{LEFT + pw / 2}" y="{H - 8}" font-size="11" text-anchor="middle">{escape(plot.parameter)}</text>'
+    )
     checkpoints = list(dict.fromkeys(s.checkpoint for s in lines))
     for i, s in enumerate(lines):
         colour = PALETTE[checkpoints.index(s.checkpoint) % len(PALETTE)]
@@ -165,19 +173,30 @@ def chart_svg(plot: ParameterPlot, metric: str) -> str:
         known = [p for p in s.points if p.rate is not None]
         if len(known) > 1:
             path = " ".join(f"{px(p.x):.1f},{py(p.rate):.1f}" for p in known)
-            out.append(f'<polyline class="series" points="{path}" fill="none" stroke="{colour}" stroke-width="2"{dash}/>')
+            out.append(
+                f'<polyline class="series" points="{path}" fill="none" stroke="{colour}" stroke-width="2"{dash}/>'
+            )
         for p in known:
             if p.low is not None and p.high is not None:
-                out.append(f'<line x1="{px(p.x):.1f}" x2="{px(p.x):.1f}" y1="{py(p.low):.1f}" y2="{py(p.high):.1f}" '
-                           f'stroke="{colour}" stroke-opacity="0.5"/>')
-            tip = (f"{p.variant} @ {s.checkpoint}, {s.suite} suite: {plot.parameter} = {_fmt(p.x) if not plot.ticks else p.variant}, "
-                   f"{metric} {100 * p.rate:.1f} % [{100 * (p.low or 0):.1f}, {100 * (p.high or 0):.1f}] of {p.n}")
+                out.append(
+                    f'<line x1="{px(p.x):.1f}" x2="{px(p.x):.1f}" y1="{py(p.low):.1f}" y2="{py(p.high):.1f}" '
+                    f'stroke="{colour}" stroke-opacity="0.5"/>'
+                )
+            tip = (
+                f"{p.variant} @ {s.checkpoint}, {s.suite} suite: {plot.parameter} = {_fmt(p.x) if not plot.ticks else p.variant}, "
+                f"{metric} {100 * p.rate:.1f} % [{100 * (p.low or 0):.1f}, {100 * (p.high or 0):.1f}] of {p.n}"
+            )
             shape = "rect" if s.suite == "hard" else "circle"
-            mark = (f'<rect x="{px(p.x) - 3.5:.1f}" y="{py(p.rate) - 3.5:.1f}" width="7" height="7"' if shape == "rect"
-                    else f'<circle cx="{px(p.x):.1f}" cy="{py(p.rate):.1f}" r="4"')
+            mark = (
+                f'<rect x="{px(p.x) - 3.5:.1f}" y="{py(p.rate) - 3.5:.1f}" width="7" height="7"'
+                if shape == "rect"
+                else f'<circle cx="{px(p.x):.1f}" cy="{py(p.rate):.1f}" r="4"'
+            )
             out.append(f'{mark} class="point" fill="{colour}"><title>{escape(tip)}</title></{shape}>')
         ly = TOP + 14 * i + 6
-        out.append(f'<line x1="{LEFT + pw + 10}" x2="{LEFT + pw + 30}" y1="{ly}" y2="{ly}" stroke="{colour}" stroke-width="2"{dash}/>'
-                   f'<text x="{LEFT + pw + 34}" y="{ly + 4}" font-size="10">{escape(s.checkpoint)} · {s.suite}</text>')
+        out.append(
+            f'<line x1="{LEFT + pw + 10}" x2="{LEFT + pw + 30}" y1="{ly}" y2="{ly}" stroke="{colour}" stroke-width="2"{dash}/>'
+            f'<text x="{LEFT + pw + 34}" y="{ly + 4}" font-size="10">{escape(s.checkpoint)} · {s.suite}</text>'
+        )
     out.append("</svg>")
     return "".join(out)

@@ -28,22 +28,33 @@ from foresight.core.reports.training import curves
 def headline(kind: str, result: BaseModel | None) -> str:
     """One line of a stage result's key numbers, for :attr:`StageEntry.headline` (empty for other kinds)."""
     if kind == "evaluate" and isinstance(result, EvaluationResult):
-        return (f"success {pct(result.success_rate)}, collision {pct(result.collision_rate)} over "
-                f"{result.episodes} episodes; gate {verdict(result.gate.passed)}")
+        return (
+            f"success {pct(result.success_rate)}, collision {pct(result.collision_rate)} over "
+            f"{result.episodes} episodes; gate {verdict(result.gate.passed)}"
+        )
     if kind == "diagnose" and isinstance(result, DiagnosticsResult):
         return f"solved {result.solved}/{result.episodes} hard seeds"
     if kind == "campaign" and isinstance(result, CampaignResult):
         b = best_from_campaign(result)
-        return "no cells" if b is None else (
-            f"best {b.variant}: hard success {pct(b.hard_success)}, global {pct(b.global_success)}, "
-            f"clearance {fmt(b.hard_clearance)} / {fmt(b.global_clearance)} m")
+        return (
+            "no cells"
+            if b is None
+            else (
+                f"best {b.variant}: hard success {pct(b.hard_success)}, global {pct(b.global_success)}, "
+                f"clearance {fmt(b.hard_clearance)} / {fmt(b.global_clearance)} m"
+            )
+        )
     if kind == "train" and isinstance(result, TrainResult | TrainingSummary):
         r = result.result("") if isinstance(result, TrainingSummary) else result
-        return (f"val ADE {fmt(r.val_ade, 3)} m (CV {fmt(r.cv_val_ade, 3)}), FDE {fmt(r.val_fde, 3)} m "
-                f"(CV {fmt(r.cv_val_fde, 3)}), epoch {r.best_epoch}")
+        return (
+            f"val ADE {fmt(r.val_ade, 3)} m (CV {fmt(r.cv_val_ade, 3)}), FDE {fmt(r.val_fde, 3)} m "
+            f"(CV {fmt(r.cv_val_fde, 3)}), epoch {r.best_epoch}"
+        )
     if kind in ("collect", "mix") and isinstance(result, CollectResult):
         s = result.summary
-        return f"{s.samples} samples from {s.episodes} episodes" + (f"; outcomes {result.outcomes}" if result.outcomes else "")
+        return f"{s.samples} samples from {s.episodes} episodes" + (
+            f"; outcomes {result.outcomes}" if result.outcomes else ""
+        )
     if kind == "pipeline" and isinstance(result, PipelineResult):
         gates = "gates passed" if result.passed else f"gate failed: {', '.join(result.failed_gates)}"
         return f"{gates}; model {result.model_id or '-'} {'promoted' if result.promoted else 'not promoted'}"
@@ -52,9 +63,20 @@ def headline(kind: str, result: BaseModel | None) -> str:
 
 def _stages(doc: Document, s: PipelineSummary) -> None:
     doc.section("Stages")
-    doc.table(["stage", "status", "time [s]", "result", "report", "job"],
-              [[st.name, st.status, fmt(st.wall_s, 1), (st.headline + (f" error: {st.error}" if st.error else "")) or "-",
-                st.report or "-", st.job_id or "-"] for st in s.stages])
+    doc.table(
+        ["stage", "status", "time [s]", "result", "report", "job"],
+        [
+            [
+                st.name,
+                st.status,
+                fmt(st.wall_s, 1),
+                (st.headline + (f" error: {st.error}" if st.error else "")) or "-",
+                st.report or "-",
+                st.job_id or "-",
+            ]
+            for st in s.stages
+        ],
+    )
     links = [(f"{st.name}: report", st.report) for st in s.stages if st.report]
     links += [(f"{st.name}: {label}", href) for st in s.stages for label, href in st.artifacts.items()]
     if links:
@@ -66,8 +88,13 @@ def _gates(doc: Document, s: PipelineSummary) -> None:
     if not s.gates:
         doc.note("No gate was evaluated.")
         return
-    doc.table(["gate", "result", "detail"],
-              [[g.name, "not evaluated" if g.passed is None else verdict(g.passed), g.detail or "-"] for g in s.gates])
+    doc.table(
+        ["gate", "result", "detail"],
+        [
+            [g.name, "not evaluated" if g.passed is None else verdict(g.passed), g.detail or "-"]
+            for g in s.gates
+        ],
+    )
     for g in s.gates:
         if g.checks:
             doc.text(f"**{g.name}** gate checks:")
@@ -80,25 +107,42 @@ def _best(doc: Document, workdir: Path, s: PipelineSummary, campaign: CampaignRe
     if b is None:
         doc.note("No campaign result: no best variant.")
     else:
-        doc.text(f"**{b.variant}**" + (f" with checkpoint `{b.checkpoint}`" if b.checkpoint else "")
-                 + (f" (config `{b.config_hash[:12]}`)" if b.config_hash else "") + ".")
-        doc.table(["suite", "success", "mean min clearance [m]"],
-                  [["hard", pct(b.hard_success), fmt(b.hard_clearance)],
-                   ["global", pct(b.global_success), fmt(b.global_clearance)]])
+        doc.text(
+            f"**{b.variant}**"
+            + (f" with checkpoint `{b.checkpoint}`" if b.checkpoint else "")
+            + (f" (config `{b.config_hash[:12]}`)" if b.config_hash else "")
+            + "."
+        )
+        doc.table(
+            ["suite", "success", "mean min clearance [m]"],
+            [
+                ["hard", pct(b.hard_success), fmt(b.hard_clearance)],
+                ["global", pct(b.global_success), fmt(b.global_clearance)],
+            ],
+        )
     if campaign is not None and campaign.ranked:
-        rel = ranking_figure(workdir, "pipeline_campaign_ranking.png", campaign.ranked, title="Campaign ranking")
+        rel = ranking_figure(
+            workdir, "pipeline_campaign_ranking.png", campaign.ranked, title="Campaign ranking"
+        )
         doc.image(rel, "Campaign cells in rank order: hard-suite and global success with 95 % intervals")
 
 
-def build_pipeline_document(s: PipelineSummary, workdir: Path, campaign: CampaignResult | None = None,
-                            training: TrainingSummary | None = None) -> Document:
+def build_pipeline_document(
+    s: PipelineSummary,
+    workdir: Path,
+    campaign: CampaignResult | None = None,
+    training: TrainingSummary | None = None,
+) -> Document:
     doc = Document(f"Pipeline {s.name}: performance summary")
     doc.section("Verdict")
     failed = [g.name for g in s.gates if g.passed is False]
-    doc.text(f"Status **{s.status}** (exit code {s.exit_code}). Gates: "
-             + (f"**FAILED** ({', '.join(failed)})" if failed else "**PASSED**" if s.gates else "none evaluated")
-             + f". Promoted model: {'`' + s.promoted_model + '`' if s.promoted_model else 'none'}."
-             + (f" Code `{s.code_version}`." if s.code_version else "") + (f" {fmt(s.wall_s, 1, ' s')} in all." if s.wall_s else ""))
+    doc.text(
+        f"Status **{s.status}** (exit code {s.exit_code}). Gates: "
+        + (f"**FAILED** ({', '.join(failed)})" if failed else "**PASSED**" if s.gates else "none evaluated")
+        + f". Promoted model: {'`' + s.promoted_model + '`' if s.promoted_model else 'none'}."
+        + (f" Code `{s.code_version}`." if s.code_version else "")
+        + (f" {fmt(s.wall_s, 1, ' s')} in all." if s.wall_s else "")
+    )
     _stages(doc, s)
     _gates(doc, s)
     _best(doc, workdir, s, campaign)
@@ -116,14 +160,19 @@ def build_pipeline_document(s: PipelineSummary, workdir: Path, campaign: Campaig
     return doc
 
 
-def write_pipeline_report(summary: Any, workdir: str | Path, *, campaign: Any = None, training: Any = None) -> list[Path]:
+def write_pipeline_report(
+    summary: Any, workdir: str | Path, *, campaign: Any = None, training: Any = None
+) -> list[Path]:
     """Write the pipeline summary (``report.md``/``report.html`` plus figures) under ``workdir``; returns the paths.
 
     ``summary``: a :class:`PipelineSummary` (or its dict); ``campaign``: the campaign result (for the ranking
     chart), ``training``: the training summary (for the curves); both optional, models, dicts or JSON paths.
     """
     workdir = Path(workdir)
-    doc = build_pipeline_document(read(PipelineSummary, summary), workdir,
-                                  read(CampaignResult, campaign) if campaign is not None else None,
-                                  read(TrainingSummary, training) if training is not None else None)
+    doc = build_pipeline_document(
+        read(PipelineSummary, summary),
+        workdir,
+        read(CampaignResult, campaign) if campaign is not None else None,
+        read(TrainingSummary, training) if training is not None else None,
+    )
     return publish(doc, workdir)

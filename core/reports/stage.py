@@ -56,7 +56,9 @@ def write_stage_report(kind: str, result: Any, workdir: str | Path, **options: A
     return writer(result, workdir, **options)
 
 
-def write_report(kind: str, result: Any, folder: Path, log: Callable[[str], None], **options: Any) -> list[Path]:
+def write_report(
+    kind: str, result: Any, folder: Path, log: Callable[[str], None], **options: Any
+) -> list[Path]:
     """The stage's report page as a by-product: none for kinds without a report or when one exists; a failure
     is logged through ``log``, never raised (the stage's result stands on its own)."""
     if kind not in REPORTERS or (folder / "report.html").is_file():

@@ -117,8 +117,10 @@ class _FileSpec(BaseModel):
             data["includes"] = [data["includes"]]
         version = data.get("schema_version")
         if version is not None and version not in MATRIX_SCHEMAS:
-            raise ValueError(f"schema_version {version!r} is not a scenario matrix schema (expected one of "
-                             f"{', '.join(MATRIX_SCHEMAS)})")
+            raise ValueError(
+                f"schema_version {version!r} is not a scenario matrix schema (expected one of "
+                f"{', '.join(MATRIX_SCHEMAS)})"
+            )
         return data
 
 
@@ -335,20 +337,25 @@ def _apply_routes(mapdef: MapDef, scenario: Scenario, entry: _Entry, root: Path)
     """A scenario's generated replay, then its route-override file, then its inline route overrides."""
     overrides = []
     if scenario.generated_replay is not None:
-        mapdef, robot_route = apply_generated_replay(mapdef, scenario.generated_replay, source=entry.file,
-                                                     item=f"{scenario.name}.generated_replay")
+        mapdef, robot_route = apply_generated_replay(
+            mapdef, scenario.generated_replay, source=entry.file, item=f"{scenario.name}.generated_replay"
+        )
         overrides.append(robot_route)
     if scenario.route_overrides_file is not None:
         rel = Path(scenario.route_overrides_file)
         tried = [rel] if rel.is_absolute() else [entry.file.parent / rel, root.parent / rel]
         path = next((t for t in tried if t.is_file()), tried[0])
-        overrides.append(read_route_overrides(path.resolve(), scenario=scenario.name, referenced_from=entry.file))
+        overrides.append(
+            read_route_overrides(path.resolve(), scenario=scenario.name, referenced_from=entry.file)
+        )
     overrides.append(scenario.route_overrides)
     for over in filter(None, overrides):
         try:
             mapdef = apply_route_overrides(mapdef, over)
         except ValidationError as err:
-            raise ConfigError(validation_message(err), source=entry.file, item=f"{scenario.name}.routes") from err
+            raise ConfigError(
+                validation_message(err), source=entry.file, item=f"{scenario.name}.routes"
+            ) from err
     return mapdef
 
 
@@ -376,7 +383,9 @@ def matrix_from_data(
             raise ConfigError("overrides may not rename scenarios", source="overrides", item=key)
     entries, notes = _expand(root, spec, (root,), ())
     chosen = {id(e) for e in _select(entries, spec, root)}
-    scenarios = [(e, _validate_scenario(e, spec, overrides)) for e in entries]  # validate all, resolve the chosen
+    scenarios = [
+        (e, _validate_scenario(e, spec, overrides)) for e in entries
+    ]  # validate all, resolve the chosen
     if spec.select_scenarios is not None:
         order = {n.casefold(): i for i, n in enumerate(spec.select_scenarios)}
         scenarios = sorted(
@@ -396,7 +405,10 @@ def matrix_from_data(
         mapdef, sha = resolver.load(scenario, entry)
         mapdef = _apply_routes(mapdef, scenario, entry, root)
         mapdef = apply_single_pedestrians(
-            mapdef, scenario.single_pedestrians, source=entry.file, scenario=scenario.name,
+            mapdef,
+            scenario.single_pedestrians,
+            source=entry.file,
+            scenario=scenario.name,
             default_hold_ref_point=scenario.conflict_point,
         )
         resolved.append(ResolvedScenario(scenario=scenario, map=mapdef, map_sha256=sha))
@@ -421,5 +433,11 @@ def load_matrix(
     ``data_roots`` and ``overrides``: see :func:`matrix_from_data`.
     """
     p = Path(path).resolve()
-    return matrix_from_data(read_yaml(p), source=p, apply_transforms=apply_transforms, map_registry=map_registry,
-                            data_roots=data_roots, overrides=overrides)
+    return matrix_from_data(
+        read_yaml(p),
+        source=p,
+        apply_transforms=apply_transforms,
+        map_registry=map_registry,
+        data_roots=data_roots,
+        overrides=overrides,
+    )

@@ -50,11 +50,17 @@ class SimulationConfig(_Strict):
     """Crowd and episode settings of one scenario (YAML ``simulation_config``)."""
 
     dt: float = Field(default=0.1, gt=0, le=1.0)  #: simulation step [s]
-    max_episode_steps: int = Field(default=2000, ge=1, le=MAX_EPISODE_STEPS)  #: horizon: exactly this many steps, then timeout
-    ped_density: float = Field(default=0.01, ge=0, le=2.0)  #: peds per m^2 of spawnable area (route length x 3 m + crowded zones)
+    max_episode_steps: int = Field(
+        default=2000, ge=1, le=MAX_EPISODE_STEPS
+    )  #: horizon: exactly this many steps, then timeout
+    ped_density: float = Field(
+        default=0.01, ge=0, le=2.0
+    )  #: peds per m^2 of spawnable area (route length x 3 m + crowded zones)
     difficulty: int = Field(default=0, ge=0)  #: accepted for reference compatibility; density is set directly
     max_peds_per_group: int = Field(default=3, ge=1, le=20)
-    peds_speed_mult: float = Field(default=1.3, gt=0)  #: desired speed = mult x spawn speed (0.5 m/s) -> 0.65 m/s
+    peds_speed_mult: float = Field(
+        default=1.3, gt=0
+    )  #: desired speed = mult x spawn speed (0.5 m/s) -> 0.65 m/s
     #: desired speeds: reference = peds_speed_mult x 0.5 m/s; tiers draw from a normal (core.sim.params.SPEED_TIERS),
     #: ``realistic`` = measured walking speeds N(1.34, 0.26) m/s
     ped_speed_tier: Literal["reference", "slow", "typical", "brisk", "realistic"] = "reference"
@@ -64,19 +70,29 @@ class SimulationConfig(_Strict):
     route_spawn_jitter_frac: float = Field(default=0.0, ge=0, le=1)
     route_spawn_seed: int | None = None  #: default: the episode seed
     pedestrian_integration_scheme: Literal["semi_implicit_euler", "explicit_euler"] = "semi_implicit_euler"
-    zone_sampling: Literal["triangle", "full"] = "triangle"  #: triangle = the reference's half-rectangle reading
+    zone_sampling: Literal["triangle", "full"] = (
+        "triangle"  #: triangle = the reference's half-rectangle reading
+    )
     peds_have_obstacle_forces: bool = True
     peds_have_robot_repulsion: bool = True
-    nonreactive_fraction: float = Field(default=0.0, ge=0, le=1)  #: share of peds that ignore the robot entirely
-    late_reaction_fraction: float = Field(default=0.0, ge=0, le=1)  #: share of the other peds that notice it late
-    late_reaction_distance: float = Field(default=2.0, gt=0)  #: centre distance at which a late ped reacts [m]
+    nonreactive_fraction: float = Field(
+        default=0.0, ge=0, le=1
+    )  #: share of peds that ignore the robot entirely
+    late_reaction_fraction: float = Field(
+        default=0.0, ge=0, le=1
+    )  #: share of the other peds that notice it late
+    late_reaction_distance: float = Field(
+        default=2.0, gt=0
+    )  #: centre distance at which a late ped reacts [m]
     #: clearance [m] beyond contact that pedestrians keep from the robot where they spawn: at the start (groups that
     #: would start nearer are placed elsewhere on their route) and when they respawn (a group waits while the robot
     #: is that near its spawn zone; a replayed track that would begin that near is left out). None = the reference's
     #: 0.5 m. A walker placed 0.5 m from a robot and heading at it collides within a second whatever the planner does
     robot_spawn_clearance: float | None = Field(default=None, ge=0, le=10)
     population_size: int | None = Field(default=None, ge=0, le=5000)  #: force an exact route+zone ped count
-    groups: float | None = Field(default=None, ge=0, le=1)  #: reference group_crossing share; read by no physics (like the reference)
+    groups: float | None = Field(
+        default=None, ge=0, le=1
+    )  #: reference group_crossing share; read by no physics (like the reference)
     #: route/zone peds re-placed in their route's spawn zone at reset, heading for its first waypoint
     peds_reset_follow_route_at_start: bool = False
     #: heterogeneous walkers (robot_sf): share of each archetype, and its desired-speed factor
@@ -127,7 +143,9 @@ class RobotConfig(_Strict):
     max_linear_accel: float = Field(default=1.0, gt=0)  #: [m/s^2]
     max_linear_decel: float | None = Field(default=None, gt=0)  #: [m/s^2]; None = max_linear_accel
     max_angular_accel: float = Field(default=1.0, gt=0)  #: [rad/s^2]
-    wheel_radius: float = Field(default=0.05, gt=0)  #: [m] (reference compatibility; unused by our kinematics)
+    wheel_radius: float = Field(
+        default=0.05, gt=0
+    )  #: [m] (reference compatibility; unused by our kinematics)
     interaxis_length: float = Field(default=0.3, gt=0)  #: [m] (reference compatibility; unused)
     allow_backwards: bool = False
     actuation: Literal["tracking", "reference_lag"] = "tracking"  #: see core.sim.robot
@@ -235,9 +253,12 @@ class SemanticRegion(_Strict):
 
     @model_validator(mode="after")
     def _geometry(self) -> SemanticRegion:
-        if self.shape == "bbox" and (self.bounds is None or not (self.bounds[0] < self.bounds[2]
-                                                                  and self.bounds[1] < self.bounds[3])):
-            raise ValueError(f"region {self.id!r}: a bbox needs bounds [min_x, min_y, max_x, max_y] with min < max")
+        if self.shape == "bbox" and (
+            self.bounds is None or not (self.bounds[0] < self.bounds[2] and self.bounds[1] < self.bounds[3])
+        ):
+            raise ValueError(
+                f"region {self.id!r}: a bbox needs bounds [min_x, min_y, max_x, max_y] with min < max"
+            )
         if self.shape == "polygon" and (self.points is None or len(self.points) < 3):
             raise ValueError(f"region {self.id!r}: a polygon needs at least 3 points")
         return self
@@ -261,7 +282,9 @@ class ObservationVisibility(_Strict):
 
     @property
     def active(self) -> bool:
-        return self.enabled and (self.fov_degrees < 360 or self.max_range_m is not None or self.static_occlusion)
+        return self.enabled and (
+            self.fov_degrees < 360 or self.max_range_m is not None or self.static_occlusion
+        )
 
 
 class ReplayConfig(_Strict):
@@ -272,8 +295,12 @@ class ReplayConfig(_Strict):
     position plus ``margin``), with no obstacles; ``robot_start``/``robot_goal`` are in the scene's own coordinates.
     """
 
-    data_root: str = Field(default="ethucy", pattern=r"^[A-Za-z0-9][A-Za-z0-9._-]{0,63}$")  #: a named data root
-    scene: str = Field(min_length=1, pattern=r"^[A-Za-z0-9][A-Za-z0-9._-]*$")  #: scene file stem, e.g. crowds_zara01
+    data_root: str = Field(
+        default="ethucy", pattern=r"^[A-Za-z0-9][A-Za-z0-9._-]{0,63}$"
+    )  #: a named data root
+    scene: str = Field(
+        min_length=1, pattern=r"^[A-Za-z0-9][A-Za-z0-9._-]*$"
+    )  #: scene file stem, e.g. crowds_zara01
     start_frame: int = Field(ge=0)  #: the scene's frame number at which the episode starts (annotated)
     frame_dt: float = Field(default=0.4, gt=0)  #: seconds per annotation (10 frame units) [s]
     robot_start: Point  #: [m], scene coordinates
@@ -294,7 +321,9 @@ class Scenario(_Strict):
     seeds: tuple[Annotated[int, Field(ge=0, le=2**32 - 1)], ...] = Field(default=(0,), min_length=1)
     required_map_profile: str = "robot_runtime"  #: registry capability a map_id must have (reference key)
     replay: ReplayConfig | None = None  #: replayed recorded pedestrians; the map comes from the scene
-    route_overrides_file: str | None = None  #: YAML with robot_routes/ped_routes (or a route_payload holding them)
+    route_overrides_file: str | None = (
+        None  #: YAML with robot_routes/ped_routes (or a route_payload holding them)
+    )
     route_overrides: RouteOverrides | None = None  #: the same inline (applied after the file's)
     generated_replay: GeneratedReplay | None = None
     observation_visibility: ObservationVisibility | None = None
@@ -308,15 +337,19 @@ class Scenario(_Strict):
             data = dict(data)
             data["name"] = data.pop("scenario_id")
         if isinstance(data, dict) and "multi_amv" in data:
-            raise ValueError("multi_amv: Foresight simulates one robot; robot_sf's multi-robot scenarios cannot be run")
+            raise ValueError(
+                "multi_amv: Foresight simulates one robot; robot_sf's multi-robot scenarios cannot be run"
+            )
         return data
 
     @model_validator(mode="after")
     def _has_map(self) -> Scenario:
         if self.replay is not None:
             if self.map_file or self.map_id or self.single_pedestrians:
-                raise ValueError("a replay scenario's map and pedestrians come from its scene: no map_file, map_id "
-                                 "or single_pedestrians")
+                raise ValueError(
+                    "a replay scenario's map and pedestrians come from its scene: no map_file, map_id "
+                    "or single_pedestrians"
+                )
         elif not self.map_file and not self.map_id:
             raise ValueError("a scenario needs map_file or map_id")
         return self
@@ -349,7 +382,9 @@ class Scenario(_Strict):
 class ReplayTracks:
     """The annotations of a replay scenario's window, sorted by (id, time), in the map frame."""
 
-    step: np.ndarray  #: (R,) annotation instants in simulator steps since the start (whole when dt divides frame_dt)
+    step: (
+        np.ndarray
+    )  #: (R,) annotation instants in simulator steps since the start (whole when dt divides frame_dt)
     ids: np.ndarray  #: (R,) int64 pedestrian ids of the scene file
     xy: np.ndarray  #: (R, 2) positions [m], map frame = scene frame - offset
     offset: tuple[float, float]  #: scene coordinates of the map origin [m]
@@ -362,7 +397,9 @@ class ResolvedScenario(BaseModel):
 
     scenario: Scenario
     map: MapDef
-    map_sha256: str | None = None  #: checksum of the map source file (a replay: of its scene file), for provenance
+    map_sha256: str | None = (
+        None  #: checksum of the map source file (a replay: of its scene file), for provenance
+    )
     replay: ReplayTracks | None = None  #: the recorded tracks of a replay scenario, in the map frame
 
     @property

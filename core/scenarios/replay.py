@@ -62,8 +62,12 @@ class SceneFiles:
         path = scene_file(root, cfg.scene)
         if not path.is_file():
             have = ", ".join(sorted(p.stem for p in path.parent.glob("*.txt"))) or "none"
-            raise ConfigError(f"no scene {cfg.scene!r} in data root {cfg.data_root!r} ({path} does not exist; "
-                              f"scenes: {have})", source=source, item=f"{item}.scene")
+            raise ConfigError(
+                f"no scene {cfg.scene!r} in data root {cfg.data_root!r} ({path} does not exist; "
+                f"scenes: {have})",
+                source=source,
+                item=f"{item}.scene",
+            )
         if path not in self._cache:
             self._cache[path] = (read_scene(path), hashlib.sha256(path.read_bytes()).hexdigest())
         rows, sha = self._cache[path]
@@ -89,33 +93,51 @@ def replay_scene(scenario: Scenario, source: Path, scenes: SceneFiles) -> tuple[
     rows, sha, path = scenes.rows(scenario, source)
     frames = np.unique(rows[:, 0]).astype(np.int64)
     if cfg.start_frame not in set(frames.tolist()):
-        raise ConfigError(f"frame {cfg.start_frame} is not annotated in scene {cfg.scene!r} (frames {frames[0]}.."
-                          f"{frames[-1]} every {FRAME_STEP})", source=source, item=f"{item}.start_frame")
+        raise ConfigError(
+            f"frame {cfg.start_frame} is not annotated in scene {cfg.scene!r} (frames {frames[0]}.."
+            f"{frames[-1]} every {FRAME_STEP})",
+            source=source,
+            item=f"{item}.start_frame",
+        )
     end = window_end(cfg.start_frame, sim.max_episode_steps * sim.dt, cfg.frame_dt)
     if end > frames[-1]:
-        raise ConfigError(f"the episode ({sim.max_episode_steps} steps of {sim.dt} s from frame {cfg.start_frame}) "
-                          f"runs past the scene's last frame {frames[-1]} (needs frame {end})",
-                          source=source, item=f"{item}.start_frame")
+        raise ConfigError(
+            f"the episode ({sim.max_episode_steps} steps of {sim.dt} s from frame {cfg.start_frame}) "
+            f"runs past the scene's last frame {frames[-1]} (needs frame {end})",
+            source=source,
+            item=f"{item}.start_frame",
+        )
     lo = rows[:, 2:4].min(axis=0) - cfg.margin
     hi = rows[:, 2:4].max(axis=0) + cfg.margin
     for key in ("robot_start", "robot_goal"):
         p = np.asarray(getattr(cfg, key), dtype=float)
         if not np.all((p > lo) & (p < hi)):
-            raise ConfigError(f"{tuple(p)} lies outside the scene's walkable bounds x {lo[0]:.2f}..{hi[0]:.2f}, "
-                              f"y {lo[1]:.2f}..{hi[1]:.2f}", source=source, item=f"{item}.{key}")
+            raise ConfigError(
+                f"{tuple(p)} lies outside the scene's walkable bounds x {lo[0]:.2f}..{hi[0]:.2f}, "
+                f"y {lo[1]:.2f}..{hi[1]:.2f}",
+                source=source,
+                item=f"{item}.{key}",
+            )
     win = rows[(rows[:, 0] >= cfg.start_frame) & (rows[:, 0] <= end)]
     win = win[np.lexsort((win[:, 0], win[:, 1]))]
     tracks = ReplayTracks(
         step=(win[:, 0] - cfg.start_frame) / FRAME_STEP * steps_per_frame(cfg.frame_dt, sim.dt),
-        ids=win[:, 1].astype(np.int64), xy=win[:, 2:4] - lo, offset=(float(lo[0]), float(lo[1])))
+        ids=win[:, 1].astype(np.int64),
+        xy=win[:, 2:4] - lo,
+        offset=(float(lo[0]), float(lo[1])),
+    )
     start = tuple(float(v) for v in np.asarray(cfg.robot_start) - lo)
     goal = tuple(float(v) for v in np.asarray(cfg.robot_goal) - lo)
     h = ZONE_SIZE / 2
     mapdef = MapDef(
-        name=f"replay_{cfg.scene}", width=float(hi[0] - lo[0]), height=float(hi[1] - lo[1]),
+        name=f"replay_{cfg.scene}",
+        width=float(hi[0] - lo[0]),
+        height=float(hi[1] - lo[1]),
         robot_spawn_zones=(Zone.from_rect(start[0] - h, start[1] - h, ZONE_SIZE, ZONE_SIZE),),
         robot_goal_zones=(Zone.from_rect(goal[0] - h, goal[1] - h, ZONE_SIZE, ZONE_SIZE),),
-        robot_routes=(Route(spawn_id=0, goal_id=0, waypoints=(start, goal)),), source=str(path))
+        robot_routes=(Route(spawn_id=0, goal_id=0, waypoints=(start, goal)),),
+        source=str(path),
+    )
     return mapdef, tracks, sha
 
 
@@ -130,20 +152,35 @@ class ReplayEpisode:
     start_frame: int
     robot_start: tuple[float, float]
     robot_goal: tuple[float, float]
-    crossings: int  #: distinct recorded pedestrians whose path crosses the robot's straight start-goal segment
+    crossings: (
+        int  #: distinct recorded pedestrians whose path crosses the robot's straight start-goal segment
+    )
     pedestrians: int  #: distinct pedestrians annotated in the window
 
 
 def _crosses(a: np.ndarray, b: np.ndarray, p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """(K,) whether segments p[k]-q[k] properly cross the segment a-b."""
+
     def side(o, u, v):
-        return (u[..., 0] - o[..., 0]) * (v[..., 1] - o[..., 1]) - (u[..., 1] - o[..., 1]) * (v[..., 0] - o[..., 0])
+        return (u[..., 0] - o[..., 0]) * (v[..., 1] - o[..., 1]) - (u[..., 1] - o[..., 1]) * (
+            v[..., 0] - o[..., 0]
+        )
+
     return (side(a, b, p) * side(a, b, q) < 0) & (side(p, q, a) * side(p, q, b) < 0)
 
 
 def select_episodes(
-    scene: str, rows: np.ndarray, frame_dt: float, *, horizon_s: float, count: int, every_frames: int = 50,
-    length: tuple[float, float] = (5.0, 14.0), clear_radius: float = 2.5, clear_s: float = 2.0, margin: float = 0.5,
+    scene: str,
+    rows: np.ndarray,
+    frame_dt: float,
+    *,
+    horizon_s: float,
+    count: int,
+    every_frames: int = 50,
+    length: tuple[float, float] = (5.0, 14.0),
+    clear_radius: float = 2.5,
+    clear_s: float = 2.0,
+    margin: float = 0.5,
 ) -> list[ReplayEpisode]:
     """The replay episodes of one scene, by a rule that reads only the recordings.
 
@@ -184,9 +221,16 @@ def select_episodes(
         if len(first) and np.hypot(*(first - s).T).min() < clear_radius:
             continue
         hits = _crosses(s, g, p, q)
-        found.append(ReplayEpisode(scene, int(start), (round(float(s[0]), 2), round(float(s[1]), 2)),
-                                   (round(float(g[0]), 2), round(float(g[1]), 2)),
-                                   int(len(np.unique(win[:-1, 1][same][hits]))), int(len(np.unique(win[:, 1])))))
+        found.append(
+            ReplayEpisode(
+                scene,
+                int(start),
+                (round(float(s[0]), 2), round(float(s[1]), 2)),
+                (round(float(g[0]), 2), round(float(g[1]), 2)),
+                int(len(np.unique(win[:-1, 1][same][hits]))),
+                int(len(np.unique(win[:, 1]))),
+            )
+        )
     chosen: list[ReplayEpisode] = []
     for ep in sorted(found, key=lambda e: (-e.crossings, e.start_frame)):
         if all(abs(ep.start_frame - c.start_frame) > span for c in chosen):

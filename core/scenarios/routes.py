@@ -31,9 +31,13 @@ def read_route_overrides(path: Path, *, scenario: str, referenced_from: Path) ->
         raise ConfigError("a route-override file must be a mapping", source=path)
     payload = data.get("route_payload", data)
     if not isinstance(payload, dict) or not {"robot_routes", "ped_routes"} & set(payload):
-        raise ConfigError("expected robot_routes and/or ped_routes (at the top or under route_payload)", source=path)
+        raise ConfigError(
+            "expected robot_routes and/or ped_routes (at the top or under route_payload)", source=path
+        )
     try:
-        return RouteOverrides.model_validate({k: payload[k] for k in ("robot_routes", "ped_routes") if k in payload})
+        return RouteOverrides.model_validate(
+            {k: payload[k] for k in ("robot_routes", "ped_routes") if k in payload}
+        )
     except ValidationError as err:
         raise ConfigError(validation_message(err), source=path, item="route_payload") from err
 
@@ -80,9 +84,14 @@ def apply_generated_replay(
     have = {p.id for p in mapdef.single_pedestrians}
     clash = sorted(have & {p.id for p in replay.pedestrians})
     if clash:
-        raise ConfigError(f"generated_replay pedestrian ids {clash} clash with the map's single pedestrians",
-                          source=source, item=item)
-    peds = tuple(SinglePedestrian(id=p.id, start=p.start, trajectory=p.trajectory) for p in replay.pedestrians)
+        raise ConfigError(
+            f"generated_replay pedestrian ids {clash} clash with the map's single pedestrians",
+            source=source,
+            item=item,
+        )
+    peds = tuple(
+        SinglePedestrian(id=p.id, start=p.start, trajectory=p.trajectory) for p in replay.pedestrians
+    )
     fields = {k: getattr(mapdef, k) for k in MapDef.model_fields}
     fields["single_pedestrians"] = (*mapdef.single_pedestrians, *peds)
     if replay.robot is None:

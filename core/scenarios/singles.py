@@ -16,9 +16,19 @@ from foresight.core.errors import ConfigError
 from foresight.core.maps.model import MapDef, SinglePedestrian
 from foresight.core.scenarios.model import SinglePedestrianOverride
 
-_NULLABLE = {"goal": None, "trajectory": (), "wait_at": (), "note": None, "role": None, "role_target_id": None,
-             "role_offset": None, "hold_until_robot_within_m": None, "hold_ref_point": None, "hold_timeout_s": None,
-             "metadata": {}}
+_NULLABLE = {
+    "goal": None,
+    "trajectory": (),
+    "wait_at": (),
+    "note": None,
+    "role": None,
+    "role_target_id": None,
+    "role_offset": None,
+    "hold_until_robot_within_m": None,
+    "hold_ref_point": None,
+    "hold_timeout_s": None,
+    "metadata": {},
+}
 _ROBOT_ROLES = ("follow", "lead", "accompany")
 
 
@@ -37,8 +47,12 @@ def _changes(ov: SinglePedestrianOverride, mapdef: MapDef, source: str | Path, i
         if field == "goal_poi":
             field, value = "goal", None if value is None else _poi(mapdef, value, "goal_poi", source, item)
         elif field == "trajectory_poi":
-            field, value = "trajectory", None if value is None else tuple(
-                _poi(mapdef, v, "trajectory_poi", source, item) for v in value)
+            field, value = (
+                "trajectory",
+                None
+                if value is None
+                else tuple(_poi(mapdef, v, "trajectory_poi", source, item) for v in value),
+            )
         if value is None and field not in _NULLABLE:
             raise ConfigError(f"{field} may not be null", source=source, item=item)
         changes[field] = _NULLABLE[field] if value is None else value
@@ -46,7 +60,11 @@ def _changes(ov: SinglePedestrianOverride, mapdef: MapDef, source: str | Path, i
 
 
 def apply_single_pedestrians(
-    mapdef: MapDef, overrides: tuple[SinglePedestrianOverride, ...], *, source: str | Path, scenario: str,
+    mapdef: MapDef,
+    overrides: tuple[SinglePedestrianOverride, ...],
+    *,
+    source: str | Path,
+    scenario: str,
     default_hold_ref_point: tuple[float, float] | None = None,
 ) -> MapDef:
     """The map with the scenario's single-pedestrian overrides applied by id, every name resolved and checked.
@@ -62,7 +80,8 @@ def apply_single_pedestrians(
             have = ", ".join(peds) or "none"
             raise ConfigError(
                 f"the map has no single pedestrian {ov.id!r} (has: {have}); a new one needs a start",
-                source=source, item=item,
+                source=source,
+                item=item,
             )
         changes = _changes(ov, mapdef, source, item)
         base = peds[ov.id].model_dump() if ov.id in peds else {"id": ov.id}
@@ -85,26 +104,39 @@ def apply_single_pedestrians(
     return MapDef(**{**fields, "single_pedestrians": tuple(peds.values())})
 
 
-def check_single_pedestrian(ped: SinglePedestrian, peds: dict[str, SinglePedestrian], *, source: str | Path,
-                            item: str) -> None:
+def check_single_pedestrian(
+    ped: SinglePedestrian, peds: dict[str, SinglePedestrian], *, source: str | Path, item: str
+) -> None:
     """A role target that exists and fits the role; a hold reference point on the trajectory."""
     target = ped.role_target_id
     if target is not None:
         if ped.role in _ROBOT_ROLES:
             if target not in ("robot", "robot:0"):
-                raise ConfigError(f"role_target_id {target!r}: the only robot is 'robot' (or 'robot:0')",
-                                  source=source, item=item)
+                raise ConfigError(
+                    f"role_target_id {target!r}: the only robot is 'robot' (or 'robot:0')",
+                    source=source,
+                    item=item,
+                )
         elif ped.role == "join":
             if target not in peds or target == ped.id:
                 others = ", ".join(p for p in peds if p != ped.id) or "none"
-                raise ConfigError(f"role_target_id {target!r}: no other single pedestrian has that id "
-                                  f"(have: {others})", source=source, item=item)
+                raise ConfigError(
+                    f"role_target_id {target!r}: no other single pedestrian has that id (have: {others})",
+                    source=source,
+                    item=item,
+                )
         else:
-            raise ConfigError(f"role_target_id {target!r} is not used by role {ped.role!r}", source=source, item=item)
+            raise ConfigError(
+                f"role_target_id {target!r} is not used by role {ped.role!r}", source=source, item=item
+            )
     if ped.role_offset is not None and ped.role not in _ROBOT_ROLES:
         raise ConfigError(f"role_offset is not used by role {ped.role!r}", source=source, item=item)
     if ped.hold_until_robot_within_m is not None:
         ref = ped.hold_ref_point
         if not any(abs(q[0] - ref[0]) <= 1e-6 and abs(q[1] - ref[1]) <= 1e-6 for q in ped.trajectory):
-            raise ConfigError(f"hold_ref_point {list(ref)} is not a waypoint of the trajectory (the hold engages "
-                              "at the waypoint before it)", source=source, item=item)
+            raise ConfigError(
+                f"hold_ref_point {list(ref)} is not a waypoint of the trajectory (the hold engages "
+                "at the waypoint before it)",
+                source=source,
+                item=item,
+            )

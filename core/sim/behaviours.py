@@ -77,7 +77,9 @@ class RouteFollowing:
         self.thr2 = threshold**2
         self.zone_mode = zone_mode
 
-    def step(self, crowd: CrowdArrays, centroids: np.ndarray, rng: np.random.Generator, valid: Validator) -> bool:
+    def step(
+        self, crowd: CrowdArrays, centroids: np.ndarray, rng: np.random.Generator, valid: Validator
+    ) -> bool:
         """Advance navigators and respawn finished groups; True when positions changed (a respawn)."""
         if len(self.groups) == 0:
             return False
@@ -113,7 +115,9 @@ class RouteFollowing:
         """
         route = self.routes[self.route[k]]
         rows = self.members[k]
-        pts = sample_free(self.spawn_zones[route.spawn_id], len(rows), rng, self.zone_mode, valid, required=False)
+        pts = sample_free(
+            self.spawn_zones[route.spawn_id], len(rows), rng, self.zone_mode, valid, required=False
+        )
         if pts is None:
             return False
         crowd.pos[rows] = pts
@@ -126,7 +130,9 @@ class RouteFollowing:
 class CrowdedZones:
     """Groups wander inside their zone: a new goal in the zone whenever the centroid comes within the threshold."""
 
-    def __init__(self, pop: Population, map_def: MapDef, threshold: float, zone_mode: str, always_valid: Validator):
+    def __init__(
+        self, pop: Population, map_def: MapDef, threshold: float, zone_mode: str, always_valid: Validator
+    ):
         self.zones = map_def.ped_crowded_zones
         self.groups = pop.zone_groups
         self.zone = pop.zone_of_group
@@ -172,12 +178,20 @@ class SingleScripts:
         self.wake = np.full(m, self.NEVER, dtype=np.int64)  #: (M,) step at which a delay/wait/hold ends
         self.index = np.zeros(m, dtype=np.intp)  #: (M,) current trajectory waypoint index
         self.waits = [{w.waypoint_index: w.wait_s for w in sp.wait_at} for sp in singles]
-        self.hold_index = np.array([hold_waypoint(sp) for sp in singles], dtype=np.intp).reshape(m)  #: -1 = none
-        self.hold_ref = np.array([sp.hold_ref_point or (0.0, 0.0) for sp in singles], dtype=float).reshape(m, 2)
+        self.hold_index = np.array([hold_waypoint(sp) for sp in singles], dtype=np.intp).reshape(
+            m
+        )  #: -1 = none
+        self.hold_ref = np.array([sp.hold_ref_point or (0.0, 0.0) for sp in singles], dtype=float).reshape(
+            m, 2
+        )
         self.hold_r2 = np.array([(sp.hold_until_robot_within_m or 0.0) ** 2 for sp in singles]).reshape(m)
-        self.released_by: dict[str, str] = {}  #: ped id -> "robot_proximity" | "timeout", for holds that released
+        self.released_by: dict[
+            str, str
+        ] = {}  #: ped id -> "robot_proximity" | "timeout", for holds that released
         self.offset = np.zeros((m, 2))  #: (M, 2) robot-frame (forward, lateral) offsets of tracking peds [m]
-        self.follow_ped = np.full(m, -1, dtype=np.intp)  #: (M,) row of the ped a ``join`` ped walks to (-2 = nearest)
+        self.follow_ped = np.full(
+            m, -1, dtype=np.intp
+        )  #: (M,) row of the ped a ``join`` ped walks to (-2 = nearest)
         ids = {sp.id: first_row + k for k, sp in enumerate(singles)}
         for k, sp in enumerate(singles):
             if tracks_robot(sp):

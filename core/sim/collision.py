@@ -23,10 +23,14 @@ from foresight.core.sim.observation import CollisionKind
 @dataclass(frozen=True)
 class Contact:
     kind: CollisionKind
-    point: np.ndarray  #: (2,) where: the pedestrian's centre, the nearest point of the segment, or the robot centre [m]
+    point: (
+        np.ndarray
+    )  #: (2,) where: the pedestrian's centre, the nearest point of the segment, or the robot centre [m]
 
 
-def ped_contact(xy: np.ndarray, radius: float, ped_pos: np.ndarray, ped_radius: float) -> tuple[Contact | None, float]:
+def ped_contact(
+    xy: np.ndarray, radius: float, ped_pos: np.ndarray, ped_radius: float
+) -> tuple[Contact | None, float]:
     """Collision iff a centre distance <= r_robot + r_ped (inclusive); also returns the minimum centre distance [m]."""
     if len(ped_pos) == 0:
         return None, np.inf
@@ -76,7 +80,9 @@ class StaticChecker:
         return None
 
 
-def static_contact(xy: np.ndarray, radius: float, walls: SegmentSet, width: float, height: float) -> Contact | None:
+def static_contact(
+    xy: np.ndarray, radius: float, walls: SegmentSet, width: float, height: float
+) -> Contact | None:
     """Out of bounds if the centre leaves [0, W] x [0, H]; static if the disc touches any segment (edges and bounds).
 
     Like the reference this is a segment test: a robot wholly inside a large polygon without touching an edge is not flagged.

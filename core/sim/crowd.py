@@ -33,8 +33,17 @@ class CrowdDynamics:
     """Forces and integration for a fixed set of N pedestrians on one static map."""
 
     def __init__(
-        self, crowd: CrowdArrays, walls: SegmentSet, params: ForceParams, crowd_params: CrowdParams, *,
-        dt: float, robot_radius: float, obstacle_forces: bool, robot_repulsion: bool, semi_implicit: bool,
+        self,
+        crowd: CrowdArrays,
+        walls: SegmentSet,
+        params: ForceParams,
+        crowd_params: CrowdParams,
+        *,
+        dt: float,
+        robot_radius: float,
+        obstacle_forces: bool,
+        robot_repulsion: bool,
+        semi_implicit: bool,
         robot_reach: np.ndarray | None = None,
     ):
         """``robot_reach`` (N,): per-ped robot reaction range [m] (``core.sim.attention``); None = the force's cutoff."""
@@ -119,6 +128,8 @@ class CrowdDynamics:
         if not close.any():
             return
         near = np.nonzero(close)[0]
-        fixed, fv = constrain_moves(self.walls, c.pos[near], as_xy(new[near]), as_xy(v[near]), self.cp.wall_clearance)
+        fixed, fv = constrain_moves(
+            self.walls, c.pos[near], as_xy(new[near]), as_xy(v[near]), self.cp.wall_clearance
+        )
         new[near] = as_complex(fixed)
         v[near] = as_complex(fv)

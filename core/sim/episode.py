@@ -15,7 +15,9 @@ from foresight.core.sim.observation import Events, Observation
 from foresight.core.sim.simulator import Simulator
 from foresight.core.sim.trace import Trace
 
-StepHook = Callable[[Observation, tuple[float, float], Events, Any], None]  #: (obs after step, command, events, diagnostics)
+StepHook = Callable[
+    [Observation, tuple[float, float], Events, Any], None
+]  #: (obs after step, command, events, diagnostics)
 #: steps between two calls of ``check``: a cancel or timeout stops even a 100,000-step episode within milliseconds
 CHECK_EVERY = 16
 
@@ -35,8 +37,14 @@ class EpisodeResult:
 
 
 def run_episode(
-    scenario: ResolvedScenario, seed: int, planner: Planner, *, max_steps: int | None = None,
-    simulator: Simulator | None = None, on_step: StepHook | None = None, info_extra: dict[str, Any] | None = None,
+    scenario: ResolvedScenario,
+    seed: int,
+    planner: Planner,
+    *,
+    max_steps: int | None = None,
+    simulator: Simulator | None = None,
+    on_step: StepHook | None = None,
+    info_extra: dict[str, Any] | None = None,
     check: Callable[[], None] | None = None,
 ) -> EpisodeResult:
     """Run one episode to its end (collision, goal or exactly ``max_steps``/max_episode_steps steps).
@@ -47,8 +55,16 @@ def run_episode(
     t0 = time.perf_counter()
     sim = simulator or Simulator()
     obs = sim.reset(scenario, seed, max_steps=max_steps)
-    planner.reset(EpisodeInfo(scenario=scenario, seed=int(seed), dt=sim.dt, robot_radius=sim.limits.radius,
-                              ped_radius=sim.ped_radius, extra=dict(info_extra or {})))
+    planner.reset(
+        EpisodeInfo(
+            scenario=scenario,
+            seed=int(seed),
+            dt=sim.dt,
+            robot_radius=sim.limits.radius,
+            ped_radius=sim.ped_radius,
+            extra=dict(info_extra or {}),
+        )
+    )
     plan_time = 0.0
     while True:
         tp = time.perf_counter()
@@ -64,7 +80,13 @@ def run_episode(
     trace = sim.trace
     dmin = float(sim.min_ped_distance) if np.isfinite(sim.min_ped_distance) else None
     return EpisodeResult(
-        scenario=scenario.name, seed=int(seed), outcome=trace.outcome, steps=trace.steps, trace=trace,
-        min_distance=dmin, min_clearance=None if dmin is None else dmin - sim.limits.radius - sim.ped_radius,
-        wall_s=time.perf_counter() - t0, plan_s=plan_time,
+        scenario=scenario.name,
+        seed=int(seed),
+        outcome=trace.outcome,
+        steps=trace.steps,
+        trace=trace,
+        min_distance=dmin,
+        min_clearance=None if dmin is None else dmin - sim.limits.radius - sim.ped_radius,
+        wall_s=time.perf_counter() - t0,
+        plan_s=plan_time,
     )

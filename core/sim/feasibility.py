@@ -33,7 +33,9 @@ class ReachMap:
     """Where the relaxed robot could be when: what a picture of the verdict shows (``core.render.reachability``)."""
 
     grid: float  #: [m] cell size; cell (i, j) is centred at (i grid, j grid)
-    reached_at: np.ndarray  #: (nx, ny) first step each cell was reachable, -1 never (up to the verdict's step)
+    reached_at: (
+        np.ndarray
+    )  #: (nx, ny) first step each cell was reachable, -1 never (up to the verdict's step)
     crowd: list[np.ndarray]  #: pedestrian positions (N_t, 2) at steps 0..that step
     start: np.ndarray  #: (2,) the robot's start [m]
     goal: np.ndarray  #: (2,) its goal [m]
@@ -50,12 +52,15 @@ class Reachability:
     reachable: bool
     first_step: int | None  #: earliest step the relaxed robot is within the goal tolerance; None if never
     horizon: int
-    peds_react: bool  #: pedestrians feel the robot: their paths were recorded around a standing one (approximate)
+    peds_react: (
+        bool  #: pedestrians feel the robot: their paths were recorded around a standing one (approximate)
+    )
     where: ReachMap | None = field(default=None, compare=False, repr=False)  #: with ``keep_map`` only
 
 
-def crowd_paths(scenario: ResolvedScenario, seed: int,
-                max_steps: int | None = None) -> tuple[Simulator, list[np.ndarray], list[np.ndarray]]:
+def crowd_paths(
+    scenario: ResolvedScenario, seed: int, max_steps: int | None = None
+) -> tuple[Simulator, list[np.ndarray], list[np.ndarray]]:
     """The pedestrians' positions (N_t, 2) and ids (N_t,) at steps 0..horizon around a robot that stands at its start
     (contacts with it do not end the recording)."""
     sim = Simulator()
@@ -69,12 +74,21 @@ def crowd_paths(scenario: ResolvedScenario, seed: int,
     return sim, pos, ids
 
 
-def reachability(scenario: ResolvedScenario, seed: int, grid: float = GRID,
-                 max_steps: int | None = None, keep_map: bool = False) -> Reachability:
+def reachability(
+    scenario: ResolvedScenario,
+    seed: int,
+    grid: float = GRID,
+    max_steps: int | None = None,
+    keep_map: bool = False,
+) -> Reachability:
     """Whether a relaxed robot (see the module docstring) can reach the goal in this episode (within ``max_steps``,
     default the scenario's horizon), and when; ``keep_map`` also keeps where it could be when (``Reachability.where``)."""
     sim, peds, _ = crowd_paths(scenario, seed, max_steps)
-    start, goal, tol = sim.robot[:2].copy(), sim.route.waypoints[-1], sim.route.tolerance  # it stood at its start
+    start, goal, tol = (
+        sim.robot[:2].copy(),
+        sim.route.waypoints[-1],
+        sim.route.tolerance,
+    )  # it stood at its start
     dt, limits = sim.dt, sim.limits
     nx, ny = int(np.ceil(sim.static.width / grid)) + 1, int(np.ceil(sim.static.height / grid)) + 1
     xs, ys = np.arange(nx) * grid, np.arange(ny) * grid
@@ -83,21 +97,35 @@ def reachability(scenario: ResolvedScenario, seed: int, grid: float = GRID,
     inside = sim.static.inside_obstacle(cells.reshape(-1, 2)).reshape(nx, ny)
     free = (sim.static.distance(cells) > limits.radius - corner) & ~inside
     at_goal = np.hypot(cells[..., 0] - goal[0], cells[..., 1] - goal[1]) <= tol + corner
-    contact = limits.radius + sim.ped_radius - corner  # the simulator's contact, judged at its steps as it does
+    contact = (
+        limits.radius + sim.ped_radius - corner
+    )  # the simulator's contact, judged at its steps as it does
     i0, j0 = int(round(start[0] / grid)), int(round(start[1] / grid))
     space = _Space(free, at_goal, peds, contact, grid, keep_map)
     t, found = _reach(space, (i0, j0), limits, dt, sim.horizon, grid)
-    where = None if space.first is None else ReachMap(grid, space.first, peds[:t + 1], start,
-                                                      np.asarray(goal, dtype=float), float(tol), dt)
-    return Reachability(scenario.name, int(seed), found, t if found else None, sim.horizon, peds_react(scenario), where)
+    where = (
+        None
+        if space.first is None
+        else ReachMap(grid, space.first, peds[: t + 1], start, np.asarray(goal, dtype=float), float(tol), dt)
+    )
+    return Reachability(
+        scenario.name, int(seed), found, t if found else None, sim.horizon, peds_react(scenario), where
+    )
 
 
 class _Space:
     """Where the relaxed robot may be at a step (free of walls and of the crowd then), the goal, and (``keep_map``)
     the first step each cell was reached."""
 
-    def __init__(self, free: np.ndarray, at_goal: np.ndarray, peds: list[np.ndarray], contact: float, grid: float,
-                 keep_map: bool):
+    def __init__(
+        self,
+        free: np.ndarray,
+        at_goal: np.ndarray,
+        peds: list[np.ndarray],
+        contact: float,
+        grid: float,
+        keep_map: bool,
+    ):
         self.free, self.at_goal, self.peds, self.contact, self.grid = free, at_goal, peds, contact, grid
         self.first = np.full(free.shape, -1) if keep_map else None
 
@@ -112,8 +140,9 @@ class _Space:
         return bool((reach & self.at_goal).any())
 
 
-def _reach(space: _Space, cell: tuple[int, int], limits: RobotLimits, dt: float, horizon: int,
-           grid: float) -> tuple[int, bool]:
+def _reach(
+    space: _Space, cell: tuple[int, int], limits: RobotLimits, dt: float, horizon: int, grid: float
+) -> tuple[int, bool]:
     """The relaxed robot's first step at the goal (step, True), or where it stopped (step, False).
 
     A cell is reachable at step t when it is allowed then and, for every look-back j (``LOOK_BACK`` and the start),
@@ -123,7 +152,9 @@ def _reach(space: _Space, cell: tuple[int, int], limits: RobotLimits, dt: float,
     is at most sqrt 2 cells per look-back window faster than the real one (a straight run from the start: 0.14 m).
     """
     travel = _travel(limits, dt, horizon)
-    farthest = limits.v_max * dt * LOOK_BACK[-1] / grid + _SLACK  #: [cells] no look-back bound reaches farther
+    farthest = (
+        limits.v_max * dt * LOOK_BACK[-1] / grid + _SLACK
+    )  #: [cells] no look-back bound reaches farther
     reach = np.zeros(space.free.shape, dtype=bool)
     reach[cell] = True
     space.note(reach, 0)
@@ -179,7 +210,9 @@ def peds_react(scenario: ResolvedScenario) -> bool:
     cfg = scenario.scenario.simulation_config
     if scenario.replay is not None or not cfg.peds_have_robot_repulsion:
         return False
-    return cfg.nonreactive_fraction < 1.0 or bool(scenario.map.single_pedestrians)  # scripted walkers always react
+    return cfg.nonreactive_fraction < 1.0 or bool(
+        scenario.map.single_pedestrians
+    )  # scripted walkers always react
 
 
 def _occupied(pos: np.ndarray, contact: float, grid: float, nx: int, ny: int) -> np.ndarray:

@@ -40,7 +40,9 @@ def _accumulate(idx: np.ndarray, f: np.ndarray, n: int) -> np.ndarray:
     return np.bincount(idx, weights=f.real, minlength=n) + 1j * np.bincount(idx, weights=f.imag, minlength=n)
 
 
-def desired_force(z: np.ndarray, v: np.ndarray, goal: np.ndarray, vmax: np.ndarray, p: ForceParams) -> np.ndarray:
+def desired_force(
+    z: np.ndarray, v: np.ndarray, goal: np.ndarray, vmax: np.ndarray, p: ForceParams
+) -> np.ndarray:
     """Relax towards vmax along the goal direction; inside ``goal_threshold`` only brake."""
     g = goal - z
     d = norm(g)
@@ -73,7 +75,11 @@ def _moussaid(r: np.ndarray, dv: np.ndarray, p: ForceParams, cutoff: float | Non
 
 
 def social_force(
-    z: np.ndarray, v: np.ndarray, i: np.ndarray | None, j: np.ndarray | None, p: ForceParams,
+    z: np.ndarray,
+    v: np.ndarray,
+    i: np.ndarray | None,
+    j: np.ndarray | None,
+    p: ForceParams,
     cutoff: float | None,
 ) -> np.ndarray:
     """Moussaid ped-ped force: factor * sum over neighbours j with centre distance <= cutoff (None: all given).
@@ -126,7 +132,9 @@ def group_repulsion_force(z: np.ndarray, i: np.ndarray, j: np.ndarray, p: ForceP
     return p.group_repulsion_factor * _accumulate(i, r * (norm(r) <= p.group_repulsion_range), len(z))
 
 
-def group_gaze_force(z: np.ndarray, goal: np.ndarray, centroid: np.ndarray, n: np.ndarray, p: ForceParams) -> np.ndarray:
+def group_gaze_force(
+    z: np.ndarray, goal: np.ndarray, centroid: np.ndarray, n: np.ndarray, p: ForceParams
+) -> np.ndarray:
     """Turn members towards the centroid c' of the others: e_i |c' - x_i| (e_i . g) / d_i (pedsim variant).
 
     ``centroid`` (N,) and ``n`` (N,) are each ped's full group centroid and size; groups of one feel nothing.

@@ -38,7 +38,10 @@ class SegmentSet:
         (the reference's rule); degenerate segments reduce to their point.
         """
         rel = points[..., None, :] - self.start  # (..., S, 2)
-        t = np.minimum(np.maximum((rel[..., 0] * self.dir[:, 0] + rel[..., 1] * self.dir[:, 1]) * self.inv_len2, 0.0), 1.0)
+        t = np.minimum(
+            np.maximum((rel[..., 0] * self.dir[:, 0] + rel[..., 1] * self.dir[:, 1]) * self.inv_len2, 0.0),
+            1.0,
+        )
         off = rel - t[..., None] * self.dir
         return off, np.sqrt(off[..., 0] ** 2 + off[..., 1] ** 2)
 
@@ -102,15 +105,15 @@ def grid_distance(walls: SegmentSet, xs: np.ndarray, ys: np.ndarray, tile: int =
         out.fill(np.inf)
         return out
     for i in range(0, len(xs), tile):
-        tx = xs[i:i + tile]
+        tx = xs[i : i + tile]
         for j in range(0, len(ys), tile):
-            ty = ys[j:j + tile]
+            ty = ys[j : j + tile]
             centre = np.array([(tx[0] + tx[-1]) / 2, (ty[0] + ty[-1]) / 2])
             half_diagonal = np.hypot(tx[-1] - tx[0], ty[-1] - ty[0]) / 2
             to_centre = walls.offsets(centre)[1]
             near = to_centre - half_diagonal <= to_centre.min() + half_diagonal + 1e-9
             pts = np.stack(np.meshgrid(tx, ty, indexing="ij"), axis=-1)
-            out[i:i + tile, j:j + tile] = SegmentSet(walls.segments[near]).distance(pts)
+            out[i : i + tile, j : j + tile] = SegmentSet(walls.segments[near]).distance(pts)
     return out
 
 
@@ -125,8 +128,7 @@ def grid_interpolate(field: np.ndarray, resolution: float, x: np.ndarray, y: np.
     bx, by = 1 - ax, 1 - ay
     flat = field.reshape(-1)  # f[i, j] = flat[i * ny + j]
     c = i * ny + j
-    return ((flat[c] * bx + flat[c + ny] * ax) * by
-            + (flat[c + 1] * bx + flat[c + ny + 1] * ax) * ay)
+    return (flat[c] * bx + flat[c + ny] * ax) * by + (flat[c + 1] * bx + flat[c + ny + 1] * ax) * ay
 
 
 def points_in_polygons(points: np.ndarray, polygons: list[np.ndarray]) -> np.ndarray:
@@ -198,7 +200,12 @@ class StaticMap:
     def inside_obstacle(self, points: np.ndarray) -> np.ndarray:
         """True where a point (K, 2) is inside an obstacle polygon or outside the map, shape (K,)."""
         points = np.asarray(points, dtype=float).reshape(-1, 2)
-        out = (points[:, 0] < 0) | (points[:, 0] > self.width) | (points[:, 1] < 0) | (points[:, 1] > self.height)
+        out = (
+            (points[:, 0] < 0)
+            | (points[:, 0] > self.width)
+            | (points[:, 1] < 0)
+            | (points[:, 1] > self.height)
+        )
         if len(self._edges) == 0:
             return out
         x, y = points[:, 0:1], points[:, 1:2]

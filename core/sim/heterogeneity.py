@@ -24,7 +24,9 @@ def allocate_counts(n: int, composition: dict[str, float]) -> dict[str, int]:
     return counts
 
 
-def assign_labels(n: int, composition: dict[str, float], seed: int | None, rng: np.random.Generator) -> list[str]:
+def assign_labels(
+    n: int, composition: dict[str, float], seed: int | None, rng: np.random.Generator
+) -> list[str]:
     """One label per pedestrian (n), composition counts in shuffled order."""
     counts = allocate_counts(n, composition)
     labels = np.array([name for name in sorted(counts) for _ in range(counts[name])], dtype=object)
@@ -44,7 +46,11 @@ def robot_responses(n: int, cfg: SimulationConfig, rng: np.random.Generator) -> 
     """(n,) multipliers of the robot repulsion of the crowd peds from ``response_law_composition``, None without one."""
     if cfg.response_law_composition is None:
         return None
-    law = {"reactive": 1.0, "non_reactive": cfg.non_reactive_response_multiplier,
-           "non_yielding": cfg.non_reactive_response_multiplier, "hesitating": cfg.hesitating_response_multiplier}
+    law = {
+        "reactive": 1.0,
+        "non_reactive": cfg.non_reactive_response_multiplier,
+        "non_yielding": cfg.non_reactive_response_multiplier,
+        "hesitating": cfg.hesitating_response_multiplier,
+    }
     labels = assign_labels(n, cfg.response_law_composition, cfg.response_law_seed, rng)
     return np.array([law[label] for label in labels], dtype=float).reshape(n)

@@ -45,7 +45,9 @@ class Observation:
     ped_velocities: np.ndarray  #: (N, 2) world frame [m/s]
     ped_radius: float  #: [m]
     static: StaticGeometry = field(repr=False)
-    robot_limits: dict[str, float] = field(default_factory=dict)  #: RobotLimits.as_dict(): v_max, v_min, w_max, accel, decel, alpha, radius; holonomic 1.0 = commands are (vx, vy)
+    robot_limits: dict[str, float] = field(
+        default_factory=dict
+    )  #: RobotLimits.as_dict(): v_max, v_min, w_max, accel, decel, alpha, radius; holonomic 1.0 = commands are (vx, vy)
 
 
 @dataclass(frozen=True)

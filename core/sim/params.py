@@ -76,7 +76,9 @@ class CrowdParams:
     robot_spawn_cone_deg: float = 60.0
     wall_constraint: bool = True  #: keep pedestrians out of obstacles (see core.sim.walls)
     wall_clearance: float = 1e-3  #: how far a stopped pedestrian stays off an edge line [m]
-    dense_pair_limit: int = 64  #: up to this many peds the (N, N) grid, above a cell list (measured crossover 50-80)
+    dense_pair_limit: int = (
+        64  #: up to this many peds the (N, N) grid, above a cell list (measured crossover 50-80)
+    )
 
 
 #: desired-speed tiers: (mean, std) of a normal clipped to ``CrowdParams.tier_clip`` [m/s]. slow/typical/brisk
@@ -85,5 +87,8 @@ class CrowdParams:
 #: "Transporttechnik der Fussgaenger", Schriftenreihe des IVT Nr. 90, ETH Zuerich, 1993, from 58 studies; the
 #: values Helbing & Molnar, Phys. Rev. E 51:4282, 1995, use for social-force desired speeds).
 SPEED_TIERS: dict[str, tuple[float, float]] = {
-    "slow": (0.65, 0.2), "typical": (1.3, 0.2), "brisk": (1.6, 0.2), "realistic": (1.34, 0.26),
+    "slow": (0.65, 0.2),
+    "typical": (1.3, 0.2),
+    "brisk": (1.6, 0.2),
+    "realistic": (1.34, 0.26),
 }

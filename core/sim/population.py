@@ -35,7 +35,9 @@ class Population:
     zone_groups: np.ndarray  #: (Gz,) group indices in crowded zones
     zone_of_group: np.ndarray  #: (Gz,) crowded-zone index
     singles: list[SinglePedestrian] = field(default_factory=list)  #: scripted peds, rows N - len(singles) ...
-    robot_response: np.ndarray | None = None  #: (N,) multiplier of the robot repulsion per ped; None = 1 for all
+    robot_response: np.ndarray | None = (
+        None  #: (N,) multiplier of the robot repulsion per ped; None = 1 for all
+    )
 
     @property
     def n(self) -> int:
@@ -53,7 +55,9 @@ def population_counts(map_def: MapDef, cfg: SimulationConfig, crowd: CrowdParams
             return total, 0
         if has_routes or total == 0:
             return 0, total
-        raise ConfigError(f"population_size {total} needs ped routes or crowded zones in map {map_def.name!r}")
+        raise ConfigError(
+            f"population_size {total} needs ped routes or crowded zones in map {map_def.name!r}"
+        )
     area = sum(z.area for z in map_def.ped_crowded_zones)
     length = sum(r.length for r in map_def.ped_routes)
     return math.ceil(area * cfg.ped_density), math.ceil(length * crowd.sidewalk_width * cfg.ped_density)
@@ -63,7 +67,9 @@ def pedestrian_count(scenario: ResolvedScenario, crowd: CrowdParams | None = Non
     """How many pedestrians an episode of this scenario has (zone + route + single peds, or the replayed tracks)."""
     if scenario.replay is not None:
         return len(np.unique(scenario.replay.ids))
-    n_zone, n_route = population_counts(scenario.map, scenario.scenario.simulation_config, crowd or CrowdParams())
+    n_zone, n_route = population_counts(
+        scenario.map, scenario.scenario.simulation_config, crowd or CrowdParams()
+    )
     return n_zone + n_route + len(scenario.map.single_pedestrians)
 
 
@@ -145,8 +151,12 @@ def _route_anchors(
 
 
 def spawn_route_groups(
-    sizes: list[int], routes: list[RouteGeometry], cfg: SimulationConfig, crowd: CrowdParams,
-    rng: np.random.Generator, valid: Validator,
+    sizes: list[int],
+    routes: list[RouteGeometry],
+    cfg: SimulationConfig,
+    crowd: CrowdParams,
+    rng: np.random.Generator,
+    valid: Validator,
 ) -> list[tuple[np.ndarray, int, int]]:
     """Per group: member positions (k, 2), route index, index of the waypoint ending the anchor's section."""
     out = []
@@ -160,7 +170,9 @@ def spawn_route_groups(
                 break
             s = float(rng.uniform(0, routes[r].length))
         else:
-            raise ConfigError(f"could not place a group of {k} along ped route {r} (obstacles or robot in the way)")
+            raise ConfigError(
+                f"could not place a group of {k} along ped route {r} (obstacles or robot in the way)"
+            )
     return out
 
 
@@ -196,7 +208,9 @@ def _zone_groups(
     return out
 
 
-def _crowd_velocities(blocks: list[tuple[np.ndarray, np.ndarray]], vmax: np.ndarray, mult: float) -> np.ndarray:
+def _crowd_velocities(
+    blocks: list[tuple[np.ndarray, np.ndarray]], vmax: np.ndarray, mult: float
+) -> np.ndarray:
     """Spawn velocities (N, 2): each group heads for its goal at desired speed / peds_speed_mult (0.5 m/s reference)."""
     vel = np.zeros((len(vmax), 2))
     start = 0
@@ -208,8 +222,12 @@ def _crowd_velocities(blocks: list[tuple[np.ndarray, np.ndarray]], vmax: np.ndar
 
 
 def build_population(
-    map_def: MapDef, cfg: SimulationConfig, crowd: CrowdParams,
-    rng: np.random.Generator, spread_rng: np.random.Generator, valid: Validator,
+    map_def: MapDef,
+    cfg: SimulationConfig,
+    crowd: CrowdParams,
+    rng: np.random.Generator,
+    spread_rng: np.random.Generator,
+    valid: Validator,
 ) -> Population:
     """Spawn the whole crowd: crowded-zone groups, route groups, then single peds.
 
@@ -217,7 +235,9 @@ def build_population(
     ``spread_rng`` drives route placement in ``spread`` mode (the reference's route_spawn_seed).
     """
     n_zone, n_route = population_counts(map_def, cfg, crowd)
-    zoned = _zone_groups(group_sizes(n_zone, cfg.max_peds_per_group, rng, crowd.group_size_decay), map_def, cfg, rng, valid)
+    zoned = _zone_groups(
+        group_sizes(n_zone, cfg.max_peds_per_group, rng, crowd.group_size_decay), map_def, cfg, rng, valid
+    )
     route_sizes = group_sizes(n_route, cfg.max_peds_per_group, rng, crowd.group_size_decay)
     routes = [RouteGeometry(r) for r in map_def.ped_routes]
     placement_rng = spread_rng if cfg.route_spawn_distribution == "spread" else rng
@@ -239,14 +259,27 @@ def build_population(
     return Population(
         pos=_rows([m for m, _ in blocks] + [sp.start for sp in singles]),
         vel=np.concatenate([vel, _rows([v for _, v in starts])]),
-        goal=_rows([np.repeat(np.reshape(g, (1, 2)), len(m), axis=0) for m, g in blocks] + [t for t, _ in starts]),
+        goal=_rows(
+            [np.repeat(np.reshape(g, (1, 2)), len(m), axis=0) for m, g in blocks] + [t for t, _ in starts]
+        ),
         vmax=np.concatenate([vmax, s_vmax]),
-        group=group_arr, group_size=np.asarray(sizes, dtype=float),
-        route_groups=np.arange(len(zoned), len(blocks)), route_of_group=np.array([r for _, r, _ in placed], dtype=np.intp),
-        route_wp=np.array([wp for _, _, wp in placed], dtype=np.intp), zone_groups=np.arange(len(zoned)),
-        zone_of_group=np.array([z for _, _, z in zoned], dtype=np.intp), singles=singles,
+        group=group_arr,
+        group_size=np.asarray(sizes, dtype=float),
+        route_groups=np.arange(len(zoned), len(blocks)),
+        route_of_group=np.array([r for _, r, _ in placed], dtype=np.intp),
+        route_wp=np.array([wp for _, _, wp in placed], dtype=np.intp),
+        zone_groups=np.arange(len(zoned)),
+        zone_of_group=np.array([z for _, _, z in zoned], dtype=np.intp),
+        singles=singles,
         robot_response=None if response is None else np.concatenate([response, np.ones(len(singles))]),
     )
 
 
-__all__ = ["Population", "build_population", "pedestrian_count", "population_counts", "group_sizes", "sample_zone"]
+__all__ = [
+    "Population",
+    "build_population",
+    "pedestrian_count",
+    "population_counts",
+    "group_sizes",
+    "sample_zone",
+]

@@ -15,7 +15,9 @@ import numpy as np
 
 from foresight.core.scenarios.model import RobotConfig
 
-X, Y, TH, V, W = range(5)  #: columns of a robot state (..., 5): x [m], y [m], heading [rad], v [m/s], omega [rad/s]
+X, Y, TH, V, W = range(
+    5
+)  #: columns of a robot state (..., 5): x [m], y [m], heading [rad], v [m/s], omega [rad/s]
 
 
 @dataclass(frozen=True)
@@ -43,9 +45,15 @@ class RobotLimits:
     @classmethod
     def from_config(cls, cfg: RobotConfig) -> RobotLimits:
         return cls(
-            radius=cfg.radius, v_max=cfg.max_linear_speed, v_min=-cfg.max_linear_speed if cfg.allow_backwards else 0.0,
-            w_max=cfg.max_angular_speed, accel=cfg.max_linear_accel, decel=cfg.decel, alpha=cfg.max_angular_accel,
-            actuation=cfg.actuation, kind=cfg.type,
+            radius=cfg.radius,
+            v_max=cfg.max_linear_speed,
+            v_min=-cfg.max_linear_speed if cfg.allow_backwards else 0.0,
+            w_max=cfg.max_angular_speed,
+            accel=cfg.max_linear_accel,
+            decel=cfg.decel,
+            alpha=cfg.max_angular_accel,
+            actuation=cfg.actuation,
+            kind=cfg.type,
         )
 
     def as_dict(self) -> dict[str, float]:
@@ -106,7 +114,11 @@ def unicycle_step(state: np.ndarray, cmd: np.ndarray, limits: RobotLimits, dt: f
     th2 = th + 0.5 * (w + w2) * dt
     mid = 0.5 * (th + th2)
     dist = 0.5 * (v + v2) * dt
-    out = np.empty(state.shape if state.shape[:-1] == cmd.shape[:-1] else np.broadcast_shapes(state.shape, cmd.shape[:-1] + (5,)))
+    out = np.empty(
+        state.shape
+        if state.shape[:-1] == cmd.shape[:-1]
+        else np.broadcast_shapes(state.shape, cmd.shape[:-1] + (5,))
+    )
     out[..., X] = state[..., X] + dist * np.cos(mid)
     out[..., Y] = state[..., Y] + dist * np.sin(mid)
     out[..., TH] = wrap_angle(th2)
@@ -131,8 +143,15 @@ def _unicycle_one(state: np.ndarray, cmd: np.ndarray, limits: RobotLimits, dt: f
     th2 = th + 0.5 * (w + w2) * dt
     mid = 0.5 * (th + th2)
     dist = 0.5 * (v + v2) * dt
-    return np.array([x + dist * float(np.cos(mid)), y + dist * float(np.sin(mid)),
-                     (th2 + np.pi) % (2 * np.pi) - np.pi, v2, w2])
+    return np.array(
+        [
+            x + dist * float(np.cos(mid)),
+            y + dist * float(np.sin(mid)),
+            (th2 + np.pi) % (2 * np.pi) - np.pi,
+            v2,
+            w2,
+        ]
+    )
 
 
 def unicycle_rollout(state0: np.ndarray, cmds: np.ndarray, limits: RobotLimits, dt: float) -> np.ndarray:
@@ -160,7 +179,9 @@ def unicycle_rollout(state0: np.ndarray, cmds: np.ndarray, limits: RobotLimits, 
         v, w = _lag_speeds(v0, w0, cmds, limits, dt)
     else:
         vw = _held_speeds(s0[..., V:], cmds, limits, dt) if n > 1 else None
-        v, w = (vw[..., 0, :], vw[..., 1, :]) if vw is not None else _tracking_speeds(v0, w0, cmds, limits, dt)
+        v, w = (
+            (vw[..., 0, :], vw[..., 1, :]) if vw is not None else _tracking_speeds(v0, w0, cmds, limits, dt)
+        )
     # midpoint odometry, accumulated in the order unicycle_step adds (heading unwrapped until the end)
     shape = batch + (n + 1,)
     th = np.empty(shape)
@@ -194,8 +215,12 @@ def unicycle_rollout(state0: np.ndarray, cmds: np.ndarray, limits: RobotLimits, 
 @lru_cache(maxsize=64)
 def _ramp_limits(limits: RobotLimits, dt: float) -> tuple[np.ndarray, ...]:
     """(2, 1) lower/upper bounds and per-step down/up changes of (v, omega), for :func:`_held_speeds`."""
-    col = [[limits.v_min, -limits.w_max], [limits.v_max, limits.w_max],
-           [limits.decel * dt, limits.alpha * dt], [limits.accel * dt, limits.alpha * dt]]
+    col = [
+        [limits.v_min, -limits.w_max],
+        [limits.v_max, limits.w_max],
+        [limits.decel * dt, limits.alpha * dt],
+        [limits.accel * dt, limits.alpha * dt],
+    ]
     return tuple(np.array(c)[:, None] for c in col)
 
 
@@ -213,8 +238,9 @@ def _held_speeds(vw0: np.ndarray, cmds: np.ndarray, limits: RobotLimits, dt: flo
     return _ramp(vw0, _clip(cmds[..., 0, :], lo[:, 0], hi[:, 0]), lo, hi, down, up, k)
 
 
-def _tracking_speeds(v0: np.ndarray, w0: np.ndarray, cmds: np.ndarray, limits: RobotLimits,
-                     dt: float) -> tuple[np.ndarray, np.ndarray]:
+def _tracking_speeds(
+    v0: np.ndarray, w0: np.ndarray, cmds: np.ndarray, limits: RobotLimits, dt: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Speeds (..., n) of ``tracking`` actuation: per run of steps with the same (clipped) command, a ramp
     within the acceleration limits toward the command, in closed form."""
     cv = _clip(cmds[..., 0], limits.v_min, limits.v_max)
@@ -230,13 +256,18 @@ def _tracking_speeds(v0: np.ndarray, w0: np.ndarray, cmds: np.ndarray, limits: R
         kk = k[: b - a]
         va = v0 if a == 0 else v[..., a - 1]
         wa = w0 if a == 0 else w[..., a - 1]
-        v[..., a:b] = _held_ramp(va, cv[..., a], limits.v_min, limits.v_max, limits.decel * dt, limits.accel * dt, kk)
-        w[..., a:b] = _held_ramp(wa, cw[..., a], -limits.w_max, limits.w_max, limits.alpha * dt, limits.alpha * dt, kk)
+        v[..., a:b] = _held_ramp(
+            va, cv[..., a], limits.v_min, limits.v_max, limits.decel * dt, limits.accel * dt, kk
+        )
+        w[..., a:b] = _held_ramp(
+            wa, cw[..., a], -limits.w_max, limits.w_max, limits.alpha * dt, limits.alpha * dt, kk
+        )
     return v, w
 
 
-def _held_ramp(x0: np.ndarray, target: np.ndarray, lo: float, hi: float, down: float, up: float,
-               k: np.ndarray) -> np.ndarray:
+def _held_ramp(
+    x0: np.ndarray, target: np.ndarray, lo: float, hi: float, down: float, up: float, k: np.ndarray
+) -> np.ndarray:
     """x after steps k = 1..L (..., L) of x <- clip(x + clip(target - x, -down, up), lo, hi), target in [lo, hi].
 
     From x0 within [lo, hi] every step stays between x0 and the target, so the speed clip never acts and
@@ -253,13 +284,16 @@ def _held_ramp(x0: np.ndarray, target: np.ndarray, lo: float, hi: float, down: f
     return _ramp(x0, target, lo, hi, down, up, k)
 
 
-def _ramp(x0: np.ndarray, target: np.ndarray, lo: float, hi: float, down: float, up: float, k: np.ndarray) -> np.ndarray:
+def _ramp(
+    x0: np.ndarray, target: np.ndarray, lo: float, hi: float, down: float, up: float, k: np.ndarray
+) -> np.ndarray:
     x0 = x0[..., None]
     return _clip(x0 + np.minimum(np.maximum(target[..., None] - x0, -down * k), up * k), lo, hi)
 
 
-def _lag_speeds(v0: np.ndarray, w0: np.ndarray, cmds: np.ndarray, limits: RobotLimits,
-                dt: float) -> tuple[np.ndarray, np.ndarray]:
+def _lag_speeds(
+    v0: np.ndarray, w0: np.ndarray, cmds: np.ndarray, limits: RobotLimits, dt: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Speeds (..., n) of ``reference_lag`` actuation: the first-order lag is stepped as ``unicycle_step`` does
     (only the speeds loop over the steps; the pose is vectorised by the caller)."""
     n = cmds.shape[-2]
@@ -267,8 +301,12 @@ def _lag_speeds(v0: np.ndarray, w0: np.ndarray, cmds: np.ndarray, limits: RobotL
     w_all = np.empty(cmds.shape[:-1])
     v, w = v0, w0
     for i in range(n):
-        v = _clip(v + dt * _clip(cmds[..., i, 0] - v, -limits.decel, limits.accel), limits.v_min, limits.v_max)
-        w = _clip(w + dt * _clip(cmds[..., i, 1] - w, -limits.alpha, limits.alpha), -limits.w_max, limits.w_max)
+        v = _clip(
+            v + dt * _clip(cmds[..., i, 0] - v, -limits.decel, limits.accel), limits.v_min, limits.v_max
+        )
+        w = _clip(
+            w + dt * _clip(cmds[..., i, 1] - w, -limits.alpha, limits.alpha), -limits.w_max, limits.w_max
+        )
         v_all[..., i] = v
         w_all[..., i] = w
     return v_all, w_all

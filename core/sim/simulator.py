@@ -47,7 +47,9 @@ def episode_generators(name: str, seed: int, n: int) -> list[np.random.Generator
     return [np.random.Generator(np.random.PCG64(s)) for s in ss.spawn(n)]
 
 
-def stopping_zone_clear(pts: np.ndarray, robot: np.ndarray, clear: float, decel: float, cone_deg: float) -> np.ndarray:
+def stopping_zone_clear(
+    pts: np.ndarray, robot: np.ndarray, clear: float, decel: float, cone_deg: float
+) -> np.ndarray:
     """(K,) True for points (K, 2) outside the moving robot's stopping zone.
 
     The zone: points within ``cone_deg`` of the robot's direction of travel (its heading, reversed
@@ -103,33 +105,59 @@ class Simulator:
         robot_rng, pop_rng, spread_rng, self.rng, attention_rng = episode_generators(scenario.name, seed, 5)
         if cfg.route_spawn_seed is not None:
             spread_rng = episode_generators(scenario.name, cfg.route_spawn_seed, 4)[2]
-        margin = self.crowd_params.robot_spawn_margin if cfg.robot_spawn_clearance is None else cfg.robot_spawn_clearance
+        margin = (
+            self.crowd_params.robot_spawn_margin
+            if cfg.robot_spawn_clearance is None
+            else cfg.robot_spawn_clearance
+        )
         self.clear = self.limits.radius + cfg.ped_radius + margin  # no pedestrian (re)spawns nearer the robot
         singles = np.array([sp.start for sp in map_def.single_pedestrians], dtype=float).reshape(-1, 2)
         # the robot starts clear of scripted peds and, where the zone allows, not touching a wall
         self.route: RobotRoute = sample_robot_route(
-            map_def, robot_rng, self.limits.radius + cfg.goal_radius, cfg.zone_sampling,
+            map_def,
+            robot_rng,
+            self.limits.radius + cfg.goal_radius,
+            cfg.zone_sampling,
             start_ok=lambda pts: self._free(pts, singles) & (self.static.distance(pts) > self.limits.radius),
             goal_ok=lambda pts: ~self.static.inside_obstacle(pts),
             start_fallback=lambda pts: self._free(pts, singles),
         )
         self.route.waypoints.flags.writeable = False
         self.robot = np.array([*self.route.start, self.route.heading, 0.0, 0.0])
-        pop = build_population(map_def, cfg, self.crowd_params, pop_rng, spread_rng,
-                               lambda pts: self._free(pts, self.robot[None, :2]))
+        pop = build_population(
+            map_def,
+            cfg,
+            self.crowd_params,
+            pop_rng,
+            spread_rng,
+            lambda pts: self._free(pts, self.robot[None, :2]),
+        )
         pop.pos = self.static.push_off_edges(pop.pos, 2 * self.crowd_params.wall_clearance)
-        self.replay = ReplayCrowd(scenario.replay, self.horizon, self.dt) if scenario.replay is not None else None
+        self.replay = (
+            ReplayCrowd(scenario.replay, self.horizon, self.dt) if scenario.replay is not None else None
+        )
         if self.replay is not None and pop.n:
             raise CoreError(f"{scenario.name}: a replay scenario has only its recorded pedestrians")
         params, robot_radius, _ = self._robot_repulsion()
         reach = reaction_ranges(pop.n, cfg, params.robot_cutoff(robot_radius), attention_rng)
         self._build_crowd(pop, map_def, reach)
-        self._trace = Trace(self.horizon, pop.n if self.replay is None else self.replay.n, dt=self.dt, scenario=scenario.name, seed=seed,
-                            meta={"code_version": code_version(), "map": map_def.name, "n_peds": pop.n,
-                                  "n_nonreactive": int((reach == 0).sum()),
-                                  # what a picture of the trace draws: the goal, its tolerance, the robot's body
-                                  "goal": [float(v) for v in self.route.goal], "goal_tolerance": float(self.route.tolerance),
-                                  "robot_radius": float(self.limits.radius)})
+        self._trace = Trace(
+            self.horizon,
+            pop.n if self.replay is None else self.replay.n,
+            dt=self.dt,
+            scenario=scenario.name,
+            seed=seed,
+            meta={
+                "code_version": code_version(),
+                "map": map_def.name,
+                "n_peds": pop.n,
+                "n_nonreactive": int((reach == 0).sum()),
+                # what a picture of the trace draws: the goal, its tolerance, the robot's body
+                "goal": [float(v) for v in self.route.goal],
+                "goal_tolerance": float(self.route.tolerance),
+                "robot_radius": float(self.limits.radius),
+            },
+        )
         if self.replay is not None:  # no recorded pedestrian appears where the robot stands
             self.replay.admit(0, self.robot[:2], self.clear)
             self._trace.meta["replay_withheld"] = self.replay.withheld  # the list grows as the episode runs
@@ -152,8 +180,9 @@ class Simulator:
         """``_free`` of the robot, and out of its stopping zone ahead (``stopping_zone_clear``)."""
         ok = self._free(pts, self.robot[None, :2])
         if ok.any():
-            ok &= stopping_zone_clear(pts, self.robot, self.clear, self.limits.decel,
-                                      self.crowd_params.robot_spawn_cone_deg)
+            ok &= stopping_zone_clear(
+                pts, self.robot, self.clear, self.limits.decel, self.crowd_params.robot_spawn_cone_deg
+            )
         return ok
 
     def _robot_repulsion(self) -> tuple[ForceParams, float, bool]:
@@ -165,8 +194,9 @@ class Simulator:
         params, robot_radius, repulsion = self.force_params, self.limits.radius, cfg.peds_have_robot_repulsion
         if cfg.prf_config is not None:
             prf = cfg.prf_config
-            params = dataclasses.replace(params, robot_factor=prf.force_multiplier,
-                                         robot_activation=prf.activation_threshold)
+            params = dataclasses.replace(
+                params, robot_factor=prf.force_multiplier, robot_activation=prf.activation_threshold
+            )
             robot_radius, repulsion = prf.robot_radius, repulsion and prf.is_active
         return params, robot_radius, repulsion
 
@@ -174,15 +204,23 @@ class Simulator:
         cfg, cp = self.cfg, self.crowd_params
         self.crowd = CrowdArrays(pop)
         self.routes = RouteFollowing(pop, map_def, cp.route_threshold, cfg.zone_sampling)
-        self.zones = CrowdedZones(pop, map_def, cp.route_threshold, cfg.zone_sampling,
-                                  lambda pts: ~self.static.inside_obstacle(pts))
+        self.zones = CrowdedZones(
+            pop, map_def, cp.route_threshold, cfg.zone_sampling, lambda pts: ~self.static.inside_obstacle(pts)
+        )
         self.singles = SingleScripts(pop.singles, pop.n - len(pop.singles), self.dt, cp.single_threshold)
         self.has_groups = len(self.routes.groups) + len(self.zones.groups) > 0
         params, robot_radius, repulsion = self._robot_repulsion()
         self.dynamics = CrowdDynamics(
-            self.crowd, self.static.walls, params, cp, dt=self.dt, robot_radius=robot_radius,
-            obstacle_forces=cfg.peds_have_obstacle_forces, robot_repulsion=repulsion,
-            semi_implicit=cfg.pedestrian_integration_scheme == "semi_implicit_euler", robot_reach=robot_reach,
+            self.crowd,
+            self.static.walls,
+            params,
+            cp,
+            dt=self.dt,
+            robot_radius=robot_radius,
+            obstacle_forces=cfg.peds_have_obstacle_forces,
+            robot_repulsion=repulsion,
+            semi_implicit=cfg.pedestrian_integration_scheme == "semi_implicit_euler",
+            robot_reach=robot_reach,
         )
         if cfg.peds_reset_follow_route_at_start:
             self.routes.restart_all(self.crowd, self.rng, self._respawn_ok)
@@ -250,9 +288,20 @@ class Simulator:
             ids, pos, vel = ids[seen], pos[seen], vel[seen]
         route = self.route
         return Observation(
-            step=self.t, time=self.t * self.dt, dt=self.dt, robot_pose=robot[:3], robot_velocity=robot[3:],
-            robot_radius=self.limits.radius, waypoint=route.waypoints[route.index], goal=route.waypoints[-1],
-            route=route.waypoints[route.index:], goal_tolerance=route.tolerance, ped_ids=ids,
-            ped_positions=pos, ped_velocities=vel, ped_radius=self.ped_radius, static=self.static,
+            step=self.t,
+            time=self.t * self.dt,
+            dt=self.dt,
+            robot_pose=robot[:3],
+            robot_velocity=robot[3:],
+            robot_radius=self.limits.radius,
+            waypoint=route.waypoints[route.index],
+            goal=route.waypoints[-1],
+            route=route.waypoints[route.index :],
+            goal_tolerance=route.tolerance,
+            ped_ids=ids,
+            ped_positions=pos,
+            ped_velocities=vel,
+            ped_radius=self.ped_radius,
+            static=self.static,
             robot_limits=self.limits_dict,
         )

@@ -24,8 +24,9 @@ class EarlyContact:
     time_s: float
 
 
-def early_contacts(scenarios: Iterable[ResolvedScenario], seconds: float = 1.5,
-                   seeds: dict[str, Iterable[int]] | None = None) -> list[EarlyContact]:
+def early_contacts(
+    scenarios: Iterable[ResolvedScenario], seconds: float = 1.5, seeds: dict[str, Iterable[int]] | None = None
+) -> list[EarlyContact]:
     """Every episode (each scenario's own seeds, or ``seeds[name]``) where a pedestrian touches the robot, which
     stands still, within ``seconds`` of the start; in scenario and seed order."""
     sim, out = Simulator(), []

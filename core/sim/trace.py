@@ -29,12 +29,24 @@ def trace_bytes(horizon: int, n_peds: int) -> int:
 class Trace:
     """robot (T+1, 5), command (T, 2), ped_ids (T+1, N) (-1 = empty), ped_pos/ped_vel (T+1, N, 2), events."""
 
-    def __init__(self, horizon: int, n_peds: int, *, dt: float, scenario: str = "", seed: int = 0, meta: dict | None = None):
+    def __init__(
+        self,
+        horizon: int,
+        n_peds: int,
+        *,
+        dt: float,
+        scenario: str = "",
+        seed: int = 0,
+        meta: dict | None = None,
+    ):
         need = trace_bytes(horizon, n_peds)
         if need > MAX_TRACE_BYTES:
-            raise ConfigError(f"an episode of {horizon} steps with {n_peds} pedestrians needs a {need / 2**20:.0f} MiB "
-                              f"trace; the limit is {MAX_TRACE_BYTES / 2**20:.0f} MiB: lower max_steps or the crowd",
-                              source=scenario or None, item="max_steps")
+            raise ConfigError(
+                f"an episode of {horizon} steps with {n_peds} pedestrians needs a {need / 2**20:.0f} MiB "
+                f"trace; the limit is {MAX_TRACE_BYTES / 2**20:.0f} MiB: lower max_steps or the crowd",
+                source=scenario or None,
+                item="max_steps",
+            )
         self.dt = float(dt)
         self.scenario = scenario
         self.seed = int(seed)
@@ -50,7 +62,9 @@ class Trace:
         self.collision_point = np.full(2, np.nan)  #: (2,) [m]
         self.outcome = ""  #: success | collision_pedestrian | collision_static | timeout | "" (running)
 
-    def record_state(self, t: int, robot: np.ndarray, ids: np.ndarray, pos: np.ndarray, vel: np.ndarray) -> None:
+    def record_state(
+        self, t: int, robot: np.ndarray, ids: np.ndarray, pos: np.ndarray, vel: np.ndarray
+    ) -> None:
         """Write the state after t steps (row t)."""
         self._robot[t] = robot
         self._ped_ids[t] = ids
@@ -91,8 +105,14 @@ class Trace:
 
     def metadata(self) -> dict:
         return {
-            "format": FORMAT, "scenario": self.scenario, "seed": self.seed, "dt": self.dt, "steps": self.steps,
-            "collision_step": self.collision_step, "collision_kind": self.collision_kind, "outcome": self.outcome,
+            "format": FORMAT,
+            "scenario": self.scenario,
+            "seed": self.seed,
+            "dt": self.dt,
+            "steps": self.steps,
+            "collision_step": self.collision_step,
+            "collision_kind": self.collision_kind,
+            "outcome": self.outcome,
             **self.meta,
         }
 
@@ -102,8 +122,14 @@ class Trace:
         path = path if path.suffix == ".npz" else path.with_name(path.name + ".npz")  # np.savez's naming
         with files.replacing(path) as tmp, tmp.open("wb") as fh:
             np.savez_compressed(
-                fh, robot=self.robot, command=self.command, ped_ids=self.ped_ids, ped_pos=self.ped_pos,
-                ped_vel=self.ped_vel, collision_point=self.collision_point, meta=np.array(json.dumps(self.metadata())),
+                fh,
+                robot=self.robot,
+                command=self.command,
+                ped_ids=self.ped_ids,
+                ped_pos=self.ped_pos,
+                ped_vel=self.ped_vel,
+                collision_point=self.collision_point,
+                meta=np.array(json.dumps(self.metadata())),
             )
         return path
 
@@ -117,12 +143,31 @@ class Trace:
                 raise ConfigError(f"unsupported trace format {meta.get('format')!r}", source=path)
             steps = int(meta["steps"])
             n = z["ped_ids"].shape[1]
-            known = {"format", "scenario", "seed", "dt", "steps", "collision_step", "collision_kind", "outcome"}
-            tr = cls(steps, n, dt=meta["dt"], scenario=meta["scenario"], seed=meta["seed"],
-                     meta={k: v for k, v in meta.items() if k not in known})
+            known = {
+                "format",
+                "scenario",
+                "seed",
+                "dt",
+                "steps",
+                "collision_step",
+                "collision_kind",
+                "outcome",
+            }
+            tr = cls(
+                steps,
+                n,
+                dt=meta["dt"],
+                scenario=meta["scenario"],
+                seed=meta["seed"],
+                meta={k: v for k, v in meta.items() if k not in known},
+            )
             tr._robot[:], tr._command[:] = z["robot"], z["command"]
             tr._ped_ids[:], tr._ped_pos[:], tr._ped_vel[:] = z["ped_ids"], z["ped_pos"], z["ped_vel"]
             tr.collision_point = z["collision_point"]
         tr.steps = steps
-        tr.collision_step, tr.collision_kind, tr.outcome = meta["collision_step"], meta["collision_kind"], meta["outcome"]
+        tr.collision_step, tr.collision_kind, tr.outcome = (
+            meta["collision_step"],
+            meta["collision_kind"],
+            meta["outcome"],
+        )
         return tr

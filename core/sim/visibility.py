@@ -30,7 +30,9 @@ def occluded(eye: np.ndarray, points: np.ndarray, segments: np.ndarray) -> np.nd
     return ((d1 * d2 < 0) & (d3 * d4 < 0)).any(axis=1)
 
 
-def visible(robot: np.ndarray, points: np.ndarray, vis: ObservationVisibility, segments: np.ndarray) -> np.ndarray:
+def visible(
+    robot: np.ndarray, points: np.ndarray, vis: ObservationVisibility, segments: np.ndarray
+) -> np.ndarray:
     """(K,) mask of the points (K, 2) the robot (x, y, heading, ...) sees under ``vis``."""
     rel = np.asarray(points, dtype=float).reshape(-1, 2) - robot[:2]
     ok = np.ones(len(rel), dtype=bool)

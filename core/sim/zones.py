@@ -27,7 +27,13 @@ def sample_zone(zone: Zone, n: int, rng: np.random.Generator, mode: str = "trian
 
 
 def sample_free(
-    zone: Zone, n: int, rng: np.random.Generator, mode: str, valid: Validator, *, what: str = "zone",
+    zone: Zone,
+    n: int,
+    rng: np.random.Generator,
+    mode: str,
+    valid: Validator,
+    *,
+    what: str = "zone",
     required: bool = True,
 ) -> np.ndarray | None:
     """n accepted points (n, 2) in a zone, drawn in batches of max(2n, 4), at most 20n (>= 40) draws.
@@ -40,7 +46,9 @@ def sample_free(
         if drawn >= budget:
             if not required:
                 return None
-            raise ConfigError(f"could not place {n} points in {what} {zone.corners} (obstacles or robot in the way)")
+            raise ConfigError(
+                f"could not place {n} points in {what} {zone.corners} (obstacles or robot in the way)"
+            )
         batch = max(2 * n, 4)
         cand = sample_zone(zone, batch, rng, mode)
         drawn += batch
@@ -70,7 +78,9 @@ class RouteGeometry:
         return self.points[k] + f * (self.points[k + 1] - self.points[k]), k
 
 
-def polyline_exit_point(points: np.ndarray, centre: np.ndarray, radius: float) -> tuple[np.ndarray, int] | None:
+def polyline_exit_point(
+    points: np.ndarray, centre: np.ndarray, radius: float
+) -> tuple[np.ndarray, int] | None:
     """First point along a polyline (K, 2) at distance ``radius`` from ``centre``, leaving the circle.
 
     Returns the point and the index of the section containing it, or None when the polyline

@@ -14,7 +14,9 @@ from typing import Any
 from foresight.core.errors import ConfigError
 from foresight.core.stages.context import StageContext
 
-DEFAULT_STEP_BUDGET = 200_000_000  #: simulation steps of one job (about 6 h of a 16-pedestrian crowd on one core)
+DEFAULT_STEP_BUDGET = (
+    200_000_000  #: simulation steps of one job (about 6 h of a 16-pedestrian crowd on one core)
+)
 
 
 @dataclass(frozen=True)
@@ -25,7 +27,9 @@ class WorkSize:
 
 
 def _steps(matrix: Any, pairs: list[tuple[str, int]], max_steps: int | None) -> int:
-    return sum(max_steps or matrix.get(name).scenario.simulation_config.max_episode_steps for name, _ in pairs)
+    return sum(
+        max_steps or matrix.get(name).scenario.simulation_config.max_episode_steps for name, _ in pairs
+    )
 
 
 def work_size(config: Any, ctx: StageContext, load: Callable[..., Any] | None = None) -> WorkSize | None:
@@ -49,13 +53,21 @@ def work_size(config: Any, ctx: StageContext, load: Callable[..., Any] | None = 
         return WorkSize(len(pairs), _steps(matrix, pairs, config.max_steps), selection)
     if isinstance(config, CampaignConfig):
         sel = dict(bundle=config.bundle, matrix=config.matrix, max_steps=config.max_steps)
-        _, matrix, hard = load_selection(EpisodeSelection(**sel, seed_manifest=config.seed_manifest), ctx, load)
+        _, matrix, hard = load_selection(
+            EpisodeSelection(**sel, seed_manifest=config.seed_manifest), ctx, load
+        )
         _, _, glob = load_selection(
-            EpisodeSelection(**sel, scenarios=config.scenarios, seeds_per_scenario=config.seeds_per_scenario), ctx, load)
+            EpisodeSelection(**sel, scenarios=config.scenarios, seeds_per_scenario=config.seeds_per_scenario),
+            ctx,
+            load,
+        )
         cells = len(config.checkpoints) * len(load_variants(config, ctx))
         union = suite_union(hard, glob)
-        return WorkSize(cells * len(union), cells * _steps(matrix, union, config.max_steps),
-                        ("checkpoints", "variants", "grid", *selection))
+        return WorkSize(
+            cells * len(union),
+            cells * _steps(matrix, union, config.max_steps),
+            ("checkpoints", "variants", "grid", *selection),
+        )
     if isinstance(config, CollectConfig | SimulateConfig):
         from foresight.core.scenarios.loader import load_matrix
         from foresight.core.stages.refs import resolve_in_bundle
@@ -63,19 +75,27 @@ def work_size(config: Any, ctx: StageContext, load: Callable[..., Any] | None = 
         root = ctx.resolve_bundle(config.bundle)
         matrix = (load or load_matrix)(resolve_in_bundle(root, config.matrix))
         if isinstance(config, SimulateConfig):
-            pairs = [(n, s) for n in config.scenarios or matrix.names
-                     for s in config.seeds or matrix.get(n).scenario.seeds[:1]]
+            pairs = [
+                (n, s)
+                for n in config.scenarios or matrix.names
+                for s in config.seeds or matrix.get(n).scenario.seeds[:1]
+            ]
             return WorkSize(len(pairs), _steps(matrix, pairs, None), ("scenarios", "seeds"))
         manifest = resolve_in_bundle(root, config.hard_seeds) if config.hard_seeds else None
         pairs = [(s.name, seed) for s, seed, _ in episode_list(config, matrix, manifest)]
-        return WorkSize(len(pairs), _steps(matrix, pairs, config.max_steps),
-                        ("scenarios", "seeds_per_scenario", "hard_seeds", "max_steps"))
+        return WorkSize(
+            len(pairs),
+            _steps(matrix, pairs, config.max_steps),
+            ("scenarios", "seeds_per_scenario", "hard_seeds", "max_steps"),
+        )
     return None
 
 
 def check_budget(size: WorkSize | None, budget: int) -> None:
     """ConfigError naming the fields and the budget when ``size`` exceeds ``budget`` simulation steps."""
     if size is not None and size.steps > budget:
-        raise ConfigError(f"{size.episodes} episodes of {size.steps} simulation steps (at full horizon) exceed this "
-                          f"server's budget of {budget} steps per job; lower {', '.join(size.fields)}",
-                          item=", ".join(size.fields))
+        raise ConfigError(
+            f"{size.episodes} episodes of {size.steps} simulation steps (at full horizon) exceed this "
+            f"server's budget of {budget} steps per job; lower {', '.join(size.fields)}",
+            item=", ".join(size.fields),
+        )

@@ -42,9 +42,13 @@ class ChildJobs(Protocol):
         """Queue a ``kind`` child (spec validated as the API would); (job row, created)."""
         ...
 
-    def run(self, label: str, child_ids: list[str], on_progress: ChildProgress | None = None,
-            on_wait: Callable[[dict[str, dict[str, Any]]], None] | None = None,
-            ) -> tuple[dict[str, dict[str, Any]], set[str]]:
+    def run(
+        self,
+        label: str,
+        child_ids: list[str],
+        on_progress: ChildProgress | None = None,
+        on_wait: Callable[[dict[str, dict[str, Any]]], None] | None = None,
+    ) -> tuple[dict[str, dict[str, Any]], set[str]]:
         """Drive the children until all succeeded; (final rows by id, ids run or retried by this call)."""
         ...
 

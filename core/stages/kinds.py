@@ -39,31 +39,45 @@ Run = Callable[[Any, StageContext], Any]
 @dataclass(frozen=True)
 class JobKind:
     name: str
-    config: type[BaseModel]  #: the stage's core config (YAML files, CLI flags and API bodies validate into it)
+    config: type[
+        BaseModel
+    ]  #: the stage's core config (YAML files, CLI flags and API bodies validate into it)
     run: Run
     description: str = ""
     #: create ``ctx.workdir`` before the run (stages write into it); False: only ``ctx.artifact`` creates it
     make_workdir: bool = True
     spec: type[BaseModel] = field(init=False)  #: the config plus ``kind: Literal[name]``: the API's job spec
-    result: type[BaseModel] | None = field(init=False)  #: what ``run`` returns (core.stages.results; None: a dict)
+    result: type[BaseModel] | None = field(
+        init=False
+    )  #: what ``run`` returns (core.stages.results; None: a dict)
 
     def __post_init__(self) -> None:
-        spec = create_model(f"{self.name.title().replace('_', '')}Spec", __base__=self.config,
-                            kind=(Literal[self.name], self.name))  # type: ignore[valid-type]
+        spec = create_model(
+            f"{self.name.title().replace('_', '')}Spec",
+            __base__=self.config,
+            kind=(Literal[self.name], self.name),
+        )  # type: ignore[valid-type]
         object.__setattr__(self, "spec", spec)
         object.__setattr__(self, "result", RESULTS.get(self.name))
 
     def config_of(self, spec: BaseModel | dict[str, Any]) -> Any:
         """The stage config of a job spec (a spec model or its JSON)."""
-        data = spec.model_dump(exclude={"kind"}) if isinstance(spec, BaseModel) else {
-            k: v for k, v in spec.items() if k != "kind"}
+        data = (
+            spec.model_dump(exclude={"kind"})
+            if isinstance(spec, BaseModel)
+            else {k: v for k, v in spec.items() if k != "kind"}
+        )
         return self.config.model_validate(data)
 
     def execute(self, spec: BaseModel | dict[str, Any], ctx: StageContext) -> dict[str, Any]:
         """Run a job's spec in ``ctx``; the result as JSON (what the job row and the report hold)."""
         config = self.config_of(spec)
         result = self.run(config, ctx)
-        return result.model_dump(mode="json", by_alias=True) if isinstance(result, BaseModel) else dict(result or {})
+        return (
+            result.model_dump(mode="json", by_alias=True)
+            if isinstance(result, BaseModel)
+            else dict(result or {})
+        )
 
 
 class SleepConfig(BaseModel):
@@ -73,8 +87,12 @@ class SleepConfig(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     seconds: float = Field(0.0, ge=0, le=3600, description="[s] total sleep")
     steps: int = Field(10, ge=1, le=10_000)
-    artifact: str | None = Field(None, max_length=200, description="relative name of a text artifact to write")
-    fail: str | None = Field(None, max_length=2000, description="raise RuntimeError with this message at the end")
+    artifact: str | None = Field(
+        None, max_length=200, description="relative name of a text artifact to write"
+    )
+    fail: str | None = Field(
+        None, max_length=2000, description="raise RuntimeError with this message at the end"
+    )
 
 
 def run_sleep(config: SleepConfig, ctx: StageContext) -> dict[str, Any]:
@@ -103,35 +121,78 @@ def run_train(config: TrainConfig, ctx: StageContext) -> TrainResult:
 def run_import_dataset(config: ImportDatasetConfig, ctx: StageContext) -> dict[str, Any]:
     """A fold of a named data root (resolved by whoever runs the job) -> a dataset and its origin."""
     root = ctx.resolve_data_root(config.root)
-    record = run_import_ethucy(ImportEthucyConfig(root=str(root), fold=config.fold, max_agents=config.max_agents), ctx)
+    record = run_import_ethucy(
+        ImportEthucyConfig(root=str(root), fold=config.fold, max_agents=config.max_agents), ctx
+    )
     origin = {"source": config.source, "root": config.root, "fold": config.fold}
-    return {"dataset": record["path"], "sha256": record["sha256"], "summary": {**record["summary"], **origin},
-            "outcomes": {}, **origin}
+    return {
+        "dataset": record["path"],
+        "sha256": record["sha256"],
+        "summary": {**record["summary"], **origin},
+        "outcomes": {},
+        **origin,
+    }
 
 
-KINDS: dict[str, JobKind] = {k.name: k for k in (
-    JobKind("sleep", SleepConfig, run_sleep, "diagnostic: sleep, report progress, optionally fail",
-            make_workdir=False),
-    JobKind("simulate", SimulateConfig, run_simulate,
-            "run episodes of a scenario matrix with a simple controller"),
-    JobKind("collect", CollectConfig, run_collect,
-            "roll out episodes into a prediction dataset (base, or hard-case with a seed manifest)"),
-    JobKind("mix", MixConfig, run_mix, "mix a base and a hard-case dataset"),
-    JobKind("train", TrainConfig, run_train, "train the trajectory predictor"),
-    JobKind("predict_eval", PredictEvalConfig, run_predict_eval,
-            "ADE/FDE of a predictor on a dataset or ETH/UCY fold"),
-    JobKind("evaluate", EvaluationConfig, run_evaluation,
-            "evaluate a planner on a scenario matrix"),
-    JobKind("diagnose", DiagnosticsConfig, run_diagnostics,
-            "hard-seed diagnostics: trace every seed of a manifest"),
-    JobKind("campaign", CampaignConfig, run_campaign,
-            "checkpoints x planner-grid variants with quality gates"),
-    JobKind("witness", WitnessConfig, run_witness,
+KINDS: dict[str, JobKind] = {
+    k.name: k
+    for k in (
+        JobKind(
+            "sleep",
+            SleepConfig,
+            run_sleep,
+            "diagnostic: sleep, report progress, optionally fail",
+            make_workdir=False,
+        ),
+        JobKind(
+            "simulate",
+            SimulateConfig,
+            run_simulate,
+            "run episodes of a scenario matrix with a simple controller",
+        ),
+        JobKind(
+            "collect",
+            CollectConfig,
+            run_collect,
+            "roll out episodes into a prediction dataset (base, or hard-case with a seed manifest)",
+        ),
+        JobKind("mix", MixConfig, run_mix, "mix a base and a hard-case dataset"),
+        JobKind("train", TrainConfig, run_train, "train the trajectory predictor"),
+        JobKind(
+            "predict_eval",
+            PredictEvalConfig,
+            run_predict_eval,
+            "ADE/FDE of a predictor on a dataset or ETH/UCY fold",
+        ),
+        JobKind("evaluate", EvaluationConfig, run_evaluation, "evaluate a planner on a scenario matrix"),
+        JobKind(
+            "diagnose",
+            DiagnosticsConfig,
+            run_diagnostics,
+            "hard-seed diagnostics: trace every seed of a manifest",
+        ),
+        JobKind(
+            "campaign", CampaignConfig, run_campaign, "checkpoints x planner-grid variants with quality gates"
+        ),
+        JobKind(
+            "witness",
+            WitnessConfig,
+            run_witness,
             "which episodes (or an evaluation's failures) a robot with these limits can solve: a scripted plan that "
-            "arrives, found in the simulator; optionally priced by the planner riding along"),
-    JobKind("import_dataset", ImportDatasetConfig, run_import_dataset,
-            "import an ETH/UCY fold of a named data root as a dataset"),
-    JobKind("pipeline", PipelineConfig, run_pipeline_job,
+            "arrives, found in the simulator; optionally priced by the planner riding along",
+        ),
+        JobKind(
+            "import_dataset",
+            ImportDatasetConfig,
+            run_import_dataset,
+            "import an ETH/UCY fold of a named data root as a dataset",
+        ),
+        JobKind(
+            "pipeline",
+            PipelineConfig,
+            run_pipeline_job,
             "the runbook as child jobs: collect, hard-case collect, mix, train (proxy), register, evaluate, "
-            "diagnose, campaign, gates, promote"),
-)}
+            "diagnose, campaign, gates, promote",
+        ),
+    )
+}

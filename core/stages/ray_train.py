@@ -35,8 +35,9 @@ def _write(root: Path, contents: dict[str, bytes]) -> None:
         files.write_bytes(root / rel, blob)
 
 
-def _train_task(config: dict[str, Any], dataset: bytes, bundle: dict[str, bytes] | None,
-                resume: dict[str, bytes]) -> tuple[dict[str, Any], dict[str, bytes], dict[str, float]]:
+def _train_task(
+    config: dict[str, Any], dataset: bytes, bundle: dict[str, bytes] | None, resume: dict[str, bytes]
+) -> tuple[dict[str, Any], dict[str, bytes], dict[str, float]]:
     """Inside the Ray task: train in a scratch folder; (result JSON, files written, resources the task holds)."""
     import ray
 
@@ -51,8 +52,12 @@ def _train_task(config: dict[str, Any], dataset: bytes, bundle: dict[str, bytes]
         work = scratch / "work"
         work.mkdir()
         _write(work, resume)
-        ctx = StageContext(workdir=work, local_files=False, resolve_dataset=lambda _: scratch / "dataset.npz",
-                           resolve_bundle=lambda _: scratch / "bundle")
+        ctx = StageContext(
+            workdir=work,
+            local_files=False,
+            resolve_dataset=lambda _: scratch / "dataset.npz",
+            resolve_bundle=lambda _: scratch / "bundle",
+        )
         cfg = TrainConfig.model_validate({**config, "executor": "local"})
         result = run_train(cfg, ctx).model_dump(mode="json")
         return result, _files(work), dict(ray.get_runtime_context().get_assigned_resources())
@@ -73,8 +78,10 @@ def train_on_ray(config: Any, ctx: StageContext) -> Any:
     address = connect(int(ctx.workers or 1))
     gpus = 1 if config.device != "cpu" and cluster_gpus() > 0 else 0
     if config.device == "cuda" and not gpus:
-        raise ConfigError(f"device: cuda, but the Ray cluster at {address} has no GPU (use device: auto or cpu)",
-                          item="device")
+        raise ConfigError(
+            f"device: cuda, but the Ray cluster at {address} has no GPU (use device: auto or cpu)",
+            item="device",
+        )
     dataset = resolve_dataset_path(config.dataset, ctx).read_bytes()
     proxy = config.proxy if config.proxy_every > 0 else None
     bundle = None if proxy is None else _files(ctx.resolve_bundle(proxy.bundle))
@@ -94,11 +101,19 @@ def train_on_ray(config: Any, ctx: StageContext) -> Any:
     ctx.workdir.mkdir(parents=True, exist_ok=True)
     _write(ctx.workdir, written)
     # paths the node wrote name its scratch folder: name this work folder's files instead
-    checkpoint, summary_path = ctx.workdir / "model.pt", ctx.workdir / Path(TrainResult.model_validate(data).summary).name
+    checkpoint, summary_path = (
+        ctx.workdir / "model.pt",
+        ctx.workdir / Path(TrainResult.model_validate(data).summary).name,
+    )
     summary = TrainingSummary.model_validate_json(summary_path.read_text())
     summary = summary.model_copy(update={"checkpoint": str(checkpoint)})
     files.write_text(summary_path, summary.model_dump_json(indent=2))
-    execution = Execution(executor="ray", cpus=int(held.get("CPU", 0)), gpus=int(held.get("GPU", 0)), address=address,
-                          device=summary.device)
+    execution = Execution(
+        executor="ray",
+        cpus=int(held.get("CPU", 0)),
+        gpus=int(held.get("GPU", 0)),
+        address=address,
+        device=summary.device,
+    )
     ctx.progress(1.0, f"trained as a Ray task ({execution.describe()})")
     return summary.result(str(summary_path)).model_copy(update={"execution": execution})

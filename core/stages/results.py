@@ -66,7 +66,9 @@ def verdict(kind: str, data: Any) -> Verdict | None:
     if isinstance(result, EvaluationResult):
         return result.status
     if isinstance(result, CampaignResult | PipelineResult):
-        return None if result.status == "completed" else "passed" if result.status == "passed" else "failed_gate"
+        return (
+            None if result.status == "completed" else "passed" if result.status == "passed" else "failed_gate"
+        )
     return None
 
 

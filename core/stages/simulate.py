@@ -89,12 +89,21 @@ def run_simulate(config: SimulateConfig, ctx: StageContext) -> SimulateResult:
             from foresight.core.render.trace import render_trace
 
             render_name = f"renders/{scenario.name}--{seed}.png"
-            render_trace(result.trace, scenario.map, ctx.artifact(render_name), title=f"{scenario.name} seed {seed}")
+            render_trace(
+                result.trace, scenario.map, ctx.artifact(render_name), title=f"{scenario.name} seed {seed}"
+            )
         episodes.append(
             EpisodeSummary(
-                scenario=scenario.name, seed=seed, outcome=result.outcome, steps=result.steps,
-                pedestrians=int(result.trace.ped_ids.shape[1]), min_distance=result.min_distance,
-                wall_s=result.wall_s, render=render_name, planner=planner.name, model_id=planner.model_id,
+                scenario=scenario.name,
+                seed=seed,
+                outcome=result.outcome,
+                steps=result.steps,
+                pedestrians=int(result.trace.ped_ids.shape[1]),
+                min_distance=result.min_distance,
+                wall_s=result.wall_s,
+                render=render_name,
+                planner=planner.name,
+                model_id=planner.model_id,
             )
         )
     ctx.progress(1.0, "done")

@@ -13,23 +13,23 @@ from __future__ import annotations
 import sqlalchemy as sa
 from alembic import op
 
-revision = '3ea855f35745'
-down_revision = 'd41e5d03a9fe'
+revision = "3ea855f35745"
+down_revision = "d41e5d03a9fe"
 branch_labels = None
 depends_on = None
 
-NEWEST_FIRST = [sa.literal_column('created_at DESC'), 'id']
+NEWEST_FIRST = [sa.literal_column("created_at DESC"), "id"]
 
 
 def upgrade() -> None:
-    with op.batch_alter_table('jobs', schema=None) as batch_op:
-        batch_op.create_index('ix_jobs_created', NEWEST_FIRST, unique=False)
-        batch_op.create_index('ix_jobs_status_created', ['status', *NEWEST_FIRST], unique=False)
-        batch_op.create_index('ix_jobs_kind_created', ['kind', *NEWEST_FIRST], unique=False)
+    with op.batch_alter_table("jobs", schema=None) as batch_op:
+        batch_op.create_index("ix_jobs_created", NEWEST_FIRST, unique=False)
+        batch_op.create_index("ix_jobs_status_created", ["status", *NEWEST_FIRST], unique=False)
+        batch_op.create_index("ix_jobs_kind_created", ["kind", *NEWEST_FIRST], unique=False)
 
 
 def downgrade() -> None:
-    with op.batch_alter_table('jobs', schema=None) as batch_op:
-        batch_op.drop_index('ix_jobs_kind_created')
-        batch_op.drop_index('ix_jobs_status_created')
-        batch_op.drop_index('ix_jobs_created')
+    with op.batch_alter_table("jobs", schema=None) as batch_op:
+        batch_op.drop_index("ix_jobs_kind_created")
+        batch_op.drop_index("ix_jobs_status_created")
+        batch_op.drop_index("ix_jobs_created")

@@ -61,7 +61,9 @@ class Up:
                 pass
             time.sleep(0.3)
         self.stop()
-        raise AssertionError(f"foresight up not ready (server and worker) within {timeout_s} s:\n{self.log()}")
+        raise AssertionError(
+            f"foresight up not ready (server and worker) within {timeout_s} s:\n{self.log()}"
+        )
 
     def client(self) -> httpx.Client:
         return httpx.Client(base_url=self.url, headers={"Authorization": f"Bearer {TOKEN}"}, timeout=30)

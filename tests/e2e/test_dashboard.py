@@ -70,7 +70,9 @@ def _row_status(page, job_id: str) -> str | None:  # noqa: ANN001
     return page.get_attribute(f'tr[data-job="{job_id}"]', "data-status", timeout=5000)
 
 
-def _wait_row(page, job_id: str, statuses: set[str], timeout_s: float = JOB_TIMEOUT_S, up: Up | None = None) -> str:  # noqa: ANN001
+def _wait_row(
+    page, job_id: str, statuses: set[str], timeout_s: float = JOB_TIMEOUT_S, up: Up | None = None
+) -> str:  # noqa: ANN001
     """Wait until the jobs page (which refreshes its rows itself) shows the job in one of ``statuses``."""
     deadline = time.monotonic() + timeout_s
     status = None
@@ -79,7 +81,9 @@ def _wait_row(page, job_id: str, statuses: set[str], timeout_s: float = JOB_TIME
         if status in statuses:
             return status
         page.wait_for_timeout(300)
-    raise AssertionError(f"job {job_id} still {status} on the jobs page after {timeout_s} s\n{up.log() if up else ''}")
+    raise AssertionError(
+        f"job {job_id} still {status} on the jobs page after {timeout_s} s\n{up.log() if up else ''}"
+    )
 
 
 def test_dashboard_follows_a_job_to_its_report(service: Up, page, capsys: pytest.CaptureFixture) -> None:  # noqa: ANN001
@@ -95,7 +99,9 @@ def test_dashboard_follows_a_job_to_its_report(service: Up, page, capsys: pytest
     page.on("dialog", on_dialog)
     api = service.client()
     kinds = api.get("/healthz").json()["kinds"]
-    assert "evaluate" in kinds, f"the server offers no 'evaluate' jobs (kinds {kinds}); the dashboard test needs one"
+    assert "evaluate" in kinds, (
+        f"the server offers no 'evaluate' jobs (kinds {kinds}); the dashboard test needs one"
+    )
 
     page.goto(f"{service.url}/")
     assert page.url.endswith("/ui/jobs")
@@ -165,15 +171,22 @@ def test_dashboard_follows_a_job_to_its_report(service: Up, page, capsys: pytest
     assert page.locator(f'a[href="{report_url}"]').count() == 1
 
     with capsys.disabled():
-        print(f"\ndashboard screenshots: {shots / 'dashboard-jobs.png'}, {shots / 'dashboard-job.png'}, {path}")
+        print(
+            f"\ndashboard screenshots: {shots / 'dashboard-jobs.png'}, {shots / 'dashboard-job.png'}, {path}"
+        )
 
 
 def test_an_evaluations_failures_get_witnesses_from_its_page(service: Up, page) -> None:  # noqa: ANN001
     """The evaluation's page submits a witness job for its failures and follows it to its report and players."""
     page.on("dialog", lambda dialog: dialog.accept(TOKEN) if dialog.type == "prompt" else dialog.accept())
     api = service.client()
-    spec = {"kind": "evaluate", "planner": {"name": "goal"}, "scenarios": ["crossing_medium"], "seeds_per_scenario": 3,
-            "scenario_overrides": {"simulation_config": {"ped_speed_tier": "typical"}}}
+    spec = {
+        "kind": "evaluate",
+        "planner": {"name": "goal"},
+        "scenarios": ["crossing_medium"],
+        "seeds_per_scenario": 3,
+        "scenario_overrides": {"simulation_config": {"ped_speed_tier": "typical"}},
+    }
     evaluation = api.post("/v1/jobs", json={"spec": spec, "priority": 30}).json()["id"]
     deadline = time.monotonic() + JOB_TIMEOUT_S
     while api.get(f"/v1/jobs/{evaluation}").json()["status"] != "succeeded" and time.monotonic() < deadline:
@@ -186,11 +199,15 @@ def test_an_evaluations_failures_get_witnesses_from_its_page(service: Up, page) 
     page.wait_for_url(lambda url: "/ui/jobs/" in url and evaluation not in url, timeout=10_000)
     witness = page.url.rsplit("/", 1)[-1]
     assert api.get(f"/v1/jobs/{witness}").json()["spec"]["evaluation"] == evaluation
-    page.wait_for_selector("#witnesses a.watch", timeout=60_000)  # the page reloads itself when the job has ended
+    page.wait_for_selector(
+        "#witnesses a.watch", timeout=60_000
+    )  # the page reloads itself when the job has ended
     assert api.get(f"/v1/jobs/{witness}").json()["status"] == "succeeded"
     assert page.locator("#report-link").count() == 1  # and its report
     page.click("#witnesses a.watch >> nth=0")
-    page.wait_for_selector('#player[data-ready="1"]', timeout=15_000)  # the planner's run and the witness, one clock
+    page.wait_for_selector(
+        '#player[data-ready="1"]', timeout=15_000
+    )  # the planner's run and the witness, one clock
     assert page.locator(".pane").count() == 2 and "planner" in page.inner_text("#pane-planner h2")
     assert "witness" in page.inner_text("#pane-witness h2")
     page.screenshot(path=str(screenshot_dir() / "dashboard-witness.png"), full_page=True)
@@ -215,9 +232,13 @@ def test_dashboard_map_previews_and_models(service: Up, page) -> None:  # noqa: 
     row = 'tr[data-model="e2e-model"]'
     assert page.inner_text(f"{row} .status") == "candidate"
     page.click(f"{row} button:text('promote')")
-    page.wait_for_function(f"document.querySelector('{row} .status').textContent === 'promoted'", timeout=10_000)
+    page.wait_for_function(
+        f"document.querySelector('{row} .status').textContent === 'promoted'", timeout=10_000
+    )
     page.click(f"{row} button:text('make default')")
-    page.wait_for_function(f"document.querySelector('{row} .status').textContent === 'default'", timeout=10_000)
+    page.wait_for_function(
+        f"document.querySelector('{row} .status').textContent === 'default'", timeout=10_000
+    )
     assert api.get("/v1/models/e2e-model").json()["status"] == "default"
     page.screenshot(path=str(screenshot_dir() / "dashboard-models.png"), full_page=True)
     page.goto(f"{service.url}/ui/results")
@@ -235,7 +256,9 @@ def closed_service(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Up]:
 
 def test_closed_reads_ask_for_the_token_then_stream(closed_service: Up, page) -> None:  # noqa: ANN001
     answers = ["wrong-token", TOKEN]
-    page.on("dialog", lambda dialog: dialog.accept(answers.pop(0)) if dialog.type == "prompt" else dialog.accept())
+    page.on(
+        "dialog", lambda dialog: dialog.accept(answers.pop(0)) if dialog.type == "prompt" else dialog.accept()
+    )
     resp = page.goto(f"{closed_service.url}/ui/jobs")
     assert resp.status == 401 and page.locator("h1", has_text="Token required").count() == 1
 

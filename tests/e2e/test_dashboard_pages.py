@@ -28,7 +28,9 @@ def migrated(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def _client(tmp_path: Path, migrated: Path, **overrides: object):  # noqa: ANN202
     (tmp_path / "data").mkdir(exist_ok=True)
     shutil.copyfile(migrated, tmp_path / "data" / "foresight.db")
-    settings = Settings(data_dir=tmp_path / "data", api_token=TOKEN, model_registry=tmp_path / "none.yaml", **overrides)
+    settings = Settings(
+        data_dir=tmp_path / "data", api_token=TOKEN, model_registry=tmp_path / "none.yaml", **overrides
+    )
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)
         from fastapi.testclient import TestClient
@@ -58,15 +60,26 @@ def _job_with_report(client) -> str:  # noqa: ANN001
 def test_pages_render(open_client) -> None:  # noqa: ANN001
     job = _job_with_report(open_client)
     assert open_client.get("/", follow_redirects=False).headers["location"] == "/ui/jobs"
-    for url in ("/ui/jobs", "/ui/jobs?status=queued&kind=sleep", "/ui/jobs/rows", f"/ui/jobs/{job}",
-                f"/ui/jobs/{job}/summary", "/ui/models", "/ui/results", "/ui/bundles", "/ui/bundles/builtin"):
+    for url in (
+        "/ui/jobs",
+        "/ui/jobs?status=queued&kind=sleep",
+        "/ui/jobs/rows",
+        f"/ui/jobs/{job}",
+        f"/ui/jobs/{job}/summary",
+        "/ui/models",
+        "/ui/results",
+        "/ui/bundles",
+        "/ui/bundles/builtin",
+    ):
         resp = open_client.get(url)
         assert resp.status_code == 200, (url, resp.text[:500])
         assert resp.headers["content-type"].startswith("text/html")
     assert job in open_client.get("/ui/jobs/rows?status=queued").text
     assert job not in open_client.get("/ui/jobs/rows?status=failed").text
     page = open_client.get(f"/ui/jobs/{job}").text
-    assert f'href="/ui/jobs/{job}/files/report.html"' in page and f'data-events="/v1/jobs/{job}/events"' in page
+    assert (
+        f'href="/ui/jobs/{job}/files/report.html"' in page and f'data-events="/v1/jobs/{job}/events"' in page
+    )
     assert 'data-url="/v1/jobs/' + job + '/cancel"' in page
     missing = open_client.get("/ui/jobs/no-such-job")
     assert missing.status_code == 404 and "no job" in missing.text
@@ -84,7 +97,13 @@ def test_job_files_stay_in_their_folder(open_client) -> None:  # noqa: ANN001
     secret = open_client.settings.store_root / "secret.txt"
     secret.write_text("not yours")
     (open_client.settings.store_root / "jobs" / job / "link.txt").symlink_to(secret)
-    for name in ("..%2Fsecret.txt", "figures/..%2F..%2F..%2Fsecret.txt", "link.txt", "%2Fetc%2Fpasswd", "nothing.png"):
+    for name in (
+        "..%2Fsecret.txt",
+        "figures/..%2F..%2F..%2Fsecret.txt",
+        "link.txt",
+        "%2Fetc%2Fpasswd",
+        "nothing.png",
+    ):
         resp = open_client.get(f"/ui/jobs/{job}/files/{name}")
         assert resp.status_code in (404, 422), (name, resp.status_code)
         assert "not yours" not in resp.text
@@ -117,7 +136,9 @@ def test_matrix_page_and_cached_map_preview(open_client) -> None:  # noqa: ANN00
     assert len(cached) == 1
     mtime = cached[0].stat().st_mtime_ns
     # crossing_medium is drawn on the same map: same cached file, not drawn again
-    assert open_client.get(url, params={"path": MATRIX, "scenario": "crossing_medium"}).content == first.content
+    assert (
+        open_client.get(url, params={"path": MATRIX, "scenario": "crossing_medium"}).content == first.content
+    )
     assert cached[0].stat().st_mtime_ns == mtime
     assert open_client.get(url, params={"path": MATRIX, "scenario": "nope"}).status_code == 404
     assert open_client.get(url, params={"path": "../etc/passwd", "scenario": "x"}).status_code == 404

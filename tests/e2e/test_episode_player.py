@@ -72,7 +72,9 @@ def test_gate_badge_episode_list_and_player(service: Up, page) -> None:  # noqa:
 
     # the slider to the frame before the collision: none shown; one step on: the collision, at its step
     last = len(trace["frames"]) - 1
-    page.eval_on_selector("#slider", f"(s) => {{ s.value = '{last - 1}'; s.dispatchEvent(new Event('input')); }}")
+    page.eval_on_selector(
+        "#slider", f"(s) => {{ s.value = '{last - 1}'; s.dispatchEvent(new Event('input')); }}"
+    )
     assert int(page.get_attribute("#player", "data-step")) < collision["step"] and page.is_hidden("#event")
     page.click("#fwd")
     assert page.get_attribute("#player", "data-step") == str(collision["step"])
@@ -81,7 +83,9 @@ def test_gate_badge_episode_list_and_player(service: Up, page) -> None:  # noqa:
 
     # the same episodes with another planner: the Results page (planner and model columns, verdicts) links the
     # two, and the compare page leads with what differs, then the paired metric deltas
-    other = api.post("/v1/jobs", json={"spec": {**EVALUATE, "planner": {"name": "social_force"}}}).json()["id"]
+    other = api.post("/v1/jobs", json={"spec": {**EVALUATE, "planner": {"name": "social_force"}}}).json()[
+        "id"
+    ]
     assert wait_job(api, other, timeout=600)["status"] == "succeeded"
     page.goto(f"{service.url}/ui/results")
     assert "GATE FAILED" in page.text_content("table.results")
@@ -97,7 +101,9 @@ def test_gate_badge_episode_list_and_player(service: Up, page) -> None:  # noqa:
 
     # the episodes that ended otherwise, by name, each one click from a side-by-side player on one clock
     # (the predictive planner gets out of the way where the goal-seeking robot collides)
-    third = api.post("/v1/jobs", json={"spec": {**EVALUATE, "planner": {"name": "predictive", "model": "cv"}}}).json()["id"]
+    third = api.post(
+        "/v1/jobs", json={"spec": {**EVALUATE, "planner": {"name": "predictive", "model": "cv"}}}
+    ).json()["id"]
     assert wait_job(api, third, timeout=600)["status"] == "succeeded"
     a, b = job_id, third
     changed = api.get("/v1/compare", params={"a": a, "b": b}).json()["changed_episodes"]
@@ -119,9 +125,14 @@ def test_gate_badge_episode_list_and_player(service: Up, page) -> None:  # noqa:
 
 
 #: two planner-grid variants on the same episodes: the crawling one runs out of time where the other arrives
-CAMPAIGN = {"kind": "campaign", "seed_manifest": "seeds/classic_eval_hard_smoke.yaml", "scenarios": ["crossing_low"],
-            "seeds_per_scenario": 1, "max_steps": 200,
-            "variants": [{"name": "base"}, {"name": "crawl", "config": {"max_speed_ratio": 0.1}}]}
+CAMPAIGN = {
+    "kind": "campaign",
+    "seed_manifest": "seeds/classic_eval_hard_smoke.yaml",
+    "scenarios": ["crossing_low"],
+    "seeds_per_scenario": 1,
+    "max_steps": 200,
+    "variants": [{"name": "base"}, {"name": "crawl", "config": {"max_speed_ratio": 0.1}}],
+}
 
 
 def test_campaign_cells_played_side_by_side(service: Up, page) -> None:  # noqa: ANN001, F811
@@ -139,12 +150,17 @@ def test_campaign_cells_played_side_by_side(service: Up, page) -> None:  # noqa:
     row.locator("a", has_text="ended otherwise").click()
     page.wait_for_selector("#changed")
     assert "paired on the same episodes" in page.text_content("#differs")
-    assert ("crossing_low", "1000") in [tuple(c.text_content() for c in r.locator("td").all()[:2])
-                                        for r in page.locator("table.changed tbody tr").all()]
+    assert ("crossing_low", "1000") in [
+        tuple(c.text_content() for c in r.locator("td").all()[:2])
+        for r in page.locator("table.changed tbody tr").all()
+    ]
     page.locator("table.changed a.watch-pair").first.click()
     page.wait_for_selector('#player[data-ready="1"]', timeout=15_000)
     assert page.locator(".pane").count() == 2
-    assert [page.text_content(f"#pane-{s} h2").split("· ")[-1] for s in "ab"] == ["variant base", "variant crawl"]
+    assert [page.text_content(f"#pane-{s} h2").split("· ")[-1] for s in "ab"] == [
+        "variant base",
+        "variant crawl",
+    ]
     outcomes = [page.text_content(f"#pane-{s} .facts") for s in "ab"]
     assert outcomes[0] != outcomes[1] and all("outcome" in o for o in outcomes), outcomes
     page.click("#fwd")

@@ -37,7 +37,9 @@ def service(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Up]:
 @pytest.fixture(scope="module")
 def campaign(service: Up) -> str:
     """A real campaign submitted first, so that it runs while the other tests do."""
-    r = service.client().post("/v1/jobs", json={"spec": CAMPAIGN, "name": "speed sweep", "tags": ["grid", "goal"]})
+    r = service.client().post(
+        "/v1/jobs", json={"spec": CAMPAIGN, "name": "speed sweep", "tags": ["grid", "goal"]}
+    )
     assert r.status_code == 201, r.text
     return r.json()["id"]
 
@@ -72,7 +74,9 @@ def test_cli_labels_lists_and_jobs_page_tag_filter(service: Up, campaign: str, p
         assert proc.returncode == 0, proc.stderr
         ids[name] = json.loads(proc.stdout)["id"]
     listed = service.cli("jobs", "ls", "--tag", "baseline", "--json")
-    assert listed.returncode == 0 and [j["id"] for j in json.loads(listed.stdout)["data"]] == [ids["orca baseline"]]
+    assert listed.returncode == 0 and [j["id"] for j in json.loads(listed.stdout)["data"]] == [
+        ids["orca baseline"]
+    ]
     text = service.cli("jobs", "ls", "--tag", "trial").stdout
     assert "'mpc trial' #trial" in text and "1 of 1 jobs" in text
     edited = service.cli("jobs", "edit", ids["untagged"][:12], "--tag", "baseline", "--name", "now tagged")
@@ -102,12 +106,16 @@ def test_cli_labels_lists_and_jobs_page_tag_filter(service: Up, campaign: str, p
     page.screenshot(path=str(screenshot_dir() / "dashboard-jobs-tag-filter.png"), full_page=True)
     page.click(f'tr[data-job="{ids["orca baseline"]}"] a.tag:text("orca")')  # a row's tag links to its filter
     page.wait_for_url(re.compile(r".*tag=orca.*"))
-    assert page.eval_on_selector_all("#job-rows tr[data-job]", "rs => rs.map(r => r.dataset.job)") == [ids["orca baseline"]]
+    assert page.eval_on_selector_all("#job-rows tr[data-job]", "rs => rs.map(r => r.dataset.job)") == [
+        ids["orca baseline"]
+    ]
     page.fill('input[name="q"]', "MPC TRIAL NOTE")
     page.uncheck('input[name="tag"][value="orca"]')
     page.click('form.filters button[type="submit"]')
     page.wait_for_url(re.compile(r".*q=MPC.*"))
-    assert page.eval_on_selector_all("#job-rows tr[data-job]", "rs => rs.map(r => r.dataset.job)") == [ids["mpc trial"]]
+    assert page.eval_on_selector_all("#job-rows tr[data-job]", "rs => rs.map(r => r.dataset.job)") == [
+        ids["mpc trial"]
+    ]
 
 
 def test_campaign_grid_plots_in_the_browser(service: Up, campaign: str, page) -> None:  # noqa: ANN001, F811
@@ -131,12 +139,16 @@ def test_campaign_grid_plots_in_the_browser(service: Up, campaign: str, page) ->
     page.goto(f"{service.url}/ui/jobs/{campaign}")
     page.click("#grid-link")
     page.wait_for_selector("svg.grid-chart")
-    charts = page.eval_on_selector_all("svg.grid-chart", "cs => cs.map(c => [c.dataset.parameter, c.dataset.metric])")
+    charts = page.eval_on_selector_all(
+        "svg.grid-chart", "cs => cs.map(c => [c.dataset.parameter, c.dataset.metric])"
+    )
     assert charts == [["speed", "success"], ["speed", "collision"]]
     # three variants on one checkpoint: a global and a hard line, three points each, in each chart
     assert page.eval_on_selector_all('svg[data-metric="success"] .point', "ps => ps.length") == 6
     assert page.eval_on_selector_all('svg[data-metric="success"] polyline.series', "ps => ps.length") == 2
-    tips = page.eval_on_selector_all('svg[data-metric="success"] .point title', "ts => ts.map(t => t.textContent)")
+    tips = page.eval_on_selector_all(
+        'svg[data-metric="success"] .point title', "ts => ts.map(t => t.textContent)"
+    )
     assert any(t.startswith("speed0.6 @ none, global suite: speed = 0.6, success ") for t in tips), tips
     shot = screenshot_dir() / "dashboard-campaign-grid.png"
     page.screenshot(path=str(shot), full_page=True)

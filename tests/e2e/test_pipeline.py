@@ -20,8 +20,15 @@ from tests.e2e.service import REPO, TOKEN, Up, wait_job
 
 SMOKE = REPO / "configs" / "pipelines" / "smoke.yaml"
 CHILD_STAGES = ["collect", "hardcase", "mix", "train", "evaluate", "diagnose", "campaign"]
-SECTIONS = ["## Verdict", "## Stages", "## Gates", "## Best campaign variant", "## Promoted model",
-            "## Training curves", "## Artifacts"]
+SECTIONS = [
+    "## Verdict",
+    "## Stages",
+    "## Gates",
+    "## Best campaign variant",
+    "## Promoted model",
+    "## Training curves",
+    "## Artifacts",
+]
 
 pytestmark = pytest.mark.slow
 
@@ -42,9 +49,25 @@ def test_smoke_pipeline_through_the_service(tmp_path: Path) -> None:
             assert job.status_code == 201, job.text
             job_id = job.json()["id"]
             cli = subprocess.Popen(
-                [sys.executable, "-m", "foresight.cli.main", "pipeline", "run", "-f", str(failing_file), "--url", up.url,
-                 "--token", TOKEN],
-                cwd=REPO, env={**os.environ, **up.env}, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                [
+                    sys.executable,
+                    "-m",
+                    "foresight.cli.main",
+                    "pipeline",
+                    "run",
+                    "-f",
+                    str(failing_file),
+                    "--url",
+                    up.url,
+                    "--token",
+                    TOKEN,
+                ],
+                cwd=REPO,
+                env={**os.environ, **up.env},
+                stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE,
+                text=True,
+            )
             job = wait_job(client, job_id, timeout=600)
             assert job["status"] == "succeeded", (job.get("error"), up.log())
             result = job["result"]

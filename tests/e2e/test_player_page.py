@@ -30,10 +30,24 @@ def _cli(*args: str, codes: tuple[int, ...] = (0,)) -> str:
 
 def test_changed_episodes_as_player_pages_played_from_the_file(tmp_path: Path, page) -> None:  # noqa: ANN001, F811
     goal, ours = tmp_path / "goal", tmp_path / "predictive"
-    _cli("evaluate", "--local", "--planner", "goal", "--out", str(goal), *RUN, codes=(0, 2))  # 2: its gate failed
-    _cli("evaluate", "--local", "--planner", "predictive", "--model", "cv", "--out", str(ours), *RUN, codes=(0, 2))
-    result = json.loads(_cli("compare", "--local", f"goal={goal}", f"ours={ours}", "--players", str(tmp_path / "p"),
-                             "--json"))
+    _cli(
+        "evaluate", "--local", "--planner", "goal", "--out", str(goal), *RUN, codes=(0, 2)
+    )  # 2: its gate failed
+    _cli(
+        "evaluate",
+        "--local",
+        "--planner",
+        "predictive",
+        "--model",
+        "cv",
+        "--out",
+        str(ours),
+        *RUN,
+        codes=(0, 2),
+    )
+    result = json.loads(
+        _cli("compare", "--local", f"goal={goal}", f"ours={ours}", "--players", str(tmp_path / "p"), "--json")
+    )
     changed, players = result["changed"]["ours"], result["players"]["ours"]
     assert changed and len(players) == len(changed), result  # both runs kept every episode's trace
     first = changed[0]
@@ -41,8 +55,9 @@ def test_changed_episodes_as_player_pages_played_from_the_file(tmp_path: Path, p
 
     page.goto(Path(players[0]).as_uri())
     page.wait_for_selector('#player[data-ready="1"]', timeout=15_000)
-    assert f"goal: {first['a']}" in page.text_content("#pane-0 h2") and f"ours: {first['b']}" in page.text_content(
-        "#pane-1 h2")
+    assert f"goal: {first['a']}" in page.text_content(
+        "#pane-0 h2"
+    ) and f"ours: {first['b']}" in page.text_content("#pane-1 h2")
     assert f"outcome {first['a']}" in page.text_content("#pane-0 .facts")  # each pane draws its own run
     assert f"outcome {first['b']}" in page.text_content("#pane-1 .facts")
     page.click("#fwd")
@@ -56,7 +71,9 @@ def test_a_local_campaigns_cells_compare_and_play_like_evaluations(tmp_path: Pat
     """`foresight campaign --local`: each cell is a run folder, so `compare --local` pairs two cells and writes their
     changed episodes as pages; the campaign's own folder is refused in one line that names its cells."""
     grid = tmp_path / "grid.yaml"
-    grid.write_text("variants:\n  - name: base\n    config: {}\n  - name: crawl\n    config: {max_speed_ratio: 0.1}\n")
+    grid.write_text(
+        "variants:\n  - name: base\n    config: {}\n  - name: crawl\n    config: {max_speed_ratio: 0.1}\n"
+    )
     run = tmp_path / "campaign"
     _cli("campaign", "--local", "--matrix", "configs/scenarios/classic_interactions.yaml", "--seeds",
          "configs/seeds/classic_eval_hard_smoke.yaml", "--grid", str(grid), "--planner", "predictive", "--checkpoints",
@@ -64,17 +81,34 @@ def test_a_local_campaigns_cells_compare_and_play_like_evaluations(tmp_path: Pat
          "--workers", "2", "--json")  # fmt: skip
     summary = json.loads((run / "campaign_summary.json").read_text())
     cells = {c["variant"]: run / c["run_dir"] for c in summary["ranked"]}
-    result = json.loads(_cli("compare", "--local", f"base={cells['base']}", f"crawl={cells['crawl']}", "--players",
-                             str(tmp_path / "p"), "--json"))
+    result = json.loads(
+        _cli(
+            "compare",
+            "--local",
+            f"base={cells['base']}",
+            f"crawl={cells['crawl']}",
+            "--players",
+            str(tmp_path / "p"),
+            "--json",
+        )
+    )
     crawl = next(c for c in summary["ranked"] if c["variant"] == "crawl")
     by_campaign = {(e["scenario"], e["seed"]) for eps in crawl["changed_vs_baseline"].values() for e in eps}
     assert {(e["scenario"], e["seed"]) for e in result["changed"]["crawl"]} == by_campaign and by_campaign
     assert len(result["players"]["crawl"]) == len(by_campaign)  # every episode's trace kept in both cells
-    text = _cli("compare", "--local", f"base={cells['base']}", f"crawl={cells['crawl']}", "--players",
-                str(tmp_path / "p"))  # each changed episode named with its page
+    text = _cli(
+        "compare",
+        "--local",
+        f"base={cells['base']}",
+        f"crawl={cells['crawl']}",
+        "--players",
+        str(tmp_path / "p"),
+    )  # each changed episode named with its page
     for page_path in result["players"]["crawl"]:
         stem = Path(page_path).stem
-        assert any(line.endswith(f"  {page_path}") and stem.replace("__", " ") in line for line in text.splitlines())
+        assert any(
+            line.endswith(f"  {page_path}") and stem.replace("__", " ") in line for line in text.splitlines()
+        )
     refused = subprocess.run([sys.executable, "-m", "foresight.cli.main", "compare", "--local", f"a={run}",
                               f"b={cells['crawl']}"], cwd=REPO, capture_output=True, text=True, timeout=120)  # fmt: skip
     assert refused.returncode != 0 and len(refused.stderr.strip().splitlines()) == 1, refused.stderr

@@ -75,7 +75,9 @@ NOT_OURS = {"srun", "sleep", "for", "done", "scontrol"}
 
 def test_every_bash_block_is_run_or_excluded() -> None:
     found = {b.key for b in blocks("bash")}
-    assert found - BASH_BLOCKS.keys() == set(), "README bash blocks neither run by a test nor excluded (add them)"
+    assert found - BASH_BLOCKS.keys() == set(), (
+        "README bash blocks neither run by a test nor excluded (add them)"
+    )
     assert BASH_BLOCKS.keys() - found == set(), "README lost these bash blocks (update BASH_BLOCKS)"
     for (section, _), how in BASH_BLOCKS.items():
         if isinstance(how, Elsewhere):
@@ -97,7 +99,9 @@ def _check_foresight(words: list[str]) -> None:
                               timeout=120)  # fmt: skip
         if proc.returncode == 0:
             missing = [f for f in flags if not re.search(rf"{re.escape(f)}\b", proc.stdout)]
-            assert not missing, f"`foresight {' '.join(path[:n])}` has no {missing} (README: {' '.join(words)})"
+            assert not missing, (
+                f"`foresight {' '.join(path[:n])}` has no {missing} (README: {' '.join(words)})"
+            )
             return
     raise AssertionError(f"no such command: {' '.join(words)}")
 
@@ -115,7 +119,9 @@ def test_excluded_blocks_commands_and_flags_exist(key: tuple[str, int]) -> None:
             words = words[1:]
         if not words or words[0] in NOT_OURS:
             continue
-        if "ray" in words and words[words.index("ray") + 1] == "start":  # also inside `srun ... ray start ...`
+        if (
+            "ray" in words and words[words.index("ray") + 1] == "start"
+        ):  # also inside `srun ... ray start ...`
             ray = words[words.index("ray") :]
             ray_help = _help([str(VENV_BIN / "ray"), "start"])
             missing = [w for w in ray if w.startswith("--") and w.split("=", 1)[0] not in ray_help]
@@ -132,7 +138,9 @@ def test_excluded_blocks_commands_and_flags_exist(key: tuple[str, int]) -> None:
                 extras = re.fullmatch(r"foresight\[(.+)\]", words[2])
                 assert extras, f"unexpected pip install in README: {line}"
                 for extra in extras.group(1).split(","):
-                    assert re.search(rf"^{extra} = \[", pyproject, flags=re.M), f"pyproject.toml has no extra {extra}"
+                    assert re.search(rf"^{extra} = \[", pyproject, flags=re.M), (
+                        f"pyproject.toml has no extra {extra}"
+                    )
         else:
             raise AssertionError(f"README's excluded block {key} runs {words[0]!r}: check it here or list it")
         checked += 1
@@ -172,17 +180,27 @@ def _run(cmd: str, scratch: Path, prelude: str = "", ok: tuple[int, ...] = (0,),
 
 
 def test_simulator_section_runs_as_written(scratch: Path, shared_dir: Path) -> None:
-    listing, check, reachable, witness, episode, demo = commands(section_blocks("The simulator", "bash")[0].code)
+    listing, check, reachable, witness, episode, demo = commands(
+        section_blocks("The simulator", "bash")[0].code
+    )
     assert "crossing_low" in _run(listing, scratch)
     report = json.loads(_run(check, scratch))
     assert report["episodes"] == 256 and report["lost"] == [], report
-    verdict = json.loads(_run(reachable, scratch))  # nobody yields: the crowded corridor cannot be crossed in time
+    verdict = json.loads(
+        _run(reachable, scratch)
+    )  # nobody yields: the crowded corridor cannot be crossed in time
     assert verdict["episodes"] == 2 and verdict["reachable"] == 0 and not verdict["approximate"], verdict
-    assert [Path(p).name for p in verdict["pictures"]] == ["reach_classic_bottleneck_high_131.png",
-                                                          "reach_classic_bottleneck_high_132.png"], verdict
+    assert [Path(p).name for p in verdict["pictures"]] == [
+        "reach_classic_bottleneck_high_131.png",
+        "reach_classic_bottleneck_high_132.png",
+    ], verdict
     assert all((scratch / p).stat().st_size > 0 for p in verdict["pictures"])
-    found = json.loads(_run(witness, scratch))  # typical speed: waiting for a gap in the door's stream solves 142
-    assert [(e["seed"], e["plan"] is not None) for e in found["episodes"]] == [(141, False), (142, True)], found
+    found = json.loads(
+        _run(witness, scratch)
+    )  # typical speed: waiting for a gap in the door's stream solves 142
+    assert [(e["seed"], e["plan"] is not None) for e in found["episodes"]] == [(141, False), (142, True)], (
+        found
+    )
     assert found["episodes"][1]["plan"]["hold"] and 0 < found["episodes"][1]["arrival_s"] < 50, found
     record = json.loads(_run(episode, scratch))
     assert record["scenario"] == "classic_cross_trap_high" and record["seed"] == 102, record
@@ -193,7 +211,9 @@ def test_simulator_section_runs_as_written(scratch: Path, shared_dir: Path) -> N
 
 
 def test_importing_reference_files_runs_as_written(scratch: Path, shared_dir: Path) -> None:
-    show, convert, render, evaluate = commands(section_blocks("Importing the reference system's files", "bash")[0].code)
+    show, convert, render, evaluate = commands(
+        section_blocks("Importing the reference system's files", "bash")[0].code
+    )
     assert _run(show, scratch).strip()
     _run(convert, scratch)
     assert yaml.safe_load((scratch / "doorway.yaml").read_text())
@@ -248,7 +268,10 @@ def service(scratch: Path) -> Iterator[Service]:
             assert proc.poll() is None, (scratch.parent / "up.log").read_text()[-3000:]
             assert time.monotonic() < deadline, "foresight up not ready in 90 s"
             try:
-                if token_file.is_file() and httpx.get(f"http://127.0.0.1:{port}/v1/workers").json()["count"] >= 1:
+                if (
+                    token_file.is_file()
+                    and httpx.get(f"http://127.0.0.1:{port}/v1/workers").json()["count"] >= 1
+                ):
                     break
             except (httpx.HTTPError, KeyError, ValueError):
                 pass
@@ -276,7 +299,13 @@ def test_service_section_runs_as_written(service: Service, scratch: Path) -> Non
         assert r.status_code == 201, r.text
         campaign_id = r.json()["id"]
     cli, curls = (commands(b.code) for b in section_blocks("The service", "bash"))
-    lines = dict(zip(("up", "submit", "evaluate", "import", "train", "jobs", "models", "compare", "report"), cli, strict=True))
+    lines = dict(
+        zip(
+            ("up", "submit", "evaluate", "import", "train", "jobs", "models", "compare", "report"),
+            cli,
+            strict=True,
+        )
+    )
     assert len(cli) == 9, cli
     # the import (~40 s of one core here) runs beside the commands that do not need its dataset
     import_log = scratch.parent / "import.log"
@@ -365,7 +394,9 @@ def test_inline_commands_and_flags_exist(line: str) -> None:
         path, options = _parser_options([alternative, *rest])
         assert path, f"README or docs/journal.md quotes `{line}`: foresight has no command {alternative!r}"
         flags = {w.split("=", 1)[0] for w in words if w.startswith("-")}
-        assert flags <= options, f"README or docs/journal.md quotes `{line}`: `foresight {' '.join(path)}` has no {flags - options}"
+        assert flags <= options, (
+            f"README or docs/journal.md quotes `{line}`: `foresight {' '.join(path)}` has no {flags - options}"
+        )
 
 
 def _bench_commands() -> list[str]:
@@ -384,4 +415,6 @@ def test_benchmark_commands_and_flags_exist(line: str) -> None:
     for path in files:
         source = path.read_text()
         missing = [a for a in args if a.startswith("--") and f'"{a}"' not in source]
-        assert not missing, f"README or docs/journal.md quotes `{line}`: {path.relative_to(REPO)} declares no {missing}"
+        assert not missing, (
+            f"README or docs/journal.md quotes `{line}`: {path.relative_to(REPO)} declares no {missing}"
+        )

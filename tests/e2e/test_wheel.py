@@ -31,7 +31,9 @@ PACKAGE_DATA = [
 ]  # fmt: skip
 
 #: a user's own packages named like ours: importing them would be a bug of ours
-SHADOW = "raise ImportError('the user folder\\'s own {name} package was imported instead of foresight.{name}')\n"
+SHADOW = (
+    "raise ImportError('the user folder\\'s own {name} package was imported instead of foresight.{name}')\n"
+)
 
 
 def _shipped_sha256() -> str:
@@ -40,8 +42,12 @@ def _shipped_sha256() -> str:
     return next(m["sha256"] for m in entries if m.get("status") == "default")
 
 
-def _run(args: list, env: dict, cwd: Path, timeout: float = 900, ok: tuple[int, ...] = (0,)) -> subprocess.CompletedProcess:
-    proc = subprocess.run([str(a) for a in args], env=env, cwd=cwd, capture_output=True, text=True, timeout=timeout)
+def _run(
+    args: list, env: dict, cwd: Path, timeout: float = 900, ok: tuple[int, ...] = (0,)
+) -> subprocess.CompletedProcess:
+    proc = subprocess.run(
+        [str(a) for a in args], env=env, cwd=cwd, capture_output=True, text=True, timeout=timeout
+    )
     assert proc.returncode in ok, f"{args}\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
     return proc
 
@@ -69,13 +75,20 @@ def test_the_wheel_holds_the_run_time_files_under_one_namespace(installed: tuple
     assert [n for n in PACKAGE_DATA if n not in names] == []
     assert any(n.startswith("foresight/migrations/versions/") and n.endswith(".py") for n in names)
     assert any(n.startswith("foresight/api/web/static/") for n in names)
-    assert "foresight/core/render/player.js" in names  # the episode player (dashboard and compare --local pages)
+    assert (
+        "foresight/core/render/player.js" in names
+    )  # the episode player (dashboard and compare --local pages)
     tops = {n.split("/")[0] for n in names}
-    assert tops == {"foresight", next(t for t in tops if t.endswith(".dist-info"))}  # no generic top-level name
+    assert tops == {
+        "foresight",
+        next(t for t in tops if t.endswith(".dist-info")),
+    }  # no generic top-level name
     assert not any(n.endswith(".pyc") for n in names)
 
 
-def test_a_user_folder_runs_the_service_and_a_local_evaluation(installed: tuple[Path, Path], tmp_path: Path) -> None:
+def test_a_user_folder_runs_the_service_and_a_local_evaluation(
+    installed: tuple[Path, Path], tmp_path: Path
+) -> None:
     venv = installed[0]
     work = tmp_path / "user"
     for name in ("core", "api"):
@@ -97,8 +110,13 @@ def test_a_user_folder_runs_the_service_and_a_local_evaluation(installed: tuple[
                         break
                 except httpx.TransportError:
                     time.sleep(0.3)
-            spec = {"kind": "evaluate", "scenarios": ["crossing_low"], "seeds_per_scenario": 2, "max_steps": 30,
-                    "planner": {"name": "predictive"}}  # the server's default model: the shipped one
+            spec = {
+                "kind": "evaluate",
+                "scenarios": ["crossing_low"],
+                "seeds_per_scenario": 2,
+                "max_steps": 30,
+                "planner": {"name": "predictive"},
+            }  # the server's default model: the shipped one
             response = client.post("/v1/jobs", json={"spec": spec})
             assert response.status_code == 201, response.text
             job = wait_job(client, response.json()["id"], timeout=300)

@@ -30,12 +30,24 @@ def wait_job(client: httpx.Client, job_id: str, timeout: float = 90) -> dict:
 
 def tiny_model_job(client: httpx.Client, timeout: float = 180) -> str:
     """A succeeded train job whose ``model.pt`` is a real (tiny) checkpoint: registration takes nothing else."""
-    collect = {"kind": "collect", "scenarios": ["crossing_low"], "seeds_per_scenario": 2, "max_steps": 60,
-               "check_quality": False}
+    collect = {
+        "kind": "collect",
+        "scenarios": ["crossing_low"],
+        "seeds_per_scenario": 2,
+        "max_steps": 60,
+        "check_quality": False,
+    }
     data = wait_job(client, client.post("/v1/jobs", json={"spec": collect}).json()["id"], timeout)
     assert data["status"] == "succeeded", data
-    train = {"kind": "train", "dataset": data["id"], "epochs": 1, "hidden": 8, "blocks": 0, "edge_dim": 0,
-             "allow_degenerate": True}
+    train = {
+        "kind": "train",
+        "dataset": data["id"],
+        "epochs": 1,
+        "hidden": 8,
+        "blocks": 0,
+        "edge_dim": 0,
+        "allow_degenerate": True,
+    }
     done = wait_job(client, client.post("/v1/jobs", json={"spec": train}).json()["id"], timeout)
     assert done["status"] == "succeeded", done
     return done["id"]
@@ -72,7 +84,9 @@ class Service:
         proc = subprocess.run([sys.executable, "-m", "foresight.cli.main", *args], env=self.env, cwd=REPO, capture_output=True,
                               text=True, timeout=timeout)  # fmt: skip
         if check and proc.returncode != 0:
-            raise AssertionError(f"foresight {' '.join(args)} -> {proc.returncode}\n{proc.stdout}\n{proc.stderr}")
+            raise AssertionError(
+                f"foresight {' '.join(args)} -> {proc.returncode}\n{proc.stdout}\n{proc.stderr}"
+            )
         return proc
 
     def spawn(self, *args: str) -> subprocess.Popen:

@@ -33,13 +33,27 @@ def test_collect_train_evaluate_through_the_stage_commands(service: Service) -> 
     trained = _job(train)
     assert trained["kind"] == "train" and trained["status"] == "succeeded", trained
     assert train.returncode == (0 if trained["result"]["gates_passed"] else 2)  # a failing gate is a result
-    assert trained["spec"]["dataset"] == dataset and trained["spec"]["epochs"] == 2  # the smoke config's values
+    assert (
+        trained["spec"]["dataset"] == dataset and trained["spec"]["epochs"] == 2
+    )  # the smoke config's values
     assert "model.pt" in {a["name"] for a in trained["artifacts"]}
     service.cli("models", "register", "smoke-model", "--job", trained["id"], "--artifact", "model.pt")
 
-    evaluate = service.cli("evaluate", "--matrix", "configs/scenarios/classic_interactions.yaml", "--scenarios",
-                           "crossing_low", "--seeds-per-scenario", "1", "--max-steps", "40", "--model", "smoke-model",
-                           "--min-success", "0")  # fmt: skip (text mode: the same summary as in-process)
+    evaluate = service.cli(
+        "evaluate",
+        "--matrix",
+        "configs/scenarios/classic_interactions.yaml",
+        "--scenarios",
+        "crossing_low",
+        "--seeds-per-scenario",
+        "1",
+        "--max-steps",
+        "40",
+        "--model",
+        "smoke-model",
+        "--min-success",
+        "0",
+    )  # fmt: skip (text mode: the same summary as in-process)
     assert "model smoke-model" in evaluate.stdout and "gate: passed" in evaluate.stdout
     assert "evaluate job" in evaluate.stderr  # the submission line; the progress bar follows it on stderr
 
@@ -52,7 +66,9 @@ def test_collect_train_evaluate_through_the_stage_commands(service: Service) -> 
         evaluation = client.get(f"/v1/evaluations/{jobs['evaluate']['id']}").json()
         assert evaluation["model_id"] == "smoke-model" and evaluation["metrics"]["episodes"] == 1
         assert jobs["evaluate"]["spec"]["bundle"] == "builtin"
-        assert jobs["evaluate"]["spec"]["matrix"] == "scenarios/classic_interactions.yaml"  # a name, not a path
+        assert (
+            jobs["evaluate"]["spec"]["matrix"] == "scenarios/classic_interactions.yaml"
+        )  # a name, not a path
 
     # the same evaluation with constant velocity, then the A/B comparison and the report, read back by the CLI
     cv = _job(service.cli("evaluate", "--matrix", "configs/scenarios/classic_interactions.yaml", "--scenarios",
@@ -60,7 +76,9 @@ def test_collect_train_evaluate_through_the_stage_commands(service: Service) -> 
                           "--min-success", "0", "--json"))  # fmt: skip
     compared = _job(service.cli("compare", jobs["evaluate"]["id"], cv["id"], "--json"))
     assert compared["a"] == jobs["evaluate"]["id"] and compared["b"] == cv["id"]
-    assert {"a": "smoke-model", "b": "cv"} in [v for k, v in compared["config_diff"].items() if k.endswith("model")]
+    assert {"a": "smoke-model", "b": "cv"} in [
+        v for k, v in compared["config_diff"].items() if k.endswith("model")
+    ]
     text = service.cli("compare", jobs["evaluate"]["id"], cv["id"]).stdout
     assert "config (only keys that differ):" in text and '"smoke-model" -> "cv"' in text and "success" in text
 
@@ -68,17 +86,23 @@ def test_collect_train_evaluate_through_the_stage_commands(service: Service) -> 
     assert report.startswith("#") and "crossing_low" in report  # the evaluation's Markdown report
     fetched = _job(service.cli("report", cv["id"], "--out", str(service.tmp / "report"), "--json"))
     assert fetched["kind"] == "evaluate" and {"report.md", "report.html"} <= set(fetched["report"])
-    assert (service.tmp / "report" / "report.html").is_file() and any(f.endswith(".png") for f in fetched["written"])
+    assert (service.tmp / "report" / "report.html").is_file() and any(
+        f.endswith(".png") for f in fetched["written"]
+    )
 
     # --no-wait prints the id; the job runs all the same
-    job_id = service.cli("mix", "--base", dataset, "--hardcase", dataset, "--repeat", "2", "--no-wait").stdout.strip()
+    job_id = service.cli(
+        "mix", "--base", dataset, "--hardcase", dataset, "--repeat", "2", "--no-wait"
+    ).stdout.strip()
     waited = _job(service.cli("jobs", "wait", job_id, "--json"))
     assert waited["kind"] == "mix" and waited["status"] == "succeeded"
 
     # `submit --wait` exits 2 for an evaluation whose gate failed, as `foresight evaluate` does
     spec = service.tmp / "gate.yaml"
-    spec.write_text("matrix: scenarios/classic_interactions.yaml\nplanner: {name: goal}\nscenarios: [crossing_low]\n"
-                    "seeds_per_scenario: 1\nmax_steps: 40\ngate: {min_success_rate: 1.0, min_mean_clearance: 100.0}\n")
+    spec.write_text(
+        "matrix: scenarios/classic_interactions.yaml\nplanner: {name: goal}\nscenarios: [crossing_low]\n"
+        "seeds_per_scenario: 1\nmax_steps: 40\ngate: {min_success_rate: 1.0, min_mean_clearance: 100.0}\n"
+    )
     gated = service.cli("submit", "evaluate", "-f", str(spec), "--wait", check=False)
     assert gated.returncode == 2 and "FAILED_GATE" in gated.stdout, (gated.stdout, gated.stderr)
     short = gated.stdout.split()[0][:12]  # the 12 characters the CLI prints are accepted as the job id
@@ -93,8 +117,11 @@ def test_collect_train_evaluate_through_the_stage_commands(service: Service) -> 
     assert failed.returncode == 1 and lines[-1].startswith("foresight: error: "), failed.stderr
     assert "no-such-dataset" in lines[-1] and "dataset" in lines[-1].replace("no-such-dataset", ""), lines[-1]
     with service.client() as client:
-        assert not [j for j in client.get("/v1/jobs", params={"kind": "train"}).json()["data"]
-                    if j["spec"]["dataset"] == "no-such-dataset"]
+        assert not [
+            j
+            for j in client.get("/v1/jobs", params={"kind": "train"}).json()["data"]
+            if j["spec"]["dataset"] == "no-such-dataset"
+        ]
 
 
 def test_import_an_ethucy_fold_by_root_name_and_use_it_by_id(service: Service, shared_dir: Path) -> None:
@@ -111,7 +138,10 @@ def test_import_an_ethucy_fold_by_root_name_and_use_it_by_id(service: Service, s
     with service.client() as client:
         summary = client.get(f"/v1/datasets/{imported['id']}").json()["summary"]
     assert summary["fold"] == "zara1" and summary["source"] == "ethucy"
-    assert summary["samples"] == sum(summary["samples_per_split"].values()) and summary["samples_per_split"]["test"] > 0
+    assert (
+        summary["samples"] == sum(summary["samples_per_split"].values())
+        and summary["samples_per_split"]["test"] > 0
+    )
 
     # the dataset by id in a predict_eval job: constant velocity on zara1's held-out scene, as in-process
     scored = _job(service.cli("predict-eval", "--model", "cv", "--dataset", imported["id"], "--json"))
@@ -121,9 +151,13 @@ def test_import_an_ethucy_fold_by_root_name_and_use_it_by_id(service: Service, s
     assert abs(fold["ade"] - 0.43) <= 0.01  # the published protocol's CV number on zara1 (tests/unit/predict)
 
     # predict_eval names the ETH/UCY data root (never a server folder): the fold is imported by the worker
-    named = _job(service.cli("predict-eval", "--model", "cv", "--ethucy", "ethucy", "--fold", "zara1", "--json"))
+    named = _job(
+        service.cli("predict-eval", "--model", "cv", "--ethucy", "ethucy", "--fold", "zara1", "--json")
+    )
     assert named["status"] == "succeeded" and named["spec"]["ethucy"] == "ethucy"
-    assert abs(named["result"]["folds"]["zara1"]["ade"] - fold["ade"]) < 1e-9  # the same test split, the same CV
+    assert (
+        abs(named["result"]["folds"]["zara1"]["ade"] - fold["ade"]) < 1e-9
+    )  # the same test split, the same CV
 
     unknown = service.cli("dataset", "import-ethucy", "--root", "nope", "--fold", "zara1", check=False)
     assert unknown.returncode == 1

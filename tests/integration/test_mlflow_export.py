@@ -26,7 +26,12 @@ from .service import REPO, free_port
 
 SMOKE_TRAIN = ["--config", str(REPO / "configs" / "training" / "smoke.yaml"), "--epochs", "2"]
 MATRIX = REPO / "configs" / "scenarios" / "classic_interactions.yaml"
-SMOKE_EVAL = {"scenarios": ["crossing_low"], "seeds_per_scenario": 1, "max_steps": 40, "planner": {"name": "goal"}}
+SMOKE_EVAL = {
+    "scenarios": ["crossing_low"],
+    "seeds_per_scenario": 1,
+    "max_steps": 40,
+    "planner": {"name": "goal"},
+}
 COLLECT = {"scenarios": ["crossing_low", "crossing_medium"], "seeds_per_scenario": 2, "max_steps": 100}
 
 
@@ -46,7 +51,9 @@ def _cli(capsys: pytest.CaptureFixture, *args: str) -> tuple[str, str]:
 
     code = main(list(args))
     out, err = capsys.readouterr()
-    assert code in (0, 2), f"foresight {' '.join(args)} -> {code}\n{out}\n{err}"  # 2: a failed gate is a result
+    assert code in (0, 2), (
+        f"foresight {' '.join(args)} -> {code}\n{out}\n{err}"
+    )  # 2: a failed gate is a result
     return out, err
 
 
@@ -55,7 +62,10 @@ def tracking(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, Pa
     """(tracking URI, a --local smoke dataset): the dataset is collected while the server starts (~20 s here)."""
     tmp = tmp_path_factory.mktemp("mlflow")
     port = free_port()
-    env = {**os.environ, "MLFLOW_SERVER_ENABLE_JOB_EXECUTION": "false"}  # no job runner process: a faster start
+    env = {
+        **os.environ,
+        "MLFLOW_SERVER_ENABLE_JOB_EXECUTION": "false",
+    }  # no job runner process: a faster start
     with (tmp / "server.log").open("w") as log:
         server = subprocess.Popen([*_mlflow_command(), "--backend-store-uri", f"sqlite:///{tmp / 'mlflow.db'}",
                                    "--artifacts-destination", str(tmp / "artifacts"), "--host", "127.0.0.1",
@@ -66,7 +76,10 @@ def tracking(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, Pa
         from foresight.core.stages.context import StageContext
         from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
 
-        run_collect(CollectConfig(**COLLECT), StageContext(workdir=tmp / "data", resolve_bundle=lambda _: BUILTIN_CONFIG_ROOT))
+        run_collect(
+            CollectConfig(**COLLECT),
+            StageContext(workdir=tmp / "data", resolve_bundle=lambda _: BUILTIN_CONFIG_ROOT),
+        )
         url = f"http://127.0.0.1:{port}"
         deadline = time.monotonic() + 90
         while True:
@@ -76,7 +89,9 @@ def tracking(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, Pa
                     break
             except httpx.HTTPError:
                 pass
-            assert time.monotonic() < deadline, "mlflow server did not start\n" + (tmp / "server.log").read_text()
+            assert time.monotonic() < deadline, (
+                "mlflow server did not start\n" + (tmp / "server.log").read_text()
+            )
             time.sleep(0.3)
         yield url, tmp / "data" / "dataset.npz"
     finally:
@@ -108,8 +123,12 @@ def _check_training(url: str, run) -> None:  # noqa: ANN001
 
     params, metrics = run.data.params, run.data.metrics
     assert params["config.epochs"] == "2" and params["seed"] == "0" and params["dt"] == "0.2"
-    assert len(params["data_hash"]) == 64 and len(params["checkpoint_sha256"]) == 64 and params["code_version"]
-    assert params["config.device"] == "auto" and params["device"] == ("cuda" if torch.cuda.is_available() else "cpu")
+    assert (
+        len(params["data_hash"]) == 64 and len(params["checkpoint_sha256"]) == 64 and params["code_version"]
+    )
+    assert params["config.device"] == "auto" and params["device"] == (
+        "cuda" if torch.cuda.is_available() else "cpu"
+    )
     assert {"best.val_ade", "best.cv_val_ade", "gates_passed", "train_loss"} <= set(metrics)
     curve = MlflowClient(tracking_uri=url).get_metric_history(run.info.run_id, "val_ade")
     assert sorted(m.step for m in curve) == [1, 2]  # one point per epoch
@@ -120,7 +139,11 @@ def _check_training(url: str, run) -> None:  # noqa: ANN001
 
 def _check_evaluation(run) -> None:  # noqa: ANN001
     params, metrics = run.data.params, run.data.metrics
-    assert params["planner_name"] == "goal" and params["model_id"] == "none" and params["seeds"] == "1 per scenario"
+    assert (
+        params["planner_name"] == "goal"
+        and params["model_id"] == "none"
+        and params["seeds"] == "1 per scenario"
+    )
     assert params["dt"] == "0.1" and len(params["config_hash"]) == 64 and params["planner.speed"] == "1.0"
     assert metrics["episodes"] == 1 and {"success_rate", "collision_rate", "timeout_rate"} <= set(metrics)
     assert run.data.tags["foresight.verdict"] in ("passed", "failed_gate")
@@ -130,7 +153,9 @@ def test_local_runs_are_exported(tracking: tuple[str, Path], tmp_path: Path, cap
                                  monkeypatch: pytest.MonkeyPatch) -> None:  # fmt: skip
     url, dataset = tracking
     monkeypatch.setenv("FORESIGHT_MLFLOW_TRACKING_URI", url)
-    _, train_err = _cli(capsys, "train", "--local", "--dataset", str(dataset), *SMOKE_TRAIN, "--out", str(tmp_path / "t"))
+    _, train_err = _cli(
+        capsys, "train", "--local", "--dataset", str(dataset), *SMOKE_TRAIN, "--out", str(tmp_path / "t")
+    )
     out, eval_err = _cli(capsys, "evaluate", "--local", "--matrix", str(MATRIX), "--scenarios", "crossing_low",
                          "--seeds-per-scenario", "1", "--max-steps", "40", "--planner", "goal", "--out",
                          str(tmp_path / "e"), "--json")  # fmt: skip
@@ -176,7 +201,10 @@ def test_worker_jobs_are_exported_with_their_job_id(tracking: tuple[str, Path], 
         train = _finish(engine, {"kind": "train", "dataset": data["id"], "epochs": 2, "batch_size": 256,
                                  "hidden": 16, "blocks": 1})  # fmt: skip
         evaluate = _finish(engine, {"kind": "evaluate", **SMOKE_EVAL})
-        logs = {job: [e["message"] for e in queue.events_after(engine, job, 0)] for job in (train["id"], evaluate["id"])}
+        logs = {
+            job: [e["message"] for e in queue.events_after(engine, job, 0)]
+            for job in (train["id"], evaluate["id"])
+        }
     finally:
         worker.stop()
         worker.stop()

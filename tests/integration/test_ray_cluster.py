@@ -29,11 +29,22 @@ from .service import Service, free_port, wait_job
 
 pytestmark = pytest.mark.slow
 RAY = str(Path(sys.executable).with_name("ray"))
-EVALUATE = {"kind": "evaluate", "scenarios": ["crossing_low", "head_on_corridor_high"], "seeds_per_scenario": 3,
-            "max_steps": 150, "planner": {"name": "predictive", "model": "cv"}}
-CAMPAIGN = {"kind": "campaign", "scenarios": ["crossing_low"], "seeds_per_scenario": 1, "max_steps": 100,
-            "seed_manifest": "seeds/classic_eval_hard_smoke.yaml", "planner": {"name": "predictive", "model": "cv"},
-            "variants": [{"name": "base"}, {"name": "slow", "config": {"max_speed_ratio": 0.8}}]}
+EVALUATE = {
+    "kind": "evaluate",
+    "scenarios": ["crossing_low", "head_on_corridor_high"],
+    "seeds_per_scenario": 3,
+    "max_steps": 150,
+    "planner": {"name": "predictive", "model": "cv"},
+}
+CAMPAIGN = {
+    "kind": "campaign",
+    "scenarios": ["crossing_low"],
+    "seeds_per_scenario": 1,
+    "max_steps": 100,
+    "seed_manifest": "seeds/classic_eval_hard_smoke.yaml",
+    "planner": {"name": "predictive", "model": "cv"},
+    "variants": [{"name": "base"}, {"name": "slow", "config": {"max_speed_ratio": 0.8}}],
+}
 #: execution facts, not outcomes: wall-clock values, the node, the code version
 NOISE = {"timing", "code_version"}
 
@@ -44,8 +55,12 @@ class Cluster:
         self.address = f"127.0.0.1:{self.port}"
         # GCS health checks every 0.5 s, a node dead after 4 failed ones: a killed node is noticed in ~2 s instead of
         # ~15 s (3 s x 5, Ray's default); a check fails only on a refused connection or no answer in 10 s
-        self.env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0", "RAY_health_check_period_ms": "500",
-                    "RAY_health_check_failure_threshold": "4"}
+        self.env = {
+            **os.environ,
+            "RAY_USAGE_STATS_ENABLED": "0",
+            "RAY_health_check_period_ms": "500",
+            "RAY_health_check_failure_threshold": "4",
+        }
         self.tmp = tmp
         self.head: subprocess.Popen | None = None
         self.node: subprocess.Popen | None = None
@@ -53,12 +68,18 @@ class Cluster:
     def _spawn(self, *args: str) -> subprocess.Popen:
         """``ray start ... --block`` in a session of its own: killing its process group stops exactly that node
         (never ``ray stop``, which stops every Ray process of the user on the machine)."""
-        return subprocess.Popen([RAY, "start", *args, "--num-cpus", "1", "--block"], env=self.env,
-                                start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        return subprocess.Popen(
+            [RAY, "start", *args, "--num-cpus", "1", "--block"],
+            env=self.env,
+            start_new_session=True,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
 
     def start(self) -> None:
-        self.head = self._spawn("--head", "--port", str(self.port), "--include-dashboard", "false",
-                                "--disable-usage-stats")
+        self.head = self._spawn(
+            "--head", "--port", str(self.port), "--include-dashboard", "false", "--disable-usage-stats"
+        )
         self.wait_cpus(1)
         self.start_node()
 
@@ -92,8 +113,10 @@ class Cluster:
                 proc.wait(timeout=30)
 
 
-_ALIVE = "import ray, sys; ray.init(address=sys.argv[1], logging_level='ERROR', log_to_driver=False); " \
-         "print('alive', sum(1 for n in ray.nodes() if n['Alive']))"
+_ALIVE = (
+    "import ray, sys; ray.init(address=sys.argv[1], logging_level='ERROR', log_to_driver=False); "
+    "print('alive', sum(1 for n in ray.nodes() if n['Alive']))"
+)
 
 
 @pytest.fixture(scope="module")
@@ -122,8 +145,9 @@ def _local_records(tmp: Path) -> list[dict]:
     return [without(r.model_dump(mode="json"), NOISE) for r in read_records(ctx.workdir / "episodes.jsonl")]
 
 
-def _run_over_http(cluster: Cluster, tmp_path: Path, spec: dict,
-                   read: Callable[[httpx.Client, dict], Any]) -> tuple[dict, Any]:
+def _run_over_http(
+    cluster: Cluster, tmp_path: Path, spec: dict, read: Callable[[httpx.Client, dict], Any]
+) -> tuple[dict, Any]:
     """Submit ``spec`` with the Ray executor to a real server + worker on ``cluster``; the succeeded job and what
     ``read(client, job)`` fetched from the server before it stopped."""
     service = Service(tmp_path, ray_address=cluster.address)
@@ -146,7 +170,9 @@ def _episodes(client: httpx.Client, job_id: str, name: str) -> list[dict]:
 
 
 def test_evaluation_over_http_runs_on_both_nodes_and_equals_local(cluster: Cluster, tmp_path: Path) -> None:
-    _, records = _run_over_http(cluster, tmp_path, EVALUATE, lambda c, job: _episodes(c, job["id"], "episodes.jsonl"))
+    _, records = _run_over_http(
+        cluster, tmp_path, EVALUATE, lambda c, job: _episodes(c, job["id"], "episodes.jsonl")
+    )
     assert len({r["timing"]["node"] for r in records}) == 2  # both nodes ran episodes
     assert [without(r, NOISE) for r in records] == _local_records(tmp_path)
 
@@ -171,12 +197,16 @@ def test_campaign_over_http_runs_on_both_nodes_and_equals_local(cluster: Cluster
 
     job, (cells, traces) = _run_over_http(cluster, tmp_path, CAMPAIGN, read)
     assert job["result"]["execution"]["executor"] == "ray" and job["result"]["execution"]["cpus"] == 2
-    assert len({r["timing"]["node"] for records in cells.values() for r in records}) == 2  # both nodes ran episodes
+    assert (
+        len({r["timing"]["node"] for records in cells.values() for r in records}) == 2
+    )  # both nodes ran episodes
     ctx = local_context(tmp_path / "local", {"builtin": BUILTIN_CONFIG_ROOT}, quiet=True)
     local = run_campaign(CampaignConfig(**{k: v for k, v in CAMPAIGN.items() if k != "kind"}), ctx)
     assert set(cells) == {c.key for c in local.ranked}
     for c in local.ranked:
-        expected = [without(r.model_dump(mode="json"), NOISE) for r in read_records(ctx.workdir / c.episodes_file)]
+        expected = [
+            without(r.model_dump(mode="json"), NOISE) for r in read_records(ctx.workdir / c.episodes_file)
+        ]
         assert [without(r, NOISE) for r in cells[c.key]] == expected, c.key
         episode, trace = traces[c.key]
         local_trace = read_compact(ctx.workdir / c.run_dir / trace_name(episode["scenario"], episode["seed"]))
@@ -205,7 +235,9 @@ def test_node_killed_mid_run_loses_and_duplicates_nothing(cluster: Cluster, tmp_
         ray.shutdown()
         del os.environ[ray_executor.RAY_ADDRESS_ENV]
         cluster.node = None
-    _wait_for(lambda: cluster.nodes_alive() == 1, timeout=90)  # the second node is really gone (once GCS noticed)
+    _wait_for(
+        lambda: cluster.nodes_alive() == 1, timeout=90
+    )  # the second node is really gone (once GCS noticed)
     assert sorted((r.scenario, r.seed) for r in records) == sorted({(r.scenario, r.seed) for r in records})
     assert [without(r.model_dump(mode="json"), NOISE) for r in records] == _local_records(tmp_path)
     cluster.start_node()  # a fresh second node for the tests after this one
@@ -217,7 +249,9 @@ def test_cancelled_job_leaves_no_ray_task_running(cluster: Cluster, tmp_path: Pa
     service = Service(tmp_path, ray_address=cluster.address)
     long_run = {**EVALUATE, "seeds_per_scenario": 12, "max_steps": 1500, "executor": "ray"}
     ray.shutdown()
-    ray.init(address=cluster.address, logging_level="ERROR", log_to_driver=False)  # to watch the cluster's CPUs
+    ray.init(
+        address=cluster.address, logging_level="ERROR", log_to_driver=False
+    )  # to watch the cluster's CPUs
     try:
         service.migrate()
         service.serve()

@@ -27,8 +27,12 @@ from .service import Service, free_port, wait_job
 
 pytestmark = pytest.mark.slow
 REPO = Path(__file__).resolve().parents[2]
-COLLECT = {"scenarios": ["crossing_low", "head_on_corridor_high"], "seeds_per_scenario": 2, "max_steps": 120,
-           "policy": "goal_noisy"}
+COLLECT = {
+    "scenarios": ["crossing_low", "head_on_corridor_high"],
+    "seeds_per_scenario": 2,
+    "max_steps": 120,
+    "policy": "goal_noisy",
+}
 
 
 @pytest.fixture(scope="module")
@@ -40,8 +44,14 @@ def ray_instance() -> Iterator[None]:
     saved = os.environ.get("RAY_AUTH_MODE")
     os.environ["RAY_AUTH_MODE"] = "disabled"
     ray.shutdown()
-    ray.init(address="local", num_cpus=2, include_dashboard=False, log_to_driver=False, logging_level="ERROR",
-             runtime_env={"env_vars": {"PYTHONPATH": str(REPO)}})
+    ray.init(
+        address="local",
+        num_cpus=2,
+        include_dashboard=False,
+        log_to_driver=False,
+        logging_level="ERROR",
+        runtime_env={"env_vars": {"PYTHONPATH": str(REPO)}},
+    )
     try:
         yield
     finally:
@@ -58,11 +68,15 @@ def _ctx(folder: Path):  # noqa: ANN202
     return local_context(folder, {"builtin": BUILTIN_CONFIG_ROOT}, quiet=True)
 
 
-def test_collect_on_ray_writes_the_dataset_collect_writes_in_process(ray_instance: None, tmp_path: Path) -> None:
+def test_collect_on_ray_writes_the_dataset_collect_writes_in_process(
+    ray_instance: None, tmp_path: Path
+) -> None:
     local = run_collect(CollectConfig(**COLLECT), _ctx(tmp_path / "local"))
     on_ray = run_collect(CollectConfig(**COLLECT, executor="ray"), _ctx(tmp_path / "ray"))
     assert on_ray.sha256 == local.sha256  # the very same file: samples, splits, metadata
-    assert (tmp_path / "ray" / on_ray.dataset).read_bytes() == (tmp_path / "local" / local.dataset).read_bytes()
+    assert (tmp_path / "ray" / on_ray.dataset).read_bytes() == (
+        tmp_path / "local" / local.dataset
+    ).read_bytes()
     assert on_ray.outcomes == local.outcomes and sum(local.outcomes.values()) == 4
     assert local.execution is not None and local.execution.executor == "local"
     ran = execution_of("collect", on_ray.model_dump(mode="json"))
@@ -99,11 +113,20 @@ def test_a_raising_planner_on_ray_is_a_recorded_episode_outcome(ray_instance: No
     from foresight.core.planners.registry import register
 
     register("tests.unit.planners.user_planner:broken_factory")  # Ray workers import it by name
-    config = EvaluationConfig(scenarios=["crossing_low"], seeds_per_scenario=2, max_steps=50, executor="ray",
-                              planner={"name": "tests.unit.planners.user_planner:broken_factory"})
+    config = EvaluationConfig(
+        scenarios=["crossing_low"],
+        seeds_per_scenario=2,
+        max_steps=50,
+        executor="ray",
+        planner={"name": "tests.unit.planners.user_planner:broken_factory"},
+    )
     result = run_evaluation(config, _ctx(tmp_path))
-    assert result.episodes == 2 and result.taxonomy.get("planner_error") == 2  # recorded, not retried, not failed
-    assert len(list((tmp_path / "traces").glob("*.json.gz"))) == 2  # every episode's trace in the job's folder
+    assert (
+        result.episodes == 2 and result.taxonomy.get("planner_error") == 2
+    )  # recorded, not retried, not failed
+    assert (
+        len(list((tmp_path / "traces").glob("*.json.gz"))) == 2
+    )  # every episode's trace in the job's folder
     assert result.execution is not None and result.execution.executor == "ray" and result.execution.cpus == 2
 
 
@@ -127,8 +150,14 @@ def test_an_unreachable_ray_address_is_one_line_naming_it(tmp_path: Path) -> Non
         service.serve()
         service.worker()
         with service.client() as client:
-            spec = {"kind": "evaluate", "scenarios": ["crossing_low"], "seeds_per_scenario": 1, "max_steps": 20,
-                    "planner": {"name": "goal"}, "executor": "ray"}
+            spec = {
+                "kind": "evaluate",
+                "scenarios": ["crossing_low"],
+                "seeds_per_scenario": 1,
+                "max_steps": 20,
+                "planner": {"name": "goal"},
+                "executor": "ray",
+            }
             job = wait_job(client, client.post("/v1/jobs", json={"spec": spec}).json()["id"], timeout=120)
     finally:
         service.stop()
@@ -137,8 +166,9 @@ def test_an_unreachable_ray_address_is_one_line_naming_it(tmp_path: Path) -> Non
     assert address in message and "unreachable" in message and "\n" not in message, job["error"]
 
 
-def test_training_as_a_ray_task_falls_back_to_a_cpu_and_writes_the_local_checkpoint(ray_instance: None,
-                                                                                  tmp_path: Path) -> None:
+def test_training_as_a_ray_task_falls_back_to_a_cpu_and_writes_the_local_checkpoint(
+    ray_instance: None, tmp_path: Path
+) -> None:
     import torch
 
     from foresight.core.predict.nn.checkpoint import load_predictor, read_checkpoint
@@ -147,8 +177,15 @@ def test_training_as_a_ray_task_falls_back_to_a_cpu_and_writes_the_local_checkpo
 
     data = run_collect(CollectConfig(**COLLECT, val_fraction=0.25), _ctx(tmp_path / "data"))
     dataset = str(tmp_path / "data" / data.dataset)
-    fast = {"dataset": dataset, "epochs": 2, "batch_size": 64, "hidden": 16, "blocks": 1, "threads": 1,
-            "allow_degenerate": True}
+    fast = {
+        "dataset": dataset,
+        "epochs": 2,
+        "batch_size": 64,
+        "hidden": 16,
+        "blocks": 1,
+        "threads": 1,
+        "allow_degenerate": True,
+    }
     train = KINDS["train"].run
     local = train(TrainConfig(**fast), _ctx(tmp_path / "local"))
     on_ray = train(TrainConfig(**fast, executor="ray"), _ctx(tmp_path / "ray"))
@@ -156,8 +193,15 @@ def test_training_as_a_ray_task_falls_back_to_a_cpu_and_writes_the_local_checkpo
     assert on_ray.execution.gpus == 0 and on_ray.execution.cpus == 1  # no GPU here: one CPU
     assert local.device == on_ray.device == on_ray.execution.device == "cpu"  # device: auto on a CPU
     assert on_ray.execution.describe().endswith(", trained on cpu")
-    assert Path(on_ray.checkpoint) == tmp_path / "ray" / "model.pt" and Path(on_ray.summary).parent == tmp_path / "ray"
-    assert (on_ray.best_epoch, on_ray.val_ade, on_ray.val_fde) == (local.best_epoch, local.val_ade, local.val_fde)
+    assert (
+        Path(on_ray.checkpoint) == tmp_path / "ray" / "model.pt"
+        and Path(on_ray.summary).parent == tmp_path / "ray"
+    )
+    assert (on_ray.best_epoch, on_ray.val_ade, on_ray.val_fde) == (
+        local.best_epoch,
+        local.val_ade,
+        local.val_fde,
+    )
     a, b = read_checkpoint(local.checkpoint), read_checkpoint(on_ray.checkpoint)
     assert a["model"].keys() == b["model"].keys()
     assert all(torch.equal(a["model"][k], b["model"][k]) for k in a["model"])  # same weights, same format

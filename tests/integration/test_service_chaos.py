@@ -18,9 +18,15 @@ import httpx
 from .service import Service, wait_job
 
 #: six cells of ~10 short episodes each: several moments to be killed at, each a different amount of work done
-CAMPAIGN = {"kind": "campaign", "scenarios": ["crossing_low", "head_on_corridor_high"], "seeds_per_scenario": 4,
-            "max_steps": 300, "planner": {"name": "goal"}, "seed_manifest": "seeds/classic_eval_hard_smoke.yaml",
-            "variants": [{"name": f"speed{v}", "config": {"speed": v}} for v in (0.6, 0.8, 1.0, 1.2, 1.4, 1.6)]}
+CAMPAIGN = {
+    "kind": "campaign",
+    "scenarios": ["crossing_low", "head_on_corridor_high"],
+    "seeds_per_scenario": 4,
+    "max_steps": 300,
+    "planner": {"name": "goal"},
+    "seed_manifest": "seeds/classic_eval_hard_smoke.yaml",
+    "variants": [{"name": f"speed{v}", "config": {"speed": v}} for v in (0.6, 0.8, 1.0, 1.2, 1.4, 1.6)],
+}
 
 
 def _all_jobs(client: httpx.Client) -> list[dict]:
@@ -46,7 +52,9 @@ def test_server_killed_during_submissions_loses_and_doubles_nothing(tmp_path: Pa
             stop = threading.Event()
 
             def submit(burst: int = burst, url: str = service.url, stop: threading.Event = stop) -> None:
-                with httpx.Client(base_url=url, headers={"Authorization": "Bearer integration-token"}, timeout=5) as c:
+                with httpx.Client(
+                    base_url=url, headers={"Authorization": "Bearer integration-token"}, timeout=5
+                ) as c:
                     i = 0
                     while not stop.is_set():
                         key = f"chaos-{burst}-{i}"
@@ -104,7 +112,9 @@ def test_workers_killed_at_random_during_a_campaign(tmp_path: Path, pg_url: str)
                 if job["status"] not in ("queued", "running"):
                     break
                 # the worker running the campaign (its id holds its pid), else any: killed mid-cell or idle
-                holder = [w for w in workers if job["status"] == "running" and f"-{w.pid}-" in (job["worker"] or "")]
+                holder = [
+                    w for w in workers if job["status"] == "running" and f"-{w.pid}-" in (job["worker"] or "")
+                ]
                 victim = holder[0] if holder else workers[rng.randrange(len(workers))]
                 workers.remove(victim)
                 victim.send_signal(signal.SIGKILL)
@@ -115,15 +125,23 @@ def test_workers_killed_at_random_during_a_campaign(tmp_path: Path, pg_url: str)
             assert job["status"] == "succeeded", (job["error"], service.logs())
             assert kills >= 1 and job["attempts"] >= 2  # killed mid-run at least once, then reclaimed
             result = job["result"]
-            assert result["cells_run"] + result["cells_resumed"] == 6  # the last attempt ran only what was left
+            assert (
+                result["cells_run"] + result["cells_resumed"] == 6
+            )  # the last attempt ran only what was left
             expected = None
-            for cell in result["ranked"]:  # every cell's episodes exactly once, the same episodes in every cell
+            for cell in result[
+                "ranked"
+            ]:  # every cell's episodes exactly once, the same episodes in every cell
                 text = client.get(f"/v1/jobs/{job_id}/artifacts/{cell['episodes_file']}").text
-                episodes = Counter((r["scenario"], r["seed"]) for r in map(json.loads, text.splitlines()) if r)
+                episodes = Counter(
+                    (r["scenario"], r["seed"]) for r in map(json.loads, text.splitlines()) if r
+                )
                 assert set(episodes.values()) == {1}, (cell["key"], episodes)
                 assert expected in (None, set(episodes)), cell["key"]
                 expected = set(episodes)
             record = client.get(f"/v1/campaigns/{job_id}").json()  # one campaign row, one row per cell
-            assert sorted(c["params"]["variant"] for c in record["cells"]) == sorted(v["name"] for v in CAMPAIGN["variants"])
+            assert sorted(c["params"]["variant"] for c in record["cells"]) == sorted(
+                v["name"] for v in CAMPAIGN["variants"]
+            )
     finally:
         service.stop()

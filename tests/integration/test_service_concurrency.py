@@ -36,13 +36,17 @@ def _run(svc: Service, url: str | None) -> None:
     deadline = time.time() + 150
     while time.time() < deadline:
         with engine.connect() as conn:
-            done = conn.execute(select(func.count()).select_from(queue.jobs).where(queue.jobs.c.status == "succeeded")).scalar()
+            done = conn.execute(
+                select(func.count()).select_from(queue.jobs).where(queue.jobs.c.status == "succeeded")
+            ).scalar()
         if done == len(ids):
             break
         time.sleep(0.25)
     elapsed = time.time() - t0
     with engine.connect() as conn:
-        jobs = conn.execute(select(queue.jobs.c.id, queue.jobs.c.status, queue.jobs.c.attempts, queue.jobs.c.lease_owner)).all()
+        jobs = conn.execute(
+            select(queue.jobs.c.id, queue.jobs.c.status, queue.jobs.c.attempts, queue.jobs.c.lease_owner)
+        ).all()
         starts = Counter(conn.execute(
             select(queue.events.c.job_id).where(queue.events.c.type == "status", queue.events.c.message.like("running%"))
         ).scalars())  # fmt: skip
@@ -55,7 +59,9 @@ def _run(svc: Service, url: str | None) -> None:
     assert set(starts.values()) == {1} and set(finishes.values()) == {1} and len(finishes) == len(ids)
     owners = Counter(j.lease_owner for j in jobs)
     assert len(owners) == WORKERS, owners  # every worker took a share
-    print(f"{len(ids)} jobs by {WORKERS} workers in {elapsed:.1f} s ({len(ids) / elapsed:.0f} jobs/s), shares {sorted(owners.values())}")
+    print(
+        f"{len(ids)} jobs by {WORKERS} workers in {elapsed:.1f} s ({len(ids) / elapsed:.0f} jobs/s), shares {sorted(owners.values())}"
+    )
 
 
 def test_four_workers_sqlite(tmp_path: Path) -> None:

@@ -17,7 +17,9 @@ def test_killed_worker_job_is_finished_by_another(service: Service) -> None:
     service.migrate()
     engine = make_engine(f"sqlite:///{service.tmp / 'data' / 'foresight.db'}")
     doomed = service.worker()
-    job = queue.submit(engine, kind="sleep", spec={"kind": "sleep", "seconds": 2.0, "steps": 20, "artifact": "out.txt"})[0]
+    job = queue.submit(
+        engine, kind="sleep", spec={"kind": "sleep", "seconds": 2.0, "steps": 20, "artifact": "out.txt"}
+    )[0]
     deadline = time.time() + 60
     while (row := queue.get_job(engine, job["id"]))["status"] != "running" and time.time() < deadline:
         time.sleep(0.05)
@@ -34,7 +36,9 @@ def test_killed_worker_job_is_finished_by_another(service: Service) -> None:
     with engine.connect() as conn:
         arts = conn.execute(select(queue.artifacts).where(queue.artifacts.c.job_id == job["id"])).all()
         finishes = conn.execute(
-            select(queue.events.c.id).where(queue.events.c.job_id == job["id"], queue.events.c.message == "succeeded")
+            select(queue.events.c.id).where(
+                queue.events.c.job_id == job["id"], queue.events.c.message == "succeeded"
+            )
         ).all()
     assert [a.name for a in arts] == ["out.txt"] and len(finishes) == 1
     engine.dispose()

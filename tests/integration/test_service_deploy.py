@@ -22,7 +22,10 @@ def test_services_and_shared_store() -> None:
     for name in ("api", "worker"):
         svc = services[name]
         env = svc["environment"]
-        assert env["FORESIGHT_DATABASE_URL"].startswith("postgresql+psycopg://") and "@postgres:5432/" in env["FORESIGHT_DATABASE_URL"]
+        assert (
+            env["FORESIGHT_DATABASE_URL"].startswith("postgresql+psycopg://")
+            and "@postgres:5432/" in env["FORESIGHT_DATABASE_URL"]
+        )
         assert "store:/data/store" in svc["volumes"] and env["FORESIGHT_STORE"] == "/data/store"
         assert svc["depends_on"]["migrate"]["condition"] == "service_completed_successfully"
     assert set(_compose()["volumes"]) >= {"store", "pgdata"}
@@ -52,7 +55,7 @@ def test_commands_are_real_cli_commands() -> None:
         elif command:
             assert command[0] == "foresight", name
             parser.parse_args(command[1:])  # exits (SystemExit) on an unknown command or flag
-    cmd = re.search(r'^CMD \[(.*)\]$', (REPO / "Dockerfile").read_text(), re.M).group(1)
+    cmd = re.search(r"^CMD \[(.*)\]$", (REPO / "Dockerfile").read_text(), re.M).group(1)
     args = [a.strip().strip('"') for a in cmd.split(",")]
     assert args[0] == "foresight"
     parser.parse_args(args[1:])
@@ -60,7 +63,18 @@ def test_commands_are_real_cli_commands() -> None:
 
 def test_dockerfile_copies_every_package_the_service_needs() -> None:
     text = (REPO / "Dockerfile").read_text()
-    for path in ("foresight", "core", "api", "worker", "cli", "migrations", "configs", "model", "setup.py", "pyproject.toml"):
+    for path in (
+        "foresight",
+        "core",
+        "api",
+        "worker",
+        "cli",
+        "migrations",
+        "configs",
+        "model",
+        "setup.py",
+        "pyproject.toml",
+    ):
         assert re.search(rf"^COPY .*\b{re.escape(path)}\b", text, re.M), path
     assert re.search(r"pip install '?\.\[server", text) and "torch==2.13.0" in text
     assert re.search(r"^USER (?!root)", text, re.M)

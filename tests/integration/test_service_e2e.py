@@ -48,8 +48,15 @@ def test_up_submit_follow_and_read_back(service: Service) -> None:
         assert summary.status_code == 200 and summary.json()["episodes"][0]["seed"] == 1000
 
         # an evaluation: submitted over HTTP, run by the worker, read back as JSON (with its taxonomy)
-        body = {"spec": {"kind": "evaluate", "scenarios": ["crossing_low"], "seeds_per_scenario": 1, "max_steps": 50,
-                         "planner": {"name": "goal"}}}
+        body = {
+            "spec": {
+                "kind": "evaluate",
+                "scenarios": ["crossing_low"],
+                "seeds_per_scenario": 1,
+                "max_steps": 50,
+                "planner": {"name": "goal"},
+            }
+        }
         ev = wait_job(client, client.post("/v1/jobs", json=body).json()["id"])
         assert ev["status"] == "succeeded", ev
         evaluation = client.get(f"/v1/evaluations/{ev['id']}").json()
@@ -57,13 +64,24 @@ def test_up_submit_follow_and_read_back(service: Service) -> None:
         assert evaluation["per_scenario"][0]["key"] == "crossing_low"
 
         # the registry: register the first job's artifact, promote it, read it back
-        text = client.post("/v1/models", json={"id": "demo-model", "job_id": done["id"], "artifact": "out/hello.txt"})
-        assert text.status_code == 422 and "not a readable checkpoint" in text.text  # only checkpoints register
+        text = client.post(
+            "/v1/models", json={"id": "demo-model", "job_id": done["id"], "artifact": "out/hello.txt"}
+        )
+        assert (
+            text.status_code == 422 and "not a readable checkpoint" in text.text
+        )  # only checkpoints register
         trained = tiny_model_job(client)
         reg = client.post("/v1/models", json={"id": "demo-model", "job_id": trained, "artifact": "model.pt"})
         assert reg.status_code == 201, reg.text
-        assert client.post("/v1/models", json={"id": "demo-model", "job_id": trained, "artifact": "model.pt"}).status_code == 409
-        assert client.post("/v1/models/demo-model/promote", json={"to": "default"}).json()["status"] == "default"
+        assert (
+            client.post(
+                "/v1/models", json={"id": "demo-model", "job_id": trained, "artifact": "model.pt"}
+            ).status_code
+            == 409
+        )
+        assert (
+            client.post("/v1/models/demo-model/promote", json={"to": "default"}).json()["status"] == "default"
+        )
         assert client.delete("/v1/models/demo-model").status_code == 409
         listed = {m["id"]: m for m in client.get("/v1/models").json()["data"]}
         assert "demo-model" in listed and listed["demo-model"]["status"] == "default"
@@ -94,7 +112,9 @@ def test_cancel_and_retry_through_the_cli(service: Service) -> None:
     service.serve()
     service.worker()
     with service.client() as client:
-        job_id = client.post("/v1/jobs", json={"spec": {"kind": "sleep", "seconds": 60, "steps": 600}}).json()["id"]
+        job_id = client.post(
+            "/v1/jobs", json={"spec": {"kind": "sleep", "seconds": 60, "steps": 600}}
+        ).json()["id"]
         deadline = time.time() + 30
         while client.get(f"/v1/jobs/{job_id}").json()["status"] != "running" and time.time() < deadline:
             time.sleep(0.1)

@@ -11,9 +11,15 @@ from .service import Service, wait_job
 def test_an_evaluations_failures_get_witnesses_as_a_job(service: Service) -> None:
     service.serve("up", "--concurrency", "2")
     with service.client() as client:
-        body = {"spec": {"kind": "evaluate", "scenarios": ["crossing_medium"], "seeds_per_scenario": 3,
-                         "scenario_overrides": {"simulation_config": {"ped_speed_tier": "typical"}},
-                         "planner": {"name": "goal"}}}
+        body = {
+            "spec": {
+                "kind": "evaluate",
+                "scenarios": ["crossing_medium"],
+                "seeds_per_scenario": 3,
+                "scenario_overrides": {"simulation_config": {"ped_speed_tier": "typical"}},
+                "planner": {"name": "goal"},
+            }
+        }
         ev = wait_job(client, client.post("/v1/jobs", json=body).json()["id"])
         assert ev["status"] == "succeeded", ev
         episodes = client.get(f"/v1/evaluations/{ev['id']}/episodes").json()
@@ -23,7 +29,9 @@ def test_an_evaluations_failures_get_witnesses_as_a_job(service: Service) -> Non
         # an unknown evaluation: refused before anything is queued
         missing = client.post("/v1/jobs", json={"spec": {"kind": "witness", "evaluation": "no-such-job"}})
         assert missing.status_code == 404 and "no-such-job" in missing.text
-        unknown = client.post("/v1/jobs", json={"spec": {"kind": "witness", "scenarios": ["no_such_scenario"]}})
+        unknown = client.post(
+            "/v1/jobs", json={"spec": {"kind": "witness", "scenarios": ["no_such_scenario"]}}
+        )
         assert unknown.status_code == 404 and "no_such_scenario" in unknown.text
         listed_before = client.get("/v1/jobs", params={"kind": "witness"}).json()["count"]
         assert listed_before == 0  # nothing queued by the refused submissions
@@ -35,7 +43,11 @@ def test_an_evaluations_failures_get_witnesses_as_a_job(service: Service) -> Non
         assert job["status"] == "succeeded", job
         r = job["result"]
         # the evaluation's matrix, conditions and failures, in its order
-        assert r["matrix"] == "scenarios/classic_interactions.yaml" and r["failed_only"] and r["evaluation"] == ev["id"]
+        assert (
+            r["matrix"] == "scenarios/classic_interactions.yaml"
+            and r["failed_only"]
+            and r["evaluation"] == ev["id"]
+        )
         assert r["overrides"] == {"simulation_config": {"ped_speed_tier": "typical"}}
         assert [(e["scenario"], e["seed"]) for e in r["episodes"]] == failed
         found = [e for e in r["episodes"] if e["plan"] is not None]
@@ -47,7 +59,9 @@ def test_an_evaluations_failures_get_witnesses_as_a_job(service: Service) -> Non
         trace = client.get(f"/v1/jobs/{job['id']}/witnesses/{scenario}/{seed}")
         assert trace.status_code == 200 and trace.json()["steps"] * 0.1 == found[0]["arrival_s"]
         assert client.get(f"/v1/jobs/{job['id']}/witnesses/{scenario}/99999").status_code == 404
-        assert client.get(f"/v1/jobs/{ev['id']}/witnesses/{scenario}/{seed}").status_code == 404  # not a witness job
+        assert (
+            client.get(f"/v1/jobs/{ev['id']}/witnesses/{scenario}/{seed}").status_code == 404
+        )  # not a witness job
         report = client.get(f"/v1/jobs/{job['id']}/artifacts/report.html")
         assert report.status_code == 200 and f'href="{found[0]["player"]}"' in report.text
         # the witness replays as any run: the scripted planner under the same conditions arrives when it said

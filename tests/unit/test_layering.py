@@ -9,8 +9,19 @@ from collections import defaultdict
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
-SERVICE_ONLY = {"fastapi", "starlette", "sqlalchemy", "alembic", "httpx", "uvicorn", "psycopg", "api", "worker", "cli",
-                "store"}
+SERVICE_ONLY = {
+    "fastapi",
+    "starlette",
+    "sqlalchemy",
+    "alembic",
+    "httpx",
+    "uvicorn",
+    "psycopg",
+    "api",
+    "worker",
+    "cli",
+    "store",
+}
 PACKAGES = ("core", "store", "api", "worker", "cli")
 
 
@@ -44,14 +55,18 @@ def test_core_imports_no_service_code() -> None:
 
 def test_torch_only_in_predict_nn() -> None:
     nn = REPO / "core" / "predict" / "nn"
-    offenders = [str(p.relative_to(REPO)) for p in _core_files() if "torch" in _imports(p) and nn not in p.parents]
+    offenders = [
+        str(p.relative_to(REPO)) for p in _core_files() if "torch" in _imports(p) and nn not in p.parents
+    ]
     assert offenders == []
 
 
 def test_matplotlib_only_in_render() -> None:
     render = REPO / "core" / "render"
     offenders = [
-        str(p.relative_to(REPO)) for p in _core_files() if "matplotlib" in _imports(p) and render not in p.parents
+        str(p.relative_to(REPO))
+        for p in _core_files()
+        if "matplotlib" in _imports(p) and render not in p.parents
     ]
     assert offenders == []
 

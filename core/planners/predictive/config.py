@@ -50,7 +50,10 @@ class SamplingConfig(_Frozen):
     #: none, collisions 5 -> 3); 2-5 % less time to the goal. 0.4/0.8/1.6 s and 0.8/1.6/2.4 s turns: no better
     veer_turn_rates: tuple[float, ...] = (-1.0, -0.5, 0.5, 1.0)
     veer_speeds: tuple[float, ...] = (0.5, 1.0)
-    veer_durations_s: tuple[float, ...] = (0.8, 1.6)  #: how long each swerve turns [s] before it drives straight on
+    veer_durations_s: tuple[float, ...] = (
+        0.8,
+        1.6,
+    )  #: how long each swerve turns [s] before it drives straight on
     #: backing off: reverse speeds (ratios of v_max, driven backwards) among the first- and the later-segment commands,
     #: only for a robot that may drive backwards (``robot_config.allow_backwards``; the reference robots may not).
     #: () = never (the default: it costs crowds that react). Paired on the same episodes with backwards allowed,
@@ -64,13 +67,20 @@ class SamplingConfig(_Frozen):
 
     @model_validator(mode="after")
     def _ratios_in_range(self) -> SamplingConfig:
-        for name in ("speed_ratios", "near_field_speed_ratios", "turn_then_go_speeds", "veer_speeds",
-                     "reverse_speed_ratios"):
+        for name in (
+            "speed_ratios",
+            "near_field_speed_ratios",
+            "turn_then_go_speeds",
+            "veer_speeds",
+            "reverse_speed_ratios",
+        ):
             bad = [r for r in getattr(self, name) if not 0.0 <= r <= 1.0]
             if bad:
                 raise ValueError(f"{name} must lie in [0, 1] (ratios of the speed limit), got {bad}")
         if any(not -1.0 <= r <= 1.0 for r in self.veer_turn_rates):
-            raise ValueError(f"veer_turn_rates are ratios of the turn-rate limit in [-1, 1], got {list(self.veer_turn_rates)}")
+            raise ValueError(
+                f"veer_turn_rates are ratios of the turn-rate limit in [-1, 1], got {list(self.veer_turn_rates)}"
+            )
         if any(d <= 0 for d in self.veer_durations_s):
             raise ValueError(f"veer_durations_s must be positive [s], got {list(self.veer_durations_s)}")
         return self
@@ -117,8 +127,10 @@ class SearchConfig(_Frozen):
     def _bounded_grid(self) -> SearchConfig:
         # a finer grid grows as 1 / resolution^2 (a 44 x 28 m map at 0.01 m: 12 million nodes per waypoint)
         if 0 < self.geodesic_resolution < MIN_GEODESIC_RESOLUTION:
-            raise ValueError(f"geodesic_resolution must be 0 (straight lines) or at least {MIN_GEODESIC_RESOLUTION} m, "
-                             f"got {self.geodesic_resolution}")
+            raise ValueError(
+                f"geodesic_resolution must be 0 (straight lines) or at least {MIN_GEODESIC_RESOLUTION} m, "
+                f"got {self.geodesic_resolution}"
+            )
         return self
 
 
@@ -184,9 +196,13 @@ class SafetyConfig(_Frozen):
     #: 1 : 1, new seeds 0 : 0; nobody yields 0 : 0 both
     standing_stays_s: float = Field(default=1.5, ge=0)
     yield_range: float = Field(default=1.2, ge=0)  #: ... starting this far beyond contact [m]
-    yield_test_s: float = Field(default=3.0, gt=0)  #: [s]; 1 s: 0.812 at commit 0.5 (reacting people step back slowly)
+    yield_test_s: float = Field(
+        default=3.0, gt=0
+    )  #: [s]; 1 s: 0.812 at commit 0.5 (reacting people step back slowly)
     static_field_resolution: float = Field(default=0.1, ge=0, le=0.5)  #: [m]; 0 = exact distance queries
-    lane_memory_s: float = Field(default=20.0, gt=0)  #: how long a walker's pass is remembered (decay time) [s]
+    lane_memory_s: float = Field(
+        default=20.0, gt=0
+    )  #: how long a walker's pass is remembered (decay time) [s]
 
 
 class WeightsConfig(_Frozen):
@@ -205,7 +221,9 @@ class WeightsConfig(_Frozen):
     turn: float = Field(default=0.1, ge=0)
     smoothness: float = Field(default=0.3, ge=0)  #: change of the first command from the last one
     heading: float = Field(default=1.0, ge=0)  #: mean heading error to the active waypoint over the horizon
-    lane: float = Field(default=2.0, ge=0)  #: per walker lately through where a rollout ends at rest (``traffic``)
+    lane: float = Field(
+        default=2.0, ge=0
+    )  #: per walker lately through where a rollout ends at rest (``traffic``)
 
 
 class PredictivePlannerConfig(_Frozen):
@@ -233,7 +251,9 @@ class PredictivePlannerConfig(_Frozen):
         except ValidationError as exc:
             err = exc.errors()[0]
             item = ".".join(str(p) for p in err["loc"])
-            raise ConfigError(f"{err['msg']} ({len(exc.errors())} error(s))", source=source, item=item) from None
+            raise ConfigError(
+                f"{err['msg']} ({len(exc.errors())} error(s))", source=source, item=item
+            ) from None
 
     @classmethod
     def from_reference_grid(
@@ -249,7 +269,8 @@ class PredictivePlannerConfig(_Frozen):
             if rule is None:
                 raise ConfigError(
                     f"reference planner key {key!r} has no mapping (mapped keys: {', '.join(sorted(REFERENCE_KEY_MAP))})",
-                    source=source, item=key,
+                    source=source,
+                    item=key,
                 )
             section, field, kind, ref_value = rule
             target = data[section] if section else data

@@ -26,8 +26,20 @@ from foresight.core.sim.observation import StaticGeometry
 from foresight.core.sim.robot import wrap_angle
 
 TERMS = (
-    "progress", "collision", "risk", "near_miss", "ttc", "progress_risk", "hard_clearance",
-    "static", "static_collision", "velocity", "turn", "smoothness", "heading", "lane",
+    "progress",
+    "collision",
+    "risk",
+    "near_miss",
+    "ttc",
+    "progress_risk",
+    "hard_clearance",
+    "static",
+    "static_collision",
+    "velocity",
+    "turn",
+    "smoothness",
+    "heading",
+    "lane",
 )
 
 
@@ -38,8 +50,14 @@ class RoutePotential:
     so passing a waypoint is never penalised; the final goal counts as reached inside ``goal_tolerance``.
     """
 
-    def __init__(self, route: np.ndarray, switch_radius: float, goal_tolerance: float, lookahead: int = 3,
-                 distance: Callable[[np.ndarray], Callable[[np.ndarray], np.ndarray]] | None = None):
+    def __init__(
+        self,
+        route: np.ndarray,
+        switch_radius: float,
+        goal_tolerance: float,
+        lookahead: int = 3,
+        distance: Callable[[np.ndarray], Callable[[np.ndarray], np.ndarray]] | None = None,
+    ):
         """``distance(waypoint)``: a function measuring the way to that waypoint from points (..., 2), e.g.
         around the walls (``geodesic``); default the straight line. Waypoint switches and the goal test
         are the simulator's, by straight-line distance, either way."""
@@ -51,7 +69,9 @@ class RoutePotential:
         self.goal = full[-1]
         self.switch_radius = switch_radius
         self.goal_tolerance = goal_tolerance
-        self._goal_is_last = len(full) <= lookahead  #: the last waypoint looked at is the goal (its distances reused)
+        self._goal_is_last = (
+            len(full) <= lookahead
+        )  #: the last waypoint looked at is the goal (its distances reused)
         self._ways = [None if distance is None else distance(w) for w in self.waypoints]
 
     def __call__(self, pts: np.ndarray, credit: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -71,7 +91,9 @@ class RoutePotential:
             reached = np.logical_or.accumulate(reached & (d <= self.switch_radius), axis=1)
             d = _distance(pts, self.waypoints[j])
             end = reached[:, -1]
-            if self._ways[j] is None or np.logical_or.reduce(end):  # a way is measured only where it is needed
+            if self._ways[j] is None or np.logical_or.reduce(
+                end
+            ):  # a way is measured only where it is needed
                 phi = np.where(end, self._way(j, pts[:, -1], d[:, -1]) + self.after[j], phi)
             idx += end
         goal_d = d if self._goal_is_last else _distance(pts, self.goal)  # d: to the last waypoint looked at
@@ -124,8 +146,12 @@ class StaticClearance:
         else:
             d = grid_interpolate(self.field, self.resolution, x, y) - self.bound
         # rollouts rarely leave the map: four reductions decide that no point is outside (then d is the answer)
-        if (np.minimum.reduce(x, axis=None) >= 0 and np.maximum.reduce(x, axis=None) <= self.width
-                and np.minimum.reduce(y, axis=None) >= 0 and np.maximum.reduce(y, axis=None) <= self.height):
+        if (
+            np.minimum.reduce(x, axis=None) >= 0
+            and np.maximum.reduce(x, axis=None) <= self.width
+            and np.minimum.reduce(y, axis=None) >= 0
+            and np.maximum.reduce(y, axis=None) <= self.height
+        ):
             return d
         outside = (x < 0) | (x > self.width) | (y < 0) | (y > self.height)
         return np.where(outside, -1.0, d)
@@ -160,7 +186,9 @@ class Scene:
     #: allowed one walking away from a slow robot (``receding_room``)
     ped_room: np.ndarray
     ped_yield: np.ndarray  #: (N,) speed [m/s] at which each pedestrian is assumed to step away from the robot
-    ped_straight: np.ndarray  #: (A,) pedestrians (indices) also held to a straight line: the nearer one counts
+    ped_straight: (
+        np.ndarray
+    )  #: (A,) pedestrians (indices) also held to a straight line: the nearer one counts
     ped_lines: np.ndarray  #: (A, K, 2) their straight lines at ``times`` (current position and velocity) [m]
     times: np.ndarray  #: (K,) seconds ahead [s]
     contact: float  #: centre distance of contact: robot radius + ped radius + extra margins [m]
@@ -173,7 +201,9 @@ class Scene:
     prev_command: np.ndarray  #: (2,) last command (v, omega)
     max_speed: float
     max_turn_rate: float
-    traffic: Callable[[np.ndarray], np.ndarray] | None = None  #: walkers lately passing at points (``traffic``)
+    traffic: Callable[[np.ndarray], np.ndarray] | None = (
+        None  #: walkers lately passing at points (``traffic``)
+    )
 
     @cached_property
     def time_steps(self) -> np.ndarray:
@@ -190,8 +220,13 @@ class Rollouts:
     commands: np.ndarray  #: (B, S, 2) commanded (v, omega) per simulator step
 
 
-def pedestrian_terms(pos: np.ndarray, speed: np.ndarray, scene: Scene, cfg: PredictivePlannerConfig,
-                     gone: np.ndarray | None = None) -> dict[str, np.ndarray]:
+def pedestrian_terms(
+    pos: np.ndarray,
+    speed: np.ndarray,
+    scene: Scene,
+    cfg: PredictivePlannerConfig,
+    gone: np.ndarray | None = None,
+) -> dict[str, np.ndarray]:
     """Collision, risk, near-miss, TTC and hard-clearance terms (B,) and the minimum clearance (B,) [m].
 
     ``pos`` (B, K, 2) and ``speed`` (B, K) are the robot's at the forecast times; each forecast
@@ -210,14 +245,22 @@ def pedestrian_terms(pos: np.ndarray, speed: np.ndarray, scene: Scene, cfg: Pred
     fut, sigma = scene.ped_future, scene.ped_sigma
     if fut.shape[0] == 0:
         z = np.zeros(B)
-        return {"collision": z, "risk": z, "near_miss": z, "ttc": z, "hard_clearance": z,
-                "min_clearance": np.full(B, np.inf)}
+        return {
+            "collision": z,
+            "risk": z,
+            "near_miss": z,
+            "ttc": z,
+            "hard_clearance": z,
+            "min_clearance": np.full(B, np.inf),
+        }
     relief = 1.0 - s.stall_margin_relief * scene.assertiveness
     # (N, K, B) with the rollouts innermost: numpy's loops run over B (tens to hundreds) instead of K (~20)
     clear = _reactive_clearance(pos, fut, scene, scene.ped_yield, s.yield_range)
     if len(scene.ped_straight):
         a = scene.ped_straight
-        clear[a] = np.minimum(clear[a], _reactive_clearance(pos, scene.ped_lines, scene, scene.ped_yield[a], s.yield_range))
+        clear[a] = np.minimum(
+            clear[a], _reactive_clearance(pos, scene.ped_lines, scene, scene.ped_yield[a], s.yield_range)
+        )
     if np.logical_or.reduce(scene.ped_room != 0, axis=None):
         clear += scene.ped_room[:, None, None].astype(np.float32)
     if gone is not None:
@@ -230,13 +273,17 @@ def pedestrian_terms(pos: np.ndarray, speed: np.ndarray, scene: Scene, cfg: Pred
     # beyond every margin + band and RISK_CUTOFF sigmas a (pedestrian, step, rollout) adds exact zeros to every
     # term below, so only the entries inside are gathered (a few % of them in a crowd) and summed per rollout
     reach = np.maximum(chance + band + np.maximum.reduce(soft, axis=None), RISK_CUTOFF * sigma)  # (N, K)
-    inside = np.flatnonzero(clear < reach.astype(np.float32)[..., None])  # np.nonzero's (n, k, b), ~7x faster at these sizes
+    inside = np.flatnonzero(
+        clear < reach.astype(np.float32)[..., None]
+    )  # np.nonzero's (n, k, b), ~7x faster at these sizes
     nk, b = np.divmod(inside, B)
     k = nk % clear.shape[1]
     c = clear.reshape(-1)[inside].astype(float)
     # flat gathers (nk = n K + k is (n, k)'s flat index in (N, K)): ~3x faster than the 2-D fancy index
     sig = sigma.reshape(-1).take(nk)
-    excess = soft.reshape(-1).take(b * clear.shape[1] + k) + s.confidence * sig - c  # > 0 inside the collision margin
+    excess = (
+        soft.reshape(-1).take(b * clear.shape[1] + k) + s.confidence * sig - c
+    )  # > 0 inside the collision margin
     disc = (s.discount ** np.arange(len(scene.times))).take(k)
 
     def per_rollout(values: np.ndarray) -> np.ndarray:
@@ -264,7 +311,9 @@ def contact_probability(z: np.ndarray) -> np.ndarray:
     return np.where(z < RISK_CUTOFF, 1.0 / (1.0 + np.exp(1.702 * np.minimum(z, RISK_CUTOFF))), 0.0)
 
 
-def _reactive_clearance(pos: np.ndarray, fut: np.ndarray, scene: Scene, speed: np.ndarray, reach: float) -> np.ndarray:
+def _reactive_clearance(
+    pos: np.ndarray, fut: np.ndarray, scene: Scene, speed: np.ndarray, reach: float
+) -> np.ndarray:
     """Clearance (N, K, B) [m, float32] between each forecast pedestrian and each rollout, the pedestrian stepping away.
 
     Pedestrians repelled by a robot closing in (the crowd model's robot force) step away from it,
@@ -287,7 +336,9 @@ def _reactive_clearance(pos: np.ndarray, fut: np.ndarray, scene: Scene, speed: n
     K = clear.shape[1]
     if reach <= 0 or K < 2 or not np.logical_or.reduce(speed > 0, axis=None):
         return clear
-    pushed = np.logical_or.reduce(clear[:, :-1] < reach, axis=1) & (speed > 0)[:, None]  # (N, B) ever within reach
+    pushed = (
+        np.logical_or.reduce(clear[:, :-1] < reach, axis=1) & (speed > 0)[:, None]
+    )  # (N, B) ever within reach
     n, b = np.nonzero(pushed)
     if not len(n):  # every other pair is never pushed: its clearance is the plain one
         return clear
@@ -305,7 +356,9 @@ def _reactive_clearance(pos: np.ndarray, fut: np.ndarray, scene: Scene, speed: n
     return clear
 
 
-def influence_range(cfg: PredictivePlannerConfig, horizon_s: float, max_speed: float, max_sigma: float) -> float:
+def influence_range(
+    cfg: PredictivePlannerConfig, horizon_s: float, max_speed: float, max_sigma: float
+) -> float:
     """Clearance [m] beyond which a pedestrian adds exactly zero to every pedestrian term."""
     s = cfg.safety
     margin = s.collision_margin + s.confidence * max_sigma + s.speed_clearance_gain * max_speed
@@ -313,7 +366,9 @@ def influence_range(cfg: PredictivePlannerConfig, horizon_s: float, max_speed: f
     return max(bands, RISK_CUTOFF * max_sigma)
 
 
-def evaluate(roll: Rollouts, scene: Scene, cfg: PredictivePlannerConfig) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+def evaluate(
+    roll: Rollouts, scene: Scene, cfg: PredictivePlannerConfig
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """Total cost (B,) and every term (B,) for the rollouts; ``progress`` is in metres (counted negatively).
 
     Everything is read at the forecast times; static clearance too (the robot moves at most
@@ -323,11 +378,19 @@ def evaluate(roll: Rollouts, scene: Scene, cfg: PredictivePlannerConfig) -> tupl
     ev = roll.states.take(roll.eval_index, axis=1)  # (B, K, 5); take: a fancy index on axis 1 is ~4x slower
     pos = ev[..., :2]
     speed = np.abs(ev[..., 3])
-    early = scene.max_speed * float(scene.times[1] - scene.times[0]) if cfg.search.arrival_credit and len(scene.times) > 1 else 0.0
+    early = (
+        scene.max_speed * float(scene.times[1] - scene.times[0])
+        if cfg.search.arrival_credit and len(scene.times) > 1
+        else 0.0
+    )
     phi_end, target, arrival = scene.route(pos, early)
     K = len(roll.eval_index)
     # the episode ends on arrival: what a rollout would meet after it never happens (None while no rollout arrives)
-    gone = (np.arange(K) > arrival[:, None]) if cfg.search.ends_at_goal and np.minimum.reduce(arrival) < K else None
+    gone = (
+        (np.arange(K) > arrival[:, None])
+        if cfg.search.ends_at_goal and np.minimum.reduce(arrival) < K
+        else None
+    )
     terms = pedestrian_terms(pos, speed, scene, cfg, gone)
     progress = scene.phi0 - phi_end
     min_c = terms.pop("min_clearance")
@@ -338,18 +401,25 @@ def evaluate(roll: Rollouts, scene: Scene, cfg: PredictivePlannerConfig) -> tupl
         sc[gone] = np.inf
     # means below: np.add.reduce / K is what ndarray.mean computes, without its wrapper
     terms["static_collision"] = np.add.reduce(sc < s.static_margin, axis=1, dtype=float)
-    terms["static"] = np.add.reduce(np.maximum(0.0, s.static_margin + s.static_soft_distance - sc), axis=1) / K
+    terms["static"] = (
+        np.add.reduce(np.maximum(0.0, s.static_margin + s.static_soft_distance - sc), axis=1) / K
+    )
     cmd = roll.commands.take(roll.eval_index, axis=1)  # (B, K, 2)
     terms["velocity"] = np.add.reduce(np.abs(cmd[..., 0]), axis=1) / K / scene.max_speed
     terms["turn"] = np.add.reduce(np.abs(cmd[..., 1]), axis=1) / K / scene.max_turn_rate
-    terms["smoothness"] = (np.abs(roll.commands[:, 0, 0] - scene.prev_command[0]) / scene.max_speed
-                           + np.abs(roll.commands[:, 0, 1] - scene.prev_command[1]) / scene.max_turn_rate)
+    terms["smoothness"] = (
+        np.abs(roll.commands[:, 0, 0] - scene.prev_command[0]) / scene.max_speed
+        + np.abs(roll.commands[:, 0, 1] - scene.prev_command[1]) / scene.max_turn_rate
+    )
     # mean (not terminal) heading error: a terminal error lets every decision postpone turning in place
     bearing = np.arctan2(target[:, None, 1] - pos[..., 1], target[:, None, 0] - pos[..., 0])  # (B, K)
     terms["heading"] = np.add.reduce(np.abs(wrap_angle(bearing - ev[..., 2])), axis=1) / K / np.pi
     # waiting in a lane: the walkers lately through the rollout's end point, in full for a robot ending at rest
-    terms["lane"] = (scene.traffic(pos[:, -1]) * np.maximum(0.0, 1.0 - speed[:, -1] / scene.max_speed)
-                     if scene.traffic is not None else np.zeros(len(pos)))
+    terms["lane"] = (
+        scene.traffic(pos[:, -1]) * np.maximum(0.0, 1.0 - speed[:, -1] / scene.max_speed)
+        if scene.traffic is not None
+        else np.zeros(len(pos))
+    )
     if gone is not None:
         terms["lane"] = np.where(arrival < K, 0.0, terms["lane"])  # nobody waits in a lane after arriving
     parts = weighted(terms, wt)

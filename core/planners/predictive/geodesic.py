@@ -38,7 +38,9 @@ class GeodesicDistance:
         self.resolution = resolution
         self.target = np.asarray(target, dtype=float)
         self.field = _field(static, (float(self.target[0]), float(self.target[1])), clearance, resolution)
-        self._walled_off = bool(np.isnan(self.field).any())  #: some space has no way round to the target (nan there)
+        self._walled_off = bool(
+            np.isnan(self.field).any()
+        )  #: some space has no way round to the target (nan there)
 
     def __call__(self, pts: np.ndarray) -> np.ndarray:
         """Distance (...) at points (..., 2): the straight line where the grid's path is no longer than its
@@ -48,17 +50,23 @@ class GeodesicDistance:
         x, y = pts[..., 0], pts[..., 1]
         straight = np.sqrt((x - self.target[0]) ** 2 + (y - self.target[1]) ** 2)
         way = np.maximum(straight, grid_interpolate(self.field, self.resolution, x, y) / (1.0 + GRID_EXCESS))
-        return np.where(np.isnan(way), straight, way) if self._walled_off else way  # nan beside walled-off space
+        return (
+            np.where(np.isnan(way), straight, way) if self._walled_off else way
+        )  # nan beside walled-off space
 
 
 #: the 16-connected grid's longest path relative to the straight line, over all directions (2.75 %), rounded up
 GRID_EXCESS = 0.03
 
 _FIELDS: OrderedDict[tuple, np.ndarray] = OrderedDict()  # per process: a matrix repeats maps and waypoints
-_GRAPHS: OrderedDict[tuple, tuple] = OrderedDict()  # per process: one free-space graph per map serves every waypoint
+_GRAPHS: OrderedDict[tuple, tuple] = (
+    OrderedDict()
+)  # per process: one free-space graph per map serves every waypoint
 
 
-def _field(static: StaticGeometry, target: tuple[float, float], clearance: float, resolution: float) -> np.ndarray:
+def _field(
+    static: StaticGeometry, target: tuple[float, float], clearance: float, resolution: float
+) -> np.ndarray:
     segs = np.ascontiguousarray(static.segments, dtype=float)
     space = (segs.tobytes(), float(static.width), float(static.height), clearance, resolution)
     key = (*space, target)
@@ -73,7 +81,9 @@ def _field(static: StaticGeometry, target: tuple[float, float], clearance: float
     sx, sy = divmod(src, ny)
     offset = float(np.hypot(sx * resolution - target[0], sy * resolution - target[1]))
     dist = dijkstra(graph, directed=False, indices=src) + offset
-    dist[np.isinf(dist)] = np.nan  # no way round: nan interpolates quietly (inf x 0 would warn) and is read as such
+    dist[np.isinf(dist)] = (
+        np.nan
+    )  # no way round: nan interpolates quietly (inf x 0 would warn) and is read as such
     # a node too close to a wall: the way from its nearest free node plus the step to it (never through the wall)
     field = (dist[nearest.reshape(-1)] + gap.reshape(-1) * resolution).reshape(nx, ny)
     field.flags.writeable = False
@@ -94,14 +104,15 @@ def _graph(space: tuple, static: StaticGeometry, clearance: float, resolution: f
     index = np.arange(nx * ny).reshape(nx, ny)
     rows, cols, lengths = [], [], []
     for di, dj in _MOVES:
-        a = index[max(0, -di): nx - max(0, di), max(0, -dj): ny - max(0, dj)].reshape(-1)
+        a = index[max(0, -di) : nx - max(0, di), max(0, -dj) : ny - max(0, dj)].reshape(-1)
         b = a + di * ny + dj
         ok = free[a] & free[b]
         rows.append(a[ok])
         cols.append(b[ok])
         lengths.append(np.full(int(ok.sum()), resolution * float(np.hypot(di, dj))))
-    graph = coo_matrix((np.concatenate(lengths), (np.concatenate(rows), np.concatenate(cols))),
-                       shape=(nx * ny, nx * ny)).tocsr()
+    graph = coo_matrix(
+        (np.concatenate(lengths), (np.concatenate(rows), np.concatenate(cols))), shape=(nx * ny, nx * ny)
+    ).tocsr()
     gap, (ni, nj) = distance_transform_edt(~free.reshape(nx, ny), return_indices=True)
     _GRAPHS[space] = out = (graph, ni * ny + nj, gap)
     while len(_GRAPHS) > 4:

@@ -63,16 +63,26 @@ class PredictivePlanner:
         self.forecaster.timebase.stride(info.dt)  # ConfigError unless the forecast grid is whole sim steps
         robot = info.scenario.scenario.robot_config
         if robot.type != "differential_drive":
-            raise ConfigError(f"the predictive planner drives a differential-drive robot, not {robot.type!r}",
-                              item="robot_config.type")
+            raise ConfigError(
+                f"the predictive planner drives a differential-drive robot, not {robot.type!r}",
+                item="robot_config.type",
+            )
         self.forecaster.reset()
         self._phi_hist: deque[tuple[float, float]] = deque()
         self._assert = 0.0
-        self._seen: deque[tuple[float, np.ndarray, np.ndarray]] = deque()  #: (time, ids, positions) (``_lingering``)
+        self._seen: deque[tuple[float, np.ndarray, np.ndarray]] = (
+            deque()
+        )  #: (time, ids, positions) (``_lingering``)
         self._holds: set[int] = set()  #: pedestrians seen to hold their ground against the robot
-        self._probes: dict[int, tuple[float, np.ndarray, float]] = {}  #: id -> (since [s], position, gap) under test
-        self._reacted: set[int] = set()  #: pedestrians seen to give way to the robot (no straight line for them)
-        self._past: deque[tuple[float, np.ndarray, np.ndarray]] = deque()  #: (time, ids, velocities) over REACTION_WINDOW_S
+        self._probes: dict[
+            int, tuple[float, np.ndarray, float]
+        ] = {}  #: id -> (since [s], position, gap) under test
+        self._reacted: set[int] = (
+            set()
+        )  #: pedestrians seen to give way to the robot (no straight line for them)
+        self._past: deque[tuple[float, np.ndarray, np.ndarray]] = (
+            deque()
+        )  #: (time, ids, velocities) over REACTION_WINDOW_S
         self._limits = RobotLimits.from_config(robot)
         if self._frames is None or self._frames.limits != self._limits or self._frames.dt != info.dt:
             self._frames = FrameRollouts(self._limits, info.dt)  # else its rollouts serve this episode too
@@ -81,7 +91,9 @@ class PredictivePlanner:
         self._step_cache: dict[tuple, tuple] = {}
         self._route_cache: tuple | None = None
         self._prev = np.zeros(2)
-        self._plan: tuple[np.ndarray, np.ndarray] | None = None  #: the last decision's commands (S, 2), states (S, 5)
+        self._plan: tuple[np.ndarray, np.ndarray] | None = (
+            None  #: the last decision's commands (S, 2), states (S, 5)
+        )
         self._traffic: TrafficMap | None = None
         self._decided: tuple[Observation, C.Scene] | None = None  #: the last decision's observation and scene
         self._diag = None
@@ -112,12 +124,19 @@ class PredictivePlanner:
             "kept_plan": kept,  #: the command carries out the last decision's plan (``search.keep_plan``)
             "forecast_source": fc.source,
             "forecast_extended_steps": extra,
-            "predictions": {"ped_ids": fc.ped_ids, "positions": fc.positions, "times": fc.times, "sigma": fc.sigma},
+            "predictions": {
+                "ped_ids": fc.ped_ids,
+                "positions": fc.positions,
+                "times": fc.times,
+                "sigma": fc.sigma,
+            },
             "plan_ms": (time.perf_counter() - t0) * 1e3,
         }
         return v, w
 
-    def score_commands(self, obs: Observation, commands: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    def score_commands(
+        self, obs: Observation, commands: np.ndarray
+    ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         """Cost (B,) and terms of constant commands (B, 2) held over the horizon (tests, diagnostics)."""
         self.forecaster.observe(obs)
         fc = self.forecaster.forecast()
@@ -139,40 +158,58 @@ class PredictivePlanner:
         total, terms = self._cost(obs, scene, idx, cmds)
         return float(total[0]), {k: float(v[0]) for k, v in C.weighted(terms, self.config.weights).items()}
 
-    def _cost(self, obs: Observation, scene: C.Scene, idx: np.ndarray,
-              cmds: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    def _cost(
+        self, obs: Observation, scene: C.Scene, idx: np.ndarray, cmds: np.ndarray
+    ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         """Cost (B,) and terms of command sequences (B, S, 2) rolled out from the robot's state in ``obs``."""
         state0 = np.concatenate([obs.robot_pose, obs.robot_velocity]).astype(float)
         states = rollout(np.repeat(state0[None], len(cmds), axis=0), cmds, self._limits, obs.dt)
         return C.evaluate(C.Rollouts(states, idx, cmds), scene, self.config)
 
     # -- decision pieces -------------------------------------------------------------------------
-    def _scene(self, obs: Observation, positions: np.ndarray, sigma: np.ndarray,
-               times: np.ndarray, fc_ids: np.ndarray) -> tuple[C.Scene, bool, int]:
+    def _scene(
+        self,
+        obs: Observation,
+        positions: np.ndarray,
+        sigma: np.ndarray,
+        times: np.ndarray,
+        fc_ids: np.ndarray,
+    ) -> tuple[C.Scene, bool, int]:
         cfg, limits = self.config, self._limits
         p0 = obs.robot_pose[:2]
         route = self._route(obs)
         phi0 = route.start(p0)
         assertive = self._assertiveness(phi0, obs.time, obs.dt)
-        contact = obs.robot_radius + obs.ped_radius + cfg.safety.extra_robot_margin + cfg.safety.extra_ped_margin
+        contact = (
+            obs.robot_radius + obs.ped_radius + cfg.safety.extra_robot_margin + cfg.safety.extra_ped_margin
+        )
         times = np.asarray(times, dtype=float)
         fut = np.asarray(positions, dtype=float).reshape(-1, len(times), 2)
         sigma = np.asarray(sigma, dtype=float).reshape(-1, len(times))
         # ufunc reductions: ndarray.sum/min without their Python wrappers (the same reductions)
         dist = np.sqrt(np.add.reduce((fut - p0) ** 2, axis=-1))  # (N, K) to the robot's current position
-        near = bool(dist.size) and float(np.minimum.reduce(dist, axis=None)) - contact <= cfg.sampling.near_field_distance
+        near = (
+            bool(dist.size)
+            and float(np.minimum.reduce(dist, axis=None)) - contact <= cfg.sampling.near_field_distance
+        )
         dt_f = float(times[1] - times[0]) if len(times) > 1 else float(times[0])
-        extra_s = cfg.search.extra_horizon_s + (cfg.search.horizon_boost_s if cfg.search.adaptive_horizon and near else 0.0)
+        extra_s = cfg.search.extra_horizon_s + (
+            cfg.search.horizon_boost_s if cfg.search.adaptive_horizon and near else 0.0
+        )
         extra = int(round(extra_s / dt_f))
         speed = abs(float(obs.robot_velocity[0]))  # a robot that may back off drives backwards at negative v
         room = self._waiting_room(fut, times, assertive) + self._receding_room(fut, times, p0, speed)
         waiting = self._waiting(obs, fc_ids, contact)
         yielding = np.zeros(len(fut))
         lingering = self._lingering(obs, fc_ids, contact)
-        if lingering.any():  # lingered by the robot for a while: not making room for it, whatever the model expects
+        if (
+            lingering.any()
+        ):  # lingered by the robot for a while: not making room for it, whatever the model expects
             row = np.argmax(fc_ids[lingering, None] == obs.ped_ids[None, :], axis=1)
             fut = fut.copy()
-            fut[lingering] = obs.ped_positions[row, None, :] + times[None, :, None] * obs.ped_velocities[row, None, :]
+            fut[lingering] = (
+                obs.ped_positions[row, None, :] + times[None, :, None] * obs.ped_velocities[row, None, :]
+            )
         if assertive >= COMMIT_ASSERTIVENESS and waiting.any():  # yielded long enough: commit (see _waiting)
             fut, sigma = fut.copy(), sigma.copy()
             fut[waiting], sigma[waiting] = fut[waiting, :1], np.minimum(sigma[waiting, :1], COMMIT_SIGMA)
@@ -186,16 +223,31 @@ class PredictivePlanner:
                 mask, lines = straight
                 dist[mask] = np.minimum(dist[mask], np.sqrt(np.add.reduce((lines - p0) ** 2, axis=-1)))
             gap = dist - contact - _reach(speed, limits, times)
-            keep = gap.min(axis=1) <= C.influence_range(cfg, float(times[-1]), limits.v_max, float(sigma.max()))
+            keep = gap.min(axis=1) <= C.influence_range(
+                cfg, float(times[-1]), limits.v_max, float(sigma.max())
+            )
             fut, sigma, room, yielding = fut[keep], sigma[keep], room[keep], yielding[keep]
             if straight is not None:
                 straight = np.flatnonzero(mask[keep]), lines[keep[mask]]
         line_ids, lines = straight or (NO_LINES, np.zeros((0, len(times), 2)))
         scene = C.Scene(
-            ped_future=fut, ped_sigma=sigma, ped_room=room, ped_yield=yielding, ped_straight=line_ids,
-            ped_lines=lines, times=times, contact=contact, robot_radius=obs.robot_radius, route=route,
-            phi0=phi0, assertiveness=assertive, static=self._static_field(obs), start=np.asarray(obs.robot_pose, dtype=float),
-            prev_command=self._prev, max_speed=limits.v_max, max_turn_rate=limits.w_max,
+            ped_future=fut,
+            ped_sigma=sigma,
+            ped_room=room,
+            ped_yield=yielding,
+            ped_straight=line_ids,
+            ped_lines=lines,
+            times=times,
+            contact=contact,
+            robot_radius=obs.robot_radius,
+            route=route,
+            phi0=phi0,
+            assertiveness=assertive,
+            static=self._static_field(obs),
+            start=np.asarray(obs.robot_pose, dtype=float),
+            prev_command=self._prev,
+            max_speed=limits.v_max,
+            max_turn_rate=limits.w_max,
             traffic=self._lanes(obs, contact),
         )
         return scene, near, extra
@@ -205,8 +257,9 @@ class PredictivePlanner:
         if self.config.weights.lane <= 0:
             return None
         if self._traffic is None:
-            self._traffic = TrafficMap(obs.static.width, obs.static.height, contact,
-                                       memory_s=self.config.safety.lane_memory_s)
+            self._traffic = TrafficMap(
+                obs.static.width, obs.static.height, contact, memory_s=self.config.safety.lane_memory_s
+            )
         self._traffic.observe(obs.time, obs.ped_positions, obs.ped_velocities)
         return self._traffic
 
@@ -233,7 +286,9 @@ class PredictivePlanner:
             t0, pos0, g0 = self._probes.get(pid, (obs.time, pos, g))
             if obs.time - t0 >= s.yield_test_s - 1e-9:
                 if g0 - g >= YIELD_PROBE_CLOSING and np.hypot(*(pos - pos0)) < YIELD_PROBE_CLOSING:
-                    self._holds.add(pid)  # the robot came closer, the pedestrian did not move: it holds its ground
+                    self._holds.add(
+                        pid
+                    )  # the robot came closer, the pedestrian did not move: it holds its ground
                     continue
                 t0, pos0, g0 = obs.time, pos, g  # no verdict: test again from here
             probes[pid] = (t0, pos0, g0)
@@ -283,8 +338,9 @@ class PredictivePlanner:
         speed_away = _along((fut[:, 1] - fut[:, 0]) / float(times[1] - times[0]), fut[:, 0] - p0)
         return slow * s.receding_room * np.clip(speed_away / s.receding_speed, 0.0, 1.0)
 
-    def _straight_lines(self, obs: Observation, ids: np.ndarray, times: np.ndarray, p0: np.ndarray,
-                        v: float) -> tuple[np.ndarray, np.ndarray] | None:
+    def _straight_lines(
+        self, obs: Observation, ids: np.ndarray, times: np.ndarray, p0: np.ndarray, v: float
+    ) -> tuple[np.ndarray, np.ndarray] | None:
         """(N,) mask of the forecast pedestrians (``ids``) walking towards a slow robot, and their straight lines
         (A, K, 2): where each would be at ``times`` at its current velocity; None for none.
 
@@ -324,7 +380,9 @@ class PredictivePlanner:
         dv = obs.ped_velocities - vel_old[np.argmax(same, axis=1)]
         away = obs.ped_positions - p0
         gave_way = _along(dv, away) >= REACTION_DV
-        near = np.sqrt(np.add.reduce(away * away, axis=1)) - obs.robot_radius - obs.ped_radius <= REACTION_RANGE
+        near = (
+            np.sqrt(np.add.reduce(away * away, axis=1)) - obs.robot_radius - obs.ped_radius <= REACTION_RANGE
+        )
         self._reacted.update(obs.ped_ids[seen & near & gave_way].tolist())
 
     def _assertiveness(self, phi0: float, now: float, dt: float) -> float:
@@ -353,8 +411,12 @@ class PredictivePlanner:
             res = self.config.search.geodesic_resolution
             clearance = obs.robot_radius + self.config.safety.static_margin
             way = None if res <= 0 else (lambda w: GeodesicDistance(obs.static, w, clearance, res))
-            self._route_cache = (key, C.RoutePotential(route, switch_radius=obs.goal_tolerance,
-                                                       goal_tolerance=obs.goal_tolerance, distance=way))
+            self._route_cache = (
+                key,
+                C.RoutePotential(
+                    route, switch_radius=obs.goal_tolerance, goal_tolerance=obs.goal_tolerance, distance=way
+                ),
+            )
         return self._route_cache[1]
 
     def _candidates(self, near: bool | None) -> np.ndarray:
@@ -362,9 +424,15 @@ class PredictivePlanner:
         if near not in self._cands:
             cfg = self.config
             self._cands[near] = (
-                branch_commands(cfg.search, self._limits, cfg.max_speed_ratio,
-                                reverse_speeds(cfg.sampling, self._limits, cfg.max_speed_ratio)) if near is None
-                else first_candidates(cfg.sampling, self._limits, cfg.max_speed_ratio, near))
+                branch_commands(
+                    cfg.search,
+                    self._limits,
+                    cfg.max_speed_ratio,
+                    reverse_speeds(cfg.sampling, self._limits, cfg.max_speed_ratio),
+                )
+                if near is None
+                else first_candidates(cfg.sampling, self._limits, cfg.max_speed_ratio, near)
+            )
         return self._cands[near]
 
     def _first_sequences(self, near: bool, steps: int, dt: float) -> np.ndarray:
@@ -388,7 +456,9 @@ class PredictivePlanner:
             self._static = C.StaticClearance(obs.static, self.config.safety.static_field_resolution)
         return self._static
 
-    def _search(self, obs: Observation, scene: C.Scene, near: bool) -> tuple[np.ndarray, dict, float, int, bool]:
+    def _search(
+        self, obs: Observation, scene: C.Scene, near: bool
+    ) -> tuple[np.ndarray, dict, float, int, bool]:
         """Beam search; returns the best sequence's commands (S, 2), its terms, its cost, #evaluations and whether it
         is the last decision's plan carried on."""
         cfg = self.config
@@ -401,7 +471,9 @@ class PredictivePlanner:
         if kept is not None:
             cmds, states = np.concatenate([cmds, kept[0][None]]), np.concatenate([states, kept[1][None]])
         total, terms = C.evaluate(C.Rollouts(states, idx, cmds), scene, cfg)
-        evals = [(cmds, states, total, terms)]  # (commands, states, totals, terms) of each evaluation, in order
+        evals = [
+            (cmds, states, total, terms)
+        ]  # (commands, states, totals, terms) of each evaluation, in order
         n_eval = len(cmds)
         branch = self._candidates(None)
         M = len(branch)
@@ -422,7 +494,9 @@ class PredictivePlanner:
             e += 1
         cmds, states, total, terms = evals[e]
         self._plan = cmds[best], states[best]
-        carried_on = kept is not None and e == 0 and best == len(cmds) - 1  # the kept plan is the first round's last
+        carried_on = (
+            kept is not None and e == 0 and best == len(cmds) - 1
+        )  # the kept plan is the first round's last
         return cmds[best], {k: v[best] for k, v in terms.items()}, float(total[best]), n_eval, carried_on
 
     def _kept_plan(self, state0: np.ndarray, S: int, dt: float) -> tuple[np.ndarray, np.ndarray] | None:
@@ -465,7 +539,9 @@ COMMIT_SIGMA = 0.1
 #: closed in by at least ``YIELD_PROBE_CLOSING`` [m] during the test while it moved less than that
 YIELD_PROBE_SLACK = 0.3
 YIELD_PROBE_CLOSING = 0.1
-LINGER_DISTANCE = 0.5  #: [m] a pedestrian by the robot that moved less over ``standing_stays_s`` lingers there
+LINGER_DISTANCE = (
+    0.5  #: [m] a pedestrian by the robot that moved less over ``standing_stays_s`` lingers there
+)
 
 
 NO_LINES = np.zeros(0, dtype=np.int64)  #: no pedestrian held to a straight line
@@ -503,8 +579,10 @@ def _boundaries(segments_s: tuple[float, ...], sim_dt: float, S: int) -> list[in
             break
         out.append(acc)
     if not out and segments_s:
-        raise ConfigError(f"segments {segments_s} s leave no second segment inside the {S * sim_dt:.1f} s horizon",
-                          item="search.segments_s")
+        raise ConfigError(
+            f"segments {segments_s} s leave no second segment inside the {S * sim_dt:.1f} s horizon",
+            item="search.segments_s",
+        )
     return out
 
 

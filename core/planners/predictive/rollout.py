@@ -20,7 +20,8 @@ def eval_steps(times: np.ndarray, sim_dt: float) -> np.ndarray:
     k = np.rint(times / sim_dt).astype(np.int64)
     if np.any(np.abs(k * sim_dt - times) > 1e-6) or np.any(k < 1):
         raise ConfigError(
-            f"forecast times {times.tolist()} are not whole simulator steps of {sim_dt} s", item="forecast.times"
+            f"forecast times {times.tolist()} are not whole simulator steps of {sim_dt} s",
+            item="forecast.times",
         )
     return k - 1
 
@@ -33,7 +34,9 @@ def rollout(state0: np.ndarray, commands: np.ndarray, limits: RobotLimits, dt: f
     return unicycle_rollout(state0, commands, limits, dt)
 
 
-SPEED_DECIMALS = 12  #: start speeds are rounded to this many decimals (floating-point noise) before the lookup
+SPEED_DECIMALS = (
+    12  #: start speeds are rounded to this many decimals (floating-point noise) before the lookup
+)
 
 
 class FrameRollouts:
@@ -59,10 +62,14 @@ class FrameRollouts:
         unwrapped (every use of them is periodic)."""
         local = []
         for v, w in np.round(states0[:, 3:], SPEED_DECIMALS).tolist():
-            done = self._local.pop((key, v, w), None)  # stored again below: the last used is the last in the dict
+            done = self._local.pop(
+                (key, v, w), None
+            )  # stored again below: the last used is the last in the dict
             if done is None:
                 if len(self._local) >= self.capacity:
-                    del self._local[next(iter(self._local))]  # the least recently used (dicts keep insertion order)
+                    del self._local[
+                        next(iter(self._local))
+                    ]  # the least recently used (dicts keep insertion order)
                 start = np.repeat(np.array([[0.0, 0.0, 0.0, v, w]]), len(commands), axis=0)
                 done = rollout(start, commands, self.limits, self.dt)
             self._local[(key, v, w)] = done
@@ -79,8 +86,9 @@ class FrameRollouts:
         return out.reshape((-1,) + out.shape[2:])
 
 
-def extend_forecast(positions: np.ndarray, sigma: np.ndarray, times: np.ndarray,
-                    extra_steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def extend_forecast(
+    positions: np.ndarray, sigma: np.ndarray, times: np.ndarray, extra_steps: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Append ``extra_steps`` on the same grid: each pedestrian at its final forecast velocity, its spread
     growing at its final rate. Returns positions (N, K+e, 2), sigma (N, K+e) and times (K+e,)."""
     if extra_steps <= 0:
@@ -91,5 +99,8 @@ def extend_forecast(positions: np.ndarray, sigma: np.ndarray, times: np.ndarray,
     k = np.arange(1, extra_steps + 1) * dt
     ext = positions[:, -1:, :] + k[None, :, None] * vel[:, None, :]
     ext_sigma = sigma[:, -1:] + k[None, :] * growth[:, None]
-    return (np.concatenate([positions, ext], axis=1), np.concatenate([sigma, ext_sigma], axis=1),
-            np.concatenate([times, times[-1] + k]))
+    return (
+        np.concatenate([positions, ext], axis=1),
+        np.concatenate([sigma, ext_sigma], axis=1),
+        np.concatenate([times, times[-1] + k]),
+    )

@@ -27,7 +27,9 @@ def _product(speeds: np.ndarray, rates: np.ndarray) -> np.ndarray:
     return np.stack([v.ravel(), w.ravel()], axis=1)
 
 
-def first_candidates(cfg: SamplingConfig, limits: RobotLimits, speed_ratio: float, near_field: bool) -> np.ndarray:
+def first_candidates(
+    cfg: SamplingConfig, limits: RobotLimits, speed_ratio: float, near_field: bool
+) -> np.ndarray:
     """(C, 2) first-segment commands, sorted by (v, omega); always contains the braking command (0, 0).
 
     ``speed_ratio`` caps every speed (the config's max_speed_ratio); inside the near field the cap
@@ -54,8 +56,9 @@ def reverse_speeds(cfg: SamplingConfig, limits: RobotLimits, speed_ratio: float)
     return np.maximum(-ratios * limits.v_max, limits.v_min)
 
 
-def branch_commands(cfg: SearchConfig, limits: RobotLimits, speed_ratio: float,
-                    reverse: np.ndarray | None = None) -> np.ndarray:
+def branch_commands(
+    cfg: SearchConfig, limits: RobotLimits, speed_ratio: float, reverse: np.ndarray | None = None
+) -> np.ndarray:
     """(M, 2) commands tried for every later segment of a beam entry (a coarser set; braking included), with the
     ``reverse`` speeds [m/s] (``reverse_speeds``) too."""
     speeds = np.minimum(np.asarray(cfg.branch_speed_ratios, dtype=float), speed_ratio) * limits.v_max
@@ -67,7 +70,9 @@ def branch_commands(cfg: SearchConfig, limits: RobotLimits, speed_ratio: float,
     return np.unique(cands, axis=0)
 
 
-def turn_then_go(cfg: SamplingConfig, limits: RobotLimits, steps: int, dt: float, speed_ratio: float) -> np.ndarray:
+def turn_then_go(
+    cfg: SamplingConfig, limits: RobotLimits, steps: int, dt: float, speed_ratio: float
+) -> np.ndarray:
     """(P, steps, 2) sequences that turn in place by each of ``cfg.turn_then_go`` [rad] at the full turn rate, then
     drive straight at each of ``cfg.turn_then_go_speeds`` x v_max: how a robot backed into a corner beside a door
     faces it and goes in. A held (v, omega) is an arc, and an arc cannot do that."""
@@ -82,7 +87,9 @@ def turn_then_go(cfg: SamplingConfig, limits: RobotLimits, steps: int, dt: float
     return np.array(rows).reshape(-1, steps, 2)
 
 
-def veer_then_straight(cfg: SamplingConfig, limits: RobotLimits, steps: int, dt: float, speed_ratio: float) -> np.ndarray:
+def veer_then_straight(
+    cfg: SamplingConfig, limits: RobotLimits, steps: int, dt: float, speed_ratio: float
+) -> np.ndarray:
     """(P, steps, 2) sequences that drive at each of ``cfg.veer_speeds`` x v_max turning at each of
     ``cfg.veer_turn_rates`` x w_max for each of ``cfg.veer_durations_s``, then straight on at that speed: how a robot
     pulls out to pass slower walkers. Held to the horizon the same turn is a circle, which never enters the beam."""

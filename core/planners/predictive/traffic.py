@@ -16,13 +16,23 @@ import numpy as np
 class TrafficMap:
     """Decaying count of walkers passing within ``radius`` of each cell (a grid of ``resolution``)."""
 
-    def __init__(self, width: float, height: float, radius: float, resolution: float = 0.2, memory_s: float = 20.0,
-                 every_s: float = 0.5, walking_speed: float = 0.3):
+    def __init__(
+        self,
+        width: float,
+        height: float,
+        radius: float,
+        resolution: float = 0.2,
+        memory_s: float = 20.0,
+        every_s: float = 0.5,
+        walking_speed: float = 0.3,
+    ):
         self.resolution, self.radius, self.memory_s, self.every_s = resolution, radius, memory_s, every_s
         self.walking_speed = walking_speed
-        self.grid = np.zeros((int(math.ceil(width / resolution)) + 1, int(math.ceil(height / resolution)) + 1))
+        self.grid = np.zeros(
+            (int(math.ceil(width / resolution)) + 1, int(math.ceil(height / resolution)) + 1)
+        )
         r = int(math.ceil(radius / resolution))
-        i, j = np.mgrid[-r:r + 1, -r:r + 1]
+        i, j = np.mgrid[-r : r + 1, -r : r + 1]
         inside = np.hypot(i, j) * resolution <= radius
         self._disk = np.stack([i[inside], j[inside]], axis=1)  # (D, 2) cell offsets within the radius
         self._last = -math.inf
@@ -33,22 +43,36 @@ class TrafficMap:
             return
         elapsed, self._last = time - self._last, time
         self.grid *= math.exp(-elapsed / self.memory_s)
-        span = min(elapsed, self.every_s)  # the stretch each walker is taken to have walked since the last stamp
+        span = min(
+            elapsed, self.every_s
+        )  # the stretch each walker is taken to have walked since the last stamp
         speed = np.hypot(*np.asarray(velocities, dtype=float).reshape(-1, 2).T)
         walking = speed >= self.walking_speed
         if not walking.any():
             return
-        cells = np.rint(np.asarray(positions, dtype=float).reshape(-1, 2)[walking] / self.resolution).astype(np.int64)
+        cells = np.rint(np.asarray(positions, dtype=float).reshape(-1, 2)[walking] / self.resolution).astype(
+            np.int64
+        )
         share = speed[walking] * span / (2.0 * self.radius)
         idx = cells[:, None, :] + self._disk[None]  # (W, D, 2)
-        ok = (idx[..., 0] >= 0) & (idx[..., 0] < self.grid.shape[0]) & (idx[..., 1] >= 0) & (idx[..., 1] < self.grid.shape[1])
+        ok = (
+            (idx[..., 0] >= 0)
+            & (idx[..., 0] < self.grid.shape[0])
+            & (idx[..., 1] >= 0)
+            & (idx[..., 1] < self.grid.shape[1])
+        )
         w = np.broadcast_to(share[:, None], ok.shape)
         np.add.at(self.grid, (idx[..., 0][ok], idx[..., 1][ok]), w[ok])
 
     def __call__(self, pts: np.ndarray) -> np.ndarray:
         """Walkers that passed (decayed) at points (..., 2); 0 off the map."""
         c = np.rint(np.asarray(pts, dtype=float) / self.resolution).astype(np.int64)
-        ok = (c[..., 0] >= 0) & (c[..., 0] < self.grid.shape[0]) & (c[..., 1] >= 0) & (c[..., 1] < self.grid.shape[1])
+        ok = (
+            (c[..., 0] >= 0)
+            & (c[..., 0] < self.grid.shape[0])
+            & (c[..., 1] >= 0)
+            & (c[..., 1] < self.grid.shape[1])
+        )
         out = np.zeros(c.shape[:-1])
         out[ok] = self.grid[c[..., 0][ok], c[..., 1][ok]]
         return out

@@ -28,19 +28,41 @@ from foresight.core.predict.timebase import TimeBase
 from foresight.core.version import code_version
 
 FORMAT = "foresight.predict.checkpoint/1"
-REQUIRED = ("format", "model_config", "model", "timebase", "feature_schema", "dataset", "metrics", "epoch",
-            "code_version")
+REQUIRED = (
+    "format",
+    "model_config",
+    "model",
+    "timebase",
+    "feature_schema",
+    "dataset",
+    "metrics",
+    "epoch",
+    "code_version",
+)
 
 
-def make_checkpoint(model: TrajectoryModel, timebase: TimeBase, frame_convention: str, dataset: dict[str, Any],
-                    metrics: dict[str, Any], epoch: int, **extra: Any) -> dict[str, Any]:
+def make_checkpoint(
+    model: TrajectoryModel,
+    timebase: TimeBase,
+    frame_convention: str,
+    dataset: dict[str, Any],
+    metrics: dict[str, Any],
+    epoch: int,
+    **extra: Any,
+) -> dict[str, Any]:
     """The checkpoint dict of ``model``; its weights on the CPU whatever device trained it, so the file loads
     anywhere in the same format."""
     return {
-        "format": FORMAT, "model_config": model.config.to_dict(), "model": to_cpu(model.state_dict()),
+        "format": FORMAT,
+        "model_config": model.config.to_dict(),
+        "model": to_cpu(model.state_dict()),
         "timebase": timebase.to_dict(),
         "feature_schema": {"names": feature_names(timebase.history), "frame_convention": frame_convention},
-        "dataset": dataset, "metrics": metrics, "epoch": epoch, "code_version": code_version(), **extra,
+        "dataset": dataset,
+        "metrics": metrics,
+        "epoch": epoch,
+        "code_version": code_version(),
+        **extra,
     }
 
 
@@ -59,8 +81,11 @@ def checkpoint_bytes(path: Path, expect_sha256: str | None = None) -> tuple[byte
     data = path.read_bytes()
     sha = hashlib.sha256(data).hexdigest()
     if expect_sha256 is not None and sha != expect_sha256:
-        raise ConfigError(f"checkpoint content changed: sha256 {sha[:12]}... instead of {expect_sha256[:12]}...",
-                          source=path, item="sha256")
+        raise ConfigError(
+            f"checkpoint content changed: sha256 {sha[:12]}... instead of {expect_sha256[:12]}...",
+            source=path,
+            item="sha256",
+        )
     return data, sha
 
 
@@ -89,8 +114,16 @@ class TorchPredictor:
     read at the first such call, so the model must be trained by then); batches run the torch model.
     """
 
-    def __init__(self, model: TrajectoryModel, timebase: TimeBase, name: str, frame_convention: str = "robot",
-                 max_agents: int | None = None, threads: int | None = None, sha256: str | None = None):
+    def __init__(
+        self,
+        model: TrajectoryModel,
+        timebase: TimeBase,
+        name: str,
+        frame_convention: str = "robot",
+        max_agents: int | None = None,
+        threads: int | None = None,
+        sha256: str | None = None,
+    ):
         self.model = model.eval()
         self.sha256 = sha256  #: checksum of the checkpoint bytes this model was built from
         self.timebase = timebase
@@ -121,14 +154,18 @@ class TorchPredictor:
         if len(features) == 1:
             return self._one_sample().positions(*_sample(features, mask))[None]
         with torch.inference_mode():
-            out = self.model(torch.as_tensor(features, dtype=torch.float32), torch.as_tensor(mask, dtype=torch.float32))
+            out = self.model(
+                torch.as_tensor(features, dtype=torch.float32), torch.as_tensor(mask, dtype=torch.float32)
+            )
         return out.numpy()
 
     def predict_dist(self, features: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(B, N, T, 2) positions and (B, N, T) per-axis std [m]; only when :attr:`has_sigma`."""
         check_batch(np.asarray(features), np.asarray(mask), self.timebase, self.name)
         if self.mirror_average:
-            return mirror_mixture(self._predict_dist, np.asarray(features, np.float32), mask, self.timebase.history)
+            return mirror_mixture(
+                self._predict_dist, np.asarray(features, np.float32), mask, self.timebase.history
+            )
         return self._predict_dist(features, mask)
 
     def _predict_dist(self, features: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -136,8 +173,9 @@ class TorchPredictor:
             pos, sigma = self._one_sample().distribution(*_sample(features, mask))
             return pos[None], sigma[None]
         with torch.inference_mode():
-            pos, sigma = self.model.forward_dist(torch.as_tensor(features, dtype=torch.float32),
-                                                 torch.as_tensor(mask, dtype=torch.float32))
+            pos, sigma = self.model.forward_dist(
+                torch.as_tensor(features, dtype=torch.float32), torch.as_tensor(mask, dtype=torch.float32)
+            )
         return pos.numpy(), sigma.numpy()
 
     def _one_sample(self) -> ModelForward:
@@ -151,8 +189,13 @@ def _sample(features: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndar
     return np.asarray(features[0], dtype=np.float32), np.asarray(mask[0], dtype=np.float32)
 
 
-def load_predictor(path: Path, expect_timebase: TimeBase | None = None, name: str | None = None,
-                   threads: int | None = 1, expect_sha256: str | None = None) -> TorchPredictor:
+def load_predictor(
+    path: Path,
+    expect_timebase: TimeBase | None = None,
+    name: str | None = None,
+    threads: int | None = 1,
+    expect_sha256: str | None = None,
+) -> TorchPredictor:
     """Rebuild the model from the checkpoint alone; ``expect_timebase`` makes a mismatch an error, and so
     does ``expect_sha256`` (checked on the very bytes loaded; the result's ``sha256`` holds their checksum).
 
@@ -167,20 +210,35 @@ def load_predictor(path: Path, expect_timebase: TimeBase | None = None, name: st
         expect_timebase.require_same(timebase, what=f"checkpoint {path}", source=str(path))
     schema = payload["feature_schema"]
     if schema.get("names") != feature_names(timebase.history):
-        raise ConfigError("feature schema differs from this code's feature extraction; retrain the model",
-                          source=path, item="feature_schema")
+        raise ConfigError(
+            "feature schema differs from this code's feature extraction; retrain the model",
+            source=path,
+            item="feature_schema",
+        )
     try:
         config = ModelConfig(**payload["model_config"])
     except TypeError as exc:
         raise ConfigError(f"bad model_config ({exc})", source=path, item="model_config") from None
-    if (config.history, config.horizon) != (timebase.history, timebase.horizon) or abs(config.dt - timebase.dt) > 1e-9:
-        raise ConfigError("model_config disagrees with the checkpoint's time base", source=path, item="model_config")
+    if (config.history, config.horizon) != (timebase.history, timebase.horizon) or abs(
+        config.dt - timebase.dt
+    ) > 1e-9:
+        raise ConfigError(
+            "model_config disagrees with the checkpoint's time base", source=path, item="model_config"
+        )
     model = build_model(config)
     try:
         model.load_state_dict(payload["model"], strict=True)
     except RuntimeError as exc:
-        raise ConfigError(f"weights do not fit model_config ({str(exc).splitlines()[0]})", source=path,
-                          item="model") from None
+        raise ConfigError(
+            f"weights do not fit model_config ({str(exc).splitlines()[0]})", source=path, item="model"
+        ) from None
     max_agents = payload.get("dataset", {}).get("max_agents")
-    return TorchPredictor(model, timebase, name or Path(path).stem, schema.get("frame_convention", "robot"), max_agents,
-                          threads=threads, sha256=sha)
+    return TorchPredictor(
+        model,
+        timebase,
+        name or Path(path).stem,
+        schema.get("frame_convention", "robot"),
+        max_agents,
+        threads=threads,
+        sha256=sha,
+    )

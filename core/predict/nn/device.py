@@ -18,8 +18,10 @@ def resolve_device(requested: str) -> torch.device:
     if requested == "cpu" or (requested == "auto" and not torch.cuda.is_available()):
         return torch.device("cpu")
     if not torch.cuda.is_available():
-        raise ConfigError(f"device: cuda, but torch {torch.__version__} sees no CUDA GPU here "
-                          "(use device: auto or cpu)", item="device")
+        raise ConfigError(
+            f"device: cuda, but torch {torch.__version__} sees no CUDA GPU here (use device: auto or cpu)",
+            item="device",
+        )
     return torch.device("cuda")
 
 

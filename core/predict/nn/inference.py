@@ -39,16 +39,26 @@ class NetworkForward:
     def __init__(self, model: TrajectoryModel):
         self.config = model.config
         self.encoder = [_dense(model.encoder[0]), _dense(model.encoder[2])]
-        self.edge = _dense(model.edge_encoder[0]) if model.edge_encoder is not None and len(model.blocks) else None
-        self.blocks = [{
-            "qkv": _dense(b.qkv), "scale": np.float32(b.scale),
-            "distance": np.float32(torch.nn.functional.softplus(b.distance_weight.detach()).item()),
-            "edge_logit": None if b.edge_logit is None else _dense(b.edge_logit),
-            "edge_value": None if b.edge_value is None else _dense(b.edge_value),
-            "update": (_dense(b.update[0]), _dense(b.update[2])),
-        } for b in model.blocks]
+        self.edge = (
+            _dense(model.edge_encoder[0]) if model.edge_encoder is not None and len(model.blocks) else None
+        )
+        self.blocks = [
+            {
+                "qkv": _dense(b.qkv),
+                "scale": np.float32(b.scale),
+                "distance": np.float32(torch.nn.functional.softplus(b.distance_weight.detach()).item()),
+                "edge_logit": None if b.edge_logit is None else _dense(b.edge_logit),
+                "edge_value": None if b.edge_value is None else _dense(b.edge_value),
+                "update": (_dense(b.update[0]), _dense(b.update[2])),
+            }
+            for b in model.blocks
+        ]
         self.decoder = [_dense(model.decoder[0]), _dense(model.decoder[2])]
-        self.sigma = None if model.sigma_decoder is None else [_dense(model.sigma_decoder[0]), _dense(model.sigma_decoder[2])]
+        self.sigma = (
+            None
+            if model.sigma_decoder is None
+            else [_dense(model.sigma_decoder[0]), _dense(model.sigma_decoder[2])]
+        )
         self.envelope = None if model.sigma_decoder is None else model.envelope.cpu().numpy()
         self.px, self.vx = model._px, model._vx
 
@@ -56,7 +66,7 @@ class NetworkForward:
         """Positions (N, T, 2) in the features' frame; with ``with_sigma`` also the spread (N, T)."""
         c, N = self.config, len(features)
         m = mask[:, None]
-        p0, v0 = features[:, self.px: self.px + 2], features[:, self.vx: self.vx + 2]
+        p0, v0 = features[:, self.px : self.px + 2], features[:, self.vx : self.vx + 2]
         x, rot_t = _local_inputs(features, c.history) if c.local_frame else (features, None)
         h = _apply(_apply(x, self.encoder[0], True), self.encoder[1], True) * m
         pv = np.concatenate([p0, v0], axis=-1)
@@ -101,17 +111,32 @@ def _local_inputs(features: np.ndarray, history: int) -> tuple[np.ndarray, np.nd
     pos, vel, valid = steps[..., 0:2], steps[..., 2:4], steps[..., 4:5]
     p0, v0 = pos[:, -1], vel[:, -1]
     speed = np.sqrt(np.add.reduce(v0 * v0, axis=-1, keepdims=True))
-    u = np.where(speed > STILL, v0 / np.maximum(speed, np.float32(STILL)), np.array([1, 0], dtype=features.dtype))
+    u = np.where(
+        speed > STILL, v0 / np.maximum(speed, np.float32(STILL)), np.array([1, 0], dtype=features.dtype)
+    )
     rot_t = np.empty((N, 2, 2), dtype=features.dtype)
     rot_t[:, 0, 0], rot_t[:, 1, 0], rot_t[:, 0, 1], rot_t[:, 1, 1] = u[:, 0], u[:, 1], -u[:, 1], u[:, 0]
-    ego = features[:, 5 * H:]
+    ego = features[:, 5 * H :]
     robot_x = np.zeros_like(ego[:, 0:2])
     robot_x[:, 0] = ego[:, 0]  # the robot's x (as the torch model's ego[..., 0:2] * (1, 0))
-    vecs = np.concatenate([(pos - p0[:, None]) * valid, vel, -p0[:, None], robot_x[:, None], ego[:, None, 2:4]], axis=1)
+    vecs = np.concatenate(
+        [(pos - p0[:, None]) * valid, vel, -p0[:, None], robot_x[:, None], ego[:, None, 2:4]], axis=1
+    )
     r = vecs @ rot_t  # (N, 2 H + 3, 2)
-    x = np.concatenate([r[:, : 2 * H].reshape(N, -1), valid.reshape(N, -1), r[:, 2 * H],
-                        np.sqrt(np.add.reduce(p0 * p0, axis=-1, keepdims=True)), r[:, 2 * H + 1], ego[:, 1:2],
-                        r[:, 2 * H + 2], ego[:, 4:5], speed], axis=-1)
+    x = np.concatenate(
+        [
+            r[:, : 2 * H].reshape(N, -1),
+            valid.reshape(N, -1),
+            r[:, 2 * H],
+            np.sqrt(np.add.reduce(p0 * p0, axis=-1, keepdims=True)),
+            r[:, 2 * H + 1],
+            ego[:, 1:2],
+            r[:, 2 * H + 2],
+            ego[:, 4:5],
+            speed,
+        ],
+        axis=-1,
+    )
     return x, rot_t
 
 

@@ -35,13 +35,14 @@ def mirror_mean(forward: Callable[[Any, Any], Any], features: Any, mask: Any, hi
     return (forward(features, mask) + _flip_y(forward(_mirror_features(features, history), mask))) / 2
 
 
-def mirror_mixture(forward: Callable[[Any, Any], tuple[Any, Any]], features: Any, mask: Any,
-                   history: int) -> tuple[Any, Any]:
+def mirror_mixture(
+    forward: Callable[[Any, Any], tuple[Any, Any]], features: Any, mask: Any, history: int
+) -> tuple[Any, Any]:
     """Positions and per-axis spread of the equal mixture of a forecast and its mirror twin: the mean, and
     sigma^2 = the mean of the two sigma^2 + the two means' per-axis spread (as an ensemble's)."""
     pos, sigma = forward(features, mask)
     pos_m, sigma_m = forward(_mirror_features(features, history), mask)
     pos_m = _flip_y(pos_m)
     half = (pos - pos_m) / 2
-    var = (sigma ** 2 + sigma_m ** 2) / 2 + (half ** 2).mean(-1)
-    return (pos + pos_m) / 2, var ** 0.5
+    var = (sigma**2 + sigma_m**2) / 2 + (half**2).mean(-1)
+    return (pos + pos_m) / 2, var**0.5

@@ -50,8 +50,12 @@ class ModelConfig:
     dt: float  #: time-base step [s]
     hidden: int = 64  #: h
     blocks: int = 2  #: K message-passing blocks
-    edge_dim: int = 0  #: width of the relative-geometry edge embeddings (0 = none, as checkpoints before them)
-    local_frame: bool = False  #: encode/decode each pedestrian in its own frame (False = checkpoints before it)
+    edge_dim: int = (
+        0  #: width of the relative-geometry edge embeddings (0 = none, as checkpoints before them)
+    )
+    local_frame: bool = (
+        False  #: encode/decode each pedestrian in its own frame (False = checkpoints before it)
+    )
     members: int = 1  #: > 1: an ensemble of that many independently trained models, predictions averaged
     sigma_head: bool = False  #: predict a per-step spread (False = checkpoints before it: the fixed envelope)
     #: forecast = the mean of the network's forecast and the mirror image of its forecast of the mirrored scene
@@ -79,18 +83,42 @@ def local_inputs(features: torch.Tensor, history: int) -> tuple[torch.Tensor, to
     pos, vel, valid = steps[..., 0:2], steps[..., 2:4], steps[..., 4:5]
     p0, v0 = pos[..., -1, :], vel[..., -1, :]
     speed = torch.linalg.vector_norm(v0, dim=-1, keepdim=True)
-    same = features.dtype == torch.float32 and features.device.type == "cpu"  # the constants as they are (no .to)
-    unit_x, row2 = (_UNIT_X, _ROW2) if same else (_UNIT_X.to(features.device, features.dtype),
-                                                   _ROW2.to(features.device, features.dtype))
+    same = (
+        features.dtype == torch.float32 and features.device.type == "cpu"
+    )  # the constants as they are (no .to)
+    unit_x, row2 = (
+        (_UNIT_X, _ROW2)
+        if same
+        else (_UNIT_X.to(features.device, features.dtype), _ROW2.to(features.device, features.dtype))
+    )
     u = torch.where(speed > STILL, v0 / speed.clamp(min=STILL), unit_x)  # (c, s)
     rot = torch.stack([u, u.flip(-1) * row2], dim=-2)  # rows (c, s), (-s, c)
-    ego = features[..., 5 * H:]
-    vecs = torch.cat([(pos - p0.unsqueeze(-2)) * valid, vel, -p0.unsqueeze(-2),
-                      (ego[..., 0:2] * unit_x).unsqueeze(-2), ego[..., 2:4].unsqueeze(-2)], dim=-2)
+    ego = features[..., 5 * H :]
+    vecs = torch.cat(
+        [
+            (pos - p0.unsqueeze(-2)) * valid,
+            vel,
+            -p0.unsqueeze(-2),
+            (ego[..., 0:2] * unit_x).unsqueeze(-2),
+            ego[..., 2:4].unsqueeze(-2),
+        ],
+        dim=-2,
+    )
     r = vecs @ rot.transpose(-1, -2)  # (B, N, 2 H + 3, 2)
-    x = torch.cat([r[..., : 2 * H, :].flatten(-2), valid.flatten(-2), r[..., 2 * H, :],
-                   torch.linalg.vector_norm(p0, dim=-1, keepdim=True), r[..., 2 * H + 1, :], ego[..., 1:2],
-                   r[..., 2 * H + 2, :], ego[..., 4:5], speed], dim=-1)
+    x = torch.cat(
+        [
+            r[..., : 2 * H, :].flatten(-2),
+            valid.flatten(-2),
+            r[..., 2 * H, :],
+            torch.linalg.vector_norm(p0, dim=-1, keepdim=True),
+            r[..., 2 * H + 1, :],
+            ego[..., 1:2],
+            r[..., 2 * H + 2, :],
+            ego[..., 4:5],
+            speed,
+        ],
+        dim=-1,
+    )
     return x, rot
 
 
@@ -110,8 +138,9 @@ class MessageBlock(nn.Module):
         self.update = nn.Sequential(nn.Linear(2 * hidden, hidden), nn.ReLU(), nn.Linear(hidden, hidden))
         self.scale = 1.0 / math.sqrt(hidden)
 
-    def forward(self, h: torch.Tensor, dist: torch.Tensor, pair_mask: torch.Tensor,
-                edge: torch.Tensor | None = None) -> torch.Tensor:
+    def forward(
+        self, h: torch.Tensor, dist: torch.Tensor, pair_mask: torch.Tensor, edge: torch.Tensor | None = None
+    ) -> torch.Tensor:
         """h (B, N, h), dist (B, N, N) [m], pair_mask (B, N, N) bool (True = masked OUT: an inactive partner),
         edge (B, N, N, e) -> (B, N, h)."""
         q, k, v = self.qkv(h).chunk(3, dim=-1)
@@ -131,19 +160,27 @@ class TrajectoryModel(nn.Module):
         super().__init__()
         self.config = config
         c = config
-        self.encoder = nn.Sequential(nn.Linear(c.input_dim, c.hidden), nn.ReLU(), nn.Linear(c.hidden, c.hidden), nn.ReLU())
+        self.encoder = nn.Sequential(
+            nn.Linear(c.input_dim, c.hidden), nn.ReLU(), nn.Linear(c.hidden, c.hidden), nn.ReLU()
+        )
         self.blocks = nn.ModuleList(MessageBlock(c.hidden, c.edge_dim) for _ in range(c.blocks))
         self.edge_encoder = nn.Sequential(nn.Linear(5, c.edge_dim), nn.ReLU()) if c.edge_dim else None
-        self.decoder = nn.Sequential(nn.Linear(c.hidden, c.hidden), nn.ReLU(), nn.Linear(c.hidden, 2 * c.horizon))
+        self.decoder = nn.Sequential(
+            nn.Linear(c.hidden, c.hidden), nn.ReLU(), nn.Linear(c.hidden, 2 * c.horizon)
+        )
         nn.init.zeros_(self.decoder[-1].weight)  # start exactly at constant velocity
         nn.init.zeros_(self.decoder[-1].bias)
         self.sigma_decoder = None
         if c.sigma_head:
-            self.sigma_decoder = nn.Sequential(nn.Linear(c.hidden, c.hidden), nn.ReLU(), nn.Linear(c.hidden, c.horizon))
+            self.sigma_decoder = nn.Sequential(
+                nn.Linear(c.hidden, c.hidden), nn.ReLU(), nn.Linear(c.hidden, c.horizon)
+            )
             nn.init.zeros_(self.sigma_decoder[-1].weight)  # start exactly at the envelope
             nn.init.zeros_(self.sigma_decoder[-1].bias)
             times = torch.arange(1, c.horizon + 1, dtype=torch.float32) * c.dt
-            self.register_buffer("envelope", torch.from_numpy(LEARNED_SIGMA(times.numpy())).float(), persistent=False)
+            self.register_buffer(
+                "envelope", torch.from_numpy(LEARNED_SIGMA(times.numpy())).float(), persistent=False
+            )
         self._px = current_index(c.history, "px")
         self._vx = current_index(c.history, "vx")
 
@@ -198,7 +235,9 @@ class EnsembleModel(nn.Module):
     def __init__(self, config: ModelConfig):
         super().__init__()
         self.config = config
-        self.members = nn.ModuleList(TrajectoryModel(replace(config, members=1)) for _ in range(config.members))
+        self.members = nn.ModuleList(
+            TrajectoryModel(replace(config, members=1)) for _ in range(config.members)
+        )
 
     def forward(self, features: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
         return torch.stack([m(features, mask) for m in self.members]).mean(dim=0)
@@ -207,7 +246,9 @@ class EnsembleModel(nn.Module):
         """The mixture's mean and per-axis spread: sigma^2 = mean of the members' sigma^2 + the members' spread."""
         outs = [m.forward_dist(features, mask) for m in self.members]
         pos = torch.stack([p for p, _ in outs])  # (M, B, N, T, 2)
-        var = torch.stack([s for _, s in outs]).pow(2).mean(dim=0) + pos.var(dim=0, unbiased=False).mean(dim=-1)
+        var = torch.stack([s for _, s in outs]).pow(2).mean(dim=0) + pos.var(dim=0, unbiased=False).mean(
+            dim=-1
+        )
         return pos.mean(dim=0), var.sqrt()
 
 
@@ -216,27 +257,34 @@ def build_model(config: ModelConfig) -> nn.Module:
     return TrajectoryModel(config) if config.members == 1 else EnsembleModel(config)
 
 
-def masked_smooth_l1(pred: torch.Tensor, target: torch.Tensor, target_mask: torch.Tensor, beta: float) -> torch.Tensor:
+def masked_smooth_l1(
+    pred: torch.Tensor, target: torch.Tensor, target_mask: torch.Tensor, beta: float
+) -> torch.Tensor:
     """SmoothL1 over (x, y) of valid (slot, step) points only, averaged over those points."""
     per_point = F.smooth_l1_loss(pred, target, reduction="none", beta=beta).sum(-1)
     return (per_point * target_mask).sum() / target_mask.sum().clamp(min=1.0)
 
 
-def masked_euclidean(pred: torch.Tensor, target: torch.Tensor, target_mask: torch.Tensor, eps: float = 1e-6) -> torch.Tensor:
+def masked_euclidean(
+    pred: torch.Tensor, target: torch.Tensor, target_mask: torch.Tensor, eps: float = 1e-6
+) -> torch.Tensor:
     """Mean Euclidean error of valid points: the ADE itself as the loss (its minimiser is what ADE/FDE reward)."""
     err = torch.sqrt(((pred - target) ** 2).sum(-1) + eps)
     return (err * target_mask).sum() / target_mask.sum().clamp(min=1.0)
 
 
-def masked_loss(kind: str, pred: torch.Tensor, target: torch.Tensor, target_mask: torch.Tensor, beta: float) -> torch.Tensor:
+def masked_loss(
+    kind: str, pred: torch.Tensor, target: torch.Tensor, target_mask: torch.Tensor, beta: float
+) -> torch.Tensor:
     """The training loss ``kind`` (smooth_l1 | euclidean) over valid points."""
     if kind == "euclidean":
         return masked_euclidean(pred, target, target_mask)
     return masked_smooth_l1(pred, target, target_mask, beta)
 
 
-def masked_gaussian_nll(pred: torch.Tensor, sigma: torch.Tensor, target: torch.Tensor,
-                        target_mask: torch.Tensor) -> torch.Tensor:
+def masked_gaussian_nll(
+    pred: torch.Tensor, sigma: torch.Tensor, target: torch.Tensor, target_mask: torch.Tensor
+) -> torch.Tensor:
     """Mean negative log-likelihood (without log 2 pi) of valid points under an isotropic 2D Gaussian of per-axis std
     ``sigma`` (B, N, T) around ``pred``: 2 log sigma + |pred - target|^2 / (2 sigma^2). The error is detached: the
     spread learns how wrong the mean is, never the mean how to suit the spread."""
@@ -245,8 +293,14 @@ def masked_gaussian_nll(pred: torch.Tensor, sigma: torch.Tensor, target: torch.T
     return (nll * target_mask).sum() / target_mask.sum().clamp(min=1.0)
 
 
-def masked_ade_fde(pred: torch.Tensor, target: torch.Tensor, target_mask: torch.Tensor) -> tuple[torch.Tensor, ...]:
+def masked_ade_fde(
+    pred: torch.Tensor, target: torch.Tensor, target_mask: torch.Tensor
+) -> tuple[torch.Tensor, ...]:
     """Sums for ADE/FDE: (sum of errors, valid points, sum of final errors, valid finals)."""
     err = torch.linalg.vector_norm(pred - target, dim=-1)
-    return ((err * target_mask).sum(), target_mask.sum(),
-            (err[..., -1] * target_mask[..., -1]).sum(), target_mask[..., -1].sum())
+    return (
+        (err * target_mask).sum(),
+        target_mask.sum(),
+        (err[..., -1] * target_mask[..., -1]).sum(),
+        target_mask[..., -1].sum(),
+    )

@@ -34,7 +34,11 @@ class Selection:
             return False  # once a proxy pick exists, validation loss alone no longer replaces it
         if self.best is None or rec["val_loss"] < self.best["val_loss"]:
             mode = "val_loss_fallback" if self.proxy_enabled else "val_loss"
-            return self._take(rec, mode, "lowest validation loss" + (" before the first proxy epoch" if self.proxy_enabled else ""))
+            return self._take(
+                rec,
+                mode,
+                "lowest validation loss" + (" before the first proxy epoch" if self.proxy_enabled else ""),
+            )
         return False
 
     def _take(self, rec: dict[str, Any], mode: str, reason: str) -> bool:

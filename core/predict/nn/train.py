@@ -57,12 +57,19 @@ ProxyCallback = Callable[[Path], dict[str, float]]
 
 
 def _tensors(ds: Dataset, index: np.ndarray, device: torch.device) -> dict[str, torch.Tensor]:
-    return {k: torch.from_numpy(np.ascontiguousarray(getattr(ds, k)[index])).to(device) for k in
-            ("state", "mask", "target", "target_mask")}
+    return {
+        k: torch.from_numpy(np.ascontiguousarray(getattr(ds, k)[index])).to(device)
+        for k in ("state", "mask", "target", "target_mask")
+    }
 
 
-def evaluate(model: TrajectoryModel, data: dict[str, torch.Tensor], beta: float, batch: int = 2048,
-             loss: str = "smooth_l1") -> dict[str, float]:
+def evaluate(
+    model: TrajectoryModel,
+    data: dict[str, torch.Tensor],
+    beta: float,
+    batch: int = 2048,
+    loss: str = "smooth_l1",
+) -> dict[str, float]:
     """Loss, ADE, FDE over a whole split (sums over valid points, not means of batch means)."""
     model.eval()
     loss_sum = err = pts = ferr = fin = 0.0
@@ -70,7 +77,7 @@ def evaluate(model: TrajectoryModel, data: dict[str, torch.Tensor], beta: float,
     nll_sum = in1 = in2 = 0.0
     with torch.inference_mode():
         for i in range(0, len(data["state"]), batch):
-            b = {k: v[i:i + batch] for k, v in data.items()}
+            b = {k: v[i : i + batch] for k, v in data.items()}
             if spread:
                 pred, sigma = model.forward_dist(b["state"], b["mask"])
                 n = float(b["target_mask"].sum())
@@ -80,7 +87,9 @@ def evaluate(model: TrajectoryModel, data: dict[str, torch.Tensor], beta: float,
                 in2 += float(((r <= 2.0) * b["target_mask"]).sum())
             else:
                 pred = model(b["state"], b["mask"])
-            loss_sum += float(masked_loss(loss, pred, b["target"], b["target_mask"], beta)) * float(b["target_mask"].sum())
+            loss_sum += float(masked_loss(loss, pred, b["target"], b["target_mask"], beta)) * float(
+                b["target_mask"].sum()
+            )
             e, p, fe, f = masked_ade_fde(pred, b["target"], b["target_mask"])
             err, pts, ferr, fin = err + float(e), pts + float(p), ferr + float(fe), fin + float(f)
     out = {"loss": loss_sum / max(pts, 1.0), "ade": err / max(pts, 1.0), "fde": ferr / max(fin, 1.0)}
@@ -89,7 +98,9 @@ def evaluate(model: TrajectoryModel, data: dict[str, torch.Tensor], beta: float,
     return out
 
 
-def train_epoch(model, opt, data: dict[str, torch.Tensor], config: TrainConfig, epoch: int) -> dict[str, float]:
+def train_epoch(
+    model, opt, data: dict[str, torch.Tensor], config: TrainConfig, epoch: int
+) -> dict[str, float]:
     """One pass in shuffled batches on the data's device; every random draw comes from one CPU generator seeded by
     (seed, epoch), so the batches and augmentations are the same on any device."""
     model.train()
@@ -97,10 +108,12 @@ def train_epoch(model, opt, data: dict[str, torch.Tensor], config: TrainConfig, 
     gen = torch.Generator().manual_seed(config.seed * 1_000_003 + epoch)
     order = torch.randperm(len(data["state"]), generator=gen).to(device)
     signs = torch.from_numpy(mirror_signs(model.config.history)).to(device) if config.augment_mirror else None
-    lengths = torch.from_numpy(length_channels(model.config.history)).to(device) if config.augment_scale else None
+    lengths = (
+        torch.from_numpy(length_channels(model.config.history)).to(device) if config.augment_scale else None
+    )
     loss_sum = err = pts = ferr = fin = 0.0
     for i in range(0, len(order), config.batch_size):
-        idx = order[i:i + config.batch_size]
+        idx = order[i : i + config.batch_size]
         b = {k: v[idx] for k, v in data.items()}
         if signs is not None:
             b = _mirror_half(b, signs, gen)
@@ -110,8 +123,9 @@ def train_epoch(model, opt, data: dict[str, torch.Tensor], config: TrainConfig, 
             b = _jitter(b, config.augment_jitter, model.config.history, model.config.dt, gen)
         if config.sigma_head:
             pred, sigma = model.forward_dist(b["state"], b["mask"])
-            loss = (masked_loss(config.loss, pred, b["target"], b["target_mask"], config.loss_beta)
-                    + config.nll_weight * masked_gaussian_nll(pred, sigma, b["target"], b["target_mask"]))
+            loss = masked_loss(
+                config.loss, pred, b["target"], b["target_mask"], config.loss_beta
+            ) + config.nll_weight * masked_gaussian_nll(pred, sigma, b["target"], b["target_mask"])
         else:
             pred = model(b["state"], b["mask"])
             loss = masked_loss(config.loss, pred, b["target"], b["target_mask"], config.loss_beta)
@@ -122,11 +136,19 @@ def train_epoch(model, opt, data: dict[str, torch.Tensor], config: TrainConfig, 
         with torch.no_grad():
             e, p, fe, f = masked_ade_fde(pred, b["target"], b["target_mask"])
         n = float(b["target_mask"].sum())
-        loss_sum, err, pts, ferr, fin = loss_sum + float(loss.detach()) * n, err + float(e), pts + float(p), ferr + float(fe), fin + float(f)
+        loss_sum, err, pts, ferr, fin = (
+            loss_sum + float(loss.detach()) * n,
+            err + float(e),
+            pts + float(p),
+            ferr + float(fe),
+            fin + float(f),
+        )
     return {"loss": loss_sum / max(pts, 1.0), "ade": err / max(pts, 1.0), "fde": ferr / max(fin, 1.0)}
 
 
-def _mirror_half(b: dict[str, torch.Tensor], signs: torch.Tensor, gen: torch.Generator) -> dict[str, torch.Tensor]:
+def _mirror_half(
+    b: dict[str, torch.Tensor], signs: torch.Tensor, gen: torch.Generator
+) -> dict[str, torch.Tensor]:
     """Mirror a random half of the batch across the ego x axis (features by ``signs``, targets' y)."""
     flip = torch.rand(len(b["state"]), generator=gen).to(b["state"].device) < 0.5
     out = dict(b)
@@ -136,15 +158,20 @@ def _mirror_half(b: dict[str, torch.Tensor], signs: torch.Tensor, gen: torch.Gen
     return out
 
 
-def _scale(b: dict[str, torch.Tensor], lengths: torch.Tensor, bounds: tuple[float, float],
-           gen: torch.Generator) -> dict[str, torch.Tensor]:
+def _scale(
+    b: dict[str, torch.Tensor], lengths: torch.Tensor, bounds: tuple[float, float], gen: torch.Generator
+) -> dict[str, torch.Tensor]:
     """Every sample's length channels and targets times one factor, log-uniform in ``bounds``."""
     lo, hi = math.log(bounds[0]), math.log(bounds[1])
-    f = torch.exp(lo + (hi - lo) * torch.rand(len(b["state"]), generator=gen).to(b["state"].device))[:, None, None]
+    f = torch.exp(lo + (hi - lo) * torch.rand(len(b["state"]), generator=gen).to(b["state"].device))[
+        :, None, None
+    ]
     return {**b, "state": b["state"] * (1.0 + (f - 1.0) * lengths), "target": b["target"] * f[..., None]}
 
 
-def _jitter(b: dict[str, torch.Tensor], std: float, history: int, dt: float, gen: torch.Generator) -> dict[str, torch.Tensor]:
+def _jitter(
+    b: dict[str, torch.Tensor], std: float, history: int, dt: float, gen: torch.Generator
+) -> dict[str, torch.Tensor]:
     """Gaussian noise on every valid past position of every slot, the current one kept (the ego frame's origin), its
     standard deviation drawn per sample uniformly from [0, ``std``] [m] (clean and noisy tracks alike, so the model
     can tell them apart by their history); each step's velocity recomputed as the features define it
@@ -195,23 +222,45 @@ def run_train(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | Non
     train_data, val_data = _tensors(ds, tr_idx, device), _tensors(ds, va_idx, device)
     cv = cv_metrics(ds, va_idx)
     tb = ds.meta.timebase
-    mcfg = ModelConfig(tb.history, tb.horizon, tb.dt, config.hidden, config.blocks, config.edge_dim,
-                       config.local_frame, sigma_head=config.sigma_head, mirror_average=config.mirror_average)
+    mcfg = ModelConfig(
+        tb.history,
+        tb.horizon,
+        tb.dt,
+        config.hidden,
+        config.blocks,
+        config.edge_dim,
+        config.local_frame,
+        sigma_head=config.sigma_head,
+        mirror_average=config.mirror_average,
+    )
     with torch.random.fork_rng():
         torch.manual_seed(config.seed)
         model = TrajectoryModel(mcfg).to(device)  # initialised on the CPU: the same weights on any device
     opt = torch.optim.AdamW(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
-    dataset_info = {"id": config.dataset, "sha256": file_sha256(ds_path), "source": ds.meta.source,
-                    "config_hash": ds.meta.generator_config_hash, "max_agents": ds.meta.max_agents,
-                    "frame_convention": ds.meta.frame_convention, "lineage": ds.meta.lineage,
-                    "timebase": ds.meta.timebase.to_dict()}
+    dataset_info = {
+        "id": config.dataset,
+        "sha256": file_sha256(ds_path),
+        "source": ds.meta.source,
+        "config_hash": ds.meta.generator_config_hash,
+        "max_agents": ds.meta.max_agents,
+        "frame_convention": ds.meta.frame_convention,
+        "lineage": ds.meta.lineage,
+        "timebase": ds.meta.timebase.to_dict(),
+    }
     history, selection, start = [], Selection(proxy_enabled=proxy is not None and config.proxy_every > 0), 1
     last_path = ctx.artifact("checkpoints/last.pt")
     if config.resume and last_path.is_file():
         state = read_checkpoint(last_path)
-        if state["dataset"].get("sha256") != dataset_info["sha256"] or ModelConfig(**state["model_config"]) != mcfg:
-            raise ConfigError("cannot resume: checkpoints/last.pt was trained on another dataset or model config "
-                              "(use a new work dir or resume: false)", source=last_path, item="resume")
+        if (
+            state["dataset"].get("sha256") != dataset_info["sha256"]
+            or ModelConfig(**state["model_config"]) != mcfg
+        ):
+            raise ConfigError(
+                "cannot resume: checkpoints/last.pt was trained on another dataset or model config "
+                "(use a new work dir or resume: false)",
+                source=last_path,
+                item="resume",
+            )
         model.load_state_dict(state["model"])
         opt.load_state_dict(state["optimizer"])
         history, start = state["train_state"]["history"], state["epoch"] + 1
@@ -225,11 +274,25 @@ def run_train(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | Non
         tr = train_epoch(model, opt, train_data, config, epoch)
         t1 = time.time()
         va = evaluate(model, val_data, config.loss_beta, loss=config.loss)
-        rec = {"epoch": epoch, **{f"train_{k}": v for k, v in tr.items()}, **{f"val_{k}": v for k, v in va.items()},
-               "cv_val_ade": cv["ade"], "cv_val_fde": cv["fde"], "train_runtime_s": t1 - t0,
-               "val_runtime_s": time.time() - t1, "train_samples": len(tr_idx), "val_samples": len(va_idx)}
-        payload = make_checkpoint(model, tb, ds.meta.frame_convention, dataset_info,
-                                  {k: v for k, v in rec.items() if k in _CHECKPOINT_METRICS}, epoch)
+        rec = {
+            "epoch": epoch,
+            **{f"train_{k}": v for k, v in tr.items()},
+            **{f"val_{k}": v for k, v in va.items()},
+            "cv_val_ade": cv["ade"],
+            "cv_val_fde": cv["fde"],
+            "train_runtime_s": t1 - t0,
+            "val_runtime_s": time.time() - t1,
+            "train_samples": len(tr_idx),
+            "val_samples": len(va_idx),
+        }
+        payload = make_checkpoint(
+            model,
+            tb,
+            ds.meta.frame_convention,
+            dataset_info,
+            {k: v for k, v in rec.items() if k in _CHECKPOINT_METRICS},
+            epoch,
+        )
         if selection.proxy_enabled and epoch % config.proxy_every == 0:
             path = ctx.artifact(f"proxy_checkpoints/epoch_{epoch:04d}.pt")
             save_checkpoint(payload, path)
@@ -238,14 +301,21 @@ def run_train(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | Non
         history.append(rec)
         if selection.offer(rec):
             save_checkpoint({**payload, "selection": selection.to_dict()}, ctx.artifact("model.pt"))
-        save_checkpoint({**payload, "optimizer": to_cpu(opt.state_dict()),
-                         "train_state": {"history": history, "selection": selection.to_dict()}}, last_path)
+        save_checkpoint(
+            {
+                **payload,
+                "optimizer": to_cpu(opt.state_dict()),
+                "train_state": {"history": history, "selection": selection.to_dict()},
+            },
+            last_path,
+        )
         ctx.progress(epoch / config.epochs, f"epoch {epoch}: val ade {va['ade']:.3f} fde {va['fde']:.3f}")
     return _finish(config, ctx, history, selection, cv, stats, dataset_info, started, device)
 
 
-def _train_ensemble(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | None,
-                    device: torch.device) -> TrainResult:
+def _train_ensemble(
+    config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | None, device: torch.device
+) -> TrainResult:
     """Members in ``members/<k>/`` (complete, resumable runs with seeds seed + k, each selected as usual), then
     ``model.pt`` averaging them and a summary with the ensemble's validation metrics and gates (``history``: the
     first member's curves; every member's summary is in its folder)."""
@@ -253,9 +323,14 @@ def _train_ensemble(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback
     k_total = config.ensemble
     results = []
     for k in range(k_total):
-        sub = replace(ctx, workdir=ctx.artifact(f"members/{k}/.keep").parent,
-                      progress=lambda f, m, k=k: ctx.progress((k + f) / k_total, f"member {k + 1}/{k_total}: {m}"))
-        results.append(run_train(config.model_copy(update={"ensemble": 1, "seed": config.seed + k}), sub, proxy))
+        sub = replace(
+            ctx,
+            workdir=ctx.artifact(f"members/{k}/.keep").parent,
+            progress=lambda f, m, k=k: ctx.progress((k + f) / k_total, f"member {k + 1}/{k_total}: {m}"),
+        )
+        results.append(
+            run_train(config.model_copy(update={"ensemble": 1, "seed": config.seed + k}), sub, proxy)
+        )
     payloads = [read_checkpoint(Path(r.checkpoint)) for r in results]
     model = EnsembleModel(ModelConfig(**{**payloads[0]["model_config"], "members": k_total}))
     for member, payload in zip(model.members, payloads, strict=True):
@@ -265,22 +340,47 @@ def _train_ensemble(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback
     va_idx = ds.split_indices(config.val_split)
     va = evaluate(model.to(device), _tensors(ds, va_idx, device), config.loss_beta, loss=config.loss)
     cv = cv_metrics(ds, va_idx)
-    best = EnsembleScore(epoch=max(r.best_epoch for r in results), val_loss=va["loss"], val_ade=va["ade"],
-                         val_fde=va["fde"], member_epochs=[r.best_epoch for r in results])
+    best = EnsembleScore(
+        epoch=max(r.best_epoch for r in results),
+        val_loss=va["loss"],
+        val_ade=va["ade"],
+        val_fde=va["fde"],
+        member_epochs=[r.best_epoch for r in results],
+    )
     cv_val = AdeFde(**cv)
-    payload = make_checkpoint(model, ds.meta.timebase, ds.meta.frame_convention, payloads[0]["dataset"],
-                              {"val_loss": best.val_loss, "val_ade": best.val_ade, "val_fde": best.val_fde}, best.epoch)
+    payload = make_checkpoint(
+        model,
+        ds.meta.timebase,
+        ds.meta.frame_convention,
+        payloads[0]["dataset"],
+        {"val_loss": best.val_loss, "val_ade": best.val_ade, "val_fde": best.val_fde},
+        best.epoch,
+    )
     save_checkpoint(payload, ctx.artifact("model.pt"))
     first = TrainingSummary.model_validate_json(Path(results[0].summary).read_text())
     summary = TrainingSummary(
-        config=config.model_dump(), dataset=payloads[0]["dataset"], dataset_stats=first.dataset_stats, cv_val=cv_val,
-        history=first.history, best=best,
-        members=[EnsembleMember(seed=config.seed + k, summary=f"members/{k}/training_summary.json",
-                                best_epoch=r.best_epoch, val_ade=r.val_ade, val_fde=r.val_fde)
-                 for k, r in enumerate(results)],
+        config=config.model_dump(),
+        dataset=payloads[0]["dataset"],
+        dataset_stats=first.dataset_stats,
+        cv_val=cv_val,
+        history=first.history,
+        best=best,
+        members=[
+            EnsembleMember(
+                seed=config.seed + k,
+                summary=f"members/{k}/training_summary.json",
+                best_epoch=r.best_epoch,
+                val_ade=r.val_ade,
+                val_fde=r.val_fde,
+            )
+            for k, r in enumerate(results)
+        ],
         selection_mode=f"ensemble of {k_total} ({results[0].selection_mode} each)",
-        quality_gates=training_gate(config.gates, best, cv_val), checkpoint=str(ctx.artifact("model.pt")),
-        total_runtime_s=time.time() - started, code_version=code_version(), device=device.type,
+        quality_gates=training_gate(config.gates, best, cv_val),
+        checkpoint=str(ctx.artifact("model.pt")),
+        total_runtime_s=time.time() - started,
+        code_version=code_version(),
+        device=device.type,
     )
     return _write_summary(summary, ctx)
 
@@ -288,10 +388,19 @@ def _train_ensemble(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback
 def _finish(config, ctx, history, selection, cv, stats, dataset_info, started, device) -> TrainResult:
     best, cv_val = EpochRecord.model_validate(selection.best), AdeFde(**cv)
     summary = TrainingSummary(
-        config=config.model_dump(), dataset=dataset_info, dataset_stats=stats, cv_val=cv_val, history=history,
-        best=best, selection=SelectionState.model_validate(selection.to_dict()), selection_mode=selection.mode,
-        quality_gates=training_gate(config.gates, best, cv_val), checkpoint=str(ctx.artifact("model.pt")),
-        total_runtime_s=time.time() - started, code_version=code_version(), device=device.type,
+        config=config.model_dump(),
+        dataset=dataset_info,
+        dataset_stats=stats,
+        cv_val=cv_val,
+        history=history,
+        best=best,
+        selection=SelectionState.model_validate(selection.to_dict()),
+        selection_mode=selection.mode,
+        quality_gates=training_gate(config.gates, best, cv_val),
+        checkpoint=str(ctx.artifact("model.pt")),
+        total_runtime_s=time.time() - started,
+        code_version=code_version(),
+        device=device.type,
     )
     return _write_summary(summary, ctx)
 

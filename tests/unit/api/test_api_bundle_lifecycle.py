@@ -10,12 +10,20 @@ GZ = {"Content-Type": "application/gzip"}
 
 
 def _upload(client, auth, name: str, files: dict[str, bytes], **params) -> object:  # noqa: ANN001, ANN003
-    return client.post("/v1/bundles", params={"name": name, **params}, content=_tar(files), headers={**auth, **GZ})
+    return client.post(
+        "/v1/bundles", params={"name": name, **params}, content=_tar(files), headers={**auth, **GZ}
+    )
 
 
 def _evaluate_on(client, auth, bundle: str) -> str:  # noqa: ANN001
-    spec = {"kind": "evaluate", "bundle": bundle, "matrix": "scenarios/classic_interactions.yaml",
-            "planner": {"name": "goal"}, "scenarios": ["crossing_low"], "seeds_per_scenario": 1}
+    spec = {
+        "kind": "evaluate",
+        "bundle": bundle,
+        "matrix": "scenarios/classic_interactions.yaml",
+        "planner": {"name": "goal"},
+        "scenarios": ["crossing_low"],
+        "seeds_per_scenario": 1,
+    }
     r = client.post("/v1/jobs", json={"spec": spec}, headers=auth)
     assert r.status_code == 201, r.text
     return r.json()["id"]
@@ -29,7 +37,10 @@ def test_replace_and_delete_an_uploaded_bundle(client, auth, settings) -> None: 
     r = client.put("/v1/bundles/mine", content=_tar(smaller), headers={**auth, **GZ})
     assert r.status_code == 200, r.text
     assert r.json()["scenarios"] == ["scenarios/classic_interactions.yaml"]
-    assert not (folder / "scenarios" / "stress.yaml").exists() and (folder / "scenarios" / "classic_interactions.yaml").is_file()
+    assert (
+        not (folder / "scenarios" / "stress.yaml").exists()
+        and (folder / "scenarios" / "classic_interactions.yaml").is_file()
+    )
     r = _upload(client, auth, "mine", files, replace="true")  # the POST form of a replacement
     assert r.status_code == 200 and "scenarios/stress.yaml" in r.json()["scenarios"]
     bad = client.put("/v1/bundles/mine", content=_tar({"m.yaml": b"scenarios: [\n"}), headers={**auth, **GZ})

@@ -16,7 +16,11 @@ def _grid_campaign() -> dict:
     per variant and checkpoint cv), plus the same three on checkpoint m-1."""
     result = data.campaign(gate_passed=True)
     for cell, (speed, margin) in zip(result["ranked"], ((0.8, 0.5), (1.0, 0.5), (1.2, 0.3)), strict=True):
-        cell["planner"]["config"] = {"speed_limit": speed, "safety": {"margin": margin, "mode": "soft"}, "name": "x"}
+        cell["planner"]["config"] = {
+            "speed_limit": speed,
+            "safety": {"margin": margin, "mode": "soft"},
+            "name": "x",
+        }
     others = copy.deepcopy(result["ranked"])
     for cell in others:
         cell["checkpoint"], cell["key"] = "m-1", cell["variant"] + "__m-1"
@@ -38,8 +42,14 @@ def test_varied_parameters_are_the_numeric_keys_that_differ() -> None:
     from foresight.core.evaluation.campaign import CampaignResult
 
     result = CampaignResult.model_validate(_grid_campaign())
-    cells = [GridCell(c.checkpoint, c.variant, c.planner.config, {"global": c.global_, "hard": c.hard}) for c in result.ranked]
-    assert varied_parameters(cells) == ["safety.margin", "speed_limit"]  # not the text key, not the constant ones
+    cells = [
+        GridCell(c.checkpoint, c.variant, c.planner.config, {"global": c.global_, "hard": c.hard})
+        for c in result.ranked
+    ]
+    assert varied_parameters(cells) == [
+        "safety.margin",
+        "speed_limit",
+    ]  # not the text key, not the constant ones
     plot = parameter_plots(cells)[1]
     lines = {(s.checkpoint, s.suite): s for s in plot.series["success"]}
     assert set(lines) == {("cv", "global"), ("cv", "hard"), ("m-1", "global"), ("m-1", "hard")}
@@ -60,9 +70,16 @@ def test_campaign_grid_api_and_page(client, auth, engine) -> None:  # noqa: ANN0
     body = client.get(f"/v1/campaigns/{job_id[:12]}/grid").json()
     assert [p["parameter"] for p in body] == ["safety.margin", "speed_limit"]
     speed = body[1]["series"]["collision"]
-    assert {(s["checkpoint"], s["suite"]) for s in speed} == {("cv", "global"), ("cv", "hard"), ("m-1", "global"), ("m-1", "hard")}
+    assert {(s["checkpoint"], s["suite"]) for s in speed} == {
+        ("cv", "global"),
+        ("cv", "hard"),
+        ("m-1", "global"),
+        ("m-1", "hard"),
+    }
     html = client.get(f"/ui/campaigns/{job_id}").text
-    assert html.count('<svg xmlns="http://www.w3.org/2000/svg" class="grid-chart"') == 4  # 2 parameters x 2 metrics
+    assert (
+        html.count('<svg xmlns="http://www.w3.org/2000/svg" class="grid-chart"') == 4
+    )  # 2 parameters x 2 metrics
     assert 'data-parameter="speed_limit" data-metric="collision"' in html and "compare with best" in html
     assert f'href="/ui/campaigns/{job_id}"' in client.get(f"/ui/jobs/{job_id}").text
     assert client.get("/ui/campaigns/nope").status_code == 404

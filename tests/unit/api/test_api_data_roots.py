@@ -21,7 +21,10 @@ def roots_env(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
 
 
 def test_parse_data_roots(tmp_path: Path) -> None:
-    assert parse_data_roots(f" a={tmp_path} , b=rel ") == {"a": tmp_path.resolve(), "b": (Path.cwd() / "rel").resolve()}
+    assert parse_data_roots(f" a={tmp_path} , b=rel ") == {
+        "a": tmp_path.resolve(),
+        "b": (Path.cwd() / "rel").resolve(),
+    }
     for bad in ("noequals", "=/x", "../up=/x", "a b=/x", "a="):
         with pytest.raises(ValueError, match="NAME=PATH"):
             parse_data_roots(bad)
@@ -32,7 +35,9 @@ def test_default_ethucy_root_from_the_shared_folder(tmp_path: Path) -> None:
     settings = Settings(shared=tmp_path, data_roots="")
     assert settings.named_data_roots == {"ethucy": (tmp_path / "reference" / "ethucy").resolve()}
     assert Settings(shared=tmp_path / "absent", data_roots="").named_data_roots == {}
-    override = Settings(shared=tmp_path, data_roots=f"ethucy={tmp_path}")  # a named root wins over the default
+    override = Settings(
+        shared=tmp_path, data_roots=f"ethucy={tmp_path}"
+    )  # a named root wins over the default
     assert override.data_root("ethucy") == tmp_path.resolve()
     with pytest.raises(LookupError, match=r"unknown data root 'nope'; known: ethucy"):
         override.data_root("nope")
@@ -65,5 +70,10 @@ def test_known_root_is_queued(roots_env: Path, client, auth) -> None:  # noqa: A
     response = client.post("/v1/jobs", json={"spec": {"kind": "import_dataset", "root": "mine", "fold": "zara1"}},
                            headers=auth)  # fmt: skip
     assert response.status_code == 201, response.text
-    assert response.json()["spec"] == {"kind": "import_dataset", "source": "ethucy", "root": "mine", "fold": "zara1",
-                                       "max_agents": 12}
+    assert response.json()["spec"] == {
+        "kind": "import_dataset",
+        "source": "ethucy",
+        "root": "mine",
+        "fold": "zara1",
+        "max_agents": 12,
+    }

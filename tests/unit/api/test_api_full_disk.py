@@ -16,9 +16,14 @@ from tests.archives import tar_of
 
 
 def _bundle(extra_bytes: int) -> bytes:
-    files = {p.relative_to(REPO_ROOT / "configs").as_posix(): p.read_bytes()
-             for p in sorted((REPO_ROOT / "configs" / "maps").rglob("*")) if p.is_file() and p.suffix in (".yaml", ".svg")}
-    files["scenarios/m.yaml"] = (REPO_ROOT / "configs" / "scenarios" / "classic_interactions.yaml").read_bytes()
+    files = {
+        p.relative_to(REPO_ROOT / "configs").as_posix(): p.read_bytes()
+        for p in sorted((REPO_ROOT / "configs" / "maps").rglob("*"))
+        if p.is_file() and p.suffix in (".yaml", ".svg")
+    }
+    files["scenarios/m.yaml"] = (
+        REPO_ROOT / "configs" / "scenarios" / "classic_interactions.yaml"
+    ).read_bytes()
     for p in sorted((REPO_ROOT / "configs" / "scenarios").rglob("*.yaml")):
         files.setdefault(p.relative_to(REPO_ROOT / "configs").as_posix(), p.read_bytes())
     files["notes.txt"] = os.urandom(extra_bytes).hex().encode()[:extra_bytes]
@@ -33,7 +38,9 @@ def test_an_upload_into_a_full_store_is_507_and_leaves_no_staging(small_store, s
         from fastapi.testclient import TestClient
     from foresight.api.main import create_app
 
-    with TestClient(create_app(settings.model_copy(update={"store": small_store})), raise_server_exceptions=False) as c:
+    with TestClient(
+        create_app(settings.model_copy(update={"store": small_store})), raise_server_exceptions=False
+    ) as c:
         r = c.post("/v1/bundles", params={"name": "big"}, content=_bundle(2 << 20), headers=auth)
         assert r.status_code == 507, r.text
         assert "store is full" in r.json()["detail"]
@@ -50,8 +57,9 @@ def test_delete_removes_the_whole_job_folder(client, auth, engine, settings) -> 
     (folder / "renders").mkdir(parents=True)
     (folder / "renders" / "partial.png").write_bytes(b"x" * 1000)  # written before ENOSPC, never recorded
     (folder / ".episodes.jsonl.abc.tmp").write_bytes(b"y" * 1000)
-    queue.fail_or_retry(engine, job["id"], "w", c["attempts"], "OSError", "[Errno 28] No space left on device",
-                        retry=False)
+    queue.fail_or_retry(
+        engine, job["id"], "w", c["attempts"], "OSError", "[Errno 28] No space left on device", retry=False
+    )
     assert client.delete(f"/v1/jobs/{job['id']}", headers=auth).status_code == 204
     assert not folder.exists()
 
@@ -75,13 +83,20 @@ def test_store_gc_lists_then_removes_orphans_only(client, auth, engine, settings
         os.utime(p, (hour_ago, hour_ago))
 
     dry = collect_garbage(engine, root, dry_run=True)
-    assert sorted(dry.paths) == sorted(["jobs/gone-job/", "bundles/.mine.x1y2/", f"jobs/{live['id']}/.out.json.q.tmp"])
+    assert sorted(dry.paths) == sorted(
+        ["jobs/gone-job/", "bundles/.mine.x1y2/", f"jobs/{live['id']}/.out.json.q.tmp"]
+    )
     assert dry.bytes == 5000 + len("scenarios: []\n") + 1
     assert (root / "jobs" / "gone-job").exists()
 
     env = {**os.environ, "FORESIGHT_DATA_DIR": str(settings.data_dir), "FORESIGHT_STORE": str(root)}
-    out = subprocess.run([sys.executable, "-m", "foresight.cli.main", "store", "gc", "--json"], env=env,
-                         capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-m", "foresight.cli.main", "store", "gc", "--json"],
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     assert json.loads(out.stdout) == {"paths": dry.paths, "bytes": dry.bytes, "dry_run": False}
     assert not (root / "jobs" / "gone-job").exists() and not stale.exists() and not old_tmp.exists()
     assert (root / "jobs" / live["id"] / "keep.txt").exists() and fresh.exists()

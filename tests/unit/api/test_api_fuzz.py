@@ -39,7 +39,11 @@ def generate(schema: dict, doc: dict, rng: random.Random, depth: int = 0) -> Any
     if kind == "object" or "properties" in schema:
         props = schema.get("properties", {})
         required = set(schema.get("required", []))
-        return {k: generate(v, doc, rng, depth + 1) for k, v in props.items() if k in required or rng.random() < 0.5}
+        return {
+            k: generate(v, doc, rng, depth + 1)
+            for k, v in props.items()
+            if k in required or rng.random() < 0.5
+        }
     if kind == "array":
         return [generate(schema.get("items", {}), doc, rng, depth + 1) for _ in range(rng.randint(0, 3))]
     if kind == "integer":
@@ -78,7 +82,11 @@ def test_no_input_breaks_the_server(client, auth, seed: int) -> None:  # noqa: A
                 value = generate(p.get("schema", {}), doc, rng)
                 if p["in"] == "path":
                     url = url.replace("{" + p["name"] + "}", str(value).replace("/", "%2F") or "x")
-                elif p["in"] == "query" and (p.get("required") or rng.random() < 0.5) and not isinstance(value, dict):
+                elif (
+                    p["in"] == "query"
+                    and (p.get("required") or rng.random() < 0.5)
+                    and not isinstance(value, dict)
+                ):
                     params[p["name"]] = value if not isinstance(value, list) else [str(v) for v in value]
             kwargs: dict[str, Any] = {"params": params, "headers": auth if rng.random() < 0.8 else {}}
             content = op.get("requestBody", {}).get("content", {})
@@ -90,10 +98,16 @@ def test_no_input_breaks_the_server(client, auth, seed: int) -> None:  # noqa: A
             seen[r.status_code] = seen.get(r.status_code, 0) + 1
             assert r.status_code < 500, (method, url, kwargs, r.text)
             if r.status_code >= 400:
-                assert isinstance(r.json().get("detail"), str | list) and r.json()["detail"], (method, url, r.text)
+                assert isinstance(r.json().get("detail"), str | list) and r.json()["detail"], (
+                    method,
+                    url,
+                    r.text,
+                )
             if method == "post" and path == "/v1/jobs" and r.status_code == 201:
                 accepted_jobs += 1
-    assert client.get("/v1/jobs").json()["count"] == jobs_before + accepted_jobs  # refused submissions stored nothing
+    assert (
+        client.get("/v1/jobs").json()["count"] == jobs_before + accepted_jobs
+    )  # refused submissions stored nothing
     assert len(seen) >= 4, seen  # the generator reaches successes and several kinds of refusal
     print(sorted(seen.items()))
 

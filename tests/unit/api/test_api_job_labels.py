@@ -22,10 +22,14 @@ def _ids(client, query: str) -> set[str]:  # noqa: ANN001
 
 
 def test_labels_at_submission_are_filterable(client, auth) -> None:  # noqa: ANN001
-    a = _submit(client, auth, name="baseline orca", tags=["baseline", "orca"], note="first try, typical crowd")
+    a = _submit(
+        client, auth, name="baseline orca", tags=["baseline", "orca"], note="first try, typical crowd"
+    )
     b = _submit(client, auth, name="mpc run", tags=["orca", "ablation:no-pred", "orca"])
     c = _submit(client, auth)
-    assert a["name"] == "baseline orca" and a["tags"] == ["baseline", "orca"] and a["note"].startswith("first")
+    assert (
+        a["name"] == "baseline orca" and a["tags"] == ["baseline", "orca"] and a["note"].startswith("first")
+    )
     assert b["tags"] == ["orca", "ablation:no-pred"]  # duplicates dropped, order kept
     assert c["name"] is None and c["tags"] == [] and c["note"] == ""
     assert client.get(f"/v1/jobs/{a['id']}").json()["tags"] == ["baseline", "orca"]

@@ -29,8 +29,13 @@ def test_writes_need_the_token(client, auth) -> None:  # noqa: ANN001
     r = client.post("/v1/jobs", json=SLEEP, headers={"Authorization": "Bearer wrong"})
     assert r.status_code == 403 and r.json()["detail"]
     job = client.post("/v1/jobs", json=SLEEP, headers=auth).json()
-    for method, path in (("post", f"/v1/jobs/{job['id']}/cancel"), ("post", f"/v1/jobs/{job['id']}/retry"),
-                         ("delete", f"/v1/jobs/{job['id']}"), ("post", "/v1/models"), ("post", "/v1/bundles?name=x")):
+    for method, path in (
+        ("post", f"/v1/jobs/{job['id']}/cancel"),
+        ("post", f"/v1/jobs/{job['id']}/retry"),
+        ("delete", f"/v1/jobs/{job['id']}"),
+        ("post", "/v1/models"),
+        ("post", "/v1/bundles?name=x"),
+    ):
         assert getattr(client, method)(path).status_code == 401, path
     assert _count(client) == 1
 
@@ -71,8 +76,15 @@ def test_malformed_json_and_nan_are_422(client, auth) -> None:  # noqa: ANN001
 
 
 def test_unknown_ids_are_404(client, auth) -> None:  # noqa: ANN001
-    for path in ("/v1/jobs/deadbeef", "/v1/jobs/deadbeef/artifacts/a.txt", "/v1/models/nope", "/v1/bundles/nope",
-                 "/v1/datasets/nope", "/v1/evaluations/nope", "/v1/campaigns/nope"):
+    for path in (
+        "/v1/jobs/deadbeef",
+        "/v1/jobs/deadbeef/artifacts/a.txt",
+        "/v1/models/nope",
+        "/v1/bundles/nope",
+        "/v1/datasets/nope",
+        "/v1/evaluations/nope",
+        "/v1/campaigns/nope",
+    ):
         r = client.get(path)
         assert r.status_code == 404 and r.json()["detail"], path
     assert client.post("/v1/jobs/deadbeef/cancel", headers=auth).status_code == 404
@@ -86,7 +98,9 @@ def test_idempotency_key_returns_the_same_job(client, auth) -> None:  # noqa: AN
     second = client.post("/v1/jobs", json=body, headers=auth)
     assert (first.status_code, second.status_code) == (201, 200)
     assert first.json()["id"] == second.json()["id"]
-    clash = client.post("/v1/jobs", json={"spec": {"kind": "sleep", "seconds": 2}, "idempotency_key": "abc-1"}, headers=auth)
+    clash = client.post(
+        "/v1/jobs", json={"spec": {"kind": "sleep", "seconds": 2}, "idempotency_key": "abc-1"}, headers=auth
+    )
     assert clash.status_code == 409
     assert _count(client) == 1
 
@@ -122,13 +136,22 @@ def test_cancel_retry_delete_rules(client, auth, engine) -> None:  # noqa: ANN00
     assert client.get(f"/v1/jobs/{job['id']}").status_code == 404
 
 
-def _finish_with_artifact(engine, settings, job_id: str, name: str = "out/a.txt", content: bytes = b"hello") -> None:  # noqa: ANN001
+def _finish_with_artifact(
+    engine, settings, job_id: str, name: str = "out/a.txt", content: bytes = b"hello"
+) -> None:  # noqa: ANN001
     from foresight.store import folders
 
     c = queue.claim(engine, "w", ["sleep"], 30)
     rel = f"{folders.job_dir(settings.store_root, job_id)}/{name}"
     folders.write_atomic(folders.resolve_under(settings.store_root, rel), content)
-    queue.finish(engine, job_id, "w", c["attempts"], {}, folders.scan(settings.store_root, folders.job_dir(settings.store_root, job_id)))
+    queue.finish(
+        engine,
+        job_id,
+        "w",
+        c["attempts"],
+        {},
+        folders.scan(settings.store_root, folders.job_dir(settings.store_root, job_id)),
+    )
 
 
 def test_artifact_download_and_traversal(client, auth, engine, settings) -> None:  # noqa: ANN001
@@ -137,7 +160,12 @@ def test_artifact_download_and_traversal(client, auth, engine, settings) -> None
     (settings.store_root / "secret.txt").write_text("TOP-SECRET-CONTENT")
     r = client.get(f"/v1/jobs/{job['id']}/artifacts/out/a.txt")
     assert r.status_code == 200 and r.content == b"hello"
-    for bad in ("..%2F..%2Fsecret.txt", "out/..%2F..%2F..%2Fsecret.txt", "%2Fetc%2Fpasswd", "out%5C..%5C..%5Csecret.txt"):
+    for bad in (
+        "..%2F..%2Fsecret.txt",
+        "out/..%2F..%2F..%2Fsecret.txt",
+        "%2Fetc%2Fpasswd",
+        "out%5C..%5C..%5Csecret.txt",
+    ):
         r = client.get(f"/v1/jobs/{job['id']}/artifacts/{bad}")
         assert r.status_code in (404, 422), bad
         assert b"TOP-SECRET" not in r.content and r.json()["detail"]
@@ -147,7 +175,9 @@ def test_delete_keeps_files_a_model_uses(client, auth, engine, settings) -> None
     job = client.post("/v1/jobs", json=SLEEP, headers=auth).json()
     weights = (REPO_ROOT / "model" / "predictor-sim-default.pt").read_bytes()  # registration checks it loads
     _finish_with_artifact(engine, settings, job["id"], "model.pt", weights)
-    _finish_note = client.post("/v1/models", json={"id": "m1", "job_id": job["id"], "artifact": "model.pt"}, headers=auth)
+    _finish_note = client.post(
+        "/v1/models", json={"id": "m1", "job_id": job["id"], "artifact": "model.pt"}, headers=auth
+    )
     assert _finish_note.status_code == 201
     assert client.delete(f"/v1/jobs/{job['id']}", headers=auth).status_code == 204
     checkpoint = settings.store_root / _finish_note.json()["checkpoint"]
@@ -159,9 +189,25 @@ def test_health_workers_metrics_openapi(client) -> None:  # noqa: ANN001
     assert client.get("/v1/workers").json()["count"] == 0
     text = client.get("/metrics").text
     assert "# TYPE foresight_jobs gauge" in text and "foresight_workers_alive 0" in text
-    ops = {op["operationId"] for path in client.get("/openapi.json").json()["paths"].values() for op in path.values()}
-    assert {"create_job", "read_jobs", "read_job", "cancel_job", "retry_job", "delete_job", "read_job_events",
-            "read_job_artifact", "read_models", "create_model", "promote_model", "delete_model"} <= ops
+    ops = {
+        op["operationId"]
+        for path in client.get("/openapi.json").json()["paths"].values()
+        for op in path.values()
+    }
+    assert {
+        "create_job",
+        "read_jobs",
+        "read_job",
+        "cancel_job",
+        "retry_job",
+        "delete_job",
+        "read_job_events",
+        "read_job_artifact",
+        "read_models",
+        "create_model",
+        "promote_model",
+        "delete_model",
+    } <= ops
 
 
 def test_reads_can_be_closed(settings, auth) -> None:  # noqa: ANN001
@@ -184,8 +230,15 @@ def test_oversized_submission_is_413(client, auth) -> None:  # noqa: ANN001
 
 @pytest.mark.parametrize("kind", ["evaluate", "campaign"])
 def test_a_spec_with_the_removed_shards_field_is_a_422_naming_the_ray_executor(client, auth, kind) -> None:  # noqa: ANN001
-    spec = {"kind": kind, "shards": 4, **({"seed_manifest": "seeds/classic_eval_hard_smoke.yaml",
-                                           "variants": [{"name": "a"}]} if kind == "campaign" else {})}
+    spec = {
+        "kind": kind,
+        "shards": 4,
+        **(
+            {"seed_manifest": "seeds/classic_eval_hard_smoke.yaml", "variants": [{"name": "a"}]}
+            if kind == "campaign"
+            else {}
+        ),
+    }
     r = client.post("/v1/jobs", json={"spec": spec}, headers=auth)
     assert r.status_code == 422, r.text
     messages = [e["msg"] for e in r.json()["detail"]]

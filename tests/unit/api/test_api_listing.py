@@ -11,10 +11,20 @@ from tests.unit.reports import data
 
 def _finished(client, auth, engine, kind: str, result: dict[str, Any], **labels) -> str:  # noqa: ANN001, ANN003
     """A job of ``kind`` submitted with ``labels``, claimed and finished with ``result``, its records written."""
-    spec = {"kind": "evaluate", "bundle": "builtin", "matrix": "scenarios/classic_interactions.yaml",
-            "planner": {"name": "goal"}, "scenarios": ["crossing_low"], "seeds_per_scenario": 1}
+    spec = {
+        "kind": "evaluate",
+        "bundle": "builtin",
+        "matrix": "scenarios/classic_interactions.yaml",
+        "planner": {"name": "goal"},
+        "scenarios": ["crossing_low"],
+        "seeds_per_scenario": 1,
+    }
     if kind == "campaign":
-        spec = {"kind": "campaign", "seed_manifest": "seeds/classic_eval_hard.yaml", "variants": [{"name": "a"}]}
+        spec = {
+            "kind": "campaign",
+            "seed_manifest": "seeds/classic_eval_hard.yaml",
+            "variants": [{"name": "a"}],
+        }
     r = client.post("/v1/jobs", json={"spec": spec, **labels}, headers=auth)
     assert r.status_code == 201, r.text
     job_id = r.json()["id"]
@@ -58,7 +68,9 @@ def test_evaluations_by_planner_matrix_verdict_and_labels(client, auth, engine) 
     rest = client.get("/v1/evaluations", params={"limit": 2, "offset": 2}).json()
     assert [e["id"] for e in rest["data"]] == [a] and rest["data"][0]["name"] == "goal baseline"
     results_page = client.get("/ui/results").text
-    assert "goal baseline" in results_page and 'href="/ui/jobs?tag=orca"' in results_page  # labels on the Results page
+    assert (
+        "goal baseline" in results_page and 'href="/ui/jobs?tag=orca"' in results_page
+    )  # labels on the Results page
     r = client.get("/v1/evaluations", params={"planer": "orca"})
     assert r.status_code == 422 and r.json()["detail"][0]["loc"] == ["query", "planer"]
     assert "planner" in r.json()["detail"][0]["msg"]
@@ -76,7 +88,9 @@ def test_campaigns_list_filters_and_pages(client, auth, engine) -> None:  # noqa
     assert body["count"] == 2 and [c["id"] for c in body["data"]] == [second, first]
     listed = body["data"][1]
     assert listed["tags"] == ["grid-v1"] and listed["best"] == {"checkpoint": "cv", "variant": "careful"}
-    assert listed["best_metrics"]["global"]["episodes"] == 20 and listed["config"]["matrix"].endswith("classic_interactions.yaml")
+    assert listed["best_metrics"]["global"]["episodes"] == 20 and listed["config"]["matrix"].endswith(
+        "classic_interactions.yaml"
+    )
     assert _ids(client, "/v1/campaigns", matrix="scenarios/other.yaml") == {second}
     assert _ids(client, "/v1/campaigns", model="model-7") == {second}
     assert _ids(client, "/v1/campaigns", model="cv") == {first}

@@ -25,7 +25,9 @@ def scrape(client) -> dict[tuple[str, frozenset], float]:  # noqa: ANN001
 
 
 def requests(method: str, route: str, status: str) -> tuple[str, frozenset]:
-    return "foresight_http_requests_total", frozenset({("method", method), ("route", route), ("status", status)})
+    return "foresight_http_requests_total", frozenset(
+        {("method", method), ("route", route), ("status", status)}
+    )
 
 
 def test_requests_are_counted_by_route_template_and_status_class(client, auth) -> None:  # noqa: ANN001
@@ -49,7 +51,9 @@ def test_requests_are_counted_by_route_template_and_status_class(client, auth) -
     assert delta(requests("POST", "/v1/jobs", "2xx")) == 1
     assert delta(requests("GET", "unmatched", "4xx")) == 1
     assert delta(requests("GET", "/metrics", "2xx")) == 1  # the first scrape
-    assert not any(job in str(labels) or "nope" in str(labels) for _, labels in after)  # templates, not raw paths
+    assert not any(
+        job in str(labels) or "nope" in str(labels) for _, labels in after
+    )  # templates, not raw paths
 
     # the histogram: cumulative buckets ending in +Inf == count, five more observations for the job route
     route = frozenset({("method", "GET"), ("route", "/v1/jobs/{job_id}")})
@@ -59,7 +63,10 @@ def test_requests_are_counted_by_route_template_and_status_class(client, auth) -
         (float(dict(labels)["le"]), v) for (name, labels), v in after.items()
         if name == "foresight_http_request_duration_seconds_bucket" and {p for p in labels if p[0] != "le"} == route
     )  # fmt: skip
-    assert [v for _, v in buckets] == sorted(v for _, v in buckets) and buckets[-1] == (float("inf"), after[count])
+    assert [v for _, v in buckets] == sorted(v for _, v in buckets) and buckets[-1] == (
+        float("inf"),
+        after[count],
+    )
     assert 0 < after[("foresight_http_request_duration_seconds_sum", route)] < 60
     # the job gauges are still there
     assert after[("foresight_jobs", frozenset({("kind", "sleep"), ("status", "queued")}))] == 2

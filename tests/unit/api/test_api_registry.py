@@ -33,7 +33,11 @@ def _project_bundle() -> dict[str, bytes]:
     """The project's classic matrix with its archetypes and maps, as archive members."""
     files = {}
     for path in sorted(CONFIGS.rglob("*")):
-        if path.is_file() and path.suffix in {".yaml", ".svg"} and ("scenarios" in path.parts or "maps" in path.parts):
+        if (
+            path.is_file()
+            and path.suffix in {".yaml", ".svg"}
+            and ("scenarios" in path.parts or "maps" in path.parts)
+        ):
             files[path.relative_to(CONFIGS).as_posix()] = path.read_bytes()
     return files
 
@@ -97,7 +101,10 @@ def test_upload_name_and_auth(client, auth) -> None:  # noqa: ANN001
     data = _tar(_project_bundle())
     assert client.post("/v1/bundles", params={"name": "x"}, content=data).status_code == 401
     assert client.post("/v1/bundles", params={"name": "../x"}, content=data, headers=auth).status_code == 422
-    assert client.post("/v1/bundles", params={"name": "builtin"}, content=data, headers=auth).status_code in (409, 422)
+    assert client.post("/v1/bundles", params={"name": "builtin"}, content=data, headers=auth).status_code in (
+        409,
+        422,
+    )
 
 
 def test_shipped_models_are_read_only(tmp_path: Path, settings, auth) -> None:  # noqa: ANN001
@@ -136,7 +143,9 @@ def test_register_promote_delete(client, auth, engine, settings) -> None:  # noq
     rel = f"jobs/{job['id']}/ckpt.pt"
     weights = (REPO_ROOT / "model" / "predictor-sim-default.pt").read_bytes()  # registration checks it loads
     folders.write_atomic(folders.resolve_under(settings.store_root, rel), weights)
-    queue.finish(engine, job["id"], "w", c["attempts"], {}, folders.scan(settings.store_root, f"jobs/{job['id']}"))
+    queue.finish(
+        engine, job["id"], "w", c["attempts"], {}, folders.scan(settings.store_root, f"jobs/{job['id']}")
+    )
     assert client.post("/v1/models", json={**body, "artifact": "../x"}, headers=auth).status_code == 422
     assert client.post("/v1/models", json={**body, "artifact": "nope.pt"}, headers=auth).status_code == 404
     created = client.post("/v1/models", json=body, headers=auth)
@@ -145,8 +154,14 @@ def test_register_promote_delete(client, auth, engine, settings) -> None:  # noq
     assert client.post("/v1/models", json={**body}, headers=auth).status_code == 409
     body2 = {**body, "id": "m2"}
     assert client.post("/v1/models", json=body2, headers=auth).status_code == 201
-    assert client.post("/v1/models/m1/promote", json={"to": "default"}, headers=auth).json()["status"] == "default"
-    assert client.post("/v1/models/m2/promote", json={"to": "default"}, headers=auth).json()["status"] == "default"
+    assert (
+        client.post("/v1/models/m1/promote", json={"to": "default"}, headers=auth).json()["status"]
+        == "default"
+    )
+    assert (
+        client.post("/v1/models/m2/promote", json={"to": "default"}, headers=auth).json()["status"]
+        == "default"
+    )
     assert client.get("/v1/models/m1").json()["status"] == "promoted"
     assert client.get("/v1/models", params={"status": "default"}).json()["count"] == 1
     assert client.delete("/v1/models/m2", headers=auth).status_code == 409  # the default
@@ -166,20 +181,36 @@ def test_a_model_trained_in_another_frame_is_refused_at_submission(client, auth,
     for name, frame in (("robot.pt", "robot"), ("ethucy.pt", "pedestrian")):
         payload["feature_schema"]["frame_convention"] = frame
         save_checkpoint(payload, folders.resolve_under(settings.store_root, f"jobs/{job['id']}/{name}"))
-    queue.finish(engine, job["id"], "w", c["attempts"], {}, folders.scan(settings.store_root, f"jobs/{job['id']}"))
+    queue.finish(
+        engine, job["id"], "w", c["attempts"], {}, folders.scan(settings.store_root, f"jobs/{job['id']}")
+    )
     for ident, name in (("sim-1", "robot.pt"), ("eth-1", "ethucy.pt")):
         body = {"id": ident, "job_id": job["id"], "artifact": name}
         assert client.post("/v1/models", json=body, headers=auth).status_code == 201
     assert client.get("/v1/models/eth-1").json()["lineage"]["frame_convention"] == "pedestrian"
     before = client.get("/v1/jobs").json()["count"]
-    spec = {"kind": "evaluate", "bundle": "builtin", "matrix": "scenarios/classic_interactions.yaml",
-            "scenarios": ["crossing_low"], "seeds_per_scenario": 1, "planner": {"name": "predictive", "model": "eth-1"}}
+    spec = {
+        "kind": "evaluate",
+        "bundle": "builtin",
+        "matrix": "scenarios/classic_interactions.yaml",
+        "scenarios": ["crossing_low"],
+        "seeds_per_scenario": 1,
+        "planner": {"name": "predictive", "model": "eth-1"},
+    }
     refused = client.post("/v1/jobs", json={"spec": spec}, headers=auth)
     assert refused.status_code == 422, refused.text
-    assert "model 'eth-1' was trained in the 'pedestrian' frame" in refused.text and "planner.model" in refused.text
-    campaign = {"kind": "campaign", "bundle": "builtin", "matrix": "scenarios/classic_interactions.yaml",
-                "seed_manifest": "seeds/classic_eval_hard_smoke.yaml", "grid": "planners/predictive_grid_v1.yaml",
-                "checkpoints": ["sim-1", "eth-1"]}
+    assert (
+        "model 'eth-1' was trained in the 'pedestrian' frame" in refused.text
+        and "planner.model" in refused.text
+    )
+    campaign = {
+        "kind": "campaign",
+        "bundle": "builtin",
+        "matrix": "scenarios/classic_interactions.yaml",
+        "seed_manifest": "seeds/classic_eval_hard_smoke.yaml",
+        "grid": "planners/predictive_grid_v1.yaml",
+        "checkpoints": ["sim-1", "eth-1"],
+    }
     refused = client.post("/v1/jobs", json={"spec": campaign}, headers=auth)
     assert refused.status_code == 422 and "model 'eth-1'" in refused.text, refused.text
     assert client.get("/v1/jobs").json()["count"] == before  # nothing queued

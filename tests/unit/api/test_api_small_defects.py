@@ -17,7 +17,9 @@ def _job(client, auth) -> dict:  # noqa: ANN001
 def test_event_ids_beyond_64_bits_are_422(client, auth) -> None:  # noqa: ANN001
     job = _job(client, auth)
     assert client.get(f"/v1/jobs/{job['id']}/events", params={"after": 2**63}).status_code == 422
-    assert client.get(f"/v1/jobs/{job['id']}/events", headers={"Last-Event-ID": str(2**63)}).status_code == 422
+    assert (
+        client.get(f"/v1/jobs/{job['id']}/events", headers={"Last-Event-ID": str(2**63)}).status_code == 422
+    )
     client.post(f"/v1/jobs/{job['id']}/cancel", headers=auth)  # finished: its stream ends
     last = client.get(f"/v1/jobs/{job['id']}/events", params={"after": 2**63 - 1})
     assert last.status_code == 200 and "event: end" in last.text
@@ -51,15 +53,18 @@ def test_success_after_a_re_lease_clears_the_stale_error(client, auth, engine) -
     assert got["status"] == "succeeded" and got["error"] is None
 
 
-@pytest.mark.parametrize("spec,field", [
-    ({"kind": "collect", "base_seed": 10**30}, "base_seed"),
-    ({"kind": "train", "dataset": "d", "batch_size": 10**9}, "batch_size"),
-    ({"kind": "train", "dataset": "d", "lr": 1e300}, "lr"),
-    ({"kind": "evaluate", "scenarios": ["x" * 200_000]}, "scenarios"),
-    ({"kind": "evaluate", "scenarios": ["a\x00b"]}, "scenarios"),
-    ({"kind": "simulate", "seeds": [2**40]}, "seeds"),
-    ({"kind": "campaign", "seed_manifest": "s.yaml", "variants": [{"name": "v\x00"}]}, "name"),
-])
+@pytest.mark.parametrize(
+    "spec,field",
+    [
+        ({"kind": "collect", "base_seed": 10**30}, "base_seed"),
+        ({"kind": "train", "dataset": "d", "batch_size": 10**9}, "batch_size"),
+        ({"kind": "train", "dataset": "d", "lr": 1e300}, "lr"),
+        ({"kind": "evaluate", "scenarios": ["x" * 200_000]}, "scenarios"),
+        ({"kind": "evaluate", "scenarios": ["a\x00b"]}, "scenarios"),
+        ({"kind": "simulate", "seeds": [2**40]}, "seeds"),
+        ({"kind": "campaign", "seed_manifest": "s.yaml", "variants": [{"name": "v\x00"}]}, "name"),
+    ],
+)
 def test_unbounded_fields_are_422(client, auth, spec, field) -> None:  # noqa: ANN001
     r = client.post("/v1/jobs", json={"spec": spec}, headers=auth)
     assert r.status_code == 422, r.text[:300]

@@ -48,7 +48,9 @@ def test_concurrent_thread_submissions_are_each_stored_once(engine) -> None:  # 
 
 def test_event_loop_submissions_wait_without_threads_and_keep_order(engine) -> None:  # noqa: ANN001
     async def main() -> list[dict]:
-        return await asyncio.gather(*(queue.submit_plain(engine, kind="sleep", spec={"kind": "sleep"}) for _ in range(200)))
+        return await asyncio.gather(
+            *(queue.submit_plain(engine, kind="sleep", spec={"kind": "sleep"}) for _ in range(200))
+        )
 
     threads_before = threading.active_count()
     returned = asyncio.run(main())

@@ -11,8 +11,14 @@ from tests.unit.reports import data
 
 
 def _finished_evaluation(client, auth, engine, result: dict[str, Any]) -> str:  # noqa: ANN001
-    spec = {"kind": "evaluate", "bundle": "builtin", "matrix": "scenarios/classic_interactions.yaml",
-            "planner": {"name": "goal"}, "scenarios": ["crossing_low"], "seeds_per_scenario": 1}
+    spec = {
+        "kind": "evaluate",
+        "bundle": "builtin",
+        "matrix": "scenarios/classic_interactions.yaml",
+        "planner": {"name": "goal"},
+        "scenarios": ["crossing_low"],
+        "seeds_per_scenario": 1,
+    }
     job_id = client.post("/v1/jobs", json={"spec": spec}, headers=auth).json()["id"]
     c = queue.claim(engine, "w", ["evaluate"], 30)
     assert c is not None and c["id"] == job_id
@@ -74,7 +80,10 @@ def test_a_one_value_query_parameter_given_twice_is_422_naming_it(client) -> Non
     for path in ("/v1/jobs", "/v1/campaigns", "/v1/evaluations"):
         r = client.get(path, params=[("name", "a"), ("name", "b")])
         assert r.status_code == 422, (path, r.text)
-        assert r.json()["detail"][0]["loc"] == ["query", "name"] and "takes one value, got 2" in r.json()["detail"][0]["msg"]
+        assert (
+            r.json()["detail"][0]["loc"] == ["query", "name"]
+            and "takes one value, got 2" in r.json()["detail"][0]["msg"]
+        )
         assert client.get(path, params=[("tag", "a"), ("tag", "b")]).status_code == 200
 
 
@@ -104,14 +113,21 @@ def test_compare_leads_with_what_differs_api_and_page(client, auth, engine) -> N
     ids = []
     for planner in ({"name": "goal"}, {"name": "predictive", "model": "cv"}):
         result = data.evaluation(failures=False)
-        result["config"] = {"matrix": "scenarios/classic_interactions.yaml", "planner": planner,
-                            "scenarios": ["crossing_low"], "seeds_per_scenario": 5}
+        result["config"] = {
+            "matrix": "scenarios/classic_interactions.yaml",
+            "planner": planner,
+            "scenarios": ["crossing_low"],
+            "seeds_per_scenario": 5,
+        }
         job_id = _finished_evaluation(client, auth, engine, {})
         with engine.begin() as conn:
             records.RECORDERS["evaluate"](conn, queue.get_job(engine, job_id), result, "")
         ids.append(job_id)
     body = client.get("/v1/compare", params={"a": ids[0], "b": ids[1]}).json()
-    assert list(body["differs"]) == ["planner", "model"]  # not the matrix, episodes or horizon: those are the same
+    assert list(body["differs"]) == [
+        "planner",
+        "model",
+    ]  # not the matrix, episodes or horizon: those are the same
     assert body["differs"]["planner"] == {"a": "goal", "b": "predictive"}
     short = client.get("/v1/compare", params={"a": ids[0][:12], "b": ids[1][:12]}).json()
     assert short["a"] == ids[0] and short["differs"] == body["differs"]  # short ids, as the CLI prints them
@@ -130,19 +146,34 @@ def test_compare_an_evaluation_with_a_campaign_cell_names_the_cell_planner(clien
     from foresight.store import records
 
     result = data.evaluation(failures=False)
-    result["config"] = {"matrix": "scenarios/classic_interactions.yaml", "planner": {"name": "goal"},
-                        "scenarios": ["crossing_low"], "seeds_per_scenario": 5}
+    result["config"] = {
+        "matrix": "scenarios/classic_interactions.yaml",
+        "planner": {"name": "goal"},
+        "scenarios": ["crossing_low"],
+        "seeds_per_scenario": 5,
+    }
     evaluation = _finished_evaluation(client, auth, engine, {})
     with engine.begin() as conn:
         records.RECORDERS["evaluate"](conn, queue.get_job(engine, evaluation), result, "")
-    spec = {"kind": "campaign", "seed_manifest": "seeds/classic_eval_hard_smoke.yaml",
-            "variants": [{"name": "default", "config": {}}], "scenarios": ["crossing_low"], "seeds_per_scenario": 1}
+    spec = {
+        "kind": "campaign",
+        "seed_manifest": "seeds/classic_eval_hard_smoke.yaml",
+        "variants": [{"name": "default", "config": {}}],
+        "scenarios": ["crossing_low"],
+        "seeds_per_scenario": 1,
+    }
     campaign = client.post("/v1/jobs", json={"spec": spec}, headers=auth).json()["id"]
     c = queue.claim(engine, "w", ["campaign"], 30)
     assert c is not None and c["id"] == campaign
     cells = data.campaign(gate_passed=True)
-    queue.finish(engine, campaign, "w", c["attempts"], cells,
-                 record=lambda conn: records.RECORDERS["campaign"](conn, queue.get_job(engine, campaign), cells, ""))
+    queue.finish(
+        engine,
+        campaign,
+        "w",
+        c["attempts"],
+        cells,
+        record=lambda conn: records.RECORDERS["campaign"](conn, queue.get_job(engine, campaign), cells, ""),
+    )
     body = client.get("/v1/compare", params={"a": evaluation, "b": f"{campaign}:1"}).json()
     best = cells["ranked"][0]
     assert body["differs"]["planner"] == {"a": "goal", "b": f"{best['planner']['name']} ({best['variant']})"}

@@ -37,4 +37,6 @@ def test_a_closed_pipe_is_not_an_error() -> None:
                               stdout=write, stderr=subprocess.PIPE, text=True, cwd=REPO, timeout=120)  # fmt: skip
     finally:
         os.close(write)
-    assert done.returncode == 0 and "Broken pipe" not in done.stderr and "Traceback" not in done.stderr, done.stderr
+    assert done.returncode == 0 and "Broken pipe" not in done.stderr and "Traceback" not in done.stderr, (
+        done.stderr
+    )

@@ -18,7 +18,9 @@ def test_the_data_folder_is_per_user(monkeypatch: pytest.MonkeyPatch, tmp_path: 
     monkeypatch.delenv("XDG_DATA_HOME", raising=False)
     monkeypatch.setenv("HOME", str(tmp_path))
     monkeypatch.chdir(tmp_path.parent)
-    assert Settings().data_dir == tmp_path / ".local" / "share" / "foresight"  # not relative to the current folder
+    assert (
+        Settings().data_dir == tmp_path / ".local" / "share" / "foresight"
+    )  # not relative to the current folder
     monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "xdg"))
     assert Settings().data_dir == tmp_path / "xdg" / "foresight"
     monkeypatch.setenv("FORESIGHT_DATA_DIR", "~/elsewhere")
@@ -32,7 +34,9 @@ def test_the_client_uses_the_running_server_of_the_data_folder(tmp_path: Path) -
     try:
         settings.server_file().write_text(json.dumps({"url": "http://127.0.0.1:8123", "pid": alive.pid}))
         assert settings.client_url == "http://127.0.0.1:8123"
-        assert Settings(data_dir=tmp_path, api_url="http://h:1/").client_url == "http://h:1"  # the explicit URL wins
+        assert (
+            Settings(data_dir=tmp_path, api_url="http://h:1/").client_url == "http://h:1"
+        )  # the explicit URL wins
     finally:
         alive.kill()
         alive.wait()
@@ -44,8 +48,22 @@ def test_the_client_uses_the_running_server_of_the_data_folder(tmp_path: Path) -
 def test_local_runs_without_out_keep_their_folder_in_the_data_folder(
         monkeypatch: pytest.MonkeyPatch, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:  # fmt: skip
     monkeypatch.setenv("FORESIGHT_DATA_DIR", str(tmp_path))
-    code = main(["evaluate", "--local", "--matrix", "configs/scenarios/classic_interactions.yaml", "--scenarios",
-                 "crossing_low", "--seeds-per-scenario", "1", "--max-steps", "20", "--planner", "goal"])
+    code = main(
+        [
+            "evaluate",
+            "--local",
+            "--matrix",
+            "configs/scenarios/classic_interactions.yaml",
+            "--scenarios",
+            "crossing_low",
+            "--seeds-per-scenario",
+            "1",
+            "--max-steps",
+            "20",
+            "--planner",
+            "goal",
+        ]
+    )
     assert code in (0, 2)
     runs = list((tmp_path / "runs").iterdir())
     assert len(runs) == 1 and runs[0].name.startswith("evaluate-") and (runs[0] / "report.html").is_file()

@@ -25,5 +25,8 @@ def test_a_pedestrian_frame_model_is_refused_by_id_before_any_episode(
     err = capsys.readouterr().err
     assert code == 1
     line = err.strip().splitlines()[-1]
-    assert line.startswith("foresight: error:") and "model 'file:model.pt' was trained in the 'pedestrian' frame" in line
+    assert (
+        line.startswith("foresight: error:")
+        and "model 'file:model.pt' was trained in the 'pedestrian' frame" in line
+    )
     assert not (tmp_path / "run" / "episodes.jsonl").exists()  # refused before any episode

@@ -80,8 +80,13 @@ def test_bad_values_fail_before_submission(nowhere: str, capsys) -> None:  # noq
 def test_bundle_names() -> None:
     matrix = BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml"
     assert stage.bundle_names(None, {"--matrix": str(matrix), "--seeds": None}) == (
-        "builtin", {"--matrix": "scenarios/classic_interactions.yaml", "--seeds": None})
-    assert stage.bundle_names(None, {"--matrix": "scenarios/x.yaml"}) == ("builtin", {"--matrix": "scenarios/x.yaml"})
+        "builtin",
+        {"--matrix": "scenarios/classic_interactions.yaml", "--seeds": None},
+    )
+    assert stage.bundle_names(None, {"--matrix": "scenarios/x.yaml"}) == (
+        "builtin",
+        {"--matrix": "scenarios/x.yaml"},
+    )
     assert stage.bundle_names("mine", {"--matrix": "m.yaml"}) == ("mine", {"--matrix": "m.yaml"})
     with pytest.raises(ConfigError, match="outside the project's configs"):
         stage.bundle_names(None, {"--matrix": __file__})

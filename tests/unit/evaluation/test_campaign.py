@@ -24,10 +24,21 @@ BOOT = BootstrapConfig(samples=50)
 
 def _cell(name: str, hard: list, glob: list, ok: bool = True) -> CellResult:
     h, g = summarise(hard, BOOT), summarise(glob, BOOT)
-    prov = PlannerProvenance(name="predictive", variant=name, config={}, config_hash="h", model_id="cv",
-                             checkpoint_sha256="cv")
-    return CellResult(key=name, fingerprint="f", checkpoint="cv", variant=name, planner=prov, hard=h, global_=g,
-                      integrity=check_integrity([]), ranking_key=ranking_key(h, g, ok), episodes_file="x")
+    prov = PlannerProvenance(
+        name="predictive", variant=name, config={}, config_hash="h", model_id="cv", checkpoint_sha256="cv"
+    )
+    return CellResult(
+        key=name,
+        fingerprint="f",
+        checkpoint="cv",
+        variant=name,
+        planner=prov,
+        hard=h,
+        global_=g,
+        integrity=check_integrity([]),
+        ranking_key=ranking_key(h, g, ok),
+        episodes_file="x",
+    )
 
 
 def test_ranking_is_lexicographic_in_the_reference_order() -> None:
@@ -35,12 +46,12 @@ def test_ranking_is_lexicographic_in_the_reference_order() -> None:
     near, far = record("a_low", 1, ped_y=1.0), record("a_low", 1, ped_y=3.0)
     slow = record("a_low", 1, ped_y=3.0, speed=0.5)
     cells = [
-        _cell("global_only", [fail], [ok, ok]),         # worse hard success, better global
-        _cell("hard_best", [ok], [ok, fail]),           # hard success dominates
-        _cell("hard_best_close", [near], [ok, fail]),   # same successes, lower hard clearance
-        _cell("hard_best_far", [far], [ok, fail]),      # same, higher hard clearance
-        _cell("far_slow", [far], [ok, slow]),           # ...
-        _cell("broken", [ok], [ok, ok], ok=False),      # integrity violations rank last
+        _cell("global_only", [fail], [ok, ok]),  # worse hard success, better global
+        _cell("hard_best", [ok], [ok, fail]),  # hard success dominates
+        _cell("hard_best_close", [near], [ok, fail]),  # same successes, lower hard clearance
+        _cell("hard_best_far", [far], [ok, fail]),  # same, higher hard clearance
+        _cell("far_slow", [far], [ok, slow]),  # ...
+        _cell("broken", [ok], [ok, ok], ok=False),  # integrity violations rank last
     ]
     order = [c.variant for c in rank(cells)]
     assert order == ["far_slow", "hard_best_far", "hard_best", "hard_best_close", "global_only", "broken"]
@@ -61,9 +72,15 @@ def bundle(tmp_path: Path) -> Path:
 
 
 def _config(**kw) -> CampaignConfig:
-    base = dict(bundle="t", seed_manifest="hard.yaml", scenarios=["crossing_low", "head_on_corridor_high"],
-                seeds_per_scenario=1, max_steps=15, checkpoints=["cv"],
-                variants=[{"name": "base", "config": {}}, {"name": "careful", "config": {"max_speed_ratio": 0.5}}])
+    base = dict(
+        bundle="t",
+        seed_manifest="hard.yaml",
+        scenarios=["crossing_low", "head_on_corridor_high"],
+        seeds_per_scenario=1,
+        max_steps=15,
+        checkpoints=["cv"],
+        variants=[{"name": "base", "config": {}}, {"name": "careful", "config": {"max_speed_ratio": 0.5}}],
+    )
     base.update(kw)
     return CampaignConfig.model_validate(base)
 
@@ -99,39 +116,63 @@ def test_campaign_runs_ranks_and_resumes(bundle: Path, tmp_path: Path) -> None:
     from foresight.core.evaluation.compare import compare, load_run
     from foresight.core.evaluation.episode_trace import read_compact, trace_name
 
-    assert first.suites == {"hard": [("crossing_high", 3)],
-                            "global": [("crossing_low", 1000), ("head_on_corridor_high", 1200)]}
+    assert first.suites == {
+        "hard": [("crossing_high", 3)],
+        "global": [("crossing_low", 1000), ("head_on_corridor_high", 1200)],
+    }
     for cell in first.ranked:
         label, recs = load_run(work / cell.run_dir)
-        assert label == cell.variant and {(r.scenario, r.seed) for r in recs} == {*first.suites["hard"],
-                                                                                  *first.suites["global"]}
+        assert label == cell.variant and {(r.scenario, r.seed) for r in recs} == {
+            *first.suites["hard"],
+            *first.suites["global"],
+        }
         for r in recs:
-            assert len(read_compact(work / cell.run_dir / trace_name(r.scenario, r.seed))["frames"]) == r.steps + 1
-    local = compare({"base": load_run(work / base.run_dir)[1], "careful": load_run(work / careful.run_dir)[1]}, "base")
-    assert local.changed["careful"] == [*careful.changed_vs_baseline["global"], *careful.changed_vs_baseline["hard"]]
+            assert (
+                len(read_compact(work / cell.run_dir / trace_name(r.scenario, r.seed))["frames"])
+                == r.steps + 1
+            )
+    local = compare(
+        {"base": load_run(work / base.run_dir)[1], "careful": load_run(work / careful.run_dir)[1]}, "base"
+    )
+    assert local.changed["careful"] == [
+        *careful.changed_vs_baseline["global"],
+        *careful.changed_vs_baseline["hard"],
+    ]
     again = run_campaign(_config(), _ctx(bundle, work))
     assert (again.cells_run, again.cells_resumed) == (0, 2)
     assert [c.model_dump() for c in again.ranked] == [c.model_dump() for c in first.ranked]
-    changed = _config(variants=[{"name": "base", "config": {}}, {"name": "careful", "config": {"max_speed_ratio": 0.4}}])
+    changed = _config(
+        variants=[{"name": "base", "config": {}}, {"name": "careful", "config": {"max_speed_ratio": 0.4}}]
+    )
     third = run_campaign(changed, _ctx(bundle, work))
     assert (third.cells_run, third.cells_resumed) == (1, 1)  # only the changed variant runs again
 
 
 def test_gate_pass_and_fail_are_results(bundle: Path, tmp_path: Path) -> None:
     work = tmp_path / "run"
-    ok = run_campaign(_config(gate={"baseline_variant": "base", "max_clearance_regression": 100.0}),
-                      _ctx(bundle, work))
+    ok = run_campaign(
+        _config(gate={"baseline_variant": "base", "max_clearance_regression": 100.0}), _ctx(bundle, work)
+    )
     assert ok.status == "passed" and ok.exit_code == 0 and ok.gate is not None
     # demanding +50 points of global success over the baseline cannot pass: a result with exit code 2
-    bad = run_campaign(_config(gate={"baseline_variant": "base", "min_global_success_delta": 0.5}),
-                       _ctx(bundle, work))
+    bad = run_campaign(
+        _config(gate={"baseline_variant": "base", "min_global_success_delta": 0.5}), _ctx(bundle, work)
+    )
     assert bad.status == "failed_gate" and bad.exit_code == 2
     assert bad.cells_resumed == 2  # the gate is re-evaluated on finished cells
     data = json.loads((work / "campaign_summary.json").read_text())
     assert data["gate"]["passed"] is False and data["status"] == "failed_gate"
     # a significant paired gain cannot be shown on 2 global episodes: the gate says so instead of passing
-    gain = run_campaign(_config(gate={"baseline_variant": "base", "max_clearance_regression": 100.0,
-                                      "require_significant_gain": "global"}), _ctx(bundle, work))
+    gain = run_campaign(
+        _config(
+            gate={
+                "baseline_variant": "base",
+                "max_clearance_regression": 100.0,
+                "require_significant_gain": "global",
+            }
+        ),
+        _ctx(bundle, work),
+    )
     check = next(c for c in gain.gate.checks if c.name == "global_significant_success_gain")
     assert not check.passed and gain.status == "failed_gate"
 

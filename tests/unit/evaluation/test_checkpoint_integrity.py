@@ -48,7 +48,9 @@ def test_the_recorded_checksum_is_that_of_the_bytes_loaded(checkpoint: Path, tmp
     assert load_predictor(checkpoint).sha256 == rp.checkpoint_sha256
 
 
-def test_a_checkpoint_rewritten_after_resolution_is_refused_by_a_later_load(checkpoint: Path, tmp_path: Path) -> None:
+def test_a_checkpoint_rewritten_after_resolution_is_refused_by_a_later_load(
+    checkpoint: Path, tmp_path: Path
+) -> None:
     ctx = StageContext(workdir=tmp_path, resolve_model=lambda _ident: checkpoint)
     rp = resolve_planner(PlannerSpec(name="predictive", model="m1"), ctx)
     _rewrite_keeping_size_and_mtime(checkpoint)

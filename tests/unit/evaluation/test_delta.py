@@ -34,12 +34,27 @@ def test_overlapping_results_are_not_significant_and_missing_sides_give_no_inter
 def test_evaluation_and_campaign_cell_summaries_share_metric_names() -> None:
     rate = {"count": 3, "n": 4, "rate": 0.75, "low": 0.3, "high": 0.95}
     mean = {"n": 4, "mean": 0.4, "low": 0.3, "high": 0.5}
-    overall = GroupStats.model_validate({"key": "overall", "episodes": 4, "failed": [], "taxonomy": {},
-                                         "rates": {"success": rate, "collision": {**rate, "rate": 0.25}},
-                                         "means": {"min_clearance": mean}})
-    suite = SuiteSummary.model_validate({"episodes": 4, "success": {**rate, "rate": 1.0, "low": 0.5, "high": 1.0},
-                                         "collision": rate, "mean_min_clearance": mean, "mean_min_distance": mean,
-                                         "mean_avg_speed": mean, "taxonomy": {}})
+    overall = GroupStats.model_validate(
+        {
+            "key": "overall",
+            "episodes": 4,
+            "failed": [],
+            "taxonomy": {},
+            "rates": {"success": rate, "collision": {**rate, "rate": 0.25}},
+            "means": {"min_clearance": mean},
+        }
+    )
+    suite = SuiteSummary.model_validate(
+        {
+            "episodes": 4,
+            "success": {**rate, "rate": 1.0, "low": 0.5, "high": 1.0},
+            "collision": rate,
+            "mean_min_clearance": mean,
+            "mean_min_distance": mean,
+            "mean_avg_speed": mean,
+            "taxonomy": {},
+        }
+    )
     assert set(headline(overall)) == {"success", "collision", "min_clearance"}
     assert set(headline(suite)) >= {"success", "collision", "min_clearance"}
     d = deltas(overall, suite)
@@ -49,4 +64,7 @@ def test_evaluation_and_campaign_cell_summaries_share_metric_names() -> None:
 def test_config_diff_lists_only_differing_dotted_keys() -> None:
     a = {"planner": {"name": "predictive", "config": {"horizon": 12}}, "seeds": [1, 2]}
     b = {"planner": {"name": "predictive", "config": {"horizon": 8, "w": 1}}, "seeds": [1, 2]}
-    assert diff_configs(a, b) == {"planner.config.horizon": {"a": 12, "b": 8}, "planner.config.w": {"a": None, "b": 1}}
+    assert diff_configs(a, b) == {
+        "planner.config.horizon": {"a": 12, "b": 8},
+        "planner.config.w": {"a": None, "b": 1},
+    }

@@ -19,8 +19,12 @@ def test_diagnostics_of_a_manifest(tmp_path: Path) -> None:
     work = tmp_path / "run"
     work.mkdir()
     ctx = StageContext(workdir=work, resolve_bundle=lambda _b: root)
-    res = run_diagnostics(DiagnosticsConfig(bundle="t", seed_manifest="hard.yaml", max_steps=20,
-                                            planner={"name": "predictive", "model": "cv"}), ctx)
+    res = run_diagnostics(
+        DiagnosticsConfig(
+            bundle="t", seed_manifest="hard.yaml", max_steps=20, planner={"name": "predictive", "model": "cv"}
+        ),
+        ctx,
+    )
     assert res.episodes == 1 and [(s.scenario, s.seed) for s in res.seeds] == [("crossing_high", 3)]
     s = res.seeds[0]
     assert s.outcome == "timeout" and s.label == "timeout_slow_progress" and s.steps == 20
@@ -41,9 +45,12 @@ def test_diagnostics_of_a_manifest(tmp_path: Path) -> None:
 
     ev = tmp_path / "ev"
     ev.mkdir()
-    run_evaluation(EvaluationConfig(bundle="t", seed_manifest="hard.yaml", max_steps=20,
-                                    planner={"name": "predictive", "model": "cv"}),
-                   StageContext(workdir=ev, resolve_bundle=lambda _b: root, workers=2))
+    run_evaluation(
+        EvaluationConfig(
+            bundle="t", seed_manifest="hard.yaml", max_steps=20, planner={"name": "predictive", "model": "cv"}
+        ),
+        StageContext(workdir=ev, resolve_bundle=lambda _b: root, workers=2),
+    )
     (evaluated,) = read_records(ev / "episodes.jsonl")
     assert EpisodeRecord.model_validate(trace["record"]).comparable() == evaluated.comparable()
     summary = json.loads((work / "diagnostics.json").read_text())

@@ -16,8 +16,15 @@ from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
 
 def _evaluate(tmp_path: Path, planner: dict, scenarios: list[str], max_steps: int) -> Path:
     ctx = local_context(tmp_path, {"builtin": BUILTIN_CONFIG_ROOT}, quiet=True)
-    config = EvaluationConfig.model_validate({"matrix": "scenarios/classic_interactions.yaml", "planner": planner,
-                                             "scenarios": scenarios, "seeds_per_scenario": 1, "max_steps": max_steps})
+    config = EvaluationConfig.model_validate(
+        {
+            "matrix": "scenarios/classic_interactions.yaml",
+            "planner": planner,
+            "scenarios": scenarios,
+            "seeds_per_scenario": 1,
+            "max_steps": max_steps,
+        }
+    )
     run_evaluation(config, ctx)
     return tmp_path
 
@@ -36,7 +43,9 @@ def test_every_episode_has_a_trace_matching_its_record(tmp_path: Path) -> None:
             assert tr["collision"]["ped_id"] in [p[0] for p in tr["peds"][-1]]
             x, y = tr["robot"][-1][:2]
             px, py = next(p[1:] for p in tr["peds"][-1] if p[0] == tr["collision"]["ped_id"])
-            assert np.hypot(px - x, py - y) <= tr["robot_radius"] + tr["ped_radius"] + 0.05  # touching, not "at a distance"
+            assert (
+                np.hypot(px - x, py - y) <= tr["robot_radius"] + tr["ped_radius"] + 0.05
+            )  # touching, not "at a distance"
         else:
             assert tr["collision"] is None
 
@@ -47,7 +56,12 @@ def test_forecasts_are_kept_and_long_episodes_are_thinned(tmp_path: Path, monkey
     rec = read_records(wd / "episodes.jsonl")[0]
     path = wd / trace_name(rec.scenario, rec.seed)
     tr = read_compact(path)
-    assert len(tr["frames"]) <= 26 and tr["frames"][0] == 0 and tr["frames"][-1] == rec.steps and tr["stride"] > 1
+    assert (
+        len(tr["frames"]) <= 26
+        and tr["frames"][0] == 0
+        and tr["frames"][-1] == rec.steps
+        and tr["stride"] > 1
+    )
     assert tr["forecasts"], "the predictive planner's logged forecasts are in the trace"
     f = tr["forecasts"][0]
     assert len(f["ids"]) == len(f["positions"]) and all(len(p) == len(f["times"]) for p in f["positions"])

@@ -21,11 +21,25 @@ def _trace(scenario: str = "doorway_nr100") -> dict:
     y = 9.4 (gap 8 m: far), 0.1 s steps. One forecast at step 2: walker 1 exact, walker 2 0.5 m off in y throughout;
     walker 3 appears at step 2 (no step before it: not scored)."""
     steps, times = 30, [0.2, 0.4, 0.6]
-    peds = [[[1, 0.1 * t, 2.4], [2, 0.1 * t, 9.4]] + ([[3, 5.0, 5.0]] if t >= 2 else []) for t in range(steps + 1)]
-    forecast = {"step": 2, "ids": [1, 2, 3], "times": times,
-                "positions": [[[0.2 + t, 2.4] for t in times], [[0.2 + t, 9.9] for t in times], [[5.0, 5.0]] * 3]}
-    return {"scenario": scenario, "dt": 0.1, "stride": 1, "robot_radius": 1.0, "ped_radius": 0.4,
-            "robot": [[0.0, 0.0, 0.0, 0.0, 0.0]] * (steps + 1), "peds": peds, "forecasts": [forecast]}
+    peds = [
+        [[1, 0.1 * t, 2.4], [2, 0.1 * t, 9.4]] + ([[3, 5.0, 5.0]] if t >= 2 else []) for t in range(steps + 1)
+    ]
+    forecast = {
+        "step": 2,
+        "ids": [1, 2, 3],
+        "times": times,
+        "positions": [[[0.2 + t, 2.4] for t in times], [[0.2 + t, 9.9] for t in times], [[5.0, 5.0]] * 3],
+    }
+    return {
+        "scenario": scenario,
+        "dt": 0.1,
+        "stride": 1,
+        "robot_radius": 1.0,
+        "ped_radius": 0.4,
+        "robot": [[0.0, 0.0, 0.0, 0.0, 0.0]] * (steps + 1),
+        "peds": peds,
+        "forecasts": [forecast],
+    }
 
 
 def test_errors_per_walker_and_band() -> None:
@@ -40,8 +54,12 @@ def test_errors_per_walker_and_band() -> None:
 
 def test_the_command_reads_evaluation_folders_and_refuses_what_is_not_one(tmp_path: Path) -> None:
     (tmp_path / "run" / "traces").mkdir(parents=True)
-    (tmp_path / "run" / "traces" / "doorway_nr100__0.json.gz").write_bytes(gzip.compress(json.dumps(_trace()).encode()))
-    ok = subprocess.run([sys.executable, str(BENCH), f"learned={tmp_path / 'run'}", "--json"], capture_output=True, text=True)
+    (tmp_path / "run" / "traces" / "doorway_nr100__0.json.gz").write_bytes(
+        gzip.compress(json.dumps(_trace()).encode())
+    )
+    ok = subprocess.run(
+        [sys.executable, str(BENCH), f"learned={tmp_path / 'run'}", "--json"], capture_output=True, text=True
+    )
     rows = json.loads(ok.stdout)["runs"]["learned"]["rows"]
     assert ok.returncode == 0 and {(r["band"], r["samples"]) for r in rows} == {("near", 1), ("far", 1)}
     empty = subprocess.run([sys.executable, str(BENCH), f"x={tmp_path}"], capture_output=True, text=True)

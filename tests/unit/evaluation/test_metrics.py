@@ -66,7 +66,8 @@ def test_min_ttc_of_a_head_on_approach() -> None:
     # both at 1 m/s toward each other, 10 m apart: TTC at the start = (10 - 0.6) / 2
     tr = make_trace(straight(0.0, 1.0, 20), [straight(10.0, -1.0, 20)])
     assert safety(derive(tr, geometry()), CFG).min_ttc == pytest.approx(
-        min((10.0 - 2.0 * DT * k - 0.6) / 2.0 for k in range(21)))
+        min((10.0 - 2.0 * DT * k - 0.6) / 2.0 for k in range(21))
+    )
 
 
 def test_stalled_time_and_no_progress() -> None:

@@ -21,7 +21,9 @@ def _runs(outcomes: str, scenario: str = "s_low") -> list:
 def test_learned_vs_cv_counts_failures_and_discordant_pairs_on_common_episodes() -> None:
     nav = load_bench("navigation_table")
     learned = _runs("s" * 20 + "sssct")  # 25 episodes, 2 failures
-    cv = _runs("s" * 20 + "ccsst") + _runs("t", scenario="only_cv")  # an episode learned never ran: not a pair
+    cv = _runs("s" * 20 + "ccsst") + _runs(
+        "t", scenario="only_cv"
+    )  # an episode learned never ran: not a pair
     c = nav.learned_vs_cv(learned, cv)
     assert (c["pairs"], c["failed_learned"], c["failed_cv"]) == (25, 2, 3)
     assert (c["learned_only"], c["cv_only"]) == (2, 1)  # seeds 21, 22 : seed 23
@@ -39,7 +41,11 @@ def test_every_suite_has_replication_seeds_and_bad_arguments_are_refused() -> No
     nav = load_bench("navigation_table")
     for matrix, _ in nav.SUITES.values():
         assert nav.REPLICATION[matrix].is_file()
-    bad = subprocess.run([sys.executable, str(BENCH), "--suites", "stress,no_such_suite"], capture_output=True, text=True)
+    bad = subprocess.run(
+        [sys.executable, str(BENCH), "--suites", "stress,no_such_suite"], capture_output=True, text=True
+    )
     assert bad.returncode == 2 and "unknown suite 'no_such_suite'" in bad.stderr
-    both = subprocess.run([sys.executable, str(BENCH), "--matrix", "m.yaml", "--replication"], capture_output=True, text=True)
+    both = subprocess.run(
+        [sys.executable, str(BENCH), "--matrix", "m.yaml", "--replication"], capture_output=True, text=True
+    )
     assert both.returncode == 2 and "does not apply to --matrix" in both.stderr

@@ -64,7 +64,10 @@ def test_pairing_finds_a_difference_the_unpaired_interval_cannot() -> None:
     assert paired.method == "paired" and paired.test == "mcnemar_exact"
     assert paired.delta == pytest.approx(7 / 40) and paired.p_value == pytest.approx(2 / 2**7)
     assert paired.significant and paired.low > 0
-    ea, eb = (Estimate(value=k / 40, low=wilson_interval(k, 40)[0], high=wilson_interval(k, 40)[1], n=40) for k in (28, 35))
+    ea, eb = (
+        Estimate(value=k / 40, low=wilson_interval(k, 40)[0], high=wilson_interval(k, 40)[1], n=40)
+        for k in (28, 35)
+    )
     unpaired = mover(ea, eb)
     assert unpaired.delta == pytest.approx(paired.delta) and unpaired.low < 0 and not unpaired.significant
 

@@ -21,8 +21,12 @@ def _ctx(tmp: Path, workers: int = 1, **kw) -> StageContext:
 
 
 def _config(**kw) -> EvaluationConfig:
-    base = dict(scenarios=["crossing_low", "head_on_corridor_high"], seeds_per_scenario=2, max_steps=40,
-                planner={"name": "goal"})
+    base = dict(
+        scenarios=["crossing_low", "head_on_corridor_high"],
+        seeds_per_scenario=2,
+        max_steps=40,
+        planner={"name": "goal"},
+    )
     base.update(kw)
     return EvaluationConfig.model_validate(base)
 
@@ -53,8 +57,9 @@ def test_evaluation_artifacts_and_provenance(tmp_path: Path) -> None:
     assert data["taxonomy_config"]["freeze_min_s"] == 3.0
     recs = read_records(tmp_path / "episodes.jsonl")
     assert len(recs) == res.episodes == 4
-    assert [(r.scenario, r.seed) for r in recs] == sorted({(r.scenario, r.seed) for r in recs},
-                                                           key=lambda p: (p[0] != "crossing_low", p[1]))
+    assert [(r.scenario, r.seed) for r in recs] == sorted(
+        {(r.scenario, r.seed) for r in recs}, key=lambda p: (p[0] != "crossing_low", p[1])
+    )
     assert all(r.provenance.horizon == 40 and r.provenance.model_id == "none" for r in recs)
     assert res.integrity.ok
     assert seen[-1] == 1.0
@@ -103,8 +108,12 @@ def test_learned_model_provenance_and_no_fallback(tmp_path: Path) -> None:
 
     ckpt = _checkpoint(tmp_path / "m.pt")
     ctx = _ctx(tmp_path / "run", resolve_model=lambda _i: ckpt)
-    cfg = _config(scenarios=["crossing_high"], seeds_per_scenario=1, max_steps=8,
-                  planner={"name": "predictive", "model": "m1"})
+    cfg = _config(
+        scenarios=["crossing_high"],
+        seeds_per_scenario=1,
+        max_steps=8,
+        planner={"name": "predictive", "model": "m1"},
+    )
     res = run_evaluation(cfg, ctx)
     (rec,) = read_records(tmp_path / "run" / "episodes.jsonl")
     assert rec.provenance.model_id == "m1" and rec.provenance.checkpoint_sha256 == sha256_file(ckpt)
@@ -131,7 +140,9 @@ def test_two_evaluations_at_once_in_one_process_match_their_solo_runs(tmp_path: 
 
     configs = {
         "a": _config(),
-        "b": _config(scenarios=["overtaking_medium", "crossing_high"], max_steps=25, planner={"name": "social_force"}),
+        "b": _config(
+            scenarios=["overtaking_medium", "crossing_high"], max_steps=25, planner={"name": "social_force"}
+        ),
     }
     solo = {k: run_evaluation(cfg, _ctx(tmp_path / f"solo_{k}")) for k, cfg in configs.items()}
     barrier = threading.Barrier(2, timeout=120)
@@ -139,7 +150,9 @@ def test_two_evaluations_at_once_in_one_process_match_their_solo_runs(tmp_path: 
 
     def run(key: str) -> None:
         try:
-            run_evaluation(configs[key], _ctx(tmp_path / f"both_{key}", progress=lambda _f, _m: barrier.wait()))
+            run_evaluation(
+                configs[key], _ctx(tmp_path / f"both_{key}", progress=lambda _f, _m: barrier.wait())
+            )
         except BaseException as exc:  # noqa: BLE001 - reported by the main thread
             errors.append(exc)
             barrier.abort()
@@ -155,6 +168,8 @@ def test_two_evaluations_at_once_in_one_process_match_their_solo_runs(tmp_path: 
         together = read_records(tmp_path / f"both_{key}" / "episodes.jsonl")
         assert len(alone) == solo[key].episodes == 4
         assert [r.comparable() for r in together] == [r.comparable() for r in alone]
-    horizons = {k: {r.provenance.horizon for r in read_records(tmp_path / f"both_{k}" / "episodes.jsonl")}
-                for k in configs}
+    horizons = {
+        k: {r.provenance.horizon for r in read_records(tmp_path / f"both_{k}" / "episodes.jsonl")}
+        for k in configs
+    }
     assert horizons == {"a": {40}, "b": {25}}

@@ -59,8 +59,9 @@ def test_a_failure_no_robot_could_avoid_is_marked_unsolvable_and_counted(tmp_pat
     assert free.outcome == "timeout" and free.taxonomy.reachable is True
     reacting = run_one(corridor((20.0, 10.0), peds_have_robot_repulsion=True), 1, stop, max_steps=200).record
     assert reacting.outcome == "timeout" and reacting.taxonomy.reachable is None
-    unchecked = run_one(corridor((20.0, 10.0)), 1, stop, max_steps=200,
-                        taxonomy_cfg=TaxonomyConfig(check_reachability=False)).record
+    unchecked = run_one(
+        corridor((20.0, 10.0)), 1, stop, max_steps=200, taxonomy_cfg=TaxonomyConfig(check_reachability=False)
+    ).record
     assert unchecked.taxonomy.reachable is None
     rates = aggregate([blocked, free, reacting]).overall.rates
     assert (rates["unsolvable"].count, rates["unsolvable"].n) == (1, 3)

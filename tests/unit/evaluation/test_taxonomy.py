@@ -40,7 +40,8 @@ def test_slow_creep_into_a_pedestrian_is_below_the_fault_threshold() -> None:
     assert res.avoidable is False  # 1.4 s from the first recorded step is too short to get out of the way
     strict = TaxonomyConfig(robot_fault_approach_speed=0.05)
     assert _classify(tr, "collision_pedestrian", collision_step=14, cfg=strict).label == (
-        "collision_pedestrian_robot_fault")
+        "collision_pedestrian_robot_fault"
+    )
 
 
 def test_static_collision_and_out_of_bounds() -> None:
@@ -89,7 +90,8 @@ def test_small_turn_rates_do_not_count_as_flips() -> None:
     n = 81
     omega = np.where((np.arange(n) // 10) % 2 == 0, 0.15, -0.15)  # below 0.2 rad/s
     assert _classify(make_trace(straight(0.0, 0.06, n - 1), omega=omega), "timeout").label == (
-        "timeout_slow_progress")
+        "timeout_slow_progress"
+    )
 
 
 def test_slow_progress_without_deadlock() -> None:
@@ -200,9 +202,13 @@ def test_the_same_side_hit_seen_earlier_is_robot_fault() -> None:
 def test_standing_robot_of_the_reference_size_in_the_path_of_a_slow_walker_is_robot_fault() -> None:
     # robot radius 1 m as the reference robot; a 0.5 m/s walker from 6 m, visible for 9.4 s
     contact = int(round((6.0 - 1.3) / 0.05))
-    tr = make_trace(still((0.0, 0.0), contact), [straight(6.0, -0.5, contact)], v=0.0, heading=np.zeros(contact + 1))
+    tr = make_trace(
+        still((0.0, 0.0), contact), [straight(6.0, -0.5, contact)], v=0.0, heading=np.zeros(contact + 1)
+    )
     geom = EpisodeGeometry(robot_radius=1.0, ped_radius=0.3, horizon=1000, route=np.array([[100.0, 0.0]]))
-    res = classify(derive(tr, geom), "collision_pedestrian", robot_radius=1.0, ped_radius=0.3, collision_step=contact)
+    res = classify(
+        derive(tr, geom), "collision_pedestrian", robot_radius=1.0, ped_radius=0.3, collision_step=contact
+    )
     assert res.label == "collision_pedestrian_robot_fault" and res.avoidable is True
 
 
@@ -241,7 +247,9 @@ def test_an_escape_through_a_wall_does_not_count() -> None:
     tr, n = _head_on()
     holo = RobotLimits(kind="holonomic")
     free = _classify(tr, "collision_pedestrian", collision_step=n, limits=holo, static=_Corridor(5.0))
-    boxed = _classify(tr, "collision_pedestrian", collision_step=n, limits=holo, static=_Corridor(R_ROBOT + 0.05))
+    boxed = _classify(
+        tr, "collision_pedestrian", collision_step=n, limits=holo, static=_Corridor(R_ROBOT + 0.05)
+    )
     assert free.label == "collision_pedestrian_robot_fault"  # sideways or backwards
     assert boxed.label == "collision_pedestrian_pedestrian_fault" and boxed.avoidable is False
 

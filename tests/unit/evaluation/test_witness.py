@@ -32,7 +32,9 @@ def test_the_family_drives_the_route_then_waits_along_it_coarse_to_fine(matrix) 
     # every plan keeps the route's order: the waypoints before its waiting point, then the ones after it
     assert all(list(p.via) + list(p.after) == route for p in holds)
     # release times coarse to fine: every multiple of 8 s before any multiple of 4, of 2, then the odd seconds
-    levels = [next(i for i, every in enumerate((8, 4, 2, 1)) if round(p.release_s) % every == 0) for p in holds]
+    levels = [
+        next(i for i, every in enumerate((8, 4, 2, 1)) if round(p.release_s) % every == 0) for p in holds
+    ]
     assert levels == sorted(levels) and levels[0] == 0 and levels[-1] == 3
     # waiting points stand clear of the walls and obstacles, inside the map
     points = np.array([p.hold for p in holds])
@@ -51,7 +53,9 @@ def test_a_wait_solves_the_doorway_that_driving_straight_through_loses(matrix) -
     found = search(scenario, 147, WitnessSettings(max_plans=50))
     assert found.found and found.plan.hold is not None and found.plan.release_s > 0
     assert 1 < found.tried <= 50 and found.plans > 1000 and 0 < found.arrival_s < 50
-    parallel = search(scenario, 147, WitnessSettings(max_plans=50), workers=2)  # the same answer from two processes
+    parallel = search(
+        scenario, 147, WitnessSettings(max_plans=50), workers=2
+    )  # the same answer from two processes
     assert parallel.model_copy(update={"seconds": 0}) == found.model_copy(update={"seconds": 0})
     # the witness replayed as a recorded run, independently of the search: it arrives, without contact, on time
     run = witness_run(scenario, 147, found.plan)
@@ -66,7 +70,10 @@ def test_a_witness_reports_how_close_it_passes_and_a_margin_asks_for_room(matrix
     # the first witness slips past a walker: its closest approach, as the replayed run records it independently
     run = witness_run(scenario, 147, tight.plan)
     assert tight.clearance_m == pytest.approx(run.record.safety.min_clearance, abs=1e-3)
-    assert 0 <= tight.clearance_m < 0.1 and f"{tight.clearance_m:.2f} m from the closest pedestrian" in tight.summary()
+    assert (
+        0 <= tight.clearance_m < 0.1
+        and f"{tight.clearance_m:.2f} m from the closest pedestrian" in tight.summary()
+    )
     assert tight.wall_clearance_m is not None and 0 <= tight.wall_clearance_m < 1
     roomy = search(scenario, 147, WitnessSettings(max_plans=50, min_clearance=0.3))
     assert roomy.found and roomy.plan != tight.plan and roomy.tried > tight.tried
@@ -79,5 +86,7 @@ def test_a_search_cut_short_says_so_and_proves_nothing(matrix) -> None:
     scenario = matrix.get("classic_doorway_high")
     cut = search(scenario, 141, WitnessSettings(max_plans=12))
     assert not cut.found and cut.tried == 12 and cut.plans > 1000 and cut.arrival_s is None
-    assert cut.summary() == f"no witness among 12 plans (12 of {cut.plans} tried): not proof that no robot could"
+    assert (
+        cut.summary() == f"no witness among 12 plans (12 of {cut.plans} tried): not proof that no robot could"
+    )
     assert Witness.model_validate(cut.model_dump(mode="json")) == cut  # typed end to end (the CLI's --json)

@@ -23,11 +23,15 @@ TYPICAL = {"simulation_config": {"ped_speed_tier": "typical"}}
 
 def _planner(name: str = "predictive"):
     spec = {"name": name, "model": "default"} if name == "predictive" else {"name": name}
-    ctx = StageContext(workdir=Path("."), resolve_model=lambda ident: REPO / "model" / "predictor-sim-default.pt")
+    ctx = StageContext(
+        workdir=Path("."), resolve_model=lambda ident: REPO / "model" / "predictor-sim-default.pt"
+    )
     return resolve_planner(spec, ctx)
 
 
-def test_the_planner_rides_along_and_says_where_it_would_have_left_the_course(reference_matrix_path: Path) -> None:
+def test_the_planner_rides_along_and_says_where_it_would_have_left_the_course(
+    reference_matrix_path: Path,
+) -> None:
     scenario = load_matrix(reference_matrix_path, overrides=TYPICAL).get("classic_doorway_medium")
     witness = search(scenario, 147, WitnessSettings(max_plans=50, min_clearance=0.3))
     assert witness.found and witness.plan.release_s > 0

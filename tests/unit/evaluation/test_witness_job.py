@@ -23,7 +23,9 @@ def test_a_shorter_horizon_is_searched_within_it(tmp_path: Path) -> None:
     (found,) = whole.episodes
     assert found.found and found.arrival_s > 6 and (tmp_path / "whole" / found.trace).is_file()
     (cut,) = run_witness(WitnessConfig(**config, max_steps=60), _ctx(tmp_path / "cut")).episodes
-    assert not cut.found and cut.plans == 1 and cut.trace is None  # nothing arrives within 6 s: only the route as is
+    assert (
+        not cut.found and cut.plans == 1 and cut.trace is None
+    )  # nothing arrives within 6 s: only the route as is
 
 
 def test_what_cannot_be_searched_is_refused_before_any_search(tmp_path: Path) -> None:

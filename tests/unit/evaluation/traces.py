@@ -47,8 +47,9 @@ def make_trace(xy, peds=(), *, v=None, heading=None, omega=None, ped_ids=None, d
         ped_vel[:-1] = np.diff(ped_pos, axis=0) / dt
         ped_vel[-1] = ped_vel[-2] if n > 1 else 0.0
     ids = np.tile(np.arange(len(tracks), dtype=np.int64), (n, 1)) if ped_ids is None else np.asarray(ped_ids)
-    return FakeTrace(robot=robot, command=robot[:-1, 3:5].copy(), ped_ids=ids, ped_pos=ped_pos,
-                     ped_vel=ped_vel, dt=dt)
+    return FakeTrace(
+        robot=robot, command=robot[:-1, 3:5].copy(), ped_ids=ids, ped_pos=ped_pos, ped_vel=ped_vel, dt=dt
+    )
 
 
 def straight(x0: float, speed: float, steps: int, y: float = 0.0) -> np.ndarray:
@@ -62,8 +63,13 @@ def still(p, steps: int) -> np.ndarray:
 
 
 def geometry(goal=(100.0, 0.0), horizon: int = 1000, tol: float = 0.0) -> EpisodeGeometry:
-    return EpisodeGeometry(robot_radius=R_ROBOT, ped_radius=R_PED, horizon=horizon,
-                           route=np.asarray([goal], dtype=float), goal_tolerance=tol)
+    return EpisodeGeometry(
+        robot_radius=R_ROBOT,
+        ped_radius=R_PED,
+        horizon=horizon,
+        route=np.asarray([goal], dtype=float),
+        goal_tolerance=tol,
+    )
 
 
 def braking(x_brake: float, stop_x: float, ped_x: float, hold_steps: int = 20) -> FakeTrace:
@@ -89,15 +95,32 @@ def braking(x_brake: float, stop_x: float, ped_x: float, hold_steps: int = 20) -
 def provenance(scenario: str = "s_low", seed: int = 0, **kw):
     from foresight.core.evaluation.record import Provenance
 
-    base = dict(scenario=scenario, archetype=scenario.rsplit("_", 1)[0], density=scenario.rsplit("_", 1)[-1],
-                seed=seed, planner="predictive", planner_config_hash="abc123", model_id="cv",
-                checkpoint_sha256="cv", code_version="0.1.0+test", dt=DT, horizon=1000)
+    base = dict(
+        scenario=scenario,
+        archetype=scenario.rsplit("_", 1)[0],
+        density=scenario.rsplit("_", 1)[-1],
+        seed=seed,
+        planner="predictive",
+        planner_config_hash="abc123",
+        model_id="cv",
+        checkpoint_sha256="cv",
+        code_version="0.1.0+test",
+        dt=DT,
+        horizon=1000,
+    )
     base.update(kw)
     return Provenance(**base)
 
 
-def record(scenario: str = "s_low", seed: int = 0, outcome: str = "success", *, ped_y: float = 2.0,
-           speed: float = 1.0, **prov):
+def record(
+    scenario: str = "s_low",
+    seed: int = 0,
+    outcome: str = "success",
+    *,
+    ped_y: float = 2.0,
+    speed: float = 1.0,
+    **prov,
+):
     """A record of a straight 10 m run past a standing pedestrian ``ped_y`` metres off the path."""
     from foresight.core.evaluation.record import build_record
 
@@ -107,5 +130,12 @@ def record(scenario: str = "s_low", seed: int = 0, outcome: str = "success", *, 
         steps = int(np.ceil((5.0 - gap) / speed / DT - 1e-9))
     tr = make_trace(straight(0.0, speed, steps), [still((5.0, ped_y), steps)])
     kind = {"collision_pedestrian": "pedestrian", "collision_static": "static"}.get(outcome)
-    return build_record(tr, geometry(goal=(10.0, 0.0)), outcome=outcome, provenance=provenance(scenario, seed, **prov),
-                        collision_kind=kind, collision_step=steps if kind else None, plan_ms=[1.0, 2.0, 3.0])
+    return build_record(
+        tr,
+        geometry(goal=(10.0, 0.0)),
+        outcome=outcome,
+        provenance=provenance(scenario, seed, **prov),
+        collision_kind=kind,
+        collision_step=steps if kind else None,
+        plan_ms=[1.0, 2.0, 3.0],
+    )

@@ -67,7 +67,9 @@ def test_reaching_the_goal_terminates_with_the_success_bonus() -> None:
 
 
 def test_make_vec_runs_several_environments() -> None:
-    envs = gym.make_vec("foresight/CrowdNav-v0", num_envs=2, vectorization_mode="sync", scenario="crossing_low")
+    envs = gym.make_vec(
+        "foresight/CrowdNav-v0", num_envs=2, vectorization_mode="sync", scenario="crossing_low"
+    )
     obs, _ = envs.reset(seed=0)
     assert obs["peds"].shape == (2, 8, 4)
     obs, reward, *_ = envs.step(np.tile(np.array([0.5, 0.0], dtype=np.float32), (2, 1)))

@@ -31,22 +31,30 @@ def limit(nbytes):
 
 #: name -> (final file, code that writes it under a limit smaller than the file)
 WRITERS = {
-    "collect dataset (npz)": ("base/dataset.npz", """
+    "collect dataset (npz)": (
+        "base/dataset.npz",
+        """
         from foresight.core.predict.collect import CollectConfig, run_collect
         from foresight.core.stages.context import StageContext
         from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
         config = CollectConfig(scenarios=["crossing_high"], seeds_per_scenario=2, max_steps=60, check_quality=False)
         limit(4096)
         run_collect(config, StageContext(workdir=out / "base", resolve_bundle=lambda ident: BUILTIN_CONFIG_ROOT))
-    """),
-    "checkpoint (torch)": ("model.pt", """
+    """,
+    ),
+    "checkpoint (torch)": (
+        "model.pt",
+        """
         import torch
         from foresight.core.predict.nn.checkpoint import save_checkpoint
         payload = {"format": "x", "model": {"w": torch.arange(200_000, dtype=torch.float32)}}
         limit(64 * 1024)
         save_checkpoint(payload, out / "model.pt")
-    """),
-    "trace (npz)": ("trace.npz", """
+    """,
+    ),
+    "trace (npz)": (
+        "trace.npz",
+        """
         from foresight.core.scenarios.loader import load_matrix
         from foresight.core.sim.simulator import Simulator
         from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
@@ -57,14 +65,18 @@ WRITERS = {
             sim.step((0.5, 0.0))
         limit(2048)
         sim.trace.save(out / "trace.npz")
-    """),
-    "report (markdown)": ("report.md", """
+    """,
+    ),
+    "report (markdown)": (
+        "report.md",
+        """
         from foresight.core.reports.document import Document
         doc = Document("a report")
         doc.text("x" * 100_000)
         limit(8192)
         doc.write(out)
-    """),
+    """,
+    ),
 }
 
 
@@ -75,8 +87,12 @@ def test_a_write_failing_midway_leaves_no_half_file(tmp_path: Path, name: str) -
     target.parent.mkdir(parents=True, exist_ok=True)
     target.write_bytes(b"previous complete file")
     script = PRELUDE + textwrap.dedent(code) + "print('wrote')\n"
-    proc = subprocess.run([sys.executable, "-c", script, str(tmp_path)], capture_output=True, text=True, timeout=120)
-    assert proc.stdout.split() == ["limited"] and proc.returncode != 0, proc.stderr[-2000:]  # failed in the write
+    proc = subprocess.run(
+        [sys.executable, "-c", script, str(tmp_path)], capture_output=True, text=True, timeout=120
+    )
+    assert proc.stdout.split() == ["limited"] and proc.returncode != 0, proc.stderr[
+        -2000:
+    ]  # failed in the write
     assert target.read_bytes() == b"previous complete file"
     assert [p.name for p in tmp_path.rglob("*.tmp")] == []
 

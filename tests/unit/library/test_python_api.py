@@ -21,15 +21,33 @@ def _records(folder: Path) -> list[dict]:
 
 
 def test_evaluate_matches_cli_local_record_for_record(tmp_path: Path, capsys) -> None:  # noqa: ANN001
-    result = foresight.evaluate(Cautious, scenarios=SCENARIOS, seeds=2, max_steps=120, config={"speed": 0.8},
-                                out=tmp_path / "api")
+    result = foresight.evaluate(
+        Cautious, scenarios=SCENARIOS, seeds=2, max_steps=120, config={"speed": 0.8}, out=tmp_path / "api"
+    )
     assert isinstance(result, EvaluationResult) and result.episodes == 4
     assert result.planner.name == "tests.unit.planners.user_planner:Cautious"
     assert result.planner.config == {"speed": 0.8} and result.planner.origin == "module"
-    code = main(["evaluate", "--local", "--matrix", "configs/scenarios/classic_interactions.yaml",
-                 "--planner", "tests.unit.planners.user_planner:Cautious", "--planner-config", '{"speed": 0.8}',
-                 "--scenarios", ",".join(SCENARIOS), "--seeds-per-scenario", "2", "--max-steps", "120",
-                 "--out", str(tmp_path / "cli"), "--json"])
+    code = main(
+        [
+            "evaluate",
+            "--local",
+            "--matrix",
+            "configs/scenarios/classic_interactions.yaml",
+            "--planner",
+            "tests.unit.planners.user_planner:Cautious",
+            "--planner-config",
+            '{"speed": 0.8}',
+            "--scenarios",
+            ",".join(SCENARIOS),
+            "--seeds-per-scenario",
+            "2",
+            "--max-steps",
+            "120",
+            "--out",
+            str(tmp_path / "cli"),
+            "--json",
+        ]
+    )
     assert code in (0, 2)  # 2 = the gate failed: a result
     cli = json.loads(capsys.readouterr().out)
     assert _records(tmp_path / "api") == _records(tmp_path / "cli")
@@ -39,7 +57,9 @@ def test_evaluate_matches_cli_local_record_for_record(tmp_path: Path, capsys) ->
 
 def test_evaluate_with_workers_rebuilds_the_planner_by_name(tmp_path: Path) -> None:
     one = foresight.evaluate(Cautious, scenarios=SCENARIOS[:1], seeds=2, max_steps=60, out=tmp_path / "one")
-    two = foresight.evaluate(Cautious, scenarios=SCENARIOS[:1], seeds=2, max_steps=60, workers=2, out=tmp_path / "two")
+    two = foresight.evaluate(
+        Cautious, scenarios=SCENARIOS[:1], seeds=2, max_steps=60, workers=2, out=tmp_path / "two"
+    )
     assert _records(tmp_path / "one") == _records(tmp_path / "two")
     assert one.success_rate == two.success_rate
 

@@ -30,8 +30,11 @@ def test_the_section_has_the_three_routes_and_the_environment() -> None:
 def test_readme_block_runs(index: int) -> None:
     kind, code = _blocks()[index]
     argv = [sys.executable, "-c", code] if kind == "python" else ["bash", "-c", code]
-    env = {"PATH": f"{Path(sys.executable).parent}:/usr/bin:/bin", "HOME": str(Path.home()),
-           "FORESIGHT_DATA_DIR": os.environ["FORESIGHT_DATA_DIR"]}  # the tests' data folder (tests/conftest.py)
+    env = {
+        "PATH": f"{Path(sys.executable).parent}:/usr/bin:/bin",
+        "HOME": str(Path.home()),
+        "FORESIGHT_DATA_DIR": os.environ["FORESIGHT_DATA_DIR"],
+    }  # the tests' data folder (tests/conftest.py)
     proc = subprocess.run(argv, cwd=REPO, capture_output=True, text=True, timeout=300, env=env)
     assert proc.returncode in (0, 2), proc.stderr[-3000:]  # 2: a failing gate, still a result
     if kind == "bash":

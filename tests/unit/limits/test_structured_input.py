@@ -80,7 +80,12 @@ def test_json_nesting_depth_is_measured_without_recursion() -> None:
 
 
 def test_an_svg_with_100000_nested_groups_is_refused() -> None:
-    text = '<svg xmlns="http://www.w3.org/2000/svg" width="10" height="10">' + "<g>" * 100_000 + "</g>" * 100_000 + "</svg>"
+    text = (
+        '<svg xmlns="http://www.w3.org/2000/svg" width="10" height="10">'
+        + "<g>" * 100_000
+        + "</g>" * 100_000
+        + "</svg>"
+    )
     with pytest.raises(ConfigError, match="elements nested deeper than") as err:
         parse_svg_text(text, name="deep", source="deep.svg")
     assert err.value.source == "deep.svg" and err.value.item == "<g>"

@@ -17,19 +17,29 @@ from tests.conftest import REPO
 from tests.unit.reports import data
 
 SMOKE = BUILTIN_CONFIG_ROOT / "pipelines" / "smoke.yaml"
-SECTIONS = ["## Verdict", "## Stages", "## Gates", "## Best campaign variant", "## Promoted model", "## Artifacts"]
+SECTIONS = [
+    "## Verdict",
+    "## Stages",
+    "## Gates",
+    "## Best campaign variant",
+    "## Promoted model",
+    "## Artifacts",
+]
 
 
 def _ctx(tmp_path: Path, cancelled: list[bool] | None = None) -> StageContext:
     flag = cancelled if cancelled is not None else [False]
-    return StageContext(workdir=tmp_path, resolve_bundle=lambda ident: BUILTIN_CONFIG_ROOT,
-                        is_cancelled=lambda: flag[0])
+    return StageContext(
+        workdir=tmp_path, resolve_bundle=lambda ident: BUILTIN_CONFIG_ROOT, is_cancelled=lambda: flag[0]
+    )
 
 
 class FakeChildren:
     """Records every call; results are complete stage results (the runbook validates them as their models)."""
 
-    def __init__(self, *, evaluation_passes: bool = True, training_passes: bool = True, fail: str | None = None):
+    def __init__(
+        self, *, evaluation_passes: bool = True, training_passes: bool = True, fail: str | None = None
+    ):
         self.calls: list[tuple[str, str, dict[str, Any]]] = []
         self.done: dict[str, ChildRun] = {}
         self.evaluation_passes = evaluation_passes
@@ -44,7 +54,9 @@ class FakeChildren:
         progress(0.5, "half way")
         if stage == self.fail:
             raise RuntimeError(f"{stage} exploded")
-        run = ChildRun(result=self.result(stage, kind, spec), ident=f"id-{stage}", job_id=f"job-{stage}", wall_s=1.0)
+        run = ChildRun(
+            result=self.result(stage, kind, spec), ident=f"id-{stage}", job_id=f"job-{stage}", wall_s=1.0
+        )
         if kind == "register":
             run.ident = spec["model_id"]
         self.done[stage] = run
@@ -52,12 +64,24 @@ class FakeChildren:
 
     def result(self, stage: str, kind: str, spec: dict[str, Any]) -> dict[str, Any]:
         if kind == "collect" or kind == "mix":
-            return {"dataset": f"{stage}.npz", "sha256": "0" * 64, "summary": data.dataset_summary(10, 2),
-                    "outcomes": {"success": 2}}
+            return {
+                "dataset": f"{stage}.npz",
+                "sha256": "0" * 64,
+                "summary": data.dataset_summary(10, 2),
+                "outcomes": {"success": 2},
+            }
         if kind == "train":
-            return {"checkpoint": "model.pt", "summary": "no/training_summary.json", "best_epoch": 2, "val_ade": 0.3,
-                    "val_fde": 0.6, "cv_val_ade": 0.4, "cv_val_fde": 0.8, "selection_mode": "proxy",
-                    "gates_passed": self.training_passes}
+            return {
+                "checkpoint": "model.pt",
+                "summary": "no/training_summary.json",
+                "best_epoch": 2,
+                "val_ade": 0.3,
+                "val_fde": 0.6,
+                "cv_val_ade": 0.4,
+                "cv_val_fde": 0.8,
+                "selection_mode": "proxy",
+                "gates_passed": self.training_passes,
+            }
         if kind == "evaluate":
             return data.evaluation(failures=not self.evaluation_passes)
         if kind == "diagnose":
@@ -78,8 +102,17 @@ def test_stages_run_in_order_and_outputs_feed_the_next_stage(tmp_path: Path) -> 
     config = _smoke()
     fake = FakeChildren()
     result = run_pipeline(config, _ctx(tmp_path), fake, run_id="0123456789abcdef")
-    assert [c[0] for c in fake.calls] == ["collect", "hardcase", "mix", "train", "register", "evaluate", "diagnose",
-                                          "campaign", "promote"]
+    assert [c[0] for c in fake.calls] == [
+        "collect",
+        "hardcase",
+        "mix",
+        "train",
+        "register",
+        "evaluate",
+        "diagnose",
+        "campaign",
+        "promote",
+    ]
     spec = {stage: s for stage, _, s in fake.calls}
     assert spec["collect"]["hard_seeds"] is None
     assert spec["hardcase"]["hard_seeds"] == config.training_seeds
@@ -87,7 +120,9 @@ def test_stages_run_in_order_and_outputs_feed_the_next_stage(tmp_path: Path) -> 
     assert spec["train"]["dataset"] == "id-mix"
     # proxy: the selection suite's TRAINING seeds (issue 12; before it, the pipeline's training hard seeds)
     assert (spec["train"]["proxy"]["matrix"], spec["train"]["proxy"]["seed_manifest"]) == (
-        config.selection.matrix, config.selection.seeds)
+        config.selection.matrix,
+        config.selection.seeds,
+    )
     model = "smoke-01234567"
     assert spec["register"]["model_id"] == model and spec["register"]["status"] == "candidate"
     assert spec["evaluate"]["planner"]["model"] == model
@@ -208,8 +243,12 @@ def test_the_default_model_is_regenerated_by_one_pipeline_config_with_the_shippe
     assert check_seed_separation(config, ctx)["training_seeds"] > 0
     assert config.diagnose is None and config.hardcase is not None
     train = stage_config(config, "train", inputs).model_dump(mode="json")
-    shipped = json.loads((REPO / "model" / "predictor-sim-default.training_summary.json").read_text())["config"]
-    differing = {k for k in shipped if k not in ("dataset", "device") and not _covers(train.get(k), shipped[k])}
+    shipped = json.loads((REPO / "model" / "predictor-sim-default.training_summary.json").read_text())[
+        "config"
+    ]
+    differing = {
+        k for k in shipped if k not in ("dataset", "device") and not _covers(train.get(k), shipped[k])
+    }
     assert not differing, f"the pipeline trains another recipe than the shipped model's: {sorted(differing)}"
     assert train["dataset"] == "m"  # the mixed (base + hard-case x3) dataset, as shipped
     assert stage_config(config, "collect", inputs).seeds_per_scenario == 48
@@ -233,22 +272,37 @@ def test_the_two_manifests_must_differ_and_sections_cannot_rewire_them() -> None
 def test_training_seeds_that_meet_the_evaluation_episodes_are_refused(tmp_path: Path) -> None:
     data = _smoke().model_dump()
     # the quick evaluation manifest overlaps the full one: as training seeds it must be refused
-    config = PipelineConfig.model_validate({**data, "training_seeds": "seeds/classic_eval_hard_quick.yaml",
-                                            "evaluation_seeds": "seeds/classic_eval_hard.yaml"})
+    config = PipelineConfig.model_validate(
+        {
+            **data,
+            "training_seeds": "seeds/classic_eval_hard_quick.yaml",
+            "evaluation_seeds": "seeds/classic_eval_hard.yaml",
+        }
+    )
     with pytest.raises(ConfigError, match="overlap"):
         check_seed_separation(config, _ctx(tmp_path))
 
 
 def test_a_selection_suite_on_evaluation_seeds_is_refused(tmp_path: Path) -> None:
     data = _smoke().model_dump()
-    plain = PipelineConfig.model_validate({**data, "selection": None})  # no selection suite: the training hard seeds
+    plain = PipelineConfig.model_validate(
+        {**data, "selection": None}
+    )  # no selection suite: the training hard seeds
     proxy = stage_config(plain, "train", {"base": "b", "hardcase": "h", "mixed": "m", "model": "c"}).proxy
     assert (proxy.matrix, proxy.seed_manifest) == (plain.matrix, plain.training_seeds)
     with pytest.raises(ValueError, match="selection.seeds"):
-        PipelineConfig.model_validate({**data, "selection": {"matrix": "scenarios/stress.yaml",
-                                                             "seeds": data["evaluation_seeds"]}})
+        PipelineConfig.model_validate(
+            {**data, "selection": {"matrix": "scenarios/stress.yaml", "seeds": data["evaluation_seeds"]}}
+        )
     # the evaluation hard seeds of the classic matrix are that matrix's own seeds: never a selection suite
-    config = PipelineConfig.model_validate({**data, "selection": {"matrix": "scenarios/classic_interactions.yaml",
-                                                                  "seeds": "seeds/classic_eval_hard_quick.yaml"}})
+    config = PipelineConfig.model_validate(
+        {
+            **data,
+            "selection": {
+                "matrix": "scenarios/classic_interactions.yaml",
+                "seeds": "seeds/classic_eval_hard_quick.yaml",
+            },
+        }
+    )
     with pytest.raises(ConfigError, match="evaluation seeds of scenarios/classic_interactions.yaml"):
         check_seed_separation(config, _ctx(tmp_path))

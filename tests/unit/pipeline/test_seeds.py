@@ -26,14 +26,21 @@ EVALUATION = sorted(SEEDS.glob("classic_eval_hard*.yaml"))
 
 
 def test_there_are_training_and_evaluation_manifests() -> None:
-    assert {p.name for p in TRAINING} >= {"classic_train_hard.yaml", "classic_train_hard_quick.yaml",
-                                          "classic_train_hard_smoke.yaml"}
-    assert {p.name for p in EVALUATION} >= {"classic_eval_hard.yaml", "classic_eval_hard_quick.yaml",
-                                            "classic_eval_hard_smoke.yaml"}
+    assert {p.name for p in TRAINING} >= {
+        "classic_train_hard.yaml",
+        "classic_train_hard_quick.yaml",
+        "classic_train_hard_smoke.yaml",
+    }
+    assert {p.name for p in EVALUATION} >= {
+        "classic_eval_hard.yaml",
+        "classic_eval_hard_quick.yaml",
+        "classic_eval_hard_smoke.yaml",
+    }
 
 
-@pytest.mark.parametrize(("train", "evaluation"), list(itertools.product(TRAINING, EVALUATION)),
-                         ids=lambda p: p.stem)
+@pytest.mark.parametrize(
+    ("train", "evaluation"), list(itertools.product(TRAINING, EVALUATION)), ids=lambda p: p.stem
+)
 def test_training_and_evaluation_manifests_are_disjoint(train, evaluation) -> None:  # noqa: ANN001
     assert not read_manifest_pairs(train) & read_manifest_pairs(evaluation)
 
@@ -61,7 +68,9 @@ def test_quick_and_smoke_manifests_are_subsets_of_the_full_ones() -> None:
 
 def test_each_manifest_says_how_it_was_mined() -> None:
     for path in [*TRAINING, *EVALUATION]:
-        assert re.search(r"^# Mined by: foresight pipeline mine-seeds .*--baseline social_force", path.read_text(), re.M)
+        assert re.search(
+            r"^# Mined by: foresight pipeline mine-seeds .*--baseline social_force", path.read_text(), re.M
+        )
 
 
 def test_mining_is_deterministic_and_keeps_to_its_range_and_exclusions() -> None:

@@ -15,8 +15,12 @@ from foresight.core.sim.robot import RobotLimits
 def corridor_map(obstacles: tuple = (), width: float = 30.0, height: float = 20.0) -> MapDef:
     """An open 30 x 20 m map whose robot route runs left to right along y = 10."""
     return MapDef(
-        name="test", width=width, height=height, obstacles=obstacles,
-        robot_spawn_zones=(Zone.from_rect(1, 9, 2, 2),), robot_goal_zones=(Zone.from_rect(26, 9, 2, 2),),
+        name="test",
+        width=width,
+        height=height,
+        obstacles=obstacles,
+        robot_spawn_zones=(Zone.from_rect(1, 9, 2, 2),),
+        robot_goal_zones=(Zone.from_rect(26, 9, 2, 2),),
         robot_routes=(Route(spawn_id=0, goal_id=0, waypoints=((2.0, 10.0), (27.0, 10.0))),),
     )
 
@@ -41,9 +45,20 @@ def observation(
     p = np.asarray(peds, dtype=float).reshape(-1, 2)
     v = np.zeros_like(p) if ped_vels is None else np.asarray(ped_vels, dtype=float).reshape(-1, 2)
     return Observation(
-        step=step, time=step * 0.1, dt=0.1, robot_pose=np.asarray(pose, dtype=float),
-        robot_velocity=np.asarray(velocity, dtype=float), robot_radius=1.0, waypoint=route_arr[0],
-        goal=route_arr[-1], route=route_arr, goal_tolerance=2.0, ped_ids=np.arange(len(p), dtype=np.int64),
-        ped_positions=p, ped_velocities=v, ped_radius=0.4, static=static or StaticMap(map_def),
+        step=step,
+        time=step * 0.1,
+        dt=0.1,
+        robot_pose=np.asarray(pose, dtype=float),
+        robot_velocity=np.asarray(velocity, dtype=float),
+        robot_radius=1.0,
+        waypoint=route_arr[0],
+        goal=route_arr[-1],
+        route=route_arr,
+        goal_tolerance=2.0,
+        ped_ids=np.arange(len(p), dtype=np.int64),
+        ped_positions=p,
+        ped_velocities=v,
+        ped_radius=0.4,
+        static=static or StaticMap(map_def),
         robot_limits=RobotLimits().as_dict(),
     )

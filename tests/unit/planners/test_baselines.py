@@ -21,8 +21,11 @@ def test_baseline_returns_valid_commands(cls):
     p = cls()
     assert isinstance(p, Planner)
     p.reset(info_for(m))
-    for obs in (observation(m), observation(m, peds=[(7.5, 10.2)], ped_vels=[(-0.6, 0.0)]),
-                observation(m, pose=(7.6, 10.0, 0.0), velocity=(0.5, 0.0))):
+    for obs in (
+        observation(m),
+        observation(m, peds=[(7.5, 10.2)], ped_vels=[(-0.6, 0.0)]),
+        observation(m, pose=(7.6, 10.0, 0.0), velocity=(0.5, 0.0)),
+    ):
         v, w = p.plan(obs)
         assert np.isfinite(v) and np.isfinite(w)
         assert 0.0 <= v <= 2.0 and -1.0 <= w <= 1.0
@@ -86,8 +89,15 @@ def test_orca_is_deterministic_across_decisions_and_pedestrian_counts():
     """Same observations, same commands: no state leaks between decisions (pyrvo's clear_agents did)."""
     m = corridor_map(obstacles=(WALL,))
     rng = np.random.default_rng(3)
-    seq = [observation(m, pose=(5.0 + 0.1 * k, 10.0, 0.0), peds=rng.uniform([6, 8], [14, 12], size=(n, 2)),
-                       ped_vels=rng.normal(0, 0.5, size=(n, 2))) for k, n in enumerate([3, 3, 5, 5, 2, 4])]
+    seq = [
+        observation(
+            m,
+            pose=(5.0 + 0.1 * k, 10.0, 0.0),
+            peds=rng.uniform([6, 8], [14, 12], size=(n, 2)),
+            ped_vels=rng.normal(0, 0.5, size=(n, 2)),
+        )
+        for k, n in enumerate([3, 3, 5, 5, 2, 4])
+    ]
 
     def run():
         p = OrcaPlanner()

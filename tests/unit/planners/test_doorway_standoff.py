@@ -19,7 +19,9 @@ def doorway(reference_matrix_path):
     return load_matrix(reference_matrix_path).get("classic_doorway_low")
 
 
-@pytest.mark.parametrize(("config", "outcome"), [({}, "success"), ({"safety": {"yield_speed": 0.0}}, "timeout")])
+@pytest.mark.parametrize(
+    ("config", "outcome"), [({}, "success"), ({"safety": {"yield_speed": 0.0}}, "timeout")]
+)
 def test_the_robot_commits_after_yielding_and_passes_the_door(doorway, config, outcome):
     result = run_episode(doorway, 141, make_planner("predictive", config, model="cv"))
     assert result.outcome == outcome

@@ -25,29 +25,41 @@ BAD = Path(__file__).with_name("bad_external_planner.py")
 
 @pytest.fixture
 def commands(monkeypatch: pytest.MonkeyPatch):  # noqa: ANN201
-    table = {"reference": [sys.executable, str(REPO / "examples" / "external_planner.py")],
-             **{mode: [sys.executable, str(BAD), mode] for mode in ("crash", "hang", "malformed")}}
+    table = {
+        "reference": [sys.executable, str(REPO / "examples" / "external_planner.py")],
+        **{mode: [sys.executable, str(BAD), mode] for mode in ("crash", "hang", "malformed")},
+    }
     monkeypatch.setenv("FORESIGHT_EXTERNAL_PLANNERS", json.dumps(table))
     yield table
     close_all()
 
 
 def _run(tmp_path: Path, config: dict, seeds: int = 2, max_steps: int = 60):  # noqa: ANN202
-    cfg = EvaluationConfig.model_validate({
-        "scenarios": ["crossing_low"], "seeds_per_scenario": seeds, "max_steps": max_steps,
-        "planner": {"name": "external", "config": config}})
+    cfg = EvaluationConfig.model_validate(
+        {
+            "scenarios": ["crossing_low"],
+            "seeds_per_scenario": seeds,
+            "max_steps": max_steps,
+            "planner": {"name": "external", "config": config},
+        }
+    )
     ctx = StageContext(workdir=tmp_path, resolve_bundle=lambda b: {BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT}[b])
     return run_evaluation(cfg, ctx)
 
 
 def test_operator_commands_parse_strings_and_lists() -> None:
     assert operator_commands('{"a": "python x.py --k 1", "b": ["/bin/p", "q r"]}') == {
-        "a": ["python", "x.py", "--k", "1"], "b": ["/bin/p", "q r"]}
+        "a": ["python", "x.py", "--k", "1"],
+        "b": ["/bin/p", "q r"],
+    }
 
 
 def test_unconfigured_command_is_refused_naming_the_configured_ones(commands: dict) -> None:
-    with pytest.raises(ValidationError, match=r"planner\.external\.config\.command[\s\S]*'rm -rf /' is not configured"
-                                             r"[\s\S]*configured: reference, crash"):
+    with pytest.raises(
+        ValidationError,
+        match=r"planner\.external\.config\.command[\s\S]*'rm -rf /' is not configured"
+        r"[\s\S]*configured: reference, crash",
+    ):
         EvaluationConfig.model_validate({"planner": {"name": "external", "config": {"command": "rm -rf /"}}})
 
 
@@ -60,16 +72,24 @@ def test_reference_client_drives_the_robot(commands: dict, tmp_path: Path) -> No
     assert external._PROCESSES == {}  # the run ended its planner process
 
 
-@pytest.mark.parametrize("mode, reason", [("crash", r"exited \(code 3\) at step 2.*crashed on purpose"),
-                                          ("hang", r"no answer within 0.5 s at step 2 \(killed\)"),
-                                          ("malformed", r"malformed JSON at step 2")])
-def test_misbehaving_process_is_a_planner_error_and_the_run_goes_on(commands: dict, tmp_path: Path, mode: str,
-                                                                      reason: str) -> None:
+@pytest.mark.parametrize(
+    "mode, reason",
+    [
+        ("crash", r"exited \(code 3\) at step 2.*crashed on purpose"),
+        ("hang", r"no answer within 0.5 s at step 2 \(killed\)"),
+        ("malformed", r"malformed JSON at step 2"),
+    ],
+)
+def test_misbehaving_process_is_a_planner_error_and_the_run_goes_on(
+    commands: dict, tmp_path: Path, mode: str, reason: str
+) -> None:
     t0 = time.perf_counter()
     result = _run(tmp_path, {"command": mode, "step_timeout_s": 0.5})
     assert time.perf_counter() - t0 < 30
     records = [json.loads(line) for line in (tmp_path / "episodes.jsonl").read_text().splitlines()]
-    assert result.episodes == 2 and result.taxonomy["planner_error"] == 2  # both episodes: a fresh process each
+    assert (
+        result.episodes == 2 and result.taxonomy["planner_error"] == 2
+    )  # both episodes: a fresh process each
     for r in records:
         assert r["outcome"] == "error" and r["steps"] == 2
         assert r["taxonomy"]["label"] == "planner_error"
@@ -94,7 +114,9 @@ def test_the_documented_messages_are_the_ones_sent_and_understood() -> None:
 
     text = (REPO / "docs" / "planner_protocol.md").read_text()
     docs = {m["type"]: m for m in (json.loads(b) for b in re.findall(r"```json\n(.*?)```", text, flags=re.S))}
-    scenario = load_matrix(BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml").get("crossing_low")
+    scenario = load_matrix(BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml").get(
+        "crossing_low"
+    )
     sim = Simulator()
     obs = sim.reset(scenario, 1000)
     sent = observation_message(obs)
@@ -102,7 +124,10 @@ def test_the_documented_messages_are_the_ones_sent_and_understood() -> None:
     info = EpisodeInfo(scenario=scenario, seed=1000, dt=sim.dt, robot_radius=1.0, ped_radius=0.4)
     assert _shape(docs["start"]) == _shape(start_message(info, {"speed": 1.2}))
     later, _ = sim.step((0.5, 0.0))
-    assert set(observation_message(later)) == set(sent) - {"robot_limits", "static"}  # constants on step 0 only
+    assert set(observation_message(later)) == set(sent) - {
+        "robot_limits",
+        "static",
+    }  # constants on step 0 only
     reference = __import__("runpy").run_path(str(REPO / "examples" / "external_planner.py"))
     answer = reference["command"](json.loads(json.dumps(sent)), {})
     assert set(answer) <= set(docs["command"]) and {"type", "v", "omega"} <= set(answer)

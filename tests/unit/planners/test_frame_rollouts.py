@@ -12,7 +12,7 @@ def _commands(rng: np.random.Generator, b: int = 12, n: int = 30) -> np.ndarray:
     cmds = np.empty((b, n, 2))
     cmds[..., 0] = rng.uniform(0.0, 2.0, size=(b, 1))
     cmds[..., 1] = rng.uniform(-1.0, 1.0, size=(b, 1))
-    cmds[:, n // 2:, 1] *= -1.0  # a second segment: not every sequence holds one command
+    cmds[:, n // 2 :, 1] *= -1.0  # a second segment: not every sequence holds one command
     return cmds
 
 
@@ -21,8 +21,14 @@ def test_placed_rollouts_equal_the_simulators_from_any_pose():
     limits, dt = RobotLimits(), 0.1
     cmds = _commands(rng)
     frames = FrameRollouts(limits, dt)
-    starts = np.column_stack([rng.uniform(-20, 20, (5, 2)), rng.uniform(-np.pi, np.pi, 5),
-                              rng.uniform(0, 2, 5), rng.uniform(-1, 1, 5)])
+    starts = np.column_stack(
+        [
+            rng.uniform(-20, 20, (5, 2)),
+            rng.uniform(-np.pi, np.pi, 5),
+            rng.uniform(0, 2, 5),
+            rng.uniform(-1, 1, 5),
+        ]
+    )
     got = frames(starts, cmds, "set").reshape(5, len(cmds), cmds.shape[1], 5)
     for p, s0 in enumerate(starts):
         want = rollout(np.repeat(s0[None], len(cmds), axis=0), cmds, limits, dt)

@@ -18,7 +18,10 @@ from foresight.core.sim.geometry import StaticMap
 from tests.unit.planners.scenes import corridor_map, info_for, observation
 
 #: a wall across the map at x = 14..16 with a door at y = 14..18 (4 m: a 2 m robot fits with 1 m to spare)
-WALL = (((14.0, 0.0), (16.0, 0.0), (16.0, 14.0), (14.0, 14.0)), ((14.0, 18.0), (16.0, 18.0), (16.0, 20.0), (14.0, 20.0)))
+WALL = (
+    ((14.0, 0.0), (16.0, 0.0), (16.0, 14.0), (14.0, 14.0)),
+    ((14.0, 18.0), (16.0, 18.0), (16.0, 20.0), (14.0, 20.0)),
+)
 TARGET = np.array([22.0, 10.0])
 CLEAR = 1.05  # robot radius + static margin
 
@@ -52,15 +55,23 @@ def test_behind_a_wall_it_is_the_way_round_through_the_door():
 def test_a_robot_beside_the_door_gains_by_moving_to_the_door_not_into_the_wall():
     """The local minimum the straight line has behind a wall is gone."""
     g = GeodesicDistance(StaticMap(_door_map()), TARGET, CLEAR, 0.2)
-    here, towards_door, towards_target = np.array([12.0, 10.0]), np.array([12.5, 12.0]), np.array([13.0, 10.0])
+    here, towards_door, towards_target = (
+        np.array([12.0, 10.0]),
+        np.array([12.5, 12.0]),
+        np.array([13.0, 10.0]),
+    )
     assert g(towards_door) < g(here)
-    assert np.hypot(*(towards_target - TARGET)) < np.hypot(*(towards_door - TARGET))  # the straight line disagrees
+    assert np.hypot(*(towards_target - TARGET)) < np.hypot(
+        *(towards_door - TARGET)
+    )  # the straight line disagrees
 
 
 def test_points_too_close_to_a_wall_get_finite_continuous_values():
     g = GeodesicDistance(StaticMap(_door_map()), TARGET, CLEAR, 0.2)
     xs = np.linspace(11.0, 14.5, 71)
-    line = g(np.stack([xs, np.full_like(xs, 10.0)], axis=1))  # up to the wall and into it, across its inflated band
+    line = g(
+        np.stack([xs, np.full_like(xs, 10.0)], axis=1)
+    )  # up to the wall and into it, across its inflated band
     assert np.all(np.isfinite(line))
     assert np.max(np.abs(np.diff(line))) < 0.1  # no jumps between points 5 cm apart
     assert line[-1] > line[0]  # nearer the wall is no nearer the target: the way round is through the door
@@ -69,11 +80,18 @@ def test_points_too_close_to_a_wall_get_finite_continuous_values():
 def test_route_potential_and_planner_use_it_when_asked():
     m = _door_map()
     obs = observation(m, pose=(12.0, 10.0, 0.0), velocity=(0.0, 0.0), route=(tuple(TARGET),))
-    pot = RoutePotential(obs.route, switch_radius=2.0, goal_tolerance=2.0,
-                         distance=lambda w: GeodesicDistance(obs.static, w, CLEAR, 0.2))
-    assert pot.start(obs.robot_pose[:2]) == pytest.approx(float(GeodesicDistance(obs.static, TARGET, CLEAR, 0.2)(
-        obs.robot_pose[:2])))
-    planner = PredictivePlanner(None, ConstantVelocityForecaster(PLANNER_TIMEBASE))  # the default: around the walls
+    pot = RoutePotential(
+        obs.route,
+        switch_radius=2.0,
+        goal_tolerance=2.0,
+        distance=lambda w: GeodesicDistance(obs.static, w, CLEAR, 0.2),
+    )
+    assert pot.start(obs.robot_pose[:2]) == pytest.approx(
+        float(GeodesicDistance(obs.static, TARGET, CLEAR, 0.2)(obs.robot_pose[:2]))
+    )
+    planner = PredictivePlanner(
+        None, ConstantVelocityForecaster(PLANNER_TIMEBASE)
+    )  # the default: around the walls
     planner.reset(info_for(m))
     planner.plan(obs)
     cfg = PredictivePlannerConfig.from_dict({"search": {"geodesic_resolution": 0.0}})
@@ -81,8 +99,12 @@ def test_route_potential_and_planner_use_it_when_asked():
     straight.reset(info_for(m))
     straight.plan(obs)
     # measured round the wall, the robot has further to go than in a straight line
-    assert planner._route(obs).start(obs.robot_pose[:2]) > straight._route(obs).start(obs.robot_pose[:2]) + 1.0
-    assert math.isclose(straight._route(obs).start(obs.robot_pose[:2]), float(np.hypot(*(obs.robot_pose[:2] - TARGET))))
+    assert (
+        planner._route(obs).start(obs.robot_pose[:2]) > straight._route(obs).start(obs.robot_pose[:2]) + 1.0
+    )
+    assert math.isclose(
+        straight._route(obs).start(obs.robot_pose[:2]), float(np.hypot(*(obs.robot_pose[:2] - TARGET)))
+    )
 
 
 def test_a_walled_off_target_falls_back_to_the_straight_line():
@@ -98,4 +120,7 @@ def test_a_grid_finer_than_the_bound_is_a_config_error_naming_the_field(resoluti
     with pytest.raises(ConfigError) as exc:
         PredictivePlannerConfig.from_dict({"search": {"geodesic_resolution": resolution}})
     assert exc.value.item == "search" and "geodesic_resolution" in str(exc.value)
-    assert PredictivePlannerConfig.from_dict({"search": {"geodesic_resolution": 0.0}}).search.geodesic_resolution == 0
+    assert (
+        PredictivePlannerConfig.from_dict({"search": {"geodesic_resolution": 0.0}}).search.geodesic_resolution
+        == 0
+    )

@@ -21,8 +21,10 @@ def _drive(keep_plan: bool, decisions: int) -> tuple[PredictivePlanner, list[dic
     """Closed loop in the door-corner scene, the robot moved by the simulator's kinematics; the diagnostics of each
     decision and the robot's last state."""
     m = corridor_map(obstacles=WALL)
-    planner = PredictivePlanner(PredictivePlannerConfig.from_dict({"search": {"keep_plan": keep_plan}}),
-                                ConstantVelocityForecaster(PLANNER_TIMEBASE))
+    planner = PredictivePlanner(
+        PredictivePlannerConfig.from_dict({"search": {"keep_plan": keep_plan}}),
+        ConstantVelocityForecaster(PLANNER_TIMEBASE),
+    )
     planner.reset(info_for(m))
     state, out = np.array([12.8, 18.0, 0.2, 0.0, 0.0]), []
     for k in range(decisions):
@@ -56,8 +58,14 @@ def test_the_kept_rollout_is_the_rollout_of_the_kept_commands_from_where_the_rob
     S = len(planner._plan[0])
     cmds, states = planner._kept_plan(state, S, 0.1)
     expected = rollout(state[None], cmds[None], RobotLimits(), 0.1)[0]
-    assert np.allclose(states[:, :2], expected[:, :2], atol=1e-9) and np.allclose(states[:, 3:], expected[:, 3:])
-    assert np.allclose(np.cos(states[:, 2]), np.cos(expected[:, 2])) and np.allclose(np.sin(states[:, 2]), np.sin(expected[:, 2]))
-    moved = state + np.array([0.3, 0.0, 0.0, 0.0, 0.0])  # the robot is not where the plan put it: nothing to keep
+    assert np.allclose(states[:, :2], expected[:, :2], atol=1e-9) and np.allclose(
+        states[:, 3:], expected[:, 3:]
+    )
+    assert np.allclose(np.cos(states[:, 2]), np.cos(expected[:, 2])) and np.allclose(
+        np.sin(states[:, 2]), np.sin(expected[:, 2])
+    )
+    moved = state + np.array(
+        [0.3, 0.0, 0.0, 0.0, 0.0]
+    )  # the robot is not where the plan put it: nothing to keep
     assert planner._kept_plan(moved, S, 0.1) is None
     assert planner._kept_plan(state, S + 1, 0.1) is None  # another horizon

@@ -65,15 +65,18 @@ def test_waiting_in_a_lane_costs_and_driving_out_of_it_does_not():
     for k in range(400):  # walkers lately through the robot's spot, one every 5 s (none in view now)
         t = 0.1 * k
         y = 7.0 + 1.2 * (t % 5.0)
-        obs = observation(m, pose=(*here, math.pi / 2), velocity=(0.0, 0.0), peds=[[15.0, y]], ped_vels=[[0.0, 1.2]],
-                          step=k)
+        obs = observation(
+            m, pose=(*here, math.pi / 2), velocity=(0.0, 0.0), peds=[[15.0, y]], ped_vels=[[0.0, 1.2]], step=k
+        )
         planner._lanes(obs, 1.4)
     obs = observation(m, pose=(*here, math.pi / 2), velocity=(0.0, 0.0), step=400)
     _, terms = planner.score_commands(obs, np.array([[0.0, 0.0], [2.0, 0.0]]))
     assert terms["lane"][0] > 2.0  # standing in the lane: several walkers lately
     assert terms["lane"][1] == 0.0  # driving on at full speed: nobody waits there
-    off = PredictivePlanner(PredictivePlannerConfig.from_dict({"weights": {"lane": 0}}),
-                            ConstantVelocityForecaster(PLANNER_TIMEBASE))
+    off = PredictivePlanner(
+        PredictivePlannerConfig.from_dict({"weights": {"lane": 0}}),
+        ConstantVelocityForecaster(PLANNER_TIMEBASE),
+    )
     off.reset(info_for(m))
     assert off.score_commands(obs, np.array([[0.0, 0.0]]))[1]["lane"][0] == 0.0  # weight 0: no map kept
 
@@ -85,7 +88,9 @@ def test_negative_lane_settings_are_refused_by_name():
         PredictivePlannerConfig.from_dict({"safety": {"lane_memory_s": 0}})
 
 
-def test_a_robot_waiting_at_a_doorway_no_longer_stands_in_the_stream_of_people_who_do_not_see_it(reference_matrix_path):
+def test_a_robot_waiting_at_a_doorway_no_longer_stands_in_the_stream_of_people_who_do_not_see_it(
+    reference_matrix_path,
+):
     """The reference's medium doorway at walking speed, nobody yielding (seed 144): without lanes the robot waits at
     the door's mouth and a walker coming through walks into it; with them it waits beside the stream and gets through."""
     blind = {"simulation_config": {"ped_speed_tier": "typical", "peds_have_robot_repulsion": False}}

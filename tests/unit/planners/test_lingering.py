@@ -28,8 +28,14 @@ def _lingering(planner: PredictivePlanner, steps: int) -> list[bool]:
     for k in range(steps):
         shuffle = 0.03 * (k % 2)
         peds = [(6.0 + shuffle, 11.5), (3.0 + 0.1 * k, 11.6), (5.0, 15.4)]
-        obs = observation(m, pose=ROBOT, velocity=(0.0, 0.0), peds=peds,
-                          ped_vels=[(0.3 * (1 - 2 * (k % 2)), 0.0), (1.0, 0.0), (0.0, 0.0)], step=k)
+        obs = observation(
+            m,
+            pose=ROBOT,
+            velocity=(0.0, 0.0),
+            peds=peds,
+            ped_vels=[(0.3 * (1 - 2 * (k % 2)), 0.0), (1.0, 0.0), (0.0, 0.0)],
+            step=k,
+        )
         mask = planner._lingering(obs, obs.ped_ids, contact=1.4)
     return mask.tolist()
 
@@ -51,9 +57,13 @@ def test_a_lingering_pedestrian_is_forecast_on_its_own_velocity_not_the_models()
     planner = _planner(1.5)
     m = corridor_map()
     for k in range(16):
-        obs = observation(m, pose=ROBOT, velocity=(0.0, 0.0), peds=[(6.0, 11.5)], ped_vels=[(0.0, -0.3)], step=k)
+        obs = observation(
+            m, pose=ROBOT, velocity=(0.0, 0.0), peds=[(6.0, 11.5)], ped_vels=[(0.0, -0.3)], step=k
+        )
         fc = planner.forecaster.update(obs)
-        leaving = fc.positions + np.array([0.0, 3.0]) * fc.times[None, :, None]  # as a model expecting it to leave
+        leaving = (
+            fc.positions + np.array([0.0, 3.0]) * fc.times[None, :, None]
+        )  # as a model expecting it to leave
         scene, _, _ = planner._scene(obs, leaving, fc.sigma, fc.times, fc.ped_ids)
     assert scene.ped_future.shape[0] == 1
     want = np.array([6.0, 11.5]) + fc.times[:, None] * np.array([0.0, -0.3])

@@ -15,7 +15,10 @@ from foresight.core.sim.robot import RobotLimits
 from tests.unit.planners.scenes import corridor_map, info_for, observation
 
 #: a wall across the map at x = 14..16 with a door at y = 14..18
-WALL = (((14.0, 0.0), (16.0, 0.0), (16.0, 14.0), (14.0, 14.0)), ((14.0, 18.0), (16.0, 18.0), (16.0, 20.0), (14.0, 20.0)))
+WALL = (
+    ((14.0, 0.0), (16.0, 0.0), (16.0, 14.0), (14.0, 14.0)),
+    ((14.0, 18.0), (16.0, 18.0), (16.0, 20.0), (14.0, 20.0)),
+)
 
 
 def test_sequences_turn_at_the_full_rate_then_drive_straight():
@@ -31,8 +34,10 @@ def test_sequences_turn_at_the_full_rate_then_drive_straight():
 
 def _decide(turns: tuple[float, ...]) -> dict:
     m = corridor_map(obstacles=WALL)
-    planner = PredictivePlanner(PredictivePlannerConfig.from_dict({"sampling": {"turn_then_go": list(turns)}}),
-                                ConstantVelocityForecaster(PLANNER_TIMEBASE))
+    planner = PredictivePlanner(
+        PredictivePlannerConfig.from_dict({"sampling": {"turn_then_go": list(turns)}}),
+        ConstantVelocityForecaster(PLANNER_TIMEBASE),
+    )
     planner.reset(info_for(m))
     # beside the door, facing the wall just above it: every arc forward clips the corner
     planner.plan(observation(m, pose=(12.8, 18.0, 0.2), velocity=(0.0, 0.0), route=((22.0, 16.0),)))
@@ -41,7 +46,9 @@ def _decide(turns: tuple[float, ...]) -> dict:
 
 def test_a_robot_facing_the_wall_beside_a_door_turns_and_goes_instead_of_standing():
     stuck = _decide(())
-    assert stuck["terms"]["progress"] == pytest.approx(0.0, abs=0.05)  # held arcs: nothing better than standing
+    assert stuck["terms"]["progress"] == pytest.approx(
+        0.0, abs=0.05
+    )  # held arcs: nothing better than standing
     out = _decide(SamplingConfig().turn_then_go)  # the default point turns
     assert out["terms"]["progress"] > 0.5 and out["terms"]["static_collision"] == 0
     first_steps, v0, w0 = out["sequence"][0]

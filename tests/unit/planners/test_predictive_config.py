@@ -39,19 +39,23 @@ def test_every_reference_grid_variant_maps(grid_variants):
         cfg = PredictivePlannerConfig.from_reference_grid(variant["params"], source=variant["name"])
         assert cfg.config_hash() != base.config_hash(), variant["name"]
         # heading deltas become distinct turn rates (the reference collapsed them to three)
-        assert len(set(cfg.sampling.turn_rates)) == len(variant["params"]["predictive_candidate_heading_deltas"])
+        assert len(set(cfg.sampling.turn_rates)) == len(
+            variant["params"]["predictive_candidate_heading_deltas"]
+        )
         assert cfg.sampling.speed_ratios == tuple(variant["params"]["predictive_candidate_speeds"])
 
 
 def test_mapping_rules():
     base = PredictivePlannerConfig()
-    cfg = PredictivePlannerConfig.from_reference_grid({
-        "predictive_goal_weight": 12.0,  # twice the reference's 6.0 -> twice ours
-        "predictive_ttc_distance": 1.1,  # reference 0.9 + 0.2 -> ours + 0.2
-        "predictive_robot_radius": 0.45,  # 0.2 above the reference's planning radius -> 0.2 m extra margin
-        "predictive_horizon_boost_steps": 6,  # reference 0.2 s steps
-        "predictive_candidate_heading_deltas": [-0.5, 0.0, 0.5],  # rad over one second
-    })
+    cfg = PredictivePlannerConfig.from_reference_grid(
+        {
+            "predictive_goal_weight": 12.0,  # twice the reference's 6.0 -> twice ours
+            "predictive_ttc_distance": 1.1,  # reference 0.9 + 0.2 -> ours + 0.2
+            "predictive_robot_radius": 0.45,  # 0.2 above the reference's planning radius -> 0.2 m extra margin
+            "predictive_horizon_boost_steps": 6,  # reference 0.2 s steps
+            "predictive_candidate_heading_deltas": [-0.5, 0.0, 0.5],  # rad over one second
+        }
+    )
     assert cfg.weights.goal == pytest.approx(2 * base.weights.goal)
     assert cfg.safety.ttc_distance == pytest.approx(base.safety.ttc_distance + 0.2)
     assert cfg.safety.extra_robot_margin == pytest.approx(0.2)
@@ -61,7 +65,9 @@ def test_mapping_rules():
 
 def test_unmappable_reference_key_is_named():
     with pytest.raises(ConfigError) as exc:
-        PredictivePlannerConfig.from_reference_grid({"predictive_goal_weight": 5.0, "predictive_mcts_enabled": True})
+        PredictivePlannerConfig.from_reference_grid(
+            {"predictive_goal_weight": 5.0, "predictive_mcts_enabled": True}
+        )
     assert exc.value.item == "predictive_mcts_enabled"
     assert len(REFERENCE_KEY_MAP) >= 20
 

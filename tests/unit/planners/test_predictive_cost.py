@@ -97,7 +97,9 @@ def test_static_field_never_overestimates_clearance():
 def test_after_a_stall_a_waiting_pedestrian_is_trusted_to_make_room_for_a_slow_robot():
     """Yield, then commit: a standing pedestrian near a stalled robot is taken to step away from an edging robot."""
     m = corridor_map()
-    obs = observation(m, velocity=(0.0, 0.0), peds=[(6.5, 10.0)])  # standing 0.1 m beyond the 1.4 m contact distance
+    obs = observation(
+        m, velocity=(0.0, 0.0), peds=[(6.5, 10.0)]
+    )  # standing 0.1 m beyond the 1.4 m contact distance
     creep = np.array([[0.3, 0.0]])
 
     def collision(config: dict, assertiveness: float) -> float:
@@ -106,7 +108,9 @@ def test_after_a_stall_a_waiting_pedestrian_is_trusted_to_make_room_for_a_slow_r
         return float(p.score_commands(obs, creep)[1]["collision"][0])
 
     nobody_waits = {"safety": {"yield_speed": 0.0}}
-    assert collision({}, 1.0) < collision(nobody_waits, 1.0)  # committed: the pedestrian is expected to step back
+    assert collision({}, 1.0) < collision(
+        nobody_waits, 1.0
+    )  # committed: the pedestrian is expected to step back
     assert collision({}, 0.0) == pytest.approx(collision(nobody_waits, 0.0))  # at ease nobody is assumed to
 
 
@@ -170,9 +174,15 @@ def test_rollouts_are_read_at_the_forecast_times():
     for _ in range(5):
         s = unicycle_step(s, np.array([1.5, 0.4]), RobotLimits(), 0.1)
     assert np.allclose(states[0, -1], s)
-    pos, sig, t = extend_forecast(np.array([[[0.0, 0.0], [0.2, 0.0]]]), np.array([[0.1, 0.15]]), np.array([0.2, 0.4]), 2)
-    assert t.tolist() == pytest.approx([0.2, 0.4, 0.6, 0.8]) and pos[0, -1].tolist() == pytest.approx([0.6, 0.0])
-    assert sig[0].tolist() == pytest.approx([0.1, 0.15, 0.2, 0.25])  # the spread keeps growing at its last rate
+    pos, sig, t = extend_forecast(
+        np.array([[[0.0, 0.0], [0.2, 0.0]]]), np.array([[0.1, 0.15]]), np.array([0.2, 0.4]), 2
+    )
+    assert t.tolist() == pytest.approx([0.2, 0.4, 0.6, 0.8]) and pos[0, -1].tolist() == pytest.approx(
+        [0.6, 0.0]
+    )
+    assert sig[0].tolist() == pytest.approx(
+        [0.1, 0.15, 0.2, 0.25]
+    )  # the spread keeps growing at its last rate
 
 
 def _walker_towards_standing_robot(m):
@@ -183,7 +193,9 @@ def _walker_towards_standing_robot(m):
 def _observe_walk(planner, m):
     """Feed the walker's last steps so the forecaster sees its velocity, then return the current observation."""
     for k in range(3):
-        planner.forecaster.observe(observation(m, velocity=(0.0, 0.0), peds=[(5.0, 13.5 + 0.13 * (3 - k))], step=k))
+        planner.forecaster.observe(
+            observation(m, velocity=(0.0, 0.0), peds=[(5.0, 13.5 + 0.13 * (3 - k))], step=k)
+        )
     return _walker_towards_standing_robot(m)
 
 
@@ -205,8 +217,12 @@ def test_chance_margin_and_risk_grow_with_the_forecast_spread():
     m = corridor_map()
     obs = observation(m, velocity=(1.0, 0.0), peds=[(9.0, 11.6)])  # to the side of the robot's line, standing
     cmd = np.array([[1.0, 0.0]])
-    base = _planner(m, PredictivePlannerConfig.from_dict({"safety": {"confidence": 0.0}})).score_commands(obs, cmd)[1]
-    wide = _planner(m, PredictivePlannerConfig.from_dict({"safety": {"confidence": 2.0}})).score_commands(obs, cmd)[1]
+    base = _planner(m, PredictivePlannerConfig.from_dict({"safety": {"confidence": 0.0}})).score_commands(
+        obs, cmd
+    )[1]
+    wide = _planner(m, PredictivePlannerConfig.from_dict({"safety": {"confidence": 2.0}})).score_commands(
+        obs, cmd
+    )[1]
     assert wide["collision"][0] > base["collision"][0]
     assert base["risk"][0] == wide["risk"][0] > 0  # risk is the probability itself, no margin
 
@@ -249,12 +265,16 @@ def test_what_a_rollout_meets_after_arriving_costs_nothing():
     """The episode ends at the goal: a pedestrian and a wall just beyond it are never met (``search.ends_at_goal``)."""
     wall = ((13.0, 0.0), (14.0, 0.0), (14.0, 20.0), (13.0, 20.0))
     m = corridor_map(obstacles=(wall,))
-    obs = observation(m, pose=(5.0, 10.0, 0.0), velocity=(2.0, 0.0), route=((10.0, 10.0),), peds=[(12.0, 10.0)])
+    obs = observation(
+        m, pose=(5.0, 10.0, 0.0), velocity=(2.0, 0.0), route=((10.0, 10.0),), peds=[(12.0, 10.0)]
+    )
     cmds = np.array([[2.0, 0.0]])  # reaches the goal's 2 m tolerance at x = 8 within a second, then drives on
     off = PredictivePlannerConfig.from_dict({"search": {"ends_at_goal": False}})
     _, beyond = _planner(m, off).score_commands(obs, cmds)
     _, ends = _planner(m).score_commands(obs, cmds)
-    assert beyond["collision"][0] > 0 and beyond["static_collision"][0] > 0  # met after the goal, when counted
+    assert (
+        beyond["collision"][0] > 0 and beyond["static_collision"][0] > 0
+    )  # met after the goal, when counted
     assert ends["collision"][0] == 0 and ends["static_collision"][0] == 0 and ends["hard_clearance"][0] == 0
     short = _planner(m).score_commands(obs, np.array([[0.0, 0.0]]))[1]  # short of the goal it is still there
     assert short["progress"][0] < ends["progress"][0]

@@ -79,47 +79,82 @@ def _cases() -> dict[str, dict]:
     """name -> {config, robot, obstacles, steps: [observation kwargs]}; one planner decides the steps in turn."""
     cases: dict[str, dict] = {}
     cases["free_route"] = {"steps": [{"velocity": (v, 0.0)} for v in (0.0, 1.0, 2.0)]}
-    cases["turning_start"] = {"steps": [{"pose": (5.0, 10.0, th), "velocity": (0.7, w)}
-                                        for th, w in ((1.2, 0.5), (-2.5, -0.8), (3.1, 1.0))]}
-    cases["ped_ahead"] = {"steps": [{"peds": [(8.5 - 0.05 * k, 10.0 + 0.02 * k)], "velocity": (1.0, 0.0)}
-                                    for k in range(4)]}
-    cases["crossing"] = {"steps": [{"pose": (5.0 + 0.1 * k, 10.0, 0.0),
-                                    "peds": [(10.0 - 0.065 * k, 10.3), (12.0, 7.0 + 0.065 * k)]}
-                                   for k in range(6)]}
+    cases["turning_start"] = {
+        "steps": [
+            {"pose": (5.0, 10.0, th), "velocity": (0.7, w)}
+            for th, w in ((1.2, 0.5), (-2.5, -0.8), (3.1, 1.0))
+        ]
+    }
+    cases["ped_ahead"] = {
+        "steps": [{"peds": [(8.5 - 0.05 * k, 10.0 + 0.02 * k)], "velocity": (1.0, 0.0)} for k in range(4)]
+    }
+    cases["crossing"] = {
+        "steps": [
+            {"pose": (5.0 + 0.1 * k, 10.0, 0.0), "peds": [(10.0 - 0.065 * k, 10.3), (12.0, 7.0 + 0.065 * k)]}
+            for k in range(6)
+        ]
+    }
     steps = []
     for k in range(5):
         pos, vel = _crowd(16, 100 + k)
-        steps.append({"pose": (5.0 + 0.15 * k, 10.0 + 0.02 * k, 0.05 * k), "velocity": (1.5, 0.1 * (k - 2)),
-                      "peds": pos, "ped_vels": vel})
+        steps.append(
+            {
+                "pose": (5.0 + 0.15 * k, 10.0 + 0.02 * k, 0.05 * k),
+                "velocity": (1.5, 0.1 * (k - 2)),
+                "peds": pos,
+                "ped_vels": vel,
+            }
+        )
     cases["crowd16"] = {"steps": steps}
     cases["crowd16_pillars"] = {"obstacles": _PILLARS, "steps": [dict(s) for s in steps]}
-    cases["wall_ahead"] = {"obstacles": (((8, 7), (9, 7), (9, 13), (8, 13)),),
-                           "steps": [{"velocity": (v, 0.0)} for v in (2.0, 0.5)]}
-    cases["waypoints"] = {"steps": [{"pose": (5.0, 10.0, 0.3), "velocity": (1.2, 0.2),
-                                     "route": ((7.0, 11.0), (9.0, 14.0), (15.0, 14.0), (27.0, 10.0))},
-                                    {"pose": (25.5, 10.5, 0.0), "velocity": (2.0, 0.0), "route": ((27.0, 10.0),)}]}
+    cases["wall_ahead"] = {
+        "obstacles": (((8, 7), (9, 7), (9, 13), (8, 13)),),
+        "steps": [{"velocity": (v, 0.0)} for v in (2.0, 0.5)],
+    }
+    cases["waypoints"] = {
+        "steps": [
+            {
+                "pose": (5.0, 10.0, 0.3),
+                "velocity": (1.2, 0.2),
+                "route": ((7.0, 11.0), (9.0, 14.0), (15.0, 14.0), (27.0, 10.0)),
+            },
+            {"pose": (25.5, 10.5, 0.0), "velocity": (2.0, 0.0), "route": ((27.0, 10.0),)},
+        ]
+    }
     # standing robot blocked by a group: assertiveness ramps up over the steps
-    cases["stall"] = {"steps": [{"pose": (5.0, 10.0, 0.0), "velocity": (0.0, 0.0), "peds": [(7.6, 10.2), (7.8, 9.4)]}
-                                for _ in range(45)]}
+    cases["stall"] = {
+        "steps": [
+            {"pose": (5.0, 10.0, 0.0), "velocity": (0.0, 0.0), "peds": [(7.6, 10.2), (7.8, 9.4)]}
+            for _ in range(45)
+        ]
+    }
     # the non-default pedestrian-term paths: no waiting pedestrian trusted to step away, waiting ones to make room
     other = {"safety": {"yield_speed": 0.0, "waiting_room": 0.7}}
     cases["crowd16_nobody_waits"] = {"config": other, "steps": [dict(s) for s in steps]}
     cases["stall_nobody_waits"] = {"config": other, "steps": [dict(s) for s in cases["stall"]["steps"]]}
     pos, vel = _crowd(16, 7, centre=(8.0, 10.0), spread=3.0)
     crowd_step = {"pose": (5.0, 10.0, 0.1), "velocity": (1.0, 0.0), "peds": pos, "ped_vels": vel}
-    cases["extended_horizon"] = {"config": {"search": {"extra_horizon_s": 0.8, "adaptive_horizon": True,
-                                                       "horizon_boost_s": 0.4}},
-                                 "steps": [dict(crowd_step), {**crowd_step, "peds": pos + 6.0}]}
-    cases["segments_beam"] = {"config": {"search": {"segments_s": (0.4, 0.6, 0.5), "beam_width": 9,
-                                                    "branch_turn_rate_count": 1}},
-                              "steps": [dict(crowd_step)]}
-    cases["reference_lag"] = {"robot": {"actuation": "reference_lag", "max_linear_decel": 2.0},
-                              "steps": [dict(crowd_step), {"velocity": (0.3, -0.4)}]}
-    cases["backwards_allowed"] = {"robot": {"allow_backwards": True, "max_angular_accel": 0.5},
-                                  "steps": [dict(crowd_step), {"velocity": (-0.5, 0.4)}]}
-    cases["fast_accel"] = {"robot": {"max_linear_accel": 3.0, "max_angular_accel": 4.0, "max_linear_speed": 1.5},
-                           "config": {"max_speed_ratio": 0.8},
-                           "steps": [dict(crowd_step), {"velocity": (1.5, 0.9)}]}
+    cases["extended_horizon"] = {
+        "config": {"search": {"extra_horizon_s": 0.8, "adaptive_horizon": True, "horizon_boost_s": 0.4}},
+        "steps": [dict(crowd_step), {**crowd_step, "peds": pos + 6.0}],
+    }
+    cases["segments_beam"] = {
+        "config": {"search": {"segments_s": (0.4, 0.6, 0.5), "beam_width": 9, "branch_turn_rate_count": 1}},
+        "steps": [dict(crowd_step)],
+    }
+    cases["reference_lag"] = {
+        "robot": {"actuation": "reference_lag", "max_linear_decel": 2.0},
+        "steps": [dict(crowd_step), {"velocity": (0.3, -0.4)}],
+    }
+    cases["backwards_allowed"] = {
+        "robot": {"allow_backwards": True, "max_angular_accel": 0.5},
+        "steps": [dict(crowd_step), {"velocity": (-0.5, 0.4)}],
+    }
+    cases["fast_accel"] = {
+        "robot": {"max_linear_accel": 3.0, "max_angular_accel": 4.0, "max_linear_speed": 1.5},
+        "config": {"max_speed_ratio": 0.8},
+        "steps": [dict(crowd_step), {"velocity": (1.5, 0.9)}],
+    }
     return cases
 
 
@@ -128,15 +163,24 @@ def run_case(case: dict, forecaster=None) -> list[dict]:
     m = corridor_map(obstacles=case.get("obstacles", ()))
     robot = RobotConfig(**case.get("robot", {}))
     scen = ResolvedScenario(scenario=Scenario(name="test", map_id="test", robot_config=robot), map=m)
-    planner = PredictivePlanner(PredictivePlannerConfig.from_dict(case.get("config")),
-                                forecaster or ConstantVelocityForecaster(PLANNER_TIMEBASE))
+    planner = PredictivePlanner(
+        PredictivePlannerConfig.from_dict(case.get("config")),
+        forecaster or ConstantVelocityForecaster(PLANNER_TIMEBASE),
+    )
     planner.reset(EpisodeInfo(scenario=scen, seed=0, dt=0.1, robot_radius=1.0, ped_radius=0.4))
     out = []
     for step, kw in enumerate(case["steps"]):  # consecutive simulator steps
         v, w = planner.plan(observation(m, **kw, step=step))
         d = planner.diagnostics
-        out.append({"command": [v, w], "cost": d["cost"], "sequence": [list(s) for s in d["sequence"]],
-                    "evaluated": d["candidates_evaluated"], "near_field": d["near_field"]})
+        out.append(
+            {
+                "command": [v, w],
+                "cost": d["cost"],
+                "sequence": [list(s) for s in d["sequence"]],
+                "evaluated": d["candidates_evaluated"],
+                "near_field": d["near_field"],
+            }
+        )
     return out
 
 
@@ -175,8 +219,11 @@ def test_learned_decisions_match_the_recorded_ones(name):
 
 
 if __name__ == "__main__":
-    FIXTURE.write_text(json.dumps({name: run_case(c) for name, c in sorted(_cases().items())}, indent=1) + "\n")
+    FIXTURE.write_text(
+        json.dumps({name: run_case(c) for name, c in sorted(_cases().items())}, indent=1) + "\n"
+    )
     print(f"wrote {FIXTURE}")
-    LEARNED_FIXTURE.write_text(json.dumps({n: run_case(_cases()[n], _learned_forecaster()) for n in LEARNED_CASES},
-                                          indent=1) + "\n")
+    LEARNED_FIXTURE.write_text(
+        json.dumps({n: run_case(_cases()[n], _learned_forecaster()) for n in LEARNED_CASES}, indent=1) + "\n"
+    )
     print(f"wrote {LEARNED_FIXTURE}")

@@ -44,7 +44,15 @@ def test_planner_satisfies_protocol_and_reports_diagnostics():
     d = p.diagnostics
     assert 0.0 <= v <= 2.0 and -1.0 <= w <= 1.0
     assert d["command"] == (v, w) and d["forecast_source"] == "constant_velocity"
-    assert set(d["terms"]) >= {"progress", "collision", "near_miss", "ttc", "static", "static_collision", "smoothness"}
+    assert set(d["terms"]) >= {
+        "progress",
+        "collision",
+        "near_miss",
+        "ttc",
+        "static",
+        "static_collision",
+        "smoothness",
+    }
     assert d["predictions"]["positions"].shape == (1, PLANNER_TIMEBASE.horizon, 2)
     assert d["near_field"] and d["candidates_evaluated"] > 60
 
@@ -68,8 +76,10 @@ def _approach(arrival_credit: bool) -> list[float]:
     from foresight.core.sim.robot import RobotLimits, unicycle_step
 
     m = corridor_map()
-    p = PredictivePlanner(PredictivePlannerConfig.from_dict({"search": {"arrival_credit": arrival_credit}}),
-                          ConstantVelocityForecaster(PLANNER_TIMEBASE))
+    p = PredictivePlanner(
+        PredictivePlannerConfig.from_dict({"search": {"arrival_credit": arrival_credit}}),
+        ConstantVelocityForecaster(PLANNER_TIMEBASE),
+    )
     p.reset(info_for(m))
     state, speeds = np.array([16.0, 10.0, 0.0, 2.0, 0.0]), []
     for k in range(80):
@@ -85,7 +95,9 @@ def test_keeps_full_speed_up_to_the_goal():
     """Every rollout that reaches the goal within the horizon once scored the same progress, so the robot slowed down
     in sight of the goal; an earlier arrival now counts as more progress (``search.arrival_credit``)."""
     fast = _approach(True)
-    assert len(fast) <= 46  # 9 m at 2 m/s (45 steps, 46 with rounding): as early as full speed throughout gets there
+    assert (
+        len(fast) <= 46
+    )  # 9 m at 2 m/s (45 steps, 46 with rounding): as early as full speed throughout gets there
     # full speed until the last half second, where commands reaching the goal in the same 0.2 s forecast step tie (a
     # swerve at 1 m/s among them: the robot, slowed to 1.6 m/s, arrives within the same 46 steps)
     assert set(fast[:40]) == {2.0} and min(fast) >= 1.0
@@ -98,26 +110,37 @@ def test_solves_a_crossing_episode():
     ped = SinglePedestrian(id="c1", start=(15.0, 3.0), goal=(15.0, 18.0), speed_m_s=0.5)
     m = corridor_map().model_copy(update={"single_pedestrians": (ped,)})
     scen = ResolvedScenario(
-        scenario=Scenario(name="crossing_test", map_id="test",
-                          simulation_config=SimulationConfig(ped_density=0.0, max_episode_steps=400)),
+        scenario=Scenario(
+            name="crossing_test",
+            map_id="test",
+            simulation_config=SimulationConfig(ped_density=0.0, max_episode_steps=400),
+        ),
         map=m,
     )
     sim = Simulator()
     obs = sim.reset(scen, seed=1)
     p = PredictivePlanner(PredictivePlannerConfig(), ConstantVelocityForecaster(PLANNER_TIMEBASE))
-    p.reset(EpisodeInfo(scenario=scen, seed=1, dt=obs.dt, robot_radius=obs.robot_radius, ped_radius=obs.ped_radius))
+    p.reset(
+        EpisodeInfo(
+            scenario=scen, seed=1, dt=obs.dt, robot_radius=obs.robot_radius, ped_radius=obs.ped_radius
+        )
+    )
     min_gap = np.inf
     while True:
         obs, ev = sim.step(p.plan(obs))
         if len(obs.ped_positions):
-            min_gap = min(min_gap, float(np.linalg.norm(obs.ped_positions - obs.robot_pose[:2], axis=1).min()))
+            min_gap = min(
+                min_gap, float(np.linalg.norm(obs.ped_positions - obs.robot_pose[:2], axis=1).min())
+            )
         if ev.done:
             break
     assert ev.outcome == "success", ev.outcome
     assert min_gap < 8.0  # the pedestrian really was on the way
 
 
-def _dead_end_decision(allow_backwards: bool, reverse: tuple[float, ...] = (0.25, 0.5)) -> tuple[float, float]:
+def _dead_end_decision(
+    allow_backwards: bool, reverse: tuple[float, ...] = (0.25, 0.5)
+) -> tuple[float, float]:
     """A robot standing in a 3 m corridor (no room to let anyone by, none to turn round in time), a walker coming
     straight at it at 1.2 m/s: the speed a robot that may or may not drive backwards commands, and its plan's
     collision term."""
@@ -125,25 +148,44 @@ def _dead_end_decision(allow_backwards: bool, reverse: tuple[float, ...] = (0.25
 
     walls = (((0, 0), (30, 0), (30, 8.5), (0, 8.5)), ((0, 11.5), (30, 11.5), (30, 20), (0, 20)))
     m = corridor_map(obstacles=walls)
-    scen = ResolvedScenario(scenario=Scenario(name="test", map_id="test",
-                                              robot_config=RobotConfig(allow_backwards=allow_backwards)), map=m)
-    p = PredictivePlanner(PredictivePlannerConfig.from_dict({"sampling": {"reverse_speed_ratios": reverse}}),
-                          ConstantVelocityForecaster(PLANNER_TIMEBASE))
+    scen = ResolvedScenario(
+        scenario=Scenario(
+            name="test", map_id="test", robot_config=RobotConfig(allow_backwards=allow_backwards)
+        ),
+        map=m,
+    )
+    p = PredictivePlanner(
+        PredictivePlannerConfig.from_dict({"sampling": {"reverse_speed_ratios": reverse}}),
+        ConstantVelocityForecaster(PLANNER_TIMEBASE),
+    )
     p.reset(EpisodeInfo(scenario=scen, seed=0, dt=0.1, robot_radius=1.0, ped_radius=0.4))
     for step in range(12):  # the forecast reads the walker's velocity off its track; it ends 3.5 m away
-        v, _ = p.plan(observation(m, pose=(10.0, 10.0, 0.0), velocity=(0.0, 0.0), peds=[(14.82 - 0.12 * step, 10.0)],
-                                  ped_vels=[(-1.2, 0.0)], step=step))
+        v, _ = p.plan(
+            observation(
+                m,
+                pose=(10.0, 10.0, 0.0),
+                velocity=(0.0, 0.0),
+                peds=[(14.82 - 0.12 * step, 10.0)],
+                ped_vels=[(-1.2, 0.0)],
+                step=step,
+            )
+        )
     return v, p.diagnostics["terms"]["collision"]
 
 
 def test_a_robot_that_may_drive_backwards_backs_off_from_a_walker_it_cannot_let_by():
     v, collision = _dead_end_decision(allow_backwards=True)
     assert v == -1.0  # backs off down the corridor at half its speed
-    v_off, collision_off = _dead_end_decision(allow_backwards=True, reverse=())  # the switch off: never backwards
+    v_off, collision_off = _dead_end_decision(
+        allow_backwards=True, reverse=()
+    )  # the switch off: never backwards
     assert v_off >= 0 and collision_off > 10 * collision  # it stands, and expects the walker to walk into it
     assert _dead_end_decision(allow_backwards=False) == (v_off, collision_off)  # the reference robots may not
     default = PredictivePlannerConfig().sampling.reverse_speed_ratios
-    assert _dead_end_decision(allow_backwards=True, reverse=default) == (v_off, collision_off)  # off by default
+    assert _dead_end_decision(allow_backwards=True, reverse=default) == (
+        v_off,
+        collision_off,
+    )  # off by default
 
 
 def test_backing_off_adds_no_candidate_for_a_robot_that_may_not():
@@ -155,7 +197,10 @@ def test_backing_off_adds_no_candidate_for_a_robot_that_may_not():
     assert reverse_speeds(cfg, RobotLimits(), 1.0).size == 0
     assert reverse_speeds(SamplingConfig(), RobotLimits(v_min=-2.0), 1.0).size == 0  # off by default
     assert reverse_speeds(cfg, RobotLimits(v_min=-2.0), 1.0).tolist() == [-0.5, -1.0]
-    assert reverse_speeds(cfg, RobotLimits(v_min=-2.0), 0.3).tolist() == [-0.5, -0.6]  # capped like forward speeds
+    assert reverse_speeds(cfg, RobotLimits(v_min=-2.0), 0.3).tolist() == [
+        -0.5,
+        -0.6,
+    ]  # capped like forward speeds
     plain = first_candidates(cfg, RobotLimits(), 1.0, near_field=True)
     assert plain[:, 0].min() == 0.0
     assert first_candidates(SamplingConfig(), RobotLimits(v_min=-2.0), 1.0, True).tolist() == plain.tolist()

@@ -17,7 +17,9 @@ WALL = (((0.0, 11.9), (30.0, 11.9), (30.0, 13.0), (0.0, 13.0)),)
 
 def _planner(room: float | None = None) -> tuple[PredictivePlanner, object]:
     cfg = {} if room is None else {"safety": {"receding_room": room}}
-    planner = PredictivePlanner(PredictivePlannerConfig.from_dict(cfg), ConstantVelocityForecaster(PLANNER_TIMEBASE))
+    planner = PredictivePlanner(
+        PredictivePlannerConfig.from_dict(cfg), ConstantVelocityForecaster(PLANNER_TIMEBASE)
+    )
     m = corridor_map(obstacles=WALL)
     planner.reset(info_for(m))
     return planner, m
@@ -27,8 +29,16 @@ def _follow(room: float | None, speed: float) -> dict:
     """Three decisions behind a walker 2 m ahead and 1.4 m to the right, walking on at 0.65 m/s."""
     planner, m = _planner(room)
     for k in range(3):
-        planner.plan(observation(m, pose=(5.0 + 0.07 * k, 10.0, 0.0), velocity=(speed, 0.0),
-                                 peds=[(7.0 + 0.065 * k, 8.6)], ped_vels=[(0.65, 0.0)], step=k))
+        planner.plan(
+            observation(
+                m,
+                pose=(5.0 + 0.07 * k, 10.0, 0.0),
+                velocity=(speed, 0.0),
+                peds=[(7.0 + 0.065 * k, 8.6)],
+                ped_vels=[(0.65, 0.0)],
+                step=k,
+            )
+        )
     return planner.diagnostics
 
 
@@ -47,7 +57,9 @@ def test_only_pedestrians_walking_away_get_room():
     planner, _ = _planner(0.5)
     times = np.array([0.2, 0.4])
     start = np.array([[8.0, 10.0], [8.0, 10.0], [8.0, 10.0], [4.0, 10.0]])  # ahead x3, then behind
-    vel = np.array([[0.65, 0.0], [-0.65, 0.0], [0.0, 0.0], [0.1, 0.0]])  # away, towards, standing, closing slowly
+    vel = np.array(
+        [[0.65, 0.0], [-0.65, 0.0], [0.0, 0.0], [0.1, 0.0]]
+    )  # away, towards, standing, closing slowly
     fut = np.stack([start + vel * t for t in times], axis=1)
     room = planner._receding_room(fut, times, p0=np.array([5.0, 10.0]), v=0.5)
     assert room == pytest.approx([0.5, 0.0, 0.0, 0.0])

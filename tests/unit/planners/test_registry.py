@@ -39,7 +39,9 @@ def test_unknown_planner_lists_the_installed_ones() -> None:
     with pytest.raises(ValidationError) as exc:
         EvaluationConfig.model_validate({"planner": {"name": "dwa"}})
     assert "unknown planner 'dwa'" in str(exc.value)
-    assert "predictive, orca, social_force, goal, scripted, external" in str(exc.value) and "toy" in str(exc.value)
+    assert "predictive, orca, social_force, goal, scripted, external" in str(exc.value) and "toy" in str(
+        exc.value
+    )
     with pytest.raises(NotFoundError, match="installed: .*toy"):
         entry("dwa")
 
@@ -89,10 +91,18 @@ def test_a_broken_or_foreign_plugin_is_skipped_with_a_warning(monkeypatch: pytes
 
     from foresight.core.planners import registry
 
-    eps = [importlib.metadata.EntryPoint("broken", "no_such_module_xyz:Planner", registry.PLUGIN_GROUP),
-           importlib.metadata.EntryPoint("future", "tests.unit.planners.test_registry:FuturePlanner", registry.PLUGIN_GROUP),
-           importlib.metadata.EntryPoint("goal", "tests.unit.planners.user_planner:Cautious", registry.PLUGIN_GROUP),
-           importlib.metadata.EntryPoint("fine", "tests.unit.planners.user_planner:Cautious", registry.PLUGIN_GROUP)]
+    eps = [
+        importlib.metadata.EntryPoint("broken", "no_such_module_xyz:Planner", registry.PLUGIN_GROUP),
+        importlib.metadata.EntryPoint(
+            "future", "tests.unit.planners.test_registry:FuturePlanner", registry.PLUGIN_GROUP
+        ),
+        importlib.metadata.EntryPoint(
+            "goal", "tests.unit.planners.user_planner:Cautious", registry.PLUGIN_GROUP
+        ),
+        importlib.metadata.EntryPoint(
+            "fine", "tests.unit.planners.user_planner:Cautious", registry.PLUGIN_GROUP
+        ),
+    ]
     monkeypatch.setattr(importlib.metadata, "entry_points", lambda group: eps)
     with pytest.warns(UserWarning) as caught:
         found = registry._plugins({"goal"})
@@ -112,8 +122,17 @@ class FuturePlanner:
 def test_cli_refuses_a_module_attr_planner_for_the_server(capsys) -> None:  # noqa: ANN001
     from foresight.cli.main import main
 
-    code = main(["evaluate", "--matrix", "configs/scenarios/classic_interactions.yaml",
-                 "--planner", "tests.unit.planners.user_planner:Cautious", "--url", "http://127.0.0.1:9"])
+    code = main(
+        [
+            "evaluate",
+            "--matrix",
+            "configs/scenarios/classic_interactions.yaml",
+            "--planner",
+            "tests.unit.planners.user_planner:Cautious",
+            "--url",
+            "http://127.0.0.1:9",
+        ]
+    )
     err = capsys.readouterr().err
     assert code == 1 and "module:attr planners run in-process only (--local)" in err
     assert len(err.strip().splitlines()) == 1

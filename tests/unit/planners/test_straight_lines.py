@@ -20,7 +20,9 @@ class SwervingForecaster(ConstantVelocityForecaster):
 
     def forecast(self):
         fc = super().forecast()
-        start = fc.positions[:, :1] - (fc.positions[:, 1:2] - fc.positions[:, :1])  # back to the current position
+        start = fc.positions[:, :1] - (
+            fc.positions[:, 1:2] - fc.positions[:, :1]
+        )  # back to the current position
         speed = np.hypot(*(fc.positions[:, 1] - fc.positions[:, 0]).T) / (fc.times[1] - fc.times[0])
         side = np.stack([np.zeros_like(speed), speed], axis=1)
         return dataclasses.replace(fc, positions=start + fc.times[None, :, None] * side[:, None, :])
@@ -28,7 +30,9 @@ class SwervingForecaster(ConstantVelocityForecaster):
 
 def _planner(straight: float = 0.3, forecaster=None) -> tuple[PredictivePlanner, object]:
     cfg = {"safety": {"straight_speed": straight}}
-    planner = PredictivePlanner(PredictivePlannerConfig.from_dict(cfg), forecaster or ConstantVelocityForecaster(PLANNER_TIMEBASE))
+    planner = PredictivePlanner(
+        PredictivePlannerConfig.from_dict(cfg), forecaster or ConstantVelocityForecaster(PLANNER_TIMEBASE)
+    )
     m = corridor_map()
     planner.reset(info_for(m))
     return planner, m
@@ -38,14 +42,22 @@ def _standing_cost(straight: float) -> dict:
     """Terms of standing still while a walker 4 m ahead walks at the robot at 1.2 m/s, forecast to swerve off."""
     planner, m = _planner(straight, SwervingForecaster(PLANNER_TIMEBASE))
     for k in range(2):  # two observations: the forecaster's velocity needs a history
-        obs = observation(m, pose=(5.0, 10.0, 0.0), velocity=(0.0, 0.0), peds=[(9.0 - 0.12 * k, 10.0)],
-                          ped_vels=[(-1.2, 0.0)], step=k)
+        obs = observation(
+            m,
+            pose=(5.0, 10.0, 0.0),
+            velocity=(0.0, 0.0),
+            peds=[(9.0 - 0.12 * k, 10.0)],
+            ped_vels=[(-1.2, 0.0)],
+            step=k,
+        )
         _, terms = planner.score_commands(obs, np.array([[0.0, 0.0]]))
     return terms
 
 
 def test_standing_in_a_walkers_way_costs_a_collision_even_if_its_forecast_swerves():
-    assert _standing_cost(0.0)["collision"][0] == 0.0  # off (the default): the forecast alone, the walker turns away
+    assert (
+        _standing_cost(0.0)["collision"][0] == 0.0
+    )  # off (the default): the forecast alone, the walker turns away
     assert _standing_cost(0.3)["collision"][0] > 0.0  # on: it may walk straight on
 
 
@@ -72,6 +84,8 @@ def test_a_walker_seen_to_give_way_gets_no_straight_line():
         slowing = 1.0 - 0.15 * k / 20
         vels = [(-slowing, 0.0), (-1.0, 0.0), (-slowing, 0.0)]
         obs = observation(m, pose=(5.0, 10.0, 0.0), velocity=(0.0, 0.0), peds=peds, ped_vels=vels, step=k)
-        mask, _ = planner._straight_lines(obs, obs.ped_ids, np.array([0.4, 0.8]), np.array([5.0, 10.0]), v=0.0)
+        mask, _ = planner._straight_lines(
+            obs, obs.ped_ids, np.array([0.4, 0.8]), np.array([5.0, 10.0]), v=0.0
+        )
     assert planner._reacted == {0}
     assert mask.tolist() == [False, True, True]

@@ -28,8 +28,11 @@ class Cautious:
         x, y, heading = obs.robot_pose.tolist()
         wx, wy = obs.waypoint.tolist()
         error = (math.atan2(wy - y, wx - x) - heading + math.pi) % (2 * math.pi) - math.pi
-        blocked = any(math.hypot(px - x, py - y) < 2.5 and (px - x) * math.cos(heading) + (py - y) * math.sin(heading) > 0
-                      for px, py in obs.ped_positions.tolist())
+        blocked = any(
+            math.hypot(px - x, py - y) < 2.5
+            and (px - x) * math.cos(heading) + (py - y) * math.sin(heading) > 0
+            for px, py in obs.ped_positions.tolist()
+        )
         return (0.0 if blocked else self.speed * max(0.0, math.cos(error))), max(-1.0, min(1.0, 1.5 * error))
 
 

@@ -39,8 +39,12 @@ def write_curving_dataset(path):
     eps = []
     for i in range(n):
         trace, wps = curving_episode(i)
-        eps.append((EpisodeRecord("arcs", i, splits[i]), samples_from_trace(trace, PLANNER_TIMEBASE, 6, wps, 1)))
-    ds = dataset_from_episodes(eps, DatasetMeta(PLANNER_TIMEBASE, 6, "robot", "sim", [], generator={"arcs": n}))
+        eps.append(
+            (EpisodeRecord("arcs", i, splits[i]), samples_from_trace(trace, PLANNER_TIMEBASE, 6, wps, 1))
+        )
+    ds = dataset_from_episodes(
+        eps, DatasetMeta(PLANNER_TIMEBASE, 6, "robot", "sim", [], generator={"arcs": n})
+    )
     save_dataset(ds, path)
     return path
 

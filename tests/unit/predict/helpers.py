@@ -9,23 +9,40 @@ import numpy as np
 from foresight.core.sim.observation import Observation
 
 
-def make_obs(step: int, robot_pose, ids, positions, dt: float = 0.1, robot_velocity=(0.5, 0.1),
-             waypoint=(10.0, 5.0)) -> Observation:
+def make_obs(
+    step: int, robot_pose, ids, positions, dt: float = 0.1, robot_velocity=(0.5, 0.1), waypoint=(10.0, 5.0)
+) -> Observation:
     ids = np.asarray(ids, dtype=np.int64)
     positions = np.asarray(positions, dtype=float).reshape(len(ids), 2)
     return Observation(
-        step=step, time=step * dt, dt=dt, robot_pose=np.asarray(robot_pose, float),
-        robot_velocity=np.asarray(robot_velocity, float), robot_radius=0.3,
-        waypoint=np.asarray(waypoint, float), goal=np.asarray(waypoint, float),
-        route=np.asarray([waypoint], float), goal_tolerance=0.5, ped_ids=ids, ped_positions=positions,
-        ped_velocities=np.zeros_like(positions), ped_radius=0.3, static=None,
+        step=step,
+        time=step * dt,
+        dt=dt,
+        robot_pose=np.asarray(robot_pose, float),
+        robot_velocity=np.asarray(robot_velocity, float),
+        robot_radius=0.3,
+        waypoint=np.asarray(waypoint, float),
+        goal=np.asarray(waypoint, float),
+        route=np.asarray([waypoint], float),
+        goal_tolerance=0.5,
+        ped_ids=ids,
+        ped_positions=positions,
+        ped_velocities=np.zeros_like(positions),
+        ped_radius=0.3,
+        static=None,
     )
 
 
 def make_trace(robot: np.ndarray, ped_ids: np.ndarray, ped_pos: np.ndarray, dt: float = 0.1):
     """A stand-in with the trace contract's arrays: robot (T+1, 5), ped_ids (T+1, N), ped_pos (T+1, N, 2)."""
-    return SimpleNamespace(robot=robot, ped_ids=ped_ids, ped_pos=ped_pos,
-                           ped_vel=np.zeros_like(ped_pos), dt=dt, command=np.zeros((len(robot) - 1, 2)))
+    return SimpleNamespace(
+        robot=robot,
+        ped_ids=ped_ids,
+        ped_pos=ped_pos,
+        ped_vel=np.zeros_like(ped_pos),
+        dt=dt,
+        command=np.zeros((len(robot) - 1, 2)),
+    )
 
 
 def scripted_episode(steps: int = 40, seed: int = 0):
@@ -51,6 +68,14 @@ def scripted_episode(steps: int = 40, seed: int = 0):
     obs = []
     for k in range(steps + 1):
         present = ped_ids[k] >= 0
-        obs.append(make_obs(k, robot[k, :3], ped_ids[k][present], ped_pos[k][present],
-                            robot_velocity=robot[k, 3:5], waypoint=waypoints[k]))
+        obs.append(
+            make_obs(
+                k,
+                robot[k, :3],
+                ped_ids[k][present],
+                ped_pos[k][present],
+                robot_velocity=robot[k, 3:5],
+                waypoint=waypoints[k],
+            )
+        )
     return trace, obs, waypoints

@@ -6,8 +6,19 @@ from foresight.cli.main import main
 
 
 def test_predict_eval_cv_on_one_fold(shared_dir, capsys):
-    rc = main(["predict-eval", "--model", "cv", "--ethucy", str(shared_dir / "reference" / "ethucy"),
-               "--fold", "zara1", "--json", "--local"])
+    rc = main(
+        [
+            "predict-eval",
+            "--model",
+            "cv",
+            "--ethucy",
+            str(shared_dir / "reference" / "ethucy"),
+            "--fold",
+            "zara1",
+            "--json",
+            "--local",
+        ]
+    )
     out = json.loads(capsys.readouterr().out)
     assert rc == 0 and set(out) >= {"folds", "average"}
     assert out["folds"]["zara1"]["ade"] == pytest.approx(0.43, abs=0.01)
@@ -16,12 +27,34 @@ def test_predict_eval_cv_on_one_fold(shared_dir, capsys):
 
 def test_train_then_eval_on_dataset(tmp_path, curving_dataset, capsys):
     (tmp_path / "t.yaml").write_text("train:\n  epochs: 2\n  hidden: 8\n  blocks: 1\n  batch_size: 64\n")
-    rc = main(["train", "--dataset", str(curving_dataset), "--config", str(tmp_path / "t.yaml"),
-               "--out", str(tmp_path / "run"), "--json", "--local"])
+    rc = main(
+        [
+            "train",
+            "--dataset",
+            str(curving_dataset),
+            "--config",
+            str(tmp_path / "t.yaml"),
+            "--out",
+            str(tmp_path / "run"),
+            "--json",
+            "--local",
+        ]
+    )
     res = json.loads(capsys.readouterr().out)
     assert rc in (0, 2) and res["best_epoch"] in (1, 2)
-    rc = main(["predict-eval", "--model", res["checkpoint"], "--dataset", str(curving_dataset), "--json",
-               "--out", str(tmp_path / "ev"), "--local"])
+    rc = main(
+        [
+            "predict-eval",
+            "--model",
+            res["checkpoint"],
+            "--dataset",
+            str(curving_dataset),
+            "--json",
+            "--out",
+            str(tmp_path / "ev"),
+            "--local",
+        ]
+    )
     out = json.loads(capsys.readouterr().out)
     assert rc == 0 and out["folds"]["arcs"]["split"] == "val"
 
@@ -34,12 +67,27 @@ def test_bad_input_is_one_line_error(tmp_path, capsys):
 def test_import_ethucy_command(tmp_path, capsys):
     root = tmp_path / "ethucy"
     rows = "\n".join(f"{f * 10}\t1\t{0.4 * f:.2f}\t0.0" for f in range(25))
-    for split, name in (("train", "crowds_zara02_train.txt"), ("val", "crowds_zara02_val.txt"),
-                        ("test", "crowds_zara01.txt")):
+    for split, name in (
+        ("train", "crowds_zara02_train.txt"),
+        ("val", "crowds_zara02_val.txt"),
+        ("test", "crowds_zara01.txt"),
+    ):
         (root / "zara1" / split).mkdir(parents=True)
         (root / "zara1" / split / name).write_text(rows + "\n")
-    rc = main(["dataset", "import-ethucy", "--ethucy", str(root), "--fold", "zara1", "--output",
-               str(tmp_path / "z.npz"), "--json", "--local"])
+    rc = main(
+        [
+            "dataset",
+            "import-ethucy",
+            "--ethucy",
+            str(root),
+            "--fold",
+            "zara1",
+            "--output",
+            str(tmp_path / "z.npz"),
+            "--json",
+            "--local",
+        ]
+    )
     summary = json.loads(capsys.readouterr().out)
     assert rc == 0 and summary["samples_per_split"] == {"train": 6, "val": 6, "test": 6}
 
@@ -47,8 +95,21 @@ def test_import_ethucy_command(tmp_path, capsys):
 def test_eval_all_samples_of_a_held_out_dataset(tmp_path, curving_dataset, capsys):
     from foresight.core.predict.dataset import load_dataset
 
-    rc = main(["predict-eval", "--model", "cv", "--dataset", str(curving_dataset), "--split", "all", "--json",
-               "--out", str(tmp_path), "--local"])
+    rc = main(
+        [
+            "predict-eval",
+            "--model",
+            "cv",
+            "--dataset",
+            str(curving_dataset),
+            "--split",
+            "all",
+            "--json",
+            "--out",
+            str(tmp_path),
+            "--local",
+        ]
+    )
     out = json.loads(capsys.readouterr().out)
     assert rc == 0 and out["folds"]["arcs"]["samples"] == len(load_dataset(curving_dataset))
 
@@ -57,36 +118,79 @@ def test_training_scenes_played_backwards_when_the_config_says_so(tmp_path, caps
     from foresight.core.predict.dataset import load_dataset
 
     root = tmp_path / "ethucy"
-    walk = "\n".join(f"{f * 10}\t1\t{0.4 * f:.2f}\t{0.02 * f * f:.3f}" for f in range(25))  # a curve, not a line
-    for split, name in (("train", "crowds_zara02_train.txt"), ("val", "crowds_zara02_val.txt"),
-                        ("test", "crowds_zara01.txt")):
+    walk = "\n".join(
+        f"{f * 10}\t1\t{0.4 * f:.2f}\t{0.02 * f * f:.3f}" for f in range(25)
+    )  # a curve, not a line
+    for split, name in (
+        ("train", "crowds_zara02_train.txt"),
+        ("val", "crowds_zara02_val.txt"),
+        ("test", "crowds_zara01.txt"),
+    ):
         (root / "zara1" / split).mkdir(parents=True)
         (root / "zara1" / split / name).write_text(walk + "\n")
     datasets = {}
     for reverse in (False, True):
         cfg = tmp_path / f"t{reverse}.yaml"
-        cfg.write_text(f"reverse_train: {str(reverse).lower()}\ntrain:\n  epochs: 1\n  hidden: 8\n  blocks: 1\n"
-                       "  allow_degenerate: true\n")
-        rc = main(["predict-eval", "--train", "--config", str(cfg), "--ethucy", str(root), "--fold", "zara1",
-                   "--out", str(tmp_path / f"run{reverse}"), "--json", "--local"])
+        cfg.write_text(
+            f"reverse_train: {str(reverse).lower()}\ntrain:\n  epochs: 1\n  hidden: 8\n  blocks: 1\n"
+            "  allow_degenerate: true\n"
+        )
+        rc = main(
+            [
+                "predict-eval",
+                "--train",
+                "--config",
+                str(cfg),
+                "--ethucy",
+                str(root),
+                "--fold",
+                "zara1",
+                "--out",
+                str(tmp_path / f"run{reverse}"),
+                "--json",
+                "--local",
+            ]
+        )
         out = json.loads(capsys.readouterr().out)
-        assert rc == 0 and out["folds"]["zara1"]["samples"] == 6  # the test scene is scored as recorded either way
+        assert (
+            rc == 0 and out["folds"]["zara1"]["samples"] == 6
+        )  # the test scene is scored as recorded either way
         datasets[reverse] = load_dataset(tmp_path / f"run{reverse}" / "zara1" / "dataset.npz")
     plain, both = datasets[False], datasets[True]
     assert [len(d.split_indices(s)) for d in (plain, both) for s in ("train", "val")] == [6, 6, 12, 6]
     assert [e.scenario for e in both.meta.episodes if e.split == "train"] == [
-        "train/crowds_zara02_train", "train/crowds_zara02_train~reversed"]
+        "train/crowds_zara02_train",
+        "train/crowds_zara02_train~reversed",
+    ]
     # the curve played backwards turns the other way in each walker's own frame
     fwd, back = plain.split_indices("train"), both.split_indices("train")[6:]
     assert (plain.target[fwd, 0, -1, 1] > 0).all() and (both.target[back, 0, -1, 1] < 0).all()
 
 
-@pytest.mark.parametrize(("text", "named"), [("train:\n  epochz: 1\n", "train.epochz"),
-                                             ("reverse_train: true\nepochs: 1\n", "beside the train mapping")])
+@pytest.mark.parametrize(
+    ("text", "named"),
+    [
+        ("train:\n  epochz: 1\n", "train.epochz"),
+        ("reverse_train: true\nepochs: 1\n", "beside the train mapping"),
+    ],
+)
 def test_a_bad_training_key_is_refused_before_any_fold_is_trained(tmp_path, capsys, text, named):
     (tmp_path / "t.yaml").write_text(text)
-    rc = main(["predict-eval", "--train", "--config", str(tmp_path / "t.yaml"), "--ethucy", str(tmp_path),
-               "--fold", "zara1", "--out", str(tmp_path / "run"), "--local"])
+    rc = main(
+        [
+            "predict-eval",
+            "--train",
+            "--config",
+            str(tmp_path / "t.yaml"),
+            "--ethucy",
+            str(tmp_path),
+            "--fold",
+            "zara1",
+            "--out",
+            str(tmp_path / "run"),
+            "--local",
+        ]
+    )
     err = capsys.readouterr().err
     assert rc == 1 and named in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "run").exists()

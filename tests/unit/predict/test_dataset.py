@@ -16,8 +16,12 @@ def _dataset(n_episodes=6, seed=0, role="base", max_agents=4):
     eps = []
     for i in range(n_episodes):
         trace, _, wps = scripted_episode(steps=60, seed=seed * 100 + i)
-        eps.append((EpisodeRecord(f"scn{i % 2}", 100 + i, splits[i], role),
-                    samples_from_trace(trace, PLANNER_TIMEBASE, max_agents, wps)))
+        eps.append(
+            (
+                EpisodeRecord(f"scn{i % 2}", 100 + i, splits[i], role),
+                samples_from_trace(trace, PLANNER_TIMEBASE, max_agents, wps),
+            )
+        )
     meta = DatasetMeta(PLANNER_TIMEBASE, max_agents, "robot", "sim", [], generator={"seed": seed})
     return dataset_from_episodes(eps, meta)
 

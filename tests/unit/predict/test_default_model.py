@@ -31,17 +31,31 @@ def _default_entry() -> dict | None:
     if not path.is_file():
         return None
     models = (yaml.safe_load(path.read_text()) or {}).get("models", [])
-    return next((m for m in models if "default" in m.get("tags", []) and "predictor" in m.get("tags", [])), None)
+    return next(
+        (m for m in models if "default" in m.get("tags", []) and "predictor" in m.get("tags", [])), None
+    )
 
 
 def test_default_model_beats_cv_on_held_out_episodes(tmp_path):
     entry = _default_entry()
     assert entry is not None, "model/registry.yaml lists no model tagged default + predictor"
     predictor = load_predictor(REPO / entry["path"], expect_timebase=PLANNER_TIMEBASE)
-    cfg = CollectConfig(scenarios=["crossing_medium", "head_on_corridor_medium", "bottleneck_high",
-                                   "station_platform_medium", "merging_medium", "urban_crossing_high"],
-                        seeds_per_scenario=1, base_seed=HELD_OUT_SEED, max_steps=200, val_fraction=0.0,
-                        check_quality=False, scenario_overrides=TRAINED_ON)
+    cfg = CollectConfig(
+        scenarios=[
+            "crossing_medium",
+            "head_on_corridor_medium",
+            "bottleneck_high",
+            "station_platform_medium",
+            "merging_medium",
+            "urban_crossing_high",
+        ],
+        seeds_per_scenario=1,
+        base_seed=HELD_OUT_SEED,
+        max_steps=200,
+        val_fraction=0.0,
+        check_quality=False,
+        scenario_overrides=TRAINED_ON,
+    )
     res = run_collect(cfg, StageContext(workdir=tmp_path, resolve_bundle=lambda ident: BUILTIN_CONFIG_ROOT))
     ds = load_dataset(tmp_path / res.dataset)
     learned = evaluate_predictor(predictor, ds)

@@ -16,7 +16,24 @@ def _scene(tracks):
 
 def test_windows_need_consecutive_frames():
     pts = [(f * 10, f * 0.5, 0.0) for f in range(25) if f != 12]  # gap at frame 120
-    assert [w[1][0] for w in focal_windows(_scene({1: pts}), 5)] == [0, 10, 20, 30, 40, 50, 60, 70, 130, 140, 150, 160, 170, 180, 190, 200]
+    assert [w[1][0] for w in focal_windows(_scene({1: pts}), 5)] == [
+        0,
+        10,
+        20,
+        30,
+        40,
+        50,
+        60,
+        70,
+        130,
+        140,
+        150,
+        160,
+        170,
+        180,
+        190,
+        200,
+    ]
 
 
 def test_observed_only_frame_and_backward_velocity():
@@ -46,13 +63,17 @@ def test_observed_only_frame_and_backward_velocity():
 def test_a_repeated_frame_and_id_row_counts_once_the_first():
     tb = TimeBase(0.4, 3, 2)
     focal = [(0, 0.0, 0.0), (10, 0.4, 0.0), (20, 0.8, 0.0), (30, 0.8, 0.4), (40, 0.8, 0.8)]
-    rows = np.vstack([_scene({1: focal, 2: [(20, 2.0, 1.0), (30, 3.0, 1.0)]}), [[20, 2, 50.0, 50.0], [30, 2, 9.0, 9.0]]])
+    rows = np.vstack(
+        [_scene({1: focal, 2: [(20, 2.0, 1.0), (30, 3.0, 1.0)]}), [[20, 2, 50.0, 50.0], [30, 2, 9.0, 9.0]]]
+    )
     s = scene_samples(rows, tb, max_agents=3, neighbour_targets=True)
     names = feature_names(3)
     for slot in (1, 2):  # the frame lists pedestrian 2 twice: two slots, both at its first row's position
         nb = dict(zip(names, s.state[0, slot], strict=True))
         assert (nb["px[0]"], nb["py[0]"]) == pytest.approx((1.2, 1.0))
-    np.testing.assert_allclose(s.target[0, 1:, 0], [[2.2, 1.0], [2.2, 1.0]], atol=1e-6)  # its future: not (9, 9)
+    np.testing.assert_allclose(
+        s.target[0, 1:, 0], [[2.2, 1.0], [2.2, 1.0]], atol=1e-6
+    )  # its future: not (9, 9)
 
 
 def test_neighbour_targets_leave_windows_and_focal_targets_unchanged():
@@ -98,10 +119,18 @@ def test_a_scene_played_backwards():
     from foresight.core.predict.ethucy import reverse_time
 
     tb = TimeBase(0.4, 3, 2)
-    focal = [(0, 0.0, 0.0), (10, 0.4, 0.0), (20, 0.8, 0.0), (30, 0.8, 0.4), (40, 0.8, 0.8)]  # +x, then a left turn
+    focal = [
+        (0, 0.0, 0.0),
+        (10, 0.4, 0.0),
+        (20, 0.8, 0.0),
+        (30, 0.8, 0.4),
+        (40, 0.8, 0.8),
+    ]  # +x, then a left turn
     rows = _scene({1: focal, 2: [(20, 2.0, 1.0), (30, 3.0, 1.0)]})
     back = reverse_time(rows)
-    assert back[:, 0].tolist() == sorted(back[:, 0].tolist()) and set(np.diff(np.unique(back[:, 0]))) == {10.0}
+    assert back[:, 0].tolist() == sorted(back[:, 0].tolist()) and set(np.diff(np.unique(back[:, 0]))) == {
+        10.0
+    }
     np.testing.assert_array_equal(np.sort(reverse_time(back), axis=0), np.sort(rows, axis=0))
     s = scene_samples(back, tb, max_agents=3)
     assert len(s) == 1
@@ -109,7 +138,9 @@ def test_a_scene_played_backwards():
     # 0.8 m to its right in its own frame (x ahead, y left)
     np.testing.assert_allclose(s.target[0, 0], [[0.0, -0.4], [0.0, -0.8]], atol=1e-6)
     names = feature_names(3)
-    nb = dict(zip(names, s.state[0, 1], strict=True))  # the neighbour's frame 30 is now its frame 10: seen before now
+    nb = dict(
+        zip(names, s.state[0, 1], strict=True)
+    )  # the neighbour's frame 30 is now its frame 10: seen before now
     assert nb["valid[-1]"] == 1 and nb["valid[0]"] == 1
 
 

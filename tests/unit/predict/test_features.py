@@ -23,8 +23,9 @@ def test_frame_transform_hand_computed():
     ego = world_to_ego(np.array([[1.0, 5.0], [0.0, 2.0], [2.0, 2.0]]), origin, heading)
     np.testing.assert_allclose(ego, [[3.0, 0.0], [0.0, 1.0], [0.0, -1.0]], atol=1e-12)
     # 30 deg: (dx, dy) = (1, 0) -> (cos30, -sin30)
-    np.testing.assert_allclose(world_to_ego(np.array([2.0, 2.0]), origin, math.pi / 6),
-                               [math.sqrt(3) / 2, -0.5], atol=1e-12)
+    np.testing.assert_allclose(
+        world_to_ego(np.array([2.0, 2.0]), origin, math.pi / 6), [math.sqrt(3) / 2, -0.5], atol=1e-12
+    )
     pts = np.random.default_rng(0).normal(size=(5, 3, 2))
     np.testing.assert_allclose(ego_to_world(world_to_ego(pts, origin, 0.7), origin, 0.7), pts, atol=1e-12)
 
@@ -32,17 +33,29 @@ def test_frame_transform_hand_computed():
 def test_features_hand_computed_values():
     tb = TimeBase(0.5, 2, 3)
     # robot at origin facing +y; ped walked from (1, 0) to (1, 1) in 0.5 s; goal 4 m ahead
-    w = Window(ego_pose=np.array([0.0, 0.0, math.pi / 2]), ego_motion=np.array([0.7, -0.1]),
-               goal=np.array([0.0, 4.0]), ped_ids=np.array([3]),
-               ped_hist=np.array([[[1.0, 0.0], [1.0, 1.0]]]), hist_valid=np.array([[True, True]]))
+    w = Window(
+        ego_pose=np.array([0.0, 0.0, math.pi / 2]),
+        ego_motion=np.array([0.7, -0.1]),
+        goal=np.array([0.0, 4.0]),
+        ped_ids=np.array([3]),
+        ped_hist=np.array([[[1.0, 0.0], [1.0, 1.0]]]),
+        hist_valid=np.array([[True, True]]),
+    )
     f = extract_features(w, tb, max_agents=2)
     names = feature_names(2)
     got = dict(zip(names, f.features[0], strict=True))
     assert f.features.shape == (2, feature_dim(2)) and list(f.mask) == [1, 0] and list(f.ped_ids) == [3, -1]
-    np.testing.assert_allclose([got["px[-1]"], got["py[-1]"], got["vx[-1]"], got["valid[-1]"]], [0, -1, 0, 1], atol=1e-6)
-    np.testing.assert_allclose([got["px[0]"], got["py[0]"], got["vx[0]"], got["vy[0]"]], [1, -1, 2, 0], atol=1e-6)
-    np.testing.assert_allclose([got[c] for c in ("ego_v", "ego_w", "goal_ux", "goal_uy", "goal_dist")],
-                               [0.7, -0.1, 1, 0, 4], atol=1e-6)
+    np.testing.assert_allclose(
+        [got["px[-1]"], got["py[-1]"], got["vx[-1]"], got["valid[-1]"]], [0, -1, 0, 1], atol=1e-6
+    )
+    np.testing.assert_allclose(
+        [got["px[0]"], got["py[0]"], got["vx[0]"], got["vy[0]"]], [1, -1, 2, 0], atol=1e-6
+    )
+    np.testing.assert_allclose(
+        [got[c] for c in ("ego_v", "ego_w", "goal_ux", "goal_uy", "goal_dist")],
+        [0.7, -0.1, 1, 0, 4],
+        atol=1e-6,
+    )
     assert not f.features[1].any()
     assert current_index(2, "px") == names.index("px[0]")
 
@@ -105,21 +118,35 @@ def test_short_trace_gives_no_samples():
 def test_mirror_signs_mirror_a_window():
     tb = TimeBase(0.5, 2, 3)
     hist = np.array([[[1.0, 0.5], [2.0, 1.5]]])
-    w = Window(np.array([0.0, 0.0, 0.0]), np.array([0.7, 0.3]), np.array([3.0, 4.0]), np.array([1]), hist,
-               np.ones((1, 2), bool))
-    mirrored = Window(w.ego_pose, np.array([0.7, -0.3]), np.array([3.0, -4.0]), w.ped_ids,
-                      hist * [1.0, -1.0], w.hist_valid)
+    w = Window(
+        np.array([0.0, 0.0, 0.0]),
+        np.array([0.7, 0.3]),
+        np.array([3.0, 4.0]),
+        np.array([1]),
+        hist,
+        np.ones((1, 2), bool),
+    )
+    mirrored = Window(
+        w.ego_pose, np.array([0.7, -0.3]), np.array([3.0, -4.0]), w.ped_ids, hist * [1.0, -1.0], w.hist_valid
+    )
     from foresight.core.predict.features import mirror_signs
 
-    np.testing.assert_allclose(extract_features(w, tb, 1).features * mirror_signs(2),
-                               extract_features(mirrored, tb, 1).features, atol=1e-6)
+    np.testing.assert_allclose(
+        extract_features(w, tb, 1).features * mirror_signs(2),
+        extract_features(mirrored, tb, 1).features,
+        atol=1e-6,
+    )
 
 
 def test_gather_history_with_an_empty_older_frame():
     """A pedestrian that appears after a frame with nobody in it: its earlier grid point is simply unobserved."""
     from foresight.core.predict.features import gather_history
 
-    frame_ids = [np.array([], dtype=np.int64), np.array([7, 3], dtype=np.int64), np.array([3], dtype=np.int64)]
+    frame_ids = [
+        np.array([], dtype=np.int64),
+        np.array([7, 3], dtype=np.int64),
+        np.array([3], dtype=np.int64),
+    ]
     frame_pos = [np.zeros((0, 2)), np.array([[9.0, 9.0], [1.0, 1.0]]), np.array([[1.5, 1.0]])]
     pos, valid = gather_history(frame_ids, frame_pos, 1, 3, np.array([3]))
     np.testing.assert_array_equal(valid, [[False, True, True]])

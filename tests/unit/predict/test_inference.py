@@ -33,7 +33,7 @@ def _trained_like(arch: dict, seed: int = 0) -> torch.nn.Module:
 def _sample(n: int = 6, seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
     rng = np.random.default_rng(seed)
     f = rng.normal(size=(n, feature_dim(5))).astype(np.float32)
-    f[1, 5 * 4 + 2: 5 * 4 + 4] = 0.0  # one pedestrian standing (the ego-x frame)
+    f[1, 5 * 4 + 2 : 5 * 4 + 4] = 0.0  # one pedestrian standing (the ego-x frame)
     m = np.ones(n, np.float32)
     m[-2:] = 0  # inactive slots
     f[-2:] = 0

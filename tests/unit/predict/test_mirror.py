@@ -21,7 +21,9 @@ def _predictors(arch: str) -> tuple[TorchPredictor, TorchPredictor]:
     twin.config = replace(twin.config, mirror_average=True)
     for m in getattr(twin, "members", []):
         m.config = replace(m.config, mirror_average=True)
-    return TorchPredictor(model, PLANNER_TIMEBASE, "plain"), TorchPredictor(twin, PLANNER_TIMEBASE, "mirrored")
+    return TorchPredictor(model, PLANNER_TIMEBASE, "plain"), TorchPredictor(
+        twin, PLANNER_TIMEBASE, "mirrored"
+    )
 
 
 def test_mirror_average_is_symmetric_where_the_network_is_not():
@@ -47,7 +49,7 @@ def test_mirror_mixture_spread_covers_both_twins():
     got_pos, got_sigma = mirrored.predict_dist(f[None], m[None])
     np.testing.assert_allclose(got_pos, (pos + pos_m * FLIP) / 2, atol=1e-4)
     gap = ((pos - pos_m * FLIP) / 2) ** 2
-    np.testing.assert_allclose(got_sigma ** 2, (sigma ** 2 + sigma_m ** 2) / 2 + gap.mean(-1), rtol=1e-3, atol=1e-6)
+    np.testing.assert_allclose(got_sigma**2, (sigma**2 + sigma_m**2) / 2 + gap.mean(-1), rtol=1e-3, atol=1e-6)
     assert (got_sigma >= np.minimum(sigma, sigma_m) - 1e-6).all()
 
 
@@ -59,16 +61,30 @@ def test_train_config_switch_reaches_the_checkpoint(tmp_path, curving_dataset):
     from foresight.core.predict.train_config import TrainConfig
     from foresight.core.stages.context import StageContext
 
-    cfg = TrainConfig(dataset=str(curving_dataset), epochs=1, batch_size=64, hidden=16, blocks=1, threads=1,
-                      ensemble=2, augment_mirror=True, mirror_average=True)
+    cfg = TrainConfig(
+        dataset=str(curving_dataset),
+        epochs=1,
+        batch_size=64,
+        hidden=16,
+        blocks=1,
+        threads=1,
+        ensemble=2,
+        augment_mirror=True,
+        mirror_average=True,
+    )
     run_train(cfg, StageContext(workdir=tmp_path))
-    model, member = load_predictor(tmp_path / "model.pt"), load_predictor(tmp_path / "members" / "0" / "model.pt")
+    model, member = (
+        load_predictor(tmp_path / "model.pt"),
+        load_predictor(tmp_path / "members" / "0" / "model.pt"),
+    )
     assert model.mirror_average and member.mirror_average and model.model.config.members == 2
     ds = load_dataset(curving_dataset)
     x, m = ds.state[:16], ds.mask[:16]
     signs = mirror_signs(ds.meta.timebase.history)
     np.testing.assert_allclose(model.predict(x * signs, m), model.predict(x, m) * FLIP, atol=1e-4)
-    assert not TrainConfig(dataset="d").mirror_average  # off by default: the planner's forecasts cost one pass
+    assert not TrainConfig(
+        dataset="d"
+    ).mirror_average  # off by default: the planner's forecasts cost one pass
 
 
 def test_mirror_average_without_mirrored_training_is_refused(tmp_path):

@@ -106,7 +106,9 @@ def test_masked_loss_and_metrics_ignore_missing_targets():
 
 
 def _save(tmp_path, model, timebase=PLANNER_TIMEBASE, name="m.pt", **overrides):
-    payload = make_checkpoint(model, timebase, "robot", {"id": "d", "sha256": "x", "max_agents": 4}, {"val_ade": 1.0}, 3)
+    payload = make_checkpoint(
+        model, timebase, "robot", {"id": "d", "sha256": "x", "max_agents": 4}, {"val_ade": 1.0}, 3
+    )
     payload.update(overrides)
     save_checkpoint(payload, tmp_path / name)
     return tmp_path / name
@@ -129,7 +131,11 @@ def test_checkpoint_mismatches_are_clear_errors(tmp_path):
     with pytest.raises(ConfigError, match="time base mismatch"):
         load_predictor(path, expect_timebase=ETHUCY_TIMEBASE)
     with pytest.raises(ConfigError, match="feature schema"):
-        load_predictor(_save(tmp_path, _model(), name="f.pt", feature_schema={"names": ["x"], "frame_convention": "robot"}))
+        load_predictor(
+            _save(
+                tmp_path, _model(), name="f.pt", feature_schema={"names": ["x"], "frame_convention": "robot"}
+            )
+        )
     with pytest.raises(ConfigError, match="weights do not fit"):
         bad = _model()
         load_predictor(_save(tmp_path, bad, name="w.pt", model_config={**bad.config.to_dict(), "hidden": 8}))

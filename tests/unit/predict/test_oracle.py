@@ -20,7 +20,9 @@ def test_the_forecast_is_where_everyone_then_is():
 
     def note(obs, cmd, events, diag):
         forecasts[int(round(obs.time / 0.1))] = oracle.update(obs)
-        seen[int(round(obs.time / 0.1))] = dict(zip(obs.ped_ids.tolist(), obs.ped_positions.copy(), strict=True))
+        seen[int(round(obs.time / 0.1))] = dict(
+            zip(obs.ped_ids.tolist(), obs.ped_positions.copy(), strict=True)
+        )
 
     res = run_episode(sc, 3, PredictivePlanner(None, oracle), on_step=note)
     assert res.steps > 40 and len(seen[1]) >= 5  # a crowd, and the robot on its way
@@ -32,7 +34,9 @@ def test_the_forecast_is_where_everyone_then_is():
             if later is None:
                 continue
             for i, pid in enumerate(fc.ped_ids.tolist()):
-                if pid in later and np.hypot(*(later[pid] - seen[step][pid])) < 3.0:  # not respawned in between
+                if (
+                    pid in later and np.hypot(*(later[pid] - seen[step][pid])) < 3.0
+                ):  # not respawned in between
                     assert np.allclose(fc.positions[i, k], later[pid], atol=1e-9), (step, pid, t)
                     checked += 1
     assert checked > 1000
@@ -57,17 +61,40 @@ def test_the_oracle_gap_bench_runs_paired_and_refuses_an_unknown_scenario(shared
 
     bench = Path(__file__).resolve().parents[3] / "bench" / "oracle_gap.py"
     env = {**os.environ, "FORESIGHT_SHARED": str(shared_dir)}
-    run = subprocess.run([sys.executable, str(bench), "--scenarios", "classic_cross_trap_low", "--seeds-per-scenario", "2",
-                          "--max-steps", "60", "--forecasters", "oracle,cv", "--workers", "1", "--json"],
-                         capture_output=True, text=True, env=env, timeout=300)
+    run = subprocess.run(
+        [
+            sys.executable,
+            str(bench),
+            "--scenarios",
+            "classic_cross_trap_low",
+            "--seeds-per-scenario",
+            "2",
+            "--max-steps",
+            "60",
+            "--forecasters",
+            "oracle,cv",
+            "--workers",
+            "1",
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
     assert run.returncode == 0, run.stderr
     out = json.loads(run.stdout)
     assert out["episodes"] == 2 and not out["approximate"] and set(out["forecasters"]) == {"oracle", "cv"}
     for r in out["forecasters"].values():
         assert r["success"] + r["collisions"] + r["timeouts"] == 2
     assert set(out["paired"]["oracle_vs_cv"]) == {"oracle_only", "cv_only", "mcnemar_p"}
-    bad = subprocess.run([sys.executable, str(bench), "--scenarios", "no_such_scenario", "--json"],
-                         capture_output=True, text=True, env=env, timeout=120)
+    bad = subprocess.run(
+        [sys.executable, str(bench), "--scenarios", "no_such_scenario", "--json"],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+    )
     assert bad.returncode == 1 and "no scenario named 'no_such_scenario'" in bad.stderr
     assert len(bad.stderr.strip().splitlines()) == 1
 
@@ -78,9 +105,20 @@ def test_the_oracle_gap_bench_as_is_refuses_a_scenario_where_people_react():
     from pathlib import Path
 
     repo = Path(__file__).resolve().parents[3]
-    run = subprocess.run([sys.executable, str(repo / "bench" / "oracle_gap.py"), "--matrix",
-                          str(repo / "configs" / "scenarios" / "stress.yaml"), "--as-is",
-                          "--scenarios", "crossing_nr100,crossing_nr30", "--json"],
-                         capture_output=True, text=True, timeout=120)
+    run = subprocess.run(
+        [
+            sys.executable,
+            str(repo / "bench" / "oracle_gap.py"),
+            "--matrix",
+            str(repo / "configs" / "scenarios" / "stress.yaml"),
+            "--as-is",
+            "--scenarios",
+            "crossing_nr100,crossing_nr30",
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert run.returncode == 1 and "'crossing_nr30' has pedestrians who react" in run.stderr
     assert len(run.stderr.strip().splitlines()) == 1

@@ -33,8 +33,9 @@ def test_untrained_head_is_the_envelope_and_leaves_the_mean_alone():
     mask = torch.ones(2, 6)
     pos, sigma = model.forward_dist(x, mask)
     torch.testing.assert_close(pos, model(x, mask))
-    np.testing.assert_allclose(sigma.detach().numpy(), np.broadcast_to(LEARNED_SIGMA(TB.times), (2, 6, TB.horizon)),
-                               rtol=1e-5)
+    np.testing.assert_allclose(
+        sigma.detach().numpy(), np.broadcast_to(LEARNED_SIGMA(TB.times), (2, 6, TB.horizon)), rtol=1e-5
+    )
     with torch.inference_mode():  # one decision: the traced path gives the same numbers
         p1, s1 = model.forward_dist(x[:1], mask[:1])
     torch.testing.assert_close(p1, pos[:1].detach())
@@ -55,13 +56,17 @@ def test_nll_is_lowest_at_the_errors_own_spread():
     mask = torch.ones(target.shape[:-1], dtype=target.dtype)
     mask[:, :100] = 0.0
     target[:, :100] = 50.0  # masked outliers
-    nll = [float(masked_gaussian_nll(pred, torch.full(mask.shape, s, dtype=target.dtype), target, mask))
-           for s in (0.24, 0.3, 0.36)]
+    nll = [
+        float(masked_gaussian_nll(pred, torch.full(mask.shape, s, dtype=target.dtype), target, mask))
+        for s in (0.24, 0.3, 0.36)
+    ]
     assert nll[1] < nll[0] and nll[1] < nll[2]
 
 
 def test_training_fits_a_calibrated_spread_and_the_forecast_carries_it(tmp_path, curving_dataset):
-    res = run_train(TrainConfig(dataset=str(curving_dataset), sigma_head=True, **FAST), StageContext(workdir=tmp_path))
+    res = run_train(
+        TrainConfig(dataset=str(curving_dataset), sigma_head=True, **FAST), StageContext(workdir=tmp_path)
+    )
     history = json.loads((tmp_path / "training_summary.json").read_text())["history"]
     assert res.val_ade < res.cv_val_ade
     # the spread learns the errors' size: the held-out NLL falls from the envelope's (epoch 1 is near it), and
@@ -76,14 +81,18 @@ def test_training_fits_a_calibrated_spread_and_the_forecast_carries_it(tmp_path,
         fc = f.update(make_obs(k, (0.0, 0.0, 0.0), [1, 2], [[0.2 * k, 0.0], [3.0, 3.0 - 0.1 * k]]))
     assert fc.sigma.shape == (2, TB.horizon) and np.all(fc.sigma >= 0.02)
     assert np.all(np.diff(fc.sigma, axis=1) >= 0)  # the spread never shrinks with the forecast's age
-    assert not np.allclose(fc.sigma, np.tile(LEARNED_SIGMA(fc.times), (2, 1)))  # the model's, not the envelope
+    assert not np.allclose(
+        fc.sigma, np.tile(LEARNED_SIGMA(fc.times), (2, 1))
+    )  # the model's, not the envelope
     ckpt = read_checkpoint(tmp_path / "model.pt")
     assert ckpt["model_config"]["sigma_head"] is True and "val_cover1" in ckpt["metrics"]
 
 
 def test_checkpoint_without_the_flag_loads_with_the_envelope(tmp_path, curving_dataset):
     """Checkpoints written before the sigma head have no ``sigma_head`` key: they load, and forecast the envelope."""
-    run_train(TrainConfig(dataset=str(curving_dataset), **{**FAST, "epochs": 1}), StageContext(workdir=tmp_path))
+    run_train(
+        TrainConfig(dataset=str(curving_dataset), **{**FAST, "epochs": 1}), StageContext(workdir=tmp_path)
+    )
     ckpt = read_checkpoint(tmp_path / "model.pt")
     del ckpt["model_config"]["sigma_head"]
     save_checkpoint(ckpt, tmp_path / "old.pt")
@@ -102,12 +111,17 @@ def test_the_shipped_realistic_candidate_predicts_its_spread():
     import yaml
 
     repo = Path(__file__).resolve().parents[3]
-    entry = next(m for m in yaml.safe_load((repo / "model/registry.yaml").read_text())["models"]
-                 if m["id"] == "predictor-sim-realistic")
+    entry = next(
+        m
+        for m in yaml.safe_load((repo / "model/registry.yaml").read_text())["models"]
+        if m["id"] == "predictor-sim-realistic"
+    )
     predictor = load_predictor(repo / entry["path"], expect_timebase=TB, expect_sha256=entry["sha256"])
     assert predictor.has_sigma and entry["status"] != "default"
     f = LearnedForecaster(predictor)
     for k in range(5):
         fc = f.update(make_obs(k, (0.0, 0.0, 0.0), [1, 2], [[2.0 + 0.25 * k, 0.0], [3.0, 3.0 - 0.25 * k]]))
     assert np.all(np.diff(fc.sigma, axis=1) >= 0) and np.all(fc.sigma >= 0.02)
-    assert np.all(fc.sigma <= LEARNED_SIGMA(fc.times) * np.exp(3.0) + 1e-6)  # the head's bound around the envelope
+    assert np.all(
+        fc.sigma <= LEARNED_SIGMA(fc.times) * np.exp(3.0) + 1e-6
+    )  # the head's bound around the envelope

@@ -15,8 +15,15 @@ def test_stride_must_be_integer_multiple():
         TimeBase(0.25, 4, 8).stride(0.1)
 
 
-@pytest.mark.parametrize("kwargs", [dict(dt=0, history=5, horizon=12), dict(dt=0.2, history=0, horizon=12),
-                                    dict(dt=0.2, history=5, horizon=2.5), dict(dt=float("nan"), history=5, horizon=1)])
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        dict(dt=0, history=5, horizon=12),
+        dict(dt=0.2, history=0, horizon=12),
+        dict(dt=0.2, history=5, horizon=2.5),
+        dict(dt=float("nan"), history=5, horizon=1),
+    ],
+)
 def test_invalid_values_rejected(kwargs):
     with pytest.raises(ConfigError):
         TimeBase(**kwargs)

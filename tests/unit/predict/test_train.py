@@ -20,8 +20,17 @@ def test_short_training_learns_and_writes_complete_summary(tmp_path, curving_dat
     hist = summary["history"]
     assert len(hist) == 4 and hist[-1]["train_loss"] < hist[0]["train_loss"]
     assert res.val_ade < res.cv_val_ade  # arcs: learnable beyond constant velocity
-    for key in ("best", "selection", "quality_gates", "dataset_stats", "dataset", "cv_val", "total_runtime_s",
-                "code_version", "config"):
+    for key in (
+        "best",
+        "selection",
+        "quality_gates",
+        "dataset_stats",
+        "dataset",
+        "cv_val",
+        "total_runtime_s",
+        "code_version",
+        "config",
+    ):
         assert key in summary
     assert summary["quality_gates"]["checks"]["val_ade_below_cv"] is True
     assert summary["dataset"]["sha256"] and summary["selection_mode"] == "val_loss"
@@ -51,8 +60,11 @@ def test_proxy_callback_drives_selection(tmp_path, curving_dataset):
         calls.append(path.name)
         return {"success": 0.5 if "0002" in path.name else 0.2, "clearance": 0.4}
 
-    res = run_train(TrainConfig(dataset=str(curving_dataset), proxy_every=2, **FAST), StageContext(workdir=tmp_path),
-                    proxy=proxy)
+    res = run_train(
+        TrainConfig(dataset=str(curving_dataset), proxy_every=2, **FAST),
+        StageContext(workdir=tmp_path),
+        proxy=proxy,
+    )
     assert calls == ["epoch_0002.pt", "epoch_0004.pt"]
     assert res.selection_mode == "proxy" and res.best_epoch == 2
 
@@ -69,11 +81,20 @@ def test_selection_order():
 
 
 def test_gate_failure_is_reported(tmp_path, curving_dataset):
-    cfg = TrainConfig(dataset=str(curving_dataset), **{**FAST, "epochs": 1}, gates={"max_val_ade": 0.001},
-                      augment_mirror=True)
+    cfg = TrainConfig(
+        dataset=str(curving_dataset),
+        **{**FAST, "epochs": 1},
+        gates={"max_val_ade": 0.001},
+        augment_mirror=True,
+    )
     res = run_train(cfg, StageContext(workdir=tmp_path))
     assert not res.gates_passed
-    assert json.loads((tmp_path / "training_summary.json").read_text())["quality_gates"]["checks"]["val_ade_below_limit"] is False
+    assert (
+        json.loads((tmp_path / "training_summary.json").read_text())["quality_gates"]["checks"][
+            "val_ade_below_limit"
+        ]
+        is False
+    )
 
 
 def test_bad_config_file_names_field(tmp_path):
@@ -85,53 +106,82 @@ def test_bad_config_file_names_field(tmp_path):
 def test_proxy_wired_to_the_evaluation_engine(tmp_path, curving_dataset):
     from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
 
-    cfg = TrainConfig(dataset=str(curving_dataset), proxy_every=1,
-                      proxy={"scenarios": ["crossing_low"], "seeds_per_scenario": 1, "max_steps": 20},
-                      **{**FAST, "epochs": 1})
+    cfg = TrainConfig(
+        dataset=str(curving_dataset),
+        proxy_every=1,
+        proxy={"scenarios": ["crossing_low"], "seeds_per_scenario": 1, "max_steps": 20},
+        **{**FAST, "epochs": 1},
+    )
     res = run_train(cfg, StageContext(workdir=tmp_path, resolve_bundle=lambda ident: BUILTIN_CONFIG_ROOT))
     summary = json.loads((tmp_path / "training_summary.json").read_text())
     proxy = summary["selection"]["proxy_history"][0]
     assert res.selection_mode == "proxy" and proxy["episodes"] == 1.0 and 0.0 <= proxy["success"] <= 1.0
     # the same planner with constant velocity on the same episodes, once, paired with every candidate
     assert (tmp_path / "proxy_eval" / "cv" / "episodes.jsonl").is_file()
-    assert proxy["vs_cv_delta"] == pytest.approx(proxy["success"] - proxy["cv_success"]) and 0 < proxy["vs_cv_p"] <= 1
+    assert (
+        proxy["vs_cv_delta"] == pytest.approx(proxy["success"] - proxy["cv_success"])
+        and 0 < proxy["vs_cv_p"] <= 1
+    )
     assert summary["quality_gates"]["closed_loop"]["cv_success"] == proxy["cv_success"]
 
 
 def test_closed_loop_training_gate_against_constant_velocity(tmp_path, curving_dataset):
     def proxy(delta):
-        return lambda path: {"success": 0.5, "clearance": 0.4, "cv_success": 0.5 - delta, "vs_cv_delta": delta,
-                             "vs_cv_p": 0.01}
+        return lambda path: {
+            "success": 0.5,
+            "clearance": 0.4,
+            "cv_success": 0.5 - delta,
+            "vs_cv_delta": delta,
+            "vs_cv_p": 0.01,
+        }
 
-    cfg = TrainConfig(dataset=str(curving_dataset), proxy_every=1, **{**FAST, "epochs": 1},
-                      gates={"require_proxy_not_below_cv": True, "require_beat_cv": False})
+    cfg = TrainConfig(
+        dataset=str(curving_dataset),
+        proxy_every=1,
+        **{**FAST, "epochs": 1},
+        gates={"require_proxy_not_below_cv": True, "require_beat_cv": False},
+    )
     worse = run_train(cfg, StageContext(workdir=tmp_path / "worse"), proxy=proxy(-0.2))
     summary = json.loads((tmp_path / "worse" / "training_summary.json").read_text())["quality_gates"]
     assert not worse.gates_passed and summary["checks"]["proxy_success_not_below_cv"] is False
-    assert summary["closed_loop"] == {"success": 0.5, "clearance": 0.4, "episodes": None, "cv_success": 0.7,
-                                      "vs_cv_delta": -0.2, "vs_cv_p": 0.01}
+    assert summary["closed_loop"] == {
+        "success": 0.5,
+        "clearance": 0.4,
+        "episodes": None,
+        "cv_success": 0.7,
+        "vs_cv_delta": -0.2,
+        "vs_cv_p": 0.01,
+    }
     assert run_train(cfg, StageContext(workdir=tmp_path / "better"), proxy=proxy(0.1)).gates_passed
     no_proxy = run_train(cfg.model_copy(update={"proxy_every": 0}), StageContext(workdir=tmp_path / "none"))
     assert not no_proxy.gates_passed  # required but never measured: the gate fails
 
 
 def test_resume_refuses_another_model_config(tmp_path, curving_dataset):
-    run_train(TrainConfig(dataset=str(curving_dataset), **{**FAST, "epochs": 1}), StageContext(workdir=tmp_path))
+    run_train(
+        TrainConfig(dataset=str(curving_dataset), **{**FAST, "epochs": 1}), StageContext(workdir=tmp_path)
+    )
     with pytest.raises(ConfigError, match="cannot resume"):
-        run_train(TrainConfig(dataset=str(curving_dataset), **{**FAST, "epochs": 2, "hidden": 8}),
-                  StageContext(workdir=tmp_path))
+        run_train(
+            TrainConfig(dataset=str(curving_dataset), **{**FAST, "epochs": 2, "hidden": 8}),
+            StageContext(workdir=tmp_path),
+        )
 
 
 def test_resume_accepts_a_checkpoint_written_before_newer_model_fields(tmp_path, curving_dataset):
     """A run interrupted before a model field existed (here ``mirror_average``) resumes: absent means its default."""
     from foresight.core.predict.nn.checkpoint import save_checkpoint
 
-    run_train(TrainConfig(dataset=str(curving_dataset), **{**FAST, "epochs": 1}), StageContext(workdir=tmp_path))
+    run_train(
+        TrainConfig(dataset=str(curving_dataset), **{**FAST, "epochs": 1}), StageContext(workdir=tmp_path)
+    )
     last = tmp_path / "checkpoints" / "last.pt"
     state = read_checkpoint(last)
     del state["model_config"]["mirror_average"]
     save_checkpoint(state, last)
-    res = run_train(TrainConfig(dataset=str(curving_dataset), **{**FAST, "epochs": 2}), StageContext(workdir=tmp_path))
+    res = run_train(
+        TrainConfig(dataset=str(curving_dataset), **{**FAST, "epochs": 2}), StageContext(workdir=tmp_path)
+    )
     assert [h["epoch"] for h in json.loads(Path(res.summary).read_text())["history"]] == [1, 2]
 
 
@@ -150,8 +200,10 @@ def test_ensemble_averages_its_members(tmp_path, curving_dataset):
     from foresight.core.predict.dataset import load_dataset
     from foresight.core.predict.nn.checkpoint import load_predictor
 
-    res = run_train(TrainConfig(dataset=str(curving_dataset), ensemble=2, **{**FAST, "epochs": 2}),
-                    StageContext(workdir=tmp_path))
+    res = run_train(
+        TrainConfig(dataset=str(curving_dataset), ensemble=2, **{**FAST, "epochs": 2}),
+        StageContext(workdir=tmp_path),
+    )
     members = [load_predictor(tmp_path / "members" / str(k) / "model.pt") for k in range(2)]
     ensemble = load_predictor(tmp_path / "model.pt")
     assert ensemble.model.config.members == 2
@@ -171,8 +223,12 @@ def test_scale_augmentation_scales_lengths_and_targets_together():
 
     names = feature_names(2)
     state = torch.ones(3, 2, len(names))
-    b = _scale({"state": state, "target": torch.ones(3, 2, 4, 2), "mask": torch.ones(3, 2)},
-               torch.from_numpy(length_channels(2)), (0.5, 2.0), torch.Generator().manual_seed(0))
+    b = _scale(
+        {"state": state, "target": torch.ones(3, 2, 4, 2), "mask": torch.ones(3, 2)},
+        torch.from_numpy(length_channels(2)),
+        (0.5, 2.0),
+        torch.Generator().manual_seed(0),
+    )
     f = b["target"][:, 0, 0, 0]
     assert ((f >= 0.5) & (f <= 2.0)).all() and not torch.allclose(f, f[0].expand(3))
     row = dict(zip(names, b["state"][0, 0].tolist(), strict=True))
@@ -192,17 +248,26 @@ def test_jitter_augmentation_moves_past_positions_and_recomputes_velocities():
     from foresight.core.predict.timebase import TimeBase
 
     tb = TimeBase(dt=0.4, history=4, horizon=3)
-    hist = np.array([[[0.0, 0.0], [0.5, 0.1], [1.0, 0.1], [1.6, 0.2]], [[3.0, 1.0], [3.0, 1.4], [3.1, 1.8], [3.1, 2.2]]])
+    hist = np.array(
+        [[[0.0, 0.0], [0.5, 0.1], [1.0, 0.1], [1.6, 0.2]], [[3.0, 1.0], [3.0, 1.4], [3.1, 1.8], [3.1, 2.2]]]
+    )
     valid = np.array([[True, True, True, True], [False, True, True, True]])
-    f = extract_features(Window(np.array([1.6, 0.2, 0.1]), np.zeros(2), None, np.array([1, 2]), hist, valid), tb, 3)
+    f = extract_features(
+        Window(np.array([1.6, 0.2, 0.1]), np.zeros(2), None, np.array([1, 2]), hist, valid), tb, 3
+    )
     state = torch.from_numpy(np.repeat(f.features[None], 5, axis=0))
     same = _jitter({"state": state}, 0.0, 4, 0.4, torch.Generator().manual_seed(0))["state"]
     assert torch.allclose(same, state, atol=1e-5)
     out = _jitter({"state": state}, 0.1, 4, 0.4, torch.Generator().manual_seed(0))["state"]
     steps, before = out[..., :20].reshape(5, 3, 4, 5), state[..., :20].reshape(5, 3, 4, 5)
     assert torch.equal(steps[:, :, -1, :2], before[:, :, -1, :2])  # current positions kept
-    assert (steps[:, :2, :-1, :2] != before[:, :2, :-1, :2]).any() and torch.equal(steps[:, 1, 0], before[:, 1, 0])
-    assert torch.allclose(steps[:, :, 1:, 2:4], (steps[:, :, 1:, :2] - steps[:, :, :-1, :2]) / 0.4
-                          * (steps[:, :, 1:, 4:5] * steps[:, :, :-1, 4:5]), atol=1e-5)
+    assert (steps[:, :2, :-1, :2] != before[:, :2, :-1, :2]).any() and torch.equal(
+        steps[:, 1, 0], before[:, 1, 0]
+    )
+    assert torch.allclose(
+        steps[:, :, 1:, 2:4],
+        (steps[:, :, 1:, :2] - steps[:, :, :-1, :2]) / 0.4 * (steps[:, :, 1:, 4:5] * steps[:, :, :-1, 4:5]),
+        atol=1e-5,
+    )
     assert torch.equal(out[..., 20:], state[..., 20:]) and torch.equal(steps[..., 4], before[..., 4])
     assert torch.equal(out[:, 2], state[:, 2])  # an empty slot stays empty

@@ -31,8 +31,18 @@ from foresight.core.predict.train_config import TrainConfig, load_config
 from foresight.core.stages.context import StageContext
 
 FIXTURE = Path(__file__).with_name("train_golden.json")
-GOLDEN = dict(epochs=2, batch_size=64, hidden=16, blocks=1, lr=3e-3, threads=1, seed=3, sigma_head=True,
-              augment_mirror=True, augment_scale=(0.8, 1.25))
+GOLDEN = dict(
+    epochs=2,
+    batch_size=64,
+    hidden=16,
+    blocks=1,
+    lr=3e-3,
+    threads=1,
+    seed=3,
+    sigma_head=True,
+    augment_mirror=True,
+    augment_scale=(0.8, 1.25),
+)
 CURVE = ("train_loss", "val_loss", "val_ade", "val_fde", "val_nll")
 TINY = dict(epochs=1, batch_size=64, hidden=8, blocks=1, threads=1)
 HAS_GPU = torch.cuda.is_available()
@@ -50,9 +60,13 @@ def _record(dataset: Path, workdir: Path, **extra) -> dict:
     run_train(TrainConfig(dataset=str(dataset), **GOLDEN, **extra), StageContext(workdir=workdir))
     state = read_checkpoint(workdir / "checkpoints/last.pt")["model"]
     summary = json.loads((workdir / "training_summary.json").read_text())
-    return {"config": GOLDEN, "torch": torch.__version__.split("+")[0], "weights_sha256": _weights_sha256(state),
-            "weights": {k: v.flatten().tolist() for k, v in sorted(state.items())},
-            "history": [{k: rec[k] for k in ("epoch", *CURVE)} for rec in summary["history"]]}
+    return {
+        "config": GOLDEN,
+        "torch": torch.__version__.split("+")[0],
+        "weights_sha256": _weights_sha256(state),
+        "weights": {k: v.flatten().tolist() for k, v in sorted(state.items())},
+        "history": [{k: rec[k] for k in ("epoch", *CURVE)} for rec in summary["history"]],
+    }
 
 
 def test_auto_is_cuda_only_where_torch_sees_a_gpu(tmp_path, curving_dataset):
@@ -66,7 +80,9 @@ def test_auto_is_cuda_only_where_torch_sees_a_gpu(tmp_path, curving_dataset):
 @pytest.mark.skipif(HAS_GPU, reason="needs a machine without a CUDA GPU")
 def test_cuda_without_a_gpu_is_a_config_error_naming_device(tmp_path, curving_dataset):
     with pytest.raises(ConfigError, match="device: cuda.*no CUDA GPU") as err:
-        run_train(TrainConfig(dataset=str(curving_dataset), device="cuda", **TINY), StageContext(workdir=tmp_path))
+        run_train(
+            TrainConfig(dataset=str(curving_dataset), device="cuda", **TINY), StageContext(workdir=tmp_path)
+        )
     assert err.value.item == "device" and not (tmp_path / "checkpoints").exists()  # failed before training
 
 
@@ -83,8 +99,13 @@ def test_cpu_training_matches_the_run_recorded_before_devices(tmp_path, curving_
     for name, values in golden["weights"].items():
         # float32 kernels differ between CPUs (AVX2 vs AVX-512): two epochs on another Xeon moved some weights
         # by up to 1.7e-4 (the losses by 2e-8); a changed training path moves them by far more
-        torch.testing.assert_close(torch.tensor(got["weights"][name]), torch.tensor(values), rtol=1e-2, atol=1e-3,
-                                   msg=lambda m, name=name: f"{name}: {m}")
+        torch.testing.assert_close(
+            torch.tensor(got["weights"][name]),
+            torch.tensor(values),
+            rtol=1e-2,
+            atol=1e-3,
+            msg=lambda m, name=name: f"{name}: {m}",
+        )
     for rec, ref in zip(got["history"], golden["history"], strict=True):
         assert rec == pytest.approx(ref, rel=1e-5, abs=1e-6)
 
@@ -104,7 +125,9 @@ def test_to_cpu_keeps_containers_and_cpu_tensors_as_they_are():
     state = torch.nn.Linear(2, 3).state_dict()
     out = to_cpu({"model": state, "groups": [{"lr": 0.1, "params": (0, 1)}], "step": torch.tensor(3.0)})
     assert type(out["model"]) is type(state) and out["model"]._metadata == state._metadata
-    assert all(out["model"][k] is state[k] for k in state)  # no copy on the CPU: the saved bytes are unchanged
+    assert all(
+        out["model"][k] is state[k] for k in state
+    )  # no copy on the CPU: the saved bytes are unchanged
     assert out["groups"] == [{"lr": 0.1, "params": (0, 1)}] and isinstance(out["groups"][0]["params"], tuple)
 
 
@@ -112,17 +135,26 @@ def test_a_training_step_never_mixes_devices():
     """Forward, augmentations, losses and backward on torch's ``meta`` device (shapes only, no data): a tensor
     left on the CPU in that path (as the local frame's constants once were) fails here as it would on cuda."""
     tb, meta = PLANNER_TIMEBASE, torch.device("meta")
-    model = TrajectoryModel(ModelConfig(tb.history, tb.horizon, tb.dt, 8, 1, 4, True, sigma_head=True)).to(meta)
-    b = {"state": torch.empty(4, 6, feature_dim(tb.history), device=meta), "mask": torch.ones(4, 6, device=meta),
-         "target": torch.empty(4, 6, tb.horizon, 2, device=meta), "target_mask": torch.ones(4, 6, tb.horizon, device=meta)}
+    model = TrajectoryModel(ModelConfig(tb.history, tb.horizon, tb.dt, 8, 1, 4, True, sigma_head=True)).to(
+        meta
+    )
+    b = {
+        "state": torch.empty(4, 6, feature_dim(tb.history), device=meta),
+        "mask": torch.ones(4, 6, device=meta),
+        "target": torch.empty(4, 6, tb.horizon, 2, device=meta),
+        "target_mask": torch.ones(4, 6, tb.horizon, device=meta),
+    }
     gen = torch.Generator().manual_seed(0)
     b = _mirror_half(b, torch.from_numpy(mirror_signs(tb.history)).to(meta), gen)
     b = _scale(b, torch.from_numpy(length_channels(tb.history)).to(meta), (0.8, 1.25), gen)
     pred, sigma = model.forward_dist(b["state"], b["mask"])
     loss = masked_loss("smooth_l1", pred, b["target"], b["target_mask"], 0.2) + masked_gaussian_nll(
-        pred, sigma, b["target"], b["target_mask"])
+        pred, sigma, b["target"], b["target_mask"]
+    )
     loss.backward()
-    assert loss.device == meta and all(p.grad.device == meta for p in model.parameters() if p.grad is not None)
+    assert loss.device == meta and all(
+        p.grad.device == meta for p in model.parameters() if p.grad is not None
+    )
 
 
 def main() -> None:
@@ -134,7 +166,9 @@ def main() -> None:
         (Path(tmp) / "work").mkdir()
         record = _record(data, Path(tmp) / "work")
     lines = [f" {json.dumps(k)}: {json.dumps(v)}" for k, v in record.items() if k != "weights"]
-    tensors = ",\n".join(f"  {json.dumps(k)}: {json.dumps(v)}" for k, v in record["weights"].items())  # one a line
+    tensors = ",\n".join(
+        f"  {json.dumps(k)}: {json.dumps(v)}" for k, v in record["weights"].items()
+    )  # one a line
     FIXTURE.write_text("{\n" + ",\n".join([*lines, f' "weights": {{\n{tensors}\n }}']) + "\n}\n")
     sys.stdout.write(f"wrote {FIXTURE}\n")
 

@@ -19,7 +19,9 @@ def _trace(planner: str) -> dict:
 
 
 def test_the_page_embeds_each_trace_safely_and_the_player_script(tmp_path: Path) -> None:
-    text = player_page([("A: success", _trace("goal")), ("B <timeout>", _trace("orca"))], "s 1: A & B", "a note")
+    text = player_page(
+        [("A: success", _trace("goal")), ("B <timeout>", _trace("orca"))], "s 1: A & B", "a note"
+    )
     assert text.count('class="pane"') == 2 and 'data-trace-script="trace-1"' in text
     assert "B &lt;timeout&gt;" in text and "s 1: A &amp; B" in text  # labels and title escaped
     blocks = re.findall(r'<script type="application/json" id="trace-(\d)">(.*?)</script>', text, flags=re.S)
@@ -41,5 +43,13 @@ def test_players_needs_local_work_folders() -> None:
 def test_file_names_from_labels_stay_inside_their_folder() -> None:
     from foresight.core.evaluation.episode_trace import episode_stem, safe_name, trace_name
 
-    assert [safe_name(t) for t in ("predictive[cv]", "..", ".", "a/../b")] == ["predictive_cv_", "_..", "_.", "a_.._b"]
-    assert episode_stem("door/high", 7) == "door_high__7" and trace_name("door/high", 7) == "traces/door_high__7.json.gz"
+    assert [safe_name(t) for t in ("predictive[cv]", "..", ".", "a/../b")] == [
+        "predictive_cv_",
+        "_..",
+        "_.",
+        "a_.._b",
+    ]
+    assert (
+        episode_stem("door/high", 7) == "door_high__7"
+        and trace_name("door/high", 7) == "traces/door_high__7.json.gz"
+    )

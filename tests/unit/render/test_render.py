@@ -150,8 +150,14 @@ def test_map_shows_points_of_interest_and_single_pedestrian_roles() -> None:
     from foresight.core.maps.model import SinglePedestrian
     from foresight.core.render.map_view import draw_map
 
-    mapdef = MapDef(name="m", width=10, height=8, pois={"poi_a": (3.0, 4.0)}, poi_labels={"poi_a": "kiosk"},
-                    single_pedestrians=(SinglePedestrian(id="p1", start=(1.0, 1.0), role="lead"),))
+    mapdef = MapDef(
+        name="m",
+        width=10,
+        height=8,
+        pois={"poi_a": (3.0, 4.0)},
+        poi_labels={"poi_a": "kiosk"},
+        single_pedestrians=(SinglePedestrian(id="p1", start=(1.0, 1.0), role="lead"),),
+    )
     fig, ax = plt.subplots()
     draw_map(ax, mapdef)
     texts = {t.get_text() for t in ax.texts}
@@ -176,6 +182,9 @@ def test_pictures_have_y_up_and_show_goal_tolerance_and_robot_body(tmp_path: Pat
 
     assert greenish(disc) > greenish(bare) + 500  # a 2 m disc, not a point
     h = disc.shape[0]
-    rows = np.nonzero((disc[..., 1] > disc[..., 0] + 0.05) & (disc[..., 1] > disc[..., 2] + 0.05)
-                      & ~((bare[..., 1] > bare[..., 0] + 0.05) & (bare[..., 1] > bare[..., 2] + 0.05)))[0]
+    rows = np.nonzero(
+        (disc[..., 1] > disc[..., 0] + 0.05)
+        & (disc[..., 1] > disc[..., 2] + 0.05)
+        & ~((bare[..., 1] > bare[..., 0] + 0.05) & (bare[..., 1] > bare[..., 2] + 0.05))
+    )[0]
     assert rows.mean() > h / 2  # the goal at y = 4 of 20 is in the lower half: y points up

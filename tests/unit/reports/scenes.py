@@ -24,19 +24,30 @@ class FakeTrace:
 
 def small_map() -> MapDef:
     return MapDef(
-        name="report_test", width=30, height=20,
+        name="report_test",
+        width=30,
+        height=20,
         obstacles=(((12.0, 0.0), (18.0, 0.0), (18.0, 6.0), (12.0, 6.0)),),
-        robot_spawn_zones=(Zone.from_rect(1, 9, 2, 2),), robot_goal_zones=(Zone.from_rect(27, 9, 2, 2),),
+        robot_spawn_zones=(Zone.from_rect(1, 9, 2, 2),),
+        robot_goal_zones=(Zone.from_rect(27, 9, 2, 2),),
         robot_routes=(Route(spawn_id=0, goal_id=0, waypoints=((2, 10), (28, 10))),),
-        ped_spawn_zones=(Zone.from_rect(14, 17, 2, 2),), ped_goal_zones=(Zone.from_rect(14, 7, 2, 2),),
+        ped_spawn_zones=(Zone.from_rect(14, 17, 2, 2),),
+        ped_goal_zones=(Zone.from_rect(14, 7, 2, 2),),
         ped_routes=(Route(spawn_id=0, goal_id=0, waypoints=((15, 18), (15, 8))),),
     )
 
 
 def trace(steps: int = STEPS) -> FakeTrace:
     t = np.arange(steps + 1)
-    robot = np.column_stack([2 + 0.3 * t, np.full(steps + 1, 10.0), np.zeros(steps + 1), np.full(steps + 1, 3.0),
-                             np.zeros(steps + 1)])
+    robot = np.column_stack(
+        [
+            2 + 0.3 * t,
+            np.full(steps + 1, 10.0),
+            np.zeros(steps + 1),
+            np.full(steps + 1, 3.0),
+            np.zeros(steps + 1),
+        ]
+    )
     ids = np.tile(np.array([0, 1], dtype=np.int64), (steps + 1, 1))
     ids[30:, 1] = 2  # respawned pedestrian: new id
     pos = np.zeros((steps + 1, 2, 2))

@@ -22,8 +22,15 @@ def test_prediction_formats_agree() -> None:
     log = predictions()
     a = prediction_steps(log)
     b = prediction_steps({s: (ids, pos) for s, ids, pos, _ in log})
-    json_steps = [{"step": s, "predicted_vs_actual": [{"ped_id": int(i), "predicted": p.tolist()}
-                                                      for i, p in zip(ids, pos, strict=True)]} for s, ids, pos, _ in log]
+    json_steps = [
+        {
+            "step": s,
+            "predicted_vs_actual": [
+                {"ped_id": int(i), "predicted": p.tolist()} for i, p in zip(ids, pos, strict=True)
+            ],
+        }
+        for s, ids, pos, _ in log
+    ]
     c = prediction_steps(json_steps)
     assert a.keys() == b.keys() == c.keys() == {s for s, *_ in log}
     for s in a:
@@ -33,8 +40,16 @@ def test_prediction_formats_agree() -> None:
 
 
 def test_replay_gif(tmp_path: Path) -> None:
-    path = render_replay(trace(), small_map(), tmp_path / "replay.gif", predictions=predictions(), max_frames=20,
-                         collision_step=40, title="test replay", width_px=400)
+    path = render_replay(
+        trace(),
+        small_map(),
+        tmp_path / "replay.gif",
+        predictions=predictions(),
+        max_frames=20,
+        collision_step=40,
+        title="test replay",
+        width_px=400,
+    )
     assert path.is_file() and 1000 < path.stat().st_size < 2_000_000
     with Image.open(path) as im:
         assert im.n_frames <= 21 and im.size[0] == 400
@@ -46,7 +61,9 @@ def test_replay_gif(tmp_path: Path) -> None:
 
 
 def test_replay_shrinks_to_the_size_limit(tmp_path: Path) -> None:
-    path = render_replay(trace(), small_map(), tmp_path / "small.gif", max_frames=40, max_bytes=60_000, width_px=500)
+    path = render_replay(
+        trace(), small_map(), tmp_path / "small.gif", max_frames=40, max_bytes=60_000, width_px=500
+    )
     with Image.open(path) as im:
         frames = im.n_frames
     assert path.stat().st_size <= 60_000 or frames <= 11

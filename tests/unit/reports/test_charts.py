@@ -33,26 +33,52 @@ def test_training_curves(tmp_path: Path, proxy: bool) -> None:
 
 
 def test_rate_bars_with_missing_values(tmp_path: Path) -> None:
-    p = rate_bars(["a (n=5)", "b (n=0)", "c"], {"success": [E(0.5, 0.2, 0.8), E(None), E(1.0, 0.6, 1.0)],
-                                                "collision": [E(0.1, 0.0, 0.3), E(None), E(0.0, 0.0, 0.4)]},
-                  tmp_path / "r.png", title="rates")
+    p = rate_bars(
+        ["a (n=5)", "b (n=0)", "c"],
+        {
+            "success": [E(0.5, 0.2, 0.8), E(None), E(1.0, 0.6, 1.0)],
+            "collision": [E(0.1, 0.0, 0.3), E(None), E(0.0, 0.0, 0.4)],
+        },
+        tmp_path / "r.png",
+        title="rates",
+    )
     assert_picture(p)
 
 
 def test_taxonomy_bars_with_and_without_failures(tmp_path: Path) -> None:
-    assert_picture(taxonomy_bars({"crossing": {"timeout_freeze": 2, "collision_static": 1},
-                                  "corridor": {"timeout_freeze": 0, "made_up_label": 1}}, tmp_path / "t.png"))
+    assert_picture(
+        taxonomy_bars(
+            {
+                "crossing": {"timeout_freeze": 2, "collision_static": 1},
+                "corridor": {"timeout_freeze": 0, "made_up_label": 1},
+            },
+            tmp_path / "t.png",
+        )
+    )
     assert_picture(taxonomy_bars({"crossing": {"timeout_freeze": 0}}, tmp_path / "none.png"))
 
 
 def test_ranking_and_ab_charts(tmp_path: Path) -> None:
-    assert_picture(ranking_chart(["v1", "v2", "v3"], [E(0.75, 0.3, 0.95), E(0.5, 0.15, 0.85), E(None)],
-                                 [E(0.8, 0.6, 0.9), E(0.7, 0.5, 0.85), E(0.1, 0.0, 0.3)], tmp_path / "rank.png",
-                                 notes=["a", "b", "c"]))
-    assert_picture(ab_chart({"success": E(0.1, -0.1, 0.3), "collision": E(None)},
-                            {"min clearance [m]": E(0.05, -0.02, 0.12)}, ["s1", "s2"],
-                            [E(0.5, 0.2, 0.8), E(None)], [E(0.6, 0.3, 0.9), E(0.4, 0.1, 0.8)], tmp_path / "ab.png",
-                            labels=("base", "cand")))
+    assert_picture(
+        ranking_chart(
+            ["v1", "v2", "v3"],
+            [E(0.75, 0.3, 0.95), E(0.5, 0.15, 0.85), E(None)],
+            [E(0.8, 0.6, 0.9), E(0.7, 0.5, 0.85), E(0.1, 0.0, 0.3)],
+            tmp_path / "rank.png",
+            notes=["a", "b", "c"],
+        )
+    )
+    assert_picture(
+        ab_chart(
+            {"success": E(0.1, -0.1, 0.3), "collision": E(None)},
+            {"min clearance [m]": E(0.05, -0.02, 0.12)},
+            ["s1", "s2"],
+            [E(0.5, 0.2, 0.8), E(None)],
+            [E(0.6, 0.3, 0.9), E(0.4, 0.1, 0.8)],
+            tmp_path / "ab.png",
+            labels=("base", "cand"),
+        )
+    )
 
 
 def test_svg_by_suffix(tmp_path: Path) -> None:

@@ -20,8 +20,19 @@ def _doc() -> Document:
 
 def test_markdown_has_every_block() -> None:
     md = _doc().markdown()
-    for part in ("# Report <1>", "## Summary", "## Table", "## Pictures", "Status **passed**", "_nothing here_",
-                 "| a | b\\|c |", "| 1 | x\\|y |", "![A picture](figures/a.png)", "- [data](evaluation.json)", "- two"):
+    for part in (
+        "# Report <1>",
+        "## Summary",
+        "## Table",
+        "## Pictures",
+        "Status **passed**",
+        "_nothing here_",
+        "| a | b\\|c |",
+        "| 1 | x\\|y |",
+        "![A picture](figures/a.png)",
+        "- [data](evaluation.json)",
+        "- two",
+    ):
         assert part in md, part
 
 
@@ -32,7 +43,11 @@ def test_html_is_escaped_self_contained_and_relative(tmp_path: Path) -> None:
     page = paths[1].read_text()
     assert_page(page)
     assert "<title>Report &lt;1&gt;</title>" in page and "<td>&lt;b&gt;</td>" in page
-    assert "&lt;b&gt;" in page and "<strong><span class=\"pass\">passed</span></strong>" in page and "<code>0.5</code>" in page
+    assert (
+        "&lt;b&gt;" in page
+        and '<strong><span class="pass">passed</span></strong>' in page
+        and "<code>0.5</code>" in page
+    )
     assert '<img src="figures/a.png"' in page and '<a href="evaluation.json">' in page
     assert '<h2 id="summary">Summary</h2>' in page and 'class="fail">FAILED' in page
     assert doc.images() == ["figures/a.png"]

@@ -33,10 +33,22 @@ def _run_without_forecasts(tmp_path: Path) -> dict:
     (tmp_path / "diagnostics/trace_crossing_high_3.json").write_text(json.dumps(
         {"scenario": "crossing_high", "seed": 3, "horizon": tr.steps, "dt": 0.1, "record": record.model_dump(mode="json"),
          "steps": steps}))  # fmt: skip
-    seed = {"scenario": "crossing_high", "seed": 3, "outcome": "collision_pedestrian", "steps": 40,
-            "label": "collision_pedestrian_robot_fault", "tags": [], "first_collision_step": 40, "min_distance": 1.3,
-            "min_clearance": -0.1, "mean_command_v": 0.9, "max_command_v": 0.9, "plan_ms_mean": 0.1,
-            "prediction_ade": None, "trace": "diagnostics/trace_crossing_high_3.json"}
+    seed = {
+        "scenario": "crossing_high",
+        "seed": 3,
+        "outcome": "collision_pedestrian",
+        "steps": 40,
+        "label": "collision_pedestrian_robot_fault",
+        "tags": [],
+        "first_collision_step": 40,
+        "min_distance": 1.3,
+        "min_clearance": -0.1,
+        "mean_command_v": 0.9,
+        "max_command_v": 0.9,
+        "plan_ms_mean": 0.1,
+        "prediction_ade": None,
+        "trace": "diagnostics/trace_crossing_high_3.json",
+    }
     return {"episodes": 1, "solved": 0, "outcomes": {"collision_pedestrian": 1},
             "taxonomy": data.taxonomy(collision_pedestrian_robot_fault=1), "taxonomy_config": {}, "seeds": [seed],
             "code_version": "0.1.0+test", "artifacts": {}, "wall_s": 1.0, "config": {},
@@ -51,7 +63,9 @@ def test_moment_of_a_planner_without_predictor_shows_scene_heading_and_plan(tmp_
     assert _pixels(picture, PLAN_RGB) > 40  # the plan drawn
     assert _pixels(picture, PED_RGB) > 80  # pedestrians drawn at that step
     bare = tmp_path / "bare"
-    write_diagnostics_report(_run_without_forecasts(bare), bare)  # no full trace: heading and plan still drawn
+    write_diagnostics_report(
+        _run_without_forecasts(bare), bare
+    )  # no full trace: heading and plan still drawn
     assert _pixels(bare / "figures/moment_crossing_high_3.png", PLAN_RGB) > 40
     assert _pixels(bare / "figures/moment_crossing_high_3.png", PED_RGB) < _pixels(picture, PED_RGB)
 

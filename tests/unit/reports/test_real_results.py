@@ -23,8 +23,14 @@ from .data import assert_page, assert_picture, campaign
 @pytest.fixture(scope="module")
 def evaluated(tmp_path_factory: pytest.TempPathFactory) -> tuple[EvaluationResult, Path]:
     work = tmp_path_factory.mktemp("eval")
-    cfg = EvaluationConfig.model_validate(dict(scenarios=["crossing_low", "head_on_corridor_high"],
-                                               seeds_per_scenario=2, max_steps=40, planner={"name": "goal"}))
+    cfg = EvaluationConfig.model_validate(
+        dict(
+            scenarios=["crossing_low", "head_on_corridor_high"],
+            seeds_per_scenario=2,
+            max_steps=40,
+            planner={"name": "goal"},
+        )
+    )
     ctx = StageContext(workdir=work, resolve_bundle=lambda _b: BUILTIN_CONFIG_ROOT)
     return run_evaluation(cfg, ctx), work
 
@@ -43,25 +49,33 @@ def test_report_of_a_real_evaluation(evaluated: tuple[EvaluationResult, Path]) -
         assert f"| {scenario} | 2 |" in md
     if sum(res.taxonomy.values()):
         assert (work / "figures/taxonomy_per_family.png") in paths
-    assert res.planner.config_hash[:12] in md and "[evaluation.json](evaluation.json)" not in md  # labelled links
+    assert (
+        res.planner.config_hash[:12] in md and "[evaluation.json](evaluation.json)" not in md
+    )  # labelled links
     assert "(evaluation.json)" in md and "(episodes.jsonl)" in md
 
 
-def test_report_from_the_json_file_matches_the_model(evaluated: tuple[EvaluationResult, Path], tmp_path: Path) -> None:
+def test_report_from_the_json_file_matches_the_model(
+    evaluated: tuple[EvaluationResult, Path], tmp_path: Path
+) -> None:
     res, work = evaluated
     write_evaluation_report(work / "evaluation.json", tmp_path)
     write_evaluation_report(res, tmp_path / "model")
     assert (tmp_path / "report.md").read_text() == (tmp_path / "model" / "report.md").read_text()
 
 
-def test_ab_of_a_run_against_itself_has_zero_deltas(evaluated: tuple[EvaluationResult, Path], tmp_path: Path) -> None:
+def test_ab_of_a_run_against_itself_has_zero_deltas(
+    evaluated: tuple[EvaluationResult, Path], tmp_path: Path
+) -> None:
     res, _ = evaluated
     write_comparison_report(res, json.loads(res.model_dump_json()), tmp_path, labels=("run", "same run"))
     md = (tmp_path / "report.md").read_text()
     assert "delta +0.00 pp" in md and "interval includes 0" in md and "Warning" not in md
 
 
-def test_campaign_ab_from_cell_episode_files(evaluated: tuple[EvaluationResult, Path], tmp_path: Path) -> None:
+def test_campaign_ab_from_cell_episode_files(
+    evaluated: tuple[EvaluationResult, Path], tmp_path: Path
+) -> None:
     _, work = evaluated
     camp = campaign(gate_passed=True)
     (tmp_path / "cells").mkdir()

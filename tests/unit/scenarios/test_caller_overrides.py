@@ -14,9 +14,13 @@ from .matrices import scenario, tiny_map, write
 
 def test_caller_overrides_win_over_the_matrix_own(tmp_path: Path) -> None:
     write(tmp_path / "tiny.yaml", tiny_map())
-    path = write(tmp_path / "m.yaml", {
-        "scenario_overrides": {"simulation_config": {"ped_speed_tier": "slow", "ped_density": 0.03}},
-        "scenarios": [scenario("a"), scenario("b", simulation_config={"nonreactive_fraction": 0.5})]})
+    path = write(
+        tmp_path / "m.yaml",
+        {
+            "scenario_overrides": {"simulation_config": {"ped_speed_tier": "slow", "ped_density": 0.03}},
+            "scenarios": [scenario("a"), scenario("b", simulation_config={"nonreactive_fraction": 0.5})],
+        },
+    )
     m = load_matrix(path, overrides={"simulation_config": {"ped_speed_tier": "realistic"}})
     for s in m.scenarios:
         cfg = s.scenario.simulation_config

@@ -38,12 +38,15 @@ def test_non_matrix_file_is_refused_by_kind(corpus_dir: Path, rel: str, kind: st
 
 
 def test_schema_version_must_name_a_matrix_schema(tmp_path: Path) -> None:
-    with pytest.raises(ConfigError, match="schema_version 'robot_sf.scenario_matrix.v9' is not a scenario matrix"):
-        matrix_from_data({"schema_version": "robot_sf.scenario_matrix.v9", "scenarios": []}, source=tmp_path / "m.yaml")
+    with pytest.raises(
+        ConfigError, match="schema_version 'robot_sf.scenario_matrix.v9' is not a scenario matrix"
+    ):
+        matrix_from_data(
+            {"schema_version": "robot_sf.scenario_matrix.v9", "scenarios": []}, source=tmp_path / "m.yaml"
+        )
 
 
 def test_defaults_block_is_an_anchor_holder(tmp_path: Path) -> None:
-
 
     write(tmp_path / "tiny.yaml", tiny_map())
     text = (

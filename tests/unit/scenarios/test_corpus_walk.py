@@ -19,7 +19,9 @@ from foresight.core.scenarios.loader import load_matrix
 from foresight.core.sim.episode import run_episode
 from foresight.core.sim.simulator import Simulator
 
-WALK_STEPS = 20  #: steps per episode: every scenario's set-up, behaviours and planner run, not its whole horizon
+WALK_STEPS = (
+    20  #: steps per episode: every scenario's set-up, behaviours and planner run, not its whole horizon
+)
 
 #: matrices that name a file the corpus leaves out (PROVENANCE.md: a suite kept back) -> that file
 WITHHELD = {
@@ -30,12 +32,9 @@ WITHHELD = {
     "sets/atomic_navigation_minimal_full_v1.yaml": "archetypes/issue_596_dynamic.yaml",
     "sets/issue_3202_ammv_anticipatory_conflict.yaml": "single/issue_2527_waiting_then_crossing.yaml",
     "sets/issue_3320_occluded_emergence_live_replay.yaml": "single/issue_2756_occluded_emergence_live.yaml",
-    "sets/issue_3323_occluded_emergence_near_field_live_replay.yaml":
-        "single/issue_3323_occluded_emergence_near_field_live.yaml",
-    "sets/issue_3556_near_safe_occlusion_bearing_crossing.yaml":
-        "single/issue_3556_near_safe_occlusion_bearing_crossing.yaml",
-    "sets/issue_3635_near_safe_occlusion_bearing_crossing.yaml":
-        "single/issue_3635_near_safe_occlusion_bearing_crossing.yaml",
+    "sets/issue_3323_occluded_emergence_near_field_live_replay.yaml": "single/issue_3323_occluded_emergence_near_field_live.yaml",
+    "sets/issue_3556_near_safe_occlusion_bearing_crossing.yaml": "single/issue_3556_near_safe_occlusion_bearing_crossing.yaml",
+    "sets/issue_3635_near_safe_occlusion_bearing_crossing.yaml": "single/issue_3635_near_safe_occlusion_bearing_crossing.yaml",
     "sets/issue_3977_public_requirements.yaml": "single/issue_3977_safe_braking.yaml",
     "sets/ppo_all_available_training_v1_horizon500.yaml": "sets/ppo_all_available_training_v1.yaml",
     "single/ovgu_campus_walk.yaml": "../../../maps/imported/ovgu_campus_walk.yaml",
@@ -56,16 +55,22 @@ KINDS = {
     "generated/issue_5264_review_manifest.yaml": "generated-scenario review manifest",
     "lightweight_cnn_issue_835_repro.yaml": "training run config",
     **{f"multi_extractor_{n}.yaml": "training run config" for n in ("default", "eval_193", "gpu")},
-    **{f"maps/issue_2926_{n}.yaml": "map definition"
-       for n in ("pedestrian_only_cut", "signalized_crossing_wait_box", "stair_access")},
+    **{
+        f"maps/issue_2926_{n}.yaml": "map definition"
+        for n in ("pedestrian_only_cut", "signalized_crossing_wait_box", "stair_access")
+    },
     "perturbations/issue_3369_occluder_timing_pilot_v1.yaml": "perturbation manifest",
     "results/performance_smoke_test.json": "result index",
     "route_overrides/issue_1878/classic_head_on_corridor_low_guided_1502.yaml": "route-override payload",
     "route_overrides/issue_3323/occluded_emergence_near_field_h1.yaml": "route-override payload",
-    **{f"route_overrides/issue_3977/{n}.yaml": "route-override payload"
-       for n in ("emergency_reaction", "safe_braking", "visibility_and_intent")},
-    **{f"route_overrides/issue_596/{n}.yaml": "route-override payload"
-       for n in (*(f"empty_goal_{d}" for d in _ISSUE_596), "goal_behind_robot", "small_angle_precision")},
+    **{
+        f"route_overrides/issue_3977/{n}.yaml": "route-override payload"
+        for n in ("emergency_reaction", "safe_braking", "visibility_and_intent")
+    },
+    **{
+        f"route_overrides/issue_596/{n}.yaml": "route-override payload"
+        for n in (*(f"empty_goal_{d}" for d in _ISSUE_596), "goal_behind_robot", "small_angle_precision")
+    },
 }
 #: matrices refused for what they ask -> the words of the refusal
 REFUSED = {
@@ -129,7 +134,11 @@ def test_every_scenario_runs_one_episode_with_the_predictive_planner(corpus: dic
                     run_episode(scen, scen.scenario.seeds[0], planner, max_steps=WALK_STEPS, simulator=sim)
                 continue
             result = run_episode(scen, scen.scenario.seeds[0], planner, max_steps=WALK_STEPS, simulator=sim)
-            assert result.steps >= 1 and result.outcome in ("success", "collision_pedestrian", "collision_static",
-                                                            "timeout")
+            assert result.steps >= 1 and result.outcome in (
+                "success",
+                "collision_pedestrian",
+                "collision_static",
+                "timeout",
+            )
             ran += 1
     assert ran >= 100

@@ -14,20 +14,37 @@ from foresight.core.scenarios.replay import select_episodes
 
 from .matrices import write
 
-ROWS = [(f, i, 1.0 + 0.5 * f / 10 if i % 2 else 11.0 - 0.5 * f / 10, 2.0 + i) for f in range(0, 210, 10) for i in (1, 2, 3)]
+ROWS = [
+    (f, i, 1.0 + 0.5 * f / 10 if i % 2 else 11.0 - 0.5 * f / 10, 2.0 + i)
+    for f in range(0, 210, 10)
+    for i in (1, 2, 3)
+]
 
 
 @pytest.fixture
 def root(tmp_path: Path) -> Path:
-    write(tmp_path / "data" / "raw" / "all_data" / "mini.txt", "".join(f"{f}\t{i}\t{x}\t{y}\n" for f, i, x, y in ROWS))
+    write(
+        tmp_path / "data" / "raw" / "all_data" / "mini.txt",
+        "".join(f"{f}\t{i}\t{x}\t{y}\n" for f, i, x, y in ROWS),
+    )
     return tmp_path / "data"
 
 
 def _load(tmp_path: Path, root: Path, steps: int = 50, **replay):
-    block = {"scene": "mini", "start_frame": 10, "robot_start": [6.0, 1.5], "robot_goal": [6.0, 6.5], **replay}
-    path = write(tmp_path / "m.yaml", {"scenarios": [
-        {"name": "r1", "replay": block, "simulation_config": {"max_episode_steps": steps}}]})
-    return path, load_matrix(path, data_roots=lambda name: {"mine": root}[name] if name == "mine" else _unknown(name))
+    block = {
+        "scene": "mini",
+        "start_frame": 10,
+        "robot_start": [6.0, 1.5],
+        "robot_goal": [6.0, 6.5],
+        **replay,
+    }
+    path = write(
+        tmp_path / "m.yaml",
+        {"scenarios": [{"name": "r1", "replay": block, "simulation_config": {"max_episode_steps": steps}}]},
+    )
+    return path, load_matrix(
+        path, data_roots=lambda name: {"mine": root}[name] if name == "mine" else _unknown(name)
+    )
 
 
 def _unknown(name: str) -> Path:
@@ -48,13 +65,16 @@ def test_the_map_is_the_scenes_walkable_bounds(tmp_path: Path, root: Path) -> No
     assert s.replay.step.max() == 52
 
 
-@pytest.mark.parametrize(("replay", "item", "words"), [
-    ({"scene": "nowhere"}, "r1.replay.scene", ["no scene 'nowhere'", "mini"]),
-    ({"data_root": "elsewhere"}, "r1.replay.data_root", ["unknown data root 'elsewhere'"]),
-    ({"start_frame": 15}, "r1.replay.start_frame", ["frame 15 is not annotated"]),
-    ({"start_frame": 180}, "r1.replay.start_frame", ["runs past the scene's last frame 200"]),
-    ({"robot_goal": [6.0, 40.0]}, "r1.replay.robot_goal", ["outside the scene's walkable bounds"]),
-])
+@pytest.mark.parametrize(
+    ("replay", "item", "words"),
+    [
+        ({"scene": "nowhere"}, "r1.replay.scene", ["no scene 'nowhere'", "mini"]),
+        ({"data_root": "elsewhere"}, "r1.replay.data_root", ["unknown data root 'elsewhere'"]),
+        ({"start_frame": 15}, "r1.replay.start_frame", ["frame 15 is not annotated"]),
+        ({"start_frame": 180}, "r1.replay.start_frame", ["runs past the scene's last frame 200"]),
+        ({"robot_goal": [6.0, 40.0]}, "r1.replay.robot_goal", ["outside the scene's walkable bounds"]),
+    ],
+)
 def test_bad_replay_names_file_scenario_and_item(tmp_path: Path, root: Path, replay, item, words) -> None:
     with pytest.raises(ConfigError) as info:
         _load(tmp_path, root, **{"data_root": "mine", **replay})
@@ -63,15 +83,46 @@ def test_bad_replay_names_file_scenario_and_item(tmp_path: Path, root: Path, rep
 
 
 def test_replay_scenario_may_not_name_a_map(tmp_path: Path, root: Path) -> None:
-    path = write(tmp_path / "m.yaml", {"scenarios": [{"name": "r1", "map_file": "x.yaml", "replay": {
-        "scene": "mini", "start_frame": 0, "robot_start": [1, 1], "robot_goal": [2, 2]}}]})
+    path = write(
+        tmp_path / "m.yaml",
+        {
+            "scenarios": [
+                {
+                    "name": "r1",
+                    "map_file": "x.yaml",
+                    "replay": {
+                        "scene": "mini",
+                        "start_frame": 0,
+                        "robot_start": [1, 1],
+                        "robot_goal": [2, 2],
+                    },
+                }
+            ]
+        },
+    )
     with pytest.raises(ConfigError, match="r1.*no map_file, map_id"):
         load_matrix(path)
 
 
-def test_cli_refuses_a_missing_scene_in_one_line_before_any_episode(tmp_path: Path, capsys, shared_dir: Path) -> None:
-    path = write(tmp_path / "m.yaml", {"scenarios": [{"name": "bad_replay", "replay": {
-        "scene": "crowds_zara99", "start_frame": 0, "robot_start": [5, 1], "robot_goal": [5, 10]}}]})
+def test_cli_refuses_a_missing_scene_in_one_line_before_any_episode(
+    tmp_path: Path, capsys, shared_dir: Path
+) -> None:
+    path = write(
+        tmp_path / "m.yaml",
+        {
+            "scenarios": [
+                {
+                    "name": "bad_replay",
+                    "replay": {
+                        "scene": "crowds_zara99",
+                        "start_frame": 0,
+                        "robot_start": [5, 1],
+                        "robot_goal": [5, 10],
+                    },
+                }
+            ]
+        },
+    )
     code = main(["evaluate", "--matrix", str(path), "--planner", "goal", "--local", "--json"])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 1 and len(err) == 1

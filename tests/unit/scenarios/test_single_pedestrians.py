@@ -28,14 +28,30 @@ SVG = """<svg xmlns="http://www.w3.org/2000/svg" xmlns:inkscape="http://www.inks
 
 def _matrix(tmp_path: Path, peds: list[dict], **scenario) -> Path:
     write(tmp_path / "poi_map.svg", SVG)
-    doc = {"scenarios": [{"name": "s", "map_file": "poi_map.svg", "single_pedestrians": peds,
-                          "simulation_config": {"ped_density": 0.0, "max_episode_steps": 400}, **scenario}]}
+    doc = {
+        "scenarios": [
+            {
+                "name": "s",
+                "map_file": "poi_map.svg",
+                "single_pedestrians": peds,
+                "simulation_config": {"ped_density": 0.0, "max_episode_steps": 400},
+                **scenario,
+            }
+        ]
+    }
     return write(tmp_path / "m.yaml", doc)
 
 
 def test_goal_poi_resolves_to_the_svg_point_by_label_or_id(tmp_path: Path) -> None:
-    m = load_matrix(_matrix(tmp_path, [{"id": "p1", "goal_poi": "exit_checkpoint"},
-                                       {"id": "p2", "start": [8, 15], "goal_poi": "poi_mid", "speed_m_s": 1.0}]))
+    m = load_matrix(
+        _matrix(
+            tmp_path,
+            [
+                {"id": "p1", "goal_poi": "exit_checkpoint"},
+                {"id": "p2", "start": [8, 15], "goal_poi": "poi_mid", "speed_m_s": 1.0},
+            ],
+        )
+    )
     peds = {p.id: p for p in m.scenarios[0].map.single_pedestrians}
     assert peds["p1"].goal == (24.0, 12.0)  # the circle's centre, found by its inkscape:label
     assert peds["p2"].goal == (15.0, 10.0)  # by its id; p2 is a new pedestrian (the map has no p2 marker)
@@ -48,7 +64,9 @@ def test_goal_poi_resolves_to_the_svg_point_by_label_or_id(tmp_path: Path) -> No
 
 
 def test_trajectory_poi_lists_points_of_interest(tmp_path: Path) -> None:
-    m = load_matrix(_matrix(tmp_path, [{"id": "p1", "goal": None, "trajectory_poi": ["poi_mid", "exit_checkpoint"]}]))
+    m = load_matrix(
+        _matrix(tmp_path, [{"id": "p1", "goal": None, "trajectory_poi": ["poi_mid", "exit_checkpoint"]}])
+    )
     assert m.scenarios[0].map.single_pedestrians[0].trajectory == ((15.0, 10.0), (24.0, 12.0))
 
 
@@ -58,19 +76,45 @@ def test_unknown_poi_is_one_error_naming_file_scenario_and_item(tmp_path: Path) 
         load_matrix(path)
     assert info.value.source == str(path.resolve())
     assert info.value.item == "s.single_pedestrians[p1]"
-    assert "goal_poi: the map has no point of interest 'nowhere' (has: exit_checkpoint, poi_exit, poi_mid)" in str(info.value)
+    assert (
+        "goal_poi: the map has no point of interest 'nowhere' (has: exit_checkpoint, poi_exit, poi_mid)"
+        in str(info.value)
+    )
 
 
-@pytest.mark.parametrize(("ped", "message"), [
-    ({"id": "p1", "role": "join", "role_target_id": "ghost"}, "role_target_id 'ghost': no other single pedestrian"),
-    ({"id": "p1", "role": "lead", "role_target_id": "robot:1"}, "role_target_id 'robot:1': the only robot is"),
-    ({"id": "p1", "role": "wait", "role_target_id": "robot"}, "role_target_id 'robot' is not used by role 'wait'"),
-    ({"id": "p1", "role": "dance"}, "role: Input should be"),
-    ({"id": "ghost", "goal": [3, 3]}, "the map has no single pedestrian 'ghost' (has: p1); a new one needs a start"),
-    ({"id": "p1", "goal": None, "trajectory": [[5, 10], [9, 10]], "hold_until_robot_within_m": 2.0,
-      "hold_ref_point": [7, 7]}, "hold_ref_point [7.0, 7.0] is not a waypoint of the trajectory"),
-    ({"id": "p1", "hold_until_robot_within_m": 2.0}, "hold_until_robot_within_m needs hold_ref_point"),
-])
+@pytest.mark.parametrize(
+    ("ped", "message"),
+    [
+        (
+            {"id": "p1", "role": "join", "role_target_id": "ghost"},
+            "role_target_id 'ghost': no other single pedestrian",
+        ),
+        (
+            {"id": "p1", "role": "lead", "role_target_id": "robot:1"},
+            "role_target_id 'robot:1': the only robot is",
+        ),
+        (
+            {"id": "p1", "role": "wait", "role_target_id": "robot"},
+            "role_target_id 'robot' is not used by role 'wait'",
+        ),
+        ({"id": "p1", "role": "dance"}, "role: Input should be"),
+        (
+            {"id": "ghost", "goal": [3, 3]},
+            "the map has no single pedestrian 'ghost' (has: p1); a new one needs a start",
+        ),
+        (
+            {
+                "id": "p1",
+                "goal": None,
+                "trajectory": [[5, 10], [9, 10]],
+                "hold_until_robot_within_m": 2.0,
+                "hold_ref_point": [7, 7],
+            },
+            "hold_ref_point [7.0, 7.0] is not a waypoint of the trajectory",
+        ),
+        ({"id": "p1", "hold_until_robot_within_m": 2.0}, "hold_until_robot_within_m needs hold_ref_point"),
+    ],
+)
 def test_bad_single_pedestrian_entries_fail_at_load(tmp_path: Path, ped: dict, message: str) -> None:
     path = _matrix(tmp_path, [ped])
     with pytest.raises(ConfigError) as info:
@@ -92,8 +136,19 @@ def test_metadata_merges_and_roles_round_trip_the_native_format(tmp_path: Path) 
 
     from foresight.core.maps.native import dump_map, map_from_dict
 
-    m = load_matrix(_matrix(tmp_path, [{"id": "p1", "role": "accompany", "role_offset": [0, 2],
-                                        "metadata": {"intent_label": "escort"}}]))
+    m = load_matrix(
+        _matrix(
+            tmp_path,
+            [
+                {
+                    "id": "p1",
+                    "role": "accompany",
+                    "role_offset": [0, 2],
+                    "metadata": {"intent_label": "escort"},
+                }
+            ],
+        )
+    )
     mapdef = m.scenarios[0].map
     assert mapdef.single_pedestrians[0].metadata == {"intent_label": "escort"}
     again = map_from_dict(yaml.safe_load(dump_map(mapdef)), source="x")

@@ -16,8 +16,19 @@ REPO = Path(__file__).resolve().parents[3]
 MATRIX = REPO / "configs" / "scenarios" / "stress.yaml"
 TRAIN = REPO / "configs" / "seeds" / "stress_train.yaml"
 REPLICATION = REPO / "configs" / "seeds" / "stress_replication.yaml"
-ARCHETYPES = {"crossing", "cross_trap", "head_on_corridor", "overtaking", "bottleneck", "doorway", "merging",
-              "t_intersection", "group_crossing", "station_platform", "urban_crossing"}
+ARCHETYPES = {
+    "crossing",
+    "cross_trap",
+    "head_on_corridor",
+    "overtaking",
+    "bottleneck",
+    "doorway",
+    "merging",
+    "t_intersection",
+    "group_crossing",
+    "station_platform",
+    "urban_crossing",
+}
 
 
 def test_synthetic_part_is_every_archetype_at_realistic_speed_and_both_shares(shared_dir: Path) -> None:
@@ -74,7 +85,9 @@ def test_replay_part_covers_the_five_scenes_with_at_least_30_episodes(shared_dir
     m = load_matrix(MATRIX)
     replay = [s for s in m.scenarios if s.scenario.replay is not None]
     families = {s.scenario.archetype for s in replay}
-    assert len(replay) >= 30 and families == {f"replay_{x}" for x in ("eth", "hotel", "univ", "zara1", "zara2")}
+    assert len(replay) >= 30 and families == {
+        f"replay_{x}" for x in ("eth", "hotel", "univ", "zara1", "zara2")
+    }
     for s in replay:
         assert s.scenario.metadata["crossings"] >= 5 and s.scenario.simulation_config.max_episode_steps == 200
         start, goal = (np.asarray(p) for p in s.map.robot_routes[0].waypoints)
@@ -83,19 +96,35 @@ def test_replay_part_covers_the_five_scenes_with_at_least_30_episodes(shared_dir
 
 
 def test_files_are_what_the_generator_writes(tmp_path: Path, shared_dir: Path) -> None:
-    load_bench("make_stress_suite").main(["--out", str(tmp_path / "stress.yaml"), "--train-out", str(tmp_path / "train.yaml"),
-                 "--replication-out", str(tmp_path / "replication.yaml")])
-    stale = "configs/ differ from what the generator writes: run `.venv/bin/python bench/make_stress_suite.py`"
+    load_bench("make_stress_suite").main(
+        [
+            "--out",
+            str(tmp_path / "stress.yaml"),
+            "--train-out",
+            str(tmp_path / "train.yaml"),
+            "--replication-out",
+            str(tmp_path / "replication.yaml"),
+        ]
+    )
+    stale = (
+        "configs/ differ from what the generator writes: run `.venv/bin/python bench/make_stress_suite.py`"
+    )
     assert (tmp_path / "stress.yaml").read_text() == MATRIX.read_text(), stale
     assert (tmp_path / "train.yaml").read_text() == TRAIN.read_text(), stale
     assert (tmp_path / "replication.yaml").read_text() == REPLICATION.read_text(), stale
 
 
-def test_our_matrix_defaults_to_realistic_crowds_and_the_reference_keeps_its_own(reference_matrix_path: Path) -> None:
+def test_our_matrix_defaults_to_realistic_crowds_and_the_reference_keeps_its_own(
+    reference_matrix_path: Path,
+) -> None:
     ours = load_matrix(REPO / "configs" / "scenarios" / "classic_interactions.yaml")
     for s in ours.scenarios:
         cfg = s.scenario.simulation_config
         assert cfg.ped_speed_tier == "realistic" and cfg.nonreactive_fraction == 0.2
     for s in load_matrix(reference_matrix_path).scenarios:
         cfg = s.scenario.simulation_config
-        assert cfg.ped_speed_tier == "reference" and cfg.nonreactive_fraction == 0.0 and cfg.peds_have_robot_repulsion
+        assert (
+            cfg.ped_speed_tier == "reference"
+            and cfg.nonreactive_fraction == 0.0
+            and cfg.peds_have_robot_repulsion
+        )

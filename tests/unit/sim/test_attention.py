@@ -35,8 +35,11 @@ def test_realistic_tier_in_a_simulated_crowd():
 
 def _crossing(**sim_cfg):
     """A robot standing at (10, 10) and one pedestrian walking straight down through that spot."""
-    m = open_map(robot_start=(10.0, 10.0, 0.01, 0.01), robot_goal=(30.0, 10.0),
-                 singles=(walker("p", (10.0, 16.0), (10.0, 2.0), speed=1.0),))
+    m = open_map(
+        robot_start=(10.0, 10.0, 0.01, 0.01),
+        robot_goal=(30.0, 10.0),
+        singles=(walker("p", (10.0, 16.0), (10.0, 2.0), speed=1.0),),
+    )
     return scenario(m, name="crossing", max_episode_steps=150, **sim_cfg)
 
 
@@ -62,7 +65,9 @@ def test_nonreactive_pedestrian_walks_through_the_robot_as_if_it_were_not_there(
     n = min(len(seeing), len(blind))
     differs = np.nonzero(np.any(seeing[:n] != blind[:n], axis=1))[0]
     assert len(differs) and d[differs[0] - 1] <= 3.35 + 1.3 * 0.1
-    assert np.hypot(*(seeing[len(blind) - 1] - ROBOT)) > 1.4  # it has not reached the robot where the blind one did
+    assert (
+        np.hypot(*(seeing[len(blind) - 1] - ROBOT)) > 1.4
+    )  # it has not reached the robot where the blind one did
 
 
 def test_late_pedestrian_reacts_only_within_its_distance():
@@ -87,9 +92,13 @@ def test_shares_are_exact_own_draws_and_deterministic():
         k = int(np.floor(share * n + 0.5))
         assert sim.trace.meta["n_nonreactive"] == k == int((reach == 0).sum())
         assert np.array_equal(sim.crowd.pos, pos)  # the same crowd: the shares use a generator of their own
-    sim.reset(scenario(street_map(), ped_density=0.3, nonreactive_fraction=0.3, late_reaction_fraction=0.5), 7)
+    sim.reset(
+        scenario(street_map(), ped_density=0.3, nonreactive_fraction=0.3, late_reaction_fraction=0.5), 7
+    )
     reach = sim.dynamics.robot_reach.copy()
     k_non = int(np.floor(0.3 * n + 0.5))
     assert (reach == 0).sum() == k_non and (reach == 2.0).sum() == int(np.floor(0.5 * (n - k_non) + 0.5))
-    sim.reset(scenario(street_map(), ped_density=0.3, nonreactive_fraction=0.3, late_reaction_fraction=0.5), 7)
+    sim.reset(
+        scenario(street_map(), ped_density=0.3, nonreactive_fraction=0.3, late_reaction_fraction=0.5), 7
+    )
     assert np.array_equal(sim.dynamics.robot_reach, reach)

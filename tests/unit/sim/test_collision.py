@@ -24,13 +24,21 @@ def drive_until_done(scen, cmd=(1.0, 0.0), steps=400):
 
 def test_robot_hits_a_standing_pedestrian_at_centre_distance_1_4():
     # a ped with speed 0 cannot be pushed away by the robot force
-    m = open_map(robot_start=(2.0, 9.9, 0.2, 0.2), robot_goal=(37, 9.5), singles=(walker("p", (10, 10), None, speed=0.0),))
+    m = open_map(
+        robot_start=(2.0, 9.9, 0.2, 0.2),
+        robot_goal=(37, 9.5),
+        singles=(walker("p", (10, 10), None, speed=0.0),),
+    )
     sim, obs, ev = drive_until_done(scenario(m))
     assert ev.collision == "pedestrian" and ev.outcome == "collision_pedestrian"
     d = np.hypot(*(obs.robot_pose[:2] - obs.ped_positions[0]))
     assert d <= 1.4 and d > 1.4 - 0.21  # discrete check: detected within one step (<= 0.2 m at 2 m/s)
     tr = sim.trace
-    assert tr.collision_kind == "pedestrian" and tr.collision_step == tr.steps and tr.outcome == "collision_pedestrian"
+    assert (
+        tr.collision_kind == "pedestrian"
+        and tr.collision_step == tr.steps
+        and tr.outcome == "collision_pedestrian"
+    )
     assert np.allclose(tr.collision_point, [10, 10])
 
 
@@ -88,7 +96,12 @@ def test_pymunk_checker_agrees_with_the_numpy_rule():
     from foresight.core.sim.collision import StaticChecker
     from foresight.core.sim.geometry import StaticMap
 
-    m = MapDef(name="m", width=20, height=20, obstacles=(((5, 5), (9, 5), (7, 9)), ((12, 2), (18, 2), (18, 6), (12, 6))))
+    m = MapDef(
+        name="m",
+        width=20,
+        height=20,
+        obstacles=(((5, 5), (9, 5), (7, 9)), ((12, 2), (18, 2), (18, 6), (12, 6))),
+    )
     st = StaticMap(m)
     rng = np.random.default_rng(0)
     pts = rng.uniform(-0.5, 20.5, (3000, 2))

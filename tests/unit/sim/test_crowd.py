@@ -55,8 +55,14 @@ def test_head_on_walkers_pass_without_stalling():
 
 def _wall_scene(constraint: bool, speed: float):
     wall = ((9.0, 11.0), (11.0, 11.0), (11.0, 11.2), (9.0, 11.2))  # a thin 0.2 m wall across x 9..11
-    m = open_map(width=20, height=20, obstacles=(wall,), robot_start=(9.5, 6.9, 1.0, 0.2), robot_goal=(18, 1),
-                  singles=(walker("p", (10.0, 9.5), (10.0, 18.0), speed=speed),))
+    m = open_map(
+        width=20,
+        height=20,
+        obstacles=(wall,),
+        robot_start=(9.5, 6.9, 1.0, 0.2),
+        robot_goal=(18, 1),
+        singles=(walker("p", (10.0, 9.5), (10.0, 18.0), speed=speed),),
+    )
     cp = CrowdParams(wall_constraint=constraint)
     sim = run_still(scenario(m), 120, sim=Simulator(crowd_params=cp))
     return sim, np.asarray(wall)
@@ -80,7 +86,9 @@ def test_without_the_constraint_a_fast_walker_goes_through():
 
 
 def test_start_delay_ped_moves_after_its_delay_at_scripted_speed():
-    m = open_map(width=60, height=40, singles=(walker("d", (10, 20), (40, 20), speed=1.0, start_delay_s=2.0),))
+    m = open_map(
+        width=60, height=40, singles=(walker("d", (10, 20), (40, 20), speed=1.0, start_delay_s=2.0),)
+    )
     sim = run_still(scenario(m), 150)
     x = sim.trace.ped_pos[:, 0, 0]
     assert np.all(abs(x[:20] - 10.0) < 0.02)  # held at the start for 2 s (only nudged by the map bounds)
@@ -89,8 +97,14 @@ def test_start_delay_ped_moves_after_its_delay_at_scripted_speed():
 
 
 def test_trajectory_with_wait_holds_at_the_waypoint():
-    p = walker("t", (10, 20), None, speed=1.0, trajectory=((20, 20), (20, 30)),
-               wait_at=(WaitRule(waypoint_index=0, wait_s=3.0),))
+    p = walker(
+        "t",
+        (10, 20),
+        None,
+        speed=1.0,
+        trajectory=((20, 20), (20, 30)),
+        wait_at=(WaitRule(waypoint_index=0, wait_s=3.0),),
+    )
     sim = run_still(scenario(open_map(width=60, height=40, singles=(p,))), 300)
     pos = sim.trace.ped_pos[:, 0]
     near = np.nonzero(np.hypot(*(pos - [20, 20]).T) <= 0.2)[0]
@@ -120,7 +134,9 @@ def test_crowded_zone_peds_stay_in_their_zone():
     sim = run_still(scenario(m, population_size=12, zone_sampling="full"), 300)
     pos = sim.trace.ped_pos.reshape(-1, 2)
     assert pos.shape[0] == 301 * 12
-    assert (pos[:, 0] > 18).all() and (pos[:, 0] < 32).all() and (pos[:, 1] > 8).all() and (pos[:, 1] < 22).all()
+    assert (
+        (pos[:, 0] > 18).all() and (pos[:, 0] < 32).all() and (pos[:, 1] > 8).all() and (pos[:, 1] < 22).all()
+    )
 
 
 def test_a_group_waits_at_the_route_end_while_its_spawn_zone_is_blocked():

@@ -50,7 +50,9 @@ def test_social_force_moving_pair_matches_formula_with_unwrapped_theta():
     b = 0.35 * np.hypot(*w) + 1e-8
     theta = math.atan2(t[1], t[0]) - math.atan2(e[1], e[0])
     s = 1.0 if theta >= 0 else -1.0
-    expect = math.exp(-d / b - (3 * b * theta) ** 2) * t - s * math.exp(-d / b - (2 * b * theta) ** 2) * np.array([-t[1], t[0]])
+    expect = math.exp(-d / b - (3 * b * theta) ** 2) * t - s * math.exp(
+        -d / b - (2 * b * theta) ** 2
+    ) * np.array([-t[1], t[0]])
     assert f[0] == pytest.approx(5.1 * expect)
 
 

@@ -13,14 +13,29 @@ from foresight.core.sim.simulator import Simulator
 
 # pedestrians per scenario (route + single), reference-simulation §6.3
 EXPECTED_PEDS = {
-    "classic_bottleneck_low": 0, "classic_bottleneck_medium": 1, "classic_bottleneck_high": 3,
-    "classic_realworld_double_bottleneck_high": 8, "classic_station_platform_medium": 26,
-    "classic_cross_trap_low": 3, "classic_cross_trap_medium": 8, "classic_cross_trap_high": 12,
-    "classic_doorway_low": 3, "classic_doorway_medium": 6, "classic_doorway_high": 9,
-    "classic_group_crossing_low": 2, "classic_group_crossing_medium": 3, "classic_group_crossing_high": 4,
-    "classic_head_on_corridor_low": 2, "classic_head_on_corridor_medium": 4, "classic_merging_low": 4,
-    "classic_merging_medium": 9, "classic_overtaking_low": 3, "classic_overtaking_medium": 6,
-    "classic_t_intersection_low": 2, "classic_t_intersection_medium": 3, "classic_urban_crossing_medium": 5,
+    "classic_bottleneck_low": 0,
+    "classic_bottleneck_medium": 1,
+    "classic_bottleneck_high": 3,
+    "classic_realworld_double_bottleneck_high": 8,
+    "classic_station_platform_medium": 26,
+    "classic_cross_trap_low": 3,
+    "classic_cross_trap_medium": 8,
+    "classic_cross_trap_high": 12,
+    "classic_doorway_low": 3,
+    "classic_doorway_medium": 6,
+    "classic_doorway_high": 9,
+    "classic_group_crossing_low": 2,
+    "classic_group_crossing_medium": 3,
+    "classic_group_crossing_high": 4,
+    "classic_head_on_corridor_low": 2,
+    "classic_head_on_corridor_medium": 4,
+    "classic_merging_low": 4,
+    "classic_merging_medium": 9,
+    "classic_overtaking_low": 3,
+    "classic_overtaking_medium": 6,
+    "classic_t_intersection_low": 2,
+    "classic_t_intersection_medium": 3,
+    "classic_urban_crossing_medium": 5,
 }
 
 
@@ -48,7 +63,9 @@ def test_each_scenario_runs_an_episode(matrix, name):
         assert not sim_static.inside_obstacle(r.trace.ped_pos.reshape(-1, 2)).any()
 
 
-@pytest.mark.parametrize(("name", "seed"), [("classic_station_platform_medium", 302), ("classic_cross_trap_high", 102)])
+@pytest.mark.parametrize(
+    ("name", "seed"), [("classic_station_platform_medium", 302), ("classic_cross_trap_high", 102)]
+)
 def test_reference_step_one_collisions_do_not_happen(matrix, name, seed):
     # in robot_sf these two episodes collide at step 1 (a pedestrian spawned on the robot)
     s = matrix.get(name)

@@ -69,14 +69,18 @@ def test_batched_equals_single_bit_for_bit():
         lim = RobotLimits(actuation=act)
         batch = unicycle_step(states, cmds, lim, DT)
         assert batch.shape == (4, 6, 5)
-        one = np.array([[unicycle_step(states[i, j], cmds[i, j], lim, DT) for j in range(6)] for i in range(4)])
+        one = np.array(
+            [[unicycle_step(states[i, j], cmds[i, j], lim, DT) for j in range(6)] for i in range(4)]
+        )
         assert np.array_equal(batch, one)
     # one state, many commands broadcasts
     assert unicycle_step(states[0, 0], cmds[0], RobotLimits(), DT).shape == (6, 5)
 
 
 def test_limits_from_robot_config():
-    lim = RobotLimits.from_config(RobotConfig(allow_backwards=True, max_linear_decel=2.0, actuation="reference_lag"))
+    lim = RobotLimits.from_config(
+        RobotConfig(allow_backwards=True, max_linear_decel=2.0, actuation="reference_lag")
+    )
     assert lim.v_min == -2.0 and lim.decel == 2.0 and lim.actuation == "reference_lag"
     assert lim.as_dict()["radius"] == 1.0
 
@@ -130,8 +134,14 @@ def test_rollout_equals_repeated_steps(limits):
     for trial in range(40):
         n = int(rng.integers(1, 45))
         # speeds also outside the limits (a state never produced by a step) and headings near +-pi
-        state0 = np.column_stack([rng.uniform(-5, 5, (25, 2)), rng.uniform(-3.2, 3.2, 25),
-                                  rng.uniform(-3, 3, 25), rng.uniform(-2, 2, 25)])
+        state0 = np.column_stack(
+            [
+                rng.uniform(-5, 5, (25, 2)),
+                rng.uniform(-3.2, 3.2, 25),
+                rng.uniform(-3, 3, 25),
+                rng.uniform(-2, 2, 25),
+            ]
+        )
         if trial % 4 == 0:
             cmds = rng.uniform(-3, 3, (25, n, 2))  # a new command every step
         else:
@@ -168,7 +178,9 @@ def test_robot_rollout_dispatches_on_the_kind():
     state0 = np.column_stack([rng.uniform(-5, 5, (8, 3)), rng.uniform(0, 2, 8), np.zeros(8)])
     cmds = _piecewise(rng, 8, 20, 2)
     hol = RobotLimits(kind="holonomic")
-    _assert_same_states(robot_rollout(state0, cmds, hol, DT), _stepped(state0, cmds, hol, holonomic_step), tol=0.0)
+    _assert_same_states(
+        robot_rollout(state0, cmds, hol, DT), _stepped(state0, cmds, hol, holonomic_step), tol=0.0
+    )
     _assert_same_states(robot_rollout(state0, cmds, RobotLimits(), DT), _stepped(state0, cmds, RobotLimits()))
 
 
@@ -176,14 +188,24 @@ def test_wrap_angle_is_the_floor_remainder_bit_for_bit():
     """The array fast path (one period added or subtracted) gives exactly (a + pi) % 2 pi - pi."""
     rng = np.random.default_rng(3)
     edges = []
-    for c in (-3 * np.pi, -np.pi, 0.0, np.pi, 3 * np.pi):  # each boundary and 40 representable numbers either side
+    for c in (
+        -3 * np.pi,
+        -np.pi,
+        0.0,
+        np.pi,
+        3 * np.pi,
+    ):  # each boundary and 40 representable numbers either side
         for side in (-np.inf, np.inf):
             x = c
             for _ in range(40):
                 x = np.nextafter(x, side)
                 edges.append(x)
         edges.append(c)
-    near = [np.array(edges), rng.uniform(-3 * np.pi, 3 * np.pi, 100_000), rng.uniform(-1e-9, 1e-9, 1000) + np.pi]
+    near = [
+        np.array(edges),
+        rng.uniform(-3 * np.pi, 3 * np.pi, 100_000),
+        rng.uniform(-1e-9, 1e-9, 1000) + np.pi,
+    ]
     far = [rng.uniform(-50.0, 50.0, 1000), np.array([np.nan, 1.0] * 10), np.array([np.inf, 0.5] * 10)]
     for a in near + far + [x.astype(np.float32) for x in near]:
         with np.errstate(invalid="ignore"):  # inf % 2 pi is nan

@@ -36,8 +36,12 @@ class CancelAfter:
 
 
 def _stuck_ctx(tmp: Path, workers: int = 1, after_s: float = 0.5) -> StageContext:
-    return StageContext(workdir=tmp, resolve_bundle=lambda _b: BUILTIN_CONFIG_ROOT, is_cancelled=CancelAfter(after_s),
-                        workers=workers)
+    return StageContext(
+        workdir=tmp,
+        resolve_bundle=lambda _b: BUILTIN_CONFIG_ROOT,
+        is_cancelled=CancelAfter(after_s),
+        workers=workers,
+    )
 
 
 def test_a_cancel_stops_an_episode_whose_robot_cannot_move() -> None:
@@ -50,8 +54,13 @@ def test_a_cancel_stops_an_episode_whose_robot_cannot_move() -> None:
 
 
 def test_collect_honours_a_cancel_inside_one_long_episode(tmp_path: Path) -> None:
-    config = CollectConfig(scenarios=["crossing_low"], seeds_per_scenario=1, max_steps=MAX_EPISODE_STEPS,
-                           policy="planner", planner={"name": "goal", "config": {"speed": 0.0}})
+    config = CollectConfig(
+        scenarios=["crossing_low"],
+        seeds_per_scenario=1,
+        max_steps=MAX_EPISODE_STEPS,
+        policy="planner",
+        planner={"name": "goal", "config": {"speed": 0.0}},
+    )
     ctx = _stuck_ctx(tmp_path)
     t0 = time.monotonic()
     with pytest.raises(Cancelled):
@@ -62,9 +71,13 @@ def test_collect_honours_a_cancel_inside_one_long_episode(tmp_path: Path) -> Non
 @pytest.mark.parametrize("workers", [1, 2])
 def test_evaluate_honours_a_cancel_inside_one_long_episode(tmp_path: Path, workers: int) -> None:
     """In process the episode loop checks; with a pool the parent polls and terminates the processes."""
-    config = EvaluationConfig(scenarios=["crossing_low", "crossing_medium"], seeds_per_scenario=1,
-                              max_steps=MAX_EPISODE_STEPS, planner={"name": "goal", "config": {"speed": 0.0}},
-                              start_method="fork")
+    config = EvaluationConfig(
+        scenarios=["crossing_low", "crossing_medium"],
+        seeds_per_scenario=1,
+        max_steps=MAX_EPISODE_STEPS,
+        planner={"name": "goal", "config": {"speed": 0.0}},
+        start_method="fork",
+    )
     ctx = _stuck_ctx(tmp_path, workers, after_s=0.5 if workers == 1 else 2.0)
     t0 = time.monotonic()
     with pytest.raises(Cancelled):
@@ -73,7 +86,9 @@ def test_evaluate_honours_a_cancel_inside_one_long_episode(tmp_path: Path, worke
 
 
 def test_a_trace_beyond_the_memory_bound_is_refused_before_the_episode() -> None:
-    assert trace_bytes(MAX_EPISODE_STEPS, 26) < MAX_TRACE_BYTES  # the largest classic crowd at the largest horizon
+    assert (
+        trace_bytes(MAX_EPISODE_STEPS, 26) < MAX_TRACE_BYTES
+    )  # the largest classic crowd at the largest horizon
     with pytest.raises(ConfigError, match="max_steps.*MiB trace; the limit is 256 MiB"):
         Trace(MAX_EPISODE_STEPS, 1000, dt=0.1, scenario="crowded")
 

@@ -45,12 +45,16 @@ def test_no_pedestrian_spawns_within_collision_distance_of_the_robot():
 
 def test_robot_spawn_clearance_keeps_the_starting_crowd_farther_away_and_only_at_the_start():
     """A scenario's ``robot_spawn_clearance`` (the stress suite: 3 m) replaces the reference's 0.5 m at reset."""
-    far = scenario(street_map(), name="street", ped_density=0.08, max_episode_steps=300, robot_spawn_clearance=3.0)
+    far = scenario(
+        street_map(), name="street", ped_density=0.08, max_episode_steps=300, robot_spawn_clearance=3.0
+    )
     near_before = 0
     for seed in range(40):
         before, after = Simulator().reset(STREET, seed), Simulator().reset(far, seed)
         contact = after.robot_radius + after.ped_radius
-        near_before += int((np.hypot(*(before.ped_positions - before.robot_pose[:2]).T) <= contact + 3.0).any())
+        near_before += int(
+            (np.hypot(*(before.ped_positions - before.robot_pose[:2]).T) <= contact + 3.0).any()
+        )
         d = np.hypot(*(after.ped_positions - after.robot_pose[:2]).T)
         assert d.min() > contact + 3.0 - 1e-9, seed
         assert len(after.ped_positions) == len(before.ped_positions)  # moved along their routes, none dropped
@@ -68,10 +72,18 @@ def test_stopping_zone_covers_the_braking_distance_ahead_only():
     assert stopping_zone_clear(pts, robot, 1.9, 1.0, 60.0).tolist() == [False, False, True, True, True, True]
     assert stopping_zone_clear(pts, robot * [1, 1, 1, 0, 1], 1.9, 1.0, 60.0).all()  # standing: no zone
     backwards = robot * [1, 1, 1, -1, 1]
-    assert stopping_zone_clear(pts, backwards, 1.9, 1.0, 60.0).tolist() == [True, True, True, False, True, True]
+    assert stopping_zone_clear(pts, backwards, 1.9, 1.0, 60.0).tolist() == [
+        True,
+        True,
+        True,
+        False,
+        True,
+        True,
+    ]
     turned = np.array([0.0, 0.0, np.pi / 2, 1.0, 0.0])  # 1 m/s along +y: 0.5 m to stop
-    assert stopping_zone_clear(np.array([[0.0, 2.3], [0.0, 2.5], [2.3, 0.0]]), turned, 1.9, 1.0, 60.0).tolist() == [
-        False, True, True]
+    assert stopping_zone_clear(
+        np.array([[0.0, 2.3], [0.0, 2.5], [2.3, 0.0]]), turned, 1.9, 1.0, 60.0
+    ).tolist() == [False, True, True]
 
 
 def test_respawns_keep_out_of_a_moving_robots_stopping_zone():
@@ -79,9 +91,13 @@ def test_respawns_keep_out_of_a_moving_robots_stopping_zone():
 
     (With the collision distance + margin alone, a few respawns per episode land inside its 2 m stopping distance.)
     """
-    m = open_map(robot_start=(1.0, 9.0, 2.0, 2.0), robot_goal=(37.0, 9.5),
-                 ped_spawn=(Zone.from_rect(6.0, 7.0, 6.0, 6.0),), ped_goal=(Zone.from_rect(22.0, 15.0, 2.0, 2.0),),
-                 ped_routes=(Route(spawn_id=0, goal_id=0, waypoints=((9.0, 16.0), (9.5, 16.0))),))
+    m = open_map(
+        robot_start=(1.0, 9.0, 2.0, 2.0),
+        robot_goal=(37.0, 9.5),
+        ped_spawn=(Zone.from_rect(6.0, 7.0, 6.0, 6.0),),
+        ped_goal=(Zone.from_rect(22.0, 15.0, 2.0, 2.0),),
+        ped_routes=(Route(spawn_id=0, goal_id=0, waypoints=((9.0, 16.0), (9.5, 16.0))),),
+    )
     scen = scenario(m, name="respawn_ahead", population_size=8, max_peds_per_group=1, max_episode_steps=300)
     moving = np.array([5.0, 10.0, 0.0, 2.0, 0.0])  # heading for the spawn zone at full speed
     sim = Simulator()
@@ -96,8 +112,13 @@ def test_respawns_keep_out_of_a_moving_robots_stopping_zone():
             ids = np.union1d(ids, obs.ped_ids)
             respawns += int(new.sum())
             # positions are read after the step: the respawned pedestrian walked < 0.3 m since
-            assert stopping_zone_clear(obs.ped_positions[new], moving, sim.clear - 0.3, sim.limits.decel,
-                                       sim.crowd_params.robot_spawn_cone_deg).all(), (seed, sim.t)
+            assert stopping_zone_clear(
+                obs.ped_positions[new],
+                moving,
+                sim.clear - 0.3,
+                sim.limits.decel,
+                sim.crowd_params.robot_spawn_cone_deg,
+            ).all(), (seed, sim.t)
     assert respawns > 50
 
 
@@ -106,9 +127,15 @@ def test_observation_contract():
     obs = sim.reset(STREET, 3)
     assert obs.step == 0 and obs.time == 0.0 and obs.dt == 0.1
     assert obs.robot_pose.shape == (3,) and np.all(obs.robot_velocity == 0)
-    assert obs.route.shape[1] == 2 and np.array_equal(obs.route[-1], obs.goal) and np.array_equal(obs.route[0], obs.waypoint)
+    assert (
+        obs.route.shape[1] == 2
+        and np.array_equal(obs.route[-1], obs.goal)
+        and np.array_equal(obs.route[0], obs.waypoint)
+    )
     assert obs.goal_tolerance == 2.0 and obs.robot_radius == 1.0 and obs.ped_radius == 0.4
-    assert obs.ped_ids.dtype == np.int64 and len(obs.ped_ids) == len(obs.ped_positions) == len(obs.ped_velocities)
+    assert obs.ped_ids.dtype == np.int64 and len(obs.ped_ids) == len(obs.ped_positions) == len(
+        obs.ped_velocities
+    )
     assert obs.robot_limits["v_max"] == 2.0
     with pytest.raises(ValueError):
         obs.ped_positions[0, 0] = 1.0  # read-only views of the trace
@@ -129,7 +156,12 @@ def test_trace_save_and_load_round_trip(tmp_path):
     for name in ("robot", "command", "ped_ids", "ped_pos", "ped_vel"):
         assert np.array_equal(getattr(back, name), getattr(r.trace, name))
     meta = back.metadata()
-    assert meta["scenario"] == "street" and meta["seed"] == 4 and meta["dt"] == 0.1 and meta["outcome"] == r.outcome
+    assert (
+        meta["scenario"] == "street"
+        and meta["seed"] == 4
+        and meta["dt"] == 0.1
+        and meta["outcome"] == r.outcome
+    )
     assert "code_version" in meta
     assert back.robot.shape == (r.steps + 1, 5) and back.command.shape == (r.steps, 2)
 
@@ -151,14 +183,24 @@ def test_non_finite_command_is_refused():
 def test_robot_spawn_clearance_holds_for_respawns_too():
     """A robot standing at the edge of the spawn zone: with ``robot_spawn_clearance`` 3 m no group respawns within 3 m of contact
     (it waits), with the reference's 0.5 m some do."""
-    m = open_map(robot_start=(1.0, 9.0, 2.0, 2.0), robot_goal=(37.0, 9.5),
-                 ped_spawn=(Zone.from_rect(6.0, 7.0, 6.0, 6.0),), ped_goal=(Zone.from_rect(22.0, 15.0, 2.0, 2.0),),
-                 ped_routes=(Route(spawn_id=0, goal_id=0, waypoints=((9.0, 16.0), (9.5, 16.0))),))
+    m = open_map(
+        robot_start=(1.0, 9.0, 2.0, 2.0),
+        robot_goal=(37.0, 9.5),
+        ped_spawn=(Zone.from_rect(6.0, 7.0, 6.0, 6.0),),
+        ped_goal=(Zone.from_rect(22.0, 15.0, 2.0, 2.0),),
+        ped_routes=(Route(spawn_id=0, goal_id=0, waypoints=((9.0, 16.0), (9.5, 16.0))),),
+    )
     standing = np.array([6.5, 10.0, 0.0, 0.0, 0.0])  # at the edge of the spawn zone
     nearest = {}
     for clearance in (None, 3.0):
-        scen = scenario(m, name="respawn_here", population_size=8, max_peds_per_group=1, max_episode_steps=300,
-                        robot_spawn_clearance=clearance)
+        scen = scenario(
+            m,
+            name="respawn_here",
+            population_size=8,
+            max_peds_per_group=1,
+            max_episode_steps=300,
+            robot_spawn_clearance=clearance,
+        )
         sim, respawned = Simulator(), []
         for seed in range(3):
             obs = sim.reset(scen, seed)

@@ -42,7 +42,9 @@ def test_lead_pedestrian_stays_ahead_of_the_robot_at_its_offset() -> None:
 
 def test_follow_and_accompany_keep_their_offsets() -> None:
     follow = walker("f1", (1.5, 6.0), speed=1.0, role="follow", role_offset=(-3.0, 0.0))
-    side = walker("a1", (5.0, 6.0), speed=1.0, role="accompany", role_target_id="robot:0", role_offset=(0.0, 3.0))
+    side = walker(
+        "a1", (5.0, 6.0), speed=1.0, role="accompany", role_target_id="robot:0", role_offset=(0.0, 3.0)
+    )
     scen = scenario(open_map(singles=(follow, side)), max_episode_steps=400)
     _, robots, peds = _drive(scen, (0.5, 0.0), 200)
     for k in range(100, 200):
@@ -53,13 +55,22 @@ def test_follow_and_accompany_keep_their_offsets() -> None:
 def test_wait_role_holds_its_start() -> None:
     scen = scenario(open_map(singles=(walker("w1", (10.0, 8.0), (30.0, 8.0), role="wait"),)))
     _, _, peds = _drive(scen, (0.0, 0.0), 50)
-    assert np.linalg.norm(peds[-1][0] - (10.0, 8.0)) < 0.05  # held (goal := position, velocity := 0 each step)
+    assert (
+        np.linalg.norm(peds[-1][0] - (10.0, 8.0)) < 0.05
+    )  # held (goal := position, velocity := 0 each step)
 
 
 def _crossing(timeout: float | None = 30.0):
     """A ped that walks to a curb (10, 6), then crosses to (10, 3) = hold_ref_point, once released."""
-    ped = walker("c1", (10.0, 9.0), speed=1.0, trajectory=((10.0, 6.0), (10.0, 3.0)),
-                 hold_until_robot_within_m=3.0, hold_ref_point=(10.0, 3.0), hold_timeout_s=timeout)
+    ped = walker(
+        "c1",
+        (10.0, 9.0),
+        speed=1.0,
+        trajectory=((10.0, 6.0), (10.0, 3.0)),
+        hold_until_robot_within_m=3.0,
+        hold_ref_point=(10.0, 3.0),
+        hold_timeout_s=timeout,
+    )
     return scenario(open_map(singles=(ped,)), max_episode_steps=600)
 
 
@@ -90,10 +101,18 @@ def test_hold_never_releases_early_while_the_robot_is_away() -> None:
 
 
 def test_roles_and_holds_are_deterministic() -> None:
-    peds = (walker("l1", (6.0, 1.5), speed=1.0, role="lead", role_offset=(3.0, 0.0)),
-            walker("j1", (20.0, 12.0), speed=1.0, role="join", role_target_id="l1"),
-            walker("c1", (10.0, 9.0), speed=1.0, trajectory=((10.0, 6.0), (10.0, 3.0)),
-                   hold_until_robot_within_m=3.0, hold_ref_point=(10.0, 3.0)))
+    peds = (
+        walker("l1", (6.0, 1.5), speed=1.0, role="lead", role_offset=(3.0, 0.0)),
+        walker("j1", (20.0, 12.0), speed=1.0, role="join", role_target_id="l1"),
+        walker(
+            "c1",
+            (10.0, 9.0),
+            speed=1.0,
+            trajectory=((10.0, 6.0), (10.0, 3.0)),
+            hold_until_robot_within_m=3.0,
+            hold_ref_point=(10.0, 3.0),
+        ),
+    )
     scen = scenario(open_map(singles=peds), max_episode_steps=300)
     a, b = _drive(scen, (0.8, 0.05), 120, seed=7), _drive(scen, (0.8, 0.05), 120, seed=7)
     assert np.array_equal(a[0].trace.ped_pos, b[0].trace.ped_pos)
@@ -116,7 +135,9 @@ def test_leave_and_lead_with_a_script_walk_the_script() -> None:
     plain = walker("a", (8.0, 10.0), speed=1.0, trajectory=traj)
     leave = walker("b", (8.0, 10.0), speed=1.0, trajectory=traj, role="leave")
     lead = walker("c", (8.0, 10.0), speed=1.0, trajectory=traj, role="lead")
-    runs = [_drive(scenario(open_map(singles=(p,)), max_episode_steps=200), (0.5, 0.0), 100)[2] for p in
-            (plain, leave, lead)]
+    runs = [
+        _drive(scenario(open_map(singles=(p,)), max_episode_steps=200), (0.5, 0.0), 100)[2]
+        for p in (plain, leave, lead)
+    ]
     assert np.array_equal(runs[0][-1], runs[1][-1]) and np.array_equal(runs[0][-1], runs[2][-1])
     assert np.linalg.norm(runs[0][-1][0] - traj[-1]) < 0.5

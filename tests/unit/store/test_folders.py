@@ -9,7 +9,9 @@ import pytest
 from foresight.store import folders
 
 
-@pytest.mark.parametrize("name", ["/etc/passwd", "../x", "a/../../b", "a\\..\\b", "C:\\x", "", "\\\\server\\share"])
+@pytest.mark.parametrize(
+    "name", ["/etc/passwd", "../x", "a/../../b", "a\\..\\b", "C:\\x", "", "\\\\server\\share"]
+)
 def test_check_relative_refuses_unsafe_names(name: str) -> None:
     with pytest.raises(folders.UnsafePath):
         folders.check_relative(name)
@@ -35,7 +37,17 @@ def test_write_atomic_leaves_no_temp_files(tmp_path: Path) -> None:
     assert [p.name for p in target.parent.iterdir()] == ["f.bin"]
 
 
-@pytest.mark.parametrize("value,unsafe", [("/abs", True), ("~/x", True), ("a/../b", True), ("crossing_low", False),
-                                          ("scenarios/classic.yaml", False), ("..", True), ("a..b", False)])
+@pytest.mark.parametrize(
+    "value,unsafe",
+    [
+        ("/abs", True),
+        ("~/x", True),
+        ("a/../b", True),
+        ("crossing_low", False),
+        ("scenarios/classic.yaml", False),
+        ("..", True),
+        ("a..b", False),
+    ],
+)
 def test_looks_unsafe(value: str, unsafe: bool) -> None:
     assert folders.looks_unsafe(value) is unsafe

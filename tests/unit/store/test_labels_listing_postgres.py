@@ -34,7 +34,9 @@ def test_labels_and_record_filters_on_postgres(pg) -> None:  # noqa: ANN001
     assert queue.list_jobs(pg, tags=["a", "b"], q="HELLO")[0] == 1 and queue.list_jobs(pg, tags=["c"])[0] == 0
     assert labels.edit(pg, job["id"], add=["c"], remove=["a"])
     assert queue.get_job(pg, job["id"])["tags"] == ["b", "c"] and queue.list_jobs(pg, tags=["a"])[0] == 0
-    count, rows = listing.evaluations(pg, planner="orca", matrix="m.yaml", verdict="failed_gate", tags=["c"], name="n1")
+    count, rows = listing.evaluations(
+        pg, planner="orca", matrix="m.yaml", verdict="failed_gate", tags=["c"], name="n1"
+    )
     assert count == 1 and rows[0].name == "n1" and rows[0].tags == ["b", "c"]
     assert listing.evaluations(pg, planner="goal")[0] == 0
     assert listing.campaigns(pg, matrix="m.yaml", model="cv", tags=["c"])[0] == 0

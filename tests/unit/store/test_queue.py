@@ -74,7 +74,10 @@ def test_retry_only_failed_or_cancelled(engine) -> None:  # noqa: ANN001
     with pytest.raises(queue.Conflict):
         queue.retry(engine, job["id"])
     claimed = queue.claim(engine, "w1", ["sleep"], 10)
-    assert queue.fail_or_retry(engine, job["id"], "w1", claimed["attempts"], "RuntimeError", "boom", retry=False) == "failed"
+    assert (
+        queue.fail_or_retry(engine, job["id"], "w1", claimed["attempts"], "RuntimeError", "boom", retry=False)
+        == "failed"
+    )
     failed = queue.get_job(engine, job["id"])
     assert (failed["error_type"], failed["error_message"]) == ("RuntimeError", "boom")
     again = queue.retry(engine, job["id"])  # the row as queued, whoever claims it next
@@ -86,9 +89,13 @@ def test_retry_only_failed_or_cancelled(engine) -> None:  # noqa: ANN001
 def test_fail_or_retry_requeues_while_attempts_remain(engine) -> None:  # noqa: ANN001
     job = _submit(engine, max_attempts=2)
     c = queue.claim(engine, "w1", ["sleep"], 10)
-    assert queue.fail_or_retry(engine, job["id"], "w1", c["attempts"], "OSError", "disk", retry=True) == "queued"
+    assert (
+        queue.fail_or_retry(engine, job["id"], "w1", c["attempts"], "OSError", "disk", retry=True) == "queued"
+    )
     c = queue.claim(engine, "w1", ["sleep"], 10)
-    assert queue.fail_or_retry(engine, job["id"], "w1", c["attempts"], "OSError", "disk", retry=True) == "failed"
+    assert (
+        queue.fail_or_retry(engine, job["id"], "w1", c["attempts"], "OSError", "disk", retry=True) == "failed"
+    )
 
 
 def test_release_does_not_count_the_attempt(engine) -> None:  # noqa: ANN001

@@ -42,9 +42,17 @@ def test_an_evaluation_row_is_derived_from_the_typed_result(engine) -> None:  # 
         row = conn.execute(select(Evaluation)).mappings().one()
         labels = dict(conn.execute(select(FailureTaxonomy.category, FailureTaxonomy.count)).all())
         gate = conn.execute(select(GateResult.gate, GateResult.passed)).one()
-    assert row["metrics"] == {"success_rate": 0.7, "collision_rate": 0.1, "episodes": 10, "status": "failed_gate",
-                              "overall": result.aggregates.overall.model_dump(mode="json")}
-    assert row["config"] == {"stage": result.config, "planner": result.planner.config} and row["bundle_id"] == "builtin"
+    assert row["metrics"] == {
+        "success_rate": 0.7,
+        "collision_rate": 0.1,
+        "episodes": 10,
+        "status": "failed_gate",
+        "overall": result.aggregates.overall.model_dump(mode="json"),
+    }
+    assert (
+        row["config"] == {"stage": result.config, "planner": result.planner.config}
+        and row["bundle_id"] == "builtin"
+    )
     assert [g["key"] for g in row["per_scenario"]] == ["crossing_low", "head_on_corridor_high"]
     assert row["model_id"] is None  # m-7 is not in this registry: no dangling foreign key
     assert labels == result.taxonomy and tuple(gate) == ("gate", False)

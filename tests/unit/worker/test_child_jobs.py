@@ -27,9 +27,13 @@ class Parent:
         queue.submit(engine, kind="pipeline", spec={"kind": "pipeline"})
         self.job = queue.claim(engine, "worker-1", ["pipeline"], 30.0)
         self.cancelled = False
-        workdir = folders.resolve_under(settings.store_root, folders.job_dir(settings.store_root, self.job["id"]))
+        workdir = folders.resolve_under(
+            settings.store_root, folders.job_dir(settings.store_root, self.job["id"])
+        )
         workdir.mkdir(parents=True)
-        self.ctx: StageContext = JobWorker(settings, engine, worker_id="worker-1").stage_context(Held(self.job, None), workdir)
+        self.ctx: StageContext = JobWorker(settings, engine, worker_id="worker-1").stage_context(
+            Held(self.job, None), workdir
+        )
         self.ctx.is_cancelled = lambda: self.cancelled
         self.config = load_pipeline_config(BUILTIN_CONFIG_ROOT / "pipelines" / "smoke.yaml")
 
@@ -60,7 +64,9 @@ def test_a_child_is_a_job_row_run_in_this_thread_and_not_run_twice(settings, eng
         assert child["parent_id"] == parent.job["id"] and child["status"] == "succeeded"
         assert child["idempotency_key"] == f"pipeline:{parent.job['id']}:nap"
         assert child["lease_owner"].endswith("/pipeline") and not run.resumed
-        assert run.result == {"slept_s": 0.2} and seen and seen[-1][0] == 1.0  # child progress reached the pipeline
+        assert (
+            run.result == {"slept_s": 0.2} and seen and seen[-1][0] == 1.0
+        )  # child progress reached the pipeline
         again = children("nap", "sleep", {"seconds": 0.2, "steps": 2, "artifact": "out.txt"}, _progress(seen))
         assert again.resumed and again.job_id == run.job_id
         assert queue.get_job(engine, run.job_id)["attempts"] == 1
@@ -123,8 +129,11 @@ def _make_it_a_checkpoint(settings, engine, job_id: str) -> None:  # noqa: ANN00
     data = (REPO_ROOT / "model" / "predictor-sim-default.pt").read_bytes()
     folders.resolve_under(settings.store_root, f"jobs/{job_id}/model.pt").write_bytes(data)
     with write_tx(engine) as conn:
-        conn.execute(update(queue.artifacts).where(queue.artifacts.c.job_id == job_id)
-                     .values(sha256=hashlib.sha256(data).hexdigest(), size=len(data)))
+        conn.execute(
+            update(queue.artifacts)
+            .where(queue.artifacts.c.job_id == job_id)
+            .values(sha256=hashlib.sha256(data).hexdigest(), size=len(data))
+        )
 
 
 def test_register_then_promote_in_the_registry(settings, engine) -> None:  # noqa: ANN001
@@ -136,11 +145,20 @@ def test_register_then_promote_in_the_registry(settings, engine) -> None:  # noq
     try:
         train = children("train", "sleep", {"artifact": "model.pt"}, _progress([]))
         _make_it_a_checkpoint(settings, engine, train.job_id)  # registration checks the artifact loads
-        spec = {"model_id": "cand-1", "status": "candidate", "train_stage": "train", "tags": ["pipeline"],
-                "lineage": {"datasets": {"base": "x"}}, "metrics": {"val_ade": 0.3}, "training": {}}
+        spec = {
+            "model_id": "cand-1",
+            "status": "candidate",
+            "train_stage": "train",
+            "tags": ["pipeline"],
+            "lineage": {"datasets": {"base": "x"}},
+            "metrics": {"val_ade": 0.3},
+            "training": {},
+        }
         reg = children("register", "register", spec, _progress([]))
         assert reg.ident == "cand-1" and not reg.resumed
-        assert children("register", "register", spec, _progress([])).resumed  # a resumed pipeline re-registers nothing
+        assert children(
+            "register", "register", spec, _progress([])
+        ).resumed  # a resumed pipeline re-registers nothing
         with session_factory(engine)() as session:
             row = session.get(Model, "cand-1")
             assert (row.status, row.job_id, row.read_only) == ("candidate", train.job_id, False)
@@ -157,9 +175,20 @@ def _pipeline_result(gates: list[dict]) -> dict:
     from foresight.core.pipeline.summary import PipelineResult, PipelineSummary
 
     summary = PipelineSummary(name="p", status="failed_gate", exit_code=2, stages=[], gates=gates)
-    return PipelineResult(name="p", status="failed_gate", exit_code=2, passed=False, failed_gates=["evaluation"],
-                          model_id=None, promoted=False, promotion="", stages=[], summary=summary, artifacts={},
-                          wall_s=1.0).model_dump(mode="json")
+    return PipelineResult(
+        name="p",
+        status="failed_gate",
+        exit_code=2,
+        passed=False,
+        failed_gates=["evaluation"],
+        model_id=None,
+        promoted=False,
+        promotion="",
+        stages=[],
+        summary=summary,
+        artifacts={},
+        wall_s=1.0,
+    ).model_dump(mode="json")
 
 
 def test_the_pipeline_verdict_is_recorded_as_gate_rows(settings, engine) -> None:  # noqa: ANN001
@@ -169,10 +198,15 @@ def test_the_pipeline_verdict_is_recorded_as_gate_rows(settings, engine) -> None
     from foresight.store.records import pipeline_gates as record_gates
 
     parent = Parent(settings, engine)
-    gates = [{"name": "evaluation", "passed": False, "checks": []}, {"name": "training", "passed": True, "checks": []},
-             {"name": "closed_loop", "passed": None, "checks": [], "detail": "not evaluated"}]
+    gates = [
+        {"name": "evaluation", "passed": False, "checks": []},
+        {"name": "training", "passed": True, "checks": []},
+        {"name": "closed_loop", "passed": None, "checks": [], "detail": "not evaluated"},
+    ]
     with write_tx(engine) as conn:
         record_gates(conn, parent.job, _pipeline_result(gates), "jobs/x")
     with engine.connect() as conn:
-        rows = conn.execute(select(GateResult.gate, GateResult.passed).where(GateResult.job_id == parent.job["id"]))
+        rows = conn.execute(
+            select(GateResult.gate, GateResult.passed).where(GateResult.job_id == parent.job["id"])
+        )
         assert sorted(rows) == [("pipeline:evaluation", False), ("pipeline:training", True)]

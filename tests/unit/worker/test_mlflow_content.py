@@ -13,7 +13,9 @@ def test_a_campaign_run_holds_every_cell_and_the_best() -> None:
     result = data.campaign(gate_passed=True)
     content = mlflow_export.describe("campaign", result, Path("."), job_id="ab" * 16, parent_id="cd" * 16)
     assert content.name == f"campaign {'ab' * 6}"
-    assert content.tags["foresight.job_id"] == "ab" * 16 and content.tags["foresight.parent_job_id"] == "cd" * 16
+    assert (
+        content.tags["foresight.job_id"] == "ab" * 16 and content.tags["foresight.parent_job_id"] == "cd" * 16
+    )
     assert content.tags["foresight.verdict"] == "passed"
     metrics = {key: value for key, value, _ in content.metrics}
     for cell in result["ranked"]:
@@ -21,7 +23,10 @@ def test_a_campaign_run_holds_every_cell_and_the_best() -> None:
         assert metrics[f"{prefix}.hard.success_rate"] == cell["hard"]["success"]["rate"]
         assert metrics[f"{prefix}.global.success_rate"] == cell["global"]["success"]["rate"]
     assert metrics["best.hard.success_rate"] == result["best"]["hard"]["success"]["rate"]
-    assert content.params["best_variant"] == result["best"]["variant"] and len(content.params["config_hash"]) == 16
+    assert (
+        content.params["best_variant"] == result["best"]["variant"]
+        and len(content.params["config_hash"]) == 16
+    )
     assert content.documents["result.json"]["status"] == "passed"
 
 

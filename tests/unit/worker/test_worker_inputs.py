@@ -35,6 +35,8 @@ def test_ethucy_is_a_named_data_root(engine, start_worker, shared_dir: Path) -> 
     zara1 = job["result"]["folds"]["zara1"]
     assert zara1["samples"] > 1000 and abs(zara1["ade"] - zara1["cv_ade"]) < 1e-9  # CV scored against itself
 
-    unknown = _finish(engine, {"kind": "predict_eval", "model": "cv", "ethucy": str(shared_dir / "reference" / "ethucy")})
+    unknown = _finish(
+        engine, {"kind": "predict_eval", "model": "cv", "ethucy": str(shared_dir / "reference" / "ethucy")}
+    )
     assert unknown["status"] == "failed" and unknown["error_type"] == "NotFoundError", unknown
     assert "unknown data root" in unknown["error_message"] and "real" in unknown["error_message"]

@@ -9,8 +9,14 @@ from foresight.store import queue
 from foresight.store.registry import sync_bundles
 
 #: one episode whose robot cannot move: 100,000 steps (minutes) unless stopped from inside
-STUCK = {"kind": "collect", "scenarios": ["crossing_low"], "seeds_per_scenario": 1, "max_steps": 100_000,
-         "policy": "planner", "planner": {"name": "goal", "config": {"speed": 0.0}}}
+STUCK = {
+    "kind": "collect",
+    "scenarios": ["crossing_low"],
+    "seeds_per_scenario": 1,
+    "max_steps": 100_000,
+    "policy": "planner",
+    "planner": {"name": "goal", "config": {"speed": 0.0}},
+}
 
 
 def _wait(engine, job_id: str, statuses: set[str], timeout: float = 30.0) -> dict:  # noqa: ANN001

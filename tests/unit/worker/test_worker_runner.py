@@ -32,7 +32,9 @@ def test_runs_a_job_and_records_artifacts(engine, start_worker) -> None:  # noqa
     arts = queue.events_after(engine, job_id, 0)
     assert [e["message"] for e in arts if e["type"] == "status"][-1] == "succeeded"
     with engine.connect() as conn:
-        names = [r.name for r in conn.execute(queue.artifacts.select().where(queue.artifacts.c.job_id == job_id))]
+        names = [
+            r.name for r in conn.execute(queue.artifacts.select().where(queue.artifacts.c.job_id == job_id))
+        ]
     assert names == ["out/note.txt"]
 
 

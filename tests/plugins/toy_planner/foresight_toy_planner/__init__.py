@@ -35,7 +35,10 @@ class ToyPlanner:
         v = c.speed * max(0.0, 1.0 - abs(error) / (math.pi / 2))
         for px, py in obs.ped_positions.tolist():
             dx, dy = px - x, py - y
-            if dx * math.cos(heading) + dy * math.sin(heading) > 0 and math.hypot(dx, dy) < c.caution_distance:
+            if (
+                dx * math.cos(heading) + dy * math.sin(heading) > 0
+                and math.hypot(dx, dy) < c.caution_distance
+            ):
                 v = min(v, c.cautious_speed)
         self.diagnostics = {"heading_error": error}
         return v, max(-1.0, min(1.0, 1.5 * error))
