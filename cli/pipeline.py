@@ -136,9 +136,23 @@ def run_local(
     ctx.workers = config.workers or 1
     if not quiet:
         ctx.log = lambda message: print(f"\n{message}", file=sys.stderr)
-    children = LocalChildren(ctx, resolve_model=ModelArgs().resolve)
-    result = run_pipeline(config, ctx, children, run_id=workdir.name.split("-")[-1] or "local")
+    children = LocalChildren(ctx, resolve_model=ModelArgs().resolve, describe_model=_shipped_model)
+    result = run_pipeline(
+        config, ctx, children, run_id=workdir.name.split("-")[-1] or "local", registry=children
+    )
     return result, workdir
+
+
+def _shipped_model(ident: str) -> dict[str, Any] | None:
+    """A shipped model's registry entry (``default``: the default model, by the server's rule)."""
+    from foresight.cli.evaluate import MODEL_REGISTRY
+    from foresight.store.shipped import DEFAULT_MODEL, default_model, read_shipped
+
+    entries = read_shipped(MODEL_REGISTRY)
+    entry = next((m for m in entries if m["id"] == ident), None)
+    if entry is None and ident == DEFAULT_MODEL:
+        entry = default_model(entries)
+    return None if entry is None else {**entry, "lineage": entry.get("lineage", {}), "created_at": 0.0}
 
 
 def cmd_run(args: argparse.Namespace) -> int:

@@ -183,6 +183,7 @@ class ModelStatus(enum.StrEnum):
     candidate = "candidate"
     promoted = "promoted"
     default = "default"
+    relaxed = "relaxed"  #: registered by a pipeline whose gates are relaxed on purpose: never promoted
 
 
 class Model(Base):

@@ -392,6 +392,11 @@ def promote(engine: Engine, model_id: str, to: str = ModelStatus.promoted.value)
     (read-only) are refused: their status lives in ``model/registry.yaml``."""
     with session_factory(engine, write=True).begin() as session:
         row = _run_time_model(session, model_id, "change its status there")
+        if row.status == ModelStatus.relaxed.value:
+            raise queue.Conflict(
+                f"model {model_id} is relaxed: the pipeline that registered it relaxed its gates on purpose "
+                "(smoke sizes), so it can never be promoted or become the default"
+            )
         if to == ModelStatus.default.value:
             session.execute(
                 update(Model)

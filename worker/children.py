@@ -24,7 +24,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Protocol
 
-from foresight.core.errors import CoreError
+from foresight.core.errors import CoreError, NotFoundError
 from foresight.core.stages.context import Cancelled, ChildProgress, StageContext
 from foresight.core.stages.kinds import KINDS
 from foresight.store import folders, queue, registry
@@ -51,6 +51,11 @@ class Worker(Protocol):
     def run_job(self, job: dict[str, Any]) -> None: ...
 
     def beat(self) -> None: ...
+
+
+def _row(m: Any) -> dict[str, Any]:
+    return {"id": m.id, "status": m.status, "sha256": m.sha256, "lineage": dict(m.lineage or {}),
+            "created_at": m.created_at}  # fmt: skip
 
 
 class ChildRunner:
@@ -111,6 +116,15 @@ class ChildRunner:
 
     def promote_model(self, model_id: str, to: str) -> dict[str, Any]:
         return registry.promote(self.engine, model_id, to)
+
+    def model_rows(self) -> list[dict[str, Any]]:
+        return [_row(m) for m in registry.models(self.engine)]
+
+    def model_row(self, ident: str) -> dict[str, Any] | None:
+        try:
+            return _row(registry.Resolver(self.settings, self.engine).model_row(ident))
+        except NotFoundError:
+            return None
 
     def submit(self, label: str, kind: str, spec: dict[str, Any], key: str) -> tuple[dict[str, Any], bool]:
         """Queue the child ``kind`` job (its spec validated as the API would) under idempotency ``key``;

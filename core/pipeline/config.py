@@ -20,6 +20,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.config import CampaignConfig, DiagnosticsConfig, EvaluationConfig
+from foresight.core.evaluation.regression import FloorsConfig, RegressionGateConfig
 from foresight.core.predict.collect import CollectConfig, MixConfig
 from foresight.core.predict.proxy import ProxySpec
 from foresight.core.predict.train_config import TrainConfig
@@ -28,7 +29,11 @@ from foresight.core.yamlio import load_yaml
 
 #: placeholder for the model this pipeline trains and registers (planner.model, campaign checkpoints)
 CANDIDATE = "candidate"
-GateName = Literal["training", "evaluation", "closed_loop"]
+GateName = Literal["training", "evaluation", "closed_loop", "regression", "floors", "conformance"]
+#: the incumbent section's ``model`` that picks the model the candidate would replace (``incumbent_rule``)
+AUTO = "auto"
+#: placeholder for the incumbent in campaign checkpoints
+INCUMBENT = "incumbent"
 
 
 class CollectSection(CollectConfig):
@@ -89,12 +94,39 @@ class SelectionSection(BaseModel):
     seeds: BundlePath  #: that matrix's TRAINING seed manifest (e.g. seeds/stress_train_quick.yaml)
 
 
-class GatesSection(BaseModel):
-    """Which gates must have run and passed before the candidate is promoted (a required gate whose stage did not
-    run fails). A gate that ran and failed blocks promotion whether it is listed or not."""
+class IncumbentSection(BaseModel):
+    """The model the candidate would replace, run on the candidate's episodes (evaluate, diagnose).
+
+    ``model``: ``auto`` = the default model when the pipeline promotes to default, else the newest promoted model
+    of the same lineage (registered by a pipeline of this name), else the default; or a model id; or None (no
+    incumbent: a required regression gate then fails). ``planner_config``: the planner config the incumbent runs
+    with (None: the candidate's, so only the model differs)."""
 
     model_config = ConfigDict(extra="forbid")
-    require: list[GateName] = Field(default_factory=lambda: ["training", "evaluation", "closed_loop"])
+    model: Ident | None = AUTO
+    planner_config: dict[str, Any] | None = None
+
+
+class GatesSection(BaseModel):
+    """Which gates must have run and passed before the candidate is promoted (a required gate whose stage did not
+    run fails). A gate that ran and failed blocks promotion whether it is listed or not. ``relaxed``: the gates are
+    lenient on purpose (smoke sizes): the model is registered with status ``relaxed``, which can never be
+    promoted or become the default, whatever the gates say."""
+
+    model_config = ConfigDict(extra="forbid")
+    require: list[GateName] = Field(
+        default_factory=lambda: [
+            "training",
+            "evaluation",
+            "closed_loop",
+            "regression",
+            "floors",
+            "conformance",
+        ]
+    )
+    regression: RegressionGateConfig = RegressionGateConfig()  #: candidate vs incumbent, same episodes
+    floors: FloorsConfig = FloorsConfig()  #: candidate vs constant velocity, same episodes
+    relaxed: bool = False
 
 
 class PromoteSection(BaseModel):
@@ -125,6 +157,7 @@ class PipelineConfig(BaseModel):
     evaluate: EvaluateSection = EvaluateSection()
     diagnose: DiagnoseSection | None = DiagnoseSection()  #: None: skip diagnostics
     campaign: CampaignSection
+    incumbent: IncumbentSection = IncumbentSection()
     gates: GatesSection = GatesSection()
     promote: PromoteSection = PromoteSection()
 
@@ -174,14 +207,21 @@ def _build(model: type[BaseModel], data: dict[str, Any], stage: str) -> Any:
         ) from None
 
 
-def _model(value: str | None, candidate: str) -> str:
+def _model(value: str | None, candidate: str, incumbent: str | None = None) -> str:
+    if value == INCUMBENT:
+        if incumbent is None:
+            raise ConfigError(
+                "the pipeline has no incumbent model", source="pipeline", item="incumbent.model"
+            )
+        return incumbent
     return candidate if value in (None, CANDIDATE) else value
 
 
 def stage_config(config: PipelineConfig, stage: str, inputs: dict[str, str]) -> BaseModel:
     """The stage config of ``stage`` with its wired inputs.
 
-    ``inputs``: ``base``/``hardcase``/``mixed`` dataset ids and ``model`` (the registered candidate's id).
+    ``inputs``: ``base``/``hardcase``/``mixed`` dataset ids, ``model`` (the registered candidate's id) and
+    ``incumbent`` (the incumbent's id, when there is one).
     """
     where = {"bundle": config.bundle, "matrix": config.matrix}
     if stage == "collect":
@@ -233,7 +273,9 @@ def stage_config(config: PipelineConfig, stage: str, inputs: dict[str, str]) -> 
     if stage == "campaign":
         data = config.campaign.model_dump()
         data.update(where, seed_manifest=config.evaluation_seeds)
-        data["checkpoints"] = list(dict.fromkeys(_model(c, inputs["model"]) for c in data["checkpoints"]))
+        data["checkpoints"] = list(
+            dict.fromkeys(_model(c, inputs["model"], inputs.get("incumbent")) for c in data["checkpoints"])
+        )
         return _build(CampaignConfig, data, stage)
     raise ConfigError(f"no stage config for {stage!r}", source="pipeline", item=stage)
 

@@ -30,10 +30,16 @@ class LocalChildren:
     (e.g. ``default`` from ``model/registry.yaml``); ``reports`` writes each stage's report page."""
 
     def __init__(
-        self, ctx: StageContext, *, resolve_model: Callable[[str], Path] | None = None, reports: bool = True
+        self,
+        ctx: StageContext,
+        *,
+        resolve_model: Callable[[str], Path] | None = None,
+        reports: bool = True,
+        describe_model: Callable[[str], dict[str, Any] | None] | None = None,
     ):
         self.ctx = ctx
         self.fallback = resolve_model or ctx.resolve_model
+        self.describe = describe_model or (lambda ident: None)
         self.reports = reports
         self.registry_path = ctx.workdir / "registry.json"
 
@@ -50,6 +56,14 @@ class LocalChildren:
             return Path(entry["checkpoint"])
         return self.fallback(ident)
 
+    def model_rows(self) -> list[dict[str, Any]]:
+        """This run's registered models (an in-process run's registry holds only its own candidate)."""
+        return [{"id": k, "lineage": {}, "created_at": 0.0, **v} for k, v in self._registry().items()]
+
+    def model_row(self, ident: str) -> dict[str, Any] | None:
+        entry = self._registry().get(ident)
+        return {"id": ident, **entry} if entry is not None else self.describe(ident)
+
     def resolve_dataset(self, ident: str) -> Path:
         path = Path(ident)
         if path.is_file():
@@ -58,8 +72,14 @@ class LocalChildren:
 
     # ---------------------------------------------------------------- run_child
     def __call__(
-        self, stage: str, kind: str, spec: dict[str, Any], progress: Callable[[float, str], None]
+        self,
+        stage: str,
+        kind: str,
+        spec: dict[str, Any],
+        progress: Callable[[float, str], None],
+        cache_key: str | None = None,
     ) -> ChildRun:
+        """``cache_key`` is not used: a stage folder is reused when its saved spec is the same (resume)."""
         folder = self.ctx.workdir / stage
         done = folder / "result.json"
         if kind == "register":
@@ -113,6 +133,7 @@ class LocalChildren:
             resumed=resumed,
             report=report,
             artifacts={"folder": f"{stage}/"},
+            folder=folder,
         )
 
     def _register(self, spec: dict[str, Any]) -> ChildRun:

@@ -37,13 +37,16 @@ from foresight.core.evaluation.campaign import CampaignResult
 from foresight.core.evaluation.gates import GATE_FAILED_EXIT, GateResult
 from foresight.core.evaluation.runner import EvaluationResult
 from foresight.core.pipeline.config import PipelineConfig, stage_config
-from foresight.core.pipeline.summary import (
-    PipelineResult,
-    PipelineSummary,
-    StageEntry,
-    best_from_campaign,
-    gate_entry,
+from foresight.core.pipeline.decide import decide, failing_checks
+from foresight.core.pipeline.incumbent import (
+    REFERENCE_STAGES,
+    RELAXED,
+    ModelRegistry,
+    cache_key,
+    reference_spec,
+    resolve_incumbent,
 )
+from foresight.core.pipeline.summary import PipelineResult, PipelineSummary, StageEntry, best_from_campaign
 from foresight.core.predict.train_config import TrainingSummary, TrainResult
 from foresight.core.reports.pipeline import headline, write_pipeline_report
 from foresight.core.stages.context import Cancelled, StageContext
@@ -51,10 +54,12 @@ from foresight.core.stages.results import RESULTS, read_result
 
 M = TypeVar("M", bound=BaseModel)
 
-#: (stage name, kind) in run order; gates is decided here, register/promote are registry actions
+#: (stage name, kind) in run order; gates is decided here, register/promote are registry actions; the reference
+#: runs (core.pipeline.incumbent.REFERENCE_STAGES) hold the candidate's episodes with the incumbent or constant velocity
 RUNBOOK: list[tuple[str, str]] = [
     ("collect", "collect"), ("hardcase", "collect"), ("mix", "mix"), ("train", "train"), ("register", "register"),
-    ("evaluate", "evaluate"), ("diagnose", "diagnose"), ("campaign", "campaign"), ("gates", "gates"),
+    ("evaluate", "evaluate"), ("incumbent_evaluate", "evaluate"), ("cv_baseline", "evaluate"),
+    ("diagnose", "diagnose"), ("incumbent_diagnose", "diagnose"), ("campaign", "campaign"), ("gates", "gates"),
     ("promote", "promote"),
 ]  # fmt: skip
 #: relative effort of each stage, for the overall progress bar
@@ -65,12 +70,14 @@ WEIGHT = {
     "train": 3,
     "register": 0.05,
     "evaluate": 2,
+    "incumbent_evaluate": 2,
+    "cv_baseline": 2,
     "diagnose": 1,
+    "incumbent_diagnose": 1,
     "campaign": 4,
     "gates": 0.01,
     "promote": 0.05,
 }
-GATE_OF_STAGE = {"training": "train", "evaluation": "evaluate", "closed_loop": "campaign"}
 
 
 @dataclass
@@ -84,11 +91,11 @@ class ChildRun:
     resumed: bool = False  #: True: an earlier run's result, not run again
     report: str | None = None  #: link to the stage's report page
     artifacts: dict[str, str] = field(default_factory=dict)  #: label -> link
+    folder: Path | None = None  #: the stage's run folder, where this process can read it (episodes.jsonl)
 
 
-RunChild = Callable[
-    [str, str, dict[str, Any], Callable[[float, str], None]], "ChildRun | BaseModel | dict[str, Any]"
-]
+#: ``run_child(stage, kind, spec, progress, cache_key=None)``: ``cache_key`` names a run any pipeline may share
+RunChild = Callable[..., "ChildRun | BaseModel | dict[str, Any]"]
 
 
 class StageFailed(CoreError):
@@ -180,19 +187,25 @@ class StageResults:
 
 
 def run_pipeline(
-    config: PipelineConfig, ctx: StageContext, run_child: RunChild, *, run_id: str = "local"
+    config: PipelineConfig,
+    ctx: StageContext,
+    run_child: RunChild,
+    *,
+    run_id: str = "local",
+    registry: ModelRegistry | None = None,
 ) -> PipelineResult:
     """Run (or resume) every stage through ``run_child``; write the summary; return the verdict.
 
     ``run_id`` names this run (the worker passes the pipeline job's id): the candidate model is
-    ``<name>-<run_id[:8]>`` unless ``register.model_id`` is set.
+    ``<name>-<run_id[:8]>`` unless ``register.model_id`` is set. ``registry`` resolves the incumbent (None: no
+    incumbent, so a required regression gate fails).
     """
     t0 = time.perf_counter()
     stages = [
         (s, k)
         for s, k in RUNBOOK
         if not (config.hardcase is None and s in ("hardcase", "mix"))
-        and not (config.diagnose is None and s == "diagnose")
+        and not (config.diagnose is None and s in ("diagnose", "incumbent_diagnose"))
     ]
     total = sum(WEIGHT[s] for s, _ in stages)
     done_weight = 0.0
@@ -203,6 +216,16 @@ def run_pipeline(
     gates: list[Any] = []
     verdict: dict[str, Any] = {"passed": None, "failed": [], "promotion": ""}
     promoted = False
+    regression: Any = None
+    folders: dict[str, Path | None] = {}
+    incumbent = resolve_incumbent(config, registry)
+    if incumbent is not None:
+        inputs["incumbent"] = incumbent.id
+    ctx.log(
+        f"incumbent: {incumbent.id} ({incumbent.why}, sha256 {incumbent.sha256[:12]})"
+        if incumbent
+        else "incumbent: none (the regression gate cannot run)"
+    )
     ctx.log(f"pipeline {config.name}: {_selection_text(config)}")
     sizes = check_seed_separation(config, ctx)
     ctx.log("episodes: " + ", ".join(f"{k} {v}" for k, v in sizes.items()))
@@ -222,6 +245,10 @@ def run_pipeline(
             best=best,
             promoted_model=model_id if promoted else None,
             promotion=verdict["promotion"],
+            failing_checks=failing_checks(gates),
+            incumbent=incumbent,
+            regression=regression,
+            relaxed=config.gates.relaxed,
             artifacts={"summary (JSON)": "pipeline_summary.json", "config": "pipeline_config.json"},
             code_version=_code_version(),
             wall_s=time.perf_counter() - t0,
@@ -252,7 +279,10 @@ def run_pipeline(
             progress(0.0, "starting")
             if stage == "gates":
                 t = time.perf_counter()
-                gates, verdict = _decide(config, results)
+                gates, verdict, regression = decide(config, results, folders, model_id, incumbent)
+                if regression is not None:
+                    regression.candidate_run = entries["evaluate"].job_id
+                    regression.incumbent_run = entries["incumbent_evaluate"].job_id
                 entry.status = "passed" if verdict["passed"] else "failed_gate"
                 entry.wall_s = time.perf_counter() - t
                 entry.headline = (
@@ -261,7 +291,14 @@ def run_pipeline(
                     else "failed: " + ", ".join(verdict["failed"])
                 )
             elif stage == "promote":
-                if not verdict["passed"]:
+                if config.gates.relaxed:
+                    entry.status = "skipped"
+                    entry.headline = f"{model_id} stays {RELAXED}: never promoted"
+                    verdict["promotion"] = (
+                        f"`{model_id}` is registered as {RELAXED}: this pipeline's gates are relaxed on purpose "
+                        "(gates.relaxed), so its model can never be promoted or become the default."
+                    )
+                elif not verdict["passed"]:
                     entry.status = "skipped"
                     entry.headline = f"{model_id} stays a candidate"
                 else:
@@ -277,10 +314,26 @@ def run_pipeline(
                         f"Promoted `{model_id}` to {config.promote.to}: every required gate "
                         f"({', '.join(config.gates.require) or 'none'}) passed."
                     )
+            elif stage in REFERENCE_STAGES:
+                spec = reference_spec(config, stage, inputs | {"model": model_id}, incumbent)
+                if spec is None:
+                    entry.status = "skipped"
+                    entry.headline = "no incumbent" if incumbent is None else "the planner takes no model"
+                else:
+                    sha = (
+                        incumbent.sha256 if incumbent is not None and stage.startswith("incumbent") else None
+                    )
+                    key = cache_key(stage, kind, spec, sha)
+                    run = _as_run(run_child(stage, kind, spec, progress, cache_key=key), kind)
+                    _fill(entry, run, kind)
+                    results.by_stage[stage] = run.result
+                    folders[stage] = run.folder
+                    entry.status = "completed"
             else:
                 spec = _spec(config, stage, inputs, results, model_id)
                 run = _as_run(run_child(stage, kind, spec, progress), kind)
                 _fill(entry, run, kind)
+                folders[stage] = run.folder
                 if kind in RESULTS:
                     results.by_stage[stage] = run.result
                 if kind in ("collect", "mix"):
@@ -309,7 +362,9 @@ def run_pipeline(
     exit_code = 0 if passed else GATE_FAILED_EXIT
     if not passed and not verdict["promotion"]:
         verdict["promotion"] = (
-            f"`{model_id}` stays a candidate: required gate(s) failed ({', '.join(verdict['failed'])})."
+            f"`{model_id}` stays a candidate: required gate(s) failed ({', '.join(verdict['failed'])}): "
+            + "; ".join(failing_checks(gates))
+            + "."
         )
     s = summary("passed" if passed else "failed_gate", exit_code)
     publish(s)
@@ -323,6 +378,8 @@ def run_pipeline(
         model_id=inputs.get("model"),
         promoted=promoted,
         promotion=verdict["promotion"],
+        incumbent=incumbent,
+        failing_checks=s.failing_checks,
         stages=s.stages,
         summary=s,
         artifacts={"report": "report.html", "markdown": "report.md", "summary": "pipeline_summary.json"},
@@ -339,7 +396,7 @@ def _spec(
         summary = results.training
         return {
             "model_id": model_id,
-            "status": "candidate",
+            "status": RELAXED if config.gates.relaxed else "candidate",
             "train_stage": "train",
             "tags": list(dict.fromkeys([*config.registration.tags, "pipeline", config.name])),
             "lineage": {
@@ -360,27 +417,6 @@ def _spec(
     return stage_config(config, stage, {**inputs, "model": inputs.get("model", model_id)}).model_dump(
         mode="json"
     )
-
-
-def _decide(config: PipelineConfig, results: StageResults) -> tuple[list[Any], dict[str, Any]]:
-    entries, failed = [], []
-    for name, stage in GATE_OF_STAGE.items():
-        entry = gate_entry(name, results.gate(stage))
-        required = name in config.gates.require
-        if not required and entry.passed is None:
-            entry.detail = (entry.detail + "; " if entry.detail else "") + "not required for promotion"
-        elif (
-            entry.passed is None
-            and name == "closed_loop"
-            and results.of("campaign", CampaignResult) is not None
-        ):
-            entry.detail = "the campaign has no closed-loop gate configured"
-        entries.append(entry)
-        # a gate that ran and failed blocks promotion whether or not it is required: a model whose gates fail is
-        # never promoted; ``require`` names the gates that must also have run
-        if entry.passed is False or (required and entry.passed is not True):
-            failed.append(name)
-    return entries, {"passed": not failed, "failed": failed, "promotion": ""}
 
 
 def _status(result: Any) -> str:

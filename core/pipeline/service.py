@@ -37,7 +37,16 @@ class ChildJobs:
     def close(self) -> None:
         self.jobs.close()
 
-    def __call__(self, stage: str, kind: str, spec: dict[str, Any], progress: Any) -> ChildRun:
+    def model_rows(self) -> list[dict[str, Any]]:
+        return self.jobs.model_rows()
+
+    def model_row(self, ident: str) -> dict[str, Any] | None:
+        return self.jobs.model_row(ident)
+
+    def __call__(
+        self, stage: str, kind: str, spec: dict[str, Any], progress: Any, cache_key: str | None = None
+    ) -> ChildRun:
+        """``cache_key``: a reference run shared by every pipeline (its job may belong to another one)."""
         if kind == "register":
             return self._register(spec)
         if kind == "promote":
@@ -47,7 +56,7 @@ class ChildJobs:
                 result=row, ident=row["model_id"], artifacts={"model": f"/v1/models/{row['model_id']}"}
             )
         job, created = self.jobs.submit(
-            f"stage {stage}", kind, spec, key=f"pipeline:{self.parent_id}:{stage}"
+            f"stage {stage}", kind, spec, key=cache_key or f"pipeline:{self.parent_id}:{stage}"
         )
         child_id = job["id"]
         self.children[stage] = child_id
@@ -78,6 +87,7 @@ class ChildJobs:
             resumed=resumed,
             report=report,
             artifacts={"job": f"/v1/jobs/{job['id']}"},
+            folder=self.jobs.folder(job["id"]),
         )
 
     def _register(self, spec: dict[str, Any]) -> ChildRun:
@@ -99,6 +109,6 @@ class ChildJobs:
 def run_pipeline_job(config: PipelineConfig, ctx: StageContext) -> PipelineResult:
     children = ChildJobs(ctx, config)
     try:
-        return run_pipeline(config, ctx, children, run_id=children.parent_id)
+        return run_pipeline(config, ctx, children, run_id=children.parent_id, registry=children)
     finally:
         children.close()

@@ -7,6 +7,16 @@ from pydantic import BaseModel, Field
 
 from foresight.core.evaluation.campaign import CampaignResult
 from foresight.core.evaluation.gates import GateCheck, GateResult
+from foresight.core.evaluation.regression import RegressionGateResult
+
+
+class IncumbentRef(BaseModel):
+    """The model the candidate would replace, as the pipeline resolved it when it started."""
+
+    id: str
+    sha256: str
+    status: str
+    why: str = ""
 
 
 class StageEntry(BaseModel):
@@ -21,7 +31,7 @@ class StageEntry(BaseModel):
 
 
 class GateEntry(BaseModel):
-    name: str  #: training | evaluation | closed_loop
+    name: str  #: training | evaluation | closed_loop | regression | floors | conformance
     passed: bool | None  #: None = not evaluated (its stage did not run)
     checks: list[GateCheck] = Field(default_factory=list)
     detail: str = ""
@@ -46,6 +56,10 @@ class PipelineSummary(BaseModel):
     best: BestVariant | None = None
     promoted_model: str | None = None
     promotion: str = ""  #: why the model was (not) promoted
+    failing_checks: list[str] = Field(default_factory=list)  #: ``gate.check: value (threshold)`` that failed
+    incumbent: IncumbentRef | None = None
+    regression: RegressionGateResult | None = None  #: candidate vs incumbent: numbers, paired test, episodes
+    relaxed: bool = False  #: gates relaxed on purpose: the model can never become the default
     artifacts: dict[str, str] = Field(default_factory=dict)
     code_version: str | None = None
     wall_s: float | None = None
@@ -83,6 +97,8 @@ class PipelineResult(BaseModel):
     model_id: str | None
     promoted: bool
     promotion: str
+    incumbent: IncumbentRef | None = None  #: id and sha256 of the model the candidate would replace
+    failing_checks: list[str] = Field(default_factory=list)
     stages: list[StageEntry]
     summary: PipelineSummary
     report: str = "report.html"

@@ -101,6 +101,65 @@ def _gates(doc: Document, s: PipelineSummary) -> None:
             doc.table(["check", "result", "value", "threshold", "detail"], gate_rows(g.checks))
 
 
+def _incumbent(doc: Document, s: PipelineSummary) -> None:
+    """Candidate vs incumbent first: what a person decides on (numbers, paired test, every changed episode)."""
+    doc.section("Candidate vs incumbent")
+    inc, r = s.incumbent, s.regression
+    if inc is None:
+        doc.note("No incumbent: no model this candidate would replace was found, so nothing was compared.")
+        return
+    doc.text(f"Incumbent `{inc.id}` ({inc.why}; status {inc.status}, sha256 `{inc.sha256[:12]}`).")
+    if r is None:
+        doc.note("The regression gate did not run (the candidate's or the incumbent's run is missing).")
+        return
+    rows = []
+    for name, pr in (("success", r.success), ("collision", r.collision)):
+        if pr is not None:
+            rows.append([name, pct(pr.candidate), pct(pr.incumbent), str(pr.n_pairs), f"{pr.worse} / {pr.better}",
+                         fmt(pr.p_worse, 3)])  # fmt: skip
+    if r.hard_solved is not None:
+        c, i, n = r.hard_solved
+        rows.append(["hard seeds solved", f"{c}/{n}", f"{i}/{n}", str(n), "-", "-"])
+    doc.table(["metric", "candidate", "incumbent", "paired episodes", "worse / better", "one-sided p"], rows)
+    doc.table(["check", "result", "value", "threshold", "detail"], gate_rows(r.checks))
+    if r.taxonomy is not None:
+        labels = list(r.taxonomy.delta)
+        if labels:
+            doc.text("Failure mechanisms (global suite), candidate vs incumbent; new ones flagged:")
+            doc.table(
+                ["mechanism", "candidate", "incumbent", "new"],
+                [
+                    [
+                        k,
+                        str(r.taxonomy.candidate.get(k, 0)),
+                        str(r.taxonomy.baseline.get(k, 0)),
+                        "NEW" if k in r.taxonomy.new_labels else "",
+                    ]
+                    for k in labels
+                ],  # fmt: skip
+            )
+    if r.changed:
+        doc.text(f"{len(r.changed)} episode(s) ended otherwise (incumbent -> candidate):")
+        link = r.candidate_run and r.incumbent_run
+        doc.table(
+            ["scenario", "seed", "incumbent", "candidate", "side by side"],
+            [
+                [
+                    c.scenario,
+                    str(c.seed),
+                    c.a,
+                    c.b,
+                    f"/ui/compare/episode?a={r.incumbent_run}&b={r.candidate_run}&scenario={c.scenario}&seed={c.seed}"
+                    if link
+                    else "-",
+                ]  # fmt: skip
+                for c in r.changed
+            ],
+        )
+    else:
+        doc.text("Every episode ended the same way for both models.")
+
+
 def _best(doc: Document, workdir: Path, s: PipelineSummary, campaign: CampaignResult | None) -> None:
     doc.section("Best campaign variant")
     b = s.best
@@ -143,6 +202,12 @@ def build_pipeline_document(
         + (f" Code `{s.code_version}`." if s.code_version else "")
         + (f" {fmt(s.wall_s, 1, ' s')} in all." if s.wall_s else "")
     )
+    if s.relaxed:
+        doc.note("This pipeline's gates are relaxed on purpose: its model is registered as `relaxed` and can never "
+                 "be promoted or become the default.")  # fmt: skip
+    if s.failing_checks:
+        doc.text("Failed checks: " + "; ".join(s.failing_checks) + ".")
+    _incumbent(doc, s)
     _stages(doc, s)
     _gates(doc, s)
     _best(doc, workdir, s, campaign)

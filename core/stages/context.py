@@ -64,6 +64,14 @@ class ChildJobs(Protocol):
         """Promote a model (the registry's one rule)."""
         ...
 
+    def model_rows(self) -> list[dict[str, Any]]:
+        """Every registered model: ``id``, ``status``, ``sha256``, ``lineage``, ``created_at``."""
+        ...
+
+    def model_row(self, ident: str) -> dict[str, Any] | None:
+        """One model by id (``default``: the default model, by the registry's one rule); None if unknown."""
+        ...
+
     def close(self) -> None: ...
 
 

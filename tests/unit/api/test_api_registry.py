@@ -216,3 +216,24 @@ def test_a_model_trained_in_another_frame_is_refused_at_submission(client, auth,
     assert client.get("/v1/jobs").json()["count"] == before  # nothing queued
     spec["planner"]["model"] = "sim-1"
     assert client.post("/v1/jobs", json={"spec": spec}, headers=auth).status_code == 201
+
+
+def test_a_relaxed_model_can_never_be_promoted(client, auth, engine, settings) -> None:  # noqa: ANN001
+    """A pipeline whose gates are relaxed on purpose registers its model as ``relaxed``: promote and default are 409."""
+    from foresight.store import folders, queue, registry
+
+    job = client.post("/v1/jobs", json={"spec": {"kind": "sleep"}}, headers=auth).json()
+    c = queue.claim(engine, "w", ["sleep"], 30)
+    rel = f"jobs/{job['id']}/model.pt"
+    weights = (REPO_ROOT / "model" / "predictor-sim-default.pt").read_bytes()
+    folders.write_atomic(folders.resolve_under(settings.store_root, rel), weights)
+    queue.finish(
+        engine, job["id"], "w", c["attempts"], {}, folders.scan(settings.store_root, f"jobs/{job['id']}")
+    )
+    registry.register_checkpoint(engine, settings, model_id="smoke-1", job_id=job["id"], status="relaxed")
+    assert client.get("/v1/models/smoke-1").json()["status"] == "relaxed"
+    assert client.get("/v1/models", params={"status": "relaxed"}).json()["count"] == 1
+    for to in ("promoted", "default"):
+        refused = client.post("/v1/models/smoke-1/promote", json={"to": to}, headers=auth)
+        assert refused.status_code == 409 and "never be promoted" in refused.text
+    assert client.get("/v1/models/smoke-1").json()["status"] == "relaxed"

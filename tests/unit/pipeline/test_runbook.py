@@ -9,11 +9,13 @@ from typing import Any
 import pytest
 
 from foresight.core.errors import ConfigError
-from foresight.core.pipeline.config import PipelineConfig, load_pipeline_config, stage_config
+from foresight.core.evaluation.runner import write_records
+from foresight.core.pipeline.config import GatesSection, PipelineConfig, load_pipeline_config, stage_config
 from foresight.core.pipeline.runbook import ChildRun, StageFailed, check_seed_separation, run_pipeline
 from foresight.core.stages.context import Cancelled, StageContext
 from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
 from tests.conftest import REPO
+from tests.unit.evaluation.traces import record
 from tests.unit.reports import data
 
 SMOKE = BUILTIN_CONFIG_ROOT / "pipelines" / "smoke.yaml"
@@ -38,19 +40,50 @@ class FakeChildren:
     """Records every call; results are complete stage results (the runbook validates them as their models)."""
 
     def __init__(
-        self, *, evaluation_passes: bool = True, training_passes: bool = True, fail: str | None = None
+        self,
+        *,
+        evaluation_passes: bool = True,
+        training_passes: bool = True,
+        fail: str | None = None,
+        root: Path | None = None,
+        outcomes: dict[str, list[str]] | None = None,
     ):
         self.calls: list[tuple[str, str, dict[str, Any]]] = []
+        self.keys: dict[str, str | None] = {}
         self.done: dict[str, ChildRun] = {}
         self.evaluation_passes = evaluation_passes
         self.training_passes = training_passes
         self.fail = fail
+        self.root = root
+        #: evaluate-kind stage -> its episodes' outcomes (written as records, so the paired gates can read them)
+        self.outcomes = {"evaluate": ["success"] * 6, **(outcomes or {})}
 
-    def __call__(self, stage: str, kind: str, spec: dict[str, Any], progress: Any) -> ChildRun:
+    # the registry the pipeline resolves its incumbent in
+    def model_rows(self) -> list[dict[str, Any]]:
+        return [INCUMBENT_ROW]
+
+    def model_row(self, ident: str) -> dict[str, Any] | None:
+        return INCUMBENT_ROW if ident in ("default", INCUMBENT_ROW["id"]) else None
+
+    def _folder(self, stage: str) -> Path | None:
+        if self.root is None:
+            return None
+        folder = self.root / stage
+        folder.mkdir(parents=True, exist_ok=True)
+        outcomes = self.outcomes.get(stage, self.outcomes["evaluate"])
+        write_records(folder / "episodes.jsonl", [record("s_low", i, o) for i, o in enumerate(outcomes)])
+        return folder
+
+    def __call__(
+        self, stage: str, kind: str, spec: dict[str, Any], progress: Any, cache_key: str | None = None
+    ) -> ChildRun:
         if stage in self.done:  # resume: a succeeded child is returned, not run again
             run = self.done[stage]
-            return ChildRun(result=run.result, ident=run.ident, job_id=run.job_id, resumed=True)
+            return ChildRun(
+                result=run.result, ident=run.ident, job_id=run.job_id, resumed=True, folder=run.folder
+            )
         self.calls.append((stage, kind, spec))
+        self.keys[stage] = cache_key
         progress(0.5, "half way")
         if stage == self.fail:
             raise RuntimeError(f"{stage} exploded")
@@ -59,6 +92,8 @@ class FakeChildren:
         )
         if kind == "register":
             run.ident = spec["model_id"]
+        if kind == "evaluate":
+            run.folder = self._folder(stage)
         self.done[stage] = run
         return run
 
@@ -94,14 +129,29 @@ class FakeChildren:
         return {"model_id": spec.get("model_id"), "status": spec.get("to", spec.get("status"))}
 
 
+INCUMBENT_ROW = {
+    "id": "shipped-v1",
+    "sha256": "ab" * 32,
+    "status": "default",
+    "lineage": {},
+    "created_at": 0.0,
+}
+
+
 def _smoke() -> PipelineConfig:
-    return load_pipeline_config(SMOKE)
+    """The smoke pipeline with its gates as every other shipped pipeline's (smoke's are relaxed: never promoted)."""
+    config = load_pipeline_config(SMOKE)
+    return config.model_copy(update={"gates": GatesSection(require=config.gates.require)})
+
+
+def _fake(tmp_path: Path, **kw: Any) -> FakeChildren:
+    return FakeChildren(root=tmp_path / "runs", **kw)
 
 
 def test_stages_run_in_order_and_outputs_feed_the_next_stage(tmp_path: Path) -> None:
     config = _smoke()
-    fake = FakeChildren()
-    result = run_pipeline(config, _ctx(tmp_path), fake, run_id="0123456789abcdef")
+    fake = _fake(tmp_path)
+    result = run_pipeline(config, _ctx(tmp_path), fake, run_id="0123456789abcdef", registry=fake)
     assert [c[0] for c in fake.calls] == [
         "collect",
         "hardcase",
@@ -109,7 +159,10 @@ def test_stages_run_in_order_and_outputs_feed_the_next_stage(tmp_path: Path) -> 
         "train",
         "register",
         "evaluate",
+        "incumbent_evaluate",
+        "cv_baseline",
         "diagnose",
+        "incumbent_diagnose",
         "campaign",
         "promote",
     ]
@@ -139,8 +192,8 @@ def test_stages_run_in_order_and_outputs_feed_the_next_stage(tmp_path: Path) -> 
 
 
 def test_failing_gate_writes_the_summary_exit_2_and_does_not_promote(tmp_path: Path) -> None:
-    fake = FakeChildren(evaluation_passes=False)
-    result = run_pipeline(_smoke(), _ctx(tmp_path), fake, run_id="feedbeef")
+    fake = _fake(tmp_path, evaluation_passes=False)
+    result = run_pipeline(_smoke(), _ctx(tmp_path), fake, run_id="feedbeef", registry=fake)
     assert result.exit_code == 2 and not result.passed and result.status == "failed_gate"
     assert result.failed_gates == ["evaluation"]
     assert "promote" not in [c[0] for c in fake.calls] and not result.promoted
@@ -157,8 +210,8 @@ def test_a_failed_gate_that_is_not_required_still_blocks_promotion(tmp_path: Pat
     # the smoke pipeline once printed "Gates: FAILED (training)" and promoted the model anyway
     config = _smoke()
     config.gates.require = ["evaluation", "closed_loop"]
-    fake = FakeChildren(training_passes=False)
-    result = run_pipeline(config, _ctx(tmp_path), fake, run_id="0badcafe")
+    fake = _fake(tmp_path, training_passes=False)
+    result = run_pipeline(config, _ctx(tmp_path), fake, run_id="0badcafe", registry=fake)
     assert result.exit_code == 2 and not result.passed and result.failed_gates == ["training"]
     assert "promote" not in [c[0] for c in fake.calls] and not result.promoted
     assert "stays a candidate" in result.promotion
@@ -166,17 +219,19 @@ def test_a_failed_gate_that_is_not_required_still_blocks_promotion(tmp_path: Pat
 
 def test_a_failed_stage_writes_the_summary_and_a_rerun_resumes_from_it(tmp_path: Path) -> None:
     config = _smoke()
-    fake = FakeChildren(fail="evaluate")
+    fake = _fake(tmp_path, fail="evaluate")
     with pytest.raises(StageFailed, match="stage evaluate failed"):
-        run_pipeline(config, _ctx(tmp_path), fake, run_id="abc")
+        run_pipeline(config, _ctx(tmp_path), fake, run_id="abc", registry=fake)
     report = (tmp_path / "report.md").read_text()
     assert "failed" in report and "evaluate exploded" in report
     ran_first = [c[0] for c in fake.calls]
     assert ran_first[-1] == "evaluate" and "campaign" not in ran_first
 
     fake.fail, fake.calls = None, []  # the retry: finished stages come back as resumed, nothing re-runs
-    result = run_pipeline(config, _ctx(tmp_path), fake, run_id="abc")
-    assert [c[0] for c in fake.calls] == ["evaluate", "diagnose", "campaign", "promote"]
+    result = run_pipeline(config, _ctx(tmp_path), fake, run_id="abc", registry=fake)
+    assert [c[0] for c in fake.calls] == [
+        "evaluate", "incumbent_evaluate", "cv_baseline", "diagnose", "incumbent_diagnose", "campaign", "promote",
+    ]  # fmt: skip
     assert result.passed
     assert {s.name: s.headline.endswith("(resumed)") for s in result.stages}["train"]
 
@@ -192,14 +247,14 @@ def test_cancellation_writes_the_summary_and_propagates(tmp_path: Path) -> None:
             return super().__call__(stage, kind, spec, progress)
 
     with pytest.raises(Cancelled):
-        run_pipeline(_smoke(), _ctx(tmp_path, flag), CancelDuringTrain(), run_id="abc")
+        run_pipeline(_smoke(), _ctx(tmp_path, flag), CancelDuringTrain(), run_id="abc", registry=None)
     assert "cancelled" in (tmp_path / "report.md").read_text()
 
 
 def test_without_hardcase_the_train_stage_takes_the_base_dataset(tmp_path: Path) -> None:
     config = _smoke().model_copy(update={"hardcase": None, "diagnose": None})
-    fake = FakeChildren()
-    run_pipeline(config, _ctx(tmp_path), fake)
+    fake = _fake(tmp_path)
+    run_pipeline(config, _ctx(tmp_path), fake, registry=fake)
     stages = [c[0] for c in fake.calls]
     assert "hardcase" not in stages and "mix" not in stages and "diagnose" not in stages
     assert dict((s, spec) for s, _, spec in fake.calls)["train"]["dataset"] == "id-collect"

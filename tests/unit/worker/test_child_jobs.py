@@ -210,3 +210,44 @@ def test_the_pipeline_verdict_is_recorded_as_gate_rows(settings, engine) -> None
             select(GateResult.gate, GateResult.passed).where(GateResult.job_id == parent.job["id"])
         )
         assert sorted(rows) == [("pipeline:evaluation", False), ("pipeline:training", True)]
+
+
+def test_a_reference_run_is_shared_by_key_across_pipelines(settings, engine) -> None:  # noqa: ANN001
+    """The incumbent's runs are cached: a second pipeline asking with the same key gets the first one's job."""
+    first, second = Parent(settings, engine), Parent(settings, engine)
+    spec = {"seconds": 0.1, "steps": 1, "artifact": "out.txt"}
+    a, b = first.children(), second.children()
+    try:
+        run = a(
+            "incumbent_evaluate", "sleep", spec, _progress([]), cache_key="reference:abc:incumbent_evaluate"
+        )
+        again = b(
+            "incumbent_evaluate", "sleep", spec, _progress([]), cache_key="reference:abc:incumbent_evaluate"
+        )
+        assert again.job_id == run.job_id and again.resumed and run.folder == again.folder
+        assert queue.get_job(engine, run.job_id)["attempts"] == 1
+        own = b("evaluate", "sleep", spec, _progress([]))
+        assert own.job_id != run.job_id  # a pipeline's own stage is never shared
+    finally:
+        a.close()
+        b.close()
+
+
+def test_the_pipeline_reads_the_registry_through_its_children(settings, engine) -> None:  # noqa: ANN001
+    from foresight.store import registry
+    from foresight.store.settings import REPO_ROOT
+    from foresight.store.shipped import default_model, read_shipped
+
+    shipped = REPO_ROOT / "model" / "registry.yaml"
+    registry.load_shipped_models(engine, settings.model_copy(update={"model_registry": shipped}))
+    parent = Parent(settings, engine)
+    children = parent.children()
+    try:
+        assert children.model_row("no-such-model") is None
+        ids = {r["id"] for r in children.model_rows()}
+        default = children.model_row("default")  # the shipped default, by the registry's one rule
+        want = default_model(read_shipped(shipped))
+        assert default is not None and default["id"] == want["id"] and default["sha256"] == want["sha256"]
+        assert default["id"] in ids
+    finally:
+        children.close()
