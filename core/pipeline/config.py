@@ -20,6 +20,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.config import CampaignConfig, DiagnosticsConfig, EvaluationConfig
+from foresight.core.evaluation.conformance import ConformanceConfig
 from foresight.core.evaluation.regression import FloorsConfig, RegressionGateConfig
 from foresight.core.predict.collect import CollectConfig, MixConfig
 from foresight.core.predict.proxy import ProxySpec
@@ -84,6 +85,11 @@ class DiagnoseSection(DiagnosticsConfig):
 class CampaignSection(CampaignConfig):
     seed_manifest: BundlePath | None = None  #: wired: ``evaluation_seeds``
     checkpoints: list[str] = Field(default_factory=lambda: [CANDIDATE], min_length=1, max_length=50)
+
+
+class ConformanceSection(ConformanceConfig):
+    """The conformance check of the planner the evaluate stage runs (``planner`` wired: evaluate's, with the
+    candidate model); on a scenario of the pipeline's matrix."""
 
 
 class SelectionSection(BaseModel):
@@ -157,6 +163,7 @@ class PipelineConfig(BaseModel):
     evaluate: EvaluateSection = EvaluateSection()
     diagnose: DiagnoseSection | None = DiagnoseSection()  #: None: skip diagnostics
     campaign: CampaignSection
+    conformance: ConformanceSection | None = ConformanceSection()  #: None: no conformance check
     incumbent: IncumbentSection = IncumbentSection()
     gates: GatesSection = GatesSection()
     promote: PromoteSection = PromoteSection()
@@ -165,7 +172,7 @@ class PipelineConfig(BaseModel):
     def _wiring(self) -> PipelineConfig:
         if self.training_seeds == self.evaluation_seeds:
             raise ValueError("training_seeds and evaluation_seeds must be different manifests")
-        for name in ("collect", "hardcase", "evaluate", "diagnose", "campaign"):
+        for name in ("collect", "hardcase", "evaluate", "diagnose", "campaign", "conformance"):
             section = getattr(self, name)
             if section is None:
                 continue
@@ -270,6 +277,11 @@ def stage_config(config: PipelineConfig, stage: str, inputs: dict[str, str]) -> 
         if data["planner"]["name"] == "predictive":
             data["planner"]["model"] = _model(data["planner"].get("model"), inputs["model"])
         return _build(DiagnosticsConfig, data, stage)
+    if stage == "conformance":
+        assert config.conformance is not None
+        evaluate = stage_config(config, "evaluate", inputs).model_dump(mode="json")
+        data = {**config.conformance.model_dump(mode="json"), **where, "planner": evaluate["planner"]}
+        return _build(ConformanceConfig, data, stage)
     if stage == "campaign":
         data = config.campaign.model_dump()
         data.update(where, seed_manifest=config.evaluation_seeds)

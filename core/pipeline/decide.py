@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from foresight.core.evaluation.campaign import CampaignResult
+from foresight.core.evaluation.conformance import ConformanceResult
 from foresight.core.evaluation.diagnostics import DiagnosticsResult
 from foresight.core.evaluation.gates import GateCheck, GateResult
 from foresight.core.evaluation.record import EpisodeRecord
@@ -71,7 +72,6 @@ def decide(
     folders: dict[str, Path | None],
     model_id: str,
     incumbent: Incumbent | None,
-    conformance: GateResult | None = None,
 ) -> tuple[list[GateEntry], dict[str, Any], RegressionGateResult | None]:
     """Every gate's entry, the verdict (``passed``, ``failed``, ``promotion``) and the regression gate's result."""
     gates: dict[str, tuple[GateResult | None, str]] = {
@@ -80,6 +80,8 @@ def decide(
     reg, full, why = regression(config, results, folders, model_id, incumbent)
     gates["regression"] = (reg, why)
     gates["floors"] = floors(config, results, folders)
+    check = results.of("conformance", ConformanceResult)
+    conformance = None if check is None else GateResult(passed=check.passed, checks=check.checks)
     gates["conformance"] = (conformance, "" if conformance else "the planner conformance check did not run")
     entries, failed = [], []
     for name, (gate, why) in gates.items():

@@ -34,6 +34,7 @@ from pydantic import BaseModel
 from foresight.core import files
 from foresight.core.errors import ConfigError, CoreError
 from foresight.core.evaluation.campaign import CampaignResult
+from foresight.core.evaluation.conformance import ConformanceResult
 from foresight.core.evaluation.gates import GATE_FAILED_EXIT, GateResult
 from foresight.core.evaluation.runner import EvaluationResult
 from foresight.core.pipeline.config import PipelineConfig, stage_config
@@ -58,7 +59,7 @@ M = TypeVar("M", bound=BaseModel)
 #: runs (core.pipeline.incumbent.REFERENCE_STAGES) hold the candidate's episodes with the incumbent or constant velocity
 RUNBOOK: list[tuple[str, str]] = [
     ("collect", "collect"), ("hardcase", "collect"), ("mix", "mix"), ("train", "train"), ("register", "register"),
-    ("evaluate", "evaluate"), ("incumbent_evaluate", "evaluate"), ("cv_baseline", "evaluate"),
+    ("conformance", "planner_check"), ("evaluate", "evaluate"), ("incumbent_evaluate", "evaluate"), ("cv_baseline", "evaluate"),
     ("diagnose", "diagnose"), ("incumbent_diagnose", "diagnose"), ("campaign", "campaign"), ("gates", "gates"),
     ("promote", "promote"),
 ]  # fmt: skip
@@ -69,6 +70,7 @@ WEIGHT = {
     "mix": 0.1,
     "train": 3,
     "register": 0.05,
+    "conformance": 0.3,
     "evaluate": 2,
     "incumbent_evaluate": 2,
     "cv_baseline": 2,
@@ -206,6 +208,7 @@ def run_pipeline(
         for s, k in RUNBOOK
         if not (config.hardcase is None and s in ("hardcase", "mix"))
         and not (config.diagnose is None and s in ("diagnose", "incumbent_diagnose"))
+        and not (config.conformance is None and s == "conformance")
     ]
     total = sum(WEIGHT[s] for s, _ in stages)
     done_weight = 0.0
@@ -426,6 +429,8 @@ def _status(result: Any) -> str:
         return "failed_gate" if result.status == "failed_integrity" else result.status
     if isinstance(result, CampaignResult):
         return result.status
+    if isinstance(result, ConformanceResult):
+        return "passed" if result.passed else "failed_gate"
     return "completed"
 
 

@@ -14,6 +14,7 @@ from typing import Any
 from pydantic import BaseModel
 
 from foresight.core.evaluation.campaign import CampaignResult
+from foresight.core.evaluation.conformance import ConformanceResult
 from foresight.core.evaluation.diagnostics import DiagnosticsResult
 from foresight.core.evaluation.runner import EvaluationResult
 from foresight.core.pipeline.summary import PipelineResult, PipelineSummary, best_from_campaign
@@ -31,6 +32,10 @@ def headline(kind: str, result: BaseModel | None) -> str:
         return (
             f"success {pct(result.success_rate)}, collision {pct(result.collision_rate)} over "
             f"{result.episodes} episodes; gate {verdict(result.gate.passed)}"
+        )
+    if kind == "planner_check" and isinstance(result, ConformanceResult):
+        return f"{result.planner}: " + (
+            "every check passed" if result.passed else "FAILED " + ", ".join(result.failed)
         )
     if kind == "diagnose" and isinstance(result, DiagnosticsResult):
         return f"solved {result.solved}/{result.episodes} hard seeds"

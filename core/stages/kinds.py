@@ -19,6 +19,7 @@ from pydantic import BaseModel, ConfigDict, Field, create_model
 from foresight.core import files
 from foresight.core.evaluation.campaign import run_campaign
 from foresight.core.evaluation.config import CampaignConfig, DiagnosticsConfig, EvaluationConfig
+from foresight.core.evaluation.conformance import ConformanceConfig, run_conformance
 from foresight.core.evaluation.diagnostics import run_diagnostics
 from foresight.core.evaluation.runner import run_evaluation
 from foresight.core.evaluation.witness_job import WitnessConfig, run_witness
@@ -180,6 +181,13 @@ KINDS: dict[str, JobKind] = {
             run_witness,
             "which episodes (or an evaluation's failures) a robot with these limits can solve: a scripted plan that "
             "arrives, found in the simulator; optionally priced by the planner riding along",
+        ),
+        JobKind(
+            "planner_check",
+            ConformanceConfig,
+            run_conformance,
+            "planner conformance: commands finite and within the robot's limits, deterministic, within the decision "
+            "budget, 0 and 200 pedestrians, reset leaves no state, the external protocol's error paths",
         ),
         JobKind(
             "import_dataset",

@@ -10,6 +10,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ValidationError
 
 from foresight.core.evaluation.campaign import CampaignResult
+from foresight.core.evaluation.conformance import ConformanceResult
 from foresight.core.evaluation.diagnostics import DiagnosticsResult
 from foresight.core.evaluation.runner import EvaluationResult
 from foresight.core.evaluation.witness_job import WitnessResult
@@ -32,6 +33,7 @@ RESULTS: dict[str, type[BaseModel]] = {
     "campaign": CampaignResult,
     "pipeline": PipelineResult,
     "witness": WitnessResult,
+    "planner_check": ConformanceResult,
 }
 
 
@@ -65,6 +67,8 @@ def verdict(kind: str, data: Any) -> Verdict | None:
         return "passed" if result.gates_passed else "failed_gate"
     if isinstance(result, EvaluationResult):
         return result.status
+    if isinstance(result, ConformanceResult):
+        return "passed" if result.passed else "failed_gate"
     if isinstance(result, CampaignResult | PipelineResult):
         return (
             None if result.status == "completed" else "passed" if result.status == "passed" else "failed_gate"

@@ -134,3 +134,33 @@ def test_a_relaxed_pipeline_registers_a_relaxed_model_and_never_promotes_it(tmp_
     assert spec["register"]["status"] == "relaxed"
     assert not result.promoted and "promote" not in spec
     assert "can never be promoted or become the default" in result.promotion
+
+
+def test_the_planner_the_pipeline_evaluates_must_conform(tmp_path: Path) -> None:
+    class NonConforming(type(_fake(tmp_path))):
+        def result(self, stage: str, kind: str, spec: dict[str, Any]) -> dict[str, Any]:
+            if kind == "planner_check":
+                check = {
+                    "name": "within_limits",
+                    "passed": False,
+                    "value": 3.0,
+                    "threshold": 0.0,
+                    "detail": "v 4",
+                }
+                return {
+                    "passed": False,
+                    "checks": [check],
+                    "planner": "predictive",
+                    "failed": ["within_limits"],
+                }
+            return super().result(stage, kind, spec)
+
+    fake = NonConforming(root=tmp_path / "runs")
+    result = run_pipeline(_smoke(), _ctx(tmp_path), fake, run_id="0123abcd", registry=fake)
+    spec = {stage: s for stage, _, s in fake.calls}
+    assert (
+        spec["conformance"]["planner"] == spec["evaluate"]["planner"]
+    )  # the candidate model, evaluate's config
+    assert spec["conformance"]["matrix"] == _smoke().matrix
+    assert not result.passed and result.failed_gates == ["conformance"] and not result.promoted
+    assert result.failing_checks == ["conformance.within_limits: 3 (threshold 0)"]

@@ -121,6 +121,8 @@ class FakeChildren:
             return data.evaluation(failures=not self.evaluation_passes)
         if kind == "diagnose":
             return data.diagnostics(6, 3)
+        if kind == "planner_check":
+            return {"passed": True, "checks": [{"name": "finite", "passed": True}], "planner": "predictive"}
         if kind == "campaign":
             result = data.campaign(gate_passed=True)
             for cell in result["ranked"]:
@@ -158,6 +160,7 @@ def test_stages_run_in_order_and_outputs_feed_the_next_stage(tmp_path: Path) -> 
         "mix",
         "train",
         "register",
+        "conformance",
         "evaluate",
         "incumbent_evaluate",
         "cv_baseline",
