@@ -71,7 +71,9 @@ def _out(obj, as_json: bool, text: str) -> None:  # noqa: ANN001
 
 
 def _line(m: dict) -> str:
-    return f"{m['id']:<30} {m['status']:<10} {m['sha256'][:12]}  {'read-only' if m['read_only'] else m.get('job_id') or ''}"
+    line = f"{m['id']:<30} {m['status']:<10} {m['sha256'][:12]}  {'read-only' if m['read_only'] else m.get('job_id') or ''}"
+    why = (m.get("metrics") or {}).get("promotion")
+    return line + (f"\n    {why.get('why', '')}" if isinstance(why, dict) and why.get("why") else "")
 
 
 def cmd_ls(args: argparse.Namespace) -> int:

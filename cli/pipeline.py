@@ -103,15 +103,18 @@ def verdict_text(result: PipelineResult) -> str:
     head = (
         "GATES PASSED" if result.passed else "GATES FAILED (" + (", ".join(result.failed_gates) or "?") + ")"
     )
+    inc = result.incumbent
     return "\n".join(
         [f"{head}: exit code {result.exit_code}"]
+        + ([f"incumbent: {inc.id} ({inc.why}, sha256 {inc.sha256[:12]})"] if inc else ["incumbent: none"])
+        + [f"  FAIL {f}" for f in result.failing_checks]
         + ([result.promotion.replace("`", "")] if result.promotion else [])
     )
 
 
 def _stage_lines(result: PipelineResult) -> list[str]:
     return [
-        f"  {st.name:<9} {st.status:<12} {'-' if st.wall_s is None else f'{st.wall_s:.0f} s':>6}  {st.headline}"
+        f"  {st.name:<18} {st.status:<12} {'-' if st.wall_s is None else f'{st.wall_s:.0f} s':>6}  {st.headline}"
         for st in result.stages
     ]
 
@@ -217,7 +220,7 @@ def follow_pipeline(client: Any, job_id: str, *, quiet: bool) -> dict[str, Any]:
                         seen[child["id"]] = child["status"]
                         stage = (child.get("idempotency_key") or child["kind"]).rsplit(":", 1)[-1]
                         bar.console.print(
-                            f"  {stage:<9} {child['kind']:<9} job {child['id'][:12]}  {child['status']}"
+                            f"  {stage:<18} {child['kind']:<13} job {child['id'][:12]}  {child['status']}"
                         )
             if job["status"] in FINISHED:
                 return job

@@ -407,6 +407,14 @@ def promote(engine: Engine, model_id: str, to: str = ModelStatus.promoted.value)
     return {"model_id": model_id, "status": to}
 
 
+def record_promotion(engine: Engine, model_id: str, verdict: dict[str, Any]) -> None:
+    """Keep why a model was or was not promoted (the pipeline's gate verdict: failed checks with value and threshold)
+    in its ``metrics["promotion"]``, which the registry's listings show."""
+    with session_factory(engine, write=True).begin() as session:
+        row = _run_time_model(session, model_id, "its verdict is not recorded")
+        row.metrics = {**(row.metrics or {}), "promotion": verdict}
+
+
 def models_using(engine: Engine, model_id: str) -> list[str]:
     """Ids of records that use a model (evaluations)."""
     from foresight.store.models import Evaluation

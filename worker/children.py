@@ -120,6 +120,9 @@ class ChildRunner:
     def model_rows(self) -> list[dict[str, Any]]:
         return [_row(m) for m in registry.models(self.engine)]
 
+    def record_promotion(self, model_id: str, verdict: dict[str, Any]) -> None:
+        registry.record_promotion(self.engine, model_id, verdict)
+
     def model_row(self, ident: str) -> dict[str, Any] | None:
         try:
             return _row(registry.Resolver(self.settings, self.engine).model_row(ident))

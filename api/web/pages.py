@@ -101,7 +101,30 @@ def _job(request: Request, job_id: str) -> dict[str, Any]:
         _episodes(request, job) if job["kind"] == "evaluate" and job["status"] == queue.SUCCEEDED else []
     )
     job["witnesses"] = _witnesses(job) if job["kind"] == "witness" else None
+    job["gates"] = _gates(job) if job["kind"] in ("pipeline", "planner_check") else None
     return job
+
+
+def _gates(job: dict[str, Any]) -> dict[str, Any] | None:
+    """Why a pipeline's model was or was not promoted (every gate's checks with value and threshold), or a planner
+    check's checks; None while it runs or for a result of another version."""
+    from foresight.core.stages.results import typed_result
+
+    result = typed_result(job["kind"], job.get("result"))
+    if result is None:
+        return None
+    if job["kind"] == "planner_check":
+        head = f"planner {result.planner}: " + (
+            "conforms" if result.passed else "FAILED " + ", ".join(result.failed)
+        )
+        return {"headline": head, "rows": [("conformance", c) for c in result.checks]}
+    gates = result.summary.gates
+    return {
+        "headline": result.promotion.replace("`", ""),
+        "incumbent": result.incumbent,
+        "rows": [(g.name, c) for g in gates for c in g.checks],
+        "not_run": [(g.name, g.detail) for g in gates if g.passed is None],
+    }
 
 
 def _witnesses(job: dict[str, Any]) -> Any:

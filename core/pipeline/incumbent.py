@@ -38,6 +38,10 @@ class ModelRegistry(Protocol):
         """One model by id (``default``: the default model, by the registry's one rule); None if unknown."""
         ...
 
+    def record_promotion(self, model_id: str, verdict: dict[str, Any]) -> None:
+        """Keep why the model was or was not promoted with it (the registry shows it)."""
+        ...
+
 
 def resolve_incumbent(config: PipelineConfig, registry: ModelRegistry | None) -> Incumbent | None:
     """The model the candidate would replace (``incumbent.model``; see :class:`IncumbentSection`)."""

@@ -60,6 +60,12 @@ class LocalChildren:
         """This run's registered models (an in-process run's registry holds only its own candidate)."""
         return [{"id": k, "lineage": {}, "created_at": 0.0, **v} for k, v in self._registry().items()]
 
+    def record_promotion(self, model_id: str, verdict: dict[str, Any]) -> None:
+        data = self._registry()
+        if model_id in data:
+            data[model_id]["promotion"] = verdict
+            self._save_registry(data)
+
     def model_row(self, ident: str) -> dict[str, Any] | None:
         entry = self._registry().get(ident)
         return {"id": ident, **entry} if entry is not None else self.describe(ident)

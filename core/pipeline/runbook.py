@@ -365,12 +365,12 @@ def run_pipeline(
     exit_code = 0 if passed else GATE_FAILED_EXIT
     if not passed and not verdict["promotion"]:
         verdict["promotion"] = (
-            f"`{model_id}` stays a candidate: required gate(s) failed ({', '.join(verdict['failed'])}): "
-            + "; ".join(failing_checks(gates))
-            + "."
+            f"`{model_id}` stays a candidate: required gate(s) failed ({', '.join(verdict['failed'])})."
         )
     s = summary("passed" if passed else "failed_gate", exit_code)
     publish(s)
+    if registry is not None and inputs.get("model"):
+        registry.record_promotion(inputs["model"], promotion_record(s, promoted))
     ctx.progress(1.0, f"{s.status}: " + ("promoted " + model_id if promoted else "not promoted"))
     return PipelineResult(
         name=config.name,
@@ -420,6 +420,18 @@ def _spec(
     return stage_config(config, stage, {**inputs, "model": inputs.get("model", model_id)}).model_dump(
         mode="json"
     )
+
+
+def promotion_record(s: PipelineSummary, promoted: bool) -> dict[str, Any]:
+    """What the registry keeps with the candidate: promoted or not, why, each failed check, the incumbent."""
+    return {
+        "promoted": promoted,
+        "status": s.status,
+        "why": s.promotion.replace("`", ""),
+        "failing_checks": s.failing_checks,
+        "gates": {g.name: g.passed for g in s.gates},
+        "incumbent": None if s.incumbent is None else {"id": s.incumbent.id, "sha256": s.incumbent.sha256},
+    }
 
 
 def _status(result: Any) -> str:

@@ -43,6 +43,9 @@ class ChildJobs:
     def model_row(self, ident: str) -> dict[str, Any] | None:
         return self.jobs.model_row(ident)
 
+    def record_promotion(self, model_id: str, verdict: dict[str, Any]) -> None:
+        self.jobs.record_promotion(model_id, {**verdict, "pipeline_job": self.parent_id})
+
     def __call__(
         self, stage: str, kind: str, spec: dict[str, Any], progress: Any, cache_key: str | None = None
     ) -> ChildRun:

@@ -72,6 +72,10 @@ class ChildJobs(Protocol):
         """One model by id (``default``: the default model, by the registry's one rule); None if unknown."""
         ...
 
+    def record_promotion(self, model_id: str, verdict: dict[str, Any]) -> None:
+        """Keep a pipeline's verdict on a model (why it was or was not promoted) with the model."""
+        ...
+
     def close(self) -> None: ...
 
 

@@ -178,3 +178,23 @@ def test_compare_an_evaluation_with_a_campaign_cell_names_the_cell_planner(clien
     best = cells["ranked"][0]
     assert body["differs"]["planner"] == {"a": "goal", "b": f"{best['planner']['name']} ({best['variant']})"}
     assert body["setup"]["b"]["episodes"] == "global suite"
+
+
+def test_a_planner_checks_verdict_and_checks_are_on_its_job_page(client, auth, engine) -> None:  # noqa: ANN001
+    spec = {"kind": "planner_check", "planner": {"name": "goal"}}
+    job_id = client.post("/v1/jobs", json={"spec": spec}, headers=auth).json()["id"]
+    c = queue.claim(engine, "w", ["planner_check"], 30)
+    bad = {
+        "name": "within_limits",
+        "passed": False,
+        "value": 2.0,
+        "threshold": 0.0,
+        "detail": "v 4 outside [0, 2]",
+    }
+    result = {"passed": False, "checks": [{"name": "finite", "passed": True}, bad], "planner": "goal",
+              "failed": ["within_limits"]}  # fmt: skip
+    queue.finish(engine, job_id, "w", c["attempts"], result)
+    assert client.get(f"/v1/jobs/{job_id}").json()["verdict"] == "failed_gate"
+    page = client.get(f"/ui/jobs/{job_id}").text
+    assert 'id="gates"' in page and "planner goal: FAILED within_limits" in page
+    assert "v 4 outside [0, 2]" in page and "FAIL" in page

@@ -112,7 +112,10 @@ def test_a_worse_candidate_is_refused_by_the_regression_gate(tmp_path: Path) -> 
     assert any(
         f.startswith("regression.success_vs_incumbent: 0.333 (threshold 0)") for f in result.failing_checks
     )
-    assert "regression.success_vs_incumbent" in result.promotion
+    assert "stays a candidate" in result.promotion and "regression" in result.promotion
+    kept = fake.verdicts[result.model_id]  # the registry keeps why, with the model
+    assert not kept["promoted"] and kept["failing_checks"] == result.failing_checks
+    assert kept["gates"]["regression"] is False and kept["incumbent"]["id"] == INCUMBENT_ROW["id"]
     regression = result.summary.regression
     assert regression is not None and len(regression.changed) == 2
     assert "promote" not in [c[0] for c in fake.calls]

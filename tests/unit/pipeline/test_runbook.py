@@ -50,6 +50,7 @@ class FakeChildren:
     ):
         self.calls: list[tuple[str, str, dict[str, Any]]] = []
         self.keys: dict[str, str | None] = {}
+        self.verdicts: dict[str, dict[str, Any]] = {}
         self.done: dict[str, ChildRun] = {}
         self.evaluation_passes = evaluation_passes
         self.training_passes = training_passes
@@ -64,6 +65,9 @@ class FakeChildren:
 
     def model_row(self, ident: str) -> dict[str, Any] | None:
         return INCUMBENT_ROW if ident in ("default", INCUMBENT_ROW["id"]) else None
+
+    def record_promotion(self, model_id: str, verdict: dict[str, Any]) -> None:
+        self.verdicts[model_id] = verdict
 
     def _folder(self, stage: str) -> Path | None:
         if self.root is None:
