@@ -28,6 +28,7 @@ from foresight.core.errors import CoreError, NotFoundError
 from foresight.core.stages.context import Cancelled, ChildProgress, StageContext
 from foresight.core.stages.kinds import KINDS
 from foresight.store import folders, queue, registry
+from foresight.store.models import ModelStatus
 from foresight.store.settings import Settings
 
 POLL_S = 1.0  #: [s] how often a parent looks at children other workers are running
@@ -110,9 +111,13 @@ class ChildRunner:
         )
 
     def register_model(self, model_id: str, train_job: str, spec: dict[str, Any]) -> dict[str, Any]:
+        status = (
+            spec.get("status") or ModelStatus.candidate.value
+        )  # relaxed: a pipeline whose gates are relaxed
         return registry.register_checkpoint(
-            self.engine, self.settings, model_id=model_id, job_id=train_job, metadata=spec, resume=True
-        )
+            self.engine, self.settings, model_id=model_id, job_id=train_job, metadata=spec, status=status,
+            resume=True,
+        )  # fmt: skip
 
     def promote_model(self, model_id: str, to: str) -> dict[str, Any]:
         return registry.promote(self.engine, model_id, to)

@@ -167,3 +167,19 @@ def test_the_planner_the_pipeline_evaluates_must_conform(tmp_path: Path) -> None
     assert spec["conformance"]["matrix"] == _smoke().matrix
     assert not result.passed and result.failed_gates == ["conformance"] and not result.promoted
     assert result.failing_checks == ["conformance.within_limits: 3 (threshold 0)"]
+
+
+def test_in_process_runs_resolve_the_incumbent_from_the_shipped_registry(tmp_path: Path) -> None:
+    from foresight.cli.evaluate import MODEL_REGISTRY
+    from foresight.cli.pipeline import _shipped_model
+    from foresight.core.pipeline.local import LocalChildren
+    from foresight.store.shipped import default_model, read_shipped
+
+    want = default_model(read_shipped(MODEL_REGISTRY))
+    children = LocalChildren(_ctx(tmp_path), describe_model=_shipped_model, reports=False)
+    got = resolve_incumbent(_smoke(), children)
+    assert got is not None and (got.id, got.sha256) == (want["id"], want["sha256"])
+    assert children.model_row("no-such-model") is None
+    children.record_promotion(
+        "absent", {"promoted": False}
+    )  # a model this run did not register: nothing kept

@@ -170,6 +170,29 @@ def test_register_then_promote_in_the_registry(settings, engine) -> None:  # noq
         children.close()
 
 
+def test_a_relaxed_pipelines_model_is_registered_relaxed_and_never_promoted(settings, engine) -> None:  # noqa: ANN001
+    from foresight.store.models import Model
+    from foresight.store.session import session_factory
+
+    parent = Parent(settings, engine)
+    children = parent.children()
+    try:
+        train = children("train", "sleep", {"artifact": "model.pt"}, _progress([]))
+        _make_it_a_checkpoint(settings, engine, train.job_id)
+        spec = {"model_id": "smoke-1", "status": "relaxed", "train_stage": "train", "tags": [], "lineage": {},
+                "metrics": {}, "training": {}}  # fmt: skip
+        children("register", "register", spec, _progress([]))
+        with session_factory(engine)() as session:
+            assert session.get(Model, "smoke-1").status == "relaxed"
+        with pytest.raises(queue.Conflict, match="never be promoted"):
+            children("promote", "promote", {"model_id": "smoke-1", "to": "default"}, _progress([]))
+        children.record_promotion("smoke-1", {"promoted": False, "why": "relaxed"})
+        with session_factory(engine)() as session:
+            assert session.get(Model, "smoke-1").metrics["promotion"]["why"] == "relaxed"
+    finally:
+        children.close()
+
+
 def _pipeline_result(gates: list[dict]) -> dict:
     """A failed-gate pipeline job's result with these gate verdicts."""
     from foresight.core.pipeline.summary import PipelineResult, PipelineSummary
