@@ -92,8 +92,9 @@ def check_text(result: Any, ref: Any = None) -> str:
 
 
 def check_cmd(args: argparse.Namespace) -> int:
-    from foresight.cli.stage import spec, submit
+    from foresight.cli.stage import submit
     from foresight.core.evaluation.conformance import ConformanceResult
+    from foresight.local import spec
 
     planner: dict[str, Any] = {"name": args.name, "config": _config(args.config)}
     if args.model:
@@ -107,11 +108,9 @@ def check_cmd(args: argparse.Namespace) -> int:
     if not args.local:
         return submit(args, job, text=check_text, result_model=ConformanceResult,
                       exit_code=lambda r: 0 if r.passed else 2)  # fmt: skip
-    from foresight.cli.common import local_context
-    from foresight.cli.evaluate import ModelArgs
-    from foresight.cli.stage import config_of
     from foresight.core.evaluation.conformance import run_conformance
-    from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
+    from foresight.core.runtime.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
+    from foresight.local import ModelArgs, config_of, local_context
 
     ctx = local_context(None, {BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT}, quiet=True)
     ctx.resolve_model = ModelArgs().resolve

@@ -29,11 +29,11 @@ from foresight.core.evaluation.config import _Config
 from foresight.core.evaluation.gates import GateCheck, GateResult
 from foresight.core.evaluation.plannerspec import PlannerSpec, build_planner, planner_spec, resolve_planner
 from foresight.core.evaluation.runner import bundle_file
-from foresight.core.planners.base import EpisodeInfo, Planner
+from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.refs import BUILTIN_BUNDLE, BundlePath, Ident, Name
 from foresight.core.sim.observation import Observation
+from foresight.core.sim.planner import EpisodeInfo, Planner
 from foresight.core.sim.simulator import Simulator
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident, Name
 
 CHECKS = ("finite", "within_limits", "deterministic", "decision_budget", "no_pedestrians", "crowd_200",
           "reset_leaves_no_state", "protocol_error_paths")  # fmt: skip

@@ -11,7 +11,6 @@ import time
 from typing import Any
 
 from foresight.core.evaluation.gates import GateCheck
-from foresight.core.planners.base import EpisodeInfo
 from foresight.core.planners.external import (
     ExternalPlannerConfig,
     ExternalPlannerError,
@@ -20,6 +19,7 @@ from foresight.core.planners.external import (
     operator_commands,
     start_message,
 )
+from foresight.core.sim.planner import EpisodeInfo
 from foresight.core.sim.simulator import Simulator
 
 NAME = "protocol_error_paths"

@@ -11,8 +11,8 @@ import pytest
 
 from foresight.core.evaluation.conformance import ConformanceConfig, run_conformance
 from foresight.core.planners.registry import register
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
 from tests.conftest import REPO
 
 BROKEN = "tests.plugins.broken_toy:BrokenToy"
@@ -29,7 +29,7 @@ EXTERNAL = {
 
 @pytest.fixture
 def ctx(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> StageContext:
-    from foresight.cli.evaluate import ModelArgs
+    from foresight.local import ModelArgs
 
     monkeypatch.setenv("FORESIGHT_EXTERNAL_PLANNERS", json.dumps(EXTERNAL))
     return StageContext(

@@ -6,9 +6,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from foresight.core.pipeline.config import INCUMBENT, IncumbentSection, PromoteSection, stage_config
-from foresight.core.pipeline.incumbent import cache_key, reference_spec, resolve_incumbent
-from foresight.core.pipeline.runbook import run_pipeline
+from foresight.core.jobs.pipeline.config import INCUMBENT, IncumbentSection, PromoteSection, stage_config
+from foresight.core.jobs.pipeline.incumbent import cache_key, reference_spec, resolve_incumbent
+from foresight.core.jobs.pipeline.runbook import run_pipeline
 from tests.unit.pipeline.test_runbook import INCUMBENT_ROW, SMOKE, _ctx, _fake, _smoke, load_pipeline_config
 
 INPUTS = {"base": "b", "hardcase": "h", "mixed": "m", "model": "cand"}
@@ -170,13 +170,12 @@ def test_the_planner_the_pipeline_evaluates_must_conform(tmp_path: Path) -> None
 
 
 def test_in_process_runs_resolve_the_incumbent_from_the_shipped_registry(tmp_path: Path) -> None:
-    from foresight.cli.evaluate import MODEL_REGISTRY
-    from foresight.cli.pipeline import _shipped_model
-    from foresight.core.pipeline.local import LocalChildren
+    from foresight.core.jobs.pipeline.local import LocalChildren
+    from foresight.local import MODEL_REGISTRY, ModelArgs
     from foresight.store.shipped import default_model, read_shipped
 
     want = default_model(read_shipped(MODEL_REGISTRY))
-    children = LocalChildren(_ctx(tmp_path), describe_model=_shipped_model, reports=False)
+    children = LocalChildren(_ctx(tmp_path), describe_model=ModelArgs.describe, reports=False)
     got = resolve_incumbent(_smoke(), children)
     assert got is not None and (got.id, got.sha256) == (want["id"], want["sha256"])
     assert children.model_row("no-such-model") is None

@@ -10,10 +10,15 @@ import pytest
 
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.runner import write_records
-from foresight.core.pipeline.config import GatesSection, PipelineConfig, load_pipeline_config, stage_config
-from foresight.core.pipeline.runbook import ChildRun, StageFailed, check_seed_separation, run_pipeline
-from foresight.core.stages.context import Cancelled, StageContext
-from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
+from foresight.core.jobs.pipeline.config import (
+    GatesSection,
+    PipelineConfig,
+    load_pipeline_config,
+    stage_config,
+)
+from foresight.core.jobs.pipeline.runbook import ChildRun, StageFailed, check_seed_separation, run_pipeline
+from foresight.core.runtime.context import Cancelled, StageContext
+from foresight.core.runtime.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
 from tests.conftest import REPO
 from tests.unit.evaluation.traces import record
 from tests.unit.reports import data

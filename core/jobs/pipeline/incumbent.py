@@ -13,8 +13,8 @@ import json
 from typing import Any, Protocol
 
 from foresight.core.evaluation.gates import EvaluationGateConfig
-from foresight.core.pipeline.config import AUTO, PipelineConfig, stage_config
-from foresight.core.pipeline.summary import IncumbentRef as Incumbent
+from foresight.core.jobs.pipeline.config import AUTO, PipelineConfig, stage_config
+from foresight.core.reports.pipeline_summary import IncumbentRef as Incumbent
 
 DEFAULT = "default"  #: the model id that names the default model
 RELAXED = "relaxed"  #: status of a model registered by a pipeline whose gates are relaxed on purpose

@@ -14,10 +14,10 @@ from foresight.core.evaluation.gates import GateCheck, GateResult
 from foresight.core.evaluation.record import EpisodeRecord
 from foresight.core.evaluation.regression import RegressionGateResult, floors_gate, regression_gate
 from foresight.core.evaluation.runner import read_records
-from foresight.core.pipeline.config import PipelineConfig
-from foresight.core.pipeline.incumbent import Incumbent
-from foresight.core.pipeline.summary import GateEntry, gate_entry
-from foresight.core.predict.train_config import TrainResult
+from foresight.core.jobs.pipeline.config import PipelineConfig
+from foresight.core.jobs.pipeline.incumbent import Incumbent
+from foresight.core.reports.pipeline_summary import GateEntry, gate_entry
+from foresight.core.training.config import TrainResult
 
 #: stage gates: gate name -> the stage whose result holds it
 GATE_OF_STAGE = {"training": "train", "evaluation": "evaluate", "closed_loop": "campaign"}
