@@ -66,3 +66,38 @@ def obstacle_polygons(obstacles) -> list[np.ndarray]:
         area = 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
         out.append(p if area > 0 else p[::-1])
     return out
+
+
+class OrcaCrowdDynamics:
+    """``pedestrian_model: orca`` for a map's crowd: each pedestrian an ORCA agent heading for its current goal at its
+    desired speed (the behaviours set goals, respawns and waits as for the social-force crowd); the map's obstacles
+    are RVO2 obstacles. Stands in for ``core.sim.crowd.CrowdDynamics`` (same ``step``)."""
+
+    def __init__(
+        self, crowd, params: OrcaPedestrians, dt: float, ped_radius: float, robot_radius: float, obstacles
+    ):
+        self.c, self.params, self.dt = crowd, params, dt
+        self.ped_radius, self.robot_radius = ped_radius, robot_radius
+        self.n = len(crowd.pos)
+        self.agents = OrcaAgents(self.n + int(params.robot_visible), params, dt, obstacle_polygons(obstacles))
+        self.robot_vel = np.zeros(2)  #: set by the simulator before each step (a visible robot's velocity)
+
+    def step(self, robot: complex, centroids=None) -> None:
+        if self.n == 0:
+            return
+        c, margin = self.c, 0.01 + self.params.safety_space
+        pos, vel = c.pos.copy(), c.vel.copy()
+        to_goal = c.goal - pos
+        dist = np.hypot(to_goal[:, 0], to_goal[:, 1])
+        speed = np.minimum(c.vmax, dist / self.dt)  # arrive without overshooting
+        pref = to_goal * (speed / np.maximum(dist, 1e-12))[:, None]
+        rad, vmax = np.full(self.n, self.ped_radius + margin), c.vmax.copy()
+        if self.params.robot_visible:
+            pos = np.vstack([pos, [[robot.real, robot.imag]]])
+            vel = np.vstack([vel, self.robot_vel[None]])
+            pref = np.vstack([pref, self.robot_vel[None]])
+            rad = np.append(rad, self.robot_radius + margin)
+            vmax = np.append(vmax, max(float(np.hypot(*self.robot_vel)), 1e-3))
+        new = self.agents.step(pos, vel, pref, rad, vmax)[: self.n]
+        c.z[:] = c.z + self.dt * (new[:, 0] + 1j * new[:, 1])
+        c.zv[:] = new[:, 0] + 1j * new[:, 1]

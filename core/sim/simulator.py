@@ -26,7 +26,7 @@ from foresight.core.sim.generated_crowd import GeneratedCrowd
 from foresight.core.sim.geometry import StaticMap
 from foresight.core.sim.navigation import RobotRoute, sample_robot_route
 from foresight.core.sim.observation import Events, Observation
-from foresight.core.sim.orca_agents import obstacle_polygons
+from foresight.core.sim.orca_agents import OrcaCrowdDynamics, obstacle_polygons
 from foresight.core.sim.params import CrowdParams, ForceParams
 from foresight.core.sim.population import build_population
 from foresight.core.sim.replay import ReplayCrowd
@@ -282,6 +282,10 @@ class Simulator:
             semi_implicit=cfg.pedestrian_integration_scheme == "semi_implicit_euler",
             robot_reach=robot_reach,
         )
+        if cfg.pedestrian_model == "orca":  # the same behaviours, ORCA agents instead of forces
+            self.dynamics = OrcaCrowdDynamics(
+                self.crowd, cfg.orca, self.dt, cfg.ped_radius, self.limits.radius, map_def.obstacles
+            )
         if cfg.peds_reset_follow_route_at_start:
             self.routes.restart_all(self.crowd, self.rng, self._respawn_ok)
 
@@ -305,6 +309,9 @@ class Simulator:
             self.zones.step(self.crowd, cent if cent is not None else self.crowd.centroids(), self.rng)
         if self.generated is None:
             self.singles.step(self.crowd, self.t, self.robot)
+            if isinstance(self.dynamics, OrcaCrowdDynamics):
+                v, th = float(self.robot[3]), float(self.robot[2])
+                self.dynamics.robot_vel = np.array([v * math.cos(th), v * math.sin(th)])
             self.dynamics.step(complex(self.robot[0], self.robot[1]), cent)
         self.robot = robot_step(self.robot, cmd, self.limits, self.dt)
         reached = self.route.advance(self.robot)

@@ -195,3 +195,27 @@ def test_a_generated_crowd_needs_orca_pedestrians():
             map_file="m.yaml",
             crowd_generator={"rule": "circle_crossing", "human_num": 5, "centre": [20, 20]},
         )
+
+
+def test_orca_pedestrians_walk_a_maps_routes_too() -> None:
+    from tests.unit.sim.scenes import scenario, street_map
+
+    base = scenario(street_map(), max_episode_steps=200, ped_density=0.08)
+    orca_cfg = base.scenario.simulation_config.model_copy(update={"pedestrian_model": "orca"})
+    orca = base.model_copy(
+        update={"scenario": base.scenario.model_copy(update={"simulation_config": orca_cfg})}
+    )
+    paths = []
+    for sc in (base, orca):
+        sim = Simulator()
+        sim.reset(sc, 3)
+        start = sim.crowd.pos.copy()
+        for _ in range(30):
+            _, ev = sim.step((0.0, 0.0))
+            if ev.done:
+                break
+        paths.append((start, sim.crowd.pos.copy(), sim.crowd.vel.copy()))
+    (s0, e0, _), (s1, e1, v1) = paths
+    assert np.array_equal(s0, s1) and len(s1) > 0  # the same crowd, moved by another model
+    assert not np.allclose(e0, e1)
+    assert np.all(np.hypot(*v1.T) <= sim.crowd.vmax + 1e-4) and np.hypot(*(e1 - s1).T).max() > 0.5
