@@ -31,6 +31,9 @@ class OrcaConfig(BaseModel):
     #: near the waypoint the preferred speed is at most distance x this [1/s]; None = 1 / dt (arrive in one step).
     #: CrowdNav's ORCA uses 1 (its preferred velocity is the goal vector itself within 1 m)
     arrival_gain: float | None = Field(default=None, gt=0)
+    #: False = every pedestrian at the observation's nominal ``ped_radius``, whatever its own radius (CrowdNav++'s
+    #: ORCA robot keeps the radii of its first observation, 0.3 m for the humans it has not yet seen)
+    observed_radii: bool = True
     speed_ratio: float = Field(default=1.0, gt=0, le=1)  #: preferred speed, ratio of the max speed
     turn_gain: float = Field(default=1.5, gt=0)  #: heading error -> turn rate [1/s]
     wall_thickness: float = Field(default=1.0, gt=0)  #: boundary walls outside the map [m]
@@ -124,7 +127,9 @@ class OrcaPlanner:
             obs.robot_radius + c.radius_margin,
             vmax,
         )
-        radii = obs.radii().tolist()
+        radii = (
+            obs.radii() if c.observed_radii else np.full(len(obs.ped_positions), obs.ped_radius)
+        ).tolist()
         for i, (p, u) in enumerate(zip(obs.ped_positions, obs.ped_velocities, strict=True), start=1):
             r = radii[i - 1] + c.ped_radius_margin
             _set_agent(sim, i, tuple(p), tuple(u), tuple(u), r, max(float(np.hypot(*u)), 1e-3))

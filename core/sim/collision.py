@@ -47,25 +47,28 @@ def radii_contact(
     radius: float,
     ped_pos: np.ndarray,
     ped_radii: np.ndarray,
-    before: tuple[np.ndarray, np.ndarray] | None = None,
+    before: tuple[np.ndarray, np.ndarray, np.ndarray, float] | None = None,
 ) -> tuple[Contact | None, float]:
     """``ped_contact`` with each pedestrian's own radius (N,); the reported distance is the least centre distance.
 
-    ``before`` = (robot centre (2,), pedestrian centres (N, 2)) at the start of the step: contact also counts
-    anywhere between, both moving straight over the step (CrowdNav's test of the segment travelled).
+    ``before`` = (robot centre (2,), pedestrian centres (N, 2), pedestrian velocities (N, 2), dt) at the start of
+    the step: contact also counts anywhere on CrowdNav's segment, the relative motion over the step of each
+    pedestrian at its velocity at the start of the step against the robot's move (a pass-through between two
+    states is caught).
     """
     if len(ped_pos) == 0:
         return None, np.inf
     rel = ped_pos - xy
     d = np.hypot(rel[:, 0], rel[:, 1])
     gap = d
-    if before is not None:  # closest approach of the relative motion rel0 -> rel over the step
-        rel0 = before[1] - before[0]
-        seg = rel - rel0
+    if before is not None:
+        robot0, peds0, vel0, dt = before
+        rel0 = peds0 - robot0
+        seg = vel0 * dt - (xy - robot0)  # (N, 2) relative motion over the step
         len2 = (seg**2).sum(axis=1)
         t = np.clip(-(rel0 * seg).sum(axis=1) / np.where(len2 > 0, len2, 1.0), 0.0, 1.0)
         closest = rel0 + t[:, None] * seg
-        gap = np.hypot(closest[:, 0], closest[:, 1])
+        gap = np.minimum(d, np.hypot(closest[:, 0], closest[:, 1]))
     k = int(np.argmin(gap - ped_radii))
     if gap[k] - ped_radii[k] <= radius:
         return Contact("pedestrian", ped_pos[k].copy()), float(d.min())

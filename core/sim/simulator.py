@@ -299,7 +299,7 @@ class Simulator:
         cent = None
         before = None
         if self.generated is not None:
-            before = self.robot[:2].copy(), self.generated.pos.copy()
+            before = self.robot[:2].copy(), self.generated.pos.copy(), self.generated.vel.copy(), self.dt
             v, th = float(self.robot[3]), float(self.robot[2])
             self.generated.step(self.robot, np.array([v * math.cos(th), v * math.sin(th)]))
         elif self.has_groups:
@@ -326,7 +326,7 @@ class Simulator:
             self._trace.outcome = events.outcome or ""
         return self._observation(), events
 
-    def _events(self, reached: bool, before: tuple[np.ndarray, np.ndarray] | None = None) -> Events:
+    def _events(self, reached: bool, before: tuple | None = None) -> Events:
         xy = self.robot[:2]
         peds = self.crowd.pos if self.replay is None else self.replay.present_pos(self.t)
         if self.generated is None:

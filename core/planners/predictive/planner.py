@@ -63,8 +63,9 @@ class PredictivePlanner:
         self._frames: FrameRollouts | None = None  #: kept across episodes of the same robot and dt
 
     def reset(self, info: EpisodeInfo) -> None:
-        if hasattr(self.forecaster, "fit"):  # constant velocity fits its grid to the simulator's step
-            self.forecaster.fit(info.dt)
+        fit = getattr(self.forecaster, "fit", None)
+        if callable(fit):  # constant velocity fits its grid to the simulator's step
+            fit(info.dt)
         self.forecaster.timebase.stride(info.dt)  # ConfigError unless the forecast grid is whole sim steps
         robot = info.scenario.scenario.robot_config
         self._holonomic = robot.kinematics == "holonomic"  #: commands are velocities (see ``holonomic``)

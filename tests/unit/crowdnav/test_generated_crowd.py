@@ -143,16 +143,19 @@ def test_goal_changes_of_the_rand_variant_happen_every_five_seconds():
 
 
 def test_swept_contact_catches_a_pass_through_within_one_step():
-    robot0, robot1 = np.array([0.0, 0.0]), np.array([0.0, 0.0])
-    ped0, ped1 = np.array([[-1.0, 0.0]]), np.array([[1.0, 0.0]])  # walks through the robot between two states
+    robot = np.array([0.0, 0.0])
+    ped0, ped1, vel = np.array([[-1.0, 0.0]]), np.array([[1.0, 0.0]]), np.array([[8.0, 0.0]])
     radii = np.array([0.3])
-    assert radii_contact(robot1, 0.3, ped1, radii)[0] is None
-    hit, _ = radii_contact(robot1, 0.3, ped1, radii, (robot0, ped0))
+    assert radii_contact(robot, 0.3, ped1, radii)[0] is None  # both states clear: the discrete test misses it
+    hit, _ = radii_contact(robot, 0.3, ped1, radii, (robot, ped0, vel, 0.25))
     assert hit is not None and hit.kind == "pedestrian"
-    far = np.array([[1.0, 0.7]])  # passes 0.7 m away: no contact (0.6 m)
-    assert radii_contact(robot1, 0.3, far, radii, (robot0, np.array([[-1.0, 0.7]])))[0] is None
+    far0, far1 = np.array([[-1.0, 0.7]]), np.array([[1.0, 0.7]])  # passes 0.7 m away: no contact (0.6 m)
+    assert radii_contact(robot, 0.3, far1, radii, (robot, far0, vel, 0.25))[0] is None
     big = np.array([0.45])  # per-human radius: the same pass at 0.7 m touches a 0.45 m human
-    assert radii_contact(robot1, 0.3, far, big, (robot0, np.array([[-1.0, 0.7]])))[0] is not None
+    assert radii_contact(robot, 0.3, far1, big, (robot, far0, vel, 0.25))[0] is not None
+    # CrowdNav's segment follows the velocity at the start of the step, not where the pedestrian ended up
+    still = np.zeros((1, 2))
+    assert radii_contact(robot, 0.3, ped1, radii, (robot, ped0, still, 0.25))[0] is None
 
 
 def test_orca_robot_on_circle_crossing_reaches_or_collides_within_the_horizon():
