@@ -186,9 +186,12 @@ class PredictivePlanner:
         route = self._route(obs)
         phi0 = route.start(p0)
         assertive = self._assertiveness(phi0, obs.time, obs.dt)
-        contact = (
-            obs.robot_radius + obs.ped_radius + cfg.safety.extra_robot_margin + cfg.safety.extra_ped_margin
-        )
+        ped_r = (
+            obs.ped_radius
+        )  # humans of different sizes: the largest present (the cost has one contact distance)
+        if obs.ped_radii is not None and len(obs.ped_radii):
+            ped_r = max(ped_r, float(obs.ped_radii.max()))
+        contact = obs.robot_radius + ped_r + cfg.safety.extra_robot_margin + cfg.safety.extra_ped_margin
         times = np.asarray(times, dtype=float)
         fut = np.asarray(positions, dtype=float).reshape(-1, len(times), 2)
         sigma = np.asarray(sigma, dtype=float).reshape(-1, len(times))

@@ -127,3 +127,18 @@ def test_an_external_planner_declaring_the_wrong_command_type_is_refused_before_
     msg = str(err.value)
     assert "crossing_low" in msg and "planner.config.command_type" in msg and repr(kind) in msg
     assert not (tmp_path / "episodes.jsonl").exists()
+
+
+@pytest.mark.parametrize("observed, expected", [(True, "own"), (False, "nominal")])
+def test_orca_planner_takes_each_humans_radius_or_the_nominal_one(observed: bool, expected: str) -> None:
+    from foresight.core.planners.orca import OrcaConfig, OrcaPlanner
+
+    sc = load_matrix(REPO / "configs/scenarios/crowdnav/crowdnavpp_rand.yaml").scenarios[0]
+    sim = Simulator()
+    obs = sim.reset(sc, 1425)
+    p = OrcaPlanner(OrcaConfig(observed_radii=observed, ped_radius_margin=0.01))
+    p.reset(EpisodeInfo(sc, 1425, 0.25, 0.3, 0.3))
+    p.plan(obs)
+    got = [p._sim.get_agent_radius(i + 1) for i in range(len(obs.ped_ids))]
+    want = obs.ped_radii + 0.01 if expected == "own" else np.full(len(obs.ped_ids), 0.31)
+    assert len(got) > 0 and np.allclose(got, want, atol=1e-6)
