@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from foresight.core.planners.base import EpisodeInfo
 from foresight.core.planners.orca import OrcaConfig, OrcaPlanner
 from foresight.core.scenarios.loader import load_matrix
 from foresight.core.sim.collision import radii_contact
+from foresight.core.sim.planner import EpisodeInfo
 from foresight.core.sim.simulator import Simulator
 
 SUITES = Path(__file__).resolve().parents[3] / "configs/scenarios/crowdnav"

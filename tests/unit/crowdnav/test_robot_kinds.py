@@ -14,15 +14,15 @@ from pydantic import ValidationError
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.config import EvaluationConfig
 from foresight.core.evaluation.runner import run_evaluation
-from foresight.core.planners.base import EpisodeInfo
 from foresight.core.planners.external import close_all
 from foresight.core.planners.registry import make_planner
+from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
 from foresight.core.scenarios.loader import load_matrix
 from foresight.core.scenarios.model import RobotConfig
+from foresight.core.sim.planner import EpisodeInfo
 from foresight.core.sim.robot import RobotLimits, robot_rollout, robot_step, turn_first_step
 from foresight.core.sim.simulator import Simulator
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
 
 REPO = Path(__file__).resolve().parents[3]
 CIRCLE = REPO / "configs/scenarios/crowdnav/circle_crossing.yaml"
