@@ -264,15 +264,23 @@ def preflight(rp: ResolvedPlanner, scenarios: list[ResolvedScenario]) -> None:
         if cfg.dt in seen:
             continue
         seen.add(cfg.dt)
-        build_planner(rp).reset(
-            EpisodeInfo(
-                scenario=sc,
-                seed=0,
-                dt=cfg.dt,
-                robot_radius=sc.scenario.robot_config.radius,
-                ped_radius=cfg.ped_radius,
-            )
+        info = EpisodeInfo(
+            scenario=sc,
+            seed=0,
+            dt=cfg.dt,
+            robot_radius=sc.scenario.robot_config.radius,
+            ped_radius=cfg.ped_radius,
         )
+        try:
+            build_planner(rp).reset(info)
+        except ConfigError as exc:
+            if exc.source is not None:
+                raise
+            raise ConfigError(
+                f"planner {rp.label!r} cannot run this scenario (dt {cfg.dt:g} s): {exc.detail}",
+                source=sc.name,
+                item=exc.item,
+            ) from None
 
 
 def config_diff(a: dict[str, Any], b: dict[str, Any], prefix: str = "") -> dict[str, tuple[Any, Any]]:
