@@ -142,3 +142,18 @@ def test_orca_planner_takes_each_humans_radius_or_the_nominal_one(observed: bool
     got = [p._sim.get_agent_radius(i + 1) for i in range(len(obs.ped_ids))]
     want = obs.ped_radii + 0.01 if expected == "own" else np.full(len(obs.ped_ids), 0.31)
     assert len(got) > 0 and np.allclose(got, want, atol=1e-6)
+
+
+@pytest.mark.parametrize("kinematics, low", [("holonomic", [-1.0, -1.0]), ("unicycle", [0.0, -1.0])])
+def test_gym_action_space_follows_the_robot_kind(tmp_path: Path, kinematics: str, low: list[float]) -> None:
+    pytest.importorskip("gymnasium")
+    from foresight.core.gym.env import CrowdNavEnv
+
+    text = CIRCLE.read_text().replace("kinematics: holonomic", f"kinematics: {kinematics}")
+    m = tmp_path / "suite.yaml"
+    m.write_text(text.replace("../../maps/crowdnav_open.yaml", str(REPO / "configs/maps/crowdnav_open.yaml")))
+    env = CrowdNavEnv(matrix=m, max_steps=5)
+    env.reset(seed=1000)
+    assert np.allclose(env.action_space.low, low) and np.allclose(env.action_space.high, [1.0, 1.0])
+    obs, *_ = env.step(np.array([0.0, 1.0], dtype=np.float32))
+    assert obs is not None
