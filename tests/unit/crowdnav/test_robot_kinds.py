@@ -42,7 +42,9 @@ def test_an_unknown_kinematics_in_a_matrix_names_the_file_scenario_and_field(tmp
     text = CIRCLE.read_text().replace("kinematics: holonomic", "kinematics: hovercraft")
     bad = tmp_path / "bad.yaml"
     bad.write_text(
-        text.replace("../../maps/crowdnav_open.yaml", str(REPO / "configs/maps/crowdnav_open.yaml"))
+        text.replace(
+            "../../maps/crowdnav/open_plane.yaml", str(REPO / "configs/maps/crowdnav/open_plane.yaml")
+        )
     )
     with pytest.raises(ConfigError) as err:
         load_matrix(bad)
@@ -151,7 +153,11 @@ def test_gym_action_space_follows_the_robot_kind(tmp_path: Path, kinematics: str
 
     text = CIRCLE.read_text().replace("kinematics: holonomic", f"kinematics: {kinematics}")
     m = tmp_path / "suite.yaml"
-    m.write_text(text.replace("../../maps/crowdnav_open.yaml", str(REPO / "configs/maps/crowdnav_open.yaml")))
+    m.write_text(
+        text.replace(
+            "../../maps/crowdnav/open_plane.yaml", str(REPO / "configs/maps/crowdnav/open_plane.yaml")
+        )
+    )
     env = CrowdNavEnv(matrix=m, max_steps=5)
     env.reset(seed=1000)
     assert np.allclose(env.action_space.low, low) and np.allclose(env.action_space.high, [1.0, 1.0])
