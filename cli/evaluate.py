@@ -157,7 +157,9 @@ class ModelArgs:
         self.files: dict[str, Path] = {}
 
     def ident(self, value: str | None) -> str | None:
-        if value is None or value == "cv":
+        from foresight.core.predict import plugins
+
+        if value is None or value == "cv" or plugins.kind(value):
             return value
         p = Path(value).expanduser()
         if p.is_file():
