@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from foresight.cli import stage
+from foresight.cli import datasets, stage
 from foresight.cli.common import build_config, emit, finish_local, local_context, local_workdir, matrix_ref
 from foresight.core.errors import ConfigError
 
@@ -37,6 +37,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     data.add_argument(
         "--dataset", help="dataset id (--local: a .npz file), scored on its test split, else val"
     )
+    data.add_argument(
+        "--scenes",
+        help="--local: your recordings (a file or a folder, one scene per file): leave-one-scene-out",
+    )
+    datasets.add_scene_args(pe, required=False)
     pe.add_argument("--fold", help="one fold (eth|hotel|univ|zara1|zara2); default all")
     pe.add_argument(
         "--split", help="dataset split to score: test (default; val when there is no test), val, all"
@@ -58,6 +63,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     im.add_argument("--output", help="--local: output .npz path")
     stage.add_mode_args(im)
     im.set_defaults(func=import_cmd)
+    datasets.register(dsub)
 
     co = sub.add_parser("collect", help="roll out episodes and write a prediction dataset")
     co.add_argument(
@@ -162,10 +168,11 @@ def predict_eval_cmd(args: argparse.Namespace) -> int:
         "folds": [args.fold] if args.fold else None,
         "split": args.split,
         **({"best_of": args.best_of} if args.best_of else {}),
+        **({"scenes": datasets.scene_values(args, args.scenes)} if args.scenes else {}),
         **own,
     }
     if not args.local:
-        stage.local_only(args, out="--out")
+        stage.local_only(args, out="--out", scenes="--scenes")
         if args.ethucy is not None and Path(args.ethucy).expanduser().is_dir():
             raise ConfigError(f"{args.ethucy!r} is a local folder; the server reads named data roots: pass "
                               "--ethucy NAME (GET /v1/data-roots), or run in-process with --local",
@@ -209,12 +216,13 @@ def _score_table(result, where: str | None) -> str:  # noqa: ANN001
     extra = [
         e for e in extra if getattr(a, e[1]) is not None and (k > 1 or e[1] not in ("min_ade", "min_fde"))
     ]
-    head = f"{'fold':<10}{'samples':>9}{'ADE':>8}{'FDE':>8}{'CV ADE':>9}{'CV FDE':>9}"
+    w = max([10, *(len(n) + 1 for n in result.folds)])  # scene names of imported data can be long
+    head = f"{'fold':<{w}}{'samples':>9}{'ADE':>8}{'FDE':>8}{'CV ADE':>9}{'CV FDE':>9}"
     lines = [head + "".join(f"{h:>9}" for h, _, _ in extra)]
 
     def row(name, f, n):  # noqa: ANN001
         cells = "".join(f"{getattr(f, key):>9{fmt}}" for _, key, fmt in extra)
-        return f"{name:<10}{n:>9}{f.ade:>8.3f}{f.fde:>8.3f}{c_ade(f):>9.3f}{c_fde(f):>9.3f}{cells}"
+        return f"{name:<{w}}{n:>9}{f.ade:>8.3f}{f.fde:>8.3f}{c_ade(f):>9.3f}{c_fde(f):>9.3f}{cells}"
 
     def c_ade(f):  # noqa: ANN001
         return getattr(f, "cv_ade", c.ade)
@@ -298,7 +306,7 @@ def collect_cmd(args: argparse.Namespace) -> int:
     }
     values = {**_section(args.config, args.section), **{k: v for k, v in flags.items() if v is not None}}
     if not args.local:
-        stage.local_only(args, out="--out")
+        stage.local_only(args, out="--out", scenes="--scenes")
         if args.matrix or args.hard_seeds or args.bundle:
             bundle, names = stage.bundle_names(
                 args.bundle, {"--matrix": args.matrix, "--hard-seeds": args.hard_seeds}
@@ -347,7 +355,7 @@ def mix_cmd(args: argparse.Namespace) -> int:
 
     values = {"base": args.base, "hardcase": args.hardcase, "hardcase_repeat": args.repeat}
     if not args.local:
-        stage.local_only(args, out="--out")
+        stage.local_only(args, out="--out", scenes="--scenes")
         values.update(
             base=stage.dataset_id(args.base, "--base"), hardcase=stage.dataset_id(args.hardcase, "--hardcase")
         )
@@ -392,7 +400,7 @@ def train_cmd(args: argparse.Namespace) -> int:
         return 0 if r.gates_passed else 2
 
     if not args.local:
-        stage.local_only(args, out="--out")
+        stage.local_only(args, out="--out", scenes="--scenes")
         values["dataset"] = stage.dataset_id(str(values["dataset"]), "--dataset")
         return stage.submit(args, stage.spec("train", values), result_model=TrainResult, exit_code=exit_code,
                             text=lambda r, ref: text(r, f"\n{ref}\nregister it: foresight models register MODEL_ID "

@@ -16,15 +16,16 @@ TIMEBASE = {"dt": 0.2, "history": 5, "horizon": 12}
 
 def forecast(msg):
     dt, T = msg["dt"], TIMEBASE["horizon"]
-    modes, sigma = [], []
+    times = [dt * (k + 1) for k in range(T)]
+    spread = [[math.sqrt(0.02**2 + (0.16 * t) ** 2) for t in times]]  # the same for everyone: built once
+    modes = []
     for track in msg["pedestrians"]["history"]:
         x, y = track[-1]
         prev = track[-2] if len(track) > 1 else None
         vx, vy = ((x - prev[0]) / dt, (y - prev[1]) / dt) if prev else (0.0, 0.0)
-        times = [dt * (k + 1) for k in range(T)]
         modes.append([[[x + vx * t, y + vy * t] for t in times]])
-        sigma.append([[math.sqrt(0.02**2 + (0.16 * t) ** 2) for t in times]])
-    return {"type": "forecast", "modes": modes, "weights": [[1.0]] * len(modes), "sigma": sigma}
+    n = len(modes)
+    return {"type": "forecast", "modes": modes, "weights": [[1.0]] * n, "sigma": [spread] * n}
 
 
 def main():
@@ -37,8 +38,10 @@ def main():
             reply = forecast(msg)
         else:
             continue
-        sys.stdout.write(json.dumps(reply) + "\n")
-        sys.stdout.flush()
+        sys.stdout.buffer.write(
+            (json.dumps(reply, separators=(",", ":")) + "\n").encode()
+        )  # one write per line
+        sys.stdout.buffer.flush()
 
 
 if __name__ == "__main__":

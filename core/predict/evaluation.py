@@ -39,6 +39,8 @@ class PredictEvalConfig(BaseModel):
     #: runs also take a directory
     folds: list[str] | None = None  #: default: all five
     dataset: str | None = None  #: dataset id or .npz path (instead of ethucy)
+    #: your own recordings (``scene_import.ImportScenesConfig`` fields; in-process runs): leave-one-scene-out
+    scenes: dict[str, Any] | None = None
     split: str = "test"  #: held-out split of ``dataset`` (test, else val when it has no test episodes; "all")
     max_agents: int = Field(default=12, ge=1)  #: slots per ETH/UCY sample
     #: ETH/UCY with ``train``: each fold also trains on its training scenes played backwards (twice the windows;
@@ -50,8 +52,12 @@ class PredictEvalConfig(BaseModel):
     def _one_each(self) -> PredictEvalConfig:
         if (self.model is None) == (self.train is None):
             raise ValueError("give exactly one of model (cv | checkpoint) and train")
-        if (self.ethucy is None) == (self.dataset is None):
-            raise ValueError("give exactly one of ethucy and dataset")
+        if sum(x is not None for x in (self.ethucy, self.dataset, self.scenes)) != 1:
+            raise ValueError("give exactly one of ethucy, dataset and scenes")
+        if self.scenes is not None:
+            from foresight.core.predict.scene_import import ImportScenesConfig
+
+            ImportScenesConfig.model_validate(self.scenes)
         if self.reverse_train and (self.train is None or self.ethucy is None):
             raise ValueError(
                 "reverse_train plays ETH/UCY training scenes backwards: it needs train and ethucy"
@@ -209,6 +215,16 @@ def run_predict_eval(config: PredictEvalConfig, ctx: StageContext) -> PredictEva
                 reversed_splits=("train",) if config.reverse_train else (),
             )
             folds[fold] = _score(config, ds, "test", ctx, fold)
+    elif config.scenes is not None:
+        from foresight.core.predict.scene_import import ImportScenesConfig, read_scenes, scene_folds
+
+        if not ctx.local_files:
+            raise ConfigError("scenes are local files: run predict-eval in-process", item="scenes")
+        scene_config = ImportScenesConfig.model_validate(config.scenes)
+        for name, ds in scene_folds(read_scenes(scene_config), scene_config):
+            ctx.check_cancelled()
+            ctx.progress(len(folds) / max(1, len(folds) + 1), f"scene {name}")
+            folds[name] = _score(config, ds, "test", ctx, name)
     else:
         path = resolve_dataset_path(config.dataset, ctx)
         ds = load_dataset(path)

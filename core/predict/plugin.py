@@ -50,7 +50,7 @@ class ObservationWindow:
 
     def to_message(self) -> dict[str, Any]:
         """The external protocol's ``observe`` message (unobserved steps are null)."""
-        hist = np.where(self.valid[..., None], self.history, np.nan).tolist()
+        hist = np.where(self.valid[..., None], np.round(self.history, 6), np.nan).tolist()  # um: short lines
         hist = [[None if p[0] != p[0] else p for p in track] for track in hist]
         msg: dict[str, Any] = {
             "type": "observe",
