@@ -24,6 +24,7 @@ from foresight.core.predict.dataset import Dataset, DatasetMeta, EpisodeRecord
 from foresight.core.predict.ethucy import scene_samples
 from foresight.core.predict.features import STEP_CHANNELS
 from foresight.core.predict.mixing import dataset_from_episodes
+from foresight.core.predict.samples import SampleArrays
 from foresight.core.predict.timebase import ETHUCY_TIMEBASE, TimeBase
 from foresight.core.predict.trajdata import parse_columns, read_scene_file, scene_files
 
@@ -90,6 +91,37 @@ def _split(name: str, config: ImportScenesConfig) -> str:
     return "test" if name == config.test_scene else "val" if name == config.val_scene else "train"
 
 
+SEGMENT_FRAMES = (
+    250  #: annotations per piece a long scene is cut in (the window table is frames x pedestrians)
+)
+
+
+def segments(rows: np.ndarray, span: int, length: int = SEGMENT_FRAMES) -> Iterator[np.ndarray]:
+    """Rows (sorted by frame, consecutive annotations 1 apart) in pieces of ``length`` window starts, each with the
+    ``span - 1`` frames after it: every window of ``span`` frames lies in exactly one piece, and a piece's table
+    stays small however long the recording."""
+    frames = rows[:, 0]
+    lo, hi = int(frames[0]), int(frames[-1])
+    if hi - lo + 1 <= length + span - 1:
+        yield rows
+        return
+    for a in range(lo, hi + 1, length):
+        i, j = np.searchsorted(frames, [a, a + length + span - 1], side="left")
+        if j - i:
+            yield rows[i:j]
+
+
+def _windows(rows: np.ndarray, tb: TimeBase, k: int, max_agents: int) -> SampleArrays:
+    span = (tb.history + tb.horizon - 1) * k + 1
+    parts = [scene_samples(piece, tb, max_agents, stride=k, frame_step=1) for piece in segments(rows, span)]
+    if len(parts) == 1:
+        return parts[0]
+    cat = {
+        n: np.concatenate([getattr(p, n) for p in parts]) for n in ("state", "target", "mask", "target_mask")
+    }
+    return SampleArrays(**cat, step=np.arange(len(cat["state"]), dtype=np.int64))
+
+
 def build_dataset(scenes: list[tuple[str, np.ndarray]], config: ImportScenesConfig) -> Dataset:
     """One dataset of the scenes' windows, each scene an episode of its split."""
     tb = config.time_base()
@@ -97,7 +129,7 @@ def build_dataset(scenes: list[tuple[str, np.ndarray]], config: ImportScenesConf
     episodes = []
     for name, rows in scenes:
         rec = EpisodeRecord(scenario=name, seed=None, split=_split(name, config), role="real")
-        episodes.append((rec, scene_samples(rows, tb, config.max_agents, stride=k, frame_step=1)))
+        episodes.append((rec, _windows(rows, tb, k, config.max_agents)))
     if not sum(len(s.state) for _, s in episodes):
         raise ConfigError(
             f"no window of {tb.history + tb.horizon} consecutive annotations at {tb.describe()} in any scene",
