@@ -28,6 +28,11 @@ def test_predictor_plugins_over_the_service(tmp_path: Path) -> None:
     try:
         service.serve("up", "--concurrency", "1")
         with service.client() as client:
+            listed = client.get("/v1/predictors").json()
+            noise = next(p for p in listed["data"] if p["name"] == "cv_noise")
+            assert noise["origin"] == "plugin foresight-cv-noise 0.1.0" and noise["modes"] == 20
+            assert noise["timebase"] == {"dt": 0.4, "history": 8, "horizon": 12} and noise["frame"] == "world"
+            assert listed["external"] == ["hangs", "reference"] and "python" not in json.dumps(listed)
             # names a server cannot run: refused at submission, each naming the predictor
             r = _evaluate(client, "tests.unit.predict.plugin_predictors:StraightOn")
             assert r.status_code == 422 and "in-process only" in r.text, r.text
