@@ -280,7 +280,9 @@ class Resolver:
                     session.scalars(select(Model).order_by(Model.read_only, Model.created_at))
                 )
         if row is None:
-            raise NotFoundError(f"unknown model id {ident!r}")
+            raise NotFoundError(
+                f"unknown model id {ident!r} (nor an installed predictor plug-in: {_plugin_hint()})"
+            )
         return row
 
     def planner_model(self, ident: str) -> Model:
@@ -456,3 +458,10 @@ def bundles(engine: Engine) -> list[Bundle]:
 def bundle(engine: Engine, bundle_id: str) -> Bundle | None:
     with session_factory(engine)() as session:
         return session.get(Bundle, bundle_id)
+
+
+def _plugin_hint() -> str:
+    """The installed predictor plug-ins, for an unknown model's error (docs/predictor_protocol.md)."""
+    from foresight.core.predict import plugins
+
+    return ", ".join(sorted(plugins.installed())) or "none installed"
