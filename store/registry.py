@@ -287,14 +287,14 @@ class Resolver:
 
     def planner_model(self, ident: str) -> Model:
         """:meth:`model_row` of a model a planner will drive: ConfigError (422) at submission when it was trained in
-        another frame than the robot's (robot-less data such as ETH/UCY), which every planner's features use.
-        Registration records the checkpoint's frame in ``lineage``; shipped models are simulator-trained."""
+        a frame the planner cannot feed: the robot's, or the focal pedestrian's (ETH/UCY-trained, forecast pedestrian
+        by pedestrian, ``core.predict.focal``). Registration records the checkpoint's frame in ``lineage``."""
         row = self.model_row(ident)
         frame = row.lineage.get("frame_convention", "robot")
-        if frame != "robot":
+        if frame not in ("robot", "focal_pedestrian"):  # focal: ETH/UCY models, one pedestrian at a time
             raise ConfigError(
                 f"model {row.id!r} was trained in the {frame!r} frame (robot-less data such as ETH/UCY); "
-                "planners feed robot-frame features: use a model trained on simulator data",
+                "planners feed robot-frame or focal-pedestrian-frame features",
                 item="planner.model",
             )
         return row

@@ -291,6 +291,12 @@ def make_forecaster(model: Any) -> Any:
     if hasattr(model, "modes") or hasattr(model, "predictor_api"):  # a predictor plug-in object
         return PluginForecaster(model)
     if isinstance(model, Predictor):
+        if (
+            getattr(model, "frame_convention", "robot") == "focal_pedestrian"
+        ):  # an ETH/UCY model, pedestrian by pedestrian
+            from foresight.core.predict.focal import FocalForecaster
+
+            return FocalForecaster(model)
         return LearnedForecaster(model)
     raise ConfigError(
         f"model of type {type(model).__name__} is neither a forecaster nor a predictor", item="model"
