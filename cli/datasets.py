@@ -9,8 +9,8 @@ from pathlib import Path
 from typing import Any
 
 from foresight.cli.client import add_connection_args
-from foresight.cli.common import build_config
 from foresight.core.errors import ConfigError
+from foresight.local import build_config
 
 
 def add_scene_args(p: argparse.ArgumentParser, *, required: bool) -> None:

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from foresight.core.planners.base import EpisodeInfo
 from foresight.core.planners.registry import make_forecaster, make_planner
 from foresight.core.predict.focal import FocalForecaster
 from foresight.core.predict.predictor import ConstantVelocityPredictor
 from foresight.core.predict.timebase import ETHUCY_TIMEBASE
+from foresight.core.sim.planner import EpisodeInfo
 from tests.unit.predict.helpers import make_obs
 
 

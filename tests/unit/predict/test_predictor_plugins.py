@@ -18,12 +18,12 @@ from foresight.core.evaluation.config import CampaignConfig
 from foresight.core.predict import plugins
 from foresight.core.predict.dataset import save_dataset
 from foresight.core.predict.ethucy import import_fold
-from foresight.core.predict.evaluation import PredictEvalConfig, run_predict_eval
 from foresight.core.predict.external import ENV, TIMEOUT_ENV
 from foresight.core.predict.forecast import PredictorError
 from foresight.core.predict.timebase import ETHUCY_TIMEBASE
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.training.predict_eval import PredictEvalConfig, run_predict_eval
 from tests.unit.predict.plugin_predictors import StraightOn
 
 REPO = Path(__file__).resolve().parents[3]
