@@ -71,6 +71,14 @@ def register(dsub: argparse._SubParsersAction) -> None:
     ex.add_argument("--split", help="only this split (train, val, test)")
     ex.set_defaults(func=export_cmd)
 
+    ep = dsub.add_parser(
+        "export-episodes",
+        help="the pedestrians of a run's episodes (its traces/) as TrajNet++ ndjson, one per episode",
+    )
+    ep.add_argument("run", help="an evaluation's work folder (or a campaign cell's), holding traces/")
+    ep.add_argument("--output", required=True, help="output folder")
+    ep.set_defaults(func=export_episodes_cmd)
+
     ls = dsub.add_parser("ls", help="list datasets: the server's, or with --dir the .npz files of a folder")
     ls.add_argument("--dir", help="a local folder of dataset files (their .json records)")
     ls.add_argument("--json", action="store_true")
@@ -107,6 +115,14 @@ def export_cmd(args: argparse.Namespace) -> int:
         ds = ds.subset(ds.split_indices(args.split))
     n = export_trajnet(ds, Path(args.output))
     print(f"{args.output}: {n} TrajNet++ scenes")
+    return 0
+
+
+def export_episodes_cmd(args: argparse.Namespace) -> int:
+    from foresight.core.predict.trace_export import export_episodes
+
+    written = export_episodes(Path(args.run), Path(args.output))
+    print(f"{args.output}: {len(written)} TrajNet++ files (one per episode)")
     return 0
 
 

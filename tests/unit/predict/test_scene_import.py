@@ -192,3 +192,19 @@ def test_cli_import_ls_export_and_reimport(tmp_path, capsys):
     assert focal and np.allclose(
         np.sort(again.target[:, 0, -1, 0]), np.sort(test.target[:, 0, -1, 0]), atol=1e-3
     )
+
+
+def test_an_evaluations_pedestrians_export_as_trajnet_and_import_back(tmp_path):
+    import foresight
+
+    foresight.evaluate("goal", scenarios=["crossing_low"], seeds=1, max_steps=60, out=tmp_path / "run")
+    out = tmp_path / "peds"
+    assert main(["dataset", "export-episodes", str(tmp_path / "run"), "--output", str(out)]) == 0
+    (nd,) = sorted(out.glob("*.ndjson"))
+    lines = [json.loads(x) for x in nd.read_text().splitlines()]
+    assert "scene" in lines[0] and lines[0]["scene"]["fps"] == 10.0 and all("track" in x for x in lines[1:])
+    cfg = ImportScenesConfig(
+        path=str(nd), format="trajnet", frame_interval=0.1, timebase={"dt": 0.2, "history": 5, "horizon": 12}
+    )
+    ds = import_scenes(cfg)
+    assert len(ds) > 0 and ds.meta.timebase.dt == 0.2
