@@ -36,6 +36,7 @@ from foresight.store.session import Engine
 from foresight.store.settings import REPO_ROOT, Settings
 from foresight.worker import mlflow_export
 from foresight.worker.children import ChildRunner
+from foresight.worker.memory import memory_error_text
 from foresight.worker.retry import decide_retry
 
 logger = logging.getLogger(__name__)
@@ -272,6 +273,10 @@ class JobWorker:
         except Exception as exc:
             logger.info("job %s failed: %r", job["id"], exc, extra={"action": "job_failed", "job": job["id"]})
             message, retry = self.public_text(str(exc)), decide_retry(exc)
+            if isinstance(
+                exc, MemoryError
+            ):  # over the worker's limit (worker.memory): the same again fails again
+                message, retry = memory_error_text(exc), False
             if folders.is_full_disk(exc):  # the partial files are useless and hold the space others need
                 shutil.rmtree(
                     folders.resolve_under(self.settings.store_root, workdir_rel), ignore_errors=True

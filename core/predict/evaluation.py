@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from foresight.core.bounds import BoundedConfig
 from foresight.core.errors import ConfigError
 from foresight.core.predict.dataset import Dataset, load_dataset, resolve_dataset_path, save_dataset
 from foresight.core.predict.ethucy import FOLDS, import_fold
@@ -23,7 +24,7 @@ from foresight.core.stages.context import StageContext
 FILE_KEYS = ("reverse_train",)
 
 
-class PredictEvalConfig(BaseModel):
+class PredictEvalConfig(BoundedConfig):
     model_config = ConfigDict(extra="forbid", frozen=True)
     model: str | None = None  #: "cv", a model id, or (in-process runs) a checkpoint path
     train: dict[str, Any] | None = None  #: TrainConfig fields (without dataset): train one model per fold
@@ -34,7 +35,7 @@ class PredictEvalConfig(BaseModel):
     folds: list[str] | None = None  #: default: all five
     dataset: str | None = None  #: dataset id or .npz path (instead of ethucy)
     split: str = "test"  #: held-out split of ``dataset`` (test, else val when it has no test episodes; "all")
-    max_agents: int = Field(default=12, ge=1)  #: slots per ETH/UCY sample
+    max_agents: int = Field(default=12, ge=1, le=256)  #: slots per ETH/UCY sample
     #: ETH/UCY with ``train``: each fold also trains on its training scenes played backwards (twice the windows;
     #: people walk much alike either way). Validation and test stay as recorded. 5-fold average, one member each
     #: (session 30): 0.4683 -> 0.4624 ADE, every fold lower
