@@ -507,9 +507,11 @@ def finish(
     result: dict[str, Any],
     new_artifacts: Sequence[dict[str, Any]] = (),
     record: Callable[[Connection], None] | None = None,
+    publish: Callable[[], None] | None = None,
 ) -> None:
     """Mark a held job succeeded, storing its result summary, artifact records and (through ``record``) its
-    result rows in the same transaction."""
+    result rows in the same transaction; ``publish`` (moving the attempt's files into place) runs once the
+    lease is checked, while the transaction holds the job's row (a lost lease publishes nothing)."""
     now = time.time()
     with write_tx(engine) as conn:
         params = {"id": job_id, "owner": owner, "attempt": attempt, "result": result, "now": now}
@@ -522,6 +524,8 @@ def finish(
                 cur.execute(_EVENT_SQLITE, (job_id, now, "status", SUCCEEDED, 1.0))
         if done == 0:
             raise LeaseLost(f"job {job_id}: lease lost before finishing (attempt {attempt})")
+        if publish is not None:
+            publish()
         if attempt > 1:
             conn.execute(
                 delete(artifacts).where(artifacts.c.job_id == job_id)

@@ -16,7 +16,6 @@ import contextlib
 import functools
 import logging
 import os
-import shutil
 import socket
 import threading
 import time
@@ -56,6 +55,7 @@ class Held:
     shutdown: bool = False
     lost: bool = False
     last_progress: float = field(default=0.0)
+    attempt_dir: Path | None = None  #: the folder this attempt writes into (store.folders.start_attempt)
 
     def should_stop(self) -> bool:
         if self.deadline is not None and time.time() > self.deadline:
@@ -219,6 +219,8 @@ class JobWorker:
             self._execute(held)
         except queue.LeaseLost as exc:
             logger.warning("%s", exc, extra={"action": "lease_lost", "job": job["id"]})
+            if held.attempt_dir is not None:  # another attempt owns the job now: this one's files are garbage
+                folders.drop_attempt(held.attempt_dir)
         except (
             Exception
         ):  # recording the outcome failed (database down): the lease expires, the job is reaped
@@ -234,12 +236,12 @@ class JobWorker:
         job = held.job
         args = (self.engine, job["id"], self.id, job["attempts"])
         kind = KINDS[job["kind"]]
-        workdir_rel = folders.job_dir(self.settings.store_root, job["id"])
+        root = self.settings.store_root
+        workdir_rel = folders.job_dir(root, job["id"])
         try:
             spec = kind.spec.model_validate(job["spec"])
-            workdir = folders.resolve_under(self.settings.store_root, workdir_rel)
-            if kind.make_workdir:
-                workdir.mkdir(parents=True, exist_ok=True)
+            # this attempt's own folder, seeded from the previous attempt's (fencing: store.folders)
+            workdir = held.attempt_dir = folders.start_attempt(root, job["id"], create=kind.make_workdir)
             ctx = self.stage_context(held, workdir)
             check_budget(work_size(spec, ctx), self.settings.max_job_steps)  # children never passed the API
             result = kind.execute(spec, ctx)
@@ -278,24 +280,25 @@ class JobWorker:
             ):  # over the worker's limit (worker.memory): the same again fails again
                 message, retry = memory_error_text(exc), False
             if folders.is_full_disk(exc):  # the partial files are useless and hold the space others need
-                shutil.rmtree(
-                    folders.resolve_under(self.settings.store_root, workdir_rel), ignore_errors=True
-                )
+                if held.attempt_dir is not None:
+                    folders.drop_attempt(held.attempt_dir)
                 message, retry = (
                     f"{message} (the store is full; this attempt's partial files were removed)",
                     False,
                 )
             queue.fail_or_retry(*args, type(exc).__name__, message, retry=retry)
             return
-        artifacts = folders.scan(self.settings.store_root, workdir_rel)
-        if not artifacts and kind.make_workdir:
-            folders.remove_empty(folders.resolve_under(self.settings.store_root, workdir_rel))
+        artifacts = folders.scan(root, workdir_rel, source=workdir)
         record = None
         if job["kind"] in records.RECORDERS:
             record = functools.partial(
                 records.RECORDERS[job["kind"]], job=job, result=result, job_dir=workdir_rel
             )
-        queue.finish(*args, result, artifacts, record)
+        publish = functools.partial(folders.publish, root, job["id"], workdir)
+        queue.finish(*args, result, artifacts, record, publish)
+        folders.drop_attempts(root, job["id"])
+        if not artifacts:
+            folders.remove_empty(folders.resolve_under(root, workdir_rel))
 
     def public_text(self, text: str) -> str:
         """``text`` with server paths made relative to the store, the project's configs or the repository
