@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import math
+import time
 from typing import Any
 
 from fastapi import FastAPI, Request
@@ -17,7 +18,7 @@ from starlette.exceptions import HTTPException
 from foresight.core.errors import ConfigError, CoreError, NotFoundError
 from foresight.store import queue
 from foresight.store.folders import UnsafePath, is_full_disk
-from foresight.store.session import NotMigratedError
+from foresight.store.session import DatabaseError, NotMigratedError
 
 logger = logging.getLogger(__name__)
 
@@ -127,14 +128,17 @@ def install(app: FastAPI) -> None:
     async def _core(_: Request, exc: CoreError) -> JSONResponse:
         return _json(422, [{"loc": [], "msg": str(exc), "type": "core_error"}])  # the shape of every 422
 
+    # handled here, not by the catch-all below: that one's response also closes the connection
     @app.exception_handler(OSError)
-    async def _os_error(request: Request, exc: OSError) -> JSONResponse:
+    @app.exception_handler(DatabaseError)
+    async def _full_disk(request: Request, exc: Exception) -> JSONResponse:
         if is_full_disk(exc):
-            logger.error("store full on %s %s: %s", request.method, request.url.path, exc)
+            request.app.state.full_at = time.time()
+            logger.error("disk full on %s %s: %s", request.method, request.url.path, exc)
             return _json(
                 507,
-                "the server's store is full (no space left on device); nothing was stored - "
-                "retry once space is freed (foresight store gc lists orphaned files)",
+                "the server's store is full (no space left on device for its files or its database); nothing was "
+                "stored - retry once space is freed (deleting jobs and `foresight store gc` still work)",
             )
         return await _internal(request, exc)
 

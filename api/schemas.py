@@ -388,8 +388,17 @@ class PlannersPublic(BaseModel):
     external_commands: list[str] = Field(description="names an external planner's config.command may take")
 
 
+class DiskPublic(BaseModel):
+    """Free space where the store and the database live (``store.space``)."""
+
+    full: bool  #: a disk under 1 MiB free, or a request that met a full disk in the last minute
+    store_free_bytes: int | None
+    database_free_bytes: int | None  #: None: the database is on another machine
+
+
 class Health(BaseModel):
-    status: str
+    status: str  #: "ok", or "degraded: ..." saying why
     database: str
     revision: str
     kinds: list[str]
+    disk: DiskPublic | None = None

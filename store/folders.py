@@ -26,9 +26,24 @@ from foresight.core import files
 _DRIVE = re.compile(r"^[A-Za-z]:[\\/]")
 
 
-def is_full_disk(exc: BaseException) -> bool:
-    """Whether ``exc`` says the store's disk (or the user's quota) is full."""
-    return isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT)
+SQLITE_FULL = 13  #: SQLite's result code for "database or disk is full"
+PG_DISK_FULL = "53100"  #: PostgreSQL's SQLSTATE disk_full
+
+
+def is_full_disk(exc: BaseException | None) -> bool:
+    """Whether ``exc`` (or what it wraps: a database driver's error, a cause) says a disk or quota is full: an
+    OSError ENOSPC/EDQUOT, SQLite's "database or disk is full", PostgreSQL's disk_full."""
+    for _ in range(8):  # the chain of wrapped errors, bounded
+        if exc is None:
+            return False
+        if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
+            return True
+        if getattr(exc, "sqlite_errorcode", None) == SQLITE_FULL or "database or disk is full" in str(exc):
+            return True
+        if getattr(exc, "sqlstate", None) == PG_DISK_FULL or getattr(exc, "pgcode", None) == PG_DISK_FULL:
+            return True
+        exc = getattr(exc, "orig", None) or exc.__cause__ or exc.__context__
+    return False
 
 
 class UnsafePath(ValueError):

@@ -16,6 +16,7 @@ import contextlib
 import functools
 import logging
 import os
+import shutil
 import socket
 import threading
 import time
@@ -40,6 +41,7 @@ from foresight.worker.retry import decide_retry
 
 logger = logging.getLogger(__name__)
 
+RECORD_RETRY_S = 5.0  #: [s] longest wait between tries to record a failure on a full disk
 PROGRESS_EVERY_S = 0.25  #: [s] at most one progress write per job this often (the last one always lands)
 
 
@@ -131,7 +133,10 @@ class JobWorker:
             t.join(timeout=5.0)
         self._beat_stop.set()
         beat.join(timeout=5.0)
-        queue.stop_worker(self.engine, self.id)
+        try:
+            queue.stop_worker(self.engine, self.id)
+        except Exception:  # noqa: BLE001 - a full disk or a database away: the row goes stale and is pruned
+            logger.exception("could not record the worker's stop", extra={"action": "stop_worker_failed"})
         logger.info("worker stopped", extra={"action": "stop_worker", "worker": self.id})
 
     def stop(self) -> None:
@@ -223,14 +228,44 @@ class JobWorker:
                 folders.drop_attempt(held.attempt_dir)
         except (
             Exception
-        ):  # recording the outcome failed (database down): the lease expires, the job is reaped
+        ) as exc:  # recording the outcome failed (database down): the lease expires, the job is reaped
             logger.exception(
                 "could not record the outcome of job %s", job["id"], extra={"action": "record_failed"}
             )
+            if folders.is_full_disk(
+                exc
+            ):  # ... unless the disk is full: the failure is recorded once space returns
+                self._fail_when_space_returns(held, exc)
         finally:
             with self._lock:
                 self._held.pop(job["id"], None)
             self.completed += 1
+
+    def _fail_when_space_returns(self, held: Held, exc: BaseException) -> None:
+        """Free the job's files, then try to record its failure every few seconds until the database can write
+        again (the lease is renewed meanwhile whenever a heartbeat gets through), this worker stops, or the lease
+        is found lost."""
+        job = held.job
+        if held.attempt_dir is not None:
+            folders.drop_attempt(held.attempt_dir)
+        shutil.rmtree(folders.resolve_under(self.settings.store_root, folders.job_dir(self.settings.store_root, job["id"])),
+                      ignore_errors=True)  # fmt: skip
+        message = (f"the disk of the store or the database was full when the job ended, so its outcome could not be "
+                   f"recorded ({self.public_text(str(exc)).splitlines()[0][:300]}); retry it once space is freed")  # fmt: skip
+        wait = 0.5
+        while not held.lost and not self._stopping.wait(wait):
+            try:
+                queue.fail_or_retry(
+                    self.engine, job["id"], self.id, job["attempts"], "StoreFull", message, retry=False
+                )
+                logger.warning("recorded the failure of job %s now that space returned", job["id"])
+                return
+            except queue.LeaseLost:
+                return
+            except Exception as again:  # noqa: BLE001 - still full, or the database is away: try again
+                if not folders.is_full_disk(again):
+                    logger.warning("job %s: %r while recording its failure", job["id"], again)
+            wait = min(2 * wait, RECORD_RETRY_S)
 
     def _execute(self, held: Held) -> None:
         job = held.job

@@ -30,7 +30,7 @@ from foresight.api.schemas import (
     job_public,
 )
 from foresight.core.stages.kinds import KINDS
-from foresight.store import folders, labels, queue
+from foresight.store import folders, labels, queue, space
 from foresight.store.models import JobStatus
 from foresight.store.session import is_sqlite
 
@@ -239,8 +239,10 @@ def retry_job(job_id: JobId, engine: EngineDep) -> JobPublic:
 )
 def delete_job(job_id: JobId, engine: EngineDep, settings: SettingsDep) -> Response:
     """Delete a finished job and its whole folder (partial files of a failed run too), keeping files that a
-    model or dataset record uses."""
-    queue.delete_job_and_files(engine, settings.store_root, job_id)
+    model or dataset record uses; works on a full disk (files first, then the server's reserve)."""
+    queue.delete_job_and_files(
+        engine, settings.store_root, job_id, on_full=lambda: space.release_reserve(settings)
+    )
     return Response(status_code=status.HTTP_204_NO_CONTENT)
 
 

@@ -8,9 +8,9 @@ from fastapi import APIRouter, Request
 from fastapi.responses import PlainTextResponse
 
 from foresight.api.deps import EngineDep, SettingsDep
-from foresight.api.schemas import Health, WorkerPublic, WorkersPublic, iso
+from foresight.api.schemas import DiskPublic, Health, WorkerPublic, WorkersPublic, iso
 from foresight.core.stages.kinds import KINDS
-from foresight.store import queue
+from foresight.store import queue, space
 
 router = APIRouter(tags=["operations"])  #: always open (liveness probes carry no token)
 #: reads: the app adds the read-auth dependency when reads are closed, so the schema's security matches
@@ -22,12 +22,20 @@ def _alive_cutoff(settings) -> float:  # noqa: ANN001
     return time.time() - max(3 * settings.heartbeat_s, settings.lease_s)
 
 
+FULL_RECENTLY_S = 10.0  #: [s] a request that met a full disk this recently keeps /healthz degraded
+
+
 @router.get("/healthz")
-def read_health(request: Request, engine: EngineDep) -> Health:
-    """Liveness and database reachability."""
-    return Health(
-        status="ok", database=queue.ping(engine), revision=request.app.state.revision, kinds=sorted(KINDS)
-    )
+def read_health(request: Request, engine: EngineDep, settings: SettingsDep) -> Health:
+    """Liveness, database reachability and free disk space ("degraded" while a disk is full)."""
+    state = space.disk_state(settings)
+    full_at = request.app.state.full_at
+    full = bool(state["full"]) or (full_at is not None and time.time() - full_at < FULL_RECENTLY_S)
+    if not full:
+        space.keep_reserve(settings)  # back once there is room again
+    status = "degraded: the disk of the store or the database is full" if full else "ok"
+    return Health(status=status, database=queue.ping(engine), revision=request.app.state.revision,
+                  kinds=sorted(KINDS), disk=DiskPublic(**{**state, "full": full}))  # fmt: skip
 
 
 @read_router.get("/v1/workers")
