@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from sqlalchemy import select
 
-from foresight.store import folders, queue
+from foresight.store import folders, job_reads, queue
 from foresight.store.session import make_engine
 
 from .service import Service, wait_job
@@ -34,7 +34,7 @@ def _paused_past_lease(service: Service, engine, spec: dict, at: float) -> None:
     paused = service.worker()
     job_id = client.post("/v1/jobs", json={"spec": spec}).json()["id"]
     deadline = time.time() + 120
-    while (row := queue.get_job(engine, job_id))["progress"] < at or row["status"] != "running":
+    while (row := job_reads.get_job(engine, job_id))["progress"] < at or row["status"] != "running":
         assert row["status"] in ("queued", "running") and time.time() < deadline, (row, service.logs())
         time.sleep(0.02)
     paused.send_signal(signal.SIGSTOP)
