@@ -97,3 +97,17 @@ def test_attempt_folders_resume_and_publish(tmp_path: Path) -> None:
     (first / "checkpoints" / "last.pt").write_text("epoch 4")
     assert (root / "jobs" / "job1" / "checkpoints" / "last.pt").read_text() == "epoch 9"
     assert folders.scan(root, "jobs/job1") == [dict(arts[0], path="jobs/job1/checkpoints/last.pt")]
+
+
+def test_a_paused_evaluation_worker_never_overwrites_the_results_on_postgresql(
+    tmp_path: Path, pg_url: str
+) -> None:
+    service = Service(tmp_path, database_url=pg_url)
+    engine = make_engine(pg_url)
+    try:
+        service.migrate()
+        service.serve()
+        _paused_past_lease(service, engine, EVALUATE, at=0.2)
+    finally:
+        service.stop()
+        engine.dispose()
