@@ -28,7 +28,7 @@ from foresight.api.schemas import (
     Tag,
     job_public,
 )
-from foresight.core.stages.kinds import KINDS
+from foresight.core.jobs.kinds import KINDS
 from foresight.store import folders, job_files, job_reads, labels, queue, space
 from foresight.store.models import JobStatus
 

@@ -9,7 +9,7 @@ from fastapi.responses import PlainTextResponse
 
 from foresight.api.deps import EngineDep, SettingsDep
 from foresight.api.schemas import DiskPublic, Health, WorkerPublic, WorkersPublic, iso
-from foresight.core.stages.kinds import KINDS
+from foresight.core.jobs.kinds import KINDS
 from foresight.store import job_reads, space
 
 router = APIRouter(tags=["operations"])  #: always open (liveness probes carry no token)

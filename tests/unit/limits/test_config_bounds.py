@@ -8,7 +8,7 @@ from pydantic import ValidationError
 from foresight.core.bounds import MAX_ITEMS, BoundedConfig
 from foresight.core.evaluation.config import EvaluationConfig
 from foresight.core.evaluation.plannerspec import PlannerSpecBase
-from foresight.core.stages.kinds import KINDS
+from foresight.core.jobs.kinds import KINDS
 
 
 def test_every_job_kind_and_planner_spec_is_bounded() -> None:

@@ -17,10 +17,10 @@ from pydantic import ConfigDict, Field
 
 from foresight.core.bounds import BoundedConfig
 from foresight.core.errors import ConfigError
+from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.execution import Executor
+from foresight.core.runtime.refs import BUILTIN_BUNDLE, BundlePath, Ident
 from foresight.core.scenarios.model import MAX_EPISODE_STEPS
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.execution import Executor
-from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident
 
 
 class ProxySpec(BoundedConfig):
