@@ -14,7 +14,9 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
+from annotated_types import MaxLen
 from pydantic import BaseModel, ConfigDict, model_validator
+from pydantic.fields import FieldInfo
 
 MAX_ITEMS = 256  #: entries of one list, tuple or mapping in a config
 MAX_TEXT = 4096  #: characters of one string in a config
@@ -23,17 +25,29 @@ MAX_MAGNITUDE = 1e9  #: largest |value| of a float setting (metres, seconds, wei
 MAX_INT = 2**63 - 1  #: largest |value| of an integer setting (what every database column holds)
 
 
-def bound_errors(value: Any, where: str, depth: int = 0) -> list[str]:
-    """Why ``value`` (named ``where``) breaks a limit: one line per offending setting, empty when it fits.
+def own_max_length(field: FieldInfo) -> int | None:
+    """The ``max_length`` a field declares itself (it replaces :data:`MAX_ITEMS` / :data:`MAX_TEXT` there)."""
+    return next((m.max_length for m in field.metadata if isinstance(m, MaxLen)), None)
+
+
+def model_errors(model: BaseModel, where: str, depth: int) -> list[str]:
+    """:func:`bound_errors` of every field of ``model``, each with the length limit it declares, if any."""
+    out: list[str] = []
+    for name, field in type(model).model_fields.items():
+        path = f"{where}.{name}" if where else name
+        out += bound_errors(getattr(model, name, None), path, depth, own_max_length(field))
+    return out
+
+
+def bound_errors(value: Any, where: str, depth: int = 0, max_length: int | None = None) -> list[str]:
+    """Why ``value`` (named ``where``) breaks a limit: one line per offending setting, empty when it fits;
+    ``max_length`` replaces the default limit of its length (not of what it holds).
 
     Nested models that are :class:`BoundedConfig` checked themselves when they were built and are skipped."""
     if isinstance(value, BoundedConfig) and depth > 0:
         return []
     if isinstance(value, BaseModel):
-        items = [(name, getattr(value, name, None)) for name in type(value).model_fields]
-        return [
-            e for name, v in items for e in bound_errors(v, f"{where}.{name}" if where else name, depth + 1)
-        ]
+        return model_errors(value, where, depth + 1)
     if isinstance(value, bool) or value is None:
         return []
     if isinstance(value, float):
@@ -45,10 +59,12 @@ def bound_errors(value: Any, where: str, depth: int = 0) -> list[str]:
     if isinstance(value, int):
         return [f"{where}: {value} is beyond the limit of +-{MAX_INT}"] if abs(value) > MAX_INT else []
     if isinstance(value, str):
-        return [f"{where}: {len(value)} characters, at most {MAX_TEXT}"] if len(value) > MAX_TEXT else []
+        most = max_length or MAX_TEXT
+        return [f"{where}: {len(value)} characters, at most {most}"] if len(value) > most else []
     if isinstance(value, Mapping | list | tuple | set | frozenset):
-        if len(value) > MAX_ITEMS:
-            return [f"{where}: {len(value)} entries, at most {MAX_ITEMS}"]
+        most = max_length or MAX_ITEMS
+        if len(value) > most:
+            return [f"{where}: {len(value)} entries, at most {most}"]
         if depth > MAX_DEPTH:
             return [f"{where}: nested more than {MAX_DEPTH} levels deep"]
         pairs = value.items() if isinstance(value, Mapping) else enumerate(value)
@@ -71,9 +87,7 @@ class BoundedConfig(BaseModel):
 
     @model_validator(mode="after")
     def _within_bounds(self) -> Any:
-        errors = [
-            e for name in type(self).model_fields for e in bound_errors(getattr(self, name, None), name, 1)
-        ]
+        errors = model_errors(self, "", 1)
         if errors:
             raise ValueError("; ".join(errors[:5]))
         return self

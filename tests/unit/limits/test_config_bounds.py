@@ -31,3 +31,12 @@ def test_every_job_kind_and_planner_spec_is_bounded() -> None:
 def test_oversized_settings_are_refused_by_name(data: dict, says: str) -> None:
     with pytest.raises(ValidationError, match=says):
         EvaluationConfig.model_validate(data)
+
+
+def test_a_field_that_declares_its_own_length_keeps_it() -> None:
+    from foresight.core.evaluation.config import EvaluationConfig
+
+    config = EvaluationConfig.model_validate({"scenarios": [f"s{i}" for i in range(600)]})  # its own max 1000
+    assert len(config.scenarios or []) == 600
+    with pytest.raises(ValidationError, match="at most 1000"):
+        EvaluationConfig.model_validate({"scenarios": [f"s{i}" for i in range(1001)]})
