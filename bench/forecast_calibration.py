@@ -101,6 +101,10 @@ def main() -> None:
             res = run_episode(scen, seed, policy, max_steps=args.max_steps)
             samples.append(samples_from_trace(res.trace, tb, 12, policy.waypoint_array(res.steps)))
     samples = [s for s in samples if len(s)]
+    if not samples:
+        sys.exit(
+            "forecast_calibration: the episodes gave no samples (a horizon shorter than history + forecast?)"
+        )
     predictors = {"constant_velocity": ConstantVelocityPredictor(tb)}
     if args.checkpoint and Path(args.checkpoint).is_file():
         import torch
@@ -126,6 +130,9 @@ def main() -> None:
             err, sigma = (
                 errors(predictor, samples, near, own) if own else (errors(predictor, samples, near), None)
             )
+            if not len(err):  # nothing to fit (no pedestrian that near): the count alone, no NaN
+                out["predictors"].setdefault(name, {})[subset] = {"pedestrian_horizons": 0}
+                continue
             fit = GrowingSigma.fit(tb.times, err)
             row = {
                 "sigma0": round(fit.sigma0, 4),
