@@ -128,6 +128,11 @@ SMOKE: dict[str, Smoke] = {
         shared=False,
         check=lambda out: None if out["summary"]["hostile_inputs_tried"] > 0 else "no input tried",
     ),
+    "import_memory": Smoke(
+        ("--json", "--mb", "0.1"),
+        frozenset({"benchmark", "file_mb", "track_lines", "windows", "peak_rss_mb", "wall_s"}),
+        shared=False,
+    ),
     "make_stress_suite": Smoke(
         (
             "--out",
@@ -172,6 +177,11 @@ SMOKE: dict[str, Smoke] = {
     "predict_latency": Smoke(
         ("--json", "--repeats", "5"),
         frozenset({"median_ms", "p90_ms", "torch_median_ms", "target_ms"}),
+        shared=False,
+    ),
+    "predictor_roundtrip": Smoke(
+        ("--json", "--pedestrians", "4", "--forecasts", "5"),
+        frozenset({"benchmark", "targets", "entries"}),
         shared=False,
     ),
     "scale_out": Smoke(
