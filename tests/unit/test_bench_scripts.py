@@ -1,6 +1,6 @@
-"""Every script under bench/ runs: each as its own process at tiny sizes (``SMOKE`` in tests/unit/bench_scripts.py)
-exits 0 and prints one strict JSON object with its keys, so a refusal (a limit, a renamed import, a changed
-config) shows here and not the next time someone runs the benchmark."""
+"""Every script under bench/ runs: each, run as its own process at tiny sizes (``SMOKE`` in
+tests/unit/bench_scripts.py), exits 0 and prints one strict JSON object with its keys, so a refusal (a limit, a
+renamed import, a changed config) shows here and not the next time someone runs the benchmark."""
 
 from __future__ import annotations
 
@@ -11,7 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from tests.unit.bench_scripts import BENCH, SMOKE, scripts
+from foresight.core.sim.trace import MAX_TRACE_BYTES, trace_bytes
+from tests.unit.bench_scripts import BENCH, SMOKE, load_bench, scripts
 
 REPO = BENCH.parent
 _done: dict[str, subprocess.CompletedProcess] = {}
@@ -76,3 +77,11 @@ def test_the_script_runs_small_and_prints_its_json(
     assert smoke.keys <= set(out), f"bench/{name}.py: keys {sorted(smoke.keys - set(out))} missing"
     problem = smoke.check(out) if smoke.check else None
     assert problem is None, f"bench/{name}.py: {problem}"
+
+
+def test_sim_speed_asks_for_no_longer_episode_than_the_trace_limit_takes() -> None:
+    open_horizon = load_bench("sim_speed").open_horizon
+    assert open_horizon(10, 400) == 400  # the timed steps, where they fit
+    for n in (200, 1000, 5000):
+        h = open_horizon(n, 100_000)
+        assert trace_bytes(h, n) <= MAX_TRACE_BYTES < trace_bytes(h + 1, n)
