@@ -194,7 +194,7 @@ def build_planner(rp: ResolvedPlanner) -> Planner:
     if plugins.kind(rp.model_id):
         model = rp.model_id  # a predictor plug-in: the planner loads a fresh one (its own state per episode)
     elif registered.is_registered(rp.model_path):  # a registered plug-in or external model: its predictor
-        model = registered.predictor_name(rp.model_path)
+        model = plugins.load(registered.predictor_name(rp.model_path), registered.files_dir(rp.model_path))
     elif rp.model_id != NO_MODEL:
         model = load_model(rp.model_path, rp.checkpoint_sha256, rp.model_id) if rp.model_path else CV
     return make_planner(rp.name, rp.config, model=model)
@@ -224,7 +224,7 @@ def _model(spec: PlannerSpecBase, takes_model: bool, ctx: StageContext) -> tuple
         path
     ):  # a registered plug-in or external model (its files checked): loaded now
         name = registered.predictor_name(path)
-        declared = plugins.load(name).declared
+        declared = plugins.load(name, registered.files_dir(path)).declared
         return ident, f"{plugins.kind(name)}:{declared.name}", str(path)
     if not path.is_file():
         raise ConfigError("checkpoint file not found", source=path, item=ident)

@@ -22,6 +22,11 @@ def is_registered(path: str | Path | None) -> bool:
     return path is not None and (Path(path) / DESCRIPTOR).is_file()
 
 
+def files_dir(path: str | Path) -> str:
+    """The folder of a registered predictor's files, handed to it (``artifacts``)."""
+    return str(Path(path) / FILES)
+
+
 def predictor_name(path: str | Path) -> str:
     """The predictor plug-in name a registered folder runs; ConfigError naming the file when it is unreadable."""
     source = Path(path) / DESCRIPTOR

@@ -16,6 +16,15 @@ from foresight.core.errors import CoreError
 from foresight.core.predict.external import ENV
 from foresight.store.settings import REPO_ROOT
 
+ARTIFACT_NAMED = """
+import json, os, sys
+folder = os.environ.get("FORESIGHT_PREDICTOR_ARTIFACTS")
+name = open(os.path.join(folder, "name.txt")).read().strip() if folder else "no-files"
+for line in sys.stdin:
+    if json.loads(line)["type"] == "hello":
+        print(json.dumps({"type": "hello", "protocol": 1, "name": name, "frame": "world", "modes": 1,
+                          "timebase": {"dt": 0.2, "history": 5, "horizon": 12}}), flush=True)
+"""  # an external predictor that declares the name its registered files give it
 FILES = {"weights.bin": b"\x00\x01weights", "conf/params.json": b'{"noise": 0.1}'}
 
 
@@ -100,17 +109,34 @@ def test_a_plugin_with_its_folder_registers_promotes_and_is_refused_once_a_file_
         resolver.model("noise-1")
 
 
-def test_an_external_predictor_registers_with_its_declaration(client, auth, settings, monkeypatch) -> None:  # noqa: ANN001
+def test_an_external_predictor_registers_with_its_declaration_and_gets_its_files(
+    client, auth, settings, monkeypatch
+) -> None:  # noqa: ANN001
     from foresight.cli.models import _line
+    from foresight.core.evaluation.plannerspec import resolve_planner
+    from foresight.core.runtime.context import StageContext
 
-    command = [sys.executable, str(REPO_ROOT / "examples" / "external_predictor.py")]
-    monkeypatch.setenv(ENV, json.dumps({"reference": command}))
+    reference = [sys.executable, str(REPO_ROOT / "examples" / "external_predictor.py")]
+    monkeypatch.setenv(
+        ENV, json.dumps({"reference": reference, "named": [sys.executable, "-c", ARTIFACT_NAMED]})
+    )
     created = _register(client, auth, "ext-1", "external", "external:reference", {"model.txt": b"cv"})
     assert created.status_code == 201, created.text
     m = created.json()
     assert m["kind"] == "external" and m["time_base"]["dt"] == 0.2 and m["lineage"]["modes"] == 1
     assert " external " in _line(m)  # `models ls` shows the kind
-    assert client.app.state.resolver.model("ext-1") == settings.store_root / "models" / "ext-1"
+    resolver = client.app.state.resolver
+    assert resolver.model("ext-1") == settings.store_root / "models" / "ext-1"
+
+    assert (
+        _register(
+            client, auth, "ext-2", "external", "external:named", {"name.txt": b"from-files"}
+        ).status_code
+        == 201
+    )
+    ctx = StageContext(workdir=settings.store_root, resolve_model=resolver.model)
+    rp = resolve_planner({"name": "predictive", "model": "ext-2"}, ctx)
+    assert rp.checkpoint_sha256 == "external:from-files"  # the process was handed its registered files
 
 
 @pytest.mark.parametrize(
