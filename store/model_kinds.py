@@ -104,8 +104,8 @@ def register_predictor(
     members = read_archive(archive, max_bytes=MAX_MODEL_BYTES, max_files=MAX_MODEL_FILES) if archive else []
     stored = f"models/{model_id}"
     dest = folders.resolve_under(settings.store_root, stored)
-    if dest.exists():
-        raise queue.Conflict(f"model files {stored} already exist")
+    if dest.exists():  # no row has this id (checked above): the files of a deleted model
+        shutil.rmtree(dest)
     dest.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=f".{model_id}.", dir=dest.parent))
     try:  # any failure leaves no staging folder and no row
@@ -118,7 +118,10 @@ def register_predictor(
             folders.write_atomic(folders.resolve_under(staging / FILES, rel), content)
         (staging / DESCRIPTOR).write_text(json.dumps({"kind": kind, "predictor": predictor}, sort_keys=True))
         manifest = files_manifest(staging)
-        staging.rename(dest)
+        try:
+            staging.rename(dest)
+        except OSError:  # another registration of this id stored its files first
+            raise queue.Conflict(f"a model with id {model_id!r} is being registered") from None
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
         raise

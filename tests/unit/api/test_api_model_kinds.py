@@ -156,3 +156,12 @@ def test_a_predictor_of_another_kind_or_not_there_is_422_and_stores_nothing(
     assert not (settings.store_root / "models").exists() or not list(
         (settings.store_root / "models").iterdir()
     )
+
+
+def test_a_deleted_plugin_model_can_be_registered_again(client, auth, settings) -> None:  # noqa: ANN001
+    assert _register(client, auth, "again-1", "plugin", "cv_noise", FILES).status_code == 201
+    assert client.delete("/v1/models/again-1", headers=auth).status_code == 204
+    again = _register(client, auth, "again-1", "plugin", "cv_noise", {"other.bin": b"new"})
+    assert again.status_code == 201, again.text
+    assert set(again.json()["lineage"]["files"]) == {"files/other.bin", "predictor.json"}
+    assert client.app.state.resolver.model("again-1") == settings.store_root / "models" / "again-1"
