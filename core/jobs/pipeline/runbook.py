@@ -349,7 +349,7 @@ def run_pipeline(
                         run.ident or run.job_id or ""
                     )
                 elif stage == "train":
-                    results.training = _training_summary(run.result)
+                    results.training = _training_summary(run.result, run.folder)
                 elif stage == "register":
                     inputs["model"] = run.ident or model_id
                     model_id = inputs["model"]
@@ -465,9 +465,12 @@ def _as_run(value: ChildRun | BaseModel | dict[str, Any], kind: str) -> ChildRun
     return run
 
 
-def _training_summary(train: TrainResult) -> TrainingSummary | None:
-    """The summary file a train result names (None when this process cannot read it, e.g. another host's)."""
+def _training_summary(train: TrainResult, folder: Path | None = None) -> TrainingSummary | None:
+    """The summary file a train result names, else the one in the stage's folder (a worker writes an attempt's files
+    in an attempt folder, then moves them into the job's folder); None when this process cannot read it."""
     path = Path(train.summary)
+    if not path.is_file() and folder is not None:
+        path = Path(folder) / path.name
     return TrainingSummary.model_validate_json(path.read_text()) if path.is_file() else None
 
 
