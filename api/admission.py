@@ -60,12 +60,66 @@ def _matrix(path: Path, overrides: dict[str, Any] | None = None) -> Any:
     return load_matrix_cached(path)
 
 
+#: a spec's top-level fields that name a dataset, which is the id of the job that wrote it
+DATASET_FIELDS = ("dataset", "base", "hardcase")
+
+
+def full_ids(spec: Any, engine: Any) -> Any:
+    """The spec with short job ids (as the CLI prints them) in its dataset fields replaced by full ids."""
+    from foresight.store import queue
+
+    update = {}
+    for field in DATASET_FIELDS:
+        value = getattr(spec, field, None)
+        if isinstance(value, str) and value:
+            full = queue.resolve_id(engine, value)
+            if full != value:
+                update[field] = full
+    return spec.model_copy(update=update) if update else spec
+
+
+#: a spec's top-level fields that name files inside its config bundle
+BUNDLE_FILES = (
+    "matrix",
+    "seed_manifest",
+    "grid",
+    "hard_seeds",
+    "evaluation_seeds",
+    "training_seeds",
+    "seeds",
+)
+
+
+def bundle_files(spec: Any, ctx: StageContext) -> None:
+    """ConfigError (422) naming the field, the name and the bundle (never a server path) for a bundle file that is
+    not there; a name that starts with the bundle's own ``configs/`` folder gets the name meant."""
+    from foresight.core.errors import ConfigError
+    from foresight.core.stages.refs import resolve_in_bundle
+
+    bundle = getattr(spec, "bundle", None)
+    if not isinstance(bundle, str):
+        return
+    root = ctx.resolve_bundle(bundle)
+    for field in BUNDLE_FILES:
+        rel = getattr(spec, field, None)
+        if not isinstance(rel, str) or resolve_in_bundle(root, rel).is_file():
+            continue
+        meant = rel.removeprefix("configs/")
+        hint = (
+            f": names are relative to the bundle's root, did you mean {meant!r}?"
+            if meant != rel and resolve_in_bundle(root, meant).is_file()
+            else " (e.g. scenarios/classic_interactions.yaml)"
+        )
+        raise ConfigError(f"no file {rel!r} in config bundle {bundle!r}{hint}", item=field)
+
+
 def admit(spec: Any, settings: Settings, resolver: Resolver) -> None:
     """NotFoundError (404) for an unknown bundle, matrix, scenario, model, dataset or evaluation; ConfigError (422) for a model
     a planner cannot drive (trained in another frame) or a job larger than ``settings.max_job_steps`` simulation steps."""
     from foresight.core.evaluation.witness_job import WitnessConfig, plan_search
 
     ctx = context(settings, resolver)
+    bundle_files(spec, ctx)
     for what, ident in named_ids(spec):
         (resolver.planner_model if what == "model" else resolver.dataset)(ident)
     if isinstance(

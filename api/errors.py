@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Callable
 from typing import Any
 
 from fastapi import FastAPI, Request
@@ -62,6 +63,22 @@ def _finite(value: Any) -> Any:
     return value
 
 
+def private_paths(settings: Any) -> Callable[[str], str]:
+    """A message without the server's folders: a builtin config is named inside its bundle, the store is
+    ``<store>`` (a file error on a bundle's YAML names the file a client asked for, not where it lives)."""
+    from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+
+    folders = [(f"{BUILTIN_CONFIG_ROOT}/", ""), (str(settings.store_root.resolve()), "<store>"),
+               (str(settings.data_dir.resolve()), "<data>")]  # fmt: skip
+
+    def hide(text: str) -> str:
+        for folder, name in folders:
+            text = text.replace(folder, name)
+        return text
+
+    return hide
+
+
 def install(app: FastAPI) -> None:
     @app.exception_handler(RequestValidationError)
     async def _validation(_: Request, exc: RequestValidationError) -> JSONResponse:
@@ -77,9 +94,10 @@ def install(app: FastAPI) -> None:
         return await http_exception_handler(request, exc)
 
     @app.exception_handler(ConfigError)
-    async def _config(_: Request, exc: ConfigError) -> JSONResponse:
-        loc = [p for p in ("body", exc.source, exc.item) if p]
-        return _json(422, [{"loc": loc, "msg": exc.detail, "type": "config_error"}])
+    async def _config(request: Request, exc: ConfigError) -> JSONResponse:
+        hide = private_paths(request.app.state.settings)
+        loc = [hide(p) for p in ("body", exc.source, exc.item) if p]
+        return _json(422, [{"loc": loc, "msg": hide(exc.detail), "type": "config_error"}])
 
     @app.exception_handler(UnsafePath)
     async def _unsafe(_: Request, exc: UnsafePath) -> JSONResponse:
@@ -87,8 +105,8 @@ def install(app: FastAPI) -> None:
 
     @app.exception_handler(NotFoundError)
     @app.exception_handler(queue.JobNotFound)
-    async def _not_found(_: Request, exc: Exception) -> JSONResponse:
-        return _json(404, str(exc))
+    async def _not_found(request: Request, exc: Exception) -> JSONResponse:
+        return _json(404, private_paths(request.app.state.settings)(str(exc)))
 
     @app.exception_handler(queue.Conflict)
     async def _conflict(_: Request, exc: queue.Conflict) -> JSONResponse:
@@ -99,8 +117,9 @@ def install(app: FastAPI) -> None:
         return _json(503, str(exc))
 
     @app.exception_handler(CoreError)
-    async def _core(_: Request, exc: CoreError) -> JSONResponse:
-        return _json(422, [{"loc": [], "msg": str(exc), "type": "core_error"}])  # the shape of every 422
+    async def _core(request: Request, exc: CoreError) -> JSONResponse:
+        msg = private_paths(request.app.state.settings)(str(exc))
+        return _json(422, [{"loc": [], "msg": msg, "type": "core_error"}])  # the shape of every 422
 
     @app.exception_handler(OSError)
     async def _os_error(request: Request, exc: OSError) -> JSONResponse:

@@ -24,17 +24,13 @@ def matrix_ref(path: str) -> tuple[str, str, dict[str, Path]]:
     A matrix inside the project's configs/ is the builtin bundle; any other file is a local bundle
     rooted at its folder (runs in-process; the service needs it uploaded as a bundle).
     """
-    p = Path(path).expanduser().resolve()
-    if not p.is_file():
-        raise ConfigError("matrix file not found", source=path)
-    try:
-        return (
-            BUILTIN_BUNDLE,
-            p.relative_to(BUILTIN_CONFIG_ROOT).as_posix(),
-            {BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT},
-        )
-    except ValueError:
-        return LOCAL_BUNDLE, p.name, {LOCAL_BUNDLE: p.parent, BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT}
+    from foresight.cli.paths import builtin_name, user_file
+
+    p = user_file(path, "--matrix")
+    name = builtin_name(p)
+    if name is not None:
+        return BUILTIN_BUNDLE, name, {BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT}
+    return LOCAL_BUNDLE, p.name, {LOCAL_BUNDLE: p.parent, BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT}
 
 
 def build_config(model: type[BaseModel], values: dict[str, Any]) -> Any:

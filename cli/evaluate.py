@@ -124,19 +124,15 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def bundle_of(*files: str | None) -> tuple[str, list[str], dict[str, Path]]:
     """(bundle id, bundle-relative paths, bundle roots) for command-line files."""
-    paths = []
-    for f in files:
-        if f is None:
-            paths.append(None)
-            continue
-        p = Path(f).expanduser().resolve()
-        if not p.is_file():
-            raise ConfigError("file not found", source=f)
-        paths.append(p)
+    from foresight.cli.paths import builtin_name, user_file
+
+    paths = [None if f is None else user_file(f, "file") for f in files]
     real = [p for p in paths if p is not None]
     roots = {BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT}
-    if all(BUILTIN_CONFIG_ROOT in p.parents for p in real):
-        bundle, root = BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
+    builtin = [builtin_name(p) for p in real]
+    if all(name is not None for name in builtin):
+        names = iter(builtin)
+        return BUILTIN_BUNDLE, [None if p is None else next(names) for p in paths], roots
     else:
         bundle, root = LOCAL_BUNDLE, Path(os.path.commonpath([str(p.parent) for p in real]))
         roots[LOCAL_BUNDLE] = root
@@ -211,9 +207,10 @@ def planner_spec(
     elif value in names() or not value.endswith((".yaml", ".yml", ".json")):
         spec = {"name": value}
     else:
+        from foresight.cli.paths import user_file
         from foresight.core.scenarios.loader import read_yaml
 
-        data = read_yaml(Path(value))
+        data = read_yaml(user_file(value, "--planner"))
         if not isinstance(data, dict):
             raise ConfigError("a planner file must be a mapping", source=value)
         spec = dict(data) if "name" in data else {"name": "predictive", "config": data}

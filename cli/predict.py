@@ -13,6 +13,7 @@ from pathlib import Path
 
 from foresight.cli import stage
 from foresight.cli.common import build_config, emit, finish_local, local_context, local_workdir, matrix_ref
+from foresight.cli.paths import user_file
 from foresight.core.errors import ConfigError
 
 
@@ -122,7 +123,7 @@ def _section(path: str | None, key: str) -> dict:
         return {}
     from foresight.core.scenarios.loader import read_yaml
 
-    data = read_yaml(Path(path))
+    data = read_yaml(user_file(path, "--config"))
     if not isinstance(data, dict) or not isinstance(data.get(key, data), dict):
         raise ConfigError(f"expected a mapping (optionally under {key!r})", source=path, item=key)
     return dict(data.get(key, data))
@@ -139,7 +140,7 @@ def _eval_values(path: str | None) -> dict:
     from foresight.core.predict.evaluation import FILE_KEYS
     from foresight.core.scenarios.loader import read_yaml
 
-    data = read_yaml(Path(path))
+    data = read_yaml(user_file(path, "--config"))
     return {k: data[k] for k in FILE_KEYS if isinstance(data, dict) and "train" in data and k in data}
 
 

@@ -18,6 +18,7 @@ from foresight.cli.common import (
     matrix_ref,
     progress_bar,
 )
+from foresight.cli.paths import user_file
 from foresight.core.errors import ConfigError
 from foresight.core.stages.simulate import SimulateConfig, SimulateResult, run_simulate
 
@@ -95,7 +96,7 @@ def scenarios_list(args: argparse.Namespace) -> int:
     from foresight.core.scenarios.loader import load_matrix
     from foresight.core.sim.population import pedestrian_count
 
-    matrix = load_matrix(Path(args.matrix))
+    matrix = load_matrix(user_file(args.matrix, "--matrix"))
     rows = [
         {
             "name": s.name,
@@ -123,7 +124,7 @@ def scenarios_check(args: argparse.Namespace) -> int:
         raise ConfigError(
             f"expected 0 < seconds <= 60, got {args.seconds}", source="command line", item="--seconds"
         )
-    matrix = load_matrix(Path(args.matrix), overrides=overrides(args.override))
+    matrix = load_matrix(user_file(args.matrix, "--matrix"), overrides=overrides(args.override))
     seeds = {s.name: list(s.scenario.seeds)[: args.seeds_per_scenario] for s in matrix.scenarios}
     lost = early_contacts(matrix.scenarios, args.seconds, seeds)
     report = {
@@ -156,7 +157,7 @@ def scenarios_reachable(args: argparse.Namespace) -> int:
     from foresight.core.scenarios.loader import load_matrix
     from foresight.core.sim.feasibility import reachability
 
-    matrix = load_matrix(Path(args.matrix), overrides=overrides(args.override))
+    matrix = load_matrix(user_file(args.matrix, "--matrix"), overrides=overrides(args.override))
     chosen = (
         [matrix.get(n.strip()) for n in args.scenarios.split(",")]
         if args.scenarios

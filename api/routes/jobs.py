@@ -96,6 +96,7 @@ async def create_job(
     # async: the body is validated on the event loop anyway; a plain submission on SQLite then waits on the
     # store's submission thread without holding a thread-pool thread (see queue.SubmitBatcher), the rest
     # (idempotency keys, parents, PostgreSQL) runs its queries in the pool
+    body.spec = await run_in_threadpool(admission.full_ids, body.spec, engine)
     spec = body.spec.model_dump(mode="json")
     errors = unsafe_paths(spec)
     if errors:

@@ -242,21 +242,31 @@ def resolve_planner(spec: PlannerSpecBase | dict[str, Any], ctx: StageContext) -
 
 def preflight(rp: ResolvedPlanner, scenarios: list[ResolvedScenario]) -> None:
     """Reset a planner once per distinct time step: an incompatible model fails here, before any episode."""
+    from foresight.core.planners.external import ExternalPlannerError
+
     seen: set[float] = set()
     for sc in scenarios:
         cfg = sc.scenario.simulation_config
         if cfg.dt in seen:
             continue
         seen.add(cfg.dt)
-        build_planner(rp).reset(
-            EpisodeInfo(
-                scenario=sc,
-                seed=0,
-                dt=cfg.dt,
-                robot_radius=sc.scenario.robot_config.radius,
-                ped_radius=cfg.ped_radius,
-            )
+        try:
+            _reset_once(rp, sc)
+        except ExternalPlannerError as exc:  # a command that cannot start: one line, before any episode
+            raise ConfigError(str(exc), item="planner.config.command") from None
+
+
+def _reset_once(rp: ResolvedPlanner, sc: ResolvedScenario) -> None:
+    cfg = sc.scenario.simulation_config
+    build_planner(rp).reset(
+        EpisodeInfo(
+            scenario=sc,
+            seed=0,
+            dt=cfg.dt,
+            robot_radius=sc.scenario.robot_config.radius,
+            ped_radius=cfg.ped_radius,
         )
+    )
 
 
 def config_diff(a: dict[str, Any], b: dict[str, Any], prefix: str = "") -> dict[str, tuple[Any, Any]]:
