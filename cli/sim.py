@@ -71,9 +71,18 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="scenario matrix YAML (server: a name in --bundle, or a file in the project's configs/)",
     )
     run.add_argument("--bundle", help="server: config bundle id; --matrix is a name inside it")
-    run.add_argument("--scenario", required=True)
-    run.add_argument("--seed", type=int, required=True)
-    run.add_argument("--render", help="write a PNG/SVG of the episode here (server: downloaded from the job)")
+    run.add_argument(
+        "--scenario", required=True, help="scenario name in the matrix (`foresight scenarios ls`)"
+    )
+    run.add_argument(
+        "--seed", type=int, required=True, help="episode seed (the crowd's and the robot's randomness)"
+    )
+    run.add_argument(
+        "--render",
+        metavar="FILE",
+        help="write the episode here, as its suffix says: .png/.svg a picture, .gif/.mp4 a replay "
+        "(MP4: the video extra) (server: downloaded from the job)",
+    )
     run.add_argument(
         "--planner", default="goal", help="planner name (as for evaluate; default goal) or a planner YAML"
     )
@@ -274,10 +283,27 @@ def _table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+RENDER_SUFFIXES = ("png", "svg", "gif", "mp4")
+
+
+def render_format(path: str) -> str:
+    """The picture kind a ``--render`` file's suffix asks for; an unknown suffix is refused before anything runs."""
+    suffix = Path(path).suffix.lower().lstrip(".")
+    if suffix not in RENDER_SUFFIXES:
+        raise ConfigError(
+            f"{path!r}: expected a file ending in {', '.join('.' + s for s in RENDER_SUFFIXES)}",
+            source="command line",
+            item="--render",
+        )
+    return suffix
+
+
 def sim_run(args: argparse.Namespace) -> int:
     from foresight.cli.evaluate import ModelArgs, planner_spec
 
     values = {"scenarios": [args.scenario], "seeds": [args.seed], "render": bool(args.render)}
+    if args.render:
+        values["render_format"] = render_format(args.render)
     models = ModelArgs()
     if not args.local:
         client = stage.Client.from_args(args)

@@ -136,3 +136,27 @@ def test_an_external_planner_that_cannot_start_is_one_line(tmp_path: Path) -> No
                '{"command": "reference"}', *SMALL, env=env)  # fmt: skip
     assert proc.returncode == 1 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
     assert "'reference'" in proc.stderr and ".venv/bin/python" in proc.stderr and str(tmp_path) in proc.stderr
+
+
+def test_an_evaluations_episodes_export_from_the_server(up: Service, tmp_path: Path) -> None:
+    import pyarrow.parquet as pq
+
+    from .service import wait_job
+
+    spec = {"kind": "evaluate", "planner": {"name": "social_force"}, "scenarios": ["crossing_low"],
+            "seeds_per_scenario": 3, "max_steps": 30}  # fmt: skip
+    with up.client() as client:
+        job = wait_job(client, client.post("/v1/jobs", json={"spec": spec}).json()["id"])
+        assert job["status"] == "succeeded", job
+        csv_text = client.get(f"/v1/evaluations/{job['id'][:12]}/episodes/export", params={"format": "csv"})
+        assert csv_text.status_code == 200 and csv_text.headers["content-type"].startswith("text/csv")
+        assert (
+            csv_text.text.splitlines()[0].startswith("scenario,seed,")
+            and len(csv_text.text.splitlines()) == 4
+        )
+        bad = client.get(f"/v1/evaluations/{job['id']}/episodes/export", params={"format": "xlsx"})
+        assert bad.status_code == 422
+    proc = cli(up, tmp_path, "evaluations", "episodes", job["id"][:12], "--out", str(tmp_path / "e.parquet"))
+    assert proc.returncode == 0, proc.stderr
+    table = pq.read_table(tmp_path / "e.parquet")
+    assert table.num_rows == 3 and "safety.min_clearance" in table.column_names
