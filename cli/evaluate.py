@@ -32,8 +32,8 @@ def _common(p: argparse.ArgumentParser, *, planner: bool = True) -> None:
             "--planner",
             default="predictive",
             help="planner name (built-in, installed plugin, external; "
-            "--local also module:attr) or a planner YAML ({name, config, reference_params} or a "
-            "predictive config)",
+            "--local also module:attr), sb3:POLICY.zip (a Stable-Baselines3 policy: --local a file, server a "
+            "name in --bundle) or a planner YAML ({name, config, reference_params} or a predictive config)",
         )
         p.add_argument(
             "--planner-config",
@@ -198,12 +198,20 @@ def planner_spec(
     """
     from foresight.core.planners.registry import entry, names, register
 
+    if value.startswith("sb3:"):  # a trained policy: a local file (--local), else a name in the job's bundle
+        policy = value.removeprefix("sb3:")
+        if local and Path(policy).expanduser().is_file():
+            policy = str(Path(policy).expanduser().resolve())
+        spec: dict[str, Any] = {"name": "sb3", "config": {"policy": policy}}
+        if config is not None:
+            spec["config"] |= _inline_config(config)
+        return spec
     if ":" in value and not Path(value).is_file():
         if not local:
             raise ConfigError(f"{value!r}: module:attr planners run in-process only (--local); the server runs "
                               f"installed plugins and operator-configured external planners",
                               source="command line", item="--planner")  # fmt: skip
-        spec: dict[str, Any] = {"name": register(value)}
+        spec = {"name": register(value)}
     elif value in names() or not value.endswith((".yaml", ".yml", ".json")):
         spec = {"name": value}
     else:
@@ -320,6 +328,8 @@ class Refs:
         if self.local:
             return planner_spec(value, model, self.models, config=config)
         spec = planner_spec(value, None, self.models, default=False, config=config, local=False)
+        if spec.get("name") == "sb3" and self.args.bundle:
+            spec["config"].setdefault("bundle", self.args.bundle)
         if model is not None:
             spec["model"] = stage.model_id(model, "--model")
         elif spec.get("model") is not None:
@@ -389,10 +399,7 @@ def _evaluation_text(r: Any, where: str) -> str:
         )
     fails = ", ".join(f"{k} {v}" for k, v in r.taxonomy.items() if v) or "none"
     lines += ["", f"failures: {fails}", f"gate: {r.status}"]
-    lines += [
-        f"  {c.name}: {'ok' if c.passed else 'FAIL'} ({c.value} vs {c.threshold}) {c.detail}".rstrip()
-        for c in r.gate.checks
-    ]
+    lines += [f"  {c.line()}" for c in r.gate.checks]
     if r.execution is not None:
         lines.append(f"ran on: {r.execution.describe()}")
     lines.append(where)

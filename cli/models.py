@@ -16,8 +16,8 @@ from foresight.core.errors import ConfigError
 def register(sub: argparse._SubParsersAction) -> None:
     models = sub.add_parser("models", help="the model registry").add_subparsers(dest="action", required=True)
     ls = models.add_parser("ls", help="list registered models")
-    ls.add_argument("--status")
-    ls.add_argument("--tag")
+    ls.add_argument("--status", help="only models of this status (candidate, default, ...)")
+    ls.add_argument("--tag", help="only models with this tag")
     ls.add_argument("--limit", type=int, help="page size (default: every model)")
     ls.add_argument("--offset", type=int, default=0)
     ls.set_defaults(func=cmd_ls)
@@ -28,11 +28,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     reg.add_argument("model_id")
     reg.add_argument("--job", required=True, help="job id")
     reg.add_argument("--artifact", required=True, help="artifact name in that job")
-    reg.add_argument("--tag", action="append", default=[])
+    reg.add_argument("--tag", action="append", default=[], help="a tag for the model (repeatable)")
     reg.set_defaults(func=cmd_register)
     promote = models.add_parser("promote", help="promote a model (or make it the default)")
     promote.add_argument("model_id")
-    promote.add_argument("--default", action="store_true")
+    promote.add_argument(
+        "--default", action="store_true", help="make it the default model (what runs without --model)"
+    )
     promote.set_defaults(func=cmd_promote)
     delete = models.add_parser("delete", help="delete a registered model")
     delete.add_argument("model_id")

@@ -9,9 +9,11 @@ Exit codes: 0 ok, 2 training gates failed (summary written), 1 error (or a faile
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
 from foresight.cli import stage
+from foresight.cli.client import add_connection_args
 from foresight.cli.common import build_config, emit, finish_local, local_context, local_workdir, matrix_ref
 from foresight.cli.paths import user_file
 from foresight.core.errors import ConfigError
@@ -50,11 +52,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     im.add_argument("--root", help="data root name on the server (GET /v1/data-roots; default ethucy)")
     im.add_argument("--ethucy", help="--local: ETH/UCY root folder")
-    im.add_argument("--fold", required=True)
-    im.add_argument("--max-agents", type=int, default=12)
+    im.add_argument("--fold", required=True, help="ETH/UCY fold: eth, hotel, univ, zara1 or zara2")
+    im.add_argument("--max-agents", type=int, default=12, help="pedestrians kept per sample (default 12)")
     im.add_argument("--output", help="--local: output .npz path")
     stage.add_mode_args(im)
     im.set_defaults(func=import_cmd)
+    dls = dsub.add_parser("ls", help="the server's datasets (GET /v1/datasets), oldest first")
+    dls.add_argument("--json", action="store_true", help="print the list as JSON")
+    add_connection_args(dls)
+    dls.set_defaults(func=dataset_ls_cmd)
 
     co = sub.add_parser("collect", help="roll out episodes and write a prediction dataset")
     co.add_argument(
@@ -65,11 +71,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     co.add_argument("--hard-seeds", help="TRAINING seed manifest YAML (hard-case collection)")
     co.add_argument("--bundle", help="server: config bundle id; --matrix/--hard-seeds are names inside it")
     co.add_argument("--scenarios", help="comma-separated scenario names (base collection)")
-    co.add_argument("--seeds-per-scenario", type=int)
-    co.add_argument("--base-seed", type=int)
-    co.add_argument("--policy", choices=["goal", "goal_noisy"])
-    co.add_argument("--max-steps", type=int)
-    co.add_argument("--max-agents", type=int)
+    co.add_argument("--seeds-per-scenario", type=int, help="episodes per scenario (default: the config's)")
+    co.add_argument("--base-seed", type=int, help="first episode seed (default: the config's)")
+    co.add_argument("--policy", choices=["goal", "goal_noisy"], help="how the robot drives while recording")
+    co.add_argument("--max-steps", type=int, help="horizon override (default: each scenario's)")
+    co.add_argument("--max-agents", type=int, help="pedestrians kept per sample")
     co.add_argument("--executor", choices=["local", "ray"], help=stage.EXECUTOR_HELP)
     co.add_argument(
         "--override",
@@ -83,15 +89,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     mx = sub.add_parser("mix", help="base + hard-case dataset, hard-case training rows oversampled")
     mx.add_argument("--base", required=True, help="dataset id (--local: a .npz file)")
     mx.add_argument("--hardcase", required=True, help="dataset id (--local: a .npz file)")
-    mx.add_argument("--repeat", type=int, default=3)
+    mx.add_argument(
+        "--repeat", type=int, default=3, help="times the hard-case samples are repeated (default 3)"
+    )
     _outputs(mx)
     mx.set_defaults(func=mix_cmd)
 
     tr = sub.add_parser("train", help="train the trajectory predictor on a dataset")
     tr.add_argument("--dataset", help="dataset id (--local: a .npz file); overrides the config's")
     tr.add_argument("--config", help="training config YAML (its 'train' mapping, or the whole file)")
-    tr.add_argument("--epochs", type=int)
-    tr.add_argument("--threads", type=int)
+    tr.add_argument("--epochs", type=int, help="training epochs; overrides the config's")
+    tr.add_argument("--threads", type=int, help="torch CPU threads (default: torch's)")
     tr.add_argument(
         "--device",
         choices=["auto", "cpu", "cuda"],
@@ -197,6 +205,20 @@ def _score_table(result, where: str | None) -> str:  # noqa: ANN001
     a, c = result.average, result.cv_average
     lines.append(f"{'average':<10}{'':>9}{a.ade:>8.3f}{a.fde:>8.3f}{c.ade:>9.3f}{c.fde:>9.3f}")
     return "\n".join(lines + ([where] if where else []))
+
+
+def dataset_ls_cmd(args: argparse.Namespace) -> int:
+    data = stage.Client.from_args(args).get("/v1/datasets")
+    if args.json:
+        print(json.dumps(data, indent=2))
+        return 0
+    for d in data:
+        summary = d.get("summary") or {}
+        samples = summary.get("samples", "?")
+        source = summary.get("source") or summary.get("kind") or ""
+        print(f"{d['id'][:12]}  {samples!s:>8} samples  {(d.get('sha256') or '')[:12]:<12}  {source}")
+    print(f"{len(data)} datasets")
+    return 0
 
 
 def import_cmd(args: argparse.Namespace) -> int:

@@ -22,7 +22,11 @@ def register(sub: argparse._SubParsersAction) -> None:
         )
         ls = actions.add_parser("ls", help=f"{group}, newest first, filtered")
         for name in filters:
-            ls.add_argument("--" + name.replace("_", "-"), dest=name)
+            ls.add_argument(
+                "--" + name.replace("_", "-"),
+                dest=name,
+                help=f"only those whose {name.replace('_', ' ')} is this",
+            )
         ls.add_argument("--name", help="their job's exact name")
         ls.add_argument("--tag", action="append", help="their job has this tag (repeatable: every tag)")
         ls.add_argument("--limit", type=int, default=20)
@@ -43,7 +47,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         )
         if group == "campaigns":
             eps.add_argument("rank", type=int, help="the cell's rank (1 = best)")
-            eps.add_argument("--suite", choices=("global", "hard"), default="global")
+            eps.add_argument(
+                "--suite",
+                choices=("global", "hard"),
+                default="global",
+                help="which suite of the cell (default global)",
+            )
         eps.add_argument("--failed", action="store_true", help="only the episodes that did not succeed")
         eps.add_argument(
             "--format",

@@ -31,7 +31,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     scen = sub.add_parser("scenarios", help="inspect scenario matrices").add_subparsers(
         dest="action", required=True
     )
-    ls = scen.add_parser("list", help="list the scenarios of a matrix")
+    ls = scen.add_parser("ls", aliases=["list"], help="list the scenarios of a matrix")
     ls.add_argument("--matrix", required=True, help="scenario matrix YAML")
     ls.add_argument("--json", action="store_true")
     ls.set_defaults(func=scenarios_list)

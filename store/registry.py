@@ -31,7 +31,8 @@ from foresight.store.shipped import DEFAULT_MODEL, default_model, read_shipped, 
 logger = logging.getLogger(__name__)
 
 BUILTIN_BUNDLE = "builtin"
-BUNDLE_SUFFIXES = {".yaml", ".yml", ".svg", ".json", ".txt", ".md"}
+#: what a bundle may hold: configs, maps, notes, and trained policies (``.zip``, for planner ``sb3``)
+BUNDLE_SUFFIXES = {".yaml", ".yml", ".svg", ".json", ".txt", ".md", ".zip"}
 MAX_BUNDLE_FILES = 2000
 MAX_BUNDLE_BYTES = 50 * 1024 * 1024  #: [bytes] unpacked size limit of an uploaded bundle
 IDENT = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._:\-]{0,199}$")
@@ -190,9 +191,10 @@ def save_upload(
                 except (yaml.YAMLError, UnicodeDecodeError) as exc:
                     raise ConfigError(f"not valid YAML: {exc}", source=rel) from None
         matrices = matrix_files(root, files)
-        if not matrices:
+        if not matrices and not any(rel.endswith(".zip") for rel in files):
             raise ConfigError(
-                "no scenario matrix (a YAML file with 'scenarios' or 'includes')", source="upload"
+                "no scenario matrix (a YAML file with 'scenarios' or 'includes') and no policy (.zip)",
+                source="upload",
             )
         for rel in matrices:
             try:

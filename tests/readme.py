@@ -23,13 +23,14 @@ class Block:
         return self.section, self.index
 
 
-def blocks(lang: str | None = None) -> list[Block]:
-    """Every fenced block of README.md in order (those of one language when `lang` is given)."""
+def blocks(lang: str | None = None, path: Path = README) -> list[Block]:
+    """Every fenced block of README.md (or another Markdown file) in order (those of one language when `lang` is
+    given)."""
     out: list[Block] = []
     section, counts = "", {}
     fence = re.compile(r"^```(\w*)\n(.*?)^```", flags=re.S | re.M)
     pos = 0
-    text = README.read_text()
+    text = path.read_text()
     for m in fence.finditer(text):
         for heading in re.findall(r"^#{1,6} (.+)$", text[pos : m.start()], flags=re.M):
             section = heading.strip()

@@ -186,16 +186,29 @@ def _load_model(path: str, sha256: str | None, name: str | None) -> Any:
 
 def build_planner(rp: ResolvedPlanner) -> Planner:
     """A fresh planner for one episode (the loaded model is shared, it is stateless)."""
-    from foresight.core.planners.registry import make_planner
+    from foresight.core.planners.registry import entry, make_planner
 
     model = None
-    if rp.model_id != NO_MODEL:
+    found = entry(rp.name)
+    if found.load_model is not None:  # a policy file its config names
+        model = found.load_model(rp.model_path, rp.checkpoint_sha256, found.validate(rp.config))
+    elif rp.model_id != NO_MODEL:
         model = load_model(rp.model_path, rp.checkpoint_sha256, rp.model_id) if rp.model_path else CV
     return make_planner(rp.name, rp.config, model=model)
 
 
-def _model(spec: PlannerSpecBase, takes_model: bool, ctx: StageContext) -> tuple[str, str, str | None]:
+def _model(spec: PlannerSpecBase, found: Any, cfg: Any, ctx: StageContext) -> tuple[str, str, str | None]:
     """(model id, checkpoint sha256, local path) of a spec; loading it now surfaces a bad model early."""
+    takes_model = found.takes_model
+    if found.model_file is not None:  # the config names the file (a trained policy), not ``model``
+        if spec.model not in (None, NO_MODEL):
+            raise ConfigError(
+                f"planner {spec.name!r} takes no model: its config names its file", item="model"
+            )
+        ident, path = found.model_file(cfg, ctx)
+        sha = sha256_file(Path(path))
+        found.load_model(str(path), sha, cfg)  # a bad file stops the run here, before any episode
+        return ident, sha, str(path)
     if not takes_model:
         if spec.model not in (None, NO_MODEL):
             raise ConfigError(f"planner {spec.name!r} takes no model", item="model")
@@ -227,7 +240,7 @@ def resolve_planner(spec: PlannerSpecBase | dict[str, Any], ctx: StageContext) -
             spec.reference_params, base=cfg, source=f"planner grid variant {spec.variant or '?'}"
         )
     resolved = cfg.model_dump(mode="json")
-    model_id, sha, path = _model(spec, found.takes_model, ctx)
+    model_id, sha, path = _model(spec, found, cfg, ctx)
     return ResolvedPlanner(
         name=spec.name,
         variant=spec.variant,

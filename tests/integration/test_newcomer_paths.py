@@ -160,3 +160,59 @@ def test_an_evaluations_episodes_export_from_the_server(up: Service, tmp_path: P
     assert proc.returncode == 0, proc.stderr
     table = pq.read_table(tmp_path / "e.parquet")
     assert table.num_rows == 3 and "safety.min_clearance" in table.column_names
+
+
+def _evaluate(up: Service, tmp_path: Path, planner: str) -> subprocess.CompletedProcess:
+    spec = tmp_path / f"{planner}.yaml"
+    spec.write_text(
+        f"planner: {{name: {planner}}}\nscenarios: [crossing_low]\nseeds_per_scenario: 2\nmax_steps: 30\n"
+    )
+    return cli(up, tmp_path, "submit", "evaluate", "-f", str(spec), "--wait")
+
+
+def test_submit_wait_and_jobs_show_lead_with_status_and_artifacts(up: Service, tmp_path: Path) -> None:
+    done = _evaluate(up, tmp_path, "social_force")
+    assert done.returncode in (0, 2), done.stderr
+    first, *rest = done.stdout.splitlines()
+    assert first.startswith("evaluate job ") and ": succeeded" in first
+    assert any(line.startswith("artifacts (") and "report.html" in line for line in rest)
+    assert "success_rate" in done.stdout and "page: http" in done.stdout
+    job_id = first.split()[2].rstrip(":")
+    show = cli(up, tmp_path, "jobs", "show", job_id[:12]).stdout.splitlines()
+    assert show[0] == first
+    artifacts = next(i for i, line in enumerate(show) if line.startswith("artifacts ("))
+    result = next(i for i, line in enumerate(show) if line.startswith("result"))
+    assert artifacts < result < 15 and not any('"speed_ratio"' in line for line in show[:result])
+
+
+def test_compare_leads_with_metrics_and_names_each_config_key_once(up: Service, tmp_path: Path) -> None:
+    ids = []
+    for planner in ("social_force", "orca"):
+        done = _evaluate(up, tmp_path, planner)
+        ids.append(done.stdout.split()[2].rstrip(":"))
+    done = cli(up, tmp_path, "compare", ids[0][:12], ids[1][:12])
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    table = next(i for i, line in enumerate(lines) if line.startswith("metric"))
+    config = next(i for i, line in enumerate(lines) if line.startswith("config ("))
+    assert table < 8 < config, done.stdout
+    keys = [
+        line.split(":")[0].strip() for line in lines[config + 1 :] if line.startswith("  ") and "->" in line
+    ]
+    assert "planner.ped_strength" in keys and not any(k.startswith("stage.planner.config.") for k in keys)
+
+
+def test_dataset_ls_lists_the_servers_datasets(up: Service, tmp_path: Path) -> None:
+    from .service import wait_job
+
+    spec = {"kind": "collect", "scenarios": ["crossing_low"], "seeds_per_scenario": 1, "max_steps": 40,
+            "check_quality": False}  # fmt: skip
+    with up.client() as client:
+        job = wait_job(client, client.post("/v1/jobs", json={"spec": spec}).json()["id"])
+    assert job["status"] == "succeeded", job
+    done = cli(up, tmp_path, "dataset", "ls")
+    assert (
+        done.returncode == 0 and job["id"][:12] in done.stdout and "datasets" in done.stdout.splitlines()[-1]
+    )
+    listed = json.loads(cli(up, tmp_path, "dataset", "ls", "--json").stdout)
+    assert job["id"] in {d["id"] for d in listed}
