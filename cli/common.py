@@ -73,6 +73,10 @@ def local_context(workdir: Path | None, bundles: dict[str, Path], *, quiet: bool
 
         return Settings().data_root(name)
 
+    from foresight.store.settings import Settings
+    from foresight.worker.mlflow_export import settings_target
+
+    settings_target(Settings())  # a tracking URI that cannot work is refused before the run, not after it
     bar = progress_bar(quiet=quiet)
     task: list[Any] = []
 
@@ -106,7 +110,7 @@ def finish_local(kind: str, result: Any, workdir: Path) -> list[Path]:
     pages = write_report(kind, result, workdir, log)
     settings = Settings()
     mlflow_export.export_run(
-        mlflow_export.target(settings.mlflow_tracking_uri, settings.mlflow_experiment),
+        mlflow_export.settings_target(settings),
         kind,
         result,
         workdir,

@@ -158,9 +158,11 @@ def cmd_up(args: argparse.Namespace) -> int:
     import json
 
     from foresight.store.session import upgrade
+    from foresight.worker.mlflow_export import settings_target
 
     settings = Settings()
     _refuse_second_server(settings, args.host, args.port)  # before anything is printed or written
+    settings_target(settings)  # an MLflow tracking URI that cannot work stops here, not in the worker
     _logging(args.log_level)
     upgrade(settings.resolved_database_url)
     settings.server_token()  # create the data dir's token before the client needs it

@@ -189,7 +189,7 @@ def build_planner(rp: ResolvedPlanner) -> Planner:
     from foresight.core.planners.registry import entry, make_planner
 
     model = None
-    found = entry(rp.name)
+    found = entry(rp.name, load=True)  # a worker process imports a module:attr planner by its name
     if found.load_model is not None:  # a policy file its config names
         model = found.load_model(rp.model_path, rp.checkpoint_sha256, found.validate(rp.config))
     elif rp.model_id != NO_MODEL:
