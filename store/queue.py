@@ -774,7 +774,7 @@ _ARTIFACTS_OF = (
     .order_by(artifacts.c.name)
 )
 _CHILDREN_OF = (
-    select(jobs.c.id, jobs.c.kind, jobs.c.status, jobs.c.progress)
+    select(jobs.c.id, jobs.c.kind, jobs.c.name, jobs.c.status, jobs.c.progress)
     .where(jobs.c.parent_id == bindparam("job_id"))
     .order_by(jobs.c.created_at)
 )
@@ -783,7 +783,7 @@ _CHILDREN_OF = (
 def job_detail(
     engine: Engine, job_id: str
 ) -> tuple[dict[str, Any], list[dict[str, Any]], list[dict[str, Any]]]:
-    """(the job, its artifacts by name, its children (id, kind, status, progress) oldest first): three indexed
+    """(the job, its artifacts by name, its children (id, kind, name, status, progress) oldest first): three indexed
     lookups on one connection (the most frequent read: clients polling)."""
     params = {"job_id": job_id}
     with engine.connect() as conn:

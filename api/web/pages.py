@@ -9,9 +9,9 @@ from fastapi import APIRouter, Depends, Query, Request
 from fastapi import Path as PathParam
 from fastapi.responses import HTMLResponse, RedirectResponse, Response
 
-from foresight.api.web import campaigns, catalog, files
+from foresight.api.web import campaigns, catalog, files, forms
 from foresight.api.web.auth import PageNotFound, read_access
-from foresight.api.web.render import page
+from foresight.api.web.render import page, ts
 from foresight.core.stages.kinds import KINDS
 from foresight.core.stages.results import Verdict, verdict
 from foresight.store import queue
@@ -247,6 +247,23 @@ def episode_pair_page(
     )
 
 
+PICKER_RUNS = 100  #: recent evaluations the compare page offers to pick
+
+
+def _recent_runs(engine: Any) -> list[dict[str, str]]:
+    """The compare page's pickers: recent evaluations (id, and what ran: planner, model, matrix, when, name)."""
+    from foresight.store import listing
+
+    out = []
+    for item in listing.evaluations(engine, limit=PICKER_RUNS)[1]:
+        row, stage = item.row, (item.row.config or {}).get("stage") or {}
+        planner = (stage.get("planner") or {}).get("name", "?")
+        model = row.model_id if row.model_id and row.model_id != "none" else None
+        parts = [planner, model, stage.get("matrix"), ts(row.created_at)[:16], item.name]
+        out.append({"id": row.id, "label": " · ".join(str(p) for p in parts if p)})
+    return out
+
+
 @pages.get("/compare")
 def compare_page(
     request: Request,
@@ -271,6 +288,7 @@ def compare_page(
         nav="compare",
         a=a,
         b=b,
+        runs=_recent_runs(request.app.state.engine),
         cmp=cmp,
         error=error,
         min_pairs=MIN_PAIRS,
@@ -278,6 +296,7 @@ def compare_page(
     )
 
 
+router.include_router(forms.router)  # before pages: /ui/jobs/new is not a job id
 router.include_router(pages)
 router.include_router(catalog.router)
 router.include_router(campaigns.router)
