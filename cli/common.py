@@ -108,6 +108,8 @@ def finish_local(kind: str, result: Any, workdir: Path) -> list[Path]:
         print(message, file=sys.stderr)
 
     pages = write_report(kind, result, workdir, log)
+    if kind == "evaluate":
+        failed_players(result, workdir)
     settings = Settings()
     mlflow_export.export_run(
         mlflow_export.settings_target(settings),
@@ -117,6 +119,25 @@ def finish_local(kind: str, result: Any, workdir: Path) -> list[Path]:
         log,
     )
     return pages
+
+
+def failed_players(result: Any, workdir: Path) -> list[Path]:
+    """Standalone player pages of an in-process evaluation's failed episodes, where its report links them
+    (``player/<scenario>__<seed>.html``; on the server the dashboard's player answers those links)."""
+    from foresight.core.evaluation.episode_trace import read_compact, trace_name
+    from foresight.core.render.player import write_player
+    from foresight.core.reports.evaluation import player_path
+
+    failed = [f for g in result.aggregates.per_scenario for f in g.failed] or result.aggregates.overall.failed
+    written = []
+    for f in failed:
+        trace = workdir / trace_name(f.scenario, f.seed)
+        if trace.is_file():
+            title = f"{f.scenario} seed {f.seed}: {f.outcome}"
+            written.append(
+                write_player(workdir / player_path(f.scenario, f.seed), [(title, read_compact(trace))], title)
+            )
+    return written
 
 
 def progress_bar(*, quiet: bool) -> Any:

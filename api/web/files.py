@@ -9,10 +9,11 @@ from __future__ import annotations
 import mimetypes
 from pathlib import Path
 from typing import Annotated
+from urllib.parse import quote
 
 from fastapi import APIRouter, Depends, Request
 from fastapi import Path as PathParam
-from fastapi.responses import FileResponse, HTMLResponse
+from fastapi.responses import FileResponse, HTMLResponse, RedirectResponse
 
 from foresight.api.web.auth import PageNotFound, read_access
 from foresight.api.web.render import HERE
@@ -56,6 +57,16 @@ def with_navigation(html: str, job_id: str, name: str) -> str:
     bar = NAV.format(job=job_id, short=job_id[:12], up=up)
     at = html.find(">", html.find("<body")) + 1 if "<body" in html else 0
     return html[:at] + bar + html[at:]
+
+
+@router.get("/ui/jobs/{job_id}/files/player/{stem}.html", dependencies=[Depends(read_access)])
+def report_player_link(job_id: Annotated[str, PathParam(max_length=200)], stem: str) -> RedirectResponse:
+    """A report's episode link (``player/<scenario>__<seed>.html``, core.reports.evaluation.player_path): the
+    dashboard's player of that episode."""
+    scenario, _, seed = stem.rpartition("__")
+    if not scenario or not seed.isdigit():
+        raise PageNotFound(f"no episode {stem!r}: expected <scenario>__<seed>")
+    return RedirectResponse(f"/ui/evaluations/{job_id}/episodes/{quote(scenario)}/{seed}", status_code=307)
 
 
 @router.get("/ui/jobs/{job_id}/files/{name:path}", dependencies=[Depends(read_access)])

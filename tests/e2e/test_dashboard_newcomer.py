@@ -73,6 +73,10 @@ def test_form_compare_report_maps_player_and_children(service: Up, page) -> None
     assert outer >= inner, (inner, outer)
     page.screenshot(path=str(shots / "newcomer-job-report.png"), full_page=True)
     page.goto(f"{service.url}/ui/jobs/{first}/files/report.html")
+    page.click("a[href^='player/']")  # a failed episode of the report, in the dashboard's player
+    page.wait_for_selector('#player[data-ready="1"]', timeout=15_000)
+    assert f"/ui/evaluations/{first}/episodes/crossing_low/" in page.url
+    page.goto(f"{service.url}/ui/jobs/{first}/files/report.html")
     page.click(f"nav.foresight-nav a[href='/ui/jobs/{first}']")
     page.wait_for_url(f"{service.url}/ui/jobs/{first}")
 

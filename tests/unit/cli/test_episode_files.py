@@ -85,3 +85,15 @@ def test_episodes_export_every_metric_flat(tmp_path: Path) -> None:
 
     done = _cli(tmp_path, "evaluations", "episodes", str(run), "--format", "parquet")  # binary: needs a file
     assert done.returncode == 1 and "--out" in done.stderr
+
+
+def test_a_local_reports_failed_episodes_link_to_their_players(tmp_path: Path) -> None:
+    run = tmp_path / "run"
+    done = _cli(tmp_path, "evaluate", "--local", "--matrix", MATRIX, "--planner", "goal", "--scenarios",
+                "head_on_corridor_high", "--seeds-per-scenario", "1", "--max-steps", "120", "--out", str(run))  # fmt: skip
+    assert done.returncode == 2, done.stderr  # the goal-seeking robot fails here: a failed gate
+    record = json.loads((run / "episodes.jsonl").read_text().splitlines()[0])
+    link = f"player/{record['scenario']}__{record['seed']}.html"
+    assert f'<a href="{link}">watch</a>' in (run / "report.html").read_text()
+    page = (run / link).read_text()
+    assert "<canvas" in page and "data-trace-script" in page
