@@ -10,8 +10,8 @@ from pathlib import Path
 from typing import Any
 
 from foresight.api.web.previews import load_matrix_cached
-from foresight.core.stages.budget import check_budget, work_size
-from foresight.core.stages.context import StageContext
+from foresight.core.jobs.budget import check_budget, work_size
+from foresight.core.runtime.context import StageContext
 from foresight.store.registry import Resolver
 from foresight.store.settings import Settings
 
@@ -32,8 +32,8 @@ def context(settings: Settings, resolver: Resolver) -> StageContext:
 def named_ids(spec: Any) -> list[tuple[str, str]]:
     """(model | dataset, id) of every stored input a spec names by id (every model named is one a planner drives)."""
     from foresight.core.evaluation.config import CampaignConfig
-    from foresight.core.predict.collect import CollectConfig, MixConfig
-    from foresight.core.predict.train_config import TrainConfig
+    from foresight.core.training.collect import CollectConfig, MixConfig
+    from foresight.core.training.config import TrainConfig
 
     out: list[tuple[str, str]] = []
     planner = getattr(spec, "planner", None)
@@ -94,7 +94,7 @@ def bundle_files(spec: Any, ctx: StageContext) -> None:
     """ConfigError (422) naming the field, the name and the bundle (never a server path) for a bundle file that is
     not there; a name that starts with the bundle's own ``configs/`` folder gets the name meant."""
     from foresight.core.errors import ConfigError
-    from foresight.core.stages.refs import resolve_in_bundle
+    from foresight.core.runtime.refs import resolve_in_bundle
 
     bundle = getattr(spec, "bundle", None)
     if not isinstance(bundle, str):

@@ -66,7 +66,7 @@ def _finite(value: Any) -> Any:
 def private_paths(settings: Any) -> Callable[[str], str]:
     """A message without the server's folders: a builtin config is named inside its bundle, the store is
     ``<store>`` (a file error on a bundle's YAML names the file a client asked for, not where it lives)."""
-    from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+    from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
 
     folders = [(f"{BUILTIN_CONFIG_ROOT}/", ""), (str(settings.store_root.resolve()), "<store>"),
                (str(settings.data_dir.resolve()), "<data>")]  # fmt: skip

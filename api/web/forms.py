@@ -16,7 +16,7 @@ from fastapi.responses import HTMLResponse
 
 from foresight.api.web.auth import PageNotFound, read_access
 from foresight.api.web.render import page
-from foresight.core.stages.kinds import KINDS
+from foresight.core.jobs.kinds import KINDS
 
 router = APIRouter(prefix="/ui", include_in_schema=False, dependencies=[Depends(read_access)])
 FORM_KINDS = ("evaluate",)  #: the kinds the dashboard offers a form for

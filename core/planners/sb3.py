@@ -18,7 +18,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from foresight.core.errors import ConfigError
-from foresight.core.planners.base import EpisodeInfo
+from foresight.core.sim.planner import EpisodeInfo
 from foresight.core.sim.observation import Observation
 from foresight.core.sim.policy_observation import (
     ObservationLayout,
@@ -26,7 +26,7 @@ from foresight.core.sim.policy_observation import (
     command_of,
     policy_observation,
 )
-from foresight.core.stages.refs import BUILTIN_BUNDLE, Ident, resolve_in_bundle
+from foresight.core.runtime.refs import BUILTIN_BUNDLE, Ident, resolve_in_bundle
 
 ALGORITHMS = ("PPO", "A2C", "SAC", "TD3", "DDPG")
 

@@ -174,7 +174,7 @@ PLAYERS = "player"  #: the report's folder of episode player pages (the dashboar
 def player_path(scenario: str, seed: int) -> str:
     """Where a report links an episode's player: ``player/<scenario>__<seed>.html`` beside the report (written for
     in-process runs' failed episodes; served by the dashboard as a redirect to its own player)."""
-    from foresight.core.evaluation.episode_trace import episode_stem
+    from foresight.core.render.episode_trace import episode_stem
 
     return f"{PLAYERS}/{episode_stem(scenario, seed)}.html"
 

@@ -12,7 +12,7 @@ import os
 from pathlib import Path, PurePosixPath
 
 from foresight.core.errors import ConfigError
-from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
 
 
 def _builtin(rel: PurePosixPath) -> Path | None:
