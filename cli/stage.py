@@ -20,7 +20,7 @@ from pydantic import BaseModel, ValidationError
 
 from foresight.cli.client import Client, ServerUnreachable, add_connection_args
 from foresight.core.errors import ConfigError, CoreError
-from foresight.core.runtime.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
+from foresight.core.runtime.refs import BUILTIN_BUNDLE
 
 #: the ``--executor`` flag of every stage command that runs episodes
 EXECUTOR_HELP = (

@@ -18,15 +18,15 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from foresight.core.errors import ConfigError
-from foresight.core.sim.planner import EpisodeInfo
+from foresight.core.runtime.refs import BUILTIN_BUNDLE, Ident, resolve_in_bundle
 from foresight.core.sim.observation import Observation
+from foresight.core.sim.planner import EpisodeInfo
 from foresight.core.sim.policy_observation import (
     ObservationLayout,
     action_bounds,
     command_of,
     policy_observation,
 )
-from foresight.core.runtime.refs import BUILTIN_BUNDLE, Ident, resolve_in_bundle
 
 ALGORITHMS = ("PPO", "A2C", "SAC", "TD3", "DDPG")
 
