@@ -49,7 +49,8 @@ class PlannerSpecBase(BaseModel):
         None  #: reference planner-grid keys (predictive only), mapped by the planner
     )
     variant: str | None = None  #: a label (campaign grid variant name)
-    model: str | None = None  #: predictive only: a model id or "cv"; None = the registry's default model
+    #: predictive only: a model id, "cv" or a predictor plug-in name; None = the registry's default model
+    model: str | None = None
 
 
 class ModulePlannerSpec(PlannerSpecBase):
@@ -187,11 +188,14 @@ def _load_model(path: str, sha256: str | None, name: str | None) -> Any:
 def build_planner(rp: ResolvedPlanner) -> Planner:
     """A fresh planner for one episode (the loaded model is shared, it is stateless)."""
     from foresight.core.planners.registry import entry, make_planner
+    from foresight.core.predict import plugins
 
     model = None
     found = entry(rp.name, load=True)  # a worker process imports a module:attr planner by its name
     if found.load_model is not None:  # a policy file its config names
         model = found.load_model(rp.model_path, rp.checkpoint_sha256, found.validate(rp.config))
+    elif plugins.kind(rp.model_id):
+        model = rp.model_id  # a predictor plug-in: the planner loads a fresh one (its own state per episode)
     elif rp.model_id != NO_MODEL:
         model = load_model(rp.model_path, rp.checkpoint_sha256, rp.model_id) if rp.model_path else CV
     return make_planner(rp.name, rp.config, model=model)
@@ -215,6 +219,14 @@ def _model(spec: PlannerSpecBase, found: Any, cfg: Any, ctx: StageContext) -> tu
         return NO_MODEL, NO_MODEL, None
     if spec.model == CV:
         return CV, CV, None
+    from foresight.core.predict import plugins
+
+    kind = plugins.kind(spec.model)
+    if (
+        kind
+    ):  # a predictor plug-in: loaded now, so a missing or malformed one stops the run before any episode
+        declared = plugins.load(spec.model).declared
+        return spec.model, f"{kind}:{declared.name}", None
     ident = spec.model or DEFAULT_MODEL
     path = Path(ctx.resolve_model(ident))
     if not path.is_file():
