@@ -92,13 +92,13 @@ DATASET_FIELDS = ("dataset", "base", "hardcase")
 
 def full_ids(spec: Any, engine: Any) -> Any:
     """The spec with short job ids (as the CLI prints them) in its dataset fields replaced by full ids."""
-    from foresight.store import queue
+    from foresight.store import job_reads
 
     update = {}
     for field in DATASET_FIELDS:
         value = getattr(spec, field, None)
         if isinstance(value, str) and value:
-            full = queue.resolve_id(engine, value)
+            full = job_reads.resolve_id(engine, value)
             if full != value:
                 update[field] = full
     return spec.model_copy(update=update) if update else spec

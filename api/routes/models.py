@@ -11,7 +11,7 @@ from foresight.api.bodies import BoundedJsonRoute
 from foresight.api.deps import EngineDep, SettingsDep, WriteAuth
 from foresight.api.errors import AUTH, responses
 from foresight.api.schemas import Ident, ModelCreate, ModelPromote, ModelPublic, ModelsPublic
-from foresight.store import queue, registry
+from foresight.store import job_reads, registry
 from foresight.store.models import ModelStatus
 
 router = APIRouter(prefix="/models", tags=["models"], route_class=BoundedJsonRoute)
@@ -71,7 +71,7 @@ def create_model(body: ModelCreate, engine: EngineDep, settings: SettingsDep) ->
         engine,
         settings,
         model_id=body.id,
-        job_id=queue.resolve_id(engine, body.job_id),
+        job_id=job_reads.resolve_id(engine, body.job_id),
         artifact=body.artifact,
         metadata=meta,
         status=body.status,
