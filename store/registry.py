@@ -26,7 +26,13 @@ from foresight.store import folders, queue
 from foresight.store.models import Artifact, Bundle, Dataset, Model, ModelStatus
 from foresight.store.session import session_factory
 from foresight.store.settings import Settings
-from foresight.store.shipped import DEFAULT_MODEL, default_model, read_shipped, shipped_checkpoint
+from foresight.store.shipped import (
+    DEFAULT_MODEL,
+    check_model_id,
+    default_model,
+    read_shipped,
+    shipped_checkpoint,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -274,11 +280,14 @@ class Resolver:
         """The registry entry of a model id; ``default`` names the default model
         (:func:`~store.shipped.default_model`: status default, else a shipped entry tagged default)."""
         with self.sessions() as session:
-            row = session.get(Model, ident)
-            if row is None and ident == DEFAULT_MODEL:
+            if (
+                ident == DEFAULT_MODEL
+            ):  # the rule, even over a row registered under that id before it was reserved
                 row = default_model(
                     session.scalars(select(Model).order_by(Model.read_only, Model.created_at))
                 )
+            else:
+                row = session.get(Model, ident)
         if row is None:
             raise NotFoundError(f"unknown model id {ident!r}")
         return row
@@ -333,6 +342,7 @@ def register_checkpoint(
     Returns ``{model_id, status, resumed}``.
     """
     meta = metadata or {}
+    check_model_id(model_id)
     with session_factory(engine, write=True).begin() as session:
         existing = session.get(Model, model_id)
         if existing is not None:
@@ -350,9 +360,10 @@ def register_checkpoint(
         if art is None:
             raise queue.JobNotFound(f"job {job_id} has no artifact {name!r}")
         checkpoint = _checkpoint(settings, art.path, art.sha256, name)
+        _same_time_base(meta.get("time_base"), checkpoint["timebase"])
         session.add(Model(
             id=model_id, status=status, checkpoint=art.path, sha256=art.sha256,
-            time_base=meta["time_base"] if "time_base" in meta else dict(checkpoint["timebase"]),
+            time_base=dict(checkpoint["timebase"]),
             lineage={**meta.get("lineage", {}), "frame_convention": checkpoint["feature_schema"]["frame_convention"]},
             training=meta.get("training", {}), metrics=meta.get("metrics", {}), tags=meta.get("tags", []),
             provenance=meta.get("provenance") or f"job {job_id}", read_only=False, job_id=job_id,
@@ -363,6 +374,22 @@ def register_checkpoint(
         except IntegrityError:
             raise queue.Conflict(f"a model with id {model_id!r} already exists") from None
     return {"model_id": model_id, "status": status, "resumed": False}
+
+
+def _same_time_base(given: dict[str, Any] | None, stored: Any) -> None:
+    """ConfigError (422) when a registration states a time base other than its checkpoint's (any dict was
+    stored before: ``{"dt": -1}``); the registry keeps the checkpoint's."""
+    from foresight.core.predict.timebase import TimeBase
+
+    if not given:
+        return
+    try:
+        tb = TimeBase(**given)
+    except TypeError:
+        raise ConfigError("time_base takes dt, history and horizon", item="time_base") from None
+    except ConfigError as exc:
+        raise ConfigError(exc.detail, item="time_base") from None
+    TimeBase.from_dict(stored).require_same(tb, what="time_base", source="the checkpoint")
 
 
 def _checkpoint(settings: Settings, path: str, sha256: str, name: str) -> dict[str, Any]:

@@ -13,6 +13,7 @@ from foresight.api.web import campaigns, catalog, files
 from foresight.api.web.auth import PageNotFound, read_access
 from foresight.api.web.render import page
 from foresight.core.stages.kinds import KINDS
+from foresight.core.stages.refs import Seed
 from foresight.core.stages.results import Verdict, verdict
 from foresight.store import queue
 from foresight.store.models import JobStatus
@@ -60,7 +61,7 @@ def jobs_page(
     request: Request,
     status: StatusFilter = None,
     kind: KindFilter = None,
-    offset: Annotated[int, Query(ge=0)] = 0,
+    offset: Annotated[int, Query(ge=0, le=10_000_000)] = 0,
     tag: TagFilter = None,
     q: TextFilter = None,
 ) -> HTMLResponse:
@@ -82,7 +83,7 @@ def jobs_rows(
     request: Request,
     status: StatusFilter = None,
     kind: KindFilter = None,
-    offset: Annotated[int, Query(ge=0)] = 0,
+    offset: Annotated[int, Query(ge=0, le=10_000_000)] = 0,
     tag: TagFilter = None,
     q: TextFilter = None,
 ) -> HTMLResponse:
@@ -113,7 +114,7 @@ def _witnesses(job: dict[str, Any]) -> Any:
 
 @pages.get("/jobs/{job_id}/witnesses/{scenario}/{seed}")
 def witness_page(
-    request: Request, job_id: str, scenario: Annotated[str, PathParam(max_length=200)], seed: int
+    request: Request, job_id: str, scenario: Annotated[str, PathParam(max_length=200)], seed: Seed
 ) -> HTMLResponse:
     """A witness beside the planner's own run of the episode (the evaluation the job searched), on one clock."""
     from foresight.api.routes.results import trace_url
@@ -156,6 +157,19 @@ def witness_page(
     )
 
 
+def stored_trace(request: Request, ident: str, scenario: str, seed: int) -> None:
+    """PageNotFound unless the evaluation or campaign cell ``ident`` stored this episode's trace."""
+    from foresight.core.evaluation.episode_trace import trace_name
+    from foresight.store import results
+
+    try:
+        folder = results.run_folder(request.app.state.engine, request.app.state.settings.store_root, ident)
+    except queue.JobNotFound as exc:
+        raise PageNotFound(str(exc)) from None
+    if folder is None or folder.trace(trace_name(scenario, seed)) is None:
+        raise PageNotFound(f"{ident} stored no episode {scenario} seed {seed}")
+
+
 def _episodes(request: Request, job: dict[str, Any]) -> list[Any]:
     """An evaluation job's episodes (failures first) with their player links; none when it recorded none."""
     from foresight.api.routes.results import episode_list
@@ -186,8 +200,10 @@ def job_summary(request: Request, job_id: str) -> HTMLResponse:
 
 
 @pages.get("/evaluations/{evaluation_id}/episodes/{scenario}/{seed}")
-def episode_page(request: Request, evaluation_id: str, scenario: str, seed: int) -> HTMLResponse:
-    """The episode player: the stored compact trace drawn on a canvas, with play/pause and a time slider."""
+def episode_page(request: Request, evaluation_id: str, scenario: str, seed: Seed) -> HTMLResponse:
+    """The episode player: the stored compact trace drawn on a canvas, with play/pause and a time slider (404
+    for an episode the evaluation did not store)."""
+    stored_trace(request, evaluation_id, scenario, seed)
     data_url = f"/v1/evaluations/{evaluation_id}/episodes/{scenario}/{seed}"
     return page(
         request,
@@ -209,7 +225,7 @@ def episode_pair_page(
     a: Annotated[str, Query(max_length=200)],
     b: Annotated[str, Query(max_length=200)],
     scenario: Annotated[str, Query(max_length=200)],
-    seed: int,
+    seed: Seed,
 ) -> HTMLResponse:
     """One episode of two evaluations or campaign cells side by side on one clock (a comparison's changed episodes
     link here)."""

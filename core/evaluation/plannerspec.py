@@ -31,10 +31,8 @@ from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.planners.base import EpisodeInfo, Planner, config_hash
 from foresight.core.scenarios.model import ResolvedScenario
 from foresight.core.stages.context import StageContext
+from foresight.core.stages.refs import CV, DEFAULT_MODEL, NO_MODEL
 
-CV = "cv"
-NO_MODEL = "none"
-DEFAULT_MODEL = "default"  #: id resolved through ctx.resolve_model when a predictive run names no model
 OTHER = "other"  #: the union member of every other name: in-process planners (``module:attr``) or an error
 
 
