@@ -14,6 +14,7 @@ from foresight.core.errors import ConfigError
 
 MAX_NESTING = 64  #: levels of mappings/lists (JSON, YAML) or elements (SVG); our deepest config uses 7
 MAX_YAML_NODES = 200_000  #: scalars + collections of a YAML document after alias expansion
+MAX_YAML_BYTES = 4 << 20  #: [bytes (characters of text)] one YAML document; our largest config is ~110 kB
 
 
 def nesting_depth(value: Any) -> int:

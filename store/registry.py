@@ -6,11 +6,8 @@ verifying model checksums on the way.
 
 from __future__ import annotations
 
-import hashlib
 import logging
 import re
-import shutil
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -19,7 +16,6 @@ import yaml
 from sqlalchemy import Engine, select, update
 from sqlalchemy.exc import IntegrityError
 
-from foresight.core.archive import read_archive
 from foresight.core.errors import ConfigError, CoreError, NotFoundError
 from foresight.core.yamlio import load_yaml
 from foresight.store import folders, queue
@@ -134,102 +130,6 @@ def export_models(rows: list[Model]) -> str:
         for m in rows
     ]  # fmt: skip
     return yaml.safe_dump({"models": models}, sort_keys=False)
-
-
-# ------------------------------------------------------------------------------------------ upload
-
-
-def _members(data: bytes) -> list[tuple[str, bytes]]:
-    """(name, content) of the regular files in a zip or tar archive, read within the bundle limits."""
-    return read_archive(data, max_bytes=MAX_BUNDLE_BYTES, max_files=MAX_BUNDLE_FILES)
-
-
-def _check_yaml_refs(value: Any, file: str, root: Path, where: str = "") -> None:
-    """Path-like strings in a bundle YAML must stay inside the bundle (relative, resolved under root)."""
-    if isinstance(value, dict):
-        for k, v in value.items():
-            _check_yaml_refs(v, file, root, f"{where}.{k}" if where else str(k))
-    elif isinstance(value, list):
-        for i, v in enumerate(value):
-            _check_yaml_refs(v, file, root, f"{where}[{i}]")
-    elif isinstance(value, str) and (
-        "/" in value or "\\" in value or value.endswith((".yaml", ".yml", ".svg"))
-    ):
-        if value.startswith(("/", "\\", "~")) or re.match(r"^[A-Za-z]:[\\/]", value):
-            raise ConfigError(f"absolute path {value!r} not allowed", source=file, item=where)
-        target = (root / file).parent.joinpath(value).resolve()
-        if target != root and root not in target.parents:
-            raise ConfigError(f"path {value!r} leaves the bundle", source=file, item=where)
-
-
-def save_upload(
-    engine: Engine, settings: Settings, ident: str, data: bytes, *, replace: bool = False
-) -> Bundle:
-    """Validate an uploaded zip/tar bundle and store it under ``bundles/<id>``; ConfigError when invalid.
-    ``replace``: swap out the files of an uploaded bundle of that id (``store.bundles.replace_upload``)."""
-    from foresight.core.scenarios.loader import load_matrix
-
-    if not IDENT.match(ident) or ident == BUILTIN_BUNDLE:
-        raise ConfigError(
-            "bundle id must be letters, digits, '.', '_', '-', ':' (not 'builtin')", item="name"
-        )
-    members = _members(data)
-    if not members:
-        raise ConfigError("the archive holds no files", source="upload")
-    with tempfile.TemporaryDirectory(prefix="bundle-") as tmp:
-        root = Path(tmp).resolve()
-        for name, content in members:
-            try:
-                rel = folders.check_relative(name)
-            except folders.UnsafePath as exc:
-                raise ConfigError(str(exc), source="upload", item=name) from None
-            if Path(rel).suffix not in BUNDLE_SUFFIXES:
-                raise ConfigError(
-                    f"file type not allowed (allowed: {sorted(BUNDLE_SUFFIXES)})", source="upload", item=rel
-                )
-            folders.write_atomic(folders.resolve_under(root, rel), content)
-        files = bundle_files(root)
-        for rel in files:
-            if rel.endswith((".yaml", ".yml")):
-                try:
-                    _check_yaml_refs(load_yaml((root / rel).read_text(), source=rel), rel, root)
-                except (yaml.YAMLError, UnicodeDecodeError) as exc:
-                    raise ConfigError(f"not valid YAML: {exc}", source=rel) from None
-        matrices = matrix_files(root, files)
-        if not matrices:
-            raise ConfigError(
-                "no scenario matrix (a YAML file with 'scenarios' or 'includes')", source="upload"
-            )
-        for rel in matrices:
-            try:
-                load_matrix(root / rel)
-            except CoreError as exc:
-                raise ConfigError(str(exc), source=rel) from None
-        stored = f"bundles/{ident}"
-        dest = folders.resolve_under(settings.store_root, stored)
-        if dest.exists() and not replace:
-            raise FileExistsError(ident)
-        dest.parent.mkdir(parents=True, exist_ok=True)
-        staging = Path(tempfile.mkdtemp(prefix=f".{ident}.", dir=dest.parent))
-        old = None
-        try:  # a full disk (or any failure) leaves no staging folder behind
-            for rel in files:
-                folders.write_atomic(staging / rel, (root / rel).read_bytes())
-            if dest.exists():  # replace: the old files step aside (a staging-named folder gc knows), then go
-                old = Path(tempfile.mkdtemp(prefix=f".{ident}.", dir=dest.parent)) / "old"
-                dest.rename(old)
-            staging.rename(dest)
-        except BaseException:
-            if old is not None and old.exists() and not dest.exists():
-                old.rename(dest)
-            shutil.rmtree(staging, ignore_errors=True)
-            raise
-        finally:
-            if old is not None:
-                shutil.rmtree(old.parent, ignore_errors=True)
-    _put_bundle(engine, ident, "upload", dest, stored, hashlib.sha256(data).hexdigest())
-    with session_factory(engine)() as session:
-        return session.get(Bundle, ident)
 
 
 # ------------------------------------------------------------------------------------------ resolution

@@ -28,7 +28,9 @@ def check_model_id(model_id: str) -> None:
     run that names no model, and could never be deleted once used; ``cv`` and ``none`` would be unreachable."""
     if model_id.lower() in RESERVED_MODEL_IDS:
         reserved = ", ".join(sorted(RESERVED_MODEL_IDS))
-        raise ConfigError(f"model id {model_id!r} is reserved (reserved ids: {reserved}); choose another id", item="id")
+        raise ConfigError(
+            f"model id {model_id!r} is reserved (reserved ids: {reserved}); choose another id", item="id"
+        )
 
 
 def default_model(entries: Iterable[T]) -> T | None:

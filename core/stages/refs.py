@@ -7,6 +7,8 @@ from typing import Annotated
 
 from pydantic import AfterValidator, Field
 
+from foresight.core.limits import MAX_NAME_BYTES
+
 #: The project's own configs/ folder, registered by the service as bundle "builtin".
 BUILTIN_BUNDLE = "builtin"
 BUILTIN_CONFIG_ROOT = Path(__file__).resolve().parent.parent.parent / "configs"
@@ -18,6 +20,11 @@ def _relative(value: str) -> str:
         raise ValueError("path is empty")
     if p.is_absolute() or ".." in p.parts or value.startswith("~") or ":" in p.parts[0]:
         raise ValueError(f"{value!r} must be a path relative to its bundle root, without '..'")
+    long = next(
+        (part for part in p.parts if len(part.encode("utf-8", "surrogatepass")) > MAX_NAME_BYTES), None
+    )
+    if long is not None:  # no file system holds it: reading it failed with an OSError (a 500)
+        raise ValueError(f"a file or folder name over {MAX_NAME_BYTES} bytes: {long[:40]!r}...")
     return p.as_posix()
 
 
