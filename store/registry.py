@@ -165,11 +165,15 @@ class Resolver:
         return self.bundle_root(row)
 
     def dataset(self, ident: str) -> Path:
+        """A dataset's file after hashing its content (a rewritten ``mixed.npz`` was trained on)."""
         with self.sessions() as session:
             row = session.get(Dataset, ident)
         if row is None:
             raise NotFoundError(f"unknown dataset id {ident!r}")
-        return folders.resolve_under(self.settings.store_root, row.path)
+        path = folders.resolve_under(self.settings.store_root, row.path)
+        if row.sha256 and path.is_file() and folders.sha256_file(path) != row.sha256:  # before any training
+            raise CoreError(f"dataset {ident!r}: {Path(row.path).name} does not match its recorded sha256")
+        return path
 
     def model_path(self, row: Model) -> Path:
         if row.read_only:

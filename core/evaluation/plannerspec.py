@@ -208,13 +208,16 @@ def _model(spec: PlannerSpecBase, takes_model: bool, ctx: StageContext) -> tuple
     return ident, sha, str(path)  # later loads (worker processes) check their bytes against this checksum
 
 
-def resolve_planner(spec: PlannerSpecBase | dict[str, Any], ctx: StageContext) -> ResolvedPlanner:
-    """Every key of the planner's config (defaults expanded), its hash and its model, checked before any episode."""
+def planner_config(spec: PlannerSpecBase | dict[str, Any]) -> BaseModel:
+    """A spec's full planner config (defaults expanded, reference grid params mapped), checked without a model:
+    ConfigError naming the key for an unknown one, a value out of range, NaN or Infinity. Campaigns check their
+    inline variants with it at submission (an unknown key failed only in the worker)."""
+    from foresight.core.limits import hostile_values
     from foresight.core.planners.registry import entry
 
     spec = planner_spec(spec)
-    found = entry(spec.name)
-    cfg = found.validate(spec.config)
+    source = f"planner grid variant {spec.variant}" if spec.variant else None
+    cfg = entry(spec.name).validate(spec.config)
     if spec.reference_params:
         if spec.name != "predictive":
             raise ConfigError(
@@ -222,9 +225,20 @@ def resolve_planner(spec: PlannerSpecBase | dict[str, Any], ctx: StageContext) -
                 item="planner.reference_params",
             )
         cfg = type(cfg).from_reference_grid(
-            spec.reference_params, base=cfg, source=f"planner grid variant {spec.variant or '?'}"
+            spec.reference_params, base=cfg, source=source or "planner grid variant ?"
         )
-    resolved = cfg.model_dump(mode="json")
+    for loc, why in hostile_values(cfg.model_dump()):
+        raise ConfigError(why, source=source, item=".".join(str(p) for p in ("planner", "config", *loc)))
+    return cfg
+
+
+def resolve_planner(spec: PlannerSpecBase | dict[str, Any], ctx: StageContext) -> ResolvedPlanner:
+    """Every key of the planner's config (defaults expanded), its hash and its model, checked before any episode."""
+    from foresight.core.planners.registry import entry
+
+    spec = planner_spec(spec)
+    found = entry(spec.name)
+    resolved = planner_config(spec).model_dump(mode="json")
     model_id, sha, path = _model(spec, found.takes_model, ctx)
     return ResolvedPlanner(
         name=spec.name,
