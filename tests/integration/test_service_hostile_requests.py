@@ -193,6 +193,27 @@ def test_bundle_member_names_clash_or_overrun_with_a_422(svc: Svc) -> None:
     assert "clash" not in [b["id"] for b in svc.http.get("/v1/bundles").json()["data"]]
 
 
+def _peak_rss(pid: int) -> int:
+    """[bytes] the process's peak resident memory so far (Linux)."""
+    line = next(li for li in Path(f"/proc/{pid}/status").read_text().splitlines() if li.startswith("VmHWM:"))
+    return int(line.split()[1]) * 1024
+
+
+def test_a_million_key_yaml_bundle_is_refused_fast_and_small(svc: Svc) -> None:
+    """The probe's 10.9 MB flat YAML (2.2 MB zipped): 84 s of CPU and 1.5 GB before its refusal."""
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("scenarios/flat.yaml", "".join(f"k{i}: {i}\n" for i in range(1_000_000)))
+    pid = svc.service.procs[0].pid
+    peak = _peak_rss(pid)
+    t0 = time.monotonic()
+    r = svc.http.post("/v1/bundles", params={"name": "flat"}, content=buf.getvalue(),
+                      headers={"Content-Type": "application/zip"})  # fmt: skip
+    took = time.monotonic() - t0
+    assert r.status_code == 422 and "flat.yaml" in r.text, r.text
+    assert took < 2.0 and _peak_rss(pid) - peak < 100 << 20, (took, _peak_rss(pid) - peak)
+
+
 def test_campaign_variants_and_bundle_files_are_checked_at_submission(svc: Svc) -> None:
     before = svc.counts()
     for params, words in [
