@@ -7,6 +7,7 @@ from fastapi import APIRouter, Depends, Request
 from fastapi.responses import HTMLResponse
 
 from foresight.api.schemas import Rank
+from foresight.api.web import files
 from foresight.api.web.auth import PageNotFound, read_access
 from foresight.api.web.render import page
 from foresight.core.stages.refs import Seed
@@ -71,14 +72,13 @@ def cell_episode_page(
 ) -> HTMLResponse:
     """The episode player on one episode as a campaign cell ran it (404 for an episode it did not store)."""
     from foresight.api.routes.results import trace_url
-    from foresight.api.web.pages import stored_trace
 
     try:
         ident = f"{queue.resolve_id(request.app.state.engine, campaign_id)}:{rank}"
         _, config, _ = results.comparison_operand(request.app.state.engine, ident)
     except queue.JobNotFound as exc:
         raise PageNotFound(str(exc)) from None
-    stored_trace(request, ident, scenario, seed)
+    files.stored_trace(request, ident, scenario, seed)
     return page(
         request,
         "episode.html",

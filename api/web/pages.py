@@ -157,19 +157,6 @@ def witness_page(
     )
 
 
-def stored_trace(request: Request, ident: str, scenario: str, seed: int) -> None:
-    """PageNotFound unless the evaluation or campaign cell ``ident`` stored this episode's trace."""
-    from foresight.core.evaluation.episode_trace import trace_name
-    from foresight.store import results
-
-    try:
-        folder = results.run_folder(request.app.state.engine, request.app.state.settings.store_root, ident)
-    except queue.JobNotFound as exc:
-        raise PageNotFound(str(exc)) from None
-    if folder is None or folder.trace(trace_name(scenario, seed)) is None:
-        raise PageNotFound(f"{ident} stored no episode {scenario} seed {seed}")
-
-
 def _episodes(request: Request, job: dict[str, Any]) -> list[Any]:
     """An evaluation job's episodes (failures first) with their player links; none when it recorded none."""
     from foresight.api.routes.results import episode_list
@@ -203,7 +190,7 @@ def job_summary(request: Request, job_id: str) -> HTMLResponse:
 def episode_page(request: Request, evaluation_id: str, scenario: str, seed: Seed) -> HTMLResponse:
     """The episode player: the stored compact trace drawn on a canvas, with play/pause and a time slider (404
     for an episode the evaluation did not store)."""
-    stored_trace(request, evaluation_id, scenario, seed)
+    files.stored_trace(request, evaluation_id, scenario, seed)
     data_url = f"/v1/evaluations/{evaluation_id}/episodes/{scenario}/{seed}"
     return page(
         request,
