@@ -5,6 +5,7 @@ from __future__ import annotations
 import errno
 import logging
 import math
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -60,11 +61,17 @@ def _json(code: int, detail: object, request: Request | None = None) -> JSONResp
 
 def _server_roots(request: Request) -> list[str]:
     """Folders of this server that an error message must not show (longest first): the store, the data folder,
-    the project's configs and the installed package; what follows them is the id-relative part a user knows."""
+    the project's configs, the installed package and the temporary folder (uploads are checked there); what
+    follows them is the id-relative part a user knows."""
     import foresight
 
     settings = request.app.state.settings
-    roots = {str(settings.store_root), str(settings.data_dir), str(BUILTIN_CONFIG_ROOT)}
+    roots = {
+        str(settings.store_root),
+        str(settings.data_dir),
+        str(BUILTIN_CONFIG_ROOT),
+        tempfile.gettempdir(),
+    }
     roots |= {str(Path(p).resolve()) for p in foresight.__path__}
     roots |= {str(Path(r).resolve()) for r in list(roots)}
     return sorted(roots, key=len, reverse=True)

@@ -116,8 +116,10 @@ def save_upload(
         for rel in matrices:
             try:
                 load_matrix(root / rel)
-            except CoreError as exc:
-                raise ConfigError(str(exc), source=rel) from None
+            except CoreError as exc:  # named inside the bundle: the staging folder is the server's
+                raise ConfigError(
+                    str(exc).replace(f"{root}/", "").replace(str(root), "."), source=rel
+                ) from None
         stored = f"bundles/{ident}"
         dest = folders.resolve_under(settings.store_root, stored)
         if dest.exists() and not replace:

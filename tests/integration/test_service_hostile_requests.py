@@ -214,6 +214,22 @@ def test_a_million_key_yaml_bundle_is_refused_fast_and_small(svc: Svc) -> None:
     assert took < 2.0 and _peak_rss(pid) - peak < 100 << 20, (took, _peak_rss(pid) - peak)
 
 
+def test_422_messages_show_no_server_paths(svc: Svc) -> None:
+    import tempfile
+
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as z:
+        z.writestr("scenarios/m.yaml", "scenarios:\n  - name: a\n    map_file: nope.svg\n    seeds: [1]\n")
+    answers = [
+        svc.http.post("/v1/bundles", params={"name": "nomap"}, content=buf.getvalue()),
+        svc.http.post("/v1/jobs", json={"spec": {"kind": "evaluate", "matrix": "scenarios/missing.yaml"}}),
+    ]
+    for r in answers:
+        assert r.status_code in (404, 422) and ("nope.svg" in r.text or "missing.yaml" in r.text), r.text
+        for server_path in (tempfile.gettempdir() + "/", str(REPO_ROOT), str(svc.store.parent)):
+            assert server_path not in r.text, (server_path, r.text)
+
+
 def test_campaign_variants_and_bundle_files_are_checked_at_submission(svc: Svc) -> None:
     before = svc.counts()
     for params, words in [
