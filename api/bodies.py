@@ -63,11 +63,11 @@ class BoundedJsonRoute(APIRoute):
             if request.method in ("POST", "PUT", "PATCH"):
                 declared = request.headers.get("content-length", "")
                 if declared.isdigit() and int(declared) > self.max_body:  # refused before it is read
-                    raise HTTPException(status.HTTP_413_REQUEST_ENTITY_TOO_LARGE,
+                    raise HTTPException(status.HTTP_413_CONTENT_TOO_LARGE,
                                         f"request body over {self.max_body} bytes")  # fmt: skip
                 body = await request.body()
                 if len(body) > self.max_body:
-                    raise HTTPException(status.HTTP_413_REQUEST_ENTITY_TOO_LARGE,
+                    raise HTTPException(status.HTTP_413_CONTENT_TOO_LARGE,
                                         f"request body over {self.max_body} bytes")  # fmt: skip
                 errors = body_errors(body)
                 if errors:

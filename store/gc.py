@@ -46,7 +46,7 @@ def find_garbage(engine: Engine, root: Path, *, tmp_age_s: float = TMP_AGE_S) ->
     """What :func:`collect_garbage` would remove (the report and the absolute paths)."""
     root = root.resolve()
     with engine.connect() as conn:
-        status = dict(conn.execute(select(queue.jobs.c.id, queue.jobs.c.status)).tuples().all())
+        status = {job: state for job, state in conn.execute(select(queue.jobs.c.id, queue.jobs.c.status))}
         jobs = set(status)
         bundles = set(conn.execute(select(Bundle.root).where(Bundle.source == "upload")).scalars())
         used = set(conn.execute(select(Model.checkpoint)).scalars()) | set(
