@@ -19,7 +19,7 @@ from starlette.exceptions import HTTPException
 
 from foresight.core.errors import ConfigError, CoreError, NotFoundError
 from foresight.core.limits import MAX_NAME_BYTES, printable
-from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
 from foresight.store import queue
 from foresight.store.folders import UnsafePath, is_full_disk
 from foresight.store.session import NotMigratedError

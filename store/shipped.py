@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from foresight.core.errors import ConfigError, NotFoundError
-from foresight.core.stages.refs import DEFAULT_MODEL, RESERVED_MODEL_IDS
+from foresight.core.runtime.refs import DEFAULT_MODEL, RESERVED_MODEL_IDS
 from foresight.core.yamlio import load_yaml
 from foresight.store import folders
 

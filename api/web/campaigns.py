@@ -10,7 +10,7 @@ from foresight.api.schemas import Rank
 from foresight.api.web import files
 from foresight.api.web.auth import PageNotFound, read_access
 from foresight.api.web.render import page
-from foresight.core.stages.refs import Seed
+from foresight.core.runtime.refs import Seed
 from foresight.store import listing, queue, results
 
 router = APIRouter(prefix="/ui", include_in_schema=False, dependencies=[Depends(read_access)])

@@ -28,10 +28,10 @@ from pydantic import (
 )
 
 from foresight.core.errors import ConfigError, NotFoundError
-from foresight.core.planners.base import EpisodeInfo, Planner, config_hash
+from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.refs import CV, DEFAULT_MODEL, NO_MODEL
 from foresight.core.scenarios.model import ResolvedScenario
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.refs import CV, DEFAULT_MODEL, NO_MODEL
+from foresight.core.sim.planner import EpisodeInfo, Planner, config_hash
 
 OTHER = "other"  #: the union member of every other name: in-process planners (``module:attr``) or an error
 
