@@ -70,7 +70,7 @@ def read_static(name: str) -> FileResponse:
 
 def stored_trace(request: Request, ident: str, scenario: str, seed: int) -> None:
     """PageNotFound unless the evaluation or campaign cell ``ident`` stored this episode's trace."""
-    from foresight.core.evaluation.episode_trace import trace_name
+    from foresight.core.render.episode_trace import trace_name
     from foresight.store import results
 
     try:
