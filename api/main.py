@@ -16,6 +16,7 @@ from foresight.api.http_metrics import HttpMetrics, MetricsMiddleware, route_tem
 from foresight.api.routes import bundles, jobs, listing, models, ops, planners, results
 from foresight.core.planners.external import operator_commands
 from foresight.core.version import code_version
+from foresight.store import space
 from foresight.store.registry import Resolver, load_shipped_models, sync_bundles
 from foresight.store.session import check_migrated, make_engine
 from foresight.store.settings import Settings
@@ -73,6 +74,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.resolver = Resolver(settings, engine)
     app.state.token = settings.server_token()
     app.state.revision = revision
+    app.state.full_at = None  #: when a request last met a full disk (``/healthz``)
+    space.keep_reserve(settings)  # lets a deletion work on a full disk
     app.state.http_metrics = HttpMetrics()
     app.add_middleware(MetricsMiddleware, metrics=app.state.http_metrics)
     errors.install(app)
@@ -82,9 +85,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     read_codes = errors.responses(*errors.AUTH) if settings.read_requires_token else {}
     app.include_router(ops.router)
     app.include_router(ops.read_router, dependencies=read_auth, responses=read_codes)
-    for module in (jobs, models, bundles, listing, results, planners):
+    for router in (jobs, models, bundles, listing, results, planners, planners.predictors_router):
         app.include_router(
-            module.router, prefix="/v1", dependencies=[*read_auth, KnownQuery], responses=read_codes
+            getattr(router, "router", router),
+            prefix="/v1",
+            dependencies=[*read_auth, KnownQuery],
+            responses=read_codes,
         )
     web.install(app)  # the dashboard: /ui pages over the same store
     app.add_middleware(AllowMiddleware, router=app.router)

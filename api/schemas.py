@@ -391,8 +391,34 @@ class PlannersPublic(BaseModel):
     external_commands: list[str] = Field(description="names an external planner's config.command may take")
 
 
+class PredictorPublic(BaseModel):
+    name: str = Field(description="the model name a spec's planner.model or predict_eval model may take")
+    origin: str = Field(description='"plugin DIST VERSION"')
+    timebase: dict[str, Any] | None = Field(default=None, description="declared dt [s], history and horizon")
+    frame: str | None = Field(default=None, description='"world" or "pedestrian"')
+    modes: int | None = Field(default=None, description="modes per pedestrian (K)")
+    error: str | None = Field(default=None, description="why it does not load, when it does not")
+
+
+class PredictorsPublic(BaseModel):
+    data: list[PredictorPublic]
+    count: int
+    external: list[str] = Field(
+        description="operator-configured external predictors: model name external:NAME"
+    )
+
+
+class DiskPublic(BaseModel):
+    """Free space where the store and the database live (``store.space``)."""
+
+    full: bool  #: a disk under 1 MiB free, or a request that met a full disk in the last 10 s
+    store_free_bytes: int | None
+    database_free_bytes: int | None  #: None: the database is on another machine
+
+
 class Health(BaseModel):
-    status: str
+    status: str  #: "ok", or "degraded: ..." saying why
     database: str
     revision: str
     kinds: list[str]
+    disk: DiskPublic | None = None

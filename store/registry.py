@@ -18,7 +18,7 @@ from sqlalchemy.exc import IntegrityError
 
 from foresight.core.errors import ConfigError, CoreError, NotFoundError
 from foresight.core.yamlio import load_yaml
-from foresight.store import folders, queue
+from foresight.store import folders, job_reads, queue
 from foresight.store.models import Artifact, Bundle, Dataset, Model, ModelStatus
 from foresight.store.session import session_factory
 from foresight.store.settings import Settings
@@ -193,19 +193,21 @@ class Resolver:
             else:
                 row = session.get(Model, ident)
         if row is None:
-            raise NotFoundError(f"unknown model id {ident!r}")
+            raise NotFoundError(
+                f"unknown model id {ident!r} (nor an installed predictor plug-in: {_plugin_hint()})"
+            )
         return row
 
     def planner_model(self, ident: str) -> Model:
         """:meth:`model_row` of a model a planner will drive: ConfigError (422) at submission when it was trained in
-        another frame than the robot's (robot-less data such as ETH/UCY), which every planner's features use.
-        Registration records the checkpoint's frame in ``lineage``; shipped models are simulator-trained."""
+        a frame the planner cannot feed: the robot's, or the focal pedestrian's (ETH/UCY-trained, forecast pedestrian
+        by pedestrian, ``core.predict.focal``). Registration records the checkpoint's frame in ``lineage``."""
         row = self.model_row(ident)
         frame = row.lineage.get("frame_convention", "robot")
-        if frame != "robot":
+        if frame not in ("robot", "focal_pedestrian"):  # focal: ETH/UCY models, one pedestrian at a time
             raise ConfigError(
                 f"model {row.id!r} was trained in the {frame!r} frame (robot-less data such as ETH/UCY); "
-                "planners feed robot-frame features: use a model trained on simulator data",
+                "planners feed robot-frame or focal-pedestrian-frame features",
                 item="planner.model",
             )
         return row
@@ -254,7 +256,7 @@ def register_checkpoint(
                 return {"model_id": model_id, "status": existing.status, "resumed": True}
             owner = f" (job {existing.job_id})" if existing.job_id else ""
             raise queue.Conflict(f"a model with id {model_id!r} already exists{owner}")
-        job = queue.get_job(engine, job_id)
+        job = job_reads.get_job(engine, job_id)
         if job["status"] != queue.SUCCEEDED:
             raise queue.Conflict(f"job {job_id} is {job['status']}; register checkpoints of succeeded jobs")
         name = folders.check_relative(artifact)
@@ -387,3 +389,10 @@ def bundles(engine: Engine) -> list[Bundle]:
 def bundle(engine: Engine, bundle_id: str) -> Bundle | None:
     with session_factory(engine)() as session:
         return session.get(Bundle, bundle_id)
+
+
+def _plugin_hint() -> str:
+    """The installed predictor plug-ins, for an unknown model's error (docs/predictor_protocol.md)."""
+    from foresight.core.predict import plugins
+
+    return ", ".join(sorted(plugins.installed())) or "none installed"

@@ -27,6 +27,7 @@ from pydantic import (
     model_validator,
 )
 
+from foresight.core.bounds import BoundedConfig
 from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.runtime.context import StageContext
 from foresight.core.runtime.refs import CV, DEFAULT_MODEL, NO_MODEL
@@ -36,7 +37,7 @@ from foresight.core.sim.planner import EpisodeInfo, Planner, config_hash
 OTHER = "other"  #: the union member of every other name: in-process planners (``module:attr``) or an error
 
 
-class PlannerSpecBase(BaseModel):
+class PlannerSpecBase(BoundedConfig):
     """A planner as a config names it (YAML, API body, CLI): one typed member per planner name."""
 
     model_config = ConfigDict(extra="forbid", frozen=True, from_attributes=True)
@@ -47,7 +48,8 @@ class PlannerSpecBase(BaseModel):
         None  #: reference planner-grid keys (predictive only), mapped by the planner
     )
     variant: str | None = None  #: a label (campaign grid variant name)
-    model: str | None = None  #: predictive only: a model id or "cv"; None = the registry's default model
+    #: predictive only: a model id, "cv" or a predictor plug-in name; None = the registry's default model
+    model: str | None = None
 
 
 class ModulePlannerSpec(PlannerSpecBase):
@@ -185,9 +187,12 @@ def _load_model(path: str, sha256: str | None, name: str | None) -> Any:
 def build_planner(rp: ResolvedPlanner) -> Planner:
     """A fresh planner for one episode (the loaded model is shared, it is stateless)."""
     from foresight.core.planners.registry import make_planner
+    from foresight.core.predict import plugins
 
     model = None
-    if rp.model_id != NO_MODEL:
+    if plugins.kind(rp.model_id):
+        model = rp.model_id  # a predictor plug-in: the planner loads a fresh one (its own state per episode)
+    elif rp.model_id != NO_MODEL:
         model = load_model(rp.model_path, rp.checkpoint_sha256, rp.model_id) if rp.model_path else CV
     return make_planner(rp.name, rp.config, model=model)
 
@@ -200,6 +205,14 @@ def _model(spec: PlannerSpecBase, takes_model: bool, ctx: StageContext) -> tuple
         return NO_MODEL, NO_MODEL, None
     if spec.model == CV:
         return CV, CV, None
+    from foresight.core.predict import plugins
+
+    kind = plugins.kind(spec.model)
+    if (
+        kind
+    ):  # a predictor plug-in: loaded now, so a missing or malformed one stops the run before any episode
+        declared = plugins.load(spec.model).declared
+        return spec.model, f"{kind}:{declared.name}", None
     ident = spec.model or DEFAULT_MODEL
     path = Path(ctx.resolve_model(ident))
     if not path.is_file():
@@ -252,23 +265,47 @@ def resolve_planner(spec: PlannerSpecBase | dict[str, Any], ctx: StageContext) -
     )
 
 
+#: the command types a planner may declare, and what each command is
+COMMANDS = {"unicycle": "(v [m/s], omega [rad/s])", "velocity": "world-frame (vx, vy) [m/s]"}
+
+
 def preflight(rp: ResolvedPlanner, scenarios: list[ResolvedScenario]) -> None:
-    """Reset a planner once per distinct time step: an incompatible model fails here, before any episode."""
+    """Reset a planner once per distinct time step: an incompatible model fails here, before any episode; so does a
+    planner whose declared command type (``command_type``) the scenario's robot does not take."""
+    declared = rp.config.get("command_type")
+    for sc in scenarios if declared is not None else ():
+        kind = sc.scenario.robot_config.kinematics
+        wanted = "velocity" if kind == "holonomic" else "unicycle"
+        if declared != wanted:
+            raise ConfigError(
+                f"planner {rp.label!r} sends {declared} commands but the scenario's robot_config.kinematics is "
+                f"{kind!r}, which takes {wanted} commands ({COMMANDS[wanted]})",
+                source=sc.name,
+                item="planner.config.command_type",
+            )
     seen: set[float] = set()
     for sc in scenarios:
         cfg = sc.scenario.simulation_config
         if cfg.dt in seen:
             continue
         seen.add(cfg.dt)
-        build_planner(rp).reset(
-            EpisodeInfo(
-                scenario=sc,
-                seed=0,
-                dt=cfg.dt,
-                robot_radius=sc.scenario.robot_config.radius,
-                ped_radius=cfg.ped_radius,
-            )
+        info = EpisodeInfo(
+            scenario=sc,
+            seed=0,
+            dt=cfg.dt,
+            robot_radius=sc.scenario.robot_config.radius,
+            ped_radius=cfg.ped_radius,
         )
+        try:
+            build_planner(rp).reset(info)
+        except ConfigError as exc:
+            if exc.source is not None:
+                raise
+            raise ConfigError(
+                f"planner {rp.label!r} cannot run this scenario (dt {cfg.dt:g} s): {exc.detail}",
+                source=sc.name,
+                item=exc.item,
+            ) from None
 
 
 def config_diff(a: dict[str, Any], b: dict[str, Any], prefix: str = "") -> dict[str, tuple[Any, Any]]:

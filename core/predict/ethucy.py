@@ -23,8 +23,9 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import ConfigDict, Field
 
+from foresight.core.bounds import BoundedConfig
 from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.predict.dataset import Dataset, DatasetMeta, EpisodeRecord, save_dataset
 from foresight.core.predict.features import Window, extract_features, world_to_ego
@@ -58,11 +59,11 @@ def _stride(timebase: TimeBase) -> int:
     return k
 
 
-def focal_windows(rows: np.ndarray, span: int) -> Iterator[tuple[int, np.ndarray]]:
-    """(ped id, (span,) frame numbers) of every run of ``span`` consecutive annotated frames."""
+def focal_windows(rows: np.ndarray, span: int, step: int = FRAME_STEP) -> Iterator[tuple[int, np.ndarray]]:
+    """(ped id, (span,) frame numbers) of every run of ``span`` consecutive annotated frames (``step`` apart)."""
     for pid in np.unique(rows[:, 1]):
         frames = np.sort(rows[rows[:, 1] == pid, 0].astype(np.int64))
-        gaps = np.diff(frames) != FRAME_STEP
+        gaps = np.diff(frames) != step
         breaks = np.concatenate([[0], np.cumsum(gaps)])  # run label per frame
         for i in range(len(frames) - span + 1):
             if breaks[i] == breaks[i + span - 1]:
@@ -94,16 +95,23 @@ class _SceneTable:
 
 
 def scene_samples(
-    rows: np.ndarray, timebase: TimeBase, max_agents: int, neighbour_targets: bool = False
+    rows: np.ndarray,
+    timebase: TimeBase,
+    max_agents: int,
+    neighbour_targets: bool = False,
+    *,
+    stride: int | None = None,
+    frame_step: int = FRAME_STEP,
 ) -> SampleArrays:
     """All focal-pedestrian windows of one scene file, on ``timebase`` (neighbours' futures as targets too when
-    ``neighbour_targets``; for training splits only)."""
-    k = _stride(timebase)
+    ``neighbour_targets``; for training splits only). Other recordings than ETH/UCY's give their annotations'
+    ``frame_step`` (frame units apart) and ``stride`` (annotations per time-base step)."""
+    k = stride or _stride(timebase)
     H, T = timebase.history, timebase.horizon
     span = (H + T - 1) * k + 1
     scene = _SceneTable(rows)
     out = {n: [] for n in ("state", "target", "mask", "target_mask")}
-    for pid, frames in focal_windows(rows, span):
+    for pid, frames in focal_windows(rows, span, frame_step):
         grid = scene.rows_of(frames[::k])  # H + T grid points (all annotated: the focal pedestrian is there)
         ids = scene.ids[grid[H - 1]]
         ids = np.concatenate([[pid], ids[ids != pid]])
@@ -234,7 +242,7 @@ def import_fold(
     return dataset_from_episodes(episodes, meta)
 
 
-class ImportEthucyConfig(BaseModel):
+class ImportEthucyConfig(BoundedConfig):
     """Stage ``import_ethucy``: one fold of an ETH/UCY folder on the worker's disk -> a dataset artifact."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
@@ -244,7 +252,7 @@ class ImportEthucyConfig(BaseModel):
     output: str = "dataset.npz"
 
 
-class ImportDatasetConfig(BaseModel):
+class ImportDatasetConfig(BoundedConfig):
     """Job ``import_dataset``: one fold of a named data root (the service maps names to folders on its disk,
     so the spec holds no server path)."""
 

@@ -1,5 +1,5 @@
 """Forecasters: what the planner calls. They keep live histories from Observations and return
-world-frame forecasts on their time base.
+world-frame forecasts on their time base (``core.predict.forecast``: the contract, K = 1 here).
 
 Usage per episode: ``reset()``, then on every simulator step ``observe(obs)`` followed by
 ``forecast()`` (or ``update(obs)`` for both).
@@ -7,13 +7,14 @@ Usage per episode: ``reset()``, then on every simulator step ``observe(obs)`` fo
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 
 from foresight.core.errors import ConfigError
 from foresight.core.predict.features import ego_to_world, extract_features
+from foresight.core.predict.forecast import Forecast
 from foresight.core.predict.history import LiveHistory
 from foresight.core.predict.predictor import ConstantVelocityPredictor, Predictor
 from foresight.core.predict.timebase import TimeBase
@@ -21,18 +22,6 @@ from foresight.core.predict.uncertainty import CV_SIGMA, LEARNED_SIGMA, GrowingS
 from foresight.core.sim.observation import Observation
 
 SIGMA_FLOOR = 0.02  #: [m] a model's spread is never taken below this (as the envelopes' sigma0)
-
-
-@dataclass(frozen=True)
-class Forecast:
-    ped_ids: np.ndarray  #: (N,) int64 true pedestrian ids (those present now)
-    positions: np.ndarray  #: (N, T, 2) world frame [m] at ``times``
-    sigma: (
-        np.ndarray
-    )  #: (N, T) per-axis std [m] of each position (isotropic Gaussian, ``core.predict.uncertainty``)
-    times: np.ndarray  #: (T,) seconds ahead of the observation's time [s]
-    source: str  #: which predictor made it ("constant_velocity", "learned:<name>", "learned+cv_far:<name>")
-    timebase: TimeBase
 
 
 @runtime_checkable
@@ -91,7 +80,7 @@ class _PredictorForecaster:
                 sigma[k:] = CV_SIGMA(times)
                 source = source.replace("learned:", "learned+cv_far:")
         world = ego_to_world(ego, feats.origin, feats.heading)
-        return Forecast(feats.ped_ids.copy(), world, sigma, times, source, self.timebase)
+        return Forecast.single(feats.ped_ids.copy(), world, sigma, times, source, self.timebase)
 
 
 def _pad(features: np.ndarray, mask: np.ndarray, slots: int | None) -> tuple[np.ndarray, np.ndarray]:
@@ -109,6 +98,19 @@ class ConstantVelocityForecaster(_PredictorForecaster):
 
     def __init__(self, timebase: TimeBase):
         super().__init__(ConstantVelocityPredictor(timebase), None, "constant_velocity", CV_SIGMA)
+
+    def fit(self, sim_dt: float) -> None:
+        """Constant velocity needs no trained grid: where the simulator's step does not divide the time base (0.25 s
+        steps against 0.2 s), forecast on the nearest multiple of the step over at least the same horizon."""
+        tb = self.timebase
+        ratio = tb.dt / sim_dt
+        if abs(ratio - round(ratio)) <= 1e-6 * max(1.0, ratio) and round(ratio) >= 1:
+            return
+        dt = sim_dt * max(1, round(ratio))
+        fitted = TimeBase(
+            dt=dt, history=tb.history, horizon=max(1, math.ceil(tb.dt * tb.horizon / dt - 1e-9))
+        )
+        self.__init__(fitted)
 
 
 class LearnedForecaster(_PredictorForecaster):

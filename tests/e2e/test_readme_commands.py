@@ -67,6 +67,9 @@ BASH_BLOCKS: dict[tuple[str, int], str | Elsewhere | Excluded] = {
     ("Scaling out", 1): Excluded("a SLURM batch script (sbatch, srun, scontrol on 16 nodes)"),
     ("Evaluate your own planner", 1): Elsewhere("tests/unit/library/test_readme_routes.py"),
     ("Evaluate your own planner", 2): Elsewhere("tests/unit/library/test_readme_routes.py"),
+    ("Bring your own predictor and data", 0): Excluded(
+        "needs your own recordings folder (and minutes for every ETH/UCY fold); tests/unit/predict/"
+        "test_scene_import.py and test_predictor_plugins.py run each command's route on ETH/UCY scene files"),
 }  # fmt: skip
 
 #: the excluded blocks' shell words that are not ours to check (SLURM and shell syntax of the batch script)
