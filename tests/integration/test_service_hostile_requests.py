@@ -17,7 +17,7 @@ import httpx
 import pytest
 from sqlalchemy import insert
 
-from foresight.store import folders, queue
+from foresight.store import folders, job_reads, queue
 from foresight.store.models import Campaign, Dataset, Model
 from foresight.store.session import make_engine
 from foresight.store.settings import REPO_ROOT
@@ -100,7 +100,7 @@ def test_a_lone_surrogate_is_refused_naming_the_field_and_stores_nothing(svc: Sv
 def test_no_stored_value_breaks_a_listing(svc: Svc) -> None:
     """Text no request can send any more, written by another writer (a worker's result, a stage's spec)."""
     job, _ = queue.submit(svc.engine, kind="sleep", spec={"kind": "sleep", "x": "a\ud800b\x00c"})
-    assert queue.get_job(svc.engine, job["id"])["spec"]["x"] == "a\\ud800b\\x00c"
+    assert job_reads.get_job(svc.engine, job["id"])["spec"]["x"] == "a\\ud800b\\x00c"
     svc.lists_answer()
     assert svc.http.get(f"/v1/jobs/{job['id']}").status_code == 200
     assert svc.http.get(f"/ui/jobs/{job['id']}").status_code == 200
