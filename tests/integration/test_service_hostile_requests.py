@@ -112,6 +112,10 @@ def test_reserved_model_ids_are_refused_and_the_default_rule_wins(svc: Svc) -> N
     for ident in ("default", "cv", "none", "Default"):
         r = svc.http.post("/v1/models", json={"id": ident, "job_id": job_id, "artifact": "model.pt"})
         assert r.status_code == 422 and "reserved" in r.text and ["body", "id"] in _locs(r), (ident, r.text)
+    plugin = svc.http.post(
+        "/v1/models/predictors", params={"id": "default", "kind": "external", "predictor": "x"}
+    )
+    assert plugin.status_code == 422 and "reserved" in plugin.text, plugin.text
     ids = [m["id"] for m in svc.http.get("/v1/models").json()["data"]]
     assert not {"default", "cv", "none", "Default"} & set(ids)
     # a row that took the id before it was reserved no longer shadows the rule
