@@ -1,4 +1,4 @@
-"""The issue-15 probe's hostile inputs through the core readers: how fast each is refused and what it costs.
+"""The hostile-input probe's inputs through the core readers: how fast each is refused and what it costs.
 
 Prints one JSON object: per case the outcome (the error's first 100 characters) and the CPU seconds it took,
 and a ``summary``: inputs tried, handled (refused with a clear error within 2 s of CPU, or a valid input read),

@@ -62,7 +62,7 @@ class SamplingConfig(_Frozen):
     #: p = 0.04: robots backing away from bottleneck walkers until the time ran out), typical speed 221 -> 220 (4 : 3),
     #: reference defaults 225 -> 222 (5 : 2). Only where the best plan forward expects contact: stress 241, nobody
     #: yields 194 with 4 collisions; that and reverse speeds in the first segment only: stress 240; that and at most
-    #: 2 s of backing without a break: stress 239 (session 23)
+    #: 2 s of backing without a break: stress 239 (2026-11-28)
     reverse_speed_ratios: tuple[float, ...] = ()
 
     @model_validator(mode="after")
