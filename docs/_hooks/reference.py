@@ -164,7 +164,8 @@ def http_api_page() -> str:
     ops = [(path, method, op) for path, item in doc["paths"].items() for method, op in item.items()]
     for path, method, op in ops:
         anchor = op["operationId"].lower().replace("_", "-")
-        out.append(f"| {method.upper()} | [`{path}`](#{anchor}) | {_cell(op.get('summary'))} |")
+        first = re.split(r"(?<=[.)])\s", " ".join((op.get("description") or "").split()), maxsplit=1)[0]
+        out.append(f"| {method.upper()} | [`{path}`](#{anchor}) | {_cell(first or op.get('summary'))} |")
     out.append("")
     for path, method, op in ops:
         out += [f"## {method.upper()} `{path}` {{#{op['operationId'].lower().replace('_', '-')}}}", ""]
@@ -218,7 +219,7 @@ def _type(annotation: Any) -> str:
     text = repr(annotation)
     text = re.sub(r"<class '([\w.]+)'>", lambda m: m.group(1).rsplit(".", 1)[-1], text)
     text = re.sub(r"\b(?:[a-z_]\w*\.)+([A-Za-z_]\w*)", r"\1", text)  # module paths off
-    return text.replace("NoneType", "None")
+    return text.replace("NoneType", "None").replace(" | ", " or ")
 
 
 def _comments(model: type[BaseModel]) -> dict[str, str]:
@@ -263,7 +264,9 @@ def _fields(model: type[BaseModel], out: list[str], seen: set[type], level: int)
         else:
             default = f"`{json.dumps(field.default, default=str)}`"
         meaning = field.description or comments.get(name, "")
-        rows.append(f"| `{key}` | `{_cell(_type(field.annotation))}` | {_cell(default)} | {_cell(meaning)} |")
+        rows.append(
+            f"| `{key}` | `{' '.join(_type(field.annotation).split())}` | {_cell(default)} | {_cell(meaning)} |"
+        )
         nested += [m for m in _nested(field.annotation) if m not in seen and m not in nested]
     if rows:
         out += ["| key | type | default | meaning |", "|---|---|---|---|", *rows, ""]
