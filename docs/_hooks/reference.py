@@ -12,6 +12,7 @@ OUT`` writes the three pages into OUT to read them without a build.
 from __future__ import annotations
 
 import argparse
+import functools
 import importlib
 import inspect
 import json
@@ -113,6 +114,7 @@ def cli_page() -> str:
 # ---------------------------------------------------------------- the HTTP API
 
 
+@functools.cache
 def openapi_schema() -> dict[str, Any]:
     """The app's OpenAPI document, from an app built on a throwaway migrated SQLite database."""
     with tempfile.TemporaryDirectory() as tmp:

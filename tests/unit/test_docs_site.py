@@ -5,10 +5,12 @@ command of the argparse tree, every path and method of the app's OpenAPI schema,
 from __future__ import annotations
 
 import argparse
+import functools
 import importlib.util
 import os
 import subprocess
 import sys
+import types
 from pathlib import Path
 
 import pytest
@@ -17,7 +19,9 @@ REPO = Path(__file__).resolve().parents[2]
 HOOK = REPO / "docs" / "_hooks" / "reference.py"
 
 
-def _hook():
+@functools.cache
+def _hook() -> types.ModuleType:
+    """The hook module, loaded once (its OpenAPI schema is cached)."""
     spec = importlib.util.spec_from_file_location("docs_reference_hook", HOOK)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
@@ -27,8 +31,10 @@ def _hook():
 @pytest.fixture(scope="module")
 def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("site")
+    mkdocs = Path(sys.executable).parent / "mkdocs"
+    assert mkdocs.is_file(), "mkdocs is not installed: pip install -e '.[dev]' (it holds mkdocs-material)"
     env = {**os.environ, "NO_MKDOCS_2_WARNING": "1", "HOME": str(out.parent)}  # no network, no user state
-    proc = subprocess.run([str(Path(sys.executable).parent / "mkdocs"), "build", "--strict", "--site-dir", str(out)],
+    proc = subprocess.run([str(mkdocs), "build", "--strict", "--site-dir", str(out)],
                           cwd=REPO, env=env, capture_output=True, text=True, timeout=300)  # fmt: skip
     assert proc.returncode == 0, proc.stderr[-4000:]
     return out
