@@ -22,16 +22,17 @@ def _tracked() -> list[Path]:
     return [REPO / n for n in names if (REPO / n).is_file()]
 
 
+#: the examples are split inside the word, so that this file passes its own scan
 @pytest.mark.parametrize(
     ("text", "hit"),
     [
-        ("measured in " + "session 29", True),
-        ("as " + "Sessions 18-23 found", True),
-        ("the " + "issue-12 table", True),
-        ("(" + "issue 15.5)", True),
-        ("see " + "issue #7", True),
-        ("robot_sf's " + "issue_2164_amv_cross_trap_contracts.yaml", False),
-        ("vulnerable_user_proxy_pack_v0_deferred_" + "issue3654.yaml", False),
+        ("measured in sess" + "ion 29", True),
+        ("as Sess" + "ions 18-23 found", True),
+        ("the iss" + "ue-12 table", True),
+        ("(iss" + "ue 15.5)", True),
+        ("see iss" + "ue #7", True),
+        ("robot_sf's iss" + "ue_2164_amv_cross_trap_contracts.yaml", False),
+        ("vulnerable_user_proxy_pack_v0_deferred_iss" + "ue3654.yaml", False),
         ("a stale session's lease expired after 30 s; issue a token; HTTP 422 issues no job", False),
         ("with Session(engine) as session: session.add(row)", False),
     ],
