@@ -10,8 +10,8 @@ from pathlib import Path
 from typing import Any
 
 from foresight.api.web.previews import load_matrix_cached
-from foresight.core.stages.budget import check_budget, work_size
-from foresight.core.stages.context import StageContext
+from foresight.core.jobs.budget import check_budget, work_size
+from foresight.core.runtime.context import StageContext
 from foresight.store.registry import Resolver
 from foresight.store.settings import Settings
 
@@ -32,8 +32,8 @@ def context(settings: Settings, resolver: Resolver) -> StageContext:
 def named_ids(spec: Any) -> list[tuple[str, str]]:
     """(model | dataset, id) of every stored input a spec names by id (every model named is one a planner drives)."""
     from foresight.core.evaluation.config import CampaignConfig
-    from foresight.core.predict.collect import CollectConfig, MixConfig
-    from foresight.core.predict.train_config import TrainConfig
+    from foresight.core.training.collect import CollectConfig, MixConfig
+    from foresight.core.training.config import TrainConfig
 
     out: list[tuple[str, str]] = []
     planner = getattr(spec, "planner", None)

@@ -10,8 +10,8 @@ from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 from foresight.core.evaluation.aggregate import GroupStats
 from foresight.core.evaluation.campaign import CellMetrics, CellParams, CellResult
 from foresight.core.evaluation.runner import EvaluationMetrics, EvaluationRunConfig
-from foresight.core.stages.kinds import KINDS
-from foresight.core.stages.results import Verdict, verdict
+from foresight.core.jobs.kinds import KINDS
+from foresight.core.jobs.results import Verdict, verdict
 from foresight.store.settings import Settings
 
 Ident = Annotated[str, Field(min_length=1, max_length=200, pattern=r"^[A-Za-z0-9][A-Za-z0-9._:\-]*$")]

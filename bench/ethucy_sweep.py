@@ -20,7 +20,7 @@ import time
 from pathlib import Path
 
 from foresight.core.predict.ethucy import FOLDS
-from foresight.core.predict.evaluation import FILE_KEYS
+from foresight.core.training.predict_eval import FILE_KEYS
 
 
 def run_one(
@@ -31,8 +31,8 @@ def run_one(
     name, stage, fold, root, device, workdir = args
     if device == "cpu":
         os.environ["CUDA_VISIBLE_DEVICES"] = ""
-    from foresight.core.predict.evaluation import PredictEvalConfig, run_predict_eval
-    from foresight.core.stages.context import StageContext
+    from foresight.core.runtime.context import StageContext
+    from foresight.core.training.predict_eval import PredictEvalConfig, run_predict_eval
 
     started = time.time()
     work = Path(workdir) / name / fold

@@ -23,7 +23,7 @@ sys.path.insert(0, str(REPO))
 from foresight.core.errors import NotFoundError  # noqa: E402
 from foresight.core.evaluation.config import EvaluationConfig  # noqa: E402
 from foresight.core.evaluation.runner import run_evaluation  # noqa: E402
-from foresight.core.stages.context import StageContext  # noqa: E402
+from foresight.core.runtime.context import StageContext  # noqa: E402
 
 TARGET_S = 60.0
 

@@ -23,7 +23,6 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
 from foresight.core.planners.registry import make_planner  # noqa: E402
-from foresight.core.predict.collect import _Recorder  # noqa: E402
 from foresight.core.predict.features import current_index  # noqa: E402
 from foresight.core.predict.predictor import ConstantVelocityPredictor  # noqa: E402
 from foresight.core.predict.samples import samples_from_trace  # noqa: E402
@@ -32,6 +31,7 @@ from foresight.core.predict.uncertainty import GrowingSigma  # noqa: E402
 from foresight.core.scenarios.loader import load_matrix  # noqa: E402
 from foresight.core.scenarios.seeds import load_seed_manifest  # noqa: E402
 from foresight.core.sim.episode import run_episode  # noqa: E402
+from foresight.core.training.collect import _Recorder  # noqa: E402
 
 
 def errors(predictor, samples, near: float | None, own_sigma: bool = False):

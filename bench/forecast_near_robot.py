@@ -28,7 +28,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from foresight.core.evaluation.episode_trace import TRACES, read_compact  # noqa: E402
+from foresight.core.render.episode_trace import TRACES, read_compact  # noqa: E402
 
 BANDS = (
     (2.0, "near"),

@@ -108,7 +108,7 @@ REPLAY_SCENES = {
 
 def replay() -> list[dict]:
     from foresight.core.dataroots import data_root
-    from foresight.core.predict.ethucy import read_scene
+    from foresight.core.scenarios.ethucy import read_scene
     from foresight.core.scenarios.replay import scene_file, select_episodes
 
     root = data_root("ethucy")

@@ -103,8 +103,8 @@ def run_one(
 
 def groups_of(matrix: Path, overrides: list[str]) -> dict[str, str]:
     """Scenario name -> table group: its family, prefixed by its stress condition where it has one."""
-    from foresight.cli.evaluate import overrides as parse_overrides
     from foresight.core.scenarios.loader import load_matrix
+    from foresight.local import overrides as parse_overrides
 
     out = {}
     for s in load_matrix(matrix, overrides=parse_overrides(overrides)).scenarios:

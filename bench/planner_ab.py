@@ -56,7 +56,7 @@ def _episode(job: tuple[str, str, str, int]) -> dict:
     resolved = _JOBS["matrices"][suite].get(scenario)
     run = run_one(resolved, seed, _JOBS["planners"][variant], simulator=sim)
     if _JOBS.get("traces"):  # --players: every episode's compact trace, until the changed ones are known
-        from foresight.core.evaluation.episode_trace import compact_trace, trace_name, write_compact
+        from foresight.core.render.episode_trace import compact_trace, trace_name, write_compact
 
         write_compact(
             _JOBS["traces"] / variant / suite / trace_name(scenario, seed), compact_trace(run, resolved.map)
@@ -74,7 +74,7 @@ def write_players(result: dict, traces: Path, out: Path, variants: list[str]) ->
     """Each suite's changed episodes (the first ``SHOWN_CHANGES`` per variant) as side-by-side player pages of the
     first variant's run and the variant's; their paths go into the result's ``players`` entries."""
     from foresight.core.evaluation.compare import SHOWN_CHANGES
-    from foresight.core.evaluation.episode_trace import trace_name
+    from foresight.core.render.episode_trace import trace_name
     from foresight.core.render.player import write_pair
 
     first = variants[0]
@@ -90,13 +90,13 @@ def write_players(result: dict, traces: Path, out: Path, variants: list[str]) ->
 
 def episodes(args: argparse.Namespace, variants: dict[str, dict]) -> tuple[list[tuple], dict, dict]:
     """(jobs, matrices by suite, resolved planners by variant); costliest episodes first."""
-    from foresight.cli.evaluate import overrides
     from foresight.core.errors import ConfigError
     from foresight.core.evaluation.plannerspec import resolve_planner
     from foresight.core.evaluation.runner import expand_seeds, expected_cost
+    from foresight.core.runtime.context import StageContext
     from foresight.core.scenarios.loader import load_matrix
     from foresight.core.scenarios.seeds import load_seed_manifest
-    from foresight.core.stages.context import StageContext
+    from foresight.local import overrides
 
     model_file = REPO / "model" / "predictor-sim-default.pt"
     ctx = StageContext(
@@ -193,7 +193,7 @@ def summary(rows: list[dict], variants: list[str]) -> dict:
 
 def parse_variants(items: list[str]) -> dict[str, dict]:
     """``NAME=JSON`` items -> {name: config}; a malformed one exits with one readable line."""
-    from foresight.core.evaluation.episode_trace import safe_name
+    from foresight.core.render.episode_trace import safe_name
 
     variants: dict[str, dict] = {}
     for item in items:

@@ -31,9 +31,9 @@ DEFAULT_CHECKPOINT = REPO / "model" / "predictor-sim-default.pt"
 sys.path.insert(0, str(REPO))
 
 from foresight.core.maps.model import MapDef, Route, Zone  # noqa: E402
-from foresight.core.planners.base import EpisodeInfo  # noqa: E402
 from foresight.core.planners.registry import make_planner  # noqa: E402
 from foresight.core.scenarios.model import ResolvedScenario, Scenario, SimulationConfig  # noqa: E402
+from foresight.core.sim.planner import EpisodeInfo  # noqa: E402
 from foresight.core.sim.simulator import Simulator  # noqa: E402
 
 

@@ -21,7 +21,7 @@ from foresight.core.predict.features import feature_dim
 from foresight.core.predict.nn.checkpoint import TorchPredictor, load_predictor
 from foresight.core.predict.nn.model import ModelConfig, TrajectoryModel
 from foresight.core.predict.timebase import PLANNER_TIMEBASE
-from foresight.core.predict.train_config import TrainConfig
+from foresight.core.training.config import TrainConfig
 
 
 def main() -> None:

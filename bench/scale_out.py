@@ -27,7 +27,7 @@ sys.path.insert(0, str(REPO))
 from bench.eval_throughput import reference_matrix  # noqa: E402
 from foresight.core.evaluation.config import EvaluationConfig  # noqa: E402
 from foresight.core.evaluation.runner import run_evaluation  # noqa: E402
-from foresight.core.stages.context import StageContext  # noqa: E402
+from foresight.core.runtime.context import StageContext  # noqa: E402
 
 
 def timed(config: EvaluationConfig, root: Path, workers: int) -> tuple[float, int]:

@@ -21,9 +21,9 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
 from foresight.core.maps.model import MapDef, Route, Zone  # noqa: E402
-from foresight.core.planners.base import EpisodeInfo  # noqa: E402
 from foresight.core.planners.goal import GoalSeeking  # noqa: E402
 from foresight.core.scenarios.model import ResolvedScenario, Scenario, SimulationConfig  # noqa: E402
+from foresight.core.sim.planner import EpisodeInfo  # noqa: E402
 from foresight.core.sim.simulator import Simulator  # noqa: E402
 
 REFERENCE_MATRIX = "reference/robot_sf/configs/scenarios/classic_interactions.yaml"

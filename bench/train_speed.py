@@ -16,7 +16,7 @@ from torch.utils.flop_counter import FlopCounterMode
 from foresight.core.predict.features import feature_dim
 from foresight.core.predict.nn.model import ModelConfig, TrajectoryModel, masked_smooth_l1
 from foresight.core.predict.timebase import PLANNER_TIMEBASE
-from foresight.core.predict.train_config import TrainConfig
+from foresight.core.training.config import TrainConfig
 
 
 def main() -> None:

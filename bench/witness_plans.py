@@ -109,10 +109,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    from foresight.cli.evaluate import overrides
     from foresight.core.errors import CoreError
     from foresight.core.evaluation.runner import expand_seeds, read_outcomes
     from foresight.core.scenarios.loader import load_matrix
+    from foresight.local import overrides
 
     try:
         family = plans(args)

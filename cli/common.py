@@ -1,132 +1,13 @@
-"""Helpers shared by the CLI's stage commands: local (in-process) execution, output, spec building."""
+"""Helpers shared by the CLI's stage commands: output and common options (in-process runs: ``foresight.local``)."""
 
 from __future__ import annotations
 
 import argparse
 import json
-import tempfile
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
-from pydantic import BaseModel, ValidationError
-
-from foresight.core.errors import ConfigError
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
-
-LOCAL_BUNDLE = "local"
-
-
-def matrix_ref(path: str) -> tuple[str, str, dict[str, Path]]:
-    """Turn a user's matrix path into (bundle id, bundle-relative path, local bundle roots).
-
-    A matrix inside the project's configs/ is the builtin bundle; any other file is a local bundle
-    rooted at its folder (runs in-process; the service needs it uploaded as a bundle).
-    """
-    p = Path(path).expanduser().resolve()
-    if not p.is_file():
-        raise ConfigError("matrix file not found", source=path)
-    try:
-        return (
-            BUILTIN_BUNDLE,
-            p.relative_to(BUILTIN_CONFIG_ROOT).as_posix(),
-            {BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT},
-        )
-    except ValueError:
-        return LOCAL_BUNDLE, p.name, {LOCAL_BUNDLE: p.parent, BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT}
-
-
-def build_config(model: type[BaseModel], values: dict[str, Any]) -> Any:
-    """Validate CLI values into the stage's config model; errors become one readable ConfigError."""
-    try:
-        return model.model_validate({k: v for k, v in values.items() if v is not None})
-    except ValidationError as exc:
-        first = exc.errors()[0]
-        field = ".".join(str(x) for x in first["loc"]) or "spec"
-        raise ConfigError(first["msg"], source="command line", item=field) from None
-
-
-def local_workdir(out: str | Path | None, name: str) -> Path:
-    """A ``--local`` run's work folder: ``--out``, else a new ``<data dir>/runs/NAME-<time>-<hex>`` (the per-user data
-    folder, so runs are found again from any terminal; delete old ones freely)."""
-    if out:
-        return Path(out)
-    import secrets
-    import time
-
-    from foresight.store.settings import Settings
-
-    folder = Settings().local_runs / f"{name}-{time.strftime('%Y%m%d-%H%M%S')}-{secrets.token_hex(3)}"
-    folder.mkdir(parents=True)
-    return folder
-
-
-def local_context(workdir: Path | None, bundles: dict[str, Path], *, quiet: bool) -> StageContext:
-    """A StageContext for in-process runs, with a progress line on stderr unless quiet."""
-    from foresight.core.errors import NotFoundError
-
-    def resolve_bundle(ident: str) -> Path:
-        if ident not in bundles:
-            raise NotFoundError(f"unknown bundle id {ident!r} (in-process runs know {sorted(bundles)})")
-        return bundles[ident]
-
-    def resolve_data_root(name: str) -> Path:
-        """A named data root: FORESIGHT_DATA_ROOTS, or ``ethucy`` from the shared folder."""
-        from foresight.store.settings import Settings
-
-        return Settings().data_root(name)
-
-    bar = progress_bar(quiet=quiet)
-    task: list[Any] = []
-
-    def progress(fraction: float, message: str) -> None:
-        if not task:  # started by the first report, so nothing is drawn for a run that fails before it
-            bar.start()
-            task.append(bar.add_task("local", total=1.0, message=""))
-        bar.update(task[0], completed=fraction, message=message[:60])
-        if fraction >= 1.0:
-            bar.stop()
-
-    root = workdir or Path(tempfile.mkdtemp(prefix="foresight-"))
-    root.mkdir(parents=True, exist_ok=True)
-    return StageContext(
-        workdir=root, progress=progress, resolve_bundle=resolve_bundle, resolve_data_root=resolve_data_root
-    )
-
-
-def finish_local(kind: str, result: Any, workdir: Path) -> list[Path]:
-    """What a worker does after a stage, for an in-process run: the report page (its paths returned) and, with
-    FORESIGHT_MLFLOW_TRACKING_URI set, the copy to MLflow (a failure is a warning line on stderr)."""
-    import sys
-
-    from foresight.core.reports.stage import write_report
-    from foresight.store.settings import Settings
-    from foresight.worker import mlflow_export
-
-    def log(message: str) -> None:
-        print(message, file=sys.stderr)
-
-    pages = write_report(kind, result, workdir, log)
-    settings = Settings()
-    mlflow_export.export_run(
-        mlflow_export.target(settings.mlflow_tracking_uri, settings.mlflow_experiment),
-        kind,
-        result,
-        workdir,
-        log,
-    )
-    return pages
-
-
-def progress_bar(*, quiet: bool) -> Any:
-    """The CLI's one progress-bar style (rich, on stderr): in-process runs and followed server jobs alike."""
-    from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
-    return Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>5.1f}%"),
-                    TimeElapsedColumn(), TextColumn("{task.fields[message]}"), console=Console(stderr=True),
-                    disable=quiet, transient=False)  # fmt: skip
+from pydantic import BaseModel
 
 
 def emit(obj: Any, as_json: bool, text: Callable[[Any], str]) -> None:

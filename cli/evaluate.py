@@ -12,17 +12,23 @@ Exit codes: 0 passed, 2 failing gate or integrity (a result, summary written), 1
 from __future__ import annotations
 
 import argparse
-import os
 from pathlib import Path
 from typing import Any
 
+from foresight import local
 from foresight.cli import stage
 from foresight.cli.client import add_connection_args
-from foresight.cli.common import emit, finish_local, local_context, local_workdir
+from foresight.cli.common import emit
 from foresight.core.errors import ConfigError
-from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
-
-LOCAL_BUNDLE = "local"
+from foresight.local import (
+    ModelArgs,
+    bundle_of,
+    finish_local,
+    local_context,
+    local_workdir,
+    overrides,
+    planner_spec,
+)
 
 
 def _common(p: argparse.ArgumentParser, *, planner: bool = True) -> None:
@@ -122,162 +128,11 @@ def register(sub: argparse._SubParsersAction) -> None:
 # ------------------------------------------------------------------------------ resolution helpers
 
 
-def bundle_of(*files: str | None) -> tuple[str, list[str], dict[str, Path]]:
-    """(bundle id, bundle-relative paths, bundle roots) for command-line files."""
-    paths = []
-    for f in files:
-        if f is None:
-            paths.append(None)
-            continue
-        p = Path(f).expanduser().resolve()
-        if not p.is_file():
-            raise ConfigError("file not found", source=f)
-        paths.append(p)
-    real = [p for p in paths if p is not None]
-    roots = {BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT}
-    if all(BUILTIN_CONFIG_ROOT in p.parents for p in real):
-        bundle, root = BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
-    else:
-        bundle, root = LOCAL_BUNDLE, Path(os.path.commonpath([str(p.parent) for p in real]))
-        roots[LOCAL_BUNDLE] = root
-    return bundle, [p.relative_to(root).as_posix() if p else None for p in paths], roots
-
-
-MODEL_REGISTRY = BUILTIN_CONFIG_ROOT.parent / "model" / "registry.yaml"
-
-
-class ModelArgs:
-    """Maps --model/--checkpoints values to model ids for in-process runs.
-
-    A checkpoint path becomes id ``file:<name>``; other ids are looked up in model/registry.yaml
-    (checksum verified); no --model for the predictive planner means the registry's default predictor.
-    """
-
-    def __init__(self) -> None:
-        self.files: dict[str, Path] = {}
-
-    def ident(self, value: str | None) -> str | None:
-        if value is None or value == "cv":
-            return value
-        p = Path(value).expanduser()
-        if p.is_file():
-            ident = f"file:{p.name}"
-            self.files[ident] = p.resolve()
-            return ident
-        return value
-
-    def default(self) -> str:
-        """The default model of the shipped registry, by the server's own rule (store.shipped.default_model)."""
-        from foresight.store.shipped import default_model, read_shipped
-
-        entry = default_model(read_shipped(MODEL_REGISTRY))
-        if entry is None:
-            raise ConfigError(
-                "no default predictor in model/registry.yaml: pass --model ID|PATH|cv",
-                source="command line",
-                item="model",
-            )
-        return str(entry["id"])
-
-    def resolve(self, ident: str) -> Path:
-        from foresight.store.shipped import resolve_shipped
-
-        if ident in self.files:
-            return self.files[ident]
-        return resolve_shipped(MODEL_REGISTRY, ident)
-
-
-def planner_spec(
-    value: str,
-    model: str | None,
-    models: ModelArgs,
-    *,
-    default: bool = True,
-    config: str | None = None,
-    local: bool = True,
-) -> dict[str, Any]:
-    """The planner part of a spec from ``--planner`` (a name or a YAML file), ``--planner-config`` and ``--model``.
-
-    ``module:attr`` names in-process planners: registered here for ``--local`` runs, refused for the server.
-    """
-    from foresight.core.planners.registry import entry, names, register
-
-    if ":" in value and not Path(value).is_file():
-        if not local:
-            raise ConfigError(f"{value!r}: module:attr planners run in-process only (--local); the server runs "
-                              f"installed plugins and operator-configured external planners",
-                              source="command line", item="--planner")  # fmt: skip
-        spec: dict[str, Any] = {"name": register(value)}
-    elif value in names() or not value.endswith((".yaml", ".yml", ".json")):
-        spec = {"name": value}
-    else:
-        from foresight.core.scenarios.loader import read_yaml
-
-        data = read_yaml(Path(value))
-        if not isinstance(data, dict):
-            raise ConfigError("a planner file must be a mapping", source=value)
-        spec = dict(data) if "name" in data else {"name": "predictive", "config": data}
-    if config is not None:
-        spec["config"] = _inline_config(config)
-    if model is not None:
-        spec["model"] = models.ident(model)
-    elif default and "model" not in spec and _takes_model(spec.get("name", "predictive"), entry):
-        spec["model"] = models.default()
-    return spec
-
-
-def _takes_model(name: str, entry: Any) -> bool:
-    try:
-        return entry(name).takes_model
-    except LookupError:  # an unknown name: the spec's validation names it with the installed ones
-        return False
-
-
-def _inline_config(text: str) -> dict[str, Any]:
-    import yaml
-
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise ConfigError(
-            f"not JSON or YAML ({str(exc).splitlines()[0]})", source="command line", item="--planner-config"
-        ) from None
-    if not isinstance(data, dict):
-        raise ConfigError("expected a mapping of config keys", source="command line", item="--planner-config")
-    return data
-
-
 def _context(args: argparse.Namespace, roots: dict[str, Path], models: ModelArgs):
     ctx = local_context(local_workdir(args.out, args.command), roots, quiet=args.json)
     ctx.resolve_model = models.resolve
     ctx.workers = max(1, int(args.workers or 1))
     return ctx
-
-
-def overrides(items: list[str] | None) -> dict[str, Any]:
-    """``["ped_speed_tier=typical", "robot_config.radius=0.5"]`` -> nested scenario overrides (values as YAML
-    scalars; a bare key of SimulationConfig means simulation_config.KEY)."""
-    import yaml
-
-    from foresight.core.scenarios.model import SimulationConfig
-
-    out: dict[str, Any] = {}
-    for item in items or []:
-        key, sep, raw = item.partition("=")
-        if not sep or not key.strip():
-            raise ConfigError(f"expected KEY=VALUE, got {item!r}", source="command line", item="--override")
-        path = key.strip().split(".")
-        if len(path) == 1 and path[0] in SimulationConfig.model_fields:
-            path = ["simulation_config", *path]
-        node = out
-        for part in path[:-1]:
-            node = node.setdefault(part, {})
-            if not isinstance(node, dict):
-                raise ConfigError(
-                    f"{key} conflicts with another override", source="command line", item="--override"
-                )
-        node[path[-1]] = yaml.safe_load(raw)
-    return out
 
 
 def _names(value: str | None) -> list[str] | None:
@@ -333,11 +188,11 @@ class Refs:
 
     def run(self, kind: str, values: dict[str, Any], text, exit_code=lambda r: 0) -> int:  # noqa: ANN001
         """Submit the ``kind`` job, or run its stage function in-process (``--local``)."""
-        from foresight.core.stages.kinds import KINDS
+        from foresight.core.jobs.kinds import KINDS
 
         if self.args.executor:
             values = {**values, "executor": self.args.executor}
-        spec = stage.spec(kind, values)
+        spec = local.spec(kind, values)
         if not self.local:
             return stage.submit(
                 self.args,
@@ -348,7 +203,7 @@ class Refs:
                 client=self.client if self._client else None,
             )
         ctx = _context(self.args, self.roots, self.models)
-        result = KINDS[kind].run(stage.config_of(spec), ctx)
+        result = KINDS[kind].run(local.config_of(spec), ctx)
         pages = finish_local(kind, result, ctx.workdir)  # as a worker does: the report page, the MLflow copy
         where = f"artifacts in {ctx.workdir.resolve()}" + "".join(
             f"\nreport: {p.resolve()}" for p in pages if p.name == "report.html"

@@ -178,7 +178,7 @@ def follow(client: Client, job_id: str, *, as_json: bool, quiet: bool, timeout: 
 
 def watch(client: Client, job_id: str, *, quiet: bool, timeout: float | None = None) -> dict[str, Any]:
     """The job once it ended (or when ``timeout`` passed), following it with a live progress bar on stderr."""
-    from foresight.cli.common import progress_bar
+    from foresight.local import progress_bar
 
     deadline = time.monotonic() + timeout if timeout else None
     with progress_bar(quiet=quiet) as bar:

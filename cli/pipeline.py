@@ -21,10 +21,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from foresight.core.errors import ConfigError, CoreError
-from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
+from foresight.core.runtime.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
 
 if TYPE_CHECKING:
-    from foresight.core.pipeline.summary import PipelineResult
+    from foresight.core.reports.pipeline_summary import PipelineResult
 
 QUICKSTART = BUILTIN_CONFIG_ROOT / "pipelines" / "quickstart.yaml"
 FINISHED = {"succeeded", "failed", "cancelled"}
@@ -91,7 +91,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def read_pipeline(path: str | Path, workers: int | None = None) -> dict[str, Any]:
     """The pipeline YAML as a spec (validated here, so a bad file fails before anything starts)."""
-    from foresight.core.pipeline.config import load_pipeline_config
+    from foresight.core.jobs.pipeline.config import load_pipeline_config
 
     config = load_pipeline_config(path)
     if workers is not None:
@@ -122,11 +122,10 @@ def _stage_lines(result: PipelineResult) -> list[str]:
 def run_local(
     config_path: str, out: str | None, workers: int | None, quiet: bool
 ) -> tuple[PipelineResult, Path]:
-    from foresight.cli.common import local_context, local_workdir
-    from foresight.cli.evaluate import ModelArgs
-    from foresight.core.pipeline.config import PipelineConfig
-    from foresight.core.pipeline.local import LocalChildren
-    from foresight.core.pipeline.runbook import run_pipeline
+    from foresight.core.jobs.pipeline.config import PipelineConfig
+    from foresight.core.jobs.pipeline.local import LocalChildren
+    from foresight.core.jobs.pipeline.runbook import run_pipeline
+    from foresight.local import ModelArgs, local_context, local_workdir
 
     config = PipelineConfig.model_validate(read_pipeline(config_path, workers))
     if config.bundle != BUILTIN_BUNDLE:
@@ -188,7 +187,7 @@ def submit_and_follow(
 
 def follow_pipeline(client: Any, job_id: str, *, quiet: bool) -> dict[str, Any]:
     """Poll the pipeline job until it ends: one line per child stage as it starts and ends, and a bar."""
-    from foresight.cli.common import progress_bar
+    from foresight.local import progress_bar
 
     seen: dict[str, str] = {}
     with progress_bar(quiet=quiet) as bar:
@@ -214,7 +213,7 @@ def report_outcome(client: Any, job: dict[str, Any], *, as_json: bool, store_roo
     base = str(client.http.base_url).rstrip("/")
     url = f"{base}/ui/jobs/{job['id']}/files/report.html"
     path = (store_root / "jobs" / job["id"] / "report.html") if store_root else None
-    from foresight.core.pipeline.summary import PipelineResult
+    from foresight.core.reports.pipeline_summary import PipelineResult
 
     result = PipelineResult.model_validate(job["result"]) if job["status"] == "succeeded" else None
     if as_json:
@@ -338,7 +337,7 @@ def _stop(proc: subprocess.Popen) -> None:
 
 
 def cmd_mine(args: argparse.Namespace) -> int:
-    from foresight.core.pipeline.seeds import (
+    from foresight.core.jobs.pipeline.seeds import (
         mine_failures,
         parse_seed_range,
         read_manifest_pairs,
@@ -351,7 +350,7 @@ def cmd_mine(args: argparse.Namespace) -> int:
         exclude |= read_manifest_pairs(path)
     scenarios = [s.strip() for s in args.scenarios.split(",") if s.strip()] if args.scenarios else None
 
-    from foresight.cli.common import progress_bar
+    from foresight.local import progress_bar
 
     with progress_bar(quiet=False) as bar:
         task = bar.add_task("mine-seeds", total=1.0, message="")

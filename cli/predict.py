@@ -11,9 +11,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from foresight import local
 from foresight.cli import stage
-from foresight.cli.common import build_config, emit, finish_local, local_context, local_workdir, matrix_ref
+from foresight.cli.common import emit
 from foresight.core.errors import ConfigError
+from foresight.local import build_config, finish_local, local_context, local_workdir, matrix_ref
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -136,15 +138,15 @@ def _eval_values(path: str | None) -> dict:
     """The predict-eval stage's own keys in a training config file, beside its ``train`` mapping (``FILE_KEYS``)."""
     if path is None:
         return {}
-    from foresight.core.predict.evaluation import FILE_KEYS
     from foresight.core.scenarios.loader import read_yaml
+    from foresight.core.training.predict_eval import FILE_KEYS
 
     data = read_yaml(Path(path))
     return {k: data[k] for k in FILE_KEYS if isinstance(data, dict) and "train" in data and k in data}
 
 
 def predict_eval_cmd(args: argparse.Namespace) -> int:
-    from foresight.core.predict.evaluation import PredictEvalResult
+    from foresight.core.training.predict_eval import PredictEvalResult
 
     train, own = None, {}
     if args.train:
@@ -169,11 +171,11 @@ def predict_eval_cmd(args: argparse.Namespace) -> int:
             model=stage.model_id(args.model, "--model"), dataset=stage.dataset_id(args.dataset, "--dataset")
         )
         return stage.submit(
-            args, stage.spec("predict_eval", values), text=_score_table, result_model=PredictEvalResult
+            args, local.spec("predict_eval", values), text=_score_table, result_model=PredictEvalResult
         )
-    from foresight.core.predict.evaluation import run_predict_eval
+    from foresight.core.training.predict_eval import run_predict_eval
 
-    result = run_predict_eval(stage.config_of(stage.spec("predict_eval", values)), _ctx(args))
+    result = run_predict_eval(local.config_of(local.spec("predict_eval", values)), _ctx(args))
     if args.json:
         emit(
             {
@@ -251,8 +253,8 @@ def import_cmd(args: argparse.Namespace) -> int:
 
 
 def collect_cmd(args: argparse.Namespace) -> int:
-    from foresight.cli.evaluate import overrides
-    from foresight.core.predict.collect import CollectResult
+    from foresight.core.training.collect import CollectResult
+    from foresight.local import overrides
 
     flags = {
         "scenarios": args.scenarios.split(",") if args.scenarios else None,
@@ -274,7 +276,7 @@ def collect_cmd(args: argparse.Namespace) -> int:
             values.update(bundle=bundle, matrix=names["--matrix"], hard_seeds=names["--hard-seeds"])
         return stage.submit(
             args,
-            stage.spec("collect", values),
+            local.spec("collect", values),
             result_model=CollectResult,
             text=lambda r, ref: (
                 f"dataset {ref.id}: {r.summary.samples} samples, outcomes {r.outcomes}\n{ref}"
@@ -286,16 +288,16 @@ def collect_cmd(args: argparse.Namespace) -> int:
             source="command line",
             item="--bundle",
         )
-    from foresight.core.predict.collect import run_collect
+    from foresight.core.training.collect import run_collect
 
     if args.matrix or args.hard_seeds:  # local files; a --config's paths are relative to the builtin configs/
-        from foresight.cli.evaluate import bundle_of
+        from foresight.local import bundle_of
 
         bundle, rel, bundles = bundle_of(args.matrix or str(_builtin_matrix()), args.hard_seeds)
         values.update(bundle=bundle, matrix=rel[0], hard_seeds=rel[1])
     else:
         bundles = matrix_ref(str(_builtin_matrix()))[2]
-    result = run_collect(stage.config_of(stage.spec("collect", values)), _ctx(args, bundles))
+    result = run_collect(local.config_of(local.spec("collect", values)), _ctx(args, bundles))
     emit(
         result,
         args.json,
@@ -305,13 +307,13 @@ def collect_cmd(args: argparse.Namespace) -> int:
 
 
 def _builtin_matrix() -> Path:
-    from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+    from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
 
     return BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml"
 
 
 def mix_cmd(args: argparse.Namespace) -> int:
-    from foresight.core.predict.collect import CollectResult
+    from foresight.core.training.collect import CollectResult
 
     values = {"base": args.base, "hardcase": args.hardcase, "hardcase_repeat": args.repeat}
     if not args.local:
@@ -321,19 +323,19 @@ def mix_cmd(args: argparse.Namespace) -> int:
         )
         return stage.submit(
             args,
-            stage.spec("mix", values),
+            local.spec("mix", values),
             result_model=CollectResult,
             text=lambda r, ref: f"dataset {ref.id}: {r.summary.samples} samples\n{ref}",
         )
-    from foresight.core.predict.collect import run_mix
+    from foresight.core.training.collect import run_mix
 
-    result = run_mix(stage.config_of(stage.spec("mix", values)), _ctx(args))
+    result = run_mix(local.config_of(local.spec("mix", values)), _ctx(args))
     emit(result, args.json, lambda r: f"{r.dataset}: {r.summary.samples} samples")
     return 0
 
 
 def train_cmd(args: argparse.Namespace) -> int:
-    from foresight.core.predict.train_config import TrainResult
+    from foresight.core.training.config import TrainResult
 
     overrides = {
         "dataset": args.dataset,
@@ -362,14 +364,14 @@ def train_cmd(args: argparse.Namespace) -> int:
     if not args.local:
         stage.local_only(args, out="--out")
         values["dataset"] = stage.dataset_id(str(values["dataset"]), "--dataset")
-        return stage.submit(args, stage.spec("train", values), result_model=TrainResult, exit_code=exit_code,
+        return stage.submit(args, local.spec("train", values), result_model=TrainResult, exit_code=exit_code,
                             text=lambda r, ref: text(r, f"\n{ref}\nregister it: foresight models register MODEL_ID "
                                                         f"--job {ref.id} --artifact {Path(r.checkpoint).name}",
                                                      Path(r.checkpoint).name))  # fmt: skip
-    from foresight.core.stages.kinds import run_train  # executor local: in this process; ray: a Ray task
+    from foresight.core.jobs.kinds import run_train  # executor local: in this process; ray: a Ray task
 
     ctx = _ctx(args)
-    result = run_train(stage.config_of(stage.spec("train", values)), ctx)
+    result = run_train(local.config_of(local.spec("train", values)), ctx)
     pages = finish_local("train", result, ctx.workdir)  # as a worker does: the report page, the MLflow copy
     emit(
         result,

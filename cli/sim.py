@@ -8,18 +8,12 @@ import shutil
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from foresight import local
 from foresight.cli import stage, witness
-from foresight.cli.common import (
-    build_config,
-    emit,
-    episode_options,
-    local_context,
-    matrix_options,
-    matrix_ref,
-    progress_bar,
-)
+from foresight.cli.common import emit, episode_options, matrix_options
 from foresight.core.errors import ConfigError
-from foresight.core.stages.simulate import SimulateConfig, SimulateResult, run_simulate
+from foresight.core.jobs.simulate import SimulateConfig, SimulateResult, run_simulate
+from foresight.local import build_config, local_context, matrix_ref, progress_bar
 
 if TYPE_CHECKING:
     from foresight.core.scenarios.model import ResolvedScenario
@@ -115,9 +109,9 @@ def scenarios_list(args: argparse.Namespace) -> int:
 def scenarios_check(args: argparse.Namespace) -> int:
     from dataclasses import asdict
 
-    from foresight.cli.evaluate import overrides
     from foresight.core.scenarios.loader import load_matrix
     from foresight.core.sim.spawn_check import early_contacts
+    from foresight.local import overrides
 
     if not 0 < args.seconds <= 60:
         raise ConfigError(
@@ -151,10 +145,10 @@ def scenarios_check(args: argparse.Namespace) -> int:
 
 
 def scenarios_reachable(args: argparse.Namespace) -> int:
-    from foresight.cli.evaluate import overrides
     from foresight.core.evaluation.runner import expand_seeds, read_outcomes
     from foresight.core.scenarios.loader import load_matrix
     from foresight.core.sim.feasibility import reachability
+    from foresight.local import overrides
 
     matrix = load_matrix(Path(args.matrix), overrides=overrides(args.override))
     chosen = (
@@ -274,7 +268,7 @@ def _table(rows: list[dict]) -> str:
 
 
 def sim_run(args: argparse.Namespace) -> int:
-    from foresight.cli.evaluate import ModelArgs, planner_spec
+    from foresight.local import ModelArgs, planner_spec
 
     values = {"scenarios": [args.scenario], "seeds": [args.seed], "render": bool(args.render)}
     models = ModelArgs()
@@ -288,7 +282,7 @@ def sim_run(args: argparse.Namespace) -> int:
         elif planner.get("name") == "predictive" and "model" not in planner:
             planner["model"] = stage.server_default_model(client)
         bundle, names = stage.bundle_names(args.bundle, {"--matrix": args.matrix})
-        spec = stage.spec(
+        spec = local.spec(
             "simulate", {**values, "bundle": bundle, "matrix": names["--matrix"], "planner": planner}
         )
         return stage.submit(
@@ -307,8 +301,8 @@ def sim_run(args: argparse.Namespace) -> int:
         )
     bundle, rel, roots = matrix_ref(args.matrix)
     planner = planner_spec(args.planner, args.model, models, config=args.planner_config)
-    config = stage.config_of(
-        stage.spec("simulate", {**values, "bundle": bundle, "matrix": rel, "planner": planner})
+    config = local.config_of(
+        local.spec("simulate", {**values, "bundle": bundle, "matrix": rel, "planner": planner})
     )
     ctx = local_context(None, roots, quiet=True)
     ctx.resolve_model = models.resolve
@@ -351,8 +345,8 @@ DEMO_SCENARIOS = 6
 
 
 def demo_run(args: argparse.Namespace) -> int:
+    from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
     from foresight.core.scenarios.loader import load_matrix
-    from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
 
     matrix_path = BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml"
     matrix = load_matrix(matrix_path)

@@ -1,7 +1,7 @@
 """The stage commands' two modes: submit the spec to the server and follow it (the default), or run it
 in-process (``--local``).
 
-Both modes validate the same spec model, the job kind's (``core.stages.kinds``), so a command line means the same
+Both modes validate the same spec model, the job kind's (``core.jobs.kinds``), so a command line means the same
 job either way. On the server inputs are ids (datasets, models) and bundle-relative names (matrices, seed
 manifests, grids): a local file where an id is needed is refused here, before anything is sent, with a hint
 to use ``--local``.
@@ -19,9 +19,8 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from foresight.cli.client import Client, ServerUnreachable, add_connection_args
-from foresight.cli.common import build_config
 from foresight.core.errors import ConfigError, CoreError
-from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
+from foresight.core.runtime.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
 
 #: the ``--executor`` flag of every stage command that runs episodes
 EXECUTOR_HELP = (
@@ -48,20 +47,6 @@ def add_mode_args(p: argparse.ArgumentParser, *, json_flag: bool = True) -> None
             action="store_true",
             help="print the result as JSON (server mode: the finished job, result included)",
         )
-
-
-def spec(kind: str, values: dict[str, Any]) -> BaseModel:
-    """The job kind's spec from command-line values (None = not given); one readable ConfigError when invalid."""
-    from foresight.core.stages.kinds import KINDS
-
-    return build_config(KINDS[kind].spec, {**values, "kind": kind})
-
-
-def config_of(spec_obj: BaseModel) -> Any:
-    """The core stage config of a job spec, exactly as a worker builds it (the job kind's ``config_of``)."""
-    from foresight.core.stages.kinds import KINDS
-
-    return KINDS[spec_obj.kind].config_of(spec_obj)
 
 
 def local_only(args: argparse.Namespace, **flags: str) -> None:

@@ -57,10 +57,9 @@ def add_parser(scen: argparse._SubParsersAction) -> None:
 
 def scenarios_witness(args: argparse.Namespace) -> int:
     """Builds the ``witness`` job's spec (the API takes the same, naming an evaluation by id) and runs it in-process."""
-    from foresight.cli.common import emit, finish_local, local_context
-    from foresight.cli.evaluate import ModelArgs, bundle_of, overrides
-    from foresight.cli.stage import config_of, spec
-    from foresight.core.stages.kinds import KINDS
+    from foresight.cli.common import emit
+    from foresight.core.jobs.kinds import KINDS
+    from foresight.local import ModelArgs, bundle_of, config_of, finish_local, local_context, overrides, spec
 
     if args.workers < 1:
         raise ConfigError(

@@ -21,8 +21,8 @@ DEFAULT_MATRIX = "scenarios/classic_interactions.yaml"
 
 def _files(*refs: str | Path | None) -> tuple[str, list[str | None], dict[str, Path]]:
     """(bundle, bundle-relative names, bundle roots) of files, or of names in the built-in configs."""
-    from foresight.cli.evaluate import bundle_of
-    from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+    from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
+    from foresight.local import bundle_of
 
     return bundle_of(
         *(
@@ -42,8 +42,8 @@ def planner_name(planner: Any) -> str:
 
 
 def _planner(planner: Any, config: dict[str, Any] | None, model: str | None) -> tuple[dict[str, Any], Any]:
-    from foresight.cli.evaluate import ModelArgs
     from foresight.core.planners.registry import entry
+    from foresight.local import ModelArgs
 
     models = ModelArgs()
     name = planner_name(planner)
@@ -76,9 +76,8 @@ def evaluate(
     (a model id, a checkpoint path or "cv"; default: the shipped default model); ``out``: the work folder
     (default: a new temporary folder) where evaluation.json and episodes.jsonl are written.
     """
-    from foresight.cli.common import local_context
-    from foresight.cli.stage import config_of, spec
     from foresight.core.evaluation.runner import run_evaluation
+    from foresight.local import config_of, local_context, spec
 
     bundle, (name, manifest), roots = _files(matrix, seed_manifest)
     planner_dict, models = _planner(planner, config, model)
@@ -111,8 +110,8 @@ def simulate(
     """One episode of a planner: its evaluation record (outcome, metrics, taxonomy) and the full trace."""
     from foresight.core.evaluation.episode import run_one
     from foresight.core.evaluation.plannerspec import resolve_planner
+    from foresight.core.runtime.context import StageContext
     from foresight.core.scenarios.loader import load_matrix
-    from foresight.core.stages.context import StageContext
 
     bundle, (name,), roots = _files(matrix)
     planner_dict, models = _planner(planner, config, model)

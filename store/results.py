@@ -154,7 +154,7 @@ class RunFolder:
         return [by_pair[p] for p in self.episodes if p in by_pair]
 
     def trace(self, name: str) -> Path | None:
-        """The file ``name`` (a trace name, ``core.evaluation.episode_trace.trace_name``) in the folder, if there."""
+        """The file ``name`` (a trace name, ``core.render.episode_trace.trace_name``) in the folder, if there."""
         path = self.path / name
         return path if path.is_file() and path.resolve().is_relative_to(self.path.resolve()) else None
 

@@ -14,7 +14,7 @@ from pydantic import Field, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from foresight.core.dataroots import DEFAULT_SHARED, named_data_roots, parse_data_roots, pick_root
-from foresight.core.stages.budget import DEFAULT_STEP_BUDGET
+from foresight.core.jobs.budget import DEFAULT_STEP_BUDGET
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 TOKEN_FILE = "api-token"

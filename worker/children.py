@@ -25,8 +25,8 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from foresight.core.errors import CoreError
-from foresight.core.stages.context import Cancelled, ChildProgress, StageContext
-from foresight.core.stages.kinds import KINDS
+from foresight.core.jobs.kinds import KINDS
+from foresight.core.runtime.context import Cancelled, ChildProgress, StageContext
 from foresight.store import folders, queue, registry
 from foresight.store.settings import Settings
 

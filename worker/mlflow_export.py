@@ -29,9 +29,9 @@ from pydantic import BaseModel
 
 from foresight.core.evaluation.campaign import CampaignResult
 from foresight.core.evaluation.runner import EvaluationResult, read_records
+from foresight.core.jobs.results import read_result, verdict
 from foresight.core.predict.dataset import config_hash, file_sha256
-from foresight.core.predict.train_config import TrainingSummary, TrainResult
-from foresight.core.stages.results import read_result, verdict
+from foresight.core.training.config import TrainingSummary, TrainResult
 
 #: job kinds whose runs are exported (shards and pipeline stages export through their own kinds)
 EXPORTED_KINDS = ("train", "evaluate", "campaign")

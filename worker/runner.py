@@ -27,9 +27,9 @@ from pathlib import Path
 from typing import Any
 
 from foresight.core.errors import CoreError
-from foresight.core.stages.budget import check_budget, work_size
-from foresight.core.stages.context import Cancelled, ChildProgress, StageContext
-from foresight.core.stages.kinds import KINDS
+from foresight.core.jobs.budget import check_budget, work_size
+from foresight.core.jobs.kinds import KINDS
+from foresight.core.runtime.context import Cancelled, ChildProgress, StageContext
 from foresight.store import folders, queue, records
 from foresight.store.registry import Resolver
 from foresight.store.session import Engine

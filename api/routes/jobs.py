@@ -29,7 +29,7 @@ from foresight.api.schemas import (
     Tag,
     job_public,
 )
-from foresight.core.stages.kinds import KINDS
+from foresight.core.jobs.kinds import KINDS
 from foresight.store import folders, labels, queue
 from foresight.store.models import JobStatus
 from foresight.store.session import is_sqlite

@@ -9,7 +9,7 @@ from fastapi.responses import PlainTextResponse
 
 from foresight.api.deps import EngineDep, SettingsDep
 from foresight.api.schemas import Health, WorkerPublic, WorkersPublic, iso
-from foresight.core.stages.kinds import KINDS
+from foresight.core.jobs.kinds import KINDS
 from foresight.store import queue
 
 router = APIRouter(tags=["operations"])  #: always open (liveness probes carry no token)

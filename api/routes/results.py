@@ -82,7 +82,7 @@ def read_evaluation_episodes(
 def read_episode_trace(
     evaluation_id: Ident, scenario: Ident, seed: int, engine: EngineDep, settings: SettingsDep
 ) -> dict[str, Any]:
-    """One episode's compact trace (core.evaluation.episode_trace): robot, pedestrians with ids, goal and
+    """One episode's compact trace (core.render.episode_trace): robot, pedestrians with ids, goal and
     tolerance, walls, collision, logged forecasts; what the dashboard's episode player draws."""
     return _trace(engine, settings, full_id(engine, evaluation_id), scenario, seed)
 
@@ -114,7 +114,7 @@ def read_witness_trace(
 ) -> dict[str, Any]:
     """The compact trace of a witness job's witness for one episode (the same shape as an evaluation's episode
     trace): what the dashboard plays beside the planner's run of that episode."""
-    from foresight.core.evaluation.episode_trace import read_compact, trace_name
+    from foresight.core.render.episode_trace import read_compact, trace_name
     from foresight.store import folders
 
     job = queue.get_job(engine, full_id(engine, job_id))
@@ -126,7 +126,7 @@ def read_witness_trace(
 
 
 def _trace(engine: Any, settings: Any, ident: str, scenario: str, seed: int) -> dict[str, Any]:
-    from foresight.core.evaluation.episode_trace import read_compact, trace_name
+    from foresight.core.render.episode_trace import read_compact, trace_name
 
     folder = results.run_folder(engine, settings.store_root, ident)
     path = None if folder is None else folder.trace(trace_name(scenario, seed))
@@ -155,7 +155,7 @@ def _episode_path(ident: str, scenario: str, seed: int) -> str:
 
 def episode_list(engine: Any, settings: Any, ident: str) -> list[EpisodePublic]:
     """The episodes of an evaluation or of a campaign cell's suite, failures first (by label), then in run order."""
-    from foresight.core.evaluation.episode_trace import trace_name
+    from foresight.core.render.episode_trace import trace_name
 
     folder = results.run_folder(engine, settings.store_root, ident)
     records = _records(folder)
@@ -237,7 +237,7 @@ def _with_players(folders: dict[str, Any], a: str, b: str, changed: list[Any]) -
     """Changed episodes with the URL of their side-by-side player (None unless both results stored the trace)."""
     from urllib.parse import urlencode
 
-    from foresight.core.evaluation.episode_trace import trace_name
+    from foresight.core.render.episode_trace import trace_name
 
     def both(e: Any) -> bool:
         return all(

@@ -11,8 +11,8 @@ from foresight.api.web import files, previews
 from foresight.api.web.auth import PageNotFound, read_access
 from foresight.api.web.render import page
 from foresight.core.errors import NotFoundError
+from foresight.core.jobs.results import planner_and_model, typed_result, verdict
 from foresight.core.reports.pipeline import headline
-from foresight.core.stages.results import planner_and_model, typed_result, verdict
 from foresight.store import folders, queue, registry, results
 from foresight.store.models import Bundle
 

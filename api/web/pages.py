@@ -12,8 +12,8 @@ from fastapi.responses import HTMLResponse, RedirectResponse, Response
 from foresight.api.web import campaigns, catalog, files
 from foresight.api.web.auth import PageNotFound, read_access
 from foresight.api.web.render import page
-from foresight.core.stages.kinds import KINDS
-from foresight.core.stages.results import Verdict, verdict
+from foresight.core.jobs.kinds import KINDS
+from foresight.core.jobs.results import Verdict, verdict
 from foresight.store import queue
 from foresight.store.models import JobStatus
 
@@ -106,7 +106,7 @@ def _job(request: Request, job_id: str) -> dict[str, Any]:
 
 def _witnesses(job: dict[str, Any]) -> Any:
     """A witness job's typed result (None while it runs, or for a result of another version)."""
-    from foresight.core.stages.results import typed_result
+    from foresight.core.jobs.results import typed_result
 
     return typed_result("witness", job.get("result"))
 

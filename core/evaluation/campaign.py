@@ -52,9 +52,9 @@ from foresight.core.evaluation.runner import (
     write_records,
 )
 from foresight.core.evaluation.stats import ALPHA, MIN_PAIRS
+from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.execution import Execution, execution
 from foresight.core.scenarios.model import ScenarioMatrix
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.execution import Execution, execution
 from foresight.core.version import code_version
 
 CELL_FORMAT = "foresight.campaign_cell/1"

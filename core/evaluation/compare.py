@@ -16,10 +16,10 @@ from pydantic import BaseModel
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.aggregate import BootstrapConfig, aggregate
 from foresight.core.evaluation.delta import Delta, EpisodeChange, changed_episodes, paired_deltas
-from foresight.core.evaluation.episode_trace import episode_stem
 from foresight.core.evaluation.record import EpisodeRecord
 from foresight.core.evaluation.runner import read_records
 from foresight.core.evaluation.stats import ALPHA, MIN_PAIRS
+from foresight.core.render.episode_trace import episode_stem
 
 SHOWN_CHANGES = 20  #: changed episodes a text listing shows (and ``write_players`` writes) per planner
 
@@ -117,7 +117,7 @@ def write_players(
     """For every planner, its first ``limit`` changed episodes as side-by-side player pages (the reference's run
     and its own, ``core.render.player``) under ``out/<planner>/``, where both work folders kept the episode's
     compact trace; the comparison with ``players`` filled in."""
-    from foresight.core.evaluation.episode_trace import trace_name
+    from foresight.core.render.episode_trace import trace_name
     from foresight.core.render.player import write_pair
 
     written: dict[str, list[str]] = {}

@@ -15,9 +15,9 @@ from foresight.core.evaluation.gates import ClosedLoopGateConfig, EvaluationGate
 from foresight.core.evaluation.metrics import MetricsConfig
 from foresight.core.evaluation.plannerspec import PlannerSpec, planner_spec
 from foresight.core.evaluation.taxonomy import TaxonomyConfig
+from foresight.core.runtime.execution import Executor
+from foresight.core.runtime.refs import BUILTIN_BUNDLE, BundlePath, Ident, Name
 from foresight.core.scenarios.model import MAX_EPISODE_STEPS
-from foresight.core.stages.execution import Executor
-from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident, Name
 
 StartMethod = Literal["spawn", "fork", "forkserver"]
 

@@ -30,8 +30,8 @@ from foresight.core.evaluation.runner import (
     run_jobs,
 )
 from foresight.core.evaluation.taxonomy import TaxonomyConfig, count_labels
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.execution import Execution, execution
+from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.execution import Execution, execution
 from foresight.core.version import code_version
 
 

@@ -20,9 +20,9 @@ from foresight.core.evaluation.metrics import EpisodeGeometry, MetricsConfig
 from foresight.core.evaluation.plannerspec import ResolvedPlanner, build_planner
 from foresight.core.evaluation.record import EpisodeRecord, PredictionQuality, Provenance, build_record
 from foresight.core.evaluation.taxonomy import TaxonomyConfig
-from foresight.core.planners.base import EpisodeInfo, Planner
 from foresight.core.scenarios.model import ResolvedScenario
 from foresight.core.sim.observation import Observation
+from foresight.core.sim.planner import EpisodeInfo, Planner
 from foresight.core.version import code_version
 
 #: keep the predictions of every k-th decision for the in-loop ADE/FDE (cost stays small)

@@ -28,9 +28,9 @@ from pydantic import (
 )
 
 from foresight.core.errors import ConfigError, NotFoundError
-from foresight.core.planners.base import EpisodeInfo, Planner, config_hash
+from foresight.core.runtime.context import StageContext
 from foresight.core.scenarios.model import ResolvedScenario
-from foresight.core.stages.context import StageContext
+from foresight.core.sim.planner import EpisodeInfo, Planner, config_hash
 
 CV = "cv"
 NO_MODEL = "none"

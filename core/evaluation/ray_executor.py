@@ -21,16 +21,14 @@ task on whatever nodes the cluster has. Why these choices:
   every task not yet finished.
 
 The cluster is ``FORESIGHT_RAY_ADDRESS`` (e.g. ``ray://head:10001`` or ``head:6379``); without it a local Ray
-instance with the stage's worker count is started for the process. An address nobody answers at is one
-:class:`RayUnreachable` line naming it, within ``CONNECT_TIMEOUT_S``. Ray itself is an optional extra.
+instance with the stage's worker count is started for the process (``core.runtime.cluster``). An address
+nobody answers at is one ``RayUnreachable`` line naming it. Ray itself is an optional extra.
 """
 
 from __future__ import annotations
 
 import os
-import socket
 import tempfile
-import threading
 import uuid
 from collections import OrderedDict
 from collections.abc import Callable, Iterable, Iterator
@@ -39,9 +37,8 @@ from pathlib import Path
 from typing import Any
 
 from foresight.core import files
-from foresight.core.errors import CoreError
+from foresight.core.runtime.cluster import cluster_cpus, connect
 
-RAY_ADDRESS_ENV = "FORESIGHT_RAY_ADDRESS"
 MAX_RETRIES = 3  #: attempts after a lost node or worker process
 POLL_S = 0.25  #: [s] how often the driver checks for cancellation while episodes run
 WINDOW_PER_CPU = (
@@ -51,72 +48,6 @@ CHUNKS_PER_CPU = (
     16  #: a run is cut into chunks of several episodes only when it has more tasks than this per CPU
 )
 MAX_CHUNK = 16  #: most episodes in one task (bounds the work a lost node's retry repeats)
-CONNECT_TIMEOUT_S = 5.0  #: [s] to open a TCP connection to the cluster's address before joining it
-
-_connect_lock = threading.Lock()
-
-
-class RayUnreachable(CoreError):
-    """Nothing answers at the configured Ray address (or Ray refused to join it)."""
-
-
-def _host_port(address: str) -> tuple[str, int] | None:
-    """(host, port) of ``head:6379`` or ``ray://head:10001``; None for addresses Ray resolves itself (``auto``)."""
-    rest = address.split("://", 1)[-1]
-    host, sep, port = rest.rpartition(":")
-    return (host.strip("[]"), int(port)) if sep and host and port.isdigit() else None
-
-
-def _check_reachable(address: str) -> None:
-    hp = _host_port(address)
-    if hp is None:
-        return
-    try:
-        socket.create_connection(hp, timeout=CONNECT_TIMEOUT_S).close()
-    except OSError as exc:
-        raise RayUnreachable(
-            f"Ray cluster at {address} ({RAY_ADDRESS_ENV}) is unreachable: {exc.strerror or exc}; "
-            "start it (ray start --head) or correct the address"
-        ) from None
-
-
-def connect(cpus: int) -> str:
-    """Join the cluster at ``FORESIGHT_RAY_ADDRESS``, or start a local instance with ``cpus`` CPUs, once per
-    process; the address in use. :class:`RayUnreachable` (one line naming the address) when it cannot."""
-    import ray
-
-    with _connect_lock:
-        address = os.environ.get(RAY_ADDRESS_ENV) or None
-        if not ray.is_initialized():
-            quiet = {"include_dashboard": False, "log_to_driver": False, "logging_level": "ERROR"}
-            if address:
-                _check_reachable(address)
-                try:
-                    ray.init(address=address, **quiet)
-                except (ConnectionError, RuntimeError, TimeoutError) as exc:
-                    first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
-                    raise RayUnreachable(
-                        f"cannot join the Ray cluster at {address} ({RAY_ADDRESS_ENV}): {first}"
-                    ) from None
-            else:
-                ray.init(
-                    address="local", num_cpus=max(1, cpus), **quiet
-                )  # a new instance, never a running one
-        return address or "local"
-
-
-def cluster_cpus() -> int:
-    """CPUs the connected cluster offers (recorded with the run)."""
-    import ray
-
-    return int(ray.cluster_resources().get("CPU", 0))
-
-
-def cluster_gpus() -> int:
-    """GPUs the connected cluster offers (training asks for one when there is any)."""
-    import ray
-
-    return int(ray.cluster_resources().get("GPU", 0))
 
 
 # ------------------------------------------------------------------------------ inside a Ray worker process
@@ -139,7 +70,7 @@ def _episodes(
     import ray
 
     from foresight.core.evaluation.episode import EpisodeRun
-    from foresight.core.evaluation.episode_trace import write_compact
+    from foresight.core.render.episode_trace import write_compact
 
     os.environ.setdefault(
         "OMP_NUM_THREADS", "1"

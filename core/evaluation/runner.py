@@ -32,10 +32,10 @@ from foresight.core.evaluation.plannerspec import ResolvedPlanner, preflight, re
 from foresight.core.evaluation.record import EpisodeRecord
 from foresight.core.evaluation.taxonomy import TaxonomyConfig
 from foresight.core.planners.external import release_planner_processes
+from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.execution import Execution, execution
+from foresight.core.runtime.refs import resolve_in_bundle
 from foresight.core.scenarios.model import ScenarioMatrix
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.execution import Execution, execution
-from foresight.core.stages.refs import resolve_in_bundle
 from foresight.core.version import code_version
 
 
@@ -165,7 +165,7 @@ class EpisodeWorker:
         )
         trace = None
         if s.trace_root is not None:
-            from foresight.core.evaluation.episode_trace import compact_bytes, compact_trace, trace_name
+            from foresight.core.render.episode_trace import compact_bytes, compact_trace, trace_name
 
             name = trace_name(job.scenario, job.seed)
             trace = (
@@ -176,7 +176,7 @@ class EpisodeWorker:
 
 
 def write_trace(settings: EpisodeSettings, trace: tuple[str, bytes]) -> None:
-    from foresight.core.evaluation.episode_trace import write_compact
+    from foresight.core.render.episode_trace import write_compact
 
     assert settings.trace_root is not None
     write_compact(Path(settings.trace_root) / trace[0], trace[1])

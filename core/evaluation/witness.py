@@ -226,7 +226,7 @@ def witness_run(scenario: ResolvedScenario, seed: int, plan: ScriptedConfig) -> 
     """The witness's episode, recorded as any run (``EpisodeRun``: record, trace, geometry)."""
     from foresight.core.evaluation.episode import run_one
     from foresight.core.evaluation.plannerspec import NO_MODEL, ResolvedPlanner
-    from foresight.core.planners.base import config_hash
+    from foresight.core.sim.planner import config_hash
 
     config = plan.model_dump(mode="json")
     rp = ResolvedPlanner(
@@ -250,8 +250,8 @@ def write_player(
 ) -> Path:
     """A player page of the witness, beside the planner's own run where its compact trace is given:
     ``out/<scenario>__<seed>.html``; ``witness_trace``: the witness's compact trace where the caller has it already."""
-    from foresight.core.evaluation.episode_trace import compact_trace, episode_stem, read_compact
     from foresight.core.render import player
+    from foresight.core.render.episode_trace import compact_trace, episode_stem, read_compact
 
     if witness.plan is None:
         raise ValueError(f"{witness.scenario} seed {witness.seed} has no witness to play")

@@ -20,10 +20,10 @@ from pydantic import BaseModel, ConfigDict
 
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.plannerspec import ResolvedPlanner, build_planner
-from foresight.core.planners.base import EpisodeInfo
 from foresight.core.planners.predictive.cost import weighted
 from foresight.core.planners.scripted import ScriptedConfig
 from foresight.core.scenarios.model import ResolvedScenario
+from foresight.core.sim.planner import EpisodeInfo
 
 SHOWN_TERMS = (
     3  #: terms named per decision: those the witness's course was charged most for over the planner's choice

@@ -19,13 +19,13 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.config import EpisodeSelection, EvaluationConfig
-from foresight.core.evaluation.episode_trace import compact_trace, trace_name, write_compact
 from foresight.core.evaluation.plannerspec import PlannerSpec, resolve_planner
 from foresight.core.evaluation.witness import Witness, WitnessSettings, search, witness_run, write_player
 from foresight.core.evaluation.witness_cost import WitnessCost, price_witness
+from foresight.core.render.episode_trace import compact_trace, trace_name, write_compact
+from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.refs import BUILTIN_BUNDLE, BundlePath, Ident
 from foresight.core.scenarios.model import ResolvedScenario, ScenarioMatrix
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident
 
 DEFAULT_MATRIX = EpisodeSelection.model_fields["matrix"].default  #: the classic matrix of the builtin bundle
 

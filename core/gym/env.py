@@ -28,10 +28,10 @@ from pydantic import BaseModel, ConfigDict
 
 from foresight.core.evaluation.episode import record_of
 from foresight.core.evaluation.plannerspec import NO_MODEL, ResolvedPlanner
+from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
 from foresight.core.scenarios.loader import load_matrix
 from foresight.core.sim.observation import Observation
 from foresight.core.sim.simulator import Simulator
-from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
 
 DEFAULT_MATRIX = BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml"
 AGENT = ResolvedPlanner(

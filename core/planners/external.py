@@ -28,8 +28,8 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from foresight.core.errors import ConfigError
-from foresight.core.planners.base import EpisodeInfo
 from foresight.core.sim.observation import Observation
+from foresight.core.sim.planner import EpisodeInfo
 
 PROTOCOL = 1
 ENV = "FORESIGHT_EXTERNAL_PLANNERS"

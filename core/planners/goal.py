@@ -12,8 +12,8 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict
 
-from foresight.core.planners.base import EpisodeInfo
 from foresight.core.sim.observation import Observation
+from foresight.core.sim.planner import EpisodeInfo
 
 
 class GoalSeekingConfig(BaseModel):

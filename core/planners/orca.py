@@ -14,9 +14,9 @@ import numpy as np
 import pyrvo
 from pydantic import BaseModel, ConfigDict, Field
 
-from foresight.core.planners.base import EpisodeInfo
 from foresight.core.planners.social_force import limits_of, velocity_to_unicycle
 from foresight.core.sim.observation import Observation
+from foresight.core.sim.planner import EpisodeInfo
 
 
 class OrcaConfig(BaseModel):

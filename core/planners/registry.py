@@ -5,7 +5,7 @@ Names come from four places, all behind the same :class:`PlannerEntry`:
 - the built-ins (``predictive``, ``orca``, ``social_force``, ``goal``, ``scripted``);
 - ``external``: a separate process speaking the JSON-lines protocol (``core.planners.external``); its config
   names one of the operator-configured commands, never a command line;
-- installed plugins: every entry point of the group ``foresight.planners`` (see ``core.planners.base``);
+- installed plugins: every entry point of the group ``foresight.planners`` (see ``core.sim.planner``);
 - in-process planners named ``module:attr`` (or given as Python objects), registered by the process that runs
   them (``register``, used by ``--local`` runs and ``foresight.evaluate``); a server never registers any, so a
   job spec naming one is refused at submission.
@@ -30,7 +30,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, ValidationError
 
 from foresight.core.errors import ConfigError, NotFoundError
-from foresight.core.planners.base import PLANNER_API_VERSION, Planner
+from foresight.core.sim.planner import PLANNER_API_VERSION, Planner
 
 PLUGIN_GROUP = "foresight.planners"
 BUILTIN_NAMES = ("predictive", "orca", "social_force", "goal", "scripted")

@@ -18,8 +18,8 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from foresight.core.planners.base import EpisodeInfo
 from foresight.core.sim.observation import Observation
+from foresight.core.sim.planner import EpisodeInfo
 
 Point = tuple[float, float]
 REACHED = 0.6  #: a target point counts as reached this close [m]

@@ -15,8 +15,8 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from foresight.core.errors import ConfigError
-from foresight.core.planners.base import EpisodeInfo
 from foresight.core.sim.observation import Observation
+from foresight.core.sim.planner import EpisodeInfo
 
 
 def limits_of(robot_limits: dict[str, float]) -> tuple[float, float]:

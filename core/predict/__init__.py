@@ -1,7 +1,6 @@
 """Trajectory prediction: time base, feature extraction, datasets, constant velocity, forecasters.
 
-Everything here imports without torch; the learned model, its training and checkpoints live in
-``core.predict.nn``.
+Everything here imports without torch; the learned model and its checkpoints live in ``core.predict.nn``.
 
 Map of the package (one concept per module):
 - ``timebase``: TimeBase(dt, H, T); planner default 0.2 s, H = 5, T = 12; ETH/UCY 0.4 s, 8, 12.
@@ -13,7 +12,7 @@ Map of the package (one concept per module):
 - ``ethucy``: ETH/UCY fold import (focal-pedestrian frame) with the leakage rules.
 - ``predictor``: the Predictor protocol and constant velocity; ``metrics``: ADE/FDE over target_mask.
 - ``forecaster``: Forecast, ConstantVelocityForecaster, LearnedForecaster (what the planner calls).
-- ``collect`` / ``evaluation`` / ``proxy`` / ``train_config``: stage configs and functions
-  (``run_collect``, ``run_mix``, ``run_predict_eval``, ``ethucy.run_import_ethucy``,
-  ``nn.train.run_train``) and the closed-loop proxy callback for checkpoint selection.
+
+Training (collection, the training config, the closed-loop proxy, ``run_train``, the ETH/UCY benchmark) runs
+evaluations, so it lives above evaluation in ``core.training``; ``ethucy.run_import_ethucy`` stays here.
 """

@@ -31,8 +31,9 @@ from foresight.core.predict.features import Window, extract_features, world_to_e
 from foresight.core.predict.mixing import dataset_from_episodes
 from foresight.core.predict.samples import SampleArrays
 from foresight.core.predict.timebase import ETHUCY_TIMEBASE, TimeBase
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.refs import Ident
+from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.refs import Ident
+from foresight.core.scenarios.ethucy import read_scene
 
 FOLDS = ("eth", "hotel", "univ", "zara1", "zara2")
 #: scene-file prefixes of each fold's held-out scene; they must never be in that fold's train/val
@@ -45,17 +46,6 @@ TEST_SCENES = {
 }
 FRAME_STEP = 10  #: frame-index units per annotation
 FRAME_DT = 0.4  #: seconds per annotation [s]
-
-
-def read_scene(path: Path) -> np.ndarray:
-    """(R, 4) rows frame, ped_id, x, y [m] of a tab/space separated file."""
-    try:
-        rows = np.loadtxt(path, dtype=np.float64, ndmin=2)
-    except ValueError as exc:
-        raise ConfigError(f"not an ETH/UCY file (frame ped_id x y): {exc}", source=path) from None
-    if rows.shape[1] != 4 or not np.isfinite(rows).all():
-        raise ConfigError(f"expected 4 finite columns, got shape {rows.shape}", source=path)
-    return rows
 
 
 def _stride(timebase: TimeBase) -> int:

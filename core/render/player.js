@@ -1,4 +1,4 @@
-// Episode player: draws evaluated episodes' compact traces (core.evaluation.episode_trace) on canvases, world y
+// Episode player: draws evaluated episodes' compact traces (core.render.episode_trace) on canvases, world y
 // up, with play/pause, a time slider and frame steps. One pane per trace: .pane[data-trace] fetches it (the
 // dashboard: GET /v1/evaluations/ID/episodes/S/SEED), .pane[data-trace-script] reads it from the JSON script
 // element of that id (a standalone page: core.render.player). The episode page has one pane, a side-by-side

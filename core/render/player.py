@@ -1,4 +1,4 @@
-"""The episode player as a standalone page: compact traces (``core.evaluation.episode_trace``) embedded in one HTML
+"""The episode player as a standalone page: compact traces (``core.render.episode_trace``) embedded in one HTML
 file with the player script, side by side on one clock. Why: ``foresight compare --local`` has no server to serve
 the dashboard's player, and a comparison is understood by watching the episodes that ended otherwise."""
 
@@ -76,7 +76,7 @@ def write_pair(
 ) -> Path:
     """A side-by-side page of one episode's runs, each (label, outcome, its compact trace file), written as
     ``out/<folder>/<scenario>__<seed>.html`` (names made safe); the panes are headed "label: outcome"."""
-    from foresight.core.evaluation.episode_trace import episode_stem, read_compact, safe_name
+    from foresight.core.render.episode_trace import episode_stem, read_compact, safe_name
 
     return write_player(
         out / safe_name(folder) / f"{episode_stem(scenario, seed)}.html",

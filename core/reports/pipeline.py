@@ -3,7 +3,7 @@ success, clearance), the promoted model and links to every stage's artifacts.
 
 Written by the pipeline runner after the last stage that ran, also when a gate failed (exit code 2) or a
 stage crashed: a failed run is exactly when a person needs the summary. Its input is the
-:class:`~foresight.core.pipeline.summary.PipelineSummary`.
+:class:`~foresight.core.reports.pipeline_summary.PipelineSummary`.
 """
 
 from __future__ import annotations
@@ -16,13 +16,13 @@ from pydantic import BaseModel
 from foresight.core.evaluation.campaign import CampaignResult
 from foresight.core.evaluation.diagnostics import DiagnosticsResult
 from foresight.core.evaluation.runner import EvaluationResult
-from foresight.core.pipeline.summary import PipelineResult, PipelineSummary, best_from_campaign
-from foresight.core.predict.collect import CollectResult
-from foresight.core.predict.train_config import TrainingSummary, TrainResult
 from foresight.core.reports.campaign import ranking_figure
 from foresight.core.reports.common import figure_path, fmt, gate_rows, pct, publish, read, verdict
 from foresight.core.reports.document import Document
+from foresight.core.reports.pipeline_summary import PipelineResult, PipelineSummary, best_from_campaign
 from foresight.core.reports.training import curves
+from foresight.core.training.collect import CollectResult
+from foresight.core.training.config import TrainingSummary, TrainResult
 
 
 def headline(kind: str, result: BaseModel | None) -> str:

@@ -11,7 +11,6 @@ from pathlib import Path
 from typing import Any
 
 from foresight.core.errors import ConfigError
-from foresight.core.predict.train_config import TrainingSummary, TrainResult
 from foresight.core.reports.campaign import write_campaign_report
 from foresight.core.reports.common import read
 from foresight.core.reports.diagnostics import write_diagnostics_report
@@ -19,6 +18,7 @@ from foresight.core.reports.evaluation import write_evaluation_report
 from foresight.core.reports.pipeline import write_pipeline_report
 from foresight.core.reports.training import write_training_report
 from foresight.core.reports.witness import write_witness_report
+from foresight.core.training.config import TrainingSummary, TrainResult
 
 REPORTERS: dict[str, Callable[..., list[Path]]] = {
     "evaluate": write_evaluation_report,

@@ -10,10 +10,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from foresight.core.predict.train_config import EpochRecord, TrainingSummary
 from foresight.core.render.charts import training_curves
 from foresight.core.reports.common import figure_path, fmt, pct, publish, read, verdict
 from foresight.core.reports.document import Document
+from foresight.core.training.config import EpochRecord, TrainingSummary
 
 
 def _gates(doc: Document, summary: TrainingSummary) -> None:

@@ -31,6 +31,7 @@ import numpy as np
 
 from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.maps.model import MapDef, Route, Zone
+from foresight.core.scenarios.ethucy import read_scene
 from foresight.core.scenarios.model import ReplayTracks, Scenario
 
 FRAME_STEP = 10  #: frame-number units between two annotations (every ETH/UCY file)
@@ -50,8 +51,6 @@ class SceneFiles:
         self._cache: dict[Path, tuple[np.ndarray, str]] = {}
 
     def rows(self, scenario: Scenario, source: Path) -> tuple[np.ndarray, str, Path]:
-        from foresight.core.predict.ethucy import read_scene
-
         cfg = scenario.replay
         assert cfg is not None
         item = f"{scenario.name}.replay"

@@ -9,9 +9,9 @@ from typing import Any
 
 import numpy as np
 
-from foresight.core.planners.base import EpisodeInfo, Planner
 from foresight.core.scenarios.model import ResolvedScenario
 from foresight.core.sim.observation import Events, Observation
+from foresight.core.sim.planner import EpisodeInfo, Planner
 from foresight.core.sim.simulator import Simulator
 from foresight.core.sim.trace import Trace
 

@@ -46,10 +46,10 @@ CONFIG_FORMATS: tuple[tuple[str, tuple[str, ...], str], ...] = (
      "One entry of a planner grid's `variants` (`configs/planners/*_grid_*.yaml`)."),
     ("Evaluation", ("foresight.core.evaluation.config:EvaluationConfig",), "An `evaluate` job's spec."),
     ("Campaign", ("foresight.core.evaluation.config:CampaignConfig",), "A `campaign` job's spec."),
-    ("Collection", ("foresight.core.predict.collect:CollectConfig", "foresight.core.training.collect:CollectConfig"), "A `collect` job's spec."),
-    ("Training", ("foresight.core.predict.train_config:TrainConfig", "foresight.core.training.config:TrainConfig"),
+    ("Collection", ("foresight.core.training.collect:CollectConfig",), "A `collect` job's spec."),
+    ("Training", ("foresight.core.training.config:TrainConfig",),
      "A training config (`configs/training/*.yaml`, `foresight train --config FILE`)."),
-    ("Pipeline", ("foresight.core.pipeline.config:PipelineConfig", "foresight.core.jobs.pipeline.config:PipelineConfig"),
+    ("Pipeline", ("foresight.core.jobs.pipeline.config:PipelineConfig",),
      "The runbook as one file (`configs/pipelines/*.yaml`, `foresight pipeline run -f FILE`)."),
 )  # fmt: skip
 

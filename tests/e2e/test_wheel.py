@@ -27,7 +27,7 @@ PACKAGE_DATA = [
     "foresight/migrations/env.py", "foresight/migrations/script.py.mako",
     "foresight/api/web/templates/job.html", "foresight/configs/scenarios/classic_interactions.yaml",
     "foresight/configs/maps/registry.yaml", "foresight/model/registry.yaml", "foresight/model/predictor-sim-default.pt",
-    "foresight/store/queue.py", "foresight/core/stages/kinds.py", "foresight/cli/main.py", "foresight/worker/runner.py",
+    "foresight/store/queue.py", "foresight/core/jobs/kinds.py", "foresight/cli/main.py", "foresight/worker/runner.py",
 ]  # fmt: skip
 
 #: a user's own packages named like ours: importing them would be a bug of ours

@@ -72,9 +72,9 @@ def tracking(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, Pa
                                    "--port", str(port), "--workers", "1"], cwd=tmp, env=env, stdout=log,
                                   stderr=subprocess.STDOUT, start_new_session=True)  # fmt: skip
     try:
-        from foresight.core.predict.collect import CollectConfig, run_collect
-        from foresight.core.stages.context import StageContext
-        from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+        from foresight.core.runtime.context import StageContext
+        from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
+        from foresight.core.training.collect import CollectConfig, run_collect
 
         run_collect(
             CollectConfig(**COLLECT),

@@ -22,7 +22,7 @@ import pytest
 
 from foresight.core.evaluation.config import EvaluationConfig
 from foresight.core.evaluation.runner import read_records, run_evaluation
-from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
 from tests.results import without
 
 from .service import Service, free_port, wait_job
@@ -138,7 +138,7 @@ def cluster(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Cluster]:
 
 
 def _local_records(tmp: Path) -> list[dict]:
-    from foresight.cli.common import local_context
+    from foresight.local import local_context
 
     ctx = local_context(tmp / "local", {"builtin": BUILTIN_CONFIG_ROOT}, quiet=True)
     run_evaluation(EvaluationConfig(**{k: v for k, v in EVALUATE.items() if k != "kind"}), ctx)
@@ -178,10 +178,10 @@ def test_evaluation_over_http_runs_on_both_nodes_and_equals_local(cluster: Clust
 
 
 def test_campaign_over_http_runs_on_both_nodes_and_equals_local(cluster: Cluster, tmp_path: Path) -> None:
-    from foresight.cli.common import local_context
     from foresight.core.evaluation.campaign import run_campaign
     from foresight.core.evaluation.config import CampaignConfig
-    from foresight.core.evaluation.episode_trace import read_compact, trace_name
+    from foresight.core.render.episode_trace import read_compact, trace_name
+    from foresight.local import local_context
 
     def read(c: httpx.Client, job: dict) -> tuple[dict, dict]:
         """Each cell's records, and each cell's first global-suite episode with its trace as the service serves it
@@ -216,11 +216,11 @@ def test_campaign_over_http_runs_on_both_nodes_and_equals_local(cluster: Cluster
 def test_node_killed_mid_run_loses_and_duplicates_nothing(cluster: Cluster, tmp_path: Path) -> None:
     import ray
 
-    from foresight.cli.common import local_context
-    from foresight.core.evaluation import ray_executor
+    from foresight.core.runtime.cluster import RAY_ADDRESS_ENV
+    from foresight.local import local_context
 
     ray.shutdown()
-    os.environ[ray_executor.RAY_ADDRESS_ENV] = cluster.address
+    os.environ[RAY_ADDRESS_ENV] = cluster.address
     try:
         ctx = local_context(tmp_path / "ray", {"builtin": BUILTIN_CONFIG_ROOT}, quiet=True)
         done: list[str] = []
@@ -233,7 +233,7 @@ def test_node_killed_mid_run_loses_and_duplicates_nothing(cluster: Cluster, tmp_
         records = read_records(ctx.workdir / "episodes.jsonl")
     finally:
         ray.shutdown()
-        del os.environ[ray_executor.RAY_ADDRESS_ENV]
+        del os.environ[RAY_ADDRESS_ENV]
         cluster.node = None
     _wait_for(
         lambda: cluster.nodes_alive() == 1, timeout=90

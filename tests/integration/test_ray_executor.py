@@ -19,9 +19,9 @@ import pytest
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.config import EvaluationConfig
 from foresight.core.evaluation.runner import run_evaluation
-from foresight.core.predict.collect import CollectConfig, run_collect
-from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
-from foresight.core.stages.results import execution_of
+from foresight.core.jobs.results import execution_of
+from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.training.collect import CollectConfig, run_collect
 
 from .service import Service, free_port, wait_job
 
@@ -63,7 +63,7 @@ def ray_instance() -> Iterator[None]:
 
 
 def _ctx(folder: Path):  # noqa: ANN202
-    from foresight.cli.common import local_context
+    from foresight.local import local_context
 
     return local_context(folder, {"builtin": BUILTIN_CONFIG_ROOT}, quiet=True)
 
@@ -87,7 +87,7 @@ def test_never_more_than_the_window_in_flight(ray_instance: None) -> None:
     import ray
 
     from foresight.core.evaluation import ray_executor
-    from foresight.core.stages.context import StageContext
+    from foresight.core.runtime.context import StageContext
 
     pulled: list[int] = []
 
@@ -171,9 +171,9 @@ def test_training_as_a_ray_task_falls_back_to_a_cpu_and_writes_the_local_checkpo
 ) -> None:
     import torch
 
+    from foresight.core.jobs.kinds import KINDS
     from foresight.core.predict.nn.checkpoint import load_predictor, read_checkpoint
-    from foresight.core.predict.train_config import TrainConfig
-    from foresight.core.stages.kinds import KINDS
+    from foresight.core.training.config import TrainConfig
 
     data = run_collect(CollectConfig(**COLLECT, val_fraction=0.25), _ctx(tmp_path / "data"))
     dataset = str(tmp_path / "data" / data.dataset)

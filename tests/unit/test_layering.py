@@ -53,10 +53,13 @@ def test_core_imports_no_service_code() -> None:
     assert {k: v for k, v in bad.items() if v} == {}
 
 
-def test_torch_only_in_predict_nn() -> None:
-    nn = REPO / "core" / "predict" / "nn"
+def test_torch_only_in_predict_nn_and_training() -> None:
+    """torch is an optional extra: the model and checkpoints (``predict/nn``) and training itself import it."""
+    nn, train = REPO / "core" / "predict" / "nn", REPO / "core" / "training" / "train.py"
     offenders = [
-        str(p.relative_to(REPO)) for p in _core_files() if "torch" in _imports(p) and nn not in p.parents
+        str(p.relative_to(REPO))
+        for p in _core_files()
+        if "torch" in _imports(p) and nn not in p.parents and p != train
     ]
     assert offenders == []
 
@@ -72,10 +75,11 @@ def test_matplotlib_only_in_render() -> None:
 
 
 def test_nothing_imports_cli_or_bench() -> None:
+    """The Python API and the benches run stages through ``foresight.local``, as the CLI's ``--local`` does."""
     offenders = []
-    for pkg in ("core", "store", "api", "worker"):
+    for pkg in ("core", "store", "api", "worker", "foresight", "bench"):
         for p in (REPO / pkg).rglob("*.py"):
-            if _imports(p) & {"cli", "bench"}:
+            if _imports(p) & ({"cli", "bench"} - {pkg}):  # the benches may share their own helpers
                 offenders.append(str(p.relative_to(REPO)))
     assert offenders == []
 
@@ -197,3 +201,66 @@ def test_only_the_exporter_imports_mlflow() -> None:
     """The MLflow client (network I/O, an optional extra) lives in one worker-side module."""
     offenders = [str(p.relative_to(REPO)) for p in _modules().values() if "mlflow" in _imports(p)]
     assert offenders == ["worker/mlflow_export.py"]
+
+
+#: core's sub-packages from bottom to top (``""``: the modules directly in core/, such as errors and files): a
+#: module imports only from its own level or below, inside functions too. A new sub-package takes its place here.
+CORE_ORDER = (
+    "",
+    "runtime",  # the stage contract: context, typed refs, execution record, the Ray cluster
+    "maps",
+    "scenarios",
+    "sim",  # the simulator and the planner protocol it calls
+    "predict",
+    "planners",
+    "render",  # pictures, and the compact episode trace they draw
+    "evaluation",
+    "training",  # collection, training, the closed-loop proxy (it runs evaluations)
+    "reports",
+    "gym",
+    "jobs",  # the job table: kinds, results, budgets, the pipeline
+)
+
+
+def _core_level(module: str) -> str:
+    """``foresight.core.sim.episode`` -> ``sim``; a module directly in core/ -> ``""``."""
+    parts = module.split(".")
+    return parts[2] if len(parts) > 3 or (len(parts) == 3 and (REPO / "core" / parts[2]).is_dir()) else ""
+
+
+def _core_package_graph() -> dict[str, set[str]]:
+    graph: dict[str, set[str]] = defaultdict(set)
+    for source, targets in _module_graph().items():
+        if _top(source) != "core":
+            continue
+        graph.setdefault(_core_level(source), set())
+        for target in targets:
+            if _top(target) == "core" and _core_level(target) != _core_level(source):
+                graph[_core_level(source)].add(_core_level(target))
+    return graph
+
+
+def test_core_order_names_every_sub_package() -> None:
+    assert set(_core_package_graph()) == set(CORE_ORDER)
+
+
+def test_no_import_cycle_between_core_sub_packages() -> None:
+    assert _cycles(_core_package_graph()) == []
+
+
+def test_core_imports_only_run_down_its_declared_order() -> None:
+    rank = {name: i for i, name in enumerate(CORE_ORDER)}
+    upward = sorted(
+        f"{source} -> {target}"
+        for source, targets in _module_graph().items()
+        if _top(source) == "core"
+        for target in targets
+        if _top(target) == "core" and rank[_core_level(target)] > rank[_core_level(source)]
+    )
+    assert upward == []
+
+
+def test_core_graph_counts_imports_inside_functions() -> None:
+    """The job table imports training (torch) only inside the function that runs it; the graph still sees it."""
+    assert "foresight.core.training.train" in _module_graph()["foresight.core.jobs.kinds"]
+    assert _core_level("foresight.core.jobs.kinds") == "jobs" and _core_level("foresight.core.errors") == ""

@@ -14,7 +14,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from foresight.core.errors import ConfigError
-from foresight.core.planners.base import config_hash
+from foresight.core.sim.planner import config_hash
 
 
 class _Frozen(BaseModel):

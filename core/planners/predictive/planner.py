@@ -27,7 +27,6 @@ from typing import Any
 import numpy as np
 
 from foresight.core.errors import ConfigError
-from foresight.core.planners.base import EpisodeInfo
 from foresight.core.planners.predictive import cost as C
 from foresight.core.planners.predictive.config import PredictivePlannerConfig
 from foresight.core.planners.predictive.geodesic import GeodesicDistance
@@ -42,6 +41,7 @@ from foresight.core.planners.predictive.sampling import (
 from foresight.core.planners.predictive.traffic import TrafficMap
 from foresight.core.predict.forecaster import Forecaster
 from foresight.core.sim.observation import Observation
+from foresight.core.sim.planner import EpisodeInfo
 from foresight.core.sim.robot import RobotLimits, unicycle_step
 
 

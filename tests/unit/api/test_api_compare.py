@@ -131,7 +131,7 @@ def test_evaluations_of_the_same_episodes_are_paired(client, engine, settings) -
 
 def test_paired_evaluations_list_the_episodes_that_ended_otherwise(client, engine, settings) -> None:  # noqa: ANN001
     """The discordant pairs behind the McNemar test by name, with a side-by-side player where both kept the trace."""
-    from foresight.core.evaluation.episode_trace import trace_name
+    from foresight.core.render.episode_trace import trace_name
 
     a = [record("s_low", s, "timeout" if s in (3, 5) else "success") for s in range(6)]
     b = [record("s_low", s, "collision_pedestrian" if s == 1 else "success") for s in range(6)]
@@ -176,7 +176,7 @@ def test_paired_evaluations_list_the_episodes_that_ended_otherwise(client, engin
 
 
 def test_compare_page_lists_them_and_links_the_side_by_side_player(client, engine, settings) -> None:  # noqa: ANN001
-    from foresight.core.evaluation.episode_trace import trace_name
+    from foresight.core.render.episode_trace import trace_name
 
     a = [record("s_low", s, "timeout" if s == 2 else "success") for s in range(4)]
     b = [record("s_low", s, "success") for s in range(4)]
@@ -208,8 +208,8 @@ def test_two_campaign_cells_are_paired_with_their_changed_episodes_played_side_b
     compare paired like two evaluations, per suite, and each changed episode plays side by side."""
     from foresight.core.evaluation.campaign import run_campaign
     from foresight.core.evaluation.config import CampaignConfig
-    from foresight.core.stages.context import StageContext
-    from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+    from foresight.core.runtime.context import StageContext
+    from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
     from foresight.store import queue, records
 
     spec = {

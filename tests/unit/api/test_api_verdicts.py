@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from foresight.core.stages.results import planner_and_model, verdict
+from foresight.core.jobs.results import planner_and_model, verdict
 from foresight.store import queue
 from tests.unit.reports import data
 

@@ -12,7 +12,7 @@ REPO = Path(__file__).resolve().parents[3]
 
 
 def test_one_progress_bar_style() -> None:
-    """Only cli.common.progress_bar builds a rich Progress; no command draws its own carriage-return bar."""
+    """Only foresight.local.progress_bar builds a rich Progress; no command draws its own carriage-return bar."""
     offenders = []
     for path in sorted((REPO / "cli").glob("*.py")):
         for node in ast.walk(ast.parse(path.read_text())):

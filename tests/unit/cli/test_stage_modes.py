@@ -8,10 +8,11 @@ from pathlib import Path
 
 import pytest
 
+from foresight import local
 from foresight.cli import stage
 from foresight.cli.main import main
 from foresight.core.errors import ConfigError
-from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
 
 
 @pytest.fixture
@@ -94,12 +95,12 @@ def test_bundle_names() -> None:
 
 def test_the_local_and_server_specs_are_one_model() -> None:
     """Both modes validate the job kind's spec; --local runs the core config a worker would build from it."""
-    from foresight.core.predict.collect import CollectConfig
-    from foresight.core.stages.kinds import KINDS
+    from foresight.core.jobs.kinds import KINDS
+    from foresight.core.training.collect import CollectConfig
 
-    spec = stage.spec("collect", {"scenarios": ["crossing_low"], "seeds_per_scenario": 2, "max_steps": None})
+    spec = local.spec("collect", {"scenarios": ["crossing_low"], "seeds_per_scenario": 2, "max_steps": None})
     assert isinstance(spec, KINDS["collect"].spec) and spec.kind == "collect"
-    config = stage.config_of(spec)
+    config = local.config_of(spec)
     assert type(config) is CollectConfig and config.model_dump() == spec.model_dump(exclude={"kind"})
     with pytest.raises(ConfigError, match="seeds_per_scenario"):
-        stage.spec("collect", {"seeds_per_scenario": -1})
+        local.spec("collect", {"seeds_per_scenario": -1})

@@ -14,8 +14,8 @@ from foresight.core.evaluation.campaign import CellResult, rank, ranking_key, ru
 from foresight.core.evaluation.config import CampaignConfig
 from foresight.core.evaluation.integrity import check_integrity
 from foresight.core.evaluation.runner import PlannerProvenance
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
 
 from .traces import record
 
@@ -114,7 +114,7 @@ def test_campaign_runs_ranks_and_resumes(bundle: Path, tmp_path: Path) -> None:
     assert "Paired against the baseline cell" in (work / "campaign_report.md").read_text()
     # each cell is a run folder like an evaluation's: its episodes and every one's trace, so it compares locally
     from foresight.core.evaluation.compare import compare, load_run
-    from foresight.core.evaluation.episode_trace import read_compact, trace_name
+    from foresight.core.render.episode_trace import read_compact, trace_name
 
     assert first.suites == {
         "hard": [("crossing_high", 3)],

@@ -14,7 +14,7 @@ from foresight.core.errors import ConfigError
 from foresight.core.evaluation import plannerspec
 from foresight.core.evaluation.plannerspec import PlannerSpec, build_planner, load_model, resolve_planner
 from foresight.core.predict.nn.checkpoint import load_predictor, read_checkpoint
-from foresight.core.stages.context import StageContext
+from foresight.core.runtime.context import StageContext
 
 REPO = Path(__file__).resolve().parents[3]
 SHIPPED = REPO / "model" / "predictor-sim-default.pt"

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from foresight.cli.main import main
-from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
 
 MATRIX = str(BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml")
 
@@ -145,7 +145,7 @@ def test_override_errors_name_the_key(tmp_path: Path, capsys: pytest.CaptureFixt
 def test_campaign_takes_overrides_into_both_suites_and_its_fingerprints(tmp_path: Path) -> None:
     from foresight.core.evaluation.campaign import _fingerprint, prepare_campaign
     from foresight.core.evaluation.config import CampaignConfig
-    from foresight.core.stages.context import StageContext
+    from foresight.core.runtime.context import StageContext
 
     over = {"simulation_config": {"ped_speed_tier": "realistic", "nonreactive_fraction": 1.0}}
     base = dict(

@@ -8,8 +8,8 @@ from pathlib import Path
 
 from foresight.core.evaluation.config import DiagnosticsConfig
 from foresight.core.evaluation.diagnostics import run_diagnostics
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
 
 
 def test_diagnostics_of_a_manifest(tmp_path: Path) -> None:

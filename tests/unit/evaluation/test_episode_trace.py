@@ -6,12 +6,12 @@ from pathlib import Path
 
 import numpy as np
 
-from foresight.cli.common import local_context
-from foresight.core.evaluation import episode_trace
 from foresight.core.evaluation.config import EvaluationConfig
-from foresight.core.evaluation.episode_trace import read_compact, trace_name
 from foresight.core.evaluation.runner import read_records, run_evaluation
-from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.render import episode_trace
+from foresight.core.render.episode_trace import read_compact, trace_name
+from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
+from foresight.local import local_context
 
 
 def _evaluate(tmp_path: Path, planner: dict, scenarios: list[str], max_steps: int) -> Path:

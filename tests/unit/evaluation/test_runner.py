@@ -11,8 +11,8 @@ from pydantic import ValidationError
 from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.evaluation.config import EvaluationConfig
 from foresight.core.evaluation.runner import expand_seeds, read_records, run_evaluation
-from foresight.core.stages.context import Cancelled, StageContext
-from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.runtime.context import Cancelled, StageContext
+from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
 
 
 def _ctx(tmp: Path, workers: int = 1, **kw) -> StageContext:

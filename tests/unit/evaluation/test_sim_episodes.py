@@ -8,9 +8,9 @@ import pytest
 
 from foresight.core.evaluation.episode import run_one
 from foresight.core.evaluation.plannerspec import PlannerSpec, resolve_planner
+from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
 from foresight.core.scenarios.loader import load_matrix
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
 
 
 @pytest.fixture(scope="module")

@@ -14,8 +14,8 @@ from foresight.core.evaluation.plannerspec import resolve_planner
 from foresight.core.evaluation.witness import WitnessSettings, search, witness_run
 from foresight.core.evaluation.witness_cost import WitnessCost, price_witness
 from foresight.core.planners.scripted import ScriptedConfig
+from foresight.core.runtime.context import StageContext
 from foresight.core.scenarios.loader import load_matrix
-from foresight.core.stages.context import StageContext
 
 REPO = Path(__file__).resolve().parents[3]
 TYPICAL = {"simulation_config": {"ped_speed_tier": "typical"}}

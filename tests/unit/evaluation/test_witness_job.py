@@ -8,8 +8,8 @@ import pytest
 
 from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.evaluation.witness_job import MAX_SEARCHES, WitnessConfig, plan_search, run_witness
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
+from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
 
 
 def _ctx(tmp_path: Path) -> StageContext:

@@ -34,9 +34,9 @@ WRITERS = {
     "collect dataset (npz)": (
         "base/dataset.npz",
         """
-        from foresight.core.predict.collect import CollectConfig, run_collect
-        from foresight.core.stages.context import StageContext
-        from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+        from foresight.core.training.collect import CollectConfig, run_collect
+        from foresight.core.runtime.context import StageContext
+        from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
         config = CollectConfig(scenarios=["crossing_high"], seeds_per_scenario=2, max_steps=60, check_quality=False)
         limit(4096)
         run_collect(config, StageContext(workdir=out / "base", resolve_bundle=lambda ident: BUILTIN_CONFIG_ROOT))
@@ -57,7 +57,7 @@ WRITERS = {
         """
         from foresight.core.scenarios.loader import load_matrix
         from foresight.core.sim.simulator import Simulator
-        from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+        from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
         sim = Simulator()
         matrix = load_matrix(BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml")
         sim.reset(matrix.get("crossing_high"), 0)

@@ -9,10 +9,10 @@ from typing import Any
 import pytest
 
 from foresight.core.errors import ConfigError
-from foresight.core.pipeline.config import PipelineConfig, load_pipeline_config, stage_config
-from foresight.core.pipeline.runbook import ChildRun, StageFailed, check_seed_separation, run_pipeline
-from foresight.core.stages.context import Cancelled, StageContext
-from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
+from foresight.core.jobs.pipeline.config import PipelineConfig, load_pipeline_config, stage_config
+from foresight.core.jobs.pipeline.runbook import ChildRun, StageFailed, check_seed_separation, run_pipeline
+from foresight.core.runtime.context import Cancelled, StageContext
+from foresight.core.runtime.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
 from tests.conftest import REPO
 from tests.unit.reports import data
 

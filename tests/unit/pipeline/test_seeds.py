@@ -8,16 +8,16 @@ import re
 import pytest
 
 from foresight.core.errors import ConfigError
-from foresight.core.pipeline.seeds import (
+from foresight.core.jobs.pipeline.seeds import (
     EVALUATION_SEED_MAX,
     TRAINING_SEED_MIN,
     mine_failures,
     parse_seed_range,
     read_manifest_pairs,
 )
+from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
 from foresight.core.scenarios.loader import load_matrix
 from foresight.core.scenarios.seeds import load_seed_manifest
-from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
 
 SEEDS = BUILTIN_CONFIG_ROOT / "seeds"
 MATRIX = BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml"

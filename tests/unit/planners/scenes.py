@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 
 from foresight.core.maps.model import MapDef, Route, Zone
-from foresight.core.planners.base import EpisodeInfo
 from foresight.core.scenarios.model import ResolvedScenario, Scenario
 from foresight.core.sim.geometry import StaticMap
 from foresight.core.sim.observation import Observation
+from foresight.core.sim.planner import EpisodeInfo
 from foresight.core.sim.robot import RobotLimits
 
 

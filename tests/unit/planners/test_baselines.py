@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from foresight.core.errors import ConfigError, NotFoundError
-from foresight.core.planners.base import Planner
 from foresight.core.planners.orca import OrcaPlanner
 from foresight.core.planners.registry import make_planner
 from foresight.core.planners.social_force import SocialForcePlanner, velocity_to_unicycle
+from foresight.core.sim.planner import Planner
 from tests.unit.planners.scenes import corridor_map, info_for, observation
 
 WALL = ((9.0, 8.0), (10.0, 8.0), (10.0, 12.0), (9.0, 12.0))  # a pillar on the route, 4 m ahead

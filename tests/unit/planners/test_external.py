@@ -16,8 +16,8 @@ from foresight.core.evaluation.config import EvaluationConfig
 from foresight.core.evaluation.runner import run_evaluation
 from foresight.core.planners import external
 from foresight.core.planners.external import close_all, operator_commands
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
+from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
 
 REPO = Path(__file__).resolve().parents[3]
 BAD = Path(__file__).with_name("bad_external_planner.py")
@@ -107,9 +107,9 @@ def _shape(value: object) -> object:
 
 def test_the_documented_messages_are_the_ones_sent_and_understood() -> None:
     """docs/planner_protocol.md against the code: the same keys at every depth."""
-    from foresight.core.planners.base import EpisodeInfo
     from foresight.core.planners.external import observation_message, start_message
     from foresight.core.scenarios.loader import load_matrix
+    from foresight.core.sim.planner import EpisodeInfo
     from foresight.core.sim.simulator import Simulator
 
     text = (REPO / "docs" / "planner_protocol.md").read_text()

@@ -51,12 +51,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from foresight.core.planners.base import EpisodeInfo
 from foresight.core.planners.predictive.config import PredictivePlannerConfig
 from foresight.core.planners.predictive.planner import PredictivePlanner
 from foresight.core.predict.forecaster import ConstantVelocityForecaster, LearnedForecaster
 from foresight.core.predict.timebase import PLANNER_TIMEBASE
 from foresight.core.scenarios.model import ResolvedScenario, RobotConfig, Scenario
+from foresight.core.sim.planner import EpisodeInfo
 from tests.unit.planners.scenes import corridor_map, observation
 
 FIXTURE = Path(__file__).with_name("predictive_golden.json")

@@ -7,12 +7,12 @@ import pytest
 
 from foresight.core.errors import ConfigError
 from foresight.core.maps.model import SinglePedestrian
-from foresight.core.planners.base import EpisodeInfo, Planner
 from foresight.core.planners.predictive.config import PredictivePlannerConfig
 from foresight.core.planners.predictive.planner import PredictivePlanner
 from foresight.core.predict.forecaster import ConstantVelocityForecaster
 from foresight.core.predict.timebase import PLANNER_TIMEBASE, TimeBase
 from foresight.core.scenarios.model import ResolvedScenario, Scenario, SimulationConfig
+from foresight.core.sim.planner import EpisodeInfo, Planner
 from foresight.core.sim.simulator import Simulator
 from tests.unit.planners.scenes import corridor_map, info_for, observation
 

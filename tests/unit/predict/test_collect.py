@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from foresight.core.errors import ConfigError
-from foresight.core.predict.collect import CollectConfig, MixConfig, episode_list, run_collect, run_mix
 from foresight.core.predict.dataset import load_dataset
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.training.collect import CollectConfig, MixConfig, episode_list, run_collect, run_mix
 
 
 def _ctx(path):

@@ -5,14 +5,14 @@ from pathlib import Path
 
 import yaml
 
-from foresight.core.predict.collect import CollectConfig, run_collect
 from foresight.core.predict.dataset import load_dataset
 from foresight.core.predict.metrics import evaluate_predictor
 from foresight.core.predict.nn.checkpoint import load_predictor
 from foresight.core.predict.predictor import ConstantVelocityPredictor
 from foresight.core.predict.timebase import PLANNER_TIMEBASE
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.training.collect import CollectConfig, run_collect
 
 REPO = Path(__file__).resolve().parents[3]
 HELD_OUT_SEED = 7_000_000  #: far from the training base seeds (50000 + i * 100000 + k, k < 48)

@@ -152,7 +152,7 @@ def test_reversed_scenes_never_on_the_test_split(tmp_path):
 def test_reverse_train_needs_training_on_ethucy():
     from pydantic import ValidationError
 
-    from foresight.core.predict.evaluation import PredictEvalConfig
+    from foresight.core.training.predict_eval import PredictEvalConfig
 
     assert PredictEvalConfig(train={}, ethucy="ethucy", reverse_train=True).reverse_train
     for kwargs in ({"model": "cv", "ethucy": "ethucy"}, {"train": {}, "dataset": "d.npz"}):

@@ -57,9 +57,9 @@ def test_train_config_switch_reaches_the_checkpoint(tmp_path, curving_dataset):
     """``train.mirror_average`` is stored in the (ensemble's) model config, so the saved model forecasts symmetrically."""
     from foresight.core.predict.dataset import load_dataset
     from foresight.core.predict.nn.checkpoint import load_predictor
-    from foresight.core.predict.nn.train import run_train
-    from foresight.core.predict.train_config import TrainConfig
-    from foresight.core.stages.context import StageContext
+    from foresight.core.runtime.context import StageContext
+    from foresight.core.training.config import TrainConfig
+    from foresight.core.training.train import run_train
 
     cfg = TrainConfig(
         dataset=str(curving_dataset),
@@ -90,7 +90,7 @@ def test_train_config_switch_reaches_the_checkpoint(tmp_path, curving_dataset):
 def test_mirror_average_without_mirrored_training_is_refused(tmp_path):
     """A model trained where walkers keep a side would average with a forecast of a world that does not exist."""
     from foresight.core.errors import ConfigError
-    from foresight.core.predict.train_config import TrainConfig, load_config
+    from foresight.core.training.config import TrainConfig, load_config
 
     path = tmp_path / "train.yaml"
     path.write_text("train:\n  dataset: d\n  mirror_average: true\n")

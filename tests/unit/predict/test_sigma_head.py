@@ -12,11 +12,11 @@ import torch
 from foresight.core.predict.forecaster import LearnedForecaster
 from foresight.core.predict.nn.checkpoint import load_predictor, read_checkpoint, save_checkpoint
 from foresight.core.predict.nn.model import ModelConfig, build_model, masked_gaussian_nll
-from foresight.core.predict.nn.train import run_train
 from foresight.core.predict.timebase import PLANNER_TIMEBASE as TB
-from foresight.core.predict.train_config import TrainConfig
 from foresight.core.predict.uncertainty import LEARNED_SIGMA
-from foresight.core.stages.context import StageContext
+from foresight.core.runtime.context import StageContext
+from foresight.core.training.config import TrainConfig
+from foresight.core.training.train import run_train
 from tests.unit.predict.helpers import make_obs
 
 FAST = dict(epochs=3, batch_size=64, hidden=16, blocks=1, lr=3e-3, threads=1)

@@ -7,9 +7,9 @@ import torch
 from foresight.core.errors import ConfigError
 from foresight.core.predict.nn.checkpoint import read_checkpoint
 from foresight.core.predict.nn.selection import Selection
-from foresight.core.predict.nn.train import run_train
-from foresight.core.predict.train_config import TrainConfig, load_config
-from foresight.core.stages.context import StageContext
+from foresight.core.runtime.context import StageContext
+from foresight.core.training.config import TrainConfig, load_config
+from foresight.core.training.train import run_train
 
 FAST = dict(epochs=4, batch_size=64, hidden=16, blocks=1, lr=3e-3, threads=1)
 
@@ -104,7 +104,7 @@ def test_bad_config_file_names_field(tmp_path):
 
 
 def test_proxy_wired_to_the_evaluation_engine(tmp_path, curving_dataset):
-    from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+    from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
 
     cfg = TrainConfig(
         dataset=str(curving_dataset),
@@ -186,7 +186,7 @@ def test_resume_accepts_a_checkpoint_written_before_newer_model_fields(tmp_path,
 
 
 def test_cosine_schedule_is_a_function_of_the_epoch():
-    from foresight.core.predict.nn.train import epoch_lr
+    from foresight.core.training.train import epoch_lr
 
     cfg = TrainConfig(dataset="d.npz", epochs=4, lr=1.0, lr_schedule="cosine")
     assert [round(epoch_lr(cfg, e), 3) for e in (1, 2, 3, 4)] == [1.0, 0.854, 0.5, 0.146]
@@ -219,7 +219,7 @@ def test_ensemble_averages_its_members(tmp_path, curving_dataset):
 
 def test_scale_augmentation_scales_lengths_and_targets_together():
     from foresight.core.predict.features import feature_names, length_channels
-    from foresight.core.predict.nn.train import _scale
+    from foresight.core.training.train import _scale
 
     names = feature_names(2)
     state = torch.ones(3, 2, len(names))
@@ -244,8 +244,8 @@ def test_jitter_augmentation_moves_past_positions_and_recomputes_velocities():
     import numpy as np
 
     from foresight.core.predict.features import Window, extract_features
-    from foresight.core.predict.nn.train import _jitter
     from foresight.core.predict.timebase import TimeBase
+    from foresight.core.training.train import _jitter
 
     tb = TimeBase(dt=0.4, history=4, horizon=3)
     hist = np.array(

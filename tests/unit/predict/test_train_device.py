@@ -25,10 +25,10 @@ from foresight.core.predict.features import feature_dim, length_channels, mirror
 from foresight.core.predict.nn.checkpoint import load_predictor, read_checkpoint
 from foresight.core.predict.nn.device import resolve_device, to_cpu
 from foresight.core.predict.nn.model import ModelConfig, TrajectoryModel, masked_gaussian_nll, masked_loss
-from foresight.core.predict.nn.train import _mirror_half, _scale, run_train
 from foresight.core.predict.timebase import PLANNER_TIMEBASE
-from foresight.core.predict.train_config import TrainConfig, load_config
-from foresight.core.stages.context import StageContext
+from foresight.core.runtime.context import StageContext
+from foresight.core.training.config import TrainConfig, load_config
+from foresight.core.training.train import _mirror_half, _scale, run_train
 
 FIXTURE = Path(__file__).with_name("train_golden.json")
 GOLDEN = dict(

@@ -41,7 +41,7 @@ def test_players_needs_local_work_folders() -> None:
 
 
 def test_file_names_from_labels_stay_inside_their_folder() -> None:
-    from foresight.core.evaluation.episode_trace import episode_stem, safe_name, trace_name
+    from foresight.core.render.episode_trace import episode_stem, safe_name, trace_name
 
     assert [safe_name(t) for t in ("predictive[cv]", "..", ".", "a/../b")] == [
         "predictive_cv_",

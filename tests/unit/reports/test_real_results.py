@@ -14,8 +14,8 @@ from foresight.core.evaluation.runner import EvaluationResult, run_evaluation
 from foresight.core.reports.campaign import write_campaign_report
 from foresight.core.reports.compare import write_comparison_report
 from foresight.core.reports.evaluation import write_evaluation_report
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
 
 from .data import assert_page, assert_picture, campaign
 

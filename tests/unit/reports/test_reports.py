@@ -11,14 +11,19 @@ from foresight.core.evaluation.campaign import CampaignResult
 from foresight.core.evaluation.diagnostics import DiagnosticsResult
 from foresight.core.evaluation.runner import EvaluationResult
 from foresight.core.evaluation.stats import rate
-from foresight.core.pipeline.summary import PipelineSummary, StageEntry, best_from_campaign, gate_entry
-from foresight.core.predict.train_config import TrainingSummary, TrainResult
 from foresight.core.reports.campaign import write_campaign_report
 from foresight.core.reports.compare import rate_delta, write_comparison_report
 from foresight.core.reports.diagnostics import write_diagnostics_report
 from foresight.core.reports.evaluation import write_evaluation_report
 from foresight.core.reports.pipeline import write_pipeline_report
+from foresight.core.reports.pipeline_summary import (
+    PipelineSummary,
+    StageEntry,
+    best_from_campaign,
+    gate_entry,
+)
 from foresight.core.reports.training import write_training_report
+from foresight.core.training.config import TrainingSummary, TrainResult
 
 from . import data
 from .scenes import predictions, small_map, trace

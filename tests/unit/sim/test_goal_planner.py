@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from foresight.core.planners.base import EpisodeInfo, Planner
 from foresight.core.planners.goal import GoalSeeking
 from foresight.core.scenarios.model import RobotConfig
 from foresight.core.sim.episode import run_episode
+from foresight.core.sim.planner import EpisodeInfo, Planner
 from foresight.core.sim.simulator import Simulator
 
 from .scenes import open_map, scenario

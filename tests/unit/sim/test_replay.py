@@ -134,7 +134,7 @@ def test_replay_is_deterministic(tmp_path: Path, scene_root: Path) -> None:
 
 
 def test_stress_replay_episode_follows_the_real_recording(shared_dir: Path) -> None:
-    from foresight.core.predict.ethucy import read_scene
+    from foresight.core.scenarios.ethucy import read_scene
 
     m = load_matrix(
         REPO / "configs" / "scenarios" / "stress.yaml", data_roots=lambda n: shared_dir / "reference" / n
@@ -162,9 +162,9 @@ def test_stress_replay_episode_follows_the_real_recording(shared_dir: Path) -> N
 def test_collection_takes_a_replay_scenario(tmp_path: Path, scene_root: Path, monkeypatch) -> None:
     """A replay scenario is an ordinary scenario for every stage: here collection, the data root named through
     FORESIGHT_DATA_ROOTS as a service worker would."""
-    from foresight.core.predict.collect import CollectConfig, run_collect
     from foresight.core.predict.dataset import load_dataset
-    from foresight.core.stages.context import StageContext
+    from foresight.core.runtime.context import StageContext
+    from foresight.core.training.collect import CollectConfig, run_collect
 
     monkeypatch.setenv("FORESIGHT_DATA_ROOTS", f"minidata={scene_root}")
     bundle = tmp_path / "bundle"

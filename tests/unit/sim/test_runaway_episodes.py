@@ -13,12 +13,12 @@ from foresight.core.errors import ConfigError
 from foresight.core.evaluation.config import EvaluationConfig
 from foresight.core.evaluation.runner import run_evaluation
 from foresight.core.planners.goal import GoalSeeking
-from foresight.core.predict.collect import CollectConfig, run_collect
+from foresight.core.runtime.context import Cancelled, StageContext
+from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
 from foresight.core.scenarios.model import MAX_EPISODE_STEPS
 from foresight.core.sim.episode import run_episode
 from foresight.core.sim.trace import MAX_TRACE_BYTES, Trace, trace_bytes
-from foresight.core.stages.context import Cancelled, StageContext
-from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.training.collect import CollectConfig, run_collect
 
 from .scenes import open_map, scenario
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from foresight.core.stages.kinds import KINDS
+from foresight.core.jobs.kinds import KINDS
 from foresight.store.records import RECORDERS
 
 
@@ -19,7 +19,7 @@ def test_every_kind_has_a_spec_with_its_name_and_a_run_function() -> None:
 
 
 def test_the_kinds_result_models_are_the_stage_results() -> None:
-    from foresight.core.stages.results import RESULTS
+    from foresight.core.jobs.results import RESULTS
 
     assert {name: KINDS[name].result for name in RESULTS} == RESULTS
 

@@ -10,10 +10,10 @@ import pytest
 from sqlalchemy import update
 
 from foresight.core.errors import CoreError
-from foresight.core.pipeline.config import load_pipeline_config
-from foresight.core.pipeline.service import ChildJobs
-from foresight.core.stages.context import Cancelled, StageContext
-from foresight.core.stages.refs import BUILTIN_CONFIG_ROOT
+from foresight.core.jobs.pipeline.config import load_pipeline_config
+from foresight.core.jobs.pipeline.service import ChildJobs
+from foresight.core.runtime.context import Cancelled, StageContext
+from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
 from foresight.store import folders, queue
 from foresight.store.session import write_tx
 from foresight.store.settings import Settings
@@ -172,7 +172,7 @@ def test_register_then_promote_in_the_registry(settings, engine) -> None:  # noq
 
 def _pipeline_result(gates: list[dict]) -> dict:
     """A failed-gate pipeline job's result with these gate verdicts."""
-    from foresight.core.pipeline.summary import PipelineResult, PipelineSummary
+    from foresight.core.reports.pipeline_summary import PipelineResult, PipelineSummary
 
     summary = PipelineSummary(name="p", status="failed_gate", exit_code=2, stages=[], gates=gates)
     return PipelineResult(

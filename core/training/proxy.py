@@ -16,9 +16,9 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field
 
 from foresight.core.errors import ConfigError
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.execution import Executor
-from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident
+from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.execution import Executor
+from foresight.core.runtime.refs import BUILTIN_BUNDLE, BundlePath, Ident
 
 
 class ProxySpec(BaseModel):

@@ -1,6 +1,6 @@
 """The result model of every job kind that has one, defined once: what its run function returns, what a job's
 result holds, what the reports, the pipeline and the result rows read back (validated on read, so a renamed field
-is an error naming it, never a silent "?" or NULL). The job-kind table (core.stages.kinds) takes its entries'
+is an error naming it, never a silent "?" or NULL). The job-kind table (core.jobs.kinds) takes its entries'
 result models from here; the runbook, which the kind table imports, reads them here too."""
 
 from __future__ import annotations
@@ -13,12 +13,12 @@ from foresight.core.evaluation.campaign import CampaignResult
 from foresight.core.evaluation.diagnostics import DiagnosticsResult
 from foresight.core.evaluation.runner import EvaluationResult
 from foresight.core.evaluation.witness_job import WitnessResult
-from foresight.core.pipeline.summary import PipelineResult
-from foresight.core.predict.collect import CollectResult
-from foresight.core.predict.evaluation import PredictEvalResult
-from foresight.core.predict.train_config import TrainResult
-from foresight.core.stages.execution import Execution
-from foresight.core.stages.simulate import SimulateResult
+from foresight.core.jobs.simulate import SimulateResult
+from foresight.core.reports.pipeline_summary import PipelineResult
+from foresight.core.runtime.execution import Execution
+from foresight.core.training.collect import CollectResult
+from foresight.core.training.config import TrainResult
+from foresight.core.training.predict_eval import PredictEvalResult
 
 #: stage kind -> its result model
 RESULTS: dict[str, type[BaseModel]] = {

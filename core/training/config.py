@@ -10,9 +10,9 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationIn
 
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.gates import GateCheck, GateResult
-from foresight.core.predict.proxy import ProxySpec
-from foresight.core.stages.execution import Execution, Executor
-from foresight.core.stages.refs import Seed
+from foresight.core.runtime.execution import Execution, Executor
+from foresight.core.runtime.refs import Seed
+from foresight.core.training.proxy import ProxySpec
 from foresight.core.yamlio import load_yaml
 
 
@@ -86,7 +86,7 @@ class TrainConfig(_Strict):
     resume: bool = True  #: continue from checkpoints/last.pt in the work dir when present
     allow_degenerate: bool = False  #: skip the fail-fast dataset checks (recorded in the summary)
     gates: GateConfig = GateConfig()
-    #: ray: training runs as one Ray task, on a GPU node when the cluster has one (core.stages.ray_train)
+    #: ray: training runs as one Ray task, on a GPU node when the cluster has one (core.jobs.ray_train)
     executor: Executor = "local"
 
     @field_validator("mirror_average")
@@ -128,7 +128,7 @@ class _Summary(BaseModel):
 
 
 class ProxyScore(_Summary):
-    """A checkpoint's closed-loop proxy evaluation (core.predict.proxy)."""
+    """A checkpoint's closed-loop proxy evaluation (core.training.proxy)."""
 
     success: float  #: success rate in [0, 1]
     clearance: float  #: mean minimum surface gap [m] (-inf without pedestrians)
@@ -208,7 +208,7 @@ def training_gate(gates: GateConfig, best: EpochScore, cv: AdeFde) -> TrainingGa
         "val_ade_below_cv": (best.val_ade < cv.ade) or not gates.require_beat_cv,
         "val_fde_below_cv": (best.val_fde < cv.fde) or not gates.require_beat_cv,
     }
-    if gates.require_proxy_not_below_cv:  # closed loop, paired on the proxy episodes (core.predict.proxy)
+    if gates.require_proxy_not_below_cv:  # closed loop, paired on the proxy episodes (core.training.proxy)
         delta = best.proxy.vs_cv_delta if best.proxy is not None else None
         checks["proxy_success_not_below_cv"] = delta is not None and delta >= 0.0
     return TrainingGate(

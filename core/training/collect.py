@@ -19,7 +19,6 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from foresight.core.errors import ConfigError
-from foresight.core.planners.base import EpisodeInfo
 from foresight.core.predict.dataset import (
     DatasetMeta,
     EpisodeRecord,
@@ -33,11 +32,12 @@ from foresight.core.predict.mixing import assign_splits, dataset_from_episodes, 
 from foresight.core.predict.quality import check_quality
 from foresight.core.predict.samples import samples_from_trace
 from foresight.core.predict.timebase import PLANNER_TIMEBASE, TimeBase
+from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.execution import Execution, Executor, execution
+from foresight.core.runtime.refs import BUILTIN_BUNDLE, BundlePath, Ident, Name, resolve_in_bundle
 from foresight.core.scenarios.model import MAX_EPISODE_STEPS
 from foresight.core.sim.observation import Observation
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.execution import Execution, Executor, execution
-from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident, Name, resolve_in_bundle
+from foresight.core.sim.planner import EpisodeInfo
 
 
 class TimeBaseSpec(BaseModel):

@@ -22,15 +22,15 @@ from foresight.core.evaluation.config import CampaignConfig, DiagnosticsConfig, 
 from foresight.core.evaluation.diagnostics import run_diagnostics
 from foresight.core.evaluation.runner import run_evaluation
 from foresight.core.evaluation.witness_job import WitnessConfig, run_witness
-from foresight.core.pipeline.config import PipelineConfig
-from foresight.core.pipeline.service import run_pipeline_job
-from foresight.core.predict.collect import CollectConfig, MixConfig, run_collect, run_mix
+from foresight.core.jobs.pipeline.config import PipelineConfig
+from foresight.core.jobs.pipeline.service import run_pipeline_job
+from foresight.core.jobs.results import RESULTS
+from foresight.core.jobs.simulate import SimulateConfig, run_simulate
 from foresight.core.predict.ethucy import ImportDatasetConfig, ImportEthucyConfig, run_import_ethucy
-from foresight.core.predict.evaluation import PredictEvalConfig, run_predict_eval
-from foresight.core.predict.train_config import TrainConfig, TrainResult
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.results import RESULTS
-from foresight.core.stages.simulate import SimulateConfig, run_simulate
+from foresight.core.runtime.context import StageContext
+from foresight.core.training.collect import CollectConfig, MixConfig, run_collect, run_mix
+from foresight.core.training.config import TrainConfig, TrainResult
+from foresight.core.training.predict_eval import PredictEvalConfig, run_predict_eval
 
 #: a stage function: ``run(config, ctx) -> result`` (a pydantic result model, or a JSON-able dict)
 Run = Callable[[Any, StageContext], Any]
@@ -49,7 +49,7 @@ class JobKind:
     spec: type[BaseModel] = field(init=False)  #: the config plus ``kind: Literal[name]``: the API's job spec
     result: type[BaseModel] | None = field(
         init=False
-    )  #: what ``run`` returns (core.stages.results; None: a dict)
+    )  #: what ``run`` returns (core.jobs.results; None: a dict)
 
     def __post_init__(self) -> None:
         spec = create_model(
@@ -110,10 +110,10 @@ def run_sleep(config: SleepConfig, ctx: StageContext) -> dict[str, Any]:
 
 def run_train(config: TrainConfig, ctx: StageContext) -> TrainResult:
     if config.executor == "ray":  # one Ray task, on a GPU node when there is one
-        from foresight.core.stages.ray_train import train_on_ray
+        from foresight.core.jobs.ray_train import train_on_ray
 
         return train_on_ray(config, ctx)
-    from foresight.core.predict.nn.train import run_train as train  # torch: imported by training jobs only
+    from foresight.core.training.train import run_train as train  # torch: imported by training jobs only
 
     return train(config, ctx)
 

@@ -7,7 +7,7 @@ top: ``training_seeds`` feeds hard-case collection and proxy selection, ``evalua
 diagnostics and the campaign's hard suite (and so the gates); they must not share a (scenario, seed).
 ``selection`` moves closed-loop model selection (the training proxy) to a suite where constant velocity and
 a good model differ, the stress suite, on that suite's TRAINING seeds (checked at run time to hold none of
-its matrix's own, evaluation, seeds: ``core.predict.proxy``).
+its matrix's own, evaluation, seeds: ``core.training.proxy``).
 """
 
 from __future__ import annotations
@@ -20,10 +20,10 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.config import CampaignConfig, DiagnosticsConfig, EvaluationConfig
-from foresight.core.predict.collect import CollectConfig, MixConfig
-from foresight.core.predict.proxy import ProxySpec
-from foresight.core.predict.train_config import TrainConfig
-from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident
+from foresight.core.runtime.refs import BUILTIN_BUNDLE, BundlePath, Ident
+from foresight.core.training.collect import CollectConfig, MixConfig
+from foresight.core.training.config import TrainConfig
+from foresight.core.training.proxy import ProxySpec
 from foresight.core.yamlio import load_yaml
 
 #: placeholder for the model this pipeline trains and registers (planner.model, campaign checkpoints)

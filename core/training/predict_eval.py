@@ -16,7 +16,7 @@ from foresight.core.predict.ethucy import FOLDS, import_fold
 from foresight.core.predict.metrics import evaluate_predictor
 from foresight.core.predict.predictor import ConstantVelocityPredictor
 from foresight.core.predict.timebase import ETHUCY_TIMEBASE
-from foresight.core.stages.context import StageContext
+from foresight.core.runtime.context import StageContext
 
 #: the stage's own keys that a training config file (``configs/training/ethucy.yaml``) may hold beside its ``train``
 #: mapping: what each fold trains on, where ``train`` says how
@@ -58,7 +58,7 @@ class PredictEvalConfig(BaseModel):
 def _check_train(train: dict[str, Any]) -> None:
     """Refuse ``train`` fields that training would refuse, before any fold is imported or trained (the dataset is
     each fold's own, so it is not checked here)."""
-    from foresight.core.predict.train_config import TrainConfig
+    from foresight.core.training.config import TrainConfig
 
     try:
         TrainConfig.model_validate({**train, "dataset": "fold"})
@@ -97,8 +97,8 @@ def _predictor(config: PredictEvalConfig, ds: Dataset, ctx: StageContext, name: 
         path = ctx.local_file(config.model) or ctx.resolve_model(config.model)
         return load_predictor(path, expect_timebase=ds.meta.timebase)
     from foresight.core.predict.nn.checkpoint import load_predictor
-    from foresight.core.predict.nn.train import run_train
-    from foresight.core.predict.train_config import TrainConfig
+    from foresight.core.training.config import TrainConfig
+    from foresight.core.training.train import run_train
 
     data_path = ctx.artifact(f"{name}/dataset.npz")
     save_dataset(ds, data_path)

@@ -18,10 +18,10 @@ from __future__ import annotations
 from typing import Any
 
 from foresight.core.errors import CoreError
-from foresight.core.pipeline.config import PipelineConfig
-from foresight.core.pipeline.runbook import ChildRun, run_pipeline
-from foresight.core.pipeline.summary import PipelineResult
-from foresight.core.stages.context import StageContext
+from foresight.core.jobs.pipeline.config import PipelineConfig
+from foresight.core.jobs.pipeline.runbook import ChildRun, run_pipeline
+from foresight.core.reports.pipeline_summary import PipelineResult
+from foresight.core.runtime.context import StageContext
 
 
 class ChildJobs:

@@ -20,8 +20,8 @@ from foresight.core.evaluation.plannerspec import (
     preflight,
     resolve_planner,
 )
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.refs import BUILTIN_BUNDLE, BundlePath, Ident, Name, Seed, resolve_in_bundle
+from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.refs import BUILTIN_BUNDLE, BundlePath, Ident, Name, Seed, resolve_in_bundle
 from foresight.core.version import code_version
 
 

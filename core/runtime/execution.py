@@ -33,7 +33,7 @@ def execution(executor: Executor, workers: int | None) -> Execution:
     """The execution record of a run on ``executor`` (joins the Ray cluster when not yet joined)."""
     if executor == "local":
         return Execution(executor="local", cpus=max(1, int(workers or 1)))
-    from foresight.core.evaluation.ray_executor import cluster_cpus, connect
+    from foresight.core.runtime.cluster import cluster_cpus, connect
 
     address = connect(int(workers or 1))
     return Execution(executor="ray", cpus=cluster_cpus(), address=address)

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from foresight.core.errors import ConfigError
-from foresight.core.stages.context import StageContext
+from foresight.core.runtime.context import StageContext
 
 DEFAULT_STEP_BUDGET = (
     200_000_000  #: simulation steps of one job (about 6 h of a 16-pedestrian crowd on one core)
@@ -44,8 +44,8 @@ def work_size(config: Any, ctx: StageContext, load: Callable[..., Any] | None = 
         EvaluationConfig,
     )
     from foresight.core.evaluation.runner import load_selection
-    from foresight.core.predict.collect import CollectConfig, episode_list
-    from foresight.core.stages.simulate import SimulateConfig
+    from foresight.core.jobs.simulate import SimulateConfig
+    from foresight.core.training.collect import CollectConfig, episode_list
 
     selection = ("scenarios", "seeds_per_scenario", "seed_manifest", "max_steps")
     if isinstance(config, EvaluationConfig | DiagnosticsConfig):
@@ -69,8 +69,8 @@ def work_size(config: Any, ctx: StageContext, load: Callable[..., Any] | None = 
             ("checkpoints", "variants", "grid", *selection),
         )
     if isinstance(config, CollectConfig | SimulateConfig):
+        from foresight.core.runtime.refs import resolve_in_bundle
         from foresight.core.scenarios.loader import load_matrix
-        from foresight.core.stages.refs import resolve_in_bundle
 
         root = ctx.resolve_bundle(config.bundle)
         matrix = (load or load_matrix)(resolve_in_bundle(root, config.matrix))

@@ -11,7 +11,7 @@ The graph (each arrow names what flows into the next stage)::
 Core stays database-free: ``run_child(stage, kind, spec, progress)`` is the caller's. It runs one stage
 (the worker: a child job row it claims and runs itself; ``--local``: the stage function in a sub-folder)
 and returns a :class:`ChildRun` (or the bare result); a stage's result is validated here as its kind's
-result model (core.stages.results). A caller that already holds a succeeded run of
+result model (core.jobs.results). A caller that already holds a succeeded run of
 that stage returns it again without running it: that is how a pipeline resumes from its failed stage.
 ``kind`` is a job kind (collect, mix, train, evaluate, diagnose, campaign) or one of the registry actions
 ``register`` and ``promote``. ``progress(fraction, message)`` maps the child's progress into the pipeline's.
@@ -36,18 +36,18 @@ from foresight.core.errors import ConfigError, CoreError
 from foresight.core.evaluation.campaign import CampaignResult
 from foresight.core.evaluation.gates import GATE_FAILED_EXIT, GateResult
 from foresight.core.evaluation.runner import EvaluationResult
-from foresight.core.pipeline.config import PipelineConfig, stage_config
-from foresight.core.pipeline.summary import (
+from foresight.core.jobs.pipeline.config import PipelineConfig, stage_config
+from foresight.core.jobs.results import RESULTS, read_result
+from foresight.core.reports.pipeline import headline, write_pipeline_report
+from foresight.core.reports.pipeline_summary import (
     PipelineResult,
     PipelineSummary,
     StageEntry,
     best_from_campaign,
     gate_entry,
 )
-from foresight.core.predict.train_config import TrainingSummary, TrainResult
-from foresight.core.reports.pipeline import headline, write_pipeline_report
-from foresight.core.stages.context import Cancelled, StageContext
-from foresight.core.stages.results import RESULTS, read_result
+from foresight.core.runtime.context import Cancelled, StageContext
+from foresight.core.training.config import TrainingSummary, TrainResult
 
 M = TypeVar("M", bound=BaseModel)
 
@@ -108,7 +108,7 @@ def check_seed_separation(config: PipelineConfig, ctx: StageContext) -> dict[str
     selection suite holds one of its own matrix's (evaluation) seeds; returns the episode counts of the suites."""
     from foresight.core.evaluation.config import EpisodeSelection
     from foresight.core.evaluation.runner import load_selection
-    from foresight.core.predict.proxy import ProxySpec, check_training_seeds
+    from foresight.core.training.proxy import ProxySpec, check_training_seeds
 
     where = {"bundle": config.bundle, "matrix": config.matrix}
     _, _, train = load_selection(EpisodeSelection(**where, seed_manifest=config.training_seeds), ctx)

@@ -20,8 +20,8 @@ from pathlib import Path
 from typing import Any
 
 from foresight.core import files
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.execution import Execution
+from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.execution import Execution
 
 RESUME_FILE = "checkpoints/last.pt"
 
@@ -41,8 +41,8 @@ def _train_task(
     """Inside the Ray task: train in a scratch folder; (result JSON, files written, resources the task holds)."""
     import ray
 
-    from foresight.core.predict.nn.train import run_train
-    from foresight.core.predict.train_config import TrainConfig
+    from foresight.core.training.config import TrainConfig
+    from foresight.core.training.train import run_train
 
     scratch = Path(tempfile.mkdtemp(prefix="foresight-ray-train-"))
     try:
@@ -71,9 +71,10 @@ def train_on_ray(config: Any, ctx: StageContext) -> Any:
     import ray
 
     from foresight.core.errors import ConfigError
-    from foresight.core.evaluation.ray_executor import POLL_S, cluster_gpus, connect
+    from foresight.core.evaluation.ray_executor import POLL_S
     from foresight.core.predict.dataset import resolve_dataset_path
-    from foresight.core.predict.train_config import TrainingSummary, TrainResult
+    from foresight.core.runtime.cluster import cluster_gpus, connect
+    from foresight.core.training.config import TrainingSummary, TrainResult
 
     address = connect(int(ctx.workers or 1))
     gpus = 1 if config.device != "cpu" and cluster_gpus() > 0 else 0

@@ -17,12 +17,12 @@ from pydantic import BaseModel
 
 from foresight.core import files
 from foresight.core.errors import NotFoundError
-from foresight.core.pipeline.runbook import ChildRun
-from foresight.core.predict.collect import CollectResult
-from foresight.core.predict.train_config import TrainResult
-from foresight.core.stages.context import StageContext
-from foresight.core.stages.kinds import KINDS
-from foresight.core.stages.results import read_result
+from foresight.core.jobs.kinds import KINDS
+from foresight.core.jobs.pipeline.runbook import ChildRun
+from foresight.core.jobs.results import read_result
+from foresight.core.runtime.context import StageContext
+from foresight.core.training.collect import CollectResult
+from foresight.core.training.config import TrainResult
 
 
 class LocalChildren:

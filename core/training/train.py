@@ -36,7 +36,8 @@ from foresight.core.predict.nn.model import (
 from foresight.core.predict.nn.selection import Selection
 from foresight.core.predict.predictor import ConstantVelocityPredictor
 from foresight.core.predict.quality import check_quality, summarize
-from foresight.core.predict.train_config import (
+from foresight.core.runtime.context import StageContext
+from foresight.core.training.config import (
     AdeFde,
     EnsembleMember,
     EnsembleScore,
@@ -47,7 +48,6 @@ from foresight.core.predict.train_config import (
     TrainResult,
     training_gate,
 )
-from foresight.core.stages.context import StageContext
 from foresight.core.version import code_version
 
 _CHECKPOINT_METRICS = ("val_loss", "val_ade", "val_fde", "val_nll", "val_cover1", "val_cover2")
@@ -212,7 +212,7 @@ def run_train(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | Non
     started = time.time()
     torch.set_num_threads(config.threads)
     if proxy is None and config.proxy is not None and config.proxy_every > 0:
-        from foresight.core.predict.proxy import evaluation_proxy
+        from foresight.core.training.proxy import evaluation_proxy
 
         proxy = evaluation_proxy(config.proxy, ctx)
     ds_path = resolve_dataset_path(config.dataset, ctx)

@@ -1,1 +1,0 @@
-"""Pipeline stages: each is ``run_<stage>(config, ctx) -> result`` over a validated config."""
