@@ -7,18 +7,21 @@ PY      = $(VENV)/bin/python
 STAMP   = $(VENV)/.foresight-installed
 # the planner plugin the tests evaluate (an entry point in the group foresight.planners)
 TOY_PLUGIN = tests/plugins/toy_planner
+# the example predictor plug-in the tests evaluate (an entry point in the group foresight.predictors)
+PREDICTOR_PLUGIN = examples/predictor_plugin
 # test processes (pytest-xdist): most tests wait on servers, workers and subprocesses, so two share two cores well;
 # --dist loadscope: each test module whole in one process (its module fixtures built once; tests/conftest.py)
 TEST_WORKERS ?= 2
 
 .PHONY: install browser test demo lint docs bench clean
 
-$(STAMP): pyproject.toml setup.py $(TOY_PLUGIN)/pyproject.toml
+$(STAMP): pyproject.toml setup.py $(TOY_PLUGIN)/pyproject.toml $(PREDICTOR_PLUGIN)/pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q torch==2.13.0
 	$(PY) -m pip install -q -e '.[dev]'
 	$(PY) -m pip install -q -e $(TOY_PLUGIN)
+	$(PY) -m pip install -q -e $(PREDICTOR_PLUGIN)
 	touch $(STAMP)
 
 install: $(STAMP)

@@ -32,6 +32,7 @@ def context(settings: Settings, resolver: Resolver) -> StageContext:
 def named_ids(spec: Any) -> list[tuple[str, str]]:
     """(model | dataset, id) of every stored input a spec names by id (every model named is one a planner drives)."""
     from foresight.core.evaluation.config import CampaignConfig
+    from foresight.core.predict import plugins
     from foresight.core.training.collect import CollectConfig, MixConfig
     from foresight.core.training.config import TrainConfig
 
@@ -41,14 +42,39 @@ def named_ids(spec: Any) -> list[tuple[str, str]]:
     if isinstance(spec, CollectConfig) and spec.policy == "planner":
         model = (spec.planner or {}).get("model")
     if isinstance(model, str) and model != "cv":
-        out.append(("model", model))
+        out.append(("predictor" if plugins.kind(model) else "model", model))
     if isinstance(spec, CampaignConfig):
-        out += [("model", ck) for ck in spec.checkpoints if ck != "cv"]
+        out += [("predictor" if plugins.kind(ck) else "model", ck) for ck in spec.checkpoints if ck != "cv"]
+    model = getattr(spec, "model", None)  # predict_eval
+    if type(spec).__name__ == "PredictEvalConfig" and isinstance(model, str) and plugins.kind(model):
+        out.append(("predictor", model))
     if isinstance(spec, MixConfig):
         out += [("dataset", spec.base), ("dataset", spec.hardcase)]
     if isinstance(spec, TrainConfig):
         out.append(("dataset", spec.dataset))
     return out
+
+
+def check_predictor(name: str) -> None:
+    """ConfigError (422) for a predictor plug-in the server cannot run: ``module:attr`` (in-process runs only) or
+    an external one the operator has not configured; NotFoundError / PredictorError for one that does not load."""
+    from foresight.core.errors import ConfigError
+    from foresight.core.predict import plugins
+    from foresight.core.predict.external import ENV, operator_commands
+
+    kind = plugins.kind(name)
+    if kind == "module":
+        raise ConfigError(
+            f"predictor {name!r}: module:attr predictors run in-process only (--local, foresight.evaluate); "
+            "the server runs installed predictor plug-ins and operator-configured external predictors",
+            item="model",
+        )
+    if kind == "external":
+        command = name[len(plugins.EXTERNAL_PREFIX) :]
+        if command not in operator_commands():
+            raise ConfigError(f"predictor {name!r} is not configured by the operator ({ENV})", item="model")
+        return
+    plugins.load(name)  # an installed plug-in whose declaration is broken is refused now
 
 
 def _matrix(path: Path, overrides: dict[str, Any] | None = None) -> Any:
@@ -67,7 +93,10 @@ def admit(spec: Any, settings: Settings, resolver: Resolver) -> None:
 
     ctx = context(settings, resolver)
     for what, ident in named_ids(spec):
-        (resolver.planner_model if what == "model" else resolver.dataset)(ident)
+        if what == "predictor":
+            check_predictor(ident)
+        else:
+            (resolver.planner_model if what == "model" else resolver.dataset)(ident)
     if isinstance(
         spec, WitnessConfig
     ):  # its evaluation (kept with its run folder), matrix, scenarios and size

@@ -81,9 +81,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     read_codes = errors.responses(*errors.AUTH) if settings.read_requires_token else {}
     app.include_router(ops.router)
     app.include_router(ops.read_router, dependencies=read_auth, responses=read_codes)
-    for module in (jobs, models, bundles, listing, results, planners):
+    for router in (jobs, models, bundles, listing, results, planners, planners.predictors_router):
         app.include_router(
-            module.router, prefix="/v1", dependencies=[*read_auth, KnownQuery], responses=read_codes
+            getattr(router, "router", router),
+            prefix="/v1",
+            dependencies=[*read_auth, KnownQuery],
+            responses=read_codes,
         )
     web.install(app)  # the dashboard: /ui pages over the same store
     app.add_middleware(AllowMiddleware, router=app.router)

@@ -388,6 +388,23 @@ class PlannersPublic(BaseModel):
     external_commands: list[str] = Field(description="names an external planner's config.command may take")
 
 
+class PredictorPublic(BaseModel):
+    name: str = Field(description="the model name a spec's planner.model or predict_eval model may take")
+    origin: str = Field(description='"plugin DIST VERSION"')
+    timebase: dict[str, Any] | None = Field(default=None, description="declared dt [s], history and horizon")
+    frame: str | None = Field(default=None, description='"world" or "pedestrian"')
+    modes: int | None = Field(default=None, description="modes per pedestrian (K)")
+    error: str | None = Field(default=None, description="why it does not load, when it does not")
+
+
+class PredictorsPublic(BaseModel):
+    data: list[PredictorPublic]
+    count: int
+    external: list[str] = Field(
+        description="operator-configured external predictors: model name external:NAME"
+    )
+
+
 class Health(BaseModel):
     status: str
     database: str

@@ -12,7 +12,7 @@ import argparse
 from pathlib import Path
 
 from foresight import local
-from foresight.cli import stage
+from foresight.cli import datasets, stage
 from foresight.cli.common import emit
 from foresight.core.errors import ConfigError
 from foresight.local import build_config, finish_local, local_context, local_workdir, matrix_ref
@@ -21,7 +21,10 @@ from foresight.local import build_config, finish_local, local_context, local_wor
 def register(sub: argparse._SubParsersAction) -> None:
     pe = sub.add_parser("predict-eval", help="ADE/FDE of a predictor on ETH/UCY folds or a dataset")
     who = pe.add_mutually_exclusive_group(required=True)
-    who.add_argument("--model", help="model id or cv (--local: also a checkpoint path)")
+    who.add_argument(
+        "--model",
+        help="model id, cv or a predictor plug-in name (--local: also a checkpoint path, module:attr)",
+    )
     who.add_argument(
         "--train", action="store_true", help="train the default model (or --config) per fold first"
     )
@@ -36,10 +39,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     data.add_argument(
         "--dataset", help="dataset id (--local: a .npz file), scored on its test split, else val"
     )
+    data.add_argument(
+        "--scenes",
+        help="--local: your recordings (a file or a folder, one scene per file): leave-one-scene-out",
+    )
+    datasets.add_scene_args(pe, required=False)
     pe.add_argument("--fold", help="one fold (eth|hotel|univ|zara1|zara2); default all")
     pe.add_argument(
         "--split", help="dataset split to score: test (default; val when there is no test), val, all"
     )
+    pe.add_argument("--best-of", type=int, help="K of minADE_K / minFDE_K (default 20)")
     _outputs(pe)
     pe.set_defaults(func=predict_eval_cmd)
 
@@ -56,6 +65,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     im.add_argument("--output", help="--local: output .npz path")
     stage.add_mode_args(im)
     im.set_defaults(func=import_cmd)
+    datasets.register(dsub)
 
     co = sub.add_parser("collect", help="roll out episodes and write a prediction dataset")
     co.add_argument(
@@ -159,10 +169,12 @@ def predict_eval_cmd(args: argparse.Namespace) -> int:
         "dataset": args.dataset,
         "folds": [args.fold] if args.fold else None,
         "split": args.split,
+        **({"best_of": args.best_of} if args.best_of else {}),
+        **({"scenes": datasets.scene_values(args, args.scenes)} if args.scenes else {}),
         **own,
     }
     if not args.local:
-        stage.local_only(args, out="--out")
+        stage.local_only(args, out="--out", scenes="--scenes")
         if args.ethucy is not None and Path(args.ethucy).expanduser().is_dir():
             raise ConfigError(f"{args.ethucy!r} is a local folder; the server reads named data roots: pass "
                               "--ethucy NAME (GET /v1/data-roots), or run in-process with --local",
@@ -192,11 +204,39 @@ def predict_eval_cmd(args: argparse.Namespace) -> int:
 
 
 def _score_table(result, where: str | None) -> str:  # noqa: ANN001
-    lines = [f"{'fold':<10}{'samples':>9}{'ADE':>8}{'FDE':>8}{'CV ADE':>9}{'CV FDE':>9}"]
-    for name, f in result.folds.items():
-        lines.append(f"{name:<10}{f.samples:>9}{f.ade:>8.3f}{f.fde:>8.3f}{f.cv_ade:>9.3f}{f.cv_fde:>9.3f}")
+    """Best-of-1 ADE/FDE and constant velocity's per fold; minADE_K/minFDE_K, NLL and the 1/2-sigma shares when
+    the predictor gave more than one mode or a spread (each column labelled with its K)."""
     a, c = result.average, result.cv_average
-    lines.append(f"{'average':<10}{'':>9}{a.ade:>8.3f}{a.fde:>8.3f}{c.ade:>9.3f}{c.fde:>9.3f}")
+    k = a.best_of or 1
+    extra = [
+        (f"minADE{k}", "min_ade", ".3f"),
+        (f"minFDE{k}", "min_fde", ".3f"),
+        ("NLL", "nll", ".2f"),
+        ("<1sig", "within_1sigma", ".2f"),
+        ("<2sig", "within_2sigma", ".2f"),
+    ]
+    extra = [
+        e for e in extra if getattr(a, e[1]) is not None and (k > 1 or e[1] not in ("min_ade", "min_fde"))
+    ]
+    w = max([10, *(len(n) + 1 for n in result.folds)])  # scene names of imported data can be long
+    head = f"{'fold':<{w}}{'samples':>9}{'ADE':>8}{'FDE':>8}{'CV ADE':>9}{'CV FDE':>9}"
+    lines = [head + "".join(f"{h:>9}" for h, _, _ in extra)]
+
+    def row(name, f, n):  # noqa: ANN001
+        cells = "".join(f"{getattr(f, key):>9{fmt}}" for _, key, fmt in extra)
+        return f"{name:<{w}}{n:>9}{f.ade:>8.3f}{f.fde:>8.3f}{c_ade(f):>9.3f}{c_fde(f):>9.3f}{cells}"
+
+    def c_ade(f):  # noqa: ANN001
+        return getattr(f, "cv_ade", c.ade)
+
+    def c_fde(f):  # noqa: ANN001
+        return getattr(f, "cv_fde", c.fde)
+
+    for name, f in result.folds.items():
+        lines.append(row(name, f, f.samples))
+    lines.append(row("average", a, ""))
+    if k > 1:
+        lines.append(f"ADE/FDE: most likely mode (best-of-1); minADE{k}/minFDE{k}: best of {k} modes")
     return "\n".join(lines + ([where] if where else []))
 
 

@@ -41,11 +41,22 @@ def planner_name(planner: Any) -> str:
     return register(planner)
 
 
-def _planner(planner: Any, config: dict[str, Any] | None, model: str | None) -> tuple[dict[str, Any], Any]:
+def model_name(model: Any) -> str | None:
+    """The name a model runs under: as given, or a Python predictor object (a predictor plug-in class or instance,
+    docs/predictor_protocol.md) registered as ``module:qualname``."""
+    if model is None or isinstance(model, str):
+        return model
+    from foresight.core.predict import plugins
+
+    return plugins.register(model)
+
+
+def _planner(planner: Any, config: dict[str, Any] | None, model: Any) -> tuple[dict[str, Any], Any]:
     from foresight.core.planners.registry import entry
     from foresight.local import ModelArgs
 
     models = ModelArgs()
+    model = model_name(model)
     name = planner_name(planner)
     spec: dict[str, Any] = {"name": name, "config": config or {}}
     if entry(name).takes_model:
@@ -63,7 +74,7 @@ def evaluate(
     seeds: int | None = None,
     seed_manifest: str | Path | None = None,
     config: dict[str, Any] | None = None,
-    model: str | None = None,
+    model: Any = None,
     max_steps: int | None = None,
     workers: int = 1,
     out: str | Path | None = None,
@@ -73,7 +84,8 @@ def evaluate(
 
     ``matrix``: a YAML file, or a name in the built-in configs; ``seeds``: N seeds per scenario (default: the
     matrix's own); ``config``: the planner's config (validated by its model); ``model``: predictive planner only
-    (a model id, a checkpoint path or "cv"; default: the shipped default model); ``out``: the work folder
+    (a model id, a checkpoint path, "cv", a predictor plug-in name or a Python predictor object; default: the
+    shipped default model); ``out``: the work folder
     (default: a new temporary folder) where evaluation.json and episodes.jsonl are written.
     """
     from foresight.core.evaluation.runner import run_evaluation
@@ -104,7 +116,7 @@ def simulate(
     seed: int = 0,
     matrix: str | Path = DEFAULT_MATRIX,
     config: dict[str, Any] | None = None,
-    model: str | None = None,
+    model: Any = None,
     max_steps: int | None = None,
 ) -> EpisodeRun:
     """One episode of a planner: its evaluation record (outcome, metrics, taxonomy) and the full trace."""

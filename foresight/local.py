@@ -76,7 +76,9 @@ class ModelArgs:
         self.files: dict[str, Path] = {}
 
     def ident(self, value: str | None) -> str | None:
-        if value is None or value == "cv":
+        from foresight.core.predict import plugins
+
+        if value is None or value == "cv" or plugins.kind(value):  # a predictor plug-in is its own name
             return value
         p = Path(value).expanduser()
         if p.is_file():

@@ -280,19 +280,21 @@ class Resolver:
                     session.scalars(select(Model).order_by(Model.read_only, Model.created_at))
                 )
         if row is None:
-            raise NotFoundError(f"unknown model id {ident!r}")
+            raise NotFoundError(
+                f"unknown model id {ident!r} (nor an installed predictor plug-in: {_plugin_hint()})"
+            )
         return row
 
     def planner_model(self, ident: str) -> Model:
         """:meth:`model_row` of a model a planner will drive: ConfigError (422) at submission when it was trained in
-        another frame than the robot's (robot-less data such as ETH/UCY), which every planner's features use.
-        Registration records the checkpoint's frame in ``lineage``; shipped models are simulator-trained."""
+        a frame the planner cannot feed: the robot's, or the focal pedestrian's (ETH/UCY-trained, forecast pedestrian
+        by pedestrian, ``core.predict.focal``). Registration records the checkpoint's frame in ``lineage``."""
         row = self.model_row(ident)
         frame = row.lineage.get("frame_convention", "robot")
-        if frame != "robot":
+        if frame not in ("robot", "focal_pedestrian"):  # focal: ETH/UCY models, one pedestrian at a time
             raise ConfigError(
                 f"model {row.id!r} was trained in the {frame!r} frame (robot-less data such as ETH/UCY); "
-                "planners feed robot-frame features: use a model trained on simulator data",
+                "planners feed robot-frame or focal-pedestrian-frame features",
                 item="planner.model",
             )
         return row
@@ -456,3 +458,10 @@ def bundles(engine: Engine) -> list[Bundle]:
 def bundle(engine: Engine, bundle_id: str) -> Bundle | None:
     with session_factory(engine)() as session:
         return session.get(Bundle, bundle_id)
+
+
+def _plugin_hint() -> str:
+    """The installed predictor plug-ins, for an unknown model's error (docs/predictor_protocol.md)."""
+    from foresight.core.predict import plugins
+
+    return ", ".join(sorted(plugins.installed())) or "none installed"

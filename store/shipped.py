@@ -66,7 +66,10 @@ def resolve_shipped(registry_file: Path, ident: str) -> Path:
     if entry is None and ident == DEFAULT_MODEL:
         entry = default_model(entries)
     if entry is None:
-        raise NotFoundError(f"unknown model id {ident!r} (not in {registry_file}; or pass a checkpoint path)")
+        raise NotFoundError(
+            f"unknown model id {ident!r} (not in {registry_file}; or pass a checkpoint path, or a predictor "
+            f"plug-in: {_plugin_hint()})"
+        )
     path = shipped_checkpoint(registry_file, str(entry["path"]))
     if not path.is_file():
         raise NotFoundError(f"model {ident!r}: checkpoint {entry['path']} is missing")
@@ -75,3 +78,10 @@ def resolve_shipped(registry_file: Path, ident: str) -> Path:
             f"checkpoint {entry['path']} does not match its sha256", source=registry_file, item=ident
         )
     return path
+
+
+def _plugin_hint() -> str:
+    """The installed predictor plug-ins, for an unknown model's error (docs/predictor_protocol.md)."""
+    from foresight.core.predict import plugins
+
+    return ", ".join(sorted(plugins.installed())) or "none installed"

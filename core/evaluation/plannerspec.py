@@ -49,7 +49,8 @@ class PlannerSpecBase(BaseModel):
         None  #: reference planner-grid keys (predictive only), mapped by the planner
     )
     variant: str | None = None  #: a label (campaign grid variant name)
-    model: str | None = None  #: predictive only: a model id or "cv"; None = the registry's default model
+    #: predictive only: a model id, "cv" or a predictor plug-in name; None = the registry's default model
+    model: str | None = None
 
 
 class ModulePlannerSpec(PlannerSpecBase):
@@ -187,9 +188,12 @@ def _load_model(path: str, sha256: str | None, name: str | None) -> Any:
 def build_planner(rp: ResolvedPlanner) -> Planner:
     """A fresh planner for one episode (the loaded model is shared, it is stateless)."""
     from foresight.core.planners.registry import make_planner
+    from foresight.core.predict import plugins
 
     model = None
-    if rp.model_id != NO_MODEL:
+    if plugins.kind(rp.model_id):
+        model = rp.model_id  # a predictor plug-in: the planner loads a fresh one (its own state per episode)
+    elif rp.model_id != NO_MODEL:
         model = load_model(rp.model_path, rp.checkpoint_sha256, rp.model_id) if rp.model_path else CV
     return make_planner(rp.name, rp.config, model=model)
 
@@ -202,6 +206,14 @@ def _model(spec: PlannerSpecBase, takes_model: bool, ctx: StageContext) -> tuple
         return NO_MODEL, NO_MODEL, None
     if spec.model == CV:
         return CV, CV, None
+    from foresight.core.predict import plugins
+
+    kind = plugins.kind(spec.model)
+    if (
+        kind
+    ):  # a predictor plug-in: loaded now, so a missing or malformed one stops the run before any episode
+        declared = plugins.load(spec.model).declared
+        return spec.model, f"{kind}:{declared.name}", None
     ident = spec.model or DEFAULT_MODEL
     path = Path(ctx.resolve_model(ident))
     if not path.is_file():

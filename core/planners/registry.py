@@ -263,7 +263,8 @@ def make_planner(name: str, config: Any = None, *, model: Any = None) -> Planner
 
 
 def make_forecaster(model: Any) -> Any:
-    """The predictive planner's forecaster for ``model`` ("cv", a Forecaster or a Predictor)."""
+    """The predictive planner's forecaster for ``model`` ("cv", a predictor plug-in name or object, a Forecaster or a
+    Predictor)."""
     from foresight.core.predict.forecaster import ConstantVelocityForecaster, Forecaster, LearnedForecaster
     from foresight.core.predict.predictor import Predictor
     from foresight.core.predict.timebase import PLANNER_TIMEBASE
@@ -272,9 +273,14 @@ def make_forecaster(model: Any) -> Any:
         raise ConfigError(
             "the predictive planner needs a model: 'cv', a forecaster or a loaded predictor", item="model"
         )
+    from foresight.core.predict import plugins
+    from foresight.core.predict.plugin import PluginForecaster
+
     if isinstance(model, str):
         if model == "cv":
             return ConstantVelocityForecaster(PLANNER_TIMEBASE)
+        if plugins.kind(model):
+            return plugins.load(model)
         raise ConfigError(
             f"model {model!r}: resolve ids/paths through the model registry first; "
             "make_planner takes 'cv', a forecaster or a predictor",
@@ -282,7 +288,15 @@ def make_forecaster(model: Any) -> Any:
         )
     if isinstance(model, Forecaster):
         return model
+    if hasattr(model, "modes") or hasattr(model, "predictor_api"):  # a predictor plug-in object
+        return PluginForecaster(model)
     if isinstance(model, Predictor):
+        if (
+            getattr(model, "frame_convention", "robot") == "focal_pedestrian"
+        ):  # an ETH/UCY model, pedestrian by pedestrian
+            from foresight.core.predict.focal import FocalForecaster
+
+            return FocalForecaster(model)
         return LearnedForecaster(model)
     raise ConfigError(
         f"model of type {type(model).__name__} is neither a forecaster nor a predictor", item="model"

@@ -58,11 +58,11 @@ def _stride(timebase: TimeBase) -> int:
     return k
 
 
-def focal_windows(rows: np.ndarray, span: int) -> Iterator[tuple[int, np.ndarray]]:
-    """(ped id, (span,) frame numbers) of every run of ``span`` consecutive annotated frames."""
+def focal_windows(rows: np.ndarray, span: int, step: int = FRAME_STEP) -> Iterator[tuple[int, np.ndarray]]:
+    """(ped id, (span,) frame numbers) of every run of ``span`` consecutive annotated frames (``step`` apart)."""
     for pid in np.unique(rows[:, 1]):
         frames = np.sort(rows[rows[:, 1] == pid, 0].astype(np.int64))
-        gaps = np.diff(frames) != FRAME_STEP
+        gaps = np.diff(frames) != step
         breaks = np.concatenate([[0], np.cumsum(gaps)])  # run label per frame
         for i in range(len(frames) - span + 1):
             if breaks[i] == breaks[i + span - 1]:
@@ -94,16 +94,23 @@ class _SceneTable:
 
 
 def scene_samples(
-    rows: np.ndarray, timebase: TimeBase, max_agents: int, neighbour_targets: bool = False
+    rows: np.ndarray,
+    timebase: TimeBase,
+    max_agents: int,
+    neighbour_targets: bool = False,
+    *,
+    stride: int | None = None,
+    frame_step: int = FRAME_STEP,
 ) -> SampleArrays:
     """All focal-pedestrian windows of one scene file, on ``timebase`` (neighbours' futures as targets too when
-    ``neighbour_targets``; for training splits only)."""
-    k = _stride(timebase)
+    ``neighbour_targets``; for training splits only). Other recordings than ETH/UCY's give their annotations'
+    ``frame_step`` (frame units apart) and ``stride`` (annotations per time-base step)."""
+    k = stride or _stride(timebase)
     H, T = timebase.history, timebase.horizon
     span = (H + T - 1) * k + 1
     scene = _SceneTable(rows)
     out = {n: [] for n in ("state", "target", "mask", "target_mask")}
-    for pid, frames in focal_windows(rows, span):
+    for pid, frames in focal_windows(rows, span, frame_step):
         grid = scene.rows_of(frames[::k])  # H + T grid points (all annotated: the focal pedestrian is there)
         ids = scene.ids[grid[H - 1]]
         ids = np.concatenate([[pid], ids[ids != pid]])

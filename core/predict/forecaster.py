@@ -1,5 +1,5 @@
 """Forecasters: what the planner calls. They keep live histories from Observations and return
-world-frame forecasts on their time base.
+world-frame forecasts on their time base (``core.predict.forecast``: the contract, K = 1 here).
 
 Usage per episode: ``reset()``, then on every simulator step ``observe(obs)`` followed by
 ``forecast()`` (or ``update(obs)`` for both).
@@ -7,13 +7,13 @@ Usage per episode: ``reset()``, then on every simulator step ``observe(obs)`` fo
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 
 from foresight.core.errors import ConfigError
 from foresight.core.predict.features import ego_to_world, extract_features
+from foresight.core.predict.forecast import Forecast
 from foresight.core.predict.history import LiveHistory
 from foresight.core.predict.predictor import ConstantVelocityPredictor, Predictor
 from foresight.core.predict.timebase import TimeBase
@@ -21,18 +21,6 @@ from foresight.core.predict.uncertainty import CV_SIGMA, LEARNED_SIGMA, GrowingS
 from foresight.core.sim.observation import Observation
 
 SIGMA_FLOOR = 0.02  #: [m] a model's spread is never taken below this (as the envelopes' sigma0)
-
-
-@dataclass(frozen=True)
-class Forecast:
-    ped_ids: np.ndarray  #: (N,) int64 true pedestrian ids (those present now)
-    positions: np.ndarray  #: (N, T, 2) world frame [m] at ``times``
-    sigma: (
-        np.ndarray
-    )  #: (N, T) per-axis std [m] of each position (isotropic Gaussian, ``core.predict.uncertainty``)
-    times: np.ndarray  #: (T,) seconds ahead of the observation's time [s]
-    source: str  #: which predictor made it ("constant_velocity", "learned:<name>", "learned+cv_far:<name>")
-    timebase: TimeBase
 
 
 @runtime_checkable
@@ -91,7 +79,7 @@ class _PredictorForecaster:
                 sigma[k:] = CV_SIGMA(times)
                 source = source.replace("learned:", "learned+cv_far:")
         world = ego_to_world(ego, feats.origin, feats.heading)
-        return Forecast(feats.ped_ids.copy(), world, sigma, times, source, self.timebase)
+        return Forecast.single(feats.ped_ids.copy(), world, sigma, times, source, self.timebase)
 
 
 def _pad(features: np.ndarray, mask: np.ndarray, slots: int | None) -> tuple[np.ndarray, np.ndarray]:

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from foresight.core.predict.forecaster import Forecast
+from foresight.core.predict.forecast import Forecast
 from foresight.core.predict.timebase import PLANNER_TIMEBASE, TimeBase
 from foresight.core.scenarios.model import ResolvedScenario
 from foresight.core.sim.observation import Observation
@@ -71,4 +71,4 @@ class OracleForecaster:
                 at = step.get(pid)
                 pos[i, k] = at if at is not None else obs.ped_positions[i] + t * obs.ped_velocities[i]
         sigma = np.full((len(ids), len(times)), self.sigma)
-        return Forecast(ids.copy(), pos, sigma, times, self.source, self.timebase)
+        return Forecast.single(ids.copy(), pos, sigma, times, self.source, self.timebase)

@@ -128,9 +128,13 @@ class _Recorder:
 
 
 def _model_path(config: CollectConfig, ctx: StageContext) -> str | None:
-    """The checkpoint file of a ``planner`` policy's model (None: no model, or constant velocity)."""
+    """The checkpoint file of a ``planner`` policy's model (None: no model, constant velocity, a plug-in)."""
+    from foresight.core.predict import plugins
+
     model = (config.planner or {}).get("model") if config.policy == "planner" else None
-    return None if model in (None, "cv") else str(ctx.resolve_model(model))
+    if model in (None, "cv") or plugins.kind(model):  # a predictor plug-in is built by name (make_planner)
+        return None
+    return str(ctx.resolve_model(model))
 
 
 def _policy(config: CollectConfig, model_path: str | None):

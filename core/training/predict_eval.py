@@ -1,6 +1,7 @@
-"""Stage ``predict_eval``: ADE/FDE of a predictor (constant velocity, a checkpoint, or a model trained
-per fold) on ETH/UCY leave-one-scene-out folds or on a dataset's held-out split, always next to
-constant velocity on the same samples."""
+"""Stage ``predict_eval``: a predictor (constant velocity, a checkpoint, a predictor plug-in, or a model trained
+per fold) on ETH/UCY leave-one-scene-out folds or on a dataset's held-out split, always next to constant velocity
+on the same samples: best-of-1 ADE/FDE, minADE_K/minFDE_K, and NLL and calibration where a spread is given
+(``forecast_metrics``)."""
 
 from __future__ import annotations
 
@@ -11,9 +12,12 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from foresight.core.errors import ConfigError
+from foresight.core.predict import forecast_metrics
 from foresight.core.predict.dataset import Dataset, load_dataset, resolve_dataset_path, save_dataset
 from foresight.core.predict.ethucy import FOLDS, import_fold
 from foresight.core.predict.metrics import evaluate_predictor
+from foresight.core.predict.plugin import PluginForecaster
+from foresight.core.predict.plugin_eval import plugin_forecasts
 from foresight.core.predict.predictor import ConstantVelocityPredictor
 from foresight.core.predict.timebase import ETHUCY_TIMEBASE
 from foresight.core.runtime.context import StageContext
@@ -25,7 +29,9 @@ FILE_KEYS = ("reverse_train",)
 
 class PredictEvalConfig(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
-    model: str | None = None  #: "cv", a model id, or (in-process runs) a checkpoint path
+    #: "cv", a model id, a predictor plug-in name (docs/predictor_protocol.md), or (in-process runs) a checkpoint path
+    model: str | None = None
+    best_of: int = Field(default=20, ge=1, le=1000)  #: K of minADE_K / minFDE_K (the field's convention: 20)
     train: dict[str, Any] | None = None  #: TrainConfig fields (without dataset): train one model per fold
     ethucy: str | None = (
         None  #: named data root (FORESIGHT_DATA_ROOTS) holding <fold>/train|val|test; in-process
@@ -33,6 +39,8 @@ class PredictEvalConfig(BaseModel):
     #: runs also take a directory
     folds: list[str] | None = None  #: default: all five
     dataset: str | None = None  #: dataset id or .npz path (instead of ethucy)
+    #: your own recordings (``scene_import.ImportScenesConfig`` fields; in-process runs): leave-one-scene-out
+    scenes: dict[str, Any] | None = None
     split: str = "test"  #: held-out split of ``dataset`` (test, else val when it has no test episodes; "all")
     max_agents: int = Field(default=12, ge=1)  #: slots per ETH/UCY sample
     #: ETH/UCY with ``train``: each fold also trains on its training scenes played backwards (twice the windows;
@@ -44,8 +52,12 @@ class PredictEvalConfig(BaseModel):
     def _one_each(self) -> PredictEvalConfig:
         if (self.model is None) == (self.train is None):
             raise ValueError("give exactly one of model (cv | checkpoint) and train")
-        if (self.ethucy is None) == (self.dataset is None):
-            raise ValueError("give exactly one of ethucy and dataset")
+        if sum(x is not None for x in (self.ethucy, self.dataset, self.scenes)) != 1:
+            raise ValueError("give exactly one of ethucy, dataset and scenes")
+        if self.scenes is not None:
+            from foresight.core.predict.scene_import import ImportScenesConfig
+
+            ImportScenesConfig.model_validate(self.scenes)
         if self.reverse_train and (self.train is None or self.ethucy is None):
             raise ValueError(
                 "reverse_train plays ETH/UCY training scenes backwards: it needs train and ethucy"
@@ -70,8 +82,16 @@ def _check_train(train: dict[str, Any]) -> None:
 
 
 class Score(BaseModel):
-    ade: float  #: [m]
+    ade: float  #: [m] best-of-1: the most likely mode's
     fde: float  #: [m]
+    best_of: int | None = None  #: K of min_ade / min_fde (fewer when the predictor gives fewer modes)
+    min_ade: float | None = None  #: [m] minADE_K: the best of the K most likely modes
+    min_fde: float | None = None  #: [m] minFDE_K
+    nll: float | None = None  #: [nats] mean negative log-likelihood of the true positions (a spread is given)
+    within_1sigma: float | None = (
+        None  #: share of true positions within 1 sigma of the most likely mode (0.393)
+    )
+    within_2sigma: float | None = None  #: ... within 2 sigma (0.865 when calibrated)
 
 
 class FoldScore(Score):
@@ -80,6 +100,7 @@ class FoldScore(Score):
     cv_ade: float
     cv_fde: float
     predictor: str
+    modes: int = 1  #: modes the predictor gave per pedestrian
 
 
 class PredictEvalResult(BaseModel):
@@ -89,8 +110,12 @@ class PredictEvalResult(BaseModel):
 
 
 def _predictor(config: PredictEvalConfig, ds: Dataset, ctx: StageContext, name: str):
+    from foresight.core.predict import plugins
+
     if config.model == "cv":
         return ConstantVelocityPredictor(ds.meta.timebase)
+    if plugins.kind(config.model):
+        return plugins.load(config.model)
     if config.model is not None:
         from foresight.core.predict.nn.checkpoint import load_predictor
 
@@ -126,17 +151,41 @@ def _score(config: PredictEvalConfig, ds: Dataset, split: str, ctx: StageContext
     if not len(ds.split_indices(split)):
         raise ConfigError(f"no samples in split {split!r}", source=name, item="split")
     predictor = _predictor(config, ds, ctx, name)
-    r = evaluate_predictor(predictor, ds, split)
+    modes, weights, spread = _forecasts(predictor, ds, split)
+    idx = ds.split_indices(split)
+    r = forecast_metrics.score(modes, weights, ds.target[idx], ds.target_mask[idx], spread, config.best_of)
     cv = evaluate_predictor(ConstantVelocityPredictor(ds.meta.timebase), ds, split)
     return FoldScore(
-        ade=r["ade"],
-        fde=r["fde"],
-        samples=r["samples"],
+        **{k: r[k] for k in Score.model_fields},
+        samples=len(idx),
         split=split,
         cv_ade=cv["ade"],
         cv_fde=cv["fde"],
-        predictor=getattr(predictor, "name", "model"),
+        predictor=getattr(predictor, "who", None) or getattr(predictor, "name", "model"),
+        modes=int(modes.shape[2]),
     )
+
+
+def _forecasts(predictor, ds: Dataset, split: str, batch: int = 4096):
+    """Modes (S, N, K, T, 2), weights (S, N, K) and spread (or None) of any predictor on a split's samples."""
+    idx = ds.split_indices(split)
+    if isinstance(predictor, PluginForecaster):
+        return plugin_forecasts(predictor, ds.state[idx], ds.mask[idx], ds.meta.timebase)
+    predictor.timebase.require_same(ds.meta.timebase, what="dataset")
+    dist = getattr(predictor, "has_sigma", False)
+    pos, sig = [], []
+    for i in range(0, len(idx), batch):
+        part = idx[i : i + batch]
+        if dist:
+            p, s = predictor.predict_dist(ds.state[part], ds.mask[part])
+            sig.append(s)
+        else:
+            p = predictor.predict(ds.state[part], ds.mask[part])
+        pos.append(p)
+    shape = (0, *ds.target.shape[1:])
+    pred = np.concatenate(pos) if pos else np.zeros(shape, np.float32)
+    spread = (np.concatenate(sig) if sig else np.zeros(shape[:-1]))[:, :, None] if dist else None
+    return pred[:, :, None], np.ones(pred.shape[:2] + (1,)), spread
 
 
 def _all_as_test(ds: Dataset) -> Dataset:
@@ -166,6 +215,16 @@ def run_predict_eval(config: PredictEvalConfig, ctx: StageContext) -> PredictEva
                 reversed_splits=("train",) if config.reverse_train else (),
             )
             folds[fold] = _score(config, ds, "test", ctx, fold)
+    elif config.scenes is not None:
+        from foresight.core.predict.scene_import import ImportScenesConfig, read_scenes, scene_folds
+
+        if not ctx.local_files:
+            raise ConfigError("scenes are local files: run predict-eval in-process", item="scenes")
+        scene_config = ImportScenesConfig.model_validate(config.scenes)
+        for name, ds in scene_folds(read_scenes(scene_config), scene_config):
+            ctx.check_cancelled()
+            ctx.progress(len(folds) / max(1, len(folds) + 1), f"scene {name}")
+            folds[name] = _score(config, ds, "test", ctx, name)
     else:
         path = resolve_dataset_path(config.dataset, ctx)
         ds = load_dataset(path)
@@ -173,8 +232,14 @@ def run_predict_eval(config: PredictEvalConfig, ctx: StageContext) -> PredictEva
         folds[Path(path).stem] = _score(config, ds, split, ctx, Path(path).stem)
     ctx.progress(1.0, "done")
     mean = lambda key: float(np.mean([getattr(f, key) for f in folds.values()]))  # noqa: E731
+    opt = {
+        key: (mean(key) if all(getattr(f, key) is not None for f in folds.values()) else None)
+        for key in ("min_ade", "min_fde", "nll", "within_1sigma", "within_2sigma")
+    }
     return PredictEvalResult(
         folds=folds,
-        average=Score(ade=mean("ade"), fde=mean("fde")),
+        average=Score(
+            ade=mean("ade"), fde=mean("fde"), best_of=min(f.best_of for f in folds.values()), **opt
+        ),
         cv_average=Score(ade=mean("cv_ade"), fde=mean("cv_fde")),
     )

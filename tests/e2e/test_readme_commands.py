@@ -85,6 +85,9 @@ BASH_BLOCKS: dict[tuple[str, str, int], str | Elsewhere | Excluded | Copy] = {
         "tests/unit/library/test_readme_routes.py"),
     ("docs/tutorials/own-planner.md", "Evaluate your own planner", 2): Elsewhere(
         "tests/unit/library/test_readme_routes.py"),
+    ("docs/tutorials/own-predictor.md", "Bring your own predictor and data", 0): Excluded(
+        "needs your own recordings folder (and minutes for every ETH/UCY fold); tests/unit/predict/"
+        "test_scene_import.py and test_predictor_plugins.py run each command's route on ETH/UCY scene files"),
 }  # fmt: skip
 
 #: the excluded blocks' shell words that are not ours to check (SLURM and shell syntax of the batch script)

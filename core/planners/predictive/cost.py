@@ -204,6 +204,8 @@ class Scene:
     traffic: Callable[[np.ndarray], np.ndarray] | None = (
         None  #: walkers lately passing at points (``traffic``)
     )
+    #: (N,) probability of each row when rows are modes of a multi-modal forecast; None: one mode each (weight 1)
+    ped_weight: np.ndarray | None = None
 
     @cached_property
     def time_steps(self) -> np.ndarray:
@@ -235,7 +237,9 @@ def pedestrian_terms(
     it along the line of centres with probability Phi(confidence)) plus a base and a speed margin;
     ``risk`` is the expected number of contact steps, the sum of P(contact) = Phi(-clearance / sigma).
     A robot standing still is held to the same terms as a moving one: a pedestrian who does not see
-    the robot walks into it all the same. After a stall the soft margins shrink by
+    the robot walks into it all the same. Rows may be modes of one pedestrian (``scene.ped_weight``): the collision,
+    near-miss and TTC excesses and the contact probability are then weighted by each mode's probability (their
+    expectation over the mixture); the hard clearance holds against every mode kept. After a stall the soft margins shrink by
     ``stall_margin_relief`` x assertiveness, and a pedestrian forecast to stand (waiting for the
     robot) is expected to make room; the contact with a walking pedestrian never shrinks. ``gone`` (B, K): steps
     after the rollout's arrival at the goal, which meet nobody.
@@ -286,6 +290,11 @@ def pedestrian_terms(
     )  # > 0 inside the collision margin
     disc = (s.discount ** np.arange(len(scene.times))).take(k)
 
+    ttc = np.maximum(excess + relief * s.ttc_distance, 0.0) / scene.times[k]
+    if scene.ped_weight is not None:  # rows are modes: each term below is its expectation over the mixture
+        w = scene.ped_weight.take(nk // clear.shape[1])
+        disc, ttc = disc * w, ttc * w
+
     def per_rollout(values: np.ndarray) -> np.ndarray:
         # each rollout's entries in (pedestrian, step) order, whatever the layout: the same sums
         return np.bincount(b, values, minlength=B)
@@ -294,7 +303,7 @@ def pedestrian_terms(
         "collision": per_rollout(np.maximum(excess, 0.0) * disc),
         "risk": per_rollout(contact_probability(c / sig) * disc),
         "near_miss": per_rollout(np.maximum(excess + relief * s.near_distance, 0.0) * disc),
-        "ttc": per_rollout(np.maximum(excess + relief * s.ttc_distance, 0.0) / scene.times[k]),
+        "ttc": per_rollout(ttc),
         "hard_clearance": hard,
         "min_clearance": np.minimum.reduce(nearest, axis=0),
     }

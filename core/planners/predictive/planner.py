@@ -29,6 +29,7 @@ import numpy as np
 from foresight.core.errors import ConfigError
 from foresight.core.planners.predictive import cost as C
 from foresight.core.planners.predictive.config import PredictivePlannerConfig
+from foresight.core.planners.predictive.forecast_input import planner_forecast
 from foresight.core.planners.predictive.geodesic import GeodesicDistance
 from foresight.core.planners.predictive.rollout import FrameRollouts, eval_steps, extend_forecast, rollout
 from foresight.core.planners.predictive.sampling import (
@@ -108,7 +109,8 @@ class PredictivePlanner:
         t0 = time.perf_counter()
         self.forecaster.observe(obs)
         fc = self.forecaster.forecast()
-        scene, near, extra = self._scene(obs, fc.positions, fc.sigma, fc.times, fc.ped_ids)
+        pf = planner_forecast(fc, obs, obs.dt)
+        scene, near, extra = self._scene(obs, pf.positions, pf.sigma, pf.times, pf.ped_ids, pf.weights)
         best_cmds, best_terms, best_total, n_eval, kept = self._search(obs, scene, near)
         self._decided = (obs, scene)
         v, w = float(best_cmds[0, 0]), float(best_cmds[0, 1])
@@ -124,6 +126,7 @@ class PredictivePlanner:
             "kept_plan": kept,  #: the command carries out the last decision's plan (``search.keep_plan``)
             "forecast_source": fc.source,
             "forecast_extended_steps": extra,
+            **({"forecast_modes": fc.n_modes} if fc.n_modes > 1 else {}),
             "predictions": {
                 "ped_ids": fc.ped_ids,
                 "positions": fc.positions,
@@ -139,8 +142,8 @@ class PredictivePlanner:
     ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         """Cost (B,) and terms of constant commands (B, 2) held over the horizon (tests, diagnostics)."""
         self.forecaster.observe(obs)
-        fc = self.forecaster.forecast()
-        scene, _, _ = self._scene(obs, fc.positions, fc.sigma, fc.times, fc.ped_ids)
+        pf = planner_forecast(self.forecaster.forecast(), obs, obs.dt)
+        scene, _, _ = self._scene(obs, pf.positions, pf.sigma, pf.times, pf.ped_ids, pf.weights)
         idx = eval_steps(scene.times, obs.dt)
         cmds = np.repeat(np.asarray(commands, dtype=float)[:, None, :], int(idx[-1]) + 1, axis=1)
         return self._cost(obs, scene, idx, cmds)
@@ -174,7 +177,9 @@ class PredictivePlanner:
         sigma: np.ndarray,
         times: np.ndarray,
         fc_ids: np.ndarray,
+        weights: np.ndarray | None = None,
     ) -> tuple[C.Scene, bool, int]:
+        """The decision's scene; rows of ``positions`` are pedestrians, or modes of them with ``weights`` (R,)."""
         cfg, limits = self.config, self._limits
         p0 = obs.robot_pose[:2]
         route = self._route(obs)
@@ -227,6 +232,8 @@ class PredictivePlanner:
                 cfg, float(times[-1]), limits.v_max, float(sigma.max())
             )
             fut, sigma, room, yielding = fut[keep], sigma[keep], room[keep], yielding[keep]
+            if weights is not None:
+                weights = weights[keep]
             if straight is not None:
                 straight = np.flatnonzero(mask[keep]), lines[keep[mask]]
         line_ids, lines = straight or (NO_LINES, np.zeros((0, len(times), 2)))
@@ -249,6 +256,7 @@ class PredictivePlanner:
             max_speed=limits.v_max,
             max_turn_rate=limits.w_max,
             traffic=self._lanes(obs, contact),
+            ped_weight=weights,
         )
         return scene, near, extra
 

@@ -25,7 +25,7 @@ class SwervingForecaster(ConstantVelocityForecaster):
         )  # back to the current position
         speed = np.hypot(*(fc.positions[:, 1] - fc.positions[:, 0]).T) / (fc.times[1] - fc.times[0])
         side = np.stack([np.zeros_like(speed), speed], axis=1)
-        return dataclasses.replace(fc, positions=start + fc.times[None, :, None] * side[:, None, :])
+        return dataclasses.replace(fc, modes=(start + fc.times[None, :, None] * side[:, None, :])[:, None])
 
 
 def _planner(straight: float = 0.3, forecaster=None) -> tuple[PredictivePlanner, object]:

@@ -22,7 +22,19 @@ def test_predict_eval_cv_on_one_fold(shared_dir, capsys):
     out = json.loads(capsys.readouterr().out)
     assert rc == 0 and set(out) >= {"folds", "average"}
     assert out["folds"]["zara1"]["ade"] == pytest.approx(0.43, abs=0.01)
-    assert set(out["average"]) == {"ade", "fde"}
+    avg = out["average"]
+    assert set(avg) >= {
+        "ade",
+        "fde",
+        "best_of",
+        "min_ade",
+        "min_fde",
+        "nll",
+        "within_1sigma",
+        "within_2sigma",
+    }
+    # one deterministic mode, no spread: best-of-1 is the best of all, and there is no likelihood to report
+    assert avg["best_of"] == 1 and avg["min_ade"] == pytest.approx(avg["ade"]) and avg["nll"] is None
 
 
 def test_train_then_eval_on_dataset(tmp_path, curving_dataset, capsys):

@@ -1,0 +1,99 @@
+"""External predictor round trip: ms per forecast through the JSON-lines predictor protocol (core.predict.external).
+
+The reference client (examples/external_predictor.py: constant velocity in plain Python, one mode) answers an
+observation window of N pedestrians with 0.2 s steps, 5 observed and 12 predicted. Timed per forecast: ``round_trip``
+(window -> JSON line -> process -> JSON line back -> parsed) and ``checked`` (also turned into a Forecast and
+checked against the contract, as the planner receives it). Windows are random walks, new every call. Target:
+round-trip p50 <= 0.5 ms at 16 pedestrians. ``--json`` prints ONE JSON object.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO))
+
+from foresight.core.predict.external import ENV, ExternalPredictor  # noqa: E402
+from foresight.core.predict.plugin import ObservationWindow, declaration, forecast_from  # noqa: E402
+
+
+def windows(n: int, count: int, history: int = 5, dt: float = 0.2, seed: int = 0) -> list[ObservationWindow]:
+    rng = np.random.default_rng(seed)
+    out = []
+    for i in range(count):
+        start = rng.uniform(0, 20, (n, 1, 2))
+        vel = rng.normal(0, 1.0, (n, 1, 2))
+        hist = start + vel * dt * np.arange(history)[None, :, None]
+        out.append(
+            ObservationWindow(
+                time=i * dt,
+                dt=dt,
+                ped_ids=np.arange(n, dtype=np.int64),
+                history=hist,
+                valid=np.ones((n, history), dtype=bool),
+                robot_pose=np.zeros(3),
+                robot_velocity=np.zeros(2),
+                waypoint=np.array([10.0, 10.0]),
+            )
+        )
+    return out
+
+
+def measure(n: int, count: int) -> dict:
+    predictor = ExternalPredictor("reference")
+    decl = declaration(predictor, "external:reference")
+    ws = windows(n, count + 20)
+    for w in ws[:20]:  # warm-up: the process's first answers
+        predictor.predict(w)
+    raw, checked = [], []
+    for w in ws[20:]:
+        t0 = time.perf_counter()
+        reply = predictor.predict(w)
+        t1 = time.perf_counter()
+        forecast_from(reply, w, decl, "external:reference", "bench")
+        t2 = time.perf_counter()
+        raw.append(t1 - t0)
+        checked.append(t2 - t0)
+    raw_ms, checked_ms = np.asarray(raw) * 1e3, np.asarray(checked) * 1e3
+    return {
+        "pedestrians": n,
+        "round_trip_p50_ms": round(float(np.percentile(raw_ms, 50)), 3),
+        "round_trip_p95_ms": round(float(np.percentile(raw_ms, 95)), 3),
+        "checked_p50_ms": round(float(np.percentile(checked_ms, 50)), 3),
+        "checked_p95_ms": round(float(np.percentile(checked_ms, 95)), 3),
+        "forecasts": count,
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--json", action="store_true")
+    ap.add_argument("--pedestrians", type=int, nargs="+", default=[4, 16, 50])
+    ap.add_argument("--forecasts", type=int, default=1000)
+    args = ap.parse_args()
+    os.environ[ENV] = json.dumps(
+        {"reference": [sys.executable, str(REPO / "examples" / "external_predictor.py")]}
+    )
+    entries = [measure(n, args.forecasts) for n in args.pedestrians]
+    result = {"benchmark": "predictor_roundtrip", "targets": {"pedestrians": 16, "round_trip_p50_ms": 0.5}}
+    result["entries"] = entries
+    if args.json:
+        print(json.dumps(result))
+    else:
+        for e in entries:
+            print(
+                f"{e['pedestrians']:>3} peds  round trip p50 {e['round_trip_p50_ms']:.3f} ms  "
+                f"p95 {e['round_trip_p95_ms']:.3f} ms  (checked p50 {e['checked_p50_ms']:.3f} ms)"
+            )
+
+
+if __name__ == "__main__":
+    main()
