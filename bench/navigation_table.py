@@ -8,6 +8,11 @@ Suites (``--suites``, default all four; each runs at its scenarios' own seeds an
 - ``reference_typical``: the same with ``ped_speed_tier: typical``;
 - ``reference_typical_blind``: the same and ``peds_have_robot_repulsion: false`` (nobody yields to the robot);
 - or ``--matrix M [--override KEY=VALUE ...]``: any matrix under any conditions, as suite ``custom``.
+- ``crowdnav`` (not in the default): the field's benchmarks in configs/scenarios/crowdnav/ (CrowdNav circle and square
+  crossing, CrowdNav++ 20 humans "no rand" and "rand"; docs/crowdnav.md), the baselines with the published rows'
+  parameters (configs/planners/crowdnav/), the learned model left out unless ``--planners`` names it (its 0.2 s
+  forecast grid does not fit 0.25 s steps); cells add mean navigation time and path length of the successes,
+  discomfort frequency and intrusion ratio.
 
 ``--replication`` runs each suite on new episodes of the same conditions instead (suite ``<name>_replication``): the
 stress suite's synthetic scenarios on configs/seeds/stress_replication.yaml (evaluation seed + 10), the reference
@@ -48,6 +53,16 @@ SUITES = {  #: name -> (matrix, --override values)
     "reference_typical": (REFERENCE, ["ped_speed_tier=typical"]),
     "reference_typical_blind": (REFERENCE, ["ped_speed_tier=typical", "peds_have_robot_repulsion=false"]),
 }
+CROWDNAV = REPO / "configs/scenarios/crowdnav"
+CROWDNAV_SUITES = {  #: the field's benchmarks (docs/crowdnav.md); ``--suites crowdnav`` names all four
+    "crowdnav_circle": (CROWDNAV / "circle_crossing.yaml", []),
+    "crowdnav_square": (CROWDNAV / "square_crossing.yaml", []),
+    "crowdnavpp_no_rand": (CROWDNAV / "crowdnavpp_no_rand.yaml", []),
+    "crowdnavpp_rand": (CROWDNAV / "crowdnavpp_rand.yaml", []),
+}
+DEFAULT_SUITES = list(SUITES)
+SUITES.update(CROWDNAV_SUITES)
+SUITE_GROUPS = {"crowdnav": list(CROWDNAV_SUITES)}
 REPLICATION = {
     STRESS: REPO / "configs/seeds/stress_replication.yaml",  #: matrix -> its replication seeds
     REFERENCE: REPO / "configs/seeds/reference_replication.yaml",
@@ -59,7 +74,22 @@ PLANNERS = {  #: column name -> foresight evaluate arguments
     "social_force": ["--planner", "social_force"],
     "goal": ["--planner", "goal"],
 }
+#: on the CrowdNav suites the baselines run with the parameters of the published rows (configs/planners/crowdnav)
+CROWDNAV_PLANNERS = {
+    "orca": {"crowdnav": "orca.yaml", "crowdnavpp": "orca_pp.yaml"},
+    "social_force": {"crowdnav": "social_force_pp.yaml", "crowdnavpp": "social_force_pp.yaml"},
+}
 SLUG = {"predictive (learned)": "predictive_learned", "predictive (cv)": "predictive_cv"}
+
+
+def planner_args(suite: str, planner: str) -> list[str]:
+    """``foresight evaluate`` planner arguments of a (suite, planner) cell."""
+    family = suite.split("_")[0]
+    if suite in CROWDNAV_SUITES and planner in CROWDNAV_PLANNERS:
+        return ["--planner", str(REPO / "configs/planners/crowdnav" / CROWDNAV_PLANNERS[planner][family])]
+    return PLANNERS[planner]
+
+
 BASELINES = ("orca", "social_force", "goal")
 
 
@@ -75,7 +105,7 @@ def run_one(
         "evaluate",
         "--matrix",
         str(matrix),
-        *PLANNERS[planner],
+        *planner_args(suite, planner),
         "--local",
         "--json",
         "--workers",
@@ -127,11 +157,21 @@ def cell(records: list) -> dict:
         "timeout": sum(r.outcome == "timeout" for r in records),
     }
     unsolvable = sum(r.taxonomy.reachable is False for r in records)  # no robot could have reached the goal
-    return {
+    out = {
         "episodes": n,
         **{k: rate(c, n).model_dump(exclude={"n"}) for k, c in counts.items()},
         "unsolvable": unsolvable,
     }
+    if n and records[0].safety.discomfort_steps is not None:  # CrowdNav's metrics
+        wins = [r for r in records if r.success]
+        out["time_s"] = round(sum(r.time_to_goal_s for r in wins) / len(wins), 2) if wins else None
+        out["path_m"] = round(sum(r.efficiency.path_length for r in wins) / len(wins), 2) if wins else None
+        per = [
+            (r.safety.discomfort_steps or 0, r.safety.intrusion_steps or 0, max(r.steps, 1)) for r in records
+        ]
+        out["discomfort"] = round(sum(d / t for d, _, t in per) / n, 4)  #: mean share of steps per episode
+        out["intrusion"] = round(sum(i / t for _, i, t in per) / n, 4)
+    return out
 
 
 def records_of(folder: Path) -> list:
@@ -197,6 +237,12 @@ def baseline_better(suites: dict[str, dict]) -> list[dict]:
     return out
 
 
+def _crowdnav_cell(c: dict) -> str:
+    t = "–" if c["time_s"] is None else f"{c['time_s']:.2f} s"
+    path = "–" if c["path_m"] is None else f"{c['path_m']:.2f} m"
+    return f" · {t}, {path}, discomfort {100 * c['discomfort']:.1f} %, intrusion {100 * c['intrusion']:.1f} %"
+
+
 def markdown(result: dict) -> str:
     def pct(x: dict, interval: bool) -> str:
         s = f"{100 * x['rate']:.0f}"
@@ -217,6 +263,8 @@ def markdown(result: dict) -> str:
                 f"{pct(c['success'], True)} / {pct(c['collision'], True)} / {pct(c['timeout'], False)}"
                 for c in (cells[p] for p in planners)
             ]
+            if "intrusion" in cells[planners[0]]:  # CrowdNav's columns: time, path, discomfort, intrusion
+                vals = [v + _crowdnav_cell(cells[p]) for v, p in zip(vals, planners, strict=True)]
             name = f"**{group}**" if group.startswith("all") else group
             lines.append(f"| {name} (n={cells[planners[0]]['episodes']}) | " + " | ".join(vals) + " |")
         lines.append("")
@@ -235,7 +283,11 @@ def main(argv: list[str] | None = None) -> int:
     from foresight.core.evaluation.runner import EvaluationResult
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--suites", default=",".join(SUITES), help=f"comma-separated, of {', '.join(SUITES)}")
+    ap.add_argument(
+        "--suites",
+        default=",".join(DEFAULT_SUITES),
+        help=f"comma-separated, of {', '.join([*SUITES, *SUITE_GROUPS])} (crowdnav = its four suites)",
+    )
     ap.add_argument("--matrix", help="instead of --suites: this matrix, as suite 'custom'")
     ap.add_argument(
         "--override", action="append", default=[], metavar="KEY=VALUE", help="with --matrix (repeatable)"
@@ -264,9 +316,15 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    explicit_planners = any(a == "--planners" or a.startswith("--planners=") for a in (argv or sys.argv[1:]))
+    args.suites = ",".join(x for s in args.suites.split(",") for x in SUITE_GROUPS.get(s, [s]))
     unknown = [s for s in args.suites.split(",") if s and s not in SUITES]
     if unknown and not args.matrix:
         ap.error(f"unknown suite {unknown[0]!r}; expected one of {', '.join(SUITES)}")
+    if args.replication and any(s in CROWDNAV_SUITES for s in args.suites.split(",")):
+        ap.error(
+            "--replication: the CrowdNav suites have no replication seeds (their 500 are the published test cases)"
+        )
     if args.replication and args.matrix:
         ap.error(
             "--replication runs the named suites on their replication seeds; it does not apply to --matrix"
@@ -277,7 +335,7 @@ def main(argv: list[str] | None = None) -> int:
         else {
             f"{s}_replication" if args.replication else s: (
                 *SUITES[s],
-                REPLICATION[SUITES[s][0]] if args.replication else None,
+                REPLICATION.get(SUITES[s][0]) if args.replication else None,
             )
             for s in args.suites.split(",")
             if s
@@ -291,7 +349,11 @@ def main(argv: list[str] | None = None) -> int:
         "runs": {},
     }
     for suite, (matrix, overrides, seeds) in suites.items():
-        folders = {p: run_one(suite, matrix, overrides, seeds, p, args) for p in planners}
+        # the shipped learned model forecasts on 0.2 s, which 0.25 s steps do not divide: not on CrowdNav by default
+        mine = [
+            p for p in planners if explicit_planners or suite not in CROWDNAV_SUITES or "learned" not in p
+        ]
+        folders = {p: run_one(suite, matrix, overrides, seeds, p, args) for p in mine}
         summaries = {
             p: EvaluationResult.model_validate_json((f / "evaluation.json").read_text())
             for p, f in folders.items()

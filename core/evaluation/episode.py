@@ -153,7 +153,17 @@ def geometry_of(scenario: ResolvedScenario, sim: Any) -> EpisodeGeometry:
         goal_tolerance=float(sim.route.tolerance),
         limits=sim.limits,
         static=sim.static,
+        **crowdnav_metrics(scenario, float(sim.dt)),
     )
+
+
+def crowdnav_metrics(scenario: ResolvedScenario, dt: float) -> dict[str, Any]:
+    """A generated (CrowdNav) crowd's social metrics: discomfort at its discomfort distance, intrusion over the
+    1.25 s its robot's predictor looks ahead (CrowdNav++: 5 steps of 0.25 s)."""
+    gen = scenario.scenario.crowd_generator
+    if gen is None:
+        return {}
+    return {"discomfort_clearance": gen.discomfort_dist, "intrusion_steps": max(1, int(round(1.25 / dt)))}
 
 
 def fallback_of(rp: ResolvedPlanner, sources: set[str]) -> str | None:

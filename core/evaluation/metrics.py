@@ -57,6 +57,10 @@ class EpisodeGeometry:
     goal_tolerance: float = 0.0  #: [m]
     limits: RobotLimits = RobotLimits()  #: the robot's dynamics (the taxonomy's escape check)
     static: StaticGeometry | None = None  #: the map's obstacles and bounds, when known (escape check)
+    #: CrowdNav's social metrics, where the scenario defines them: discomfort below this clearance [m], and
+    #: intrusion = the robot inside the contact distance of where a pedestrian will be within ``intrusion_steps``
+    discomfort_clearance: float | None = None
+    intrusion_steps: int = 0
 
 
 @dataclass(frozen=True)
@@ -89,6 +93,10 @@ class Safety(BaseModel):
     intimate_intrusions: int  #: steps with clearance < intimate_clearance
     personal_intrusions: int  #: steps with clearance < personal_clearance
     first_collision_step: int | None = None
+    #: CrowdNav scenarios: steps with clearance below its discomfort distance; steps the robot stood where a
+    #: pedestrian will be within the intrusion horizon (CrowdNav++'s intrusion); None elsewhere
+    discomfort_steps: int | None = None
+    intrusion_steps: int | None = None
 
 
 class Efficiency(BaseModel):
@@ -213,6 +221,27 @@ def safety(d: Derived, cfg: MetricsConfig, first_collision_step: int | None = No
         personal_intrusions=int((d.clearance < cfg.personal_clearance).sum()),
         first_collision_step=first_collision_step,
     )
+
+
+def social_steps(d: Derived, geom: EpisodeGeometry) -> dict[str, int | None]:
+    """``Safety.discomfort_steps`` and ``intrusion_steps`` of an episode (None where the scenario defines none).
+
+    Both count the states after each step (1..T). Intrusion at state t: some pedestrian slot, the same id, at
+    t + 1 .. t + ``intrusion_steps`` within robot radius + pedestrian radius of the robot's position at t (CrowdNav++
+    uses the humans' true future, which the trace holds where nobody reacts to the robot).
+    """
+    if geom.discomfort_clearance is None:
+        return {"discomfort_steps": None, "intrusion_steps": None}
+    discomfort = int((d.clearance[1:] < geom.discomfort_clearance).sum())
+    contact = geom.robot_radius + geom.ped_radius
+    T, hit = d.steps, np.zeros(d.steps + 1, dtype=bool)
+    for k in range(1, geom.intrusion_steps + 1):
+        if k > T:
+            break
+        same = (d.ped_ids[k:] == d.ped_ids[:-k]) & (d.ped_ids[k:] >= 0)  # (T+1-k, N)
+        gap = np.linalg.norm(d.ped_pos[k:] - d.pos[:-k, None, :], axis=2)
+        hit[:-k] |= (same & (gap < contact)).any(axis=1)
+    return {"discomfort_steps": discomfort, "intrusion_steps": int(hit[1:].sum())}
 
 
 def window_steps(seconds: float, dt: float) -> int:

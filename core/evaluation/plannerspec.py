@@ -252,23 +252,47 @@ def resolve_planner(spec: PlannerSpecBase | dict[str, Any], ctx: StageContext) -
     )
 
 
+#: the command types a planner may declare, and what each command is
+COMMANDS = {"unicycle": "(v [m/s], omega [rad/s])", "velocity": "world-frame (vx, vy) [m/s]"}
+
+
 def preflight(rp: ResolvedPlanner, scenarios: list[ResolvedScenario]) -> None:
-    """Reset a planner once per distinct time step: an incompatible model fails here, before any episode."""
+    """Reset a planner once per distinct time step: an incompatible model fails here, before any episode; so does a
+    planner whose declared command type (``command_type``) the scenario's robot does not take."""
+    declared = rp.config.get("command_type")
+    for sc in scenarios if declared is not None else ():
+        kind = sc.scenario.robot_config.kinematics
+        wanted = "velocity" if kind == "holonomic" else "unicycle"
+        if declared != wanted:
+            raise ConfigError(
+                f"planner {rp.label!r} sends {declared} commands but the scenario's robot_config.kinematics is "
+                f"{kind!r}, which takes {wanted} commands ({COMMANDS[wanted]})",
+                source=sc.name,
+                item="planner.config.command_type",
+            )
     seen: set[float] = set()
     for sc in scenarios:
         cfg = sc.scenario.simulation_config
         if cfg.dt in seen:
             continue
         seen.add(cfg.dt)
-        build_planner(rp).reset(
-            EpisodeInfo(
-                scenario=sc,
-                seed=0,
-                dt=cfg.dt,
-                robot_radius=sc.scenario.robot_config.radius,
-                ped_radius=cfg.ped_radius,
-            )
+        info = EpisodeInfo(
+            scenario=sc,
+            seed=0,
+            dt=cfg.dt,
+            robot_radius=sc.scenario.robot_config.radius,
+            ped_radius=cfg.ped_radius,
         )
+        try:
+            build_planner(rp).reset(info)
+        except ConfigError as exc:
+            if exc.source is not None:
+                raise
+            raise ConfigError(
+                f"planner {rp.label!r} cannot run this scenario (dt {cfg.dt:g} s): {exc.detail}",
+                source=sc.name,
+                item=exc.item,
+            ) from None
 
 
 def config_diff(a: dict[str, Any], b: dict[str, Any], prefix: str = "") -> dict[str, tuple[Any, Any]]:

@@ -22,6 +22,7 @@ from foresight.core.evaluation.metrics import (
     efficiency,
     safety,
     smoothness,
+    social_steps,
     timing_summary,
 )
 from foresight.core.evaluation.taxonomy import TaxonomyConfig, TaxonomyResult, classify
@@ -151,7 +152,7 @@ def build_record(
         steps=d.steps,
         time_to_goal_s=d.steps * d.dt if success else None,
         time_to_goal_norm=min(1.0, d.steps / geom.horizon) if success else 1.0,
-        safety=safety(d, mcfg, collision_step),
+        safety=safety(d, mcfg, collision_step).model_copy(update=social_steps(d, geom)),
         efficiency=efficiency(d, geom, mcfg, success),
         smoothness=smoothness(d, (taxonomy_cfg or TaxonomyConfig()).oscillation_omega_min),
         timing=Timing(**timing_summary(plan_ms), wall_s=wall_s),

@@ -22,7 +22,7 @@ import subprocess
 import tempfile
 import threading
 import time
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
@@ -70,6 +70,9 @@ class ExternalPlannerConfig(BaseModel):
         default=20.0, gt=0, le=300
     )  #: deadline of the process start and episode start
     params: dict[str, Any] = Field(default_factory=dict)  #: sent to the process with every episode start
+    #: what the process sends: ``unicycle`` (v, omega) for a differential-drive or unicycle robot, ``velocity``
+    #: world-frame (vx, vy) for a holonomic one; a scenario whose robot takes the other is refused before any episode
+    command_type: Literal["unicycle", "velocity"] = "unicycle"
 
     @field_validator("command")
     @classmethod
@@ -272,6 +275,7 @@ def start_message(info: EpisodeInfo, params: dict[str, Any]) -> dict[str, Any]:
         "dt": float(info.dt),
         "robot_radius": float(info.robot_radius),
         "ped_radius": float(info.ped_radius),
+        "kinematics": info.scenario.scenario.robot_config.kinematics,
     }
     return {"type": "start", "episode": episode, "params": params}
 

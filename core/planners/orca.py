@@ -14,7 +14,7 @@ import numpy as np
 import pyrvo
 from pydantic import BaseModel, ConfigDict, Field
 
-from foresight.core.planners.social_force import limits_of, velocity_to_unicycle
+from foresight.core.planners.social_force import command_for, cruise_speed, limits_of
 from foresight.core.sim.observation import Observation
 from foresight.core.sim.planner import EpisodeInfo
 
@@ -27,6 +27,13 @@ class OrcaConfig(BaseModel):
     time_horizon: float = Field(default=2.0, gt=0)  #: [s] against pedestrians
     time_horizon_obst: float = Field(default=1.0, gt=0)  #: [s] against static obstacles
     radius_margin: float = Field(default=0.1, ge=0)  #: added to the true robot radius [m]
+    ped_radius_margin: float = Field(default=0.0, ge=0)  #: added to every pedestrian's radius [m]
+    #: near the waypoint the preferred speed is at most distance x this [1/s]; None = 1 / dt (arrive in one step).
+    #: CrowdNav's ORCA uses 1 (its preferred velocity is the goal vector itself within 1 m)
+    arrival_gain: float | None = Field(default=None, gt=0)
+    #: False = every pedestrian at the observation's nominal ``ped_radius``, whatever its own radius (CrowdNav++'s
+    #: ORCA robot keeps the radii of its first observation, 0.3 m for the humans it has not yet seen)
+    observed_radii: bool = True
     speed_ratio: float = Field(default=1.0, gt=0, le=1)  #: preferred speed, ratio of the max speed
     turn_gain: float = Field(default=1.5, gt=0)  #: heading error -> turn rate [1/s]
     wall_thickness: float = Field(default=1.0, gt=0)  #: boundary walls outside the map [m]
@@ -105,8 +112,11 @@ class OrcaPlanner:
         sim = self._simulator(1 + len(obs.ped_positions))
         to_wp = np.asarray(obs.waypoint, dtype=float) - obs.robot_pose[:2]
         dist = float(np.hypot(*to_wp))
+        reach = dist / max(obs.dt, 1e-9) if c.arrival_gain is None else dist * c.arrival_gain
         pref = (
-            to_wp / dist * min(c.speed_ratio * vmax, dist / max(obs.dt, 1e-9)) if dist > 1e-9 else np.zeros(2)
+            to_wp / dist * min(cruise_speed(obs.robot_limits, c.speed_ratio), reach)
+            if dist > 1e-9
+            else np.zeros(2)
         )
         _set_agent(
             sim,
@@ -117,11 +127,15 @@ class OrcaPlanner:
             obs.robot_radius + c.radius_margin,
             vmax,
         )
+        radii = (
+            obs.radii() if c.observed_radii else np.full(len(obs.ped_positions), obs.ped_radius)
+        ).tolist()
         for i, (p, u) in enumerate(zip(obs.ped_positions, obs.ped_velocities, strict=True), start=1):
-            _set_agent(sim, i, tuple(p), tuple(u), tuple(u), obs.ped_radius, max(float(np.hypot(*u)), 1e-3))
+            r = radii[i - 1] + c.ped_radius_margin
+            _set_agent(sim, i, tuple(p), tuple(u), tuple(u), r, max(float(np.hypot(*u)), 1e-3))
         sim.do_step()
         u = np.asarray(sim.get_agent_velocity(0).to_tuple())
-        cmd = velocity_to_unicycle(u, th, vmax, wmax, c.turn_gain)
+        cmd = command_for(u, obs, vmax, wmax, c.turn_gain)
         self._diag = {"command": cmd, "orca_velocity": u.tolist(), "preferred_velocity": pref.tolist()}
         return cmd
 

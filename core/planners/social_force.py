@@ -30,6 +30,23 @@ def limits_of(robot_limits: dict[str, float]) -> tuple[float, float]:
         ) from None
 
 
+def command_for(
+    u: np.ndarray, obs: Observation, max_speed: float, max_turn_rate: float, turn_gain: float
+) -> tuple[float, float]:
+    """The robot's command for a desired world velocity ``u``: (vx, vy) itself for a holonomic robot, else the
+    (v, omega) that tracks it (``velocity_to_unicycle``)."""
+    if obs.robot_limits.get("holonomic", 0.0):
+        return float(u[0]), float(u[1])
+    return velocity_to_unicycle(u, float(obs.robot_pose[2]), max_speed, max_turn_rate, turn_gain)
+
+
+def cruise_speed(robot_limits: dict[str, float], speed_ratio: float) -> float:
+    """The speed a baseline heads for its waypoint at [m/s]: the ratio of the max speed, at most the robot's
+    preferred speed."""
+    vmax = float(robot_limits["v_max"])
+    return min(speed_ratio * vmax, float(robot_limits.get("v_pref", vmax)))
+
+
 def velocity_to_unicycle(
     u: np.ndarray, heading: float, max_speed: float, max_turn_rate: float, turn_gain: float = 1.5
 ) -> tuple[float, float]:
@@ -86,7 +103,7 @@ class SocialForcePlanner:
         self._vel = np.array([v * math.cos(th), v * math.sin(th)])
         to_wp = np.asarray(obs.waypoint, dtype=float) - pos
         dist = float(np.hypot(*to_wp))
-        pref = to_wp / dist * c.speed_ratio * vmax if dist > 1e-9 else np.zeros(2)
+        pref = to_wp / dist * cruise_speed(obs.robot_limits, c.speed_ratio) if dist > 1e-9 else np.zeros(2)
         f_goal = (pref - self._vel) / c.relaxation_time
         f_ped = self._ped_force(obs, pos)
         f_wall = self._wall_force(obs, pos)
@@ -94,7 +111,7 @@ class SocialForcePlanner:
         n = float(np.hypot(*u))
         if n > vmax:
             u *= vmax / n
-        cmd = velocity_to_unicycle(u, th, vmax, wmax, c.turn_gain)
+        cmd = command_for(u, obs, vmax, wmax, c.turn_gain)
         self._diag = {
             "command": cmd,
             "desired_velocity": u.tolist(),
@@ -110,7 +127,7 @@ class SocialForcePlanner:
             return np.zeros(2)
         diff = pos - np.asarray(obs.ped_positions, dtype=float)  # (N, 2)
         d = np.linalg.norm(diff, axis=1)
-        gap = d - (obs.robot_radius + obs.ped_radius)
+        gap = d - (obs.robot_radius + (obs.ped_radius if obs.ped_radii is None else obs.ped_radii))
         keep = (gap < c.cutoff) & (d > 1e-9)
         mag = c.ped_strength * np.exp(-gap[keep] / c.ped_range)
         return (mag[:, None] * diff[keep] / d[keep, None]).sum(axis=0)

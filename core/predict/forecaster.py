@@ -7,6 +7,7 @@ Usage per episode: ``reset()``, then on every simulator step ``observe(obs)`` fo
 
 from __future__ import annotations
 
+import math
 from typing import Protocol, runtime_checkable
 
 import numpy as np
@@ -97,6 +98,19 @@ class ConstantVelocityForecaster(_PredictorForecaster):
 
     def __init__(self, timebase: TimeBase):
         super().__init__(ConstantVelocityPredictor(timebase), None, "constant_velocity", CV_SIGMA)
+
+    def fit(self, sim_dt: float) -> None:
+        """Constant velocity needs no trained grid: where the simulator's step does not divide the time base (0.25 s
+        steps against 0.2 s), forecast on the nearest multiple of the step over at least the same horizon."""
+        tb = self.timebase
+        ratio = tb.dt / sim_dt
+        if abs(ratio - round(ratio)) <= 1e-6 * max(1.0, ratio) and round(ratio) >= 1:
+            return
+        dt = sim_dt * max(1, round(ratio))
+        fitted = TimeBase(
+            dt=dt, history=tb.history, horizon=max(1, math.ceil(tb.dt * tb.horizon / dt - 1e-9))
+        )
+        self.__init__(fitted)
 
 
 class LearnedForecaster(_PredictorForecaster):

@@ -14,6 +14,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from foresight.core.maps.model import MapDef, Point, Role, WaitRule
+from foresight.core.scenarios.crowd_models import CrowdGenerator, OrcaPedestrians
 
 #: most steps of one episode anywhere (scenario horizon, evaluation and collection ``max_steps``)
 MAX_EPISODE_STEPS = 100_000
@@ -105,6 +106,12 @@ class SimulationConfig(_Strict):
     non_reactive_response_multiplier: float = Field(default=0.0, ge=0)  #: non_reactive / non_yielding
     hesitating_response_multiplier: float = Field(default=1.0, ge=0)
     prf_config: PedRobotForceConfig | None = None
+    #: how pedestrians move: the social-force crowd, or ORCA agents (``orca``; CrowdNav's humans)
+    pedestrian_model: Literal["social_force", "orca"] = "social_force"
+    orca: OrcaPedestrians = OrcaPedestrians()  #: read where pedestrian_model is orca
+    #: robot-pedestrian contact: ``discrete`` at each step's positions; ``swept`` also between them (both moving
+    #: straight over the step), as CrowdNav checks the segment travelled
+    collision_check: Literal["discrete", "swept"] = "discrete"
 
     @model_validator(mode="before")
     @classmethod
@@ -133,12 +140,22 @@ class SimulationConfig(_Strict):
         return self
 
 
-class RobotConfig(_Strict):
-    """Robot kinematics (YAML ``robot_config``; ``{}`` = the reference's differential drive)."""
+Kinematics = Literal["differential_drive", "unicycle", "holonomic"]
 
-    type: Literal["differential_drive", "holonomic"] = "differential_drive"
+
+class RobotConfig(_Strict):
+    """Robot kinematics (YAML ``robot_config``; ``{}`` = the reference's differential drive).
+
+    ``kinematics`` (alias ``type``): ``differential_drive`` takes (v, omega) with midpoint odometry;
+    ``unicycle`` takes (v, omega) and turns before it moves, as CrowdNav's unicycle robot; ``holonomic``
+    takes a world-frame velocity (vx, vy). Accelerations are limits of every kind (a large value = none).
+    """
+
+    kinematics: Kinematics = "differential_drive"
     radius: float = Field(default=1.0, gt=0)  #: [m]
     max_linear_speed: float = Field(default=2.0, gt=0)  #: [m/s]
+    #: the speed planners cruise at [m/s]; None = max_linear_speed
+    preferred_speed: float | None = Field(default=None, gt=0)
     max_angular_speed: float = Field(default=1.0, gt=0)  #: [rad/s]
     max_linear_accel: float = Field(default=1.0, gt=0)  #: [m/s^2]
     max_linear_decel: float | None = Field(default=None, gt=0)  #: [m/s^2]; None = max_linear_accel
@@ -155,21 +172,41 @@ class RobotConfig(_Strict):
     def _aliases(cls, data: Any) -> Any:
         if isinstance(data, dict):
             data = dict(data)
-            if "model" in data and "type" not in data:
-                data["type"] = data.pop("model")
+            for alias in ("type", "model"):  # earlier spellings of kinematics
+                if alias in data:
+                    if "kinematics" in data:
+                        raise ValueError(f"give kinematics or its alias {alias}, not both")
+                    data["kinematics"] = data.pop(alias)
             for old, new in (("max_robot_speed", "max_linear_speed"), ("robot_radius", "radius")):
                 if old in data:  # names used by robot_sf's older robot settings
                     if new in data:
                         raise ValueError(f"give {new} or its alias {old}, not both")
                     data[new] = data.pop(old)
             alias = {"diff": "differential_drive", "omni": "holonomic"}
-            if data.get("type") in alias:
-                data["type"] = alias[data["type"]]
+            if data.get("kinematics") in alias:
+                data["kinematics"] = alias[data["kinematics"]]
         return data
+
+    @model_validator(mode="after")
+    def _preferred_within_max(self) -> RobotConfig:
+        if self.preferred_speed is not None and self.preferred_speed > self.max_linear_speed:
+            raise ValueError(
+                f"preferred_speed {self.preferred_speed:g} m/s exceeds max_linear_speed {self.max_linear_speed:g}"
+            )
+        return self
+
+    @property
+    def type(self) -> str:
+        """The kinematics under its earlier name."""
+        return self.kinematics
 
     @property
     def decel(self) -> float:
         return self.max_linear_decel if self.max_linear_decel is not None else self.max_linear_accel
+
+    @property
+    def v_pref(self) -> float:
+        return self.preferred_speed if self.preferred_speed is not None else self.max_linear_speed
 
 
 class SinglePedestrianOverride(_Strict):
@@ -327,6 +364,9 @@ class Scenario(_Strict):
     route_overrides: RouteOverrides | None = None  #: the same inline (applied after the file's)
     generated_replay: GeneratedReplay | None = None
     observation_visibility: ObservationVisibility | None = None
+    #: humans and robot start/goal drawn by CrowdNav's rules (``core.scenarios.crowd_models``); the map's zones and
+    #: routes are then unused
+    crowd_generator: CrowdGenerator | None = None
     platform_semantics: PlatformSemantics | None = None
     scenario_family: str | None = None  #: a label, like metadata.archetype
 
@@ -352,6 +392,15 @@ class Scenario(_Strict):
                 )
         elif not self.map_file and not self.map_id:
             raise ValueError("a scenario needs map_file or map_id")
+        gen = self.crowd_generator
+        if gen is not None and self.simulation_config.pedestrian_model != "orca":
+            raise ValueError(
+                "crowd_generator: CrowdNav's humans are ORCA agents (simulation_config.pedestrian_model: orca)"
+            )
+        if gen is not None and (self.replay is not None or self.single_pedestrians):
+            raise ValueError(
+                "crowd_generator: the generated humans are the only pedestrians (no replay, no single_pedestrians)"
+            )
         return self
 
     @property

@@ -42,6 +42,39 @@ def ped_contact(
     return None, dmin
 
 
+def radii_contact(
+    xy: np.ndarray,
+    radius: float,
+    ped_pos: np.ndarray,
+    ped_radii: np.ndarray,
+    before: tuple[np.ndarray, np.ndarray, np.ndarray, float] | None = None,
+) -> tuple[Contact | None, float]:
+    """``ped_contact`` with each pedestrian's own radius (N,); the reported distance is the least centre distance.
+
+    ``before`` = (robot centre (2,), pedestrian centres (N, 2), pedestrian velocities (N, 2), dt) at the start of
+    the step: contact also counts anywhere on CrowdNav's segment, the relative motion over the step of each
+    pedestrian at its velocity at the start of the step against the robot's move (a pass-through between two
+    states is caught).
+    """
+    if len(ped_pos) == 0:
+        return None, np.inf
+    rel = ped_pos - xy
+    d = np.hypot(rel[:, 0], rel[:, 1])
+    gap = d
+    if before is not None:
+        robot0, peds0, vel0, dt = before
+        rel0 = peds0 - robot0
+        seg = vel0 * dt - (xy - robot0)  # (N, 2) relative motion over the step
+        len2 = (seg**2).sum(axis=1)
+        t = np.clip(-(rel0 * seg).sum(axis=1) / np.where(len2 > 0, len2, 1.0), 0.0, 1.0)
+        closest = rel0 + t[:, None] * seg
+        gap = np.minimum(d, np.hypot(closest[:, 0], closest[:, 1]))
+    k = int(np.argmin(gap - ped_radii))
+    if gap[k] - ped_radii[k] <= radius:
+        return Contact("pedestrian", ped_pos[k].copy()), float(d.min())
+    return None, float(d.min())
+
+
 class StaticChecker:
     """Robot disc against the static segments, exact, and cheap when nothing is near.
 

@@ -48,6 +48,14 @@ class Observation:
     robot_limits: dict[str, float] = field(
         default_factory=dict
     )  #: RobotLimits.as_dict(): v_max, v_min, w_max, accel, decel, alpha, radius; holonomic 1.0 = commands are (vx, vy)
+    #: (N,) each pedestrian's radius [m] where they differ (randomised crowds); None = ``ped_radius`` for all
+    ped_radii: np.ndarray | None = None
+
+    def radii(self) -> np.ndarray:
+        """(N,) each pedestrian's collision radius [m]."""
+        if self.ped_radii is not None:
+            return self.ped_radii
+        return np.full(len(self.ped_positions), float(self.ped_radius))
 
 
 @dataclass(frozen=True)

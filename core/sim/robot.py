@@ -40,7 +40,8 @@ class RobotLimits:
     decel: float = 1.0  #: [m/s^2]
     alpha: float = 1.0  #: angular acceleration limit [rad/s^2]
     actuation: str = "tracking"
-    kind: str = "differential_drive"
+    kind: str = "differential_drive"  #: differential_drive | unicycle | holonomic
+    v_pref: float = 2.0  #: preferred (cruising) speed [m/s], at most v_max
 
     @classmethod
     def from_config(cls, cfg: RobotConfig) -> RobotLimits:
@@ -53,7 +54,8 @@ class RobotLimits:
             decel=cfg.decel,
             alpha=cfg.max_angular_accel,
             actuation=cfg.actuation,
-            kind=cfg.type,
+            kind=cfg.kinematics,
+            v_pref=cfg.v_pref,
         )
 
     def as_dict(self) -> dict[str, float]:
@@ -340,21 +342,44 @@ def holonomic_step(state: np.ndarray, cmd: np.ndarray, limits: RobotLimits, dt: 
     return out
 
 
+def turn_first_step(state: np.ndarray, cmd: np.ndarray, limits: RobotLimits, dt: float) -> np.ndarray:
+    """Unicycle robot (CrowdNav's): speeds (v, omega) follow the command as in ``unicycle_step`` (tracking within
+    the acceleration limits), then the robot turns by omega' dt and moves v' dt along its new heading."""
+    state = np.asarray(state, dtype=float)
+    cmd = np.asarray(cmd, dtype=float)
+    v, w = state[..., V], state[..., W]
+    dv = _clip(_clip(cmd[..., 0], limits.v_min, limits.v_max) - v, -limits.decel * dt, limits.accel * dt)
+    dw = _clip(_clip(cmd[..., 1], -limits.w_max, limits.w_max) - w, -limits.alpha * dt, limits.alpha * dt)
+    v2 = _clip(v + dv, limits.v_min, limits.v_max)
+    w2 = _clip(w + dw, -limits.w_max, limits.w_max)
+    th2 = state[..., TH] + w2 * dt
+    out = np.empty(np.broadcast_shapes(state.shape, cmd.shape[:-1] + (5,)))
+    out[..., X] = state[..., X] + v2 * dt * np.cos(th2)
+    out[..., Y] = state[..., Y] + v2 * dt * np.sin(th2)
+    out[..., TH] = wrap_angle(th2)
+    out[..., V] = v2
+    out[..., W] = w2
+    return out
+
+
+_STEPS = {"holonomic": holonomic_step, "unicycle": turn_first_step}
+
+
 def robot_step(state: np.ndarray, cmd: np.ndarray, limits: RobotLimits, dt: float) -> np.ndarray:
-    """The robot's kinematics for its kind (differential drive or holonomic), batched like ``unicycle_step``."""
-    if limits.kind == "holonomic":
-        return holonomic_step(state, cmd, limits, dt)
-    return unicycle_step(state, cmd, limits, dt)
+    """The robot's kinematics for its kind (differential drive, unicycle or holonomic), batched like
+    ``unicycle_step``."""
+    return _STEPS.get(limits.kind, unicycle_step)(state, cmd, limits, dt)
 
 
 def robot_rollout(state0: np.ndarray, cmds: np.ndarray, limits: RobotLimits, dt: float) -> np.ndarray:
     """``robot_step`` repeated over cmds (..., n, 2): states (..., n, 5); ``unicycle_rollout`` for differential drive."""
-    if limits.kind != "holonomic":
+    step = _STEPS.get(limits.kind)
+    if step is None:
         return unicycle_rollout(state0, cmds, limits, dt)
     cmds = np.asarray(cmds, dtype=float)
     s = np.asarray(state0, dtype=float)
     out = np.empty(np.broadcast_shapes(s.shape[:-1], cmds.shape[:-2]) + (cmds.shape[-2], 5))
     for i in range(cmds.shape[-2]):
-        s = holonomic_step(s, cmds[..., i, :], limits, dt)
+        s = step(s, cmds[..., i, :], limits, dt)
         out[..., i, :] = s
     return out

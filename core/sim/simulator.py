@@ -20,11 +20,13 @@ from foresight.core.errors import CoreError
 from foresight.core.scenarios.model import ResolvedScenario
 from foresight.core.sim.attention import reaction_ranges
 from foresight.core.sim.behaviours import CrowdArrays, CrowdedZones, RouteFollowing, SingleScripts
-from foresight.core.sim.collision import StaticChecker, ped_contact
+from foresight.core.sim.collision import StaticChecker, ped_contact, radii_contact
 from foresight.core.sim.crowd import CrowdDynamics
+from foresight.core.sim.generated_crowd import GeneratedCrowd
 from foresight.core.sim.geometry import StaticMap
 from foresight.core.sim.navigation import RobotRoute, sample_robot_route
 from foresight.core.sim.observation import Events, Observation
+from foresight.core.sim.orca_agents import OrcaCrowdDynamics, obstacle_polygons
 from foresight.core.sim.params import CrowdParams, ForceParams
 from foresight.core.sim.population import build_population
 from foresight.core.sim.replay import ReplayCrowd
@@ -113,17 +115,18 @@ class Simulator:
         self.clear = self.limits.radius + cfg.ped_radius + margin  # no pedestrian (re)spawns nearer the robot
         singles = np.array([sp.start for sp in map_def.single_pedestrians], dtype=float).reshape(-1, 2)
         # the robot starts clear of scripted peds and, where the zone allows, not touching a wall
-        self.route: RobotRoute = sample_robot_route(
-            map_def,
-            robot_rng,
-            self.limits.radius + cfg.goal_radius,
-            cfg.zone_sampling,
-            start_ok=lambda pts: self._free(pts, singles) & (self.static.distance(pts) > self.limits.radius),
-            goal_ok=lambda pts: ~self.static.inside_obstacle(pts),
-            start_fallback=lambda pts: self._free(pts, singles),
+        self.route: RobotRoute = (
+            self._generated_route(scenario, seed)
+            if scenario.scenario.crowd_generator is not None
+            else self._sampled_route(scenario, robot_rng, singles)
         )
         self.route.waypoints.flags.writeable = False
         self.robot = np.array([*self.route.start, self.route.heading, 0.0, 0.0])
+        if scenario.scenario.crowd_generator is not None:
+            self._reset_generated(scenario, seed)
+            self._record()
+            return self._observation()
+        self.generated = None
         pop = build_population(
             map_def,
             cfg,
@@ -167,6 +170,63 @@ class Simulator:
         self.min_ped_distance = np.inf
         self._record()
         return self._observation()
+
+    def _generated_route(self, scenario: ResolvedScenario, seed: int) -> RobotRoute:
+        """CrowdNav's crowd (``core.sim.generated_crowd``), drawn first: its generator places the robot too."""
+        cfg, gen = self.cfg, scenario.scenario.crowd_generator
+        self.generated = GeneratedCrowd(
+            gen,
+            cfg.orca,
+            seed,
+            self.limits.radius,
+            cfg.ped_radius,
+            self.dt,
+            obstacle_polygons(scenario.map.obstacles),
+        )
+        g = self.generated
+        return RobotRoute(
+            start=g.robot_start + g.centre,
+            heading=math.pi / 2,
+            waypoints=(g.robot_goal + g.centre)[None, :].copy(),
+            tolerance=self.limits.radius + cfg.goal_radius,
+        )
+
+    def _reset_generated(self, scenario: ResolvedScenario, seed: int) -> None:
+        g, n = self.generated, self.generated.gen.human_num
+        self.crowd, self.replay, self.has_groups = g, None, False
+        self._trace = Trace(
+            self.horizon,
+            n,
+            dt=self.dt,
+            scenario=scenario.name,
+            seed=seed,
+            meta={
+                "code_version": code_version(),
+                "map": scenario.map.name,
+                "n_peds": n,
+                "n_nonreactive": 0 if self.cfg.orca.robot_visible else n,
+                "goal": [float(v) for v in self.route.goal],
+                "goal_tolerance": float(self.route.tolerance),
+                "robot_radius": float(self.limits.radius),
+                "pedestrian_model": "orca",
+            },
+        )
+        self.static_check = StaticChecker(self.static, self.limits.radius)
+        self.t = 0
+        self.done = False
+        self.min_ped_distance = np.inf
+
+    def _sampled_route(self, scenario: ResolvedScenario, robot_rng, singles: np.ndarray) -> RobotRoute:
+        cfg, map_def = self.cfg, scenario.map
+        return sample_robot_route(
+            map_def,
+            robot_rng,
+            self.limits.radius + cfg.goal_radius,
+            cfg.zone_sampling,
+            start_ok=lambda pts: self._free(pts, singles) & (self.static.distance(pts) > self.limits.radius),
+            goal_ok=lambda pts: ~self.static.inside_obstacle(pts),
+            start_fallback=lambda pts: self._free(pts, singles),
+        )
 
     def _free(self, pts: np.ndarray, avoid: np.ndarray) -> np.ndarray:
         """Accept points outside obstacles and farther than collision distance + margin from ``avoid`` (K, 2)."""
@@ -222,6 +282,10 @@ class Simulator:
             semi_implicit=cfg.pedestrian_integration_scheme == "semi_implicit_euler",
             robot_reach=robot_reach,
         )
+        if cfg.pedestrian_model == "orca":  # the same behaviours, ORCA agents instead of forces
+            self.dynamics = OrcaCrowdDynamics(
+                self.crowd, cfg.orca, self.dt, cfg.ped_radius, self.limits.radius, map_def.obstacles
+            )
         if cfg.peds_reset_follow_route_at_start:
             self.routes.restart_all(self.crowd, self.rng, self._respawn_ok)
 
@@ -233,13 +297,22 @@ class Simulator:
         if not (math.isfinite(cmd[0]) and math.isfinite(cmd[1])):
             raise CoreError(f"non-finite command {tuple(cmd)} at step {self.t} of {self.scenario.name}")
         cent = None
-        if self.has_groups:
+        before = None
+        if self.generated is not None:
+            before = self.robot[:2].copy(), self.generated.pos.copy(), self.generated.vel.copy(), self.dt
+            v, th = float(self.robot[3]), float(self.robot[2])
+            self.generated.step(self.robot, np.array([v * math.cos(th), v * math.sin(th)]))
+        elif self.has_groups:
             cent = self.crowd.centroids()
             if self.routes.step(self.crowd, cent, self.rng, self._respawn_ok):
                 cent = None  # a group respawned: positions changed
             self.zones.step(self.crowd, cent if cent is not None else self.crowd.centroids(), self.rng)
-        self.singles.step(self.crowd, self.t, self.robot)
-        self.dynamics.step(complex(self.robot[0], self.robot[1]), cent)
+        if self.generated is None:
+            self.singles.step(self.crowd, self.t, self.robot)
+            if isinstance(self.dynamics, OrcaCrowdDynamics):
+                v, th = float(self.robot[3]), float(self.robot[2])
+                self.dynamics.robot_vel = np.array([v * math.cos(th), v * math.sin(th)])
+            self.dynamics.step(complex(self.robot[0], self.robot[1]), cent)
         self.robot = robot_step(self.robot, cmd, self.limits, self.dt)
         reached = self.route.advance(self.robot)
         self._trace.record_command(self.t, cmd)
@@ -247,16 +320,20 @@ class Simulator:
         if self.replay is not None:  # no recorded pedestrian appears where the robot stands
             self.replay.admit(self.t, self.robot[:2], self.clear)
         self._record()
-        events = self._events(reached)
+        events = self._events(reached, before)
         if events.done:
             self.done = True
             self._trace.outcome = events.outcome or ""
         return self._observation(), events
 
-    def _events(self, reached: bool) -> Events:
+    def _events(self, reached: bool, before: tuple | None = None) -> Events:
         xy = self.robot[:2]
         peds = self.crowd.pos if self.replay is None else self.replay.present_pos(self.t)
-        contact, dmin = ped_contact(xy, self.limits.radius, peds, self.ped_radius)
+        if self.generated is None:
+            contact, dmin = ped_contact(xy, self.limits.radius, peds, self.ped_radius)
+        else:  # each human's own radius; CrowdNav's swept test where the scenario asks for it
+            swept = before if self.cfg.collision_check == "swept" else None
+            contact, dmin = radii_contact(xy, self.limits.radius, peds, self.generated.radius, swept)
         self.min_ped_distance = min(self.min_ped_distance, dmin)
         if contact is None:
             contact = self.static_check.check(xy)
@@ -282,10 +359,14 @@ class Simulator:
         if self.replay is not None:  # planners see the pedestrians present now, never an empty slot
             here = self.replay.present[self.t]
             ids, pos, vel = ids[here], pos[here], vel[here]
+        radii = None
+        if self.generated is not None and self.generated.randomized:
+            radii = self.generated.radius.copy()
         vis = self.scenario.scenario.observation_visibility
         if vis is not None and vis.active:
             seen = visible(robot, pos, vis, self.scenario.map.obstacle_segments)
             ids, pos, vel = ids[seen], pos[seen], vel[seen]
+            radii = None if radii is None else radii[seen]
         route = self.route
         return Observation(
             step=self.t,
@@ -304,4 +385,5 @@ class Simulator:
             ped_radius=self.ped_radius,
             static=self.static,
             robot_limits=self.limits_dict,
+            ped_radii=radii,
         )

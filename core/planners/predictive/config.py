@@ -32,6 +32,10 @@ class SamplingConfig(_Frozen):
     near_field_turn_rates: tuple[float, ...] = ()  #: extra near-field turn rates [rad/s]
     near_field_speed_ratios: tuple[float, ...] = (0.1, 0.2, 0.35)
     near_field_speed_cap: float = Field(default=1.0, gt=0, le=1)  #: speed ratio cap inside the near field
+    #: a holonomic robot's candidates are velocities: ``speed_ratios`` x these many directions evenly around the
+    #: robot (CrowdNav's action set: 16), denser in the near field
+    direction_count: int = Field(default=16, ge=4, le=72)
+    near_field_direction_count: int = Field(default=32, ge=4, le=144)
     #: point turns: turn in place by each angle [rad], then drive straight at each speed ratio (``sampling.turn_then_go``;
     #: () = none, the planner before 2026-11-24). Reference matrix, 230 paired episodes per condition, against none:
     #: reference 0.887 -> 0.913 (5 : 11, the hard seed cross_trap_medium 102 solved again), typical speed
@@ -95,6 +99,9 @@ class SearchConfig(_Frozen):
     beam_width: int = Field(default=6, ge=1, le=64)
     branch_speed_ratios: tuple[float, ...] = (0.0, 0.5, 1.0)  #: later-segment speeds, ratios of max speed
     branch_turn_rate_count: int = Field(default=5, ge=1, le=21)  #: later-segment turn rates over +-w_max
+    branch_direction_count: int = Field(
+        default=8, ge=4, le=72
+    )  #: a holonomic robot's later-segment directions
     #: grid [m] of the route potential's distances around the walls (``geodesic``); 0 = straight lines (the planner
     #: before 2026-11-24, grid variant ``straight_line``). Reference matrix, 230 paired episodes per condition
     #: (straight-only : around-only successes): reference 0.865 -> 0.887 (5 : 10), typical speed 0.896 -> 0.917

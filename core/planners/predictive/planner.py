@@ -28,6 +28,7 @@ import numpy as np
 
 from foresight.core.errors import ConfigError
 from foresight.core.planners.predictive import cost as C
+from foresight.core.planners.predictive import holonomic
 from foresight.core.planners.predictive.config import PredictivePlannerConfig
 from foresight.core.planners.predictive.forecast_input import planner_forecast
 from foresight.core.planners.predictive.geodesic import GeodesicDistance
@@ -35,6 +36,8 @@ from foresight.core.planners.predictive.rollout import FrameRollouts, eval_steps
 from foresight.core.planners.predictive.sampling import (
     branch_commands,
     first_candidates,
+    holonomic_branches,
+    holonomic_candidates,
     reverse_speeds,
     turn_then_go,
     veer_then_straight,
@@ -43,7 +46,7 @@ from foresight.core.planners.predictive.traffic import TrafficMap
 from foresight.core.predict.forecaster import Forecaster
 from foresight.core.sim.observation import Observation
 from foresight.core.sim.planner import EpisodeInfo
-from foresight.core.sim.robot import RobotLimits, unicycle_step
+from foresight.core.sim.robot import RobotLimits, robot_step
 
 
 class PredictivePlanner:
@@ -61,13 +64,12 @@ class PredictivePlanner:
         self._frames: FrameRollouts | None = None  #: kept across episodes of the same robot and dt
 
     def reset(self, info: EpisodeInfo) -> None:
+        fit = getattr(self.forecaster, "fit", None)
+        if callable(fit):  # constant velocity fits its grid to the simulator's step
+            fit(info.dt)
         self.forecaster.timebase.stride(info.dt)  # ConfigError unless the forecast grid is whole sim steps
         robot = info.scenario.scenario.robot_config
-        if robot.type != "differential_drive":
-            raise ConfigError(
-                f"the predictive planner drives a differential-drive robot, not {robot.type!r}",
-                item="robot_config.type",
-            )
+        self._holonomic = robot.kinematics == "holonomic"  #: commands are velocities (see ``holonomic``)
         self.forecaster.reset()
         self._phi_hist: deque[tuple[float, float]] = deque()
         self._assert = 0.0
@@ -114,6 +116,8 @@ class PredictivePlanner:
         best_cmds, best_terms, best_total, n_eval, kept = self._search(obs, scene, near)
         self._decided = (obs, scene)
         v, w = float(best_cmds[0, 0]), float(best_cmds[0, 1])
+        if self._holonomic:  # the chosen velocity, from the robot's frame to the world's
+            v, w = holonomic.to_world(best_cmds[0], float(obs.robot_pose[2]))
         self._prev = np.array([v, w])
         self._diag = {
             "command": (v, w),
@@ -167,6 +171,8 @@ class PredictivePlanner:
         """Cost (B,) and terms of command sequences (B, S, 2) rolled out from the robot's state in ``obs``."""
         state0 = np.concatenate([obs.robot_pose, obs.robot_velocity]).astype(float)
         states = rollout(np.repeat(state0[None], len(cmds), axis=0), cmds, self._limits, obs.dt)
+        if self._holonomic:  # world-frame velocities: the cost reads them in the robot's frame
+            cmds = holonomic.cost_commands(holonomic.to_local(cmds, float(obs.robot_pose[2])), self._limits)
         return C.evaluate(C.Rollouts(states, idx, cmds), scene, self.config)
 
     # -- decision pieces -------------------------------------------------------------------------
@@ -185,9 +191,12 @@ class PredictivePlanner:
         route = self._route(obs)
         phi0 = route.start(p0)
         assertive = self._assertiveness(phi0, obs.time, obs.dt)
-        contact = (
-            obs.robot_radius + obs.ped_radius + cfg.safety.extra_robot_margin + cfg.safety.extra_ped_margin
-        )
+        ped_r = (
+            obs.ped_radius
+        )  # humans of different sizes: the largest present (the cost has one contact distance)
+        if obs.ped_radii is not None and len(obs.ped_radii):
+            ped_r = max(ped_r, float(obs.ped_radii.max()))
+        contact = obs.robot_radius + ped_r + cfg.safety.extra_robot_margin + cfg.safety.extra_ped_margin
         times = np.asarray(times, dtype=float)
         fut = np.asarray(positions, dtype=float).reshape(-1, len(times), 2)
         sigma = np.asarray(sigma, dtype=float).reshape(-1, len(times))
@@ -252,7 +261,11 @@ class PredictivePlanner:
             assertiveness=assertive,
             static=self._static_field(obs),
             start=np.asarray(obs.robot_pose, dtype=float),
-            prev_command=self._prev,
+            prev_command=(
+                holonomic.cost_commands(holonomic.to_local(self._prev, float(obs.robot_pose[2])), limits)
+                if self._holonomic
+                else self._prev
+            ),
             max_speed=limits.v_max,
             max_turn_rate=limits.w_max,
             traffic=self._lanes(obs, contact),
@@ -429,6 +442,13 @@ class PredictivePlanner:
 
     def _candidates(self, near: bool | None) -> np.ndarray:
         """First-segment commands (near field or not), or the later-segment set for ``None``; cached per episode."""
+        if near not in self._cands and self._holonomic:
+            cfg = self.config
+            self._cands[near] = (
+                holonomic_branches(cfg.search, self._limits, cfg.max_speed_ratio)
+                if near is None
+                else holonomic_candidates(cfg.sampling, self._limits, cfg.max_speed_ratio, near)
+            )
         if near not in self._cands:
             cfg = self.config
             self._cands[near] = (
@@ -451,6 +471,10 @@ class PredictivePlanner:
         if key not in self._firsts:
             cfg = self.config
             held = np.repeat(self._candidates(near)[:, None, :], steps, axis=1)
+            if self._holonomic:  # it moves any way at once: no point turns or swerves to add
+                held.flags.writeable = False
+                self._firsts[key] = held
+                return held
             turns = turn_then_go(cfg.sampling, self._limits, steps, dt, cfg.max_speed_ratio)
             veers = veer_then_straight(cfg.sampling, self._limits, steps, dt, cfg.max_speed_ratio)
             seqs = np.concatenate([held, turns, veers])
@@ -475,10 +499,10 @@ class PredictivePlanner:
         state0 = np.concatenate([obs.robot_pose, obs.robot_velocity]).astype(float)
         cmds = self._first_sequences(near, S, sim_dt)  # (C + P, S, 2)
         states = self._frames(state0[None], cmds, ("first", near, S))
-        kept = self._kept_plan(state0, S, sim_dt) if cfg.search.keep_plan else None
+        kept = self._kept_plan(state0, S, sim_dt) if cfg.search.keep_plan and not self._holonomic else None
         if kept is not None:
             cmds, states = np.concatenate([cmds, kept[0][None]]), np.concatenate([states, kept[1][None]])
-        total, terms = C.evaluate(C.Rollouts(states, idx, cmds), scene, cfg)
+        total, terms = C.evaluate(C.Rollouts(states, idx, self._costed(cmds)), scene, cfg)
         evals = [
             (cmds, states, total, terms)
         ]  # (commands, states, totals, terms) of each evaluation, in order
@@ -492,7 +516,7 @@ class PredictivePlanner:
             new_cmds[:, b:] = np.tile(branch, (len(keep), 1))[:, None, :]
             tail = self._frames(p_states[:, b - 1], new_cmds[:M, b:], ("branch", b, S))
             new_states = np.concatenate([np.repeat(p_states[:, :b], M, axis=0), tail], axis=1)
-            t_new, terms_new = C.evaluate(C.Rollouts(new_states, idx, new_cmds), scene, cfg)
+            t_new, terms_new = C.evaluate(C.Rollouts(new_states, idx, self._costed(new_cmds)), scene, cfg)
             n_eval += len(new_cmds)
             evals.append((new_cmds, new_states, t_new, terms_new))
         best = int(np.argmin(_joined(evals, 2)))
@@ -507,6 +531,10 @@ class PredictivePlanner:
         )  # the kept plan is the first round's last
         return cmds[best], {k: v[best] for k, v in terms.items()}, float(total[best]), n_eval, carried_on
 
+    def _costed(self, cmds: np.ndarray) -> np.ndarray:
+        """The commands as the cost reads them: themselves, or a holonomic robot's as (speed, bearing)."""
+        return holonomic.cost_commands(cmds, self._limits) if self._holonomic else cmds
+
     def _kept_plan(self, state0: np.ndarray, S: int, dt: float) -> tuple[np.ndarray, np.ndarray] | None:
         """The last decision's sequence one step on, its last command held, and its rollout (``search.keep_plan``).
 
@@ -519,7 +547,7 @@ class PredictivePlanner:
         if np.max(np.abs(states[0, [0, 1, 3, 4]] - state0[[0, 1, 3, 4]])) > 1e-6:
             return None
         cmds = np.concatenate([cmds[1:], cmds[-1:]])
-        last = unicycle_step(states[-1], cmds[-1], self._limits, dt)
+        last = robot_step(states[-1], cmds[-1], self._limits, dt)
         return cmds, np.concatenate([states[1:], last[None]])
 
     def _steps(self, times: np.ndarray, sim_dt: float) -> tuple[np.ndarray, int, list[int]]:

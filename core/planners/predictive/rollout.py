@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from foresight.core.errors import ConfigError
-from foresight.core.sim.robot import RobotLimits, unicycle_rollout
+from foresight.core.sim.robot import RobotLimits, robot_rollout, unicycle_rollout
 
 
 def eval_steps(times: np.ndarray, sim_dt: float) -> np.ndarray:
@@ -29,9 +29,13 @@ def eval_steps(times: np.ndarray, sim_dt: float) -> np.ndarray:
 def rollout(state0: np.ndarray, commands: np.ndarray, limits: RobotLimits, dt: float) -> np.ndarray:
     """States (B, n, 5) after each of n steps from ``state0`` (B, 5) or (5,) under ``commands`` (B, n, 2).
 
-    ``unicycle_rollout``: repeated ``unicycle_step`` without a Python loop over the steps.
+    ``unicycle_rollout`` (repeated ``unicycle_step`` without a Python loop over the steps) for differential drive,
+    else the robot's own kinematics (``robot_rollout``); for a holonomic robot the commands are velocities in the
+    frame of the start state's heading, so rollouts done at heading 0 turn with the robot like the others.
     """
-    return unicycle_rollout(state0, commands, limits, dt)
+    if limits.kind == "differential_drive":
+        return unicycle_rollout(state0, commands, limits, dt)
+    return robot_rollout(state0, commands, limits, dt)
 
 
 SPEED_DECIMALS = (

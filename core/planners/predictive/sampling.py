@@ -103,3 +103,29 @@ def veer_then_straight(
                 seq[:turn, 1] = rate * limits.w_max
                 rows.append(seq)
     return np.array(rows).reshape(-1, steps, 2)
+
+
+def velocity_grid(speeds: np.ndarray, count: int) -> np.ndarray:
+    """(C, 2) velocities (vx, vy) in the robot's frame (x ahead): each speed in ``count`` directions evenly around,
+    the first straight ahead, plus standing still; unique."""
+    angles = 2 * np.pi * np.arange(count) / count
+    speeds = np.unique(np.round(speeds[speeds > 0], 6))
+    v = speeds[:, None, None] * np.stack([np.cos(angles), np.sin(angles)], axis=-1)[None]  # (S, count, 2)
+    return np.unique(np.round(np.vstack([v.reshape(-1, 2), [[0.0, 0.0]]]), 9), axis=0)
+
+
+def holonomic_candidates(
+    cfg: SamplingConfig, limits: RobotLimits, speed_ratio: float, near_field: bool
+) -> np.ndarray:
+    """A holonomic robot's first-segment commands: velocities in its frame (``velocity_grid``), speeds as
+    ``first_candidates`` chooses them, directions ``direction_count`` (near field: ``near_field_direction_count``)."""
+    cap = min(speed_ratio, cfg.near_field_speed_cap) if near_field else speed_ratio
+    ratios = list(cfg.speed_ratios) + (list(cfg.near_field_speed_ratios) if near_field else [])
+    speeds = np.minimum(np.asarray(ratios, dtype=float), cap) * limits.v_max
+    return velocity_grid(speeds, cfg.near_field_direction_count if near_field else cfg.direction_count)
+
+
+def holonomic_branches(cfg: SearchConfig, limits: RobotLimits, speed_ratio: float) -> np.ndarray:
+    """A holonomic robot's later-segment commands: ``branch_speed_ratios`` x ``branch_direction_count`` velocities."""
+    speeds = np.minimum(np.asarray(cfg.branch_speed_ratios, dtype=float), speed_ratio) * limits.v_max
+    return velocity_grid(speeds, cfg.branch_direction_count)

@@ -53,7 +53,12 @@ def test_upload_valid_bundle(client, auth, settings) -> None:  # noqa: ANN001
     r = client.post("/v1/bundles", params={"name": "mine"}, content=_tar(_project_bundle()),
                     headers={**auth, "Content-Type": "application/gzip"})  # fmt: skip
     assert r.status_code == 201, r.text
-    assert r.json()["scenarios"] == ["scenarios/classic_interactions.yaml", "scenarios/stress.yaml"]
+    crowdnav = ["circle_crossing", "crowdnavpp_no_rand", "crowdnavpp_rand", "square_crossing"]
+    assert r.json()["scenarios"] == [
+        "scenarios/classic_interactions.yaml",
+        *(f"scenarios/crowdnav/{name}.yaml" for name in crowdnav),
+        "scenarios/stress.yaml",
+    ]
     assert (settings.store_root / "bundles" / "mine" / "scenarios" / "classic_interactions.yaml").is_file()
     assert len(client.get("/v1/bundles/mine/scenarios").json()) > 0
     again = client.post("/v1/bundles", params={"name": "mine"}, content=_tar(_project_bundle()), headers=auth)

@@ -39,8 +39,8 @@ def test_no_p_value_below_the_minimum_number_of_pairs() -> None:
 
 def test_every_suite_has_replication_seeds_and_bad_arguments_are_refused() -> None:
     nav = load_bench("navigation_table")
-    for matrix, _ in nav.SUITES.values():
-        assert nav.REPLICATION[matrix].is_file()
+    for name in nav.DEFAULT_SUITES:
+        assert nav.REPLICATION[nav.SUITES[name][0]].is_file()
     bad = subprocess.run(
         [sys.executable, str(BENCH), "--suites", "stress,no_such_suite"], capture_output=True, text=True
     )
@@ -49,3 +49,20 @@ def test_every_suite_has_replication_seeds_and_bad_arguments_are_refused() -> No
         [sys.executable, str(BENCH), "--matrix", "m.yaml", "--replication"], capture_output=True, text=True
     )
     assert both.returncode == 2 and "does not apply to --matrix" in both.stderr
+
+
+def test_crowdnav_suites_run_the_published_baseline_configs_and_have_no_replication() -> None:
+    nav = load_bench("navigation_table")
+    assert nav.SUITE_GROUPS["crowdnav"] == list(nav.CROWDNAV_SUITES)
+    for name, (matrix, _) in nav.CROWDNAV_SUITES.items():
+        assert matrix.is_file()
+        for planner in ("orca", "social_force"):
+            args = nav.planner_args(name, planner)
+            assert args[0] == "--planner" and args[1].endswith(".yaml") and "crowdnav" in args[1]
+    assert nav.planner_args("crowdnavpp_rand", "orca")[1].endswith("orca_pp.yaml")
+    assert nav.planner_args("crowdnav_circle", "orca")[1].endswith("/orca.yaml")
+    assert nav.planner_args("stress", "orca") == ["--planner", "orca"]
+    rep = subprocess.run(
+        [sys.executable, str(BENCH), "--suites", "crowdnav", "--replication"], capture_output=True, text=True
+    )
+    assert rep.returncode == 2 and "no replication seeds" in rep.stderr

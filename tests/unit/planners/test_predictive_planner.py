@@ -57,10 +57,22 @@ def test_planner_satisfies_protocol_and_reports_diagnostics():
     assert d["near_field"] and d["candidates_evaluated"] > 60
 
 
+class _FixedGrid(ConstantVelocityForecaster):
+    fit = None  # a learned model's grid is what it was trained on
+
+
 def test_forecast_grid_must_be_whole_simulator_steps():
-    p = PredictivePlanner(None, ConstantVelocityForecaster(TimeBase(dt=0.15, history=3, horizon=8)))
+    p = PredictivePlanner(None, _FixedGrid(TimeBase(dt=0.15, history=3, horizon=8)))
     with pytest.raises(ConfigError):
         p.reset(info_for(corridor_map()))
+
+
+def test_constant_velocity_fits_its_grid_to_the_simulator_step():
+    cv = ConstantVelocityForecaster(TimeBase(dt=0.15, history=3, horizon=8))
+    PredictivePlanner(None, cv).reset(
+        info_for(corridor_map())
+    )  # 0.1 s steps: the nearest multiple, over 1.2 s
+    assert (cv.timebase.dt, cv.timebase.history, cv.timebase.horizon) == (pytest.approx(0.1), 3, 12)
 
 
 def test_drives_at_full_speed_on_a_free_route():
