@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import math
+import time
 from typing import Any
 
 from fastapi import FastAPI, Request
@@ -17,7 +18,7 @@ from starlette.exceptions import HTTPException
 from foresight.core.errors import ConfigError, CoreError, NotFoundError
 from foresight.store import queue
 from foresight.store.folders import UnsafePath, is_full_disk
-from foresight.store.session import NotMigratedError
+from foresight.store.session import DatabaseError, NotMigratedError
 
 logger = logging.getLogger(__name__)
 
@@ -62,10 +63,35 @@ def _finite(value: Any) -> Any:
     return value
 
 
+ECHO_ITEMS = 200  #: a refused input larger than this many values is not echoed back in a 422
+
+
+def _size_over(value: Any, budget: int) -> bool:
+    """Whether ``value`` holds more than ``budget`` values (counted without walking past the budget)."""
+    stack, seen = [value], 0
+    while stack:
+        item = stack.pop()
+        seen += 1
+        if seen > budget:
+            return True
+        if isinstance(item, dict):
+            stack.extend(item.values())
+        elif isinstance(item, list | tuple):
+            stack.extend(item)
+    return False
+
+
+def _compact(error: dict[str, Any]) -> dict[str, Any]:
+    """A validation error whose large ``input`` is left out (encoding 100,000 echoed values took 0.7 s)."""
+    if _size_over(error.get("input"), ECHO_ITEMS):
+        return {**error, "input": f"(not echoed: over {ECHO_ITEMS} values)"}
+    return error
+
+
 def install(app: FastAPI) -> None:
     @app.exception_handler(RequestValidationError)
     async def _validation(_: Request, exc: RequestValidationError) -> JSONResponse:
-        return _json(422, _finite(jsonable_encoder(exc.errors())))
+        return _json(422, _finite(jsonable_encoder([_compact(e) for e in exc.errors()])))
 
     @app.exception_handler(HTTPException)
     async def _http(request: Request, exc: HTTPException) -> JSONResponse:
@@ -102,14 +128,17 @@ def install(app: FastAPI) -> None:
     async def _core(_: Request, exc: CoreError) -> JSONResponse:
         return _json(422, [{"loc": [], "msg": str(exc), "type": "core_error"}])  # the shape of every 422
 
+    # handled here, not by the catch-all below: that one's response also closes the connection
     @app.exception_handler(OSError)
-    async def _os_error(request: Request, exc: OSError) -> JSONResponse:
+    @app.exception_handler(DatabaseError)
+    async def _full_disk(request: Request, exc: Exception) -> JSONResponse:
         if is_full_disk(exc):
-            logger.error("store full on %s %s: %s", request.method, request.url.path, exc)
+            request.app.state.full_at = time.time()
+            logger.error("disk full on %s %s: %s", request.method, request.url.path, exc)
             return _json(
                 507,
-                "the server's store is full (no space left on device); nothing was stored - "
-                "retry once space is freed (foresight store gc lists orphaned files)",
+                "the server's store is full (no space left on device for its files or its database); nothing was "
+                "stored - retry once space is freed (deleting jobs and `foresight store gc` still work)",
             )
         return await _internal(request, exc)
 

@@ -15,6 +15,7 @@ from foresight.api.http_metrics import HttpMetrics, MetricsMiddleware, route_tem
 from foresight.api.routes import bundles, jobs, listing, models, ops, planners, results
 from foresight.core.planners.external import operator_commands
 from foresight.core.version import code_version
+from foresight.store import space
 from foresight.store.registry import Resolver, load_shipped_models, sync_bundles
 from foresight.store.session import check_migrated, make_engine
 from foresight.store.settings import Settings
@@ -72,6 +73,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.resolver = Resolver(settings, engine)
     app.state.token = settings.server_token()
     app.state.revision = revision
+    app.state.full_at = None  #: when a request last met a full disk (``/healthz``)
+    space.keep_reserve(settings)  # lets a deletion work on a full disk
     app.state.http_metrics = HttpMetrics()
     app.add_middleware(MetricsMiddleware, metrics=app.state.http_metrics)
     errors.install(app)

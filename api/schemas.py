@@ -405,8 +405,17 @@ class PredictorsPublic(BaseModel):
     )
 
 
+class DiskPublic(BaseModel):
+    """Free space where the store and the database live (``store.space``)."""
+
+    full: bool  #: a disk under 1 MiB free, or a request that met a full disk in the last 10 s
+    store_free_bytes: int | None
+    database_free_bytes: int | None  #: None: the database is on another machine
+
+
 class Health(BaseModel):
-    status: str
+    status: str  #: "ok", or "degraded: ..." saying why
     database: str
     revision: str
     kinds: list[str]
+    disk: DiskPublic | None = None

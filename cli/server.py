@@ -120,10 +120,12 @@ def cmd_serve(args: argparse.Namespace) -> int:
 def cmd_worker(args: argparse.Namespace) -> int:
     from foresight.store import queue
     from foresight.store.session import check_migrated, make_engine
+    from foresight.worker.memory import limit_memory
     from foresight.worker.runner import JobWorker
 
     _logging()
     settings = Settings()
+    memory_mb = limit_memory(settings)
     engine = make_engine(settings.resolved_database_url, busy_timeout_ms=settings.sqlite_busy_timeout_ms)
     check_migrated(engine)
     kinds = [k.strip() for k in args.kinds.split(",")] if args.kinds else None
@@ -131,7 +133,9 @@ def cmd_worker(args: argparse.Namespace) -> int:
     queue.prune_workers(engine)  # forget workers silent for a day
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: worker.stop())
-    print(f"foresight worker {worker.id}: {args.concurrency} slot(s), kinds {worker.kinds}", file=sys.stderr)
+    memory = f"{memory_mb} MiB" if memory_mb else "no limit"
+    print(f"foresight worker {worker.id}: {args.concurrency} slot(s), kinds {worker.kinds}, memory {memory}",
+          file=sys.stderr)  # fmt: skip
     worker.run()
     return 0
 

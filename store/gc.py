@@ -1,8 +1,8 @@
 """Store garbage: files under the store root that no database row accounts for.
 
 Orphans are job folders of jobs that no longer exist (or never committed), uploaded-bundle folders without a
-bundle row, upload staging folders (``bundles/.<id>.*``) and temporaries (``*.tmp``) left by a crash or a full
-disk. Folders of jobs still queued or running are never touched, nor is any file a model or dataset row uses.
+bundle row, upload staging folders (``bundles/.<id>.*``), temporaries (``*.tmp``) left by a crash or a full
+disk, and the attempt folders (``store.folders``) of succeeded jobs that a worker which lost its lease left. Folders of jobs still queued or running are never touched, nor is any file a model or dataset row uses.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from pathlib import Path
 
 from sqlalchemy import Engine, select
 
-from foresight.store import queue
+from foresight.store import folders, queue
 from foresight.store.models import Bundle, Dataset, Model
 
 TMP_AGE_S = 3600.0  #: [s] a temporary file this old belongs to no running write
@@ -37,6 +37,9 @@ def find_garbage(engine: Engine, root: Path, *, tmp_age_s: float = TMP_AGE_S) ->
     root = root.resolve()
     with engine.connect() as conn:
         jobs = set(conn.execute(select(queue.jobs.c.id)).scalars())
+        succeeded = set(
+            conn.execute(select(queue.jobs.c.id).where(queue.jobs.c.status == queue.SUCCEEDED)).scalars()
+        )
         bundles = set(conn.execute(select(Bundle.root).where(Bundle.source == "upload")).scalars())
         used = set(conn.execute(select(Model.checkpoint)).scalars()) | set(
             conn.execute(select(Dataset.path)).scalars()
@@ -47,6 +50,8 @@ def find_garbage(engine: Engine, root: Path, *, tmp_age_s: float = TMP_AGE_S) ->
         rel = folder.relative_to(root).as_posix()
         if folder.name not in jobs and not any(u.startswith(rel + "/") for u in used):
             found.append(folder)
+        elif folder.name in succeeded and (folder / folders.ATTEMPTS).is_dir():
+            found.append(folder / folders.ATTEMPTS)
     cutoff = time.time() - tmp_age_s
     for folder in sorted(bundles_dir.iterdir()) if bundles_dir.is_dir() else []:
         staging = folder.name.startswith(".")  # an upload being written, unless it is old

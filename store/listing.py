@@ -85,13 +85,13 @@ def campaign_grid_cells(engine: Engine, campaign_id: str) -> list[Any]:
     from foresight.core.evaluation.aggregate import SuiteSummary
     from foresight.core.evaluation.campaign import CampaignResult
     from foresight.core.reports.grid_plot import GridCell
-    from foresight.store import queue, results
+    from foresight.store import job_reads, queue, results
 
     row, cells, _ = results.campaign(engine, campaign_id)
     job = None
     if row.job_id is not None:
         try:
-            job = queue.get_job(engine, row.job_id)
+            job = job_reads.get_job(engine, row.job_id)
         except queue.JobNotFound:
             job = None
     if job is not None and job["result"]:

@@ -22,7 +22,7 @@ from sqlalchemy.exc import IntegrityError
 from foresight.core.archive import read_archive
 from foresight.core.errors import ConfigError, CoreError, NotFoundError
 from foresight.core.yamlio import load_yaml
-from foresight.store import folders, queue
+from foresight.store import folders, job_reads, queue
 from foresight.store.models import Artifact, Bundle, Dataset, Model, ModelStatus
 from foresight.store.session import session_factory
 from foresight.store.settings import Settings
@@ -342,7 +342,7 @@ def register_checkpoint(
                 return {"model_id": model_id, "status": existing.status, "resumed": True}
             owner = f" (job {existing.job_id})" if existing.job_id else ""
             raise queue.Conflict(f"a model with id {model_id!r} already exists{owner}")
-        job = queue.get_job(engine, job_id)
+        job = job_reads.get_job(engine, job_id)
         if job["status"] != queue.SUCCEEDED:
             raise queue.Conflict(f"job {job_id} is {job['status']}; register checkpoints of succeeded jobs")
         name = folders.check_relative(artifact)

@@ -15,7 +15,7 @@ from sqlalchemy import Engine, func, select
 
 from foresight.core.evaluation.aggregate import GroupStats, SuiteSummary
 from foresight.core.evaluation.runner import EvaluationMetrics
-from foresight.store import folders, queue
+from foresight.store import folders, job_reads, queue
 from foresight.store.models import (
     Campaign,
     CampaignCell,
@@ -201,7 +201,7 @@ def campaign_cell(engine: Engine, ident: str) -> CellRun | None:
     rank, _, suite = rest.partition(":")
     with session_factory(engine)() as session:
         found = _get(session, Campaign, campaign_id, "campaign")
-        job = None if found.job_id is None else queue.get_job(engine, found.job_id)
+        job = None if found.job_id is None else job_reads.get_job(engine, found.job_id)
     if (suite or "global") not in SUITES:
         raise queue.JobNotFound(f"a campaign cell's suite is global or hard, not {suite!r}")
     if job is None or job["result"] is None:

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from sqlalchemy import Connection, Engine, create_engine, event, text
 from sqlalchemy.engine import make_url
-from sqlalchemy.exc import OperationalError
+from sqlalchemy.exc import DBAPIError, OperationalError
 from sqlalchemy.orm import Session, sessionmaker
 
 from foresight.core.errors import CoreError
@@ -30,6 +30,8 @@ _IMMEDIATE = "foresight_immediate"
 
 #: database errors worth another attempt (a dropped connection, a lock held too long)
 TRANSIENT_ERRORS: tuple[type[BaseException], ...] = (OperationalError,)
+#: every error a database driver raises, as SQLAlchemy wraps it (the API answers a full disk among them with 507)
+DatabaseError = DBAPIError
 
 
 class NotMigratedError(CoreError, RuntimeError):

@@ -70,6 +70,9 @@ class Settings(BaseSettings):
     job_timeout_s: float = Field(12 * 3600.0, gt=0, le=7 * 86400)
     #: simulation steps one job may ask for (episodes x horizon), checked at submission and before a stage runs
     max_job_steps: int = Field(DEFAULT_STEP_BUDGET, ge=1)
+    #: [MiB] most memory a worker process may allocate (a job past it fails, naming it); unset: 3/4 of the
+    #: machine's physical memory; 0: no limit (worker.memory)
+    worker_memory_mb: int | None = Field(None, ge=0)
     #: named data roots on the worker's disk (``name=path,name=path``); specs name them, never the paths
     data_roots: str = ""
     #: MLflow tracking server that finished train/evaluate/campaign runs are copied to (empty: none;

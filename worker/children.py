@@ -27,7 +27,7 @@ from typing import Any, Protocol
 from foresight.core.errors import CoreError
 from foresight.core.jobs.kinds import KINDS
 from foresight.core.runtime.context import Cancelled, ChildProgress, StageContext
-from foresight.store import folders, queue, registry
+from foresight.store import folders, job_reads, queue, registry
 from foresight.store.settings import Settings
 
 POLL_S = 1.0  #: [s] how often a parent looks at children other workers are running
@@ -95,7 +95,7 @@ class ChildRunner:
         if not self.ctx.is_cancelled():
             return None
         try:
-            return "cancel" if queue.get_job(self.engine, self.parent_id)["cancel_requested"] else "stop"
+            return "cancel" if job_reads.get_job(self.engine, self.parent_id)["cancel_requested"] else "stop"
         except queue.JobNotFound:
             return "cancel"
 
@@ -146,7 +146,7 @@ class ChildRunner:
         self._on_progress = on_progress
         touched: set[str] = set()
         while True:
-            rows = {cid: queue.get_job(self.engine, cid) for cid in child_ids}
+            rows = {cid: job_reads.get_job(self.engine, cid) for cid in child_ids}
             if all(r["status"] == queue.SUCCEEDED for r in rows.values()):
                 return rows, touched
             if self.ctx.is_cancelled():

@@ -36,10 +36,12 @@ from foresight.store.session import Engine
 from foresight.store.settings import REPO_ROOT, Settings
 from foresight.worker import mlflow_export
 from foresight.worker.children import ChildRunner
+from foresight.worker.memory import memory_error_text
 from foresight.worker.retry import decide_retry
 
 logger = logging.getLogger(__name__)
 
+RECORD_RETRY_S = 5.0  #: [s] longest wait between tries to record a failure on a full disk
 PROGRESS_EVERY_S = 0.25  #: [s] at most one progress write per job this often (the last one always lands)
 
 
@@ -55,6 +57,7 @@ class Held:
     shutdown: bool = False
     lost: bool = False
     last_progress: float = field(default=0.0)
+    attempt_dir: Path | None = None  #: the folder this attempt writes into (store.folders.start_attempt)
 
     def should_stop(self) -> bool:
         if self.deadline is not None and time.time() > self.deadline:
@@ -130,7 +133,10 @@ class JobWorker:
             t.join(timeout=5.0)
         self._beat_stop.set()
         beat.join(timeout=5.0)
-        queue.stop_worker(self.engine, self.id)
+        try:
+            queue.stop_worker(self.engine, self.id)
+        except Exception:  # noqa: BLE001 - a full disk or a database away: the row goes stale and is pruned
+            logger.exception("could not record the worker's stop", extra={"action": "stop_worker_failed"})
         logger.info("worker stopped", extra={"action": "stop_worker", "worker": self.id})
 
     def stop(self) -> None:
@@ -218,27 +224,59 @@ class JobWorker:
             self._execute(held)
         except queue.LeaseLost as exc:
             logger.warning("%s", exc, extra={"action": "lease_lost", "job": job["id"]})
+            if held.attempt_dir is not None:  # another attempt owns the job now: this one's files are garbage
+                folders.drop_attempt(held.attempt_dir)
         except (
             Exception
-        ):  # recording the outcome failed (database down): the lease expires, the job is reaped
+        ) as exc:  # recording the outcome failed (database down): the lease expires, the job is reaped
             logger.exception(
                 "could not record the outcome of job %s", job["id"], extra={"action": "record_failed"}
             )
+            if folders.is_full_disk(
+                exc
+            ):  # ... unless the disk is full: the failure is recorded once space returns
+                self._fail_when_space_returns(held, exc)
         finally:
             with self._lock:
                 self._held.pop(job["id"], None)
             self.completed += 1
 
+    def _fail_when_space_returns(self, held: Held, exc: BaseException) -> None:
+        """Free the job's files, then try to record its failure every few seconds until the database can write
+        again (the lease is renewed meanwhile whenever a heartbeat gets through), this worker stops, or the lease
+        is found lost."""
+        job = held.job
+        if held.attempt_dir is not None:
+            folders.drop_attempt(held.attempt_dir)
+        shutil.rmtree(folders.resolve_under(self.settings.store_root, folders.job_dir(self.settings.store_root, job["id"])),
+                      ignore_errors=True)  # fmt: skip
+        message = (f"the disk of the store or the database was full when the job ended, so its outcome could not be "
+                   f"recorded ({self.public_text(str(exc)).splitlines()[0][:300]}); retry it once space is freed")  # fmt: skip
+        wait = 0.5
+        while not held.lost and not self._stopping.wait(wait):
+            try:
+                queue.fail_or_retry(
+                    self.engine, job["id"], self.id, job["attempts"], "StoreFull", message, retry=False
+                )
+                logger.warning("recorded the failure of job %s now that space returned", job["id"])
+                return
+            except queue.LeaseLost:
+                return
+            except Exception as again:  # noqa: BLE001 - still full, or the database is away: try again
+                if not folders.is_full_disk(again):
+                    logger.warning("job %s: %r while recording its failure", job["id"], again)
+            wait = min(2 * wait, RECORD_RETRY_S)
+
     def _execute(self, held: Held) -> None:
         job = held.job
         args = (self.engine, job["id"], self.id, job["attempts"])
         kind = KINDS[job["kind"]]
-        workdir_rel = folders.job_dir(self.settings.store_root, job["id"])
+        root = self.settings.store_root
+        workdir_rel = folders.job_dir(root, job["id"])
         try:
             spec = kind.spec.model_validate(job["spec"])
-            workdir = folders.resolve_under(self.settings.store_root, workdir_rel)
-            if kind.make_workdir:
-                workdir.mkdir(parents=True, exist_ok=True)
+            # this attempt's own folder, seeded from the previous attempt's (fencing: store.folders)
+            workdir = held.attempt_dir = folders.start_attempt(root, job["id"], create=kind.make_workdir)
             ctx = self.stage_context(held, workdir)
             check_budget(work_size(spec, ctx), self.settings.max_job_steps)  # children never passed the API
             result = kind.execute(spec, ctx)
@@ -272,25 +310,30 @@ class JobWorker:
         except Exception as exc:
             logger.info("job %s failed: %r", job["id"], exc, extra={"action": "job_failed", "job": job["id"]})
             message, retry = self.public_text(str(exc)), decide_retry(exc)
+            if isinstance(
+                exc, MemoryError
+            ):  # over the worker's limit (worker.memory): the same again fails again
+                message, retry = memory_error_text(exc), False
             if folders.is_full_disk(exc):  # the partial files are useless and hold the space others need
-                shutil.rmtree(
-                    folders.resolve_under(self.settings.store_root, workdir_rel), ignore_errors=True
-                )
+                if held.attempt_dir is not None:
+                    folders.drop_attempt(held.attempt_dir)
                 message, retry = (
                     f"{message} (the store is full; this attempt's partial files were removed)",
                     False,
                 )
             queue.fail_or_retry(*args, type(exc).__name__, message, retry=retry)
             return
-        artifacts = folders.scan(self.settings.store_root, workdir_rel)
-        if not artifacts and kind.make_workdir:
-            folders.remove_empty(folders.resolve_under(self.settings.store_root, workdir_rel))
+        artifacts = folders.scan(root, workdir_rel, source=workdir)
         record = None
         if job["kind"] in records.RECORDERS:
             record = functools.partial(
                 records.RECORDERS[job["kind"]], job=job, result=result, job_dir=workdir_rel
             )
-        queue.finish(*args, result, artifacts, record)
+        publish = functools.partial(folders.publish, root, job["id"], workdir)
+        queue.finish(*args, result, artifacts, record, publish)
+        folders.drop_attempts(root, job["id"])
+        if not artifacts:
+            folders.remove_empty(folders.resolve_under(root, workdir_rel))
 
     def public_text(self, text: str) -> str:
         """``text`` with server paths made relative to the store, the project's configs or the repository

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import asyncio
-import functools
 import json
 import time
 from collections.abc import AsyncIterator
@@ -30,9 +29,8 @@ from foresight.api.schemas import (
     job_public,
 )
 from foresight.core.jobs.kinds import KINDS
-from foresight.store import folders, labels, queue
+from foresight.store import folders, job_files, job_reads, labels, queue, space
 from foresight.store.models import JobStatus
-from foresight.store.session import is_sqlite
 
 router = APIRouter(prefix="/jobs", tags=["jobs"], route_class=BoundedJsonRoute)
 
@@ -43,7 +41,7 @@ async def full_job_id(job_id: Annotated[Ident, Path(description="a job id or a u
     engine = request.app.state.engine
     if len(job_id) >= 32:
         return job_id
-    return await run_in_threadpool(queue.resolve_id, engine, job_id)
+    return await run_in_threadpool(job_reads.resolve_id, engine, job_id)
 
 
 JobId = Annotated[str, Depends(full_job_id)]
@@ -93,9 +91,8 @@ async def create_job(
 ) -> Response:
     """Queue a job (201); a known idempotency key returns its job (200). Stage jobs must name known inputs
     (404) and fit the server's step budget (422); a job without ``timeout_s`` gets the server's default."""
-    # async: the body is validated on the event loop anyway; a plain submission on SQLite then waits on the
-    # store's submission thread without holding a thread-pool thread (see queue.SubmitBatcher), the rest
-    # (idempotency keys, parents, PostgreSQL) runs its queries in the pool
+    # async: the body is validated on the event loop anyway; the queue decides per database how the job is written
+    # (on SQLite a plain submission waits on the submission thread without holding a thread)
     spec = body.spec.model_dump(mode="json")
     errors = unsafe_paths(spec)
     if errors:
@@ -104,20 +101,11 @@ async def create_job(
         spec["kind"] != "sleep"
     ):  # the diagnostic kind has no inputs and no episodes (queue benchmarks submit it)
         await run_in_threadpool(admission.admit, body.spec, settings, resolver)
-    max_attempts = body.max_attempts or settings.max_attempts
-    timeout_s = body.timeout_s or settings.job_timeout_s
-    if body.idempotency_key is None and body.parent_id is None and is_sqlite(engine):
-        job, created = await queue.submit_plain(engine, kind=spec["kind"], spec=spec, priority=body.priority,
-                                                timeout_s=timeout_s, max_attempts=max_attempts,
-                                                labels=body.labels()), True  # fmt: skip
-    else:
-        if body.parent_id is not None:
-            await run_in_threadpool(queue.get_job, engine, body.parent_id)  # 404 when unknown
-        job, created = await run_in_threadpool(functools.partial(
-            queue.submit, engine, kind=spec["kind"], spec=spec, priority=body.priority, timeout_s=timeout_s,
-            max_attempts=max_attempts, idempotency_key=body.idempotency_key, parent_id=body.parent_id,
-            labels=body.labels(),
-        ))  # fmt: skip
+    job, created = await queue.submit_async(
+        engine, kind=spec["kind"], spec=spec, priority=body.priority,
+        timeout_s=body.timeout_s or settings.job_timeout_s, max_attempts=body.max_attempts or settings.max_attempts,
+        idempotency_key=body.idempotency_key, parent_id=body.parent_id, labels=body.labels(),
+    )  # fmt: skip
     code = status.HTTP_201_CREATED if created else status.HTTP_200_OK
     return Response(job_public(job).model_dump_json(), status_code=code, media_type="application/json")
 
@@ -137,28 +125,19 @@ def read_jobs(
     offset: Annotated[int, Query(ge=0, le=10_000_000)] = 0,
 ) -> JobsPublic:
     """Jobs, newest first, filtered by status, kind, parent, name, tags (all of them) and free text."""
-    count, rows = queue.list_jobs(engine, statuses=[s.value for s in status_ or ()], kinds=kind or (),
+    count, rows = job_reads.list_jobs(engine, statuses=[s.value for s in status_ or ()], kinds=kind or (),
                                   parent_id=parent_id, name=name, tags=tag, q=q, limit=limit,
                                   offset=offset)  # fmt: skip
     return JobsPublic(data=[job_public(r) for r in rows], count=count, limit=limit, offset=offset)
 
 
-def _read_job(engine: Any, job_id: str) -> bytes:
-    row, artifacts, children = queue.job_detail(engine, job_id)
-    return job_public(row, artifacts, [c["id"] for c in children]).model_dump_json().encode()
-
-
 @router.get("/{job_id}", response_model=JobPublic, responses=responses(404))
 async def read_job(job_id: JobId, request: Request) -> Response:
     """One job: status, progress, timestamps, error, result summary, artifacts and children."""
-    # The most frequent request (clients polling). On SQLite the three indexed lookups take well under a
-    # millisecond, less than a thread-pool hand-off, so they run on the event loop; other databases go
-    # through the thread pool. The body is serialised once, straight from the response model.
-    engine = request.app.state.engine
-    if is_sqlite(engine):
-        body = _read_job(engine, job_id)
-    else:
-        body = await run_in_threadpool(_read_job, engine, job_id)
+    # The most frequent request (clients polling): the store reads it inline or in a thread, as suits the
+    # database; the body is serialised once, straight from the response model.
+    row, artifacts, children = await job_reads.job_detail_async(request.app.state.engine, job_id)
+    body = job_public(row, artifacts, [c["id"] for c in children]).model_dump_json().encode()
     return Response(body, media_type="application/json")
 
 
@@ -170,7 +149,7 @@ async def _sse(engine: Any, job_id: str, after: int) -> AsyncIterator[str]:
     """
     last_ping = time.monotonic()
     while True:
-        batch = await run_in_threadpool(queue.events_after, engine, job_id, after)
+        batch = await run_in_threadpool(job_reads.events_after, engine, job_id, after)
         for ev in batch:
             after = ev["id"]
             data = {"type": ev["type"], "at": ev["at"], "message": ev["message"], "progress": ev["progress"]}
@@ -178,11 +157,11 @@ async def _sse(engine: Any, job_id: str, after: int) -> AsyncIterator[str]:
         if batch:
             continue
         try:
-            job = await run_in_threadpool(queue.get_job, engine, job_id)
+            job = await run_in_threadpool(job_reads.get_job, engine, job_id)
         except queue.JobNotFound:
             return
         if job["status"] not in (queue.QUEUED, queue.RUNNING):
-            if not await run_in_threadpool(queue.events_after, engine, job_id, after, 1):
+            if not await run_in_threadpool(job_reads.events_after, engine, job_id, after, 1):
                 yield f"event: end\ndata: {json.dumps({'status': job['status']})}\n\n"
                 return
             continue
@@ -200,7 +179,7 @@ def read_job_events(
     after: Annotated[int, Query(ge=0, le=MAX_EVENT_ID)] = 0,
 ) -> StreamingResponse:  # fmt: skip
     """Progress, log and status lines as server-sent events; ends with an ``end`` event."""
-    queue.get_job(engine, job_id)
+    job_reads.get_job(engine, job_id)
     start = last_event_id if last_event_id is not None else after
     return StreamingResponse(_sse(engine, job_id, start), media_type="text/event-stream",
                              headers={"Cache-Control": "no-cache"})  # fmt: skip
@@ -215,14 +194,14 @@ def update_job(job_id: JobId, body: JobUpdate, engine: EngineDep) -> JobPublic:
                         tags=body.tags, add=body.add_tags, remove=body.remove_tags)  # fmt: skip
     if not found:
         raise queue.JobNotFound(f"no job with id {job_id!r}")
-    return job_public(queue.get_job(engine, job_id))
+    return job_public(job_reads.get_job(engine, job_id))
 
 
 @router.post("/{job_id}/cancel", dependencies=[WriteAuth], responses=responses(*AUTH, 404, 409))
 def cancel_job(job_id: JobId, engine: EngineDep) -> JobPublic:
     """Cancel a queued job, or ask a running job's worker to stop it (409 when already finished)."""
     queue.request_cancel(engine, job_id)
-    return job_public(queue.get_job(engine, job_id))
+    return job_public(job_reads.get_job(engine, job_id))
 
 
 @router.post("/{job_id}/retry", dependencies=[WriteAuth], responses=responses(*AUTH, 404, 409))
@@ -239,8 +218,10 @@ def retry_job(job_id: JobId, engine: EngineDep) -> JobPublic:
 )
 def delete_job(job_id: JobId, engine: EngineDep, settings: SettingsDep) -> Response:
     """Delete a finished job and its whole folder (partial files of a failed run too), keeping files that a
-    model or dataset record uses."""
-    queue.delete_job_and_files(engine, settings.store_root, job_id)
+    model or dataset record uses; works on a full disk (files first, then the server's reserve)."""
+    job_files.delete_job_and_files(
+        engine, settings.store_root, job_id, on_full=lambda: space.release_reserve(settings)
+    )
     return Response(status_code=status.HTTP_204_NO_CONTENT)
 
 
@@ -251,7 +232,7 @@ def read_job_artifact(
 ) -> FileResponse:
     """Download one artifact of a job."""
     clean = folders.check_relative(name)  # 422 for absolute names and '..'
-    row = queue.find_artifact(engine, job_id, clean)
+    row = job_reads.find_artifact(engine, job_id, clean)
     path = folders.resolve_under(settings.store_root, row["path"])
     if not path.is_file():
         raise queue.JobNotFound(f"artifact {clean!r} of job {job_id} is missing from the store")

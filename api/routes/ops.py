@@ -8,9 +8,9 @@ from fastapi import APIRouter, Request
 from fastapi.responses import PlainTextResponse
 
 from foresight.api.deps import EngineDep, SettingsDep
-from foresight.api.schemas import Health, WorkerPublic, WorkersPublic, iso
+from foresight.api.schemas import DiskPublic, Health, WorkerPublic, WorkersPublic, iso
 from foresight.core.jobs.kinds import KINDS
-from foresight.store import queue
+from foresight.store import job_reads, space
 
 router = APIRouter(tags=["operations"])  #: always open (liveness probes carry no token)
 #: reads: the app adds the read-auth dependency when reads are closed, so the schema's security matches
@@ -22,12 +22,20 @@ def _alive_cutoff(settings) -> float:  # noqa: ANN001
     return time.time() - max(3 * settings.heartbeat_s, settings.lease_s)
 
 
+FULL_RECENTLY_S = 10.0  #: [s] a request that met a full disk this recently keeps /healthz degraded
+
+
 @router.get("/healthz")
-def read_health(request: Request, engine: EngineDep) -> Health:
-    """Liveness and database reachability."""
-    return Health(
-        status="ok", database=queue.ping(engine), revision=request.app.state.revision, kinds=sorted(KINDS)
-    )
+def read_health(request: Request, engine: EngineDep, settings: SettingsDep) -> Health:
+    """Liveness, database reachability and free disk space ("degraded" while a disk is full)."""
+    state = space.disk_state(settings)
+    full_at = request.app.state.full_at
+    full = bool(state["full"]) or (full_at is not None and time.time() - full_at < FULL_RECENTLY_S)
+    if not full:
+        space.keep_reserve(settings)  # back once there is room again
+    status = "degraded: the disk of the store or the database is full" if full else "ok"
+    return Health(status=status, database=job_reads.ping(engine), revision=request.app.state.revision,
+                  kinds=sorted(KINDS), disk=DiskPublic(**{**state, "full": full}))  # fmt: skip
 
 
 @read_router.get("/v1/workers")
@@ -36,9 +44,9 @@ def read_workers(engine: EngineDep, settings: SettingsDep) -> WorkersPublic:
     data = [
         WorkerPublic(id=r["id"], host=r["host"], pid=r["pid"], concurrency=r["concurrency"], kinds=r["kinds"],
                      started_at=iso(r["started_at"]), heartbeat_at=iso(r["heartbeat_at"]), jobs=r["jobs"])
-        for r in queue.alive_workers(engine, _alive_cutoff(settings))
+        for r in job_reads.alive_workers(engine, _alive_cutoff(settings))
     ]  # fmt: skip
-    return WorkersPublic(data=data, count=len(data), queue=queue.depth(engine))
+    return WorkersPublic(data=data, count=len(data), queue=job_reads.depth(engine))
 
 
 @read_router.get("/metrics", response_class=PlainTextResponse)
@@ -49,11 +57,11 @@ def read_metrics(request: Request, engine: EngineDep, settings: SettingsDep) -> 
         "# HELP foresight_jobs Jobs per kind and status.",
         "# TYPE foresight_jobs gauge",
     ]
-    for kind, counts in sorted(queue.depth(engine).items()):
+    for kind, counts in sorted(job_reads.depth(engine).items()):
         for status, count in sorted(counts.items()):
             lines.append(f'foresight_jobs{{kind="{kind}",status="{status}"}} {count}')
-    alive = queue.alive_workers(engine, _alive_cutoff(settings))
-    oldest = queue.oldest_queued_at(engine)
+    alive = job_reads.alive_workers(engine, _alive_cutoff(settings))
+    oldest = job_reads.oldest_queued_at(engine)
     lines += [
         "# HELP foresight_workers_alive Workers with a recent heartbeat.",
         "# TYPE foresight_workers_alive gauge",

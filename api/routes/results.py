@@ -15,7 +15,7 @@ from foresight.api.schemas import (
     EvaluationPublic,
     Ident,
 )
-from foresight.store import queue, results
+from foresight.store import job_reads, queue, results
 
 router = APIRouter(tags=["results"])
 
@@ -23,7 +23,7 @@ router = APIRouter(tags=["results"])
 def full_id(engine: Any, ident: str) -> str:
     """An evaluation or campaign id (a job's) given by a short id, as the CLI prints; ``ID:RANK[:SUITE]`` cells too."""
     head, sep, rest = ident.partition(":")
-    return queue.resolve_id(engine, head) + sep + rest
+    return job_reads.resolve_id(engine, head) + sep + rest
 
 
 @router.get("/datasets")
@@ -117,7 +117,7 @@ def read_witness_trace(
     from foresight.core.render.episode_trace import read_compact, trace_name
     from foresight.store import folders
 
-    job = queue.get_job(engine, full_id(engine, job_id))
+    job = job_reads.get_job(engine, full_id(engine, job_id))
     root = settings.store_root
     path = folders.resolve_under(root, folders.job_dir(root, job["id"])) / trace_name(scenario, seed)
     if job["kind"] != "witness" or not path.is_file():

@@ -8,7 +8,7 @@ from fastapi.responses import HTMLResponse
 
 from foresight.api.web.auth import PageNotFound, read_access
 from foresight.api.web.render import page
-from foresight.store import listing, queue, results
+from foresight.store import job_reads, listing, queue, results
 
 router = APIRouter(prefix="/ui", include_in_schema=False, dependencies=[Depends(read_access)])
 
@@ -22,7 +22,7 @@ def campaign_page(request: Request, campaign_id: str) -> HTMLResponse:
 
     engine = request.app.state.engine
     try:
-        ident = queue.resolve_id(engine, campaign_id)
+        ident = job_reads.resolve_id(engine, campaign_id)
         row, cells, gates = results.campaign(engine, ident)
         grid = listing.campaign_grid_cells(engine, ident)
     except queue.JobNotFound as exc:
@@ -42,7 +42,7 @@ def cell_page(request: Request, campaign_id: str, rank: int) -> HTMLResponse:
 
     engine = request.app.state.engine
     try:
-        ident = f"{queue.resolve_id(engine, campaign_id)}:{rank}"
+        ident = f"{job_reads.resolve_id(engine, campaign_id)}:{rank}"
         _, config, _ = results.comparison_operand(engine, ident)
         suites = [
             (suite, episode_list(engine, request.app.state.settings, f"{ident}:{suite}"))
@@ -71,7 +71,7 @@ def cell_episode_page(
     from foresight.api.routes.results import trace_url
 
     try:
-        ident = f"{queue.resolve_id(request.app.state.engine, campaign_id)}:{rank}"
+        ident = f"{job_reads.resolve_id(request.app.state.engine, campaign_id)}:{rank}"
         _, config, _ = results.comparison_operand(request.app.state.engine, ident)
     except queue.JobNotFound as exc:
         raise PageNotFound(str(exc)) from None

@@ -13,7 +13,7 @@ from foresight.api.web.render import page
 from foresight.core.errors import NotFoundError
 from foresight.core.jobs.results import planner_and_model, typed_result, verdict
 from foresight.core.reports.pipeline import headline
-from foresight.store import folders, queue, registry, results
+from foresight.store import folders, job_reads, registry, results
 from foresight.store.models import Bundle
 
 router = APIRouter(prefix="/ui", include_in_schema=False, dependencies=[Depends(read_access)])
@@ -33,7 +33,7 @@ def models_page(request: Request) -> HTMLResponse:
 def results_page(request: Request) -> HTMLResponse:
     """Finished stage jobs by kind, with their headline numbers, records and report pages."""
     engine = request.app.state.engine
-    rows = queue.finished_jobs(engine, list(RESULT_KINDS), RESULT_LIMIT)
+    rows = job_reads.finished_jobs(engine, list(RESULT_KINDS), RESULT_LIMIT)
     records = results.records_by_job(engine)
     sections: dict[str, list[dict[str, Any]]] = {title: [] for title in RESULT_KINDS.values()}
     for row in rows:

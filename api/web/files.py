@@ -16,7 +16,7 @@ from fastapi.responses import FileResponse
 
 from foresight.api.web.auth import PageNotFound, read_access
 from foresight.api.web.render import HERE
-from foresight.store import folders, queue
+from foresight.store import folders, job_reads, queue
 
 router = APIRouter(include_in_schema=False)
 STATIC = HERE / "static"
@@ -43,7 +43,7 @@ def read_job_file(
 ) -> FileResponse:
     """One file of a job's folder, shown inline (HTML without scripts)."""
     try:
-        queue.get_job(request.app.state.engine, job_id)
+        job_reads.get_job(request.app.state.engine, job_id)
     except queue.JobNotFound:
         raise PageNotFound(f"no job {job_id}") from None
     folder = job_folder(request, job_id)

@@ -14,7 +14,7 @@ from foresight.api.web.auth import PageNotFound, read_access
 from foresight.api.web.render import page
 from foresight.core.jobs.kinds import KINDS
 from foresight.core.jobs.results import Verdict, verdict
-from foresight.store import queue
+from foresight.store import job_reads, queue
 from foresight.store.models import JobStatus
 
 router = APIRouter(include_in_schema=False)
@@ -41,8 +41,9 @@ def job_verdict(job: dict[str, Any]) -> Verdict | None:
 def _jobs(request: Request, status: list[JobStatus] | None, kind: list[str] | None, offset: int,
           tag: list[str] | None = None, q: str | None = None) -> dict[str, Any]:  # fmt: skip
     tags = [t for t in tag or [] if t]
-    count, data = queue.list_jobs(request.app.state.engine, statuses=[s.value for s in status or []], kinds=kind or [],
+    count, data = job_reads.list_jobs(request.app.state.engine, statuses=[s.value for s in status or []], kinds=kind or [],
                                   tags=tags, q=q or None, limit=PAGE_SIZE, offset=offset)  # fmt: skip
+    data = [dict(job) for job in data]  # rows are read-only: the page's copies get its extra fields
     for job in data:
         job["report"] = files.report_of(request, job["id"]) if job["status"] == queue.SUCCEEDED else None
         job["verdict"] = job_verdict(job)
@@ -92,9 +93,10 @@ def jobs_rows(
 
 def _job(request: Request, job_id: str) -> dict[str, Any]:
     try:
-        job, job["artifacts"], job["children"] = queue.job_detail(request.app.state.engine, job_id)
+        row, artifacts, children = job_reads.job_detail(request.app.state.engine, job_id)
     except queue.JobNotFound:
         raise PageNotFound(f"no job with id {job_id}") from None
+    job = {**row, "artifacts": artifacts, "children": children}
     job["report"] = files.report_of(request, job_id)
     job["verdict"] = job_verdict(job)
     job["episodes"] = (
@@ -170,7 +172,7 @@ def _episodes(request: Request, job: dict[str, Any]) -> list[Any]:
 def job_page(request: Request, job_id: str) -> Response:
     """One job: summary, error, spec, result, live log, report, artifacts, children (a short id redirects)."""
     try:
-        full = queue.resolve_id(request.app.state.engine, job_id)
+        full = job_reads.resolve_id(request.app.state.engine, job_id)
     except queue.JobNotFound as exc:
         raise PageNotFound(str(exc)) from None
     if full != job_id:

@@ -9,6 +9,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from foresight.core.bounds import BoundedConfig
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.aggregate import BootstrapConfig
 from foresight.core.evaluation.gates import ClosedLoopGateConfig, EvaluationGateConfig
@@ -33,7 +34,7 @@ def refuse_shards(data: Any) -> Any:
     return data
 
 
-class _Config(BaseModel):
+class _Config(BoundedConfig):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
 

@@ -27,6 +27,7 @@ from pydantic import (
     model_validator,
 )
 
+from foresight.core.bounds import BoundedConfig
 from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.runtime.context import StageContext
 from foresight.core.scenarios.model import ResolvedScenario
@@ -38,7 +39,7 @@ DEFAULT_MODEL = "default"  #: id resolved through ctx.resolve_model when a predi
 OTHER = "other"  #: the union member of every other name: in-process planners (``module:attr``) or an error
 
 
-class PlannerSpecBase(BaseModel):
+class PlannerSpecBase(BoundedConfig):
     """A planner as a config names it (YAML, API body, CLI): one typed member per planner name."""
 
     model_config = ConfigDict(extra="forbid", frozen=True, from_attributes=True)

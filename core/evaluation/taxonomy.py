@@ -56,7 +56,9 @@ class TaxonomyConfig(BaseModel):
     freeze_ped_distance: float = Field(
         default=3.0, gt=0
     )  #: "pedestrian near": centre distance within this [m]
-    oscillation_min_sign_changes: int = Field(default=4, ge=1)  #: sign changes of omega within the window
+    oscillation_min_sign_changes: int = Field(
+        default=4, ge=1, le=1000
+    )  #: sign changes of omega within the window
     oscillation_omega_min: float = Field(
         default=0.2, ge=0
     )  #: only samples with |omega| above this count [rad/s]

@@ -17,6 +17,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, create_model
 
 from foresight.core import files
+from foresight.core.bounds import BoundedConfig
 from foresight.core.evaluation.campaign import run_campaign
 from foresight.core.evaluation.config import CampaignConfig, DiagnosticsConfig, EvaluationConfig
 from foresight.core.evaluation.diagnostics import run_diagnostics
@@ -80,7 +81,7 @@ class JobKind:
         )
 
 
-class SleepConfig(BaseModel):
+class SleepConfig(BoundedConfig):
     """Built-in diagnostic job: sleeps in steps (reporting progress, honouring cancellation), then
     optionally writes an artifact and/or fails. ``seconds: 0`` is an empty job (queue benchmarks)."""
 

@@ -12,6 +12,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from foresight.core import files
+from foresight.core.bounds import BoundedConfig
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.plannerspec import (
     PlannerSpec,
@@ -25,7 +26,7 @@ from foresight.core.runtime.refs import BUILTIN_BUNDLE, BundlePath, Ident, Name,
 from foresight.core.version import code_version
 
 
-class SimulateConfig(BaseModel):
+class SimulateConfig(BoundedConfig):
     """Which episodes to run: scenarios of a matrix (default all) x seeds (default each scenario's first)."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)

@@ -23,7 +23,7 @@ class OrcaConfig(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid")
 
     neighbor_dist: float = Field(default=8.0, gt=0)  #: [m]
-    max_neighbors: int = Field(default=16, ge=1)
+    max_neighbors: int = Field(default=16, ge=1, le=256)
     time_horizon: float = Field(default=2.0, gt=0)  #: [s] against pedestrians
     time_horizon_obst: float = Field(default=1.0, gt=0)  #: [s] against static obstacles
     radius_margin: float = Field(default=0.1, ge=0)  #: added to the true robot radius [m]

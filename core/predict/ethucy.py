@@ -23,8 +23,9 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import ConfigDict, Field
 
+from foresight.core.bounds import BoundedConfig
 from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.predict.dataset import Dataset, DatasetMeta, EpisodeRecord, save_dataset
 from foresight.core.predict.features import Window, extract_features, world_to_ego
@@ -241,7 +242,7 @@ def import_fold(
     return dataset_from_episodes(episodes, meta)
 
 
-class ImportEthucyConfig(BaseModel):
+class ImportEthucyConfig(BoundedConfig):
     """Stage ``import_ethucy``: one fold of an ETH/UCY folder on the worker's disk -> a dataset artifact."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
@@ -251,7 +252,7 @@ class ImportEthucyConfig(BaseModel):
     output: str = "dataset.npz"
 
 
-class ImportDatasetConfig(BaseModel):
+class ImportDatasetConfig(BoundedConfig):
     """Job ``import_dataset``: one fold of a named data root (the service maps names to folders on its disk,
     so the spec holds no server path)."""
 

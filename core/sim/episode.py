@@ -50,11 +50,12 @@ def run_episode(
     """Run one episode to its end (collision, goal or exactly ``max_steps``/max_episode_steps steps).
 
     ``check`` (e.g. ``StageContext.check_cancelled``) is called every :data:`CHECK_EVERY` steps and stops the
-    episode by raising, so a cancelled or timed-out job never waits for a long episode to end.
+    episode by raising, so a cancelled or timed-out job never waits for a long episode to end (its crowd's
+    spawning included).
     """
     t0 = time.perf_counter()
     sim = simulator or Simulator()
-    obs = sim.reset(scenario, seed, max_steps=max_steps)
+    obs = sim.reset(scenario, seed, max_steps=max_steps, check=check)
     planner.reset(
         EpisodeInfo(
             scenario=scenario,

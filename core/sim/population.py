@@ -7,6 +7,7 @@ Row order is the reference's: crowded-zone peds, then route peds, then single pe
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -16,6 +17,7 @@ from foresight.core.maps.model import MapDef, SinglePedestrian
 from foresight.core.scenarios.model import ResolvedScenario, SimulationConfig
 from foresight.core.sim import heterogeneity
 from foresight.core.sim.params import SPEED_TIERS, CrowdParams
+from foresight.core.sim.trace import MAX_TRACE_BYTES, trace_bytes
 from foresight.core.sim.zones import RouteGeometry, Validator, sample_free, sample_zone
 
 
@@ -71,6 +73,35 @@ def pedestrian_count(scenario: ResolvedScenario, crowd: CrowdParams | None = Non
         scenario.map, scenario.scenario.simulation_config, crowd or CrowdParams()
     )
     return n_zone + n_route + len(scenario.map.single_pedestrians)
+
+
+#: most pedestrians one episode may have (zone, route and single peds, or replayed tracks): the largest
+#: ``population_size`` too. Spawning is per group, so a crowd of millions would take minutes before the first step
+MAX_PEDESTRIANS = 5000
+CHECK_GROUPS = 64  #: groups placed between two ``check()`` calls while a crowd spawns
+
+
+def check_crowd(scenario: ResolvedScenario, horizon: int, crowd: CrowdParams | None = None) -> int:
+    """The episode's pedestrian count; ConfigError naming the scenario and its setting when the crowd is over
+    :data:`MAX_PEDESTRIANS` or its trace (horizon x crowd) over the trace limit. Cheap (areas and lengths): run
+    before anything is spawned, at submission and at reset."""
+    n = pedestrian_count(scenario, crowd)
+    setting = "population_size" if scenario.scenario.simulation_config.population_size else "ped_density"
+    if n > MAX_PEDESTRIANS:
+        raise ConfigError(
+            f"{n} pedestrians (map {scenario.map.name!r}: crowded-zone area and ped-route length x "
+            f"{setting}); at most {MAX_PEDESTRIANS}: lower {setting} or shorten the map's routes",
+            source=scenario.name,
+            item=f"simulation_config.{setting}",
+        )
+    if trace_bytes(horizon, n) > MAX_TRACE_BYTES:
+        raise ConfigError(
+            f"an episode of {horizon} steps with {n} pedestrians needs a {trace_bytes(horizon, n) / 2**20:.0f} "
+            f"MiB trace; the limit is {MAX_TRACE_BYTES / 2**20:.0f} MiB: lower max_steps or the crowd",
+            source=scenario.name,
+            item="max_steps",
+        )
+    return n
 
 
 def group_sizes(n: int, max_size: int, rng: np.random.Generator, decay: float) -> list[int]:
@@ -157,11 +188,15 @@ def spawn_route_groups(
     crowd: CrowdParams,
     rng: np.random.Generator,
     valid: Validator,
+    check: Callable[[], None] | None = None,
 ) -> list[tuple[np.ndarray, int, int]]:
-    """Per group: member positions (k, 2), route index, index of the waypoint ending the anchor's section."""
+    """Per group: member positions (k, 2), route index, index of the waypoint ending the anchor's section;
+    ``check`` (cancellation, deadline) is called every :data:`CHECK_GROUPS` groups."""
     out = []
     anchors = _route_anchors(sizes, routes, cfg, rng)
-    for k, (r, s) in zip(sizes, anchors, strict=True):
+    for i, (k, (r, s)) in enumerate(zip(sizes, anchors, strict=True)):
+        if check is not None and i % CHECK_GROUPS == 0:
+            check()
         for _ in range(5):
             anchor, section = routes[r].point_at(s)
             members = _cluster_members(anchor, k, rng, crowd, valid)
@@ -193,7 +228,12 @@ def single_start(sp: SinglePedestrian) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _zone_groups(
-    sizes: list[int], map_def: MapDef, cfg: SimulationConfig, rng: np.random.Generator, valid: Validator
+    sizes: list[int],
+    map_def: MapDef,
+    cfg: SimulationConfig,
+    rng: np.random.Generator,
+    valid: Validator,
+    check: Callable[[], None] | None = None,
 ) -> list[tuple[np.ndarray, np.ndarray, int]]:
     """Per crowded-zone group: member positions (k, 2), shared goal (2,), zone index (area-weighted choice)."""
     zones = map_def.ped_crowded_zones
@@ -201,7 +241,9 @@ def _zone_groups(
         return []
     areas = np.array([z.area for z in zones])
     out = []
-    for k in sizes:
+    for i, k in enumerate(sizes):
+        if check is not None and i % CHECK_GROUPS == 0:
+            check()
         z = int(rng.choice(len(zones), p=areas / areas.sum()))
         members = sample_free(zones[z], k, rng, cfg.zone_sampling, valid, what="crowded zone")
         out.append((members, sample_free(zones[z], 1, rng, cfg.zone_sampling, valid)[0], z))
@@ -228,20 +270,31 @@ def build_population(
     rng: np.random.Generator,
     spread_rng: np.random.Generator,
     valid: Validator,
+    check: Callable[[], None] | None = None,
 ) -> Population:
     """Spawn the whole crowd: crowded-zone groups, route groups, then single peds.
 
     ``valid`` rejects candidate points (inside obstacles, or too close to the robot's start);
-    ``spread_rng`` drives route placement in ``spread`` mode (the reference's route_spawn_seed).
+    ``spread_rng`` drives route placement in ``spread`` mode (the reference's route_spawn_seed); ``check``
+    (cancellation, deadline) is called while groups are placed.
     """
     n_zone, n_route = population_counts(map_def, cfg, crowd)
     zoned = _zone_groups(
-        group_sizes(n_zone, cfg.max_peds_per_group, rng, crowd.group_size_decay), map_def, cfg, rng, valid
+        group_sizes(n_zone, cfg.max_peds_per_group, rng, crowd.group_size_decay),
+        map_def,
+        cfg,
+        rng,
+        valid,
+        check,
     )
     route_sizes = group_sizes(n_route, cfg.max_peds_per_group, rng, crowd.group_size_decay)
     routes = [RouteGeometry(r) for r in map_def.ped_routes]
     placement_rng = spread_rng if cfg.route_spawn_distribution == "spread" else rng
-    placed = spawn_route_groups(route_sizes, routes, cfg, crowd, placement_rng, valid) if route_sizes else []
+    placed = (
+        spawn_route_groups(route_sizes, routes, cfg, crowd, placement_rng, valid, check)
+        if route_sizes
+        else []
+    )
     blocks = [(m, g) for m, g, _ in zoned] + [(m, routes[r].points[wp]) for m, r, wp in placed]
     n_crowd = sum(len(m) for m, _ in blocks)
     vmax = desired_speeds(n_crowd, cfg, crowd, rng)

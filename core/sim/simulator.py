@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -28,7 +29,7 @@ from foresight.core.sim.navigation import RobotRoute, sample_robot_route
 from foresight.core.sim.observation import Events, Observation
 from foresight.core.sim.orca_agents import OrcaCrowdDynamics, obstacle_polygons
 from foresight.core.sim.params import CrowdParams, ForceParams
-from foresight.core.sim.population import build_population
+from foresight.core.sim.population import build_population, check_crowd
 from foresight.core.sim.replay import ReplayCrowd
 from foresight.core.sim.robot import RobotLimits, robot_step
 from foresight.core.sim.trace import Trace
@@ -94,13 +95,22 @@ class Simulator:
             self._static_cache = (scenario.map, StaticMap(scenario.map))
         return self._static_cache[1]
 
-    def reset(self, scenario: ResolvedScenario, seed: int, *, max_steps: int | None = None) -> Observation:
-        """Start an episode: robot route, crowd, empty trace; returns the observation at step 0."""
+    def reset(
+        self,
+        scenario: ResolvedScenario,
+        seed: int,
+        *,
+        max_steps: int | None = None,
+        check: Callable[[], None] | None = None,
+    ) -> Observation:
+        """Start an episode: robot route, crowd, empty trace; returns the observation at step 0. The crowd's
+        size is checked before anything is spawned; ``check`` (cancellation, deadline) is called while it spawns."""
         cfg, rcfg, map_def = scenario.scenario.simulation_config, scenario.scenario.robot_config, scenario.map
+        self.horizon = int(max_steps if max_steps is not None else cfg.max_episode_steps)
+        check_crowd(scenario, self.horizon, self.crowd_params)
         self.scenario, self.seed, self.cfg = scenario, int(seed), cfg
         self.static = self._static(scenario)
         self.dt = cfg.dt
-        self.horizon = int(max_steps if max_steps is not None else cfg.max_episode_steps)
         self.limits = RobotLimits.from_config(rcfg)
         self.limits_dict = self.limits.as_dict()
         self.ped_radius = cfg.ped_radius
@@ -134,6 +144,7 @@ class Simulator:
             pop_rng,
             spread_rng,
             lambda pts: self._free(pts, self.robot[None, :2]),
+            check,
         )
         pop.pos = self.static.push_off_edges(pop.pos, 2 * self.crowd_params.wall_clearance)
         self.replay = (

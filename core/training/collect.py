@@ -18,6 +18,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from foresight.core.bounds import BoundedConfig
 from foresight.core.errors import ConfigError
 from foresight.core.predict.dataset import (
     DatasetMeta,
@@ -40,17 +41,17 @@ from foresight.core.sim.observation import Observation
 from foresight.core.sim.planner import EpisodeInfo
 
 
-class TimeBaseSpec(BaseModel):
+class TimeBaseSpec(BoundedConfig):
     model_config = ConfigDict(extra="forbid", frozen=True)
     dt: float = Field(default=PLANNER_TIMEBASE.dt, gt=0)  #: [s]
-    history: int = Field(default=PLANNER_TIMEBASE.history, ge=1)
-    horizon: int = Field(default=PLANNER_TIMEBASE.horizon, ge=1)
+    history: int = Field(default=PLANNER_TIMEBASE.history, ge=1, le=1000)
+    horizon: int = Field(default=PLANNER_TIMEBASE.horizon, ge=1, le=1000)
 
     def build(self) -> TimeBase:
         return TimeBase(self.dt, self.history, self.horizon)
 
 
-class CollectConfig(BaseModel):
+class CollectConfig(BoundedConfig):
     model_config = ConfigDict(extra="forbid", frozen=True)
     bundle: Ident = BUILTIN_BUNDLE
     matrix: BundlePath = "scenarios/classic_interactions.yaml"
@@ -70,7 +71,9 @@ class CollectConfig(BaseModel):
     timebase: TimeBaseSpec = TimeBaseSpec()
     max_agents: int = Field(default=12, ge=1, le=256)
     max_steps: int | None = Field(default=300, ge=1, le=MAX_EPISODE_STEPS)  #: cap on episode length
-    sample_every: int | None = Field(default=None, ge=1)  #: simulator steps between samples (default: stride)
+    sample_every: int | None = Field(
+        default=None, ge=1, le=MAX_EPISODE_STEPS
+    )  #: simulator steps between samples (default: stride)
     val_fraction: float = Field(default=0.2, ge=0, lt=1)
     split_seed: int = 0
     output: str = "dataset.npz"
@@ -271,7 +274,7 @@ def run_collect(config: CollectConfig, ctx: StageContext) -> CollectResult:
     )
 
 
-class MixConfig(BaseModel):
+class MixConfig(BoundedConfig):
     model_config = ConfigDict(extra="forbid", frozen=True)
     base: str  #: dataset id or local .npz path
     hardcase: str

@@ -8,6 +8,7 @@ from typing import Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator
 
+from foresight.core.bounds import BoundedConfig
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.gates import GateCheck, GateResult
 from foresight.core.runtime.execution import Execution, Executor
@@ -16,7 +17,7 @@ from foresight.core.training.proxy import ProxySpec
 from foresight.core.yamlio import load_yaml
 
 
-class _Strict(BaseModel):
+class _Strict(BoundedConfig):
     model_config = ConfigDict(extra="forbid")
 
 
@@ -81,7 +82,7 @@ class TrainConfig(_Strict):
     #: one), else cpu; cuda without a GPU fails there (core.predict.nn.device); shuffling draws stay on the CPU
     device: Literal["auto", "cpu", "cuda"] = "auto"
     val_split: str = "val"  #: which recorded split validates (val; test only for held-out checks)
-    proxy_every: int = Field(default=0, ge=0)  #: epochs between proxy evaluations (0 = off)
+    proxy_every: int = Field(default=0, ge=0, le=10_000)  #: epochs between proxy evaluations (0 = off)
     proxy: ProxySpec | None = None  #: closed-loop proxy episodes (training hard seeds) when proxy_every > 0
     resume: bool = True  #: continue from checkpoints/last.pt in the work dir when present
     allow_degenerate: bool = False  #: skip the fail-fast dataset checks (recorded in the summary)

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from foresight.core.bounds import BoundedConfig
 from foresight.core.errors import ConfigError
 from foresight.core.predict import forecast_metrics
 from foresight.core.predict.dataset import Dataset, load_dataset, resolve_dataset_path, save_dataset
@@ -27,7 +28,7 @@ from foresight.core.runtime.context import StageContext
 FILE_KEYS = ("reverse_train",)
 
 
-class PredictEvalConfig(BaseModel):
+class PredictEvalConfig(BoundedConfig):
     model_config = ConfigDict(extra="forbid", frozen=True)
     #: "cv", a model id, a predictor plug-in name (docs/predictor_protocol.md), or (in-process runs) a checkpoint path
     model: str | None = None
@@ -42,7 +43,7 @@ class PredictEvalConfig(BaseModel):
     #: your own recordings (``scene_import.ImportScenesConfig`` fields; in-process runs): leave-one-scene-out
     scenes: dict[str, Any] | None = None
     split: str = "test"  #: held-out split of ``dataset`` (test, else val when it has no test episodes; "all")
-    max_agents: int = Field(default=12, ge=1)  #: slots per ETH/UCY sample
+    max_agents: int = Field(default=12, ge=1, le=256)  #: slots per ETH/UCY sample
     #: ETH/UCY with ``train``: each fold also trains on its training scenes played backwards (twice the windows;
     #: people walk much alike either way). Validation and test stay as recorded. 5-fold average, one member each
     #: (2026-11-29): 0.4683 -> 0.4624 ADE, every fold lower

@@ -13,15 +13,17 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import ConfigDict, Field
 
+from foresight.core.bounds import BoundedConfig
 from foresight.core.errors import ConfigError
 from foresight.core.runtime.context import StageContext
 from foresight.core.runtime.execution import Executor
 from foresight.core.runtime.refs import BUILTIN_BUNDLE, BundlePath, Ident
+from foresight.core.scenarios.model import MAX_EPISODE_STEPS
 
 
-class ProxySpec(BaseModel):
+class ProxySpec(BoundedConfig):
     model_config = ConfigDict(extra="forbid", frozen=True)
     bundle: Ident = BUILTIN_BUNDLE
     matrix: BundlePath = "scenarios/classic_interactions.yaml"
@@ -29,8 +31,8 @@ class ProxySpec(BaseModel):
         None  #: TRAINING hard seeds (>= 30 episodes so rates separate checkpoints)
     )
     scenarios: list[str] | None = None  #: with seeds_per_scenario when there is no manifest
-    seeds_per_scenario: int | None = Field(default=None, ge=1)
-    max_steps: int | None = Field(default=None, ge=1)
+    seeds_per_scenario: int | None = Field(default=None, ge=1, le=10_000)
+    max_steps: int | None = Field(default=None, ge=1, le=MAX_EPISODE_STEPS)
     planner_config: dict[str, Any] = Field(
         default_factory=dict
     )  #: predictive planner config (defaults fill the rest)

@@ -17,7 +17,7 @@ import httpx
 import pytest
 import torch
 
-from foresight.store import queue
+from foresight.store import job_reads, queue
 from foresight.store.registry import sync_bundles
 from foresight.store.session import make_engine, upgrade
 from foresight.store.settings import Settings
@@ -174,7 +174,7 @@ def _finish(engine, spec: dict, timeout: float = 90.0) -> dict:  # noqa: ANN001
     job_id = queue.submit(engine, kind=spec["kind"], spec=spec)[0]["id"]
     deadline = time.time() + timeout
     while time.time() < deadline:
-        job = queue.get_job(engine, job_id)
+        job = job_reads.get_job(engine, job_id)
         if job["status"] in ("succeeded", "failed"):
             assert job["status"] == "succeeded", (job["error_type"], job["error_message"])
             return job
@@ -202,7 +202,7 @@ def test_worker_jobs_are_exported_with_their_job_id(tracking: tuple[str, Path], 
                                  "hidden": 16, "blocks": 1})  # fmt: skip
         evaluate = _finish(engine, {"kind": "evaluate", **SMOKE_EVAL})
         logs = {
-            job: [e["message"] for e in queue.events_after(engine, job, 0)]
+            job: [e["message"] for e in job_reads.events_after(engine, job, 0)]
             for job in (train["id"], evaluate["id"])
         }
     finally:

@@ -7,7 +7,7 @@ import time
 
 from sqlalchemy import select
 
-from foresight.store import queue
+from foresight.store import job_reads, queue
 from foresight.store.session import make_engine
 
 from .service import Service
@@ -21,7 +21,7 @@ def test_killed_worker_job_is_finished_by_another(service: Service) -> None:
         engine, kind="sleep", spec={"kind": "sleep", "seconds": 2.0, "steps": 20, "artifact": "out.txt"}
     )[0]
     deadline = time.time() + 60
-    while (row := queue.get_job(engine, job["id"]))["status"] != "running" and time.time() < deadline:
+    while (row := job_reads.get_job(engine, job["id"]))["status"] != "running" and time.time() < deadline:
         time.sleep(0.05)
     assert f"-{doomed.pid}-" in row["lease_owner"]
     time.sleep(0.3)
@@ -29,7 +29,7 @@ def test_killed_worker_job_is_finished_by_another(service: Service) -> None:
     doomed.wait()
     survivor = service.worker()
     deadline = time.time() + 60
-    while (row := queue.get_job(engine, job["id"]))["status"] != "succeeded" and time.time() < deadline:
+    while (row := job_reads.get_job(engine, job["id"]))["status"] != "succeeded" and time.time() < deadline:
         time.sleep(0.1)
     assert row["status"] == "succeeded", service.logs()
     assert row["attempts"] == 2 and f"-{survivor.pid}-" in row["lease_owner"]

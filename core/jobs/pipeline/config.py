@@ -18,6 +18,7 @@ from typing import Any, Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from foresight.core.bounds import BoundedConfig
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.config import CampaignConfig, DiagnosticsConfig, EvaluationConfig
 from foresight.core.runtime.refs import BUILTIN_BUNDLE, BundlePath, Ident
@@ -102,7 +103,7 @@ class PromoteSection(BaseModel):
     to: Literal["promoted", "default"] = "promoted"
 
 
-class PipelineConfig(BaseModel):
+class PipelineConfig(BoundedConfig):
     """collect -> hard-case collect -> mix -> train (proxy on the training seeds) -> register (candidate) ->
     evaluate -> diagnose -> campaign -> gates -> promote."""
 

@@ -7,7 +7,7 @@ import copy
 import xml.etree.ElementTree as ET
 
 from foresight.core.reports.grid_plot import GridCell, chart_svg, parameter_plots, varied_parameters
-from foresight.store import queue, records
+from foresight.store import job_reads, queue, records
 from tests.unit.reports import data
 
 
@@ -34,7 +34,7 @@ def _store(client, auth, engine, result: dict) -> str:  # noqa: ANN001
     claimed = queue.claim(engine, "w", ["campaign"], 30)
     queue.finish(engine, job_id, "w", claimed["attempts"], result)
     with engine.begin() as conn:
-        records.RECORDERS["campaign"](conn, queue.get_job(engine, job_id), result, "")
+        records.RECORDERS["campaign"](conn, job_reads.get_job(engine, job_id), result, "")
     return job_id
 
 

@@ -210,7 +210,7 @@ def test_two_campaign_cells_are_paired_with_their_changed_episodes_played_side_b
     from foresight.core.evaluation.config import CampaignConfig
     from foresight.core.runtime.context import StageContext
     from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
-    from foresight.store import queue, records
+    from foresight.store import job_reads, queue, records
 
     spec = {
         "kind": "campaign",
@@ -230,7 +230,7 @@ def test_two_campaign_cells_are_paired_with_their_changed_episodes_played_side_b
     ).model_dump(mode="json")
     queue.finish(engine, job_id, "w", claimed["attempts"], result)
     with engine.begin() as conn:
-        records.RECORDERS["campaign"](conn, queue.get_job(engine, job_id), result, f"jobs/{job_id}")
+        records.RECORDERS["campaign"](conn, job_reads.get_job(engine, job_id), result, f"jobs/{job_id}")
     rank = {c["variant"]: i for i, c in enumerate(result["ranked"], start=1)}
     base, crawl = (
         f"{job_id[:12]}:{rank['base']}",

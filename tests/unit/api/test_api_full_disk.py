@@ -101,3 +101,19 @@ def test_store_gc_lists_then_removes_orphans_only(client, auth, engine, settings
     assert not (root / "jobs" / "gone-job").exists() and not stale.exists() and not old_tmp.exists()
     assert (root / "jobs" / live["id"] / "keep.txt").exists() and fresh.exists()
     assert collect_garbage(engine, root).paths == []
+
+
+def test_store_gc_removes_attempt_folders_a_lost_lease_left(client, auth, engine, settings) -> None:  # noqa: ANN001
+    root = settings.store_root
+    done = client.post("/v1/jobs", json={"spec": {"kind": "sleep"}}, headers=auth).json()
+    c = queue.claim(engine, "w", ["sleep"], 30)
+    queue.finish(engine, done["id"], "w", c["attempts"], {})
+    failed = client.post("/v1/jobs", json={"spec": {"kind": "sleep"}}, headers=auth).json()
+    c = queue.claim(engine, "w", ["sleep"], 30)
+    queue.fail_or_retry(engine, failed["id"], "w", c["attempts"], "E", "m", retry=False)
+    for job_id in (done["id"], failed["id"]):  # written by a worker that woke up after its lease was gone
+        folders.start_attempt(root, job_id)
+    assert collect_garbage(engine, root, dry_run=True).paths == [f"jobs/{done['id']}/.attempts/"]
+    collect_garbage(engine, root)
+    assert not (root / "jobs" / done["id"] / ".attempts").exists()
+    assert (root / "jobs" / failed["id"] / ".attempts").is_dir()  # a retry resumes from it

@@ -77,7 +77,7 @@ def test_bad_labels_are_422_naming_the_field(client, auth) -> None:  # noqa: ANN
 def test_upgrade_keeps_jobs_of_a_database_from_before_labels(tmp_path: Path) -> None:
     """A database at the previous revision, with a job in it, migrates: the job gets no name, no tags and an
     empty note, and can be tagged afterwards."""
-    from foresight.store import labels, queue
+    from foresight.store import job_reads, labels
 
     path = tmp_path / "old.db"
     url = f"sqlite:///{path}"
@@ -88,10 +88,10 @@ def test_upgrade_keeps_jobs_of_a_database_from_before_labels(tmp_path: Path) -> 
                      "1.0, '', 1.0)")  # fmt: skip
     upgrade(url)
     engine = make_engine(url)
-    job = queue.get_job(engine, "a" * 32)
+    job = job_reads.get_job(engine, "a" * 32)
     assert job["name"] is None and job["tags"] == [] and job["note"] == ""
     labels.edit(engine, "a" * 32, add=["old"])
-    assert queue.list_jobs(engine, tags=["old"])[0] == 1
+    assert job_reads.list_jobs(engine, tags=["old"])[0] == 1
     engine.dispose()
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from foresight.store import queue, records
+from foresight.store import job_reads, queue, records
 from tests.unit.reports import data
 
 
@@ -32,7 +32,7 @@ def _finished(client, auth, engine, kind: str, result: dict[str, Any], **labels)
     assert claimed is not None and claimed["id"] == job_id
     queue.finish(engine, job_id, "w", claimed["attempts"], result)
     with engine.begin() as conn:
-        records.RECORDERS[kind](conn, queue.get_job(engine, job_id), result, "")
+        records.RECORDERS[kind](conn, job_reads.get_job(engine, job_id), result, "")
     return job_id
 
 

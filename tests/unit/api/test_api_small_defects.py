@@ -7,7 +7,7 @@ import time
 
 import pytest
 
-from foresight.store import queue
+from foresight.store import job_reads, queue
 
 
 def _job(client, auth) -> dict:  # noqa: ANN001
@@ -36,9 +36,9 @@ def test_nul_characters_are_stored_escaped(client, auth, engine) -> None:  # noq
     c = queue.claim(engine, "w", ["sleep"], 30)
     queue.report_progress(engine, job["id"], "w", c["attempts"], 0.5, "half\x00way")
     queue.fail_or_retry(engine, job["id"], "w", c["attempts"], "Bad\x00Type", "bad\x00byte", retry=False)
-    got = queue.get_job(engine, job["id"])
+    got = job_reads.get_job(engine, job["id"])
     assert (got["error_type"], got["error_message"]) == ("Bad\\x00Type", "bad\\x00byte")
-    assert all("\x00" not in e["message"] for e in queue.events_after(engine, job["id"], 0))
+    assert all("\x00" not in e["message"] for e in job_reads.events_after(engine, job["id"], 0))
 
 
 def test_success_after_a_re_lease_clears_the_stale_error(client, auth, engine) -> None:  # noqa: ANN001
@@ -46,7 +46,7 @@ def test_success_after_a_re_lease_clears_the_stale_error(client, auth, engine) -
     queue.claim(engine, "w1", ["sleep"], lease_s=0.05)
     time.sleep(0.1)
     queue.reap_stale(engine)
-    assert queue.get_job(engine, job["id"])["error_type"] == "LeaseExpired"
+    assert job_reads.get_job(engine, job["id"])["error_type"] == "LeaseExpired"
     c = queue.claim(engine, "w2", ["sleep"], 30)
     queue.finish(engine, job["id"], "w2", c["attempts"], {"ok": True})
     got = client.get(f"/v1/jobs/{job['id']}").json()

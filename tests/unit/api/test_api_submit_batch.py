@@ -1,4 +1,4 @@
-"""Group-committed submissions on SQLite (queue.SubmitBatcher): many concurrent submitters, from threads and
+"""Group-committed submissions on SQLite (store.submit_batch.SubmitBatcher): many concurrent submitters, from threads and
 from an event loop, each get their own job, stored once with its 'queued' event."""
 
 from __future__ import annotations
@@ -47,13 +47,13 @@ def test_concurrent_thread_submissions_are_each_stored_once(engine) -> None:  # 
 
 
 def test_event_loop_submissions_wait_without_threads_and_keep_order(engine) -> None:  # noqa: ANN001
-    async def main() -> list[dict]:
+    async def main() -> list[tuple]:
         return await asyncio.gather(
-            *(queue.submit_plain(engine, kind="sleep", spec={"kind": "sleep"}) for _ in range(200))
+            *(queue.submit_async(engine, kind="sleep", spec={"kind": "sleep"}) for _ in range(200))
         )
 
     threads_before = threading.active_count()
-    returned = asyncio.run(main())
+    returned = [job for job, created in asyncio.run(main()) if created]
     jobs, events = _stored(engine)
     assert len({j["id"] for j in returned}) == len(jobs) == 200 and all(events[i] == 1 for i in jobs)
     assert threading.active_count() <= threads_before + 1  # one submission thread, not one per request

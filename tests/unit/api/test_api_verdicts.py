@@ -6,7 +6,7 @@ from __future__ import annotations
 from typing import Any
 
 from foresight.core.jobs.results import planner_and_model, verdict
-from foresight.store import queue
+from foresight.store import job_reads, queue
 from tests.unit.reports import data
 
 
@@ -93,7 +93,7 @@ def test_evaluations_list_with_filters_and_pagination(client, auth, engine) -> N
     ids = []
     for failures in (True, False, True):
         job_id = _finished_evaluation(client, auth, engine, {})
-        job = queue.get_job(engine, job_id)
+        job = job_reads.get_job(engine, job_id)
         with engine.begin() as conn:
             records.RECORDERS["evaluate"](conn, job, data.evaluation(failures=failures), "")
         ids.append(job_id)
@@ -121,7 +121,7 @@ def test_compare_leads_with_what_differs_api_and_page(client, auth, engine) -> N
         }
         job_id = _finished_evaluation(client, auth, engine, {})
         with engine.begin() as conn:
-            records.RECORDERS["evaluate"](conn, queue.get_job(engine, job_id), result, "")
+            records.RECORDERS["evaluate"](conn, job_reads.get_job(engine, job_id), result, "")
         ids.append(job_id)
     body = client.get("/v1/compare", params={"a": ids[0], "b": ids[1]}).json()
     assert list(body["differs"]) == [
@@ -154,7 +154,7 @@ def test_compare_an_evaluation_with_a_campaign_cell_names_the_cell_planner(clien
     }
     evaluation = _finished_evaluation(client, auth, engine, {})
     with engine.begin() as conn:
-        records.RECORDERS["evaluate"](conn, queue.get_job(engine, evaluation), result, "")
+        records.RECORDERS["evaluate"](conn, job_reads.get_job(engine, evaluation), result, "")
     spec = {
         "kind": "campaign",
         "seed_manifest": "seeds/classic_eval_hard_smoke.yaml",
@@ -172,7 +172,9 @@ def test_compare_an_evaluation_with_a_campaign_cell_names_the_cell_planner(clien
         "w",
         c["attempts"],
         cells,
-        record=lambda conn: records.RECORDERS["campaign"](conn, queue.get_job(engine, campaign), cells, ""),
+        record=lambda conn: records.RECORDERS["campaign"](
+            conn, job_reads.get_job(engine, campaign), cells, ""
+        ),
     )
     body = client.get("/v1/compare", params={"a": evaluation, "b": f"{campaign}:1"}).json()
     best = cells["ranked"][0]

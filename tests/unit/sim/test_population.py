@@ -13,7 +13,7 @@ from foresight.core.sim.population import group_sizes, population_counts
 from foresight.core.sim.simulator import Simulator
 from foresight.core.sim.zones import sample_zone
 
-from .scenes import scenario, street_map
+from .scenes import open_map, scenario, street_map
 
 
 def test_counts_follow_density_rule():
@@ -61,3 +61,45 @@ def test_speed_tiers_give_per_ped_desired_speeds():
     assert 1.1 < v.mean() < 1.5 and v.std() > 0.05 and v.min() >= 0.1
     sim.reset(scenario(street_map(), ped_density=0.2), 0)
     assert np.all(sim.crowd.vmax == 0.65)
+
+
+class _Stop(Exception):
+    pass
+
+
+def test_a_crowd_over_the_limit_is_refused_before_anything_spawns():
+    import pytest
+
+    from foresight.core.errors import ConfigError
+    from foresight.core.sim.population import MAX_PEDESTRIANS
+
+    m = street_map()
+    calls = []
+    n = sum(population_counts(m, SimulationConfig(ped_density=2.0), CrowdParams()))
+    assert n < MAX_PEDESTRIANS  # a street is no bomb: its routes made 10^6 m long are
+    from foresight.core.maps.model import Route
+
+    routes = tuple(Route(spawn_id=r.spawn_id, goal_id=r.goal_id, waypoints=(*r.waypoints, (3, 1e6)))
+                   for r in m.ped_routes)  # fmt: skip
+    far = m.model_copy(update={"ped_routes": routes})
+    with pytest.raises(ConfigError, match=r"pedestrians .* at most 5000: lower ped_density"):
+        Simulator().reset(scenario(far, ped_density=2.0), 1, check=lambda: calls.append(1))
+    assert calls == []  # refused from the areas and lengths alone
+    with pytest.raises(ConfigError, match="MiB trace"):  # horizon x crowd over the trace limit
+        Simulator().reset(scenario(m, population_size=4000), 1, max_steps=100_000)
+
+
+def test_cancellation_is_checked_while_the_crowd_spawns():
+    import pytest
+
+    calls = []
+
+    def check() -> None:
+        calls.append(1)
+        if len(calls) == 3:
+            raise _Stop
+
+    big = open_map(width=100, height=100, crowded=(Zone.from_rect(10, 10, 80, 80),))
+    with pytest.raises(_Stop):
+        Simulator().reset(scenario(big, population_size=3000, max_peds_per_group=1), 1, check=check)
+    assert len(calls) == 3  # stopped mid-spawn: 3000 groups would have called it 47 times

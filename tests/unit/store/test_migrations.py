@@ -34,12 +34,12 @@ def test_sqlite_head_matches_models(tmp_path: Path) -> None:
 )  # fmt: skip
 def test_job_list_pages_are_read_off_an_index(tmp_path: Path, filters: dict, index: str) -> None:
     """The job list's page query walks an index in its order: no temporary B-tree sorts every matching job."""
-    from foresight.store import queue
+    from foresight.store import job_reads
 
     url = f"sqlite:///{tmp_path / 'm.db'}"
     upgrade(url)
     engine = make_engine(url)
-    query = queue.list_page_query(queue.list_filter(**filters), 50, 100)
+    query = job_reads.list_page_query(job_reads.list_filter(**filters), 50, 100)
     sql = str(query.compile(engine, compile_kwargs={"literal_binds": True}))
     with engine.connect() as conn:
         plan = " | ".join(row[3] for row in conn.exec_driver_sql("EXPLAIN QUERY PLAN " + sql))

@@ -6,7 +6,7 @@ import time
 
 import pytest
 
-from foresight.store import queue
+from foresight.store import job_reads, queue
 
 
 def _submit(engine, **kw):  # noqa: ANN001, ANN202
@@ -35,7 +35,7 @@ def test_finish_is_guarded_by_owner_and_attempt(engine) -> None:  # noqa: ANN001
     with pytest.raises(queue.LeaseLost):
         queue.finish(engine, job["id"], "w1", 2, {})
     queue.finish(engine, job["id"], "w1", claimed["attempts"], {"ok": True})
-    assert queue.get_job(engine, job["id"])["status"] == "succeeded"
+    assert job_reads.get_job(engine, job["id"])["status"] == "succeeded"
     with pytest.raises(queue.LeaseLost):  # twice: the second finds no running row
         queue.finish(engine, job["id"], "w1", 1, {"ok": True})
 
@@ -49,7 +49,7 @@ def test_reap_requeues_then_fails_after_max_attempts(engine) -> None:  # noqa: A
     assert claimed["attempts"] == 2
     time.sleep(0.02)
     assert queue.reap_stale(engine)["failed"] == 1
-    final = queue.get_job(engine, job["id"])
+    final = job_reads.get_job(engine, job["id"])
     assert final["status"] == "failed" and final["error_type"] == "LeaseExpired"
     with pytest.raises(queue.LeaseLost):  # the stalled first worker cannot finish it any more
         queue.finish(engine, job["id"], "dead", 1, {})
@@ -78,10 +78,10 @@ def test_retry_only_failed_or_cancelled(engine) -> None:  # noqa: ANN001
         queue.fail_or_retry(engine, job["id"], "w1", claimed["attempts"], "RuntimeError", "boom", retry=False)
         == "failed"
     )
-    failed = queue.get_job(engine, job["id"])
+    failed = job_reads.get_job(engine, job["id"])
     assert (failed["error_type"], failed["error_message"]) == ("RuntimeError", "boom")
     again = queue.retry(engine, job["id"])  # the row as queued, whoever claims it next
-    assert again == queue.get_job(engine, job["id"])
+    assert again == job_reads.get_job(engine, job["id"])
     assert again["status"] == "queued" and again["attempts"] == 0 and again["error_type"] is None
     assert queue.claim(engine, "w2", ["sleep"], 10)["id"] == job["id"] and again["status"] == "queued"
 
@@ -102,7 +102,7 @@ def test_release_does_not_count_the_attempt(engine) -> None:  # noqa: ANN001
     job = _submit(engine)
     c = queue.claim(engine, "w1", ["sleep"], 10)
     queue.release(engine, job["id"], "w1", c["attempts"])
-    again = queue.get_job(engine, job["id"])
+    again = job_reads.get_job(engine, job["id"])
     assert again["status"] == "queued" and again["attempts"] == 0 and again["lease_owner"] is None
 
 
@@ -121,7 +121,7 @@ def test_delete_only_finished(engine) -> None:  # noqa: ANN001
     queue.request_cancel(engine, job["id"])
     queue.delete_job(engine, job["id"])
     with pytest.raises(queue.JobNotFound):
-        queue.get_job(engine, job["id"])
+        job_reads.get_job(engine, job["id"])
 
 
 def test_concurrent_submissions_are_grouped_and_all_stored(engine) -> None:  # noqa: ANN001
@@ -130,8 +130,8 @@ def test_concurrent_submissions_are_grouped_and_all_stored(engine) -> None:  # n
     with ThreadPoolExecutor(16) as pool:
         jobs = list(pool.map(lambda i: _submit(engine, spec={"seconds": i % 3}), range(64)))
     assert len({j["id"] for j in jobs}) == 64 and all(j["status"] == "queued" for j in jobs)
-    assert queue.depth(engine) == {"sleep": {"queued": 64}}
+    assert job_reads.depth(engine) == {"sleep": {"queued": 64}}
     for job in jobs[:5]:
-        stored = queue.get_job(engine, job["id"])
+        stored = job_reads.get_job(engine, job["id"])
         assert {k: stored[k] for k in job} == job  # what submit returned is what was stored
-        assert [e["message"] for e in queue.events_after(engine, job["id"], 0)] == ["queued"]
+        assert [e["message"] for e in job_reads.events_after(engine, job["id"], 0)] == ["queued"]

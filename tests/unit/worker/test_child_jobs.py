@@ -14,7 +14,7 @@ from foresight.core.jobs.pipeline.config import load_pipeline_config
 from foresight.core.jobs.pipeline.service import ChildJobs
 from foresight.core.runtime.context import Cancelled, StageContext
 from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
-from foresight.store import folders, queue
+from foresight.store import folders, job_reads, queue
 from foresight.store.session import write_tx
 from foresight.store.settings import Settings
 from foresight.worker.runner import Held, JobWorker
@@ -60,7 +60,7 @@ def test_a_child_is_a_job_row_run_in_this_thread_and_not_run_twice(settings, eng
     seen: list = []
     try:
         run = children("nap", "sleep", {"seconds": 0.2, "steps": 2, "artifact": "out.txt"}, _progress(seen))
-        child = queue.get_job(engine, run.job_id)
+        child = job_reads.get_job(engine, run.job_id)
         assert child["parent_id"] == parent.job["id"] and child["status"] == "succeeded"
         assert child["idempotency_key"] == f"pipeline:{parent.job['id']}:nap"
         assert child["lease_owner"].endswith("/pipeline") and not run.resumed
@@ -69,7 +69,7 @@ def test_a_child_is_a_job_row_run_in_this_thread_and_not_run_twice(settings, eng
         )  # child progress reached the pipeline
         again = children("nap", "sleep", {"seconds": 0.2, "steps": 2, "artifact": "out.txt"}, _progress(seen))
         assert again.resumed and again.job_id == run.job_id
-        assert queue.get_job(engine, run.job_id)["attempts"] == 1
+        assert job_reads.get_job(engine, run.job_id)["attempts"] == 1
     finally:
         children.close()
 
@@ -89,7 +89,7 @@ def test_a_failed_child_fails_the_stage_and_a_rerun_retries_it(settings, engine)
     try:
         again = rerun("fine", "sleep", {"seconds": 0.0}, _progress([]))
         assert again.job_id == ok.job_id and not again.resumed
-        assert queue.get_job(engine, ok.job_id)["status"] == "succeeded"
+        assert job_reads.get_job(engine, ok.job_id)["status"] == "succeeded"
     finally:
         rerun.close()
 
@@ -115,7 +115,7 @@ def test_cancelling_the_pipeline_cancels_the_running_child(settings, engine) -> 
         parent.cancelled = True
         thread.join(timeout=10)
         assert not thread.is_alive() and isinstance(outcome[0], Cancelled)
-        assert queue.get_job(engine, children.children["long"])["status"] == "cancelled"
+        assert job_reads.get_job(engine, children.children["long"])["status"] == "cancelled"
     finally:
         children.close()
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import socket
 import time
 
-from foresight.store import queue
+from foresight.store import job_reads, queue
 from foresight.store.registry import sync_bundles
 
 
@@ -19,14 +19,14 @@ def test_an_mlflow_outage_is_a_warning_in_the_job_log(engine, settings, start_wo
             "planner": {"name": "goal"}}  # fmt: skip
     job_id = queue.submit(engine, kind="evaluate", spec=spec)[0]["id"]
     deadline = time.time() + 90
-    while (job := queue.get_job(engine, job_id))["status"] not in (
+    while (job := job_reads.get_job(engine, job_id))["status"] not in (
         "succeeded",
         "failed",
     ) and time.time() < deadline:
         time.sleep(0.05)
     assert job["status"] == "succeeded", (job["error_type"], job["error_message"])
     assert job["result"]["episodes"] == 1
-    log = [e["message"] for e in queue.events_after(engine, job_id, 0) if e["type"] == "log"]
+    log = [e["message"] for e in job_reads.events_after(engine, job_id, 0) if e["type"] == "log"]
     warnings = [m for m in log if m.startswith("warning: MLflow export")]
     assert len(warnings) == 1, log
     assert (

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 
-from foresight.store import queue
+from foresight.store import job_reads, queue
 
 
 def test_job_errors_show_paths_relative_to_the_store_or_configs(engine, settings, start_worker) -> None:  # noqa: ANN001
@@ -15,7 +15,7 @@ def test_job_errors_show_paths_relative_to_the_store_or_configs(engine, settings
     spec = {"kind": "evaluate", "matrix": "scenarios/not_there.yaml", "planner": {"name": "goal"}}
     job_id = queue.submit(engine, kind="evaluate", spec=spec)[0]["id"]  # as a pipeline child would be
     deadline = time.time() + 60
-    while (job := queue.get_job(engine, job_id))["status"] not in (
+    while (job := job_reads.get_job(engine, job_id))["status"] not in (
         "failed",
         "succeeded",
     ) and time.time() < deadline:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 
-from foresight.store import queue
+from foresight.store import job_reads, queue
 from foresight.store.registry import sync_bundles
 
 COLLECT = {
@@ -24,7 +24,7 @@ def test_a_job_that_hits_enospc_fails_once_and_frees_its_folder(
     start_worker(store=small_store)
     job_id = queue.submit(engine, kind="collect", spec=COLLECT)[0]["id"]
     deadline = time.time() + 120
-    while (job := queue.get_job(engine, job_id))["status"] not in (
+    while (job := job_reads.get_job(engine, job_id))["status"] not in (
         "failed",
         "succeeded",
     ) and time.time() < deadline:

@@ -5,14 +5,14 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from foresight.store import queue
+from foresight.store import job_reads, queue
 
 
 def _finish(engine, spec: dict, timeout: float = 120.0) -> dict:  # noqa: ANN001
     job_id = queue.submit(engine, kind=spec["kind"], spec=spec)[0]["id"]
     deadline = time.time() + timeout
     while time.time() < deadline:
-        job = queue.get_job(engine, job_id)
+        job = job_reads.get_job(engine, job_id)
         if job["status"] in ("succeeded", "failed"):
             return job
         time.sleep(0.05)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import time
 
-from foresight.store import queue
+from foresight.store import job_reads, queue
 from foresight.store.registry import sync_bundles
 
 #: one episode whose robot cannot move: 100,000 steps (minutes) unless stopped from inside
@@ -22,7 +22,7 @@ STUCK = {
 def _wait(engine, job_id: str, statuses: set[str], timeout: float = 30.0) -> dict:  # noqa: ANN001
     deadline = time.time() + timeout
     while time.time() < deadline:
-        job = queue.get_job(engine, job_id)
+        job = job_reads.get_job(engine, job_id)
         if job["status"] in statuses:
             return job
         time.sleep(0.02)

@@ -6,13 +6,13 @@ import time
 
 import pytest
 
-from foresight.store import queue
+from foresight.store import job_reads, queue
 
 
 def _wait(engine, job_id: str, statuses: set[str], timeout: float = 10.0) -> dict:  # noqa: ANN001
     deadline = time.time() + timeout
     while time.time() < deadline:
-        job = queue.get_job(engine, job_id)
+        job = job_reads.get_job(engine, job_id)
         if job["status"] in statuses:
             return job
         time.sleep(0.02)
@@ -29,7 +29,7 @@ def test_runs_a_job_and_records_artifacts(engine, start_worker) -> None:  # noqa
     job_id = _submit(engine, seconds=0.2, steps=4, artifact="out/note.txt")
     job = _wait(engine, job_id, {"succeeded"})
     assert job["result"] == {"slept_s": 0.2} and job["progress"] == 1.0
-    arts = queue.events_after(engine, job_id, 0)
+    arts = job_reads.events_after(engine, job_id, 0)
     assert [e["message"] for e in arts if e["type"] == "status"][-1] == "succeeded"
     with engine.connect() as conn:
         names = [
@@ -78,7 +78,7 @@ def test_lost_lease_is_abandoned_and_the_job_finished_once(engine, start_worker)
     assert job["attempts"] == 2
     with pytest.raises(queue.LeaseLost):
         queue.finish(engine, job_id, "stalled-worker", stale["attempts"], {"dup": True})
-    assert queue.get_job(engine, job_id)["result"] == {"slept_s": 0.1}
+    assert job_reads.get_job(engine, job_id)["result"] == {"slept_s": 0.1}
 
 
 def test_concurrency_runs_jobs_in_parallel(engine, start_worker) -> None:  # noqa: ANN001
