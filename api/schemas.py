@@ -253,6 +253,7 @@ class ModelPublic(BaseModel):
     provenance: str
     read_only: bool
     job_id: str | None
+    kind: str = Field("checkpoint", description="checkpoint | plugin | external")
 
 
 class ModelsPublic(BaseModel):

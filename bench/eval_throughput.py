@@ -39,6 +39,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--planner", default="predictive")
     ap.add_argument("--model", default="cv", help="cv or a checkpoint path (predictive planner)")
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--scenarios", help="comma-separated scenario names (default: all)")
     ap.add_argument("--seeds-per-scenario", type=int, help="default: the matrix's own seeds (3)")
     ap.add_argument("--max-steps", type=int, help="horizon override (default: the scenario horizons)")
     ap.add_argument("--out", help="work folder (default: a temporary folder)")
@@ -61,6 +62,7 @@ def main(argv: list[str] | None = None) -> int:
             "name": args.planner,
             "model": (None if model is None else ("cv" if checkpoint is None else "file:" + checkpoint.name)),
         },
+        scenarios=args.scenarios.split(",") if args.scenarios else None,
         seeds_per_scenario=args.seeds_per_scenario,
         max_steps=args.max_steps,
     )

@@ -22,6 +22,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
+from foresight.core.errors import CoreError  # noqa: E402
 from foresight.core.planners.registry import make_planner  # noqa: E402
 from foresight.core.predict.features import current_index  # noqa: E402
 from foresight.core.predict.predictor import ConstantVelocityPredictor  # noqa: E402
@@ -69,6 +70,8 @@ def main() -> None:
     ap.add_argument("--matrix", default=str(REPO / "configs/scenarios/stress.yaml"))
     ap.add_argument("--seeds", default=str(REPO / "configs/seeds/stress_train.yaml"))
     ap.add_argument("--per-scenario", type=int, default=2, help="training seeds per scenario")
+    ap.add_argument("--scenarios", help="comma-separated scenario names (default: all)")
+    ap.add_argument("--max-steps", type=int, help="horizon override (default: the scenario horizons)")
     ap.add_argument("--checkpoint", default=str(REPO / "model/predictor-sim-default.pt"))
     ap.add_argument(
         "--near", type=float, default=4.0, help="also fit on pedestrians this close to the robot [m]"
@@ -83,15 +86,25 @@ def main() -> None:
     args = ap.parse_args()
     matrix = load_matrix(args.matrix)
     manifest = load_seed_manifest(args.seeds, matrix)
+    try:
+        chosen = (
+            [matrix.get(n.strip()) for n in args.scenarios.split(",")] if args.scenarios else matrix.scenarios
+        )
+    except CoreError as exc:
+        sys.exit(f"forecast_calibration: --scenarios: {exc}")
     tb = PLANNER_TIMEBASE
     samples = []
-    for scen in matrix.scenarios:
+    for scen in chosen:
         for seed in list(manifest.seeds.get(scen.name, ()))[: args.per_scenario]:
             seed += args.seed_offset
             policy = _Recorder(make_planner("predictive", None, model="cv"))
-            res = run_episode(scen, seed, policy)
+            res = run_episode(scen, seed, policy, max_steps=args.max_steps)
             samples.append(samples_from_trace(res.trace, tb, 12, policy.waypoint_array(res.steps)))
     samples = [s for s in samples if len(s)]
+    if not samples:
+        sys.exit(
+            "forecast_calibration: the episodes gave no samples (a horizon shorter than history + forecast?)"
+        )
     predictors = {"constant_velocity": ConstantVelocityPredictor(tb)}
     if args.checkpoint and Path(args.checkpoint).is_file():
         import torch
@@ -105,6 +118,8 @@ def main() -> None:
         "matrix": args.matrix,
         "seeds": args.seeds,
         "per_scenario": args.per_scenario,
+        "scenarios": [s.name for s in chosen],
+        "max_steps": args.max_steps,
         "seed_offset": args.seed_offset,
         "times": tb.times.tolist(),
         "predictors": {},
@@ -115,6 +130,9 @@ def main() -> None:
             err, sigma = (
                 errors(predictor, samples, near, own) if own else (errors(predictor, samples, near), None)
             )
+            if not len(err):  # nothing to fit (no pedestrian that near): the count alone, no NaN
+                out["predictors"].setdefault(name, {})[subset] = {"pedestrian_horizons": 0}
+                continue
             fit = GrowingSigma.fit(tb.times, err)
             row = {
                 "sigma0": round(fit.sigma0, 4),

@@ -114,7 +114,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     result = {
-        "bands_m": {name: limit for limit, name in BANDS},
+        # upper limits; the last band has none (null: JSON has no Infinity)
+        "bands_m": {name: limit if limit != float("inf") else None for limit, name in BANDS},
         "runs": {label: summary(f) for label, f in args.runs},
     }
     if args.json:

@@ -3,9 +3,10 @@
 A synthetic recording of ``--mb`` megabytes (pedestrians walking straight across a square, about ten at a time, each
 annotated for ``--track-frames`` frames at 0.4 s) is written to a temporary folder and imported as one scene; the
 child's peak resident set (ru_maxrss) and wall time are reported, with the file's size, its track lines and the
-windows written. The reader streams (rows, 32 bytes each, gathered in chunks); the dataset arrays it writes grow
-with the windows (about 3.4 kB each at 12 slots). Target: peak RSS <= 500 MB for a 100 MB file
-(``--mb 100``; a few minutes). ``--json`` prints ONE JSON object.
+windows written. The reader streams (rows, 32 bytes each, gathered in chunks); the windows (about 3.4 kB each at
+12 slots) go to the dataset file piece by piece (``core.predict.dataset_writer``), so only the rows grow with the
+file. Target: peak RSS <= 500 MB for a 100 MB file (``--mb 100``; a few minutes). ``--json`` prints ONE JSON
+object.
 """
 
 from __future__ import annotations

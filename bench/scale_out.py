@@ -129,6 +129,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--max-steps", type=int, default=150, help="horizon cap (short episodes stress the overhead)"
     )
+    ap.add_argument("--scenarios", help="comma-separated scenario names (default: all)")
     ap.add_argument("--cpus", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--tasks", type=int, default=2000, help="no-op tasks timed for Ray's scheduling cost")
     ap.add_argument("--parts-only", action="store_true", help="only the components (no episodes/s runs)")
@@ -138,12 +139,14 @@ def main(argv: list[str] | None = None) -> int:
     import ray
 
     matrix = Path(args.matrix).resolve()
+    scenarios = args.scenarios.split(",") if args.scenarios else None
     out: dict = {"matrix": str(matrix), "max_steps": args.max_steps, "local": {}, "ray": {}}
     base = EvaluationConfig(
         bundle="local",
         matrix=matrix.name,
         planner={"name": "predictive", "model": "cv"},
         max_steps=args.max_steps,
+        scenarios=scenarios,
     )
     out["components"] = components(base, matrix.parent, args.tasks)
     for executor in ("local", "ray") if not args.parts_only else ():
@@ -153,6 +156,7 @@ def main(argv: list[str] | None = None) -> int:
                 matrix=matrix.name,
                 planner={"name": "predictive", "model": "cv"},
                 max_steps=args.max_steps,
+                scenarios=scenarios,
                 executor=executor,
                 start_method="fork",
             )

@@ -1,8 +1,9 @@
 """Simulator speed: ms per step on open maps with N pedestrians and on the 23 reference scenarios.
 
 Times ``Simulator.step`` only (observation building and trace recording included, the planner
-not); commands come from the goal-seeking controller. An episode that ends is reset (untimed) and
-stepping continues. Each case reports the median over repeats. ``--json`` prints ONE JSON object.
+not); commands come from the goal-seeking controller. An open map's episode lasts the timed steps (fewer where
+the trace limit requires it), so its trace is no larger than the run needs; an episode that ends is reset (untimed)
+and stepping continues. Each case reports the median over repeats. ``--json`` prints ONE JSON object.
 """
 
 from __future__ import annotations
@@ -25,12 +26,20 @@ from foresight.core.planners.goal import GoalSeeking  # noqa: E402
 from foresight.core.scenarios.model import ResolvedScenario, Scenario, SimulationConfig  # noqa: E402
 from foresight.core.sim.planner import EpisodeInfo  # noqa: E402
 from foresight.core.sim.simulator import Simulator  # noqa: E402
+from foresight.core.sim.trace import MAX_TRACE_BYTES, trace_bytes  # noqa: E402
 
 REFERENCE_MATRIX = "reference/robot_sf/configs/scenarios/classic_interactions.yaml"
 
 
-def open_scenario(n: int) -> ResolvedScenario:
-    """A square obstacle-free map at 0.1 peds/m^2 (side >= 20 m), one crowded zone over it, a robot route across."""
+def open_horizon(n: int, steps: int) -> int:
+    """The longest episode up to ``steps`` whose trace with ``n`` pedestrians the trace limit accepts."""
+    per_row = trace_bytes(1, n) - trace_bytes(0, n)
+    return max(1, min(steps, (MAX_TRACE_BYTES - trace_bytes(0, n)) // per_row))
+
+
+def open_scenario(n: int, horizon: int) -> ResolvedScenario:
+    """A square obstacle-free map at 0.1 peds/m^2 (side >= 20 m), one crowded zone over it, a robot route across;
+    episodes of ``horizon`` steps."""
     side = max(20.0, math.sqrt(n / 0.1))
     m = MapDef(
         name=f"open_{n}",
@@ -41,7 +50,7 @@ def open_scenario(n: int) -> ResolvedScenario:
         robot_routes=(Route(spawn_id=0, goal_id=0, waypoints=((2, 2), (side - 2, side - 2))),),
         ped_crowded_zones=(Zone.from_rect(0.5, 0.5, side - 1, side - 1),),
     )
-    cfg = SimulationConfig(population_size=n, max_episode_steps=100_000, zone_sampling="full")
+    cfg = SimulationConfig(population_size=n, max_episode_steps=horizon, zone_sampling="full")
     return ResolvedScenario(scenario=Scenario(name=m.name, map_id=m.name, simulation_config=cfg), map=m)
 
 
@@ -84,7 +93,8 @@ def measure(case: str, scenario: ResolvedScenario, seed: int, steps: int, repeat
 def cold_start(shared: Path) -> float:
     """Seconds from a fresh interpreter to the first simulated step of the first reference scenario."""
     code = (
-        "from core.scenarios.loader import load_matrix\nfrom core.sim.simulator import Simulator\n"
+        "from foresight.core.scenarios.loader import load_matrix\n"
+        "from foresight.core.sim.simulator import Simulator\n"
         f"m = load_matrix({str(shared / REFERENCE_MATRIX)!r})\ns = m.scenarios[0]\n"
         "sim = Simulator(); sim.reset(s, s.scenario.seeds[0]); sim.step((0.5, 0.0))\n"
     )
@@ -105,7 +115,7 @@ def main(argv: list[str] | None = None) -> int:
     entries = []
     for n in args.sizes:
         steps = args.steps if n <= 200 else max(50, args.steps // 4)
-        entries.append(measure(f"open_{n}", open_scenario(n), 0, steps, args.repeats))
+        entries.append(measure(f"open_{n}", open_scenario(n, open_horizon(n, steps)), 0, steps, args.repeats))
     cold = None
     if not args.no_reference and (shared / REFERENCE_MATRIX).is_file():
         from foresight.core.scenarios.loader import load_matrix

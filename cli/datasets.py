@@ -87,8 +87,7 @@ def register(dsub: argparse._SubParsersAction) -> None:
 
 
 def import_cmd(args: argparse.Namespace) -> int:
-    from foresight.core.predict.dataset import save_dataset
-    from foresight.core.predict.scene_import import ImportScenesConfig, import_scenes
+    from foresight.core.predict.scene_import import ImportScenesConfig, import_scenes_to
 
     if not args.local:
         raise ConfigError("dataset import reads local files: run it with --local (the .npz it writes "
@@ -97,7 +96,7 @@ def import_cmd(args: argparse.Namespace) -> int:
     values = scene_values(args, str(Path(args.path).resolve()))
     values.update(max_agents=args.max_agents, test_scene=args.test_scene, val_scene=args.val_scene)
     config = build_config(ImportScenesConfig, values)
-    record = save_dataset(import_scenes(config), Path(args.output).resolve())
+    record = import_scenes_to(config, Path(args.output).resolve())
     if args.json:
         print(json.dumps(record, default=str))
     else:

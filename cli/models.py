@@ -24,10 +24,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     show = models.add_parser("show", help="one registry entry")
     show.add_argument("model_id")
     show.set_defaults(func=cmd_show)
-    reg = models.add_parser("register", help="register a checkpoint artifact of a succeeded job")
+    reg = models.add_parser(
+        "register",
+        help="register a checkpoint artifact of a succeeded job (--job, --artifact), or a predictor plug-in or "
+        "external predictor with its files (--kind, --predictor, --files)",
+    )
     reg.add_argument("model_id")
-    reg.add_argument("--job", required=True, help="job id")
-    reg.add_argument("--artifact", required=True, help="artifact name in that job")
+    reg.add_argument("--job", help="job id (checkpoint)")
+    reg.add_argument("--artifact", help="artifact name in that job (checkpoint)")
+    reg.add_argument("--kind", choices=["checkpoint", "plugin", "external"], default="checkpoint")
+    reg.add_argument("--predictor", help="plug-in name, or external:<name> (plugin, external)")
+    reg.add_argument("--files", help="its artifact folder or a zip/tar of it (plugin, external; optional)")
     reg.add_argument("--tag", action="append", default=[])
     reg.set_defaults(func=cmd_register)
     promote = models.add_parser("promote", help="promote a model (or make it the default)")
@@ -71,7 +78,8 @@ def _out(obj, as_json: bool, text: str) -> None:  # noqa: ANN001
 
 
 def _line(m: dict) -> str:
-    return f"{m['id']:<30} {m['status']:<10} {m['sha256'][:12]}  {'read-only' if m['read_only'] else m.get('job_id') or ''}"
+    origin = "read-only" if m["read_only"] else m.get("job_id") or ""
+    return f"{m['id']:<30} {m['status']:<10} {m.get('kind', 'checkpoint'):<10} {m['sha256'][:12]}  {origin}"
 
 
 def cmd_ls(args: argparse.Namespace) -> int:
@@ -93,8 +101,20 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 
 def cmd_register(args: argparse.Namespace) -> int:
-    body = {"id": args.model_id, "job_id": args.job, "artifact": args.artifact, "tags": args.tag}
-    model = Client.from_args(args).post("/v1/models", json=body)
+    if args.kind == "checkpoint":
+        if not (args.job and args.artifact):
+            raise ConfigError("a checkpoint needs --job and --artifact", source="command line", item="--job")
+        body = {"id": args.model_id, "job_id": args.job, "artifact": args.artifact, "tags": args.tag}
+        model = Client.from_args(args).post("/v1/models", json=body)
+    else:
+        if not args.predictor:
+            raise ConfigError(
+                f"a {args.kind} model needs --predictor", source="command line", item="--predictor"
+            )
+        data, ctype = pack(Path(args.files)) if args.files else (b"", "application/octet-stream")
+        params = {"id": args.model_id, "kind": args.kind, "predictor": args.predictor, "tag": args.tag}
+        model = Client.from_args(args).post("/v1/models/predictors", params=params, content=data,
+                                            headers={"Content-Type": ctype})  # fmt: skip
     _out(model, args.json, _line(model))
     return 0
 

@@ -205,6 +205,12 @@ class Model(Base):
     job_id: Mapped[str | None] = mapped_column(ForeignKey("jobs.id", ondelete="SET NULL"), index=True)
     created_at: Mapped[float] = mapped_column(Float)
 
+    @property
+    def kind(self) -> str:
+        """checkpoint | plugin | external (``store.model_kinds``; kept in lineage, entries before kinds are
+        checkpoints)."""
+        return str((self.lineage or {}).get("kind", "checkpoint"))
+
 
 class Evaluation(Base):
     __tablename__ = "evaluations"

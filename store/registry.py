@@ -303,6 +303,10 @@ class Resolver:
         """The checkpoint of a registered model after hashing its content, every time: a cache keyed by
         (mtime, size) let a checkpoint rewritten in place with both restored pass as the registered one."""
         row = self.model_row(ident)
+        if row.kind != "checkpoint":  # a predictor plug-in's or external command's folder, every file hashed
+            from foresight.store.model_kinds import verified_folder
+
+            return verified_folder(self.settings, row)
         path = self.model_path(row)
         if not path.is_file():
             raise NotFoundError(f"model {ident!r}: checkpoint {row.checkpoint} is missing")
@@ -355,7 +359,8 @@ def register_checkpoint(
         session.add(Model(
             id=model_id, status=status, checkpoint=art.path, sha256=art.sha256,
             time_base=meta["time_base"] if "time_base" in meta else dict(checkpoint["timebase"]),
-            lineage={**meta.get("lineage", {}), "frame_convention": checkpoint["feature_schema"]["frame_convention"]},
+            lineage={**meta.get("lineage", {}), "frame_convention": checkpoint["feature_schema"]["frame_convention"],
+                     "kind": "checkpoint", "modes": int((checkpoint.get("model_config") or {}).get("modes", 1)), "files": {name: art.sha256}},
             training=meta.get("training", {}), metrics=meta.get("metrics", {}), tags=meta.get("tags", []),
             provenance=meta.get("provenance") or f"job {job_id}", read_only=False, job_id=job_id,
             created_at=time.time(),

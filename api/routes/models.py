@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Literal
 
-from fastapi import APIRouter, Query, Response, status
+from fastapi import APIRouter, Query, Request, Response, status
 from fastapi.responses import PlainTextResponse
 
 from foresight.api.bodies import BoundedJsonRoute
 from foresight.api.deps import EngineDep, SettingsDep, WriteAuth
 from foresight.api.errors import AUTH, responses
+from foresight.api.routes.bundles import ARCHIVE_BODY
 from foresight.api.schemas import Ident, ModelCreate, ModelPromote, ModelPublic, ModelsPublic
+from foresight.core.errors import ConfigError
 from foresight.store import registry
 from foresight.store.models import ModelStatus
 
@@ -77,6 +79,44 @@ def create_model(body: ModelCreate, engine: EngineDep, settings: SettingsDep) ->
         status=body.status,
     )
     return ModelPublic.model_validate(registry.model(engine, body.id))
+
+
+@router.post(
+    "/predictors",
+    status_code=status.HTTP_201_CREATED,
+    dependencies=[WriteAuth],
+    responses=responses(*AUTH, 404, 409),
+    openapi_extra=ARCHIVE_BODY,
+)
+async def create_predictor_model(
+    request: Request,
+    engine: EngineDep,
+    settings: SettingsDep,
+    id: Annotated[Ident, Query(description="model id")],  # noqa: A002
+    kind: Annotated[Literal["plugin", "external"], Query()],
+    predictor: Annotated[str, Query(min_length=1, max_length=200, description="plug-in or external:<name>")],
+    tag: Annotated[list[Annotated[str, Query(max_length=100)]], Query(max_length=50)] = [],  # noqa: B006
+) -> ModelPublic:
+    """Register an installed predictor plug-in or an operator-configured external predictor as a candidate model,
+    with its files: the body (optional) is a zip or tar of its artifact folder. Its declaration (time base, frame,
+    modes) and a sha256 of every file are recorded; 422 for a predictor that is not of that kind or does not load,
+    409 for a taken id."""
+    from starlette.concurrency import run_in_threadpool
+
+    from foresight.store import model_kinds
+
+    data = bytearray()
+    async for chunk in request.stream():
+        data += chunk
+        if len(data) > model_kinds.MAX_MODEL_BYTES:
+            raise ConfigError(f"archive larger than {model_kinds.MAX_MODEL_BYTES} bytes", source="upload")
+    await run_in_threadpool(
+        lambda: model_kinds.register_predictor(
+            engine, settings, model_id=id, kind=kind, predictor=predictor, archive=bytes(data) or None,
+            metadata={"tags": tag},
+        )
+    )  # fmt: skip
+    return ModelPublic.model_validate(registry.model(engine, id))
 
 
 @router.get("/{model_id}", responses=responses(404))

@@ -189,11 +189,13 @@ def _load_model(path: str, sha256: str | None, name: str | None) -> Any:
 def build_planner(rp: ResolvedPlanner) -> Planner:
     """A fresh planner for one episode (the loaded model is shared, it is stateless)."""
     from foresight.core.planners.registry import make_planner
-    from foresight.core.predict import plugins
+    from foresight.core.predict import plugins, registered
 
     model = None
     if plugins.kind(rp.model_id):
         model = rp.model_id  # a predictor plug-in: the planner loads a fresh one (its own state per episode)
+    elif registered.is_registered(rp.model_path):  # a registered plug-in or external model: its predictor
+        model = plugins.load(registered.predictor_name(rp.model_path), registered.files_dir(rp.model_path))
     elif rp.model_id != NO_MODEL:
         model = load_model(rp.model_path, rp.checkpoint_sha256, rp.model_id) if rp.model_path else CV
     return make_planner(rp.name, rp.config, model=model)
@@ -217,6 +219,14 @@ def _model(spec: PlannerSpecBase, takes_model: bool, ctx: StageContext) -> tuple
         return spec.model, f"{kind}:{declared.name}", None
     ident = spec.model or DEFAULT_MODEL
     path = Path(ctx.resolve_model(ident))
+    from foresight.core.predict import registered
+
+    if registered.is_registered(
+        path
+    ):  # a registered plug-in or external model (its files checked): loaded now
+        name = registered.predictor_name(path)
+        declared = plugins.load(name, registered.files_dir(path)).declared
+        return ident, f"{plugins.kind(name)}:{declared.name}", str(path)
     if not path.is_file():
         raise ConfigError("checkpoint file not found", source=path, item=ident)
     sha = load_model(str(path), name=ident).sha256  # a bad model stops the run here, before any episode

@@ -3,7 +3,9 @@
 Follows the reference reading (reference-simulation.md section 5): 1 user unit = 1 m, no y-flip,
 viewBox origin shifted to (0, 0), labels from ``inkscape:label`` then ``id``, and SVG ``transform``
 attributes ignored, because that is what the reference simulator runs on. ``apply_transforms=True``
-instead reads the map as drawn in the editor (see docs/maps.md for the maps where that differs).
+instead reads the map as drawn in the editor (see docs/maps.md for the maps where that differs). The document
+itself (XML, size, shapes with their transforms) is read by ``core.maps.svgdoc``; this module gives the shapes
+their meaning.
 """
 
 from __future__ import annotations
@@ -17,9 +19,9 @@ from pathlib import Path
 from pydantic import ValidationError
 
 from foresight.core.errors import ConfigError
-from foresight.core.limits import MAX_NESTING
 from foresight.core.maps import geometry, svgpath, svgtransform
 from foresight.core.maps.model import MapDef, Point, Route, SinglePedestrian, Zone
+from foresight.core.maps.svgdoc import INKSCAPE_LABEL, Element, collect_shapes, document_size, parse_xml
 from foresight.core.maps.svgreport import (
     PED_ROUTE_ONLY_MODE,
     ROBOT_ROUTE_ONLY_MODE,
@@ -32,8 +34,6 @@ from foresight.core.maps.svgreport import (
 
 log = logging.getLogger(__name__)
 
-SVG_NS = "http://www.w3.org/2000/svg"
-INKSCAPE_LABEL = "{http://www.inkscape.org/namespaces/inkscape}label"
 ROUTE_ONLY_ZONE_EDGE = 1.0  #: synthetic zone edge when a map has no zones of a kind [m]
 INDEX_FALLBACK_ZONE_EDGE = 0.1  #: synthetic zone edge when a route's zone index is out of range [m]
 
@@ -42,7 +42,6 @@ _PLAIN_ZONE = re.compile(r"^(robot_spawn_zone|ped_spawn_zone|robot_goal_zone|ped
 _SINGLE_PED = re.compile(r"^single_ped_(?P<pid>.+)_(?P<kind>start|goal)$")
 _STRICT_ROUTE_LABEL = re.compile(r"^(ped_route|robot_route)(?:_(\d+)_(\d+))?$")
 _RISKY_COMMANDS = frozenset("HhVvCcQqSsTtAa")
-_LENGTH = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)")
 
 
 @dataclass(frozen=True)
@@ -51,31 +50,6 @@ class SvgImport:
 
     map: MapDef
     report: SvgReport
-
-
-@dataclass(frozen=True)
-class _Element:
-    """One <rect>, <path> or <circle> with its label and accumulated transform."""
-
-    tag: str
-    attrib: dict[str, str]
-    matrix: svgtransform.Affine
-
-    @property
-    def elem_id(self) -> str:
-        return self.attrib.get("id", "")
-
-    @property
-    def label(self) -> str:
-        """inkscape:label, else id (circles: label, else class, else id)."""
-        own = self.attrib.get(INKSCAPE_LABEL, "")
-        if self.tag == "circle":
-            return own or self.attrib.get("class", "") or self.elem_id
-        return own or self.elem_id
-
-    def describe(self) -> str:
-        own = self.attrib.get(INKSCAPE_LABEL)
-        return f"<{self.tag} id={self.elem_id!r}" + (f" label={own!r}>" if own else ">")
 
 
 @dataclass
@@ -87,22 +61,6 @@ class _Zones:
     assembled: list[Zone] = field(default_factory=list)
 
 
-def _length(text: str | None) -> float | None:
-    """A number with an optional unit suffix, which is stripped, not converted (as the reference does)."""
-    if text is None:
-        return None
-    m = _LENGTH.match(text)
-    return float(m.group(1)) if m else None
-
-
-def _local(tag: str) -> str | None:
-    """The element name if it is in the SVG namespace (or has none)."""
-    if tag.startswith("{"):
-        ns, _, name = tag[1:].partition("}")
-        return name if ns == SVG_NS else None
-    return tag
-
-
 class _Importer:
     """One import: reads elements, then builds zones, routes, obstacles and markers in the reference order."""
 
@@ -110,9 +68,8 @@ class _Importer:
         self.source = source
         self.apply_transforms = apply_transforms
         self.report = SvgReport()
-        self.width, self.height, self.origin = self._size(root)
-        self.elements: dict[str, list[_Element]] = {"rect": [], "path": [], "circle": []}
-        self._collect(root, svgtransform.IDENTITY)
+        self.width, self.height, self.origin = document_size(root, source)
+        self.elements = collect_shapes(root, source, apply_transforms)
         self.zones = {k: _Zones() for k in ZONE_KINDS}
         self.obstacles: list[tuple[Point, ...]] = []
         self.crowded: list[Zone] = []
@@ -129,46 +86,12 @@ class _Importer:
 
     # -- document ------------------------------------------------------------------------------
 
-    def _size(self, root: ET.Element) -> tuple[float, float, Point]:
-        if _local(root.tag) != "svg":
-            raise self.error(f"root element is {root.tag!r}, expected <svg>", "svg")
-        width, height = _length(root.get("width")), _length(root.get("height"))
-        origin = (0.0, 0.0)
-        view_box = root.get("viewBox") or root.get("viewbox")
-        if view_box:
-            parts = view_box.replace(",", " ").split()
-            if len(parts) != 4 or any(_length(p) is None for p in parts):
-                raise self.error(f"viewBox {view_box!r} is not four numbers", "svg viewBox")
-            vx, vy, vw, vh = (float(_length(p)) for p in parts)
-            origin = (vx, vy)
-            width = width or vw
-            height = height or vh
-        if not width or not height or width <= 0 or height <= 0:
-            raise self.error("width/height missing or not positive and not given by the viewBox", "svg")
-        return float(width), float(height), origin
-
-    def _collect(self, elem: ET.Element, matrix: svgtransform.Affine) -> None:
-        """Walk the tree in document order, accumulating transforms when they are applied."""
-        if self.apply_transforms:
-            try:
-                own = svgtransform.parse_transform(elem.get("transform"))
-            except svgtransform.TransformError as exc:
-                raise self.error(
-                    str(exc), f"<{_local(elem.tag)} id={elem.get('id', '')!r}> transform"
-                ) from exc
-            matrix = svgtransform.compose(matrix, own)
-        tag = _local(elem.tag) if isinstance(elem.tag, str) else None
-        if tag in self.elements:
-            self.elements[tag].append(_Element(tag, dict(elem.attrib), matrix))
-        for child in elem:
-            self._collect(child, matrix)
-
-    def world(self, el: _Element, p: Point) -> Point:
+    def world(self, el: Element, p: Point) -> Point:
         """Element coordinates -> map frame [m]: transform (if applied), then viewBox origin shift."""
         x, y = svgtransform.apply(el.matrix, p)
         return (x - self.origin[0], y - self.origin[1])
 
-    def number(self, el: _Element, name: str, default: float | None = None) -> float:
+    def number(self, el: Element, name: str, default: float | None = None) -> float:
         text = el.attrib.get(name)
         if text is None and default is not None:
             return default
@@ -179,7 +102,7 @@ class _Importer:
 
     # -- rects ---------------------------------------------------------------------------------
 
-    def _rect_corners(self, el: _Element) -> tuple[Point, Point, Point, Point]:
+    def _rect_corners(self, el: Element) -> tuple[Point, Point, Point, Point]:
         x, y = self.number(el, "x", 0.0), self.number(el, "y", 0.0)
         w, h = self.number(el, "width"), self.number(el, "height")
         return tuple(self.world(el, p) for p in ((x, y), (x + w, y), (x + w, y + h), (x, y + h)))  # type: ignore[return-value]
@@ -206,7 +129,7 @@ class _Importer:
             self.report.parsed_zones[kind] = len(zones.assembled)
 
     @staticmethod
-    def _zone_kind(el: _Element) -> tuple[str | None, int | None]:
+    def _zone_kind(el: Element) -> tuple[str | None, int | None]:
         """Zone kind and explicit index: indexed names first (label, then id), then plain names."""
         candidates = [c for c in (el.label, el.elem_id) if c]
         for c in candidates:
@@ -217,7 +140,7 @@ class _Importer:
                 return m.group(1), None
         return None, None
 
-    def _add_zone(self, kind: str, index: int | None, zone: Zone, el: _Element) -> None:
+    def _add_zone(self, kind: str, index: int | None, zone: Zone, el: Element) -> None:
         self.report.explicit_zones[kind] += 1
         zones = self.zones[kind]
         if index is None:
@@ -244,7 +167,7 @@ class _Importer:
 
     # -- paths ---------------------------------------------------------------------------------
 
-    def _path_points(self, el: _Element) -> list[Point]:
+    def _path_points(self, el: Element) -> list[Point]:
         d = el.attrib.get("d", "")
         try:
             raw = svgpath.parse_path(d)
@@ -259,7 +182,7 @@ class _Importer:
 
     def read_paths(self) -> None:
         """Obstacles, crowded zones and semantic boundaries; routes need all zones, so they come after."""
-        route_paths: list[tuple[str, _Element]] = []
+        route_paths: list[tuple[str, Element]] = []
         for el in self.elements["path"]:
             label = el.label
             if "ped_route" in label:
@@ -293,7 +216,7 @@ class _Importer:
                 self.routes[who].append(self._route(who, el, route_only))
                 self._check_commands(el)
 
-    def _obstacle_path(self, el: _Element) -> None:
+    def _obstacle_path(self, el: Element) -> None:
         pts = self._path_points(el)
         if len(pts) > 1 and pts[0] == pts[-1]:
             pts.pop()  # stored open: last != first
@@ -305,7 +228,7 @@ class _Importer:
             self.warn(f"{el.describe()}: obstacle polygon intersects itself; kept as drawn (not repaired)")
         self.obstacles.append(tuple(pts))
 
-    def _crowded_path(self, el: _Element) -> None:
+    def _crowded_path(self, el: Element) -> None:
         pts = self._path_points(el)
         if len(pts) == 4 and pts[0] == pts[-1]:
             pts.pop()
@@ -314,7 +237,7 @@ class _Importer:
             return
         self.crowded.append(Zone(corners=(pts[0], pts[1], pts[2])))
 
-    def _route_indices(self, el: _Element) -> tuple[int, int]:
+    def _route_indices(self, el: Element) -> tuple[int, int]:
         """Spawn/goal indices = first two integers in the label; none -> (0, 0); exactly one is an error."""
         numbers = re.findall(r"\d+", el.label)
         if len(numbers) == 1:
@@ -324,7 +247,7 @@ class _Importer:
             )
         return (int(numbers[0]), int(numbers[1])) if numbers else (0, 0)
 
-    def _route(self, who: str, el: _Element, route_only: bool) -> Route:
+    def _route(self, who: str, el: Element, route_only: bool) -> Route:
         pts = self._path_points(el)
         if len(pts) < 2:
             raise self.error(f"route has {len(pts)} distinct points, expected at least 2", el.describe())
@@ -333,7 +256,7 @@ class _Importer:
         goal_id = self._zone_for(f"{who}_goal_zone", goal_id, pts[-1], route_only, el)
         return Route(spawn_id=spawn_id, goal_id=goal_id, waypoints=tuple(pts))
 
-    def _zone_for(self, kind: str, index: int, anchor: Point, route_only: bool, el: _Element) -> int:
+    def _zone_for(self, kind: str, index: int, anchor: Point, route_only: bool, el: Element) -> int:
         """The zone list index a route uses, appending a synthetic triangle zone at ``anchor`` if needed."""
         zones = self.zones[kind].assembled
         n_explicit = self.report.parsed_zones[kind]
@@ -351,7 +274,7 @@ class _Importer:
         self.report.synthetic_zones[kind] += 1
         return len(zones) - 1
 
-    def _check_commands(self, el: _Element) -> None:
+    def _check_commands(self, el: Element) -> None:
         """Flag routes drawn with commands the reference's catalogue calls risky (H/V/curves/arcs)."""
         if not _STRICT_ROUTE_LABEL.match(el.attrib.get(INKSCAPE_LABEL, "")):
             return
@@ -388,7 +311,7 @@ class _Importer:
         self.pois = pois
         return self._single_peds(markers)
 
-    def _centre(self, el: _Element) -> Point:
+    def _centre(self, el: Element) -> Point:
         return self.world(el, (self.number(el, "cx", 0.0), self.number(el, "cy", 0.0)))
 
     def _single_peds(self, markers: dict[str, dict[str, Point]]) -> list[SinglePedestrian]:
@@ -464,34 +387,9 @@ def _mean3(zone: Zone) -> Point:
     return ((ax + bx + cx) / 3.0, (ay + by + cy) / 3.0)
 
 
-def _parse_xml(text: str | bytes, source: str) -> ET.Element:
-    """The document's root element; nesting deeper than MAX_NESTING elements is refused while parsing
-    (the importer walks the tree recursively)."""
-    parser = ET.XMLPullParser(events=("start", "end"))
-    root, depth, chunk = None, 0, 1 << 16
-    try:
-        for at in range(0, len(text), chunk):
-            parser.feed(text[at : at + chunk])
-            for event, elem in parser.read_events():
-                root = root if root is not None else elem
-                depth += 1 if event == "start" else -1
-                if depth > MAX_NESTING:
-                    raise ConfigError(
-                        f"elements nested deeper than {MAX_NESTING} levels",
-                        source=source,
-                        item=f"<{elem.tag.rpartition('}')[2]}>",
-                    )
-        parser.close()
-    except ET.ParseError as exc:
-        raise ConfigError(f"malformed XML: {exc}", source=source, item="xml") from exc
-    if root is None:
-        raise ConfigError("malformed XML: no element found", source=source, item="xml")
-    return root
-
-
 def parse_svg_text(text: str | bytes, *, name: str, source: str, apply_transforms: bool = False) -> SvgImport:
     """Import SVG text; ``source`` names the file in error messages."""
-    importer = _Importer(_parse_xml(text, source), source, apply_transforms)
+    importer = _Importer(parse_xml(text, source), source, apply_transforms)
     return SvgImport(importer.build(name), importer.report)
 
 

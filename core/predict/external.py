@@ -30,6 +30,7 @@ from foresight.core.predict.forecast import PredictorError
 PROTOCOL = 1
 ENV = "FORESIGHT_EXTERNAL_PREDICTORS"
 TIMEOUT_ENV = "FORESIGHT_PREDICTOR_TIMEOUT_S"
+ARTIFACTS_ENV = "FORESIGHT_PREDICTOR_ARTIFACTS"  #: a registered model's files folder, for its process
 START_TIMEOUT_S = 20.0
 
 
@@ -63,7 +64,7 @@ def step_timeout() -> float:
 class PredictorProcess:
     """One running predictor process: a line out, a line back within a deadline."""
 
-    def __init__(self, who: str, argv: list[str]):
+    def __init__(self, who: str, argv: list[str], env: dict[str, str] | None = None):
         self.who = who
         self._err = tempfile.NamedTemporaryFile(prefix="foresight-predictor-", suffix=".log", delete=False)  # noqa: SIM115
         try:
@@ -74,6 +75,7 @@ class PredictorProcess:
                 stderr=self._err,
                 bufsize=0,
                 close_fds=True,
+                env=env,
             )
         except OSError as exc:
             self._err.close()
@@ -158,8 +160,9 @@ class ExternalPredictor:
 
     predictor_api = 1
 
-    def __init__(self, command: str):
+    def __init__(self, command: str, artifacts: str | None = None):
         self.command = command
+        self.env = None if artifacts is None else {**os.environ, ARTIFACTS_ENV: str(artifacts)}
         self.who = f"external:{command}"
         commands = operator_commands()
         if command not in commands:
@@ -176,11 +179,11 @@ class ExternalPredictor:
         self.timeout_s = step_timeout()
 
     def _process(self) -> PredictorProcess:
-        key = (tuple(self.argv), threading.get_ident())
+        key = (tuple(self.argv), (self.env or {}).get(ARTIFACTS_ENV), threading.get_ident())
         with _LOCK:
             proc = _PROCESSES.get(key)
         if proc is None or not proc.alive:
-            proc = PredictorProcess(self.who, self.argv)
+            proc = PredictorProcess(self.who, self.argv, self.env)
             with _LOCK:
                 _PROCESSES[key] = proc
         return proc

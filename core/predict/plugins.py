@@ -7,7 +7,8 @@
 - ``external:<name>``: an operator-configured process speaking the JSON-lines predictor protocol
   (``FORESIGHT_EXTERNAL_PREDICTORS``, ``core.predict.external``).
 
-An attribute that is a class or a factory is called without arguments; any other object is the predictor itself.
+An attribute that is a class or a factory is called without arguments (with ``artifacts=<folder>`` when the model
+was registered with files and it takes that keyword); any other object is the predictor itself.
 Every name resolves to a :class:`PluginForecaster` whose declaration was checked on load.
 """
 
@@ -15,6 +16,7 @@ from __future__ import annotations
 
 import importlib
 import importlib.metadata
+import inspect
 import threading
 from functools import cache
 from typing import Any
@@ -62,15 +64,25 @@ def register(obj: Any, name: str | None = None) -> str:
     return name
 
 
-def _instance(obj: Any) -> Any:
-    """A class or a factory (callable without ``predict``) is called without arguments; anything else is used."""
-    return obj() if isinstance(obj, type) or (callable(obj) and not hasattr(obj, "predict")) else obj
+def _instance(obj: Any, artifacts: str | None = None) -> Any:
+    """A class or a factory (callable without ``predict``) is called without arguments, or with ``artifacts`` (a
+    registered model's files) when given and it takes that keyword; anything else is used as it is."""
+    if not (isinstance(obj, type) or (callable(obj) and not hasattr(obj, "predict"))):
+        return obj
+    if artifacts is not None:
+        try:
+            takes = "artifacts" in inspect.signature(obj).parameters
+        except (TypeError, ValueError):
+            takes = False
+        if takes:
+            return obj(artifacts=artifacts)
+    return obj()
 
 
-def _load_object(name: str) -> Any:
+def _load_object(name: str, artifacts: str | None = None) -> Any:
     with _LOCK:
         if name in _LOCAL:
-            return _instance(_LOCAL[name])
+            return _instance(_LOCAL[name], artifacts)
     k = kind(name)
     if k == "plugin":
         ep = installed()[name]
@@ -78,7 +90,7 @@ def _load_object(name: str) -> Any:
             obj = ep.load()
         except Exception as exc:  # noqa: BLE001 - the plug-in's own import failure, named
             raise PredictorError(name, f"failed to load ({ep.value}): {exc}") from None
-        return _instance(obj)
+        return _instance(obj, artifacts)
     if k == "module":
         module, _, attr = name.partition(":")
         try:
@@ -87,20 +99,21 @@ def _load_object(name: str) -> Any:
                 obj = getattr(obj, part)
         except (ImportError, AttributeError) as exc:
             raise NotFoundError(f"predictor {name!r}: cannot import it ({exc})") from None
-        return _instance(obj)
+        return _instance(obj, artifacts)
     if k == "external":
         from foresight.core.predict.external import ExternalPredictor
 
-        return ExternalPredictor(name[len(EXTERNAL_PREFIX) :])
+        return ExternalPredictor(name[len(EXTERNAL_PREFIX) :], artifacts=artifacts)
     raise NotFoundError(
         f"predictor {name!r} is not installed (installed plug-ins: {', '.join(installed()) or 'none'}; "
         f"also module:attr, or {EXTERNAL_PREFIX}<name> for an operator-configured process)"
     )
 
 
-def load(name: str) -> PluginForecaster:
-    """A fresh forecaster over the predictor plug-in ``name``; NotFoundError / PredictorError naming it."""
-    obj = _load_object(name)
+def load(name: str, artifacts: str | None = None) -> PluginForecaster:
+    """A fresh forecaster over the predictor plug-in ``name`` (``artifacts``: the folder of a registered model's
+    files, handed to it); NotFoundError / PredictorError naming it."""
+    obj = _load_object(name, artifacts)
     api = getattr(obj, "predictor_api", PREDICTOR_API)
     if api != PREDICTOR_API:
         raise PredictorError(name, f"speaks predictor interface {api}, this Foresight speaks {PREDICTOR_API}")

@@ -25,26 +25,60 @@ class QualityLimits:
 
 def summarize(ds) -> dict[str, Any]:
     """Counts, active ratios and displacement statistics (over the whole dataset and per split)."""
-    active = float(ds.mask.sum())
-    disp = _final_displacements(ds)
-    per_split = {s: int(len(ds.split_indices(s))) for s in ("train", "val", "test")}
-    eps = {s: sum(1 for e in ds.meta.episodes if e.split == s) for s in ("train", "val", "test")}
-    return {
-        "samples": len(ds),
-        "episodes": len(ds.meta.episodes),
-        "samples_per_split": per_split,
-        "episodes_per_split": eps,
-        "active_agent_ratio": float(ds.mask.mean()) if len(ds) else 0.0,
-        "active_target_ratio": float(ds.target_mask.sum() / (active * ds.target_mask.shape[-1]))
-        if active
-        else 0.0,
-        "target_std_m": float(ds.target[ds.target_mask > 0].std()) if ds.target_mask.any() else 0.0,
-        "final_displacement_m": {
-            "mean": float(disp.mean()) if len(disp) else 0.0,
-            "p50": float(np.percentile(disp, 50)) if len(disp) else 0.0,
-            "p95": float(np.percentile(disp, 95)) if len(disp) else 0.0,
-        },
-    }
+    return SummaryStats(len(ds.meta.episodes)).add(ds).result(ds.meta.episodes)
+
+
+class SummaryStats:
+    """``summarize`` gathered chunk by chunk (a dataset written in pieces never is in memory whole): sums, the
+    targets' mean and spread merged per chunk (Chan et al.), and the final displacements (one float per slot)."""
+
+    def __init__(self, n_episodes: int) -> None:
+        self.samples = 0
+        self.per_episode = np.zeros(n_episodes, np.int64)
+        self.mask_sum = self.mask_size = self.target_mask_sum = 0.0
+        self.horizon = 0
+        self.n, self.mean, self.m2 = 0, 0.0, 0.0
+        self.disp: list[np.ndarray] = []
+
+    def add(self, ds) -> SummaryStats:
+        """Add a chunk of windows (a Dataset: arrays and meta)."""
+        self.samples += len(ds)
+        self.per_episode += np.bincount(ds.episode, minlength=len(self.per_episode))[: len(self.per_episode)]
+        self.mask_sum += float(ds.mask.sum(dtype=np.float64))
+        self.mask_size += ds.mask.size
+        self.target_mask_sum += float(ds.target_mask.sum(dtype=np.float64))
+        self.horizon = ds.target_mask.shape[-1]
+        values = ds.target[ds.target_mask > 0].astype(np.float64).ravel()
+        if len(values):
+            n, mean = len(values), float(values.mean())
+            m2 = float(((values - mean) ** 2).sum())
+            delta, total = mean - self.mean, self.n + n
+            self.mean += delta * n / total
+            self.m2 += m2 + delta**2 * self.n * n / total
+            self.n = total
+        self.disp.append(_final_displacements(ds))
+        return self
+
+    def result(self, episodes) -> dict[str, Any]:
+        disp = np.concatenate(self.disp) if self.disp else np.zeros(0, np.float32)
+        split = np.array([e.split for e in episodes], dtype=object)
+        per_split = {s: int(self.per_episode[split == s].sum()) for s in ("train", "val", "test")}
+        eps = {s: sum(1 for e in episodes if e.split == s) for s in ("train", "val", "test")}
+        active = self.mask_sum
+        return {
+            "samples": self.samples,
+            "episodes": len(episodes),
+            "samples_per_split": per_split,
+            "episodes_per_split": eps,
+            "active_agent_ratio": self.mask_sum / self.mask_size if self.mask_size else 0.0,
+            "active_target_ratio": self.target_mask_sum / (active * self.horizon) if active else 0.0,
+            "target_std_m": float(np.sqrt(self.m2 / self.n)) if self.n else 0.0,
+            "final_displacement_m": {
+                "mean": float(disp.mean()) if len(disp) else 0.0,
+                "p50": float(np.percentile(disp, 50)) if len(disp) else 0.0,
+                "p95": float(np.percentile(disp, 95)) if len(disp) else 0.0,
+            },
+        }
 
 
 def _final_displacements(ds) -> np.ndarray:

@@ -5,7 +5,8 @@ before anything is written), then cuts each scene into focal-pedestrian windows 
 rules (``ethucy.scene_samples``: full observed history, backward-difference velocities, normalised on observed steps
 only) on the declared time base. Each scene is an episode; ``test_scene`` names the held-out one (the others train;
 ``val_scene`` optionally validates), and ``scene_folds`` gives leave-one-scene-out over whatever scenes there are.
-The dataset file is written once, atomically (``save_dataset``): a failed import leaves nothing behind.
+``import_scenes_to`` writes the windows to the dataset file piece by piece (``DatasetWriter``), so memory stays
+bounded however long the recording, under a temporary name renamed at the end: a failed import leaves nothing.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from foresight.core import files
 from foresight.core.errors import ConfigError
 from foresight.core.predict.dataset import Dataset, DatasetMeta, EpisodeRecord
+from foresight.core.predict.dataset_writer import DatasetWriter
 from foresight.core.predict.ethucy import scene_samples
 from foresight.core.predict.features import STEP_CHANNELS
 from foresight.core.predict.mixing import dataset_from_episodes
@@ -111,9 +113,15 @@ def segments(rows: np.ndarray, span: int, length: int = SEGMENT_FRAMES) -> Itera
             yield rows[i:j]
 
 
-def _windows(rows: np.ndarray, tb: TimeBase, k: int, max_agents: int) -> SampleArrays:
+def window_parts(rows: np.ndarray, tb: TimeBase, k: int, max_agents: int) -> Iterator[SampleArrays]:
+    """A scene's windows, piece by piece (``segments``): what one piece of a long recording holds at a time."""
     span = (tb.history + tb.horizon - 1) * k + 1
-    parts = [scene_samples(piece, tb, max_agents, stride=k, frame_step=1) for piece in segments(rows, span)]
+    for piece in segments(rows, span):
+        yield scene_samples(piece, tb, max_agents, stride=k, frame_step=1)
+
+
+def _windows(rows: np.ndarray, tb: TimeBase, k: int, max_agents: int) -> SampleArrays:
+    parts = list(window_parts(rows, tb, k, max_agents))
     if len(parts) == 1:
         return parts[0]
     cat = {
@@ -122,32 +130,57 @@ def _windows(rows: np.ndarray, tb: TimeBase, k: int, max_agents: int) -> SampleA
     return SampleArrays(**cat, step=np.arange(len(cat["state"]), dtype=np.int64))
 
 
+def _meta(scenes: list[tuple[str, np.ndarray]], config: ImportScenesConfig) -> DatasetMeta:
+    episodes = [EpisodeRecord(scenario=n, seed=None, split=_split(n, config), role="real") for n, _ in scenes]
+    return DatasetMeta(
+        timebase=config.time_base(),
+        max_agents=config.max_agents,
+        frame_convention="focal_pedestrian",
+        source="real",
+        episodes=episodes,
+        generator={"kind": "scenes", **config.model_dump(), "scenes": [n for n, _ in scenes]},
+    )
+
+
+def _no_windows(config: ImportScenesConfig) -> ConfigError:
+    tb = config.time_base()
+    return ConfigError(
+        f"no window of {tb.history + tb.horizon} consecutive annotations at {tb.describe()} in any scene",
+        source=config.path,
+    )
+
+
 def build_dataset(scenes: list[tuple[str, np.ndarray]], config: ImportScenesConfig) -> Dataset:
     """One dataset of the scenes' windows, each scene an episode of its split."""
     tb = config.time_base()
     k = config.stride(tb)
-    episodes = []
-    for name, rows in scenes:
-        rec = EpisodeRecord(scenario=name, seed=None, split=_split(name, config), role="real")
-        episodes.append((rec, _windows(rows, tb, k, config.max_agents)))
+    meta = _meta(scenes, config)
+    episodes = [
+        (rec, _windows(rows, tb, k, config.max_agents))
+        for rec, (_, rows) in zip(meta.episodes, scenes, strict=True)
+    ]
     if not sum(len(s.state) for _, s in episodes):
-        raise ConfigError(
-            f"no window of {tb.history + tb.horizon} consecutive annotations at {tb.describe()} in any scene",
-            source=config.path,
-        )
-    meta = DatasetMeta(
-        timebase=tb,
-        max_agents=config.max_agents,
-        frame_convention="focal_pedestrian",
-        source="real",
-        episodes=[],
-        generator={"kind": "scenes", **config.model_dump(), "scenes": [n for n, _ in scenes]},
-    )
+        raise _no_windows(config)
     return dataset_from_episodes(episodes, meta)
 
 
 def import_scenes(config: ImportScenesConfig) -> Dataset:
     return build_dataset(read_scenes(config), config)
+
+
+def import_scenes_to(config: ImportScenesConfig, path: Path) -> dict[str, Any]:
+    """``save_dataset(import_scenes(config), path)`` in bounded memory: the windows go to the file piece by piece
+    (``DatasetWriter``), never all at once. Every file is read and checked first; returns the dataset record."""
+    scenes = read_scenes(config)
+    tb = config.time_base()
+    k = config.stride(tb)
+    with DatasetWriter(path, _meta(scenes, config)) as writer:
+        for i, (_, rows) in enumerate(scenes):
+            for part in window_parts(rows, tb, k, config.max_agents):
+                writer.add(i, part)
+        if not writer.count:
+            raise _no_windows(config)
+        return writer.finish()
 
 
 def scene_folds(

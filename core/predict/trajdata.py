@@ -183,10 +183,11 @@ def normalise(rows: np.ndarray, path: Path, frame_step: float | None, units: str
         raise ConfigError(
             f"pedestrian {rows[i, 1]:g} appears twice in frame {rows[i, 0]:g}", source=path, item="rows"
         )
-    out = rows.copy()
-    out[:, 0] = np.rint(k)  # consecutive annotations are 1 apart
-    out[:, 2:] *= UNITS[units]
-    return out, step
+    rows[:, 0] = np.rint(
+        k
+    )  # consecutive annotations are 1 apart (``rows`` is the sorted copy: the input is kept)
+    rows[:, 2:] *= UNITS[units]
+    return rows, step
 
 
 def read_scene_file(

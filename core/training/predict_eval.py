@@ -118,9 +118,12 @@ def _predictor(config: PredictEvalConfig, ds: Dataset, ctx: StageContext, name: 
     if plugins.kind(config.model):
         return plugins.load(config.model)
     if config.model is not None:
+        from foresight.core.predict import registered
         from foresight.core.predict.nn.checkpoint import load_predictor
 
         path = ctx.local_file(config.model) or ctx.resolve_model(config.model)
+        if registered.is_registered(path):  # a registered plug-in or external model (its files checked)
+            return plugins.load(registered.predictor_name(path), registered.files_dir(path))
         return load_predictor(path, expect_timebase=ds.meta.timebase)
     from foresight.core.predict.nn.checkpoint import load_predictor
     from foresight.core.training.config import TrainConfig

@@ -208,3 +208,48 @@ def test_an_evaluations_pedestrians_export_as_trajnet_and_import_back(tmp_path):
     )
     ds = import_scenes(cfg)
     assert len(ds) > 0 and ds.meta.timebase.dt == 0.2
+
+
+def test_the_streamed_import_writes_the_file_the_in_memory_one_does_and_leaves_no_temporary(
+    tmp_path, monkeypatch
+):
+    from foresight.core.predict import scene_import
+    from foresight.core.predict.dataset import save_dataset
+
+    monkeypatch.setattr(scene_import, "SEGMENT_FRAMES", 40)  # many pieces: many chunks
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    _as_trajnet(HOTEL, folder / "hotel.ndjson")
+    _as_trajnet(ZARA, folder / "zara.ndjson")
+    cfg = ImportScenesConfig(path=str(folder), format="trajnet", frame_interval=0.4, test_scene="hotel")
+    out = tmp_path / "data"
+    streamed = scene_import.import_scenes_to(cfg, out / "streamed.npz")
+    whole = save_dataset(scene_import.import_scenes(cfg), out / "whole.npz")
+    a, b = load_dataset(out / "streamed.npz"), load_dataset(out / "whole.npz")
+    for name in ("state", "target", "mask", "target_mask", "episode"):
+        x, y = getattr(a, name), getattr(b, name)
+        assert x.dtype == y.dtype and x.shape == y.shape
+        np.testing.assert_array_equal(x, y)
+    assert a.meta == b.meta and streamed["meta"] == whole["meta"]
+    s, w = streamed["summary"], whole["summary"]
+    assert s["samples_per_split"] == w["samples_per_split"] and s["samples_per_split"]["test"] > 0
+    for key in ("active_agent_ratio", "active_target_ratio", "target_std_m"):
+        assert s[key] == pytest.approx(w[key], rel=1e-6)
+    assert s["final_displacement_m"] == pytest.approx(w["final_displacement_m"], rel=1e-6)
+    assert sorted(p.name for p in out.iterdir()) == [
+        "streamed.json",
+        "streamed.npz",
+        "whole.json",
+        "whole.npz",
+    ]
+
+
+def test_a_streamed_import_that_fails_after_reading_leaves_nothing(tmp_path):
+    from foresight.core.predict.scene_import import import_scenes_to
+
+    short = tmp_path / "short.txt"
+    short.write_text("".join(f"{f * 10} 1 {f * 0.4:.2f} 0\n" for f in range(5)))  # too short for one window
+    out = tmp_path / "out" / "short.npz"
+    with pytest.raises(ConfigError, match="no window of 20 consecutive annotations"):
+        import_scenes_to(ImportScenesConfig(path=str(short), frame_interval=0.4), out)
+    assert list(out.parent.iterdir()) == []
