@@ -86,12 +86,38 @@ def _matrix(path: Path, overrides: dict[str, Any] | None = None) -> Any:
     return load_matrix_cached(path)
 
 
+#: bundle files a spec may name beside its matrix: seed manifests and planner grids
+BUNDLE_FILE_FIELDS = ("seed_manifest", "hard_seeds", "evaluation_seeds", "training_seeds", "grid")
+
+
+def check_bundle_files(spec: Any, ctx: StageContext) -> None:
+    """NotFoundError naming the field for a bundle file the spec names that its bundle lacks (a missing
+    ``evaluation_seeds`` was accepted and failed in the worker)."""
+    from foresight.core.errors import NotFoundError
+    from foresight.core.runtime.refs import resolve_in_bundle
+
+    named = [(f, getattr(spec, f, None)) for f in BUNDLE_FILE_FIELDS]
+    named = [(f, v) for f, v in named if isinstance(v, str)]
+    if not named:
+        return
+    bundle = getattr(spec, "bundle", None) or "builtin"
+    root = ctx.resolve_bundle(bundle)
+    for field, rel in named:
+        try:
+            found = resolve_in_bundle(root, rel).is_file()
+        except ValueError:
+            found = False
+        if not found:
+            raise NotFoundError(f"spec.{field}: bundle {bundle!r} has no file {rel!r}")
+
+
 def admit(spec: Any, settings: Settings, resolver: Resolver) -> None:
     """NotFoundError (404) for an unknown bundle, matrix, scenario, model, dataset or evaluation; ConfigError (422) for a model
     a planner cannot drive (trained in another frame) or a job larger than ``settings.max_job_steps`` simulation steps."""
     from foresight.core.evaluation.witness_job import WitnessConfig, plan_search
 
     ctx = context(settings, resolver)
+    check_bundle_files(spec, ctx)
     for what, ident in named_ids(spec):
         if what == "predictor":
             check_predictor(ident)

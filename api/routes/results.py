@@ -14,7 +14,9 @@ from foresight.api.schemas import (
     EpisodePublic,
     EvaluationPublic,
     Ident,
+    Rank,
 )
+from foresight.core.runtime.refs import Seed
 from foresight.store import job_reads, queue, results
 
 router = APIRouter(tags=["results"])
@@ -80,7 +82,7 @@ def read_evaluation_episodes(
 
 @router.get("/evaluations/{evaluation_id}/episodes/{scenario}/{seed}", responses=responses(404))
 def read_episode_trace(
-    evaluation_id: Ident, scenario: Ident, seed: int, engine: EngineDep, settings: SettingsDep
+    evaluation_id: Ident, scenario: Ident, seed: Seed, engine: EngineDep, settings: SettingsDep
 ) -> dict[str, Any]:
     """One episode's compact trace (core.render.episode_trace): robot, pedestrians with ids, goal and
     tolerance, walls, collision, logged forecasts; what the dashboard's episode player draws."""
@@ -90,7 +92,7 @@ def read_episode_trace(
 @router.get("/campaigns/{campaign_id}/cells/{rank}/episodes", responses=responses(404))
 def read_cell_episodes(
     campaign_id: Ident,
-    rank: int,
+    rank: Rank,
     engine: EngineDep,
     settings: SettingsDep,
     suite: Annotated[Literal["global", "hard"], Query()] = "global",
@@ -102,7 +104,7 @@ def read_cell_episodes(
 
 @router.get("/campaigns/{campaign_id}/cells/{rank}/episodes/{scenario}/{seed}", responses=responses(404))
 def read_cell_episode_trace(
-    campaign_id: Ident, rank: int, scenario: Ident, seed: int, engine: EngineDep, settings: SettingsDep
+    campaign_id: Ident, rank: Rank, scenario: Ident, seed: Seed, engine: EngineDep, settings: SettingsDep
 ) -> dict[str, Any]:
     """One episode's compact trace as a campaign cell (rank 1 = best) ran it: the same shape as an evaluation's."""
     return _trace(engine, settings, f"{full_id(engine, campaign_id)}:{rank}", scenario, seed)
@@ -110,7 +112,7 @@ def read_cell_episode_trace(
 
 @router.get("/jobs/{job_id}/witnesses/{scenario}/{seed}", responses=responses(404))
 def read_witness_trace(
-    job_id: Ident, scenario: Ident, seed: int, engine: EngineDep, settings: SettingsDep
+    job_id: Ident, scenario: Ident, seed: Seed, engine: EngineDep, settings: SettingsDep
 ) -> dict[str, Any]:
     """The compact trace of a witness job's witness for one episode (the same shape as an evaluation's episode
     trace): what the dashboard plays beside the planner's run of that episode."""

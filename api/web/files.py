@@ -66,3 +66,16 @@ def read_static(name: str) -> FileResponse:
     if name not in files:
         raise PageNotFound(f"no static file {name}")
     return FileResponse(files[name], headers={"Cache-Control": "no-cache"})
+
+
+def stored_trace(request: Request, ident: str, scenario: str, seed: int) -> None:
+    """PageNotFound unless the evaluation or campaign cell ``ident`` stored this episode's trace."""
+    from foresight.core.render.episode_trace import trace_name
+    from foresight.store import results
+
+    try:
+        folder = results.run_folder(request.app.state.engine, request.app.state.settings.store_root, ident)
+    except queue.JobNotFound as exc:
+        raise PageNotFound(str(exc)) from None
+    if folder is None or folder.trace(trace_name(scenario, seed)) is None:
+        raise PageNotFound(f"{ident} stored no episode {scenario} seed {seed}")

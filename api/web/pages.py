@@ -14,6 +14,7 @@ from foresight.api.web.auth import PageNotFound, read_access
 from foresight.api.web.render import page
 from foresight.core.jobs.kinds import KINDS
 from foresight.core.jobs.results import Verdict, verdict
+from foresight.core.runtime.refs import Seed
 from foresight.store import job_reads, queue
 from foresight.store.models import JobStatus
 
@@ -61,7 +62,7 @@ def jobs_page(
     request: Request,
     status: StatusFilter = None,
     kind: KindFilter = None,
-    offset: Annotated[int, Query(ge=0)] = 0,
+    offset: Annotated[int, Query(ge=0, le=10_000_000)] = 0,
     tag: TagFilter = None,
     q: TextFilter = None,
 ) -> HTMLResponse:
@@ -83,7 +84,7 @@ def jobs_rows(
     request: Request,
     status: StatusFilter = None,
     kind: KindFilter = None,
-    offset: Annotated[int, Query(ge=0)] = 0,
+    offset: Annotated[int, Query(ge=0, le=10_000_000)] = 0,
     tag: TagFilter = None,
     q: TextFilter = None,
 ) -> HTMLResponse:
@@ -115,7 +116,7 @@ def _witnesses(job: dict[str, Any]) -> Any:
 
 @pages.get("/jobs/{job_id}/witnesses/{scenario}/{seed}")
 def witness_page(
-    request: Request, job_id: str, scenario: Annotated[str, PathParam(max_length=200)], seed: int
+    request: Request, job_id: str, scenario: Annotated[str, PathParam(max_length=200)], seed: Seed
 ) -> HTMLResponse:
     """A witness beside the planner's own run of the episode (the evaluation the job searched), on one clock."""
     from foresight.api.routes.results import trace_url
@@ -188,8 +189,10 @@ def job_summary(request: Request, job_id: str) -> HTMLResponse:
 
 
 @pages.get("/evaluations/{evaluation_id}/episodes/{scenario}/{seed}")
-def episode_page(request: Request, evaluation_id: str, scenario: str, seed: int) -> HTMLResponse:
-    """The episode player: the stored compact trace drawn on a canvas, with play/pause and a time slider."""
+def episode_page(request: Request, evaluation_id: str, scenario: str, seed: Seed) -> HTMLResponse:
+    """The episode player: the stored compact trace drawn on a canvas, with play/pause and a time slider (404
+    for an episode the evaluation did not store)."""
+    files.stored_trace(request, evaluation_id, scenario, seed)
     data_url = f"/v1/evaluations/{evaluation_id}/episodes/{scenario}/{seed}"
     return page(
         request,
@@ -211,7 +214,7 @@ def episode_pair_page(
     a: Annotated[str, Query(max_length=200)],
     b: Annotated[str, Query(max_length=200)],
     scenario: Annotated[str, Query(max_length=200)],
-    seed: int,
+    seed: Seed,
 ) -> HTMLResponse:
     """One episode of two evaluations or campaign cells side by side on one clock (a comparison's changed episodes
     link here)."""

@@ -30,12 +30,10 @@ from pydantic import (
 from foresight.core.bounds import BoundedConfig
 from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.refs import CV, DEFAULT_MODEL, NO_MODEL
 from foresight.core.scenarios.model import ResolvedScenario
 from foresight.core.sim.planner import EpisodeInfo, Planner, config_hash
 
-CV = "cv"
-NO_MODEL = "none"
-DEFAULT_MODEL = "default"  #: id resolved through ctx.resolve_model when a predictive run names no model
 OTHER = "other"  #: the union member of every other name: in-process planners (``module:attr``) or an error
 
 
@@ -233,13 +231,16 @@ def _model(spec: PlannerSpecBase, takes_model: bool, ctx: StageContext) -> tuple
     return ident, sha, str(path)  # later loads (worker processes) check their bytes against this checksum
 
 
-def resolve_planner(spec: PlannerSpecBase | dict[str, Any], ctx: StageContext) -> ResolvedPlanner:
-    """Every key of the planner's config (defaults expanded), its hash and its model, checked before any episode."""
+def planner_config(spec: PlannerSpecBase | dict[str, Any]) -> BaseModel:
+    """A spec's full planner config (defaults expanded, reference grid params mapped), checked without a model:
+    ConfigError naming the key for an unknown one, a value out of range, NaN or Infinity. Campaigns check their
+    inline variants with it at submission (an unknown key failed only in the worker)."""
+    from foresight.core.limits import hostile_values
     from foresight.core.planners.registry import entry
 
     spec = planner_spec(spec)
-    found = entry(spec.name)
-    cfg = found.validate(spec.config)
+    source = f"planner grid variant {spec.variant}" if spec.variant else None
+    cfg = entry(spec.name).validate(spec.config)
     if spec.reference_params:
         if spec.name != "predictive":
             raise ConfigError(
@@ -247,9 +248,20 @@ def resolve_planner(spec: PlannerSpecBase | dict[str, Any], ctx: StageContext) -
                 item="planner.reference_params",
             )
         cfg = type(cfg).from_reference_grid(
-            spec.reference_params, base=cfg, source=f"planner grid variant {spec.variant or '?'}"
+            spec.reference_params, base=cfg, source=source or "planner grid variant ?"
         )
-    resolved = cfg.model_dump(mode="json")
+    for loc, why in hostile_values(cfg.model_dump()):
+        raise ConfigError(why, source=source, item=".".join(str(p) for p in ("planner", "config", *loc)))
+    return cfg
+
+
+def resolve_planner(spec: PlannerSpecBase | dict[str, Any], ctx: StageContext) -> ResolvedPlanner:
+    """Every key of the planner's config (defaults expanded), its hash and its model, checked before any episode."""
+    from foresight.core.planners.registry import entry
+
+    spec = planner_spec(spec)
+    found = entry(spec.name)
+    resolved = planner_config(spec).model_dump(mode="json")
     model_id, sha, path = _model(spec, found.takes_model, ctx)
     return ResolvedPlanner(
         name=spec.name,
