@@ -280,7 +280,7 @@ def markdown(result: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from foresight.core.evaluation.runner import EvaluationResult
+    from foresight.core.evaluation.evaluation_result import EvaluationResult
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument(
