@@ -8,8 +8,8 @@ from typing import Annotated, Any, Literal, Union
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 
 from foresight.core.evaluation.aggregate import GroupStats
-from foresight.core.evaluation.campaign import CellMetrics, CellParams, CellResult
-from foresight.core.evaluation.runner import EvaluationMetrics, EvaluationRunConfig
+from foresight.core.evaluation.campaign_result import CellMetrics, CellParams, CellResult
+from foresight.core.evaluation.evaluation_result import EvaluationMetrics, EvaluationRunConfig
 from foresight.core.jobs.kinds import KINDS
 from foresight.core.jobs.results import Verdict, verdict
 from foresight.store.settings import Settings

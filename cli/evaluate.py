@@ -273,7 +273,7 @@ def diagnose_cmd(args: argparse.Namespace) -> int:
 
 
 def campaign_cmd(args: argparse.Namespace) -> int:
-    from foresight.core.evaluation.campaign import report
+    from foresight.core.evaluation.campaign_text import report
 
     refs = Refs(args, {"--matrix": args.matrix, "--seeds": args.seeds, "--grid": args.grid})
     values: dict[str, Any] = {

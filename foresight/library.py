@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from foresight.core.evaluation.episode import EpisodeRun
-from foresight.core.evaluation.runner import EvaluationResult
+from foresight.core.evaluation.evaluation_result import EvaluationResult
 
 DEFAULT_MATRIX = "scenarios/classic_interactions.yaml"
 

@@ -14,7 +14,7 @@ from typing import Any
 from sqlalchemy import Engine, func, select
 
 from foresight.core.evaluation.aggregate import GroupStats, SuiteSummary
-from foresight.core.evaluation.runner import EvaluationMetrics
+from foresight.core.evaluation.evaluation_result import EvaluationMetrics
 from foresight.store import folders, job_reads, queue
 from foresight.store.models import (
     Campaign,
@@ -190,7 +190,7 @@ class CellRun:
 
     job_id: str | None
     config: dict[str, Any]  #: the campaign row's config
-    cell: Any  #: core.evaluation.campaign.CellResult
+    cell: Any  #: core.evaluation.campaign_result.CellResult
     suite: str  #: global or hard
     suites: (
         dict[str, list[tuple[str, int]]] | None
@@ -200,7 +200,7 @@ class CellRun:
 def campaign_cell(engine: Engine, ident: str) -> CellRun | None:
     """The cell ``CAMPAIGN_ID:RANK[:SUITE]`` (rank 1 = best) from its job's result; None when the job keeps no result.
     JobNotFound for an unknown campaign, rank or suite."""
-    from foresight.core.evaluation.campaign import CampaignCells
+    from foresight.core.evaluation.campaign_result import CampaignCells
 
     campaign_id, _, rest = ident.partition(":")
     rank, _, suite = rest.partition(":")

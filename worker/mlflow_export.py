@@ -27,8 +27,9 @@ from urllib.parse import urlsplit
 
 from pydantic import BaseModel
 
-from foresight.core.evaluation.campaign import CampaignResult
-from foresight.core.evaluation.runner import EvaluationResult, read_records
+from foresight.core.evaluation.campaign_result import CampaignResult
+from foresight.core.evaluation.evaluation_result import EvaluationResult
+from foresight.core.evaluation.runner import read_records
 from foresight.core.jobs.results import read_result, verdict
 from foresight.core.predict.dataset import config_hash, file_sha256
 from foresight.core.training.config import TrainingSummary, TrainResult

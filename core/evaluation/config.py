@@ -29,7 +29,7 @@ def refuse_shards(data: Any) -> Any:
     if isinstance(data, dict) and "shards" in data:
         raise ValueError(
             "'shards' was removed: to spread episodes over machines use 'executor: ray' "
-            "(a Ray cluster at FORESIGHT_RAY_ADDRESS, see README 'Scaling out')"
+            "(a Ray cluster at FORESIGHT_RAY_ADDRESS, see docs/tutorials/scaling-out.md)"
         )
     return data
 

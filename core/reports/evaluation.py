@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from foresight.core.evaluation.aggregate import GroupStats
-from foresight.core.evaluation.runner import EvaluationResult, PlannerProvenance
+from foresight.core.evaluation.evaluation_result import EvaluationResult, PlannerProvenance
 from foresight.core.evaluation.stats import RateEstimate
 from foresight.core.render.charts import rate_bars, taxonomy_bars
 from foresight.core.reports.common import (

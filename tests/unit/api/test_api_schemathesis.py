@@ -40,7 +40,7 @@ from tests.archives import archive_strategy
 from tests.unit.api.conftest import TOKEN
 
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
-#: per operation and generation mode (issue 15: at least 100). On the quiet 2-core machine the file takes ~2 min
+#: per operation and generation mode (at least 100). On the quiet 2-core machine the file takes ~2 min
 #: (100 examples 101 s, 100 sequences 19 s; ~60 % of it Hypothesis/schemathesis generating cases); lower them with
 #: FORESIGHT_SCHEMATHESIS_EXAMPLES / _SEQUENCES for a quick local run
 EXAMPLES = int(os.environ.get("FORESIGHT_SCHEMATHESIS_EXAMPLES", "100"))
@@ -175,7 +175,7 @@ def test_stateful_sequences_conform(api: tuple) -> None:
             negated = {loc for loc, info in components.items() if info.mode == GenerationMode.NEGATIVE}
             if negated and negated <= {ParameterLocation.QUERY}:
                 # a query string carries text only: a tag "negated" to a number or a one-item array arrives as a valid
-                # value (a schemathesis false positive, cf. its issue 3056); the per-operation negative test above
+                # value (a schemathesis false positive, reported upstream); the per-operation negative test above
                 # checks that invalid query values are refused
                 excluded.append(negative_data_rejection)
             case.validate_response(response, headers=AUTH, excluded_checks=excluded)

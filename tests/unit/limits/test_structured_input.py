@@ -1,4 +1,4 @@
-"""Nesting and alias-expansion bounds on YAML, JSON-like values and SVG (issue 15.2, 15.3)."""
+"""Nesting and alias-expansion bounds on YAML, JSON-like values and SVG."""
 
 from __future__ import annotations
 
