@@ -13,7 +13,7 @@ PREDICTOR_PLUGIN = examples/predictor_plugin
 # --dist loadscope: each test module whole in one process (its module fixtures built once; tests/conftest.py)
 TEST_WORKERS ?= 2
 
-.PHONY: install browser test demo lint bench clean
+.PHONY: install browser test demo lint docs bench clean
 
 $(STAMP): pyproject.toml setup.py $(TOY_PLUGIN)/pyproject.toml $(PREDICTOR_PLUGIN)/pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -42,8 +42,13 @@ lint: install
 	$(VENV)/bin/ruff format --check .
 	$(VENV)/bin/ruff check .
 
+# The documentation site (docs/, mkdocs.yml) into site/; --strict: a broken link or a missing page fails it.
+# The reference pages are generated from the code by the hook docs/_hooks/reference.py.
+docs: install
+	$(VENV)/bin/mkdocs build --strict --site-dir site
+
 bench: install
 	$(PY) bench/sim_speed.py --json
 
 clean:
-	rm -rf $(VENV) .pytest_cache
+	rm -rf $(VENV) .pytest_cache site

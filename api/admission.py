@@ -86,12 +86,84 @@ def _matrix(path: Path, overrides: dict[str, Any] | None = None) -> Any:
     return load_matrix_cached(path)
 
 
+#: a spec's top-level fields that name a dataset, which is the id of the job that wrote it
+DATASET_FIELDS = ("dataset", "base", "hardcase")
+
+
+def full_ids(spec: Any, engine: Any) -> Any:
+    """The spec with short job ids (as the CLI prints them) in its dataset fields replaced by full ids."""
+    from foresight.store import job_reads
+
+    update = {}
+    for field in DATASET_FIELDS:
+        value = getattr(spec, field, None)
+        if isinstance(value, str) and value:
+            full = job_reads.resolve_id(engine, value)
+            if full != value:
+                update[field] = full
+    return spec.model_copy(update=update) if update else spec
+
+
+#: a spec's top-level fields that name its matrix inside its config bundle (the other files: BUNDLE_FILE_FIELDS)
+BUNDLE_FILES = ("matrix", "seeds")
+
+
+def bundle_files(spec: Any, ctx: StageContext) -> None:
+    """ConfigError (422) naming the field, the name and the bundle (never a server path) for a bundle file that is
+    not there; a name that starts with the bundle's own ``configs/`` folder gets the name meant."""
+    from foresight.core.errors import ConfigError
+    from foresight.core.runtime.refs import resolve_in_bundle
+
+    bundle = getattr(spec, "bundle", None)
+    if not isinstance(bundle, str):
+        return
+    root = ctx.resolve_bundle(bundle)
+    for field in BUNDLE_FILES:
+        rel = getattr(spec, field, None)
+        if not isinstance(rel, str) or resolve_in_bundle(root, rel).is_file():
+            continue
+        meant = rel.removeprefix("configs/")
+        hint = (
+            f": names are relative to the bundle's root, did you mean {meant!r}?"
+            if meant != rel and resolve_in_bundle(root, meant).is_file()
+            else " (e.g. scenarios/classic_interactions.yaml)"
+        )
+        raise ConfigError(f"no file {rel!r} in config bundle {bundle!r}{hint}", item=field)
+
+
+#: bundle files a spec may name beside its matrix: seed manifests and planner grids
+BUNDLE_FILE_FIELDS = ("seed_manifest", "hard_seeds", "evaluation_seeds", "training_seeds", "grid")
+
+
+def check_bundle_files(spec: Any, ctx: StageContext) -> None:
+    """NotFoundError naming the field for a bundle file the spec names that its bundle lacks (a missing
+    ``evaluation_seeds`` was accepted and failed in the worker)."""
+    from foresight.core.errors import NotFoundError
+    from foresight.core.runtime.refs import resolve_in_bundle
+
+    named = [(f, getattr(spec, f, None)) for f in BUNDLE_FILE_FIELDS]
+    named = [(f, v) for f, v in named if isinstance(v, str)]
+    if not named:
+        return
+    bundle = getattr(spec, "bundle", None) or "builtin"
+    root = ctx.resolve_bundle(bundle)
+    for field, rel in named:
+        try:
+            found = resolve_in_bundle(root, rel).is_file()
+        except ValueError:
+            found = False
+        if not found:
+            raise NotFoundError(f"spec.{field}: bundle {bundle!r} has no file {rel!r}")
+
+
 def admit(spec: Any, settings: Settings, resolver: Resolver) -> None:
     """NotFoundError (404) for an unknown bundle, matrix, scenario, model, dataset or evaluation; ConfigError (422) for a model
     a planner cannot drive (trained in another frame) or a job larger than ``settings.max_job_steps`` simulation steps."""
     from foresight.core.evaluation.witness_job import WitnessConfig, plan_search
 
     ctx = context(settings, resolver)
+    bundle_files(spec, ctx)  # the matrix, with the name meant for a path typed with configs/
+    check_bundle_files(spec, ctx)
     for what, ident in named_ids(spec):
         if what == "predictor":
             check_predictor(ident)

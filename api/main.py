@@ -10,6 +10,7 @@ from fastapi.routing import APIRoute
 from starlette.routing import Match
 
 from foresight.api import errors, web
+from foresight.api.bodies import QueryTextMiddleware
 from foresight.api.deps import KnownQuery, ReadAuth
 from foresight.api.http_metrics import HttpMetrics, MetricsMiddleware, route_templates
 from foresight.api.routes import bundles, jobs, listing, models, ops, planners, results
@@ -93,6 +94,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         )
     web.install(app)  # the dashboard: /ui pages over the same store
     app.add_middleware(AllowMiddleware, router=app.router)
+    app.add_middleware(QueryTextMiddleware)
     app.state.http_metrics.templates = route_templates(app)
     base_openapi = app.openapi
 

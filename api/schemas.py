@@ -8,13 +8,14 @@ from typing import Annotated, Any, Literal, Union
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 
 from foresight.core.evaluation.aggregate import GroupStats
-from foresight.core.evaluation.campaign import CellMetrics, CellParams, CellResult
-from foresight.core.evaluation.runner import EvaluationMetrics, EvaluationRunConfig
+from foresight.core.evaluation.campaign_result import CellMetrics, CellParams, CellResult
+from foresight.core.evaluation.evaluation_result import EvaluationMetrics, EvaluationRunConfig
 from foresight.core.jobs.kinds import KINDS
 from foresight.core.jobs.results import Verdict, verdict
 from foresight.store.settings import Settings
 
 Ident = Annotated[str, Field(min_length=1, max_length=200, pattern=r"^[A-Za-z0-9][A-Za-z0-9._:\-]*$")]
+Rank = Annotated[int, Field(ge=1, le=100_000, description="a campaign cell's rank: 1 = the best cell")]
 
 
 def iso(ts: float | None) -> datetime | None:
@@ -224,7 +225,9 @@ class ModelCreate(BaseModel):
     job_id: Ident
     artifact: str = Field(min_length=1, max_length=500, description="artifact name in that job")
     status: Literal["candidate"] = "candidate"
-    time_base: dict[str, Any] = Field(default_factory=dict)
+    time_base: dict[str, Any] = Field(
+        default_factory=dict, max_length=3, description="dt, history, horizon: when given, the checkpoint's"
+    )
     lineage: dict[str, Any] = Field(default_factory=dict)
     training: dict[str, Any] = Field(default_factory=dict)
     metrics: dict[str, Any] = Field(default_factory=dict)

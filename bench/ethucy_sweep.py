@@ -2,7 +2,7 @@
 spread over worker processes (CPU workers with one thread each, and optionally CUDA workers on a GPU machine).
 
 A variant is the training config with some fields overridden (and ``reverse_train``, the stage's own key, beside
-them). Prints per variant the 5-fold average ADE/FDE (the number the issue's ETH/UCY target reads), each fold's, and
+them). Prints per variant the 5-fold average ADE/FDE (the number the ETH/UCY target reads), each fold's, and
 constant velocity's on the same samples.
 Usage: python bench/ethucy_sweep.py --ethucy ../shared/reference/ethucy [--config configs/training/ethucy.yaml]
          [--variant NAME='{"batch_size": 512}' ...] [--workers 2] [--gpu-workers 0] [--folds eth,hotel] [--json]

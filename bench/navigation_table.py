@@ -29,7 +29,7 @@ JSON object (``--json``) or a Markdown table, and lists every group where a base
 (higher success, or equal with fewer collisions).
 With both predictive columns, each suite also gets the paired comparison of the learned model against constant
 velocity on the same episodes (``learned_vs_cv``: failed episodes of each, how many fewer, the discordant successes
-learned-only : cv-only and their exact McNemar p, which issue 12 asks to be below 0.01; no p below
+learned-only : cv-only and their exact McNemar p, which the navigation targets ask to be below 0.01; no p below
 ``core.evaluation.stats.MIN_PAIRS`` pairs).
 """
 
@@ -280,7 +280,7 @@ def markdown(result: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from foresight.core.evaluation.runner import EvaluationResult
+    from foresight.core.evaluation.evaluation_result import EvaluationResult
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument(

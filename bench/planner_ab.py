@@ -1,17 +1,17 @@
 """Paired A/B of predictive-planner variants on whole suites at once: every (variant, suite, scenario, seed) is one
 episode of one process pool, and each variant is compared with the first on the same episodes.
 
-Why one pool: a planner change is judged on every condition issue 12 names (realistic speed, nobody yields, the
+Why one pool: a planner change is judged on every condition the navigation targets name (realistic speed, nobody yields, the
 stress suite, the reference defaults), paired, and one pool keeps every core busy across suites and variants (on a
 lent GPU machine's 16 cores its prototype ran 936 episodes per variant, four suites of 220-256 episodes, in about 75 s
 per variant; ``foresight evaluate`` per suite and variant starts and fills a pool each time).
 
 Suites as in ``bench/navigation_table.py`` (stress, reference_defaults, reference_typical, reference_typical_blind;
-``--replication`` for their new seeds); ``--seeds-per-scenario 10`` gives issue 12's reference matrix of 230 episodes.
+``--replication`` for their new seeds); ``--seeds-per-scenario 10`` gives the reference matrix of 230 episodes the targets are measured on.
 ``--override KEY=VALUE`` applies to every suite (``robot_config.allow_backwards=true``: a robot that may back off).
 A variant is ``NAME=JSON``, the predictive planner's config (``{}``: its defaults), with an optional ``"model"`` key of
 its own (``cv``, a checkpoint) instead of ``--model`` (default: the shipped learned model): ``--variant learned='{}'
---variant cv='{"model": "cv"}'`` is issue 12's learned-vs-constant-velocity comparison on every suite at once.
+--variant cv='{"model": "cv"}'`` is the targets' learned-vs-constant-velocity comparison on every suite at once.
 Episodes are deterministic, so the pairs are exact: the same variant twice reads 0 : 0. Prints ONE JSON object with
 ``--json``: per suite and variant the outcome counts with Wilson intervals, and per suite each later variant against
 the first: successes first-only : variant-only, exact McNemar p (none below ``core.evaluation.stats.MIN_PAIRS``

@@ -62,6 +62,18 @@ class Client:
         )
 
     def request(self, method: str, path: str, **kwargs: Any) -> Any:
+        response = self._send(method, path, **kwargs)
+        if response.status_code == 204 or not response.content:
+            return None
+        if response.headers.get("content-type", "").startswith("application/json"):
+            return response.json()
+        return response.text
+
+    def download(self, path: str, **kwargs: Any) -> bytes:
+        """A GET's body as bytes (files, exports); errors as :meth:`request` raises them."""
+        return self._send("GET", path, **kwargs).content
+
+    def _send(self, method: str, path: str, **kwargs: Any) -> httpx.Response:
         try:
             response = self.http.request(method, path, **kwargs)
         except httpx.HTTPError as exc:
@@ -72,11 +84,7 @@ class Client:
             except (ValueError, AttributeError):
                 detail = response.text
             raise ApiError(response.status_code, detail)
-        if response.status_code == 204 or not response.content:
-            return None
-        if response.headers.get("content-type", "").startswith("application/json"):
-            return response.json()
-        return response.text
+        return response
 
     def get(self, path: str, **kwargs: Any) -> Any:
         return self.request("GET", path, **kwargs)

@@ -59,7 +59,7 @@ def register(dsub: argparse._SubParsersAction) -> None:
     add_scene_args(im, required=True)
     im.add_argument("--test-scene", help="the held-out scene (file stem); default: every scene is test")
     im.add_argument("--val-scene", help="a validation scene (file stem)")
-    im.add_argument("--max-agents", type=int, default=12)
+    im.add_argument("--max-agents", type=int, default=12, help="pedestrians kept per sample (default 12)")
     im.add_argument("--output", required=True, help="output .npz path")
     im.add_argument("--local", action="store_true", help="run in-process (required: files are read locally)")
     im.add_argument("--json", action="store_true")

@@ -38,8 +38,8 @@ def _common(p: argparse.ArgumentParser, *, planner: bool = True) -> None:
             "--planner",
             default="predictive",
             help="planner name (built-in, installed plugin, external; "
-            "--local also module:attr) or a planner YAML ({name, config, reference_params} or a "
-            "predictive config)",
+            "--local also module:attr), sb3:POLICY.zip (a Stable-Baselines3 policy: --local a file, server a "
+            "name in --bundle) or a planner YAML ({name, config, reference_params} or a predictive config)",
         )
         p.add_argument(
             "--planner-config",
@@ -178,6 +178,8 @@ class Refs:
         if self.local:
             return planner_spec(value, model, self.models, config=config)
         spec = planner_spec(value, None, self.models, default=False, config=config, local=False)
+        if spec.get("name") == "sb3" and self.args.bundle:
+            spec["config"].setdefault("bundle", self.args.bundle)
         if model is not None:
             spec["model"] = stage.model_id(model, "--model")
         elif spec.get("model") is not None:
@@ -247,10 +249,7 @@ def _evaluation_text(r: Any, where: str) -> str:
         )
     fails = ", ".join(f"{k} {v}" for k, v in r.taxonomy.items() if v) or "none"
     lines += ["", f"failures: {fails}", f"gate: {r.status}"]
-    lines += [
-        f"  {c.name}: {'ok' if c.passed else 'FAIL'} ({c.value} vs {c.threshold}) {c.detail}".rstrip()
-        for c in r.gate.checks
-    ]
+    lines += [f"  {c.line()}" for c in r.gate.checks]
     if r.execution is not None:
         lines.append(f"ran on: {r.execution.describe()}")
     lines.append(where)
@@ -274,7 +273,7 @@ def diagnose_cmd(args: argparse.Namespace) -> int:
 
 
 def campaign_cmd(args: argparse.Namespace) -> int:
-    from foresight.core.evaluation.campaign import report
+    from foresight.core.evaluation.campaign_text import report
 
     refs = Refs(args, {"--matrix": args.matrix, "--seeds": args.seeds, "--grid": args.grid})
     values: dict[str, Any] = {

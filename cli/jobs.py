@@ -23,7 +23,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     submit = sub.add_parser("submit", help="submit a job spec to the server")
     submit.add_argument("kind", help="job kind (see GET /v1/jobs/kinds)")
     submit.add_argument("-f", "--file", help="spec YAML/JSON ('-' for stdin; default: an empty spec)")
-    submit.add_argument("--priority", type=int, default=0)
+    submit.add_argument(
+        "--priority", type=int, default=0, help="higher runs first among queued jobs (default 0)"
+    )
     submit.add_argument("--timeout", type=float, help="[s] run time limit")
     submit.add_argument("--key", help="idempotency key: resubmitting with it returns the same job")
     add_label_args(submit)
@@ -75,7 +77,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     edit.set_defaults(func=cmd_edit)
     dl = jobs.add_parser("download", help="download an artifact of a job")
     dl.add_argument("job_id")
-    dl.add_argument("name")
+    dl.add_argument("name", help="artifact name (as `foresight jobs show ID` lists them)")
     dl.add_argument("-o", "--output", help="file to write (default: the artifact's base name)")
     dl.set_defaults(func=cmd_download)
     for p in jobs.choices.values():
@@ -172,7 +174,9 @@ def follow(client: Client, job_id: str, *, as_json: bool, quiet: bool, timeout: 
     if job["status"] not in FINISHED:
         _print(job, as_json, f"still {job['status']} after {timeout} s")
         return 2
-    _print(job, as_json, _line(job))
+    from foresight.cli.summary import job_summary
+
+    _print(job, as_json, job_summary(job, str(client.http.base_url).rstrip("/")))
     return exit_code(job)
 
 
@@ -207,20 +211,22 @@ def cmd_ls(args: argparse.Namespace) -> int:
     return 0
 
 
+#: result fields `jobs show` leaves to --json: the resolved configs, long and read by few
+CONFIG_KEYS = ("config", "taxonomy_config", "metrics_config")
+
+
 def cmd_show(args: argparse.Namespace) -> int:
-    job = Client.from_args(args).get(f"/v1/jobs/{args.job_id}")
-    text = [_line(job)]
-    if job.get("result") is not None:
-        lines = json.dumps(job["result"], indent=2).splitlines()
-        more = (
-            f"\n  ... {len(lines) - SHOW_LINES} more lines (--json for all)"
-            if len(lines) > SHOW_LINES
-            else ""
-        )
-        text.append("result: " + "\n".join(lines[:SHOW_LINES]) + more)
-    if job.get("note"):
-        text.insert(1, "note: " + job["note"])
-    text += [f"artifact: {a['name']} ({a['size']} bytes)" for a in job.get("artifacts") or []]
+    """The summary first (status, verdict, headline, artifacts, page), then the result without its configs."""
+    from foresight.cli.summary import job_summary
+
+    client = Client.from_args(args)
+    job = client.get(f"/v1/jobs/{args.job_id}")
+    text = [job_summary(job, str(client.http.base_url).rstrip("/"))]
+    if isinstance(job.get("result"), dict):
+        shown = {k: v for k, v in job["result"].items() if k not in CONFIG_KEYS}
+        lines = json.dumps(shown, indent=2).splitlines()
+        more = f"\n  ... {len(lines) - SHOW_LINES} more lines" if len(lines) > SHOW_LINES else ""
+        text.append("result (configs and all: --json): " + "\n".join(lines[:SHOW_LINES]) + more)
     _print(job, args.json, "\n".join(text))
     return 0
 

@@ -16,8 +16,8 @@ from foresight.core.errors import ConfigError
 def register(sub: argparse._SubParsersAction) -> None:
     models = sub.add_parser("models", help="the model registry").add_subparsers(dest="action", required=True)
     ls = models.add_parser("ls", help="list registered models")
-    ls.add_argument("--status")
-    ls.add_argument("--tag")
+    ls.add_argument("--status", help="only models of this status (candidate, default, ...)")
+    ls.add_argument("--tag", help="only models with this tag")
     ls.add_argument("--limit", type=int, help="page size (default: every model)")
     ls.add_argument("--offset", type=int, default=0)
     ls.set_defaults(func=cmd_ls)
@@ -30,16 +30,19 @@ def register(sub: argparse._SubParsersAction) -> None:
         "external predictor with its files (--kind, --predictor, --files)",
     )
     reg.add_argument("model_id")
-    reg.add_argument("--job", help="job id (checkpoint)")
+    reg.add_argument("--job", help="job id (checkpoint; a unique prefix of 8+ characters)")
     reg.add_argument("--artifact", help="artifact name in that job (checkpoint)")
-    reg.add_argument("--kind", choices=["checkpoint", "plugin", "external"], default="checkpoint")
+    reg.add_argument("--kind", choices=["checkpoint", "plugin", "external"], default="checkpoint",
+                     help="what is registered (default checkpoint)")  # fmt: skip
     reg.add_argument("--predictor", help="plug-in name, or external:<name> (plugin, external)")
     reg.add_argument("--files", help="its artifact folder or a zip/tar of it (plugin, external; optional)")
-    reg.add_argument("--tag", action="append", default=[])
+    reg.add_argument("--tag", action="append", default=[], help="a tag for the model (repeatable)")
     reg.set_defaults(func=cmd_register)
     promote = models.add_parser("promote", help="promote a model (or make it the default)")
     promote.add_argument("model_id")
-    promote.add_argument("--default", action="store_true")
+    promote.add_argument(
+        "--default", action="store_true", help="make it the default model (what runs without --model)"
+    )
     promote.set_defaults(func=cmd_promote)
     delete = models.add_parser("delete", help="delete a registered model")
     delete.add_argument("model_id")

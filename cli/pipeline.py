@@ -92,8 +92,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 def read_pipeline(path: str | Path, workers: int | None = None) -> dict[str, Any]:
     """The pipeline YAML as a spec (validated here, so a bad file fails before anything starts)."""
     from foresight.core.jobs.pipeline.config import load_pipeline_config
+    from foresight.paths import user_file
 
-    config = load_pipeline_config(path)
+    config = load_pipeline_config(user_file(str(path), "--file"))
     if workers is not None:
         config = config.model_copy(update={"workers": max(1, workers)})
     return config.model_dump(mode="json", exclude_unset=False)

@@ -16,6 +16,7 @@ from foresight.cli import datasets, stage
 from foresight.cli.common import emit
 from foresight.core.errors import ConfigError
 from foresight.local import build_config, finish_local, local_context, local_workdir, matrix_ref
+from foresight.paths import user_file
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -60,8 +61,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     im.add_argument("--root", help="data root name on the server (GET /v1/data-roots; default ethucy)")
     im.add_argument("--ethucy", help="--local: ETH/UCY root folder")
-    im.add_argument("--fold", required=True)
-    im.add_argument("--max-agents", type=int, default=12)
+    im.add_argument("--fold", required=True, help="ETH/UCY fold: eth, hotel, univ, zara1 or zara2")
+    im.add_argument("--max-agents", type=int, default=12, help="pedestrians kept per sample (default 12)")
     im.add_argument("--output", help="--local: output .npz path")
     stage.add_mode_args(im)
     im.set_defaults(func=import_cmd)
@@ -76,11 +77,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     co.add_argument("--hard-seeds", help="TRAINING seed manifest YAML (hard-case collection)")
     co.add_argument("--bundle", help="server: config bundle id; --matrix/--hard-seeds are names inside it")
     co.add_argument("--scenarios", help="comma-separated scenario names (base collection)")
-    co.add_argument("--seeds-per-scenario", type=int)
-    co.add_argument("--base-seed", type=int)
-    co.add_argument("--policy", choices=["goal", "goal_noisy"])
-    co.add_argument("--max-steps", type=int)
-    co.add_argument("--max-agents", type=int)
+    co.add_argument("--seeds-per-scenario", type=int, help="episodes per scenario (default: the config's)")
+    co.add_argument("--base-seed", type=int, help="first episode seed (default: the config's)")
+    co.add_argument("--policy", choices=["goal", "goal_noisy"], help="how the robot drives while recording")
+    co.add_argument("--max-steps", type=int, help="horizon override (default: each scenario's)")
+    co.add_argument("--max-agents", type=int, help="pedestrians kept per sample")
     co.add_argument("--executor", choices=["local", "ray"], help=stage.EXECUTOR_HELP)
     co.add_argument(
         "--override",
@@ -94,15 +95,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     mx = sub.add_parser("mix", help="base + hard-case dataset, hard-case training rows oversampled")
     mx.add_argument("--base", required=True, help="dataset id (--local: a .npz file)")
     mx.add_argument("--hardcase", required=True, help="dataset id (--local: a .npz file)")
-    mx.add_argument("--repeat", type=int, default=3)
+    mx.add_argument(
+        "--repeat", type=int, default=3, help="times the hard-case samples are repeated (default 3)"
+    )
     _outputs(mx)
     mx.set_defaults(func=mix_cmd)
 
     tr = sub.add_parser("train", help="train the trajectory predictor on a dataset")
     tr.add_argument("--dataset", help="dataset id (--local: a .npz file); overrides the config's")
     tr.add_argument("--config", help="training config YAML (its 'train' mapping, or the whole file)")
-    tr.add_argument("--epochs", type=int)
-    tr.add_argument("--threads", type=int)
+    tr.add_argument("--epochs", type=int, help="training epochs; overrides the config's")
+    tr.add_argument("--threads", type=int, help="torch CPU threads (default: torch's)")
     tr.add_argument(
         "--device",
         choices=["auto", "cpu", "cuda"],
@@ -134,7 +137,7 @@ def _section(path: str | None, key: str) -> dict:
         return {}
     from foresight.core.scenarios.loader import read_yaml
 
-    data = read_yaml(Path(path))
+    data = read_yaml(user_file(path, "--config"))
     if not isinstance(data, dict) or not isinstance(data.get(key, data), dict):
         raise ConfigError(f"expected a mapping (optionally under {key!r})", source=path, item=key)
     return dict(data.get(key, data))
@@ -151,7 +154,7 @@ def _eval_values(path: str | None) -> dict:
     from foresight.core.scenarios.loader import read_yaml
     from foresight.core.training.predict_eval import FILE_KEYS
 
-    data = read_yaml(Path(path))
+    data = read_yaml(user_file(path, "--config"))
     return {k: data[k] for k in FILE_KEYS if isinstance(data, dict) and "train" in data and k in data}
 
 

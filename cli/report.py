@@ -118,25 +118,26 @@ def compare_text(result: dict[str, Any], base_url: str = "") -> str:
             )
             + [""]
         )
-    lines.append("config (only keys that differ):")
-    diff = result.get("config_diff") or {}
-    lines += [f"  {key}: {_short(v.get('a'))} -> {_short(v.get('b'))}" for key, v in diff.items()] or [
-        "  identical"
-    ]
     sources = result.get("sources") or {}
     if sources:
         lines.insert(1, f"A: {sources.get('a')}    B: {sources.get('b')}")
-    lines += ["", f"{'metric':<16}{'A':>24}{'B':>24}{'B - A [95 % interval]':>34}  method"]
+    lines += [f"{'metric':<22}{'A':>24}{'B':>24}{'B - A [95 % interval]':>34}  method"]
     for name, m in (result.get("metrics") or {}).items():
         interval = f" [{_num(m.get('low'))}, {_num(m.get('high'))}]" + (" *" if m.get("significant") else "")
         lines.append(
-            f"{name:<16}{_value(m.get('a')):>24}{_value(m.get('b')):>24}{_num(m.get('delta')) + interval:>34}"
+            f"{name:<22}{_value(m.get('a')):>24}{_value(m.get('b')):>24}{_num(m.get('delta')) + interval:>34}"
             f"  {_method(m)}"
         )
     lines.append(
         f"* significant: paired p < {ALPHA} (McNemar exact / Wilcoxon signed-rank), unpaired the interval "
         f"excludes 0; never with fewer than {MIN_PAIRS} episodes"
     )
+    diff = config_keys(result.get("config_diff") or {})
+    lines += ["", f"config (keys that differ: {len(diff)}):"]
+    shown = list(diff.items())[:CONFIG_LINES]
+    lines += [f"  {key}: {_short(v.get('a'))} -> {_short(v.get('b'))}" for key, v in shown] or ["  identical"]
+    if len(diff) > CONFIG_LINES:
+        lines.append(f"  ... {len(diff) - CONFIG_LINES} more (--json for all)")
     if result.get("changed_episodes") is not None:  # paired evaluations: the discordant episodes by name
         from foresight.core.evaluation.compare import changed_lines
         from foresight.core.evaluation.delta import EpisodeChange
@@ -150,6 +151,18 @@ def compare_text(result: dict[str, Any], base_url: str = "") -> str:
             *changed_lines(changed, links),
         ]
     return "\n".join(lines)
+
+
+CONFIG_LINES = 30  #: differing config keys printed before "... N more"
+#: the stage config repeats the planner's config under this prefix; the run setup names it ``planner.``
+STAGE_PLANNER = "stage.planner.config."
+
+
+def config_keys(diff: dict[str, Any]) -> dict[str, Any]:
+    """The differing keys, each once: a ``stage.planner.config.K`` whose change ``planner.K`` already shows is
+    left out."""
+    return {key: v for key, v in diff.items()
+            if not (key.startswith(STAGE_PLANNER) and diff.get("planner." + key.removeprefix(STAGE_PLANNER)) == v)}  # fmt: skip
 
 
 def _method(m: dict[str, Any]) -> str:

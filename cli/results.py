@@ -22,7 +22,11 @@ def register(sub: argparse._SubParsersAction) -> None:
         )
         ls = actions.add_parser("ls", help=f"{group}, newest first, filtered")
         for name in filters:
-            ls.add_argument("--" + name.replace("_", "-"), dest=name)
+            ls.add_argument(
+                "--" + name.replace("_", "-"),
+                dest=name,
+                help=f"only those whose {name.replace('_', ' ')} is this",
+            )
         ls.add_argument("--name", help="their job's exact name")
         ls.add_argument("--tag", action="append", help="their job has this tag (repeatable: every tag)")
         ls.add_argument("--limit", type=int, default=20)
@@ -36,12 +40,29 @@ def register(sub: argparse._SubParsersAction) -> None:
             if group == "evaluations"
             else "a campaign cell's episodes (rank 1 = best), failures first, with their players' URLs",
         )
-        eps.add_argument("id", help=f"the {group[:-1]}'s id (or its job's, a unique prefix of 8+)")
+        eps.add_argument(
+            "id",
+            help=f"the {group[:-1]}'s id (or its job's, a unique prefix of 8+)"
+            + ("; or a local run's folder (evaluate --local --out DIR)" if group == "evaluations" else ""),
+        )
         if group == "campaigns":
             eps.add_argument("rank", type=int, help="the cell's rank (1 = best)")
-            eps.add_argument("--suite", choices=("global", "hard"), default="global")
+            eps.add_argument(
+                "--suite",
+                choices=("global", "hard"),
+                default="global",
+                help="which suite of the cell (default global)",
+            )
         eps.add_argument("--failed", action="store_true", help="only the episodes that did not succeed")
-        eps.add_argument("--json", action="store_true")
+        eps.add_argument(
+            "--format",
+            choices=("csv", "parquet", "jsonl"),
+            help="export every metric of every episode as a flat table (default: the --out file's suffix)",
+        )
+        eps.add_argument(
+            "--out", metavar="FILE", help="write the table here (.csv, .parquet or .jsonl; default stdout)"
+        )
+        eps.add_argument("--json", action="store_true", help="print the episode list as JSON")
         add_connection_args(eps)
         eps.set_defaults(func=cmd_episodes)
 
@@ -96,6 +117,8 @@ def cmd_campaigns(args: argparse.Namespace) -> int:
 
 def cmd_episodes(args: argparse.Namespace) -> int:
     """``GET /v1/evaluations/ID/episodes`` or ``/v1/campaigns/ID/cells/RANK/episodes``: a line per episode."""
+    if args.format or args.out:
+        return _export(args)
     client = Client.from_args(args)
     if getattr(args, "rank", None) is None:
         episodes = client.get(f"/v1/evaluations/{args.id}/episodes")
@@ -116,4 +139,41 @@ def cmd_episodes(args: argparse.Namespace) -> int:
         )
     failed = sum(e["outcome"] != "success" for e in episodes)
     print(f"{len(episodes)} episodes, {failed} not successful")
+    return 0
+
+
+def _export(args: argparse.Namespace) -> int:
+    """Every episode as a flat table: read from a local run folder, else fetched from the server's export route."""
+    import sys
+    from pathlib import Path
+
+    from foresight.core.errors import ConfigError
+    from foresight.core.evaluation.episode_table import encode, export_jsonl, read_jsonl, table_format
+
+    fmt = table_format(args.format, args.out)
+    if fmt == "parquet" and not args.out:
+        raise ConfigError("Parquet is binary: give --out FILE.parquet", source="command line", item="--out")
+    local = Path(args.id)
+    if getattr(args, "rank", None) is None and (local / "episodes.jsonl").is_file():
+        if args.failed:
+            records = [r for r in read_jsonl(local / "episodes.jsonl") if r.get("outcome") != "success"]
+            data = encode(records, fmt)
+        else:
+            data = export_jsonl(local / "episodes.jsonl", fmt)
+    else:
+        if args.failed:
+            raise ConfigError("--failed lists episodes; an export holds them all (filter on the outcome column)",
+                              source="command line", item="--failed")  # fmt: skip
+        client = Client.from_args(args)
+        if getattr(args, "rank", None) is None:
+            path, params = f"/v1/evaluations/{args.id}/episodes/export", {"format": fmt}
+        else:
+            path = f"/v1/campaigns/{args.id}/cells/{args.rank}/episodes/export"
+            params = {"format": fmt, "suite": args.suite}
+        data = client.download(path, params=params)
+    if args.out:
+        Path(args.out).write_bytes(data)
+        print(f"{args.out}: {fmt}, {len(data)} bytes", file=sys.stderr)
+    else:
+        sys.stdout.write(data.decode())
     return 0

@@ -30,7 +30,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     db = sub.add_parser("db", help="database administration").add_subparsers(dest="action", required=True)
     upgrade = db.add_parser("upgrade", help="migrate the database to the latest schema")
-    upgrade.add_argument("--revision", default="head")
+    upgrade.add_argument("--revision", default="head", help="Alembic revision to migrate to (default head)")
     upgrade.set_defaults(func=cmd_db_upgrade)
 
     store = sub.add_parser("store", help="artifact store administration").add_subparsers(
@@ -45,12 +45,21 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _server_args(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--host", default="127.0.0.1")
-    parser.add_argument("--port", type=int, default=8000)
+    parser.add_argument(
+        "--host",
+        default="127.0.0.1",
+        help="address to listen on (default 127.0.0.1; 0.0.0.0 for every interface)",
+    )
+    parser.add_argument("--port", type=int, default=8000, help="TCP port to listen on (default 8000)")
     parser.add_argument(
         "--workers", type=int, default=1, help="server processes (uvicorn workers; default 1)"
     )
-    parser.add_argument("--log-level", default="warning")
+    parser.add_argument(
+        "--log-level",
+        default="warning",
+        choices=["critical", "error", "warning", "info", "debug"],
+        help="server log level (default warning)",
+    )
 
 
 def _logging(level: str = "info") -> None:
@@ -153,9 +162,12 @@ def cmd_up(args: argparse.Namespace) -> int:
     import json
 
     from foresight.store.session import upgrade
+    from foresight.worker.mlflow_export import settings_target
 
-    _logging(args.log_level)
     settings = Settings()
+    _refuse_second_server(settings, args.host, args.port)  # before anything is printed or written
+    settings_target(settings)  # an MLflow tracking URI that cannot work stops here, not in the worker
+    _logging(args.log_level)
     upgrade(settings.resolved_database_url)
     settings.server_token()  # create the data dir's token before the client needs it
     host = "127.0.0.1" if args.host in ("0.0.0.0", "::", "") else args.host
@@ -186,6 +198,36 @@ def cmd_up(args: argparse.Namespace) -> int:
             worker.kill()
         _forget(server_file)
     return 0
+
+
+def _refuse_second_server(settings: Settings, host: str, port: int) -> None:
+    """CoreError when a live `foresight up` already serves this data folder (its ``server.json`` names a running
+    process) or the port is taken: a second server would overwrite, then delete, the first one's file."""
+    import json
+    import socket
+
+    from foresight.core.errors import CoreError
+
+    server_file = settings.server_file()
+    try:
+        running = json.loads(server_file.read_text())
+        pid = int(running["pid"])
+        os.kill(pid, 0)
+    except (OSError, ValueError, KeyError, TypeError):
+        pass  # no file, or the process that wrote it is gone
+    else:
+        if pid != os.getpid():
+            raise CoreError(f"a foresight server already runs for data folder {settings.data_dir.resolve()} at "
+                            f"{running.get('url')} (pid {pid}); stop it first, or set FORESIGHT_DATA_DIR to "
+                            "another folder")  # fmt: skip
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    with socket.socket(family, socket.SOCK_STREAM) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as uvicorn binds
+        try:
+            probe.bind((host, port))
+        except OSError as exc:
+            raise CoreError(f"cannot serve on {host}:{port}: {exc.strerror} (another server uses it? "
+                            "pick another --port)") from None  # fmt: skip
 
 
 def _forget(server_file: Path) -> None:

@@ -14,6 +14,7 @@ from foresight.cli.common import emit, episode_options, matrix_options
 from foresight.core.errors import ConfigError
 from foresight.core.jobs.simulate import SimulateConfig, SimulateResult, run_simulate
 from foresight.local import build_config, local_context, matrix_ref, progress_bar
+from foresight.paths import user_file
 
 if TYPE_CHECKING:
     from foresight.core.scenarios.model import ResolvedScenario
@@ -24,7 +25,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     scen = sub.add_parser("scenarios", help="inspect scenario matrices").add_subparsers(
         dest="action", required=True
     )
-    ls = scen.add_parser("list", help="list the scenarios of a matrix")
+    ls = scen.add_parser("ls", aliases=["list"], help="list the scenarios of a matrix")
     ls.add_argument("--matrix", required=True, help="scenario matrix YAML")
     ls.add_argument("--json", action="store_true")
     ls.set_defaults(func=scenarios_list)
@@ -64,9 +65,18 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="scenario matrix YAML (server: a name in --bundle, or a file in the project's configs/)",
     )
     run.add_argument("--bundle", help="server: config bundle id; --matrix is a name inside it")
-    run.add_argument("--scenario", required=True)
-    run.add_argument("--seed", type=int, required=True)
-    run.add_argument("--render", help="write a PNG/SVG of the episode here (server: downloaded from the job)")
+    run.add_argument(
+        "--scenario", required=True, help="scenario name in the matrix (`foresight scenarios ls`)"
+    )
+    run.add_argument(
+        "--seed", type=int, required=True, help="episode seed (the crowd's and the robot's randomness)"
+    )
+    run.add_argument(
+        "--render",
+        metavar="FILE",
+        help="write the episode here, as its suffix says: .png/.svg a picture, .gif/.mp4 a replay "
+        "(MP4: the video extra) (server: downloaded from the job)",
+    )
     run.add_argument(
         "--planner", default="goal", help="planner name (as for evaluate; default goal) or a planner YAML"
     )
@@ -89,7 +99,7 @@ def scenarios_list(args: argparse.Namespace) -> int:
     from foresight.core.scenarios.loader import load_matrix
     from foresight.core.sim.population import pedestrian_count
 
-    matrix = load_matrix(Path(args.matrix))
+    matrix = load_matrix(user_file(args.matrix, "--matrix"))
     rows = [
         {
             "name": s.name,
@@ -117,7 +127,7 @@ def scenarios_check(args: argparse.Namespace) -> int:
         raise ConfigError(
             f"expected 0 < seconds <= 60, got {args.seconds}", source="command line", item="--seconds"
         )
-    matrix = load_matrix(Path(args.matrix), overrides=overrides(args.override))
+    matrix = load_matrix(user_file(args.matrix, "--matrix"), overrides=overrides(args.override))
     seeds = {s.name: list(s.scenario.seeds)[: args.seeds_per_scenario] for s in matrix.scenarios}
     lost = early_contacts(matrix.scenarios, args.seconds, seeds)
     report = {
@@ -150,7 +160,7 @@ def scenarios_reachable(args: argparse.Namespace) -> int:
     from foresight.core.sim.feasibility import reachability
     from foresight.local import overrides
 
-    matrix = load_matrix(Path(args.matrix), overrides=overrides(args.override))
+    matrix = load_matrix(user_file(args.matrix, "--matrix"), overrides=overrides(args.override))
     chosen = (
         [matrix.get(n.strip()) for n in args.scenarios.split(",")]
         if args.scenarios
@@ -267,10 +277,27 @@ def _table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+RENDER_SUFFIXES = ("png", "svg", "gif", "mp4")
+
+
+def render_format(path: str) -> str:
+    """The picture kind a ``--render`` file's suffix asks for; an unknown suffix is refused before anything runs."""
+    suffix = Path(path).suffix.lower().lstrip(".")
+    if suffix not in RENDER_SUFFIXES:
+        raise ConfigError(
+            f"{path!r}: expected a file ending in {', '.join('.' + s for s in RENDER_SUFFIXES)}",
+            source="command line",
+            item="--render",
+        )
+    return suffix
+
+
 def sim_run(args: argparse.Namespace) -> int:
     from foresight.local import ModelArgs, planner_spec
 
     values = {"scenarios": [args.scenario], "seeds": [args.seed], "render": bool(args.render)}
+    if args.render:
+        values["render_format"] = render_format(args.render)
     models = ModelArgs()
     if not args.local:
         client = stage.Client.from_args(args)

@@ -20,7 +20,7 @@ from pydantic import BaseModel, ValidationError
 
 from foresight.cli.client import Client, ServerUnreachable, add_connection_args
 from foresight.core.errors import ConfigError, CoreError
-from foresight.core.runtime.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
+from foresight.core.runtime.refs import BUILTIN_BUNDLE
 
 #: the ``--executor`` flag of every stage command that runs episodes
 EXECUTOR_HELP = (
@@ -85,25 +85,14 @@ def model_id(value: str | None, flag: str) -> str | None:
 def bundle_names(bundle: str | None, files: dict[str, str | None]) -> tuple[str, dict[str, str | None]]:
     """(bundle id, bundle-relative names) for a server spec from ``{flag: value}``.
 
-    With ``--bundle`` the values are names inside that bundle, taken as given. Without it, a file inside the
-    project's configs/ becomes its name in bundle ``builtin``; another existing local file is refused (upload
-    its folder with ``foresight bundles upload``); anything else is taken as a name in ``builtin``.
+    With ``--bundle`` the values are names inside that bundle, taken as given. Without it, each is a name in bundle
+    ``builtin`` by the one rule for typed paths (``foresight.paths.bundle_name``).
     """
     if bundle is not None:
         return bundle, dict(files)
-    names: dict[str, str | None] = {}
-    root = BUILTIN_CONFIG_ROOT.resolve()
-    for flag, value in files.items():
-        if value is None or not _local_file(value):
-            names[flag] = value
-            continue
-        path = Path(value).expanduser().resolve()
-        if root not in path.parents:
-            raise ConfigError(f"{value!r} is a local file outside the project's configs/; the server reads "
-                              "config bundles: upload its folder (`foresight bundles upload NAME FOLDER`) and pass "
-                              "--bundle NAME with names inside it, or run in-process with --local",
-                              source="command line", item=flag)  # fmt: skip
-        names[flag] = path.relative_to(root).as_posix()
+    from foresight.paths import bundle_name
+
+    names = {flag: None if value is None else bundle_name(value, flag) for flag, value in files.items()}
     return BUILTIN_BUNDLE, names
 
 

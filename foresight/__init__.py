@@ -20,6 +20,11 @@ if "gymnasium" in sys.modules:  # registers foresight/CrowdNav-v0; not imported 
     import foresight.core.gym  # noqa: F401
 
 
+def __dir__() -> list[str]:
+    """What notebook completion offers: the lazily loaded ``evaluate`` and ``simulate`` too."""
+    return sorted({*globals(), *__all__})
+
+
 def __getattr__(name: str) -> Any:
     """``evaluate`` and ``simulate`` load the evaluation stack on first use, not with every ``foresight.*`` import."""
     if name in ("evaluate", "simulate"):

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from foresight.core.evaluation.episode import EpisodeRun
-from foresight.core.evaluation.runner import EvaluationResult
+from foresight.core.evaluation.evaluation_result import EvaluationResult
 
 DEFAULT_MATRIX = "scenarios/classic_interactions.yaml"
 
@@ -85,8 +85,8 @@ def evaluate(
     ``matrix``: a YAML file, or a name in the built-in configs; ``seeds``: N seeds per scenario (default: the
     matrix's own); ``config``: the planner's config (validated by its model); ``model``: predictive planner only
     (a model id, a checkpoint path, "cv", a predictor plug-in name or a Python predictor object; default: the
-    shipped default model); ``out``: the work folder
-    (default: a new temporary folder) where evaluation.json and episodes.jsonl are written.
+    shipped default model); ``out``: the work folder (default: a new temporary folder) where evaluation.json and
+    episodes.jsonl are written; the result's ``artifacts`` name them by absolute path.
     """
     from foresight.core.evaluation.runner import run_evaluation
     from foresight.local import config_of, local_context, spec
@@ -106,7 +106,10 @@ def evaluate(
     ctx = local_context(Path(out) if out else None, roots, quiet=quiet)
     ctx.resolve_model = models.resolve
     ctx.workers = max(1, int(workers))
-    return run_evaluation(cfg, ctx)
+    result = run_evaluation(cfg, ctx)
+    # a script finds the files without knowing the (temporary) work folder: artifacts as absolute paths
+    folder = ctx.workdir.resolve()
+    return result.model_copy(update={"artifacts": {k: str(folder / v) for k, v in result.artifacts.items()}})
 
 
 def simulate(

@@ -28,38 +28,29 @@ def matrix_ref(path: str) -> tuple[str, str, dict[str, Path]]:
     A matrix inside the project's configs/ is the builtin bundle; any other file is a local bundle
     rooted at its folder (runs in-process; the service needs it uploaded as a bundle).
     """
-    p = Path(path).expanduser().resolve()
-    if not p.is_file():
-        raise ConfigError("matrix file not found", source=path)
-    try:
-        return (
-            BUILTIN_BUNDLE,
-            p.relative_to(BUILTIN_CONFIG_ROOT).as_posix(),
-            {BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT},
-        )
-    except ValueError:
-        return LOCAL_BUNDLE, p.name, {LOCAL_BUNDLE: p.parent, BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT}
+    from foresight.paths import builtin_name, user_file
+
+    p = user_file(path, "--matrix")
+    name = builtin_name(p)
+    if name is not None:
+        return BUILTIN_BUNDLE, name, {BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT}
+    return LOCAL_BUNDLE, p.name, {LOCAL_BUNDLE: p.parent, BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT}
 
 
 def bundle_of(*files: str | None) -> tuple[str, list[str], dict[str, Path]]:
     """(bundle id, bundle-relative paths, bundle roots) for command-line files."""
-    paths = []
-    for f in files:
-        if f is None:
-            paths.append(None)
-            continue
-        p = Path(f).expanduser().resolve()
-        if not p.is_file():
-            raise ConfigError("file not found", source=f)
-        paths.append(p)
+    from foresight.paths import builtin_name, user_file
+
+    paths = [None if f is None else user_file(f, "file") for f in files]
     real = [p for p in paths if p is not None]
     roots = {BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT}
-    if all(BUILTIN_CONFIG_ROOT in p.parents for p in real):
-        bundle, root = BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
-    else:
-        bundle, root = LOCAL_BUNDLE, Path(os.path.commonpath([str(p.parent) for p in real]))
-        roots[LOCAL_BUNDLE] = root
-    return bundle, [p.relative_to(root).as_posix() if p else None for p in paths], roots
+    builtin = [builtin_name(p) for p in real]
+    if all(name is not None for name in builtin):
+        names = iter(builtin)
+        return BUILTIN_BUNDLE, [None if p is None else next(names) for p in paths], roots
+    root = Path(os.path.commonpath([str(p.parent) for p in real]))
+    roots[LOCAL_BUNDLE] = root
+    return LOCAL_BUNDLE, [p.relative_to(root).as_posix() if p else None for p in paths], roots
 
 
 MODEL_REGISTRY = BUILTIN_CONFIG_ROOT.parent / "model" / "registry.yaml"
@@ -135,18 +126,27 @@ def planner_spec(
     """
     from foresight.core.planners.registry import entry, names, register
 
+    if value.startswith("sb3:"):  # a trained policy: a local file (--local), else a name in the job's bundle
+        policy = value.removeprefix("sb3:")
+        if local and Path(policy).expanduser().is_file():
+            policy = str(Path(policy).expanduser().resolve())
+        spec: dict[str, Any] = {"name": "sb3", "config": {"policy": policy}}
+        if config is not None:
+            spec["config"] |= _inline_config(config)
+        return spec
     if ":" in value and not Path(value).is_file():
         if not local:
             raise ConfigError(f"{value!r}: module:attr planners run in-process only (--local); the server runs "
                               f"installed plugins and operator-configured external planners",
                               source="command line", item="--planner")  # fmt: skip
-        spec: dict[str, Any] = {"name": register(value)}
+        spec = {"name": register(value)}
     elif value in names() or not value.endswith((".yaml", ".yml", ".json")):
         spec = {"name": value}
     else:
         from foresight.core.scenarios.loader import read_yaml
+        from foresight.paths import user_file
 
-        data = read_yaml(Path(value))
+        data = read_yaml(user_file(value, "--planner"))
         if not isinstance(data, dict):
             raise ConfigError("a planner file must be a mapping", source=value)
         spec = dict(data) if "name" in data else {"name": "predictive", "config": data}
@@ -260,6 +260,10 @@ def local_context(workdir: Path | None, bundles: dict[str, Path], *, quiet: bool
 
         return Settings().data_root(name)
 
+    from foresight.store.settings import Settings
+    from foresight.worker.mlflow_export import settings_target
+
+    settings_target(Settings())  # a tracking URI that cannot work is refused before the run, not after it
     bar = progress_bar(quiet=quiet)
     task: list[Any] = []
 
@@ -301,12 +305,33 @@ def finish_local(kind: str, result: Any, workdir: Path) -> list[Path]:
         print(message, file=sys.stderr)
 
     pages = write_report(kind, result, workdir, log)
+    if kind == "evaluate":
+        failed_players(result, workdir)
     settings = Settings()
     mlflow_export.export_run(
-        mlflow_export.target(settings.mlflow_tracking_uri, settings.mlflow_experiment),
+        mlflow_export.settings_target(settings),
         kind,
         result,
         workdir,
         log,
     )
     return pages
+
+
+def failed_players(result: Any, workdir: Path) -> list[Path]:
+    """Standalone player pages of an in-process evaluation's failed episodes, where its report links them
+    (``player/<scenario>__<seed>.html``; on the server the dashboard's player answers those links)."""
+    from foresight.core.render.episode_trace import read_compact, trace_name
+    from foresight.core.render.player import write_player
+    from foresight.core.reports.evaluation import player_path
+
+    failed = [f for g in result.aggregates.per_scenario for f in g.failed] or result.aggregates.overall.failed
+    written = []
+    for f in failed:
+        trace = workdir / trace_name(f.scenario, f.seed)
+        if trace.is_file():
+            title = f"{f.scenario} seed {f.seed}: {f.outcome}"
+            written.append(
+                write_player(workdir / player_path(f.scenario, f.seed), [(title, read_compact(trace))], title)
+            )
+    return written

@@ -57,7 +57,7 @@ def check_replaceable(engine: Engine, ident: str) -> None:
 
 def replace_upload(engine: Engine, settings: Settings, ident: str, data: bytes) -> Bundle:
     """Swap an uploaded bundle's files for a new archive's (validated first, as an upload)."""
-    from foresight.store.registry import save_upload
+    from foresight.store.uploads import save_upload
 
     _uploaded(engine, ident, "replaced")
     return save_upload(engine, settings, ident, data, replace=True)

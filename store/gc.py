@@ -2,7 +2,10 @@
 
 Orphans are job folders of jobs that no longer exist (or never committed), uploaded-bundle folders without a
 bundle row, upload staging folders (``bundles/.<id>.*``), temporaries (``*.tmp``) left by a crash or a full
-disk, and the attempt folders (``store.folders``) of succeeded jobs that a worker which lost its lease left. Folders of jobs still queued or running are never touched, nor is any file a model or dataset row uses.
+disk (in the folder of a job that ended, at once: ``checkpoints/.last.pt.*.tmp`` of a killed training; elsewhere
+once an hour old), and the attempt folders (``store.folders``) of succeeded jobs that a worker which lost its
+lease left. Folders of jobs still queued or running are never touched, nor is any file a model or dataset row
+uses.
 """
 
 from __future__ import annotations
@@ -32,14 +35,21 @@ def _size(path: Path) -> int:
     return sum(p.stat().st_size for p in path.rglob("*") if p.is_file())
 
 
+_ENDED = {queue.SUCCEEDED, queue.FAILED, queue.CANCELLED}  #: no worker writes into these jobs' folders
+
+
+def _job_of(path: Path, jobs_dir: Path) -> str | None:
+    """The job id whose folder holds ``path`` (``jobs/<id>/...``), else None."""
+    return path.relative_to(jobs_dir).parts[0] if jobs_dir in path.parents else None
+
+
 def find_garbage(engine: Engine, root: Path, *, tmp_age_s: float = TMP_AGE_S) -> tuple[Garbage, list[Path]]:
     """What :func:`collect_garbage` would remove (the report and the absolute paths)."""
     root = root.resolve()
     with engine.connect() as conn:
-        jobs = set(conn.execute(select(queue.jobs.c.id)).scalars())
-        succeeded = set(
-            conn.execute(select(queue.jobs.c.id).where(queue.jobs.c.status == queue.SUCCEEDED)).scalars()
-        )
+        status = {job: state for job, state in conn.execute(select(queue.jobs.c.id, queue.jobs.c.status))}
+        jobs = set(status)
+        succeeded = {job for job, state in status.items() if state == queue.SUCCEEDED}
         bundles = set(conn.execute(select(Bundle.root).where(Bundle.source == "upload")).scalars())
         used = set(conn.execute(select(Model.checkpoint)).scalars()) | set(
             conn.execute(select(Dataset.path)).scalars()
@@ -60,7 +70,9 @@ def find_garbage(engine: Engine, root: Path, *, tmp_age_s: float = TMP_AGE_S) ->
         ):
             found.append(folder)
     for tmp in sorted(root.rglob("*.tmp")):
-        if tmp.is_file() and tmp.stat().st_mtime < cutoff and not any(p in tmp.parents for p in found):
+        if not tmp.is_file() or any(p in tmp.parents for p in found):
+            continue
+        if tmp.stat().st_mtime < cutoff or status.get(_job_of(tmp, jobs_dir)) in _ENDED:
             found.append(tmp)
     report = Garbage(
         [p.relative_to(root).as_posix() + ("/" if p.is_dir() else "") for p in found],

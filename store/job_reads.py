@@ -124,7 +124,7 @@ _ARTIFACTS_OF = (
     .order_by(artifacts.c.name)
 )
 _CHILDREN_OF = (
-    select(jobs.c.id, jobs.c.kind, jobs.c.status, jobs.c.progress)
+    select(jobs.c.id, jobs.c.kind, jobs.c.name, jobs.c.status, jobs.c.progress)
     .where(jobs.c.parent_id == bindparam("job_id"))
     .order_by(jobs.c.created_at)
 )

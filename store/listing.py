@@ -83,7 +83,7 @@ def campaign_grid_cells(engine: Engine, campaign_id: str) -> list[Any]:
     from its job's result; from the stored cells (no configs: plotted against the variant) when the job is gone.
     ``store.queue.JobNotFound`` for an unknown campaign."""
     from foresight.core.evaluation.aggregate import SuiteSummary
-    from foresight.core.evaluation.campaign import CampaignResult
+    from foresight.core.evaluation.campaign_result import CampaignResult
     from foresight.core.reports.grid_plot import GridCell
     from foresight.store import job_reads, queue, results
 

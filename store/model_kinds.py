@@ -28,6 +28,7 @@ from foresight.store import folders, queue
 from foresight.store.models import Model, ModelStatus
 from foresight.store.session import session_factory
 from foresight.store.settings import Settings
+from foresight.store.shipped import check_model_id
 
 KINDS = ("checkpoint", *PREDICTOR_KINDS)
 MAX_MODEL_BYTES = 200 * 1024 * 1024  #: [bytes] unpacked size limit of a model's uploaded files
@@ -97,6 +98,7 @@ def register_predictor(
     if kind not in KINDS[1:]:
         raise ConfigError(f"unknown kind {kind!r}; expected one of {', '.join(KINDS[1:])}", item="kind")
     meta = metadata or {}
+    check_model_id(model_id)  # ids that name a rule are no model's
     with session_factory(engine)() as session:
         if session.get(Model, model_id) is not None:
             raise queue.Conflict(f"a model with id {model_id!r} already exists")

@@ -12,9 +12,13 @@ from typing import Any
 
 from sqlalchemy import Connection, insert, select
 
-from foresight.core.evaluation.campaign import CampaignResult
+from foresight.core.evaluation.campaign_result import CampaignResult
+from foresight.core.evaluation.evaluation_result import (
+    EvaluationResult,
+    evaluation_metrics,
+    evaluation_run_config,
+)
 from foresight.core.evaluation.gates import GateResult as Gate
-from foresight.core.evaluation.runner import EvaluationResult, evaluation_metrics, evaluation_run_config
 from foresight.core.reports.pipeline_summary import PipelineResult
 from foresight.core.training.collect import CollectResult
 from foresight.store.models import (

@@ -6,11 +6,8 @@ verifying model checksums on the way.
 
 from __future__ import annotations
 
-import hashlib
 import logging
 import re
-import shutil
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -19,19 +16,25 @@ import yaml
 from sqlalchemy import Engine, select, update
 from sqlalchemy.exc import IntegrityError
 
-from foresight.core.archive import read_archive
 from foresight.core.errors import ConfigError, CoreError, NotFoundError
 from foresight.core.yamlio import load_yaml
 from foresight.store import folders, job_reads, queue
 from foresight.store.models import Artifact, Bundle, Dataset, Model, ModelStatus
 from foresight.store.session import session_factory
 from foresight.store.settings import Settings
-from foresight.store.shipped import DEFAULT_MODEL, default_model, read_shipped, shipped_checkpoint
+from foresight.store.shipped import (
+    DEFAULT_MODEL,
+    check_model_id,
+    default_model,
+    read_shipped,
+    shipped_checkpoint,
+)
 
 logger = logging.getLogger(__name__)
 
 BUILTIN_BUNDLE = "builtin"
-BUNDLE_SUFFIXES = {".yaml", ".yml", ".svg", ".json", ".txt", ".md"}
+#: what a bundle may hold: configs, maps, notes, and trained policies (``.zip``, for planner ``sb3``)
+BUNDLE_SUFFIXES = {".yaml", ".yml", ".svg", ".json", ".txt", ".md", ".zip"}
 MAX_BUNDLE_FILES = 2000
 MAX_BUNDLE_BYTES = 50 * 1024 * 1024  #: [bytes] unpacked size limit of an uploaded bundle
 IDENT = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._:\-]{0,199}$")
@@ -130,102 +133,6 @@ def export_models(rows: list[Model]) -> str:
     return yaml.safe_dump({"models": models}, sort_keys=False)
 
 
-# ------------------------------------------------------------------------------------------ upload
-
-
-def _members(data: bytes) -> list[tuple[str, bytes]]:
-    """(name, content) of the regular files in a zip or tar archive, read within the bundle limits."""
-    return read_archive(data, max_bytes=MAX_BUNDLE_BYTES, max_files=MAX_BUNDLE_FILES)
-
-
-def _check_yaml_refs(value: Any, file: str, root: Path, where: str = "") -> None:
-    """Path-like strings in a bundle YAML must stay inside the bundle (relative, resolved under root)."""
-    if isinstance(value, dict):
-        for k, v in value.items():
-            _check_yaml_refs(v, file, root, f"{where}.{k}" if where else str(k))
-    elif isinstance(value, list):
-        for i, v in enumerate(value):
-            _check_yaml_refs(v, file, root, f"{where}[{i}]")
-    elif isinstance(value, str) and (
-        "/" in value or "\\" in value or value.endswith((".yaml", ".yml", ".svg"))
-    ):
-        if value.startswith(("/", "\\", "~")) or re.match(r"^[A-Za-z]:[\\/]", value):
-            raise ConfigError(f"absolute path {value!r} not allowed", source=file, item=where)
-        target = (root / file).parent.joinpath(value).resolve()
-        if target != root and root not in target.parents:
-            raise ConfigError(f"path {value!r} leaves the bundle", source=file, item=where)
-
-
-def save_upload(
-    engine: Engine, settings: Settings, ident: str, data: bytes, *, replace: bool = False
-) -> Bundle:
-    """Validate an uploaded zip/tar bundle and store it under ``bundles/<id>``; ConfigError when invalid.
-    ``replace``: swap out the files of an uploaded bundle of that id (``store.bundles.replace_upload``)."""
-    from foresight.core.scenarios.loader import load_matrix
-
-    if not IDENT.match(ident) or ident == BUILTIN_BUNDLE:
-        raise ConfigError(
-            "bundle id must be letters, digits, '.', '_', '-', ':' (not 'builtin')", item="name"
-        )
-    members = _members(data)
-    if not members:
-        raise ConfigError("the archive holds no files", source="upload")
-    with tempfile.TemporaryDirectory(prefix="bundle-") as tmp:
-        root = Path(tmp).resolve()
-        for name, content in members:
-            try:
-                rel = folders.check_relative(name)
-            except folders.UnsafePath as exc:
-                raise ConfigError(str(exc), source="upload", item=name) from None
-            if Path(rel).suffix not in BUNDLE_SUFFIXES:
-                raise ConfigError(
-                    f"file type not allowed (allowed: {sorted(BUNDLE_SUFFIXES)})", source="upload", item=rel
-                )
-            folders.write_atomic(folders.resolve_under(root, rel), content)
-        files = bundle_files(root)
-        for rel in files:
-            if rel.endswith((".yaml", ".yml")):
-                try:
-                    _check_yaml_refs(load_yaml((root / rel).read_text(), source=rel), rel, root)
-                except (yaml.YAMLError, UnicodeDecodeError) as exc:
-                    raise ConfigError(f"not valid YAML: {exc}", source=rel) from None
-        matrices = matrix_files(root, files)
-        if not matrices:
-            raise ConfigError(
-                "no scenario matrix (a YAML file with 'scenarios' or 'includes')", source="upload"
-            )
-        for rel in matrices:
-            try:
-                load_matrix(root / rel)
-            except CoreError as exc:
-                raise ConfigError(str(exc), source=rel) from None
-        stored = f"bundles/{ident}"
-        dest = folders.resolve_under(settings.store_root, stored)
-        if dest.exists() and not replace:
-            raise FileExistsError(ident)
-        dest.parent.mkdir(parents=True, exist_ok=True)
-        staging = Path(tempfile.mkdtemp(prefix=f".{ident}.", dir=dest.parent))
-        old = None
-        try:  # a full disk (or any failure) leaves no staging folder behind
-            for rel in files:
-                folders.write_atomic(staging / rel, (root / rel).read_bytes())
-            if dest.exists():  # replace: the old files step aside (a staging-named folder gc knows), then go
-                old = Path(tempfile.mkdtemp(prefix=f".{ident}.", dir=dest.parent)) / "old"
-                dest.rename(old)
-            staging.rename(dest)
-        except BaseException:
-            if old is not None and old.exists() and not dest.exists():
-                old.rename(dest)
-            shutil.rmtree(staging, ignore_errors=True)
-            raise
-        finally:
-            if old is not None:
-                shutil.rmtree(old.parent, ignore_errors=True)
-    _put_bundle(engine, ident, "upload", dest, stored, hashlib.sha256(data).hexdigest())
-    with session_factory(engine)() as session:
-        return session.get(Bundle, ident)
-
-
 # ------------------------------------------------------------------------------------------ resolution
 
 
@@ -259,11 +166,15 @@ class Resolver:
         return self.bundle_root(row)
 
     def dataset(self, ident: str) -> Path:
+        """A dataset's file after hashing its content (a rewritten ``mixed.npz`` was trained on)."""
         with self.sessions() as session:
             row = session.get(Dataset, ident)
         if row is None:
             raise NotFoundError(f"unknown dataset id {ident!r}")
-        return folders.resolve_under(self.settings.store_root, row.path)
+        path = folders.resolve_under(self.settings.store_root, row.path)
+        if row.sha256 and path.is_file() and folders.sha256_file(path) != row.sha256:  # before any training
+            raise CoreError(f"dataset {ident!r}: {Path(row.path).name} does not match its recorded sha256")
+        return path
 
     def model_path(self, row: Model) -> Path:
         if row.read_only:
@@ -274,11 +185,14 @@ class Resolver:
         """The registry entry of a model id; ``default`` names the default model
         (:func:`~store.shipped.default_model`: status default, else a shipped entry tagged default)."""
         with self.sessions() as session:
-            row = session.get(Model, ident)
-            if row is None and ident == DEFAULT_MODEL:
+            if (
+                ident == DEFAULT_MODEL
+            ):  # the rule, even over a row registered under that id before it was reserved
                 row = default_model(
                     session.scalars(select(Model).order_by(Model.read_only, Model.created_at))
                 )
+            else:
+                row = session.get(Model, ident)
         if row is None:
             raise NotFoundError(
                 f"unknown model id {ident!r} (nor an installed predictor plug-in: {_plugin_hint()})"
@@ -339,6 +253,7 @@ def register_checkpoint(
     Returns ``{model_id, status, resumed}``.
     """
     meta = metadata or {}
+    check_model_id(model_id)
     with session_factory(engine, write=True).begin() as session:
         existing = session.get(Model, model_id)
         if existing is not None:
@@ -356,9 +271,10 @@ def register_checkpoint(
         if art is None:
             raise queue.JobNotFound(f"job {job_id} has no artifact {name!r}")
         checkpoint = _checkpoint(settings, art.path, art.sha256, name)
+        _same_time_base(meta.get("time_base"), checkpoint["timebase"])
         session.add(Model(
             id=model_id, status=status, checkpoint=art.path, sha256=art.sha256,
-            time_base=meta["time_base"] if "time_base" in meta else dict(checkpoint["timebase"]),
+            time_base=dict(checkpoint["timebase"]),
             lineage={**meta.get("lineage", {}), "frame_convention": checkpoint["feature_schema"]["frame_convention"],
                      "kind": "checkpoint", "modes": int((checkpoint.get("model_config") or {}).get("modes", 1)), "files": {name: art.sha256}},
             training=meta.get("training", {}), metrics=meta.get("metrics", {}), tags=meta.get("tags", []),
@@ -370,6 +286,22 @@ def register_checkpoint(
         except IntegrityError:
             raise queue.Conflict(f"a model with id {model_id!r} already exists") from None
     return {"model_id": model_id, "status": status, "resumed": False}
+
+
+def _same_time_base(given: dict[str, Any] | None, stored: Any) -> None:
+    """ConfigError (422) when a registration states a time base other than its checkpoint's (any dict was
+    stored before: ``{"dt": -1}``); the registry keeps the checkpoint's."""
+    from foresight.core.predict.timebase import TimeBase
+
+    if not given:
+        return
+    try:
+        tb = TimeBase(**given)
+    except TypeError:
+        raise ConfigError("time_base takes dt, history and horizon", item="time_base") from None
+    except ConfigError as exc:
+        raise ConfigError(exc.detail, item="time_base") from None
+    TimeBase.from_dict(stored).require_same(tb, what="time_base", source="the checkpoint")
 
 
 def _checkpoint(settings: Settings, path: str, sha256: str, name: str) -> dict[str, Any]:

@@ -14,7 +14,7 @@ from typing import Any
 from sqlalchemy import Engine, func, select
 
 from foresight.core.evaluation.aggregate import GroupStats, SuiteSummary
-from foresight.core.evaluation.runner import EvaluationMetrics
+from foresight.core.evaluation.evaluation_result import EvaluationMetrics
 from foresight.store import folders, job_reads, queue
 from foresight.store.models import (
     Campaign,
@@ -94,6 +94,11 @@ def campaign(engine: Engine, ident: str) -> tuple[Campaign, list[dict[str, Any]]
         )
 
 
+def _rank(text: str) -> int | None:
+    """A cell rank written in an id (ASCII digits, at most 9 of them: 2**64 reached an integer column), else None."""
+    return int(text) if text.isascii() and text.isdigit() and len(text) <= 9 else None
+
+
 def comparison_operand(engine: Engine, ident: str) -> tuple[str, dict[str, Any], GroupStats | SuiteSummary]:
     """(what it is, resolved config, headline summary) of an evaluation id or a campaign cell
     ``CAMPAIGN_ID:RANK[:SUITE]`` (rank 1 = the best cell, suite ``global`` (default) or ``hard``)."""
@@ -104,7 +109,7 @@ def comparison_operand(engine: Engine, ident: str) -> tuple[str, dict[str, Any],
         campaign_id, _, rest = ident.partition(":")
         rank, _, suite = rest.partition(":")
         found = session.get(Campaign, campaign_id)
-        if not rank.isdigit() or (suite or "global") not in SUITES or found is None:
+        if _rank(rank) is None or (suite or "global") not in SUITES or found is None:
             raise queue.JobNotFound(
                 f"no evaluation {ident!r} and no campaign cell of that name "
                 "(cells are CAMPAIGN_ID:RANK or CAMPAIGN_ID:RANK:hard, rank 1 = best)"
@@ -185,7 +190,7 @@ class CellRun:
 
     job_id: str | None
     config: dict[str, Any]  #: the campaign row's config
-    cell: Any  #: core.evaluation.campaign.CellResult
+    cell: Any  #: core.evaluation.campaign_result.CellResult
     suite: str  #: global or hard
     suites: (
         dict[str, list[tuple[str, int]]] | None
@@ -195,7 +200,7 @@ class CellRun:
 def campaign_cell(engine: Engine, ident: str) -> CellRun | None:
     """The cell ``CAMPAIGN_ID:RANK[:SUITE]`` (rank 1 = best) from its job's result; None when the job keeps no result.
     JobNotFound for an unknown campaign, rank or suite."""
-    from foresight.core.evaluation.campaign import CampaignCells
+    from foresight.core.evaluation.campaign_result import CampaignCells
 
     campaign_id, _, rest = ident.partition(":")
     rank, _, suite = rest.partition(":")
@@ -207,7 +212,7 @@ def campaign_cell(engine: Engine, ident: str) -> CellRun | None:
     if job is None or job["result"] is None:
         return None
     result = CampaignCells.model_validate(job["result"])
-    if not rank.isdigit() or not 1 <= int(rank) <= len(result.ranked):
+    if _rank(rank) is None or not 1 <= int(rank) <= len(result.ranked):
         raise queue.JobNotFound(f"campaign {campaign_id!r} has no cell of rank {rank}")
     return CellRun(found.job_id, found.config, result.cell(int(rank)), suite or "global", result.suites)
 

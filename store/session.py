@@ -9,13 +9,17 @@ busy timeout for the single writer lock instead of failing on a lock upgrade.
 from __future__ import annotations
 
 import contextlib
+import json
+import os
 import random
+import re
 import sqlite3
 import threading
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 from sqlalchemy import Connection, Engine, create_engine, event, text
 from sqlalchemy.engine import make_url
@@ -23,6 +27,7 @@ from sqlalchemy.exc import DBAPIError, OperationalError
 from sqlalchemy.orm import Session, sessionmaker
 
 from foresight.core.errors import CoreError
+from foresight.core.limits import printable
 
 MIGRATIONS_DIR = Path(__file__).resolve().parent.parent / "migrations"
 _IMMEDIATE = "foresight_immediate"
@@ -38,20 +43,41 @@ class NotMigratedError(CoreError, RuntimeError):
     """The database schema is not at the latest migration; run `foresight db upgrade`."""
 
 
+_UNSTORABLE = re.compile(r"\\u(?:0000|d[89a-fA-F])")
+
+
+def json_serializer(value: Any) -> str:
+    """JSON columns' serializer: as ``json.dumps``, except that text no reader can take back is written escaped
+    (a NUL as the four characters ``\\x00``, a lone surrogate as ``\\ud800``): PostgreSQL's JSON operators
+    refuse ``\\u0000``, and a lone surrogate read back made every listing that held it fail to encode. Requests
+    with such text are refused (api.bodies); this keeps any other writer (a worker's result, a stage's message)
+    from storing a value that breaks a listing."""
+    text = json.dumps(value)
+    if _UNSTORABLE.search(text) is None:
+        return text
+    return json.dumps(printable(value))
+
+
 def make_engine(url: str, *, busy_timeout_ms: int = 30000, pool_size: int = 10) -> Engine:
-    """An engine for ``url``; SQLite files get their folder created and WAL mode switched on."""
+    """An engine for ``url``; SQLite files get their folder created, are created readable by their owner only
+    (0600: the file holds every job and token-protected write), and WAL mode is switched on."""
     parsed = make_url(url)
     if parsed.get_backend_name() != "sqlite":
         # no pre-ping (a round trip per checkout, ~a third of a claim's cost); connections are recycled,
         # and the worker loop and the API survive a dropped connection by retrying / answering 500 once
-        return create_engine(url, pool_size=pool_size, max_overflow=2 * pool_size, pool_recycle=300)
+        return create_engine(url, pool_size=pool_size, max_overflow=2 * pool_size, pool_recycle=300,
+                             json_serializer=json_serializer)  # fmt: skip
     if parsed.database and parsed.database != ":memory:":
-        Path(parsed.database).parent.mkdir(parents=True, exist_ok=True)
+        path = Path(parsed.database)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with contextlib.suppress(FileExistsError):
+            os.close(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))  # SQLite then keeps its mode
     engine = create_engine(
         url,
         connect_args={"timeout": busy_timeout_ms / 1000, "check_same_thread": False},
         pool_size=pool_size,
         max_overflow=2 * pool_size,
+        json_serializer=json_serializer,
     )
 
     @event.listens_for(engine, "connect")

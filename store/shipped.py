@@ -12,15 +12,25 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from foresight.core.errors import ConfigError, NotFoundError
+from foresight.core.runtime.refs import DEFAULT_MODEL, RESERVED_MODEL_IDS
 from foresight.core.yamlio import load_yaml
 from foresight.store import folders
 
-DEFAULT_MODEL = "default"  #: the model id that names the default model
 T = TypeVar("T")
 
 
 def _field(entry: Any, name: str) -> Any:
     return entry.get(name) if isinstance(entry, dict) else getattr(entry, name)
+
+
+def check_model_id(model_id: str) -> None:
+    """ConfigError (422) for an id that would shadow a rule: ``default`` registered as a model took over every
+    run that names no model, and could never be deleted once used; ``cv`` and ``none`` would be unreachable."""
+    if model_id.lower() in RESERVED_MODEL_IDS:
+        reserved = ", ".join(sorted(RESERVED_MODEL_IDS))
+        raise ConfigError(
+            f"model id {model_id!r} is reserved (reserved ids: {reserved}); choose another id", item="id"
+        )
 
 
 def default_model(entries: Iterable[T]) -> T | None:

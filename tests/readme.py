@@ -1,5 +1,6 @@
-"""README.md's fenced code blocks, by the section (the nearest heading) they stand in: the tests that run README's
-commands as written read them from here, so the README is the one copy of each example."""
+"""The fenced code blocks of README.md and of the documentation pages (docs/), by the page and the section (the
+nearest heading) they stand in: the tests that run the documented commands as written read them from here, so the
+page is the one copy of each example."""
 
 from __future__ import annotations
 
@@ -8,7 +9,19 @@ import shlex
 from dataclasses import dataclass
 from pathlib import Path
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+REPO = Path(__file__).resolve().parents[1]
+README = REPO / "README.md"
+DOCS = REPO / "docs"
+
+
+def pages() -> list[Path]:
+    """README.md and every Markdown page of the documentation site."""
+    return [README, *sorted(DOCS.rglob("*.md"))]
+
+
+def page_name(page: Path) -> str:
+    """A page's path relative to the repository (``README.md``, ``docs/service.md``)."""
+    return page.relative_to(REPO).as_posix()
 
 
 @dataclass(frozen=True)
@@ -23,13 +36,13 @@ class Block:
         return self.section, self.index
 
 
-def blocks(lang: str | None = None) -> list[Block]:
-    """Every fenced block of README.md in order (those of one language when `lang` is given)."""
+def blocks(lang: str | None = None, page: Path = README) -> list[Block]:
+    """Every fenced block of a page in order (those of one language when `lang` is given)."""
     out: list[Block] = []
     section, counts = "", {}
     fence = re.compile(r"^```(\w*)\n(.*?)^```", flags=re.S | re.M)
     pos = 0
-    text = README.read_text()
+    text = page.read_text()
     for m in fence.finditer(text):
         for heading in re.findall(r"^#{1,6} (.+)$", text[pos : m.start()], flags=re.M):
             section = heading.strip()
@@ -40,9 +53,9 @@ def blocks(lang: str | None = None) -> list[Block]:
     return [b for b in out if lang is None or b.lang == lang]
 
 
-def section_blocks(section: str, lang: str | None = None) -> list[Block]:
-    found = [b for b in blocks(lang) if b.section == section]
-    assert found, f"README.md has no {lang or ''} block under the heading {section!r}"
+def section_blocks(section: str, lang: str | None = None, page: Path = README) -> list[Block]:
+    found = [b for b in blocks(lang, page) if b.section == section]
+    assert found, f"{page_name(page)} has no {lang or ''} block under the heading {section!r}"
     return found
 
 
@@ -61,5 +74,5 @@ def commands(code: str) -> list[str]:
             continue
         out.append(pending)
         pending = ""
-    assert not pending, f"unclosed quote in README block: {pending}"
+    assert not pending, f"unclosed quote in a documented block: {pending}"
     return out

@@ -148,6 +148,7 @@ class ChildRunner:
                 parent_id=self.parent_id,
                 idempotency_key=key,
                 max_attempts=self.settings.max_attempts,
+                labels={"name": label},  # "stage train": the parent's page and `jobs ls` name it by its stage
             )
         except queue.IdempotencyConflict:
             raise CoreError(f"{label}: its child job was submitted with a different spec") from None

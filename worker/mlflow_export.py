@@ -27,8 +27,9 @@ from urllib.parse import urlsplit
 
 from pydantic import BaseModel
 
-from foresight.core.evaluation.campaign import CampaignResult
-from foresight.core.evaluation.runner import EvaluationResult, read_records
+from foresight.core.evaluation.campaign_result import CampaignResult
+from foresight.core.evaluation.evaluation_result import EvaluationResult
+from foresight.core.evaluation.runner import read_records
 from foresight.core.jobs.results import read_result, verdict
 from foresight.core.predict.dataset import config_hash, file_sha256
 from foresight.core.training.config import TrainingSummary, TrainResult
@@ -49,6 +50,13 @@ class MlflowTarget:
 
     tracking_uri: str
     experiment: str = "foresight"
+    #: where a database-backed tracking URI (sqlite://, postgresql://, ...) keeps a new experiment's artifacts:
+    #: under the data folder, not ``./mlruns`` in whatever folder the worker or the CLI runs in
+    artifact_root: Path | None = None
+
+    @property
+    def database(self) -> bool:
+        return urlsplit(self.tracking_uri).scheme.split("+")[0] in DATABASE_SCHEMES
 
     def public_uri(self) -> str:
         """The URI without credentials (``http://user:secret@host`` -> ``http://host``), for log lines."""
@@ -60,9 +68,34 @@ class MlflowTarget:
         return text.replace(netloc, netloc.rpartition("@")[2]) if "@" in netloc else text
 
 
-def target(tracking_uri: str, experiment: str = "foresight") -> MlflowTarget | None:
-    """The export target of the settings (``FORESIGHT_MLFLOW_TRACKING_URI``/``_EXPERIMENT``); None: no export."""
-    return MlflowTarget(tracking_uri.strip(), experiment or "foresight") if tracking_uri.strip() else None
+DATABASE_SCHEMES = ("sqlite", "postgresql", "mysql", "mssql")
+ENV = "FORESIGHT_MLFLOW_TRACKING_URI"
+
+
+def target(
+    tracking_uri: str, experiment: str = "foresight", artifact_root: Path | None = None
+) -> MlflowTarget | None:
+    """The export target of the settings (``FORESIGHT_MLFLOW_TRACKING_URI``/``_EXPERIMENT``); None: no export.
+
+    A ``file://`` URI (or a bare folder) is refused here, at start: MLflow 3 keeps its file store read-only, so
+    every export would fail later with one warning each."""
+    uri = tracking_uri.strip()
+    if not uri:
+        return None
+    scheme = urlsplit(uri).scheme
+    if scheme in ("", "file") or len(scheme) == 1:  # a path (a Windows drive letter parses as a scheme)
+        from foresight.core.errors import ConfigError
+
+        raise ConfigError(f"{uri!r}: MLflow 3 no longer writes to a file store; use a database, e.g. "
+                          "sqlite:///PATH/mlflow.db, or an MLflow server's http(s):// URL", source=ENV)  # fmt: skip
+    return MlflowTarget(uri, experiment or "foresight", artifact_root)
+
+
+def settings_target(settings: Any) -> MlflowTarget | None:
+    """:func:`target` of the settings, artifacts of a database-backed store under the data folder."""
+    return target(
+        settings.mlflow_tracking_uri, settings.mlflow_experiment, settings.data_dir / "mlflow-artifacts"
+    )
 
 
 @dataclass
@@ -248,7 +281,10 @@ def export(target: MlflowTarget, content: RunContent, log: Callable[[str], None]
         from mlflow.tracking import MlflowClient
 
         client = MlflowClient(tracking_uri=target.tracking_uri)
-        experiment_id = _experiment(client, target.experiment)
+        location = None
+        if target.database and target.artifact_root is not None:
+            location = (target.artifact_root.resolve() / target.experiment).as_uri()
+        experiment_id = _experiment(client, target.experiment, location)
         job_id = content.tags.get("foresight.job_id")
         if job_id is not None:  # a job whose recording failed after its export runs again: keep one run
             done = client.search_runs([experiment_id], f"tags.`foresight.job_id` = '{job_id}' and "
@@ -287,13 +323,13 @@ def export(target: MlflowTarget, content: RunContent, log: Callable[[str], None]
     return str(run_id)
 
 
-def _experiment(client: Any, name: str) -> str:
+def _experiment(client: Any, name: str, artifact_location: str | None = None) -> str:
     """The experiment's id, creating it (another worker may create it at the same moment)."""
     found = client.get_experiment_by_name(name)
     if found is not None:
         return str(found.experiment_id)
     try:
-        return str(client.create_experiment(name))
+        return str(client.create_experiment(name, artifact_location=artifact_location))
     except Exception:  # noqa: BLE001 - RESOURCE_ALREADY_EXISTS from a concurrent creator
         found = client.get_experiment_by_name(name)
         if found is None:

@@ -99,7 +99,7 @@ class JobWorker:
         self.parent_stop = parent_stop
         self.resolver = Resolver(settings, engine)
         #: where finished runs are copied (FORESIGHT_MLFLOW_TRACKING_URI); None: nowhere
-        self.mlflow = mlflow_export.target(settings.mlflow_tracking_uri, settings.mlflow_experiment)
+        self.mlflow = mlflow_export.settings_target(settings)
         self._held: dict[str, Held] = {}
         self._lock = threading.Lock()
         self._stopping = threading.Event()

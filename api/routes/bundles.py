@@ -12,7 +12,8 @@ from foresight.api.schemas import BundlePublic, BundlesPublic, Ident, ScenarioPu
 from foresight.core.errors import ConfigError
 from foresight.store import bundles, queue, registry
 from foresight.store.models import Bundle
-from foresight.store.registry import MAX_BUNDLE_BYTES, save_upload
+from foresight.store.registry import MAX_BUNDLE_BYTES
+from foresight.store.uploads import save_upload
 
 router = APIRouter(prefix="/bundles", tags=["bundles"])
 

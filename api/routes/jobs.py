@@ -93,6 +93,7 @@ async def create_job(
     (404) and fit the server's step budget (422); a job without ``timeout_s`` gets the server's default."""
     # async: the body is validated on the event loop anyway; the queue decides per database how the job is written
     # (on SQLite a plain submission waits on the submission thread without holding a thread)
+    body.spec = await run_in_threadpool(admission.full_ids, body.spec, engine)
     spec = body.spec.model_dump(mode="json")
     errors = unsafe_paths(spec)
     if errors:

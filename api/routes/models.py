@@ -7,16 +7,16 @@ from typing import Annotated, Literal
 from fastapi import APIRouter, Query, Request, Response, status
 from fastapi.responses import PlainTextResponse
 
-from foresight.api.bodies import BoundedJsonRoute
+from foresight.api.bodies import SmallJsonRoute
 from foresight.api.deps import EngineDep, SettingsDep, WriteAuth
 from foresight.api.errors import AUTH, responses
 from foresight.api.routes.bundles import ARCHIVE_BODY
 from foresight.api.schemas import Ident, ModelCreate, ModelPromote, ModelPublic, ModelsPublic
 from foresight.core.errors import ConfigError
-from foresight.store import registry
+from foresight.store import job_reads, registry
 from foresight.store.models import ModelStatus
 
-router = APIRouter(prefix="/models", tags=["models"], route_class=BoundedJsonRoute)
+router = APIRouter(prefix="/models", tags=["models"], route_class=SmallJsonRoute)
 
 
 @router.get("")
@@ -63,17 +63,23 @@ def export_registry(engine: EngineDep) -> YamlResponse:
 
 
 @router.post(
-    "", status_code=status.HTTP_201_CREATED, dependencies=[WriteAuth], responses=responses(*AUTH, 404, 409)
+    "",
+    status_code=status.HTTP_201_CREATED,
+    dependencies=[WriteAuth],
+    responses=responses(*AUTH, 404, 409, 413),
 )
 def create_model(body: ModelCreate, engine: EngineDep, settings: SettingsDep) -> ModelPublic:
-    """Register a checkpoint artifact of a succeeded job as a candidate (409 for a duplicate id; 422 when the
-    artifact is not a checkpoint of a known format or no longer has its recorded sha256)."""
-    meta = body.model_dump(include={"time_base", "lineage", "training", "metrics", "tags", "provenance"})
+    """Register a checkpoint artifact of a succeeded job as a candidate (409 for a duplicate id; 422 for a reserved
+    id, when the artifact is not a checkpoint of a known format or no longer has its recorded sha256, or a
+    ``time_base`` other than the checkpoint's; 413 for a body over 64 KiB). The time base is the checkpoint's."""
+    meta = body.model_dump(include={"lineage", "training", "metrics", "tags", "provenance"})
+    if body.time_base:
+        meta["time_base"] = body.time_base
     registry.register_checkpoint(
         engine,
         settings,
         model_id=body.id,
-        job_id=body.job_id,
+        job_id=job_reads.resolve_id(engine, body.job_id),
         artifact=body.artifact,
         metadata=meta,
         status=body.status,

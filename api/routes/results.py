@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from fastapi import APIRouter, Query
+from fastapi import APIRouter, Query, Response
 
 from foresight.api.deps import EngineDep, SettingsDep
 from foresight.api.errors import responses
@@ -14,7 +14,9 @@ from foresight.api.schemas import (
     EpisodePublic,
     EvaluationPublic,
     Ident,
+    Rank,
 )
+from foresight.core.runtime.refs import Seed
 from foresight.store import job_reads, queue, results
 
 router = APIRouter(tags=["results"])
@@ -78,9 +80,52 @@ def read_evaluation_episodes(
     return episode_list(engine, settings, full_id(engine, evaluation_id))
 
 
+TableFormat = Annotated[Literal["csv", "parquet", "jsonl"], Query(description="csv, parquet or jsonl")]
+
+
+@router.get("/evaluations/{evaluation_id}/episodes/export", responses=responses(404), response_class=Response)
+def export_evaluation_episodes(
+    evaluation_id: Ident, engine: EngineDep, settings: SettingsDep, format: TableFormat = "csv"
+) -> Response:
+    """Every episode of an evaluation as a flat table (one row per episode, a column per metric, dotted names
+    such as ``safety.min_clearance``), in run order: CSV, Parquet or JSON lines."""
+    return _export(engine, settings, full_id(engine, evaluation_id), format)
+
+
+@router.get(
+    "/campaigns/{campaign_id}/cells/{rank}/episodes/export", responses=responses(404), response_class=Response
+)
+def export_cell_episodes(
+    campaign_id: Ident,
+    rank: int,
+    engine: EngineDep,
+    settings: SettingsDep,
+    suite: Annotated[Literal["global", "hard"], Query()] = "global",
+    format: TableFormat = "csv",
+) -> Response:
+    """A campaign cell's episodes of one suite as :func:`export_evaluation_episodes` writes them."""
+    return _export(engine, settings, f"{full_id(engine, campaign_id)}:{rank}:{suite}", format)
+
+
+def _export(engine: Any, settings: Any, ident: str, fmt: str) -> Response:
+    from foresight.core.evaluation.episode_table import MEDIA_TYPES, encode, export_jsonl
+
+    folder = results.run_folder(engine, settings.store_root, ident)
+    name = f"episodes-{ident.replace(':', '-')}.{fmt}"
+    headers = {"Content-Disposition": f'attachment; filename="{name}"'}
+    whole = None if folder is None or folder.episodes is not None else folder.path / "episodes.jsonl"
+    if whole is not None and whole.is_file():  # an evaluation: its file as it is, the fast way
+        return Response(export_jsonl(whole, fmt), media_type=MEDIA_TYPES[fmt], headers=headers)
+    records = _records(folder)
+    if records is None:
+        results.comparison_operand(engine, ident)  # 404 for an unknown id
+        records = []
+    return Response(encode(records, fmt), media_type=MEDIA_TYPES[fmt], headers=headers)
+
+
 @router.get("/evaluations/{evaluation_id}/episodes/{scenario}/{seed}", responses=responses(404))
 def read_episode_trace(
-    evaluation_id: Ident, scenario: Ident, seed: int, engine: EngineDep, settings: SettingsDep
+    evaluation_id: Ident, scenario: Ident, seed: Seed, engine: EngineDep, settings: SettingsDep
 ) -> dict[str, Any]:
     """One episode's compact trace (core.render.episode_trace): robot, pedestrians with ids, goal and
     tolerance, walls, collision, logged forecasts; what the dashboard's episode player draws."""
@@ -90,7 +135,7 @@ def read_episode_trace(
 @router.get("/campaigns/{campaign_id}/cells/{rank}/episodes", responses=responses(404))
 def read_cell_episodes(
     campaign_id: Ident,
-    rank: int,
+    rank: Rank,
     engine: EngineDep,
     settings: SettingsDep,
     suite: Annotated[Literal["global", "hard"], Query()] = "global",
@@ -102,7 +147,7 @@ def read_cell_episodes(
 
 @router.get("/campaigns/{campaign_id}/cells/{rank}/episodes/{scenario}/{seed}", responses=responses(404))
 def read_cell_episode_trace(
-    campaign_id: Ident, rank: int, scenario: Ident, seed: int, engine: EngineDep, settings: SettingsDep
+    campaign_id: Ident, rank: Rank, scenario: Ident, seed: Seed, engine: EngineDep, settings: SettingsDep
 ) -> dict[str, Any]:
     """One episode's compact trace as a campaign cell (rank 1 = best) ran it: the same shape as an evaluation's."""
     return _trace(engine, settings, f"{full_id(engine, campaign_id)}:{rank}", scenario, seed)
@@ -110,7 +155,7 @@ def read_cell_episode_trace(
 
 @router.get("/jobs/{job_id}/witnesses/{scenario}/{seed}", responses=responses(404))
 def read_witness_trace(
-    job_id: Ident, scenario: Ident, seed: int, engine: EngineDep, settings: SettingsDep
+    job_id: Ident, scenario: Ident, seed: Seed, engine: EngineDep, settings: SettingsDep
 ) -> dict[str, Any]:
     """The compact trace of a witness job's witness for one episode (the same shape as an evaluation's episode
     trace): what the dashboard plays beside the planner's run of that episode."""

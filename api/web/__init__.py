@@ -10,11 +10,12 @@ from __future__ import annotations
 
 from fastapi import FastAPI
 
+from foresight.api.deps import KnownQuery
 from foresight.api.web.auth import install_handlers
 from foresight.api.web.pages import router
 
 
 def install(app: FastAPI) -> None:
     """Add the dashboard routes and its HTML error pages to ``app``."""
-    app.include_router(router)
+    app.include_router(router, dependencies=[KnownQuery])  # a junk parameter is a 422, as on the API
     install_handlers(app)

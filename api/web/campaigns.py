@@ -6,8 +6,11 @@ from __future__ import annotations
 from fastapi import APIRouter, Depends, Request
 from fastapi.responses import HTMLResponse
 
+from foresight.api.schemas import Rank
+from foresight.api.web import files
 from foresight.api.web.auth import PageNotFound, read_access
 from foresight.api.web.render import page
+from foresight.core.runtime.refs import Seed
 from foresight.store import job_reads, listing, queue, results
 
 router = APIRouter(prefix="/ui", include_in_schema=False, dependencies=[Depends(read_access)])
@@ -36,7 +39,7 @@ def campaign_page(request: Request, campaign_id: str) -> HTMLResponse:
 
 
 @router.get("/campaigns/{campaign_id}/cells/{rank}")
-def cell_page(request: Request, campaign_id: str, rank: int) -> HTMLResponse:
+def cell_page(request: Request, campaign_id: str, rank: Rank) -> HTMLResponse:
     """One cell's episodes, suite by suite (hard first), failures first, each one click from the episode player."""
     from foresight.api.routes.results import episode_list
 
@@ -65,9 +68,9 @@ def cell_page(request: Request, campaign_id: str, rank: int) -> HTMLResponse:
 
 @router.get("/campaigns/{campaign_id}/cells/{rank}/episodes/{scenario}/{seed}")
 def cell_episode_page(
-    request: Request, campaign_id: str, rank: int, scenario: str, seed: int
+    request: Request, campaign_id: str, rank: Rank, scenario: str, seed: Seed
 ) -> HTMLResponse:
-    """The episode player on one episode as a campaign cell ran it."""
+    """The episode player on one episode as a campaign cell ran it (404 for an episode it did not store)."""
     from foresight.api.routes.results import trace_url
 
     try:
@@ -75,6 +78,7 @@ def cell_episode_page(
         _, config, _ = results.comparison_operand(request.app.state.engine, ident)
     except queue.JobNotFound as exc:
         raise PageNotFound(str(exc)) from None
+    files.stored_trace(request, ident, scenario, seed)
     return page(
         request,
         "episode.html",

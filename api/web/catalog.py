@@ -58,6 +58,13 @@ def bundles_page(request: Request) -> HTMLResponse:
     return page(request, "bundles.html", title="Bundles", nav="bundles", bundles=rows)
 
 
+@router.get("/maps")
+def maps_page(request: Request) -> HTMLResponse:
+    """Every scenario matrix of every bundle, each a link to its maps' previews (the matrix page)."""
+    rows = registry.bundles(request.app.state.engine)
+    return page(request, "maps.html", title="Maps", nav="maps", bundles=[b for b in rows if b.scenarios])
+
+
 @router.get("/bundles/{bundle_id}")
 def bundle_page(request: Request, bundle_id: str) -> HTMLResponse:
     """A bundle's files and scenario matrices."""
@@ -84,7 +91,7 @@ def matrix_page(request: Request, bundle_id: str, path: MatrixQuery) -> HTMLResp
     by_map: dict[str, list[Any]] = {}
     for s in matrix.scenarios:
         by_map.setdefault(s.map.name, []).append(s)
-    return page(request, "matrix.html", title=f"{bundle_id}: {path}", nav="bundles", bundle=row, path=path,
+    return page(request, "matrix.html", title=f"{bundle_id}: {path}", nav="maps", bundle=row, path=path,
                 matrix=matrix, by_map=by_map)  # fmt: skip
 
 

@@ -9,11 +9,12 @@ from fastapi import APIRouter, Depends, Query, Request
 from fastapi import Path as PathParam
 from fastapi.responses import HTMLResponse, RedirectResponse, Response
 
-from foresight.api.web import campaigns, catalog, files
+from foresight.api.web import campaigns, catalog, files, forms
 from foresight.api.web.auth import PageNotFound, read_access
-from foresight.api.web.render import page
+from foresight.api.web.render import page, ts
 from foresight.core.jobs.kinds import KINDS
 from foresight.core.jobs.results import Verdict, verdict
+from foresight.core.runtime.refs import Seed
 from foresight.store import job_reads, queue
 from foresight.store.models import JobStatus
 
@@ -61,7 +62,7 @@ def jobs_page(
     request: Request,
     status: StatusFilter = None,
     kind: KindFilter = None,
-    offset: Annotated[int, Query(ge=0)] = 0,
+    offset: Annotated[int, Query(ge=0, le=10_000_000)] = 0,
     tag: TagFilter = None,
     q: TextFilter = None,
 ) -> HTMLResponse:
@@ -83,7 +84,7 @@ def jobs_rows(
     request: Request,
     status: StatusFilter = None,
     kind: KindFilter = None,
-    offset: Annotated[int, Query(ge=0)] = 0,
+    offset: Annotated[int, Query(ge=0, le=10_000_000)] = 0,
     tag: TagFilter = None,
     q: TextFilter = None,
 ) -> HTMLResponse:
@@ -138,7 +139,7 @@ def _witnesses(job: dict[str, Any]) -> Any:
 
 @pages.get("/jobs/{job_id}/witnesses/{scenario}/{seed}")
 def witness_page(
-    request: Request, job_id: str, scenario: Annotated[str, PathParam(max_length=200)], seed: int
+    request: Request, job_id: str, scenario: Annotated[str, PathParam(max_length=200)], seed: Seed
 ) -> HTMLResponse:
     """A witness beside the planner's own run of the episode (the evaluation the job searched), on one clock."""
     from foresight.api.routes.results import trace_url
@@ -211,8 +212,10 @@ def job_summary(request: Request, job_id: str) -> HTMLResponse:
 
 
 @pages.get("/evaluations/{evaluation_id}/episodes/{scenario}/{seed}")
-def episode_page(request: Request, evaluation_id: str, scenario: str, seed: int) -> HTMLResponse:
-    """The episode player: the stored compact trace drawn on a canvas, with play/pause and a time slider."""
+def episode_page(request: Request, evaluation_id: str, scenario: str, seed: Seed) -> HTMLResponse:
+    """The episode player: the stored compact trace drawn on a canvas, with play/pause and a time slider (404
+    for an episode the evaluation did not store)."""
+    files.stored_trace(request, evaluation_id, scenario, seed)
     data_url = f"/v1/evaluations/{evaluation_id}/episodes/{scenario}/{seed}"
     return page(
         request,
@@ -234,7 +237,7 @@ def episode_pair_page(
     a: Annotated[str, Query(max_length=200)],
     b: Annotated[str, Query(max_length=200)],
     scenario: Annotated[str, Query(max_length=200)],
-    seed: int,
+    seed: Seed,
 ) -> HTMLResponse:
     """One episode of two evaluations or campaign cells side by side on one clock (a comparison's changed episodes
     link here)."""
@@ -272,6 +275,23 @@ def episode_pair_page(
     )
 
 
+PICKER_RUNS = 100  #: recent evaluations the compare page offers to pick
+
+
+def _recent_runs(engine: Any) -> list[dict[str, str]]:
+    """The compare page's pickers: recent evaluations (id, and what ran: planner, model, matrix, when, name)."""
+    from foresight.store import listing
+
+    out = []
+    for item in listing.evaluations(engine, limit=PICKER_RUNS)[1]:
+        row, stage = item.row, (item.row.config or {}).get("stage") or {}
+        planner = (stage.get("planner") or {}).get("name", "?")
+        model = row.model_id if row.model_id and row.model_id != "none" else None
+        parts = [planner, model, stage.get("matrix"), ts(row.created_at)[:16], item.name]
+        out.append({"id": row.id, "label": " · ".join(str(p) for p in parts if p)})
+    return out
+
+
 @pages.get("/compare")
 def compare_page(
     request: Request,
@@ -296,6 +316,7 @@ def compare_page(
         nav="compare",
         a=a,
         b=b,
+        runs=_recent_runs(request.app.state.engine),
         cmp=cmp,
         error=error,
         min_pairs=MIN_PAIRS,
@@ -303,6 +324,7 @@ def compare_page(
     )
 
 
+router.include_router(forms.router)  # before pages: /ui/jobs/new is not a job id
 router.include_router(pages)
 router.include_router(catalog.router)
 router.include_router(campaigns.router)

@@ -42,7 +42,9 @@ def _num(value: Any, digits: int = 3) -> str:
             f" [{_num(low, digits)}, {_num(high, digits)}]" if low is not None and high is not None else ""
         )
         return _num(value["value"], digits) + interval
-    if isinstance(value, bool) or value is None:
+    if value is None:  # no value (e.g. path efficiency of a run that never reached its goal)
+        return "–"
+    if isinstance(value, bool):
         return str(value)
     if isinstance(value, float):
         return f"{value:.{digits}g}" if math.isfinite(value) else str(value)
@@ -80,7 +82,22 @@ def _spec_summary(spec: Any) -> str:
     return " · ".join(parts[:4])
 
 
-templates.env.filters.update(ts=_ts, num=_num, pretty=_pretty, size=_size, spec_summary=_spec_summary)
+def _shown(value: Any) -> str:
+    """A config value as a reader writes it: nothing set is "(none)", not Python's None; lists and dicts as JSON."""
+    import json
+
+    if value is None:
+        return "(none)"
+    if isinstance(value, str):
+        return value
+    return json.dumps(value)
+
+
+ts = _ts  #: the timestamp format of every page, for code that builds labels
+
+templates.env.filters.update(
+    ts=_ts, num=_num, pretty=_pretty, size=_size, spec_summary=_spec_summary, shown=_shown
+)
 templates.env.globals.update(duration=_duration, FINAL=FINAL)
 
 

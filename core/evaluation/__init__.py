@@ -16,11 +16,11 @@ _EXPORTS = {
     "DiagnosticsConfig": "foresight.core.evaluation.config",
     "CampaignConfig": "foresight.core.evaluation.config",
     "run_evaluation": "foresight.core.evaluation.runner",
-    "EvaluationResult": "foresight.core.evaluation.runner",
+    "EvaluationResult": "foresight.core.evaluation.evaluation_result",
     "run_diagnostics": "foresight.core.evaluation.diagnostics",
     "DiagnosticsResult": "foresight.core.evaluation.diagnostics",
     "run_campaign": "foresight.core.evaluation.campaign",
-    "CampaignResult": "foresight.core.evaluation.campaign",
+    "CampaignResult": "foresight.core.evaluation.campaign_result",
 }
 
 __all__ = list(_EXPORTS)

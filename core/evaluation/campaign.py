@@ -21,17 +21,22 @@ import re
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import ValidationError
 
 from foresight.core import files
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.aggregate import SuiteSummary, summarise
+from foresight.core.evaluation.campaign_result import (
+    CampaignResult,
+    CellResult,
+)
+from foresight.core.evaluation.campaign_text import report
 from foresight.core.evaluation.config import CampaignConfig, EpisodeSelection, GridVariant, variant_spec
-from foresight.core.evaluation.delta import Delta, EpisodeChange, changed_episodes, paired_deltas
+from foresight.core.evaluation.delta import changed_episodes, paired_deltas
+from foresight.core.evaluation.evaluation_result import planner_provenance
 from foresight.core.evaluation.gates import GATE_FAILED_EXIT, ClosedLoopGateResult, closed_loop_gate
-from foresight.core.evaluation.integrity import IntegrityReport, check_integrity
+from foresight.core.evaluation.integrity import check_integrity
 from foresight.core.evaluation.plannerspec import (
     NO_MODEL,
     ResolvedPlanner,
@@ -42,110 +47,17 @@ from foresight.core.evaluation.plannerspec import (
 from foresight.core.evaluation.runner import (
     EpisodeSettings,
     Job,
-    PlannerProvenance,
     bundle_file,
     expected_cost,
     iter_jobs,
     load_selection,
-    planner_provenance,
     read_records,
     write_records,
 )
-from foresight.core.evaluation.stats import ALPHA, MIN_PAIRS
 from foresight.core.runtime.context import StageContext
-from foresight.core.runtime.execution import Execution, execution
+from foresight.core.runtime.execution import execution
 from foresight.core.scenarios.model import ScenarioMatrix
 from foresight.core.version import code_version
-
-CELL_FORMAT = "foresight.campaign_cell/1"
-
-
-class CellMetrics(BaseModel):
-    """A cell's two suites (``global`` by alias) and its paired comparison with the baseline cell: the metrics
-    its result row and API record keep."""
-
-    model_config = ConfigDict(serialize_by_alias=True, validate_by_name=True, validate_by_alias=True)
-
-    hard: SuiteSummary
-    global_: SuiteSummary = Field(alias="global")
-    #: suite (hard, global) -> headline metric -> paired delta vs the baseline cell (same episodes)
-    vs_baseline: dict[str, dict[str, Delta] | None] | None = None
-    #: suite -> the episodes whose outcome differs from the baseline cell's (a: the baseline's, b: this cell's)
-    changed_vs_baseline: dict[str, list[EpisodeChange]] | None = None
-
-
-class CellParams(BaseModel):
-    """Which cell: the checkpoint and the planner-grid variant."""
-
-    checkpoint: str
-    variant: str
-
-
-class CellResult(CellMetrics, CellParams):
-    """One checkpoint x variant: both suites' summaries and integrity (written to cells/<key>.json)."""
-
-    format: str = CELL_FORMAT
-    key: str
-    fingerprint: str
-    planner: PlannerProvenance
-    integrity: IntegrityReport
-    ranking_key: list[float]
-    episodes_file: str
-    run_dir: str | None = (
-        None  #: the cell's run folder (episodes.jsonl, traces/); None for cells written before
-    )
-    baseline: str | None = None  #: key of the baseline cell it is compared with (same checkpoint)
-
-    def metrics(self) -> CellMetrics:
-        return CellMetrics(
-            hard=self.hard,
-            global_=self.global_,
-            vs_baseline=self.vs_baseline,
-            changed_vs_baseline=self.changed_vs_baseline,
-        )
-
-    def params(self) -> CellParams:
-        return CellParams(checkpoint=self.checkpoint, variant=self.variant)
-
-
-class CampaignResult(BaseModel):
-    status: Literal["completed", "passed", "failed_gate"]  #: completed = no gate configured
-    exit_code: int
-    best: CellResult | None
-    ranked: list[CellResult]
-    gate: ClosedLoopGateResult | None
-    best_vs_reference: dict[
-        str, list
-    ]  #: resolved-config keys where the best differs from the baseline (or first) cell
-    cells_run: int
-    cells_resumed: int
-    matrix: str
-    seed_manifest: str
-    grid: str
-    horizon: str
-    hard_episodes: int
-    global_episodes: int
-    #: suite (hard, global) -> its (scenario, seed) episodes in order: a cell's records of one suite (None: older)
-    suites: dict[str, list[tuple[str, int]]] | None = None
-    code_version: str
-    execution: Execution | None = (
-        None  #: which executor ran the episodes, on how many CPUs (None: older results)
-    )
-    artifacts: dict[str, str]
-    wall_s: float
-    config: dict  #: the stage config as given (with defaults)
-
-
-class CampaignCells(BaseModel):
-    """The part of a :class:`CampaignResult` that a lookup of one cell reads: the ranked cells, each validated only
-    when asked for (:meth:`cell`; a grid of 10^4 cells is a result of tens of MB), and the suites."""
-
-    ranked: list[dict[str, Any]]
-    suites: dict[str, list[tuple[str, int]]] | None = None
-
-    def cell(self, rank: int) -> CellResult:
-        """The cell of ``rank`` (1 = best)."""
-        return CellResult.model_validate(self.ranked[rank - 1])
 
 
 def load_variants(config: CampaignConfig, ctx: StageContext) -> list[GridVariant]:
@@ -513,88 +425,3 @@ def campaign_result(
     files.write_text(ctx.artifact("campaign_summary.json"), result.model_dump_json(indent=2))
     files.write_text(ctx.artifact("campaign_report.md"), report(result))
     return result
-
-
-def _pct(x: float | None) -> str:
-    return "-" if x is None else f"{100 * x:.1f}%"
-
-
-def _m(x: float | None) -> str:
-    return "-" if x is None else f"{x:.2f}"
-
-
-def _paired_text(d: Delta, scale: float = 1.0, unit: str = "") -> str:
-    if d.delta is None:
-        return "-"
-    return f"{scale * d.delta:+.2f}{unit} [{scale * (d.low or 0):+.2f}, {scale * (d.high or 0):+.2f}]"
-
-
-def _p_text(d: Delta) -> str:
-    if d.p_value is None:
-        return "-"
-    disc = f" ({d.discordant[0]}/{d.discordant[1]})" if d.discordant else ""
-    return f"{d.p_value:.3g}{disc}{' *' if d.significant else ''}"
-
-
-def report(res: CampaignResult) -> str:
-    lines = ["# Planner campaign", ""]
-    if res.best:
-        b = res.best
-        lines += [
-            f"Best: **{b.variant}** with checkpoint `{b.checkpoint}` (config {b.planner.config_hash[:12]}): "
-            f"hard success {_pct(b.hard.success.rate)}, global success {_pct(b.global_.success.rate)}.",
-            "",
-        ]
-        if res.best_vs_reference:
-            lines += [
-                "Best vs reference cell, resolved config keys (best, reference): "
-                + "; ".join(f"`{k}` {v[0]} vs {v[1]}" for k, v in res.best_vs_reference.items()),
-                "",
-            ]
-    lines += [
-        f"Hard suite {res.hard_episodes} episodes ({res.seed_manifest}), global suite {res.global_episodes} "
-        f"episodes ({res.matrix}), horizon {res.horizon}. Cells run {res.cells_run}, resumed {res.cells_resumed}.",
-        "",
-        "| rank | variant | checkpoint | hard success | global success | hard clearance [m] | "
-        "global clearance [m] | global speed [m/s] | global collisions | integrity |",
-        "|---|---|---|---|---|---|---|---|---|---|",
-    ]
-    for i, c in enumerate(res.ranked, start=1):
-        lines.append(
-            f"| {i} | {c.variant} | {c.checkpoint} | {_pct(c.hard.success.rate)} | "
-            f"{_pct(c.global_.success.rate)} | {_m(c.hard.mean_min_clearance.mean)} | "
-            f"{_m(c.global_.mean_min_clearance.mean)} | {_m(c.global_.mean_avg_speed.mean)} | "
-            f"{_pct(c.global_.collision.rate)} | {'ok' if c.integrity.ok else 'VIOLATIONS'} |"
-        )
-    lines.append("")
-    paired = [c for c in res.ranked if c.vs_baseline]
-    if paired:
-        lines += [
-            f"Paired against the baseline cell of the same checkpoint (same episodes; McNemar exact for success, "
-            f"Wilcoxon signed-rank for clearance; * = p < {ALPHA} with at least {MIN_PAIRS} pairs):",
-            "",
-            "| variant | checkpoint | suite | success delta [95 %] | McNemar p (discordant base/variant) | "
-            "clearance delta [m] | Wilcoxon p |",
-            "|---|---|---|---|---|---|---|",
-        ]
-        for c in paired:
-            for suite, d in (c.vs_baseline or {}).items():
-                if d:
-                    lines.append(
-                        f"| {c.variant} | {c.checkpoint} | {suite} | {_paired_text(d['success'], 100, ' pp')} | "
-                        f"{_p_text(d['success'])} | {_paired_text(d['min_clearance'])} | "
-                        f"{_p_text(d['min_clearance'])} |"
-                    )
-        lines.append("")
-    if res.gate is None:
-        lines.append("No closed-loop gate configured.")
-    else:
-        g = res.gate
-        lines += [f"Closed-loop gate vs `{g.baseline}`: **{'passed' if g.passed else 'FAILED'}**", ""]
-        lines += [
-            f"- {c.name}: {'ok' if c.passed else 'FAIL'} (value {_m(c.value)}, threshold {_m(c.threshold)})"
-            for c in g.checks
-        ]
-        delta = ", ".join(f"{k} {v:+d}" for k, v in g.hard_taxonomy.delta.items() if v)
-        lines.append(f"- hard-suite taxonomy delta vs baseline: {delta or 'none'}")
-    return "\n".join(lines) + "\n"

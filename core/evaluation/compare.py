@@ -1,6 +1,6 @@
 """Several evaluations side by side, per family: where is a baseline better than the planner under test?
 
-"Better" is the issue's rule: higher success, or equal success with fewer collisions. Evaluations are
+"Better" is one rule: higher success, or equal success with fewer collisions. Evaluations are
 only compared when they ran the same (scenario, seed) episodes, so a table never mixes unlike runs; every
 planner is also compared with the reference pair by pair (``paired``: other - reference, McNemar exact for
 success and collisions, Wilcoxon signed-rank for the continuous metrics; per family the success delta), and a

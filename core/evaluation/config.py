@@ -14,7 +14,7 @@ from foresight.core.errors import ConfigError
 from foresight.core.evaluation.aggregate import BootstrapConfig
 from foresight.core.evaluation.gates import ClosedLoopGateConfig, EvaluationGateConfig
 from foresight.core.evaluation.metrics import MetricsConfig
-from foresight.core.evaluation.plannerspec import PlannerSpec, planner_spec
+from foresight.core.evaluation.plannerspec import PlannerSpec, planner_config, planner_spec
 from foresight.core.evaluation.taxonomy import TaxonomyConfig
 from foresight.core.runtime.execution import Executor
 from foresight.core.runtime.refs import BUILTIN_BUNDLE, BundlePath, Ident, Name
@@ -29,7 +29,7 @@ def refuse_shards(data: Any) -> Any:
     if isinstance(data, dict) and "shards" in data:
         raise ValueError(
             "'shards' was removed: to spread episodes over machines use 'executor: ray' "
-            "(a Ray cluster at FORESIGHT_RAY_ADDRESS, see README 'Scaling out')"
+            "(a Ray cluster at FORESIGHT_RAY_ADDRESS, see docs/tutorials/scaling-out.md)"
         )
     return data
 
@@ -161,7 +161,9 @@ class CampaignConfig(_Config):
         if (self.grid is None) == (self.variants is None):
             raise ValueError("give exactly one of grid (a file) or variants (inline)")
         for variant in self.variants or ():  # an inline variant's config is checked now, naming the field
-            variant_spec(self.planner, variant, None)
+            spec = variant_spec(self.planner, variant, None)
+            if variant.params:  # reference keys: mapped (and so checked) only by the planner's config
+                planner_config(spec)
         if len(set(self.checkpoints)) != len(self.checkpoints):
             raise ValueError("checkpoints listed twice")
         return self

@@ -18,17 +18,11 @@ from pydantic import BaseModel, Field
 from foresight.core import files
 from foresight.core.evaluation.config import DiagnosticsConfig
 from foresight.core.evaluation.episode import EpisodeRun
+from foresight.core.evaluation.evaluation_result import PlannerProvenance, planner_provenance
 from foresight.core.evaluation.metrics import derive
 from foresight.core.evaluation.plannerspec import preflight, resolve_planner
 from foresight.core.evaluation.record import EpisodeRecord
-from foresight.core.evaluation.runner import (
-    EpisodeSettings,
-    Job,
-    PlannerProvenance,
-    load_selection,
-    planner_provenance,
-    run_jobs,
-)
+from foresight.core.evaluation.runner import EpisodeSettings, Job, load_selection, run_jobs
 from foresight.core.evaluation.taxonomy import TaxonomyConfig, count_labels
 from foresight.core.runtime.context import StageContext
 from foresight.core.runtime.execution import Execution, execution

@@ -25,6 +25,15 @@ class GateCheck(BaseModel):
     threshold: float | None = None
     detail: str = ""
 
+    def line(self) -> str:
+        """``name: ok (1.19 vs 0.25) detail``: the check as one readable line (3 significant digits)."""
+
+        def num(x: float | None) -> str:
+            return "-" if x is None else f"{x:.3g}"
+
+        verdict = "ok" if self.passed else "FAIL"
+        return f"{self.name}: {verdict} ({num(self.value)} vs {num(self.threshold)}) {self.detail}".rstrip()
+
 
 class GateResult(BaseModel):
     passed: bool

@@ -30,12 +30,10 @@ from pydantic import (
 from foresight.core.bounds import BoundedConfig
 from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.runtime.context import StageContext
+from foresight.core.runtime.refs import CV, DEFAULT_MODEL, NO_MODEL
 from foresight.core.scenarios.model import ResolvedScenario
 from foresight.core.sim.planner import EpisodeInfo, Planner, config_hash
 
-CV = "cv"
-NO_MODEL = "none"
-DEFAULT_MODEL = "default"  #: id resolved through ctx.resolve_model when a predictive run names no model
 OTHER = "other"  #: the union member of every other name: in-process planners (``module:attr``) or an error
 
 
@@ -188,11 +186,14 @@ def _load_model(path: str, sha256: str | None, name: str | None) -> Any:
 
 def build_planner(rp: ResolvedPlanner) -> Planner:
     """A fresh planner for one episode (the loaded model is shared, it is stateless)."""
-    from foresight.core.planners.registry import make_planner
+    from foresight.core.planners.registry import entry, make_planner
     from foresight.core.predict import plugins, registered
 
     model = None
-    if plugins.kind(rp.model_id):
+    found = entry(rp.name, load=True)  # a worker process imports a module:attr planner by its name
+    if found.load_model is not None:  # a policy file its config names
+        model = found.load_model(rp.model_path, rp.checkpoint_sha256, found.validate(rp.config))
+    elif plugins.kind(rp.model_id):
         model = rp.model_id  # a predictor plug-in: the planner loads a fresh one (its own state per episode)
     elif registered.is_registered(rp.model_path):  # a registered plug-in or external model: its predictor
         model = plugins.load(registered.predictor_name(rp.model_path), registered.files_dir(rp.model_path))
@@ -201,8 +202,18 @@ def build_planner(rp: ResolvedPlanner) -> Planner:
     return make_planner(rp.name, rp.config, model=model)
 
 
-def _model(spec: PlannerSpecBase, takes_model: bool, ctx: StageContext) -> tuple[str, str, str | None]:
+def _model(spec: PlannerSpecBase, found: Any, cfg: Any, ctx: StageContext) -> tuple[str, str, str | None]:
     """(model id, checkpoint sha256, local path) of a spec; loading it now surfaces a bad model early."""
+    takes_model = found.takes_model
+    if found.model_file is not None:  # the config names the file (a trained policy), not ``model``
+        if spec.model not in (None, NO_MODEL):
+            raise ConfigError(
+                f"planner {spec.name!r} takes no model: its config names its file", item="model"
+            )
+        ident, path = found.model_file(cfg, ctx)
+        sha = sha256_file(Path(path))
+        found.load_model(str(path), sha, cfg)  # a bad file stops the run here, before any episode
+        return ident, sha, str(path)
     if not takes_model:
         if spec.model not in (None, NO_MODEL):
             raise ConfigError(f"planner {spec.name!r} takes no model", item="model")
@@ -233,13 +244,16 @@ def _model(spec: PlannerSpecBase, takes_model: bool, ctx: StageContext) -> tuple
     return ident, sha, str(path)  # later loads (worker processes) check their bytes against this checksum
 
 
-def resolve_planner(spec: PlannerSpecBase | dict[str, Any], ctx: StageContext) -> ResolvedPlanner:
-    """Every key of the planner's config (defaults expanded), its hash and its model, checked before any episode."""
+def planner_config(spec: PlannerSpecBase | dict[str, Any]) -> BaseModel:
+    """A spec's full planner config (defaults expanded, reference grid params mapped), checked without a model:
+    ConfigError naming the key for an unknown one, a value out of range, NaN or Infinity. Campaigns check their
+    inline variants with it at submission (an unknown key failed only in the worker)."""
+    from foresight.core.limits import hostile_values
     from foresight.core.planners.registry import entry
 
     spec = planner_spec(spec)
-    found = entry(spec.name)
-    cfg = found.validate(spec.config)
+    source = f"planner grid variant {spec.variant}" if spec.variant else None
+    cfg = entry(spec.name).validate(spec.config)
     if spec.reference_params:
         if spec.name != "predictive":
             raise ConfigError(
@@ -247,10 +261,22 @@ def resolve_planner(spec: PlannerSpecBase | dict[str, Any], ctx: StageContext) -
                 item="planner.reference_params",
             )
         cfg = type(cfg).from_reference_grid(
-            spec.reference_params, base=cfg, source=f"planner grid variant {spec.variant or '?'}"
+            spec.reference_params, base=cfg, source=source or "planner grid variant ?"
         )
+    for loc, why in hostile_values(cfg.model_dump()):
+        raise ConfigError(why, source=source, item=".".join(str(p) for p in ("planner", "config", *loc)))
+    return cfg
+
+
+def resolve_planner(spec: PlannerSpecBase | dict[str, Any], ctx: StageContext) -> ResolvedPlanner:
+    """Every key of the planner's config (defaults expanded), its hash and its model, checked before any episode."""
+    from foresight.core.planners.registry import entry
+
+    spec = planner_spec(spec)
+    found = entry(spec.name)
+    cfg = planner_config(spec)
     resolved = cfg.model_dump(mode="json")
-    model_id, sha, path = _model(spec, found.takes_model, ctx)
+    model_id, sha, path = _model(spec, found, cfg, ctx)
     return ResolvedPlanner(
         name=spec.name,
         variant=spec.variant,
@@ -270,6 +296,8 @@ COMMANDS = {"unicycle": "(v [m/s], omega [rad/s])", "velocity": "world-frame (vx
 def preflight(rp: ResolvedPlanner, scenarios: list[ResolvedScenario]) -> None:
     """Reset a planner once per distinct time step: an incompatible model fails here, before any episode; so does a
     planner whose declared command type (``command_type``) the scenario's robot does not take."""
+    from foresight.core.planners.external import ExternalPlannerError
+
     declared = rp.config.get("command_type")
     for sc in scenarios if declared is not None else ():
         kind = sc.scenario.robot_config.kinematics
@@ -296,6 +324,8 @@ def preflight(rp: ResolvedPlanner, scenarios: list[ResolvedScenario]) -> None:
         )
         try:
             build_planner(rp).reset(info)
+        except ExternalPlannerError as exc:  # a command that cannot start: one line, before any episode
+            raise ConfigError(str(exc), item="planner.config.command") from None
         except ConfigError as exc:
             if exc.source is not None:
                 raise

@@ -177,7 +177,7 @@ def _within(scenario: ResolvedScenario, max_steps: int | None) -> ResolvedScenar
 def _evaluation(ref: str, ctx: StageContext) -> tuple[Path, EvaluationConfig | None]:
     """The run folder of an evaluation (an id; in-process also its folder or its episodes.jsonl) and its config (None
     where the folder keeps no evaluation.json: in-process runs of older folders)."""
-    from foresight.core.evaluation.runner import EvaluationResult
+    from foresight.core.evaluation.evaluation_result import EvaluationResult
 
     local = Path(ref) if ctx.local_files and Path(ref).exists() else None
     folder = (local.parent if local.is_file() else local) if local is not None else ctx.resolve_run(ref)

@@ -1,14 +1,11 @@
 """``foresight/CrowdNav-v0``: our simulator as a Gymnasium environment (for RL policies).
 
-Observation (a ``Dict``, robot frame: x ahead, y to the left; metres, seconds, radians):
-  ``robot``      (3,)    v [m/s], omega [rad/s], robot radius [m]
-  ``goal``       (3,)    goal x, y, distance
-  ``route``      (R, 2)  the next R route waypoints (current first), padded with the goal
-  ``peds``       (K, 4)  the nearest K pedestrians: x, y, vx, vy (velocity relative to the ground, robot frame)
-  ``ped_mask``   (K,)    1 where a ``peds`` row holds a pedestrian, 0 for padding
-  ``occupancy``  (S, S)  optional: 1 where a cell centre (a square grid of ``occupancy_resolution`` m around the
-                         robot, robot frame) lies within half a cell of a wall or outside the map
-Action: ``Box`` (v, omega) within the robot's limits (a holonomic robot: (vx, vy) in the world frame).
+Observation: a ``Dict`` in the robot frame, built by ``core.sim.policy_observation.policy_observation`` (its
+docstring lists the keys); a planner that drives a trained policy (``core.planners.sb3``) builds it the same way.
+Action: ``Box`` (v, omega) within the robot's limits (a holonomic robot: (vx, vy) in the world frame); with
+``normalize_actions=True`` a ``Box(-1, 1, (2,))`` mapped linearly onto those limits, as Stable-Baselines3 expects.
+``render_mode``: ``"rgb_array"`` (``render()`` returns the frame; ``gymnasium.wrappers.RecordVideo`` records it) or
+``"human"`` (a window, where a display exists).
 Reward (:class:`RewardConfig`): route progress per metre, minus a time cost per step, plus a success bonus or a
 collision penalty at the end. ``terminated`` on a collision or at the goal, ``truncated`` at the scenario's
 horizon. ``info``: ``outcome`` and ``step`` every step; at the end ``record``, the episode's evaluation record
@@ -26,11 +23,18 @@ import numpy as np
 from gymnasium import spaces
 from pydantic import BaseModel, ConfigDict
 
+from foresight.core.errors import ConfigError
 from foresight.core.evaluation.episode import record_of
 from foresight.core.evaluation.plannerspec import NO_MODEL, ResolvedPlanner
 from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
 from foresight.core.scenarios.loader import load_matrix
 from foresight.core.sim.observation import Observation
+from foresight.core.sim.policy_observation import (
+    ObservationLayout,
+    action_bounds,
+    command_of,
+    policy_observation,
+)
 from foresight.core.sim.simulator import Simulator
 
 DEFAULT_MATRIX = BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml"
@@ -50,9 +54,10 @@ class RewardConfig(BaseModel):
     collision: float = -10.0  #: on any collision (pedestrian, wall, out of bounds)
 
 
-def _rotation(heading: float) -> np.ndarray:
-    c, s = np.cos(heading), np.sin(heading)
-    return np.array([[c, s], [-s, c]])  # world -> robot frame
+def _display() -> bool:
+    import os
+
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
 def route_length(obs: Observation) -> float:
@@ -64,7 +69,8 @@ def route_length(obs: Observation) -> float:
 class CrowdNavEnv(gym.Env):
     """One robot among the simulated crowd of a scenario matrix; see the module docstring for the spaces."""
 
-    metadata = {"render_modes": []}
+    #: "human" only where a display exists (gymnasium's check_env opens every mode listed)
+    metadata = {"render_modes": ["rgb_array", *(["human"] if _display() else [])], "render_fps": 10}
 
     def __init__(
         self,
@@ -78,14 +84,21 @@ class CrowdNavEnv(gym.Env):
         occupancy_size: int = 16,
         occupancy_resolution: float = 0.5,
         reward: RewardConfig | dict[str, Any] | None = None,
+        normalize_actions: bool = False,
+        render_mode: str | None = None,
     ):
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            why = " (human needs a display: DISPLAY is not set)" if render_mode == "human" else ""
+            raise ConfigError(f"expected one of {self.metadata['render_modes']} or None, got {render_mode!r}{why}",
+                              item="render_mode")  # fmt: skip
+        self.render_mode = render_mode
+        self._view: Any = None
         self.matrix = load_matrix(Path(matrix))
         names = [scenario] if scenario else (scenarios or self.matrix.names)
         self.scenarios = [self.matrix.get(n) for n in names]
         self.max_steps, self.k, self.r = max_steps, int(max_peds), int(route_points)
-        self.occupancy = occupancy
-        self.grid = (np.arange(occupancy_size) - (occupancy_size - 1) / 2) * occupancy_resolution
-        self.cell = float(occupancy_resolution)
+        self.layout = ObservationLayout(max_peds=self.k, route_points=self.r, occupancy=occupancy,
+                                        occupancy_size=occupancy_size, occupancy_resolution=occupancy_resolution)  # fmt: skip
         self.reward_cfg = (
             reward if isinstance(reward, RewardConfig) else RewardConfig.model_validate(reward or {})
         )
@@ -93,14 +106,12 @@ class CrowdNavEnv(gym.Env):
         first = self.sim.reset(
             self.scenarios[0], 0, max_steps=max_steps
         )  # the robot's limits: the action space
-        lim = first.robot_limits
-        if lim.get("holonomic", 0.0):
-            low, high = [-lim["v_max"], -lim["v_max"]], [lim["v_max"], lim["v_max"]]
+        self.command_low, self.command_high = action_bounds(first.robot_limits)
+        self.normalize_actions = bool(normalize_actions)
+        if self.normalize_actions:
+            self.action_space = spaces.Box(-1.0, 1.0, (2,), dtype=np.float32)
         else:
-            low, high = [lim["v_min"], -lim["w_max"]], [lim["v_max"], lim["w_max"]]
-        self.action_space = spaces.Box(
-            np.array(low, np.float32), np.array(high, np.float32), dtype=np.float32
-        )
+            self.action_space = spaces.Box(self.command_low, self.command_high, dtype=np.float32)
         inf = np.float32(1e4)  # [m], [m/s]: beyond any map
         obs_spaces = {
             "robot": spaces.Box(-inf, inf, (3,), np.float32),
@@ -113,35 +124,14 @@ class CrowdNavEnv(gym.Env):
             obs_spaces["occupancy"] = spaces.Box(0.0, 1.0, (occupancy_size, occupancy_size), np.float32)
         self.observation_space = spaces.Dict(obs_spaces)
         self._obs: Observation | None = None
+        self._last: Observation | None = (
+            None  #: the latest observation, kept after the episode ended (render)
+        )
         self._scenario = self.scenarios[0]
         self._seed = 0
 
-    # ------------------------------------------------------------------ observation
-
     def _observe(self, obs: Observation) -> dict[str, np.ndarray]:
-        rot, here = _rotation(float(obs.robot_pose[2])), obs.robot_pose[:2]
-        goal = rot @ (obs.goal - here)
-        route = np.vstack([obs.route, np.repeat(obs.goal[None], self.r, axis=0)])[: self.r]
-        peds, mask = np.zeros((self.k, 4)), np.zeros(self.k)
-        if len(obs.ped_positions):
-            rel = obs.ped_positions - here
-            nearest = np.argsort(np.hypot(rel[:, 0], rel[:, 1]), kind="stable")[: self.k]
-            n = nearest.size
-            peds[:n, :2] = rel[nearest] @ rot.T
-            peds[:n, 2:] = obs.ped_velocities[nearest] @ rot.T
-            mask[:n] = 1.0
-        out = {
-            "robot": np.array([obs.robot_velocity[0], obs.robot_velocity[1], obs.robot_radius]),
-            "goal": np.array([goal[0], goal[1], np.hypot(*goal)]),
-            "route": (route - here) @ rot.T,
-            "peds": peds,
-            "ped_mask": mask,
-        }
-        if self.occupancy:
-            gx, gy = np.meshgrid(self.grid, self.grid, indexing="xy")
-            world = here + np.stack([gx, gy], axis=-1) @ rot  # robot frame -> world
-            out["occupancy"] = (obs.static.distance(world) < self.cell / 2).astype(float)
-        return {k: v.astype(np.float32) for k, v in out.items()}
+        return policy_observation(obs, self.layout)
 
     # ------------------------------------------------------------------ gymnasium API
 
@@ -149,16 +139,18 @@ class CrowdNavEnv(gym.Env):
         super().reset(seed=seed)
         self._scenario = self.scenarios[int(self.np_random.integers(len(self.scenarios)))]
         self._seed = int(self.np_random.integers(2**31 - 1))
-        self._obs = self.sim.reset(self._scenario, self._seed, max_steps=self.max_steps)
+        self._obs = self._last = self.sim.reset(self._scenario, self._seed, max_steps=self.max_steps)
+        if self._view is not None and self._view[0] is not self._scenario:
+            self._view = None  # another scenario: another map
         self._left = route_length(self._obs)
         return self._observe(self._obs), {"scenario": self._scenario.name, "seed": self._seed, "step": 0}
 
     def step(self, action: Any):  # noqa: ANN201
         if self._obs is None:
             raise RuntimeError("call reset() before step()")
-        a = np.clip(np.asarray(action, dtype=float), self.action_space.low, self.action_space.high)
-        obs, events = self.sim.step((float(a[0]), float(a[1])))
-        self._obs = obs
+        command = command_of(action, self.command_low, self.command_high, self.normalize_actions)
+        obs, events = self.sim.step(command)
+        self._obs, self._last = obs, obs
         left = route_length(obs)
         cfg = self.reward_cfg
         reward = cfg.progress * (self._left - left) + cfg.step
@@ -175,3 +167,23 @@ class CrowdNavEnv(gym.Env):
             info["record"] = record.model_dump(mode="json")
             self._obs = None
         return self._observe(obs), float(reward), bool(terminated), bool(truncated), info
+
+    def render(self) -> np.ndarray | None:  # type: ignore[override]
+        """The current frame as an (H, W, 3) uint8 array (``rgb_array``), or drawn in a window (``human``)."""
+        if self.render_mode is None:
+            return None
+        if self._last is None:
+            raise RuntimeError("call reset() before render()")
+        if self._view is None:
+            from foresight.core.render.live import LiveView
+
+            self._view = (self._scenario, LiveView(self._scenario.map, title=self._scenario.name))
+        frame = self._view[1].frame(self._last)
+        if self.render_mode == "rgb_array":
+            return frame
+        self._view[1].show(frame, 1.0 / self.metadata["render_fps"])
+        return None
+
+    def close(self) -> None:
+        self._view = None
+        super().close()

@@ -9,10 +9,10 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ValidationError
 
-from foresight.core.evaluation.campaign import CampaignResult
+from foresight.core.evaluation.campaign_result import CampaignResult
 from foresight.core.evaluation.conformance import ConformanceResult
 from foresight.core.evaluation.diagnostics import DiagnosticsResult
-from foresight.core.evaluation.runner import EvaluationResult
+from foresight.core.evaluation.evaluation_result import EvaluationResult
 from foresight.core.evaluation.witness_job import WitnessResult
 from foresight.core.jobs.simulate import SimulateResult
 from foresight.core.reports.pipeline_summary import PipelineResult

@@ -7,7 +7,8 @@ JSON back). Heavier stages (collect, evaluate, campaign) follow the same shape.
 from __future__ import annotations
 
 import json
-from typing import Any
+from pathlib import Path
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
@@ -38,6 +39,8 @@ class SimulateConfig(BoundedConfig):
     #: any planner an evaluation takes (name, config, model); a bare name is short for ``{name: NAME}``
     planner: PlannerSpec = Field(default_factory=lambda: planner_spec(name="goal"))
     render: bool = True
+    #: the picture's kind: a still of the whole episode (png, svg) or its replay (gif, mp4: the ``video`` extra)
+    render_format: Literal["png", "svg", "gif", "mp4"] = "png"
 
     @field_validator("planner", mode="before")
     @classmethod
@@ -53,7 +56,7 @@ class EpisodeSummary(BaseModel):
     pedestrians: int
     min_distance: float | None  #: closest robot-pedestrian centre distance [m]; None without pedestrians
     wall_s: float
-    render: str | None = None  #: artifact name of the PNG
+    render: str | None = None  #: artifact name of the picture (PNG, SVG, GIF or MP4)
     planner: str = "goal"  #: the planner's name
     model_id: str = "none"  #: its model id, "cv", or "none" (planners without a predictor)
 
@@ -62,6 +65,19 @@ class SimulateResult(BaseModel):
     episodes: list[EpisodeSummary]
     outcomes: dict[str, int]
     code_version: str
+
+
+def _render(trace: Any, scenario: Any, path: Path, kind: str, seed: int) -> None:
+    title = f"{scenario.name} seed {seed}"
+    if kind in ("png", "svg"):
+        from foresight.core.render.trace import render_trace
+
+        render_trace(trace, scenario.map, path, title=title)
+        return
+    from foresight.core.render.animation import render_replay
+
+    render_replay(trace, scenario.map, path, title=title, robot_radius=scenario.scenario.robot_config.radius,
+                  ped_radius=scenario.scenario.simulation_config.ped_radius)  # fmt: skip
 
 
 def run_simulate(config: SimulateConfig, ctx: StageContext) -> SimulateResult:
@@ -87,12 +103,8 @@ def run_simulate(config: SimulateConfig, ctx: StageContext) -> SimulateResult:
         result = run_episode(scenario, seed, build_planner(planner), check=ctx.check_cancelled)
         render_name = None
         if config.render:
-            from foresight.core.render.trace import render_trace
-
-            render_name = f"renders/{scenario.name}--{seed}.png"
-            render_trace(
-                result.trace, scenario.map, ctx.artifact(render_name), title=f"{scenario.name} seed {seed}"
-            )
+            render_name = f"renders/{scenario.name}--{seed}.{config.render_format}"
+            _render(result.trace, scenario, ctx.artifact(render_name), config.render_format, seed)
         episodes.append(
             EpisodeSummary(
                 scenario=scenario.name,

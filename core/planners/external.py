@@ -115,9 +115,17 @@ class PlannerProcess:
                 close_fds=True,
             )
         except OSError as exc:
-            raise ExternalPlannerError(f"external planner {name!r} did not start: {exc}") from None
+            raise ExternalPlannerError(
+                f"external planner {name!r} did not start: {exc.strerror}: {argv[0]!r} (command "
+                f"{shlex.join(argv)!r} resolved against {os.getcwd()}; use absolute paths in {ENV})"
+            ) from None
         self._buf = b""
-        hello = self.request({"type": "hello", "protocol": PROTOCOL}, timeout_s, "hello", "hello")
+        try:
+            hello = self.request({"type": "hello", "protocol": PROTOCOL}, timeout_s, "hello", "hello")
+        except ExternalPlannerError as exc:
+            raise ExternalPlannerError(
+                f"{exc} (command {shlex.join(argv)!r} resolved against {os.getcwd()})"
+            ) from None
         if hello.get("protocol") != PROTOCOL:
             self.kill()
             raise ExternalPlannerError(

@@ -33,7 +33,7 @@ from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.sim.planner import PLANNER_API_VERSION, Planner
 
 PLUGIN_GROUP = "foresight.planners"
-BUILTIN_NAMES = ("predictive", "orca", "social_force", "goal", "scripted")
+BUILTIN_NAMES = ("predictive", "orca", "social_force", "goal", "scripted", "sb3")
 
 
 class NoConfig(BaseModel):
@@ -52,6 +52,10 @@ class PlannerEntry:
     origin: str  #: "builtin", "external", "plugin DIST VERSION" or "module"
     takes_model: bool = False  #: needs a predictor (``model``): the predictive planner only
     description: str = ""
+    #: a planner whose config names its own model file (a trained policy): (config, context) -> (id, path)
+    model_file: Callable[[BaseModel, Any], tuple[str, Any]] | None = None
+    #: loads that file once per process: (path, sha256, config) -> what ``build`` gets as its model
+    load_model: Callable[[str, str, BaseModel], Any] | None = None
 
     def validate(self, config: Any) -> BaseModel:
         """The typed config of a dict (or model); ConfigError naming the first bad field."""
@@ -83,6 +87,7 @@ def _builtins() -> list[PlannerEntry]:
     from foresight.core.planners.goal import GoalSeeking, GoalSeekingConfig
     from foresight.core.planners.orca import OrcaConfig, OrcaPlanner
     from foresight.core.planners.predictive.config import PredictivePlannerConfig
+    from foresight.core.planners.sb3 import SB3Config, SB3Planner, load_policy, policy_file
     from foresight.core.planners.scripted import Scripted, ScriptedConfig
     from foresight.core.planners.social_force import SocialForceConfig, SocialForcePlanner
 
@@ -122,6 +127,15 @@ def _builtins() -> list[PlannerEntry]:
             lambda c, m: Scripted(c),
             "builtin",
             description="a fixed plan (via points, a wait until a release time, then on): a witness",
+        ),
+        PlannerEntry(
+            "sb3",
+            SB3Config,
+            lambda c, m: SB3Planner(c, m),
+            "builtin",
+            description="a Stable-Baselines3 policy trained in foresight/CrowdNav-v0 (the sb3 extra)",
+            model_file=policy_file,
+            load_model=lambda path, sha, c: load_policy(path, sha, c.algorithm),
         ),
         PlannerEntry(
             "external",

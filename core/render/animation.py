@@ -24,6 +24,7 @@ from matplotlib.patches import Circle
 from PIL import Image
 
 from foresight.core import files
+from foresight.core.errors import ConfigError
 from foresight.core.maps.model import MapDef
 from foresight.core.render.figure import map_axes
 from foresight.core.render.map_view import draw_map
@@ -252,6 +253,34 @@ def _encode(blit: _Blitter, steps: np.ndarray, draw: Any, path: Path, frame_ms: 
     return path
 
 
+def _encode_mp4(blit: _Blitter, steps: np.ndarray, draw: Any, path: Path, frame_ms: int) -> Path:
+    """H.264 through imageio-ffmpeg (the ``video`` extra; it ships its own ffmpeg binary, none is assumed on the
+    machine); frames padded to even sizes, as yuv420p needs."""
+    try:
+        import imageio_ffmpeg
+    except ImportError:
+        raise ConfigError(
+            "MP4 needs the video extra: pip install 'foresight[video]' (imageio-ffmpeg)", source=str(path)
+        ) from None
+    draw(int(steps[0]))
+    first = np.asarray(blit.frame())
+    h, w = first.shape[0] + first.shape[0] % 2, first.shape[1] + first.shape[1] % 2
+    with files.replacing(path) as tmp:
+        writer = imageio_ffmpeg.write_frames(str(tmp), (w, h), fps=1000.0 / frame_ms, codec="libx264",
+                                             pix_fmt_out="yuv420p", macro_block_size=1, output_params=["-f", "mp4"])  # fmt: skip
+        writer.send(None)
+        try:
+            for t in steps:
+                draw(int(t))
+                frame = np.zeros((h, w, 3), dtype=np.uint8)
+                img = np.asarray(blit.frame())
+                frame[: img.shape[0], : img.shape[1]] = img
+                writer.send(frame)
+        finally:
+            writer.close()
+    return path
+
+
 def render_replay(
     trace: Any,
     mapdef: MapDef,
@@ -268,7 +297,7 @@ def render_replay(
     speed: float = 1.0,
     max_bytes: int = 2_000_000,
 ) -> Path:
-    """Write an animated GIF of the episode to ``path``; returns the path.
+    """Write an animated GIF (or, for a ``.mp4`` path, an H.264 video) of the episode to ``path``; returns the path.
 
     ``predictions``: anything :func:`prediction_steps` accepts; each frame shows the latest forecast made
     at or before it. ``speed``: playback speed relative to simulated time (frame delays of at least
@@ -290,6 +319,11 @@ def render_replay(
         _update(a, ax, trace, t, forecasts, hit_step, hit_xy, ped_radius)
 
     frames = max_frames
+    if path.suffix.lower() == ".mp4":  # a video codec keeps every frame small: no re-encoding for size
+        steps = frame_steps(n, frames, [] if hit_step is None else [hit_step])
+        stride = (n - 1) / max(len(steps) - 1, 1)
+        frame_ms = max(MIN_FRAME_MS, int(round(1000 * stride * float(trace.dt) / speed)))
+        return _encode_mp4(_Blitter(fig, ax, a), steps, draw, path, frame_ms)
     for _ in range(4):
         steps = frame_steps(n, frames, [] if hit_step is None else [hit_step])
         stride = (n - 1) / max(len(steps) - 1, 1)

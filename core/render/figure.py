@@ -48,5 +48,5 @@ def save(fig: Figure, path: str | Path) -> Path:
         )
     fig.tight_layout()
     with files.replacing(p) as tmp:
-        fig.savefig(tmp, format=fmt)
+        fig.savefig(tmp, format=fmt, bbox_inches="tight")  # legends placed beside the axes are kept whole
     return p

@@ -222,6 +222,33 @@
     tick = longest.dt;
     slider.max = String(timeline.length - 1);
     go(0);
+    downloads(loaded[0]);
     root.dataset.ready = "1";
   });
+
+  // #download-trace saves the loaded trace as JSON, #download-frame the canvas as PNG (a page that has them)
+  function save(blob, name) {
+    const a = document.createElement("a");
+    a.href = URL.createObjectURL(blob);
+    a.download = name;
+    document.body.appendChild(a);
+    a.click();
+    setTimeout(() => { URL.revokeObjectURL(a.href); a.remove(); }, 0);
+  }
+
+  function downloads(first) {
+    const traceBtn = document.getElementById("download-trace");
+    const frameBtn = document.getElementById("download-frame");
+    const name = root.dataset.name || "episode";
+    if (traceBtn) {
+      traceBtn.disabled = false;
+      traceBtn.addEventListener("click", () =>
+        save(new Blob([JSON.stringify(first.scene.trace())], {type: "application/json"}), name + ".json"));
+    }
+    if (frameBtn) {
+      frameBtn.disabled = false;
+      frameBtn.addEventListener("click", () =>
+        first.pane.querySelector("canvas").toBlob((b) => save(b, `${name}_step${root.dataset.step}.png`), "image/png"));
+    }
+  }
 })();

@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from foresight.core.evaluation.aggregate import SuiteSummary
-from foresight.core.evaluation.campaign import CampaignResult, CellResult
+from foresight.core.evaluation.campaign_result import CampaignResult, CellResult
 from foresight.core.evaluation.compare import SHOWN_CHANGES
 from foresight.core.evaluation.delta import Delta
 from foresight.core.evaluation.stats import ALPHA, MIN_PAIRS

@@ -20,7 +20,7 @@ from pydantic import BaseModel
 
 from foresight.core.evaluation.aggregate import Aggregates, GroupStats
 from foresight.core.evaluation.delta import BINARY, Delta
-from foresight.core.evaluation.runner import PlannerProvenance
+from foresight.core.evaluation.evaluation_result import PlannerProvenance
 from foresight.core.evaluation.stats import ALPHA, MIN_PAIRS, MeanEstimate, RateEstimate
 from foresight.core.render.charts import Estimate, ab_chart
 from foresight.core.reports.common import (

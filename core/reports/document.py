@@ -42,8 +42,24 @@ def inline_html(text: str) -> str:
     return out
 
 
+@dataclass(frozen=True)
+class Link:
+    """A table cell that links (a path relative to the report, e.g. an episode's player page)."""
+
+    label: str
+    href: str
+
+
 def _cell_md(x: object) -> str:
+    if isinstance(x, Link):
+        return f"[{x.label}]({x.href})"
     return str(x).replace("|", "\\|").replace("\n", " ")
+
+
+def _cell_html(x: object) -> str:
+    if isinstance(x, Link):
+        return f'<a href="{html.escape(x.href)}">{html.escape(x.label)}</a>'
+    return _verdicts(inline_html(x))
 
 
 @dataclass
@@ -127,9 +143,7 @@ class Document:
         if kind == "table":
             header, rows = data  # type: ignore[misc]
             head = "".join(f"<th>{inline_html(h)}</th>" for h in header)
-            body = "".join(
-                "<tr>" + "".join(f"<td>{_verdicts(inline_html(c))}</td>" for c in r) + "</tr>" for r in rows
-            )
+            body = "".join("<tr>" + "".join(f"<td>{_cell_html(c)}</td>" for c in r) + "</tr>" for r in rows)
             return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
         if kind == "image":
             src, caption = data  # type: ignore[misc]

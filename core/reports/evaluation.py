@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from foresight.core.evaluation.aggregate import GroupStats
-from foresight.core.evaluation.runner import EvaluationResult, PlannerProvenance
+from foresight.core.evaluation.evaluation_result import EvaluationResult, PlannerProvenance
 from foresight.core.evaluation.stats import RateEstimate
 from foresight.core.render.charts import rate_bars, taxonomy_bars
 from foresight.core.reports.common import (
@@ -25,7 +25,7 @@ from foresight.core.reports.common import (
     read,
     verdict,
 )
-from foresight.core.reports.document import Document
+from foresight.core.reports.document import Document, Link
 
 MEAN_ROWS = {  #: aggregate mean name -> (row label, digits)
     "min_clearance": ("min clearance (surface gap) [m]", 2),
@@ -168,14 +168,26 @@ def _taxonomy(doc: Document, workdir: Path, res: EvaluationResult) -> None:
     doc.text("Taxonomy thresholds: " + ", ".join(f"{k} = {v}" for k, v in cfg.items()) + ".")
 
 
+PLAYERS = "player"  #: the report's folder of episode player pages (the dashboard redirects it to its player)
+
+
+def player_path(scenario: str, seed: int) -> str:
+    """Where a report links an episode's player: ``player/<scenario>__<seed>.html`` beside the report (written for
+    in-process runs' failed episodes; served by the dashboard as a redirect to its own player)."""
+    from foresight.core.render.episode_trace import episode_stem
+
+    return f"{PLAYERS}/{episode_stem(scenario, seed)}.html"
+
+
 def _failed(doc: Document, res: EvaluationResult) -> None:
     doc.section("Failed episodes")
     failed = [f for g in res.aggregates.per_scenario for f in g.failed] or res.aggregates.overall.failed
     if failed:
         doc.table(
-            ["scenario", "seed", "outcome", "label"],
-            [[f.scenario, f.seed, f.outcome, f.label or "-"] for f in failed],
-        )
+            ["scenario", "seed", "outcome", "label", "episode"],
+            [[f.scenario, f.seed, f.outcome, f.label or "-", Link("watch", player_path(f.scenario, f.seed))]
+             for f in failed],
+        )  # fmt: skip
         doc.text(
             f"Which could a robot with these limits have solved? `foresight scenarios witness --matrix {res.matrix} "
             "--episodes episodes.jsonl --players witnesses` (run in this folder, with the matrix's path) searches "

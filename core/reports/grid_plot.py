@@ -139,6 +139,11 @@ def chart_svg(plot: ParameterPlot, metric: str) -> str:
     pad = (hi - lo) * 0.08 or 0.5
     lo, hi = lo - pad, hi + pad
     pw, ph = W - LEFT - RIGHT, H - TOP - BOTTOM
+    # the legend's room from its longest label (10 px text: about 6 px a character) and its number of rows, so
+    # long checkpoint names and many series are drawn whole rather than cut at the picture's edge
+    labels = [f"{s.checkpoint} · {s.suite}" for s in lines]
+    width = LEFT + pw + max(RIGHT, 44 + 6 * max((len(t) for t in labels), default=0))
+    height = max(H, TOP + 14 * len(lines) + 16)
 
     def px(x: float) -> float:
         return LEFT + (x - lo) / (hi - lo) * pw
@@ -148,7 +153,7 @@ def chart_svg(plot: ParameterPlot, metric: str) -> str:
 
     title = f"{metric} rate vs {plot.parameter}"
     out = [f'<svg xmlns="http://www.w3.org/2000/svg" class="grid-chart" data-parameter="{escape(plot.parameter)}" '
-           f'data-metric="{metric}" width="{W}" height="{H}" viewBox="0 0 {W} {H}" role="img" '
+           f'data-metric="{metric}" width="{width}" height="{height}" viewBox="0 0 {width} {height}" role="img" '
            f'aria-label="{escape(title)}">',
            f'<text x="{LEFT}" y="16" font-size="13" font-weight="bold">{escape(title)}</text>',
            f'<rect x="{LEFT}" y="{TOP}" width="{pw}" height="{ph}" fill="none" stroke="#999"/>']  # fmt: skip

@@ -13,10 +13,10 @@ from typing import Any
 
 from pydantic import BaseModel
 
-from foresight.core.evaluation.campaign import CampaignResult
+from foresight.core.evaluation.campaign_result import CampaignResult
 from foresight.core.evaluation.conformance import ConformanceResult
 from foresight.core.evaluation.diagnostics import DiagnosticsResult
-from foresight.core.evaluation.runner import EvaluationResult
+from foresight.core.evaluation.evaluation_result import EvaluationResult
 from foresight.core.reports.campaign import ranking_figure
 from foresight.core.reports.common import figure_path, fmt, gate_rows, pct, publish, read, verdict
 from foresight.core.reports.document import Document

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pydantic import BaseModel, Field
 
-from foresight.core.evaluation.campaign import CampaignResult
+from foresight.core.evaluation.campaign_result import CampaignResult
 from foresight.core.evaluation.gates import GateCheck, GateResult
 from foresight.core.evaluation.regression import RegressionGateResult
 

@@ -7,6 +7,8 @@ from typing import Annotated
 
 from pydantic import AfterValidator, Field
 
+from foresight.core.limits import MAX_NAME_BYTES
+
 #: The project's own configs/ folder, registered by the service as bundle "builtin".
 BUILTIN_BUNDLE = "builtin"
 BUILTIN_CONFIG_ROOT = Path(__file__).resolve().parent.parent.parent / "configs"
@@ -18,11 +20,23 @@ def _relative(value: str) -> str:
         raise ValueError("path is empty")
     if p.is_absolute() or ".." in p.parts or value.startswith("~") or ":" in p.parts[0]:
         raise ValueError(f"{value!r} must be a path relative to its bundle root, without '..'")
+    long = next(
+        (part for part in p.parts if len(part.encode("utf-8", "surrogatepass")) > MAX_NAME_BYTES), None
+    )
+    if long is not None:  # no file system holds it: reading it failed with an OSError (a 500)
+        raise ValueError(f"a file or folder name over {MAX_NAME_BYTES} bytes: {long[:40]!r}...")
     return p.as_posix()
 
 
 #: A path inside a config bundle (relative, no '..'): e.g. "scenarios/classic_interactions.yaml".
 BundlePath = Annotated[str, Field(min_length=1, max_length=500), AfterValidator(_relative)]
+
+#: Model ids that name a rule, not a registered model: the constant-velocity forecaster, no model, and the
+#: default model (whichever the registry's rule picks). A registered model never takes one of them.
+CV = "cv"
+NO_MODEL = "none"
+DEFAULT_MODEL = "default"
+RESERVED_MODEL_IDS = frozenset({CV, NO_MODEL, DEFAULT_MODEL})
 
 #: An id of a stored object (bundle, dataset, model, job): letters, digits, '.', '_', '-', ':'.
 Ident = Annotated[str, Field(min_length=1, max_length=200, pattern=r"^[A-Za-z0-9][A-Za-z0-9._:\-]*$")]

@@ -469,9 +469,15 @@ class ScenarioMatrix(BaseModel):
         for s in self.scenarios:
             if s.name == name:
                 return s
+        import difflib
+
         from foresight.core.errors import NotFoundError
 
-        raise NotFoundError(f"{self.source}: no scenario named {name!r} (have: {', '.join(self.names)})")
+        close = difflib.get_close_matches(name, self.names, n=3)
+        hint = f"; did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
+        raise NotFoundError(
+            f"{self.source}: no scenario named {name!r}{hint} (have: {', '.join(self.names)})"
+        )
 
     @property
     def names(self) -> list[str]:

@@ -1,5 +1,5 @@
 """Finding runs again, on a real `foresight up` (API server + worker, temp SQLite file) with Debian's Chromium:
-the README's "Finding and organising runs" block as written, the CLI's labels and lists, the jobs page's tag filter,
+docs/service.md's "Finding and organising runs" block as written, the CLI's labels and lists, the jobs page's tag filter,
 and a real campaign's grid plots page. Screenshots go to ``out/screenshots/`` (``FORESIGHT_SCREENSHOT_DIR``)."""
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import pytest
 
 from tests.e2e.service import REPO, TOKEN, Up, wait_job
 from tests.e2e.test_dashboard import chromium, page, screenshot_dir  # noqa: F401 (fixtures)
-from tests.readme import section_blocks
+from tests.readme import DOCS, section_blocks
 
 pytestmark = pytest.mark.slow
 
@@ -45,7 +45,7 @@ def campaign(service: Up) -> str:
 
 
 def _readme_block() -> str:
-    (block,) = section_blocks("Finding and organising runs", "bash")
+    (block,) = section_blocks("Finding and organising runs", "bash", DOCS / "service.md")
     return block.code
 
 

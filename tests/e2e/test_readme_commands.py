@@ -1,13 +1,14 @@
-"""Every ```bash block of README.md is either run here as written (from a scratch folder that looks like the
-repository root: `.venv`, `configs` and `../shared` resolve), run by another test, or on the explicit exclusion list
-below with its reason; an excluded block's `foresight` commands must still exist with every flag they use. A new
-block that is none of these fails `test_every_bash_block_is_run_or_excluded`, so the README cannot drift.
+"""Every ```bash block of README.md and of the documentation pages (docs/) is either run here as written (from a
+scratch folder that looks like the repository root: `.venv`, `configs` and `../shared` resolve; the quickstart from
+an empty folder), run by another test, a copy of a block that is run, or on the explicit exclusion list below with its
+reason; an excluded block's `foresight` commands must still exist with every flag they use. A new block that is none
+of these fails `test_every_bash_block_is_run_or_excluded`, so the pages cannot drift.
 
-The service section runs against a real `foresight up` (its own line, on a free port) with a temporary HOME: the
-token and `server.json` land in `~/.local/share/foresight` as README says, and the placeholders (JOB_ID, EVAL_ID,
-DATASET_ID, CAMPAIGN_ID, ...) become the ids the earlier commands printed. The `foresight ...` and `bench/...` commands
-README and its journal (docs/journal.md) quote in their prose must exist with the options they show (checked against
-the CLI's parser and the scripts' declared flags)."""
+The service sections run against a real `foresight up` (README's quickstart line, on a free port) with a temporary
+HOME: the token and `server.json` land in `~/.local/share/foresight` as the pages say, and the placeholders (JOB_ID,
+EVAL_ID, DATASET_ID, CAMPAIGN_ID, ...) become the ids the earlier commands printed. The `foresight ...` and `bench/...`
+commands the pages quote in their prose must exist with the options they show (checked against the CLI's parser and
+the scripts' declared flags)."""
 
 from __future__ import annotations
 
@@ -31,7 +32,7 @@ import yaml
 
 from tests.conftest import shared_root
 from tests.e2e.service import REPO, free_port, wait_job
-from tests.readme import README, blocks, commands, section_blocks
+from tests.readme import DOCS, blocks, commands, page_name, pages, section_blocks
 
 pytestmark = pytest.mark.slow
 
@@ -48,26 +49,43 @@ class Excluded:
     reason: str
 
 
-RUN_HERE = "run here"
+@dataclass(frozen=True)
+class Copy:
+    of: tuple[str, str, int]  #: the block (page, section, index) it repeats word for word, which is run
 
-#: every bash block of README.md, by (section, index among the section's blocks): run here, elsewhere, or why not
-BASH_BLOCKS: dict[tuple[str, int], str | Elsewhere | Excluded] = {
-    ("Two commands on a fresh machine", 0): Excluded(
-        "full size: `make demo` is the 9-minute quickstart pipeline, `make test` the whole suite (the Makefile "
-        "targets are checked)"),
-    ("Installing the package elsewhere", 0): Excluded(
-        "installs from a package index; tests/e2e/test_wheel.py installs the built wheel (the pinned torch and the "
-        "extras are checked)"),
-    ("The simulator", 0): RUN_HERE,
-    ("Importing the reference system's files", 0): RUN_HERE,
-    ("The service", 0): RUN_HERE,
-    ("The service", 1): RUN_HERE,
-    ("Finding and organising runs", 0): Elsewhere("tests/e2e/test_finding_runs.py"),
-    ("Scaling out", 0): Excluded("a multi-node Ray cluster (`ray start` on the head and on every machine)"),
-    ("Scaling out", 1): Excluded("a SLURM batch script (sbatch, srun, scontrol on 16 nodes)"),
-    ("Evaluate your own planner", 1): Elsewhere("tests/unit/library/test_readme_routes.py"),
-    ("Evaluate your own planner", 2): Elsewhere("tests/unit/library/test_readme_routes.py"),
-    ("Bring your own predictor and data", 0): Excluded(
+
+RUN_HERE = "run here"
+QUICKSTART = ("README.md", "Quickstart (five minutes, any folder)")
+SERVICE = DOCS / "service.md"
+PIP = "installs from a package index; tests/e2e/test_wheel.py installs the built wheel (the pinned torch and the "
+PIP += "extras are checked)"
+MAKE = "full size: `make demo` is the quickstart pipeline, `make test` the whole suite (the Makefile targets are checked)"
+
+#: every bash block of README.md and docs/, by (page, section, index among the section's blocks): run here,
+#: elsewhere, a copy of one that is, or why not
+BASH_BLOCKS: dict[tuple[str, str, int], str | Elsewhere | Excluded | Copy] = {
+    ("README.md", "Install", 0): Excluded(PIP),
+    ("README.md", "Install", 1): Excluded(MAKE),
+    (*QUICKSTART, 0): RUN_HERE,
+    (*QUICKSTART, 1): RUN_HERE,
+    ("docs/getting-started.md", "Install", 0): Excluded(PIP),
+    ("docs/getting-started.md", "Install", 1): Excluded(MAKE),
+    ("docs/getting-started.md", "Quickstart", 0): Copy((*QUICKSTART, 0)),
+    ("docs/getting-started.md", "Quickstart", 1): Copy((*QUICKSTART, 1)),
+    ("docs/tutorials/simulator.md", "The simulator", 0): RUN_HERE,
+    ("docs/tutorials/simulator.md", "Importing the reference system's files", 0): RUN_HERE,
+    ("docs/service.md", "The service", 0): RUN_HERE,
+    ("docs/service.md", "The service", 1): RUN_HERE,
+    ("docs/service.md", "Finding and organising runs", 0): Elsewhere("tests/e2e/test_finding_runs.py"),
+    ("docs/tutorials/scaling-out.md", "Scaling out on Ray", 0): Excluded(
+        "a multi-node Ray cluster (`ray start` on the head and on every machine)"),
+    ("docs/tutorials/scaling-out.md", "Scaling out on Ray", 1): Excluded(
+        "a SLURM batch script (sbatch, srun, scontrol on 16 nodes)"),
+    ("docs/tutorials/own-planner.md", "Evaluate your own planner", 1): Elsewhere(
+        "tests/unit/library/test_readme_routes.py"),
+    ("docs/tutorials/own-planner.md", "Evaluate your own planner", 2): Elsewhere(
+        "tests/unit/library/test_readme_routes.py"),
+    ("docs/tutorials/own-predictor.md", "Bring your own predictor and data", 0): Excluded(
         "needs your own recordings folder (and minutes for every ETH/UCY fold); tests/unit/predict/"
         "test_scene_import.py and test_predictor_plugins.py run each command's route on ETH/UCY scene files"),
 }  # fmt: skip
@@ -76,15 +94,24 @@ BASH_BLOCKS: dict[tuple[str, int], str | Elsewhere | Excluded] = {
 NOT_OURS = {"srun", "sleep", "for", "done", "scontrol"}
 
 
+def _bash_blocks() -> dict[tuple[str, str, int], str]:
+    """Every bash block of every page, by (page, section, index)."""
+    return {(page_name(p), *b.key): b.code for p in pages() for b in blocks("bash", p)}
+
+
 def test_every_bash_block_is_run_or_excluded() -> None:
-    found = {b.key for b in blocks("bash")}
-    assert found - BASH_BLOCKS.keys() == set(), (
-        "README bash blocks neither run by a test nor excluded (add them)"
+    found = _bash_blocks()
+    assert found.keys() - BASH_BLOCKS.keys() == set(), (
+        "bash blocks neither run by a test nor excluded (add them)"
     )
-    assert BASH_BLOCKS.keys() - found == set(), "README lost these bash blocks (update BASH_BLOCKS)"
-    for (section, _), how in BASH_BLOCKS.items():
+    assert BASH_BLOCKS.keys() - found.keys() == set(), "the pages lost these bash blocks (update BASH_BLOCKS)"
+    for key, how in BASH_BLOCKS.items():
         if isinstance(how, Elsewhere):
-            assert section in (REPO / how.test).read_text(), f"{how.test} does not read README's {section!r}"
+            assert key[1] in (REPO / how.test).read_text(), f"{how.test} does not read {key[0]}'s {key[1]!r}"
+        if isinstance(how, Copy):
+            assert BASH_BLOCKS[how.of] == RUN_HERE and found[key] == found[how.of], (
+                f"{key} differs from {how.of}"
+            )
 
 
 def _help(argv: list[str]) -> str:
@@ -110,11 +137,11 @@ def _check_foresight(words: list[str]) -> None:
 
 
 @pytest.mark.parametrize("key", [k for k, how in BASH_BLOCKS.items() if isinstance(how, Excluded)], ids=str)
-def test_excluded_blocks_commands_and_flags_exist(key: tuple[str, int]) -> None:
-    (block,) = [b for b in blocks("bash") if b.key == key]
+def test_excluded_blocks_commands_and_flags_exist(key: tuple[str, str, int]) -> None:
+    code = _bash_blocks()[key]
     makefile, pyproject = (REPO / "Makefile").read_text(), (REPO / "pyproject.toml").read_text()
     checked = 0
-    for line in commands(block.code):
+    for line in commands(code):
         if re.match(r"\w+=\(", line):  # a shell array of the batch script
             continue
         words = shlex.split(line, comments=True)
@@ -184,7 +211,7 @@ def _run(cmd: str, scratch: Path, prelude: str = "", ok: tuple[int, ...] = (0,),
 
 def test_simulator_section_runs_as_written(scratch: Path, shared_dir: Path) -> None:
     listing, check, reachable, witness, episode, demo = commands(
-        section_blocks("The simulator", "bash")[0].code
+        section_blocks("The simulator", "bash", DOCS / "tutorials" / "simulator.md")[0].code
     )
     assert "crossing_low" in _run(listing, scratch)
     report = json.loads(_run(check, scratch))
@@ -215,7 +242,9 @@ def test_simulator_section_runs_as_written(scratch: Path, shared_dir: Path) -> N
 
 def test_importing_reference_files_runs_as_written(scratch: Path, shared_dir: Path) -> None:
     show, convert, render, evaluate = commands(
-        section_blocks("Importing the reference system's files", "bash")[0].code
+        section_blocks("Importing the reference system's files", "bash", DOCS / "tutorials" / "simulator.md")[
+            0
+        ].code
     )
     assert _run(show, scratch).strip()
     _run(convert, scratch)
@@ -255,8 +284,8 @@ CAMPAIGN = {"kind": "campaign", "planner": {"name": "goal"}, "scenarios": ["cros
 
 @pytest.fixture(scope="module")
 def service(scratch: Path) -> Iterator[Service]:
-    """README's `foresight up` line on a free port, with the scratch HOME: a fresh data folder and token."""
-    up = commands(section_blocks("The service", "bash")[0].code)[0]
+    """README's quickstart `foresight up` line on a free port, with the scratch HOME: a fresh data folder and token."""
+    (up,) = commands(section_blocks(QUICKSTART[1], "bash")[0].code)
     assert "--port 8000" in up
     port = free_port()
     log = (scratch.parent / "up.log").open("w")
@@ -291,8 +320,8 @@ def service(scratch: Path) -> Iterator[Service]:
 
 
 def _curl_spec() -> dict:
-    """The job spec of README's curl submission (its `-d` body)."""
-    curl = section_blocks("The service", "bash")[1].code
+    """The job spec of the service page's curl submission (its `-d` body)."""
+    curl = section_blocks("The service", "bash", SERVICE)[1].code
     return json.loads(re.search(r"-d '(.*?)'", curl, flags=re.S).group(1))["spec"]
 
 
@@ -301,7 +330,7 @@ def test_service_section_runs_as_written(service: Service, scratch: Path) -> Non
         r = api.post("/v1/jobs", json={"spec": CAMPAIGN, "name": "readme campaign"})
         assert r.status_code == 201, r.text
         campaign_id = r.json()["id"]
-    cli, curls = (commands(b.code) for b in section_blocks("The service", "bash"))
+    cli, curls = (commands(b.code) for b in section_blocks("The service", "bash", SERVICE))
     lines = dict(
         zip(
             ("up", "submit", "evaluate", "import", "train", "jobs", "models", "compare", "report"),
@@ -310,6 +339,10 @@ def test_service_section_runs_as_written(service: Service, scratch: Path) -> Non
         )
     )
     assert len(cli) == 9, cli
+    assert (
+        lines["up"].split("#")[0].split()[1:]
+        == commands(section_blocks(QUICKSTART[1], "bash")[0].code)[0].split("#")[0].split()[1:]
+    ), "the service page's `foresight up` is not the quickstart's, which the server runs"
     # the import (~40 s of one core here) runs beside the commands that do not need its dataset
     import_log = scratch.parent / "import.log"
     with import_log.open("w") as log:
@@ -358,19 +391,34 @@ def test_service_section_runs_as_written(service: Service, scratch: Path) -> Non
     assert models["count"] >= 1, models
 
 
-# ---------------------------------------------------------------- commands quoted in README's prose
+def test_quickstart_runs_from_any_folder(service: Service, scratch: Path) -> None:
+    """README's quickstart from an empty folder (no checkout, no configs): the first evaluation, its report, and
+    the player URL of each episode, which the dashboard serves."""
+    anywhere = scratch.parent / "anywhere"
+    anywhere.mkdir()
+    evaluate, report, episodes = commands(section_blocks(QUICKSTART[1], "bash")[1].code)
+    out = _run(evaluate, anywhere, ok=(0, 2))
+    assert re.search(r"success +\d+\.\d%", out) and "gate:" in out, out
+    job = re.findall(r"job ([0-9a-f]{32})", out)[-1][:12]  # the id it prints last, shortened as README allows
+    _run(report.replace("JOB_ID", job), anywhere)
+    assert (anywhere / "report" / "report.html").is_file() and (anywhere / "report" / "report.md").is_file()
+    players = re.findall(r"http://\S+/ui/evaluations/\S+", _run(episodes.replace("JOB_ID", job), anywhere))
+    assert len(players) == 4, players  # two scenarios x two seeds
+    page = httpx.get(players[0], timeout=30)
+    assert page.status_code == 200 and "<canvas" in page.text, page.text[:500]
+    assert sorted(p.name for p in anywhere.iterdir()) == ["report"]  # nothing else written where it ran
 
 
-#: README and the journal it points to for its history: the commands both quote are checked alike
-QUOTING = (README, REPO / "docs" / "journal.md")
+# ---------------------------------------------------------------- commands quoted in the pages' prose
 
 
 def _quoting_text() -> str:
-    return "\n".join(path.read_text() for path in QUOTING)
+    """README and every documentation page: the commands they quote are checked alike."""
+    return "\n".join(path.read_text() for path in pages())
 
 
 def _inline_commands() -> list[str]:
-    """Every `foresight ...` command README (or the journal) quotes inline (`[--opt]` optional parts and `a|b`
+    """Every `foresight ...` command README or a documentation page quotes inline (`[--opt]` optional parts and `a|b`
     alternatives included)."""
     text = re.sub(r"```.*?```", "", _quoting_text(), flags=re.S)
     return sorted({" ".join(m.split()) for m in re.findall(r"`(?:\.venv/bin/)?(foresight [^`]*)`", text)})
@@ -395,17 +443,17 @@ def test_inline_commands_and_flags_exist(line: str) -> None:
     first, *rest = words
     for alternative in first.split("|"):  # `evaluate|diagnose`
         path, options = _parser_options([alternative, *rest])
-        assert path, f"README or docs/journal.md quotes `{line}`: foresight has no command {alternative!r}"
+        assert path, f"README or docs/ quotes `{line}`: foresight has no command {alternative!r}"
         flags = {w.split("=", 1)[0] for w in words if w.startswith("-")}
         assert flags <= options, (
-            f"README or docs/journal.md quotes `{line}`: `foresight {' '.join(path)}` has no {flags - options}"
+            f"README or docs/ quotes `{line}`: `foresight {' '.join(path)}` has no {flags - options}"
         )
 
 
 def _bench_commands() -> list[str]:
-    """Every `bench/...py` command README (or the journal) quotes (the benchmarks' table included): minutes to hours
-    each."""
-    quoted = re.findall(r"`(?:nice -n 5 )?(?:\.venv/bin/python )?(bench/[^`]*)`", _quoting_text())
+    """Every `bench/...py` command README or a documentation page quotes (the benchmarks' tables included): minutes
+    to hours each."""
+    quoted = re.findall(r"`(?:nice -n 5 )?(?:\.venv/bin/python )?(bench/[^`\s][^`]*)`", _quoting_text())
     return sorted({" ".join(m.split()) for m in quoted})
 
 
@@ -414,10 +462,8 @@ def test_benchmark_commands_and_flags_exist(line: str) -> None:
     """Benchmarks are not run here (minutes to an hour each); each script named exists and declares each flag."""
     script, *args = line.split()
     files = sorted(REPO.glob(script))
-    assert files, f"README or docs/journal.md quotes `{line}`: no {script}"
+    assert files, f"README or docs/ quotes `{line}`: no {script}"
     for path in files:
         source = path.read_text()
         missing = [a for a in args if a.startswith("--") and f'"{a}"' not in source]
-        assert not missing, (
-            f"README or docs/journal.md quotes `{line}`: {path.relative_to(REPO)} declares no {missing}"
-        )
+        assert not missing, f"README or docs/ quotes `{line}`: {path.relative_to(REPO)} declares no {missing}"

@@ -1,4 +1,4 @@
-"""Chaos on PostgreSQL (issue 15): workers SIGKILLed at random moments during a campaign, and the server SIGKILLed
+"""Chaos on PostgreSQL: workers SIGKILLed at random moments during a campaign, and the server SIGKILLed
 during a burst of submissions. Every acknowledged job and every committed episode record must exist exactly once
 afterwards (a reclaimed campaign resumes from its finished cells and runs each unfinished cell's episodes again,
 whole)."""

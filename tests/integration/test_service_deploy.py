@@ -79,3 +79,10 @@ def test_dockerfile_copies_every_package_the_service_needs() -> None:
     assert re.search(r"pip install '?\.\[server", text) and "torch==2.13.0" in text
     assert re.search(r"^USER (?!root)", text, re.M)
     assert "EXPOSE 8000" in text and "/healthz" in text
+
+
+def test_published_ports_are_bound_to_this_machine_only() -> None:
+    """Reads are open by default: a port published on every interface served every job to the network."""
+    for name, svc in _compose()["services"].items():
+        for port in svc.get("ports", []):
+            assert str(port).startswith("127.0.0.1:"), (name, port)

@@ -47,7 +47,7 @@ def test_plugin_campaign_external_planners_and_bad_specs(tmp_path: Path) -> None
             text = _refused(client, {"name": "dwa"})
             assert (
                 "unknown planner 'dwa'" in text
-                and "predictive, orca, social_force, goal, scripted, external" in text
+                and "predictive, orca, social_force, goal, scripted, sb3, external" in text
             )
             assert "toy" in text
             assert "'rm -rf /' is not configured by the operator" in _refused(

@@ -202,5 +202,52 @@
     if (rows) setInterval(function () { if (!document.hidden) pollRows(); }, parseInt(rows.dataset.pollMs || "2000", 10));
     const log = document.getElementById("job-log");
     if (log) followEvents(log);
+    document.querySelectorAll("iframe.report").forEach(fitFrame);
   });
+
+  // the new-job form: each field parsed by its data-parse, empty ones left out; the API validates the spec
+  document.addEventListener("submit", async function (ev) {
+    const form = ev.target.closest("#job-form");
+    if (!form) return;
+    ev.preventDefault();
+    const spec = {kind: form.dataset.kind};
+    try {
+      form.querySelectorAll("[data-parse]").forEach(function (el) {
+        const raw = el.value.trim();
+        if (raw === "") return;
+        const how = el.dataset.parse;
+        if (how === "int") spec[el.name] = parseInt(raw, 10);
+        else if (how === "float") spec[el.name] = parseFloat(raw);
+        else if (how === "bool") spec[el.name] = raw === "true";
+        else if (how === "list") spec[el.name] = raw.split(",").map(function (s) { return s.trim(); }).filter(Boolean);
+        else if (how === "json") {
+          try { spec[el.name] = JSON.parse(raw); } catch (e) { throw new Error(el.name + ": not JSON (" + e.message + ")"); }
+        } else spec[el.name] = raw;
+      });
+      const body = {spec: spec};
+      const name = form.querySelector("[name=__name]").value.trim();
+      if (name) body.name = name;
+      const job = await post("/v1/jobs", JSON.stringify(body));
+      location.href = "/ui/jobs/" + encodeURIComponent(job.id);
+    } catch (e) {
+      flash(String(e.message || e), true);
+    }
+  });
+
+  // an embedded report is as tall as its page (same origin), so nothing of it is cut off or scrolls twice
+  function fitFrame(frame) {
+    function fit() {
+      try {
+        const doc = frame.contentDocument;
+        if (!doc || !doc.documentElement) return;
+        frame.style.height = (doc.documentElement.scrollHeight + 24) + "px";
+        frame.dataset.fitted = "1";
+      } catch (e) { /* another origin: keep the CSS height */ }
+    }
+    frame.addEventListener("load", function () {
+      fit();
+      frame.contentDocument.querySelectorAll("img").forEach(function (img) { img.addEventListener("load", fit); });
+    });
+    if (frame.contentDocument && frame.contentDocument.readyState === "complete") fit();
+  }
 })();

@@ -16,14 +16,14 @@ from pathlib import Path
 from typing import Any, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from foresight.core.bounds import BoundedConfig
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.config import CampaignConfig, DiagnosticsConfig, EvaluationConfig
 from foresight.core.evaluation.conformance import ConformanceConfig
 from foresight.core.evaluation.regression import FloorsConfig, RegressionGateConfig
-from foresight.core.runtime.refs import BUILTIN_BUNDLE, BundlePath, Ident
+from foresight.core.runtime.refs import BUILTIN_BUNDLE, RESERVED_MODEL_IDS, BundlePath, Ident
 from foresight.core.training.collect import CollectConfig, MixConfig
 from foresight.core.training.config import TrainConfig
 from foresight.core.training.proxy import ProxySpec
@@ -73,6 +73,14 @@ class RegisterSection(BaseModel):
     model_config = ConfigDict(extra="forbid")
     model_id: Ident | None = None  #: default: ``<pipeline name>-<run id>``
     tags: list[str] = Field(default_factory=list, max_length=20)
+
+    @field_validator("model_id")
+    @classmethod
+    def _not_reserved(cls, value: str | None) -> str | None:
+        """Refused at submission, not after training: the registry refuses ids that name a rule."""
+        if value is not None and value.lower() in RESERVED_MODEL_IDS:
+            raise ValueError(f"model id {value!r} is reserved ({', '.join(sorted(RESERVED_MODEL_IDS))})")
+        return value
 
 
 class EvaluateSection(EvaluationConfig):

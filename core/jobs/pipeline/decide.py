@@ -7,7 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from foresight.core.evaluation.campaign import CampaignResult
+from foresight.core.evaluation.campaign_result import CampaignResult
 from foresight.core.evaluation.conformance import ConformanceResult
 from foresight.core.evaluation.diagnostics import DiagnosticsResult
 from foresight.core.evaluation.gates import GateCheck, GateResult

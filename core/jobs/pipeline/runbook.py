@@ -33,10 +33,10 @@ from pydantic import BaseModel
 
 from foresight.core import files
 from foresight.core.errors import ConfigError, CoreError
-from foresight.core.evaluation.campaign import CampaignResult
+from foresight.core.evaluation.campaign_result import CampaignResult
 from foresight.core.evaluation.conformance import ConformanceResult
+from foresight.core.evaluation.evaluation_result import EvaluationResult
 from foresight.core.evaluation.gates import GATE_FAILED_EXIT, GateResult
-from foresight.core.evaluation.runner import EvaluationResult
 from foresight.core.jobs.pipeline.config import PipelineConfig, stage_config
 from foresight.core.jobs.pipeline.decide import decide, failing_checks
 from foresight.core.jobs.pipeline.incumbent import (

@@ -1,6 +1,6 @@
 """Mining seed manifests: (scenario, seed) pairs where a baseline planner fails.
 
-Two manifests, never mixed up (issue 3 §2): the EVALUATION hard seeds (diagnostics, campaign hard suite,
+Two manifests, never mixed up: the EVALUATION hard seeds (diagnostics, campaign hard suite,
 gates) are mined from the matrix's own seeds (the seeds evaluations run), the TRAINING hard seeds
 (hard-case collection, proxy selection) from a separate seed range outside every evaluation seed, with the
 evaluation manifest excluded. ``foresight pipeline mine-seeds`` reproduces the shipped manifests

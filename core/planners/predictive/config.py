@@ -37,21 +37,13 @@ class SamplingConfig(_Frozen):
     direction_count: int = Field(default=16, ge=4, le=72)
     near_field_direction_count: int = Field(default=32, ge=4, le=144)
     #: point turns: turn in place by each angle [rad], then drive straight at each speed ratio (``sampling.turn_then_go``;
-    #: () = none, the planner before 2026-11-24). Reference matrix, 230 paired episodes per condition, against none:
-    #: reference 0.887 -> 0.913 (5 : 11, the hard seed cross_trap_medium 102 solved again), typical speed
-    #: 0.917 -> 0.930 (1 : 4), nobody yields 0.800 / 5.7 % -> 0.796 / 6.5 % (3 : 2)
+    #: () = none): how a robot in a corner faces a door; more successes at reference speed (see the planner history in the docs)
     turn_then_go: tuple[float, ...] = (-1.6, -1.2, -0.8, -0.4, 0.4, 0.8, 1.2, 1.6)
     turn_then_go_speeds: tuple[float, ...] = (0.25, 0.5)
     #: swerves: drive at each of ``veer_speeds`` x v_max turning at each of ``veer_turn_rates`` x w_max for each of
-    #: ``veer_durations_s``, then straight on: a robot behind slower walkers pulls out and passes them, one at a
-    #: corner turns it and drives on. Held, such a turn is a circle that never enters the beam, so the search could
-    #: not find "pull out, then pass" (robots followed a file of walkers at 0.6 m/s through open rooms). () = none
-    #: (the planner before 2026-11-25 late). Reference matrix, 230 paired episodes per condition, none -> 0.8 s turns
-    #: (none-only : swerves-only): reference defaults 0.965 -> 0.974 (1 : 3), typical speed 0.948 -> 0.948 (1 : 1),
-    #: nobody yields 0.830 -> 0.839 (3 : 5), stress v2 0.926 -> 0.930 (4 : 5); -> 0.8 and 1.6 s turns: 0.974 (0 : 0),
-    #: 0.957 (0 : 2, collisions 1 -> 0), 0.839 (3 : 3, collisions 11 -> 13), 0.945 (0 : 4); on the stress suite's
-    #: TRAINING seeds (220 episodes, never tuned on) none 0.955 -> 0.8 s 0.964 -> 0.8 and 1.6 s 0.977 (3 : 8 against
-    #: none, collisions 5 -> 3); 2-5 % less time to the goal. 0.4/0.8/1.6 s and 0.8/1.6/2.4 s turns: no better
+    #: ``veer_durations_s``, then straight on: a robot behind slower walkers pulls out and passes them (held, such a
+    #: turn is a circle that never enters the beam, so robots followed a file of walkers at 0.6 m/s); () = none;
+    #: 0.8 and 1.6 s turns: more successes, 2-5 % less time to the goal (see the planner history in the docs)
     veer_turn_rates: tuple[float, ...] = (-1.0, -0.5, 0.5, 1.0)
     veer_speeds: tuple[float, ...] = (0.5, 1.0)
     veer_durations_s: tuple[float, ...] = (
@@ -60,13 +52,8 @@ class SamplingConfig(_Frozen):
     )  #: how long each swerve turns [s] before it drives straight on
     #: backing off: reverse speeds (ratios of v_max, driven backwards) among the first- and the later-segment commands,
     #: only for a robot that may drive backwards (``robot_config.allow_backwards``; the reference robots may not).
-    #: () = never (the default: it costs crowds that react). Paired on the same episodes with backwards allowed,
-    #: () -> (0.25, 0.5), ()-only : (0.25, 0.5)-only successes: nobody yields 195 -> 196 with collisions 6 -> 3 (1 : 2),
-    #: on its new seeds 197 both with collisions 8 -> 1; but the stress suite 244 -> 237 with collisions 5 -> 7 (8 : 1,
-    #: p = 0.04: robots backing away from bottleneck walkers until the time ran out), typical speed 221 -> 220 (4 : 3),
-    #: reference defaults 225 -> 222 (5 : 2). Only where the best plan forward expects contact: stress 241, nobody
-    #: yields 194 with 4 collisions; that and reverse speeds in the first segment only: stress 240; that and at most
-    #: 2 s of backing without a break: stress 239 (session 23)
+    #: () = never (the default): fewer collisions where nobody yields, but robots backed away from bottleneck
+    #: walkers until the time ran out (see the planner history in the docs)
     reverse_speed_ratios: tuple[float, ...] = ()
 
     @model_validator(mode="after")
@@ -102,30 +89,21 @@ class SearchConfig(_Frozen):
     branch_direction_count: int = Field(
         default=8, ge=4, le=72
     )  #: a holonomic robot's later-segment directions
-    #: grid [m] of the route potential's distances around the walls (``geodesic``); 0 = straight lines (the planner
-    #: before 2026-11-24, grid variant ``straight_line``). Reference matrix, 230 paired episodes per condition
-    #: (straight-only : around-only successes): reference 0.865 -> 0.887 (5 : 10), typical speed 0.896 -> 0.917
-    #: (1 : 6), nobody yields 0.774 / 6.5 % -> 0.800 / 5.7 % (1 : 7); 7 : 23 in all, McNemar p = 0.005. A 0.2 m grid
-    #: scored 7 : 10, 8 : 7, 2 : 6 (bottleneck high lost 4 of 10 at reference and typical speed)
+    #: grid [m] of the route potential's distances around the walls (``geodesic``); 0 = straight lines (grid variant
+    #: ``straight_line``): routing around walls solved more episodes; a 0.2 m grid lost bottlenecks (see the planner history in the docs)
     geodesic_resolution: float = Field(default=0.1, ge=0, le=1)
     #: the last decision's sequence, one step on, is a candidate too (receding horizon with a memory): a plan begun,
     #: such as a point turn, can be carried out instead of being replaced by whichever fixed candidate is cheapest
-    #: (near-ties flipped the robot between a point turn and driving on, step after step, at a fraction of its speed).
-    #: Reference matrix, 230 paired episodes per condition, off -> on (off-only : on-only): reference defaults
-    #: 0.948 -> 0.957 (4 : 6), typical speed 0.939 -> 0.935 (5 : 4), nobody yields 0.791 -> 0.813 (4 : 9, collisions
-    #: 13 -> 13); stress v2 0.906 -> 0.918 (4 : 7, collisions 13 -> 9); 17 : 26 in all; 2-4 % less time to the goal
+    #: (near-ties flipped the robot between a point turn and driving on, step after step, at a fraction of its speed);
+    #: 2-4 % less time to the goal (see the planner history in the docs)
     keep_plan: bool = True
     #: a rollout that reaches the goal earlier counts as that much more progress (v_max x the time it has left), so
-    #: the robot does not slow down once every candidate reaches the goal within the horizon (all of them scored 0:
-    #: the robot slowed down in sight of the goal and timed out within metres of it). Reference matrix, 230 paired
-    #: episodes per condition, off -> on (off-only : on-only): reference 0.957 -> 0.965 (0 : 2), typical speed 0.935
-    #: -> 0.948 (0 : 3), nobody yields 0.813 -> 0.830 (0 : 4, collisions 13 -> 12); stress v2 0.918 -> 0.926 (2 : 4);
-    #: 2 : 13 in all, McNemar p = 0.007; 5-7 % less time to the goal
+    #: the robot does not slow down once every candidate reaches the goal within the horizon (it timed out within
+    #: metres of the goal); 5-7 % less time to the goal (see the planner history in the docs)
     arrival_credit: bool = True
     #: a rollout's steps after it reached the goal cost nothing: the episode ends there (as in the simulator), so a
-    #: pedestrian or wall the rollout would meet beyond the goal is never met. Off -> on, 946 paired episodes (reference,
-    #: typical speed, nobody yields, stress v2): one changed, typical speed 0.957 -> 0.961 (0 : 1, a doorway whose goal
-    #: lies just past the door, walkers coming through it)
+    #: pedestrian or wall the rollout would meet beyond the goal is never met (a robot whose goal lies just past a
+    #: door braked for walkers coming through it) (see the planner history in the docs)
     ends_at_goal: bool = True
     adaptive_horizon: bool = False  #: lengthen the horizon by ``horizon_boost_s`` in the near field
     horizon_boost_s: float = Field(default=0.0, ge=0, le=5)
@@ -166,46 +144,38 @@ class SafetyConfig(_Frozen):
     stall_margin_relief: float = Field(default=0.5, ge=0, le=1)  #: soft margins dropped at full assertiveness
     #: after a stall, a pedestrian forecast to stand (slower than ``waiting_speed`` [m/s]) is waiting for the robot:
     #: it is expected to make up to this much room [m] x assertiveness (people who walk on never are). Off by
-    #: default: 0.7 frees doorway deadlocks with reacting crowds (reference matrix, 69 episodes: 0.826 -> 0.870,
-    #: 0 collisions) but slow walkers taken for waiting ones collide (no repulsion: 2.9 % -> 11.6 % collisions)
+    #: default: it frees doorway deadlocks, but slow walkers taken for waiting ones are run into (see the planner history in the docs)
     waiting_room: float = Field(default=0.0, ge=0)
     waiting_speed: float = Field(default=0.25, ge=0)
     #: a pedestrian walking away from the robot (its forecast velocity points away from the robot) does not walk
     #: into it, so a robot held up behind walkers may pass them closer: their clearance counts this much larger
     #: [m], in full from ``receding_speed`` [m/s] away (linearly less down to 0 m/s), and only while the robot is
     #: slow: in full up to half of ``receding_max_speed`` x v_max, none from it on (a fast robot keeps full margins:
-    #: walkers who do not see it turn into it at waypoints). 0 = off (before 2026-11-25). Reference matrix, 230
-    #: episodes per condition: reference defaults 0.913 -> 0.948 (0 : 8, p = 0.008), typical speed 0.930 -> 0.939
-    #: (0 : 2), nobody yields 0.796 -> 0.791 with collisions 15 -> 13 (3 : 2); ungated it collided more (18)
+    #: walkers who do not see it turn into it at waypoints). 0 = off (see the planner history in the docs)
     receding_room: float = Field(default=0.5, ge=0)
     receding_speed: float = Field(default=0.3, gt=0)
     receding_max_speed: float = Field(default=0.8, gt=0, le=1)
     #: straight lines: while the robot is slow (below ``straight_max_speed`` x v_max), a pedestrian closing in
     #: on it at this speed [m/s] or more, not yet seen to give way to it, is held to its forecast and to the straight
     #: line of its current velocity, whichever comes nearer (one who does not see the robot walks on into it). Off
-    #: by default: 0.3 halves the collisions where nobody yields but costs reacting crowds successes. Reference
-    #: matrix, 230 episodes per condition, default -> 0.3: nobody yields 0.791 / 5.7 % -> 0.804 / 3.0 % (collisions
-    #: 7 : 1, p = 0.07), typical speed 0.939 -> 0.913 (7 : 1), reference defaults 0.952 -> 0.930 (6 : 1). Only
-    #: while standing (``straight_max_speed`` 0.1) or only for walkers closing at 0.8 m/s: 17 collisions, more than none
+    #: by default: 0.3 halves the collisions where nobody yields but costs reacting crowds successes (see the planner history in the docs)
     straight_speed: float = Field(default=0.0, ge=0)
     straight_max_speed: float = Field(default=0.4, gt=0, le=1)
     #: yield, then commit: after a stall (assertiveness 0.8) a pedestrian standing (slower than ``waiting_speed``)
     #: near the robot is taken to wait for it: to stay put and step away from it at up to this [m/s] as it edges
     #: forward, until seen to hold its ground (within ``yield_range`` + 0.3 m of contact for ``yield_test_s``
     #: while the robot closed in, it did not move). Walking pedestrians never are (many never see the robot).
-    #: 0: nobody is (the planner before 2026-11-24). Reference defaults, 69 episodes: 0.826 -> 0.913
+    #: 0: nobody is; it ends doorway standoffs (see the planner history in the docs)
     yield_speed: float = Field(default=0.3, ge=0)
     #: lingering: a pedestrian within ``yield_range`` of contact now and ``standing_stays_s`` [s] ago, who moved less than
     #: 0.5 m in between, is forecast on its own velocity (standing, shuffling), not on the model's forecast, which for
-    #: people by the robot has them walk off (the model learned from people who make room). 0 = off (before session
-    #: 17; grid variant ``no_lingering``). Reference matrix and stress suite, paired, off-only : on-only successes:
-    #: stress 0 : 1 with collisions 7 -> 5, new seeds 1 : 0; reference defaults 1 : 2, new seeds 0 : 1; typical speed
-    #: 1 : 1, new seeds 0 : 0; nobody yields 0 : 0 both
+    #: people by the robot has them walk off (the model learned from people who make room). 0 = off (grid variant
+    #: ``no_lingering``) (see the planner history in the docs)
     standing_stays_s: float = Field(default=1.5, ge=0)
     yield_range: float = Field(default=1.2, ge=0)  #: ... starting this far beyond contact [m]
     yield_test_s: float = Field(
         default=3.0, gt=0
-    )  #: [s]; 1 s: 0.812 at commit 0.5 (reacting people step back slowly)
+    )  #: [s]; long enough for reacting people, who step back slowly
     static_field_resolution: float = Field(default=0.1, ge=0, le=0.5)  #: [m]; 0 = exact distance queries
     lane_memory_s: float = Field(
         default=20.0, gt=0

@@ -39,7 +39,7 @@ def _store(client, auth, engine, result: dict) -> str:  # noqa: ANN001
 
 
 def test_varied_parameters_are_the_numeric_keys_that_differ() -> None:
-    from foresight.core.evaluation.campaign import CampaignResult
+    from foresight.core.evaluation.campaign_result import CampaignResult
 
     result = CampaignResult.model_validate(_grid_campaign())
     cells = [

@@ -1,4 +1,4 @@
-"""A full store (issue 15.5): 507 with nothing left behind, DELETE removes a job's whole folder, and
+"""A full store: 507 with nothing left behind, DELETE removes a job's whole folder, and
 `foresight store gc` finds what crashes and full disks left. The full disk is a real 1 MiB tmpfs."""
 
 from __future__ import annotations

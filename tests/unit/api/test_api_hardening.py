@@ -1,4 +1,4 @@
-"""Hostile input at the API (issue 15): job budgets and default timeouts, ids resolved at submission, upload
+"""Hostile input at the API: job budgets and default timeouts, ids resolved at submission, upload
 bombs, deep JSON, checkpoint registration."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The probe's smaller defects (issue 15.6): SSE id bounds, NUL in stored text, a stale LeaseExpired error,
+"""The hostile-input probe's smaller defects: SSE id bounds, NUL in stored text, a stale LeaseExpired error,
 numeric and name bounds, ?kind= validation, relative paths in job errors, OPTIONS' Allow header."""
 
 from __future__ import annotations

@@ -81,7 +81,7 @@ def test_an_evaluations_failures_get_witnesses_and_players(
     assert (
         f"planner: {first['planner_outcome']}" in html
         and "witness: " in html
-        and html.count("application/json") == 2
+        and html.count('<script type="application/json"') == 2  # two embedded traces
     )
     # the witness is a planner like any other: `foresight evaluate` replays it under the same conditions, and it arrives
     replay = tmp_path / "replay"

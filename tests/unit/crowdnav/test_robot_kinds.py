@@ -92,7 +92,7 @@ def test_predictive_planner_samples_velocities_for_a_holonomic_robot() -> None:
             break
     assert max(speeds) <= 1.0 + 1e-9 and max(speeds) > 0.5
     assert moved[-1][1] > 17.0  # under way toward the goal 8 m up
-    cands = planner._candidates(False)
+    cands = planner._memory.search.candidates(False)
     assert len(cands) >= 16 * 4 and np.allclose(cands.min(axis=0), [-1.0, -1.0])  # every direction
 
 

@@ -10,10 +10,11 @@ import pytest
 
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.aggregate import BootstrapConfig, summarise
-from foresight.core.evaluation.campaign import CellResult, rank, ranking_key, run_campaign
+from foresight.core.evaluation.campaign import rank, ranking_key, run_campaign
+from foresight.core.evaluation.campaign_result import CellResult
 from foresight.core.evaluation.config import CampaignConfig
+from foresight.core.evaluation.evaluation_result import PlannerProvenance
 from foresight.core.evaluation.integrity import check_integrity
-from foresight.core.evaluation.runner import PlannerProvenance
 from foresight.core.runtime.context import StageContext
 from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
 

@@ -1,4 +1,4 @@
-"""Checkpoint integrity (issue 15.4): what a run loads is what it records; a checkpoint rewritten in place (size
+"""Checkpoint integrity: what a run loads is what it records; a checkpoint rewritten in place (size
 and mtime restored) is refused wherever it is loaded again."""
 
 from __future__ import annotations

@@ -26,7 +26,7 @@ def test_robot_drives_into_a_standing_pedestrian_is_robot_fault() -> None:
 
 
 def test_standing_still_while_a_walker_it_saw_for_seconds_walks_into_it_is_robot_fault() -> None:
-    # (this case was labelled pedestrian fault before issue 12: the robot never moved, yet it had 4.4 s to)
+    # (this case was labelled pedestrian fault before 2026-11-24: the robot never moved, yet it had 4.4 s to)
     tr = make_trace(still((0.0, 0.0), 44), [straight(5.0, -1.0, 44)], v=0.0, heading=np.zeros(45))
     res = _classify(tr, "collision_pedestrian", collision_step=44)
     assert res.label == "collision_pedestrian_robot_fault"

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import foresight
 from foresight.cli.main import main
-from foresight.core.evaluation.runner import EvaluationResult
+from foresight.core.evaluation.evaluation_result import EvaluationResult
 from tests.results import without
 from tests.unit.planners.user_planner import Cautious, broken_factory
 

@@ -1,4 +1,4 @@
-"""README "Evaluate your own planner": every code block of the section runs as written, from the repository root
+"""The tutorial "Evaluate your own planner" (docs/tutorials/own-planner.md): every code block of the section runs as written, from the repository root
 (the Python route, the plugin route with the installed toy plugin, the external-process route, the environment)."""
 
 from __future__ import annotations
@@ -12,13 +12,16 @@ from pathlib import Path
 
 import pytest
 
-from tests.readme import section_blocks
+from tests.readme import DOCS, section_blocks
 
 REPO = Path(__file__).resolve().parents[3]
 
 
 def _blocks() -> list[tuple[str, str]]:
-    return [(b.lang, b.code) for b in section_blocks("Evaluate your own planner")]
+    return [
+        (b.lang, b.code)
+        for b in section_blocks("Evaluate your own planner", page=DOCS / "tutorials" / "own-planner.md")
+    ]
 
 
 def test_the_section_has_the_three_routes_and_the_environment() -> None:

@@ -1,4 +1,4 @@
-"""Archive reading (issue 15.2): streamed with a running byte limit, headers never trusted, every failure a
+"""Archive reading: streamed with a running byte limit, headers never trusted, every failure a
 ConfigError naming the member."""
 
 from __future__ import annotations

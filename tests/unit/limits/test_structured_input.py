@@ -1,4 +1,4 @@
-"""Nesting and alias-expansion bounds on YAML, JSON-like values and SVG (issue 15.2, 15.3)."""
+"""Nesting and alias-expansion bounds on YAML, JSON-like values and SVG."""
 
 from __future__ import annotations
 
@@ -92,3 +92,31 @@ def test_an_svg_with_100000_nested_groups_is_refused() -> None:
     for bad in ("", "<svg", "not xml"):
         with pytest.raises(ConfigError, match="malformed XML"):
             parse_svg_text(bad, name="bad", source="bad.svg")
+
+
+def test_a_flat_yaml_of_a_million_keys_is_refused_at_once_with_little_memory() -> None:
+    """The probe's 10.9 MB file took 84 s of CPU and 1.5 GB before its node count was checked."""
+    import tracemalloc
+
+    from foresight.core.limits import MAX_YAML_BYTES, MAX_YAML_NODES
+
+    text = "".join(f"k{i}: {i}\n" for i in range(1_000_000))
+    dense = text[: MAX_YAML_BYTES - 100]  # under the size bound: the node count stops it
+    for doc, words in ((text, "over"), (dense, f"more than {MAX_YAML_NODES} nodes")):
+        t0 = time.process_time()
+        with pytest.raises(ConfigError, match=words):
+            load_yaml(doc, "flat.yaml")
+        cpu = time.process_time() - t0
+        tracemalloc.start()  # a second pass: tracing slows every allocation
+        with pytest.raises(ConfigError, match=words):
+            load_yaml(doc, "flat.yaml")
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        assert cpu < 2.0 and peak < 100 << 20, (words, cpu, peak)
+
+
+def test_one_huge_yaml_string_is_refused_unread() -> None:
+    t0 = time.process_time()
+    with pytest.raises(ConfigError, match="over"):
+        load_yaml('a: "' + "x" * 49_000_000 + '"\n', "string.yaml")
+    assert time.process_time() - t0 < 0.5  # 65 s to scan before

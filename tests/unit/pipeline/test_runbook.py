@@ -183,7 +183,7 @@ def test_stages_run_in_order_and_outputs_feed_the_next_stage(tmp_path: Path) -> 
     assert spec["hardcase"]["hard_seeds"] == config.training_seeds
     assert (spec["mix"]["base"], spec["mix"]["hardcase"]) == ("id-collect", "id-hardcase")
     assert spec["train"]["dataset"] == "id-mix"
-    # proxy: the selection suite's TRAINING seeds (issue 12; before it, the pipeline's training hard seeds)
+    # proxy: the selection suite's TRAINING seeds (before 2026-11-24, the pipeline's training hard seeds)
     assert (spec["train"]["proxy"]["matrix"], spec["train"]["proxy"]["seed_manifest"]) == (
         config.selection.matrix,
         config.selection.seeds,
@@ -287,7 +287,7 @@ def test_the_shipped_pipeline_configs_validate_and_build_every_stage_config() ->
         ctx = StageContext(workdir=Path("."), resolve_bundle=lambda ident: BUILTIN_CONFIG_ROOT)
         sizes = check_seed_separation(config, ctx)  # raises when training seeds meet evaluation episodes
         assert sizes["training_seeds"] > 0 and sizes["evaluation_seeds"] > 0
-        # closed-loop model selection runs on the stress suite's TRAINING seeds (issue 12)
+        # closed-loop model selection runs on the stress suite's TRAINING seeds
         assert config.selection is not None and config.selection.matrix == "scenarios/stress.yaml"
         proxy = stage_config(config, "train", inputs).proxy
         assert (proxy.matrix, proxy.seed_manifest) == (config.selection.matrix, config.selection.seeds)

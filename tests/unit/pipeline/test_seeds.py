@@ -97,7 +97,7 @@ def test_seed_ranges_parse() -> None:
 
 
 def test_stress_selection_manifests_are_training_seeds_only() -> None:
-    """The pipelines select models on these (issue 12): subsets of stress_train.yaml, never a stress.yaml seed."""
+    """The pipelines select models on these: subsets of stress_train.yaml, never a stress.yaml seed."""
     stress = load_matrix(BUILTIN_CONFIG_ROOT / "scenarios" / "stress.yaml")
     own = {(n, s) for n in stress.names for s in stress.get(n).scenario.seeds}
     full = read_manifest_pairs(SEEDS / "stress_train.yaml")
@@ -108,7 +108,7 @@ def test_stress_selection_manifests_are_training_seeds_only() -> None:
 
 def test_reference_replication_seeds_are_the_ten_after_the_measured_ones(reference_matrix_path) -> None:  # noqa: ANN001
     """Every scenario of the reference's matrix, 10 seeds each, none of the 10 that ``--seeds-per-scenario 10`` runs
-    (where issue 12's numbers were measured and the planner tuned), none a training seed."""
+    (where the navigation targets' numbers were measured and the planner tuned), none a training seed."""
     from foresight.core.evaluation.runner import expand_seeds
 
     matrix = load_matrix(reference_matrix_path)

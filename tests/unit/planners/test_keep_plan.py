@@ -8,6 +8,7 @@ import numpy as np
 from foresight.core.planners.predictive.config import PredictivePlannerConfig
 from foresight.core.planners.predictive.planner import PredictivePlanner
 from foresight.core.planners.predictive.rollout import rollout
+from foresight.core.planners.predictive.search import kept_plan
 from foresight.core.predict.forecaster import ConstantVelocityForecaster
 from foresight.core.predict.timebase import PLANNER_TIMEBASE
 from foresight.core.sim.robot import RobotLimits, unicycle_step
@@ -55,8 +56,8 @@ def test_without_it_no_decision_is_a_kept_plan():
 
 def test_the_kept_rollout_is_the_rollout_of_the_kept_commands_from_where_the_robot_is():
     planner, _, state = _drive(keep_plan=True, decisions=3)
-    S = len(planner._plan[0])
-    cmds, states = planner._kept_plan(state, S, 0.1)
+    S = len(planner._memory.plan[0])
+    cmds, states = kept_plan(planner._memory.plan, state, S, 0.1, planner._limits)
     expected = rollout(state[None], cmds[None], RobotLimits(), 0.1)[0]
     assert np.allclose(states[:, :2], expected[:, :2], atol=1e-9) and np.allclose(
         states[:, 3:], expected[:, 3:]
@@ -67,5 +68,5 @@ def test_the_kept_rollout_is_the_rollout_of_the_kept_commands_from_where_the_rob
     moved = state + np.array(
         [0.3, 0.0, 0.0, 0.0, 0.0]
     )  # the robot is not where the plan put it: nothing to keep
-    assert planner._kept_plan(moved, S, 0.1) is None
-    assert planner._kept_plan(state, S + 1, 0.1) is None  # another horizon
+    assert kept_plan(planner._memory.plan, moved, S, 0.1, planner._limits) is None
+    assert kept_plan(planner._memory.plan, state, S + 1, 0.1, planner._limits) is None  # another horizon

@@ -36,7 +36,7 @@ def _lingering(planner: PredictivePlanner, steps: int) -> list[bool]:
             ped_vels=[(0.3 * (1 - 2 * (k % 2)), 0.0), (1.0, 0.0), (0.0, 0.0)],
             step=k,
         )
-        mask = planner._lingering(obs, obs.ped_ids, contact=1.4)
+        mask = planner._memory.crowd.lingers(obs, obs.ped_ids, contact=1.4)
     return mask.tolist()
 
 

@@ -104,7 +104,7 @@ def test_after_a_stall_a_waiting_pedestrian_is_trusted_to_make_room_for_a_slow_r
 
     def collision(config: dict, assertiveness: float) -> float:
         p = _planner(m, PredictivePlannerConfig.from_dict(config))
-        p._assert = assertiveness  # 1: as after a few seconds without route progress
+        p._memory.crowd.stall.level = assertiveness  # 1: as after a few seconds without route progress
         return float(p.score_commands(obs, creep)[1]["collision"][0])
 
     nobody_waits = {"safety": {"yield_speed": 0.0}}
@@ -118,9 +118,9 @@ def test_a_walking_pedestrian_is_never_taken_to_wait():
     m = corridor_map()
     p = _planner(m)
     walking = observation(m, velocity=(0.0, 0.0), peds=[(6.5, 10.0)], ped_vels=[(-1.0, 0.0)])
-    assert not p._waiting(walking, walking.ped_ids, contact=1.4).any()
+    assert not p._memory.crowd.waits(walking, walking.ped_ids, contact=1.4).any()
     standing = observation(m, velocity=(0.0, 0.0), peds=[(6.5, 10.0)])
-    assert p._waiting(standing, standing.ped_ids, contact=1.4).all()
+    assert p._memory.crowd.waits(standing, standing.ped_ids, contact=1.4).all()
 
 
 @pytest.mark.parametrize("steps_back", [False, True])
@@ -134,9 +134,9 @@ def test_a_pedestrian_who_holds_its_ground_while_the_robot_closes_in_is_not_trus
         robot_x = 5.0 + 0.02 * step  # edging forward at 0.2 m/s
         ped_x = 7.0 + (0.03 * step if steps_back else 0.0)  # the pedestrian steps back faster, or not at all
         obs = observation(m, pose=(robot_x, 10.0, 0.0), velocity=(0.2, 0.0), peds=[(ped_x, 10.0)], step=step)
-        waiting = p._waiting(obs, obs.ped_ids, contact=1.4)
+        waiting = p._memory.crowd.waits(obs, obs.ped_ids, contact=1.4)
     assert bool(waiting[0]) is steps_back
-    assert (0 in p._holds) is not steps_back
+    assert (0 in p._memory.crowd.waits.holds) is not steps_back
 
 
 def test_assertiveness_grows_while_stalled_and_decays_with_progress():
@@ -145,14 +145,14 @@ def test_assertiveness_grows_while_stalled_and_decays_with_progress():
     s = p.config.safety
     dt, t, a = 0.1, 0.0, []
     for _ in range(int((s.stall_after_s + s.stall_ramp_s) / dt) + 5):  # standing still
-        a.append(p._assertiveness(10.0, t, dt))
+        a.append(p._memory.crowd.stall(10.0, t, dt))
         t += dt
     assert a[0] == 0.0 and a[int(s.stall_after_s / dt) - 1] == 0.0 and a[-1] == 1.0
     phi = 10.0
     for _ in range(int(s.stall_after_s / dt) + 10):  # driving at 1 m/s along the route
         phi -= 1.0 * dt
         t += dt
-        last = p._assertiveness(phi, t, dt)
+        last = p._memory.crowd.stall(phi, t, dt)
     assert 0.0 < last < 1.0  # ramps down gradually, no reset
 
 
@@ -247,18 +247,20 @@ def test_after_a_stall_only_a_standing_pedestrian_is_expected_to_make_room():
     times = PLANNER_TIMEBASE.times
     standing = np.repeat([[[7.0, 10.0]]], len(times), axis=1)  # (1, K, 2)
     walking = np.array([7.0, 10.0]) + times[None, :, None] * np.array([0.0, 1.3])
-    assert p._waiting_room(standing, times, 0.0).tolist() == [0.0]  # no stall, no room
-    assert p._waiting_room(standing, times, 1.0).tolist() == [pytest.approx(p.config.safety.waiting_room)]
-    assert p._waiting_room(walking, times, 1.0).tolist() == [0.0]
+    assert p._memory.crowd.waiting_room(standing, times, 0.0).tolist() == [0.0]  # no stall, no room
+    assert p._memory.crowd.waiting_room(standing, times, 1.0).tolist() == [
+        pytest.approx(p.config.safety.waiting_room)
+    ]
+    assert p._memory.crowd.waiting_room(walking, times, 1.0).tolist() == [0.0]
     creep = np.array([[0.3, 0.0]])
     obs = observation(m, velocity=(0.0, 0.0), peds=[(7.6, 10.0)], step=0)
     fresh = p.score_commands(obs, creep)[1]
     stalled = _planner(m, waiting)
     for k in range(80):  # 8 s standing still: assertiveness ramps to 1
-        stalled._assertiveness(stalled._route(obs).start(obs.robot_pose[:2]), 0.1 * k, 0.1)
+        stalled._memory.crowd.stall(stalled._route(obs).start(obs.robot_pose[:2]), 0.1 * k, 0.1)
     late = stalled.score_commands(observation(m, velocity=(0.0, 0.0), peds=[(7.6, 10.0)], step=80), creep)[1]
     assert late["risk"][0] < fresh["risk"][0] and late["collision"][0] < fresh["collision"][0]
-    assert _planner(m)._waiting_room(standing, times, 1.0).tolist() == [0.0]  # off by default
+    assert _planner(m)._memory.crowd.waiting_room(standing, times, 1.0).tolist() == [0.0]  # off by default
 
 
 def test_what_a_rollout_meets_after_arriving_costs_nothing():

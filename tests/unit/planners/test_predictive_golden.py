@@ -1,8 +1,8 @@
 """Predictive planner decisions on hand-built scenes stay what they were (recorded fixture).
 
 The fixture ``predictive_golden.json`` holds the command, cost, command sequence and evaluation
-count of every decision below. Re-recorded on 2026-11-24 after two deliberate behaviour changes of
-issue 12: uncertainty-aware pedestrian terms, no standing-still discount, contact never shrunk, 4 s
+count of every decision below. Re-recorded on 2026-11-24 after two deliberate behaviour changes for
+realistic crowds: uncertainty-aware pedestrian terms, no standing-still discount, contact never shrunk, 4 s
 horizon; then "yield, then commit" (after a stall, standing pedestrians are trusted to make room
 until one holds its ground); then route progress measured around the walls (``geodesic``: only
 ``wall_ahead`` changed, the robot now drives round the wall; the other costs moved by 1e-14); then point
@@ -13,11 +13,11 @@ whose forecasts set the pedestrians moving). On 2026-11-25 only ``ped_ahead`` wa
 robot-frame ones turned and moved to the robot's pose (``FrameRollouts``, positions equal to ~1e-15 m), and its first
 decision is an exact left/right tie (the pedestrian dead ahead on the robot's line, both costs equal to 1e-15),
 which now breaks the other way; its later steps follow from that one. Every other decision is unchanged.
-Later that day (session 12) the robot-pedestrian distances became float32 (half the memory traffic of the
+Later that day the robot-pedestrian distances became float32 (half the memory traffic of the
 decision's largest arrays): costs moved by up to 4e-6 relative, ``ped_ahead``'s tie broke back, every other
 command and sequence stayed; the fixture was re-recorded. The learned fixture was kept as recorded with the torch
 forward: the NumPy forward a decision now runs (``core.predict.nn.inference``) reproduces it.
-Session 13 (2026-11-25): an earlier arrival at the goal counts as progress (``search.arrival_credit``): only the cost
+Later on 2026-11-25 an earlier arrival at the goal counts as progress (``search.arrival_credit``): only the cost
 of ``waypoints``' second decision changed (its rollouts reach the goal; command and sequence unchanged); the CV
 fixture was re-recorded, the learned one (no goal in reach) is unchanged.
 Later that day swerves joined the first candidates (``sampling.veer_turn_rates``: turn for the first segment at speed,
@@ -26,13 +26,13 @@ then straight on): every evaluation count grew by the 8 sequences, and where a s
 ``ped_ahead`` and ``stall``, which now pull out at speed where they crept on an arc); both fixtures were re-recorded.
 Then swerves that turn for 1.6 s as well (``veer_durations_s``, 8 more sequences): constant velocity ``backwards_allowed``,
 ``crossing``, ``turning_start`` and ``wall_ahead``, learned ``crowd16`` changed one or two decisions each; re-recorded.
-Session 15: waiting where people have lately walked through costs (``weights.lane``, ``traffic``): no command or
+Then waiting where people have lately walked through costs (``weights.lane``, ``traffic``): no command or
 sequence changed; the costs of seven decisions whose best plan ends at rest beside the scenes' walkers grew by up to
 0.5; both fixtures re-recorded.
-Session 21: what a rollout meets after reaching the goal costs nothing (``search.ends_at_goal``: the episode ends
+On 2026-11-28 what a rollout meets after reaching the goal costs nothing (``search.ends_at_goal``: the episode ends
 there): ``waypoints``' second decision, 1.6 m inside the goal's tolerance at 2 m/s, no longer brakes for the map's
 edge beyond it (0.5 -> 1.5 m/s); the CV fixture was re-recorded, the learned one is unchanged.
-Session 23: a robot that may drive backwards can back off (``sampling.reverse_speed_ratios``, off by default): no
+Later on 2026-11-28 a robot that may drive backwards can back off (``sampling.reverse_speed_ratios``, off by default): no
 decision changed.
 Before that it held the decisions of the planner before its rollout was vectorised.
 Speed-ups must not change decisions: commands and sequences must match exactly, costs to

@@ -61,11 +61,13 @@ def test_only_pedestrians_walking_away_get_room():
         [[0.65, 0.0], [-0.65, 0.0], [0.0, 0.0], [0.1, 0.0]]
     )  # away, towards, standing, closing slowly
     fut = np.stack([start + vel * t for t in times], axis=1)
-    room = planner._receding_room(fut, times, p0=np.array([5.0, 10.0]), v=0.5)
+    room = planner._memory.crowd.receding_room(fut, times, p0=np.array([5.0, 10.0]), v=0.5)
     assert room == pytest.approx([0.5, 0.0, 0.0, 0.0])
     # half the speed that earns full room earns half of it; half-way between half and all of the top speed, half
     strolling = np.stack([start[:1] + np.array([0.15, 0.0]) * t for t in times], axis=1)  # 0.15 m/s away
-    half = planner._receding_room(strolling, times, p0=np.array([5.0, 10.0]), v=0.5)
+    half = planner._memory.crowd.receding_room(strolling, times, p0=np.array([5.0, 10.0]), v=0.5)
     assert half == pytest.approx([0.25])
-    assert planner._receding_room(fut, times, np.array([5.0, 10.0]), v=1.2) == pytest.approx([0.25, 0, 0, 0])
-    assert not planner._receding_room(fut, times, np.array([5.0, 10.0]), v=1.6).any()
+    assert planner._memory.crowd.receding_room(fut, times, np.array([5.0, 10.0]), v=1.2) == pytest.approx(
+        [0.25, 0, 0, 0]
+    )
+    assert not planner._memory.crowd.receding_room(fut, times, np.array([5.0, 10.0]), v=1.6).any()

@@ -39,7 +39,7 @@ def test_unknown_planner_lists_the_installed_ones() -> None:
     with pytest.raises(ValidationError) as exc:
         EvaluationConfig.model_validate({"planner": {"name": "dwa"}})
     assert "unknown planner 'dwa'" in str(exc.value)
-    assert "predictive, orca, social_force, goal, scripted, external" in str(exc.value) and "toy" in str(
+    assert "predictive, orca, social_force, goal, scripted, sb3, external" in str(exc.value) and "toy" in str(
         exc.value
     )
     with pytest.raises(NotFoundError, match="installed: .*toy"):

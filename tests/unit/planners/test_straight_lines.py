@@ -68,10 +68,12 @@ def test_only_walkers_closing_in_on_a_slow_robot_get_a_straight_line():
     obs = observation(m, pose=(5.0, 10.0, 0.0), velocity=(0.0, 0.0), peds=peds, ped_vels=vels)
     ids = np.array([3, 0, 1, 2], dtype=np.int64)  # forecast order differs from the observation's
     times = np.array([0.4, 0.8])
-    mask, lines = planner._straight_lines(obs, ids, times, np.array([5.0, 10.0]), v=0.0)
+    mask, lines = planner._memory.crowd.walks_straight(obs, ids, times, np.array([5.0, 10.0]), v=0.0)
     assert mask.tolist() == [False, True, False, False]
     assert lines == pytest.approx(np.array([[[8.6, 10.0], [8.2, 10.0]]]))
-    fast = planner._straight_lines(obs, ids, times, np.array([5.0, 10.0]), v=1.0)  # 0.5 of v_max: not slow
+    fast = planner._memory.crowd.walks_straight(
+        obs, ids, times, np.array([5.0, 10.0]), v=1.0
+    )  # 0.5 of v_max: not slow
     assert fast is None  # no pedestrian gets a line
 
 
@@ -84,8 +86,8 @@ def test_a_walker_seen_to_give_way_gets_no_straight_line():
         slowing = 1.0 - 0.15 * k / 20
         vels = [(-slowing, 0.0), (-1.0, 0.0), (-slowing, 0.0)]
         obs = observation(m, pose=(5.0, 10.0, 0.0), velocity=(0.0, 0.0), peds=peds, ped_vels=vels, step=k)
-        mask, _ = planner._straight_lines(
+        mask, _ = planner._memory.crowd.walks_straight(
             obs, obs.ped_ids, np.array([0.4, 0.8]), np.array([5.0, 10.0]), v=0.0
         )
-    assert planner._reacted == {0}
+    assert planner._memory.crowd.walks_straight.gives_way.reacted == {0}
     assert mask.tolist() == [False, True, True]

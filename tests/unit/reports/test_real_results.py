@@ -10,7 +10,8 @@ from pathlib import Path
 import pytest
 
 from foresight.core.evaluation.config import EvaluationConfig
-from foresight.core.evaluation.runner import EvaluationResult, run_evaluation
+from foresight.core.evaluation.evaluation_result import EvaluationResult
+from foresight.core.evaluation.runner import run_evaluation
 from foresight.core.reports.campaign import write_campaign_report
 from foresight.core.reports.compare import write_comparison_report
 from foresight.core.reports.evaluation import write_evaluation_report

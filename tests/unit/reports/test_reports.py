@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from foresight.core.evaluation.campaign import CampaignResult
+from foresight.core.evaluation.campaign_result import CampaignResult
 from foresight.core.evaluation.diagnostics import DiagnosticsResult
-from foresight.core.evaluation.runner import EvaluationResult
+from foresight.core.evaluation.evaluation_result import EvaluationResult
 from foresight.core.evaluation.stats import rate
 from foresight.core.reports.campaign import write_campaign_report
 from foresight.core.reports.compare import rate_delta, write_comparison_report

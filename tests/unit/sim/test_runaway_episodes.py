@@ -1,4 +1,4 @@
-"""Runaway episodes (issue 15.1): a cancel or timeout stops a long episode from inside, a trace has a memory
+"""Runaway episodes: a cancel or timeout stops a long episode from inside, a trace has a memory
 bound, and every ``max_steps`` has an upper bound."""
 
 from __future__ import annotations

@@ -28,7 +28,7 @@ def test_an_evaluation_row_is_derived_from_the_typed_result(engine) -> None:  # 
     """The row's metrics, config and per-scenario table are the result model's fields, dumped once."""
     from sqlalchemy import select
 
-    from foresight.core.evaluation.runner import EvaluationResult
+    from foresight.core.evaluation.evaluation_result import EvaluationResult
     from foresight.store import queue, records
     from foresight.store.models import Evaluation, FailureTaxonomy, GateResult
     from foresight.store.session import write_tx

@@ -1,4 +1,4 @@
-"""Job errors are readable without a token: they name files relative to the store or the configs (issue 15.6)."""
+"""Job errors are readable without a token: they name files relative to the store or the configs."""
 
 from __future__ import annotations
 

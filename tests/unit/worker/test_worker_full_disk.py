@@ -1,4 +1,4 @@
-"""A job that fills the store (issue 15.5) fails clearly, is not retried, and leaves no partial files behind."""
+"""A job that fills the store fails clearly, is not retried, and leaves no partial files behind."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Runaway jobs in a worker (issue 15.1): cancel and timeout inside one long episode, the default timeout, and
+"""Runaway jobs in a worker: cancel and timeout inside one long episode, the default timeout, and
 the step budget re-checked before a stage runs (child jobs never pass the API)."""
 
 from __future__ import annotations

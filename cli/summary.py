@@ -1,0 +1,55 @@
+"""A finished job in a few lines, what a reader came for first: status and verdict, the headline numbers, the failed
+gate checks, the artifacts and where the report is. `submit --wait`, `jobs wait` and `jobs show` print it."""
+
+from __future__ import annotations
+
+from typing import Any
+
+MAX_ARTIFACTS = 12  #: artifact names listed before "... and N more"
+SKIP = {"exit_code", "code_version"}  #: result fields the summary leaves to --json
+
+
+def _value(x: Any) -> str:
+    if isinstance(x, float):
+        return f"{x:.4g}"
+    return str(x)
+
+
+def headline(result: dict[str, Any]) -> list[str]:
+    """The result's top-level scalar fields (rates, counts, names), then its gate checks that failed."""
+    scalars = [f"{k} {_value(v)}" for k, v in result.items()
+               if k not in SKIP and isinstance(v, int | float | str | bool) and not isinstance(v, dict)]  # fmt: skip
+    lines = []
+    for i in range(0, len(scalars), 4):
+        lines.append("  " + ", ".join(scalars[i : i + 4]))
+    gate = result.get("gate")
+    if isinstance(gate, dict):
+        for check in gate.get("checks") or []:
+            if not check.get("passed", True):
+                value, threshold = check.get("value"), check.get("threshold")
+                lines.append(f"  gate {check.get('name')}: FAIL ({_value(value)} vs {_value(threshold)}) "
+                             f"{check.get('detail') or ''}".rstrip())  # fmt: skip
+    return lines
+
+
+def job_summary(job: dict[str, Any], base_url: str) -> str:
+    """Status line, error or verdict, headline, artifacts and the report's places, in that order."""
+    out = [f"{job['kind']} job {job['id']}: {job['status']}"
+           + (f", verdict {job['verdict']}" if job.get("verdict") else "")
+           + (f"  {job['name']!r}" if job.get("name") else "")]  # fmt: skip
+    if job.get("note"):
+        out.append(f"note: {job['note']}")
+    if job.get("error"):
+        out.append(f"error: {job['error'].get('type')}: {job['error'].get('message')}")
+    if isinstance(job.get("result"), dict):
+        out += headline(job["result"])
+    names = [a["name"] for a in job.get("artifacts") or []]
+    if names:
+        more = f" ... and {len(names) - MAX_ARTIFACTS} more" if len(names) > MAX_ARTIFACTS else ""
+        out.append(f"artifacts ({len(names)}): {', '.join(names[:MAX_ARTIFACTS])}{more}")
+    children = job.get("children") or []
+    if children:
+        out.append(f"children ({len(children)}): " + ", ".join(c[:12] for c in children))
+    out.append(f"page: {base_url}/ui/jobs/{job['id']}" + ("  report: `foresight report " + job["id"][:12] + "`"
+                                                           if "report.md" in names else ""))  # fmt: skip
+    return "\n".join(out)
