@@ -124,7 +124,7 @@ def rate_bars(
     ax.set_xlabel(xlabel)
     ax.set_title(title, fontsize=10)
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
-    return save(fig, path)
+    return save(fig, path, tight=True)
 
 
 def taxonomy_bars(groups: Mapping[str, Mapping[str, int]], path: str | Path, *, title: str = "") -> Path:
@@ -160,7 +160,7 @@ def taxonomy_bars(groups: Mapping[str, Mapping[str, int]], path: str | Path, *, 
         ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
     else:
         ax.text(0.5, 0.5, "no failures", transform=ax.transAxes, ha="center", va="center")
-    return save(fig, path)
+    return save(fig, path, tight=True)
 
 
 def ranking_chart(
@@ -186,7 +186,7 @@ def ranking_chart(
     ax.set_xlabel("success rate (95 % Wilson interval)")
     ax.set_title(title, fontsize=10)
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
-    return save(fig, path)
+    return save(fig, path, tight=True)
 
 
 def _forest(ax: Axes, deltas: Mapping[str, Estimate], xlabel: str) -> None:
@@ -240,7 +240,7 @@ def ab_chart(
     ax_scen.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
     if title:
         fig.suptitle(title, fontsize=10)
-    return save(fig, path)
+    return save(fig, path, tight=True)
 
 
 def _series(history: Sequence[Mapping[str, Any]], key: str) -> tuple[np.ndarray, np.ndarray]:
@@ -307,4 +307,4 @@ def training_curves(
             twin.legend(loc="lower right", fontsize=7)
     if title:
         fig.suptitle(title, fontsize=10)
-    return save(fig, path)
+    return save(fig, path, tight=True)

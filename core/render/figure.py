@@ -38,8 +38,11 @@ def map_axes(mapdef: MapDef, *, title: str | None = None, extra_width_in: float 
     return fig, ax
 
 
-def save(fig: Figure, path: str | Path) -> Path:
-    """Write the figure as PNG or SVG, chosen by the suffix of ``path``; returns the path."""
+def save(fig: Figure, path: str | Path, *, tight: bool = False) -> Path:
+    """Write the figure as PNG or SVG, chosen by the suffix of ``path``; returns the path.
+
+    ``tight`` crops to the drawn content so that legends placed beside the axes are kept whole (charts); map
+    pictures keep the figure's fixed size, so two pictures of one map line up pixel for pixel."""
     p = Path(path)
     fmt = FORMATS.get(p.suffix.lower())
     if fmt is None:
@@ -48,5 +51,5 @@ def save(fig: Figure, path: str | Path) -> Path:
         )
     fig.tight_layout()
     with files.replacing(p) as tmp:
-        fig.savefig(tmp, format=fmt, bbox_inches="tight")  # legends placed beside the axes are kept whole
+        fig.savefig(tmp, format=fmt, bbox_inches="tight" if tight else None)
     return p

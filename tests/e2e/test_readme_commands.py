@@ -88,6 +88,9 @@ BASH_BLOCKS: dict[tuple[str, str, int], str | Elsewhere | Excluded | Copy] = {
     ("docs/tutorials/own-predictor.md", "Bring your own predictor and data", 0): Excluded(
         "needs your own recordings folder (and minutes for every ETH/UCY fold); tests/unit/predict/"
         "test_scene_import.py and test_predictor_plugins.py run each command's route on ETH/UCY scene files"),
+    ("docs/tutorials/sb3.md", "1. Install", 0): Excluded(PIP),
+    ("docs/tutorials/sb3.md", "3. Evaluate in-process", 0): Elsewhere("tests/integration/test_sb3_tutorial.py"),
+    ("docs/tutorials/sb3.md", "4. Evaluate on the server", 0): Elsewhere("tests/integration/test_sb3_tutorial.py"),
 }  # fmt: skip
 
 #: the excluded blocks' shell words that are not ours to check (SLURM and shell syntax of the batch script)

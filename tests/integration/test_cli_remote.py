@@ -80,7 +80,7 @@ def test_collect_train_evaluate_through_the_stage_commands(service: Service) -> 
         v for k, v in compared["config_diff"].items() if k.endswith("model")
     ]
     text = service.cli("compare", jobs["evaluate"]["id"], cv["id"]).stdout
-    assert "config (only keys that differ):" in text and '"smoke-model" -> "cv"' in text and "success" in text
+    assert "config (keys that differ:" in text and '"smoke-model" -> "cv"' in text and "success" in text
 
     report = service.cli("report", cv["id"]).stdout
     assert report.startswith("#") and "crossing_low" in report  # the evaluation's Markdown report

@@ -124,9 +124,21 @@ SMOKE: dict[str, Smoke] = {
     ),
     "hostile_inputs": Smoke(
         (),
-        frozenset({"summary"}),
+        frozenset({"service", "core"}),
         shared=False,
-        check=lambda out: None if out["summary"]["hostile_inputs_tried"] > 0 else "no input tried",
+        check=lambda out: (
+            None
+            if out["core"]["summary"]["hostile_inputs_tried"] > 0
+            and out["service"]["totals"]["requests"] > 0
+            and out["service"]["totals"]["responses_500"] == 0
+            else "no input tried, or a hostile request answered 500"
+        ),
+    ),
+    "episode_export": Smoke(
+        ("--json", "--episodes", "200"),
+        frozenset({"episodes", "parquet_s", "csv_s", "jsonl_s", "parquet_ok"}),
+        shared=False,
+        check=lambda out: None if out["episodes"] == 200 and out["parquet_bytes"] > 0 else "nothing exported",
     ),
     "import_memory": Smoke(
         ("--json", "--mb", "0.1"),
