@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from pathlib import Path
 
 from .service import Service
@@ -104,10 +105,13 @@ def test_collect_train_evaluate_through_the_stage_commands(service: Service) -> 
         "seeds_per_scenario: 1\nmax_steps: 40\ngate: {min_success_rate: 1.0, min_mean_clearance: 100.0}\n"
     )
     gated = service.cli("submit", "evaluate", "-f", str(spec), "--wait", check=False)
-    assert gated.returncode == 2 and "FAILED_GATE" in gated.stdout, (gated.stdout, gated.stderr)
-    short = gated.stdout.split()[0][:12]  # the 12 characters the CLI prints are accepted as the job id
+    assert gated.returncode == 2 and "verdict failed_gate" in gated.stdout, (gated.stdout, gated.stderr)
+    job_id = re.search(r"job ([0-9a-f]{32})", gated.stdout).group(1)
+    short = job_id[:12]  # the 12 characters the CLI prints are accepted as the job id
     shown = service.cli("jobs", "show", short)
-    assert shown.stdout.startswith(gated.stdout.split()[0]) and '\n  "status": "failed_gate",' in shown.stdout
+    assert job_id in shown.stdout.splitlines()[0] and "failed_gate" in shown.stdout.splitlines()[0], (
+        shown.stdout
+    )
     assert _job(service.cli("jobs", "show", short, "--json"))["verdict"] == "failed_gate"
     assert service.cli("jobs", "wait", short, "--json", check=False).returncode == 2
 
