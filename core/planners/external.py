@@ -28,6 +28,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from foresight.core.errors import ConfigError
+from foresight.core.runtime import commands
 from foresight.core.sim.observation import Observation
 from foresight.core.sim.planner import EpisodeInfo
 
@@ -37,22 +38,7 @@ ENV = "FORESIGHT_EXTERNAL_PLANNERS"
 
 def operator_commands(value: str | None = None) -> dict[str, list[str]]:
     """Name -> argv of the operator-configured external planners (``FORESIGHT_EXTERNAL_PLANNERS``)."""
-    text = os.environ.get(ENV, "") if value is None else value
-    if not text.strip():
-        return {}
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise ConfigError(f"not JSON: {exc}", source=ENV) from None
-    if not isinstance(data, dict):
-        raise ConfigError('expected a JSON object {"name": "command line"}', source=ENV)
-    out = {}
-    for name, cmd in data.items():
-        argv = shlex.split(cmd) if isinstance(cmd, str) else cmd
-        if not (isinstance(argv, list) and argv and all(isinstance(a, str) for a in argv)):
-            raise ConfigError("expected a command line or a non-empty list of strings", source=ENV, item=name)
-        out[str(name)] = argv
-    return out
+    return commands.operator_commands(ENV, value)
 
 
 class ExternalPlannerConfig(BaseModel):

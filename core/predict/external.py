@@ -17,7 +17,6 @@ import contextlib
 import json
 import os
 import select
-import shlex
 import subprocess
 import tempfile
 import threading
@@ -26,6 +25,7 @@ from typing import Any
 
 from foresight.core.errors import ConfigError
 from foresight.core.predict.forecast import PredictorError
+from foresight.core.runtime import commands
 
 PROTOCOL = 1
 ENV = "FORESIGHT_EXTERNAL_PREDICTORS"
@@ -36,22 +36,7 @@ START_TIMEOUT_S = 20.0
 
 def operator_commands(value: str | None = None) -> dict[str, list[str]]:
     """Name -> argv of the operator-configured external predictors (``FORESIGHT_EXTERNAL_PREDICTORS``)."""
-    text = os.environ.get(ENV, "") if value is None else value
-    if not text.strip():
-        return {}
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise ConfigError(f"not JSON: {exc}", source=ENV) from None
-    if not isinstance(data, dict):
-        raise ConfigError('expected a JSON object {"name": "command line"}', source=ENV)
-    out = {}
-    for name, cmd in data.items():
-        argv = shlex.split(cmd) if isinstance(cmd, str) else cmd
-        if not (isinstance(argv, list) and argv and all(isinstance(a, str) for a in argv)):
-            raise ConfigError("expected a command line or a non-empty list of strings", source=ENV, item=name)
-        out[str(name)] = argv
-    return out
+    return commands.operator_commands(ENV, value)
 
 
 def step_timeout() -> float:
