@@ -15,6 +15,8 @@ from tests.integration.service import free_port, wait_job  # noqa: F401 (the e2e
 
 REPO = Path(__file__).resolve().parents[2]
 TOKEN = "e2e-dashboard-token"
+#: how long a page may take to show what a test waits for: a bound for a loaded CI machine, not a speed claim
+WAIT_MS = 60_000
 
 
 class Up:

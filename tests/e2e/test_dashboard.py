@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.e2e.service import REPO, TOKEN, Up
+from tests.e2e.service import REPO, TOKEN, WAIT_MS, Up
 from tests.integration.service import tiny_model_job
 
 CHROMIUM = Path("/usr/bin/chromium")
@@ -146,8 +146,10 @@ def test_dashboard_follows_a_job_to_its_report(service: Up, page, capsys: pytest
     page.screenshot(path=str(shots / "dashboard-jobs.png"), full_page=True)
 
     page.click(f'tr[data-job="{evaluation}"] a[href="/ui/jobs/{evaluation}"]')
-    page.wait_for_selector("#report-link", timeout=10_000)
-    page.wait_for_function("document.getElementById('job-log').dataset.ended === 'succeeded'", timeout=20_000)
+    page.wait_for_selector("#report-link", timeout=WAIT_MS)
+    page.wait_for_function(
+        "document.getElementById('job-log').dataset.ended === 'succeeded'", timeout=WAIT_MS
+    )
     assert "succeeded" in page.inner_text("#job-log")
     assert page.locator("a", has_text="evaluation.json").count() == 1  # artifacts with links
     page.screenshot(path=str(shots / "dashboard-job.png"), full_page=True)
@@ -158,7 +160,7 @@ def test_dashboard_follows_a_job_to_its_report(service: Up, page, capsys: pytest
     page.wait_for_load_state("load")
     for img in page.locator("img").all():
         img.scroll_into_view_if_needed()  # figures are lazy-loaded
-    page.wait_for_function("[...document.images].every(i => i.complete)", timeout=15_000)
+    page.wait_for_function("[...document.images].every(i => i.complete)", timeout=WAIT_MS)
     sizes = page.evaluate("[...document.images].map(i => [i.getAttribute('src'), i.naturalWidth])")
     assert sizes, "the report page shows no figures"
     assert all(width > 0 for _, width in sizes), f"figures that did not load: {sizes}"
@@ -196,17 +198,17 @@ def test_an_evaluations_failures_get_witnesses_from_its_page(service: Up, page) 
     assert "failed episode" in button.inner_text()
     assert '"price": false' in button.get_attribute("data-body")  # the goal robot does not price a course
     button.click()  # asks for the token, submits, and follows the new job on its own page
-    page.wait_for_url(lambda url: "/ui/jobs/" in url and evaluation not in url, timeout=10_000)
+    page.wait_for_url(lambda url: "/ui/jobs/" in url and evaluation not in url, timeout=WAIT_MS)
     witness = page.url.rsplit("/", 1)[-1]
     assert api.get(f"/v1/jobs/{witness}").json()["spec"]["evaluation"] == evaluation
     page.wait_for_selector(
-        "#witnesses a.watch", timeout=60_000
+        "#witnesses a.watch", timeout=WAIT_MS
     )  # the page reloads itself when the job has ended
     assert api.get(f"/v1/jobs/{witness}").json()["status"] == "succeeded"
     assert page.locator("#report-link").count() == 1  # and its report
     page.click("#witnesses a.watch >> nth=0")
     page.wait_for_selector(
-        '#player[data-ready="1"]', timeout=15_000
+        '#player[data-ready="1"]', timeout=WAIT_MS
     )  # the planner's run and the witness, one clock
     assert page.locator(".pane").count() == 2 and "planner" in page.inner_text("#pane-planner h2")
     assert "witness" in page.inner_text("#pane-witness h2")
@@ -217,9 +219,9 @@ def test_dashboard_map_previews_and_models(service: Up, page) -> None:  # noqa: 
     page.goto(f"{service.url}/ui/bundles")
     page.click("text=scenarios/classic_interactions.yaml")
     first = page.locator("figure.map img").first
-    first.wait_for(timeout=10_000)
+    first.wait_for(timeout=WAIT_MS)
     page.wait_for_function("document.querySelector('figure.map img').complete "
-                           "&& document.querySelector('figure.map img').naturalWidth > 0", timeout=30_000)  # fmt: skip
+                           "&& document.querySelector('figure.map img').naturalWidth > 0", timeout=WAIT_MS)  # fmt: skip
     page.screenshot(path=str(screenshot_dir() / "dashboard-matrix.png"))
     # a registered model (a tiny trained checkpoint: registration takes nothing else): promote it, then default
     api = service.client()
@@ -233,11 +235,11 @@ def test_dashboard_map_previews_and_models(service: Up, page) -> None:  # noqa: 
     assert page.inner_text(f"{row} .status") == "candidate"
     page.click(f"{row} button:text('promote')")
     page.wait_for_function(
-        f"document.querySelector('{row} .status').textContent === 'promoted'", timeout=10_000
+        f"document.querySelector('{row} .status').textContent === 'promoted'", timeout=WAIT_MS
     )
     page.click(f"{row} button:text('make default')")
     page.wait_for_function(
-        f"document.querySelector('{row} .status').textContent === 'default'", timeout=10_000
+        f"document.querySelector('{row} .status').textContent === 'default'", timeout=WAIT_MS
     )
     assert api.get("/v1/models/e2e-model").json()["status"] == "default"
     page.screenshot(path=str(screenshot_dir() / "dashboard-models.png"), full_page=True)
@@ -275,8 +277,10 @@ def test_closed_reads_ask_for_the_token_then_stream(closed_service: Up, page) ->
     page.click(f'tr[data-job="{job}"] a[href="/ui/jobs/{job}"]')
     page.wait_for_selector("#job-log")
     # the event stream (sent with the token header) follows the job; at its end the page reloads itself
-    page.wait_for_function("document.querySelector('#job-summary').dataset.final === '1'", timeout=30_000)
-    page.wait_for_function("document.getElementById('job-log').dataset.ended === 'succeeded'", timeout=15_000)
+    page.wait_for_function("document.querySelector('#job-summary').dataset.final === '1'", timeout=WAIT_MS)
+    page.wait_for_function(
+        "document.getElementById('job-log').dataset.ended === 'succeeded'", timeout=WAIT_MS
+    )
     log = page.inner_text("#job-log")
     assert "step 10/10" in log and "succeeded" in log
     assert page.locator("#job-summary .status", has_text="succeeded").count() == 1

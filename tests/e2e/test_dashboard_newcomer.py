@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.e2e.service import TOKEN, Up, wait_job
+from tests.e2e.service import TOKEN, WAIT_MS, Up, wait_job
 from tests.e2e.test_dashboard import chromium, page, screenshot_dir  # noqa: F401 (fixtures)
 
 pytestmark = pytest.mark.slow
@@ -49,7 +49,7 @@ def test_form_compare_report_maps_player_and_children(service: Up, page) -> None
     page.fill("#f-job-name", "from the form")
     page.screenshot(path=str(shots / "newcomer-form.png"), full_page=True)
     page.click("#submit-job")
-    page.wait_for_url(re.compile(r"/ui/jobs/[0-9a-f]{32}$"), timeout=15_000)
+    page.wait_for_url(re.compile(r"/ui/jobs/[0-9a-f]{32}$"), timeout=WAIT_MS)
     first = page.url.rsplit("/", 1)[1]
     job = wait_job(api, first, timeout=300)
     assert job["status"] == "succeeded" and job["name"] == "from the form", job
@@ -60,13 +60,13 @@ def test_form_compare_report_maps_player_and_children(service: Up, page) -> None
     page.goto(f"{service.url}/ui/jobs/new?kind=evaluate")
     page.fill("#f-planner", '{"name": "sociall_force"}')
     page.click("#submit-job")
-    page.wait_for_selector("#flash:not([hidden])", timeout=10_000)
+    page.wait_for_selector("#flash:not([hidden])", timeout=WAIT_MS)
     assert "did you mean 'social_force'" in page.text_content("#flash")
     assert page.url.endswith("/ui/jobs/new?kind=evaluate")
 
     # the report embedded in the job page is as tall as the report; the report page leads back to its job
     page.goto(f"{service.url}/ui/jobs/{first}")
-    page.wait_for_selector("iframe.report[data-fitted='1']", timeout=15_000)
+    page.wait_for_selector("iframe.report[data-fitted='1']", timeout=WAIT_MS)
     inner, outer = page.eval_on_selector(
         "iframe.report", "f => [f.contentDocument.documentElement.scrollHeight, f.clientHeight]"
     )
@@ -74,7 +74,7 @@ def test_form_compare_report_maps_player_and_children(service: Up, page) -> None
     page.screenshot(path=str(shots / "newcomer-job-report.png"), full_page=True)
     page.goto(f"{service.url}/ui/jobs/{first}/files/report.html")
     page.click("a[href^='player/']")  # a failed episode of the report, in the dashboard's player
-    page.wait_for_selector('#player[data-ready="1"]', timeout=15_000)
+    page.wait_for_selector('#player[data-ready="1"]', timeout=WAIT_MS)
     assert f"/ui/evaluations/{first}/episodes/crossing_low/" in page.url
     page.goto(f"{service.url}/ui/jobs/{first}/files/report.html")
     page.click(f"nav.foresight-nav a[href='/ui/jobs/{first}']")
@@ -99,14 +99,14 @@ def test_form_compare_report_maps_player_and_children(service: Up, page) -> None
     page.click("a.matrix-maps:text('scenarios/classic_interactions.yaml')")
     page.wait_for_selector("figure.map img")
     page.wait_for_function("Array.from(document.querySelectorAll('figure.map img')).slice(0, 2)"
-                           ".every(i => i.complete && i.naturalWidth > 0)", timeout=60_000)  # fmt: skip
+                           ".every(i => i.complete && i.naturalWidth > 0)", timeout=WAIT_MS)  # fmt: skip
     assert page.get_attribute("header nav a.on", "href") == "/ui/maps"
     page.screenshot(path=str(shots / "newcomer-maps.png"))
 
     # the player's downloads: the trace as JSON, the current frame as PNG
     episode = api.get(f"/v1/evaluations/{first}/episodes").json()[0]
     page.goto(f"{service.url}{episode['player']}")
-    page.wait_for_selector('#player[data-ready="1"]', timeout=15_000)
+    page.wait_for_selector('#player[data-ready="1"]', timeout=WAIT_MS)
     with page.expect_download() as got:
         page.click("#download-trace")
     trace = json.loads(Path(got.value.path()).read_text())
