@@ -3,109 +3,160 @@
 Every distance is a *margin on top of the true collision geometry* (robot radius + pedestrian
 radius from the observation, robot radius vs. static edges): the reference planned with 0.25 m
 radii against a 1.0 m robot, which is why its clearance terms were blind to real contacts.
-Speeds are ratios of the robot's own limits, so one config serves every robot.
+Speeds are ratios of the robot's own limits, so one config serves every robot. Settings are nested
+by what they mean; the flat keys of before (``safety.confidence``, ``sampling.turn_then_go``) are
+still read, each moved to its place (``OLD_KEYS`` in ``config_keys``). What each default bought,
+measured: the planner's history page, docs/history.md (linked below by date).
 """
 
 from __future__ import annotations
 
-import math
-from typing import Any
+from typing import Any, ClassVar
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from foresight.core.errors import ConfigError
+from foresight.core.planners.predictive.config_keys import (
+    OLD_KEYS,
+    REFERENCE_KEY_MAP,
+    map_reference_value,
+    move_old_keys,
+)
 from foresight.core.sim.planner import config_hash
+
+__all__ = [
+    "MIN_GEODESIC_RESOLUTION",
+    "REFERENCE_KEY_MAP",
+    "CrowdConfig",
+    "NearFieldSampling",
+    "PedestrianMargins",
+    "PredictivePlannerConfig",
+    "SafetyConfig",
+    "SamplingConfig",
+    "SearchConfig",
+    "WeightsConfig",
+]
 
 
 class _Frozen(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid")
 
 
-class SamplingConfig(_Frozen):
-    """Candidate commands of the first segment, sampled directly in (v, omega)."""
+class _Section(_Frozen):
+    """A section that still reads its flat keys of before the nesting (``OLD_KEYS[section]``)."""
+
+    section: ClassVar[str] = ""
+
+    @model_validator(mode="before")
+    @classmethod
+    def _old_keys(cls, data: Any) -> Any:
+        return move_old_keys(data, OLD_KEYS[cls.section], set(cls.model_fields))
+
+
+def _in_unit(name: str, values: tuple[float, ...], low: float = 0.0) -> None:
+    bad = [r for r in values if not low <= r <= 1.0]
+    if bad:
+        raise ValueError(f"{name} must lie in [{low:g}, 1] (ratios of a limit), got {bad}")
+
+
+# ---------------------------------------------------------------- sampling
+
+
+class NearFieldSampling(_Frozen):
+    """Denser first candidates where a pedestrian is predicted close: there a small steering difference
+    decides between a near miss and a collision."""
+
+    distance: float = Field(default=2.5, ge=0)  #: predicted clearance to contact [m] inside which it applies
+    speed_ratios: tuple[float, ...] = (0.1, 0.2, 0.35)  #: slow speeds added, ratios of v_max
+    speed_cap: float = Field(default=1.0, gt=0, le=1)  #: every speed capped at this ratio of v_max
+    turn_rate_count: int = Field(default=17, ge=3, le=61)  #: evenly spaced turn rates over [-w_max, w_max]
+    turn_rates: tuple[float, ...] = ()  #: extra turn rates [rad/s], clipped to +-w_max
+    direction_count: int = Field(default=32, ge=4, le=144)  #: a holonomic robot's directions
+
+    @model_validator(mode="after")
+    def _ratios(self) -> NearFieldSampling:
+        _in_unit("speed_ratios", self.speed_ratios)
+        return self
+
+
+class PointTurns(_Frozen):
+    """Turn in place, then drive straight: how a robot in a corner faces a door (a held arc cannot)."""
+
+    #: turned in place at the full turn rate [rad]; () = none (more doors reached: docs/history.md#2026-11-24)
+    angles: tuple[float, ...] = (-1.6, -1.2, -0.8, -0.4, 0.4, 0.8, 1.2, 1.6)
+    speed_ratios: tuple[float, ...] = (0.25, 0.5)  #: the straight drive after the turn, ratios of v_max
+
+    @model_validator(mode="after")
+    def _ratios(self) -> PointTurns:
+        _in_unit("speed_ratios", self.speed_ratios)
+        return self
+
+
+class Veers(_Frozen):
+    """Swerves: turn at speed for a while, then straight on: how a robot behind slower walkers pulls out and
+    passes them (held, the turn is a circle that never enters the beam)."""
+
+    #: ratios of w_max while swerving; () = none (success 0.965 -> 0.974: docs/history.md#2026-11-25)
+    turn_rates: tuple[float, ...] = (-1.0, -0.5, 0.5, 1.0)
+    speed_ratios: tuple[float, ...] = (0.5, 1.0)  #: driving speeds, ratios of v_max
+    durations_s: tuple[float, ...] = (0.8, 1.6)  #: how long each swerve turns [s], then straight on
+
+    @model_validator(mode="after")
+    def _ranges(self) -> Veers:
+        _in_unit("speed_ratios", self.speed_ratios)
+        _in_unit("turn_rates", self.turn_rates, low=-1.0)
+        if any(d <= 0 for d in self.durations_s):
+            raise ValueError(f"durations_s must be positive [s], got {list(self.durations_s)}")
+        return self
+
+
+class SamplingConfig(_Section):
+    """Candidate commands of the first segment, sampled directly in (v, omega) (holonomic: velocities)."""
+
+    section: ClassVar[str] = "sampling"
 
     speed_ratios: tuple[float, ...] = (0.0, 0.25, 0.5, 0.75, 1.0)  #: of the robot's max linear speed
     turn_rate_count: int = Field(default=9, ge=3, le=41)  #: evenly spaced turn rates over [-w_max, w_max]
     turn_rates: tuple[float, ...] = ()  #: extra turn rates [rad/s], clipped to +-w_max
-    near_field_distance: float = Field(default=2.5, ge=0)  #: predicted clearance [m] that densifies the set
-    near_field_turn_rate_count: int = Field(default=17, ge=3, le=61)
-    near_field_turn_rates: tuple[float, ...] = ()  #: extra near-field turn rates [rad/s]
-    near_field_speed_ratios: tuple[float, ...] = (0.1, 0.2, 0.35)
-    near_field_speed_cap: float = Field(default=1.0, gt=0, le=1)  #: speed ratio cap inside the near field
-    #: a holonomic robot's candidates are velocities: ``speed_ratios`` x these many directions evenly around the
-    #: robot (CrowdNav's action set: 16), denser in the near field
+    #: a holonomic robot's candidates: ``speed_ratios`` x this many directions around it (CrowdNav's: 16)
     direction_count: int = Field(default=16, ge=4, le=72)
-    near_field_direction_count: int = Field(default=32, ge=4, le=144)
-    #: point turns: turn in place by each angle [rad], then drive straight at each speed ratio (``sampling.turn_then_go``;
-    #: () = none): how a robot in a corner faces a door; more successes at reference speed (see the planner history in the docs)
-    turn_then_go: tuple[float, ...] = (-1.6, -1.2, -0.8, -0.4, 0.4, 0.8, 1.2, 1.6)
-    turn_then_go_speeds: tuple[float, ...] = (0.25, 0.5)
-    #: swerves: drive at each of ``veer_speeds`` x v_max turning at each of ``veer_turn_rates`` x w_max for each of
-    #: ``veer_durations_s``, then straight on: a robot behind slower walkers pulls out and passes them (held, such a
-    #: turn is a circle that never enters the beam, so robots followed a file of walkers at 0.6 m/s); () = none;
-    #: 0.8 and 1.6 s turns: more successes, 2-5 % less time to the goal (see the planner history in the docs)
-    veer_turn_rates: tuple[float, ...] = (-1.0, -0.5, 0.5, 1.0)
-    veer_speeds: tuple[float, ...] = (0.5, 1.0)
-    veer_durations_s: tuple[float, ...] = (
-        0.8,
-        1.6,
-    )  #: how long each swerve turns [s] before it drives straight on
-    #: backing off: reverse speeds (ratios of v_max, driven backwards) among the first- and the later-segment commands,
-    #: only for a robot that may drive backwards (``robot_config.allow_backwards``; the reference robots may not).
-    #: () = never (the default): fewer collisions where nobody yields, but robots backed away from bottleneck
-    #: walkers until the time ran out (see the planner history in the docs)
+    #: backing off, ratios of v_max, where ``robot_config.allow_backwards``; () = never (stress suite 244 ->
+    #: 237 solved with it: robots backed away until time ran out, docs/history.md#2026-11-28)
     reverse_speed_ratios: tuple[float, ...] = ()
+    near_field: NearFieldSampling = NearFieldSampling()
+    point_turns: PointTurns = PointTurns()
+    veers: Veers = Veers()
 
     @model_validator(mode="after")
-    def _ratios_in_range(self) -> SamplingConfig:
-        for name in (
-            "speed_ratios",
-            "near_field_speed_ratios",
-            "turn_then_go_speeds",
-            "veer_speeds",
-            "reverse_speed_ratios",
-        ):
-            bad = [r for r in getattr(self, name) if not 0.0 <= r <= 1.0]
-            if bad:
-                raise ValueError(f"{name} must lie in [0, 1] (ratios of the speed limit), got {bad}")
-        if any(not -1.0 <= r <= 1.0 for r in self.veer_turn_rates):
-            raise ValueError(
-                f"veer_turn_rates are ratios of the turn-rate limit in [-1, 1], got {list(self.veer_turn_rates)}"
-            )
-        if any(d <= 0 for d in self.veer_durations_s):
-            raise ValueError(f"veer_durations_s must be positive [s], got {list(self.veer_durations_s)}")
+    def _ratios(self) -> SamplingConfig:
+        _in_unit("speed_ratios", self.speed_ratios)
+        _in_unit("reverse_speed_ratios", self.reverse_speed_ratios)
         return self
+
+
+# ---------------------------------------------------------------- search
 
 
 class SearchConfig(_Frozen):
     """Beam search over piecewise-constant command sequences on the forecast's time grid."""
 
     segments_s: tuple[float, ...] = (0.8,)  #: durations of segments 1..S-1 [s]; the last lasts to the horizon
-    #: extend the forecast at its final velocity [s]: 2.4 + 1.6 s lets the robot clear a walker's path in time
+    #: the forecast extended at its final velocity [s]: 2.4 + 1.6 s lets the robot clear a walker's path
     extra_horizon_s: float = Field(default=1.6, ge=0, le=5)
     beam_width: int = Field(default=6, ge=1, le=64)
     branch_speed_ratios: tuple[float, ...] = (0.0, 0.5, 1.0)  #: later-segment speeds, ratios of max speed
     branch_turn_rate_count: int = Field(default=5, ge=1, le=21)  #: later-segment turn rates over +-w_max
-    branch_direction_count: int = Field(
-        default=8, ge=4, le=72
-    )  #: a holonomic robot's later-segment directions
-    #: grid [m] of the route potential's distances around the walls (``geodesic``); 0 = straight lines (grid variant
-    #: ``straight_line``): routing around walls solved more episodes; a 0.2 m grid lost bottlenecks (see the planner history in the docs)
+    branch_direction_count: int = Field(default=8, ge=4, le=72)  #: holonomic later-segment directions
+    #: grid [m] of the route potential around walls; 0 = straight (fewer solved: docs/history.md#2026-11-24)
     geodesic_resolution: float = Field(default=0.1, ge=0, le=1)
-    #: the last decision's sequence, one step on, is a candidate too (receding horizon with a memory): a plan begun,
-    #: such as a point turn, can be carried out instead of being replaced by whichever fixed candidate is cheapest
-    #: (near-ties flipped the robot between a point turn and driving on, step after step, at a fraction of its speed);
-    #: 2-4 % less time to the goal (see the planner history in the docs)
+    #: the last plan, one step on, is a candidate (no flip-flops: 2-4 % less time, docs/history.md#2026-11-25)
     keep_plan: bool = True
-    #: a rollout that reaches the goal earlier counts as that much more progress (v_max x the time it has left), so
-    #: the robot does not slow down once every candidate reaches the goal within the horizon (it timed out within
-    #: metres of the goal); 5-7 % less time to the goal (see the planner history in the docs)
+    #: an earlier arrival counts v_max x time left [m] as progress (5-7 % faster: docs/history.md#2026-11-25)
     arrival_credit: bool = True
-    #: a rollout's steps after it reached the goal cost nothing: the episode ends there (as in the simulator), so a
-    #: pedestrian or wall the rollout would meet beyond the goal is never met (a robot whose goal lies just past a
-    #: door braked for walkers coming through it) (see the planner history in the docs)
+    #: steps after a rollout reached the goal cost nothing: the episode ends (docs/history.md#2026-11-28)
     ends_at_goal: bool = True
-    adaptive_horizon: bool = False  #: lengthen the horizon by ``horizon_boost_s`` in the near field
+    #: lengthen the horizon by ``horizon_boost_s`` [s] in the near field (the reference grid uses it)
+    adaptive_horizon: bool = False
     horizon_boost_s: float = Field(default=0.0, ge=0, le=5)
 
     @model_validator(mode="after")
@@ -123,84 +174,163 @@ class SearchConfig(_Frozen):
 MIN_GEODESIC_RESOLUTION = 0.05
 
 
-class SafetyConfig(_Frozen):
-    """Margins [m] added to the true radii; the forecast's spread (sigma) widens them with its age."""
+# ---------------------------------------------------------------- safety
 
-    extra_robot_margin: float = Field(default=0.0, ge=0)  #: added to the robot radius for pedestrians
-    extra_ped_margin: float = Field(default=0.0, ge=0)  #: added to the pedestrian radius
+
+class PedestrianMargins(_Frozen):
+    """Clearance to pedestrians [m] on top of the true radii, widened by the forecast's spread (sigma)."""
+
+    extra_robot_margin: float = Field(default=0.0, ge=0)  #: added to the robot radius (reference grid)
+    extra_ped_margin: float = Field(default=0.0, ge=0)  #: added to the pedestrian radius (reference grid)
     collision_margin: float = Field(default=0.1, ge=0)  #: inside it a step counts as a (predicted) collision
-    confidence: float = Field(default=1.0, ge=0, le=4)  #: chance margin in forecast standard deviations
+    #: chance margin in forecast standard deviations (0.5 doubled collisions: docs/history.md#2026-11-29)
+    confidence: float = Field(default=1.0, ge=0, le=4)
     near_distance: float = Field(default=0.5, ge=0)  #: near-miss band beyond the collision distance
     ttc_distance: float = Field(default=0.4, ge=0)  #: a step inside it ends the time to collision
-    hard_clearance_distance: float = Field(default=0.3, ge=0)
-    progress_risk_distance: float = Field(default=0.8, ge=0)
+    hard_clearance_distance: float = Field(default=0.3, ge=0)  #: hard clearance band (``weights``)
+    progress_risk_distance: float = Field(default=0.8, ge=0)  #: progress closer than it is risky progress
     speed_clearance_gain: float = Field(default=0.25, ge=0)  #: extra margin per robot speed [m per m/s]
-    static_margin: float = Field(default=0.05, ge=0)  #: hard: rollouts closer to an edge are infeasible
-    static_soft_distance: float = Field(default=0.4, ge=0)  #: soft clearance band beyond the hard margin
-    discount: float = Field(default=0.9, gt=0, le=1)  #: per forecast step weight of pedestrian terms
-    stall_after_s: float = Field(default=2.0, gt=0)  #: window over which route progress is measured [s]
-    stall_ramp_s: float = Field(default=3.0, gt=0)  #: time for assertiveness to move between 0 and 1 [s]
-    stall_progress: float = Field(default=0.5, gt=0)  #: less route progress [m] in the window is a stall
-    stall_margin_relief: float = Field(default=0.5, ge=0, le=1)  #: soft margins dropped at full assertiveness
-    #: after a stall, a pedestrian forecast to stand (slower than ``waiting_speed`` [m/s]) is waiting for the robot:
-    #: it is expected to make up to this much room [m] x assertiveness (people who walk on never are). Off by
-    #: default: it frees doorway deadlocks, but slow walkers taken for waiting ones are run into (see the planner history in the docs)
+    discount: float = Field(default=0.9, gt=0, le=1)  #: weight of each later forecast step's pedestrian terms
+
+
+class StaticMargins(_Frozen):
+    """Clearance to walls and obstacles [m] on top of the robot radius."""
+
+    margin: float = Field(default=0.05, ge=0)  #: hard: rollouts closer to an edge are infeasible
+    soft_distance: float = Field(default=0.4, ge=0)  #: soft clearance band beyond the hard margin
+    field_resolution: float = Field(default=0.1, ge=0, le=0.5)  #: distance field grid [m]; 0 = exact queries
+
+
+class StallConfig(_Frozen):
+    """Assertiveness 0..1 that ramps up while the robot makes no route progress: a robot that waits for
+    pedestrians who wait for it stalls forever, so after a stall the soft pedestrian margins shrink."""
+
+    after_s: float = Field(default=2.0, gt=0)  #: window over which route progress is measured [s]
+    ramp_s: float = Field(default=3.0, gt=0)  #: time for assertiveness to move between 0 and 1 [s]
+    progress: float = Field(default=0.5, gt=0)  #: less route progress [m] in the window is a stall
+    margin_relief: float = Field(default=0.5, ge=0, le=1)  #: share of the soft margins dropped at full stall
+
+
+class Yielding(_Frozen):
+    """Yield, then commit: after a stall a pedestrian standing beside the robot is taken to wait for it and
+    to step away as it edges forward, until seen to hold their ground (doorways 6 -> 17 / 30 solved:
+    docs/history.md#2026-11-24)."""
+
+    speed: float = Field(default=0.3, ge=0)  #: how fast [m/s] they step away; 0 = nobody is trusted to
+    test_s: float = Field(default=3.0, gt=0)  #: one that stays put this long [s] as the robot nears holds
+
+
+class Receding(_Frozen):
+    """Walkers walking away from a slow robot do not walk into it: a robot held up behind them may pass
+    closer (a fast one keeps full margins: walkers who do not see it turn into it at waypoints;
+    docs/history.md#2026-11-25)."""
+
+    room: float = Field(default=0.5, ge=0)  #: their clearance counts this much larger [m]; 0 = off
+    speed: float = Field(default=0.3, gt=0)  #: in full from this speed away [m/s], linearly less down to 0
+    max_robot_speed: float = Field(default=0.8, gt=0, le=1)  #: in full below half of it x v_max, none from it
+
+
+class StraightLines(_Frozen):
+    """Walkers closing in on a slow robot, not seen to give way, are also held to the straight line of their
+    velocity (one who does not see the robot walks on into it). Off by default: collisions where nobody yields
+    12 -> 7, but typical speed lost 19 : 1 (docs/history.md#2026-11-25)."""
+
+    speed: float = Field(default=0.0, ge=0)  #: closing speed [m/s] from which it applies; 0 = off
+    max_robot_speed: float = Field(default=0.4, gt=0, le=1)  #: only below it (ratio of v_max)
+
+
+class CrowdConfig(_Frozen):
+    """What the planner assumes about pedestrians beyond their forecast (``crowd``), by assumption."""
+
+    standing_speed: float = Field(default=0.25, ge=0)  #: slower than this [m/s] a pedestrian stands
+    beside_distance: float = Field(default=1.2, ge=0)  #: within this of contact [m] one is beside the robot
+    #: [s] one beside the robot this long, moved < 0.5 m, keeps its own velocity (not the model's walk-off);
+    #: 0 = off (stress suite collisions 7 -> 5: docs/history.md#2026-11-28)
+    lingering_s: float = Field(default=1.5, ge=0)
+    #: room [m] x stall assertiveness made by one forecast to stand; 0 = off (x4 collisions:
+    #: docs/history.md#2026-11-24)
     waiting_room: float = Field(default=0.0, ge=0)
-    waiting_speed: float = Field(default=0.25, ge=0)
-    #: a pedestrian walking away from the robot (its forecast velocity points away from the robot) does not walk
-    #: into it, so a robot held up behind walkers may pass them closer: their clearance counts this much larger
-    #: [m], in full from ``receding_speed`` [m/s] away (linearly less down to 0 m/s), and only while the robot is
-    #: slow: in full up to half of ``receding_max_speed`` x v_max, none from it on (a fast robot keeps full margins:
-    #: walkers who do not see it turn into it at waypoints). 0 = off (see the planner history in the docs)
-    receding_room: float = Field(default=0.5, ge=0)
-    receding_speed: float = Field(default=0.3, gt=0)
-    receding_max_speed: float = Field(default=0.8, gt=0, le=1)
-    #: straight lines: while the robot is slow (below ``straight_max_speed`` x v_max), a pedestrian closing in
-    #: on it at this speed [m/s] or more, not yet seen to give way to it, is held to its forecast and to the straight
-    #: line of its current velocity, whichever comes nearer (one who does not see the robot walks on into it). Off
-    #: by default: 0.3 halves the collisions where nobody yields but costs reacting crowds successes (see the planner history in the docs)
-    straight_speed: float = Field(default=0.0, ge=0)
-    straight_max_speed: float = Field(default=0.4, gt=0, le=1)
-    #: yield, then commit: after a stall (assertiveness 0.8) a pedestrian standing (slower than ``waiting_speed``)
-    #: near the robot is taken to wait for it: to stay put and step away from it at up to this [m/s] as it edges
-    #: forward, until seen to hold its ground (within ``yield_range`` + 0.3 m of contact for ``yield_test_s``
-    #: while the robot closed in, it did not move). Walking pedestrians never are (many never see the robot).
-    #: 0: nobody is; it ends doorway standoffs (see the planner history in the docs)
-    yield_speed: float = Field(default=0.3, ge=0)
-    #: lingering: a pedestrian within ``yield_range`` of contact now and ``standing_stays_s`` [s] ago, who moved less than
-    #: 0.5 m in between, is forecast on its own velocity (standing, shuffling), not on the model's forecast, which for
-    #: people by the robot has them walk off (the model learned from people who make room). 0 = off (grid variant
-    #: ``no_lingering``) (see the planner history in the docs)
-    standing_stays_s: float = Field(default=1.5, ge=0)
-    yield_range: float = Field(default=1.2, ge=0)  #: ... starting this far beyond contact [m]
-    yield_test_s: float = Field(
-        default=3.0, gt=0
-    )  #: [s]; long enough for reacting people, who step back slowly
-    static_field_resolution: float = Field(default=0.1, ge=0, le=0.5)  #: [m]; 0 = exact distance queries
-    lane_memory_s: float = Field(
-        default=20.0, gt=0
-    )  #: how long a walker's pass is remembered (decay time) [s]
+    #: how long a walker's pass is remembered for the lane cost (``weights.lane``), decay time [s]
+    lane_memory_s: float = Field(default=20.0, gt=0)
+    yielding: Yielding = Yielding()
+    receding: Receding = Receding()
+    straight: StraightLines = StraightLines()
 
 
-class WeightsConfig(_Frozen):
-    """Cost weights (lower cost is better); see ``core.planners.predictive.cost`` for the terms."""
+class SafetyConfig(_Section):
+    """Margins to pedestrians and walls, how a stall relaxes them, and what the crowd is assumed to do."""
 
-    goal: float = Field(default=6.0, ge=0)  #: per metre of route progress
-    collision: float = Field(default=60.0, ge=0)
+    section: ClassVar[str] = "safety"
+
+    pedestrians: PedestrianMargins = PedestrianMargins()
+    static: StaticMargins = StaticMargins()
+    stall: StallConfig = StallConfig()
+    crowd: CrowdConfig = CrowdConfig()
+
+
+# ---------------------------------------------------------------- weights
+
+
+class PedestrianWeights(_Frozen):
+    """Weights of the pedestrian terms (``cost.pedestrian_terms``)."""
+
+    collision: float = Field(default=60.0, ge=0)  #: per metre inside the collision margin, per step
     risk: float = Field(default=80.0, ge=0)  #: per expected contact step (probability summed over steps)
     near_miss: float = Field(default=2.0, ge=0)
     ttc: float = Field(default=6.0, ge=0)
     progress_risk: float = Field(default=3.0, ge=0)
     hard_clearance: float = Field(default=20.0, ge=0)
-    static: float = Field(default=3.0, ge=0)  #: soft static clearance
-    static_collision: float = Field(default=1000.0, ge=0)  #: per infeasible (too close to an edge) step
-    velocity: float = Field(default=0.0, ge=0)
-    turn: float = Field(default=0.1, ge=0)
+
+
+class StaticWeights(_Frozen):
+    """Weights of the wall and obstacle terms."""
+
+    clearance: float = Field(default=3.0, ge=0)  #: soft static clearance (the ``static`` term)
+    collision: float = Field(default=1000.0, ge=0)  #: per infeasible step (too close to an edge)
+
+
+class MotionWeights(_Frozen):
+    """Weights of the terms on the commands themselves."""
+
+    velocity: float = Field(default=0.0, ge=0)  #: mean speed (reference grid)
+    turn: float = Field(default=0.1, ge=0)  #: mean turn rate
     smoothness: float = Field(default=0.3, ge=0)  #: change of the first command from the last one
+
+
+class WeightsConfig(_Section):
+    """Cost weights (lower cost is better); see ``core.planners.predictive.cost`` for the terms."""
+
+    section: ClassVar[str] = "weights"
+
+    goal: float = Field(default=6.0, ge=0)  #: per metre of route progress
     heading: float = Field(default=1.0, ge=0)  #: mean heading error to the active waypoint over the horizon
-    lane: float = Field(
-        default=2.0, ge=0
-    )  #: per walker lately through where a rollout ends at rest (``traffic``)
+    lane: float = Field(default=2.0, ge=0)  #: per walker lately where a rollout ends at rest (``traffic``)
+    pedestrians: PedestrianWeights = PedestrianWeights()
+    static: StaticWeights = StaticWeights()
+    motion: MotionWeights = MotionWeights()
+
+    def by_term(self) -> dict[str, float]:
+        """Each cost term's weight by the term's name (``cost.TERMS``; ``progress`` at the goal weight)."""
+        p, s, m = self.pedestrians, self.static, self.motion
+        return {
+            "progress": self.goal,
+            "collision": p.collision,
+            "risk": p.risk,
+            "near_miss": p.near_miss,
+            "ttc": p.ttc,
+            "progress_risk": p.progress_risk,
+            "hard_clearance": p.hard_clearance,
+            "static": s.clearance,
+            "static_collision": s.collision,
+            "velocity": m.velocity,
+            "turn": m.turn,
+            "smoothness": m.smoothness,
+            "heading": self.heading,
+            "lane": self.lane,
+        }
+
+
+# ---------------------------------------------------------------- the whole
 
 
 class PredictivePlannerConfig(_Frozen):
@@ -244,80 +374,16 @@ class PredictivePlannerConfig(_Frozen):
         for key, value in params.items():
             rule = REFERENCE_KEY_MAP.get(key)
             if rule is None:
+                mapped = ", ".join(sorted(REFERENCE_KEY_MAP))
                 raise ConfigError(
-                    f"reference planner key {key!r} has no mapping (mapped keys: {', '.join(sorted(REFERENCE_KEY_MAP))})",
+                    f"reference planner key {key!r} has no mapping (mapped keys: {mapped})",
                     source=source,
                     item=key,
                 )
-            section, field, kind, ref_value = rule
-            target = data[section] if section else data
-            target[field] = _map_value(key, value, kind, ref_value, target[field], source)
+            path, kind, ref_value = rule
+            *parents, field = path.split(".")
+            target = data
+            for part in parents:
+                target = target[part]
+            target[field] = map_reference_value(key, value, kind, ref_value, target[field], source)
         return cls.from_dict(data, source=source)
-
-
-#: Reference rollout time over which a heading delta is taken as a turn rate [s]. The reference divided by
-#: its 0.2 s rollout step, so every delta >= 0.24 rad saturated (three distinct rates, pipeline notes §3.3);
-#: we read a delta as the heading change over one second, which keeps the deltas distinct.
-HEADING_DELTA_TIME_S = 1.0
-#: Reference rollout step [s]: its horizon boost was counted in these steps.
-REFERENCE_ROLLOUT_DT = 0.2
-
-# key -> (section, field, kind, reference camera-ready value)
-# kinds: "ratio"  ours = our default * value / reference value (keeps our scale, moves emphasis alike);
-#        "delta"  ours = our default + (value - reference value) (distances: shift our margins alike), >= 0;
-#        "margin" extra safety margin = max(0, value - reference value) (radius keys; true radii always apply);
-#        "same"   taken as is (dimensionless ratios / gains / flags with the same meaning);
-#        "turn"   heading deltas [rad] -> turn rates delta / HEADING_DELTA_TIME_S [rad/s];
-#        "steps"  reference rollout steps -> seconds.
-REFERENCE_KEY_MAP: dict[str, tuple[str | None, str, str, float | None]] = {
-    "predictive_goal_weight": ("weights", "goal", "ratio", 6.0),
-    "predictive_collision_weight": ("weights", "collision", "ratio", 0.5),
-    "predictive_near_miss_weight": ("weights", "near_miss", "ratio", 0.10),
-    "predictive_ttc_weight": ("weights", "ttc", "ratio", 0.30),
-    "predictive_progress_risk_weight": ("weights", "progress_risk", "ratio", 2.2),
-    "predictive_hard_clearance_weight": ("weights", "hard_clearance", "ratio", 3.0),
-    "predictive_velocity_weight": ("weights", "velocity", "ratio", 0.01),
-    "predictive_turn_weight": ("weights", "turn", "ratio", 0.01),
-    # the reference meant its occupancy term for static obstacles (it read the pedestrian channel by mistake)
-    "occupancy_weight": ("weights", "static", "ratio", 0.25),
-    "predictive_ttc_distance": ("safety", "ttc_distance", "delta", 0.9),
-    "predictive_progress_risk_distance": ("safety", "progress_risk_distance", "delta", 1.3),
-    "predictive_hard_clearance_distance": ("safety", "hard_clearance_distance", "delta", 0.8),
-    "predictive_safe_distance": ("safety", "collision_margin", "delta", 0.35),
-    "predictive_near_distance": ("safety", "near_distance", "delta", 0.7),
-    "predictive_robot_radius": ("safety", "extra_robot_margin", "margin", 0.25),
-    "predictive_pedestrian_radius": ("safety", "extra_ped_margin", "margin", 0.25),
-    "predictive_speed_clearance_gain": ("safety", "speed_clearance_gain", "same", None),
-    "predictive_candidate_speeds": ("sampling", "speed_ratios", "same", None),
-    "predictive_candidate_heading_deltas": ("sampling", "turn_rates", "turn", None),
-    "predictive_near_field_distance": ("sampling", "near_field_distance", "delta", 2.6),
-    "predictive_near_field_speed_cap": ("sampling", "near_field_speed_cap", "same", None),
-    "predictive_near_field_speed_samples": ("sampling", "near_field_speed_ratios", "same", None),
-    "predictive_near_field_heading_deltas": ("sampling", "near_field_turn_rates", "turn", None),
-    "predictive_adaptive_horizon_enabled": ("search", "adaptive_horizon", "same", None),
-    "predictive_horizon_boost_steps": ("search", "horizon_boost_s", "steps", None),
-    "predictive_beam_width": ("search", "beam_width", "same", None),
-}
-
-
-def _map_value(key: str, value: Any, kind: str, ref: float | None, ours: Any, source: str | None) -> Any:
-    """Translate one reference value into our field's value (see the kinds above)."""
-    try:
-        if kind == "same":
-            return tuple(float(v) for v in value) if isinstance(value, list | tuple) else value
-        if kind == "turn":
-            return tuple(float(d) / HEADING_DELTA_TIME_S for d in value)
-        if kind == "steps":
-            return float(value) * REFERENCE_ROLLOUT_DT
-        v = float(value)
-        if not math.isfinite(v):
-            raise ValueError("not finite")
-        if kind == "ratio":
-            return float(ours) * v / float(ref)
-        if kind == "delta":
-            return max(0.0, float(ours) + v - float(ref))
-        if kind == "margin":
-            return max(0.0, v - float(ref))
-    except (TypeError, ValueError) as exc:
-        raise ConfigError(f"cannot map value {value!r}: {exc}", source=source, item=key) from None
-    raise AssertionError(f"unknown mapping kind {kind!r}")

@@ -182,8 +182,8 @@ class Scene:
 
     ped_future: np.ndarray  #: (N, K, 2) forecast positions at ``times`` [m] (relevant peds only)
     ped_sigma: np.ndarray  #: (N, K) per-axis std of those positions [m]
-    #: (N,) room [m] added to each pedestrian's clearance: expected of one waiting for the robot (``waiting_room``) or
-    #: allowed one walking away from a slow robot (``receding_room``)
+    #: (N,) room [m] added to each pedestrian's clearance: expected of one waiting for the robot (``crowd.waiting_room``) or
+    #: allowed one walking away from a slow robot (``crowd.receding``)
     ped_room: np.ndarray
     ped_yield: np.ndarray  #: (N,) speed [m/s] at which each pedestrian is assumed to step away from the robot
     ped_straight: (
@@ -240,12 +240,12 @@ def pedestrian_terms(
     the robot walks into it all the same. Rows may be modes of one pedestrian (``scene.ped_weight``): the collision,
     near-miss and TTC excesses and the contact probability are then weighted by each mode's probability (their
     expectation over the mixture); the hard clearance holds against every mode kept. After a stall the soft margins shrink by
-    ``stall_margin_relief`` x assertiveness, and a pedestrian forecast to stand (waiting for the
+    ``stall.margin_relief`` x assertiveness, and a pedestrian forecast to stand (waiting for the
     robot) is expected to make room; the contact with a walking pedestrian never shrinks. ``gone`` (B, K): steps
     after the rollout's arrival at the goal, which meet nobody.
     """
     B = pos.shape[0]
-    s = cfg.safety
+    s, beside = cfg.safety.pedestrians, cfg.safety.crowd.beside_distance
     fut, sigma = scene.ped_future, scene.ped_sigma
     if fut.shape[0] == 0:
         z = np.zeros(B)
@@ -257,13 +257,13 @@ def pedestrian_terms(
             "hard_clearance": z,
             "min_clearance": np.full(B, np.inf),
         }
-    relief = 1.0 - s.stall_margin_relief * scene.assertiveness
+    relief = 1.0 - cfg.safety.stall.margin_relief * scene.assertiveness
     # (N, K, B) with the rollouts innermost: numpy's loops run over B (tens to hundreds) instead of K (~20)
-    clear = _reactive_clearance(pos, fut, scene, scene.ped_yield, s.yield_range)
+    clear = _reactive_clearance(pos, fut, scene, scene.ped_yield, beside)
     if len(scene.ped_straight):
         a = scene.ped_straight
         clear[a] = np.minimum(
-            clear[a], _reactive_clearance(pos, scene.ped_lines, scene, scene.ped_yield[a], s.yield_range)
+            clear[a], _reactive_clearance(pos, scene.ped_lines, scene, scene.ped_yield[a], beside)
         )
     if np.logical_or.reduce(scene.ped_room != 0, axis=None):
         clear += scene.ped_room[:, None, None].astype(np.float32)
@@ -369,7 +369,7 @@ def influence_range(
     cfg: PredictivePlannerConfig, horizon_s: float, max_speed: float, max_sigma: float
 ) -> float:
     """Clearance [m] beyond which a pedestrian adds exactly zero to every pedestrian term."""
-    s = cfg.safety
+    s = cfg.safety.pedestrians
     margin = s.collision_margin + s.confidence * max_sigma + s.speed_clearance_gain * max_speed
     bands = margin + max(s.near_distance, s.ttc_distance, s.hard_clearance_distance, s.progress_risk_distance)
     return max(bands, RISK_CUTOFF * max_sigma)
@@ -381,7 +381,7 @@ def evaluate(
     """Total cost (B,) and every term (B,) for the rollouts; ``progress`` is in metres (counted negatively).
 
     Everything is read at the forecast times; static clearance too (the robot moves at most
-    v_max * dt_forecast = 0.4 m between them, covered by ``static_margin`` plus the field's bound).
+    v_max * dt_forecast = 0.4 m between them, covered by ``static.margin`` plus the field's bound).
     """
     s, wt = cfg.safety, cfg.weights
     ev = roll.states.take(roll.eval_index, axis=1)  # (B, K, 5); take: a fancy index on axis 1 is ~4x slower
@@ -404,14 +404,16 @@ def evaluate(
     progress = scene.phi0 - phi_end
     min_c = terms.pop("min_clearance")
     terms["progress"] = progress
-    terms["progress_risk"] = np.maximum(0.0, progress) * np.maximum(0.0, s.progress_risk_distance - min_c)
+    terms["progress_risk"] = np.maximum(0.0, progress) * np.maximum(
+        0.0, s.pedestrians.progress_risk_distance - min_c
+    )
     sc = scene.static(pos) - scene.robot_radius  # (B, K)
     if gone is not None:
         sc[gone] = np.inf
     # means below: np.add.reduce / K is what ndarray.mean computes, without its wrapper
-    terms["static_collision"] = np.add.reduce(sc < s.static_margin, axis=1, dtype=float)
+    terms["static_collision"] = np.add.reduce(sc < s.static.margin, axis=1, dtype=float)
     terms["static"] = (
-        np.add.reduce(np.maximum(0.0, s.static_margin + s.static_soft_distance - sc), axis=1) / K
+        np.add.reduce(np.maximum(0.0, s.static.margin + s.static.soft_distance - sc), axis=1) / K
     )
     cmd = roll.commands.take(roll.eval_index, axis=1)  # (B, K, 2)
     terms["velocity"] = np.add.reduce(np.abs(cmd[..., 0]), axis=1) / K / scene.max_speed
@@ -440,4 +442,5 @@ def evaluate(
 
 def weighted(terms: dict[str, np.ndarray], wt: WeightsConfig) -> dict[str, np.ndarray]:
     """Each term's share of the total cost: its weight times it (progress counted negatively, at the goal weight)."""
-    return {name: (-wt.goal if name == "progress" else getattr(wt, name)) * terms[name] for name in TERMS}
+    w = wt.by_term()
+    return {name: (-w[name] if name == "progress" else w[name]) * terms[name] for name in TERMS}

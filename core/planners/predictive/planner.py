@@ -178,7 +178,7 @@ class PredictivePlanner:
         mem = self._memory
         if mem.traffic is None:
             mem.traffic = TrafficMap(
-                obs.static.width, obs.static.height, contact, memory_s=self.config.safety.lane_memory_s
+                obs.static.width, obs.static.height, contact, memory_s=self.config.safety.crowd.lane_memory_s
             )
         mem.traffic.observe(obs.time, obs.ped_positions, obs.ped_velocities)
         return mem.traffic
@@ -190,7 +190,7 @@ class PredictivePlanner:
         mem = self._memory
         if mem.route is None or mem.route[0] != key:
             res = self.config.search.geodesic_resolution
-            clearance = obs.robot_radius + self.config.safety.static_margin
+            clearance = obs.robot_radius + self.config.safety.static.margin
             way = None if res <= 0 else (lambda w: GeodesicDistance(obs.static, w, clearance, res))
             mem.route = (
                 key,
@@ -203,7 +203,7 @@ class PredictivePlanner:
     def _static_field(self, obs: Observation) -> C.StaticClearance:
         """One distance field per static geometry object (the simulator keeps one per map)."""
         if self._static is None or self._static.static is not obs.static:
-            self._static = C.StaticClearance(obs.static, self.config.safety.static_field_resolution)
+            self._static = C.StaticClearance(obs.static, self.config.safety.static.field_resolution)
         return self._static
 
 

@@ -3,7 +3,7 @@
 The reference sampled heading deltas and divided by its 0.2 s rollout step, so nearly every delta
 saturated at the turn-rate limit and the "lattice" held three turn rates. Sampling omega itself
 gives as many distinct turn rates as asked for; the near field (a pedestrian predicted within
-``near_field_distance`` of contact) adds finer turn rates and slow speeds, because that is where a
+``near_field.distance`` of contact) adds finer turn rates and slow speeds, because that is where a
 small steering difference decides between a near miss and a collision.
 """
 
@@ -33,14 +33,14 @@ def first_candidates(
     """(C, 2) first-segment commands, sorted by (v, omega); always contains the braking command (0, 0).
 
     ``speed_ratio`` caps every speed (the config's max_speed_ratio); inside the near field the cap
-    is also ``near_field_speed_cap`` and the slow speeds and finer turn rates are added.
+    is also ``near_field.speed_cap`` and the slow speeds and finer turn rates are added.
     """
-    cap = min(speed_ratio, cfg.near_field_speed_cap) if near_field else speed_ratio
-    ratios = list(cfg.speed_ratios) + (list(cfg.near_field_speed_ratios) if near_field else [])
+    cap = min(speed_ratio, cfg.near_field.speed_cap) if near_field else speed_ratio
+    ratios = list(cfg.speed_ratios) + (list(cfg.near_field.speed_ratios) if near_field else [])
     speeds = np.minimum(np.asarray(ratios, dtype=float), cap) * limits.v_max
     rates = turn_rate_grid(cfg.turn_rate_count, limits.w_max, cfg.turn_rates)
     if near_field:
-        near = turn_rate_grid(cfg.near_field_turn_rate_count, limits.w_max, cfg.near_field_turn_rates)
+        near = turn_rate_grid(cfg.near_field.turn_rate_count, limits.w_max, cfg.near_field.turn_rates)
         rates = np.unique(np.concatenate([rates, near]))
     speeds = np.concatenate([speeds, reverse_speeds(cfg, limits, cap)])
     cands = np.vstack([_product(speeds, rates), [[0.0, 0.0]]])
@@ -73,13 +73,13 @@ def branch_commands(
 def turn_then_go(
     cfg: SamplingConfig, limits: RobotLimits, steps: int, dt: float, speed_ratio: float
 ) -> np.ndarray:
-    """(P, steps, 2) sequences that turn in place by each of ``cfg.turn_then_go`` [rad] at the full turn rate, then
-    drive straight at each of ``cfg.turn_then_go_speeds`` x v_max: how a robot backed into a corner beside a door
+    """(P, steps, 2) sequences that turn in place by each of ``cfg.point_turns.angles`` [rad] at the full turn rate, then
+    drive straight at each of ``cfg.point_turns.speed_ratios`` x v_max: how a robot backed into a corner beside a door
     faces it and goes in. A held (v, omega) is an arc, and an arc cannot do that."""
     rows = []
-    for angle in cfg.turn_then_go:
+    for angle in cfg.point_turns.angles:
         turn = min(steps, max(1, int(round(abs(angle) / limits.w_max / dt))))
-        for ratio in cfg.turn_then_go_speeds:
+        for ratio in cfg.point_turns.speed_ratios:
             seq = np.zeros((steps, 2))
             seq[:turn, 1] = np.sign(angle) * limits.w_max
             seq[turn:, 0] = min(ratio, speed_ratio) * limits.v_max
@@ -90,14 +90,14 @@ def turn_then_go(
 def veer_then_straight(
     cfg: SamplingConfig, limits: RobotLimits, steps: int, dt: float, speed_ratio: float
 ) -> np.ndarray:
-    """(P, steps, 2) sequences that drive at each of ``cfg.veer_speeds`` x v_max turning at each of
-    ``cfg.veer_turn_rates`` x w_max for each of ``cfg.veer_durations_s``, then straight on at that speed: how a robot
+    """(P, steps, 2) sequences that drive at each of ``cfg.veers.speed_ratios`` x v_max turning at each of
+    ``cfg.veers.turn_rates`` x w_max for each of ``cfg.veers.durations_s``, then straight on at that speed: how a robot
     pulls out to pass slower walkers. Held to the horizon the same turn is a circle, which never enters the beam."""
     rows = []
-    for duration in cfg.veer_durations_s:
+    for duration in cfg.veers.durations_s:
         turn = min(steps, max(1, int(round(duration / dt))))
-        for rate in cfg.veer_turn_rates:
-            for ratio in cfg.veer_speeds:
+        for rate in cfg.veers.turn_rates:
+            for ratio in cfg.veers.speed_ratios:
                 seq = np.zeros((steps, 2))
                 seq[:, 0] = min(ratio, speed_ratio) * limits.v_max
                 seq[:turn, 1] = rate * limits.w_max
@@ -118,11 +118,11 @@ def holonomic_candidates(
     cfg: SamplingConfig, limits: RobotLimits, speed_ratio: float, near_field: bool
 ) -> np.ndarray:
     """A holonomic robot's first-segment commands: velocities in its frame (``velocity_grid``), speeds as
-    ``first_candidates`` chooses them, directions ``direction_count`` (near field: ``near_field_direction_count``)."""
-    cap = min(speed_ratio, cfg.near_field_speed_cap) if near_field else speed_ratio
-    ratios = list(cfg.speed_ratios) + (list(cfg.near_field_speed_ratios) if near_field else [])
+    ``first_candidates`` chooses them, directions ``direction_count`` (near field: ``near_field.direction_count``)."""
+    cap = min(speed_ratio, cfg.near_field.speed_cap) if near_field else speed_ratio
+    ratios = list(cfg.speed_ratios) + (list(cfg.near_field.speed_ratios) if near_field else [])
     speeds = np.minimum(np.asarray(ratios, dtype=float), cap) * limits.v_max
-    return velocity_grid(speeds, cfg.near_field_direction_count if near_field else cfg.direction_count)
+    return velocity_grid(speeds, cfg.near_field.direction_count if near_field else cfg.direction_count)
 
 
 def holonomic_branches(cfg: SearchConfig, limits: RobotLimits, speed_ratio: float) -> np.ndarray:

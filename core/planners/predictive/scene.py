@@ -26,7 +26,8 @@ def contact_distance(obs: Observation, cfg: PredictivePlannerConfig) -> float:
     ped_r = obs.ped_radius
     if obs.ped_radii is not None and len(obs.ped_radii):
         ped_r = max(ped_r, float(obs.ped_radii.max()))
-    return obs.robot_radius + ped_r + cfg.safety.extra_robot_margin + cfg.safety.extra_ped_margin
+    margins = cfg.safety.pedestrians
+    return obs.robot_radius + ped_r + margins.extra_robot_margin + margins.extra_ped_margin
 
 
 def crowd_scene(
@@ -56,7 +57,7 @@ def crowd_scene(
     dist = np.sqrt(np.add.reduce((fut - p0) ** 2, axis=-1))  # (N, K) to the robot's current position
     near = (
         bool(dist.size)
-        and float(np.minimum.reduce(dist, axis=None)) - contact <= cfg.sampling.near_field_distance
+        and float(np.minimum.reduce(dist, axis=None)) - contact <= cfg.sampling.near_field.distance
     )
     dt_f = float(times[1] - times[0]) if len(times) > 1 else float(times[0])
     extra_s = cfg.search.extra_horizon_s + (
@@ -79,7 +80,7 @@ def crowd_scene(
     if assertive >= COMMIT_ASSERTIVENESS and waiting.any():  # yielded long enough: commit (see WaitsForRobot)
         fut, sigma = fut.copy(), sigma.copy()
         fut[waiting], sigma[waiting] = fut[waiting, :1], np.minimum(sigma[waiting, :1], COMMIT_SIGMA)
-        yielding[waiting] = cfg.safety.yield_speed
+        yielding[waiting] = cfg.safety.crowd.yielding.speed
     fut, sigma, times = extend_forecast(fut, sigma, times, extra)
     straight = crowd.walks_straight(obs, fc_ids, times, p0, speed)
     if len(fut):  # exact culling: pedestrians no rollout can bring within any term's range

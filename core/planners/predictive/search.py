@@ -61,7 +61,7 @@ class BeamSearch:
 
     def first_sequences(self, near: bool, steps: int, dt: float) -> np.ndarray:
         """The first round's sequences (C + P + V, steps, 2): the first-segment candidates held to the horizon, then the
-        point turns (``sampling.turn_then_go``) and the swerves (``sampling.veer_turn_rates``)."""
+        point turns (``sampling.point_turns``) and the swerves (``sampling.veers``)."""
         key = (near, steps)
         if key not in self._firsts:
             cfg = self.config
