@@ -113,10 +113,14 @@ def variant_spec(base: Any, variant: GridVariant, checkpoint: str | None) -> Any
     ConfigError naming the variant and the field when the merged config does not fit the planner's model.
     """
     config = base.config.model_dump(exclude_unset=True) if isinstance(base.config, BaseModel) else base.config
+    over = variant.config
     try:
+        upgrade = getattr(type(base.config), "upgrade_keys", None)  # old key names -> today's, before merging
+        if upgrade is not None:
+            over = upgrade(over)
         return planner_spec(
             name=base.name,
-            config=_merge(config or {}, variant.config),
+            config=_merge(config or {}, over),
             reference_params={**(base.reference_params or {}), **variant.params} or None,
             variant=variant.name,
             model=checkpoint,

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from typing import Any, ClassVar
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from foresight.core.errors import ConfigError
 from foresight.core.planners.predictive.config_keys import (
@@ -53,10 +53,11 @@ class _Section(_Frozen):
         return move_old_keys(data, OLD_KEYS[cls.section], set(cls.model_fields))
 
 
-def _in_unit(name: str, values: tuple[float, ...], low: float = 0.0) -> None:
+def _in_unit(values: tuple[float, ...], low: float = 0.0) -> tuple[float, ...]:
     bad = [r for r in values if not low <= r <= 1.0]
     if bad:
-        raise ValueError(f"{name} must lie in [{low:g}, 1] (ratios of a limit), got {bad}")
+        raise ValueError(f"ratios of a limit must lie in [{low:g}, 1], got {bad}")
+    return values
 
 
 # ---------------------------------------------------------------- sampling
@@ -73,10 +74,10 @@ class NearFieldSampling(_Frozen):
     turn_rates: tuple[float, ...] = ()  #: extra turn rates [rad/s], clipped to +-w_max
     direction_count: int = Field(default=32, ge=4, le=144)  #: a holonomic robot's directions
 
-    @model_validator(mode="after")
-    def _ratios(self) -> NearFieldSampling:
-        _in_unit("speed_ratios", self.speed_ratios)
-        return self
+    @field_validator("speed_ratios")
+    @classmethod
+    def _ratios(cls, values: tuple[float, ...]) -> tuple[float, ...]:
+        return _in_unit(values)
 
 
 class PointTurns(_Frozen):
@@ -86,10 +87,10 @@ class PointTurns(_Frozen):
     angles: tuple[float, ...] = (-1.6, -1.2, -0.8, -0.4, 0.4, 0.8, 1.2, 1.6)
     speed_ratios: tuple[float, ...] = (0.25, 0.5)  #: the straight drive after the turn, ratios of v_max
 
-    @model_validator(mode="after")
-    def _ratios(self) -> PointTurns:
-        _in_unit("speed_ratios", self.speed_ratios)
-        return self
+    @field_validator("speed_ratios")
+    @classmethod
+    def _ratios(cls, values: tuple[float, ...]) -> tuple[float, ...]:
+        return _in_unit(values)
 
 
 class Veers(_Frozen):
@@ -101,13 +102,22 @@ class Veers(_Frozen):
     speed_ratios: tuple[float, ...] = (0.5, 1.0)  #: driving speeds, ratios of v_max
     durations_s: tuple[float, ...] = (0.8, 1.6)  #: how long each swerve turns [s], then straight on
 
-    @model_validator(mode="after")
-    def _ranges(self) -> Veers:
-        _in_unit("speed_ratios", self.speed_ratios)
-        _in_unit("turn_rates", self.turn_rates, low=-1.0)
-        if any(d <= 0 for d in self.durations_s):
-            raise ValueError(f"durations_s must be positive [s], got {list(self.durations_s)}")
-        return self
+    @field_validator("speed_ratios")
+    @classmethod
+    def _ratios(cls, values: tuple[float, ...]) -> tuple[float, ...]:
+        return _in_unit(values)
+
+    @field_validator("turn_rates")
+    @classmethod
+    def _turn_ratios(cls, values: tuple[float, ...]) -> tuple[float, ...]:
+        return _in_unit(values, low=-1.0)
+
+    @field_validator("durations_s")
+    @classmethod
+    def _positive(cls, values: tuple[float, ...]) -> tuple[float, ...]:
+        if any(d <= 0 for d in values):
+            raise ValueError(f"durations must be positive [s], got {list(values)}")
+        return values
 
 
 class SamplingConfig(_Section):
@@ -127,11 +137,10 @@ class SamplingConfig(_Section):
     point_turns: PointTurns = PointTurns()
     veers: Veers = Veers()
 
-    @model_validator(mode="after")
-    def _ratios(self) -> SamplingConfig:
-        _in_unit("speed_ratios", self.speed_ratios)
-        _in_unit("reverse_speed_ratios", self.reverse_speed_ratios)
-        return self
+    @field_validator("speed_ratios", "reverse_speed_ratios")
+    @classmethod
+    def _ratios(cls, values: tuple[float, ...]) -> tuple[float, ...]:
+        return _in_unit(values)
 
 
 # ---------------------------------------------------------------- search
@@ -361,6 +370,20 @@ class PredictivePlannerConfig(_Frozen):
             raise ConfigError(
                 f"{err['msg']} ({len(exc.errors())} error(s))", source=source, item=item
             ) from None
+
+    @classmethod
+    def upgrade_keys(cls, data: dict[str, Any]) -> dict[str, Any]:
+        """``data`` with the flat keys of before moved to their places, as validation moves them, so that it can be
+        merged key by key over a config in today's keys (a campaign's grid variant over its base planner)."""
+        out = dict(data)
+        for section, moved in OLD_KEYS.items():
+            if isinstance(out.get(section), dict):
+                fields = set(cls.model_fields[section].annotation.model_fields)
+                try:
+                    out[section] = move_old_keys(out[section], moved, fields)
+                except ValueError as exc:
+                    raise ConfigError(str(exc), item=section) from None
+        return out
 
     @classmethod
     def from_reference_grid(

@@ -193,3 +193,26 @@ def test_config_diff_is_key_by_key() -> None:
     a = {"w": {"goal": 1.0, "ttc": 0.3}, "speed": 1.0, "only_a": 1}
     b = {"w": {"goal": 1.0, "ttc": 0.5}, "speed": 1.0}
     assert config_diff(a, b) == {"w.ttc": (0.3, 0.5), "only_a": (1, None)}
+
+
+def test_a_variant_written_with_the_planners_old_keys_overrides_a_base_in_todays_keys() -> None:
+    """Stored campaign specs name the predictive planner's settings by their flat keys of before the nesting; a
+    base planner config in today's keys (a spec that went through validation once) still takes each override."""
+    from foresight.core.evaluation.config import GridVariant, variant_spec
+    from foresight.core.evaluation.plannerspec import planner_spec
+
+    base = planner_spec(
+        planner_spec(name="predictive", config={"safety": {"pedestrians": {"confidence": 2.0}}})
+    )
+    base = planner_spec(base.model_dump())  # every key set, as after a round trip through a stored spec
+    old = GridVariant(
+        name="v", config={"safety": {"confidence": 0.5, "yield_speed": 0.0}, "weights": {"ttc": 9}}
+    )
+    spec = variant_spec(base, old, None)
+    assert spec.config.safety.pedestrians.confidence == 0.5 and spec.config.safety.crowd.yielding.speed == 0.0
+    assert (
+        spec.config.weights.pedestrians.ttc == 9.0 and spec.config.safety.pedestrians.collision_margin == 0.1
+    )
+    with pytest.raises(ConfigError) as exc:
+        variant_spec(base, GridVariant(name="w", config={"safety": {"confidance": 0.5}}), None)
+    assert exc.value.item == "planner.predictive.config.safety.confidance"

@@ -72,10 +72,12 @@ def test_reference_runs_hold_the_candidates_episodes_with_another_model_and_a_st
         "incumbent_evaluate", "evaluate", ref, inc.sha256
     )
     tuned = config.model_copy(
-        update={"incumbent": IncumbentSection(planner_config={"safety": {"yield_speed": 0.0}})}
+        update={
+            "incumbent": IncumbentSection(planner_config={"safety": {"crowd": {"yielding": {"speed": 0.0}}}})
+        }
     )
     ref2 = reference_spec(tuned, "incumbent_evaluate", INPUTS, inc)
-    assert ref2["planner"]["config"] == {"safety": {"yield_speed": 0.0}}
+    assert ref2["planner"]["config"] == {"safety": {"crowd": {"yielding": {"speed": 0.0}}}}
     assert cache_key("i", "evaluate", ref2, inc.sha256) != cache_key("i", "evaluate", ref, inc.sha256)
     assert cache_key("incumbent_evaluate", "evaluate", ref, inc.sha256).endswith(":incumbent_evaluate")
 

@@ -20,7 +20,7 @@ def doorway(reference_matrix_path):
 
 
 @pytest.mark.parametrize(
-    ("config", "outcome"), [({}, "success"), ({"safety": {"yield_speed": 0.0}}, "timeout")]
+    ("config", "outcome"), [({}, "success"), ({"safety": {"crowd": {"yielding": {"speed": 0.0}}}}, "timeout")]
 )
 def test_the_robot_commits_after_yielding_and_passes_the_door(doorway, config, outcome):
     result = run_episode(doorway, 141, make_planner("predictive", config, model="cv"))

@@ -85,7 +85,7 @@ def test_negative_lane_settings_are_refused_by_name():
     with pytest.raises(ConfigError, match="lane"):
         PredictivePlannerConfig.from_dict({"weights": {"lane": -1}})
     with pytest.raises(ConfigError, match="lane_memory_s"):
-        PredictivePlannerConfig.from_dict({"safety": {"lane_memory_s": 0}})
+        PredictivePlannerConfig.from_dict({"safety": {"crowd": {"lane_memory_s": 0}}})
 
 
 def test_a_robot_waiting_at_a_doorway_no_longer_stands_in_the_stream_of_people_who_do_not_see_it(

@@ -15,7 +15,7 @@ ROBOT = (5.0, 10.0, 0.0)
 
 
 def _planner(linger_s: float) -> PredictivePlanner:
-    cfg = PredictivePlannerConfig.from_dict({"safety": {"standing_stays_s": linger_s}})
+    cfg = PredictivePlannerConfig.from_dict({"safety": {"crowd": {"lingering_s": linger_s}}})
     planner = PredictivePlanner(cfg, ConstantVelocityForecaster(PLANNER_TIMEBASE))
     planner.reset(info_for(corridor_map()))
     return planner
@@ -48,7 +48,7 @@ def test_only_a_pedestrian_that_stayed_by_the_robot_for_the_whole_window_lingers
 
 
 def test_lingering_is_on_by_default_and_off_at_zero():
-    assert PredictivePlannerConfig().safety.standing_stays_s == 1.5
+    assert PredictivePlannerConfig().safety.crowd.lingering_s == 1.5
     assert _lingering(_planner(0.0), 16) == [False, False, False]
 
 

@@ -22,20 +22,24 @@ WALL = (
 
 
 def test_sequences_turn_at_the_full_rate_then_drive_straight():
-    cfg = SamplingConfig(turn_then_go=(-0.8, 1.2), turn_then_go_speeds=(0.25, 0.5))
+    cfg = SamplingConfig(point_turns={"angles": (-0.8, 1.2), "speed_ratios": (0.25, 0.5)})
     seqs = turn_then_go(cfg, RobotLimits(), steps=40, dt=0.1, speed_ratio=1.0)
     assert seqs.shape == (4, 40, 2)
     right, left = seqs[0], seqs[2]  # -0.8 rad at 0.5 m/s, +1.2 rad at 0.5 m/s
     assert np.all(right[:8] == [0.0, -1.0]) and np.all(right[8:] == [0.5, 0.0])  # 0.8 rad at 1 rad/s: 8 steps
     assert np.all(left[:12] == [0.0, 1.0]) and np.all(left[12:] == [0.5, 0.0])
     assert seqs[1, -1, 0] == pytest.approx(1.0)  # 0.5 of the 2 m/s limit
-    assert turn_then_go(SamplingConfig(turn_then_go=()), RobotLimits(), 40, 0.1, 1.0).shape == (0, 40, 2)
+    assert turn_then_go(SamplingConfig(point_turns={"angles": ()}), RobotLimits(), 40, 0.1, 1.0).shape == (
+        0,
+        40,
+        2,
+    )
 
 
 def _decide(turns: tuple[float, ...]) -> dict:
     m = corridor_map(obstacles=WALL)
     planner = PredictivePlanner(
-        PredictivePlannerConfig.from_dict({"sampling": {"turn_then_go": list(turns)}}),
+        PredictivePlannerConfig.from_dict({"sampling": {"point_turns": {"angles": list(turns)}}}),
         ConstantVelocityForecaster(PLANNER_TIMEBASE),
     )
     planner.reset(info_for(m))
@@ -49,7 +53,7 @@ def test_a_robot_facing_the_wall_beside_a_door_turns_and_goes_instead_of_standin
     assert stuck["terms"]["progress"] == pytest.approx(
         0.0, abs=0.05
     )  # held arcs: nothing better than standing
-    out = _decide(SamplingConfig().turn_then_go)  # the default point turns
+    out = _decide(SamplingConfig().point_turns.angles)  # the default point turns
     assert out["terms"]["progress"] > 0.5 and out["terms"]["static_collision"] == 0
     first_steps, v0, w0 = out["sequence"][0]
     assert v0 == 0.0 and abs(w0) == pytest.approx(1.0)  # it turns in place first
@@ -58,5 +62,5 @@ def test_a_robot_facing_the_wall_beside_a_door_turns_and_goes_instead_of_standin
 
 def test_point_turns_never_drive_backwards():
     with pytest.raises(ConfigError) as exc:
-        PredictivePlannerConfig.from_dict({"sampling": {"turn_then_go_speeds": [-0.5]}})
-    assert "turn_then_go_speeds" in str(exc.value)
+        PredictivePlannerConfig.from_dict({"sampling": {"point_turns": {"speed_ratios": [-0.5]}}})
+    assert "sampling.point_turns.speed_ratios" in str(exc.value)

@@ -32,7 +32,9 @@ def test_candidates_span_distinct_turn_rates():
 
 def test_near_field_densifies_turn_rates_and_speeds():
     far = first_candidates(SamplingConfig(), RobotLimits(), 1.0, near_field=False)
-    near = first_candidates(SamplingConfig(near_field_speed_cap=0.5), RobotLimits(), 1.0, near_field=True)
+    near = first_candidates(
+        SamplingConfig(near_field={"speed_cap": 0.5}), RobotLimits(), 1.0, near_field=True
+    )
     assert len(np.unique(near[:, 1])) > len(np.unique(far[:, 1]))
     assert len(np.unique(near[:, 0])) > len(np.unique(far[:, 0]))
     assert near[:, 0].max() == pytest.approx(1.0)  # near-field speed cap 0.5 of 2 m/s
@@ -107,7 +109,7 @@ def test_after_a_stall_a_waiting_pedestrian_is_trusted_to_make_room_for_a_slow_r
         p._memory.crowd.stall.level = assertiveness  # 1: as after a few seconds without route progress
         return float(p.score_commands(obs, creep)[1]["collision"][0])
 
-    nobody_waits = {"safety": {"yield_speed": 0.0}}
+    nobody_waits = {"safety": {"crowd": {"yielding": {"speed": 0.0}}}}
     assert collision({}, 1.0) < collision(
         nobody_waits, 1.0
     )  # committed: the pedestrian is expected to step back
@@ -128,7 +130,7 @@ def test_a_pedestrian_who_holds_its_ground_while_the_robot_closes_in_is_not_trus
     """The trust is tested: standing put for ``yield_test_s`` while the robot closes in revokes it for the episode."""
     m = corridor_map()
     p = _planner(m)
-    test_steps = int(round(p.config.safety.yield_test_s / 0.1))
+    test_steps = int(round(p.config.safety.crowd.yielding.test_s / 0.1))
     waiting = None
     for step in range(test_steps + 5):
         robot_x = 5.0 + 0.02 * step  # edging forward at 0.2 m/s
@@ -142,14 +144,14 @@ def test_a_pedestrian_who_holds_its_ground_while_the_robot_closes_in_is_not_trus
 def test_assertiveness_grows_while_stalled_and_decays_with_progress():
     m = corridor_map()
     p = _planner(m)
-    s = p.config.safety
+    s = p.config.safety.stall
     dt, t, a = 0.1, 0.0, []
-    for _ in range(int((s.stall_after_s + s.stall_ramp_s) / dt) + 5):  # standing still
+    for _ in range(int((s.after_s + s.ramp_s) / dt) + 5):  # standing still
         a.append(p._memory.crowd.stall(10.0, t, dt))
         t += dt
-    assert a[0] == 0.0 and a[int(s.stall_after_s / dt) - 1] == 0.0 and a[-1] == 1.0
+    assert a[0] == 0.0 and a[int(s.after_s / dt) - 1] == 0.0 and a[-1] == 1.0
     phi = 10.0
-    for _ in range(int(s.stall_after_s / dt) + 10):  # driving at 1 m/s along the route
+    for _ in range(int(s.after_s / dt) + 10):  # driving at 1 m/s along the route
         phi -= 1.0 * dt
         t += dt
         last = p._memory.crowd.stall(phi, t, dt)
@@ -217,12 +219,12 @@ def test_chance_margin_and_risk_grow_with_the_forecast_spread():
     m = corridor_map()
     obs = observation(m, velocity=(1.0, 0.0), peds=[(9.0, 11.6)])  # to the side of the robot's line, standing
     cmd = np.array([[1.0, 0.0]])
-    base = _planner(m, PredictivePlannerConfig.from_dict({"safety": {"confidence": 0.0}})).score_commands(
-        obs, cmd
-    )[1]
-    wide = _planner(m, PredictivePlannerConfig.from_dict({"safety": {"confidence": 2.0}})).score_commands(
-        obs, cmd
-    )[1]
+    base = _planner(
+        m, PredictivePlannerConfig.from_dict({"safety": {"pedestrians": {"confidence": 0.0}}})
+    ).score_commands(obs, cmd)[1]
+    wide = _planner(
+        m, PredictivePlannerConfig.from_dict({"safety": {"pedestrians": {"confidence": 2.0}}})
+    ).score_commands(obs, cmd)[1]
     assert wide["collision"][0] > base["collision"][0]
     assert base["risk"][0] == wide["risk"][0] > 0  # risk is the probability itself, no margin
 
@@ -242,14 +244,14 @@ def test_contact_probability_is_the_normal_tail():
 def test_after_a_stall_only_a_standing_pedestrian_is_expected_to_make_room():
     """A pedestrian forecast to stand near a stalled robot is waiting for it; one who walks on never makes room."""
     m = corridor_map()
-    waiting = PredictivePlannerConfig.from_dict({"safety": {"waiting_room": 0.7}})
+    waiting = PredictivePlannerConfig.from_dict({"safety": {"crowd": {"waiting_room": 0.7}}})
     p = _planner(m, waiting)
     times = PLANNER_TIMEBASE.times
     standing = np.repeat([[[7.0, 10.0]]], len(times), axis=1)  # (1, K, 2)
     walking = np.array([7.0, 10.0]) + times[None, :, None] * np.array([0.0, 1.3])
     assert p._memory.crowd.waiting_room(standing, times, 0.0).tolist() == [0.0]  # no stall, no room
     assert p._memory.crowd.waiting_room(standing, times, 1.0).tolist() == [
-        pytest.approx(p.config.safety.waiting_room)
+        pytest.approx(p.config.safety.crowd.waiting_room)
     ]
     assert p._memory.crowd.waiting_room(walking, times, 1.0).tolist() == [0.0]
     creep = np.array([[0.3, 0.0]])

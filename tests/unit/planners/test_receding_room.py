@@ -16,7 +16,7 @@ WALL = (((0.0, 11.9), (30.0, 11.9), (30.0, 13.0), (0.0, 13.0)),)
 
 
 def _planner(room: float | None = None) -> tuple[PredictivePlanner, object]:
-    cfg = {} if room is None else {"safety": {"receding_room": room}}
+    cfg = {} if room is None else {"safety": {"crowd": {"receding": {"room": room}}}}
     planner = PredictivePlanner(
         PredictivePlannerConfig.from_dict(cfg), ConstantVelocityForecaster(PLANNER_TIMEBASE)
     )

@@ -29,7 +29,7 @@ class SwervingForecaster(ConstantVelocityForecaster):
 
 
 def _planner(straight: float = 0.3, forecaster=None) -> tuple[PredictivePlanner, object]:
-    cfg = {"safety": {"straight_speed": straight}}
+    cfg = {"safety": {"crowd": {"straight": {"speed": straight}}}}
     planner = PredictivePlanner(
         PredictivePlannerConfig.from_dict(cfg), forecaster or ConstantVelocityForecaster(PLANNER_TIMEBASE)
     )

@@ -25,7 +25,7 @@ WALK = np.array([0.6, 0.0])
 
 
 def test_sequences_turn_for_each_duration_then_drive_straight_at_one_speed():
-    cfg = SamplingConfig(veer_turn_rates=(-1.0, 0.5), veer_speeds=(0.5, 1.0), veer_durations_s=(0.8,))
+    cfg = SamplingConfig(veers={"turn_rates": (-1.0, 0.5), "speed_ratios": (0.5, 1.0), "durations_s": (0.8,)})
     seqs = veer_then_straight(cfg, RobotLimits(), steps=40, dt=0.1, speed_ratio=1.0)
     assert seqs.shape == (4, 40, 2)
     right_fast, left_slow = seqs[1], seqs[2]  # -1.0 x w_max at 2 m/s, +0.5 x w_max at 1 m/s
@@ -33,12 +33,16 @@ def test_sequences_turn_for_each_duration_then_drive_straight_at_one_speed():
     assert np.all(left_slow[:8] == [1.0, 0.5]) and np.all(left_slow[8:] == [1.0, 0.0])
     capped = veer_then_straight(cfg, RobotLimits(), steps=40, dt=0.1, speed_ratio=0.25)
     assert capped[..., 0].max() == pytest.approx(0.5)  # the config's speed cap holds
-    assert veer_then_straight(SamplingConfig(veer_turn_rates=()), RobotLimits(), 40, 0.1, 1.0).shape == (
+    assert veer_then_straight(
+        SamplingConfig(veers={"turn_rates": ()}), RobotLimits(), 40, 0.1, 1.0
+    ).shape == (
         0,
         40,
         2,
     )
-    longer = veer_then_straight(SamplingConfig(veer_durations_s=(0.4, 1.6)), RobotLimits(), 40, 0.1, 1.0)
+    longer = veer_then_straight(
+        SamplingConfig(veers={"durations_s": (0.4, 1.6)}), RobotLimits(), 40, 0.1, 1.0
+    )
     assert (
         longer.shape == (16, 40, 2)
         and np.count_nonzero(longer[0, :, 1]) == 4
@@ -52,7 +56,7 @@ def _drive(rates: tuple[float, ...], decisions: int = 80) -> tuple[np.ndarray, n
     m = corridor_map(obstacles=WALLS)
     # lanes off: a robot held up in the walkers' own lane is charged for it, which alone can pull it out (test_lanes)
     cfg = PredictivePlannerConfig.from_dict(
-        {"sampling": {"veer_turn_rates": list(rates)}, "weights": {"lane": 0}}
+        {"sampling": {"veers": {"turn_rates": list(rates)}}, "weights": {"lane": 0}}
     )
     planner = PredictivePlanner(cfg, ConstantVelocityForecaster(PLANNER_TIMEBASE))
     planner.reset(info_for(m))
@@ -78,11 +82,11 @@ def test_a_robot_behind_slower_walkers_pulls_out_and_passes_them_only_with_swerv
 
 def test_swerves_never_drive_backwards_turn_for_no_time_or_beyond_the_limit():
     with pytest.raises(ConfigError) as exc:
-        PredictivePlannerConfig.from_dict({"sampling": {"veer_speeds": [-0.5]}})
-    assert "veer_speeds" in str(exc.value)
+        PredictivePlannerConfig.from_dict({"sampling": {"veers": {"speed_ratios": [-0.5]}}})
+    assert "sampling.veers.speed_ratios" in str(exc.value)
     with pytest.raises(ConfigError) as exc:
-        PredictivePlannerConfig.from_dict({"sampling": {"veer_durations_s": [0.8, 0.0]}})
-    assert "veer_durations_s" in str(exc.value)
+        PredictivePlannerConfig.from_dict({"sampling": {"veers": {"durations_s": [0.8, 0.0]}}})
+    assert "sampling.veers.durations_s" in str(exc.value)
     with pytest.raises(ConfigError) as exc:
-        PredictivePlannerConfig.from_dict({"sampling": {"veer_turn_rates": [1.5]}})
-    assert "veer_turn_rates" in str(exc.value)
+        PredictivePlannerConfig.from_dict({"sampling": {"veers": {"turn_rates": [1.5]}}})
+    assert "sampling.veers.turn_rates" in str(exc.value)

@@ -119,7 +119,7 @@ def test_every_matrix_loads_or_says_in_one_line_why_not(corpus: dict[str, object
 
 def test_every_scenario_runs_one_episode_with_the_predictive_planner(corpus: dict[str, object]) -> None:
     # exact static distance queries: the per-map distance table of some corpus maps (1500 edges) costs minutes
-    planner = make_planner("predictive", {"safety": {"static_field_resolution": 0.0}}, model="cv")
+    planner = make_planner("predictive", {"safety": {"static": {"field_resolution": 0.0}}}, model="cv")
     sim, seen, ran = Simulator(), set(), 0
     for got in corpus.values():
         if isinstance(got, ConfigError):
