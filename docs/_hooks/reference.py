@@ -225,7 +225,8 @@ def _type(annotation: Any) -> str:
 
 
 def _comments(model: type[BaseModel]) -> dict[str, str]:
-    """The ``#:`` comments beside a model's fields (the project documents fields so where it sets no description)."""
+    """The ``#:`` comments of a model's fields, beside a field or in the lines just above it (the project documents
+    fields so where it sets no description)."""
     found: dict[str, str] = {}
     for cls in reversed(model.__mro__):
         if not (isinstance(cls, type) and issubclass(cls, BaseModel)) or cls is BaseModel:
@@ -234,9 +235,33 @@ def _comments(model: type[BaseModel]) -> dict[str, str]:
             source = inspect.getsource(cls)
         except (OSError, TypeError):
             continue
-        for m in re.finditer(r"^\s+(\w+)\s*:[^\n]*?#:\s*(.+)$", source, flags=re.M):
-            found[m.group(1)] = m.group(2).strip()
+        above: list[str] = []
+        for line in source.splitlines():
+            comment = re.match(r"^\s+#:\s*(.*)$", line)
+            if comment:
+                above.append(comment.group(1).strip())
+                continue
+            field = re.match(r"^\s+(\w+)\s*:[^\n]*?(?:#:\s*(.+))?$", line)
+            if field and (field.group(2) or above):
+                found[field.group(1)] = " ".join([*above, (field.group(2) or "").strip()]).strip()
+            above = []
     return found
+
+
+def _links(text: str) -> str:
+    """Code comments cite documentation pages by path (``docs/history.md#2026-11-25``): links from the reference."""
+    return re.sub(
+        r"\bdocs/([\w/-]+\.md)(#[\w-]+)?",
+        lambda m: f"[{m.group(0)}](../{m.group(1)}{m.group(2) or ''})",
+        text,
+    )
+
+
+def _summary(annotation: Any) -> str:
+    """A nested section's own first sentence, as the meaning of the key that holds it."""
+    if not (isinstance(annotation, type) and issubclass(annotation, BaseModel)) or not annotation.__doc__:
+        return ""
+    return re.split(r"(?<=\.)\s", " ".join(annotation.__doc__.split()), maxsplit=1)[0]
 
 
 def _nested(annotation: Any) -> list[type[BaseModel]]:
@@ -249,7 +274,7 @@ def _fields(model: type[BaseModel], out: list[str], seen: set[type], level: int)
     seen.add(model)
     doc = inspect.cleandoc(model.__doc__ or "") if model.__doc__ != BaseModel.__doc__ else ""
     if doc:
-        out += [_cell(doc), ""]
+        out += [_links(_cell(doc)), ""]
     comments = _comments(model)
     nested: list[type[BaseModel]] = []
     rows = []
@@ -265,7 +290,7 @@ def _fields(model: type[BaseModel], out: list[str], seen: set[type], level: int)
             default = "(its defaults)"
         else:
             default = f"`{json.dumps(field.default, default=str)}`"
-        meaning = field.description or comments.get(name, "")
+        meaning = _links(field.description or comments.get(name, "") or _summary(field.annotation))
         rows.append(
             f"| `{key}` | `{' '.join(_type(field.annotation).split())}` | {_cell(default)} | {_cell(meaning)} |"
         )

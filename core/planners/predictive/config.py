@@ -152,7 +152,7 @@ class SearchConfig(_Frozen):
     segments_s: tuple[float, ...] = (0.8,)  #: durations of segments 1..S-1 [s]; the last lasts to the horizon
     #: the forecast extended at its final velocity [s]: 2.4 + 1.6 s lets the robot clear a walker's path
     extra_horizon_s: float = Field(default=1.6, ge=0, le=5)
-    beam_width: int = Field(default=6, ge=1, le=64)
+    beam_width: int = Field(default=6, ge=1, le=64)  #: sequences kept after each segment
     branch_speed_ratios: tuple[float, ...] = (0.0, 0.5, 1.0)  #: later-segment speeds, ratios of max speed
     branch_turn_rate_count: int = Field(default=5, ge=1, le=21)  #: later-segment turn rates over +-w_max
     branch_direction_count: int = Field(default=8, ge=4, le=72)  #: holonomic later-segment directions
@@ -166,7 +166,7 @@ class SearchConfig(_Frozen):
     ends_at_goal: bool = True
     #: lengthen the horizon by ``horizon_boost_s`` [s] in the near field (the reference grid uses it)
     adaptive_horizon: bool = False
-    horizon_boost_s: float = Field(default=0.0, ge=0, le=5)
+    horizon_boost_s: float = Field(default=0.0, ge=0, le=5)  #: [s]; 0 = no boost
 
     @model_validator(mode="after")
     def _bounded_grid(self) -> SearchConfig:
