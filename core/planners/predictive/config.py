@@ -373,8 +373,8 @@ class PredictivePlannerConfig(_Frozen):
 
     @classmethod
     def upgrade_keys(cls, data: dict[str, Any]) -> dict[str, Any]:
-        """``data`` with the flat keys of before moved to their places, as validation moves them, so that it can be
-        merged key by key over a config in today's keys (a campaign's grid variant over its base planner)."""
+        """``data`` with the flat keys of before moved to their places, as validation moves them, so that it
+        can be merged key by key over a config in today's keys (a campaign's grid variant over its base)."""
         out = dict(data)
         for section, moved in OLD_KEYS.items():
             if isinstance(out.get(section), dict):

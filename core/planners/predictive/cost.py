@@ -182,8 +182,8 @@ class Scene:
 
     ped_future: np.ndarray  #: (N, K, 2) forecast positions at ``times`` [m] (relevant peds only)
     ped_sigma: np.ndarray  #: (N, K) per-axis std of those positions [m]
-    #: (N,) room [m] added to each pedestrian's clearance: expected of one waiting for the robot (``crowd.waiting_room``) or
-    #: allowed one walking away from a slow robot (``crowd.receding``)
+    #: (N,) room [m] added to each pedestrian's clearance: expected of one waiting for the robot
+    #: (``crowd.waiting_room``) or allowed one walking away from a slow robot (``crowd.receding``)
     ped_room: np.ndarray
     ped_yield: np.ndarray  #: (N,) speed [m/s] at which each pedestrian is assumed to step away from the robot
     ped_straight: (

@@ -26,8 +26,8 @@ REACTION_RANGE = 3.0
 COMMIT_ASSERTIVENESS = 0.8
 #: the spread [m] it then allows a waiting pedestrian's position: it trusts it to stand (and tests that, below)
 COMMIT_SIGMA = 0.1
-#: a standing pedestrian is under test from this far beyond ``beside_distance`` [m]; it holds its ground if the robot
-#: closed in by at least ``YIELD_PROBE_CLOSING`` [m] during the test while it moved less than that
+#: a standing pedestrian is under test from this far beyond ``beside_distance`` [m]; it holds its ground if
+#: the robot closed in by at least ``YIELD_PROBE_CLOSING`` [m] during the test while it moved less than that
 YIELD_PROBE_SLACK = 0.3
 YIELD_PROBE_CLOSING = 0.1
 LINGER_DISTANCE = 0.5  #: [m] a pedestrian by the robot that moved less over ``lingering_s`` lingers there
@@ -104,8 +104,9 @@ class WaitsForRobot:
 
 @dataclass
 class Lingers:
-    """(N,) mask of the forecast pedestrians (``ids``) lingering by the robot: within ``beside_distance`` of contact now
-    and then, and moved less than ``LINGER_DISTANCE`` over the last ``lingering_s`` [s] (0 = never).
+    """(N,) mask of the forecast pedestrians (``ids``) lingering by the robot: within ``beside_distance`` of
+    contact now and then, and moved less than ``LINGER_DISTANCE`` over the last ``lingering_s`` [s] (0 =
+    never).
 
     They are forecast to stay: a model that learned from people who make room has them walk off."""
 
@@ -169,8 +170,8 @@ class WalksStraight:
 
     A forecast of someone walking at the robot may bend away (a turn at a waypoint, a step aside for the
     robot); one who does not see the robot walks straight on into it. While the robot is slow (below
-    ``straight.max_robot_speed`` x v_max: standing, creeping, waiting at a door) pedestrians closing in on it at
-    ``straight.speed`` [m/s] or more are held to both (the nearer of forecast and straight line counts),
+    ``straight.max_robot_speed`` x v_max: standing, creeping, waiting at a door) pedestrians closing in on it
+    at ``straight.speed`` [m/s] or more are held to both (the nearer of forecast and straight line counts),
     except those seen to give way to the robot (``GivesWay``). Off by default: for crowds known not to yield.
     """
 

@@ -73,9 +73,9 @@ def branch_commands(
 def turn_then_go(
     cfg: SamplingConfig, limits: RobotLimits, steps: int, dt: float, speed_ratio: float
 ) -> np.ndarray:
-    """(P, steps, 2) sequences that turn in place by each of ``cfg.point_turns.angles`` [rad] at the full turn rate, then
-    drive straight at each of ``cfg.point_turns.speed_ratios`` x v_max: how a robot backed into a corner beside a door
-    faces it and goes in. A held (v, omega) is an arc, and an arc cannot do that."""
+    """(P, steps, 2) sequences that turn in place by each of ``cfg.point_turns.angles`` [rad] at the full turn
+    rate, then drive straight at each of ``cfg.point_turns.speed_ratios`` x v_max: how a robot backed into a
+    corner beside a door faces it and goes in. A held (v, omega) is an arc, and an arc cannot do that."""
     rows = []
     for angle in cfg.point_turns.angles:
         turn = min(steps, max(1, int(round(abs(angle) / limits.w_max / dt))))
@@ -91,8 +91,9 @@ def veer_then_straight(
     cfg: SamplingConfig, limits: RobotLimits, steps: int, dt: float, speed_ratio: float
 ) -> np.ndarray:
     """(P, steps, 2) sequences that drive at each of ``cfg.veers.speed_ratios`` x v_max turning at each of
-    ``cfg.veers.turn_rates`` x w_max for each of ``cfg.veers.durations_s``, then straight on at that speed: how a robot
-    pulls out to pass slower walkers. Held to the horizon the same turn is a circle, which never enters the beam."""
+    ``cfg.veers.turn_rates`` x w_max for each of ``cfg.veers.durations_s``, then straight on at that speed: how a
+    robot pulls out to pass slower walkers. Held to the horizon the same turn is a circle, which never enters the
+    beam."""
     rows = []
     for duration in cfg.veers.durations_s:
         turn = min(steps, max(1, int(round(duration / dt))))
@@ -118,7 +119,8 @@ def holonomic_candidates(
     cfg: SamplingConfig, limits: RobotLimits, speed_ratio: float, near_field: bool
 ) -> np.ndarray:
     """A holonomic robot's first-segment commands: velocities in its frame (``velocity_grid``), speeds as
-    ``first_candidates`` chooses them, directions ``direction_count`` (near field: ``near_field.direction_count``)."""
+    ``first_candidates`` chooses them, directions ``direction_count`` (near field:
+    ``near_field.direction_count``)."""
     cap = min(speed_ratio, cfg.near_field.speed_cap) if near_field else speed_ratio
     ratios = list(cfg.speed_ratios) + (list(cfg.near_field.speed_ratios) if near_field else [])
     speeds = np.minimum(np.asarray(ratios, dtype=float), cap) * limits.v_max
