@@ -251,6 +251,11 @@ def observation_message(obs: Observation) -> dict[str, Any]:
             "velocities": _list(obs.ped_velocities),
         },
     }
+    if obs.pending_commands is not None:  # command latency: what the robot will still carry out, oldest first
+        msg["pending_commands"] = {
+            "commands": _list(obs.pending_commands),
+            "durations": _list(obs.pending_durations),
+        }
     if obs.step == 0:
         msg["robot_limits"] = {k: float(v) for k, v in obs.robot_limits.items()}
         msg["static"] = {

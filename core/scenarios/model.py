@@ -141,6 +141,7 @@ class SimulationConfig(_Strict):
 
 
 Kinematics = Literal["differential_drive", "unicycle", "holonomic"]
+MAX_COMMAND_LATENCY_S = 5.0  #: the longest command latency a scenario may ask for [s]
 
 
 class RobotConfig(_Strict):
@@ -166,6 +167,8 @@ class RobotConfig(_Strict):
     interaxis_length: float = Field(default=0.3, gt=0)  #: [m] (reference compatibility; unused)
     allow_backwards: bool = False
     actuation: Literal["tracking", "reference_lag"] = "tracking"  #: see core.sim.robot
+    #: [s] a command takes effect this long after it is issued (core.sim.latency); 0 = at once
+    command_latency_s: float = Field(default=0.0, ge=0, le=MAX_COMMAND_LATENCY_S)
 
     @model_validator(mode="before")
     @classmethod

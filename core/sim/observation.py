@@ -50,6 +50,10 @@ class Observation:
     )  #: RobotLimits.as_dict(): v_max, v_min, w_max, accel, decel, alpha, radius; holonomic 1.0 = commands are (vx, vy)
     #: (N,) each pedestrian's radius [m] where they differ (randomised crowds); None = ``ped_radius`` for all
     ped_radii: np.ndarray | None = None
+    #: (k, 2) commands issued but not yet (fully) in effect, oldest first (``robot_config.command_latency_s``,
+    #: core.sim.latency); None = no latency
+    pending_commands: np.ndarray | None = None
+    pending_durations: np.ndarray | None = None  #: (k,) how long each pending command will still act [s]
 
     def radii(self) -> np.ndarray:
         """(N,) each pedestrian's collision radius [m]."""

@@ -25,6 +25,7 @@ from foresight.core.sim.collision import StaticChecker, ped_contact, radii_conta
 from foresight.core.sim.crowd import CrowdDynamics
 from foresight.core.sim.generated_crowd import GeneratedCrowd
 from foresight.core.sim.geometry import StaticMap
+from foresight.core.sim.latency import CommandDelay
 from foresight.core.sim.navigation import RobotRoute, sample_robot_route
 from foresight.core.sim.observation import Events, Observation
 from foresight.core.sim.orca_agents import OrcaCrowdDynamics, obstacle_polygons
@@ -113,6 +114,8 @@ class Simulator:
         self.dt = cfg.dt
         self.limits = RobotLimits.from_config(rcfg)
         self.limits_dict = self.limits.as_dict()
+        latency = rcfg.command_latency_s
+        self.delay = CommandDelay(latency, self.dt) if latency > 0 else None
         self.ped_radius = cfg.ped_radius
         robot_rng, pop_rng, spread_rng, self.rng, attention_rng = episode_generators(scenario.name, seed, 5)
         if cfg.route_spawn_seed is not None:
@@ -301,7 +304,8 @@ class Simulator:
             self.routes.restart_all(self.crowd, self.rng, self._respawn_ok)
 
     def step(self, command) -> tuple[Observation, Events]:
-        """Apply one command ((v [m/s], omega [rad/s]); (vx, vy) for a holonomic robot) for dt."""
+        """Apply one command ((v [m/s], omega [rad/s]); (vx, vy) for a holonomic robot) for dt; with
+        ``robot_config.command_latency_s`` the robot executes the commands in effect now (``core.sim.latency``)."""
         if self.done:
             raise CoreError("the episode is over (or was never started): call reset()")
         cmd = np.asarray(command, dtype=float).reshape(2)
@@ -324,7 +328,11 @@ class Simulator:
                 v, th = float(self.robot[3]), float(self.robot[2])
                 self.dynamics.robot_vel = np.array([v * math.cos(th), v * math.sin(th)])
             self.dynamics.step(complex(self.robot[0], self.robot[1]), cent)
-        self.robot = robot_step(self.robot, cmd, self.limits, self.dt)
+        if self.delay is None:
+            self.robot = robot_step(self.robot, cmd, self.limits, self.dt)
+        else:  # the commands in effect during this step (core.sim.latency)
+            for piece, duration in self.delay.push(cmd):
+                self.robot = robot_step(self.robot, piece, self.limits, duration)
         reached = self.route.advance(self.robot)
         self._trace.record_command(self.t, cmd)
         self.t += 1
@@ -378,7 +386,7 @@ class Simulator:
             seen = visible(robot, pos, vis, self.scenario.map.obstacle_segments)
             ids, pos, vel = ids[seen], pos[seen], vel[seen]
             radii = None if radii is None else radii[seen]
-        route = self.route
+        route, pending = self.route, (None, None) if self.delay is None else self.delay.pending()
         return Observation(
             step=self.t,
             time=self.t * self.dt,
@@ -397,4 +405,6 @@ class Simulator:
             static=self.static,
             robot_limits=self.limits_dict,
             ped_radii=radii,
+            pending_commands=pending[0],
+            pending_durations=pending[1],
         )

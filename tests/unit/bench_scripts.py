@@ -156,6 +156,25 @@ SMOKE: dict[str, Smoke] = {
         ),
         frozenset({"matrix", "train_seeds", "replication_seeds", "scenarios", "episodes"}),
     ),
+    "latency_table": Smoke(
+        ("--json", "--suites", "reference", "--scenarios", SCENARIO, "--seeds-per-scenario", "1")
+        + (
+            "--planners",
+            "predictive_cv",
+            "--latencies",
+            "0,0.3",
+            "--workers",
+            "1",
+            "--out",
+            "{work}/latency_table",
+        ),
+        frozenset({"command", "latencies", "table", "runs"}),
+        check=lambda out: (
+            None
+            if "vs_0" in out["table"]["reference"]["predictive (cv)"]["0.3"]
+            else "the latency-0.3 cell lacks its pairing with latency 0"
+        ),
+    ),
     "navigation_table": Smoke(
         ("--json", "--suites", "reference_defaults", "--scenarios", SCENARIO, "--seeds-per-scenario", "1")
         + ("--planners", "predictive_cv", "--workers", "1", "--out", "{work}/navigation_table"),

@@ -33,11 +33,12 @@ class PlannerForecast:
 
 
 def on_grid(times: np.ndarray, sim_dt: float, step: float = PLANNER_TIMEBASE.dt) -> bool:
-    """True when ``times`` are whole simulator steps no coarser than the planner's ``step``: used as they are."""
+    """True when ``times`` are whole simulator steps no coarser than the planner's ``step`` (or than one simulator
+    step, where that is coarser: CrowdNav's 0.25 s): used as they are."""
     k = np.rint(times / sim_dt)
     whole = bool(np.all(np.abs(k * sim_dt - times) <= 1e-6) and np.all(k >= 1))
     gaps = np.diff(np.concatenate([[0.0], times]))
-    return whole and bool(np.all(gaps <= step + 1e-6))
+    return whole and bool(np.all(gaps <= max(step, sim_dt) + 1e-6))  # no grid is finer than the simulator's
 
 
 def planner_grid(times: np.ndarray, sim_dt: float, step: float = PLANNER_TIMEBASE.dt) -> np.ndarray:

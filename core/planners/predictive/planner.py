@@ -1,5 +1,7 @@
 """The predictive planner: forecast -> (v, omega) candidates -> beam search over rollouts -> best command.
 
+Under command latency the decision is made for the moment its command takes effect (``latency``).
+
 One decision: one batched forecaster call; the forecast with the crowd assumptions applied (``crowd``, ``scene``);
 first-segment candidates (dense in the near field) rolled out with the simulator's own kinematics
 (``core.sim.robot.unicycle_rollout``) and held to the horizon, plus point turns (turn in place, then straight: how a
@@ -30,6 +32,7 @@ from foresight.core.planners.predictive.config import PredictivePlannerConfig
 from foresight.core.planners.predictive.crowd import CrowdAssumptions
 from foresight.core.planners.predictive.forecast_input import planner_forecast
 from foresight.core.planners.predictive.geodesic import GeodesicDistance
+from foresight.core.planners.predictive.latency import check_latency, look_ahead
 from foresight.core.planners.predictive.memory import EpisodeMemory
 from foresight.core.planners.predictive.rollout import FrameRollouts, eval_steps, rollout
 from foresight.core.planners.predictive.scene import contact_distance, crowd_scene
@@ -61,6 +64,9 @@ class PredictivePlanner:
             fit(info.dt)
         self.forecaster.timebase.stride(info.dt)  # ConfigError unless the forecast grid is whole sim steps
         robot = info.scenario.scenario.robot_config
+        tb = self.forecaster.timebase
+        horizon = tb.horizon * tb.dt + self.config.search.extra_horizon_s
+        check_latency(robot.command_latency_s, horizon, info.scenario.name)
         self.forecaster.reset()
         self._limits = RobotLimits.from_config(robot)
         if self._frames is None or self._frames.limits != self._limits or self._frames.dt != info.dt:
@@ -84,7 +90,10 @@ class PredictivePlanner:
         t0 = time.perf_counter()
         self.forecaster.observe(obs)
         fc = self.forecaster.forecast()
-        pf = planner_forecast(fc, obs, obs.dt)
+        observed = obs
+        obs, pf = look_ahead(
+            obs, planner_forecast(fc, obs, obs.dt), self._limits
+        )  # the moment it takes effect
         scene, near, extra = self._scene(obs, pf.positions, pf.sigma, pf.times, pf.ped_ids, pf.weights)
         best_cmds, best_terms, best_total, n_eval, kept, mem.plan = mem.search(obs, scene, near, mem.plan)
         mem.decided = (obs, scene)
@@ -102,6 +111,8 @@ class PredictivePlanner:
             "candidates_evaluated": n_eval,
             "kept_plan": kept,  #: the command carries out the last decision's plan (``search.keep_plan``)
             "forecast_source": fc.source,
+            #: under command latency: the state (x, y, heading, v, omega) the rollouts start from, at t + latency
+            **({"rollout_start": [*obs.robot_pose, *obs.robot_velocity]} if obs is not observed else {}),
             "forecast_extended_steps": extra,
             **({"forecast_modes": fc.n_modes} if fc.n_modes > 1 else {}),
             "predictions": {
@@ -119,7 +130,7 @@ class PredictivePlanner:
     ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         """Cost (B,) and terms of constant commands (B, 2) held over the horizon (tests, diagnostics)."""
         self.forecaster.observe(obs)
-        pf = planner_forecast(self.forecaster.forecast(), obs, obs.dt)
+        obs, pf = look_ahead(obs, planner_forecast(self.forecaster.forecast(), obs, obs.dt), self._limits)
         scene, _, _ = self._scene(obs, pf.positions, pf.sigma, pf.times, pf.ped_ids, pf.weights)
         idx = eval_steps(scene.times, obs.dt)
         cmds = np.repeat(np.asarray(commands, dtype=float)[:, None, :], int(idx[-1]) + 1, axis=1)

@@ -91,6 +91,21 @@ def test_coarse_time_base_is_resampled_onto_the_rollout_step():
     assert pf.weights is not None and np.all(pf.weights == 1.0)
 
 
+def test_a_forecast_on_a_coarser_simulator_step_is_used_as_it_is():
+    """CrowdNav's 0.25 s steps are coarser than the planner's 0.2 s: constant velocity fits its grid to them, and that
+    forecast is the finest there can be, so it passes untouched, its whole horizon kept (not cut to 2.25 s)."""
+    cv = ConstantVelocityForecaster(PLANNER_TIMEBASE)
+    cv.fit(0.25)
+    vel = np.array([[1.0, 0.0]])
+    obs = replace(observation(corridor_map(), peds=[(8.0, 10.0)], ped_vels=vel), dt=0.25)
+    cv.reset()
+    cv.observe(obs)
+    fc = cv.forecast()
+    pf = planner_forecast(fc, obs, 0.25)
+    assert pf.weights is None and np.array_equal(pf.positions, fc.positions)
+    assert pf.times[-1] == pytest.approx(fc.times[-1]) and pf.times[-1] > 2.25
+
+
 def test_pedestrian_frame_is_converted_to_the_world():
     times = PLANNER_TIMEBASE.times
     ego = np.stack([times * 1.0, np.zeros_like(times)], axis=-1)[None]  # 1 m/s straight ahead
