@@ -19,7 +19,7 @@ def test_predict_eval_cv_on_one_fold(shared_dir, capsys):
             "--local",
         ]
     )
-    out = json.loads(capsys.readouterr().out)
+    out = json.loads(capsys.readouterr().out)["result"]
     assert rc == 0 and set(out) >= {"folds", "average"}
     assert out["folds"]["zara1"]["ade"] == pytest.approx(0.43, abs=0.01)
     avg = out["average"]
@@ -52,7 +52,7 @@ def test_train_then_eval_on_dataset(tmp_path, curving_dataset, capsys):
             "--local",
         ]
     )
-    res = json.loads(capsys.readouterr().out)
+    res = json.loads(capsys.readouterr().out)["result"]
     assert rc in (0, 2) and res["best_epoch"] in (1, 2)
     rc = main(
         [
@@ -67,7 +67,7 @@ def test_train_then_eval_on_dataset(tmp_path, curving_dataset, capsys):
             "--local",
         ]
     )
-    out = json.loads(capsys.readouterr().out)
+    out = json.loads(capsys.readouterr().out)["result"]
     assert rc == 0 and out["folds"]["arcs"]["split"] == "val"
 
 
@@ -100,7 +100,9 @@ def test_import_ethucy_command(tmp_path, capsys):
             "--local",
         ]
     )
-    summary = json.loads(capsys.readouterr().out)
+    job = json.loads(capsys.readouterr().out)
+    assert job["kind"] == "import_dataset" and [a["name"] for a in job["artifacts"]] == ["z.npz"]
+    summary = job["result"]["summary"]
     assert rc == 0 and summary["samples_per_split"] == {"train": 6, "val": 6, "test": 6}
 
 
@@ -122,7 +124,7 @@ def test_eval_all_samples_of_a_held_out_dataset(tmp_path, curving_dataset, capsy
             "--local",
         ]
     )
-    out = json.loads(capsys.readouterr().out)
+    out = json.loads(capsys.readouterr().out)["result"]
     assert rc == 0 and out["folds"]["arcs"]["samples"] == len(load_dataset(curving_dataset))
 
 
@@ -163,7 +165,7 @@ def test_training_scenes_played_backwards_when_the_config_says_so(tmp_path, caps
                 "--local",
             ]
         )
-        out = json.loads(capsys.readouterr().out)
+        out = json.loads(capsys.readouterr().out)["result"]
         assert (
             rc == 0 and out["folds"]["zara1"]["samples"] == 6
         )  # the test scene is scored as recorded either way
