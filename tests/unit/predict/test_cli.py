@@ -208,3 +208,11 @@ def test_a_bad_training_key_is_refused_before_any_fold_is_trained(tmp_path, caps
     err = capsys.readouterr().err
     assert rc == 1 and named in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "run").exists()
+
+
+def test_a_missing_local_dataset_names_the_file_and_the_folder(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    rc = main(["train", "--local", "--dataset", "missing.npz", "--epochs", "1", "--out", str(tmp_path / "t")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 1 and len(err) == 1, err
+    assert f"no dataset file 'missing.npz' in {tmp_path}" in err[0] and "run without --local" in err[0]
