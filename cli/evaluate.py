@@ -205,12 +205,15 @@ class Refs:
                 client=self.client if self._client else None,
             )
         ctx = _context(self.args, self.roots, self.models)
-        result = KINDS[kind].run(local.config_of(spec), ctx)
+        result, started = stage.run_local(self.args, spec, lambda: KINDS[kind].run(local.config_of(spec), ctx),
+                                          ctx.workdir)  # fmt: skip
         pages = finish_local(kind, result, ctx.workdir)  # as a worker does: the report page, the MLflow copy
         where = f"artifacts in {ctx.workdir.resolve()}" + "".join(
             f"\nreport: {p.resolve()}" for p in pages if p.name == "report.html"
         )
-        emit(result, self.args.json, lambda r: text(r, where))
+        stage.emit_local(
+            self.args, spec, result, lambda r: text(r, where), started=started, workdir=ctx.workdir
+        )
         return exit_code(result)
 
 

@@ -52,7 +52,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     run.add_argument("--no-wait", action="store_true", help="submit and print the job id")
     run.add_argument("--key", help="idempotency key of the submission")
-    run.add_argument("--json", action="store_true", help="print the result as JSON")
+    run.add_argument(
+        "--json",
+        action="store_true",
+        help="print the finished job as JSON, result included (--local: the same shape)",
+    )
     add_connection_args(run)
     run.set_defaults(func=cmd_run)
 
@@ -82,7 +86,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     demo.add_argument("--port", type=int, help="server port (default: a free one)")
     demo.add_argument("--concurrency", type=int, default=1, help="worker job slots")
     demo.add_argument("--keep-running", action="store_true", help="leave the server running at the end")
-    demo.add_argument("--json", action="store_true", help="print the pipeline result as JSON")
+    demo.add_argument("--json", action="store_true", help="print the finished pipeline job as JSON")
     demo.set_defaults(func=cmd_demo)
 
 
@@ -149,9 +153,14 @@ def run_local(
 
 def cmd_run(args: argparse.Namespace) -> int:
     if args.local:
-        result, workdir = run_local(args.file, args.out, args.workers, quiet=args.json)
+        from foresight.cli import stage
+
+        spec = {**read_pipeline(args.file, args.workers), "kind": "pipeline"}
+        (result, workdir), started = stage.run_local(
+            args, spec, lambda: run_local(args.file, args.out, args.workers, quiet=args.json)
+        )
         if args.json:
-            print(result.model_dump_json(indent=2))
+            stage.emit_local(args, spec, result, str, started=started, workdir=workdir)
         else:
             print("\n".join(_stage_lines(result)))
             print(f"report: {workdir / 'report.html'}")
@@ -223,19 +232,8 @@ def report_outcome(client: Any, job: dict[str, Any], *, as_json: bool, store_roo
     from foresight.core.reports.pipeline_summary import PipelineResult
 
     result = PipelineResult.model_validate(job["result"]) if job["status"] == "succeeded" else None
-    if as_json:
-        print(
-            json.dumps(
-                {
-                    "job": job["id"],
-                    "status": job["status"],
-                    "result": job["result"],
-                    "report_url": url,
-                    "report_file": str(path) if path else None,
-                },
-                indent=2,
-            )
-        )
+    if as_json:  # the job, as every stage command's --json prints it (--local: the same shape)
+        print(json.dumps(job, indent=2))
     else:
         if result is not None:
             print("\n".join(_stage_lines(result)))

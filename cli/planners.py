@@ -92,7 +92,7 @@ def check_text(result: Any, ref: Any = None) -> str:
 
 
 def check_cmd(args: argparse.Namespace) -> int:
-    from foresight.cli.stage import submit
+    from foresight.cli.stage import emit_local, run_local, submit
     from foresight.core.evaluation.conformance import ConformanceResult
     from foresight.local import spec
 
@@ -114,6 +114,6 @@ def check_cmd(args: argparse.Namespace) -> int:
 
     ctx = local_context(None, {BUILTIN_BUNDLE: BUILTIN_CONFIG_ROOT}, quiet=True)
     ctx.resolve_model = ModelArgs().resolve
-    result = run_conformance(config_of(job), ctx)
-    print(result.model_dump_json(indent=2) if args.json else check_text(result))
+    result, started = run_local(args, job, lambda: run_conformance(config_of(job), ctx))
+    emit_local(args, job, result, check_text, started=started)
     return 0 if result.passed else 2

@@ -13,7 +13,6 @@ from pathlib import Path
 
 from foresight import local
 from foresight.cli import datasets, stage
-from foresight.cli.common import emit
 from foresight.core.errors import ConfigError
 from foresight.local import build_config, finish_local, local_context, local_workdir, matrix_ref
 from foresight.paths import user_file
@@ -190,19 +189,13 @@ def predict_eval_cmd(args: argparse.Namespace) -> int:
         )
     from foresight.core.training.predict_eval import run_predict_eval
 
-    result = run_predict_eval(local.config_of(local.spec("predict_eval", values)), _ctx(args))
-    if args.json:
-        emit(
-            {
-                "folds": {k: v.model_dump() for k, v in result.folds.items()},
-                "average": result.average.model_dump(),
-                "cv_average": result.cv_average.model_dump(),
-            },
-            True,
-            str,
-        )
-        return 0
-    print(_score_table(result, None))
+    spec, ctx = local.spec("predict_eval", values), _ctx(args)
+    result, started = stage.run_local(
+        args, spec, lambda: run_predict_eval(local.config_of(spec), ctx), ctx.workdir
+    )
+    stage.emit_local(
+        args, spec, result, lambda r: _score_table(r, None), started=started, workdir=ctx.workdir
+    )
     return 0
 
 
@@ -286,12 +279,15 @@ def import_cmd(args: argparse.Namespace) -> int:
         ImportEthucyConfig,
         {"root": str(folder), "fold": args.fold, "max_agents": args.max_agents, "output": out.name},
     )
-    record = run_import_ethucy(config, local_context(out.parent, {}, quiet=True))
-    emit(
-        record["summary"],
-        args.json,
-        lambda s: f"{args.output}: {s['samples']} samples {s['samples_per_split']}",
+    from foresight.core.jobs.kinds import imported_dataset
+
+    origin = {"source": "ethucy", "root": args.root or str(folder), "fold": args.fold}
+    spec = {"kind": "import_dataset", **origin, "max_agents": args.max_agents}
+    record, started = stage.run_local(
+        args, spec, lambda: run_import_ethucy(config, local_context(out.parent, {}, quiet=True))
     )
+    stage.emit_local(args, spec, imported_dataset(record, origin), started=started, files=[out],
+                     text=lambda r: f"{args.output}: {r['summary']['samples']} samples {r['summary']['samples_per_split']}")  # fmt: skip
     return 0
 
 
@@ -340,12 +336,12 @@ def collect_cmd(args: argparse.Namespace) -> int:
         values.update(bundle=bundle, matrix=rel[0], hard_seeds=rel[1])
     else:
         bundles = matrix_ref(str(_builtin_matrix()))[2]
-    result = run_collect(local.config_of(local.spec("collect", values)), _ctx(args, bundles))
-    emit(
-        result,
-        args.json,
-        lambda r: f"{Path(args.out or '.') / r.dataset}: {r.summary.samples} samples, outcomes {r.outcomes}",
+    spec, ctx = local.spec("collect", values), _ctx(args, bundles)
+    result, started = stage.run_local(
+        args, spec, lambda: run_collect(local.config_of(spec), ctx), ctx.workdir
     )
+    stage.emit_local(args, spec, result, started=started, workdir=ctx.workdir,
+                     text=lambda r: f"{ctx.workdir / r.dataset}: {r.summary.samples} samples, outcomes {r.outcomes}")  # fmt: skip
     return 0
 
 
@@ -372,8 +368,10 @@ def mix_cmd(args: argparse.Namespace) -> int:
         )
     from foresight.core.training.collect import run_mix
 
-    result = run_mix(local.config_of(local.spec("mix", values)), _ctx(args))
-    emit(result, args.json, lambda r: f"{r.dataset}: {r.summary.samples} samples")
+    spec, ctx = local.spec("mix", values), _ctx(args)
+    result, started = stage.run_local(args, spec, lambda: run_mix(local.config_of(spec), ctx), ctx.workdir)
+    stage.emit_local(args, spec, result, lambda r: f"{r.dataset}: {r.summary.samples} samples",
+                     started=started, workdir=ctx.workdir)  # fmt: skip
     return 0
 
 
@@ -413,12 +411,9 @@ def train_cmd(args: argparse.Namespace) -> int:
                                                      Path(r.checkpoint).name))  # fmt: skip
     from foresight.core.jobs.kinds import run_train  # executor local: in this process; ray: a Ray task
 
-    ctx = _ctx(args)
-    result = run_train(local.config_of(local.spec("train", values)), ctx)
+    spec, ctx = local.spec("train", values), _ctx(args)
+    result, started = stage.run_local(args, spec, lambda: run_train(local.config_of(spec), ctx), ctx.workdir)
     pages = finish_local("train", result, ctx.workdir)  # as a worker does: the report page, the MLflow copy
-    emit(
-        result,
-        args.json,
-        lambda r: text(r, "".join(f"\nreport: {p.resolve()}" for p in pages if p.name == "report.html")),
-    )
+    stage.emit_local(args, spec, result, started=started, workdir=ctx.workdir,
+                     text=lambda r: text(r, "".join(f"\nreport: {p.resolve()}" for p in pages if p.name == "report.html")))  # fmt: skip
     return exit_code(result)

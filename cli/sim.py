@@ -328,17 +328,18 @@ def sim_run(args: argparse.Namespace) -> int:
         )
     bundle, rel, roots = matrix_ref(args.matrix)
     planner = planner_spec(args.planner, args.model, models, config=args.planner_config)
-    config = local.config_of(
-        local.spec("simulate", {**values, "bundle": bundle, "matrix": rel, "planner": planner})
-    )
+    spec = local.spec("simulate", {**values, "bundle": bundle, "matrix": rel, "planner": planner})
     ctx = local_context(None, roots, quiet=True)
     ctx.resolve_model = models.resolve
-    result = run_simulate(config, ctx)
+    result, started = stage.run_local(args, spec, lambda: run_simulate(local.config_of(spec), ctx))
     episode = result.episodes[0]
+    files = []
     if args.render and episode.render:
         shutil.copyfile(ctx.workdir / episode.render, args.render)
+        files.append(Path(args.render))
         episode = episode.model_copy(update={"render": str(Path(args.render).resolve())})
-    emit(episode, args.json, _episode_line)
+        result = result.model_copy(update={"episodes": [episode, *result.episodes[1:]]})
+    stage.emit_local(args, spec, result, lambda r: _episode_line(r.episodes[0]), started=started, files=files)
     return 0
 
 

@@ -12,7 +12,9 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import time
 from collections.abc import Callable
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -45,7 +47,8 @@ def add_mode_args(p: argparse.ArgumentParser, *, json_flag: bool = True) -> None
         p.add_argument(
             "--json",
             action="store_true",
-            help="print the result as JSON (server mode: the finished job, result included)",
+            help="print the finished job as JSON ({id, kind, status, verdict, spec, result, artifacts, ...}); "
+            "--local prints the same shape (id null, artifacts as file:// URLs)",
         )
 
 
@@ -172,3 +175,81 @@ def submit(args: argparse.Namespace, spec_obj: BaseModel, *, text: Callable[[Any
     if not args.json:
         print(text(result, ref))
     return exit_code(result)
+
+
+# ------------------------------------------------------------------------------ one --json shape in both modes
+
+
+def _iso(ts: float) -> str:
+    return datetime.fromtimestamp(ts, UTC).isoformat().replace("+00:00", "Z")
+
+
+def _files(workdir: Path | None, files: list[Path] | None, since: float) -> list[dict[str, Any]]:
+    """A local run's artifacts as the server lists a job's (name, size, sha256, a URL: here ``file://``): the files
+    it wrote under its work folder (an ``--out`` folder may hold others), and ``files``."""
+    from foresight.store.folders import sha256_file
+
+    paths: list[tuple[str, Path]] = []
+    if workdir is not None and workdir.is_dir():
+        base = workdir.resolve()
+        for path in sorted(p for p in base.rglob("*") if p.is_file() and not p.name.endswith(".tmp")):
+            if path.stat().st_mtime >= since - 1.0:  # mtime granularity
+                paths.append((path.relative_to(base).as_posix(), path))
+    paths += [(p.name, p.resolve()) for p in files or ()]
+    return [{"name": name, "size": path.stat().st_size, "sha256": sha256_file(path), "url": path.as_uri()}
+            for name, path in paths]  # fmt: skip
+
+
+def local_job(args: argparse.Namespace, spec_obj: BaseModel | dict[str, Any], result: Any, *, started: float,
+              workdir: Path | None = None, files: list[Path] | None = None,
+              error: BaseException | None = None) -> dict[str, Any]:  # fmt: skip
+    """The job envelope of an in-process run, so ``--json`` has one shape in both modes: the keys of the server's
+    job (``GET /v1/jobs/ID``, ``foresight jobs show ID --json``) with ``id`` None, worker ``local`` and the
+    artifacts (the work folder's files, or ``files``) as ``file://`` URLs."""
+    from foresight.core.jobs.results import verdict
+
+    spec = spec_obj.model_dump(mode="json") if isinstance(spec_obj, BaseModel) else dict(spec_obj)
+    data = result.model_dump(mode="json") if isinstance(result, BaseModel) else result
+    kind = str(spec.get("kind"))
+    status = "failed" if error is not None else "succeeded"
+    return {
+        "id": None, "kind": kind, "status": status, "spec": spec, "priority": 0, "attempts": 1, "max_attempts": 1,
+        "timeout_s": None, "idempotency_key": None, "parent_id": None, "name": getattr(args, "name", None),
+        "tags": list(getattr(args, "tag", None) or []), "note": getattr(args, "note", None) or "",
+        "cancel_requested": False, "progress": 0.0 if error is not None else 1.0, "message": "",
+        "error": None if error is None else {"type": type(error).__name__, "message": str(error)},
+        "result": data, "verdict": verdict(kind, data) if error is None else None, "worker": "local",
+        "created_at": _iso(started), "started_at": _iso(started), "finished_at": _iso(time.time()),
+        "artifacts": _files(workdir, files, started), "children": [],
+    }  # fmt: skip
+
+
+def run_local(args: argparse.Namespace, spec_obj: BaseModel | dict[str, Any], run: Callable[[], Any],
+              workdir: Path | None = None) -> tuple[Any, float]:  # fmt: skip
+    """``run()`` in-process and when it started; a failure is, with ``--json``, first printed as a failed job
+    envelope (as a failed server job is), then raised."""
+    started = time.time()
+    try:
+        return run(), started
+    except Exception as exc:
+        if getattr(args, "json", False):
+            print(
+                json.dumps(
+                    local_job(args, spec_obj, None, started=started, workdir=workdir, error=exc), indent=2
+                )
+            )
+        raise
+
+
+def emit_local(args: argparse.Namespace, spec_obj: BaseModel | dict[str, Any], result: Any,
+               text: Callable[[Any], str], *, started: float, workdir: Path | None = None,
+               files: list[Path] | None = None) -> None:  # fmt: skip
+    """Print an in-process run's outcome: the job envelope (:func:`local_job`) with ``--json``, else ``text``."""
+    if args.json:
+        print(
+            json.dumps(
+                local_job(args, spec_obj, result, started=started, workdir=workdir, files=files), indent=2
+            )
+        )
+    else:
+        print(text(result))

@@ -254,6 +254,13 @@ def local_context(workdir: Path | None, bundles: dict[str, Path], *, quiet: bool
             raise NotFoundError(f"unknown bundle id {ident!r} (in-process runs know {sorted(bundles)})")
         return bundles[ident]
 
+    def resolve_dataset(ident: str) -> Path:
+        """Only files here: a dataset id is the server's (a file that exists never gets here)."""
+        import os
+
+        raise NotFoundError(f"no dataset file {ident!r} in {os.getcwd()} (in-process runs read a .npz file; "
+                            "a dataset id names a server's dataset: run without --local)")  # fmt: skip
+
     def resolve_data_root(name: str) -> Path:
         """A named data root: FORESIGHT_DATA_ROOTS, or ``ethucy`` from the shared folder."""
         from foresight.store.settings import Settings
@@ -278,8 +285,9 @@ def local_context(workdir: Path | None, bundles: dict[str, Path], *, quiet: bool
     root = workdir or Path(tempfile.mkdtemp(prefix="foresight-"))
     root.mkdir(parents=True, exist_ok=True)
     return StageContext(
-        workdir=root, progress=progress, resolve_bundle=resolve_bundle, resolve_data_root=resolve_data_root
-    )
+        workdir=root, progress=progress, resolve_bundle=resolve_bundle, resolve_data_root=resolve_data_root,
+        resolve_dataset=resolve_dataset,
+    )  # fmt: skip
 
 
 def progress_bar(*, quiet: bool) -> Any:

@@ -126,7 +126,11 @@ def run_import_dataset(config: ImportDatasetConfig, ctx: StageContext) -> dict[s
     record = run_import_ethucy(
         ImportEthucyConfig(root=str(root), fold=config.fold, max_agents=config.max_agents), ctx
     )
-    origin = {"source": config.source, "root": config.root, "fold": config.fold}
+    return imported_dataset(record, {"source": config.source, "root": config.root, "fold": config.fold})
+
+
+def imported_dataset(record: dict[str, Any], origin: dict[str, Any]) -> dict[str, Any]:
+    """An ``import_dataset`` job's result: the written dataset's record and where it came from."""
     return {
         "dataset": record["path"],
         "sha256": record["sha256"],

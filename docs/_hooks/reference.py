@@ -104,7 +104,10 @@ def cli_page() -> str:
     parser = build_parser()
     out = ["# The command line", "",
            "Every `foresight` command with its arguments, generated from the CLI's parser at each build of this site. "
-           "Stage commands submit a job to the server and follow it; `--local` runs them in-process.", ""]  # fmt: skip
+           "Stage commands submit a job to the server and follow it; `--local` runs them in-process. Their `--json` "
+           "prints the finished job in both modes, as `GET /v1/jobs/ID` returns it (`id`, `kind`, `status`, "
+           "`verdict`, `spec`, `result`, `artifacts`, ...); an in-process run's `id` is null and its artifacts are "
+           "`file://` URLs.", ""]  # fmt: skip
     commands = [f"[`{n}`](#foresight-{n.replace(' ', '-')}): {_cell(h)}" for n, h, _ in _subcommands(parser)]
     out += [f"- {c}" for c in commands] + [""]
     _cli(parser, ["foresight"], "", out)

@@ -150,6 +150,15 @@ def test_campaign_grid_plots_in_the_browser(service: Up, campaign: str, page) ->
         'svg[data-metric="success"] .point title', "ts => ts.map(t => t.textContent)"
     )
     assert any(t.startswith("speed0.6 @ none, global suite: speed = 0.6, success ") for t in tips), tips
+    # every label (the legend's included) is drawn inside its chart, none cut at the edge
+    cut = page.eval_on_selector_all(
+        "svg.grid-chart",
+        """cs => cs.flatMap(c => [...c.querySelectorAll('text')]
+        .filter(t => { const b = t.getBBox(), v = c.viewBox.baseVal; return b.x + b.width > v.width + 0.5
+                       || b.y + b.height > v.height + 0.5; })
+        .map(t => t.textContent))""",
+    )
+    assert cut == [], cut
     shot = screenshot_dir() / "dashboard-campaign-grid.png"
     page.screenshot(path=str(shot), full_page=True)
     assert shot.stat().st_size > 10_000

@@ -235,7 +235,7 @@ def test_simulator_section_runs_as_written(scratch: Path, shared_dir: Path) -> N
         found
     )
     assert found["episodes"][1]["plan"]["hold"] and 0 < found["episodes"][1]["arrival_s"] < 50, found
-    record = json.loads(_run(episode, scratch))
+    (record,) = json.loads(_run(episode, scratch))["result"]["episodes"]  # --json: the job, its result inside
     assert record["scenario"] == "classic_cross_trap_high" and record["seed"] == 102, record
     assert record["outcome"] in ("success", "timeout", "collision_pedestrian", "collision_static")
     assert Path("/tmp/ep.png").stat().st_size > 0
@@ -257,7 +257,7 @@ def test_importing_reference_files_runs_as_written(scratch: Path, shared_dir: Pa
     # 230 episodes are minutes here: the same command on one scenario, one seed, a 100-step horizon
     small = evaluate.replace("--seeds-per-scenario 10", "--seeds-per-scenario 1 --scenarios classic_cross_trap_low "
                              "--max-steps 100")  # fmt: skip
-    result = json.loads(_run(small, scratch, ok=(0, 2)))
+    result = json.loads(_run(small, scratch, ok=(0, 2)))["result"]
     assert result["episodes"] == 1, result
 
 

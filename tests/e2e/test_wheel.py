@@ -135,7 +135,7 @@ def test_a_user_folder_runs_the_service_and_a_local_evaluation(
     local = _run(["foresight", "evaluate", "--local", "--matrix", f"{site}/configs/scenarios/classic_interactions.yaml",
                   "--scenarios", "crossing_low", "--seeds-per-scenario", "1", "--max-steps", "30", "--json",
                   "--out", work / "local"], env, work, ok=(0, 2))  # fmt: skip
-    result = json.loads(local.stdout)
+    result = json.loads(local.stdout)["result"]  # the job envelope, as a server job's
     assert result["exit_code"] == local.returncode  # 2: the evaluation gate failed, a result (one episode)
     assert result["episodes"] == 1 and result["planner"]["model_id"] == "predictor-sim-default"
     assert result["planner"]["checkpoint_sha256"] == _shipped_sha256()

@@ -159,7 +159,7 @@ def test_local_runs_are_exported(tracking: tuple[str, Path], tmp_path: Path, cap
     out, eval_err = _cli(capsys, "evaluate", "--local", "--matrix", str(MATRIX), "--scenarios", "crossing_low",
                          "--seeds-per-scenario", "1", "--max-steps", "40", "--planner", "goal", "--out",
                          str(tmp_path / "e"), "--json")  # fmt: skip
-    assert json.loads(out)["episodes"] == 1  # --json output stays JSON: MLflow prints nothing to stdout
+    assert json.loads(out)["result"]["episodes"] == 1  # --json stays JSON: MLflow prints nothing to stdout
     assert "MLflow: run" in train_err and "MLflow: run" in eval_err
     runs = {r.data.tags.get("foresight.workdir"): r for r in _runs(url)}
     trained, evaluated = runs[str((tmp_path / "t").resolve())], runs[str((tmp_path / "e").resolve())]

@@ -51,7 +51,7 @@ def test_the_tutorial_trains_saves_and_evaluates_its_policy(tmp_path: Path) -> N
     (cmd,) = commands(local)
     done = _run(svc, work, cmd + " --json")
     assert done.returncode == 0, done.stderr[-3000:]
-    result = json.loads(done.stdout)
+    result = json.loads(done.stdout)["result"]
     assert result["planner"]["name"] == "sb3" and result["episodes"] == 6
     assert result["planner"]["model_id"] == "sb3:ppo_crowdnav.zip"
 

@@ -16,6 +16,14 @@ def _json(capsys) -> object:
     return json.loads(capsys.readouterr().out)
 
 
+def _episode(capsys) -> dict:
+    """The one episode of a ``sim run --json`` (the job envelope, as a server job's)."""
+    job = json.loads(capsys.readouterr().out)
+    assert job["kind"] == "simulate" and job["status"] == "succeeded"
+    (episode,) = job["result"]["episodes"]
+    return episode
+
+
 def test_scenarios_list_reference_matrix(reference_matrix_path: Path, capsys) -> None:
     assert main(["scenarios", "list", "--matrix", str(reference_matrix_path), "--json"]) == 0
     rows = _json(capsys)
@@ -43,12 +51,12 @@ def test_sim_run_json_and_render(reference_matrix_path: Path, tmp_path: Path, ca
         "141",
     ]
     assert main([*args, "--render", str(png), "--json", "--local"]) == 0
-    first = _json(capsys)
+    first = _episode(capsys)
     assert first["outcome"] in {"success", "collision_pedestrian", "collision_static", "timeout"}
     assert 0 < first["steps"] <= 500 and first["pedestrians"] == 3
     assert png.stat().st_size > 10_000
     assert main([*args, "--json", "--local"]) == 0
-    again = _json(capsys)
+    again = _episode(capsys)
     assert (again["outcome"], again["steps"], again["min_distance"]) == (
         first["outcome"],
         first["steps"],
@@ -60,12 +68,12 @@ def test_sim_run_chooses_the_planner(tmp_path: Path, capsys) -> None:
     args = ["sim", "run", "--local", "--json", "--matrix", str(OUR_MATRIX), "--scenario", "crossing_low", "--seed",
             "1000"]  # fmt: skip
     assert main(args) == 0
-    assert _json(capsys)["planner"] == "goal"  # the default, as before
+    assert _episode(capsys)["planner"] == "goal"  # the default, as before
     assert main([*args, "--planner", "orca"]) == 0
-    orca = _json(capsys)
+    orca = _episode(capsys)
     assert (orca["planner"], orca["model_id"]) == ("orca", "none") and orca["steps"] > 0
     assert main([*args, "--planner", "predictive", "--model", "cv"]) == 0
-    predictive = _json(capsys)
+    predictive = _episode(capsys)
     assert (predictive["planner"], predictive["model_id"]) == ("predictive", "cv")
     assert main([*args, "--planner", "orcaa"]) == 1
     err = capsys.readouterr().err
@@ -102,7 +110,7 @@ def test_corpus_matrix_lists_and_runs_and_a_non_matrix_is_one_line(
         "4759",
     ]
     assert main([*args, "--render", str(png)]) == 0
-    assert _json(capsys)["outcome"] in {"success", "collision_pedestrian", "collision_static", "timeout"}
+    assert _episode(capsys)["outcome"] in {"success", "collision_pedestrian", "collision_static", "timeout"}
     assert png.stat().st_size > 10_000
     contract = scen / "contracts" / "issue_2164_amv_cross_trap_contracts.yaml"
     assert main(["scenarios", "list", "--matrix", str(contract)]) == 1

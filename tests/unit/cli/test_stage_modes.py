@@ -3,6 +3,7 @@ and the one line printed when no server answers. (Submissions to a real server: 
 
 from __future__ import annotations
 
+import json
 import socket
 from pathlib import Path
 
@@ -104,3 +105,23 @@ def test_the_local_and_server_specs_are_one_model() -> None:
     assert type(config) is CollectConfig and config.model_dump() == spec.model_dump(exclude={"kind"})
     with pytest.raises(ConfigError, match="seeds_per_scenario"):
         local.spec("collect", {"seeds_per_scenario": -1})
+
+
+def test_an_in_process_failure_prints_the_failed_job_with_json(capsys: pytest.CaptureFixture[str]) -> None:
+    """With --json a --local run that fails prints the failed job (status, error; the server's job keys), then
+    its one error line, as a failed server job does."""
+    argv = ["sim", "run", "--local", "--json", "--matrix", str(BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml"),
+            "--scenario", "crossing_lo", "--seed", "1000"]  # fmt: skip
+    assert main(argv) == 1
+    out = capsys.readouterr().out
+    job = json.loads(out)
+    assert (job["id"], job["kind"], job["status"], job["result"], job["verdict"]) == (
+        None,
+        "simulate",
+        "failed",
+        None,
+        None,
+    )
+    assert (
+        job["error"]["type"] == "NotFoundError" and "did you mean 'crossing_low'" in job["error"]["message"]
+    )

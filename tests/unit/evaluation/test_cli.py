@@ -32,7 +32,9 @@ def test_evaluate_json_and_gate_exit_code(tmp_path: Path, capsys: pytest.Capture
         "--local",
     ]
     rc = main([*argv, "--min-success", "1.0"])  # 20 steps cannot reach the goal: the gate fails
-    data = json.loads(capsys.readouterr().out)
+    job = json.loads(capsys.readouterr().out)  # the job envelope, as a server job's (id None in-process)
+    data = job["result"]
+    assert job["kind"] == "evaluate" and job["status"] == "succeeded" and job["verdict"] == "failed_gate"
     assert rc == 2 and data["exit_code"] == 2 and data["status"] == "failed_gate"
     assert data["success_rate"] == 0.0 and data["collision_rate"] == 0.0 and data["episodes"] == 1
     assert (tmp_path / "evaluation.json").is_file()

@@ -49,7 +49,7 @@ def test_evaluate_matches_cli_local_record_for_record(tmp_path: Path, capsys) ->
         ]
     )
     assert code in (0, 2)  # 2 = the gate failed: a result
-    cli = json.loads(capsys.readouterr().out)
+    cli = json.loads(capsys.readouterr().out)["result"]
     assert _records(tmp_path / "api") == _records(tmp_path / "cli")
     assert without(result.model_dump(mode="json"), NOISE) == without(cli, NOISE)
     assert {r["outcome"] for r in _records(tmp_path / "api")} - {"error"}  # it really drove

@@ -41,7 +41,7 @@ def test_readme_block_runs(index: int) -> None:
     proc = subprocess.run(argv, cwd=REPO, capture_output=True, text=True, timeout=300, env=env)
     assert proc.returncode in (0, 2), proc.stderr[-3000:]  # 2: a failing gate, still a result
     if kind == "bash":
-        result = json.loads(proc.stdout)
+        result = json.loads(proc.stdout)["result"]  # --json: the job, its result inside
         assert result["episodes"] == 2 and result["taxonomy"].get("planner_error", 0) == 0
     elif index == 0:
         assert re.search(r"success \d+%, collisions \d+%", proc.stdout), proc.stdout

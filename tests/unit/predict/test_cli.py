@@ -19,7 +19,7 @@ def test_predict_eval_cv_on_one_fold(shared_dir, capsys):
             "--local",
         ]
     )
-    out = json.loads(capsys.readouterr().out)
+    out = json.loads(capsys.readouterr().out)["result"]
     assert rc == 0 and set(out) >= {"folds", "average"}
     assert out["folds"]["zara1"]["ade"] == pytest.approx(0.43, abs=0.01)
     avg = out["average"]
@@ -52,7 +52,7 @@ def test_train_then_eval_on_dataset(tmp_path, curving_dataset, capsys):
             "--local",
         ]
     )
-    res = json.loads(capsys.readouterr().out)
+    res = json.loads(capsys.readouterr().out)["result"]
     assert rc in (0, 2) and res["best_epoch"] in (1, 2)
     rc = main(
         [
@@ -67,7 +67,7 @@ def test_train_then_eval_on_dataset(tmp_path, curving_dataset, capsys):
             "--local",
         ]
     )
-    out = json.loads(capsys.readouterr().out)
+    out = json.loads(capsys.readouterr().out)["result"]
     assert rc == 0 and out["folds"]["arcs"]["split"] == "val"
 
 
@@ -100,7 +100,9 @@ def test_import_ethucy_command(tmp_path, capsys):
             "--local",
         ]
     )
-    summary = json.loads(capsys.readouterr().out)
+    job = json.loads(capsys.readouterr().out)
+    assert job["kind"] == "import_dataset" and [a["name"] for a in job["artifacts"]] == ["z.npz"]
+    summary = job["result"]["summary"]
     assert rc == 0 and summary["samples_per_split"] == {"train": 6, "val": 6, "test": 6}
 
 
@@ -122,7 +124,7 @@ def test_eval_all_samples_of_a_held_out_dataset(tmp_path, curving_dataset, capsy
             "--local",
         ]
     )
-    out = json.loads(capsys.readouterr().out)
+    out = json.loads(capsys.readouterr().out)["result"]
     assert rc == 0 and out["folds"]["arcs"]["samples"] == len(load_dataset(curving_dataset))
 
 
@@ -163,7 +165,7 @@ def test_training_scenes_played_backwards_when_the_config_says_so(tmp_path, caps
                 "--local",
             ]
         )
-        out = json.loads(capsys.readouterr().out)
+        out = json.loads(capsys.readouterr().out)["result"]
         assert (
             rc == 0 and out["folds"]["zara1"]["samples"] == 6
         )  # the test scene is scored as recorded either way
@@ -206,3 +208,11 @@ def test_a_bad_training_key_is_refused_before_any_fold_is_trained(tmp_path, caps
     err = capsys.readouterr().err
     assert rc == 1 and named in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "run").exists()
+
+
+def test_a_missing_local_dataset_names_the_file_and_the_folder(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    rc = main(["train", "--local", "--dataset", "missing.npz", "--epochs", "1", "--out", str(tmp_path / "t")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 1 and len(err) == 1, err
+    assert f"no dataset file 'missing.npz' in {tmp_path}" in err[0] and "run without --local" in err[0]
