@@ -128,24 +128,37 @@ def _array(data: dict[str, Any], key: str, who: str) -> np.ndarray:
 def forecast_from(
     reply: Any, window: ObservationWindow, decl: Declaration, who: str, source: str
 ) -> Forecast:
-    """A plug-in's answer (a Forecast or the forecast message dict) as a checked Forecast on its declared time base."""
+    """A plug-in's answer (a Forecast or the forecast message dict) as a checked Forecast on its declared time base.
+
+    In the message any array may also come flat (1-D, C order: ``modes`` N K T 2 numbers, ``weights`` N K,
+    ``sigma`` N K T, ``covariance`` N K T 4), and ``sigma`` as one (T,) spread for every pedestrian and mode: nested
+    JSON lists cost a list object per innermost pair to build and to parse."""
     if isinstance(reply, Forecast):
         fc = reply
     elif isinstance(reply, dict):
-        n = len(window.ped_ids)
+        n, T = len(window.ped_ids), decl.timebase.horizon
         modes = _array(reply, "modes", who)
+        if modes.ndim == 1 and n and modes.size and modes.size % (n * T * 2) == 0:  # flat, in C order
+            modes = modes.reshape(n, -1, T, 2)
         k = modes.shape[1] if modes.ndim >= 2 else 0
         weights = _array(reply, "weights", who) if "weights" in reply else np.full((n, k), 1.0 / max(k, 1))
+        if weights.ndim == 1 and n and weights.size == n * k:
+            weights = weights.reshape(n, k)
         if "covariance" in reply:
             spread = _array(reply, "covariance", who)
+            if spread.ndim == 1 and n and spread.size == n * k * T * 4:
+                spread = spread.reshape(n, k, T, 2, 2)
         elif "sigma" in reply:
             spread = _array(reply, "sigma", who)
+            if spread.ndim == 1 and n and spread.size == n * k * T:
+                spread = spread.reshape(n, k, T)
+            elif spread.shape == (T,):  # one spread for every pedestrian and mode
+                spread = np.repeat(spread[None, None], n * k, axis=0).reshape(n, k, T)
         else:
             raise PredictorError(
                 who, "forecast message lacks 'sigma' (N, K, T) or 'covariance' (N, K, T, 2, 2)"
             )
         if n == 0:  # an empty JSON list has no inner shape
-            T = decl.timebase.horizon
             modes, weights = modes.reshape(0, k or 1, T, 2), weights.reshape(0, k or 1)
             spread = spread.reshape((0, k or 1, T) + ((2, 2) if "covariance" in reply else ()))
         frame = reply.get("frame", decl.frame)
