@@ -66,6 +66,7 @@ class PredictorProcess:
             self._err.close()
             raise PredictorError(who, f"did not start: {exc}") from None
         self._buf = b""
+        self.reply_bytes = 0
         self.hello = self.request({"type": "hello", "protocol": PROTOCOL}, START_TIMEOUT_S, "hello", "hello")
         if self.hello.get("protocol") != PROTOCOL:
             self.kill()
@@ -91,6 +92,7 @@ class PredictorProcess:
                 self._fail(f"exited (code {self.proc.poll()}) at {where}")
             self._buf += chunk
         line, _, self._buf = self._buf.partition(b"\n")
+        self.reply_bytes = len(line) + 1  #: the last answer's size on the wire (benchmarks)
         try:
             reply = json.loads(line)
         except (json.JSONDecodeError, UnicodeDecodeError):
