@@ -7,7 +7,8 @@ the distance to the box around all rollouts' positions at that step (cheap: (N, 
 pairs that may come closer than the cut-off; ``pair_clearance`` computes the clearance of those pairs alone, with the
 same float32 operations as the dense ``reactive_clearance``, so every value it computes is bit-identical. In a crowd
 about a quarter of the pairs are kept, and with K forecast modes the rows are K times as many: the dense arrays were
-the decision's largest cost.
+the decision's largest cost. Rows whose clearance is not the plain one (pedestrians stepping away from the robot,
+or also held to a straight line) keep all their steps and get ``reactive_clearance`` of those rows alone.
 """
 
 from __future__ import annotations

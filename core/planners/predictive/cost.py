@@ -268,26 +268,33 @@ def pedestrian_terms(
     reach = np.maximum(chance + band + np.maximum.reduce(soft, axis=None), RISK_CUTOFF * sigma)  # (N, K)
     room = scene.ped_room
     has_room = np.logical_or.reduce(room != 0, axis=None)
-    if len(scene.ped_straight) or np.logical_or.reduce(scene.ped_yield > 0, axis=None):
-        # pedestrians stepping away or held to straight lines: every (pedestrian, step) pair, (N K, B)
-        clear = reactive_clearance(pos, fut, scene.contact, scene.time_steps, scene.ped_yield, s.yield_range)
-        if len(scene.ped_straight):
-            a = scene.ped_straight
+    # only the (pedestrian, step) pairs some rollout may bring within range of a term (``clearance``): beyond the
+    # cut-off a pair adds exact zeros to the sums and cannot be the nearest that the hard clearance and
+    # progress_risk read (both zero beyond their distances). Pedestrians stepping away from the robot or also held
+    # to straight lines keep every step (their clearance is not the plain one the bound is for).
+    cut = np.maximum(reach, max(relief * s.hard_clearance_distance, s.progress_risk_distance))
+    if has_room:
+        cut = cut - room[:, None]
+    whole = scene.ped_yield > 0
+    whole[scene.ped_straight] = True
+    rows = np.flatnonzero(whole)
+    if len(rows):
+        cut[rows] = np.inf
+    pairs = near_pairs(pos, fut, scene.contact, cut)
+    clear = pair_clearance(pos, fut, pairs, scene.contact)  # (P, B)
+    if len(rows):  # their pairs are whole blocks of K steps, in order
+        sub = reactive_clearance(
+            pos, fut[rows], scene.contact, scene.time_steps, scene.ped_yield[rows], s.yield_range
+        )
+        a = scene.ped_straight
+        if len(a):
+            j = np.searchsorted(rows, a)
             lines = reactive_clearance(
                 pos, scene.ped_lines, scene.contact, scene.time_steps, scene.ped_yield[a], s.yield_range
             )
-            clear[a] = np.minimum(clear[a], lines)
-        pairs = np.arange(clear.shape[0] * K)
-        clear = clear.reshape(len(pairs), B)
-    else:
-        # only the (pedestrian, step) pairs some rollout may bring within range of a term (``clearance``): beyond
-        # the cut-off a pair adds exact zeros to the sums and cannot be the nearest that the hard clearance and
-        # progress_risk read (both zero beyond their distances)
-        cut = np.maximum(reach, max(relief * s.hard_clearance_distance, s.progress_risk_distance))
-        if has_room:
-            cut = cut - room[:, None]
-        pairs = near_pairs(pos, fut, scene.contact, cut)
-        clear = pair_clearance(pos, fut, pairs, scene.contact)  # (P, B)
+            sub[j] = np.minimum(sub[j], lines)
+        at = np.searchsorted(pairs, rows * K)
+        clear[(at[:, None] + np.arange(K)).reshape(-1)] = sub.reshape(-1, B)
     if has_room:
         clear += room.take(pairs // K)[:, None].astype(np.float32)
     if gone is not None:
