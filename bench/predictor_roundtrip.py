@@ -69,7 +69,7 @@ def measure(n: int, count: int) -> dict:
         raw.append(t1 - t0)
         checked.append(t2 - t0)
     raw_ms, checked_ms = np.asarray(raw) * 1e3, np.asarray(checked) * 1e3
-    request = (json.dumps(ws[0].to_message(), separators=(",", ":")) + "\n").encode()
+    request = ws[0].to_line()
     predictor.predict(ws[0])
     reply_bytes = predictor._process().reply_bytes
     echo_ms = pipe_echo(request, reply_bytes - 1, count) * 1e3

@@ -76,9 +76,13 @@ class PredictorProcess:
     def alive(self) -> bool:
         return self.proc.poll() is None
 
-    def request(self, msg: dict[str, Any], timeout_s: float, expect: str, where: str) -> dict[str, Any]:
+    def request(
+        self, msg: dict[str, Any] | bytes, timeout_s: float, expect: str, where: str
+    ) -> dict[str, Any]:
+        """Send ``msg`` (a message, or one already written as a JSON line) and read one answer of type ``expect``."""
+        line = msg if isinstance(msg, bytes) else (json.dumps(msg, separators=(",", ":")) + "\n").encode()
         try:
-            os.write(self.proc.stdin.fileno(), (json.dumps(msg, separators=(",", ":")) + "\n").encode())
+            os.write(self.proc.stdin.fileno(), line)
         except OSError:
             self._fail(f"exited before {where}")
         fd = self.proc.stdout.fileno()
@@ -179,5 +183,6 @@ class ExternalPredictor:
         self._process()  # a process that died in the last episode is replaced before this one
 
     def predict(self, window: Any) -> dict[str, Any]:
-        msg = window.to_message()
-        return self._process().request(msg, self.timeout_s, "forecast", f"time {window.time:g} s")
+        return self._process().request(
+            window.to_line(), self.timeout_s, "forecast", f"time {window.time:g} s"
+        )

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -82,3 +83,23 @@ def test_the_reference_client_answers_constant_velocity_in_the_compact_form(monk
     # written to 0.1 mm from a history sent to 1 um (its velocity error grows with the horizon)
     assert np.max(np.abs(fc.modes[:, 0] - expected)) <= 1e-4
     assert np.allclose(fc.weights, 1.0) and np.all(np.diff(fc.spread, axis=-1) > 0)
+
+
+def test_a_window_written_as_one_line_is_its_observe_message():
+    w = _window(n=5)
+    for window in (
+        w,
+        replace(w, valid=w.valid & (np.arange(5)[None, :] > 0)),
+    ):  # all observed; oldest unobserved
+        line = window.to_line()
+        assert line.endswith(b"\n") and line.count(b"\n") == 1
+        sent, msg = json.loads(line), window.to_message()
+        hist_sent, hist_msg = sent["pedestrians"].pop("history"), msg["pedestrians"].pop("history")
+        assert sent == msg
+        assert [[p is None for p in track] for track in hist_sent] == [
+            [p is None for p in track] for track in hist_msg
+        ]
+        a = np.array([[p or [np.nan, np.nan] for p in track] for track in hist_sent], dtype=float)
+        b = np.array([[p or [np.nan, np.nan] for p in track] for track in hist_msg], dtype=float)
+        assert np.allclose(a, b, rtol=0, atol=1e-9, equal_nan=True)  # the same numbers, to 1 um
+        assert np.allclose(a[window.valid], window.history[window.valid], rtol=0, atol=5e-7)
