@@ -306,18 +306,19 @@ def pedestrian_terms(
         clear < reach.reshape(-1).take(pairs).astype(np.float32)[:, None]
     )  # np.nonzero's (p, b), ~7x faster at these sizes
     p, b = np.divmod(inside, B)
-    nk = pairs.take(p)  # (n, k)'s flat index n K + k in (N, K)
-    k = nk % K
-    c = clear.reshape(-1)[inside].astype(float)
-    # flat gathers: ~3x faster than the 2-D fancy index
-    sig = sigma.reshape(-1).take(nk)
+    c = clear.reshape(-1).take(inside).astype(float)
+    # what depends on the (pedestrian, step) pair alone is gathered per pair first (P), then per entry
+    k_pair = pairs % K
+    sig = sigma.reshape(-1).take(pairs).take(p)
+    k = k_pair.take(p)
     excess = soft.reshape(-1).take(b * K + k) + s.confidence * sig - c  # > 0 inside the collision margin
-    disc = (s.discount ** np.arange(len(scene.times))).take(k)
-
-    ttc = np.maximum(excess + relief * s.ttc_distance, 0.0) / scene.times[k]
+    disc_pair = (s.discount ** np.arange(len(scene.times))).take(k_pair)
+    ttc = np.maximum(excess + relief * s.ttc_distance, 0.0) / scene.times.take(k_pair).take(p)
     if scene.ped_weight is not None:  # rows are modes: each term below is its expectation over the mixture
-        w = scene.ped_weight.take(nk // K)
-        disc, ttc = disc * w, ttc * w
+        w_pair = scene.ped_weight.take(pairs // K)
+        disc, ttc = (disc_pair * w_pair).take(p), ttc * w_pair.take(p)
+    else:
+        disc = disc_pair.take(p)
 
     def per_rollout(values: np.ndarray) -> np.ndarray:
         # each rollout's entries in (pedestrian, step) order, whatever the layout: the same sums
