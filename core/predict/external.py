@@ -66,6 +66,7 @@ class PredictorProcess:
             self._err.close()
             raise PredictorError(who, f"did not start: {exc}") from None
         self._buf = b""
+        self.reply_bytes = 0
         self.hello = self.request({"type": "hello", "protocol": PROTOCOL}, START_TIMEOUT_S, "hello", "hello")
         if self.hello.get("protocol") != PROTOCOL:
             self.kill()
@@ -75,9 +76,13 @@ class PredictorProcess:
     def alive(self) -> bool:
         return self.proc.poll() is None
 
-    def request(self, msg: dict[str, Any], timeout_s: float, expect: str, where: str) -> dict[str, Any]:
+    def request(
+        self, msg: dict[str, Any] | bytes, timeout_s: float, expect: str, where: str
+    ) -> dict[str, Any]:
+        """Send ``msg`` (a message, or one already written as a JSON line) and read one answer of type ``expect``."""
+        line = msg if isinstance(msg, bytes) else (json.dumps(msg, separators=(",", ":")) + "\n").encode()
         try:
-            os.write(self.proc.stdin.fileno(), (json.dumps(msg, separators=(",", ":")) + "\n").encode())
+            os.write(self.proc.stdin.fileno(), line)
         except OSError:
             self._fail(f"exited before {where}")
         fd = self.proc.stdout.fileno()
@@ -91,6 +96,7 @@ class PredictorProcess:
                 self._fail(f"exited (code {self.proc.poll()}) at {where}")
             self._buf += chunk
         line, _, self._buf = self._buf.partition(b"\n")
+        self.reply_bytes = len(line) + 1  #: the last answer's size on the wire (benchmarks)
         try:
             reply = json.loads(line)
         except (json.JSONDecodeError, UnicodeDecodeError):
@@ -177,5 +183,6 @@ class ExternalPredictor:
         self._process()  # a process that died in the last episode is replaced before this one
 
     def predict(self, window: Any) -> dict[str, Any]:
-        msg = window.to_message()
-        return self._process().request(msg, self.timeout_s, "forecast", f"time {window.time:g} s")
+        return self._process().request(
+            window.to_line(), self.timeout_s, "forecast", f"time {window.time:g} s"
+        )

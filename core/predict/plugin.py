@@ -10,6 +10,8 @@ break is a PredictorError naming the plug-in.
 
 from __future__ import annotations
 
+import functools
+import json
 from dataclasses import dataclass
 from typing import Any, Protocol, runtime_checkable
 
@@ -51,12 +53,26 @@ class ObservationWindow:
     def to_message(self) -> dict[str, Any]:
         """The external protocol's ``observe`` message (unobserved steps are null)."""
         hist = np.where(self.valid[..., None], np.round(self.history, 6), np.nan).tolist()  # um: short lines
-        hist = [[None if p[0] != p[0] else p for p in track] for track in hist]
+        return self._message([[None if p[0] != p[0] else p for p in track] for track in hist])
+
+    def to_line(self) -> bytes:
+        """``to_message`` as one JSON line. With every step observed (the usual case) the history's numbers are
+        written by one %-format of a cached template (%.6f, 1 um, as ``to_message`` rounds them): each float's
+        shortest repr in json.dumps was most of the cost of sending a window."""
+        if not self.history.size or not self.valid.all():  # unobserved steps are null: the general route
+            return (json.dumps(self.to_message(), separators=(",", ":")) + "\n").encode()
+        history = _history_format(*self.valid.shape) % tuple(
+            np.asarray(self.history, dtype=float).ravel().tolist()
+        )
+        head, tail = json.dumps(self._message(None), separators=(",", ":")).split('"history":null', 1)
+        return (head + '"history":' + history + tail + "\n").encode()
+
+    def _message(self, history: Any) -> dict[str, Any]:
         msg: dict[str, Any] = {
             "type": "observe",
             "time": float(self.time),
             "dt": float(self.dt),
-            "pedestrians": {"ids": np.asarray(self.ped_ids).tolist(), "history": hist},
+            "pedestrians": {"ids": np.asarray(self.ped_ids).tolist(), "history": history},
             "robot": {
                 "pose": np.asarray(self.robot_pose, float).tolist(),
                 "velocity": np.asarray(self.robot_velocity, float).tolist(),
@@ -65,6 +81,13 @@ class ObservationWindow:
         if self.waypoint is not None:
             msg["robot"]["waypoint"] = np.asarray(self.waypoint, float).tolist()
         return msg
+
+
+@functools.lru_cache(maxsize=64)
+def _history_format(n: int, h: int) -> str:
+    """The JSON template of an (n, h, 2) history, every step observed."""
+    track = "[" + ",".join(["[%.6f,%.6f]"] * h) + "]"
+    return "[" + ",".join([track] * n) + "]"
 
 
 @runtime_checkable
@@ -128,24 +151,37 @@ def _array(data: dict[str, Any], key: str, who: str) -> np.ndarray:
 def forecast_from(
     reply: Any, window: ObservationWindow, decl: Declaration, who: str, source: str
 ) -> Forecast:
-    """A plug-in's answer (a Forecast or the forecast message dict) as a checked Forecast on its declared time base."""
+    """A plug-in's answer (a Forecast or the forecast message dict) as a checked Forecast on its declared time base.
+
+    In the message any array may also come flat (1-D, C order: ``modes`` N K T 2 numbers, ``weights`` N K,
+    ``sigma`` N K T, ``covariance`` N K T 4), and ``sigma`` as one (T,) spread for every pedestrian and mode: nested
+    JSON lists cost a list object per innermost pair to build and to parse."""
     if isinstance(reply, Forecast):
         fc = reply
     elif isinstance(reply, dict):
-        n = len(window.ped_ids)
+        n, T = len(window.ped_ids), decl.timebase.horizon
         modes = _array(reply, "modes", who)
+        if modes.ndim == 1 and n and modes.size and modes.size % (n * T * 2) == 0:  # flat, in C order
+            modes = modes.reshape(n, -1, T, 2)
         k = modes.shape[1] if modes.ndim >= 2 else 0
         weights = _array(reply, "weights", who) if "weights" in reply else np.full((n, k), 1.0 / max(k, 1))
+        if weights.ndim == 1 and n and weights.size == n * k:
+            weights = weights.reshape(n, k)
         if "covariance" in reply:
             spread = _array(reply, "covariance", who)
+            if spread.ndim == 1 and n and spread.size == n * k * T * 4:
+                spread = spread.reshape(n, k, T, 2, 2)
         elif "sigma" in reply:
             spread = _array(reply, "sigma", who)
+            if spread.ndim == 1 and n and spread.size == n * k * T:
+                spread = spread.reshape(n, k, T)
+            elif spread.shape == (T,):  # one spread for every pedestrian and mode
+                spread = np.repeat(spread[None, None], n * k, axis=0).reshape(n, k, T)
         else:
             raise PredictorError(
                 who, "forecast message lacks 'sigma' (N, K, T) or 'covariance' (N, K, T, 2, 2)"
             )
         if n == 0:  # an empty JSON list has no inner shape
-            T = decl.timebase.horizon
             modes, weights = modes.reshape(0, k or 1, T, 2), weights.reshape(0, k or 1)
             spread = spread.reshape((0, k or 1, T) + ((2, 2) if "covariance" in reply else ()))
         frame = reply.get("frame", decl.frame)

@@ -20,6 +20,7 @@ from functools import cached_property
 
 import numpy as np
 
+from foresight.core.planners.predictive.clearance import near_pairs, pair_clearance, reactive_clearance
 from foresight.core.planners.predictive.config import PredictivePlannerConfig, WeightsConfig
 from foresight.core.sim.geometry import SegmentSet, grid_distance, grid_interpolate
 from foresight.core.sim.observation import StaticGeometry
@@ -258,42 +259,66 @@ def pedestrian_terms(
             "min_clearance": np.full(B, np.inf),
         }
     relief = 1.0 - cfg.safety.stall.margin_relief * scene.assertiveness
-    # (N, K, B) with the rollouts innermost: numpy's loops run over B (tens to hundreds) instead of K (~20)
-    clear = _reactive_clearance(pos, fut, scene, scene.ped_yield, beside)
-    if len(scene.ped_straight):
-        a = scene.ped_straight
-        clear[a] = np.minimum(
-            clear[a], _reactive_clearance(pos, scene.ped_lines, scene, scene.ped_yield[a], beside)
-        )
-    if np.logical_or.reduce(scene.ped_room != 0, axis=None):
-        clear += scene.ped_room[:, None, None].astype(np.float32)
-    if gone is not None:
-        clear[:, gone.T] = np.inf
-    nearest = np.minimum.reduce(clear, axis=0)  # (K, B) over pedestrians
-    hard = np.maximum.reduce(np.maximum(relief * s.hard_clearance_distance - nearest, 0.0), axis=0)
+    K = fut.shape[1]
     band = relief * max(s.near_distance, s.ttc_distance)
     soft = relief * (s.collision_margin + s.speed_clearance_gain * speed)  # (B, K)
     chance = s.confidence * sigma  # (N, K)
     # beyond every margin + band and RISK_CUTOFF sigmas a (pedestrian, step, rollout) adds exact zeros to every
     # term below, so only the entries inside are gathered (a few % of them in a crowd) and summed per rollout
     reach = np.maximum(chance + band + np.maximum.reduce(soft, axis=None), RISK_CUTOFF * sigma)  # (N, K)
+    room = scene.ped_room
+    has_room = np.logical_or.reduce(room != 0, axis=None)
+    # only the (pedestrian, step) pairs some rollout may bring within range of a term (``clearance``): beyond the
+    # cut-off a pair adds exact zeros to the sums and cannot be the nearest that the hard clearance and
+    # progress_risk read (both zero beyond their distances). Pedestrians stepping away from the robot or also held
+    # to straight lines keep every step (their clearance is not the plain one the bound is for).
+    cut = np.maximum(reach, max(relief * s.hard_clearance_distance, s.progress_risk_distance))
+    if has_room:
+        cut = cut - room[:, None]
+    whole = scene.ped_yield > 0
+    whole[scene.ped_straight] = True
+    rows = np.flatnonzero(whole)
+    if len(rows):
+        cut[rows] = np.inf
+    pairs = near_pairs(pos, fut, scene.contact, cut)
+    clear = pair_clearance(pos, fut, pairs, scene.contact)  # (P, B)
+    if len(rows):  # their pairs are whole blocks of K steps, in order
+        sub = reactive_clearance(
+            pos, fut[rows], scene.contact, scene.time_steps, scene.ped_yield[rows], beside
+        )
+        a = scene.ped_straight
+        if len(a):
+            j = np.searchsorted(rows, a)
+            lines = reactive_clearance(
+                pos, scene.ped_lines, scene.contact, scene.time_steps, scene.ped_yield[a], beside
+            )
+            sub[j] = np.minimum(sub[j], lines)
+        at = np.searchsorted(pairs, rows * K)
+        clear[(at[:, None] + np.arange(K)).reshape(-1)] = sub.reshape(-1, B)
+    if has_room:
+        clear += room.take(pairs // K)[:, None].astype(np.float32)
+    if gone is not None:
+        clear[gone.T.take(pairs % K, axis=0)] = np.inf
+    # the nearest over pedestrians and steps: max over steps of (d - min over pedestrians) is d - the min over both
+    nearest = np.minimum.reduce(clear, axis=0) if len(pairs) else np.full(B, np.inf, dtype=np.float32)
+    hard = np.maximum(relief * s.hard_clearance_distance - nearest, 0.0)
     inside = np.flatnonzero(
-        clear < reach.astype(np.float32)[..., None]
-    )  # np.nonzero's (n, k, b), ~7x faster at these sizes
-    nk, b = np.divmod(inside, B)
-    k = nk % clear.shape[1]
-    c = clear.reshape(-1)[inside].astype(float)
-    # flat gathers (nk = n K + k is (n, k)'s flat index in (N, K)): ~3x faster than the 2-D fancy index
-    sig = sigma.reshape(-1).take(nk)
-    excess = (
-        soft.reshape(-1).take(b * clear.shape[1] + k) + s.confidence * sig - c
-    )  # > 0 inside the collision margin
-    disc = (s.discount ** np.arange(len(scene.times))).take(k)
-
-    ttc = np.maximum(excess + relief * s.ttc_distance, 0.0) / scene.times[k]
+        clear < reach.reshape(-1).take(pairs).astype(np.float32)[:, None]
+    )  # np.nonzero's (p, b), ~7x faster at these sizes
+    p, b = np.divmod(inside, B)
+    c = clear.reshape(-1).take(inside).astype(float)
+    # what depends on the (pedestrian, step) pair alone is gathered per pair first (P), then per entry
+    k_pair = pairs % K
+    sig = sigma.reshape(-1).take(pairs).take(p)
+    k = k_pair.take(p)
+    excess = soft.reshape(-1).take(b * K + k) + s.confidence * sig - c  # > 0 inside the collision margin
+    disc_pair = (s.discount ** np.arange(len(scene.times))).take(k_pair)
+    ttc = np.maximum(excess + relief * s.ttc_distance, 0.0) / scene.times.take(k_pair).take(p)
     if scene.ped_weight is not None:  # rows are modes: each term below is its expectation over the mixture
-        w = scene.ped_weight.take(nk // clear.shape[1])
-        disc, ttc = disc * w, ttc * w
+        w_pair = scene.ped_weight.take(pairs // K)
+        disc, ttc = (disc_pair * w_pair).take(p), ttc * w_pair.take(p)
+    else:
+        disc = disc_pair.take(p)
 
     def per_rollout(values: np.ndarray) -> np.ndarray:
         # each rollout's entries in (pedestrian, step) order, whatever the layout: the same sums
@@ -305,7 +330,7 @@ def pedestrian_terms(
         "near_miss": per_rollout(np.maximum(excess + relief * s.near_distance, 0.0) * disc),
         "ttc": per_rollout(ttc),
         "hard_clearance": hard,
-        "min_clearance": np.minimum.reduce(nearest, axis=0),
+        "min_clearance": nearest,
     }
 
 
@@ -318,51 +343,6 @@ def contact_probability(z: np.ndarray) -> np.ndarray:
     Phi by its logistic approximation 1 / (1 + exp(1.702 z)) (error < 0.01): no SciPy in the hot path.
     """
     return np.where(z < RISK_CUTOFF, 1.0 / (1.0 + np.exp(1.702 * np.minimum(z, RISK_CUTOFF))), 0.0)
-
-
-def _reactive_clearance(
-    pos: np.ndarray, fut: np.ndarray, scene: Scene, speed: np.ndarray, reach: float
-) -> np.ndarray:
-    """Clearance (N, K, B) [m, float32] between each forecast pedestrian and each rollout, the pedestrian stepping away.
-
-    Pedestrians repelled by a robot closing in (the crowd model's robot force) step away from it,
-    which a forecast made without the robot's plan cannot know: within ``reach`` metres of contact
-    pedestrian n is displaced away from the rolled-out robot at up to ``speed[n]`` m/s, linearly more
-    the closer it is, and the displacement accumulates along the forecast steps. ``speed[n]`` 0 assumes
-    nothing of the kind (a pedestrian who does not see the robot): the plain clearance.
-    """
-    # robot coordinates as contiguous (K, B) rows; the differences (N, K, B) are then squared, summed and rooted
-    # in place: two large temporaries instead of seven (freed large arrays cost page faults on the next decision).
-    # float32: the decision's largest arrays at half the memory traffic (~0.17 ms of 2.4 per decision); an error of
-    # ~1e-6 m on map coordinates of tens of metres, which moves costs by ~1e-6 relative
-    dx = np.ascontiguousarray(pos[..., 0].T, dtype=np.float32) - fut[..., 0, None].astype(np.float32)
-    dy = np.ascontiguousarray(pos[..., 1].T, dtype=np.float32) - fut[..., 1, None].astype(np.float32)
-    dx *= dx
-    dy *= dy
-    dx += dy
-    clear = np.sqrt(dx, out=dx)
-    clear -= scene.contact
-    K = clear.shape[1]
-    if reach <= 0 or K < 2 or not np.logical_or.reduce(speed > 0, axis=None):
-        return clear
-    pushed = (
-        np.logical_or.reduce(clear[:, :-1] < reach, axis=1) & (speed > 0)[:, None]
-    )  # (N, B) ever within reach
-    n, b = np.nonzero(pushed)
-    if not len(n):  # every other pair is never pushed: its clearance is the plain one
-        return clear
-    speed = speed[n]  # (A,)
-    rel = pos[b] - fut[n]  # (A, K, 2) robot minus pedestrian
-    off = np.zeros((len(rel), 2))  # accumulated displacement of each pedestrian (x, y)
-    out = np.empty(rel.shape[:2])
-    for k in range(K):
-        e = rel[:, k] - off  # robot minus displaced pedestrian
-        d = np.sqrt(e[:, 0] ** 2 + e[:, 1] ** 2)
-        out[:, k] = d - scene.contact
-        push = speed * scene.time_steps[k] * np.clip(1.0 - out[:, k] / reach, 0.0, 1.0) / np.maximum(d, 1e-6)
-        off -= push[:, None] * e
-    clear[n, :, b] = out
-    return clear
 
 
 def influence_range(
