@@ -134,6 +134,18 @@ SMOKE: dict[str, Smoke] = {
             else "no input tried, or a hostile request answered 500"
         ),
     ),
+    "paused_workers": Smoke(
+        ("--runs", "2", "--epochs", "10"),
+        frozenset({"runs", "overwritten", "sha_mismatch", "lost", "not_rerun", "per_kind"}),
+        shared=False,
+        check=lambda out: (
+            None
+            if out["runs"] == 2
+            and out["not_rerun"] == 0
+            and out["overwritten"] + out["sha_mismatch"] + out["lost"] == 0
+            else f"paused-worker runs: {out}"
+        ),
+    ),
     "episode_export": Smoke(
         ("--json", "--episodes", "200"),
         frozenset({"episodes", "parquet_s", "csv_s", "jsonl_s", "parquet_ok"}),
