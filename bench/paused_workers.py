@@ -1,13 +1,14 @@
 """Paused workers: does a worker stopped past its lease ever overwrite a job another worker finished?
 
 A real ``foresight serve`` and two ``foresight worker`` processes share a temporary SQLite file (or a fresh
-PostgreSQL database created on ``--database-url``'s server and dropped afterwards) and one store, with a short
-lease. Each run submits one job, alternately a training and an evaluation, and when the worker holding it has
-reached a progress point (10 %, 30 %, 50 %, 70 % in turn) stops that worker and its child processes (SIGSTOP)
-until the other worker has claimed the job after its lease ran out, run it again and finished it; then resumes
-the first and waits until it has noticed its lost lease and removed its attempt folder. It then compares the
-finished job's folder with the snapshot taken when the job succeeded and every recorded artifact's sha256 with its
-file.
+PostgreSQL database created on ``--database-url``'s server and dropped afterwards) and one store, with the short
+lease the integration tests use (1.5 s, heartbeats every 0.3 s). Both workers first run a short training and an
+evaluation (their imports done). Each run then submits one job, alternately a training and an evaluation, and when
+the worker holding it has reached a progress point (10 %, 30 %, 50 %, 70 % in turn) stops that worker and its child
+processes (SIGSTOP) until the other worker has claimed the job after its lease ran out, run it again and finished
+it; then resumes the first and waits until it has noticed its lost lease and removed its attempt folder. It then
+compares the finished job's folder with the snapshot taken when the job succeeded, and every recorded artifact's
+sha256 with its file.
 
 Prints one JSON object: ``runs``; ``overwritten`` (files of the finished job changed or added after it
 succeeded), ``sha_mismatch`` (recorded artifacts whose file no longer has the recorded sha256), ``lost`` (recorded
@@ -25,6 +26,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import signal
 import sys
 import tempfile
@@ -37,7 +39,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # tests.integra
 from sqlalchemy import func, select  # noqa: E402
 
 from foresight.store import folders, job_reads, queue  # noqa: E402
-from foresight.store.models import Evaluation  # noqa: E402
+from foresight.store.models import Evaluation, JobEvent  # noqa: E402
 from foresight.store.session import make_engine  # noqa: E402
 from tests.integration.service import Service, wait_job  # noqa: E402
 
@@ -111,12 +113,12 @@ def one_run(service: Service, engine, spec: dict, at: float) -> dict:  # noqa: A
     if done["status"] != "succeeded" or done["attempts"] != 2:
         out["not_rerun"] = 1
         out["why"] = f"{done['status']} after {done['attempts']} attempts: {done.get('error')}"
-        with service.client() as client:
-            events = client.get(f"/v1/jobs/{job_id}/events").json()
-        out["events"] = [
-            e.get("message", "")[:300]
-            for e in (events.get("data", events) if isinstance(events, dict) else events)
-        ][-12:]
+        with engine.connect() as conn:
+            events = conn.execute(
+                select(JobEvent.message).where(JobEvent.job_id == job_id).order_by(JobEvent.id)
+            ).scalars()
+            out["events"] = [m[:300] for m in events][-15:]
+        out["logs"] = str(service.tmp)
     attempts = root / "jobs" / job_id / folders.ATTEMPTS
     resumed = time.monotonic()
     seen = False
@@ -145,6 +147,17 @@ def one_run(service: Service, engine, spec: dict, at: float) -> dict:  # noqa: A
     out["duplicate_records"] = int(evals > 1)
     out["seconds"] = round(time.monotonic() - t0, 1)
     return out
+
+
+def warm_up(service: Service, dataset: str) -> None:
+    """Two short trainings and two evaluations at once, so that each worker has imported what its runs need: a
+    cold worker's first import of torch can hold its heartbeat thread past the short lease, which would make a run
+    lose its lease before the planned pause (a run that then tests nothing)."""
+    with service.client() as client:
+        specs = [train_spec(dataset, 1), train_spec(dataset, 1), EVALUATE, EVALUATE]
+        ids = [client.post("/v1/jobs", json={"spec": spec}).json()["id"] for spec in specs]
+        for job_id in ids:
+            wait_job(client, job_id, timeout=300)
 
 
 def fresh_postgres(url: str) -> tuple[str, str]:
@@ -192,6 +205,7 @@ def main() -> None:
             data = wait_job(client, client.post("/v1/jobs", json={"spec": COLLECT}).json()["id"], timeout=300)
         if data["status"] != "succeeded":
             raise SystemExit(f"the training data's collect job {data['status']}: {service.logs()}")
+        warm_up(service, data["id"])
         for i in range(args.runs):
             kind = ("train", "evaluate")[i % 2]
             spec = train_spec(data["id"], args.epochs) if kind == "train" else EVALUATE
@@ -217,6 +231,8 @@ def main() -> None:
     out["seconds_per_run"] = {"median": seconds[len(seconds) // 2], "max": seconds[-1]} if seconds else None
     out["wall_s"] = round(time.monotonic() - t0, 1)
     out["failed_runs"] = [r for r in runs if any(r.get(c) for c in COUNTS)]
+    if not out["failed_runs"]:
+        shutil.rmtree(tmp, ignore_errors=True)  # else kept: the runs' "logs" name it
     print(json.dumps(out, indent=1))
 
 
