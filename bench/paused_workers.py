@@ -78,16 +78,22 @@ def signal_tree(pids: list[int], sig: int) -> None:
             continue
 
 
-def snapshot(root: Path, job_id: str) -> dict[str, tuple[int, int, str]]:
-    """Every file of the job's folder but its attempt folders: (size, mtime_ns, sha256)."""
+def snapshot(root: Path, job_id: str) -> dict[str, tuple[int, int, str] | None]:
+    """Every file of the job's folder but its attempt folders (never entered: one may be being removed):
+    (size, mtime_ns, sha256), None for a file gone between listing and reading."""
     base = root / "jobs" / job_id
-    out = {}
-    for path in sorted(p for p in base.rglob("*") if p.is_file()):
-        if folders.ATTEMPTS in path.relative_to(base).parts:
-            continue
-        st = path.stat()
-        out[str(path.relative_to(base))] = (st.st_size, st.st_mtime_ns, folders.sha256_file(path))
-    return out
+    out: dict[str, tuple[int, int, str] | None] = {}
+    for folder, dirs, files in os.walk(base):
+        if Path(folder) == base and folders.ATTEMPTS in dirs:
+            dirs.remove(folders.ATTEMPTS)
+        for name in files:
+            path = Path(folder) / name
+            try:
+                st = path.stat()
+                out[str(path.relative_to(base))] = (st.st_size, st.st_mtime_ns, folders.sha256_file(path))
+            except FileNotFoundError:
+                out[str(path.relative_to(base))] = None
+    return dict(sorted(out.items()))
 
 
 def one_run(service: Service, engine, spec: dict, at: float) -> dict:  # noqa: ANN001
