@@ -5,12 +5,13 @@ Prints one JSON object. ``service``: per class of hostile request (lone surrogat
 names over 255 bytes, NaN/Infinity, deep nesting, reserved model ids, registration bounds, YAML bombs, hostile
 archives, dashboard junk) the requests tried, their status codes, the 5xx among them and the connections dropped;
 then ``crowd_size_bomb`` (a few-hundred-byte bundle whose map holds millions of pedestrians, and a planner with
-100,000 speed ratios: status codes and wall time of each submission) and ``million_key_yaml_bundle`` (the flat
-10.9 MB YAML of 10^6 keys: status, wall time and the server's peak-memory growth); then ``totals``: responses 500,
-connections dropped, records stored by refused requests, listings broken afterwards (every list page and every job's
-and model's detail), whether the crowd bomb was refused at submission and in how long, and the same for the
-million-key YAML with its extra memory. ``core``: per case the outcome and CPU seconds of the core readers, and
-the corrupted archives that failed without a clear error.
+100,000 speed ratios: status codes and wall time of each submission), ``million_key_yaml_bundle`` (the flat
+10.9 MB YAML of 10^6 keys, refused by its size) and ``flat_yaml_under_the_byte_limit`` (350,000 keys, 3.7 MB,
+which the node count refuses while parsing): status, wall time and the server's peak-memory growth. Then
+``totals``: responses 500, connections dropped, records stored by refused requests, listings broken afterwards
+(every list page and every job's and model's detail), whether the crowd bomb was refused at submission and in how
+long, and the same for both flat YAMLs with their extra memory. ``core``: per case the outcome and CPU seconds of
+the core readers, and the corrupted archives that failed without a clear error.
 Run: ``.venv/bin/python bench/hostile_inputs.py`` (about a minute; ``--core-only`` skips the service).
 """
 
@@ -211,15 +212,16 @@ def _checkpoint_job(engine, store: Path) -> str:  # noqa: ANN001
     return job["id"]
 
 
-def _million_keys(http, pid: int) -> dict:  # noqa: ANN001 - an httpx.Client
-    """A bundle holding a flat YAML of 10^6 keys (10.9 MB, 2.2 MB zipped): its status, wall time and the server's
-    peak-memory growth while refusing it."""
-    text = "".join(f"k{i}: {i}\n" for i in range(1_000_000))
+def _flat_yaml(http, pid: int, keys: int) -> dict:  # noqa: ANN001 - an httpx.Client
+    """A bundle holding a flat YAML of ``keys`` keys (10^6: 10.9 MB, the probe's file; 350,000: 3.7 MB, under the
+    byte limit, so the node count refuses it while parsing): its status, the start of its message, wall time and
+    the server's peak-memory growth while refusing it."""
+    text = "".join(f"k{i}: 1\n" for i in range(keys))
     flat = _zip({"scenarios/flat.yaml": text})
     peak = _peak_rss(pid, reset=True)
     t0 = time.monotonic()
     r = http.post("/v1/bundles", params={"name": "flat"}, content=flat)
-    return {"yaml_bytes": len(text), "zipped_bytes": len(flat), "status": r.status_code,
+    return {"yaml_bytes": len(text), "zipped_bytes": len(flat), "status": r.status_code, "message": r.text[:200],
             "seconds": round(time.monotonic() - t0, 2),
             "server_peak_rss_growth_mb": round((_peak_rss(pid) - peak) / 2**20, 1)}  # fmt: skip
 
@@ -290,7 +292,8 @@ def run_service() -> dict:
         job_id = _checkpoint_job(engine, tmp / "data" / "store")
         with svc.client() as http:
             before = {p: http.get(p).json()["count"] for p in COUNTED}
-            out["million_key_yaml_bundle"] = _million_keys(http, svc.procs[0].pid)
+            out["flat_yaml_under_the_byte_limit"] = _flat_yaml(http, svc.procs[0].pid, 350_000)
+            out["million_key_yaml_bundle"] = _flat_yaml(http, svc.procs[0].pid, 1_000_000)
             out["crowd_size_bomb"] = _crowd_bomb(http)
             accepted = int(out["crowd_size_bomb"]["bundle_status"] == 201)  # the crowd bomb's bundle
             for name, requests in _requests(job_id).items():
@@ -311,12 +314,16 @@ def run_service() -> dict:
             after = {p: http.get(p).json()["count"] for p in COUNTED}
             broken = _broken_listings(http)
             flat, bomb = out["million_key_yaml_bundle"], out["crowd_size_bomb"]
+            nodes = out["flat_yaml_under_the_byte_limit"]
             out["totals"] = {
                 "requests": sum(c["tried"] for c in out.values() if "tried" in c)
                 + 2
                 + 2 * len(bomb["status"]),
                 "responses_500": sum(c.get("5xx", 0) for c in out.values())
-                + sum(c >= 500 for c in [flat["status"], bomb["bundle_status"], *bomb["status"]]),
+                + sum(
+                    c >= 500
+                    for c in [flat["status"], nodes["status"], bomb["bundle_status"], *bomb["status"]]
+                ),
                 "connections_dropped": sum(c.get("connections_dropped", 0) for c in out.values()),
                 "stored_by_refused_requests": sum(after.values()) - sum(before.values()) - accepted,
                 "listings_broken": len(broken),
@@ -326,6 +333,9 @@ def run_service() -> dict:
                 "million_key_yaml_refused": 400 <= flat["status"] < 500,
                 "million_key_yaml_seconds": flat["seconds"],
                 "million_key_yaml_server_memory_mb": flat["server_peak_rss_growth_mb"],
+                "flat_yaml_350k_keys_refused": 400 <= nodes["status"] < 500,
+                "flat_yaml_350k_keys_seconds": nodes["seconds"],
+                "flat_yaml_350k_keys_server_memory_mb": nodes["server_peak_rss_growth_mb"],
             }
     finally:
         engine.dispose()
