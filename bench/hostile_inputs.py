@@ -4,9 +4,14 @@ through the core readers: what is refused, how fast, and whether anything breaks
 Prints one JSON object. ``service``: per class of hostile request (lone surrogates, NUL, integers beyond 64 bits,
 names over 255 bytes, NaN/Infinity, deep nesting, reserved model ids, registration bounds, YAML bombs, hostile
 archives, dashboard junk) the requests tried, their status codes, the 5xx among them and the connections dropped;
-then ``totals``: responses 500, records stored by refused requests, listings broken afterwards, and the flat
-1-million-key YAML bundle's refusal time and the server's peak-memory growth. ``core``: per case the outcome and
-CPU seconds of the core readers, and the corrupted archives that failed without a clear error.
+then ``crowd_size_bomb`` (a few-hundred-byte bundle whose map holds millions of pedestrians, and a planner with
+100,000 speed ratios: status codes and wall time of each submission), ``million_key_yaml_bundle`` (the flat
+10.9 MB YAML of 10^6 keys, refused by its size) and ``flat_yaml_under_the_byte_limit`` (350,000 keys, 3.7 MB,
+which the node count refuses while parsing): status, wall time and the server's peak-memory growth. Then
+``totals``: responses 500, connections dropped, records stored by refused requests, listings broken afterwards
+(every list page and every job's and model's detail), whether the crowd bomb was refused at submission and in how
+long, and the same for both flat YAMLs with their extra memory. ``core``: per case the outcome and CPU seconds of
+the core readers, and the corrupted archives that failed without a clear error.
 Run: ``.venv/bin/python bench/hostile_inputs.py`` (about a minute; ``--core-only`` skips the service).
 """
 
@@ -207,6 +212,67 @@ def _checkpoint_job(engine, store: Path) -> str:  # noqa: ANN001
     return job["id"]
 
 
+def _flat_yaml(http, pid: int, keys: int) -> dict:  # noqa: ANN001 - an httpx.Client
+    """A bundle holding a flat YAML of ``keys`` keys (10^6: 10.9 MB, the probe's file; 350,000: 3.7 MB, under the
+    byte limit, so the node count refuses it while parsing): its status, the start of its message, wall time and
+    the server's peak-memory growth while refusing it."""
+    text = "".join(f"k{i}: 1\n" for i in range(keys))
+    flat = _zip({"scenarios/flat.yaml": text})
+    peak = _peak_rss(pid, reset=True)
+    t0 = time.monotonic()
+    r = http.post("/v1/bundles", params={"name": "flat"}, content=flat)
+    return {"yaml_bytes": len(text), "zipped_bytes": len(flat), "status": r.status_code, "message": r.text[:200],
+            "seconds": round(time.monotonic() - t0, 2),
+            "server_peak_rss_growth_mb": round((_peak_rss(pid) - peak) / 2**20, 1)}  # fmt: skip
+
+
+def _crowd_bomb(http) -> dict:  # noqa: ANN001 - an httpx.Client
+    """A few-hundred-byte bundle whose map has a 10^6 m pedestrian route at ``ped_density`` 2 (millions of
+    pedestrians), then an evaluation and a simulation of it and a planner with 100,000 speed ratios, each submitted
+    with a 120 s timeout: their status codes and wall times (each the faster of two tries, as the test does)."""
+    import tarfile
+
+    from tests.integration.test_service_bounds import LONG_ROUTE_MAP, MATRIX, PLAZA_MAP
+
+    buf = io.BytesIO()
+    with tarfile.open(fileobj=buf, mode="w:gz") as tar:
+        for name, data in {"maps/long.yaml": LONG_ROUTE_MAP, "maps/plaza.yaml": PLAZA_MAP,
+                           "scenarios/m.yaml": MATRIX}.items():  # fmt: skip
+            info = tarfile.TarInfo(name)
+            info.size = len(data)
+            tar.addfile(info, io.BytesIO(data))
+    bundle = http.post("/v1/bundles", params={"name": "crowds"}, content=buf.getvalue(),
+                       headers={"Content-Type": "application/gzip"})  # fmt: skip
+    on_bundle = {"bundle": "crowds", "matrix": "scenarios/m.yaml", "scenarios": ["bomb"]}
+    specs = [
+        {"kind": "evaluate", **on_bundle, "seeds_per_scenario": 1, "planner": {"name": "goal"}},
+        {"kind": "simulate", **on_bundle},
+        {"kind": "evaluate", "scenarios": ["crossing_low"], "seeds_per_scenario": 1,
+         "planner": {"name": "predictive", "model": "cv", "config": {"sampling": {"speed_ratios": [0.5] * 100_000}}}},
+    ]  # fmt: skip
+    codes, seconds = [], []
+    for spec in specs:
+        took = []
+        for _ in range(2):
+            t0 = time.monotonic()
+            r = http.post("/v1/jobs", json={"spec": spec, "timeout_s": 120})
+            took.append(time.monotonic() - t0)
+        codes.append(r.status_code)
+        seconds.append(round(min(took), 3))
+    return {"bundle_bytes": len(buf.getvalue()), "bundle_status": bundle.status_code, "status": codes,
+            "seconds": seconds}  # fmt: skip
+
+
+def _broken_listings(http) -> list[str]:  # noqa: ANN001 - an httpx.Client
+    """The list pages, and every job's and model's detail, that do not answer 200."""
+    broken = [p for p in LISTS if http.get(p).status_code != 200]
+    jobs = http.get("/v1/jobs", params={"limit": 500}).json().get("data", [])
+    models = http.get("/v1/models").json().get("data", [])
+    details = [f"/v1/jobs/{j['id']}" for j in jobs] + [f"/ui/jobs/{j['id']}" for j in jobs]
+    details += [f"/v1/models/{m['id']}" for m in models]
+    return broken + [p for p in details if http.get(p).status_code != 200]
+
+
 def run_service() -> dict:
     """Every class of hostile request against a real server, then the listings and the stored counts."""
     import tempfile
@@ -226,15 +292,10 @@ def run_service() -> dict:
         job_id = _checkpoint_job(engine, tmp / "data" / "store")
         with svc.client() as http:
             before = {p: http.get(p).json()["count"] for p in COUNTED}
-            flat = _zip({"scenarios/flat.yaml": "".join(f"k{i}: {i}\n" for i in range(1_000_000))})
-            pid = svc.procs[0].pid
-            peak = _peak_rss(pid, reset=True)
-            t0 = time.monotonic()
-            r = http.post("/v1/bundles", params={"name": "flat"}, content=flat)
-            out["million_key_yaml_bundle"] = {"zipped_bytes": len(flat), "status": r.status_code,
-                                              "seconds": round(time.monotonic() - t0, 2),
-                                              "server_peak_rss_growth_mb": round((_peak_rss(pid) - peak) / 2**20, 1)}  # fmt: skip
-            accepted = 0
+            out["flat_yaml_under_the_byte_limit"] = _flat_yaml(http, svc.procs[0].pid, 350_000)
+            out["million_key_yaml_bundle"] = _flat_yaml(http, svc.procs[0].pid, 1_000_000)
+            out["crowd_size_bomb"] = _crowd_bomb(http)
+            accepted = int(out["crowd_size_bomb"]["bundle_status"] == 201)  # the crowd bomb's bundle
             for name, requests in _requests(job_id).items():
                 codes: dict[str, int] = {}
                 dropped = 0
@@ -251,13 +312,30 @@ def run_service() -> dict:
                 out[name] = {"tried": len(requests), "status": codes, "5xx": sum(v for k, v in codes.items() if k >= "500"),
                              "connections_dropped": dropped, "seconds": round(time.monotonic() - t0, 2)}  # fmt: skip
             after = {p: http.get(p).json()["count"] for p in COUNTED}
-            broken = [p for p in LISTS if http.get(p).status_code != 200]
+            broken = _broken_listings(http)
+            flat, bomb = out["million_key_yaml_bundle"], out["crowd_size_bomb"]
+            nodes = out["flat_yaml_under_the_byte_limit"]
             out["totals"] = {
-                "requests": sum(c["tried"] for c in out.values() if "tried" in c) + 1,
-                "responses_500": sum(c.get("5xx", 0) for c in out.values()),
+                "requests": sum(c["tried"] for c in out.values() if "tried" in c)
+                + 2
+                + 2 * len(bomb["status"]),
+                "responses_500": sum(c.get("5xx", 0) for c in out.values())
+                + sum(
+                    c >= 500
+                    for c in [flat["status"], nodes["status"], bomb["bundle_status"], *bomb["status"]]
+                ),
                 "connections_dropped": sum(c.get("connections_dropped", 0) for c in out.values()),
                 "stored_by_refused_requests": sum(after.values()) - sum(before.values()) - accepted,
-                "listings_broken": broken,
+                "listings_broken": len(broken),
+                "listings_broken_paths": broken,
+                "crowd_bomb_refused_at_submission": all(c == 422 for c in bomb["status"]),
+                "crowd_bomb_seconds": max(bomb["seconds"]),
+                "million_key_yaml_refused": 400 <= flat["status"] < 500,
+                "million_key_yaml_seconds": flat["seconds"],
+                "million_key_yaml_server_memory_mb": flat["server_peak_rss_growth_mb"],
+                "flat_yaml_350k_keys_refused": 400 <= nodes["status"] < 500,
+                "flat_yaml_350k_keys_seconds": nodes["seconds"],
+                "flat_yaml_350k_keys_server_memory_mb": nodes["server_peak_rss_growth_mb"],
             }
     finally:
         engine.dispose()

@@ -8,13 +8,13 @@ the plain dicts before.
 from __future__ import annotations
 
 import dataclasses
-import json
 import uuid
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any
 
 from foresight.store.models import FINISHED, Artifact, Job, JobEvent, JobStatus, Worker
+from foresight.store.session import json_deserializer
 
 jobs = Job.__table__
 events = JobEvent.__table__
@@ -105,7 +105,7 @@ class JobRow(Mapping[str, Any]):
             return None
         raw = dict(zip([d[0] for d in cur.description], rows[0], strict=True))
         for column in ("spec", "result", "tags"):
-            raw[column] = json.loads(raw[column]) if raw[column] is not None else None
+            raw[column] = json_deserializer(raw[column]) if raw[column] is not None else None
         return cls.of(raw)
 
     def __getitem__(self, key: str) -> Any:

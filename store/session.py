@@ -58,6 +58,23 @@ def json_serializer(value: Any) -> str:
     return json.dumps(printable(value))
 
 
+_SURROGATE_ESCAPE = re.compile(r"\\u[dD][89a-fA-F]")
+
+
+def json_deserializer(text: str | bytes) -> Any:
+    """JSON columns' reader: as ``json.loads``, except that values an older version stored and no response can
+    carry are read with a replacement, so that no stored row breaks a listing: a lone surrogate as its escape
+    (``\\ud800``, the text :func:`json_serializer` now writes), NaN and Infinity as ``None``."""
+    if isinstance(text, bytes | bytearray | memoryview):
+        text = bytes(text).decode("utf-8", "replace")
+    value = json.loads(text, parse_constant=_no_constant)
+    return printable(value) if _SURROGATE_ESCAPE.search(text) else value
+
+
+def _no_constant(_: str) -> None:
+    return None
+
+
 def make_engine(url: str, *, busy_timeout_ms: int = 30000, pool_size: int = 10) -> Engine:
     """An engine for ``url``; SQLite files get their folder created, are created readable by their owner only
     (0600: the file holds every job and token-protected write), and WAL mode is switched on."""
@@ -66,7 +83,7 @@ def make_engine(url: str, *, busy_timeout_ms: int = 30000, pool_size: int = 10) 
         # no pre-ping (a round trip per checkout, ~a third of a claim's cost); connections are recycled,
         # and the worker loop and the API survive a dropped connection by retrying / answering 500 once
         return create_engine(url, pool_size=pool_size, max_overflow=2 * pool_size, pool_recycle=300,
-                             json_serializer=json_serializer)  # fmt: skip
+                             json_serializer=json_serializer, json_deserializer=json_deserializer)  # fmt: skip
     if parsed.database and parsed.database != ":memory:":
         path = Path(parsed.database)
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -78,6 +95,7 @@ def make_engine(url: str, *, busy_timeout_ms: int = 30000, pool_size: int = 10) 
         pool_size=pool_size,
         max_overflow=2 * pool_size,
         json_serializer=json_serializer,
+        json_deserializer=json_deserializer,
     )
 
     @event.listens_for(engine, "connect")

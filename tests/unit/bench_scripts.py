@@ -131,7 +131,23 @@ SMOKE: dict[str, Smoke] = {
             if out["core"]["summary"]["hostile_inputs_tried"] > 0
             and out["service"]["totals"]["requests"] > 0
             and out["service"]["totals"]["responses_500"] == 0
-            else "no input tried, or a hostile request answered 500"
+            and out["service"]["totals"]["stored_by_refused_requests"] == 0
+            and out["service"]["totals"]["listings_broken"] == 0
+            and out["service"]["totals"]["crowd_bomb_refused_at_submission"]
+            and out["service"]["totals"]["million_key_yaml_refused"]
+            else f"no input tried, or a hostile request answered 500 or was kept: {out['service']['totals']}"
+        ),
+    ),
+    "paused_workers": Smoke(
+        ("--runs", "2", "--epochs", "10"),
+        frozenset({"runs", "overwritten", "sha_mismatch", "lost", "not_rerun", "per_kind"}),
+        shared=False,
+        check=lambda out: (
+            None
+            if out["runs"] == 2
+            and out["not_rerun"] == 0
+            and out["overwritten"] + out["sha_mismatch"] + out["lost"] == 0
+            else f"paused-worker runs: {out}"
         ),
     ),
     "episode_export": Smoke(
