@@ -10,13 +10,16 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from foresight.cli.client import Client, add_connection_args, dump
 from foresight.core.errors import ConfigError
-from foresight.core.evaluation.delta import Delta, Estimate
 from foresight.core.evaluation.stats import ALPHA, MIN_PAIRS
-from foresight.schemas import ComparisonPublic, JobPublic, Sides
+
+if TYPE_CHECKING:  # the evaluation stack loads with `compare`, not with every command
+    from foresight.core.evaluation.delta import Delta, Estimate
+    from foresight.result_schemas import ComparisonPublic, Sides
+    from foresight.schemas import JobPublic
 
 REPORT_MD, REPORT_HTML = "report.md", "report.html"
 
@@ -93,6 +96,8 @@ def compare_remote(args: argparse.Namespace) -> int:
                               " via `foresight jobs ls --kind evaluate`); compare folders with --local",
                               source="command line", item="runs")  # fmt: skip
     a, b = args.runs
+    from foresight.result_schemas import ComparisonPublic
+
     client = Client.from_args(args)
     result = client.fetch(ComparisonPublic, "/v1/compare", params={"a": a, "b": b})
     if args.json:
@@ -105,6 +110,8 @@ def compare_remote(args: argparse.Namespace) -> int:
 def compare_text(body: ComparisonPublic | dict[str, Any], base_url: str = "") -> str:
     """The text of a ``GET /v1/compare`` body; each changed episode with its side-by-side player's URL (on
     ``base_url``) where both results kept its trace."""
+    from foresight.result_schemas import ComparisonPublic
+
     result = ComparisonPublic.model_validate(body)
     lines = [f"A = {result.a}    B = {result.b}", ""]
     if (

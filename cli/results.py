@@ -6,21 +6,22 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Callable
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from pydantic import BaseModel
 
 from foresight.cli.client import Client, add_connection_args, dump, read
 from foresight.cli.jobs import labels
-from foresight.schemas import (
-    CampaignsPublic,
-    CampaignSummaryPublic,
-    EpisodePublic,
-    EvaluationsPublic,
-    EvaluationSummaryPublic,
-)
 
-Page = TypeVar("Page", EvaluationsPublic, CampaignsPublic)
+if (
+    TYPE_CHECKING
+):  # the evaluation stack loads with the first command that reads results, not with every command
+    from foresight.result_schemas import (
+        CampaignSummaryPublic,
+        EvaluationSummaryPublic,
+    )
+
+Page = TypeVar("Page", bound=BaseModel)  #: a page of evaluations or campaigns
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -129,10 +130,14 @@ def _print_page(args: argparse.Namespace, group: str, shape: type[Page], line: C
 
 
 def cmd_evaluations(args: argparse.Namespace) -> int:
+    from foresight.result_schemas import EvaluationsPublic
+
     return _print_page(args, "evaluations", EvaluationsPublic, _evaluation_line)
 
 
 def cmd_campaigns(args: argparse.Namespace) -> int:
+    from foresight.result_schemas import CampaignsPublic
+
     return _print_page(args, "campaigns", CampaignsPublic, _campaign_line)
 
 
@@ -140,6 +145,8 @@ def cmd_episodes(args: argparse.Namespace) -> int:
     """``GET /v1/evaluations/ID/episodes`` or ``/v1/campaigns/ID/cells/RANK/episodes``: a line per episode."""
     if args.format or args.out:
         return _export(args)
+    from foresight.result_schemas import EpisodePublic
+
     client = Client.from_args(args)
     if getattr(args, "rank", None) is None:
         episodes = client.fetch(list[EpisodePublic], f"/v1/evaluations/{args.id}/episodes")

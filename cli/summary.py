@@ -5,19 +5,12 @@ from __future__ import annotations
 
 from typing import Any
 
-from pydantic import BaseModel, ValidationError
+from pydantic import ValidationError
 
-from foresight.core.evaluation.gates import GateResult
 from foresight.schemas import JobPublic
 
 MAX_ARTIFACTS = 12  #: artifact names listed before "... and N more"
 SKIP = {"exit_code", "code_version"}  #: result fields the summary leaves to --json
-
-
-class _Gated(BaseModel):
-    """The part of a result the summary reads by name: its gate, where it has one (evaluate, campaign)."""
-
-    gate: GateResult | None = None
 
 
 def _value(x: Any) -> str:
@@ -33,8 +26,12 @@ def headline(result: dict[str, Any]) -> list[str]:
     lines = []
     for i in range(0, len(scalars), 4):
         lines.append("  " + ", ".join(scalars[i : i + 4]))
+    if "gate" not in result:  # the results with a gate (evaluate, campaign) load the evaluation stack
+        return lines
+    from foresight.core.evaluation.gates import GateResult
+
     try:
-        gate = _Gated.model_validate(result).gate
+        gate = GateResult.model_validate(result["gate"]) if result["gate"] is not None else None
     except ValidationError:  # a "gate" of another shape: the scalars say enough, --json has all
         gate = None
     for check in gate.checks if gate is not None else ():

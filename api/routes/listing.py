@@ -10,7 +10,7 @@ from fastapi import APIRouter, Query
 from foresight.api.deps import EngineDep
 from foresight.api.errors import responses
 from foresight.api.schemas import MAX_TAGS, Ident, Tag, iso
-from foresight.schemas import (
+from foresight.result_schemas import (
     CampaignsPublic,
     CampaignSummaryPublic,
     EvaluationsPublic,
