@@ -8,8 +8,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 from collections.abc import Iterator
-from typing import Any, TypeVar
+from typing import Any, TypeVar, get_origin
 
 import httpx
 from pydantic import BaseModel, Field, TypeAdapter, ValidationError
@@ -74,7 +75,8 @@ def _detail(response: httpx.Response) -> Any:
 
 
 def _name(shape: Any) -> str:
-    return getattr(shape, "__name__", None) or str(shape).replace("foresight.schemas.", "")
+    """``JobPublic``, ``list[EpisodePublic]``: a shape by its models' names."""
+    return re.sub(r"[\w.]+\.", "", str(shape)) if get_origin(shape) else shape.__name__
 
 
 def _errors(exc: ValidationError) -> str:

@@ -95,21 +95,23 @@ def test_a_page_with_a_bad_row_names_the_row_and_the_field(server, capsys) -> No
 
 
 @pytest.mark.parametrize(
-    ("argv", "path", "body"),
+    ("argv", "path", "body", "shape"),
     [
-        (["jobs", "show", "j1"], "/v1/jobs/j1", b"<html>a proxy's login page</html>"),  # not JSON at all
-        (["models", "ls"], "/v1/models", b'{"data": [{"id": "m"}], "count": 1}'),
-        (["evaluations", "ls"], "/v1/evaluations", b'{"data": "none", "count": 0, "limit": 20, "offset": 0}'),
-        (["compare", "e1", "e2"], "/v1/compare", b'{"a": "e1", "b": "e2"}'),
-        (["planners"], "/v1/planners", b'{"data": [], "count": 0}'),
-        (["evaluations", "episodes", "e1"], "/v1/evaluations/e1/episodes", b'[{"scenario": "s", "seed": 1}]'),
+        (["jobs", "show", "j1"], "/v1/jobs/j1", b"<html>a proxy's login page</html>", "JobPublic"),  # not JSON
+        (["models", "ls"], "/v1/models", b'{"data": [{"id": "m"}], "count": 1}', "ModelsPublic"),
+        (["evaluations", "ls"], "/v1/evaluations", b'{"data": "none", "count": 0, "limit": 20, "offset": 0}',
+         "EvaluationsPublic"),
+        (["compare", "e1", "e2"], "/v1/compare", b'{"a": "e1", "b": "e2"}', "ComparisonPublic"),
+        (["planners"], "/v1/planners", b'{"data": [], "count": 0}', "PlannersPublic"),
+        (["evaluations", "episodes", "e1"], "/v1/evaluations/e1/episodes", b'[{"scenario": "s", "seed": 1}]',
+         "list[EpisodePublic]"),
     ],
-)
-def test_every_reader_refuses_a_body_that_does_not_fit(server, capsys, argv, path, body) -> None:  # noqa: ANN001
+)  # fmt: skip
+def test_every_reader_refuses_a_body_that_does_not_fit(server, capsys, argv, path, body, shape) -> None:  # noqa: ANN001
     server.bodies[path] = body
     assert main([*argv, "--url", _url(server)]) == 1
     line = _one_line_error(capsys)
-    assert path in line and "a server of another version?" in line
+    assert f"{path} with a body that is not a {shape}: " in line and "a server of another version?" in line
 
 
 def test_a_well_formed_answer_is_printed_by_json_as_the_server_sent_it(server, capsys) -> None:  # noqa: ANN001
