@@ -13,13 +13,9 @@ from pydantic import BaseModel
 from foresight.cli.client import Client, add_connection_args, dump, read
 from foresight.cli.jobs import labels
 
-if (
-    TYPE_CHECKING
-):  # the evaluation stack loads with the first command that reads results, not with every command
-    from foresight.result_schemas import (
-        CampaignSummaryPublic,
-        EvaluationSummaryPublic,
-    )
+# the evaluation stack loads with the first command that reads results, not with every command
+if TYPE_CHECKING:
+    from foresight.result_schemas import CampaignSummaryPublic, EvaluationSummaryPublic
 
 Page = TypeVar("Page", bound=BaseModel)  #: a page of evaluations or campaigns
 
