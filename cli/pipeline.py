@@ -222,21 +222,22 @@ def follow_pipeline(client: Any, job_id: str, *, quiet: bool) -> JobPublic:
             time.sleep(1.0)
 
 
-def report_outcome(client: Any, job: JobPublic, *, as_json: bool, store_root: Path | None = None) -> int:
-    url = f"{client.base_url}/ui/jobs/{job.id}/files/report.html"
-    path = (store_root / "jobs" / job.id / "report.html") if store_root else None
-    from foresight.cli.client import read
+def report_outcome(client: Any, public: JobPublic, *, as_json: bool, store_root: Path | None = None) -> int:
+    from foresight.cli.client import plain
+
+    job = plain(public)  # the finished job as the server sent it (what --json prints of it)
+    url = f"{client.base_url}/ui/jobs/{public.id}/files/report.html"
+    path = (store_root / "jobs" / public.id / "report.html") if store_root else None
     from foresight.core.reports.pipeline_summary import PipelineResult
 
-    ok = job.status == "succeeded"
-    result = read(PipelineResult, job.result, f"pipeline job {job.id}: result") if ok else None
+    result = PipelineResult.model_validate(job["result"]) if job["status"] == "succeeded" else None
     if as_json:
         print(
             json.dumps(
                 {
-                    "job": job.id,
-                    "status": job.status,
-                    "result": job.result,
+                    "job": job["id"],
+                    "status": job["status"],
+                    "result": job["result"],
                     "report_url": url,
                     "report_file": str(path) if path else None,
                 },
@@ -252,10 +253,10 @@ def report_outcome(client: Any, job: JobPublic, *, as_json: bool, store_root: Pa
         if result is not None:
             print(verdict_text(result))
         else:
-            err = job.error
+            err = public.error
             print(
-                f"pipeline {job.status}: {err.type if err else ''}: {err.message if err else ''}"
-                f"\n(retry with `foresight jobs retry {job.id}`: finished stages are not run again)"
+                f"pipeline {public.status}: {err.type if err else ''}: {err.message if err else ''}"
+                f"\n(retry with `foresight jobs retry {public.id}`: finished stages are not run again)"
             )
     return 1 if result is None else result.exit_code
 
