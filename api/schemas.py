@@ -1,4 +1,7 @@
-"""Request and response bodies, one family per resource (``XCreate`` in, ``XPublic`` out, ``XsPublic`` lists)."""
+"""Request bodies, one family per resource (``XCreate``, ``XUpdate``), and ``job_public`` (a job row as its response body).
+
+The response bodies (``XPublic`` out, ``XsPublic`` lists) live in ``foresight.schemas``, which the CLI reads the
+answers with; the request bodies check specs and ids against this server's settings."""
 
 from __future__ import annotations
 
@@ -7,11 +10,9 @@ from typing import Annotated, Any, Literal, Union
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 
-from foresight.core.evaluation.aggregate import GroupStats
-from foresight.core.evaluation.campaign_result import CellMetrics, CellParams, CellResult
-from foresight.core.evaluation.evaluation_result import EvaluationMetrics, EvaluationRunConfig
 from foresight.core.jobs.kinds import KINDS
-from foresight.core.jobs.results import Verdict, verdict
+from foresight.core.jobs.results import verdict
+from foresight.schemas import ArtifactPublic, JobError, JobPublic
 from foresight.store.settings import Settings
 
 Ident = Annotated[str, Field(min_length=1, max_length=200, pattern=r"^[A-Za-z0-9][A-Za-z0-9._:\-]*$")]
@@ -110,57 +111,6 @@ class JobUpdate(BaseModel):
     remove_tags: Tags = Field(default_factory=list)
 
 
-class ArtifactPublic(BaseModel):
-    name: str
-    size: int
-    sha256: str
-    url: str
-
-
-class JobError(BaseModel):
-    type: str
-    message: str
-
-
-class JobPublic(BaseModel):
-    id: str
-    kind: str
-    status: str
-    spec: dict[str, Any]
-    priority: int
-    attempts: int
-    max_attempts: int
-    timeout_s: float | None
-    idempotency_key: str | None
-    parent_id: str | None
-    name: str | None = None
-    tags: list[str] = Field(default_factory=list)
-    note: str = ""
-    cancel_requested: bool
-    progress: float
-    message: str
-    error: JobError | None
-    result: dict[str, Any] | None
-    verdict: Verdict | None = Field(
-        None,
-        description="a succeeded job's gate/integrity verdict (None: no gate); "
-        "failed_gate / failed_integrity are results, not crashes (CLI exit code 2)",
-    )
-    worker: str | None
-    created_at: datetime
-    started_at: datetime | None
-    finished_at: datetime | None
-    artifacts: list[ArtifactPublic] | None = None
-    children: list[str] | None = None
-
-
-class JobsPublic(BaseModel):
-    data: list[JobPublic]
-    count: int
-    limit: int
-    offset: int
-
-
 def job_public(
     row: dict[str, Any], artifacts: list[dict] | None = None, children: list[str] | None = None
 ) -> JobPublic:
@@ -190,30 +140,6 @@ def job_public(
     )  # fmt: skip
 
 
-# Workers and queue
-class WorkerPublic(BaseModel):
-    id: str
-    host: str
-    pid: int
-    concurrency: int
-    kinds: list[str]
-    started_at: datetime
-    heartbeat_at: datetime
-    jobs: list[str]
-
-
-class WorkersPublic(BaseModel):
-    data: list[WorkerPublic]
-    count: int
-    queue: dict[str, dict[str, int]] = Field(description="job counts per kind and status")
-
-
-class KindPublic(BaseModel):
-    kind: str
-    description: str
-    spec_schema: dict[str, Any]
-
-
 # Models
 class ModelCreate(BaseModel):
     """Register a checkpoint that a finished job wrote as a model; it starts as a candidate (promotion follows
@@ -239,187 +165,3 @@ class ModelPromote(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     to: Literal["promoted", "default"] = "promoted"
-
-
-class ModelPublic(BaseModel):
-    model_config = ConfigDict(from_attributes=True)
-
-    id: str
-    status: str
-    checkpoint: str
-    sha256: str
-    time_base: dict[str, Any]
-    lineage: dict[str, Any]
-    training: dict[str, Any]
-    metrics: dict[str, Any]
-    tags: list[str]
-    provenance: str
-    read_only: bool
-    job_id: str | None
-    kind: str = Field("checkpoint", description="checkpoint | plugin | external")
-
-
-class ModelsPublic(BaseModel):
-    data: list[ModelPublic]
-    count: int
-    limit: int | None = None
-    offset: int = 0
-
-
-# Bundles
-class BundlePublic(BaseModel):
-    model_config = ConfigDict(from_attributes=True)
-
-    id: str
-    source: str
-    files: list[str]
-    scenarios: list[str] = Field(description="scenario matrix files in the bundle")
-    sha256: str | None
-
-
-class BundlesPublic(BaseModel):
-    data: list[BundlePublic]
-    count: int
-
-
-class ScenarioPublic(BaseModel):
-    matrix: str
-    name: str
-    map: str
-    archetype: str | None
-    seeds: list[int]
-
-
-# Results
-class DatasetPublic(BaseModel):
-    model_config = ConfigDict(from_attributes=True)
-
-    id: str
-    job_id: str | None
-    sha256: str | None
-    summary: dict[str, Any]
-
-
-class EvaluationSummaryPublic(BaseModel):
-    """An evaluation in a list: its config and headline metrics (the per-scenario table and taxonomy are in
-    ``GET /v1/evaluations/{id}``)."""
-
-    model_config = ConfigDict(from_attributes=True)
-
-    id: str
-    job_id: str | None
-    model_id: str | None
-    bundle_id: str | None
-    config: EvaluationRunConfig
-    metrics: EvaluationMetrics
-    name: str | None = Field(None, description="its job's name")
-    tags: list[str] = Field(default_factory=list, description="its job's tags")
-
-
-class EvaluationPublic(EvaluationSummaryPublic):
-    per_scenario: list[GroupStats]
-    taxonomy: list[dict[str, Any]] = Field(default_factory=list)
-
-
-class EvaluationsPublic(BaseModel):
-    data: list[EvaluationSummaryPublic]
-    count: int
-    limit: int
-    offset: int
-
-
-class EpisodePublic(BaseModel):
-    """One evaluated episode in a list, with the links to watch it."""
-
-    scenario: str
-    seed: int
-    outcome: str
-    label: str | None = Field(description="failure taxonomy label (None for successes)")
-    steps: int
-    trace: str | None = Field(description="API URL of its compact trace (None: the evaluation stored none)")
-    player: str | None = Field(description="dashboard URL of the episode player")
-
-
-class CampaignCellPublic(BaseModel):
-    rank: int
-    params: CellParams
-    metrics: CellMetrics
-
-
-class CampaignSummaryPublic(BaseModel):
-    """A campaign in a list: what it ran and its best cell's headline (the cells are in ``GET /v1/campaigns/{id}``)."""
-
-    id: str
-    job_id: str | None
-    config: dict[str, Any] = Field(description="matrix, seed_manifest, grid, horizon")
-    best: CellParams | None = Field(description="checkpoint and variant of the best cell")
-    best_metrics: dict[str, Any] | None = Field(
-        description="the best cell's suites: success, collision rates"
-    )
-    name: str | None = None
-    tags: list[str] = Field(default_factory=list)
-    created_at: datetime
-
-
-class CampaignsPublic(BaseModel):
-    data: list[CampaignSummaryPublic]
-    count: int
-    limit: int
-    offset: int
-
-
-class CampaignPublic(BaseModel):
-    id: str
-    job_id: str | None
-    config: dict[str, Any]
-    best: CellResult | None
-    cells: list[CampaignCellPublic]
-    gates: list[dict[str, Any]]
-
-
-# Planners
-class PlannerPublic(BaseModel):
-    name: str
-    origin: str = Field(description='"builtin", "external" or "plugin DIST VERSION"')
-    description: str
-    takes_model: bool = Field(description="the spec's planner.model names a predictor (predictive planner)")
-    config_schema: dict[str, Any] = Field(description="JSON schema of planner.config")
-
-
-class PlannersPublic(BaseModel):
-    data: list[PlannerPublic]
-    count: int
-    external_commands: list[str] = Field(description="names an external planner's config.command may take")
-
-
-class PredictorPublic(BaseModel):
-    name: str = Field(description="the model name a spec's planner.model or predict_eval model may take")
-    origin: str = Field(description='"plugin DIST VERSION"')
-    timebase: dict[str, Any] | None = Field(default=None, description="declared dt [s], history and horizon")
-    frame: str | None = Field(default=None, description='"world" or "pedestrian"')
-    modes: int | None = Field(default=None, description="modes per pedestrian (K)")
-    error: str | None = Field(default=None, description="why it does not load, when it does not")
-
-
-class PredictorsPublic(BaseModel):
-    data: list[PredictorPublic]
-    count: int
-    external: list[str] = Field(
-        description="operator-configured external predictors: model name external:NAME"
-    )
-
-
-class DiskPublic(BaseModel):
-    """Free space where the store and the database live (``store.space``)."""
-
-    full: bool  #: a disk under 1 MiB free, or a request that met a full disk in the last 10 s
-    store_free_bytes: int | None
-    database_free_bytes: int | None  #: None: the database is on another machine
-
-
-class Health(BaseModel):
-    status: str  #: "ok", or "degraded: ..." saying why
-    database: str
-    revision: str
-    kinds: list[str]
-    disk: DiskPublic | None = None

@@ -8,6 +8,8 @@ import json
 from pathlib import Path
 from typing import Any
 
+from pydantic import BaseModel
+
 from foresight.cli.client import add_connection_args
 from foresight.core.errors import ConfigError
 from foresight.local import build_config
@@ -125,29 +127,39 @@ def export_episodes_cmd(args: argparse.Namespace) -> int:
     return 0
 
 
-def ls_cmd(args: argparse.Namespace) -> int:
-    if args.dir:
-        rows = []
-        for rec in sorted(Path(args.dir).glob("*.json")):
-            try:
-                data = json.loads(rec.read_text())
-                meta, summary = data["meta"], data["summary"]
-            except (OSError, ValueError, KeyError, TypeError):
-                continue  # not a dataset record
-            tb = meta["timebase"]
-            rows.append({"path": str(rec.with_suffix(".npz")), "samples": summary.get("samples"),
-                         "source": meta.get("source"), "timebase": tb,
-                         "kind": meta.get("generator", {}).get("kind")})  # fmt: skip
-    else:
-        from foresight.cli.client import Client
+class _Samples(BaseModel):
+    samples: int | None = None
 
-        rows = Client.from_args(args).get("/v1/datasets")
+
+def ls_cmd(args: argparse.Namespace) -> int:
+    if not args.dir:
+        from foresight.cli.client import Client, plain, read
+        from foresight.schemas import DatasetPublic
+
+        datasets = Client.from_args(args).fetch(list[DatasetPublic], "/v1/datasets")
+        if args.json:
+            print(json.dumps(plain(datasets)))
+            return 0
+        for d in datasets:  # a server's record keeps no time base
+            print(f"{d.id}  {read(_Samples, d.summary, f'dataset {d.id}: summary').samples} samples")
+        return 0
+    rows = []
+    for rec in sorted(Path(args.dir).glob("*.json")):
+        try:
+            data = json.loads(rec.read_text())
+            meta, summary = data["meta"], data["summary"]
+            tb = meta["timebase"]
+            if not {"dt", "history", "horizon"} <= set(tb):
+                continue
+        except (OSError, ValueError, KeyError, TypeError):
+            continue  # not a dataset record
+        rows.append({"path": str(rec.with_suffix(".npz")), "samples": summary.get("samples"),
+                     "source": meta.get("source"), "timebase": tb,
+                     "kind": meta.get("generator", {}).get("kind")})  # fmt: skip
     if args.json:
         print(json.dumps(rows))
         return 0
     for r in rows:
-        tb = r.get("timebase") or (r.get("meta") or {}).get("timebase") or {}
-        name = r.get("path") or r.get("id")
-        samples = r.get("samples") or (r.get("summary") or {}).get("samples")
-        print(f"{name}  {samples} samples  dt={tb.get('dt')} H={tb.get('history')} T={tb.get('horizon')}")
+        tb = r["timebase"]
+        print(f"{r['path']}  {r['samples']} samples  dt={tb['dt']} H={tb['history']} T={tb['horizon']}")
     return 0

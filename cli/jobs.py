@@ -11,9 +11,10 @@ from typing import Any
 
 import yaml
 
-from foresight.cli.client import Client, add_connection_args
+from foresight.cli.client import Client, add_connection_args, dump
 from foresight.core.errors import ConfigError
 from foresight.core.yamlio import load_yaml
+from foresight.schemas import JobEndPublic, JobPublic, JobsPublic
 
 FINISHED = {"succeeded", "failed", "cancelled"}
 SHOW_LINES = 80  #: lines of a job's pretty-printed result that `jobs show` prints
@@ -117,35 +118,37 @@ def read_spec(path: str | None) -> dict[str, Any]:
 
 
 def _print(obj: Any, as_json: bool, text: str) -> None:
-    print(json.dumps(obj, indent=2) if as_json else text)
+    print(dump(obj) if as_json else text)
 
 
 GATE_FAILED_EXIT = 2  #: a finished job whose gate or integrity verdict failed (a result, not a crash)
 
 
-def _line(job: dict[str, Any]) -> str:
-    err = f"  {job['error']['type']}: {job['error']['message'][:80]}" if job.get("error") else ""
-    verdict = f"  {job['verdict'].upper()}" if job.get("verdict") and job["verdict"] != "passed" else ""
-    labels = "".join(
-        [f"  {job['name']!r}" if job.get("name") else "", *(f" #{t}" for t in job.get("tags") or ())]
-    )
+def labels(name: str | None, tags: list[str]) -> str:
+    """``  'name' #tag #tag`` of a job (or of a result, its job's labels)."""
+    return "".join([f"  {name!r}" if name else "", *(f" #{t}" for t in tags)])
+
+
+def _line(job: JobPublic) -> str:
+    err = f"  {job.error.type}: {job.error.message[:80]}" if job.error else ""
+    verdict = f"  {job.verdict.upper()}" if job.verdict and job.verdict != "passed" else ""
     return (
-        f"{job['id']}  {job['kind']:<10} {job['status']:<10} {100 * job['progress']:5.1f}%  "
-        f"{job['created_at'][:19]}{verdict}{labels}{err}"
+        f"{job.id}  {job.kind:<10} {job.status:<10} {100 * job.progress:5.1f}%  "
+        f"{job.created_at.isoformat()[:19]}{verdict}{labels(job.name, job.tags)}{err}"
     )
 
 
-def exit_code(job: dict[str, Any]) -> int:
+def exit_code(job: JobPublic) -> int:
     """0 succeeded (gates passed or none), 2 succeeded with a failed gate/integrity verdict, 1 failed/cancelled."""
-    if job["status"] != "succeeded":
+    if job.status != "succeeded":
         return 1
-    return GATE_FAILED_EXIT if job.get("verdict") in ("failed_gate", "failed_integrity") else 0
+    return GATE_FAILED_EXIT if job.verdict in ("failed_gate", "failed_integrity") else 0
 
 
 def cmd_submit(args: argparse.Namespace) -> int:
     client = Client.from_args(args)
     spec = read_spec(args.file)
-    if spec.get("kind", args.kind) != args.kind:
+    if "kind" in spec and spec["kind"] != args.kind:
         raise ConfigError(
             f"spec says kind {spec['kind']!r} but {args.kind!r} was given", source=args.file, item="kind"
         )
@@ -158,29 +161,29 @@ def cmd_submit(args: argparse.Namespace) -> int:
         body["timeout_s"] = args.timeout
     if args.key:
         body["idempotency_key"] = args.key
-    job = client.post("/v1/jobs", json=body)
+    job = client.fetch(JobPublic, "/v1/jobs", method="POST", json=body)
     if not args.wait:
-        _print(job, args.json, job["id"])
+        _print(job, args.json, job.id)
         return 0
     if not args.json:
-        print(f"submitted {job['id']}", file=sys.stderr)
-    return follow(client, job["id"], as_json=args.json, quiet=args.json)
+        print(f"submitted {job.id}", file=sys.stderr)
+    return follow(client, job.id, as_json=args.json, quiet=args.json)
 
 
 def follow(client: Client, job_id: str, *, as_json: bool, quiet: bool, timeout: float | None = None) -> int:
     """Poll a job until it ends, with a progress bar on stderr; exit code 0 if it succeeded with no failed
     verdict, 2 if a gate or integrity check failed (or ``timeout`` passed), 1 if it failed or was cancelled."""
     job = watch(client, job_id, quiet=quiet, timeout=timeout)
-    if job["status"] not in FINISHED:
-        _print(job, as_json, f"still {job['status']} after {timeout} s")
+    if job.status not in FINISHED:
+        _print(job, as_json, f"still {job.status} after {timeout} s")
         return 2
     from foresight.cli.summary import job_summary
 
-    _print(job, as_json, job_summary(job, str(client.http.base_url).rstrip("/")))
+    _print(job, as_json, job_summary(job, client.base_url))
     return exit_code(job)
 
 
-def watch(client: Client, job_id: str, *, quiet: bool, timeout: float | None = None) -> dict[str, Any]:
+def watch(client: Client, job_id: str, *, quiet: bool, timeout: float | None = None) -> JobPublic:
     """The job once it ended (or when ``timeout`` passed), following it with a live progress bar on stderr."""
     from foresight.local import progress_bar
 
@@ -188,9 +191,9 @@ def watch(client: Client, job_id: str, *, quiet: bool, timeout: float | None = N
     with progress_bar(quiet=quiet) as bar:
         task = bar.add_task(job_id[:12], total=1.0, message="")
         while True:
-            job = client.get(f"/v1/jobs/{job_id}")
-            bar.update(task, completed=job["progress"], message=f"{job['status']} {job['message'][:50]}")
-            if job["status"] in FINISHED or (deadline is not None and time.monotonic() > deadline):
+            job = client.job(job_id)
+            bar.update(task, completed=job.progress, message=f"{job.status} {job.message[:50]}")
+            if job.status in FINISHED or (deadline is not None and time.monotonic() > deadline):
                 return job
             time.sleep(0.5)
 
@@ -204,9 +207,9 @@ def cmd_ls(args: argparse.Namespace) -> int:
     for key, value in (("tag", args.tag), ("name", args.name), ("q", args.query)):
         if value:
             params[key] = value
-    page = Client.from_args(args).get("/v1/jobs", params=params)
-    lines = [_line(j) for j in page["data"]]
-    lines.append(f"{len(page['data'])} of {page['count']} jobs")
+    page = Client.from_args(args).fetch(JobsPublic, "/v1/jobs", params=params)
+    lines = [_line(j) for j in page.data]
+    lines.append(f"{len(page.data)} of {page.count} jobs")
     _print(page, args.json, "\n".join(lines))
     return 0
 
@@ -220,10 +223,10 @@ def cmd_show(args: argparse.Namespace) -> int:
     from foresight.cli.summary import job_summary
 
     client = Client.from_args(args)
-    job = client.get(f"/v1/jobs/{args.job_id}")
-    text = [job_summary(job, str(client.http.base_url).rstrip("/"))]
-    if isinstance(job.get("result"), dict):
-        shown = {k: v for k, v in job["result"].items() if k not in CONFIG_KEYS}
+    job = client.job(args.job_id)
+    text = [job_summary(job, client.base_url)]
+    if job.result is not None:
+        shown = {k: v for k, v in job.result.items() if k not in CONFIG_KEYS}
         lines = json.dumps(shown, indent=2).splitlines()
         more = f"\n  ... {len(lines) - SHOW_LINES} more lines" if len(lines) > SHOW_LINES else ""
         text.append("result (configs and all: --json): " + "\n".join(lines[:SHOW_LINES]) + more)
@@ -237,26 +240,26 @@ def cmd_edit(args: argparse.Namespace) -> int:
         body["name"] = args.name or None
     if args.note is not None:
         body["note"] = sys.stdin.read() if args.note == "-" else args.note
-    job = Client.from_args(args).patch(f"/v1/jobs/{args.job_id}", json=body)
-    note = f"\nnote: {job['note']}" if job.get("note") else ""
+    job = Client.from_args(args).fetch(JobPublic, f"/v1/jobs/{args.job_id}", method="PATCH", json=body)
+    note = f"\nnote: {job.note}" if job.note else ""
     _print(job, args.json, _line(job) + note)
     return 0
 
 
 def cmd_cancel(args: argparse.Namespace) -> int:
-    job = Client.from_args(args).post(f"/v1/jobs/{args.job_id}/cancel")
-    _print(job, args.json, _line(job) + ("  (cancellation requested)" if job["status"] == "running" else ""))
+    job = Client.from_args(args).fetch(JobPublic, f"/v1/jobs/{args.job_id}/cancel", method="POST")
+    _print(job, args.json, _line(job) + ("  (cancellation requested)" if job.status == "running" else ""))
     return 0
 
 
 def cmd_retry(args: argparse.Namespace) -> int:
-    job = Client.from_args(args).post(f"/v1/jobs/{args.job_id}/retry")
+    job = Client.from_args(args).fetch(JobPublic, f"/v1/jobs/{args.job_id}/retry", method="POST")
     _print(job, args.json, _line(job))
     return 0
 
 
 def cmd_delete(args: argparse.Namespace) -> int:
-    Client.from_args(args).delete(f"/v1/jobs/{args.job_id}")
+    Client.from_args(args).send("DELETE", f"/v1/jobs/{args.job_id}")
     _print({"deleted": args.job_id}, args.json, f"deleted {args.job_id}")
     return 0
 
@@ -269,24 +272,19 @@ def cmd_wait(args: argparse.Namespace) -> int:
 def cmd_logs(args: argparse.Namespace) -> int:
     for event, data in Client.from_args(args).events(args.job_id):
         if args.json:
-            print(json.dumps({"event": event, **data}), flush=True)
-        elif event == "end":
-            print(f"-- job ended: {data['status']}", flush=True)
+            print(json.dumps({"event": event, **data.model_dump(exclude_unset=True)}), flush=True)
+        elif isinstance(data, JobEndPublic):
+            print(f"-- job ended: {data.status}", flush=True)
         else:
-            stamp = time.strftime("%H:%M:%S", time.localtime(data["at"]))
-            pct = f" {100 * data['progress']:5.1f}%" if data.get("progress") is not None else ""
-            print(f"{stamp} {event:<8}{pct} {data['message']}", flush=True)
+            stamp = time.strftime("%H:%M:%S", time.localtime(data.at))
+            pct = f" {100 * data.progress:5.1f}%" if data.progress is not None else ""
+            print(f"{stamp} {event:<8}{pct} {data.message}", flush=True)
     return 0
 
 
 def cmd_download(args: argparse.Namespace) -> int:
-    client = Client.from_args(args)
-    response = client.http.get(f"/v1/jobs/{args.job_id}/artifacts/{args.name}")
-    if response.status_code >= 400:
-        from foresight.cli.client import ApiError
-
-        raise ApiError(response.status_code, response.json().get("detail"))
+    data = Client.from_args(args).download(f"/v1/jobs/{args.job_id}/artifacts/{args.name}")
     out = Path(args.output or Path(args.name).name)
-    out.write_bytes(response.content)
+    out.write_bytes(data)
     print(out)
     return 0

@@ -5,12 +5,15 @@ from __future__ import annotations
 
 import argparse
 import io
-import json
 import tarfile
 from pathlib import Path
+from typing import Any
 
-from foresight.cli.client import Client, add_connection_args
+from pydantic import BaseModel, ValidationError
+
+from foresight.cli.client import Client, add_connection_args, dump
 from foresight.core.errors import ConfigError
+from foresight.schemas import BundlePublic, BundlesPublic, ModelPublic, ModelsPublic
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -76,32 +79,45 @@ def register(sub: argparse._SubParsersAction) -> None:
                 p.add_argument("--json", action="store_true")
 
 
-def _out(obj, as_json: bool, text: str) -> None:  # noqa: ANN001
-    print(json.dumps(obj, indent=2) if as_json else text)
+def _out(obj: Any, as_json: bool, text: str) -> None:
+    print(dump(obj) if as_json else text)
 
 
-def _line(m: dict) -> str:
-    origin = "read-only" if m["read_only"] else m.get("job_id") or ""
-    line = f"{m['id']:<30} {m['status']:<10} {m.get('kind', 'checkpoint'):<10} {m['sha256'][:12]}  {origin}"
-    why = (m.get("metrics") or {}).get("promotion")  # a pipeline's verdict: why it was (not) promoted
-    return line + (f"\n    {why.get('why', '')}" if isinstance(why, dict) and why.get("why") else "")
+class _Why(BaseModel):
+    why: str = ""
+
+
+class _Promotion(BaseModel):
+    """A pipeline's verdict in a model's metrics: why it was (not) promoted."""
+
+    promotion: _Why | None = None
+
+
+def _line(m: ModelPublic) -> str:
+    origin = "read-only" if m.read_only else m.job_id or ""
+    line = f"{m.id:<30} {m.status:<10} {m.kind:<10} {m.sha256[:12]}  {origin}"
+    try:
+        why = _Promotion.model_validate(m.metrics).promotion
+    except ValidationError:  # metrics are free-form: a "promotion" of another shape is not a verdict
+        why = None
+    return line + (f"\n    {why.why}" if why is not None and why.why else "")
 
 
 def cmd_ls(args: argparse.Namespace) -> int:
     params = {k: v for k, v in (("status", args.status), ("tag", args.tag), ("limit", args.limit),
                                 ("offset", args.offset)) if v}  # fmt: skip
-    page = Client.from_args(args).get("/v1/models", params=params)
+    page = Client.from_args(args).fetch(ModelsPublic, "/v1/models", params=params)
     _out(
         page,
         args.json,
-        "\n".join([_line(m) for m in page["data"]] + [f"{len(page['data'])} of {page['count']} models"]),
+        "\n".join([_line(m) for m in page.data] + [f"{len(page.data)} of {page.count} models"]),
     )
     return 0
 
 
 def cmd_show(args: argparse.Namespace) -> int:
-    model = Client.from_args(args).get(f"/v1/models/{args.model_id}")
-    _out(model, args.json, json.dumps(model, indent=2))
+    model = Client.from_args(args).fetch(ModelPublic, f"/v1/models/{args.model_id}")
+    _out(model, args.json, dump(model))
     return 0
 
 
@@ -110,7 +126,7 @@ def cmd_register(args: argparse.Namespace) -> int:
         if not (args.job and args.artifact):
             raise ConfigError("a checkpoint needs --job and --artifact", source="command line", item="--job")
         body = {"id": args.model_id, "job_id": args.job, "artifact": args.artifact, "tags": args.tag}
-        model = Client.from_args(args).post("/v1/models", json=body)
+        model = Client.from_args(args).fetch(ModelPublic, "/v1/models", method="POST", json=body)
     else:
         if not args.predictor:
             raise ConfigError(
@@ -118,27 +134,29 @@ def cmd_register(args: argparse.Namespace) -> int:
             )
         data, ctype = pack(Path(args.files)) if args.files else (b"", "application/octet-stream")
         params = {"id": args.model_id, "kind": args.kind, "predictor": args.predictor, "tag": args.tag}
-        model = Client.from_args(args).post("/v1/models/predictors", params=params, content=data,
-                                            headers={"Content-Type": ctype})  # fmt: skip
+        model = Client.from_args(args).fetch(ModelPublic, "/v1/models/predictors", method="POST", params=params,
+                                             content=data, headers={"Content-Type": ctype})  # fmt: skip
     _out(model, args.json, _line(model))
     return 0
 
 
 def cmd_promote(args: argparse.Namespace) -> int:
     body = {"to": "default" if args.default else "promoted"}
-    model = Client.from_args(args).post(f"/v1/models/{args.model_id}/promote", json=body)
+    model = Client.from_args(args).fetch(
+        ModelPublic, f"/v1/models/{args.model_id}/promote", method="POST", json=body
+    )
     _out(model, args.json, _line(model))
     return 0
 
 
 def cmd_delete(args: argparse.Namespace) -> int:
-    Client.from_args(args).delete(f"/v1/models/{args.model_id}")
+    Client.from_args(args).send("DELETE", f"/v1/models/{args.model_id}")
     _out({"deleted": args.model_id}, args.json, f"deleted {args.model_id}")
     return 0
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    text = Client.from_args(args).get("/v1/models/export")
+    text = Client.from_args(args).download("/v1/models/export").decode()
     if args.output:
         Path(args.output).write_text(text)
     else:
@@ -147,10 +165,9 @@ def cmd_export(args: argparse.Namespace) -> int:
 
 
 def cmd_bundles_ls(args: argparse.Namespace) -> int:
-    page = Client.from_args(args).get("/v1/bundles")
+    page = Client.from_args(args).fetch(BundlesPublic, "/v1/bundles")
     lines = [
-        f"{b['id']:<30} {b['source']:<10} {len(b['files']):>4} files  {', '.join(b['scenarios'])}"
-        for b in page["data"]
+        f"{b.id:<30} {b.source:<10} {len(b.files):>4} files  {', '.join(b.scenarios)}" for b in page.data
     ]
     _out(page, args.json, "\n".join(lines))
     return 0
@@ -172,13 +189,13 @@ def pack(path: Path) -> tuple[bytes, str]:
 def cmd_bundles_upload(args: argparse.Namespace) -> int:
     data, ctype = pack(Path(args.path))
     params = {"name": args.name, **({"replace": "true"} if args.replace else {})}
-    bundle = Client.from_args(args).post("/v1/bundles", params=params, content=data,
-                                         headers={"Content-Type": ctype})  # fmt: skip
-    _out(bundle, args.json, f"{bundle['id']}: {len(bundle['files'])} files, matrices {bundle['scenarios']}")
+    bundle = Client.from_args(args).fetch(BundlePublic, "/v1/bundles", method="POST", params=params, content=data,
+                                          headers={"Content-Type": ctype})  # fmt: skip
+    _out(bundle, args.json, f"{bundle.id}: {len(bundle.files)} files, matrices {bundle.scenarios}")
     return 0
 
 
 def cmd_bundles_delete(args: argparse.Namespace) -> int:
-    Client.from_args(args).delete(f"/v1/bundles/{args.name}")
+    Client.from_args(args).send("DELETE", f"/v1/bundles/{args.name}")
     _out({"deleted": args.name}, args.json, f"deleted bundle {args.name}")
     return 0

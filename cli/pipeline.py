@@ -17,6 +17,7 @@ import socket
 import subprocess
 import sys
 import time
+from collections import defaultdict
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -25,6 +26,7 @@ from foresight.core.runtime.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
 
 if TYPE_CHECKING:
     from foresight.core.reports.pipeline_summary import PipelineResult
+    from foresight.schemas import JobPublic
 
 QUICKSTART = BUILTIN_CONFIG_ROOT / "pipelines" / "quickstart.yaml"
 FINISHED = {"succeeded", "failed", "cancelled"}
@@ -191,44 +193,50 @@ def submit_and_follow(
     body: dict[str, Any] = {"spec": {**spec, "kind": "pipeline"}}
     if key:
         body["idempotency_key"] = key
-    job = client.post("/v1/jobs", json=body)
+    from foresight.cli.client import dump
+    from foresight.schemas import JobPublic
+
+    job = client.fetch(JobPublic, "/v1/jobs", method="POST", json=body)
     if not wait:
-        print(json.dumps(job, indent=2) if as_json else job["id"])
+        print(dump(job) if as_json else job.id)
         return 0
     if not as_json:
-        print(f"pipeline job {job['id']} submitted", file=sys.stderr)
-    job = follow_pipeline(client, job["id"], quiet=as_json)
+        print(f"pipeline job {job.id} submitted", file=sys.stderr)
+    job = follow_pipeline(client, job.id, quiet=as_json)
     return report_outcome(client, job, as_json=as_json, store_root=store_root)
 
 
-def follow_pipeline(client: Any, job_id: str, *, quiet: bool) -> dict[str, Any]:
+def follow_pipeline(client: Any, job_id: str, *, quiet: bool) -> JobPublic:
     """Poll the pipeline job until it ends: one line per child stage as it starts and ends, and a bar."""
     from foresight.local import progress_bar
+    from foresight.schemas import JobsPublic
 
-    seen: dict[str, str] = {}
+    seen: dict[str, str] = defaultdict(str)  #: child job id -> the status last printed
     with progress_bar(quiet=quiet) as bar:
         task = bar.add_task("pipeline", total=1.0, message="")
         while True:
-            job = client.get(f"/v1/jobs/{job_id}")
-            bar.update(task, completed=job["progress"], message=f"{job['status']} {job['message'][:70]}")
-            if not quiet and job.get("children"):
-                page = client.get("/v1/jobs", params={"parent_id": job_id, "limit": 50})
-                for child in sorted(page["data"], key=lambda c: c["created_at"]):
-                    if seen.get(child["id"]) != child["status"] and child["status"] != "queued":
-                        seen[child["id"]] = child["status"]
-                        stage = (child.get("idempotency_key") or child["kind"]).rsplit(":", 1)[-1]
+            job = client.job(job_id)
+            bar.update(task, completed=job.progress, message=f"{job.status} {job.message[:70]}")
+            if not quiet and job.children:
+                page = client.fetch(JobsPublic, "/v1/jobs", params={"parent_id": job_id, "limit": 50})
+                for child in sorted(page.data, key=lambda c: c.created_at):
+                    if child.status not in ("queued", seen[child.id]):
+                        seen[child.id] = child.status
+                        stage = (child.idempotency_key or child.kind).rsplit(":", 1)[-1]
                         bar.console.print(
-                            f"  {stage:<18} {child['kind']:<13} job {child['id'][:12]}  {child['status']}"
+                            f"  {stage:<18} {child.kind:<13} job {child.id[:12]}  {child.status}"
                         )
-            if job["status"] in FINISHED:
+            if job.status in FINISHED:
                 return job
             time.sleep(1.0)
 
 
-def report_outcome(client: Any, job: dict[str, Any], *, as_json: bool, store_root: Path | None = None) -> int:
-    base = str(client.http.base_url).rstrip("/")
-    url = f"{base}/ui/jobs/{job['id']}/files/report.html"
-    path = (store_root / "jobs" / job["id"] / "report.html") if store_root else None
+def report_outcome(client: Any, public: JobPublic, *, as_json: bool, store_root: Path | None = None) -> int:
+    from foresight.cli.client import plain
+
+    job = plain(public)  # the finished job as the server sent it (what --json prints of it)
+    url = f"{client.base_url}/ui/jobs/{public.id}/files/report.html"
+    path = (store_root / "jobs" / public.id / "report.html") if store_root else None
     from foresight.core.reports.pipeline_summary import PipelineResult
 
     result = PipelineResult.model_validate(job["result"]) if job["status"] == "succeeded" else None
@@ -243,10 +251,10 @@ def report_outcome(client: Any, job: dict[str, Any], *, as_json: bool, store_roo
         if result is not None:
             print(verdict_text(result))
         else:
-            err = job.get("error") or {}
+            err = public.error
             print(
-                f"pipeline {job['status']}: {err.get('type', '')}: {err.get('message', '')}"
-                f"\n(retry with `foresight jobs retry {job['id']}`: finished stages are not run again)"
+                f"pipeline {public.status}: {err.type if err else ''}: {err.message if err else ''}"
+                f"\n(retry with `foresight jobs retry {public.id}`: finished stages are not run again)"
             )
     return 1 if result is None else result.exit_code
 
@@ -258,16 +266,18 @@ def _free_port() -> int:
 
 
 def _wait_healthy(url: str, proc: subprocess.Popen, timeout: float = 60.0) -> None:
-    import httpx
+    from foresight.cli.client import ApiError, Client, ServerUnreachable
+    from foresight.schemas import Health
 
+    client = Client(url, None, timeout=2.0)
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         if proc.poll() is not None:
             raise CoreError(f"the server exited with code {proc.returncode} before it was ready")
         try:
-            if httpx.get(f"{url}/healthz", timeout=2.0).status_code == 200:
-                return
-        except httpx.HTTPError:
+            client.fetch(Health, "/healthz")
+            return
+        except (ApiError, ServerUnreachable):
             pass
         time.sleep(0.3)
     raise CoreError(f"the server at {url} did not become ready within {timeout:.0f} s")

@@ -9,8 +9,11 @@ import json
 from pathlib import Path
 from typing import Any
 
-from foresight.cli.client import Client, add_connection_args
+from pydantic import BaseModel
+
+from foresight.cli.client import Client, add_connection_args, dump, read
 from foresight.core.errors import ConfigError
+from foresight.schemas import PlannersPublic
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -38,22 +41,28 @@ def register(sub: argparse._SubParsersAction) -> None:
     c.set_defaults(func=check_cmd)
 
 
+class _Schema(BaseModel):
+    """The part of a planner's config JSON schema the listing shows: its keys."""
+
+    properties: dict[str, Any] = {}
+
+
 def planners_cmd(args: argparse.Namespace) -> int:
     if args.local:
         from foresight.core.planners.external import operator_commands
         from foresight.core.planners.registry import catalogue
 
         data = catalogue()
-        listing = {"data": data, "count": len(data), "external_commands": sorted(operator_commands())}
+        listing = PlannersPublic(data=data, count=len(data), external_commands=sorted(operator_commands()))
     else:
-        listing = Client.from_args(args).get("/v1/planners")
+        listing = Client.from_args(args).fetch(PlannersPublic, "/v1/planners")
     if args.json:
-        print(json.dumps(listing, indent=2))
+        print(dump(listing))
         return 0
-    for p in listing["data"]:
-        keys = ", ".join(p["config_schema"].get("properties", {})) or "-"
-        print(f"{p['name']:<14} {p['origin']:<34} config: {keys}")
-    print(f"external commands: {', '.join(listing['external_commands']) or 'none'}")
+    for p in listing.data:
+        keys = ", ".join(read(_Schema, p.config_schema, f"planner {p.name}: config_schema").properties) or "-"
+        print(f"{p.name:<14} {p.origin:<34} config: {keys}")
+    print(f"external commands: {', '.join(listing.external_commands) or 'none'}")
     return 0
 
 

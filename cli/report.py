@@ -10,11 +10,16 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from foresight.cli.client import Client, add_connection_args
+from foresight.cli.client import Client, add_connection_args, dump
 from foresight.core.errors import ConfigError
 from foresight.core.evaluation.stats import ALPHA, MIN_PAIRS
+
+if TYPE_CHECKING:  # the evaluation stack loads with `compare`, not with every command
+    from foresight.core.evaluation.delta import Delta, Estimate
+    from foresight.result_schemas import ComparisonPublic, Sides
+    from foresight.schemas import JobPublic
 
 REPORT_MD, REPORT_HTML = "report.md", "report.html"
 
@@ -31,19 +36,14 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _download(client: Client, job_id: str, name: str) -> bytes:
-    from foresight.cli.client import ApiError
-
-    response = client.http.get(f"/v1/jobs/{job_id}/artifacts/{name}")
-    if response.status_code >= 400:
-        raise ApiError(response.status_code, response.json().get("detail"))
-    return response.content
+    return client.download(f"/v1/jobs/{job_id}/artifacts/{name}")
 
 
-def report_files(job: dict[str, Any]) -> list[str]:
+def report_files(job: JobPublic) -> list[str]:
     """Artifact names that make up the job's report: the two pages and the figures they sit beside."""
     from foresight.core.reports.common import FIGURES  # matplotlib: not at every command's start-up
 
-    names = [a["name"] for a in job.get("artifacts") or []]
+    names = [a.name for a in job.artifacts or []]
     if REPORT_MD not in names and REPORT_HTML not in names:
         return []
     return [n for n in names if n in (REPORT_MD, REPORT_HTML) or n.startswith(f"{FIGURES}/")]
@@ -51,10 +51,10 @@ def report_files(job: dict[str, Any]) -> list[str]:
 
 def report_cmd(args: argparse.Namespace) -> int:
     client = Client.from_args(args)
-    job = client.get(f"/v1/jobs/{args.job_id}")
+    job = client.job(args.job_id)
     files = report_files(job)
     if not files:
-        raise ConfigError(f"job {args.job_id} ({job['kind']}, {job['status']}) has no report: reports are written "
+        raise ConfigError(f"job {args.job_id} ({job.kind}, {job.status}) has no report: reports are written "
                           "when a collect, train, evaluate, diagnose, campaign or pipeline job succeeds",
                           item=args.job_id)  # fmt: skip
     written: list[str] = []
@@ -68,8 +68,8 @@ def report_cmd(args: argparse.Namespace) -> int:
             dest.write_bytes(_download(client, args.job_id, name))
             written.append(str(dest))
     if args.json:
-        urls = {a["name"]: a["url"] for a in job.get("artifacts") or [] if a["name"] in files}
-        print(json.dumps({"job": job["id"], "kind": job["kind"], "status": job["status"], "result": job.get("result"),
+        urls = {a.name: a.url for a in job.artifacts or [] if a.name in files}
+        print(json.dumps({"job": job.id, "kind": job.kind, "status": job.status, "result": job.result,
                           "report": urls, "written": written}, indent=2))  # fmt: skip
         return 0
     if REPORT_MD in files:
@@ -96,59 +96,63 @@ def compare_remote(args: argparse.Namespace) -> int:
                               " via `foresight jobs ls --kind evaluate`); compare folders with --local",
                               source="command line", item="runs")  # fmt: skip
     a, b = args.runs
-    result = Client.from_args(args).get("/v1/compare", params={"a": a, "b": b})
+    from foresight.result_schemas import ComparisonPublic
+
+    client = Client.from_args(args)
+    result = client.fetch(ComparisonPublic, "/v1/compare", params={"a": a, "b": b})
     if args.json:
-        print(json.dumps(result, indent=2))
+        print(dump(result))
         return 0
-    print(compare_text(result, str(Client.from_args(args).http.base_url).rstrip("/")))
+    print(compare_text(result, client.base_url))
     return 0
 
 
-def compare_text(result: dict[str, Any], base_url: str = "") -> str:
+def compare_text(body: ComparisonPublic | dict[str, Any], base_url: str = "") -> str:
     """The text of a ``GET /v1/compare`` body; each changed episode with its side-by-side player's URL (on
     ``base_url``) where both results kept its trace."""
-    lines = [f"A = {result['a']}    B = {result['b']}", ""]
-    differs = result.get("differs")
-    if differs is not None:  # what was run differently leads: planner, model, matrix, episodes, horizon
+    from foresight.result_schemas import ComparisonPublic
+
+    result = ComparisonPublic.model_validate(body)
+    lines = [f"A = {result.a}    B = {result.b}", ""]
+    if (
+        result.differs is not None
+    ):  # what was run differently leads: planner, model, matrix, episodes, horizon
         lines += (
             ["differs:"]
             + (
-                [f"  {key}: {_short(v.get('a'))} -> {_short(v.get('b'))}" for key, v in differs.items()]
+                [f"  {key}: {_short(v.a)} -> {_short(v.b)}" for key, v in result.differs.items()]
                 or ["  nothing in planner, model, matrix, episodes, horizon"]
             )
             + [""]
         )
-    sources = result.get("sources") or {}
-    if sources:
-        lines.insert(1, f"A: {sources.get('a')}    B: {sources.get('b')}")
+    if result.sources is not None:
+        lines.insert(1, f"A: {result.sources.a}    B: {result.sources.b}")
     lines += [f"{'metric':<22}{'A':>24}{'B':>24}{'B - A [95 % interval]':>34}  method"]
-    for name, m in (result.get("metrics") or {}).items():
-        interval = f" [{_num(m.get('low'))}, {_num(m.get('high'))}]" + (" *" if m.get("significant") else "")
+    for name, m in result.metrics.items():
+        interval = f" [{_num(m.low)}, {_num(m.high)}]" + (" *" if m.significant else "")
         lines.append(
-            f"{name:<22}{_value(m.get('a')):>24}{_value(m.get('b')):>24}{_num(m.get('delta')) + interval:>34}"
-            f"  {_method(m)}"
+            f"{name:<22}{_value(m.a):>24}{_value(m.b):>24}{_num(m.delta) + interval:>34}  {_method(m)}"
         )
     lines.append(
         f"* significant: paired p < {ALPHA} (McNemar exact / Wilcoxon signed-rank), unpaired the interval "
         f"excludes 0; never with fewer than {MIN_PAIRS} episodes"
     )
-    diff = config_keys(result.get("config_diff") or {})
+    diff = config_keys(result.config_diff)
     lines += ["", f"config (keys that differ: {len(diff)}):"]
     shown = list(diff.items())[:CONFIG_LINES]
-    lines += [f"  {key}: {_short(v.get('a'))} -> {_short(v.get('b'))}" for key, v in shown] or ["  identical"]
+    lines += [f"  {key}: {_short(v.a)} -> {_short(v.b)}" for key, v in shown] or ["  identical"]
     if len(diff) > CONFIG_LINES:
         lines.append(f"  ... {len(diff) - CONFIG_LINES} more (--json for all)")
-    if result.get("changed_episodes") is not None:  # paired evaluations: the discordant episodes by name
+    if result.changed_episodes is not None:  # paired evaluations: the discordant episodes by name
         from foresight.core.evaluation.compare import changed_lines
-        from foresight.core.evaluation.delta import EpisodeChange
 
-        changed = [EpisodeChange.model_validate(e) for e in result["changed_episodes"]]
-        links = [f"{base_url}{e['player']}" if e.get("player") else None for e in result["changed_episodes"]]
+        changed = result.changed_episodes
+        links = [f"{base_url}{e.player}" if e.player else None for e in changed]
         lines += [
             "",
             f"episodes that ended otherwise ({len(changed)}; each with its side-by-side player where both "
             "kept the trace):",
-            *changed_lines(changed, links),
+            *changed_lines(list(changed), links),
         ]
     return "\n".join(lines)
 
@@ -158,27 +162,28 @@ CONFIG_LINES = 30  #: differing config keys printed before "... N more"
 STAGE_PLANNER = "stage.planner.config."
 
 
-def config_keys(diff: dict[str, Any]) -> dict[str, Any]:
+def config_keys(diff: dict[str, Sides]) -> dict[str, Sides]:
     """The differing keys, each once: a ``stage.planner.config.K`` whose change ``planner.K`` already shows is
     left out."""
-    return {key: v for key, v in diff.items()
-            if not (key.startswith(STAGE_PLANNER) and diff.get("planner." + key.removeprefix(STAGE_PLANNER)) == v)}  # fmt: skip
+
+    def repeated(key: str, v: Sides) -> bool:
+        twin = "planner." + key.removeprefix(STAGE_PLANNER)
+        return key.startswith(STAGE_PLANNER) and twin in diff and diff[twin] == v
+
+    return {key: v for key, v in diff.items() if not repeated(key, v)}
 
 
-def _method(m: dict[str, Any]) -> str:
-    if m.get("method") != "paired":
+def _method(m: Delta) -> str:
+    if m.method != "paired":
         return "unpaired (MOVER)"
-    disc = m.get("discordant")
-    extra = f", discordant A/B {disc[0]}/{disc[1]}" if disc else ""
-    return f"paired n={m.get('n_pairs')}, {m.get('test')} p={_num(m.get('p_value'))}{extra}"
+    extra = f", discordant A/B {m.discordant[0]}/{m.discordant[1]}" if m.discordant else ""
+    return f"paired n={m.n_pairs}, {m.test} p={_num(m.p_value)}{extra}"
 
 
-def _value(estimate: Any) -> str:
+def _value(estimate: Estimate) -> str:
     """``value [low, high]`` of an estimate."""
-    if not isinstance(estimate, dict):
-        return _num(estimate)
-    ci = f" [{_num(estimate['low'])}, {_num(estimate['high'])}]" if estimate.get("low") is not None else ""
-    return _num(estimate.get("value")) + ci
+    ci = f" [{_num(estimate.low)}, {_num(estimate.high)}]" if estimate.low is not None else ""
+    return _num(estimate.value) + ci
 
 
 def _short(value: Any) -> str:

@@ -5,11 +5,19 @@ with the dashboard URL of its player."""
 from __future__ import annotations
 
 import argparse
-import json
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
-from foresight.cli.client import Client, add_connection_args
+from pydantic import BaseModel
+
+from foresight.cli.client import Client, add_connection_args, dump, read
+from foresight.cli.jobs import labels
+
+# the evaluation stack loads with the first command that reads results, not with every command
+if TYPE_CHECKING:
+    from foresight.result_schemas import CampaignSummaryPublic, EvaluationSummaryPublic
+
+Page = TypeVar("Page", bound=BaseModel)  #: a page of evaluations or campaigns
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -67,77 +75,89 @@ def register(sub: argparse._SubParsersAction) -> None:
         eps.set_defaults(func=cmd_episodes)
 
 
-def _page(args: argparse.Namespace, path: str) -> dict[str, Any]:
+def _page(args: argparse.Namespace, shape: type[Page], path: str) -> Page:
     params: dict[str, Any] = {"limit": args.limit, "offset": args.offset}
     params |= {k: getattr(args, k) for k in args.filters if getattr(args, k)}
-    return Client.from_args(args).get(path, params=params)
-
-
-def _labels(item: dict[str, Any]) -> str:
-    return "".join(
-        [f"  {item['name']!r}" if item.get("name") else "", *(f" #{t}" for t in item.get("tags") or ())]
-    )
+    return Client.from_args(args).fetch(shape, path, params=params)
 
 
 def _pct(x: float | None) -> str:
     return "   -  " if x is None else f"{100 * x:5.1f}%"
 
 
-def _evaluation_line(e: dict[str, Any]) -> str:
-    stage, m = e["config"]["stage"], e["metrics"]
-    planner = (stage.get("planner") or {}).get("name", "?")
-    return (f"{e['id'][:12]}  {planner:<12} {e.get('model_id') or '-':<22} success {_pct(m['success_rate'])}  "
-            f"collisions {_pct(m['collision_rate'])}  n={m['episodes']:<4} {m['status']:<16} "
-            f"{stage.get('matrix', '')}{_labels(e)}")  # fmt: skip
+class _Named(BaseModel):
+    name: str = "?"
 
 
-def _campaign_line(c: dict[str, Any]) -> str:
-    best = c.get("best") or {}
-    glob = (c.get("best_metrics") or {}).get("global") or {}
-    return (f"{c['id'][:12]}  {c['created_at'][:19]}  grid {c['config'].get('grid', '-'):<36} best "
-            f"{best.get('variant', '-')}@{best.get('checkpoint', '-')} global success {_pct(glob.get('success'))}"
-            f"{_labels(c)}")  # fmt: skip
+class _Stage(BaseModel):
+    """What an evaluation's line shows of the stage config it ran (kept as given)."""
+
+    planner: _Named | None = None
+    matrix: Any = ""
 
 
-def _print_page(args: argparse.Namespace, group: str, line: Callable[[dict[str, Any]], str]) -> int:
+def _evaluation_line(e: EvaluationSummaryPublic) -> str:
+    stage, m = read(_Stage, e.config.stage, f"evaluation {e.id}: config.stage"), e.metrics
+    planner = (stage.planner or _Named()).name
+    return (f"{e.id[:12]}  {planner:<12} {e.model_id or '-':<22} success {_pct(m.success_rate)}  "
+            f"collisions {_pct(m.collision_rate)}  n={m.episodes:<4} {m.status:<16} "
+            f"{stage.matrix}{labels(e.name, e.tags)}")  # fmt: skip
+
+
+class _Grid(BaseModel):
+    grid: str | None = "-"
+
+
+def _campaign_line(c: CampaignSummaryPublic) -> str:
+    suites = c.best_metrics or {}
+    glob = suites["global"].success if "global" in suites else None
+    grid = read(_Grid, c.config, f"campaign {c.id}: config").grid or "-"
+    return (f"{c.id[:12]}  {c.created_at.isoformat()[:19]}  grid {grid:<36} best "
+            f"{c.best.variant if c.best else '-'}@{c.best.checkpoint if c.best else '-'} global success "
+            f"{_pct(glob)}{labels(c.name, c.tags)}")  # fmt: skip
+
+
+def _print_page(args: argparse.Namespace, group: str, shape: type[Page], line: Callable[[Any], str]) -> int:
     """One page of ``GET /v1/{group}``: the JSON page with --json, else a line per item and the count."""
-    page = _page(args, f"/v1/{group}")
-    lines = [*map(line, page["data"]), f"{len(page['data'])} of {page['count']} {group}"]
-    print(json.dumps(page, indent=2) if args.json else "\n".join(lines))
+    page = _page(args, shape, f"/v1/{group}")
+    lines = [*map(line, page.data), f"{len(page.data)} of {page.count} {group}"]
+    print(dump(page) if args.json else "\n".join(lines))
     return 0
 
 
 def cmd_evaluations(args: argparse.Namespace) -> int:
-    return _print_page(args, "evaluations", _evaluation_line)
+    from foresight.result_schemas import EvaluationsPublic
+
+    return _print_page(args, "evaluations", EvaluationsPublic, _evaluation_line)
 
 
 def cmd_campaigns(args: argparse.Namespace) -> int:
-    return _print_page(args, "campaigns", _campaign_line)
+    from foresight.result_schemas import CampaignsPublic
+
+    return _print_page(args, "campaigns", CampaignsPublic, _campaign_line)
 
 
 def cmd_episodes(args: argparse.Namespace) -> int:
     """``GET /v1/evaluations/ID/episodes`` or ``/v1/campaigns/ID/cells/RANK/episodes``: a line per episode."""
     if args.format or args.out:
         return _export(args)
+    from foresight.result_schemas import EpisodePublic
+
     client = Client.from_args(args)
     if getattr(args, "rank", None) is None:
-        episodes = client.get(f"/v1/evaluations/{args.id}/episodes")
+        episodes = client.fetch(list[EpisodePublic], f"/v1/evaluations/{args.id}/episodes")
     else:
-        episodes = client.get(
-            f"/v1/campaigns/{args.id}/cells/{args.rank}/episodes", params={"suite": args.suite}
-        )
+        episodes = client.fetch(list[EpisodePublic], f"/v1/campaigns/{args.id}/cells/{args.rank}/episodes",
+                                params={"suite": args.suite})  # fmt: skip
     if args.failed:
-        episodes = [e for e in episodes if e["outcome"] != "success"]
+        episodes = [e for e in episodes if e.outcome != "success"]
     if args.json:
-        print(json.dumps(episodes, indent=2))
+        print(dump(episodes))
         return 0
-    base = str(client.http.base_url).rstrip("/")
     for e in episodes:
-        watch = f"{base}{e['player']}" if e["player"] else "(no trace)"
-        print(
-            f"{e['scenario']:<36} {e['seed']:>6}  {e['outcome']:<22} {e['label'] or '':<36} {e['steps']:>5}  {watch}"
-        )
-    failed = sum(e["outcome"] != "success" for e in episodes)
+        watch = f"{client.base_url}{e.player}" if e.player else "(no trace)"
+        print(f"{e.scenario:<36} {e.seed:>6}  {e.outcome:<22} {e.label or '':<36} {e.steps:>5}  {watch}")
+    failed = sum(e.outcome != "success" for e in episodes)
     print(f"{len(episodes)} episodes, {failed} not successful")
     return 0
 

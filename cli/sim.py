@@ -347,15 +347,18 @@ def _download_render(target: str | None):  # noqa: ANN202
     """After a server run: fetch the episode's render artifact to ``target`` (the result then names the file)."""
 
     def after(result: SimulateResult, ref: stage.JobRef, client: stage.Client) -> SimulateResult:
+        from foresight.cli.client import ApiError
+
         episode = result.episodes[0]
         if not target or not episode.render:
             return result
-        response = client.http.get(f"/v1/jobs/{ref.id}/artifacts/{episode.render}")
-        if response.status_code >= 400:
+        try:
+            data = client.download(f"/v1/jobs/{ref.id}/artifacts/{episode.render}")
+        except ApiError as exc:
             raise ConfigError(
-                f"cannot download render {episode.render!r} of job {ref.id}: HTTP {response.status_code}"
-            )
-        Path(target).write_bytes(response.content)
+                f"cannot download render {episode.render!r} of job {ref.id}: HTTP {exc.status}"
+            ) from None
+        Path(target).write_bytes(data)
         rendered = episode.model_copy(update={"render": str(Path(target).resolve())})
         return result.model_copy(update={"episodes": [rendered, *result.episodes[1:]]})
 

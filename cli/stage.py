@@ -20,9 +20,10 @@ from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
-from foresight.cli.client import Client, ServerUnreachable, add_connection_args
+from foresight.cli.client import Client, ServerUnreachable, add_connection_args, dump
 from foresight.core.errors import ConfigError, CoreError
 from foresight.core.runtime.refs import BUILTIN_BUNDLE
+from foresight.schemas import JobPublic
 
 #: the ``--executor`` flag of every stage command that runs episodes
 EXECUTOR_HELP = (
@@ -101,16 +102,23 @@ def bundle_names(bundle: str | None, files: dict[str, str | None]) -> tuple[str,
 
 def server_default_model(client: Client) -> str:
     """The server's default predictor id, by the server's own rule (store.shipped.default_model)."""
+    from foresight.schemas import ModelsPublic
     from foresight.store.shipped import default_model
 
-    entry = default_model(client.get("/v1/models")["data"])
+    entry = default_model(client.fetch(ModelsPublic, "/v1/models").data)
     if entry is None:
         raise ConfigError(
             "the server has no default predictor: pass --model ID or cv",
             source="command line",
             item="--model",
         )
-    return str(entry["id"])
+    return entry.id
+
+
+class _Exit(BaseModel):
+    """The one field every stage's result has: the command's exit code (0 without one)."""
+
+    exit_code: int = 0
 
 
 class JobRef(str):
@@ -147,29 +155,28 @@ def submit(args: argparse.Namespace, spec_obj: BaseModel, *, text: Callable[[Any
 
         body.update(labels_body(args))
     try:
-        job = client.post("/v1/jobs", json=body)
+        job = client.fetch(JobPublic, "/v1/jobs", method="POST", json=body)
     except ServerUnreachable as exc:
         raise CoreError(f"{exc}; start one with `foresight up`, or run in-process with --local") from None
     if args.no_wait:
-        print(json.dumps(job, indent=2) if args.json else job["id"])
+        print(dump(job) if args.json else job.id)
         return 0
     if not args.json:
-        print(f"{kind} job {job['id']} submitted to {client.http.base_url}", file=sys.stderr)
-    job = watch(client, job["id"], quiet=args.json)
+        print(f"{kind} job {job.id} submitted to {client.http.base_url}", file=sys.stderr)
+    job = watch(client, job.id, quiet=args.json)
     if args.json:
-        print(json.dumps(job, indent=2))
-    if job["status"] != "succeeded":
-        err = job.get("error") or {}
-        detail = f": {err.get('type')}: {err.get('message')}" if err else ""
-        raise CoreError(f"{kind} job {job['id']} {job['status']}{detail}")
-    raw: dict[str, Any] = job.get("result") or {}
+        print(dump(job))
+    if job.status != "succeeded":
+        detail = f": {job.error.type}: {job.error.message}" if job.error else ""
+        raise CoreError(f"{kind} job {job.id} {job.status}{detail}")
+    raw: dict[str, Any] = job.result or {}
     try:
         result = result_model.model_validate(raw) if result_model is not None else raw
     except ValidationError:  # a server of another version: report the raw summary rather than fail
         if not args.json:
             print(json.dumps(raw, indent=2))
-        return int(raw.get("exit_code", 0))
-    ref = JobRef(job["id"], str(client.http.base_url).rstrip("/"))
+        return _Exit.model_validate(raw).exit_code
+    ref = JobRef(job.id, client.base_url)
     if after is not None:
         result = after(result, ref, client)
     if not args.json:

@@ -5,6 +5,10 @@ from __future__ import annotations
 
 from typing import Any
 
+from pydantic import ValidationError
+
+from foresight.schemas import JobPublic
+
 MAX_ARTIFACTS = 12  #: artifact names listed before "... and N more"
 SKIP = {"exit_code", "code_version"}  #: result fields the summary leaves to --json
 
@@ -22,34 +26,39 @@ def headline(result: dict[str, Any]) -> list[str]:
     lines = []
     for i in range(0, len(scalars), 4):
         lines.append("  " + ", ".join(scalars[i : i + 4]))
-    gate = result.get("gate")
-    if isinstance(gate, dict):
-        for check in gate.get("checks") or []:
-            if not check.get("passed", True):
-                value, threshold = check.get("value"), check.get("threshold")
-                lines.append(f"  gate {check.get('name')}: FAIL ({_value(value)} vs {_value(threshold)}) "
-                             f"{check.get('detail') or ''}".rstrip())  # fmt: skip
+    if "gate" not in result:  # the results with a gate (evaluate, campaign) load the evaluation stack
+        return lines
+    from foresight.core.evaluation.gates import GateResult
+
+    try:
+        gate = GateResult.model_validate(result["gate"]) if result["gate"] is not None else None
+    except ValidationError:  # a "gate" of another shape: the scalars say enough, --json has all
+        gate = None
+    for check in gate.checks if gate is not None else ():
+        if not check.passed:
+            lines.append(f"  gate {check.name}: FAIL ({_value(check.value)} vs {_value(check.threshold)}) "
+                         f"{check.detail}".rstrip())  # fmt: skip
     return lines
 
 
-def job_summary(job: dict[str, Any], base_url: str) -> str:
+def job_summary(job: JobPublic, base_url: str) -> str:
     """Status line, error or verdict, headline, artifacts and the report's places, in that order."""
-    out = [f"{job['kind']} job {job['id']}: {job['status']}"
-           + (f", verdict {job['verdict']}" if job.get("verdict") else "")
-           + (f"  {job['name']!r}" if job.get("name") else "")]  # fmt: skip
-    if job.get("note"):
-        out.append(f"note: {job['note']}")
-    if job.get("error"):
-        out.append(f"error: {job['error'].get('type')}: {job['error'].get('message')}")
-    if isinstance(job.get("result"), dict):
-        out += headline(job["result"])
-    names = [a["name"] for a in job.get("artifacts") or []]
+    out = [f"{job.kind} job {job.id}: {job.status}"
+           + (f", verdict {job.verdict}" if job.verdict else "")
+           + (f"  {job.name!r}" if job.name else "")]  # fmt: skip
+    if job.note:
+        out.append(f"note: {job.note}")
+    if job.error:
+        out.append(f"error: {job.error.type}: {job.error.message}")
+    if job.result is not None:
+        out += headline(job.result)
+    names = [a.name for a in job.artifacts or []]
     if names:
         more = f" ... and {len(names) - MAX_ARTIFACTS} more" if len(names) > MAX_ARTIFACTS else ""
         out.append(f"artifacts ({len(names)}): {', '.join(names[:MAX_ARTIFACTS])}{more}")
-    children = job.get("children") or []
+    children = job.children or []
     if children:
         out.append(f"children ({len(children)}): " + ", ".join(c[:12] for c in children))
-    out.append(f"page: {base_url}/ui/jobs/{job['id']}" + ("  report: `foresight report " + job["id"][:12] + "`"
-                                                           if "report.md" in names else ""))  # fmt: skip
+    out.append(f"page: {base_url}/ui/jobs/{job.id}" + ("  report: `foresight report " + job.id[:12] + "`"
+                                                       if "report.md" in names else ""))  # fmt: skip
     return "\n".join(out)

@@ -8,8 +8,9 @@ from fastapi import APIRouter, Query, Request, Response, status
 
 from foresight.api.deps import EngineDep, ResolverDep, SettingsDep, WriteAuth
 from foresight.api.errors import AUTH, responses
-from foresight.api.schemas import BundlePublic, BundlesPublic, Ident, ScenarioPublic
+from foresight.api.schemas import Ident
 from foresight.core.errors import ConfigError
+from foresight.schemas import BundlePublic, BundlesPublic, ScenarioPublic
 from foresight.store import bundles, queue, registry
 from foresight.store.models import Bundle
 from foresight.store.registry import MAX_BUNDLE_BYTES

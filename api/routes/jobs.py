@@ -17,18 +17,9 @@ from foresight.api import admission
 from foresight.api.bodies import BoundedJsonRoute
 from foresight.api.deps import EngineDep, ResolverDep, SettingsDep, WriteAuth
 from foresight.api.errors import AUTH, responses
-from foresight.api.schemas import (
-    MAX_TAGS,
-    Ident,
-    JobCreate,
-    JobPublic,
-    JobsPublic,
-    JobUpdate,
-    KindPublic,
-    Tag,
-    job_public,
-)
+from foresight.api.schemas import MAX_TAGS, Ident, JobCreate, JobUpdate, Tag, job_public
 from foresight.core.jobs.kinds import KINDS
+from foresight.schemas import JobPublic, JobsPublic, KindPublic
 from foresight.store import folders, job_files, job_reads, labels, queue, space
 from foresight.store.models import JobStatus
 

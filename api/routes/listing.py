@@ -9,15 +9,12 @@ from fastapi import APIRouter, Query
 
 from foresight.api.deps import EngineDep
 from foresight.api.errors import responses
-from foresight.api.schemas import (
-    MAX_TAGS,
+from foresight.api.schemas import MAX_TAGS, Ident, Tag, iso
+from foresight.result_schemas import (
     CampaignsPublic,
     CampaignSummaryPublic,
     EvaluationsPublic,
     EvaluationSummaryPublic,
-    Ident,
-    Tag,
-    iso,
 )
 from foresight.store import listing
 

@@ -11,8 +11,9 @@ from foresight.api.bodies import SmallJsonRoute
 from foresight.api.deps import EngineDep, SettingsDep, WriteAuth
 from foresight.api.errors import AUTH, responses
 from foresight.api.routes.bundles import ARCHIVE_BODY
-from foresight.api.schemas import Ident, ModelCreate, ModelPromote, ModelPublic, ModelsPublic
+from foresight.api.schemas import Ident, ModelCreate, ModelPromote
 from foresight.core.errors import ConfigError
+from foresight.schemas import ModelPublic, ModelsPublic
 from foresight.store import job_reads, registry
 from foresight.store.models import ModelStatus
 

@@ -8,8 +8,9 @@ from fastapi import APIRouter, Request
 from fastapi.responses import PlainTextResponse
 
 from foresight.api.deps import EngineDep, SettingsDep
-from foresight.api.schemas import DiskPublic, Health, WorkerPublic, WorkersPublic, iso
+from foresight.api.schemas import iso
 from foresight.core.jobs.kinds import KINDS
+from foresight.schemas import DiskPublic, Health, WorkerPublic, WorkersPublic
 from foresight.store import job_reads, space
 
 router = APIRouter(tags=["operations"])  #: always open (liveness probes carry no token)

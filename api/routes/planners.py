@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from fastapi import APIRouter
 
-from foresight.api.schemas import PlannerPublic, PlannersPublic, PredictorPublic, PredictorsPublic
 from foresight.core.planners.external import operator_commands
 from foresight.core.planners.registry import catalogue
+from foresight.schemas import PlannerPublic, PlannersPublic, PredictorPublic, PredictorsPublic
 
 router = APIRouter(prefix="/planners", tags=["planners"])
 

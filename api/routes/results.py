@@ -8,15 +8,10 @@ from fastapi import APIRouter, Query, Response
 
 from foresight.api.deps import EngineDep, SettingsDep
 from foresight.api.errors import responses
-from foresight.api.schemas import (
-    CampaignPublic,
-    DatasetPublic,
-    EpisodePublic,
-    EvaluationPublic,
-    Ident,
-    Rank,
-)
+from foresight.api.schemas import Ident, Rank
 from foresight.core.runtime.refs import Seed
+from foresight.result_schemas import CampaignPublic, EpisodePublic, EvaluationPublic
+from foresight.schemas import DatasetPublic
 from foresight.store import job_reads, queue, results
 
 router = APIRouter(tags=["results"])

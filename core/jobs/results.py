@@ -5,7 +5,7 @@ result models from here; the runbook, which the kind table imports, reads them h
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
@@ -17,6 +17,7 @@ from foresight.core.evaluation.witness_job import WitnessResult
 from foresight.core.jobs.simulate import SimulateResult
 from foresight.core.reports.pipeline_summary import PipelineResult
 from foresight.core.runtime.execution import Execution
+from foresight.core.runtime.verdict import Verdict
 from foresight.core.training.collect import CollectResult
 from foresight.core.training.config import TrainResult
 from foresight.core.training.predict_eval import PredictEvalResult
@@ -52,10 +53,6 @@ def typed_result(kind: str, data: Any) -> BaseModel | None:
         return read_result(kind, data)
     except ValidationError:
         return None
-
-
-#: a finished job's quality verdict: its gates passed, a gate failed, or the integrity checks failed
-Verdict = Literal["passed", "failed_gate", "failed_integrity"]
 
 
 def verdict(kind: str, data: Any) -> Verdict | None:

@@ -183,6 +183,20 @@ def test_no_import_cycle_between_packages() -> None:
     assert _cycles(_package_graph()) == []
 
 
+def test_the_cli_reads_answers_through_models_that_need_no_server() -> None:
+    """The CLI's install has no web framework and no database: the response models (``foresight/schemas.py``,
+    ``foresight/result_schemas.py``) import neither, nor our service packages; of the CLI only the commands that
+    start the service (``cli/server.py``: serve, worker, up) import the API or the worker."""
+    for name in ("schemas.py", "result_schemas.py"):
+        assert _imports(REPO / "foresight" / name) & SERVICE_ONLY == set(), name
+    offenders = [
+        p.name
+        for p in (REPO / "cli").glob("*.py")
+        if p.name != "server.py" and _imports(p) & {"api", "worker"}
+    ]
+    assert offenders == []
+
+
 def test_api_and_worker_never_import_each_other() -> None:
     packages = _package_graph()
     assert "worker" not in packages["api"] and "api" not in packages["worker"]
