@@ -67,7 +67,20 @@ def api(
     job, _ = queue.submit(app.state.engine, kind="sleep", spec={"kind": "sleep"})
     queue.request_cancel(app.state.engine, job["id"])  # finished: its event stream ends
     known = {"job_id": job["id"], "model_id": "predictor-sim-default", "bundle_id": "builtin"}
+    app.state.engine.dispose()  # the data folder as it is now: what every stateful sequence starts from
+    shutil.copytree(tmp / "data", tmp / "start")
+    app.state.start = tmp / "start"
     return schemathesis.openapi.from_asgi("/openapi.json", app), known
+
+
+def _restart(app) -> None:  # noqa: ANN001
+    """Put the app's data folder back as the fixture left it (database file and store), so a sequence's
+    responses depend on its own calls only: Hypothesis replays a sequence's prefix and needs the same answers
+    (links fill its bundles), which a store that earlier sequences wrote into does not give."""
+    app.state.engine.dispose()
+    data = app.state.start.parent / "data"
+    shutil.rmtree(data)
+    shutil.copytree(app.state.start, data)
 
 
 SETTINGS = settings(
@@ -163,6 +176,9 @@ def test_stateful_sequences_conform(api: tuple) -> None:
     called = set()
 
     class Workflow(schema.as_state_machine()):
+        def setup(self) -> None:
+            _restart(schema.app)
+
         def after_call(self, response, case: schemathesis.Case) -> None:  # noqa: ANN001
             called.add(case.operation.label)
 
