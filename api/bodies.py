@@ -63,12 +63,14 @@ class BoundedJsonRoute(APIRoute):
             if request.method in ("POST", "PUT", "PATCH"):
                 declared = request.headers.get("content-length", "")
                 if declared.isdigit() and int(declared) > self.max_body:  # refused before it is read
-                    raise HTTPException(status.HTTP_413_CONTENT_TOO_LARGE,
-                                        f"request body over {self.max_body} bytes")  # fmt: skip
+                    raise HTTPException(
+                        status.HTTP_413_CONTENT_TOO_LARGE, f"request body over {self.max_body} bytes"
+                    )
                 body = await request.body()
                 if len(body) > self.max_body:
-                    raise HTTPException(status.HTTP_413_CONTENT_TOO_LARGE,
-                                        f"request body over {self.max_body} bytes")  # fmt: skip
+                    raise HTTPException(
+                        status.HTTP_413_CONTENT_TOO_LARGE, f"request body over {self.max_body} bytes"
+                    )
                 errors = body_errors(body)
                 if errors:
                     raise RequestValidationError(errors)
@@ -103,8 +105,13 @@ class QueryTextMiddleware:
             query = scope.get("query_string", b"").decode("latin-1")
             for name, value in parse_qsl(query, keep_blank_values=True):
                 if "\x00" in name or "\x00" in value:
-                    errors.append({"loc": ["query", name.replace("\x00", "\\x00")],
-                                   "msg": "the value holds a NUL character", "type": "value_error"})  # fmt: skip
+                    errors.append(
+                        {
+                            "loc": ["query", name.replace("\x00", "\\x00")],
+                            "msg": "the value holds a NUL character",
+                            "type": "value_error",
+                        }
+                    )
             if errors:
                 from fastapi.responses import JSONResponse
 

@@ -34,9 +34,10 @@ async def get_resolver(request: Request) -> Resolver:
 def _check_token(request: Request, credentials: HTTPAuthorizationCredentials | None) -> None:
     if credentials is None:
         raise HTTPException(
-            status.HTTP_401_UNAUTHORIZED, "missing bearer token (Authorization: Bearer <FORESIGHT_API_TOKEN>)",
+            status.HTTP_401_UNAUTHORIZED,
+            "missing bearer token (Authorization: Bearer <FORESIGHT_API_TOKEN>)",
             headers={"WWW-Authenticate": "Bearer"},
-        )  # fmt: skip
+        )
     if not secrets.compare_digest(credentials.credentials.encode(), request.app.state.token.encode()):
         raise HTTPException(status.HTTP_403_FORBIDDEN, "invalid bearer token")
 
@@ -90,14 +91,30 @@ async def known_query(request: Request) -> None:
     unknown = sorted(set(query) - known)
     if unknown:
         expected = ", ".join(sorted(known)) or "none"
-        raise RequestValidationError([{"loc": ("query", name), "type": "extra_forbidden", "input": query[name],
-                                       "msg": f"unknown query parameter {name!r} (this endpoint takes: {expected})"}
-                                      for name in unknown])  # fmt: skip
+        raise RequestValidationError(
+            [
+                {
+                    "loc": ("query", name),
+                    "type": "extra_forbidden",
+                    "input": query[name],
+                    "msg": f"unknown query parameter {name!r} (this endpoint takes: {expected})",
+                }
+                for name in unknown
+            ]
+        )
     repeated = sorted(name for name in single & set(query) if len(query.getlist(name)) > 1)
     if repeated:
-        raise RequestValidationError([{"loc": ("query", name), "type": "too_long", "input": query.getlist(name),
-                                       "msg": f"query parameter {name!r} takes one value, got {len(query.getlist(name))}"}
-                                      for name in repeated])  # fmt: skip
+        raise RequestValidationError(
+            [
+                {
+                    "loc": ("query", name),
+                    "type": "too_long",
+                    "input": query.getlist(name),
+                    "msg": f"query parameter {name!r} takes one value, got {len(query.getlist(name))}",
+                }
+                for name in repeated
+            ]
+        )
 
 
 SettingsDep = Annotated[Settings, Depends(get_settings)]

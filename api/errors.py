@@ -108,8 +108,11 @@ def private_paths(settings: Any) -> Callable[[str], str]:
     ``<store>`` (a file error on a bundle's YAML names the file a client asked for, not where it lives)."""
     from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
 
-    folders = [(f"{BUILTIN_CONFIG_ROOT}/", ""), (str(settings.store_root.resolve()), "<store>"),
-               (str(settings.data_dir.resolve()), "<data>")]  # fmt: skip
+    folders = [
+        (f"{BUILTIN_CONFIG_ROOT}/", ""),
+        (str(settings.store_root.resolve()), "<store>"),
+        (str(settings.data_dir.resolve()), "<data>"),
+    ]
 
     def hide(text: str) -> str:
         for folder, name in folders:

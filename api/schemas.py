@@ -129,15 +129,32 @@ def job_public(
             for a in artifacts
         ]
     return JobPublic(
-        id=row["id"], kind=row["kind"], status=row["status"], spec=row["spec"], priority=row["priority"],
-        attempts=row["attempts"], max_attempts=row["max_attempts"], timeout_s=row["timeout_s"],
-        idempotency_key=row["idempotency_key"], parent_id=row["parent_id"], cancel_requested=row["cancel_requested"],
-        name=row.get("name"), tags=row.get("tags") or [], note=row.get("note") or "",
-        progress=row["progress"], message=row["message"], error=error, result=row["result"],
+        id=row["id"],
+        kind=row["kind"],
+        status=row["status"],
+        spec=row["spec"],
+        priority=row["priority"],
+        attempts=row["attempts"],
+        max_attempts=row["max_attempts"],
+        timeout_s=row["timeout_s"],
+        idempotency_key=row["idempotency_key"],
+        parent_id=row["parent_id"],
+        cancel_requested=row["cancel_requested"],
+        name=row.get("name"),
+        tags=row.get("tags") or [],
+        note=row.get("note") or "",
+        progress=row["progress"],
+        message=row["message"],
+        error=error,
+        result=row["result"],
         verdict=verdict(row["kind"], row["result"]) if row["status"] == "succeeded" else None,
-        worker=row["lease_owner"], created_at=iso(row["created_at"]), started_at=iso(row["started_at"]),
-        finished_at=iso(row["finished_at"]), artifacts=arts, children=children,
-    )  # fmt: skip
+        worker=row["lease_owner"],
+        created_at=iso(row["created_at"]),
+        started_at=iso(row["started_at"]),
+        finished_at=iso(row["finished_at"]),
+        artifacts=arts,
+        children=children,
+    )
 
 
 # Models

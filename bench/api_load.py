@@ -132,10 +132,18 @@ def _load(port: int, requests: list[bytes], clients: int, duration: float, serve
     latencies.sort()
     n = len(latencies)
     pct = lambda q: round(1000 * latencies[min(n - 1, int(q * n))], 2) if n else None  # noqa: E731
-    return {"requests": n, "seconds": round(elapsed, 2), "rps": round(n / elapsed, 1), "p50_ms": pct(0.50),
-            "p99_ms": pct(0.99), "errors": len(errors), "clients": clients,
-            "server_cpu_s": round(server_cpu, 2), "generator_cpu_s": round(own_cpu, 2),
-            "server_cpu_ms_per_request": round(1000 * server_cpu / n, 3) if n else None}  # fmt: skip
+    return {
+        "requests": n,
+        "seconds": round(elapsed, 2),
+        "rps": round(n / elapsed, 1),
+        "p50_ms": pct(0.50),
+        "p99_ms": pct(0.99),
+        "errors": len(errors),
+        "clients": clients,
+        "server_cpu_s": round(server_cpu, 2),
+        "generator_cpu_s": round(own_cpu, 2),
+        "server_cpu_ms_per_request": round(1000 * server_cpu / n, 3) if n else None,
+    }
 
 
 def _get(path: str) -> bytes:
@@ -144,8 +152,10 @@ def _get(path: str) -> bytes:
 
 def _post(path: str, body: dict) -> bytes:
     data = json.dumps(body).encode()
-    head = (f"POST {path} HTTP/1.1\r\nHost: bench\r\nAuthorization: Bearer {TOKEN}\r\n"
-            f"Content-Type: application/json\r\nContent-Length: {len(data)}\r\n\r\n")  # fmt: skip
+    head = (
+        f"POST {path} HTTP/1.1\r\nHost: bench\r\nAuthorization: Bearer {TOKEN}\r\n"
+        f"Content-Type: application/json\r\nContent-Length: {len(data)}\r\n\r\n"
+    )
     return head.encode() + data
 
 
@@ -174,8 +184,16 @@ def bench_http(
     with tempfile.TemporaryDirectory(prefix="foresight-bench-") as tmp:
         env = _env(Path(tmp), database_url)
         port = _free_port()
-        server = _cli(env, "up", "--port", str(port), "--workers", str(server_workers),
-                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)  # fmt: skip
+        server = _cli(
+            env,
+            "up",
+            "--port",
+            str(port),
+            "--workers",
+            str(server_workers),
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
         try:
             _wait_healthy(port)
             with httpx.Client(
@@ -190,8 +208,9 @@ def bench_http(
             if "status_reads_busy" in phases:
                 out["status_reads_busy"] = _load_while_busy(port, ids, clients, duration, server.pid)
             if "submissions" in phases:
-                out["submissions"] = _load(port, [_post("/v1/jobs", {"spec": {"kind": "sleep"}})], clients, duration,
-                                           server.pid)  # fmt: skip
+                out["submissions"] = _load(
+                    port, [_post("/v1/jobs", {"spec": {"kind": "sleep"}})], clients, duration, server.pid
+                )
         finally:
             server.send_signal(signal.SIGTERM)
             try:
@@ -235,9 +254,22 @@ def bench_claims(database_url: str | None, jobs: int, workers: int) -> dict:
                 conn.execute(queue.artifacts.delete())
                 conn.execute(queue.jobs.delete())
         now = time.time()
-        rows = [dict(id=queue.new_id(), kind="sleep", spec={"kind": "sleep"}, status="queued", priority=0, attempts=0,
-                     max_attempts=3, cancel_requested=False, progress=0.0, message="", created_at=now + i * 1e-6)
-                for i in range(jobs)]  # fmt: skip
+        rows = [
+            dict(
+                id=queue.new_id(),
+                kind="sleep",
+                spec={"kind": "sleep"},
+                status="queued",
+                priority=0,
+                attempts=0,
+                max_attempts=3,
+                cancel_requested=False,
+                progress=0.0,
+                message="",
+                created_at=now + i * 1e-6,
+            )
+            for i in range(jobs)
+        ]
         with write_tx(engine) as conn:
             conn.execute(insert(queue.jobs), rows)
         procs = [
@@ -267,10 +299,16 @@ def bench_claims(database_url: str | None, jobs: int, workers: int) -> dict:
                 p.wait(timeout=30)
             engine.dispose()
     span = (last or 0) - (first or 0)
-    return {"jobs": jobs, "done": done, "workers": workers, "workers_used": owners, "seconds": round(span, 2),
-            "jobs_per_s": round(done / span, 1) if span > 0 else None,
-            "database": "postgresql" if database_url else "sqlite",
-            "workers_cpu_s_incl_startup": round(cpu, 2)}  # fmt: skip
+    return {
+        "jobs": jobs,
+        "done": done,
+        "workers": workers,
+        "workers_used": owners,
+        "seconds": round(span, 2),
+        "jobs_per_s": round(done / span, 1) if span > 0 else None,
+        "database": "postgresql" if database_url else "sqlite",
+        "workers_cpu_s_incl_startup": round(cpu, 2),
+    }
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -282,9 +320,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--claim-workers", type=int, default=2)
     parser.add_argument("--server-workers", type=int, default=1, help="`foresight up --workers`")
     parser.add_argument("--database-url", help="benchmark this database instead of a temporary SQLite file")
-    parser.add_argument("--phases", default="status_reads,submissions,claims",
-                        help="comma-separated subset of status_reads, status_reads_busy, submissions, claims "
-                             "(default: status_reads, submissions, claims)")  # fmt: skip
+    parser.add_argument(
+        "--phases",
+        default="status_reads,submissions,claims",
+        help="comma-separated subset of status_reads, status_reads_busy, submissions, claims "
+        "(default: status_reads, submissions, claims)",
+    )
     args = parser.parse_args(argv)
     phases = tuple(p.strip() for p in args.phases.split(","))
     unknown = set(phases) - set(TARGETS)
@@ -313,9 +354,11 @@ def main(argv: list[str] | None = None) -> int:
         )
 
     result["meets_targets"] = {
-        p: (result[p]["jobs_per_s"] or 0) >= TARGETS[p]["min_jobs_per_s"] if p == "claims" else http_ok(result[p], TARGETS[p])
+        p: (result[p]["jobs_per_s"] or 0) >= TARGETS[p]["min_jobs_per_s"]
+        if p == "claims"
+        else http_ok(result[p], TARGETS[p])
         for p in phases
-    }  # fmt: skip
+    }
     if args.json:
         print(json.dumps(result, indent=2))
         return 0

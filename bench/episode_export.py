@@ -23,10 +23,30 @@ TARGET_S = 10.0
 
 def synthetic_run(folder: Path, episodes: int) -> Path:
     """A run folder whose episodes.jsonl holds ``episodes`` records, grown from a small real evaluation."""
-    subprocess.run([sys.executable, "-m", "foresight.cli.main", "evaluate", "--local", "--planner", "social_force",
-                    "--matrix", "configs/scenarios/classic_interactions.yaml", "--seeds-per-scenario", "1",
-                    "--max-steps", "60", "--out", str(folder), "--json"], cwd=REPO, check=False,
-                   capture_output=True, timeout=600)  # fmt: skip
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "foresight.cli.main",
+            "evaluate",
+            "--local",
+            "--planner",
+            "social_force",
+            "--matrix",
+            "configs/scenarios/classic_interactions.yaml",
+            "--seeds-per-scenario",
+            "1",
+            "--max-steps",
+            "60",
+            "--out",
+            str(folder),
+            "--json",
+        ],
+        cwd=REPO,
+        check=False,
+        capture_output=True,
+        timeout=600,
+    )
     lines = (folder / "episodes.jsonl").read_text().splitlines()
     base = [json.loads(line) for line in lines if line.strip()]
     with (folder / "episodes.jsonl").open("w") as fh:

@@ -97,8 +97,20 @@ def core_readers() -> dict:
 
 # ------------------------------------------------------------------------------------------------- the service
 CAMPAIGN = {"kind": "campaign", "seed_manifest": "seeds/classic_eval_hard_smoke.yaml"}
-LISTS = ["/v1/jobs", "/v1/models", "/v1/evaluations", "/v1/campaigns", "/v1/datasets", "/v1/bundles", "/v1/workers",
-         "/v1/models/export", "/ui/jobs", "/ui/models", "/ui/results", "/ui/bundles"]  # fmt: skip
+LISTS = [
+    "/v1/jobs",
+    "/v1/models",
+    "/v1/evaluations",
+    "/v1/campaigns",
+    "/v1/datasets",
+    "/v1/bundles",
+    "/v1/workers",
+    "/v1/models/export",
+    "/ui/jobs",
+    "/ui/models",
+    "/ui/results",
+    "/ui/bundles",
+]
 COUNTED = ("/v1/jobs", "/v1/models", "/v1/bundles")  #: lists whose ``count`` a refused request must not raise
 
 
@@ -124,8 +136,10 @@ def _requests(job_id: str) -> dict[str, list[tuple[str, str, dict]]]:
     """(method, path, httpx keyword arguments) per class; ``job_id`` is a finished job holding a checkpoint."""
     big, long = str(2**64), "n" * 300 + ".yaml"
     model = {"job_id": job_id, "artifact": "model.pt"}
-    spec_variant = '{"spec": {"kind": "campaign", "seed_manifest": "seeds/classic_eval_hard_smoke.yaml", ' \
-                   '"variants": [{"name": "v", "params": {"a": VALUE}}]}}'  # fmt: skip
+    spec_variant = (
+        '{"spec": {"kind": "campaign", "seed_manifest": "seeds/classic_eval_hard_smoke.yaml", '
+        '"variants": [{"name": "v", "params": {"a": VALUE}}]}}'
+    )
     return {
         "lone_surrogates": [
             ("POST", "/v1/jobs", _raw(spec_variant.replace("VALUE", '"\\ud800"'))),
@@ -134,52 +148,125 @@ def _requests(job_id: str) -> dict[str, list[tuple[str, str, dict]]]:
             ("POST", "/v1/jobs", _raw('{"spec": {"kind": "\\ud800"}}')),
             ("PATCH", f"/v1/jobs/{job_id}", _raw('{"note": "\\ud800"}')),
         ],
-        "nul": [("GET", path, {"params": {name: "a\x00b"}}) for path, name in [
-            ("/v1/jobs", "name"), ("/v1/jobs", "q"), ("/v1/evaluations", "planner"), ("/v1/evaluations", "matrix"),
-            ("/v1/campaigns", "model"), ("/ui/jobs", "q")]]
-        + [("POST", "/v1/models", {"json": {"id": "m-nul", **model, "provenance": "a\x00b"}}),
-           ("POST", "/v1/jobs", {"json": {"spec": {"kind": "sleep"}, "note": "a\x00b"}})],
+        "nul": [
+            ("GET", path, {"params": {name: "a\x00b"}})
+            for path, name in [
+                ("/v1/jobs", "name"),
+                ("/v1/jobs", "q"),
+                ("/v1/evaluations", "planner"),
+                ("/v1/evaluations", "matrix"),
+                ("/v1/campaigns", "model"),
+                ("/ui/jobs", "q"),
+            ]
+        ]
+        + [
+            ("POST", "/v1/models", {"json": {"id": "m-nul", **model, "provenance": "a\x00b"}}),
+            ("POST", "/v1/jobs", {"json": {"spec": {"kind": "sleep"}, "note": "a\x00b"}}),
+        ],
         "integers_beyond_64_bits": [
             ("GET", "/v1/compare", {"params": {"a": job_id, "b": f"{job_id}:99999999999999999999"}}),
-            ("GET", f"/ui/campaigns/{job_id}/cells/{big}", {}), ("GET", "/ui/jobs", {"params": {"offset": big}}),
+            ("GET", f"/ui/campaigns/{job_id}/cells/{big}", {}),
+            ("GET", "/ui/jobs", {"params": {"offset": big}}),
             ("GET", f"/v1/evaluations/{job_id}/episodes/s/{big}", {}),
             ("POST", "/v1/jobs", _raw('{"spec": {"kind": "sleep"}, "priority": ' + big + "}")),
             ("POST", "/v1/jobs", _raw('{"spec": {"kind": "collect", "base_seed": ' + big + "}}")),
             ("POST", "/v1/models", _model(job_id, "m-big", '"metrics": {"n": ' + big + "}")),
         ],
-        "names_over_255_bytes": [("POST", "/v1/jobs", {"json": {"spec": spec}}) for spec in (
-            {**CAMPAIGN, "seed_manifest": long, "variants": []}, {**CAMPAIGN, "grid": long},
-            {**CAMPAIGN, "matrix": long, "variants": []}, {"kind": "collect", "hard_seeds": long},
-            {"kind": "evaluate", "seed_manifest": f"x/{long}"})]
-        + [("POST", "/v1/bundles", {"params": {"name": "longname"}, "content": _zip({f"maps/{long}": "a: 1\n"})})],
+        "names_over_255_bytes": [
+            ("POST", "/v1/jobs", {"json": {"spec": spec}})
+            for spec in (
+                {**CAMPAIGN, "seed_manifest": long, "variants": []},
+                {**CAMPAIGN, "grid": long},
+                {**CAMPAIGN, "matrix": long, "variants": []},
+                {"kind": "collect", "hard_seeds": long},
+                {"kind": "evaluate", "seed_manifest": f"x/{long}"},
+            )
+        ]
+        + [
+            (
+                "POST",
+                "/v1/bundles",
+                {"params": {"name": "longname"}, "content": _zip({f"maps/{long}": "a: 1\n"})},
+            )
+        ],
         "nan_infinity": [
             ("POST", "/v1/models", _model(job_id, "m-nan", '"metrics": {"x": NaN}')),
             ("POST", "/v1/models", _model(job_id, "m-inf", '"training": {"x": Infinity}')),
             ("POST", "/v1/jobs", _raw(spec_variant.replace("VALUE", "NaN"))),
             ("POST", "/v1/jobs", _raw('{"spec": {"kind": "sleep"}, "timeout_s": Infinity}')),
         ],
-        "deep_nesting": [("POST", "/v1/jobs", _raw('{"spec": {"kind": "sleep", "x": ' + "[" * depth + "]" * depth + "}}"))
-                         for depth in (100, 5_000, 100_000)],
-        "reserved_model_ids": [("POST", "/v1/models", {"json": {"id": i, **model}}) for i in ("default", "cv", "none", "Default")],
+        "deep_nesting": [
+            ("POST", "/v1/jobs", _raw('{"spec": {"kind": "sleep", "x": ' + "[" * depth + "]" * depth + "}}"))
+            for depth in (100, 5_000, 100_000)
+        ],
+        "reserved_model_ids": [
+            ("POST", "/v1/models", {"json": {"id": i, **model}}) for i in ("default", "cv", "none", "Default")
+        ],
         "registration_bounds": [
-            ("POST", "/v1/models", {"json": {"id": "m-huge", **model, "metrics": {f"k{i}": "x" * 1000 for i in range(10_000)}}}),
-            ("POST", "/v1/models", {"json": {"id": "m-tb", **model, "time_base": {"dt": -1, "history": 10**9, "horizon": 1}}}),
+            (
+                "POST",
+                "/v1/models",
+                {"json": {"id": "m-huge", **model, "metrics": {f"k{i}": "x" * 1000 for i in range(10_000)}}},
+            ),
+            (
+                "POST",
+                "/v1/models",
+                {"json": {"id": "m-tb", **model, "time_base": {"dt": -1, "history": 10**9, "horizon": 1}}},
+            ),
         ],
         "submission_checks": [
-            ("POST", "/v1/jobs", {"json": {"spec": {**CAMPAIGN, "variants": [{"name": "v", "params": {"zzz": 1}}]}}}),
-            ("POST", "/v1/jobs", {"json": {"spec": {"kind": "collect", "evaluation_seeds": "seeds/missing.yaml"}}}),
+            (
+                "POST",
+                "/v1/jobs",
+                {"json": {"spec": {**CAMPAIGN, "variants": [{"name": "v", "params": {"zzz": 1}}]}}},
+            ),
+            (
+                "POST",
+                "/v1/jobs",
+                {"json": {"spec": {"kind": "collect", "evaluation_seeds": "seeds/missing.yaml"}}},
+            ),
         ],
         "yaml_bombs": [
-            ("POST", "/v1/bundles", {"params": {"name": "alias"}, "content": _zip({"scenarios/a.yaml": alias_bomb(7)})}),
-            ("POST", "/v1/bundles", {"params": {"name": "deep"}, "content": _zip({"scenarios/d.yaml": "a: " + "[" * 20_000 + "]" * 20_000})}),
-            ("POST", "/v1/bundles", {"params": {"name": "string"}, "content": _zip({"scenarios/s.yaml": 'a: "' + "x" * 49_000_000 + '"'})}),
-            ("POST", "/v1/bundles", {"params": {"name": "clash"}, "content": _zip({"maps/c.yaml": "a: 1\n", "maps/c.yaml/d.yaml": "a: 1\n"})}),
+            (
+                "POST",
+                "/v1/bundles",
+                {"params": {"name": "alias"}, "content": _zip({"scenarios/a.yaml": alias_bomb(7)})},
+            ),
+            (
+                "POST",
+                "/v1/bundles",
+                {
+                    "params": {"name": "deep"},
+                    "content": _zip({"scenarios/d.yaml": "a: " + "[" * 20_000 + "]" * 20_000}),
+                },
+            ),
+            (
+                "POST",
+                "/v1/bundles",
+                {
+                    "params": {"name": "string"},
+                    "content": _zip({"scenarios/s.yaml": 'a: "' + "x" * 49_000_000 + '"'}),
+                },
+            ),
+            (
+                "POST",
+                "/v1/bundles",
+                {
+                    "params": {"name": "clash"},
+                    "content": _zip({"maps/c.yaml": "a: 1\n", "maps/c.yaml/d.yaml": "a: 1\n"}),
+                },
+            ),
         ],
-        "hostile_archives": [("POST", "/v1/bundles", {"params": {"name": f"h{i}"}, "content": data})
-                             for i, (data, _, _) in enumerate(hostile().values())],
-        "dashboard": [("GET", f"/ui/evaluations/{job_id}/episodes/crossing_low/1", {}),
-                      ("GET", "/ui/jobs", {"params": {"zzz": "1"}}), ("GET", "/ui/models", {"params": {"junk": "x"}})],
-    }  # fmt: skip
+        "hostile_archives": [
+            ("POST", "/v1/bundles", {"params": {"name": f"h{i}"}, "content": data})
+            for i, (data, _, _) in enumerate(hostile().values())
+        ],
+        "dashboard": [
+            ("GET", f"/ui/evaluations/{job_id}/episodes/crossing_low/1", {}),
+            ("GET", "/ui/jobs", {"params": {"zzz": "1"}}),
+            ("GET", "/ui/models", {"params": {"junk": "x"}}),
+        ],
+    }
 
 
 def _peak_rss(pid: int, *, reset: bool = False) -> int:
@@ -221,9 +308,14 @@ def _flat_yaml(http, pid: int, keys: int) -> dict:  # noqa: ANN001 - an httpx.Cl
     peak = _peak_rss(pid, reset=True)
     t0 = time.monotonic()
     r = http.post("/v1/bundles", params={"name": "flat"}, content=flat)
-    return {"yaml_bytes": len(text), "zipped_bytes": len(flat), "status": r.status_code, "message": r.text[:200],
-            "seconds": round(time.monotonic() - t0, 2),
-            "server_peak_rss_growth_mb": round((_peak_rss(pid) - peak) / 2**20, 1)}  # fmt: skip
+    return {
+        "yaml_bytes": len(text),
+        "zipped_bytes": len(flat),
+        "status": r.status_code,
+        "message": r.text[:200],
+        "seconds": round(time.monotonic() - t0, 2),
+        "server_peak_rss_growth_mb": round((_peak_rss(pid) - peak) / 2**20, 1),
+    }
 
 
 def _crowd_bomb(http) -> dict:  # noqa: ANN001 - an httpx.Client
@@ -236,20 +328,35 @@ def _crowd_bomb(http) -> dict:  # noqa: ANN001 - an httpx.Client
 
     buf = io.BytesIO()
     with tarfile.open(fileobj=buf, mode="w:gz") as tar:
-        for name, data in {"maps/long.yaml": LONG_ROUTE_MAP, "maps/plaza.yaml": PLAZA_MAP,
-                           "scenarios/m.yaml": MATRIX}.items():  # fmt: skip
+        for name, data in {
+            "maps/long.yaml": LONG_ROUTE_MAP,
+            "maps/plaza.yaml": PLAZA_MAP,
+            "scenarios/m.yaml": MATRIX,
+        }.items():
             info = tarfile.TarInfo(name)
             info.size = len(data)
             tar.addfile(info, io.BytesIO(data))
-    bundle = http.post("/v1/bundles", params={"name": "crowds"}, content=buf.getvalue(),
-                       headers={"Content-Type": "application/gzip"})  # fmt: skip
+    bundle = http.post(
+        "/v1/bundles",
+        params={"name": "crowds"},
+        content=buf.getvalue(),
+        headers={"Content-Type": "application/gzip"},
+    )
     on_bundle = {"bundle": "crowds", "matrix": "scenarios/m.yaml", "scenarios": ["bomb"]}
     specs = [
         {"kind": "evaluate", **on_bundle, "seeds_per_scenario": 1, "planner": {"name": "goal"}},
         {"kind": "simulate", **on_bundle},
-        {"kind": "evaluate", "scenarios": ["crossing_low"], "seeds_per_scenario": 1,
-         "planner": {"name": "predictive", "model": "cv", "config": {"sampling": {"speed_ratios": [0.5] * 100_000}}}},
-    ]  # fmt: skip
+        {
+            "kind": "evaluate",
+            "scenarios": ["crossing_low"],
+            "seeds_per_scenario": 1,
+            "planner": {
+                "name": "predictive",
+                "model": "cv",
+                "config": {"sampling": {"speed_ratios": [0.5] * 100_000}},
+            },
+        },
+    ]
     codes, seconds = [], []
     for spec in specs:
         took = []
@@ -259,8 +366,12 @@ def _crowd_bomb(http) -> dict:  # noqa: ANN001 - an httpx.Client
             took.append(time.monotonic() - t0)
         codes.append(r.status_code)
         seconds.append(round(min(took), 3))
-    return {"bundle_bytes": len(buf.getvalue()), "bundle_status": bundle.status_code, "status": codes,
-            "seconds": seconds}  # fmt: skip
+    return {
+        "bundle_bytes": len(buf.getvalue()),
+        "bundle_status": bundle.status_code,
+        "status": codes,
+        "seconds": seconds,
+    }
 
 
 def _broken_listings(http) -> list[str]:  # noqa: ANN001 - an httpx.Client
@@ -309,8 +420,13 @@ def run_service() -> dict:
                     codes[str(r.status_code)] = codes.get(str(r.status_code), 0) + 1
                     dropped += r.headers.get("connection") == "close"
                     accepted += r.status_code in (200, 201) and method == "POST"
-                out[name] = {"tried": len(requests), "status": codes, "5xx": sum(v for k, v in codes.items() if k >= "500"),
-                             "connections_dropped": dropped, "seconds": round(time.monotonic() - t0, 2)}  # fmt: skip
+                out[name] = {
+                    "tried": len(requests),
+                    "status": codes,
+                    "5xx": sum(v for k, v in codes.items() if k >= "500"),
+                    "connections_dropped": dropped,
+                    "seconds": round(time.monotonic() - t0, 2),
+                }
             after = {p: http.get(p).json()["count"] for p in COUNTED}
             broken = _broken_listings(http)
             flat, bomb = out["million_key_yaml_bundle"], out["crowd_size_bomb"]

@@ -60,8 +60,20 @@ def main() -> None:
         src = Path(tmp) / "big.ndjson"
         lines = write_trajnet(src, args.mb, args.track_frames)
         out = Path(tmp) / "big.npz"
-        cmd = [str(Path(sys.executable).with_name("foresight")), "dataset", "import", str(src), "--format", "trajnet",
-               "--frame-interval", "0.4", "--output", str(out), "--local", "--json"]  # fmt: skip
+        cmd = [
+            str(Path(sys.executable).with_name("foresight")),
+            "dataset",
+            "import",
+            str(src),
+            "--format",
+            "trajnet",
+            "--frame-interval",
+            "0.4",
+            "--output",
+            str(out),
+            "--local",
+            "--json",
+        ]
         t0 = time.perf_counter()
         proc = subprocess.run(cmd, capture_output=True, text=True)
         wall = time.perf_counter() - t0

@@ -43,17 +43,34 @@ from foresight.store.models import Evaluation, JobEvent  # noqa: E402
 from foresight.store.session import make_engine  # noqa: E402
 from tests.integration.service import Service, wait_job  # noqa: E402
 
-COLLECT = {"kind": "collect", "scenarios": ["crossing_low"], "seeds_per_scenario": 2, "max_steps": 80,
-           "check_quality": False}  # fmt: skip
-EVALUATE = {"kind": "evaluate", "scenarios": ["crossing_low"], "seeds_per_scenario": 4, "max_steps": 200,
-            "planner": {"name": "goal"}}  # fmt: skip
+COLLECT = {
+    "kind": "collect",
+    "scenarios": ["crossing_low"],
+    "seeds_per_scenario": 2,
+    "max_steps": 80,
+    "check_quality": False,
+}
+EVALUATE = {
+    "kind": "evaluate",
+    "scenarios": ["crossing_low"],
+    "seeds_per_scenario": 4,
+    "max_steps": 200,
+    "planner": {"name": "goal"},
+}
 PAUSE_AT = (0.1, 0.3, 0.5, 0.7)
 COUNTS = ("overwritten", "sha_mismatch", "lost", "duplicate_records", "attempt_folders_left", "not_rerun")
 
 
 def train_spec(dataset: str, epochs: int) -> dict:
-    return {"kind": "train", "dataset": dataset, "epochs": epochs, "hidden": 8, "blocks": 0, "edge_dim": 0,
-            "allow_degenerate": True}  # fmt: skip
+    return {
+        "kind": "train",
+        "dataset": dataset,
+        "epochs": epochs,
+        "hidden": 8,
+        "blocks": 0,
+        "edge_dim": 0,
+        "allow_degenerate": True,
+    }
 
 
 def process_tree(pid: int) -> list[int]:

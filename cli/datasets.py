@@ -92,9 +92,12 @@ def import_cmd(args: argparse.Namespace) -> int:
     from foresight.core.predict.scene_import import ImportScenesConfig, import_scenes_to
 
     if not args.local:
-        raise ConfigError("dataset import reads local files: run it with --local (the .npz it writes "
-                          "serves --local runs: predict-eval --dataset, train --dataset)", source="command line",
-                          item="--local")  # fmt: skip
+        raise ConfigError(
+            "dataset import reads local files: run it with --local (the .npz it writes "
+            "serves --local runs: predict-eval --dataset, train --dataset)",
+            source="command line",
+            item="--local",
+        )
     values = scene_values(args, str(Path(args.path).resolve()))
     values.update(max_agents=args.max_agents, test_scene=args.test_scene, val_scene=args.val_scene)
     config = build_config(ImportScenesConfig, values)
@@ -153,9 +156,15 @@ def ls_cmd(args: argparse.Namespace) -> int:
                 continue
         except (OSError, ValueError, KeyError, TypeError):
             continue  # not a dataset record
-        rows.append({"path": str(rec.with_suffix(".npz")), "samples": summary.get("samples"),
-                     "source": meta.get("source"), "timebase": tb,
-                     "kind": meta.get("generator", {}).get("kind")})  # fmt: skip
+        rows.append(
+            {
+                "path": str(rec.with_suffix(".npz")),
+                "samples": summary.get("samples"),
+                "source": meta.get("source"),
+                "timebase": tb,
+                "kind": meta.get("generator", {}).get("kind"),
+            }
+        )
     if args.json:
         print(json.dumps(rows))
         return 0

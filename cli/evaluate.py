@@ -104,8 +104,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     cp.add_argument("--scenarios", help="global suite: comma-separated scenario names (default: all)")
     cp.set_defaults(func=campaign_cmd)
 
-    cm = sub.add_parser("compare", help="two evaluations: config diff and metric deltas (--local: work folders "
-                        "side by side per family, is a baseline better anywhere?)")  # fmt: skip
+    cm = sub.add_parser(
+        "compare",
+        help="two evaluations: config diff and metric deltas (--local: work folders "
+        "side by side per family, is a baseline better anywhere?)",
+    )
     cm.add_argument(
         "runs",
         nargs="+",
@@ -205,8 +208,9 @@ class Refs:
                 client=self.client if self._client else None,
             )
         ctx = _context(self.args, self.roots, self.models)
-        result, started = stage.run_local(self.args, spec, lambda: KINDS[kind].run(local.config_of(spec), ctx),
-                                          ctx.workdir)  # fmt: skip
+        result, started = stage.run_local(
+            self.args, spec, lambda: KINDS[kind].run(local.config_of(spec), ctx), ctx.workdir
+        )
         pages = finish_local(kind, result, ctx.workdir)  # as a worker does: the report page, the MLflow copy
         where = f"artifacts in {ctx.workdir.resolve()}" + "".join(
             f"\nreport: {p.resolve()}" for p in pages if p.name == "report.html"

@@ -265,8 +265,13 @@ def cmd_delete(args: argparse.Namespace) -> int:
 
 
 def cmd_wait(args: argparse.Namespace) -> int:
-    return follow(Client.from_args(args), args.job_id, as_json=args.json, quiet=args.quiet or args.json,
-                  timeout=args.timeout)  # fmt: skip
+    return follow(
+        Client.from_args(args),
+        args.job_id,
+        as_json=args.json,
+        quiet=args.quiet or args.json,
+        timeout=args.timeout,
+    )
 
 
 def cmd_logs(args: argparse.Namespace) -> int:

@@ -35,8 +35,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     reg.add_argument("model_id")
     reg.add_argument("--job", help="job id (checkpoint; a unique prefix of 8+ characters)")
     reg.add_argument("--artifact", help="artifact name in that job (checkpoint)")
-    reg.add_argument("--kind", choices=["checkpoint", "plugin", "external"], default="checkpoint",
-                     help="what is registered (default checkpoint)")  # fmt: skip
+    reg.add_argument(
+        "--kind",
+        choices=["checkpoint", "plugin", "external"],
+        default="checkpoint",
+        help="what is registered (default checkpoint)",
+    )
     reg.add_argument("--predictor", help="plug-in name, or external:<name> (plugin, external)")
     reg.add_argument("--files", help="its artifact folder or a zip/tar of it (plugin, external; optional)")
     reg.add_argument("--tag", action="append", default=[], help="a tag for the model (repeatable)")
@@ -104,8 +108,16 @@ def _line(m: ModelPublic) -> str:
 
 
 def cmd_ls(args: argparse.Namespace) -> int:
-    params = {k: v for k, v in (("status", args.status), ("tag", args.tag), ("limit", args.limit),
-                                ("offset", args.offset)) if v}  # fmt: skip
+    params = {
+        k: v
+        for k, v in (
+            ("status", args.status),
+            ("tag", args.tag),
+            ("limit", args.limit),
+            ("offset", args.offset),
+        )
+        if v
+    }
     page = Client.from_args(args).fetch(ModelsPublic, "/v1/models", params=params)
     _out(
         page,
@@ -134,8 +146,14 @@ def cmd_register(args: argparse.Namespace) -> int:
             )
         data, ctype = pack(Path(args.files)) if args.files else (b"", "application/octet-stream")
         params = {"id": args.model_id, "kind": args.kind, "predictor": args.predictor, "tag": args.tag}
-        model = Client.from_args(args).fetch(ModelPublic, "/v1/models/predictors", method="POST", params=params,
-                                             content=data, headers={"Content-Type": ctype})  # fmt: skip
+        model = Client.from_args(args).fetch(
+            ModelPublic,
+            "/v1/models/predictors",
+            method="POST",
+            params=params,
+            content=data,
+            headers={"Content-Type": ctype},
+        )
     _out(model, args.json, _line(model))
     return 0
 
@@ -189,8 +207,14 @@ def pack(path: Path) -> tuple[bytes, str]:
 def cmd_bundles_upload(args: argparse.Namespace) -> int:
     data, ctype = pack(Path(args.path))
     params = {"name": args.name, **({"replace": "true"} if args.replace else {})}
-    bundle = Client.from_args(args).fetch(BundlePublic, "/v1/bundles", method="POST", params=params, content=data,
-                                          headers={"Content-Type": ctype})  # fmt: skip
+    bundle = Client.from_args(args).fetch(
+        BundlePublic,
+        "/v1/bundles",
+        method="POST",
+        params=params,
+        content=data,
+        headers={"Content-Type": ctype},
+    )
     _out(bundle, args.json, f"{bundle.id}: {len(bundle.files)} files, matrices {bundle.scenarios}")
     return 0
 

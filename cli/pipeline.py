@@ -369,10 +369,15 @@ def cmd_mine(args: argparse.Namespace) -> int:
 
     with progress_bar(quiet=False) as bar:
         task = bar.add_task("mine-seeds", total=1.0, message="")
-        found = mine_failures(args.matrix, seeds=seeds, baseline=args.baseline, per_scenario=args.per_scenario,
-                              scenarios=scenarios, exclude=exclude,
-                              progress=lambda fraction, message: bar.update(task, completed=fraction,
-                                                                            message=message[:60]))  # fmt: skip
+        found = mine_failures(
+            args.matrix,
+            seeds=seeds,
+            baseline=args.baseline,
+            per_scenario=args.per_scenario,
+            scenarios=scenarios,
+            exclude=exclude,
+            progress=lambda fraction, message: bar.update(task, completed=fraction, message=message[:60]),
+        )
     command = " ".join(["foresight pipeline mine-seeds", *_argv_for(args)])
     header = (
         f"Mined by: {command}\nSeeds where the {args.baseline} baseline does not reach the goal, the first "

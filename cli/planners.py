@@ -115,8 +115,13 @@ def check_cmd(args: argparse.Namespace) -> int:
     values = {"planner": planner, "steps": args.steps, "decision_budget_s": args.budget}
     job = spec("planner_check", {k: v for k, v in values.items() if v is not None})
     if not args.local:
-        return submit(args, job, text=check_text, result_model=ConformanceResult,
-                      exit_code=lambda r: 0 if r.passed else 2)  # fmt: skip
+        return submit(
+            args,
+            job,
+            text=check_text,
+            result_model=ConformanceResult,
+            exit_code=lambda r: 0 if r.passed else 2,
+        )
     from foresight.core.evaluation.conformance import run_conformance
     from foresight.core.runtime.refs import BUILTIN_BUNDLE, BUILTIN_CONFIG_ROOT
     from foresight.local import ModelArgs, config_of, local_context

@@ -178,9 +178,12 @@ def predict_eval_cmd(args: argparse.Namespace) -> int:
     if not args.local:
         stage.local_only(args, out="--out", scenes="--scenes")
         if args.ethucy is not None and Path(args.ethucy).expanduser().is_dir():
-            raise ConfigError(f"{args.ethucy!r} is a local folder; the server reads named data roots: pass "
-                              "--ethucy NAME (GET /v1/data-roots), or run in-process with --local",
-                              source="command line", item="--ethucy")  # fmt: skip
+            raise ConfigError(
+                f"{args.ethucy!r} is a local folder; the server reads named data roots: pass "
+                "--ethucy NAME (GET /v1/data-roots), or run in-process with --local",
+                source="command line",
+                item="--ethucy",
+            )
         values.update(
             model=stage.model_id(args.model, "--model"), dataset=stage.dataset_id(args.dataset, "--dataset")
         )
@@ -242,9 +245,12 @@ def import_cmd(args: argparse.Namespace) -> int:
 
         stage.local_only(args, output="--output")
         if args.ethucy is not None:
-            raise ConfigError("--ethucy names a local folder; the server reads named data roots: pass --root NAME "
-                              "(GET /v1/data-roots), or run in-process with --local", source="command line",
-                              item="--ethucy")  # fmt: skip
+            raise ConfigError(
+                "--ethucy names a local folder; the server reads named data roots: pass --root NAME "
+                "(GET /v1/data-roots), or run in-process with --local",
+                source="command line",
+                item="--ethucy",
+            )
         # validated against the core config here; the server checks the root name against its own roots
         config = build_config(
             ImportDatasetConfig, {"root": args.root, "fold": args.fold, "max_agents": args.max_agents}
@@ -286,8 +292,16 @@ def import_cmd(args: argparse.Namespace) -> int:
     record, started = stage.run_local(
         args, spec, lambda: run_import_ethucy(config, local_context(out.parent, {}, quiet=True))
     )
-    stage.emit_local(args, spec, imported_dataset(record, origin), started=started, files=[out],
-                     text=lambda r: f"{args.output}: {r['summary']['samples']} samples {r['summary']['samples_per_split']}")  # fmt: skip
+    stage.emit_local(
+        args,
+        spec,
+        imported_dataset(record, origin),
+        started=started,
+        files=[out],
+        text=lambda r: (
+            f"{args.output}: {r['summary']['samples']} samples {r['summary']['samples_per_split']}"
+        ),
+    )
     return 0
 
 
@@ -340,8 +354,14 @@ def collect_cmd(args: argparse.Namespace) -> int:
     result, started = stage.run_local(
         args, spec, lambda: run_collect(local.config_of(spec), ctx), ctx.workdir
     )
-    stage.emit_local(args, spec, result, started=started, workdir=ctx.workdir,
-                     text=lambda r: f"{ctx.workdir / r.dataset}: {r.summary.samples} samples, outcomes {r.outcomes}")  # fmt: skip
+    stage.emit_local(
+        args,
+        spec,
+        result,
+        started=started,
+        workdir=ctx.workdir,
+        text=lambda r: f"{ctx.workdir / r.dataset}: {r.summary.samples} samples, outcomes {r.outcomes}",
+    )
     return 0
 
 
@@ -370,8 +390,14 @@ def mix_cmd(args: argparse.Namespace) -> int:
 
     spec, ctx = local.spec("mix", values), _ctx(args)
     result, started = stage.run_local(args, spec, lambda: run_mix(local.config_of(spec), ctx), ctx.workdir)
-    stage.emit_local(args, spec, result, lambda r: f"{r.dataset}: {r.summary.samples} samples",
-                     started=started, workdir=ctx.workdir)  # fmt: skip
+    stage.emit_local(
+        args,
+        spec,
+        result,
+        lambda r: f"{r.dataset}: {r.summary.samples} samples",
+        started=started,
+        workdir=ctx.workdir,
+    )
     return 0
 
 
@@ -405,15 +431,29 @@ def train_cmd(args: argparse.Namespace) -> int:
     if not args.local:
         stage.local_only(args, out="--out")
         values["dataset"] = stage.dataset_id(str(values["dataset"]), "--dataset")
-        return stage.submit(args, local.spec("train", values), result_model=TrainResult, exit_code=exit_code,
-                            text=lambda r, ref: text(r, f"\n{ref}\nregister it: foresight models register MODEL_ID "
-                                                        f"--job {ref.id} --artifact {Path(r.checkpoint).name}",
-                                                     Path(r.checkpoint).name))  # fmt: skip
+        return stage.submit(
+            args,
+            local.spec("train", values),
+            result_model=TrainResult,
+            exit_code=exit_code,
+            text=lambda r, ref: text(
+                r,
+                f"\n{ref}\nregister it: foresight models register MODEL_ID "
+                f"--job {ref.id} --artifact {Path(r.checkpoint).name}",
+                Path(r.checkpoint).name,
+            ),
+        )
     from foresight.core.jobs.kinds import run_train  # executor local: in this process; ray: a Ray task
 
     spec, ctx = local.spec("train", values), _ctx(args)
     result, started = stage.run_local(args, spec, lambda: run_train(local.config_of(spec), ctx), ctx.workdir)
     pages = finish_local("train", result, ctx.workdir)  # as a worker does: the report page, the MLflow copy
-    stage.emit_local(args, spec, result, started=started, workdir=ctx.workdir,
-                     text=lambda r: text(r, "".join(f"\nreport: {p.resolve()}" for p in pages if p.name == "report.html")))  # fmt: skip
+    stage.emit_local(
+        args,
+        spec,
+        result,
+        started=started,
+        workdir=ctx.workdir,
+        text=lambda r: text(r, "".join(f"\nreport: {p.resolve()}" for p in pages if p.name == "report.html")),
+    )
     return exit_code(result)

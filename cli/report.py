@@ -54,9 +54,11 @@ def report_cmd(args: argparse.Namespace) -> int:
     job = client.job(args.job_id)
     files = report_files(job)
     if not files:
-        raise ConfigError(f"job {args.job_id} ({job.kind}, {job.status}) has no report: reports are written "
-                          "when a collect, train, evaluate, diagnose, campaign or pipeline job succeeds",
-                          item=args.job_id)  # fmt: skip
+        raise ConfigError(
+            f"job {args.job_id} ({job.kind}, {job.status}) has no report: reports are written "
+            "when a collect, train, evaluate, diagnose, campaign or pipeline job succeeds",
+            item=args.job_id,
+        )
     written: list[str] = []
     if args.out:
         out = Path(args.out)
@@ -69,8 +71,19 @@ def report_cmd(args: argparse.Namespace) -> int:
             written.append(str(dest))
     if args.json:
         urls = {a.name: a.url for a in job.artifacts or [] if a.name in files}
-        print(json.dumps({"job": job.id, "kind": job.kind, "status": job.status, "result": job.result,
-                          "report": urls, "written": written}, indent=2))  # fmt: skip
+        print(
+            json.dumps(
+                {
+                    "job": job.id,
+                    "kind": job.kind,
+                    "status": job.status,
+                    "result": job.result,
+                    "report": urls,
+                    "written": written,
+                },
+                indent=2,
+            )
+        )
         return 0
     if REPORT_MD in files:
         print(_download(client, args.job_id, REPORT_MD).decode())
@@ -92,9 +105,12 @@ def compare_remote(args: argparse.Namespace) -> int:
         )
     for value in args.runs:
         if Path(value.rpartition("=")[2]).expanduser().exists():
-            raise ConfigError(f"{value!r} is a local folder; the server compares evaluation ids (GET /v1/evaluations"
-                              " via `foresight jobs ls --kind evaluate`); compare folders with --local",
-                              source="command line", item="runs")  # fmt: skip
+            raise ConfigError(
+                f"{value!r} is a local folder; the server compares evaluation ids (GET /v1/evaluations"
+                " via `foresight jobs ls --kind evaluate`); compare folders with --local",
+                source="command line",
+                item="runs",
+            )
     a, b = args.runs
     from foresight.result_schemas import ComparisonPublic
 

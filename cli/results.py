@@ -24,7 +24,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     for group, filters, func in (
         ("evaluations", ("planner", "model_id", "matrix", "bundle", "verdict"), cmd_evaluations),
         ("campaigns", ("matrix", "grid", "model"), cmd_campaigns),
-    ):  # fmt: skip
+    ):
         actions = sub.add_parser(group, help=f"list stored {group}").add_subparsers(
             dest="action", required=True
         )
@@ -99,9 +99,11 @@ class _Stage(BaseModel):
 def _evaluation_line(e: EvaluationSummaryPublic) -> str:
     stage, m = read(_Stage, e.config.stage, f"evaluation {e.id}: config.stage"), e.metrics
     planner = (stage.planner or _Named()).name
-    return (f"{e.id[:12]}  {planner:<12} {e.model_id or '-':<22} success {_pct(m.success_rate)}  "
-            f"collisions {_pct(m.collision_rate)}  n={m.episodes:<4} {m.status:<16} "
-            f"{stage.matrix}{labels(e.name, e.tags)}")  # fmt: skip
+    return (
+        f"{e.id[:12]}  {planner:<12} {e.model_id or '-':<22} success {_pct(m.success_rate)}  "
+        f"collisions {_pct(m.collision_rate)}  n={m.episodes:<4} {m.status:<16} "
+        f"{stage.matrix}{labels(e.name, e.tags)}"
+    )
 
 
 class _Grid(BaseModel):
@@ -112,9 +114,11 @@ def _campaign_line(c: CampaignSummaryPublic) -> str:
     suites = c.best_metrics or {}
     glob = suites["global"].success if "global" in suites else None
     grid = read(_Grid, c.config, f"campaign {c.id}: config").grid or "-"
-    return (f"{c.id[:12]}  {c.created_at.isoformat()[:19]}  grid {grid:<36} best "
-            f"{c.best.variant if c.best else '-'}@{c.best.checkpoint if c.best else '-'} global success "
-            f"{_pct(glob)}{labels(c.name, c.tags)}")  # fmt: skip
+    return (
+        f"{c.id[:12]}  {c.created_at.isoformat()[:19]}  grid {grid:<36} best "
+        f"{c.best.variant if c.best else '-'}@{c.best.checkpoint if c.best else '-'} global success "
+        f"{_pct(glob)}{labels(c.name, c.tags)}"
+    )
 
 
 def _print_page(args: argparse.Namespace, group: str, shape: type[Page], line: Callable[[Any], str]) -> int:
@@ -147,8 +151,11 @@ def cmd_episodes(args: argparse.Namespace) -> int:
     if getattr(args, "rank", None) is None:
         episodes = client.fetch(list[EpisodePublic], f"/v1/evaluations/{args.id}/episodes")
     else:
-        episodes = client.fetch(list[EpisodePublic], f"/v1/campaigns/{args.id}/cells/{args.rank}/episodes",
-                                params={"suite": args.suite})  # fmt: skip
+        episodes = client.fetch(
+            list[EpisodePublic],
+            f"/v1/campaigns/{args.id}/cells/{args.rank}/episodes",
+            params={"suite": args.suite},
+        )
     if args.failed:
         episodes = [e for e in episodes if e.outcome != "success"]
     if args.json:
@@ -182,8 +189,11 @@ def _export(args: argparse.Namespace) -> int:
             data = export_jsonl(local / "episodes.jsonl", fmt)
     else:
         if args.failed:
-            raise ConfigError("--failed lists episodes; an export holds them all (filter on the outcome column)",
-                              source="command line", item="--failed")  # fmt: skip
+            raise ConfigError(
+                "--failed lists episodes; an export holds them all (filter on the outcome column)",
+                source="command line",
+                item="--failed",
+            )
         client = Client.from_args(args)
         if getattr(args, "rank", None) is None:
             path, params = f"/v1/evaluations/{args.id}/episodes/export", {"format": fmt}

@@ -114,8 +114,15 @@ def _serve(settings: Settings, args: argparse.Namespace) -> None:
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: None)
     if args.workers > 1:  # each process builds its app from the same FORESIGHT_* environment
-        uvicorn.run("foresight.api.main:create_server_app", factory=True, workers=args.workers, host=args.host, port=args.port,
-                    log_level=args.log_level, access_log=False)  # fmt: skip
+        uvicorn.run(
+            "foresight.api.main:create_server_app",
+            factory=True,
+            workers=args.workers,
+            host=args.host,
+            port=args.port,
+            log_level=args.log_level,
+            access_log=False,
+        )
     else:
         uvicorn.run(app, host=args.host, port=args.port, log_level=args.log_level, access_log=False)
 
@@ -143,8 +150,10 @@ def cmd_worker(args: argparse.Namespace) -> int:
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: worker.stop())
     memory = f"{memory_mb} MiB" if memory_mb else "no limit"
-    print(f"foresight worker {worker.id}: {args.concurrency} slot(s), kinds {worker.kinds}, memory {memory}",
-          file=sys.stderr)  # fmt: skip
+    print(
+        f"foresight worker {worker.id}: {args.concurrency} slot(s), kinds {worker.kinds}, memory {memory}",
+        file=sys.stderr,
+    )
     worker.run()
     return 0
 
@@ -174,9 +183,12 @@ def cmd_up(args: argparse.Namespace) -> int:
     url = f"http://{host}:{args.port}"
     data = settings.data_dir.resolve()
     token = "$FORESIGHT_API_TOKEN" if settings.api_token else str(settings.token_file().resolve())
-    print(f"foresight up: dashboard {url}/ui\n  data folder  {data}\n  write token  {token}\n"
-          f"  clients in any folder use both (FORESIGHT_DATA_DIR={data} for another user or data folder)",
-          file=sys.stderr, flush=True)  # fmt: skip
+    print(
+        f"foresight up: dashboard {url}/ui\n  data folder  {data}\n  write token  {token}\n"
+        f"  clients in any folder use both (FORESIGHT_DATA_DIR={data} for another user or data folder)",
+        file=sys.stderr,
+        flush=True,
+    )
     server_file = settings.server_file()
     server_file.parent.mkdir(parents=True, exist_ok=True)
     server_file.write_text(json.dumps({"url": url, "pid": os.getpid()}) + "\n")
@@ -217,17 +229,20 @@ def _refuse_second_server(settings: Settings, host: str, port: int) -> None:
         pass  # no file, or the process that wrote it is gone
     else:
         if pid != os.getpid():
-            raise CoreError(f"a foresight server already runs for data folder {settings.data_dir.resolve()} at "
-                            f"{running.get('url')} (pid {pid}); stop it first, or set FORESIGHT_DATA_DIR to "
-                            "another folder")  # fmt: skip
+            raise CoreError(
+                f"a foresight server already runs for data folder {settings.data_dir.resolve()} at "
+                f"{running.get('url')} (pid {pid}); stop it first, or set FORESIGHT_DATA_DIR to "
+                "another folder"
+            )
     family = socket.AF_INET6 if ":" in host else socket.AF_INET
     with socket.socket(family, socket.SOCK_STREAM) as probe:
         probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as uvicorn binds
         try:
             probe.bind((host, port))
         except OSError as exc:
-            raise CoreError(f"cannot serve on {host}:{port}: {exc.strerror} (another server uses it? "
-                            "pick another --port)") from None  # fmt: skip
+            raise CoreError(
+                f"cannot serve on {host}:{port}: {exc.strerror} (another server uses it? pick another --port)"
+            ) from None
 
 
 def _forget(server_file: Path) -> None:

@@ -59,9 +59,12 @@ def local_only(args: argparse.Namespace, **flags: str) -> None:
         return
     for attr, flag in flags.items():
         if getattr(args, attr, None) not in (None, False):
-            raise ConfigError(f"{flag} applies to --local runs only (a server job keeps its artifacts: "
-                              "`foresight jobs show ID`, `foresight jobs download ID NAME`)", source="command line",
-                              item=flag)  # fmt: skip
+            raise ConfigError(
+                f"{flag} applies to --local runs only (a server job keeps its artifacts: "
+                "`foresight jobs show ID`, `foresight jobs download ID NAME`)",
+                source="command line",
+                item=flag,
+            )
 
 
 def _local_file(value: str) -> bool:
@@ -71,18 +74,25 @@ def _local_file(value: str) -> bool:
 def dataset_id(value: str | None, flag: str) -> str | None:
     """A dataset id for a server spec; a local .npz (or any existing file) is refused."""
     if value is not None and (value.endswith(".npz") or _local_file(value)):
-        raise ConfigError(f"{value!r} is a local file; the server takes a dataset id (GET /v1/datasets, or the id "
-                          "of the collect/mix/import job that wrote it); run in-process with --local to use a file",
-                          source="command line", item=flag)  # fmt: skip
+        raise ConfigError(
+            f"{value!r} is a local file; the server takes a dataset id (GET /v1/datasets, or the id "
+            "of the collect/mix/import job that wrote it); run in-process with --local to use a file",
+            source="command line",
+            item=flag,
+        )
     return value
 
 
 def model_id(value: str | None, flag: str) -> str | None:
     """A model id (or ``cv``) for a server spec; a local checkpoint file is refused."""
     if value is not None and value != "cv" and (value.endswith(CHECKPOINT_SUFFIXES) or _local_file(value)):
-        raise ConfigError(f"{value!r} is a local file; the server takes a model id (`foresight models ls`; register "
-                          "a job's checkpoint with `foresight models register`); run in-process with --local to use "
-                          "a file", source="command line", item=flag)  # fmt: skip
+        raise ConfigError(
+            f"{value!r} is a local file; the server takes a model id (`foresight models ls`; register "
+            "a job's checkpoint with `foresight models register`); run in-process with --local to use "
+            "a file",
+            source="command line",
+            item=flag,
+        )
     return value
 
 
@@ -134,10 +144,17 @@ class JobRef(str):
         return obj
 
 
-def submit(args: argparse.Namespace, spec_obj: BaseModel, *, text: Callable[[Any, JobRef], str],
-           result_model: type[BaseModel] | None = None, exit_code: Callable[[Any], int] = lambda r: 0,
-           kind: str | None = None, client: Client | None = None,
-           after: Callable[[Any, JobRef, Client], Any] | None = None) -> int:  # fmt: skip
+def submit(
+    args: argparse.Namespace,
+    spec_obj: BaseModel,
+    *,
+    text: Callable[[Any, JobRef], str],
+    result_model: type[BaseModel] | None = None,
+    exit_code: Callable[[Any], int] = lambda r: 0,
+    kind: str | None = None,
+    client: Client | None = None,
+    after: Callable[[Any, JobRef, Client], Any] | None = None,
+) -> int:
     """POST the spec to ``/v1/jobs``, follow the job with a progress bar, print its result (``text(result, ref)``
     or, with ``--json``, the finished job) and return the result's exit code; a failed or cancelled job is one
     error line and exit 1. ``after(result, ref, client)`` may fetch artifacts and return an updated result."""
@@ -203,13 +220,22 @@ def _files(workdir: Path | None, files: list[Path] | None, since: float) -> list
             if path.stat().st_mtime >= since - 1.0:  # mtime granularity
                 paths.append((path.relative_to(base).as_posix(), path))
     paths += [(p.name, p.resolve()) for p in files or ()]
-    return [{"name": name, "size": path.stat().st_size, "sha256": sha256_file(path), "url": path.as_uri()}
-            for name, path in paths]  # fmt: skip
+    return [
+        {"name": name, "size": path.stat().st_size, "sha256": sha256_file(path), "url": path.as_uri()}
+        for name, path in paths
+    ]
 
 
-def local_job(args: argparse.Namespace, spec_obj: BaseModel | dict[str, Any], result: Any, *, started: float,
-              workdir: Path | None = None, files: list[Path] | None = None,
-              error: BaseException | None = None) -> dict[str, Any]:  # fmt: skip
+def local_job(
+    args: argparse.Namespace,
+    spec_obj: BaseModel | dict[str, Any],
+    result: Any,
+    *,
+    started: float,
+    workdir: Path | None = None,
+    files: list[Path] | None = None,
+    error: BaseException | None = None,
+) -> dict[str, Any]:
     """The job envelope of an in-process run, so ``--json`` has one shape in both modes: the keys of the server's
     job (``GET /v1/jobs/ID``, ``foresight jobs show ID --json``) with ``id`` None, worker ``local`` and the
     artifacts (the work folder's files, or ``files``) as ``file://`` URLs."""
@@ -220,19 +246,40 @@ def local_job(args: argparse.Namespace, spec_obj: BaseModel | dict[str, Any], re
     kind = str(spec.get("kind"))
     status = "failed" if error is not None else "succeeded"
     return {
-        "id": None, "kind": kind, "status": status, "spec": spec, "priority": 0, "attempts": 1, "max_attempts": 1,
-        "timeout_s": None, "idempotency_key": None, "parent_id": None, "name": getattr(args, "name", None),
-        "tags": list(getattr(args, "tag", None) or []), "note": getattr(args, "note", None) or "",
-        "cancel_requested": False, "progress": 0.0 if error is not None else 1.0, "message": "",
+        "id": None,
+        "kind": kind,
+        "status": status,
+        "spec": spec,
+        "priority": 0,
+        "attempts": 1,
+        "max_attempts": 1,
+        "timeout_s": None,
+        "idempotency_key": None,
+        "parent_id": None,
+        "name": getattr(args, "name", None),
+        "tags": list(getattr(args, "tag", None) or []),
+        "note": getattr(args, "note", None) or "",
+        "cancel_requested": False,
+        "progress": 0.0 if error is not None else 1.0,
+        "message": "",
         "error": None if error is None else {"type": type(error).__name__, "message": str(error)},
-        "result": data, "verdict": verdict(kind, data) if error is None else None, "worker": "local",
-        "created_at": _iso(started), "started_at": _iso(started), "finished_at": _iso(time.time()),
-        "artifacts": _files(workdir, files, started), "children": [],
-    }  # fmt: skip
+        "result": data,
+        "verdict": verdict(kind, data) if error is None else None,
+        "worker": "local",
+        "created_at": _iso(started),
+        "started_at": _iso(started),
+        "finished_at": _iso(time.time()),
+        "artifacts": _files(workdir, files, started),
+        "children": [],
+    }
 
 
-def run_local(args: argparse.Namespace, spec_obj: BaseModel | dict[str, Any], run: Callable[[], Any],
-              workdir: Path | None = None) -> tuple[Any, float]:  # fmt: skip
+def run_local(
+    args: argparse.Namespace,
+    spec_obj: BaseModel | dict[str, Any],
+    run: Callable[[], Any],
+    workdir: Path | None = None,
+) -> tuple[Any, float]:
     """``run()`` in-process and when it started; a failure is, with ``--json``, first printed as a failed job
     envelope (as a failed server job is), then raised."""
     started = time.time()
@@ -248,9 +295,16 @@ def run_local(args: argparse.Namespace, spec_obj: BaseModel | dict[str, Any], ru
         raise
 
 
-def emit_local(args: argparse.Namespace, spec_obj: BaseModel | dict[str, Any], result: Any,
-               text: Callable[[Any], str], *, started: float, workdir: Path | None = None,
-               files: list[Path] | None = None) -> None:  # fmt: skip
+def emit_local(
+    args: argparse.Namespace,
+    spec_obj: BaseModel | dict[str, Any],
+    result: Any,
+    text: Callable[[Any], str],
+    *,
+    started: float,
+    workdir: Path | None = None,
+    files: list[Path] | None = None,
+) -> None:
     """Print an in-process run's outcome: the job envelope (:func:`local_job`) with ``--json``, else ``text``."""
     if args.json:
         print(

@@ -21,8 +21,11 @@ def _value(x: Any) -> str:
 
 def headline(result: dict[str, Any]) -> list[str]:
     """The result's top-level scalar fields (rates, counts, names), then its gate checks that failed."""
-    scalars = [f"{k} {_value(v)}" for k, v in result.items()
-               if k not in SKIP and isinstance(v, int | float | str | bool) and not isinstance(v, dict)]  # fmt: skip
+    scalars = [
+        f"{k} {_value(v)}"
+        for k, v in result.items()
+        if k not in SKIP and isinstance(v, int | float | str | bool) and not isinstance(v, dict)
+    ]
     lines = []
     for i in range(0, len(scalars), 4):
         lines.append("  " + ", ".join(scalars[i : i + 4]))
@@ -36,16 +39,20 @@ def headline(result: dict[str, Any]) -> list[str]:
         gate = None
     for check in gate.checks if gate is not None else ():
         if not check.passed:
-            lines.append(f"  gate {check.name}: FAIL ({_value(check.value)} vs {_value(check.threshold)}) "
-                         f"{check.detail}".rstrip())  # fmt: skip
+            lines.append(
+                f"  gate {check.name}: FAIL ({_value(check.value)} vs {_value(check.threshold)}) "
+                f"{check.detail}".rstrip()
+            )
     return lines
 
 
 def job_summary(job: JobPublic, base_url: str) -> str:
     """Status line, error or verdict, headline, artifacts and the report's places, in that order."""
-    out = [f"{job.kind} job {job.id}: {job.status}"
-           + (f", verdict {job.verdict}" if job.verdict else "")
-           + (f"  {job.name!r}" if job.name else "")]  # fmt: skip
+    out = [
+        f"{job.kind} job {job.id}: {job.status}"
+        + (f", verdict {job.verdict}" if job.verdict else "")
+        + (f"  {job.name!r}" if job.name else "")
+    ]
     if job.note:
         out.append(f"note: {job.note}")
     if job.error:
@@ -59,6 +66,8 @@ def job_summary(job: JobPublic, base_url: str) -> str:
     children = job.children or []
     if children:
         out.append(f"children ({len(children)}): " + ", ".join(c[:12] for c in children))
-    out.append(f"page: {base_url}/ui/jobs/{job.id}" + ("  report: `foresight report " + job.id[:12] + "`"
-                                                       if "report.md" in names else ""))  # fmt: skip
+    out.append(
+        f"page: {base_url}/ui/jobs/{job.id}"
+        + ("  report: `foresight report " + job.id[:12] + "`" if "report.md" in names else "")
+    )
     return "\n".join(out)

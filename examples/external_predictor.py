@@ -41,8 +41,14 @@ def main():
     for line in sys.stdin.buffer:
         msg = json.loads(line)
         if msg["type"] == "hello":
-            reply = {"type": "hello", "protocol": 1, "name": "reference_cv", "timebase": TIMEBASE,
-                     "frame": "world", "modes": 1}  # fmt: skip
+            reply = {
+                "type": "hello",
+                "protocol": 1,
+                "name": "reference_cv",
+                "timebase": TIMEBASE,
+                "frame": "world",
+                "modes": 1,
+            }
             out.write((json.dumps(reply, separators=(",", ":")) + "\n").encode())
         elif msg["type"] == "observe":
             out.write(forecast(msg))  # one write per line

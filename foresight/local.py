@@ -136,9 +136,12 @@ def planner_spec(
         return spec
     if ":" in value and not Path(value).is_file():
         if not local:
-            raise ConfigError(f"{value!r}: module:attr planners run in-process only (--local); the server runs "
-                              f"installed plugins and operator-configured external planners",
-                              source="command line", item="--planner")  # fmt: skip
+            raise ConfigError(
+                f"{value!r}: module:attr planners run in-process only (--local); the server runs "
+                f"installed plugins and operator-configured external planners",
+                source="command line",
+                item="--planner",
+            )
         spec = {"name": register(value)}
     elif value in names() or not value.endswith((".yaml", ".yml", ".json")):
         spec = {"name": value}
@@ -258,8 +261,10 @@ def local_context(workdir: Path | None, bundles: dict[str, Path], *, quiet: bool
         """Only files here: a dataset id is the server's (a file that exists never gets here)."""
         import os
 
-        raise NotFoundError(f"no dataset file {ident!r} in {os.getcwd()} (in-process runs read a .npz file; "
-                            "a dataset id names a server's dataset: run without --local)")  # fmt: skip
+        raise NotFoundError(
+            f"no dataset file {ident!r} in {os.getcwd()} (in-process runs read a .npz file; "
+            "a dataset id names a server's dataset: run without --local)"
+        )
 
     def resolve_data_root(name: str) -> Path:
         """A named data root: FORESIGHT_DATA_ROOTS, or ``ethucy`` from the shared folder."""
@@ -285,9 +290,12 @@ def local_context(workdir: Path | None, bundles: dict[str, Path], *, quiet: bool
     root = workdir or Path(tempfile.mkdtemp(prefix="foresight-"))
     root.mkdir(parents=True, exist_ok=True)
     return StageContext(
-        workdir=root, progress=progress, resolve_bundle=resolve_bundle, resolve_data_root=resolve_data_root,
+        workdir=root,
+        progress=progress,
+        resolve_bundle=resolve_bundle,
+        resolve_data_root=resolve_data_root,
         resolve_dataset=resolve_dataset,
-    )  # fmt: skip
+    )
 
 
 def progress_bar(*, quiet: bool) -> Any:
@@ -295,9 +303,16 @@ def progress_bar(*, quiet: bool) -> Any:
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    return Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>5.1f}%"),
-                    TimeElapsedColumn(), TextColumn("{task.fields[message]}"), console=Console(stderr=True),
-                    disable=quiet, transient=False)  # fmt: skip
+    return Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("{task.percentage:>5.1f}%"),
+        TimeElapsedColumn(),
+        TextColumn("{task.fields[message]}"),
+        console=Console(stderr=True),
+        disable=quiet,
+        transient=False,
+    )
 
 
 def finish_local(kind: str, result: Any, workdir: Path) -> list[Path]:

@@ -68,10 +68,13 @@ def bundle_name(value: str, flag: str) -> str:
     if p.is_file():
         name = builtin_name(p)
         if name is None:
-            raise ConfigError(f"{value!r} is a local file outside the project's configs/; the server reads "
-                              "config bundles: upload its folder (`foresight bundles upload NAME FOLDER`) and pass "
-                              "--bundle NAME with names inside it, or run in-process with --local",
-                              source="command line", item=flag)  # fmt: skip
+            raise ConfigError(
+                f"{value!r} is a local file outside the project's configs/; the server reads "
+                "config bundles: upload its folder (`foresight bundles upload NAME FOLDER`) and pass "
+                "--bundle NAME with names inside it, or run in-process with --local",
+                source="command line",
+                item=flag,
+            )
         return name
     found = None if p.is_absolute() else _builtin(PurePosixPath(value.replace("\\", "/")))
     return found.relative_to(BUILTIN_CONFIG_ROOT).as_posix() if found is not None else value

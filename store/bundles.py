@@ -29,8 +29,11 @@ def names_bundle(spec: Any, ident: str) -> bool:
 def jobs_using(engine: Engine, ident: str) -> list[str]:
     """Ids of queued or running jobs whose spec names bundle ``ident``, oldest first."""
     with engine.connect() as conn:
-        rows = conn.execute(select(Job.id, Job.spec).where(Job.status.in_((queue.QUEUED, queue.RUNNING)))
-                            .order_by(Job.created_at))  # fmt: skip
+        rows = conn.execute(
+            select(Job.id, Job.spec)
+            .where(Job.status.in_((queue.QUEUED, queue.RUNNING)))
+            .order_by(Job.created_at)
+        )
         return [job_id for job_id, spec in rows if names_bundle(spec, ident)]
 
 
@@ -40,13 +43,17 @@ def _uploaded(engine: Engine, ident: str, action: str) -> Bundle:
     if row is None:
         raise queue.JobNotFound(f"no bundle with id {ident!r}")
     if row.source != "upload":
-        raise queue.Conflict(f"bundle {ident!r} is a {row.source} bundle (a folder on the server): it cannot be {action} "
-                             "through the API; change its folder and restart the server")  # fmt: skip
+        raise queue.Conflict(
+            f"bundle {ident!r} is a {row.source} bundle (a folder on the server): it cannot be {action} "
+            "through the API; change its folder and restart the server"
+        )
     users = jobs_using(engine, ident)
     if users:
         more = f" and {len(users) - 10} more" if len(users) > 10 else ""
-        raise queue.Conflict(f"bundle {ident!r} is used by queued or running jobs {', '.join(users[:10])}{more}: "
-                             f"cancel them or wait until they finish before it is {action}")  # fmt: skip
+        raise queue.Conflict(
+            f"bundle {ident!r} is used by queued or running jobs {', '.join(users[:10])}{more}: "
+            f"cancel them or wait until they finish before it is {action}"
+        )
     return row
 
 

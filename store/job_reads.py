@@ -34,8 +34,11 @@ def resolve_id(engine: Engine, job_id: str) -> str:
     if not SHORT_ID_MIN <= len(job_id) < 32 or any(c not in "0123456789abcdef" for c in job_id):
         return job_id
     with engine.connect() as conn:
-        found = list(conn.execute(select(jobs.c.id).where(jobs.c.id.startswith(job_id, autoescape=True)).limit(2))
-                     .scalars())  # fmt: skip
+        found = list(
+            conn.execute(
+                select(jobs.c.id).where(jobs.c.id.startswith(job_id, autoescape=True)).limit(2)
+            ).scalars()
+        )
     if len(found) > 1:
         raise JobNotFound(
             f"job id prefix {job_id!r} matches several jobs ({', '.join(found)}, ...): give more of it"
@@ -57,8 +60,14 @@ def find_by_key(engine: Engine, key: str) -> JobRow | None:
     return JobRow.of(row) if row else None
 
 
-def list_filter(statuses: Sequence[str] = (), kinds: Sequence[str] = (), parent_id: str | None = None,
-                name: str | None = None, tags: Sequence[str] = (), q: str | None = None) -> list:  # fmt: skip
+def list_filter(
+    statuses: Sequence[str] = (),
+    kinds: Sequence[str] = (),
+    parent_id: str | None = None,
+    name: str | None = None,
+    tags: Sequence[str] = (),
+    q: str | None = None,
+) -> list:
     """The WHERE terms of the job list (labels: ``store.labels.label_filter``)."""
     where = labels_store.label_filter(name, tags, q)
     if statuses:
@@ -78,9 +87,17 @@ def list_page_query(where: list, limit: int, offset: int):  # noqa: ANN201
 
 
 def list_jobs(
-    engine: Engine, *, statuses: Sequence[str] = (), kinds: Sequence[str] = (), parent_id: str | None = None,
-    name: str | None = None, tags: Sequence[str] = (), q: str | None = None, limit: int = 50, offset: int = 0,
-) -> tuple[int, list[JobRow]]:  # fmt: skip
+    engine: Engine,
+    *,
+    statuses: Sequence[str] = (),
+    kinds: Sequence[str] = (),
+    parent_id: str | None = None,
+    name: str | None = None,
+    tags: Sequence[str] = (),
+    q: str | None = None,
+    limit: int = 50,
+    offset: int = 0,
+) -> tuple[int, list[JobRow]]:
     """``(total matching, one page of jobs)``, newest first, filtered by status, kind, parent and labels."""
     where = list_filter(statuses, kinds, parent_id, name, tags, q)
     with engine.connect() as conn:
@@ -173,12 +190,25 @@ def finished_jobs(engine: Engine, kinds: Sequence[str], limit: int) -> list[dict
     """The newest succeeded or failed jobs of ``kinds`` (id, kind, status, result, finished_at, created_at, name,
     tags)."""
     with engine.connect() as conn:
-        rows = conn.execute(
-            select(jobs.c.id, jobs.c.kind, jobs.c.status, jobs.c.result, jobs.c.finished_at, jobs.c.created_at,
-                   jobs.c.name, jobs.c.tags)
-            .where(jobs.c.kind.in_(list(kinds)), jobs.c.status.in_([SUCCEEDED, FAILED]))
-            .order_by(jobs.c.created_at.desc()).limit(limit)
-        ).mappings().all()  # fmt: skip
+        rows = (
+            conn.execute(
+                select(
+                    jobs.c.id,
+                    jobs.c.kind,
+                    jobs.c.status,
+                    jobs.c.result,
+                    jobs.c.finished_at,
+                    jobs.c.created_at,
+                    jobs.c.name,
+                    jobs.c.tags,
+                )
+                .where(jobs.c.kind.in_(list(kinds)), jobs.c.status.in_([SUCCEEDED, FAILED]))
+                .order_by(jobs.c.created_at.desc())
+                .limit(limit)
+            )
+            .mappings()
+            .all()
+        )
     return [dict(r) for r in rows]
 
 
@@ -193,10 +223,15 @@ def alive_workers(engine: Engine, heard_since: float) -> list[dict[str, Any]]:
     """Workers not stopped and heard from since ``heard_since``, oldest first, each with ``jobs``: the ids of
     the running jobs it holds."""
     with engine.connect() as conn:
-        rows = conn.execute(
-            select(workers).where(workers.c.stopped_at.is_(None), workers.c.heartbeat_at >= heard_since)
-            .order_by(workers.c.started_at)
-        ).mappings().all()  # fmt: skip
+        rows = (
+            conn.execute(
+                select(workers)
+                .where(workers.c.stopped_at.is_(None), workers.c.heartbeat_at >= heard_since)
+                .order_by(workers.c.started_at)
+            )
+            .mappings()
+            .all()
+        )
         running = conn.execute(select(jobs.c.id, jobs.c.lease_owner).where(jobs.c.status == RUNNING)).all()
     held: dict[str, list[str]] = {}
     for job_id, owner in running:

@@ -28,8 +28,9 @@ def insert_tags(conn: Connection, rows: Iterable[dict[str, Any]]) -> None:
         conn.execute(insert(job_tags), values)
 
 
-def merged_tags(current: Sequence[str], *, replace: Sequence[str] | None, add: Sequence[str],
-                remove: Sequence[str]) -> list[str]:  # fmt: skip
+def merged_tags(
+    current: Sequence[str], *, replace: Sequence[str] | None, add: Sequence[str], remove: Sequence[str]
+) -> list[str]:
     """The tag list after an edit: ``replace`` (when given) instead of ``current``, then ``add`` appended
     (no duplicates), then ``remove`` dropped; first-seen order kept."""
     out: list[str] = []
@@ -39,8 +40,16 @@ def merged_tags(current: Sequence[str], *, replace: Sequence[str] | None, add: S
     return out
 
 
-def edit(engine: Engine, job_id: str, *, name: Any = UNSET, note: Any = UNSET, tags: Sequence[str] | None = None,
-         add: Sequence[str] = (), remove: Sequence[str] = ()) -> bool:  # fmt: skip
+def edit(
+    engine: Engine,
+    job_id: str,
+    *,
+    name: Any = UNSET,
+    note: Any = UNSET,
+    tags: Sequence[str] | None = None,
+    add: Sequence[str] = (),
+    remove: Sequence[str] = (),
+) -> bool:
     """Change a job's labels (any status); False when there is no such job."""
     with write_tx(engine) as conn:
         current = conn.execute(select(jobs.c.tags).where(jobs.c.id == job_id)).first()
@@ -71,14 +80,22 @@ def label_filter(name: str | None = None, tags: Sequence[str] = (), q: str | Non
         where.append(jobs.c.id.in_(select(job_tags.c.job_id).where(job_tags.c.tag == tag)))
     if q:
         pattern = "%" + q.lower().replace("\\", "\\\\").replace("%", "\\%").replace("_", "\\_") + "%"
-        where.append(or_(func.lower(jobs.c.name).like(pattern, escape="\\"),
-                         func.lower(jobs.c.note).like(pattern, escape="\\")))  # fmt: skip
+        where.append(
+            or_(
+                func.lower(jobs.c.name).like(pattern, escape="\\"),
+                func.lower(jobs.c.note).like(pattern, escape="\\"),
+            )
+        )
     return where
 
 
 def known_tags(engine: Engine, limit: int = 200) -> list[tuple[str, int]]:
     """(tag, number of jobs) of the most used tags: what the dashboard offers as filters."""
     with engine.connect() as conn:
-        rows = conn.execute(select(job_tags.c.tag, func.count()).group_by(job_tags.c.tag)
-                            .order_by(func.count().desc(), job_tags.c.tag).limit(limit))  # fmt: skip
+        rows = conn.execute(
+            select(job_tags.c.tag, func.count())
+            .group_by(job_tags.c.tag)
+            .order_by(func.count().desc(), job_tags.c.tag)
+            .limit(limit)
+        )
         return [(t, n) for t, n in rows]

@@ -41,16 +41,29 @@ def _page(engine: Engine, table: Any, where: list, limit: int, offset: int) -> t
     with session_factory(engine)() as session:
         count = session.scalar(select(func.count()).select_from(table).where(*where)) or 0
         rows = session.execute(
-            select(table, Job.name, Job.tags).outerjoin(Job, Job.id == table.job_id).where(*where)
-            .order_by(table.created_at.desc(), table.id).limit(limit).offset(offset)
-        ).all()  # fmt: skip
+            select(table, Job.name, Job.tags)
+            .outerjoin(Job, Job.id == table.job_id)
+            .where(*where)
+            .order_by(table.created_at.desc(), table.id)
+            .limit(limit)
+            .offset(offset)
+        ).all()
         return count, [Labelled(row, name, list(tags or [])) for row, name, tags in rows]
 
 
-def evaluations(engine: Engine, *, model_id: str | None = None, bundle_id: str | None = None,
-                planner: str | None = None, matrix: str | None = None, verdict: str | None = None,
-                name: str | None = None, tags: Sequence[str] = (), limit: int = 50,
-                offset: int = 0) -> tuple[int, list[Labelled]]:  # fmt: skip
+def evaluations(
+    engine: Engine,
+    *,
+    model_id: str | None = None,
+    bundle_id: str | None = None,
+    planner: str | None = None,
+    matrix: str | None = None,
+    verdict: str | None = None,
+    name: str | None = None,
+    tags: Sequence[str] = (),
+    limit: int = 50,
+    offset: int = 0,
+) -> tuple[int, list[Labelled]]:
     """``(total matching, one page)`` of evaluations, newest first."""
     stage = Evaluation.config["stage"]
     terms = [
@@ -64,16 +77,30 @@ def evaluations(engine: Engine, *, model_id: str | None = None, bundle_id: str |
     return _page(engine, Evaluation, where, limit, offset)
 
 
-def campaigns(engine: Engine, *, matrix: str | None = None, grid: str | None = None, model: str | None = None,
-              name: str | None = None, tags: Sequence[str] = (), limit: int = 50,
-              offset: int = 0) -> tuple[int, list[Labelled]]:  # fmt: skip
+def campaigns(
+    engine: Engine,
+    *,
+    matrix: str | None = None,
+    grid: str | None = None,
+    model: str | None = None,
+    name: str | None = None,
+    tags: Sequence[str] = (),
+    limit: int = 50,
+    offset: int = 0,
+) -> tuple[int, list[Labelled]]:
     """``(total matching, one page)`` of campaigns, newest first; ``model``: a checkpoint one of its cells ran."""
     terms = [
         Campaign.config["matrix"].as_string() == matrix if matrix else None,
         Campaign.config["grid"].as_string() == grid if grid else None,
-        exists().where(and_(CampaignCell.campaign_id == Campaign.id,
-                            CampaignCell.params["checkpoint"].as_string() == model)) if model else None,
-    ]  # fmt: skip
+        exists().where(
+            and_(
+                CampaignCell.campaign_id == Campaign.id,
+                CampaignCell.params["checkpoint"].as_string() == model,
+            )
+        )
+        if model
+        else None,
+    ]
     where = [t for t in terms if t is not None] + _label_terms(Campaign.job_id, name, tags)
     return _page(engine, Campaign, where, limit, offset)
 
@@ -96,9 +123,20 @@ def campaign_grid_cells(engine: Engine, campaign_id: str) -> list[Any]:
             job = None
     if job is not None and job["result"]:
         result = CampaignResult.model_validate(job["result"])
-        return [GridCell(c.checkpoint, c.variant, c.planner.config, {"global": c.global_, "hard": c.hard})
-                for c in result.ranked]  # fmt: skip
-    return [GridCell(c["params"]["checkpoint"], c["params"]["variant"], {},
-                     {s: SuiteSummary.model_validate(m) for s, m in (c["metrics"] or {}).items()
-                      if s in ("global", "hard") and m})
-            for c in cells]  # fmt: skip
+        return [
+            GridCell(c.checkpoint, c.variant, c.planner.config, {"global": c.global_, "hard": c.hard})
+            for c in result.ranked
+        ]
+    return [
+        GridCell(
+            c["params"]["checkpoint"],
+            c["params"]["variant"],
+            {},
+            {
+                s: SuiteSummary.model_validate(m)
+                for s, m in (c["metrics"] or {}).items()
+                if s in ("global", "hard") and m
+            },
+        )
+        for c in cells
+    ]

@@ -56,9 +56,14 @@ def check_files(model_id: str, root: Path, manifest: dict[str, str]) -> None:
     now = files_manifest(root)
     for rel in sorted(set(manifest) | set(now)):
         what = (
-            "is missing" if rel not in now else "was added" if rel not in manifest else
-            "changed" if now[rel] != manifest[rel] else None
-        )  # fmt: skip
+            "is missing"
+            if rel not in now
+            else "was added"
+            if rel not in manifest
+            else "changed"
+            if now[rel] != manifest[rel]
+            else None
+        )
         if what:
             raise CoreError(f"model {model_id!r}: file {rel} {what} since registration (sha256 mismatch)")
 
@@ -127,17 +132,33 @@ def register_predictor(
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
         raise
-    lineage = {**meta.get("lineage", {}), "kind": kind, "predictor": predictor, "frame": declared["frame"],
-               "modes": declared["modes"], "files": manifest}  # fmt: skip
+    lineage = {
+        **meta.get("lineage", {}),
+        "kind": kind,
+        "predictor": predictor,
+        "frame": declared["frame"],
+        "modes": declared["modes"],
+        "files": manifest,
+    }
     try:
         with session_factory(engine, write=True).begin() as session:
-            session.add(Model(
-                id=model_id, status=status, checkpoint=stored, sha256=manifest_sha256(manifest),
-                time_base=declared["timebase"], lineage=lineage, training=meta.get("training", {}),
-                metrics=meta.get("metrics", {}), tags=meta.get("tags", []),
-                provenance=meta.get("provenance") or f"{kind} {predictor}", read_only=False, job_id=None,
-                created_at=time.time(),
-            ))  # fmt: skip
+            session.add(
+                Model(
+                    id=model_id,
+                    status=status,
+                    checkpoint=stored,
+                    sha256=manifest_sha256(manifest),
+                    time_base=declared["timebase"],
+                    lineage=lineage,
+                    training=meta.get("training", {}),
+                    metrics=meta.get("metrics", {}),
+                    tags=meta.get("tags", []),
+                    provenance=meta.get("provenance") or f"{kind} {predictor}",
+                    read_only=False,
+                    job_id=None,
+                    created_at=time.time(),
+                )
+            )
     except IntegrityError:
         shutil.rmtree(dest, ignore_errors=True)
         raise queue.Conflict(f"a model with id {model_id!r} already exists") from None

@@ -122,12 +122,24 @@ def claim_id(engine: Engine, job_id: str, worker_id: str, lease_s: float) -> Job
     """Take one queued job by id (a pipeline runs its own children in its slot); None when it is not queued."""
     now = time.time()
     with write_tx(engine) as conn:
-        row = conn.execute(
-            update(jobs).where(jobs.c.id == job_id, jobs.c.status == QUEUED)
-            .values(status=RUNNING, lease_owner=worker_id, lease_expires_at=now + lease_s,
-                    attempts=jobs.c.attempts + 1, started_at=now, progress=0.0, message="")
-            .returning(*jobs.c)
-        ).mappings().first()  # fmt: skip
+        row = (
+            conn.execute(
+                update(jobs)
+                .where(jobs.c.id == job_id, jobs.c.status == QUEUED)
+                .values(
+                    status=RUNNING,
+                    lease_owner=worker_id,
+                    lease_expires_at=now + lease_s,
+                    attempts=jobs.c.attempts + 1,
+                    started_at=now,
+                    progress=0.0,
+                    message="",
+                )
+                .returning(*jobs.c)
+            )
+            .mappings()
+            .first()
+        )
         if row is None:
             return None
         _add_event(conn, job_id, "status", f"{RUNNING} (attempt {row['attempts']}, worker {worker_id})")
@@ -287,20 +299,37 @@ def reap_stale(engine: Engine, now: float | None = None) -> dict[str, int]:
             .scalars()
             .all()
         )
-        failed = conn.execute(
-            update(jobs)
-            .where(*expired, jobs.c.attempts >= jobs.c.max_attempts)
-            .values(status=FAILED, error_type="LeaseExpired",
-                    error_message="the worker stopped heartbeating and no attempts remain", **done)
-            .returning(jobs.c.id)
-        ).scalars().all()  # fmt: skip
-        requeued = conn.execute(
-            update(jobs)
-            .where(*expired)
-            .values(status=QUEUED, lease_owner=None, lease_expires_at=None, error_type="LeaseExpired",
-                    error_message="the worker stopped heartbeating; queued again")
-            .returning(jobs.c.id)
-        ).scalars().all()  # fmt: skip
+        failed = (
+            conn.execute(
+                update(jobs)
+                .where(*expired, jobs.c.attempts >= jobs.c.max_attempts)
+                .values(
+                    status=FAILED,
+                    error_type="LeaseExpired",
+                    error_message="the worker stopped heartbeating and no attempts remain",
+                    **done,
+                )
+                .returning(jobs.c.id)
+            )
+            .scalars()
+            .all()
+        )
+        requeued = (
+            conn.execute(
+                update(jobs)
+                .where(*expired)
+                .values(
+                    status=QUEUED,
+                    lease_owner=None,
+                    lease_expires_at=None,
+                    error_type="LeaseExpired",
+                    error_message="the worker stopped heartbeating; queued again",
+                )
+                .returning(jobs.c.id)
+            )
+            .scalars()
+            .all()
+        )
         for ids, message in (
             (cancelled, CANCELLED),
             (failed, f"{FAILED}: lease expired"),
@@ -317,9 +346,16 @@ def register_worker(
     now = time.time()
     with write_tx(engine) as conn:
         conn.execute(
-            insert(workers).values(id=worker_id, host=host, pid=pid, concurrency=concurrency, kinds=kinds,
-                                   started_at=now, heartbeat_at=now)
-        )  # fmt: skip
+            insert(workers).values(
+                id=worker_id,
+                host=host,
+                pid=pid,
+                concurrency=concurrency,
+                kinds=kinds,
+                started_at=now,
+                heartbeat_at=now,
+            )
+        )
 
 
 def stop_worker(engine: Engine, worker_id: str) -> None:
@@ -343,9 +379,10 @@ def request_cancel(engine: Engine, job_id: str) -> str:
     now = time.time()
     with write_tx(engine) as conn:
         n = conn.execute(
-            update(jobs).where(jobs.c.id == job_id, jobs.c.status == QUEUED)
+            update(jobs)
+            .where(jobs.c.id == job_id, jobs.c.status == QUEUED)
             .values(status=CANCELLED, cancel_requested=True, finished_at=now)
-        ).rowcount  # fmt: skip
+        ).rowcount
         if n:
             _add_event(conn, job_id, "status", CANCELLED)
             return CANCELLED
@@ -366,9 +403,19 @@ def retry(engine: Engine, job_id: str) -> JobRow:
         n = conn.execute(
             update(jobs)
             .where(jobs.c.id == job_id, jobs.c.status.in_((FAILED, CANCELLED)))
-            .values(status=QUEUED, attempts=0, cancel_requested=False, lease_owner=None, lease_expires_at=None,
-                    progress=0.0, message="", error_type=None, error_message=None, finished_at=None)
-        ).rowcount  # fmt: skip
+            .values(
+                status=QUEUED,
+                attempts=0,
+                cancel_requested=False,
+                lease_owner=None,
+                lease_expires_at=None,
+                progress=0.0,
+                message="",
+                error_type=None,
+                error_message=None,
+                finished_at=None,
+            )
+        ).rowcount
         if n:
             _add_event(conn, job_id, "status", f"{QUEUED} (retry)")
             return get(conn, job_id)

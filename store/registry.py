@@ -79,8 +79,12 @@ def _put_bundle(
             row = Bundle(id=ident, created_at=time.time())
             session.add(row)
         row.source, row.root, row.files, row.scenarios, row.sha256 = (
-            source, stored_root, files, matrix_files(root, files), sha,
-        )  # fmt: skip
+            source,
+            stored_root,
+            files,
+            matrix_files(root, files),
+            sha,
+        )
 
 
 def sync_bundles(engine: Engine, settings: Settings) -> list[str]:
@@ -126,10 +130,20 @@ def load_shipped_models(engine: Engine, settings: Settings) -> list[str]:
 def export_models(rows: list[Model]) -> str:
     """Registry entries in the schema of ``model/registry.yaml``."""
     models = [
-        {"id": m.id, "path": m.checkpoint, "sha256": m.sha256, "status": m.status, "provenance": m.provenance,
-         "time_base": m.time_base, "lineage": m.lineage, "training": m.training, "metrics": m.metrics, "tags": m.tags}
+        {
+            "id": m.id,
+            "path": m.checkpoint,
+            "sha256": m.sha256,
+            "status": m.status,
+            "provenance": m.provenance,
+            "time_base": m.time_base,
+            "lineage": m.lineage,
+            "training": m.training,
+            "metrics": m.metrics,
+            "tags": m.tags,
+        }
         for m in rows
-    ]  # fmt: skip
+    ]
     return yaml.safe_dump({"models": models}, sort_keys=False)
 
 
@@ -272,15 +286,29 @@ def register_checkpoint(
             raise queue.JobNotFound(f"job {job_id} has no artifact {name!r}")
         checkpoint = _checkpoint(settings, art.path, art.sha256, name)
         _same_time_base(meta.get("time_base"), checkpoint["timebase"])
-        session.add(Model(
-            id=model_id, status=status, checkpoint=art.path, sha256=art.sha256,
-            time_base=dict(checkpoint["timebase"]),
-            lineage={**meta.get("lineage", {}), "frame_convention": checkpoint["feature_schema"]["frame_convention"],
-                     "kind": "checkpoint", "modes": int((checkpoint.get("model_config") or {}).get("modes", 1)), "files": {name: art.sha256}},
-            training=meta.get("training", {}), metrics=meta.get("metrics", {}), tags=meta.get("tags", []),
-            provenance=meta.get("provenance") or f"job {job_id}", read_only=False, job_id=job_id,
-            created_at=time.time(),
-        ))  # fmt: skip
+        session.add(
+            Model(
+                id=model_id,
+                status=status,
+                checkpoint=art.path,
+                sha256=art.sha256,
+                time_base=dict(checkpoint["timebase"]),
+                lineage={
+                    **meta.get("lineage", {}),
+                    "frame_convention": checkpoint["feature_schema"]["frame_convention"],
+                    "kind": "checkpoint",
+                    "modes": int((checkpoint.get("model_config") or {}).get("modes", 1)),
+                    "files": {name: art.sha256},
+                },
+                training=meta.get("training", {}),
+                metrics=meta.get("metrics", {}),
+                tags=meta.get("tags", []),
+                provenance=meta.get("provenance") or f"job {job_id}",
+                read_only=False,
+                job_id=job_id,
+                created_at=time.time(),
+            )
+        )
         try:
             session.flush()
         except IntegrityError:

@@ -66,8 +66,13 @@ def evaluations(
     ]
     with session_factory(engine)() as session:
         count = session.scalar(select(func.count()).select_from(Evaluation).where(*where)) or 0
-        rows = session.scalars(select(Evaluation).where(*where).order_by(Evaluation.created_at.desc(), Evaluation.id)
-                               .limit(limit).offset(offset))  # fmt: skip
+        rows = session.scalars(
+            select(Evaluation)
+            .where(*where)
+            .order_by(Evaluation.created_at.desc(), Evaluation.id)
+            .limit(limit)
+            .offset(offset)
+        )
         return count, list(rows)
 
 
@@ -114,8 +119,11 @@ def comparison_operand(engine: Engine, ident: str) -> tuple[str, dict[str, Any],
                 f"no evaluation {ident!r} and no campaign cell of that name "
                 "(cells are CAMPAIGN_ID:RANK or CAMPAIGN_ID:RANK:hard, rank 1 = best)"
             )
-        cell = session.scalars(select(CampaignCell).where(CampaignCell.campaign_id == campaign_id,
-                                                          CampaignCell.rank == int(rank))).first()  # fmt: skip
+        cell = session.scalars(
+            select(CampaignCell).where(
+                CampaignCell.campaign_id == campaign_id, CampaignCell.rank == int(rank)
+            )
+        ).first()
         if cell is None:
             raise queue.JobNotFound(f"campaign {campaign_id!r} has no cell of rank {rank}")
         config = {**found.config, **cell.params}

@@ -82,8 +82,14 @@ def make_engine(url: str, *, busy_timeout_ms: int = 30000, pool_size: int = 10) 
     if parsed.get_backend_name() != "sqlite":
         # no pre-ping (a round trip per checkout, ~a third of a claim's cost); connections are recycled,
         # and the worker loop and the API survive a dropped connection by retrying / answering 500 once
-        return create_engine(url, pool_size=pool_size, max_overflow=2 * pool_size, pool_recycle=300,
-                             json_serializer=json_serializer, json_deserializer=json_deserializer)  # fmt: skip
+        return create_engine(
+            url,
+            pool_size=pool_size,
+            max_overflow=2 * pool_size,
+            pool_recycle=300,
+            json_serializer=json_serializer,
+            json_deserializer=json_deserializer,
+        )
     if parsed.database and parsed.database != ":memory:":
         path = Path(parsed.database)
         path.parent.mkdir(parents=True, exist_ok=True)

@@ -22,16 +22,37 @@ from foresight.store.queue_sql import SUBMIT_SQL
 from foresight.store.session import is_sqlite, write_tx
 
 
-def _new_row(kind: str, spec: dict[str, Any], priority: int, timeout_s: float | None, max_attempts: int,
-             idempotency_key: str | None, parent_id: str | None, labels: dict[str, Any] | None) -> dict[str, Any]:  # fmt: skip
+def _new_row(
+    kind: str,
+    spec: dict[str, Any],
+    priority: int,
+    timeout_s: float | None,
+    max_attempts: int,
+    idempotency_key: str | None,
+    parent_id: str | None,
+    labels: dict[str, Any] | None,
+) -> dict[str, Any]:
     """A job row; ``labels`` the optional ``name``, ``tags`` and ``note`` (``store.labels``)."""
     labels = labels or {}
     return dict(
-        id=new_id(), kind=kind, spec=spec, status=QUEUED, priority=priority, attempts=0,
-        max_attempts=max_attempts, timeout_s=timeout_s, idempotency_key=idempotency_key, parent_id=parent_id,
-        cancel_requested=False, progress=0.0, message="", created_at=time.time(),
-        name=labels.get("name"), tags=list(labels.get("tags") or []), note=labels.get("note") or "",
-    )  # fmt: skip
+        id=new_id(),
+        kind=kind,
+        spec=spec,
+        status=QUEUED,
+        priority=priority,
+        attempts=0,
+        max_attempts=max_attempts,
+        timeout_s=timeout_s,
+        idempotency_key=idempotency_key,
+        parent_id=parent_id,
+        cancel_requested=False,
+        progress=0.0,
+        message="",
+        created_at=time.time(),
+        name=labels.get("name"),
+        tags=list(labels.get("tags") or []),
+        note=labels.get("note") or "",
+    )
 
 
 def submit(
@@ -85,9 +106,18 @@ def _batched(engine: Engine, idempotency_key: str | None, parent_id: str | None)
     return idempotency_key is None and parent_id is None and is_sqlite(engine)
 
 
-async def submit_async(engine: Engine, *, kind: str, spec: dict[str, Any], priority: int = 0,
-                       timeout_s: float | None = None, max_attempts: int = 3, idempotency_key: str | None = None,
-                       parent_id: str | None = None, labels: dict[str, Any] | None = None) -> tuple[JobRow, bool]:  # fmt: skip
+async def submit_async(
+    engine: Engine,
+    *,
+    kind: str,
+    spec: dict[str, Any],
+    priority: int = 0,
+    timeout_s: float | None = None,
+    max_attempts: int = 3,
+    idempotency_key: str | None = None,
+    parent_id: str | None = None,
+    labels: dict[str, Any] | None = None,
+) -> tuple[JobRow, bool]:
     """:func:`submit` from the event loop: a plain submission on SQLite waits on a future while the submission
     thread writes it (holding no thread); the rest (keys, parents, PostgreSQL) runs in a worker thread."""
     if _batched(engine, idempotency_key, parent_id):
@@ -98,15 +128,31 @@ async def submit_async(engine: Engine, *, kind: str, spec: dict[str, Any], prior
 
     if parent_id is not None:
         await anyio.to_thread.run_sync(get_job, engine, parent_id)  # JobNotFound naming an unknown parent
-    call = functools.partial(submit, engine, kind=kind, spec=spec, priority=priority, timeout_s=timeout_s,
-                             max_attempts=max_attempts, idempotency_key=idempotency_key, parent_id=parent_id,
-                             labels=labels)  # fmt: skip
+    call = functools.partial(
+        submit,
+        engine,
+        kind=kind,
+        spec=spec,
+        priority=priority,
+        timeout_s=timeout_s,
+        max_attempts=max_attempts,
+        idempotency_key=idempotency_key,
+        parent_id=parent_id,
+        labels=labels,
+    )
     return await anyio.to_thread.run_sync(call)
 
 
 #: the columns a fresh job has beyond what submit sets
-_JOB_DEFAULTS = {"lease_owner": None, "lease_expires_at": None, "error_type": None, "error_message": None,
-                 "result": None, "started_at": None, "finished_at": None}  # fmt: skip
+_JOB_DEFAULTS = {
+    "lease_owner": None,
+    "lease_expires_at": None,
+    "error_type": None,
+    "error_message": None,
+    "result": None,
+    "started_at": None,
+    "finished_at": None,
+}
 
 
 def _same_submission(job: JobRow, kind: str, spec: dict[str, Any]) -> JobRow:

@@ -64,8 +64,19 @@ class SubmitBatcher:
                 with write_tx(self.engine) as conn:
                     conn.execute(insert(jobs), [row for row, _ in batch])
                     labels_store.insert_tags(conn, [row for row, _ in batch])
-                    conn.execute(EVENT_SQL, [{"job_id": row["id"], "at": row["created_at"], "type": "status",
-                                               "message": QUEUED, "progress": None} for row, _ in batch])  # fmt: skip
+                    conn.execute(
+                        EVENT_SQL,
+                        [
+                            {
+                                "job_id": row["id"],
+                                "at": row["created_at"],
+                                "type": "status",
+                                "message": QUEUED,
+                                "progress": None,
+                            }
+                            for row, _ in batch
+                        ],
+                    )
             except Exception as exc:  # noqa: BLE001 (every submission of the batch fails the same way)
                 error = exc
             for _, done in batch:

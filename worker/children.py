@@ -55,8 +55,13 @@ class Worker(Protocol):
 
 
 def _row(m: Any) -> dict[str, Any]:
-    return {"id": m.id, "status": m.status, "sha256": m.sha256, "lineage": dict(m.lineage or {}),
-            "created_at": m.created_at}  # fmt: skip
+    return {
+        "id": m.id,
+        "status": m.status,
+        "sha256": m.sha256,
+        "lineage": dict(m.lineage or {}),
+        "created_at": m.created_at,
+    }
 
 
 class ChildRunner:
@@ -115,9 +120,14 @@ class ChildRunner:
             spec.get("status") or ModelStatus.candidate.value
         )  # relaxed: a pipeline whose gates are relaxed
         return registry.register_checkpoint(
-            self.engine, self.settings, model_id=model_id, job_id=train_job, metadata=spec, status=status,
+            self.engine,
+            self.settings,
+            model_id=model_id,
+            job_id=train_job,
+            metadata=spec,
+            status=status,
             resume=True,
-        )  # fmt: skip
+        )
 
     def promote_model(self, model_id: str, to: str) -> dict[str, Any]:
         return registry.promote(self.engine, model_id, to)

@@ -40,8 +40,12 @@ PARAM_CHARS = 500  #: longer parameter values are cut (MLflow's limit is 6000; t
 #: the MLflow client's behaviour unless the operator sets these: few retries and short waits, so that an outage
 #: delays a finishing job by seconds, not by the client's default minutes of back-off; no "View run" lines on
 #: stdout (the CLI's --json output is there)
-CLIENT_DEFAULTS = {"MLFLOW_HTTP_REQUEST_MAX_RETRIES": "2", "MLFLOW_HTTP_REQUEST_BACKOFF_FACTOR": "1",
-                   "MLFLOW_HTTP_REQUEST_TIMEOUT": "20", "MLFLOW_SUPPRESS_PRINTING_URL_TO_STDOUT": "true"}  # fmt: skip
+CLIENT_DEFAULTS = {
+    "MLFLOW_HTTP_REQUEST_MAX_RETRIES": "2",
+    "MLFLOW_HTTP_REQUEST_BACKOFF_FACTOR": "1",
+    "MLFLOW_HTTP_REQUEST_TIMEOUT": "20",
+    "MLFLOW_SUPPRESS_PRINTING_URL_TO_STDOUT": "true",
+}
 
 
 @dataclass(frozen=True)
@@ -86,8 +90,11 @@ def target(
     if scheme in ("", "file") or len(scheme) == 1:  # a path (a Windows drive letter parses as a scheme)
         from foresight.core.errors import ConfigError
 
-        raise ConfigError(f"{uri!r}: MLflow 3 no longer writes to a file store; use a database, e.g. "
-                          "sqlite:///PATH/mlflow.db, or an MLflow server's http(s):// URL", source=ENV)  # fmt: skip
+        raise ConfigError(
+            f"{uri!r}: MLflow 3 no longer writes to a file store; use a database, e.g. "
+            "sqlite:///PATH/mlflow.db, or an MLflow server's http(s):// URL",
+            source=ENV,
+        )
     return MlflowTarget(uri, experiment or "foresight", artifact_root)
 
 
@@ -142,8 +149,11 @@ def describe(
     typed = read_result(kind, result)
     data = typed.model_dump(mode="json", by_alias=True)
     content = RunContent(name=f"{kind} {job_id[:12]}" if job_id else f"{kind} (local)")
-    content.tags = {"foresight.kind": kind, "foresight.verdict": verdict(kind, data) or "none",
-                    "foresight.mode": "service" if job_id else "local"}  # fmt: skip
+    content.tags = {
+        "foresight.kind": kind,
+        "foresight.verdict": verdict(kind, data) or "none",
+        "foresight.mode": "service" if job_id else "local",
+    }
     if job_id:
         content.tags["foresight.job_id"] = job_id
     else:
@@ -251,9 +261,16 @@ def _evaluation(content: RunContent, result: EvaluationResult, workdir: Path) ->
 
 def _campaign(content: RunContent, result: CampaignResult) -> None:
     content.params.update(dict(flatten("config", result.config)))
-    content.params.update({"code_version": result.code_version, "matrix": result.matrix, "grid": result.grid,
-                           "seeds": result.seed_manifest, "horizon": result.horizon,
-                           "config_hash": config_hash(result.config)})  # fmt: skip
+    content.params.update(
+        {
+            "code_version": result.code_version,
+            "matrix": result.matrix,
+            "grid": result.grid,
+            "seeds": result.seed_manifest,
+            "horizon": result.horizon,
+            "config_hash": config_hash(result.config),
+        }
+    )
     if result.best is not None:
         content.params.update({"best_variant": result.best.variant, "model_id": result.best.planner.model_id})
     for cell in result.ranked:
@@ -287,8 +304,11 @@ def export(target: MlflowTarget, content: RunContent, log: Callable[[str], None]
         experiment_id = _experiment(client, target.experiment, location)
         job_id = content.tags.get("foresight.job_id")
         if job_id is not None:  # a job whose recording failed after its export runs again: keep one run
-            done = client.search_runs([experiment_id], f"tags.`foresight.job_id` = '{job_id}' and "
-                                                       "attributes.status = 'FINISHED'", max_results=1)  # fmt: skip
+            done = client.search_runs(
+                [experiment_id],
+                f"tags.`foresight.job_id` = '{job_id}' and attributes.status = 'FINISHED'",
+                max_results=1,
+            )
             if done:
                 log(f"MLflow: job already exported as run {done[0].info.run_id} ({target.public_uri()})")
                 return str(done[0].info.run_id)

@@ -248,10 +248,16 @@ class JobWorker:
         job = held.job
         if held.attempt_dir is not None:
             folders.drop_attempt(held.attempt_dir)
-        shutil.rmtree(folders.resolve_under(self.settings.store_root, folders.job_dir(self.settings.store_root, job["id"])),
-                      ignore_errors=True)  # fmt: skip
-        message = (f"the disk of the store or the database was full when the job ended, so its outcome could not be "
-                   f"recorded ({self.public_text(str(exc)).splitlines()[0][:300]}); retry it once space is freed")  # fmt: skip
+        shutil.rmtree(
+            folders.resolve_under(
+                self.settings.store_root, folders.job_dir(self.settings.store_root, job["id"])
+            ),
+            ignore_errors=True,
+        )
+        message = (
+            f"the disk of the store or the database was full when the job ended, so its outcome could not be "
+            f"recorded ({self.public_text(str(exc)).splitlines()[0][:300]}); retry it once space is freed"
+        )
         wait = 0.5
         while not held.lost and not self._stopping.wait(wait):
             try:

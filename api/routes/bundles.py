@@ -33,10 +33,16 @@ def read_bundles(engine: EngineDep) -> BundlesPublic:
     return BundlesPublic(data=[BundlePublic.model_validate(b) for b in rows], count=len(rows))
 
 
-ARCHIVE_BODY = {"requestBody": {"required": True, "content": {
-    "application/zip": {"schema": {"type": "string", "format": "binary"}},
-    "application/x-tar": {"schema": {"type": "string", "format": "binary"}},
-    "application/gzip": {"schema": {"type": "string", "format": "binary"}}}}}  # fmt: skip
+ARCHIVE_BODY = {
+    "requestBody": {
+        "required": True,
+        "content": {
+            "application/zip": {"schema": {"type": "string", "format": "binary"}},
+            "application/x-tar": {"schema": {"type": "string", "format": "binary"}},
+            "application/gzip": {"schema": {"type": "string", "format": "binary"}},
+        },
+    }
+}
 
 
 async def _archive(request: Request) -> bytes:
@@ -52,14 +58,24 @@ async def _archive(request: Request) -> bytes:
     return bytes(data)
 
 
-@router.post("", status_code=status.HTTP_201_CREATED, dependencies=[WriteAuth],
-             responses={200: {"model": BundlePublic, "description": "replaced (replace=true)"}, **responses(*AUTH, 409)},
-             openapi_extra=ARCHIVE_BODY)  # fmt: skip
+@router.post(
+    "",
+    status_code=status.HTTP_201_CREATED,
+    dependencies=[WriteAuth],
+    responses={
+        200: {"model": BundlePublic, "description": "replaced (replace=true)"},
+        **responses(*AUTH, 409),
+    },
+    openapi_extra=ARCHIVE_BODY,
+)
 async def create_bundle(
-    request: Request, response: Response, engine: EngineDep, settings: SettingsDep,
+    request: Request,
+    response: Response,
+    engine: EngineDep,
+    settings: SettingsDep,
     name: Annotated[Ident, Query(description="bundle id")],
     replace: Annotated[bool, Query(description="replace an uploaded bundle of that id (as PUT)")] = False,
-) -> BundlePublic:  # fmt: skip
+) -> BundlePublic:
     """Upload a zip or tar of YAML files and maps (the raw archive is the body); validated before it is stored.
     An existing id is a 409 unless ``replace=true`` (then 200, as PUT)."""
     from starlette.concurrency import run_in_threadpool
@@ -70,8 +86,10 @@ async def create_bundle(
         response.status_code = status.HTTP_200_OK
         return BundlePublic.model_validate(row)
     if registry.bundle(engine, name) is not None:
-        raise queue.Conflict(f"a bundle with id {name!r} already exists (replace it: PUT /v1/bundles/{name}, "
-                             "or `foresight bundles upload --replace`)")  # fmt: skip
+        raise queue.Conflict(
+            f"a bundle with id {name!r} already exists (replace it: PUT /v1/bundles/{name}, "
+            "or `foresight bundles upload --replace`)"
+        )
     data = await _archive(request)
     try:
         row = await run_in_threadpool(save_upload, engine, settings, name, data)
@@ -97,8 +115,12 @@ async def replace_bundle(
     )
 
 
-@router.delete("/{bundle_id}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[WriteAuth],
-               responses=responses(*AUTH, 404, 409))  # fmt: skip
+@router.delete(
+    "/{bundle_id}",
+    status_code=status.HTTP_204_NO_CONTENT,
+    dependencies=[WriteAuth],
+    responses=responses(*AUTH, 404, 409),
+)
 def delete_bundle(bundle_id: Ident, engine: EngineDep, settings: SettingsDep) -> Response:
     """Delete an uploaded bundle and its files (records that ran on it keep its name). 409 for project and
     config-folder bundles and while queued or running jobs use it (naming them)."""
@@ -123,6 +145,13 @@ def read_bundle_scenarios(bundle_id: Ident, engine: EngineDep, resolver: Resolve
     for rel in row.scenarios:
         matrix = load_matrix(root / rel)
         for s in matrix.scenarios:
-            out.append(ScenarioPublic(matrix=rel, name=s.name, map=s.map.name,
-                                      archetype=s.scenario.archetype, seeds=list(s.scenario.seeds)))  # fmt: skip
+            out.append(
+                ScenarioPublic(
+                    matrix=rel,
+                    name=s.name,
+                    map=s.map.name,
+                    archetype=s.scenario.archetype,
+                    seeds=list(s.scenario.seeds),
+                )
+            )
     return out

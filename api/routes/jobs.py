@@ -26,8 +26,10 @@ from foresight.store.models import JobStatus
 router = APIRouter(prefix="/jobs", tags=["jobs"], route_class=BoundedJsonRoute)
 
 
-async def full_job_id(job_id: Annotated[Ident, Path(description="a job id or a unique prefix of 8+ characters")],
-                      request: Request) -> str:  # fmt: skip
+async def full_job_id(
+    job_id: Annotated[Ident, Path(description="a job id or a unique prefix of 8+ characters")],
+    request: Request,
+) -> str:
     """The job's full id (a short id, as the CLI prints, is resolved)."""
     engine = request.app.state.engine
     if len(job_id) >= 32:
@@ -74,9 +76,16 @@ async def limit_body(content_length: Annotated[int | None, Header(include_in_sch
         )
 
 
-@router.post("", status_code=status.HTTP_201_CREATED, dependencies=[WriteAuth, Depends(limit_body)], response_model=JobPublic,
-             responses={200: {"model": JobPublic, "description": "the job of a known idempotency key"},
-                        **responses(*AUTH, 404, 409, 413)})  # fmt: skip
+@router.post(
+    "",
+    status_code=status.HTTP_201_CREATED,
+    dependencies=[WriteAuth, Depends(limit_body)],
+    response_model=JobPublic,
+    responses={
+        200: {"model": JobPublic, "description": "the job of a known idempotency key"},
+        **responses(*AUTH, 404, 409, 413),
+    },
+)
 async def create_job(
     body: JobCreate, engine: EngineDep, settings: SettingsDep, resolver: ResolverDep
 ) -> Response:
@@ -94,10 +103,16 @@ async def create_job(
     ):  # the diagnostic kind has no inputs and no episodes (queue benchmarks submit it)
         await run_in_threadpool(admission.admit, body.spec, settings, resolver)
     job, created = await queue.submit_async(
-        engine, kind=spec["kind"], spec=spec, priority=body.priority,
-        timeout_s=body.timeout_s or settings.job_timeout_s, max_attempts=body.max_attempts or settings.max_attempts,
-        idempotency_key=body.idempotency_key, parent_id=body.parent_id, labels=body.labels(),
-    )  # fmt: skip
+        engine,
+        kind=spec["kind"],
+        spec=spec,
+        priority=body.priority,
+        timeout_s=body.timeout_s or settings.job_timeout_s,
+        max_attempts=body.max_attempts or settings.max_attempts,
+        idempotency_key=body.idempotency_key,
+        parent_id=body.parent_id,
+        labels=body.labels(),
+    )
     code = status.HTTP_201_CREATED if created else status.HTTP_200_OK
     return Response(job_public(job).model_dump_json(), status_code=code, media_type="application/json")
 
@@ -117,9 +132,17 @@ def read_jobs(
     offset: Annotated[int, Query(ge=0, le=10_000_000)] = 0,
 ) -> JobsPublic:
     """Jobs, newest first, filtered by status, kind, parent, name, tags (all of them) and free text."""
-    count, rows = job_reads.list_jobs(engine, statuses=[s.value for s in status_ or ()], kinds=kind or (),
-                                  parent_id=parent_id, name=name, tags=tag, q=q, limit=limit,
-                                  offset=offset)  # fmt: skip
+    count, rows = job_reads.list_jobs(
+        engine,
+        statuses=[s.value for s in status_ or ()],
+        kinds=kind or (),
+        parent_id=parent_id,
+        name=name,
+        tags=tag,
+        q=q,
+        limit=limit,
+        offset=offset,
+    )
     return JobsPublic(data=[job_public(r) for r in rows], count=count, limit=limit, offset=offset)
 
 
@@ -163,27 +186,38 @@ async def _sse(engine: Any, job_id: str, after: int) -> AsyncIterator[str]:
         await asyncio.sleep(SSE_POLL_S)
 
 
-@router.get("/{job_id}/events", response_class=StreamingResponse,
-            responses={200: {"content": {"text/event-stream": {}}}, **responses(404)})  # fmt: skip
+@router.get(
+    "/{job_id}/events",
+    response_class=StreamingResponse,
+    responses={200: {"content": {"text/event-stream": {}}}, **responses(404)},
+)
 def read_job_events(
-    job_id: JobId, engine: EngineDep,
+    job_id: JobId,
+    engine: EngineDep,
     last_event_id: Annotated[int | None, Header(ge=0, le=MAX_EVENT_ID)] = None,
     after: Annotated[int, Query(ge=0, le=MAX_EVENT_ID)] = 0,
-) -> StreamingResponse:  # fmt: skip
+) -> StreamingResponse:
     """Progress, log and status lines as server-sent events; ends with an ``end`` event."""
     job_reads.get_job(engine, job_id)
     start = last_event_id if last_event_id is not None else after
-    return StreamingResponse(_sse(engine, job_id, start), media_type="text/event-stream",
-                             headers={"Cache-Control": "no-cache"})  # fmt: skip
+    return StreamingResponse(
+        _sse(engine, job_id, start), media_type="text/event-stream", headers={"Cache-Control": "no-cache"}
+    )
 
 
 @router.patch("/{job_id}", dependencies=[WriteAuth], responses=responses(*AUTH, 404))
 def update_job(job_id: JobId, body: JobUpdate, engine: EngineDep) -> JobPublic:
     """Rename a job, edit its tags or note (any status; the spec and result never change)."""
     fields = body.model_fields_set
-    found = labels.edit(engine, job_id, name=body.name if "name" in fields else labels.UNSET,
-                        note=body.note if "note" in fields and body.note is not None else labels.UNSET,
-                        tags=body.tags, add=body.add_tags, remove=body.remove_tags)  # fmt: skip
+    found = labels.edit(
+        engine,
+        job_id,
+        name=body.name if "name" in fields else labels.UNSET,
+        note=body.note if "note" in fields and body.note is not None else labels.UNSET,
+        tags=body.tags,
+        add=body.add_tags,
+        remove=body.remove_tags,
+    )
     if not found:
         raise queue.JobNotFound(f"no job with id {job_id!r}")
     return job_public(job_reads.get_job(engine, job_id))
@@ -217,8 +251,11 @@ def delete_job(job_id: JobId, engine: EngineDep, settings: SettingsDep) -> Respo
     return Response(status_code=status.HTTP_204_NO_CONTENT)
 
 
-@router.get("/{job_id}/artifacts/{name:path}", response_class=FileResponse,
-            responses={200: {"content": {"application/octet-stream": {}}}, **responses(404)})  # fmt: skip
+@router.get(
+    "/{job_id}/artifacts/{name:path}",
+    response_class=FileResponse,
+    responses={200: {"content": {"application/octet-stream": {}}}, **responses(404)},
+)
 def read_job_artifact(
     job_id: JobId, name: str, engine: EngineDep, settings: SettingsDep, request: Request
 ) -> FileResponse:

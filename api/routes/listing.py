@@ -42,10 +42,22 @@ def read_evaluations(
 ) -> EvaluationsPublic:
     """Evaluations, newest first, filtered by model id, bundle, planner name, matrix (bundle-relative path),
     verdict and their job's name and tags; config and headline metrics of each."""
-    count, rows = listing.evaluations(engine, model_id=model_id, bundle_id=bundle, planner=planner, matrix=matrix,
-                                      verdict=verdict, name=name, tags=tag, limit=limit, offset=offset)  # fmt: skip
-    data = [EvaluationSummaryPublic.model_validate(r.row).model_copy(update={"name": r.name, "tags": r.tags})
-            for r in rows]  # fmt: skip
+    count, rows = listing.evaluations(
+        engine,
+        model_id=model_id,
+        bundle_id=bundle,
+        planner=planner,
+        matrix=matrix,
+        verdict=verdict,
+        name=name,
+        tags=tag,
+        limit=limit,
+        offset=offset,
+    )
+    data = [
+        EvaluationSummaryPublic.model_validate(r.row).model_copy(update={"name": r.name, "tags": r.tags})
+        for r in rows
+    ]
     return EvaluationsPublic(data=data, count=count, limit=limit, offset=offset)
 
 
@@ -64,18 +76,34 @@ def read_campaigns(
 ) -> CampaignsPublic:
     """Campaigns, newest first, filtered by matrix, planner grid, a checkpoint of its cells and their job's name
     and tags; what each ran and its best cell."""
-    count, rows = listing.campaigns(engine, matrix=matrix, grid=grid, model=model, name=name, tags=tag, limit=limit,
-                                    offset=offset)  # fmt: skip
+    count, rows = listing.campaigns(
+        engine, matrix=matrix, grid=grid, model=model, name=name, tags=tag, limit=limit, offset=offset
+    )
     data = []
     for r in rows:
         best = r.row.best or None
-        data.append(CampaignSummaryPublic(
-            id=r.row.id, job_id=r.row.job_id, config=r.row.config, name=r.name, tags=r.tags,
-            created_at=iso(r.row.created_at),
-            best={"checkpoint": best["checkpoint"], "variant": best["variant"]} if best else None,
-            best_metrics={s: {"success": best[s]["success"]["rate"], "collision": best[s]["collision"]["rate"],
-                              "episodes": best[s]["episodes"]} for s in ("global", "hard") if s in best} if best else None,
-        ))  # fmt: skip
+        data.append(
+            CampaignSummaryPublic(
+                id=r.row.id,
+                job_id=r.row.job_id,
+                config=r.row.config,
+                name=r.name,
+                tags=r.tags,
+                created_at=iso(r.row.created_at),
+                best={"checkpoint": best["checkpoint"], "variant": best["variant"]} if best else None,
+                best_metrics={
+                    s: {
+                        "success": best[s]["success"]["rate"],
+                        "collision": best[s]["collision"]["rate"],
+                        "episodes": best[s]["episodes"],
+                    }
+                    for s in ("global", "hard")
+                    if s in best
+                }
+                if best
+                else None,
+            )
+        )
     return CampaignsPublic(data=data, count=count, limit=limit, offset=offset)
 
 

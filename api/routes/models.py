@@ -119,10 +119,15 @@ async def create_predictor_model(
             raise ConfigError(f"archive larger than {model_kinds.MAX_MODEL_BYTES} bytes", source="upload")
     await run_in_threadpool(
         lambda: model_kinds.register_predictor(
-            engine, settings, model_id=id, kind=kind, predictor=predictor, archive=bytes(data) or None,
+            engine,
+            settings,
+            model_id=id,
+            kind=kind,
+            predictor=predictor,
+            archive=bytes(data) or None,
             metadata={"tags": tag},
         )
-    )  # fmt: skip
+    )
     return ModelPublic.model_validate(registry.model(engine, id))
 
 

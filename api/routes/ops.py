@@ -35,18 +35,31 @@ def read_health(request: Request, engine: EngineDep, settings: SettingsDep) -> H
     if not full:
         space.keep_reserve(settings)  # back once there is room again
     status = "degraded: the disk of the store or the database is full" if full else "ok"
-    return Health(status=status, database=job_reads.ping(engine), revision=request.app.state.revision,
-                  kinds=sorted(KINDS), disk=DiskPublic(**{**state, "full": full}))  # fmt: skip
+    return Health(
+        status=status,
+        database=job_reads.ping(engine),
+        revision=request.app.state.revision,
+        kinds=sorted(KINDS),
+        disk=DiskPublic(**{**state, "full": full}),
+    )
 
 
 @read_router.get("/v1/workers")
 def read_workers(engine: EngineDep, settings: SettingsDep) -> WorkersPublic:
     """Alive workers with their current jobs, and the queue depth per kind."""
     data = [
-        WorkerPublic(id=r["id"], host=r["host"], pid=r["pid"], concurrency=r["concurrency"], kinds=r["kinds"],
-                     started_at=iso(r["started_at"]), heartbeat_at=iso(r["heartbeat_at"]), jobs=r["jobs"])
+        WorkerPublic(
+            id=r["id"],
+            host=r["host"],
+            pid=r["pid"],
+            concurrency=r["concurrency"],
+            kinds=r["kinds"],
+            started_at=iso(r["started_at"]),
+            heartbeat_at=iso(r["heartbeat_at"]),
+            jobs=r["jobs"],
+        )
         for r in job_reads.alive_workers(engine, _alive_cutoff(settings))
-    ]  # fmt: skip
+    ]
     return WorkersPublic(data=data, count=len(data), queue=job_reads.depth(engine))
 
 

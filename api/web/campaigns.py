@@ -33,9 +33,18 @@ def campaign_page(request: Request, campaign_id: str) -> HTMLResponse:
     plots = parameter_plots(grid)
     baselines = _baseline_ranks(cells)
     charts = [(p.parameter, [Markup(chart_svg(p, m)) for m in METRICS]) for p in plots]
-    return page(request, "campaign.html", title=f"Campaign {ident[:12]}", nav="results", campaign=row, cells=cells,
-                gates=gates, charts=charts, by_variant=[p.parameter for p in plots] == [VARIANT_AXIS],
-                baselines=baselines)  # fmt: skip
+    return page(
+        request,
+        "campaign.html",
+        title=f"Campaign {ident[:12]}",
+        nav="results",
+        campaign=row,
+        cells=cells,
+        gates=gates,
+        charts=charts,
+        by_variant=[p.parameter for p in plots] == [VARIANT_AXIS],
+        baselines=baselines,
+    )
 
 
 @router.get("/campaigns/{campaign_id}/cells/{rank}")

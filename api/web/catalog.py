@@ -17,8 +17,13 @@ from foresight.store import folders, job_reads, registry, results
 from foresight.store.models import Bundle
 
 router = APIRouter(prefix="/ui", include_in_schema=False, dependencies=[Depends(read_access)])
-RESULT_KINDS = {"evaluate": "Evaluations", "campaign": "Campaigns", "diagnose": "Diagnostics",
-                "pipeline": "Pipelines", "train": "Training"}  # fmt: skip
+RESULT_KINDS = {
+    "evaluate": "Evaluations",
+    "campaign": "Campaigns",
+    "diagnose": "Diagnostics",
+    "pipeline": "Pipelines",
+    "train": "Training",
+}
 RESULT_LIMIT = 200
 
 
@@ -37,11 +42,16 @@ def results_page(request: Request) -> HTMLResponse:
     records = results.records_by_job(engine)
     sections: dict[str, list[dict[str, Any]]] = {title: [] for title in RESULT_KINDS.values()}
     for row in rows:
-        sections[RESULT_KINDS[row["kind"]]].append(dict(
-            row, headline=headline(row["kind"], typed_result(row["kind"], row["result"])), records=records.get(row["id"], []),
-            report=files.report_of(request, row["id"]), verdict=verdict(row["kind"], row["result"]),
-            subject=planner_and_model(row["kind"], row["result"]),
-        ))  # fmt: skip
+        sections[RESULT_KINDS[row["kind"]]].append(
+            dict(
+                row,
+                headline=headline(row["kind"], typed_result(row["kind"], row["result"])),
+                records=records.get(row["id"], []),
+                report=files.report_of(request, row["id"]),
+                verdict=verdict(row["kind"], row["result"]),
+                subject=planner_and_model(row["kind"], row["result"]),
+            )
+        )
     return page(request, "results.html", title="Results", nav="results", sections=sections)
 
 
@@ -91,8 +101,16 @@ def matrix_page(request: Request, bundle_id: str, path: MatrixQuery) -> HTMLResp
     by_map: dict[str, list[Any]] = {}
     for s in matrix.scenarios:
         by_map.setdefault(s.map.name, []).append(s)
-    return page(request, "matrix.html", title=f"{bundle_id}: {path}", nav="maps", bundle=row, path=path,
-                matrix=matrix, by_map=by_map)  # fmt: skip
+    return page(
+        request,
+        "matrix.html",
+        title=f"{bundle_id}: {path}",
+        nav="maps",
+        bundle=row,
+        path=path,
+        matrix=matrix,
+        by_map=by_map,
+    )
 
 
 @router.get("/bundles/{bundle_id}/preview.png")

@@ -34,22 +34,40 @@ def field_of(name: str, prop: dict[str, Any]) -> dict[str, Any]:
     variants = _variants(prop)
     one = variants[0] if len(variants) == 1 else {}
     default = STARTERS.get(name, prop.get("default"))
-    base = {"name": name, "title": prop.get("title", name), "description": prop.get("description", ""),
-            "optional": len(variants) < len(prop.get("anyOf", [prop])) or "default" in prop}  # fmt: skip
+    base = {
+        "name": name,
+        "title": prop.get("title", name),
+        "description": prop.get("description", ""),
+        "optional": len(variants) < len(prop.get("anyOf", [prop])) or "default" in prop,
+    }
     if "enum" in one:
         return base | {"input": "select", "parse": "str", "options": one["enum"], "value": default}
     if one.get("type") in ("integer", "number"):
         parse = "int" if one["type"] == "integer" else "float"
-        return base | {"input": "number", "parse": parse, "value": "" if default is None else default,
-                       "step": "1" if parse == "int" else "any", "min": one.get("minimum"), "max": one.get("maximum")}  # fmt: skip
+        return base | {
+            "input": "number",
+            "parse": parse,
+            "value": "" if default is None else default,
+            "step": "1" if parse == "int" else "any",
+            "min": one.get("minimum"),
+            "max": one.get("maximum"),
+        }
     if one.get("type") == "string":
         return base | {"input": "text", "parse": "str", "value": default or ""}
     if one.get("type") == "boolean":
-        return base | {"input": "select", "parse": "bool", "options": ["true", "false"],
-                       "value": "true" if default else "false"}  # fmt: skip
+        return base | {
+            "input": "select",
+            "parse": "bool",
+            "options": ["true", "false"],
+            "value": "true" if default else "false",
+        }
     if one.get("type") == "array" and one.get("items", {}).get("type") == "string":
-        return base | {"input": "text", "parse": "list", "value": ", ".join(default or []),
-                       "placeholder": "comma-separated (empty: all)"}  # fmt: skip
+        return base | {
+            "input": "text",
+            "parse": "list",
+            "value": ", ".join(default or []),
+            "placeholder": "comma-separated (empty: all)",
+        }
     text = "" if default is None else json.dumps(default, indent=1)
     return base | {"input": "json", "parse": "json", "value": text}
 

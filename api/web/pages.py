@@ -39,11 +39,24 @@ def job_verdict(job: dict[str, Any]) -> Verdict | None:
     return verdict(job["kind"], job["result"]) if job["status"] == queue.SUCCEEDED else None
 
 
-def _jobs(request: Request, status: list[JobStatus] | None, kind: list[str] | None, offset: int,
-          tag: list[str] | None = None, q: str | None = None) -> dict[str, Any]:  # fmt: skip
+def _jobs(
+    request: Request,
+    status: list[JobStatus] | None,
+    kind: list[str] | None,
+    offset: int,
+    tag: list[str] | None = None,
+    q: str | None = None,
+) -> dict[str, Any]:
     tags = [t for t in tag or [] if t]
-    count, data = job_reads.list_jobs(request.app.state.engine, statuses=[s.value for s in status or []], kinds=kind or [],
-                                  tags=tags, q=q or None, limit=PAGE_SIZE, offset=offset)  # fmt: skip
+    count, data = job_reads.list_jobs(
+        request.app.state.engine,
+        statuses=[s.value for s in status or []],
+        kinds=kind or [],
+        tags=tags,
+        q=q or None,
+        limit=PAGE_SIZE,
+        offset=offset,
+    )
     data = [dict(job) for job in data]  # rows are read-only: the page's copies get its extra fields
     for job in data:
         job["report"] = files.report_of(request, job["id"]) if job["status"] == queue.SUCCEEDED else None
@@ -72,11 +85,20 @@ def jobs_page(
 
     query = request.url.query
     return page(
-        request, "jobs.html", title="Jobs", nav="jobs", statuses=[s.value for s in JobStatus], kinds=sorted(KINDS),
-        selected_status=[s.value for s in status or []], selected_kind=kind or [],
-        known_tags=labels.known_tags(request.app.state.engine), selected_tag=[t for t in tag or [] if t], q=q or "",
-        rows_url="/ui/jobs/rows" + (f"?{query}" if query else ""), **_jobs(request, status, kind, offset, tag, q),
-    )  # fmt: skip
+        request,
+        "jobs.html",
+        title="Jobs",
+        nav="jobs",
+        statuses=[s.value for s in JobStatus],
+        kinds=sorted(KINDS),
+        selected_status=[s.value for s in status or []],
+        selected_kind=kind or [],
+        known_tags=labels.known_tags(request.app.state.engine),
+        selected_tag=[t for t in tag or [] if t],
+        q=q or "",
+        rows_url="/ui/jobs/rows" + (f"?{query}" if query else ""),
+        **_jobs(request, status, kind, offset, tag, q),
+    )
 
 
 @pages.get("/jobs/rows")

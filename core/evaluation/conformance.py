@@ -35,8 +35,16 @@ from foresight.core.sim.observation import Observation
 from foresight.core.sim.planner import EpisodeInfo, Planner
 from foresight.core.sim.simulator import Simulator
 
-CHECKS = ("finite", "within_limits", "deterministic", "decision_budget", "no_pedestrians", "crowd_200",
-          "reset_leaves_no_state", "protocol_error_paths")  # fmt: skip
+CHECKS = (
+    "finite",
+    "within_limits",
+    "deterministic",
+    "decision_budget",
+    "no_pedestrians",
+    "crowd_200",
+    "reset_leaves_no_state",
+    "protocol_error_paths",
+)
 TOLERANCE = 1e-6  #: commands may exceed a limit by this much (float round-off)
 
 
@@ -67,8 +75,15 @@ def _episode(
     sim = Simulator()
     obs = sim.reset(scenario, seed)
     planner = planner or make()
-    planner.reset(EpisodeInfo(scenario=scenario, seed=int(seed), dt=sim.dt, robot_radius=sim.limits.radius,
-                              ped_radius=sim.ped_radius))  # fmt: skip
+    planner.reset(
+        EpisodeInfo(
+            scenario=scenario,
+            seed=int(seed),
+            dt=sim.dt,
+            robot_radius=sim.limits.radius,
+            ped_radius=sim.ped_radius,
+        )
+    )
     commands, times, seen = [], [], []
     for _ in range(steps):
         seen.append(obs)
@@ -131,8 +146,15 @@ def _crowd_check(name: str, make: Callable[[], Planner], scenario: Any, seed: in
     sim = Simulator()
     obs = sim.reset(scenario, seed)
     planner = make()
-    planner.reset(EpisodeInfo(scenario=scenario, seed=int(seed), dt=sim.dt, robot_radius=sim.limits.radius,
-                              ped_radius=sim.ped_radius))  # fmt: skip
+    planner.reset(
+        EpisodeInfo(
+            scenario=scenario,
+            seed=int(seed),
+            dt=sim.dt,
+            robot_radius=sim.limits.radius,
+            ped_radius=sim.ped_radius,
+        )
+    )
     try:
         for k in range(3):
             o = _crowd(dataclasses.replace(obs, step=k, time=k * obs.dt), n)
@@ -165,21 +187,48 @@ def check_planner(
         return _result(label, checks, t0)
     limits = seen[0].robot_limits
     nonfinite = [k for k, c in enumerate(cmds) if not all(map(math.isfinite, c))]
-    checks.append(GateCheck(name="finite", passed=not nonfinite, value=float(len(nonfinite)), threshold=0.0,
-                            detail=f"decision {nonfinite[0]}: {cmds[nonfinite[0]]}" if nonfinite
-                            else f"{len(cmds)} decisions"))  # fmt: skip
+    checks.append(
+        GateCheck(
+            name="finite",
+            passed=not nonfinite,
+            value=float(len(nonfinite)),
+            threshold=0.0,
+            detail=f"decision {nonfinite[0]}: {cmds[nonfinite[0]]}"
+            if nonfinite
+            else f"{len(cmds)} decisions",
+        )
+    )
     bad = [(k, why) for k, c in enumerate(cmds) if (why := outside_limits(c, limits))]
-    checks.append(GateCheck(name="within_limits", passed=not bad, value=float(len(bad)), threshold=0.0,
-                            detail=f"decision {bad[0][0]}: {bad[0][1]}" if bad else "every command"))  # fmt: skip
+    checks.append(
+        GateCheck(
+            name="within_limits",
+            passed=not bad,
+            value=float(len(bad)),
+            threshold=0.0,
+            detail=f"decision {bad[0][0]}: {bad[0][1]}" if bad else "every command",
+        )
+    )
     again, _, _, _ = _safe_episode(make, scenario, s1, cfg.steps)
     first = _first_difference(cmds, again)
     deterministic = first is None
-    checks.append(GateCheck(name="deterministic", passed=deterministic,
-                            detail="same commands on the same seed" if deterministic else first))  # fmt: skip
+    checks.append(
+        GateCheck(
+            name="deterministic",
+            passed=deterministic,
+            detail="same commands on the same seed" if deterministic else first,
+        )
+    )
     steady = sorted(times[1:]) or times
     p95 = steady[min(len(steady) - 1, int(0.95 * len(steady)))]
-    checks.append(GateCheck(name="decision_budget", passed=p95 <= cfg.decision_budget_s, value=p95,
-                            threshold=cfg.decision_budget_s, detail="95th percentile decision time [s]"))  # fmt: skip
+    checks.append(
+        GateCheck(
+            name="decision_budget",
+            passed=p95 <= cfg.decision_budget_s,
+            value=p95,
+            threshold=cfg.decision_budget_s,
+            detail="95th percentile decision time [s]",
+        )
+    )
     checks.append(_crowd_check("no_pedestrians", make, scenario, s1, 0))
     checks.append(_crowd_check(f"crowd_{cfg.crowd}", make, scenario, s1, cfg.crowd))
     if deterministic:
@@ -189,9 +238,15 @@ def check_planner(
             diff = _first_difference(cmds, reused)
         except Exception as exc:  # noqa: BLE001
             diff = f"raised {type(exc).__name__}: {exc}"[:300]
-        checks.append(GateCheck(name="reset_leaves_no_state", passed=diff is None,
-                                detail="after another episode and a reset: a fresh planner's commands"
-                                if diff is None else diff))  # fmt: skip
+        checks.append(
+            GateCheck(
+                name="reset_leaves_no_state",
+                passed=diff is None,
+                detail="after another episode and a reset: a fresh planner's commands"
+                if diff is None
+                else diff,
+            )
+        )
     if external is not None:
         from foresight.core.evaluation.conformance_external import protocol_error_paths
 
@@ -220,8 +275,9 @@ def _same(x: tuple, y: tuple) -> bool:
 
 def _result(label: str, checks: list[GateCheck], t0: float) -> ConformanceResult:
     failed = [c.name for c in checks if not c.passed]
-    return ConformanceResult(passed=not failed, checks=checks, planner=label, failed=failed,
-                             wall_s=time.perf_counter() - t0)  # fmt: skip
+    return ConformanceResult(
+        passed=not failed, checks=checks, planner=label, failed=failed, wall_s=time.perf_counter() - t0
+    )
 
 
 def run_conformance(config: ConformanceConfig, ctx: StageContext) -> ConformanceResult:

@@ -29,8 +29,13 @@ EXIT_WAIT_S = 3.0  #: how long a process may take to end after its input is clos
 def protocol_error_paths(config: ExternalPlannerConfig, scenario: Any, seed: int) -> GateCheck:
     sim = Simulator()
     obs = sim.reset(scenario, seed)
-    info = EpisodeInfo(scenario=scenario, seed=int(seed), dt=sim.dt, robot_radius=sim.limits.radius,
-                       ped_radius=sim.ped_radius)  # fmt: skip
+    info = EpisodeInfo(
+        scenario=scenario,
+        seed=int(seed),
+        dt=sim.dt,
+        robot_radius=sim.limits.radius,
+        ped_radius=sim.ped_radius,
+    )
     argv = operator_commands()[config.command]
     proc = None
     try:
@@ -46,12 +51,20 @@ def protocol_error_paths(config: ExternalPlannerConfig, scenario: Any, seed: int
         while proc.proc.poll() is None and time.monotonic() < deadline:
             time.sleep(0.02)
         if proc.proc.poll() is None:
-            return GateCheck(name=NAME, passed=False, value=EXIT_WAIT_S, threshold=EXIT_WAIT_S,
-                             detail=f"still running {EXIT_WAIT_S:g} s after its input was closed")  # fmt: skip
+            return GateCheck(
+                name=NAME,
+                passed=False,
+                value=EXIT_WAIT_S,
+                threshold=EXIT_WAIT_S,
+                detail=f"still running {EXIT_WAIT_S:g} s after its input was closed",
+            )
     except ExternalPlannerError as exc:
         return GateCheck(name=NAME, passed=False, detail=str(exc)[:300])
     finally:
         if proc is not None:
             proc.kill()
-    return GateCheck(name=NAME, passed=True,
-                     detail="served an episode after one ended with an error; ended when its input closed")  # fmt: skip
+    return GateCheck(
+        name=NAME,
+        passed=True,
+        detail="served an episode after one ended with an error; ended when its input closed",
+    )

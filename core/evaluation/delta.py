@@ -37,8 +37,13 @@ from foresight.core.evaluation.stats import (
 )
 
 #: headline metric -> its field in a SuiteSummary (a campaign cell's hard or global suite)
-SUITE_FIELDS = {"success": "success", "collision": "collision", "min_clearance": "mean_min_clearance",
-                "min_distance": "mean_min_distance", "avg_speed": "mean_avg_speed"}  # fmt: skip
+SUITE_FIELDS = {
+    "success": "success",
+    "collision": "collision",
+    "min_clearance": "mean_min_clearance",
+    "min_distance": "mean_min_distance",
+    "avg_speed": "mean_avg_speed",
+}
 
 
 #: headline metric -> per-episode value (booleans as 0/1; None = not applicable, the pair is left out)

@@ -145,8 +145,10 @@ def regression_gate(
         keys_c, keys_i = sorted(h[:2] for h in ch), sorted(h[:2] for h in ih)
         cs, is_ = sum(h[2] == "success" for h in ch), sum(h[2] == "success" for h in ih)
         hard_solved = (cs, is_, len(ch))
-        hard_tax = compare_taxonomy(_count(h[3] for h in ch if h[2] != "success" and h[3]),
-                                    _count(h[3] for h in ih if h[2] != "success" and h[3]))  # fmt: skip
+        hard_tax = compare_taxonomy(
+            _count(h[3] for h in ch if h[2] != "success" and h[3]),
+            _count(h[3] for h in ih if h[2] != "success" and h[3]),
+        )
         drop = (is_ - cs) / len(ch) if ch else 0.0
         checks.append(
             GateCheck(
@@ -226,8 +228,14 @@ def floors_gate(
     fde: tuple[float | None, float | None] | None = None,
 ) -> GateResult:
     """``ade``/``fde``: (candidate, constant velocity) on the validation windows (None: no training in this run)."""
-    checks = [_check("success_vs_constant_velocity", paired_rate(candidate, cv, "success"),
-                     cfg.max_success_below_cv, cfg.alpha)]  # fmt: skip
+    checks = [
+        _check(
+            "success_vs_constant_velocity",
+            paired_rate(candidate, cv, "success"),
+            cfg.max_success_below_cv,
+            cfg.alpha,
+        )
+    ]
     for name, pair, required in (
         ("ade", ade, cfg.require_ade_below_cv),
         ("fde", fde, cfg.require_fde_below_cv),

@@ -89,16 +89,23 @@ class CrowdNavEnv(gym.Env):
     ):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             why = " (human needs a display: DISPLAY is not set)" if render_mode == "human" else ""
-            raise ConfigError(f"expected one of {self.metadata['render_modes']} or None, got {render_mode!r}{why}",
-                              item="render_mode")  # fmt: skip
+            raise ConfigError(
+                f"expected one of {self.metadata['render_modes']} or None, got {render_mode!r}{why}",
+                item="render_mode",
+            )
         self.render_mode = render_mode
         self._view: Any = None
         self.matrix = load_matrix(Path(matrix))
         names = [scenario] if scenario else (scenarios or self.matrix.names)
         self.scenarios = [self.matrix.get(n) for n in names]
         self.max_steps, self.k, self.r = max_steps, int(max_peds), int(route_points)
-        self.layout = ObservationLayout(max_peds=self.k, route_points=self.r, occupancy=occupancy,
-                                        occupancy_size=occupancy_size, occupancy_resolution=occupancy_resolution)  # fmt: skip
+        self.layout = ObservationLayout(
+            max_peds=self.k,
+            route_points=self.r,
+            occupancy=occupancy,
+            occupancy_size=occupancy_size,
+            occupancy_resolution=occupancy_resolution,
+        )
         self.reward_cfg = (
             reward if isinstance(reward, RewardConfig) else RewardConfig.model_validate(reward or {})
         )

@@ -52,8 +52,9 @@ def _ped_steps(matrix: Any, pairs: list[tuple[str, int]], max_steps: int | None)
     return total
 
 
-def _size(matrix: Any, pairs: list[tuple[str, int]], max_steps: int | None, fields: tuple[str, ...],
-          times: int = 1) -> WorkSize:  # fmt: skip
+def _size(
+    matrix: Any, pairs: list[tuple[str, int]], max_steps: int | None, fields: tuple[str, ...], times: int = 1
+) -> WorkSize:
     return WorkSize(
         times * len(pairs),
         times * _steps(matrix, pairs, max_steps),

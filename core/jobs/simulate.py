@@ -76,8 +76,14 @@ def _render(trace: Any, scenario: Any, path: Path, kind: str, seed: int) -> None
         return
     from foresight.core.render.animation import render_replay
 
-    render_replay(trace, scenario.map, path, title=title, robot_radius=scenario.scenario.robot_config.radius,
-                  ped_radius=scenario.scenario.simulation_config.ped_radius)  # fmt: skip
+    render_replay(
+        trace,
+        scenario.map,
+        path,
+        title=title,
+        robot_radius=scenario.scenario.robot_config.radius,
+        ped_radius=scenario.scenario.simulation_config.ped_radius,
+    )
 
 
 def run_simulate(config: SimulateConfig, ctx: StageContext) -> SimulateResult:

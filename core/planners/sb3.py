@@ -73,13 +73,15 @@ def load_policy(path: str, sha256: str, algorithm: str = "PPO") -> Any:
             try:
                 import stable_baselines3
             except ImportError:
-                raise ConfigError("planner sb3 needs the sb3 extra: pip install 'foresight[sb3]'",
-                                  item="planner") from None  # fmt: skip
+                raise ConfigError(
+                    "planner sb3 needs the sb3 extra: pip install 'foresight[sb3]'", item="planner"
+                ) from None
             try:
                 _POLICIES[key] = getattr(stable_baselines3, algorithm).load(path, device="cpu")
             except Exception as exc:  # noqa: BLE001 - SB3 raises many kinds for a file that is not its zip
-                raise ConfigError(f"not a Stable-Baselines3 {algorithm} policy ({exc})",
-                                  item="planner.config.policy") from None  # fmt: skip
+                raise ConfigError(
+                    f"not a Stable-Baselines3 {algorithm} policy ({exc})", item="planner.config.policy"
+                ) from None
     return _POLICIES[key]
 
 
@@ -88,8 +90,10 @@ def layout_of(model: Any, occupancy_resolution: float) -> tuple[ObservationLayou
     spaces = model.observation_space.spaces
     missing = {"robot", "goal", "route", "peds", "ped_mask"} - set(spaces)
     if missing:
-        raise ConfigError(f"the policy was not trained on foresight/CrowdNav-v0 observations (no {sorted(missing)})",
-                          item="planner.config.policy")  # fmt: skip
+        raise ConfigError(
+            f"the policy was not trained on foresight/CrowdNav-v0 observations (no {sorted(missing)})",
+            item="planner.config.policy",
+        )
     occupancy = spaces.get("occupancy")
     layout = ObservationLayout(
         max_peds=int(spaces["peds"].shape[0]),

@@ -25,8 +25,13 @@ from foresight.core.predict.features import feature_dim
 from foresight.core.predict.quality import SummaryStats
 from foresight.core.predict.samples import SampleArrays
 
-DTYPES = {"state": np.float32, "target": np.float32, "mask": np.float32, "target_mask": np.float32,
-          "episode": np.int64}  # fmt: skip
+DTYPES = {
+    "state": np.float32,
+    "target": np.float32,
+    "mask": np.float32,
+    "target_mask": np.float32,
+    "episode": np.int64,
+}
 
 
 class DatasetWriter:

@@ -218,8 +218,12 @@ def export_trajnet(ds: Dataset, path: Path, dt: float | None = None) -> int:
                 f = ds.state[s, slot]
                 for h in range(H):
                     if f[cols[h] + ok] > 0.5:
-                        rec = {"f": base + h, "p": primary + slot, "x": round(float(f[cols[h] + px]), 4),
-                               "y": round(float(f[cols[h] + py]), 4)}  # fmt: skip
+                        rec = {
+                            "f": base + h,
+                            "p": primary + slot,
+                            "x": round(float(f[cols[h] + px]), 4),
+                            "y": round(float(f[cols[h] + py]), 4),
+                        }
                         out.write(json.dumps({"track": rec}) + "\n")
                 for t in np.flatnonzero(ds.target_mask[s, slot] > 0).tolist():
                     x, y = (round(float(v), 4) for v in ds.target[s, slot, t])

@@ -36,8 +36,14 @@ def export_episodes(run_dir: Path, out_dir: Path) -> list[Path]:
             )
         frames, dt, stride = data["frames"], float(data["dt"]), int(data.get("stride", 1))
         target = out_dir / (path.name[: -len(".json.gz")] + ".ndjson")
-        scene = {"id": 0, "p": -1, "s": frames[0], "e": frames[-1], "fps": round(1.0 / (dt * stride), 6),
-                 "tag": [data["scenario"], data["seed"]]}  # fmt: skip
+        scene = {
+            "id": 0,
+            "p": -1,
+            "s": frames[0],
+            "e": frames[-1],
+            "fps": round(1.0 / (dt * stride), 6),
+            "tag": [data["scenario"], data["seed"]],
+        }
         with files.replacing(target) as tmp, tmp.open("w", encoding="utf-8") as out:
             out.write(json.dumps({"scene": scene}) + "\n")
             for t, peds in zip(frames, data["peds"], strict=True):

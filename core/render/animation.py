@@ -266,8 +266,15 @@ def _encode_mp4(blit: _Blitter, steps: np.ndarray, draw: Any, path: Path, frame_
     first = np.asarray(blit.frame())
     h, w = first.shape[0] + first.shape[0] % 2, first.shape[1] + first.shape[1] % 2
     with files.replacing(path) as tmp:
-        writer = imageio_ffmpeg.write_frames(str(tmp), (w, h), fps=1000.0 / frame_ms, codec="libx264",
-                                             pix_fmt_out="yuv420p", macro_block_size=1, output_params=["-f", "mp4"])  # fmt: skip
+        writer = imageio_ffmpeg.write_frames(
+            str(tmp),
+            (w, h),
+            fps=1000.0 / frame_ms,
+            codec="libx264",
+            pix_fmt_out="yuv420p",
+            macro_block_size=1,
+            output_params=["-f", "mp4"],
+        )
         writer.send(None)
         try:
             for t in steps:

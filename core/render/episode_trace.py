@@ -72,23 +72,48 @@ def compact_trace(run: Any, map_def: Any) -> dict[str, Any]:
         forecasts = [forecasts[i] for i in keep]
     route = np.asarray(geom.route, dtype=float)
     return {
-        "format": FORMAT, "scenario": rec.scenario, "seed": rec.seed, "planner": rec.planner,
-        "outcome": rec.outcome, "label": rec.taxonomy.label, "dt": float(trace.dt), "steps": steps, "stride": stride,
-        "frames": rows, "robot_radius": geom.robot_radius, "ped_radius": geom.ped_radius,
-        "goal": _r(route[-1]), "goal_tolerance": float(geom.goal_tolerance), "route": _r(route),
-        "map": {"width": float(map_def.width), "height": float(map_def.height),
-                "obstacles": [_r(poly) for poly in map_def.obstacles]},
+        "format": FORMAT,
+        "scenario": rec.scenario,
+        "seed": rec.seed,
+        "planner": rec.planner,
+        "outcome": rec.outcome,
+        "label": rec.taxonomy.label,
+        "dt": float(trace.dt),
+        "steps": steps,
+        "stride": stride,
+        "frames": rows,
+        "robot_radius": geom.robot_radius,
+        "ped_radius": geom.ped_radius,
+        "goal": _r(route[-1]),
+        "goal_tolerance": float(geom.goal_tolerance),
+        "route": _r(route),
+        "map": {
+            "width": float(map_def.width),
+            "height": float(map_def.height),
+            "obstacles": [_r(poly) for poly in map_def.obstacles],
+        },
         "robot": [_r(trace.robot[t], 3) for t in rows],
         "command": [_r(cmd[min(t, len(cmd) - 1)], 3) if len(cmd) else [0.0, 0.0] for t in rows],
         "peds": peds,
-        "collision": None if trace.collision_step < 0 else {
-            "step": int(trace.collision_step), "kind": trace.collision_kind,
+        "collision": None
+        if trace.collision_step < 0
+        else {
+            "step": int(trace.collision_step),
+            "kind": trace.collision_kind,
             "point": _r(trace.collision_point) if np.isfinite(trace.collision_point).all() else None,
-            "ped_id": rec.taxonomy.critical_ped_id},
-        "forecasts": [{"step": int(step), "ids": np.asarray(fids).astype(int).tolist(), "times": _r(times, 3),
-                       "positions": _r(fpos), "sigma": None if sigma is None else _r(sigma)}
-                      for (step, fids, fpos, times), sigma in forecasts],
-    }  # fmt: skip
+            "ped_id": rec.taxonomy.critical_ped_id,
+        },
+        "forecasts": [
+            {
+                "step": int(step),
+                "ids": np.asarray(fids).astype(int).tolist(),
+                "times": _r(times, 3),
+                "positions": _r(fpos),
+                "sigma": None if sigma is None else _r(sigma),
+            }
+            for (step, fids, fpos, times), sigma in forecasts
+        ],
+    }
 
 
 def compact_bytes(data: dict[str, Any]) -> bytes:

@@ -101,8 +101,9 @@ def render_critical_moment(
     ]
     plan_xy = as_floats(plan).reshape(-1, 2) if plan is not None else np.empty((0, 2))
     peds = [(int(i), as_floats(p).reshape(2), as_floats(v).reshape(2)) for i, p, v in pedestrians]
-    pts = np.concatenate([xy, plan_xy] + [p for _, p, _ in preds] + [a for _, _, a in preds]
-                         + [p[None] for _, p, _ in peds])  # fmt: skip
+    pts = np.concatenate(
+        [xy, plan_xy] + [p for _, p, _ in preds] + [a for _, _, a in preds] + [p[None] for _, p, _ in peds]
+    )
     fig, ax = _axes(mapdef, pts, title)
     ax.plot(
         xy[: step + 1, 0], xy[: step + 1, 1], "-", color=ROBOT_COLOUR, lw=2.5, label="robot until the moment"
@@ -111,18 +112,44 @@ def render_critical_moment(
     ax.add_patch(Circle(tuple(xy[step]), robot_radius, fc=ROBOT_COLOUR, ec="black", alpha=0.6, zorder=6))
     if heading is not None and np.isfinite(heading):
         tip = xy[step] + 1.6 * robot_radius * np.array([np.cos(heading), np.sin(heading)])
-        ax.annotate("", tuple(tip), tuple(xy[step]), zorder=8,
-                    arrowprops={"arrowstyle": "-|>", "color": "black", "lw": 1.8})  # fmt: skip
+        ax.annotate(
+            "",
+            tuple(tip),
+            tuple(xy[step]),
+            zorder=8,
+            arrowprops={"arrowstyle": "-|>", "color": "black", "lw": 1.8},
+        )
     if len(plan_xy) > 1:
-        ax.plot(plan_xy[:, 0], plan_xy[:, 1], "-", color=PLAN_COLOUR, lw=2.5, alpha=0.9, zorder=7,
-                label="robot's plan at the moment")  # fmt: skip
+        ax.plot(
+            plan_xy[:, 0],
+            plan_xy[:, 1],
+            "-",
+            color=PLAN_COLOUR,
+            lw=2.5,
+            alpha=0.9,
+            zorder=7,
+            label="robot's plan at the moment",
+        )
     forecast_ids = {pid for pid, _, _ in preds}
     for i, (pid, pos, vel) in enumerate(p for p in peds if p[0] not in forecast_ids):
-        ax.add_patch(Circle(tuple(pos), ped_radius, fc=PED_COLOUR, ec="black", alpha=0.8, zorder=7,
-                            label="pedestrian (velocity: 1 s)" if i == 0 else None))  # fmt: skip
+        ax.add_patch(
+            Circle(
+                tuple(pos),
+                ped_radius,
+                fc=PED_COLOUR,
+                ec="black",
+                alpha=0.8,
+                zorder=7,
+                label="pedestrian (velocity: 1 s)" if i == 0 else None,
+            )
+        )
         if np.all(np.isfinite(vel)) and np.hypot(*vel) > 1e-3:
-            ax.annotate("", tuple(pos + VELOCITY_S * vel), tuple(pos),
-                        arrowprops={"arrowstyle": "->", "color": PED_COLOUR, "lw": 1.2})  # fmt: skip
+            ax.annotate(
+                "",
+                tuple(pos + VELOCITY_S * vel),
+                tuple(pos),
+                arrowprops={"arrowstyle": "->", "color": PED_COLOUR, "lw": 1.2},
+            )
         ax.annotate(str(pid), tuple(pos), textcoords="offset points", xytext=(5, 5), fontsize=7)
     for i, (pid, pred, actual) in enumerate(preds):
         first = i == 0

@@ -70,8 +70,9 @@ def _pedestrians_at(sim_trace: Any, t: int) -> list[tuple[int, Any, Any]]:
     return [(int(i), pos[k], vel[k]) for k, i in enumerate(ids) if i >= 0]
 
 
-def _moment(workdir: Path, seed: SeedSummary, trace: SeedTrace, mapdef: MapDef | None,
-            sim_trace: Any = None) -> str | None:  # fmt: skip
+def _moment(
+    workdir: Path, seed: SeedSummary, trace: SeedTrace, mapdef: MapDef | None, sim_trace: Any = None
+) -> str | None:
     if not trace.steps:
         return None
     t = min(_critical_step(trace), len(trace.steps) - 1)

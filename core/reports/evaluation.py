@@ -185,9 +185,17 @@ def _failed(doc: Document, res: EvaluationResult) -> None:
     if failed:
         doc.table(
             ["scenario", "seed", "outcome", "label", "episode"],
-            [[f.scenario, f.seed, f.outcome, f.label or "-", Link("watch", player_path(f.scenario, f.seed))]
-             for f in failed],
-        )  # fmt: skip
+            [
+                [
+                    f.scenario,
+                    f.seed,
+                    f.outcome,
+                    f.label or "-",
+                    Link("watch", player_path(f.scenario, f.seed)),
+                ]
+                for f in failed
+            ],
+        )
         doc.text(
             f"Which could a robot with these limits have solved? `foresight scenarios witness --matrix {res.matrix} "
             "--episodes episodes.jsonl --players witnesses` (run in this folder, with the matrix's path) searches "

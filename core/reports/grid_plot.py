@@ -152,11 +152,13 @@ def chart_svg(plot: ParameterPlot, metric: str) -> str:
         return TOP + (1.0 - y) * ph
 
     title = f"{metric} rate vs {plot.parameter}"
-    out = [f'<svg xmlns="http://www.w3.org/2000/svg" class="grid-chart" data-parameter="{escape(plot.parameter)}" '
-           f'data-metric="{metric}" width="{width}" height="{height}" viewBox="0 0 {width} {height}" role="img" '
-           f'aria-label="{escape(title)}">',
-           f'<text x="{LEFT}" y="16" font-size="13" font-weight="bold">{escape(title)}</text>',
-           f'<rect x="{LEFT}" y="{TOP}" width="{pw}" height="{ph}" fill="none" stroke="#999"/>']  # fmt: skip
+    out = [
+        f'<svg xmlns="http://www.w3.org/2000/svg" class="grid-chart" data-parameter="{escape(plot.parameter)}" '
+        f'data-metric="{metric}" width="{width}" height="{height}" viewBox="0 0 {width} {height}" role="img" '
+        f'aria-label="{escape(title)}">',
+        f'<text x="{LEFT}" y="16" font-size="13" font-weight="bold">{escape(title)}</text>',
+        f'<rect x="{LEFT}" y="{TOP}" width="{pw}" height="{ph}" fill="none" stroke="#999"/>',
+    ]
     for y in (0.0, 0.25, 0.5, 0.75, 1.0):
         out.append(
             f'<line x1="{LEFT}" x2="{LEFT + pw}" y1="{py(y):.1f}" y2="{py(y):.1f}" stroke="#ddd"/>'

@@ -120,8 +120,16 @@ def _incumbent(doc: Document, s: PipelineSummary) -> None:
     rows = []
     for name, pr in (("success", r.success), ("collision", r.collision)):
         if pr is not None:
-            rows.append([name, pct(pr.candidate), pct(pr.incumbent), str(pr.n_pairs), f"{pr.worse} / {pr.better}",
-                         fmt(pr.p_worse, 3)])  # fmt: skip
+            rows.append(
+                [
+                    name,
+                    pct(pr.candidate),
+                    pct(pr.incumbent),
+                    str(pr.n_pairs),
+                    f"{pr.worse} / {pr.better}",
+                    fmt(pr.p_worse, 3),
+                ]
+            )
     if r.hard_solved is not None:
         c, i, n = r.hard_solved
         rows.append(["hard seeds solved", f"{c}/{n}", f"{i}/{n}", str(n), "-", "-"])
@@ -141,7 +149,7 @@ def _incumbent(doc: Document, s: PipelineSummary) -> None:
                         "NEW" if k in r.taxonomy.new_labels else "",
                     ]
                     for k in labels
-                ],  # fmt: skip
+                ],
             )
     if r.changed:
         doc.text(f"{len(r.changed)} episode(s) ended otherwise (incumbent -> candidate):")
@@ -157,7 +165,7 @@ def _incumbent(doc: Document, s: PipelineSummary) -> None:
                     f"/ui/compare/episode?a={r.incumbent_run}&b={r.candidate_run}&scenario={c.scenario}&seed={c.seed}"
                     if link
                     else "-",
-                ]  # fmt: skip
+                ]
                 for c in r.changed
             ],
         )
@@ -208,8 +216,10 @@ def build_pipeline_document(
         + (f" {fmt(s.wall_s, 1, ' s')} in all." if s.wall_s else "")
     )
     if s.relaxed:
-        doc.note("This pipeline's gates are relaxed on purpose: its model is registered as `relaxed` and can never "
-                 "be promoted or become the default.")  # fmt: skip
+        doc.note(
+            "This pipeline's gates are relaxed on purpose: its model is registered as `relaxed` and can never "
+            "be promoted or become the default."
+        )
     if s.failing_checks:
         doc.text("Failed checks: " + "; ".join(s.failing_checks) + ".")
     _incumbent(doc, s)

@@ -33,25 +33,46 @@ PAGES = ("reference/cli.md", "reference/http-api.md", "reference/config-formats.
 #: (title, "module:Class", what the file is) of every config file format; the first module that imports wins,
 #: so a model that moves between packages is still found where it went
 CONFIG_FORMATS: tuple[tuple[str, tuple[str, ...], str], ...] = (
-    ("Scenario matrix", ("foresight.core.scenarios.loader:_FileSpec",),
-     "A YAML file of scenarios (`configs/scenarios/*.yaml`); `foresight scenarios list --matrix FILE` reads one."),
+    (
+        "Scenario matrix",
+        ("foresight.core.scenarios.loader:_FileSpec",),
+        "A YAML file of scenarios (`configs/scenarios/*.yaml`); `foresight scenarios list --matrix FILE` reads one.",
+    ),
     ("Scenario", ("foresight.core.scenarios.model:Scenario",), "One entry of a matrix's `scenarios` list."),
-    ("Map", ("foresight.core.maps.model:MapDef",),
-     "Our YAML map format (`configs/maps/*.yaml`; docs: [maps](../maps.md))."),
-    ("Seed manifest", ("foresight.core.scenarios.seeds:SeedManifest",),
-     "Scenario name -> seeds (`configs/seeds/*.yaml`); a plain mapping is read as `seeds`."),
-    ("Predictive planner config", ("foresight.core.planners.predictive.config:PredictivePlannerConfig",),
-     "`--planner-config` of the `predictive` planner, and the `config` of its grid variants."),
-    ("Planner grid variant", ("foresight.core.evaluation.config:GridVariant",),
-     "One entry of a planner grid's `variants` (`configs/planners/*_grid_*.yaml`)."),
+    (
+        "Map",
+        ("foresight.core.maps.model:MapDef",),
+        "Our YAML map format (`configs/maps/*.yaml`; docs: [maps](../maps.md)).",
+    ),
+    (
+        "Seed manifest",
+        ("foresight.core.scenarios.seeds:SeedManifest",),
+        "Scenario name -> seeds (`configs/seeds/*.yaml`); a plain mapping is read as `seeds`.",
+    ),
+    (
+        "Predictive planner config",
+        ("foresight.core.planners.predictive.config:PredictivePlannerConfig",),
+        "`--planner-config` of the `predictive` planner, and the `config` of its grid variants.",
+    ),
+    (
+        "Planner grid variant",
+        ("foresight.core.evaluation.config:GridVariant",),
+        "One entry of a planner grid's `variants` (`configs/planners/*_grid_*.yaml`).",
+    ),
     ("Evaluation", ("foresight.core.evaluation.config:EvaluationConfig",), "An `evaluate` job's spec."),
     ("Campaign", ("foresight.core.evaluation.config:CampaignConfig",), "A `campaign` job's spec."),
     ("Collection", ("foresight.core.training.collect:CollectConfig",), "A `collect` job's spec."),
-    ("Training", ("foresight.core.training.config:TrainConfig",),
-     "A training config (`configs/training/*.yaml`, `foresight train --config FILE`)."),
-    ("Pipeline", ("foresight.core.jobs.pipeline.config:PipelineConfig",),
-     "The runbook as one file (`configs/pipelines/*.yaml`, `foresight pipeline run -f FILE`)."),
-)  # fmt: skip
+    (
+        "Training",
+        ("foresight.core.training.config:TrainConfig",),
+        "A training config (`configs/training/*.yaml`, `foresight train --config FILE`).",
+    ),
+    (
+        "Pipeline",
+        ("foresight.core.jobs.pipeline.config:PipelineConfig",),
+        "The runbook as one file (`configs/pipelines/*.yaml`, `foresight pipeline run -f FILE`).",
+    ),
+)
 
 
 # ---------------------------------------------------------------- the CLI
@@ -102,12 +123,16 @@ def cli_page() -> str:
     from foresight.cli.main import build_parser
 
     parser = build_parser()
-    out = ["# The command line", "",
-           "Every `foresight` command with its arguments, generated from the CLI's parser at each build of this site. "
-           "Stage commands submit a job to the server and follow it; `--local` runs them in-process. Their `--json` "
-           "prints the finished job in both modes, as `GET /v1/jobs/ID` returns it (`id`, `kind`, `status`, "
-           "`verdict`, `spec`, `result`, `artifacts`, ...); an in-process run's `id` is null and its artifacts are "
-           "`file://` URLs.", ""]  # fmt: skip
+    out = [
+        "# The command line",
+        "",
+        "Every `foresight` command with its arguments, generated from the CLI's parser at each build of this site. "
+        "Stage commands submit a job to the server and follow it; `--local` runs them in-process. Their `--json` "
+        "prints the finished job in both modes, as `GET /v1/jobs/ID` returns it (`id`, `kind`, `status`, "
+        "`verdict`, `spec`, `result`, `artifacts`, ...); an in-process run's `id` is null and its artifacts are "
+        "`file://` URLs.",
+        "",
+    ]
     commands = [f"[`{n}`](#foresight-{n.replace(' ', '-')}): {_cell(h)}" for n, h, _ in _subcommands(parser)]
     out += [f"- {c}" for c in commands] + [""]
     _cli(parser, ["foresight"], "", out)
@@ -159,13 +184,18 @@ def _schema_name(schema: dict[str, Any]) -> str:
 
 def http_api_page() -> str:
     doc = openapi_schema()
-    out = ["# The HTTP API", "",
-           f"Every endpoint of the API server (version `{doc['info']['version'].split('+')[0]}`), generated from its "
-           "OpenAPI schema at each build of this site; a running server serves the same schema at `/openapi.json` "
-           "and an interactive page at `/docs`. Write endpoints need the bearer token "
-           "(`Authorization: Bearer TOKEN`); reads are open unless `FORESIGHT_READ_REQUIRES_TOKEN` is set. Errors "
-           "are JSON bodies naming the field or id and what was expected.", "",
-           "| method | path | what it does |", "|---|---|---|"]  # fmt: skip
+    out = [
+        "# The HTTP API",
+        "",
+        f"Every endpoint of the API server (version `{doc['info']['version'].split('+')[0]}`), generated from its "
+        "OpenAPI schema at each build of this site; a running server serves the same schema at `/openapi.json` "
+        "and an interactive page at `/docs`. Write endpoints need the bearer token "
+        "(`Authorization: Bearer TOKEN`); reads are open unless `FORESIGHT_READ_REQUIRES_TOKEN` is set. Errors "
+        "are JSON bodies naming the field or id and what was expected.",
+        "",
+        "| method | path | what it does |",
+        "|---|---|---|",
+    ]
     ops = [(path, method, op) for path, item in doc["paths"].items() for method, op in item.items()]
     for path, method, op in ops:
         anchor = op["operationId"].lower().replace("_", "-")
@@ -179,8 +209,11 @@ def http_api_page() -> str:
         params = op.get("parameters", [])
         if params:
             out += ["| parameter | in | type | required | meaning |", "|---|---|---|---|---|"]
-            out += [f"| `{p['name']}` | {p['in']} | {_schema_name(p.get('schema', {}))} | "
-                    f"{'yes' if p.get('required') else ''} | {_cell(p.get('description'))} |" for p in params]  # fmt: skip
+            out += [
+                f"| `{p['name']}` | {p['in']} | {_schema_name(p.get('schema', {}))} | "
+                f"{'yes' if p.get('required') else ''} | {_cell(p.get('description'))} |"
+                for p in params
+            ]
             out.append("")
         body = op.get("requestBody", {}).get("content", {})
         for media, content in body.items():
@@ -196,8 +229,11 @@ def http_api_page() -> str:
         if props:
             required = set(schema.get("required", []))
             out += ["| field | type | required | meaning |", "|---|---|---|---|"]
-            out += [f"| `{k}` | {_schema_name(v)} | {'yes' if k in required else ''} | "
-                    f"{_cell(v.get('description'))} |" for k, v in props.items()]  # fmt: skip
+            out += [
+                f"| `{k}` | {_schema_name(v)} | {'yes' if k in required else ''} | "
+                f"{_cell(v.get('description'))} |"
+                for k, v in props.items()
+            ]
             out.append("")
         elif "enum" in schema:
             out += ["One of " + ", ".join(f"`{v}`" for v in schema["enum"]), ""]
@@ -308,10 +344,14 @@ def _fields(model: type[BaseModel], out: list[str], seen: set[type], level: int)
 
 
 def config_formats_page() -> str:
-    out = ["# Config file formats", "",
-           "The keys of every config file, generated from the pydantic models that validate them at each build of "
-           "this site. Unknown keys are errors naming the file and the key. Units are in brackets where a "
-           "description gives them.", ""]  # fmt: skip
+    out = [
+        "# Config file formats",
+        "",
+        "The keys of every config file, generated from the pydantic models that validate them at each build of "
+        "this site. Unknown keys are errors naming the file and the key. Units are in brackets where a "
+        "description gives them.",
+        "",
+    ]
     for title, paths, what in CONFIG_FORMATS:
         model = _model(paths)
         out += [f"## {title}", "", f"{what} Model: `{model.__module__}.{model.__qualname__}`.", ""]

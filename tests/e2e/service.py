@@ -46,10 +46,24 @@ class Up:
     def start(self, timeout_s: float = 60.0) -> Up:
         log = self.log_path.open("w")
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "foresight.cli.main", "up", "--host", "127.0.0.1", "--port", str(self.port),
-             "--concurrency", str(self.concurrency)],
-            env=self.env, cwd=REPO, stdout=log, stderr=subprocess.STDOUT, start_new_session=True,
-        )  # fmt: skip
+            [
+                sys.executable,
+                "-m",
+                "foresight.cli.main",
+                "up",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                str(self.port),
+                "--concurrency",
+                str(self.concurrency),
+            ],
+            env=self.env,
+            cwd=REPO,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        )
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
             if self.proc.poll() is not None:
@@ -72,10 +86,20 @@ class Up:
 
     def cli(self, *args: str) -> subprocess.CompletedProcess:
         """``foresight ARGS`` as a user runs it against this service (its URL, token and data folder)."""
-        env = {**os.environ, "FORESIGHT_API_URL": self.url, "FORESIGHT_API_TOKEN": TOKEN,
-               "FORESIGHT_DATA_DIR": str(self.tmp / "data")}  # fmt: skip
-        return subprocess.run([sys.executable, "-m", "foresight.cli.main", *args], env=env, cwd=REPO,
-                              capture_output=True, text=True, timeout=120)  # fmt: skip
+        env = {
+            **os.environ,
+            "FORESIGHT_API_URL": self.url,
+            "FORESIGHT_API_TOKEN": TOKEN,
+            "FORESIGHT_DATA_DIR": str(self.tmp / "data"),
+        }
+        return subprocess.run(
+            [sys.executable, "-m", "foresight.cli.main", *args],
+            env=env,
+            cwd=REPO,
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
 
     def log(self) -> str:
         return self.log_path.read_text()[-6000:] if self.log_path.is_file() else ""

@@ -18,12 +18,24 @@ from tests.e2e.service import REPO, TOKEN, WAIT_MS, Up
 from tests.integration.service import tiny_model_job
 
 CHROMIUM = Path("/usr/bin/chromium")
-CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-                 "--disable-component-update", "--disable-sync", "--no-first-run"]  # fmt: skip
+CHROMIUM_ARGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+]
 JOB_TIMEOUT_S = 90.0
 #: a small real evaluation: goal planner, 2 scenarios x 1 seed, short horizon
-EVALUATE = {"kind": "evaluate", "planner": {"name": "goal"}, "scenarios": ["crossing_low", "head_on_corridor_low"],
-            "seeds_per_scenario": 1, "max_steps": 60}  # fmt: skip
+EVALUATE = {
+    "kind": "evaluate",
+    "planner": {"name": "goal"},
+    "scenarios": ["crossing_low", "head_on_corridor_low"],
+    "seeds_per_scenario": 1,
+    "max_steps": 60,
+}
 
 pytestmark = pytest.mark.slow
 
@@ -141,7 +153,7 @@ def test_dashboard_follows_a_job_to_its_report(service: Up, page, capsys: pytest
     assert report_file.is_file(), (
         f"the worker wrote no report for the evaluate job ({report_file} missing): the worker is expected to call "
         "foresight.core.reports.stage.write_stage_report(kind, result, workdir) after a stage succeeds"
-    )  # fmt: skip
+    )
     shots = screenshot_dir()
     page.screenshot(path=str(shots / "dashboard-jobs.png"), full_page=True)
 
@@ -220,14 +232,22 @@ def test_dashboard_map_previews_and_models(service: Up, page) -> None:  # noqa: 
     page.click("text=scenarios/classic_interactions.yaml")
     first = page.locator("figure.map img").first
     first.wait_for(timeout=WAIT_MS)
-    page.wait_for_function("document.querySelector('figure.map img').complete "
-                           "&& document.querySelector('figure.map img').naturalWidth > 0", timeout=WAIT_MS)  # fmt: skip
+    page.wait_for_function(
+        "document.querySelector('figure.map img').complete "
+        "&& document.querySelector('figure.map img').naturalWidth > 0",
+        timeout=WAIT_MS,
+    )
     page.screenshot(path=str(screenshot_dir() / "dashboard-matrix.png"))
     # a registered model (a tiny trained checkpoint: registration takes nothing else): promote it, then default
     api = service.client()
     job = tiny_model_job(api)
-    model = {"id": "e2e-model", "job_id": job, "artifact": "model.pt", "metrics": {"ade": 0.31},
-             "lineage": {"datasets": ["base-e2e"]}}  # fmt: skip
+    model = {
+        "id": "e2e-model",
+        "job_id": job,
+        "artifact": "model.pt",
+        "metrics": {"ade": 0.31},
+        "lineage": {"datasets": ["base-e2e"]},
+    }
     assert api.post("/v1/models", json=model).status_code == 201
     page.on("dialog", lambda dialog: dialog.accept(TOKEN) if dialog.type == "prompt" else dialog.accept())
     page.goto(f"{service.url}/ui/models")

@@ -17,8 +17,13 @@ from tests.e2e.test_dashboard import chromium, page, screenshot_dir  # noqa: F40
 
 pytestmark = pytest.mark.slow
 REPO = Path(__file__).resolve().parents[2]
-ORCA = {"kind": "evaluate", "planner": {"name": "orca"}, "scenarios": ["crossing_low"], "seeds_per_scenario": 2,
-        "max_steps": 40}  # fmt: skip
+ORCA = {
+    "kind": "evaluate",
+    "planner": {"name": "orca"},
+    "scenarios": ["crossing_low"],
+    "seeds_per_scenario": 2,
+    "max_steps": 40,
+}
 
 
 @pytest.fixture(scope="module")
@@ -98,8 +103,11 @@ def test_form_compare_report_maps_player_and_children(service: Up, page) -> None
     page.wait_for_url(f"{service.url}/ui/maps")
     page.click("a.matrix-maps:text('scenarios/classic_interactions.yaml')")
     page.wait_for_selector("figure.map img")
-    page.wait_for_function("Array.from(document.querySelectorAll('figure.map img')).slice(0, 2)"
-                           ".every(i => i.complete && i.naturalWidth > 0)", timeout=WAIT_MS)  # fmt: skip
+    page.wait_for_function(
+        "Array.from(document.querySelectorAll('figure.map img')).slice(0, 2)"
+        ".every(i => i.complete && i.naturalWidth > 0)",
+        timeout=WAIT_MS,
+    )
     assert page.get_attribute("header nav a.on", "href") == "/ui/maps"
     page.screenshot(path=str(shots / "newcomer-maps.png"))
 

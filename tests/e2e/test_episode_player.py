@@ -14,8 +14,14 @@ from tests.e2e.service import WAIT_MS, Up, wait_job
 from tests.e2e.test_dashboard import chromium, page, screenshot_dir  # noqa: F401 (fixtures)
 
 #: goal-seeking robot into dense crowds: collisions within a few seconds; a gate it cannot pass
-EVALUATE = {"kind": "evaluate", "planner": {"name": "goal"}, "scenarios": ["head_on_corridor_high", "crossing_low"],
-            "seeds_per_scenario": 1, "max_steps": 120, "gate": {"min_success_rate": 1.0}}  # fmt: skip
+EVALUATE = {
+    "kind": "evaluate",
+    "planner": {"name": "goal"},
+    "scenarios": ["head_on_corridor_high", "crossing_low"],
+    "seeds_per_scenario": 1,
+    "max_steps": 120,
+    "gate": {"min_success_rate": 1.0},
+}
 
 pytestmark = pytest.mark.slow
 

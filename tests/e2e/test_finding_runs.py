@@ -20,9 +20,15 @@ from tests.readme import DOCS, section_blocks
 pytestmark = pytest.mark.slow
 
 #: three goal-planner variants differing in one numeric key (speed), on one scenario and the smoke hard seeds
-CAMPAIGN = {"kind": "campaign", "planner": {"name": "goal"}, "scenarios": ["crossing_low"], "seeds_per_scenario": 1,
-            "max_steps": 500, "seed_manifest": "seeds/classic_eval_hard_smoke.yaml",
-            "variants": [{"name": f"speed{v}", "config": {"speed": v}} for v in (0.6, 1.0, 1.4)]}  # fmt: skip
+CAMPAIGN = {
+    "kind": "campaign",
+    "planner": {"name": "goal"},
+    "scenarios": ["crossing_low"],
+    "seeds_per_scenario": 1,
+    "max_steps": 500,
+    "seed_manifest": "seeds/classic_eval_hard_smoke.yaml",
+    "variants": [{"name": f"speed{v}", "config": {"speed": v}} for v in (0.6, 1.0, 1.4)],
+}
 
 
 @pytest.fixture(scope="module")
@@ -54,10 +60,20 @@ def test_readme_block_runs_as_written(service: Up, campaign: str, tmp_path: Path
     (home / ".local/share/foresight").mkdir(parents=True)
     (home / ".local/share/foresight/api-token").write_text(TOKEN)  # where the block reads the token
     code = _readme_block().replace("localhost:8000", f"127.0.0.1:{service.port}")
-    env = {"PATH": f"{Path(sys.executable).parent}:/usr/bin:/bin", "HOME": str(home), "FORESIGHT_API_URL": service.url,
-           "FORESIGHT_API_TOKEN": TOKEN}  # fmt: skip
-    proc = subprocess.run(["bash", "-e", "-o", "pipefail", "-c", code], cwd=REPO, env=env, capture_output=True,
-                          text=True, timeout=120)  # fmt: skip
+    env = {
+        "PATH": f"{Path(sys.executable).parent}:/usr/bin:/bin",
+        "HOME": str(home),
+        "FORESIGHT_API_URL": service.url,
+        "FORESIGHT_API_TOKEN": TOKEN,
+    }
+    proc = subprocess.run(
+        ["bash", "-e", "-o", "pipefail", "-c", code],
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
     lines = proc.stdout.splitlines()
     assert lines[0] == '{"name":"readme run","tags":["baseline","reviewed"],"note":"kept as the reference"}'
@@ -69,8 +85,16 @@ def test_readme_block_runs_as_written(service: Up, campaign: str, tmp_path: Path
 def test_cli_labels_lists_and_jobs_page_tag_filter(service: Up, campaign: str, page) -> None:  # noqa: ANN001, F811
     ids = {}
     for name, tags in (("orca baseline", ["baseline", "orca"]), ("mpc trial", ["trial"]), ("untagged", [])):
-        proc = service.cli("submit", "sleep", "--name", name, *[f"--tag={t}" for t in tags], "--note", f"{name} note",
-                    "--json")  # fmt: skip
+        proc = service.cli(
+            "submit",
+            "sleep",
+            "--name",
+            name,
+            *[f"--tag={t}" for t in tags],
+            "--note",
+            f"{name} note",
+            "--json",
+        )
         assert proc.returncode == 0, proc.stderr
         ids[name] = json.loads(proc.stdout)["id"]
     listed = service.cli("jobs", "ls", "--tag", "baseline", "--json")
@@ -81,13 +105,32 @@ def test_cli_labels_lists_and_jobs_page_tag_filter(service: Up, campaign: str, p
     assert "'mpc trial' #trial" in text and "1 of 1 jobs" in text
     edited = service.cli("jobs", "edit", ids["untagged"][:12], "--tag", "baseline", "--name", "now tagged")
     assert edited.returncode == 0 and "'now tagged' #baseline" in edited.stdout
-    stage = service.cli("evaluate", "--matrix", "configs/scenarios/classic_interactions.yaml", "--scenarios",
-                 "crossing_low", "--seeds-per-scenario", "1", "--planner", "goal", "--no-wait", "--json",
-                 "--name", "from a stage command", "--tag", "stage-cli", "--note", "labels on stage commands too")  # fmt: skip
+    stage = service.cli(
+        "evaluate",
+        "--matrix",
+        "configs/scenarios/classic_interactions.yaml",
+        "--scenarios",
+        "crossing_low",
+        "--seeds-per-scenario",
+        "1",
+        "--planner",
+        "goal",
+        "--no-wait",
+        "--json",
+        "--name",
+        "from a stage command",
+        "--tag",
+        "stage-cli",
+        "--note",
+        "labels on stage commands too",
+    )
     assert stage.returncode == 0, stage.stderr
     submitted = json.loads(stage.stdout)
-    assert (submitted["name"], submitted["tags"], submitted["note"]) == ("from a stage command", ["stage-cli"],
-                                                                         "labels on stage commands too")  # fmt: skip
+    assert (submitted["name"], submitted["tags"], submitted["note"]) == (
+        "from a stage command",
+        ["stage-cli"],
+        "labels on stage commands too",
+    )
     service.client().post(f"/v1/jobs/{submitted['id']}/cancel")
     bad = service.cli("jobs", "edit", ids["untagged"], "--tag", "has space")
     assert bad.returncode == 1 and len(bad.stderr.strip().splitlines()) == 1 and "tags" in bad.stderr

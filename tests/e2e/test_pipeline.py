@@ -123,8 +123,12 @@ def test_smoke_pipeline_through_the_service(tmp_path: Path) -> None:
 
 
 #: the default model on three scenarios it solves within 300 steps (about 170-200 steps each)
-EPISODES = {"scenarios": ["crossing_low", "crossing_medium", "head_on_corridor_low"], "seeds_per_scenario": 1,
-            "max_steps": 300, "gate": {"min_success_rate": 0.0, "min_mean_clearance": -10.0}}  # fmt: skip
+EPISODES = {
+    "scenarios": ["crossing_low", "crossing_medium", "head_on_corridor_low"],
+    "seeds_per_scenario": 1,
+    "max_steps": 300,
+    "gate": {"min_success_rate": 0.0, "min_mean_clearance": -10.0},
+}
 #: a planner config that caps the robot at 5 % of its top speed: every episode times out
 SABOTAGE = {"max_speed_ratio": 0.05}
 

@@ -17,13 +17,29 @@ from tests.e2e.test_dashboard import chromium, page, screenshot_dir  # noqa: F40
 pytestmark = pytest.mark.slow
 
 #: the goal-seeking robot collides in the dense corridor; the predictive planner gets out of the way
-RUN = ["--matrix", "configs/scenarios/classic_interactions.yaml", "--scenarios", "head_on_corridor_high,crossing_low",
-       "--seeds-per-scenario", "1", "--max-steps", "120", "--workers", "1", "--json"]  # fmt: skip
+RUN = [
+    "--matrix",
+    "configs/scenarios/classic_interactions.yaml",
+    "--scenarios",
+    "head_on_corridor_high,crossing_low",
+    "--seeds-per-scenario",
+    "1",
+    "--max-steps",
+    "120",
+    "--workers",
+    "1",
+    "--json",
+]
 
 
 def _cli(*args: str, codes: tuple[int, ...] = (0,)) -> str:
-    done = subprocess.run([sys.executable, "-m", "foresight.cli.main", *args], cwd=REPO, capture_output=True,
-                          text=True, timeout=600)  # fmt: skip
+    done = subprocess.run(
+        [sys.executable, "-m", "foresight.cli.main", *args],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert done.returncode in codes, done.stderr
     return done.stdout
 
@@ -75,10 +91,31 @@ def test_a_local_campaigns_cells_compare_and_play_like_evaluations(tmp_path: Pat
         "variants:\n  - name: base\n    config: {}\n  - name: crawl\n    config: {max_speed_ratio: 0.1}\n"
     )
     run = tmp_path / "campaign"
-    _cli("campaign", "--local", "--matrix", "configs/scenarios/classic_interactions.yaml", "--seeds",
-         "configs/seeds/classic_eval_hard_smoke.yaml", "--grid", str(grid), "--planner", "predictive", "--checkpoints",
-         "cv", "--scenarios", "crossing_low", "--seeds-per-scenario", "1", "--max-steps", "200", "--out", str(run),
-         "--workers", "2", "--json")  # fmt: skip
+    _cli(
+        "campaign",
+        "--local",
+        "--matrix",
+        "configs/scenarios/classic_interactions.yaml",
+        "--seeds",
+        "configs/seeds/classic_eval_hard_smoke.yaml",
+        "--grid",
+        str(grid),
+        "--planner",
+        "predictive",
+        "--checkpoints",
+        "cv",
+        "--scenarios",
+        "crossing_low",
+        "--seeds-per-scenario",
+        "1",
+        "--max-steps",
+        "200",
+        "--out",
+        str(run),
+        "--workers",
+        "2",
+        "--json",
+    )
     summary = json.loads((run / "campaign_summary.json").read_text())
     cells = {c["variant"]: run / c["run_dir"] for c in summary["ranked"]}
     result = json.loads(
@@ -109,8 +146,13 @@ def test_a_local_campaigns_cells_compare_and_play_like_evaluations(tmp_path: Pat
         assert any(
             line.endswith(f"  {page_path}") and stem.replace("__", " ") in line for line in text.splitlines()
         )
-    refused = subprocess.run([sys.executable, "-m", "foresight.cli.main", "compare", "--local", f"a={run}",
-                              f"b={cells['crawl']}"], cwd=REPO, capture_output=True, text=True, timeout=120)  # fmt: skip
+    refused = subprocess.run(
+        [sys.executable, "-m", "foresight.cli.main", "compare", "--local", f"a={run}", f"b={cells['crawl']}"],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert refused.returncode != 0 and len(refused.stderr.strip().splitlines()) == 1, refused.stderr
     assert "no episodes.jsonl here (a campaign's folder: compare its cells" in refused.stderr
     assert f"cells/{cells['base'].name}" in refused.stderr

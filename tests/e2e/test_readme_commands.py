@@ -128,8 +128,9 @@ def _check_foresight(words: list[str]) -> None:
     path = list(itertools.takewhile(lambda w: not w.startswith("-"), words[1:]))
     flags = {w.split("=", 1)[0] for w in words if w.startswith("--")}
     for n in range(len(path), 0, -1):  # the longest command path that has a help (the rest are positionals)
-        proc = subprocess.run([str(VENV_BIN / "foresight"), *path[:n], "--help"], capture_output=True, text=True,
-                              timeout=120)  # fmt: skip
+        proc = subprocess.run(
+            [str(VENV_BIN / "foresight"), *path[:n], "--help"], capture_output=True, text=True, timeout=120
+        )
         if proc.returncode == 0:
             missing = [f for f in flags if not re.search(rf"{re.escape(f)}\b", proc.stdout)]
             assert not missing, (
@@ -199,14 +200,25 @@ def scratch(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def _env(scratch: Path, **extra: str) -> dict[str, str]:
     """A user's shell: the scratch HOME (so ~/.local/share/foresight is the data folder), nothing of the tests'."""
-    return {"PATH": f"{VENV_BIN}:/usr/bin:/bin", "HOME": str(scratch.parent / "home"), "LANG": "C.UTF-8",
-            "FORESIGHT_SHARED": str(shared_root()), **extra}  # fmt: skip
+    return {
+        "PATH": f"{VENV_BIN}:/usr/bin:/bin",
+        "HOME": str(scratch.parent / "home"),
+        "LANG": "C.UTF-8",
+        "FORESIGHT_SHARED": str(shared_root()),
+        **extra,
+    }
 
 
 def _run(cmd: str, scratch: Path, prelude: str = "", ok: tuple[int, ...] = (0,), **env: str) -> str:
     start = time.monotonic()
-    proc = subprocess.run(["bash", "-e", "-o", "pipefail", "-c", f"{prelude}\n{cmd}"], cwd=scratch,
-                          env=_env(scratch, **env), capture_output=True, text=True, timeout=300)  # fmt: skip
+    proc = subprocess.run(
+        ["bash", "-e", "-o", "pipefail", "-c", f"{prelude}\n{cmd}"],
+        cwd=scratch,
+        env=_env(scratch, **env),
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     print(f"{time.monotonic() - start:5.1f} s  {cmd[:100]}")  # shown with -s: where the test's time goes
     assert proc.returncode in ok, f"README command failed ({proc.returncode}): {cmd}\n{proc.stderr[-3000:]}"
     return proc.stdout
@@ -255,8 +267,9 @@ def test_importing_reference_files_runs_as_written(scratch: Path, shared_dir: Pa
     _run(render, scratch)
     assert (scratch / "doorway.png").stat().st_size > 0
     # 230 episodes are minutes here: the same command on one scenario, one seed, a 100-step horizon
-    small = evaluate.replace("--seeds-per-scenario 10", "--seeds-per-scenario 1 --scenarios classic_cross_trap_low "
-                             "--max-steps 100")  # fmt: skip
+    small = evaluate.replace(
+        "--seeds-per-scenario 10", "--seeds-per-scenario 1 --scenarios classic_cross_trap_low --max-steps 100"
+    )
     result = json.loads(_run(small, scratch, ok=(0, 2)))["result"]
     assert result["episodes"] == 1, result
 
@@ -292,10 +305,19 @@ def service(scratch: Path) -> Iterator[Service]:
     assert "--port 8000" in up
     port = free_port()
     log = (scratch.parent / "up.log").open("w")
-    proc = subprocess.Popen(["bash", "-c", f"exec {up.replace('--port 8000', f'--port {port}')}"], cwd=scratch,
-                            env={**_env(scratch), "FORESIGHT_POLL_S": "0.05", "FORESIGHT_HEARTBEAT_S": "0.3",
-                                 "FORESIGHT_SHUTDOWN_GRACE_S": "1"},
-                            stdout=log, stderr=subprocess.STDOUT, start_new_session=True)  # fmt: skip
+    proc = subprocess.Popen(
+        ["bash", "-c", f"exec {up.replace('--port 8000', f'--port {port}')}"],
+        cwd=scratch,
+        env={
+            **_env(scratch),
+            "FORESIGHT_POLL_S": "0.05",
+            "FORESIGHT_HEARTBEAT_S": "0.3",
+            "FORESIGHT_SHUTDOWN_GRACE_S": "1",
+        },
+        stdout=log,
+        stderr=subprocess.STDOUT,
+        start_new_session=True,
+    )
     token_file = scratch.parent / "home/.local/share/foresight/api-token"
     try:
         deadline = time.monotonic() + 90
@@ -349,8 +371,13 @@ def test_service_section_runs_as_written(service: Service, scratch: Path) -> Non
     # the import (~40 s of one core here) runs beside the commands that do not need its dataset
     import_log = scratch.parent / "import.log"
     with import_log.open("w") as log:
-        importing = subprocess.Popen(["bash", "-e", "-c", lines["import"]], cwd=scratch, env=_env(scratch),
-                                     stdout=log, stderr=subprocess.STDOUT)  # fmt: skip
+        importing = subprocess.Popen(
+            ["bash", "-e", "-c", lines["import"]],
+            cwd=scratch,
+            env=_env(scratch),
+            stdout=log,
+            stderr=subprocess.STDOUT,
+        )
     # `spec.yaml`: the spec README's curl example submits, as YAML
     (scratch / "spec.yaml").write_text(yaml.safe_dump(_curl_spec()))
     _run(lines["submit"], scratch, ok=(0, 2))

@@ -24,11 +24,18 @@ pytestmark = pytest.mark.slow
 
 #: run-time files the service reads beside its code (one of each kind)
 PACKAGE_DATA = [
-    "foresight/migrations/env.py", "foresight/migrations/script.py.mako",
-    "foresight/api/web/templates/job.html", "foresight/configs/scenarios/classic_interactions.yaml",
-    "foresight/configs/maps/registry.yaml", "foresight/model/registry.yaml", "foresight/model/predictor-sim-default.pt",
-    "foresight/store/queue.py", "foresight/core/jobs/kinds.py", "foresight/cli/main.py", "foresight/worker/runner.py",
-]  # fmt: skip
+    "foresight/migrations/env.py",
+    "foresight/migrations/script.py.mako",
+    "foresight/api/web/templates/job.html",
+    "foresight/configs/scenarios/classic_interactions.yaml",
+    "foresight/configs/maps/registry.yaml",
+    "foresight/model/registry.yaml",
+    "foresight/model/predictor-sim-default.pt",
+    "foresight/store/queue.py",
+    "foresight/core/jobs/kinds.py",
+    "foresight/cli/main.py",
+    "foresight/worker/runner.py",
+]
 
 #: a user's own packages named like ours: importing them would be a bug of ours
 SHADOW = (
@@ -57,8 +64,22 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     """(the fresh venv, the wheel it installed)."""
     tmp = tmp_path_factory.mktemp("wheel")
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV", "PYTHONHOME")}
-    _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q", "-w", tmp / "dist", REPO],
-         env, tmp)  # fmt: skip
+    _run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "wheel",
+            "--no-deps",
+            "--no-build-isolation",
+            "-q",
+            "-w",
+            tmp / "dist",
+            REPO,
+        ],
+        env,
+        tmp,
+    )
     wheel = next((tmp / "dist").glob("foresight-*.whl"))
     venv = tmp / "venv"
     _run([sys.executable, "-m", "venv", venv], env, tmp)
@@ -96,13 +117,26 @@ def test_a_user_folder_runs_the_service_and_a_local_evaluation(
         (work / name / "__init__.py").write_text(SHADOW.format(name=name))
     port = free_port()
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV", "PYTHONHOME")}
-    env |= {"PATH": f"{venv / 'bin'}:{env['PATH']}", "FORESIGHT_API_TOKEN": "wheel-token", "PYTHONUNBUFFERED": "1",
-            "FORESIGHT_HEARTBEAT_S": "0.3", "FORESIGHT_POLL_S": "0.05", "FORESIGHT_DATA_DIR": str(work / "data")}  # fmt: skip
-    server = subprocess.Popen([venv / "bin" / "foresight", "up", "--port", str(port)], env=env, cwd=work,
-                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)  # fmt: skip
+    env |= {
+        "PATH": f"{venv / 'bin'}:{env['PATH']}",
+        "FORESIGHT_API_TOKEN": "wheel-token",
+        "PYTHONUNBUFFERED": "1",
+        "FORESIGHT_HEARTBEAT_S": "0.3",
+        "FORESIGHT_POLL_S": "0.05",
+        "FORESIGHT_DATA_DIR": str(work / "data"),
+    }
+    server = subprocess.Popen(
+        [venv / "bin" / "foresight", "up", "--port", str(port)],
+        env=env,
+        cwd=work,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     try:
-        with httpx.Client(base_url=f"http://127.0.0.1:{port}", headers={"Authorization": "Bearer wheel-token"},
-                          timeout=30) as client:  # fmt: skip
+        with httpx.Client(
+            base_url=f"http://127.0.0.1:{port}", headers={"Authorization": "Bearer wheel-token"}, timeout=30
+        ) as client:
             deadline = time.time() + 120
             while time.time() < deadline and server.poll() is None:
                 try:
@@ -129,12 +163,37 @@ def test_a_user_folder_runs_the_service_and_a_local_evaluation(
         server.terminate()
         out = server.communicate(timeout=60)[0]
     assert "instead of foresight" not in out, out[-3000:]
-    site = _run([venv / "bin" / "python", "-c", "import foresight, pathlib; print(pathlib.Path(foresight.__file__).parent)"],
-                env, work).stdout.strip()  # fmt: skip
+    site = _run(
+        [
+            venv / "bin" / "python",
+            "-c",
+            "import foresight, pathlib; print(pathlib.Path(foresight.__file__).parent)",
+        ],
+        env,
+        work,
+    ).stdout.strip()
     assert Path(site).is_relative_to(venv)
-    local = _run(["foresight", "evaluate", "--local", "--matrix", f"{site}/configs/scenarios/classic_interactions.yaml",
-                  "--scenarios", "crossing_low", "--seeds-per-scenario", "1", "--max-steps", "30", "--json",
-                  "--out", work / "local"], env, work, ok=(0, 2))  # fmt: skip
+    local = _run(
+        [
+            "foresight",
+            "evaluate",
+            "--local",
+            "--matrix",
+            f"{site}/configs/scenarios/classic_interactions.yaml",
+            "--scenarios",
+            "crossing_low",
+            "--seeds-per-scenario",
+            "1",
+            "--max-steps",
+            "30",
+            "--json",
+            "--out",
+            work / "local",
+        ],
+        env,
+        work,
+        ok=(0, 2),
+    )
     result = json.loads(local.stdout)["result"]  # the job envelope, as a server job's
     assert result["exit_code"] == local.returncode  # 2: the evaluation gate failed, a result (one episode)
     assert result["episodes"] == 1 and result["planner"]["model_id"] == "predictor-sim-default"

@@ -81,8 +81,14 @@ class Service:
         self.url: str | None = None
 
     def cli(self, *args: str, check: bool = True, timeout: float = 120) -> subprocess.CompletedProcess:
-        proc = subprocess.run([sys.executable, "-m", "foresight.cli.main", *args], env=self.env, cwd=REPO, capture_output=True,
-                              text=True, timeout=timeout)  # fmt: skip
+        proc = subprocess.run(
+            [sys.executable, "-m", "foresight.cli.main", *args],
+            env=self.env,
+            cwd=REPO,
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+        )
         if check and proc.returncode != 0:
             raise AssertionError(
                 f"foresight {' '.join(args)} -> {proc.returncode}\n{proc.stdout}\n{proc.stderr}"
@@ -91,8 +97,13 @@ class Service:
 
     def spawn(self, *args: str) -> subprocess.Popen:
         log = open(self.tmp / f"proc-{len(self.procs)}.log", "w")  # noqa: SIM115 (kept open while the process runs)
-        proc = subprocess.Popen([sys.executable, "-m", "foresight.cli.main", *args], env=self.env, cwd=REPO, stdout=log,
-                                stderr=subprocess.STDOUT)  # fmt: skip
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "foresight.cli.main", *args],
+            env=self.env,
+            cwd=REPO,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+        )
         self.procs.append(proc)
         return proc
 

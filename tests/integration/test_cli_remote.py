@@ -24,8 +24,16 @@ def test_collect_train_evaluate_through_the_stage_commands(service: Service) -> 
     # the worker's episodes yield the CPU to the server's requests (clients poll while jobs run)
     assert os.getpriority(os.PRIO_PROCESS, int(worker)) == os.getpriority(os.PRIO_PROCESS, up.pid) + 5
 
-    collect = service.cli("collect", "--scenarios", "crossing_low,crossing_medium", "--seeds-per-scenario", "2",
-                          "--max-steps", "80", "--json")  # fmt: skip
+    collect = service.cli(
+        "collect",
+        "--scenarios",
+        "crossing_low,crossing_medium",
+        "--seeds-per-scenario",
+        "2",
+        "--max-steps",
+        "80",
+        "--json",
+    )
     collected = _job(collect)
     assert collected["kind"] == "collect" and collected["status"] == "succeeded", collected
     dataset = collected["id"]  # a collect job's dataset has the job's id
@@ -54,7 +62,7 @@ def test_collect_train_evaluate_through_the_stage_commands(service: Service) -> 
         "smoke-model",
         "--min-success",
         "0",
-    )  # fmt: skip (text mode: the same summary as in-process)
+    )  # text mode: the same summary as in-process
     assert "model smoke-model" in evaluate.stdout and "gate: passed" in evaluate.stdout
     assert "evaluate job" in evaluate.stderr  # the submission line; the progress bar follows it on stderr
 
@@ -72,9 +80,24 @@ def test_collect_train_evaluate_through_the_stage_commands(service: Service) -> 
         )  # a name, not a path
 
     # the same evaluation with constant velocity, then the A/B comparison and the report, read back by the CLI
-    cv = _job(service.cli("evaluate", "--matrix", "configs/scenarios/classic_interactions.yaml", "--scenarios",
-                          "crossing_low", "--seeds-per-scenario", "1", "--max-steps", "40", "--model", "cv",
-                          "--min-success", "0", "--json"))  # fmt: skip
+    cv = _job(
+        service.cli(
+            "evaluate",
+            "--matrix",
+            "configs/scenarios/classic_interactions.yaml",
+            "--scenarios",
+            "crossing_low",
+            "--seeds-per-scenario",
+            "1",
+            "--max-steps",
+            "40",
+            "--model",
+            "cv",
+            "--min-success",
+            "0",
+            "--json",
+        )
+    )
     compared = _job(service.cli("compare", jobs["evaluate"]["id"], cv["id"], "--json"))
     assert compared["a"] == jobs["evaluate"]["id"] and compared["b"] == cv["id"]
     assert {"a": "smoke-model", "b": "cv"} in [
@@ -133,12 +156,22 @@ def test_import_an_ethucy_fold_by_root_name_and_use_it_by_id(service: Service, s
     service.serve("up")
     with service.client() as client:
         assert {r["name"]: r["folds"] for r in client.get("/v1/data-roots").json()}["ethucy"] == [
-            "eth", "hotel", "univ", "zara1", "zara2"]  # fmt: skip
+            "eth",
+            "hotel",
+            "univ",
+            "zara1",
+            "zara2",
+        ]
 
     imported = _job(service.cli("dataset", "import-ethucy", "--root", "ethucy", "--fold", "zara1", "--json"))
     assert imported["kind"] == "import_dataset" and imported["status"] == "succeeded", imported
-    assert imported["spec"] == {"kind": "import_dataset", "source": "ethucy", "root": "ethucy", "fold": "zara1",
-                                "max_agents": 12}  # fmt: skip
+    assert imported["spec"] == {
+        "kind": "import_dataset",
+        "source": "ethucy",
+        "root": "ethucy",
+        "fold": "zara1",
+        "max_agents": 12,
+    }
     with service.client() as client:
         summary = client.get(f"/v1/datasets/{imported['id']}").json()["summary"]
     assert summary["fold"] == "zara1" and summary["source"] == "ethucy"

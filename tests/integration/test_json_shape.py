@@ -15,8 +15,9 @@ MATRIX = "configs/scenarios/classic_interactions.yaml"
 SMOKE = ["--scenarios", "crossing_low", "--seeds-per-scenario", "1", "--max-steps", "20"]
 
 
-def _both(service: Service, name: str, server: list[str], local: list[str] | None = None,
-          out: bool = True) -> tuple[dict, dict]:  # fmt: skip
+def _both(
+    service: Service, name: str, server: list[str], local: list[str] | None = None, out: bool = True
+) -> tuple[dict, dict]:
     """The command's --json document from the server and in-process (``local``: its arguments there, when a
     server id becomes a file; ``out``: the command takes --out), after checking both exit the same way."""
     remote = service.cli(*server, "--json", check=False)
@@ -45,8 +46,11 @@ def test_stage_commands_print_one_json_shape_in_both_modes(service: Service, sha
     service.env["FORESIGHT_DATA_ROOTS"] = f"ethucy={shared_dir / 'reference' / 'ethucy'}"
     service.serve("up")
 
-    remote, here = _both(service, "evaluate", ["evaluate", "--matrix", MATRIX, "--planner", "goal", *SMOKE,
-                                               "--min-success", "0"])  # fmt: skip
+    remote, here = _both(
+        service,
+        "evaluate",
+        ["evaluate", "--matrix", MATRIX, "--planner", "goal", *SMOKE, "--min-success", "0"],
+    )
     _same_shape(remote, here)
     assert here["result"]["episodes"] == remote["result"]["episodes"] == 1
     # the same files (and, in-process, the player pages the server's dashboard draws on request)
@@ -55,32 +59,107 @@ def test_stage_commands_print_one_json_shape_in_both_modes(service: Service, sha
 
     # `submit --wait --json` prints the same document as the stage command does
     spec = service.tmp / "evaluate.yaml"
-    spec.write_text("matrix: scenarios/classic_interactions.yaml\nplanner: {name: goal}\nscenarios: [crossing_low]\n"
-                    "seeds_per_scenario: 1\nmax_steps: 20\ngate: {min_success_rate: 0}\n")  # fmt: skip
+    spec.write_text(
+        "matrix: scenarios/classic_interactions.yaml\nplanner: {name: goal}\nscenarios: [crossing_low]\n"
+        "seeds_per_scenario: 1\nmax_steps: 20\ngate: {min_success_rate: 0}\n"
+    )
     submitted = json.loads(service.cli("submit", "evaluate", "-f", str(spec), "--wait", "--json").stdout)
     _same_shape(submitted, here)
 
-    _same_shape(*_both(service, "diagnose", ["diagnose", "--matrix", MATRIX, "--planner", "goal", "--seeds",
-                                             "configs/seeds/classic_eval_hard_smoke.yaml", "--max-steps", "20",
-                                             "--no-render"]))  # fmt: skip
-    remote, here = _both(service, "sim", ["sim", "run", "--matrix", MATRIX, "--scenario", "crossing_low", "--seed",
-                                          "1000", "--render", str(service.tmp / "ep.png")], out=False)  # fmt: skip
+    _same_shape(
+        *_both(
+            service,
+            "diagnose",
+            [
+                "diagnose",
+                "--matrix",
+                MATRIX,
+                "--planner",
+                "goal",
+                "--seeds",
+                "configs/seeds/classic_eval_hard_smoke.yaml",
+                "--max-steps",
+                "20",
+                "--no-render",
+            ],
+        )
+    )
+    remote, here = _both(
+        service,
+        "sim",
+        [
+            "sim",
+            "run",
+            "--matrix",
+            MATRIX,
+            "--scenario",
+            "crossing_low",
+            "--seed",
+            "1000",
+            "--render",
+            str(service.tmp / "ep.png"),
+        ],
+        out=False,
+    )
     _same_shape(remote, here)
     assert here["result"]["episodes"][0].keys() == remote["result"]["episodes"][0].keys()
 
-    remote, here = _both(service, "collect", ["collect", "--scenarios", "crossing_low,crossing_medium", "--seeds-per-scenario", "2",
-                                              "--max-steps", "80"])  # fmt: skip
+    remote, here = _both(
+        service,
+        "collect",
+        [
+            "collect",
+            "--scenarios",
+            "crossing_low,crossing_medium",
+            "--seeds-per-scenario",
+            "2",
+            "--max-steps",
+            "80",
+        ],
+    )
     _same_shape(remote, here)
     dataset = service.tmp / "local" / "collect" / here["result"]["dataset"]
     assert dataset.is_file() and dataset.as_uri() in {a["url"] for a in here["artifacts"]}
-    _same_shape(*_both(service, "mix", ["mix", "--base", remote["id"], "--hardcase", remote["id"]],
-                       ["mix", "--base", str(dataset), "--hardcase", str(dataset)]))  # fmt: skip
+    _same_shape(
+        *_both(
+            service,
+            "mix",
+            ["mix", "--base", remote["id"], "--hardcase", remote["id"]],
+            ["mix", "--base", str(dataset), "--hardcase", str(dataset)],
+        )
+    )
     train = ["--config", "configs/training/smoke.yaml", "--epochs", "1"]
-    _same_shape(*_both(service, "train", ["train", "--dataset", remote["id"], *train],
-                       ["train", "--dataset", str(dataset), *train]))  # fmt: skip
-    _same_shape(*_both(service, "predict-eval", ["predict-eval", "--model", "cv", "--ethucy", "ethucy", "--fold",
-                                                 "zara1"]))  # fmt: skip
-    _same_shape(*_both(service, "import", ["dataset", "import-ethucy", "--root", "ethucy", "--fold", "zara1"],
-                       ["dataset", "import-ethucy", "--root", "ethucy", "--fold", "zara1", "--output",
-                        str(service.tmp / "zara1.npz")], out=False))  # fmt: skip
+    _same_shape(
+        *_both(
+            service,
+            "train",
+            ["train", "--dataset", remote["id"], *train],
+            ["train", "--dataset", str(dataset), *train],
+        )
+    )
+    _same_shape(
+        *_both(
+            service,
+            "predict-eval",
+            ["predict-eval", "--model", "cv", "--ethucy", "ethucy", "--fold", "zara1"],
+        )
+    )
+    _same_shape(
+        *_both(
+            service,
+            "import",
+            ["dataset", "import-ethucy", "--root", "ethucy", "--fold", "zara1"],
+            [
+                "dataset",
+                "import-ethucy",
+                "--root",
+                "ethucy",
+                "--fold",
+                "zara1",
+                "--output",
+                str(service.tmp / "zara1.npz"),
+            ],
+            out=False,
+        )
+    )
     _same_shape(*_both(service, "check", ["planners", "check", "goal", "--steps", "5"], out=False))

@@ -67,10 +67,26 @@ def tracking(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, Pa
         "MLFLOW_SERVER_ENABLE_JOB_EXECUTION": "false",
     }  # no job runner process: a faster start
     with (tmp / "server.log").open("w") as log:
-        server = subprocess.Popen([*_mlflow_command(), "--backend-store-uri", f"sqlite:///{tmp / 'mlflow.db'}",
-                                   "--artifacts-destination", str(tmp / "artifacts"), "--host", "127.0.0.1",
-                                   "--port", str(port), "--workers", "1"], cwd=tmp, env=env, stdout=log,
-                                  stderr=subprocess.STDOUT, start_new_session=True)  # fmt: skip
+        server = subprocess.Popen(
+            [
+                *_mlflow_command(),
+                "--backend-store-uri",
+                f"sqlite:///{tmp / 'mlflow.db'}",
+                "--artifacts-destination",
+                str(tmp / "artifacts"),
+                "--host",
+                "127.0.0.1",
+                "--port",
+                str(port),
+                "--workers",
+                "1",
+            ],
+            cwd=tmp,
+            env=env,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        )
     try:
         from foresight.core.runtime.context import StageContext
         from foresight.core.runtime.refs import BUILTIN_CONFIG_ROOT
@@ -149,16 +165,32 @@ def _check_evaluation(run) -> None:  # noqa: ANN001
     assert run.data.tags["foresight.verdict"] in ("passed", "failed_gate")
 
 
-def test_local_runs_are_exported(tracking: tuple[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture,
-                                 monkeypatch: pytest.MonkeyPatch) -> None:  # fmt: skip
+def test_local_runs_are_exported(
+    tracking: tuple[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture, monkeypatch: pytest.MonkeyPatch
+) -> None:
     url, dataset = tracking
     monkeypatch.setenv("FORESIGHT_MLFLOW_TRACKING_URI", url)
     _, train_err = _cli(
         capsys, "train", "--local", "--dataset", str(dataset), *SMOKE_TRAIN, "--out", str(tmp_path / "t")
     )
-    out, eval_err = _cli(capsys, "evaluate", "--local", "--matrix", str(MATRIX), "--scenarios", "crossing_low",
-                         "--seeds-per-scenario", "1", "--max-steps", "40", "--planner", "goal", "--out",
-                         str(tmp_path / "e"), "--json")  # fmt: skip
+    out, eval_err = _cli(
+        capsys,
+        "evaluate",
+        "--local",
+        "--matrix",
+        str(MATRIX),
+        "--scenarios",
+        "crossing_low",
+        "--seeds-per-scenario",
+        "1",
+        "--max-steps",
+        "40",
+        "--planner",
+        "goal",
+        "--out",
+        str(tmp_path / "e"),
+        "--json",
+    )
     assert json.loads(out)["result"]["episodes"] == 1  # --json stays JSON: MLflow prints nothing to stdout
     assert "MLflow: run" in train_err and "MLflow: run" in eval_err
     runs = {r.data.tags.get("foresight.workdir"): r for r in _runs(url)}
@@ -188,8 +220,15 @@ def test_worker_jobs_are_exported_with_their_job_id(tracking: tuple[str, Path], 
     from foresight.worker.runner import JobWorker
 
     url, _ = tracking
-    settings = Settings(data_dir=tmp_path, api_token="t", heartbeat_s=0.2, poll_s=0.05, shutdown_grace_s=0.3,
-                        model_registry=tmp_path / "none.yaml", mlflow_tracking_uri=url)  # fmt: skip
+    settings = Settings(
+        data_dir=tmp_path,
+        api_token="t",
+        heartbeat_s=0.2,
+        poll_s=0.05,
+        shutdown_grace_s=0.3,
+        model_registry=tmp_path / "none.yaml",
+        mlflow_tracking_uri=url,
+    )
     upgrade(settings.resolved_database_url)
     engine = make_engine(settings.resolved_database_url)
     sync_bundles(engine, settings)  # what the API does at start-up: configs/ is bundle builtin
@@ -198,8 +237,17 @@ def test_worker_jobs_are_exported_with_their_job_id(tracking: tuple[str, Path], 
     thread.start()
     try:
         data = _finish(engine, {"kind": "collect", **COLLECT})
-        train = _finish(engine, {"kind": "train", "dataset": data["id"], "epochs": 2, "batch_size": 256,
-                                 "hidden": 16, "blocks": 1})  # fmt: skip
+        train = _finish(
+            engine,
+            {
+                "kind": "train",
+                "dataset": data["id"],
+                "epochs": 2,
+                "batch_size": 256,
+                "hidden": 16,
+                "blocks": 1,
+            },
+        )
         evaluate = _finish(engine, {"kind": "evaluate", **SMOKE_EVAL})
         logs = {
             job: [e["message"] for e in job_reads.events_after(engine, job, 0)]

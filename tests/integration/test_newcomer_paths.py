@@ -29,8 +29,14 @@ def up(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Service]:
 
 
 def cli(svc: Service, cwd: Path, *args: str, env: dict | None = None) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "foresight.cli.main", *args], env={**svc.env, **(env or {})}, cwd=cwd,
-                          capture_output=True, text=True, timeout=120)  # fmt: skip
+    return subprocess.run(
+        [sys.executable, "-m", "foresight.cli.main", *args],
+        env={**svc.env, **(env or {})},
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
 
 
 def test_config_paths_mean_the_same_from_any_folder(up: Service, tmp_path: Path) -> None:
@@ -129,11 +135,27 @@ def test_a_second_up_refuses_before_printing_and_keeps_the_first_ones_files(
 
 
 def test_an_external_planner_that_cannot_start_is_one_line(tmp_path: Path) -> None:
-    env = {"FORESIGHT_EXTERNAL_PLANNERS": json.dumps({"reference": ".venv/bin/python examples/external_planner.py"}),
-           "FORESIGHT_DATA_DIR": str(tmp_path / "data")}  # fmt: skip
+    env = {
+        "FORESIGHT_EXTERNAL_PLANNERS": json.dumps(
+            {"reference": ".venv/bin/python examples/external_planner.py"}
+        ),
+        "FORESIGHT_DATA_DIR": str(tmp_path / "data"),
+    }
     svc = Service(tmp_path)
-    proc = cli(svc, tmp_path, "evaluate", "--local", "--matrix", MATRIX, "--planner", "external", "--planner-config",
-               '{"command": "reference"}', *SMALL, env=env)  # fmt: skip
+    proc = cli(
+        svc,
+        tmp_path,
+        "evaluate",
+        "--local",
+        "--matrix",
+        MATRIX,
+        "--planner",
+        "external",
+        "--planner-config",
+        '{"command": "reference"}',
+        *SMALL,
+        env=env,
+    )
     assert proc.returncode == 1 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
     assert "'reference'" in proc.stderr and ".venv/bin/python" in proc.stderr and str(tmp_path) in proc.stderr
 
@@ -143,8 +165,13 @@ def test_an_evaluations_episodes_export_from_the_server(up: Service, tmp_path: P
 
     from .service import wait_job
 
-    spec = {"kind": "evaluate", "planner": {"name": "social_force"}, "scenarios": ["crossing_low"],
-            "seeds_per_scenario": 3, "max_steps": 30}  # fmt: skip
+    spec = {
+        "kind": "evaluate",
+        "planner": {"name": "social_force"},
+        "scenarios": ["crossing_low"],
+        "seeds_per_scenario": 3,
+        "max_steps": 30,
+    }
     with up.client() as client:
         job = wait_job(client, client.post("/v1/jobs", json={"spec": spec}).json()["id"])
         assert job["status"] == "succeeded", job
@@ -205,8 +232,13 @@ def test_compare_leads_with_metrics_and_names_each_config_key_once(up: Service, 
 def test_dataset_ls_lists_the_servers_datasets(up: Service, tmp_path: Path) -> None:
     from .service import wait_job
 
-    spec = {"kind": "collect", "scenarios": ["crossing_low"], "seeds_per_scenario": 1, "max_steps": 40,
-            "check_quality": False}  # fmt: skip
+    spec = {
+        "kind": "collect",
+        "scenarios": ["crossing_low"],
+        "seeds_per_scenario": 1,
+        "max_steps": 40,
+        "check_quality": False,
+    }
     with up.client() as client:
         job = wait_job(client, client.post("/v1/jobs", json={"spec": spec}).json()["id"])
     assert job["status"] == "succeeded", job

@@ -88,8 +88,13 @@ class Cluster:
         self.wait_cpus(2)
 
     def nodes_alive(self) -> int:
-        out = subprocess.run([sys.executable, "-c", _ALIVE, self.address], env=self.env, capture_output=True,
-                             text=True, timeout=60)  # fmt: skip
+        out = subprocess.run(
+            [sys.executable, "-c", _ALIVE, self.address],
+            env=self.env,
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
         found = re.search(r"^alive (\d+)$", out.stdout, re.M)  # Ray may print its own notices to stdout too
         return int(found.group(1)) if found else 0
 

@@ -134,11 +134,31 @@ def test_an_unreachable_ray_address_is_one_line_naming_it(tmp_path: Path) -> Non
     address = f"127.0.0.1:{free_port()}"  # nothing listens there
     env = {**os.environ, "FORESIGHT_RAY_ADDRESS": address, "RAY_AUTH_MODE": "disabled"}
     matrix = BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml"
-    out = subprocess.run([str(Path(sys.executable).with_name("foresight")), "evaluate", "--local", "--executor", "ray",
-                          "--matrix", str(matrix),
-                          "--scenarios", "crossing_low", "--seeds-per-scenario", "1", "--max-steps", "20",
-                          "--planner", "goal", "--out", str(tmp_path)], env=env, capture_output=True, text=True,
-                         timeout=120)  # fmt: skip
+    out = subprocess.run(
+        [
+            str(Path(sys.executable).with_name("foresight")),
+            "evaluate",
+            "--local",
+            "--executor",
+            "ray",
+            "--matrix",
+            str(matrix),
+            "--scenarios",
+            "crossing_low",
+            "--seeds-per-scenario",
+            "1",
+            "--max-steps",
+            "20",
+            "--planner",
+            "goal",
+            "--out",
+            str(tmp_path),
+        ],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert out.returncode != 0
     lines = [line for line in out.stderr.splitlines() if line.strip()]
     assert len(lines) == 1 and address in lines[0] and "unreachable" in lines[0], out.stderr

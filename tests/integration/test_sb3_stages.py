@@ -28,8 +28,13 @@ SEEDS = "configs/seeds/classic_eval_hard_smoke.yaml"
 
 
 def _cli(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "foresight.cli.main", *args], cwd=REPO, capture_output=True,
-                          text=True, timeout=300)  # fmt: skip
+    return subprocess.run(
+        [sys.executable, "-m", "foresight.cli.main", *args],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
 
 
 def test_a_trained_policy_is_diagnosed_and_campaigned(tmp_path: Path) -> None:
@@ -38,8 +43,18 @@ def test_a_trained_policy_is_diagnosed_and_campaigned(tmp_path: Path) -> None:
     )
     assert done.returncode == 0, done.stderr[-3000:]
     policy = f"sb3:{tmp_path / 'p.zip'}"
-    common = ["--local", "--planner", policy, "--matrix", "configs/scenarios/classic_interactions.yaml", "--seeds",
-              SEEDS, "--max-steps", "20", "--json"]  # fmt: skip
+    common = [
+        "--local",
+        "--planner",
+        policy,
+        "--matrix",
+        "configs/scenarios/classic_interactions.yaml",
+        "--seeds",
+        SEEDS,
+        "--max-steps",
+        "20",
+        "--json",
+    ]
 
     diagnosed = _cli("diagnose", *common, "--no-render", "--out", str(tmp_path / "d"))
     assert diagnosed.returncode == 0, diagnosed.stderr[-3000:]
@@ -48,8 +63,18 @@ def test_a_trained_policy_is_diagnosed_and_campaigned(tmp_path: Path) -> None:
     assert result["episodes"] == 6  # every seed of the manifest traced
 
     (tmp_path / "grid.yaml").write_text("variants:\n  - name: base\n    config: {}\n")
-    campaigned = _cli("campaign", *common, "--grid", str(tmp_path / "grid.yaml"), "--scenarios", "crossing_low",
-                      "--seeds-per-scenario", "1", "--out", str(tmp_path / "c"))  # fmt: skip
+    campaigned = _cli(
+        "campaign",
+        *common,
+        "--grid",
+        str(tmp_path / "grid.yaml"),
+        "--scenarios",
+        "crossing_low",
+        "--seeds-per-scenario",
+        "1",
+        "--out",
+        str(tmp_path / "c"),
+    )
     assert campaigned.returncode == 0, campaigned.stderr[-3000:]
     (cell,) = json.loads(campaigned.stdout)["result"]["ranked"]
     assert cell["variant"] == "base" and cell["planner"]["name"] == "sb3"

@@ -41,8 +41,9 @@ def test_the_tutorial_trains_saves_and_evaluates_its_policy(tmp_path: Path) -> N
     work.mkdir()
     svc = Service(tmp_path)
     (train,) = _section("2. Train", "python")
-    done = subprocess.run([sys.executable, "-c", train], cwd=work, env=svc.env, capture_output=True, text=True,
-                          timeout=600)  # fmt: skip
+    done = subprocess.run(
+        [sys.executable, "-c", train], cwd=work, env=svc.env, capture_output=True, text=True, timeout=600
+    )
     assert done.returncode == 0, done.stderr[-3000:]
     policy = work / "ppo_crowdnav.zip"
     assert policy.stat().st_size > 10_000
@@ -67,8 +68,9 @@ def test_the_tutorial_trains_saves_and_evaluates_its_policy(tmp_path: Path) -> N
         assert "sb3 (config" in done.stdout and "gate: passed" in done.stdout, done.stdout
         with svc.client() as client:
             (evaluation,) = client.get("/v1/evaluations").json()["data"]
-            episodes = client.get(f"/v1/evaluations/{evaluation['id']}/episodes/export",
-                                  params={"format": "jsonl"}).text.splitlines()  # fmt: skip
+            episodes = client.get(
+                f"/v1/evaluations/{evaluation['id']}/episodes/export", params={"format": "jsonl"}
+            ).text.splitlines()
         rows = [json.loads(line) for line in episodes]
         assert len(rows) == 6 and {r["planner"] for r in rows} == {"sb3"}
         assert {r["provenance.model_id"] for r in rows} == {"sb3:my-policies/ppo_crowdnav.zip"}

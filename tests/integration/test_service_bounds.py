@@ -53,13 +53,20 @@ scenarios:
 def _bundle(client: httpx.Client) -> None:
     buf = io.BytesIO()
     with tarfile.open(fileobj=buf, mode="w:gz") as tar:
-        for name, data in {"maps/long.yaml": LONG_ROUTE_MAP, "maps/plaza.yaml": PLAZA_MAP,
-                           "scenarios/m.yaml": MATRIX}.items():  # fmt: skip
+        for name, data in {
+            "maps/long.yaml": LONG_ROUTE_MAP,
+            "maps/plaza.yaml": PLAZA_MAP,
+            "scenarios/m.yaml": MATRIX,
+        }.items():
             info = tarfile.TarInfo(name)
             info.size = len(data)
             tar.addfile(info, io.BytesIO(data))
-    r = client.post("/v1/bundles", params={"name": "crowds"}, content=buf.getvalue(),
-                    headers={"Content-Type": "application/gzip"})  # fmt: skip
+    r = client.post(
+        "/v1/bundles",
+        params={"name": "crowds"},
+        content=buf.getvalue(),
+        headers={"Content-Type": "application/gzip"},
+    )
     assert r.status_code == 201, r.text
 
 
@@ -84,8 +91,14 @@ def test_bombs_are_refused_and_a_memory_overrun_fails_the_job(tmp_path: Path) ->
         service.worker()
         with service.client() as client:
             _bundle(client)
-            bomb = {"kind": "evaluate", "bundle": "crowds", "matrix": "scenarios/m.yaml", "scenarios": ["bomb"],
-                    "seeds_per_scenario": 1, "planner": {"name": "goal"}}  # fmt: skip
+            bomb = {
+                "kind": "evaluate",
+                "bundle": "crowds",
+                "matrix": "scenarios/m.yaml",
+                "scenarios": ["bomb"],
+                "seeds_per_scenario": 1,
+                "planner": {"name": "goal"},
+            }
             body = _refused(client, bomb)
             assert "ped_density" in body and "pedestrians" in body and "5000" in body, body
             simulate = {
@@ -96,22 +109,43 @@ def test_bombs_are_refused_and_a_memory_overrun_fails_the_job(tmp_path: Path) ->
             }
             assert "ped_density" in _refused(client, simulate)
 
-            many = {"kind": "evaluate", "scenarios": ["crossing_low"], "seeds_per_scenario": 1,
-                    "planner": {"name": "predictive", "model": "cv",
-                                "config": {"sampling": {"speed_ratios": [0.5] * 100_000}}}}  # fmt: skip
+            many = {
+                "kind": "evaluate",
+                "scenarios": ["crossing_low"],
+                "seeds_per_scenario": 1,
+                "planner": {
+                    "name": "predictive",
+                    "model": "cv",
+                    "config": {"sampling": {"speed_ratios": [0.5] * 100_000}},
+                },
+            }
             body = _refused(client, many)
             assert "speed_ratios" in body and "100000 entries, at most 256" in body, body
-            long_text = {"kind": "evaluate", "scenarios": ["crossing_low"], "seeds_per_scenario": 1,
-                         "planner": {"name": "goal"}, "scenario_overrides": {"metadata": {"x": "y" * 10_000}}}  # fmt: skip
+            long_text = {
+                "kind": "evaluate",
+                "scenarios": ["crossing_low"],
+                "seeds_per_scenario": 1,
+                "planner": {"name": "goal"},
+                "scenario_overrides": {"metadata": {"x": "y" * 10_000}},
+            }
             assert "10000 characters" in _refused(client, long_text)
-            huge = {"kind": "evaluate", "scenarios": ["crossing_low"], "seeds_per_scenario": 1,
-                    "planner": {"name": "orca", "config": {"time_horizon": 1e300}}}  # fmt: skip
+            huge = {
+                "kind": "evaluate",
+                "scenarios": ["crossing_low"],
+                "seeds_per_scenario": 1,
+                "planner": {"name": "orca", "config": {"time_horizon": 1e300}},
+            }
             assert "time_horizon" in _refused(client, huge)
             assert client.get("/v1/jobs").json()["count"] == 0  # nothing refused was stored
 
             # within every limit, past the worker's memory: the job fails naming the limit, the worker lives on
-            plaza = {"kind": "simulate", "bundle": "crowds", "matrix": "scenarios/m.yaml", "scenarios": ["plaza"],
-                     "render": False}  # fmt: skip
+            plaza = {
+                "kind": "simulate",
+                "bundle": "crowds",
+                "matrix": "scenarios/m.yaml",
+                "scenarios": ["plaza"],
+                "render": False,
+            }
             r = client.post("/v1/jobs", json={"spec": plaza, "timeout_s": 120})
             assert r.status_code == 201, r.text
             job = wait_job(client, r.json()["id"], timeout=120)

@@ -18,9 +18,22 @@ WORKERS, JOBS_PER_WORKER = 4, 500
 
 def _bulk_submit(engine, n: int) -> list[str]:  # noqa: ANN001
     now = time.time()
-    rows = [dict(id=queue.new_id(), kind="sleep", spec={"kind": "sleep", "seconds": 0.0}, status="queued", priority=0,
-                 attempts=0, max_attempts=3, cancel_requested=False, progress=0.0, message="", created_at=now + i * 1e-6)
-            for i in range(n)]  # fmt: skip
+    rows = [
+        dict(
+            id=queue.new_id(),
+            kind="sleep",
+            spec={"kind": "sleep", "seconds": 0.0},
+            status="queued",
+            priority=0,
+            attempts=0,
+            max_attempts=3,
+            cancel_requested=False,
+            progress=0.0,
+            message="",
+            created_at=now + i * 1e-6,
+        )
+        for i in range(n)
+    ]
     with write_tx(engine) as conn:
         conn.execute(insert(queue.jobs), rows)
     return [r["id"] for r in rows]
@@ -47,12 +60,20 @@ def _run(svc: Service, url: str | None) -> None:
         jobs = conn.execute(
             select(queue.jobs.c.id, queue.jobs.c.status, queue.jobs.c.attempts, queue.jobs.c.lease_owner)
         ).all()
-        starts = Counter(conn.execute(
-            select(queue.events.c.job_id).where(queue.events.c.type == "status", queue.events.c.message.like("running%"))
-        ).scalars())  # fmt: skip
-        finishes = Counter(conn.execute(
-            select(queue.events.c.job_id).where(queue.events.c.type == "status", queue.events.c.message == "succeeded")
-        ).scalars())  # fmt: skip
+        starts = Counter(
+            conn.execute(
+                select(queue.events.c.job_id).where(
+                    queue.events.c.type == "status", queue.events.c.message.like("running%")
+                )
+            ).scalars()
+        )
+        finishes = Counter(
+            conn.execute(
+                select(queue.events.c.job_id).where(
+                    queue.events.c.type == "status", queue.events.c.message == "succeeded"
+                )
+            ).scalars()
+        )
     engine.dispose()
     assert Counter(j.status for j in jobs) == {"succeeded": len(ids)}, svc.logs()
     assert all(j.attempts == 1 for j in jobs)

@@ -16,15 +16,32 @@ from foresight.store.session import make_engine
 
 from .service import Service, wait_job
 
-COLLECT = {"kind": "collect", "scenarios": ["crossing_low"], "seeds_per_scenario": 2, "max_steps": 80,
-           "check_quality": False}  # fmt: skip
-EVALUATE = {"kind": "evaluate", "scenarios": ["crossing_low"], "seeds_per_scenario": 4, "max_steps": 200,
-            "planner": {"name": "goal"}}  # fmt: skip
+COLLECT = {
+    "kind": "collect",
+    "scenarios": ["crossing_low"],
+    "seeds_per_scenario": 2,
+    "max_steps": 80,
+    "check_quality": False,
+}
+EVALUATE = {
+    "kind": "evaluate",
+    "scenarios": ["crossing_low"],
+    "seeds_per_scenario": 4,
+    "max_steps": 200,
+    "planner": {"name": "goal"},
+}
 
 
 def _train(dataset: str) -> dict:
-    return {"kind": "train", "dataset": dataset, "epochs": 30, "hidden": 8, "blocks": 0, "edge_dim": 0,
-            "allow_degenerate": True}  # fmt: skip
+    return {
+        "kind": "train",
+        "dataset": dataset,
+        "epochs": 30,
+        "hidden": 8,
+        "blocks": 0,
+        "edge_dim": 0,
+        "allow_degenerate": True,
+    }
 
 
 def _paused_past_lease(service: Service, engine, spec: dict, at: float) -> None:  # noqa: ANN001

@@ -26,8 +26,18 @@ from .service import Service
 
 CHECKPOINT = (REPO_ROOT / "model" / "predictor-sim-default.pt").read_bytes()
 CAMPAIGN = {"kind": "campaign", "seed_manifest": "seeds/classic_eval_hard_smoke.yaml"}
-LISTS = ["/v1/jobs", "/v1/models", "/v1/evaluations", "/v1/campaigns", "/v1/datasets", "/v1/bundles",
-         "/ui/jobs", "/ui/models", "/ui/results", "/ui/bundles"]  # fmt: skip
+LISTS = [
+    "/v1/jobs",
+    "/v1/models",
+    "/v1/evaluations",
+    "/v1/campaigns",
+    "/v1/datasets",
+    "/v1/bundles",
+    "/ui/jobs",
+    "/ui/models",
+    "/ui/results",
+    "/ui/bundles",
+]
 
 
 class Svc:
@@ -57,8 +67,14 @@ class Svc:
         claimed = queue.claim_id(self.engine, job["id"], "test", 30)
         rel = f"{folders.job_dir(self.store, job['id'])}/{artifact}"
         folders.write_atomic(folders.resolve_under(self.store, rel), content)
-        queue.finish(self.engine, job["id"], "test", claimed["attempts"], {},
-                     folders.scan(self.store, folders.job_dir(self.store, job["id"])))  # fmt: skip
+        queue.finish(
+            self.engine,
+            job["id"],
+            "test",
+            claimed["attempts"],
+            {},
+            folders.scan(self.store, folders.job_dir(self.store, job["id"])),
+        )
         return job["id"]
 
     def stop(self) -> None:
@@ -123,10 +139,23 @@ def test_reserved_model_ids_are_refused_and_the_default_rule_wins(svc: Svc) -> N
     from foresight.store.settings import Settings
 
     with svc.engine.begin() as conn:
-        conn.execute(insert(Model.__table__).values(
-            id="default", status="candidate", checkpoint=f"jobs/{job_id}/model.pt",
-            sha256=hashlib.sha256(CHECKPOINT).hexdigest(), time_base={}, lineage={}, training={}, metrics={},
-            tags=[], provenance="", read_only=False, job_id=job_id, created_at=time.time()))  # fmt: skip
+        conn.execute(
+            insert(Model.__table__).values(
+                id="default",
+                status="candidate",
+                checkpoint=f"jobs/{job_id}/model.pt",
+                sha256=hashlib.sha256(CHECKPOINT).hexdigest(),
+                time_base={},
+                lineage={},
+                training={},
+                metrics={},
+                tags=[],
+                provenance="",
+                read_only=False,
+                job_id=job_id,
+                created_at=time.time(),
+            )
+        )
     settings = Settings(data_dir=svc.store.parent, database_url=str(svc.engine.url))
     assert Resolver(settings, svc.engine).model_row("default").id == "predictor-sim-default"
 
@@ -135,8 +164,12 @@ def test_model_registration_is_bounded_and_takes_the_checkpoints_time_base(svc: 
     job_id = svc.finished_job()
     base = {"job_id": job_id, "artifact": "model.pt"}
     before = svc.counts()
-    for body in ('"metrics": {"x": NaN}', '"training": {"lr": Infinity}', '"lineage": {"n": -Infinity}',
-                 '"metrics": {"big": 99999999999999999999}'):  # fmt: skip
+    for body in (
+        '"metrics": {"x": NaN}',
+        '"training": {"lr": Infinity}',
+        '"lineage": {"n": -Infinity}',
+        '"metrics": {"big": 99999999999999999999}',
+    ):
         r = svc.raw("/v1/models", f'{{"id": "m-bad", "job_id": "{job_id}", "artifact": "model.pt", {body}}}')
         assert r.status_code == 422, (body, r.text)
     huge = {"id": "m-huge", **base, "metrics": {f"k{i}": "x" * 100 for i in range(1000)}}  # ~110 kB
@@ -155,8 +188,11 @@ def test_model_registration_is_bounded_and_takes_the_checkpoints_time_base(svc: 
 def _campaign_row(svc: Svc) -> str:
     ident = "c" * 32
     with svc.engine.begin() as conn:
-        conn.execute(insert(Campaign.__table__).values(id=ident, job_id=None, config={}, best=None,
-                                                       created_at=time.time()))  # fmt: skip
+        conn.execute(
+            insert(Campaign.__table__).values(
+                id=ident, job_id=None, config={}, best=None, created_at=time.time()
+            )
+        )
     return ident
 
 
@@ -174,9 +210,13 @@ def test_integers_beyond_64_bits_and_long_names_are_422_not_500(svc: Svc) -> Non
         assert r.status_code in (404, 422), (path, r.status_code, r.text[:200])
         assert r.headers.get("connection") != "close"
     long = "a" * 300 + ".yaml"
-    for spec in ({**CAMPAIGN, "seed_manifest": long, "variants": []}, {**CAMPAIGN, "grid": long},
-                 {**CAMPAIGN, "matrix": long, "variants": []}, {"kind": "collect", "hard_seeds": long},
-                 {"kind": "evaluate", "seed_manifest": f"x/{long}"}):  # fmt: skip
+    for spec in (
+        {**CAMPAIGN, "seed_manifest": long, "variants": []},
+        {**CAMPAIGN, "grid": long},
+        {**CAMPAIGN, "matrix": long, "variants": []},
+        {"kind": "collect", "hard_seeds": long},
+        {"kind": "evaluate", "seed_manifest": f"x/{long}"},
+    ):
         r = svc.http.post("/v1/jobs", json={"spec": spec})
         assert r.status_code == 422 and "255 bytes" in r.text, (spec, r.text[:300])
 
@@ -189,10 +229,16 @@ def test_bundle_member_names_clash_or_overrun_with_a_422(svc: Svc) -> None:
                 z.writestr(name, "scenarios: []\n")
         return buf.getvalue()
 
-    for names, words in [(("maps/c.yaml", "maps/c.yaml/d.yaml"), "both a file and the folder"),
-                         ((f"maps/{'b' * 300}.yaml",), "over 255 bytes")]:  # fmt: skip
-        r = svc.http.post("/v1/bundles", params={"name": "clash"}, content=archive(*names),
-                          headers={"Content-Type": "application/zip"})  # fmt: skip
+    for names, words in [
+        (("maps/c.yaml", "maps/c.yaml/d.yaml"), "both a file and the folder"),
+        ((f"maps/{'b' * 300}.yaml",), "over 255 bytes"),
+    ]:
+        r = svc.http.post(
+            "/v1/bundles",
+            params={"name": "clash"},
+            content=archive(*names),
+            headers={"Content-Type": "application/zip"},
+        )
         assert r.status_code == 422 and words in r.text, r.text
     assert "clash" not in [b["id"] for b in svc.http.get("/v1/bundles").json()["data"]]
 
@@ -213,8 +259,12 @@ def test_a_million_key_yaml_bundle_is_refused_fast_and_small(svc: Svc) -> None:
     pid = svc.service.procs[0].pid
     peak = _peak_rss(pid, reset=True)
     t0 = time.monotonic()
-    r = svc.http.post("/v1/bundles", params={"name": "flat"}, content=buf.getvalue(),
-                      headers={"Content-Type": "application/zip"})  # fmt: skip
+    r = svc.http.post(
+        "/v1/bundles",
+        params={"name": "flat"},
+        content=buf.getvalue(),
+        headers={"Content-Type": "application/zip"},
+    )
     took = time.monotonic() - t0
     assert r.status_code == 422 and "flat.yaml" in r.text, r.text
     assert took < 2.0 and _peak_rss(pid) - peak < 100 << 20, (took, _peak_rss(pid) - peak)
@@ -257,9 +307,16 @@ def test_campaign_variants_and_bundle_files_are_checked_at_submission(svc: Svc) 
 def test_a_dataset_is_checked_against_its_recorded_hash(svc: Svc) -> None:
     job_id = svc.finished_job("dataset.npz", b"original")
     with svc.engine.begin() as conn:
-        conn.execute(insert(Dataset.__table__).values(
-            id="ds1", job_id=job_id, path=f"jobs/{job_id}/dataset.npz", summary={}, created_at=time.time(),
-            sha256=hashlib.sha256(b"original").hexdigest()))  # fmt: skip
+        conn.execute(
+            insert(Dataset.__table__).values(
+                id="ds1",
+                job_id=job_id,
+                path=f"jobs/{job_id}/dataset.npz",
+                summary={},
+                created_at=time.time(),
+                sha256=hashlib.sha256(b"original").hexdigest(),
+            )
+        )
     (svc.store / "jobs" / job_id / "dataset.npz").write_bytes(b"rewritten")
     r = svc.http.post("/v1/jobs", json={"spec": {"kind": "train", "dataset": "ds1"}})
     assert r.status_code == 422 and "sha256" in r.text, r.text
@@ -290,9 +347,14 @@ def test_the_sqlite_file_is_private_and_gc_sees_a_killed_trainings_temporaries(s
 def test_nul_bytes_are_422_on_postgres(tmp_path: Path, pg_url: str) -> None:
     svc = Svc(tmp_path, pg_url)
     try:
-        for path, params in [("/v1/jobs", {"name": "a\x00"}), ("/v1/jobs", {"q": "\x00"}),
-                             ("/v1/evaluations", {"planner": "a\x00b"}), ("/v1/evaluations", {"matrix": "\x00"}),
-                             ("/v1/campaigns", {"model": "\x00"}), ("/ui/jobs", {"q": "x\x00"})]:  # fmt: skip
+        for path, params in [
+            ("/v1/jobs", {"name": "a\x00"}),
+            ("/v1/jobs", {"q": "\x00"}),
+            ("/v1/evaluations", {"planner": "a\x00b"}),
+            ("/v1/evaluations", {"matrix": "\x00"}),
+            ("/v1/campaigns", {"model": "\x00"}),
+            ("/ui/jobs", {"q": "x\x00"}),
+        ]:
             r = svc.http.get(path, params=params)
             assert r.status_code == 422 and "NUL" in r.text, (path, params, r.status_code, r.text[:200])
         job_id = svc.finished_job()

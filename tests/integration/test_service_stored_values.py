@@ -12,45 +12,94 @@ from pathlib import Path
 from .service import Service
 
 JOB_IDS = {"old-surrogate": "1" * 32, "old-nan": "2" * 32}
-LISTS = ["/v1/jobs", "/v1/models", "/v1/evaluations", "/v1/campaigns", "/v1/datasets", "/ui/jobs", "/ui/models",
-         "/ui/results"]  # fmt: skip
-ROWS_LISTED = {"/v1/models": "old-model", "/ui/models": "old-model", "/v1/evaluations": "old-eval",
-               "/v1/campaigns": "old-campaign", "/v1/datasets": "old-dataset", "/ui/results": "old-nan"}  # fmt: skip
+LISTS = [
+    "/v1/jobs",
+    "/v1/models",
+    "/v1/evaluations",
+    "/v1/campaigns",
+    "/v1/datasets",
+    "/ui/jobs",
+    "/ui/models",
+    "/ui/results",
+]
+ROWS_LISTED = {
+    "/v1/models": "old-model",
+    "/ui/models": "old-model",
+    "/v1/evaluations": "old-eval",
+    "/v1/campaigns": "old-campaign",
+    "/v1/datasets": "old-dataset",
+    "/ui/results": "old-nan",
+}
 
 
 def _old_rows() -> list[tuple[str, tuple]]:
     """(SQL, parameters) writing rows as an older version did: JSON text with lone surrogate escapes and NaN."""
     now = time.time()
     jobs = [  # (name, kind, spec, result)
-        ("old-surrogate", "sleep", '{"kind": "sleep", "x": "a\\ud800b", "\\udfff": 1}', '{"note": "\\udbff"}'),
-        ("old-nan", "evaluate", '{"kind": "evaluate", "x": NaN, "y": [Infinity, -Infinity]}', '{"loss": NaN}'),
-    ]  # fmt: skip
+        (
+            "old-surrogate",
+            "sleep",
+            '{"kind": "sleep", "x": "a\\ud800b", "\\udfff": 1}',
+            '{"note": "\\udbff"}',
+        ),
+        (
+            "old-nan",
+            "evaluate",
+            '{"kind": "evaluate", "x": NaN, "y": [Infinity, -Infinity]}',
+            '{"loss": NaN}',
+        ),
+    ]
     rows = [
-        ("INSERT INTO jobs (id, kind, spec, status, priority, attempts, max_attempts, cancel_requested, progress,"
-         " message, result, created_at, finished_at, name, tags, note) VALUES (%s, %s, %s, 'succeeded', 0, 1,"
-         " 3, false, 1.0, '', %s, %s, %s, %s, %s, '')",
-         (JOB_IDS[name], kind, spec, result, now, now, name, '["\\ud800"]'))
+        (
+            "INSERT INTO jobs (id, kind, spec, status, priority, attempts, max_attempts, cancel_requested, progress,"
+            " message, result, created_at, finished_at, name, tags, note) VALUES (%s, %s, %s, 'succeeded', 0, 1,"
+            " 3, false, 1.0, '', %s, %s, %s, %s, %s, '')",
+            (JOB_IDS[name], kind, spec, result, now, now, name, '["\\ud800"]'),
+        )
         for name, kind, spec, result in jobs
-    ]  # fmt: skip
+    ]
     return rows + [
-        ("INSERT INTO models (id, status, checkpoint, sha256, time_base, lineage, training, metrics, tags,"
-         " provenance, read_only, job_id, created_at) VALUES ('old-model', 'candidate', 'jobs/x/model.pt', %s, '{}',"
-         " '{}', %s, %s, %s, 'old', false, %s, %s)",
-         ("0" * 64, '{"\\udfff": NaN}', '{"ade": NaN, "x": "\\ud800"}', '["\\ud800"]', JOB_IDS["old-surrogate"],
-          now)),
-        ("INSERT INTO evaluations (id, job_id, config, metrics, per_scenario, created_at) VALUES ('old-eval', %s, %s,"
-         " %s, '[]', %s)",
-         (JOB_IDS["old-nan"], '{"stage": {"planner": "\\ud800"}, "planner": {"name": "goal", "x": NaN}}',
-          '{"success_rate": NaN, "collision_rate": 0.0, "episodes": 1, "status": "\\ud800", "overall": {"key":'
-          ' "global", "episodes": 1, "rates": {}, "means": {"time": {"n": 1, "mean": NaN, "low": NaN, "high":'
-          ' Infinity}}, "failed": [], "taxonomy": {"\\ud800": 1}}}', now)),
-        ("INSERT INTO campaigns (id, job_id, config, best, created_at) VALUES ('old-campaign', %s, %s, %s, %s)",
-         (JOB_IDS["old-nan"], '{"matrix": "\\ud800"}', '{"checkpoint": "default", "variant": "\\ud800", "global":'
-          ' {"success": {"rate": NaN}, "collision": {"rate": 0.0}, "episodes": 1}}', now)),
-        ("INSERT INTO datasets (id, job_id, path, sha256, summary, created_at) VALUES ('old-dataset', %s,"
-         " 'jobs/x/d.npz', NULL, %s, %s)",
-         (JOB_IDS["old-nan"], '{"samples": NaN, "\\ud800": 1}', now)),
-    ]  # fmt: skip
+        (
+            "INSERT INTO models (id, status, checkpoint, sha256, time_base, lineage, training, metrics, tags,"
+            " provenance, read_only, job_id, created_at) VALUES ('old-model', 'candidate', 'jobs/x/model.pt', %s, '{}',"
+            " '{}', %s, %s, %s, 'old', false, %s, %s)",
+            (
+                "0" * 64,
+                '{"\\udfff": NaN}',
+                '{"ade": NaN, "x": "\\ud800"}',
+                '["\\ud800"]',
+                JOB_IDS["old-surrogate"],
+                now,
+            ),
+        ),
+        (
+            "INSERT INTO evaluations (id, job_id, config, metrics, per_scenario, created_at) VALUES ('old-eval', %s, %s,"
+            " %s, '[]', %s)",
+            (
+                JOB_IDS["old-nan"],
+                '{"stage": {"planner": "\\ud800"}, "planner": {"name": "goal", "x": NaN}}',
+                '{"success_rate": NaN, "collision_rate": 0.0, "episodes": 1, "status": "\\ud800", "overall": {"key":'
+                ' "global", "episodes": 1, "rates": {}, "means": {"time": {"n": 1, "mean": NaN, "low": NaN, "high":'
+                ' Infinity}}, "failed": [], "taxonomy": {"\\ud800": 1}}}',
+                now,
+            ),
+        ),
+        (
+            "INSERT INTO campaigns (id, job_id, config, best, created_at) VALUES ('old-campaign', %s, %s, %s, %s)",
+            (
+                JOB_IDS["old-nan"],
+                '{"matrix": "\\ud800"}',
+                '{"checkpoint": "default", "variant": "\\ud800", "global":'
+                ' {"success": {"rate": NaN}, "collision": {"rate": 0.0}, "episodes": 1}}',
+                now,
+            ),
+        ),
+        (
+            "INSERT INTO datasets (id, job_id, path, sha256, summary, created_at) VALUES ('old-dataset', %s,"
+            " 'jobs/x/d.npz', NULL, %s, %s)",
+            (JOB_IDS["old-nan"], '{"samples": NaN, "\\ud800": 1}', now),
+        ),
+    ]
 
 
 def _check_listings(service: Service, *, nan: bool) -> None:

@@ -15,8 +15,15 @@ from foresight.store.settings import Settings
 
 @pytest.fixture
 def settings(tmp_path: Path) -> Settings:
-    s = Settings(data_dir=tmp_path, api_token="t", lease_s=2.0, heartbeat_s=0.2, poll_s=0.05, shutdown_grace_s=0.3,
-                 model_registry=tmp_path / "none.yaml")  # fmt: skip
+    s = Settings(
+        data_dir=tmp_path,
+        api_token="t",
+        lease_s=2.0,
+        heartbeat_s=0.2,
+        poll_s=0.05,
+        shutdown_grace_s=0.3,
+        model_registry=tmp_path / "none.yaml",
+    )
     upgrade(s.resolved_database_url)
     return s
 

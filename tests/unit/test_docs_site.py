@@ -34,16 +34,30 @@ def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
     mkdocs = Path(sys.executable).parent / "mkdocs"
     assert mkdocs.is_file(), "mkdocs is not installed: pip install -e '.[dev]' (it holds mkdocs-material)"
     env = {**os.environ, "NO_MKDOCS_2_WARNING": "1", "HOME": str(out.parent)}  # no network, no user state
-    proc = subprocess.run([str(mkdocs), "build", "--strict", "--site-dir", str(out)],
-                          cwd=REPO, env=env, capture_output=True, text=True, timeout=300)  # fmt: skip
+    proc = subprocess.run(
+        [str(mkdocs), "build", "--strict", "--site-dir", str(out)],
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert proc.returncode == 0, proc.stderr[-4000:]
     return out
 
 
 def test_site_builds_strict_with_every_page(site: Path) -> None:
-    for page in ("index.html", "getting-started/index.html", "reference/cli/index.html",
-                 "reference/http-api/index.html", "reference/config-formats/index.html", "history/index.html",
-                 "benchmarks/index.html", "tutorials/own-planner/index.html", "images/episode.png"):  # fmt: skip
+    for page in (
+        "index.html",
+        "getting-started/index.html",
+        "reference/cli/index.html",
+        "reference/http-api/index.html",
+        "reference/config-formats/index.html",
+        "history/index.html",
+        "benchmarks/index.html",
+        "tutorials/own-planner/index.html",
+        "images/episode.png",
+    ):
         assert (site / page).is_file(), page
     assert not (site / "_hooks").exists(), "the hook's source must not be published"
 

@@ -205,9 +205,13 @@ def test_api_and_worker_never_import_each_other() -> None:
 
 def test_only_the_store_imports_sqlalchemy_or_alembic() -> None:
     files = [*_modules().values(), *sorted((REPO / "migrations").rglob("*.py"))]
-    offenders = [str(p.relative_to(REPO)) for p in files
-                 if _imports(p) & {"sqlalchemy", "alembic"} and REPO / "store" not in p.parents
-                 and REPO / "migrations" not in p.parents]  # fmt: skip
+    offenders = [
+        str(p.relative_to(REPO))
+        for p in files
+        if _imports(p) & {"sqlalchemy", "alembic"}
+        and REPO / "store" not in p.parents
+        and REPO / "migrations" not in p.parents
+    ]
     assert offenders == []
 
 

@@ -63,11 +63,21 @@ M = TypeVar("M", bound=BaseModel)
 #: (stage name, kind) in run order; gates is decided here, register/promote are registry actions; the reference
 #: runs (core.jobs.pipeline.incumbent.REFERENCE_STAGES) hold the candidate's episodes with the incumbent or constant velocity
 RUNBOOK: list[tuple[str, str]] = [
-    ("collect", "collect"), ("hardcase", "collect"), ("mix", "mix"), ("train", "train"), ("register", "register"),
-    ("conformance", "planner_check"), ("evaluate", "evaluate"), ("incumbent_evaluate", "evaluate"), ("cv_baseline", "evaluate"),
-    ("diagnose", "diagnose"), ("incumbent_diagnose", "diagnose"), ("campaign", "campaign"), ("gates", "gates"),
+    ("collect", "collect"),
+    ("hardcase", "collect"),
+    ("mix", "mix"),
+    ("train", "train"),
+    ("register", "register"),
+    ("conformance", "planner_check"),
+    ("evaluate", "evaluate"),
+    ("incumbent_evaluate", "evaluate"),
+    ("cv_baseline", "evaluate"),
+    ("diagnose", "diagnose"),
+    ("incumbent_diagnose", "diagnose"),
+    ("campaign", "campaign"),
+    ("gates", "gates"),
     ("promote", "promote"),
-]  # fmt: skip
+]
 #: relative effort of each stage, for the overall progress bar
 WEIGHT = {
     "collect": 1,

@@ -26,8 +26,15 @@ def migrated_template(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def settings(tmp_path: Path, migrated_template: Path) -> Settings:
     (tmp_path / "data").mkdir()
     shutil.copyfile(migrated_template, tmp_path / "data" / "foresight.db")
-    s = Settings(data_dir=tmp_path / "data", api_token=TOKEN, lease_s=2.0, heartbeat_s=0.2, poll_s=0.05,
-                 shutdown_grace_s=0.5, model_registry=tmp_path / "registry.yaml")  # fmt: skip
+    s = Settings(
+        data_dir=tmp_path / "data",
+        api_token=TOKEN,
+        lease_s=2.0,
+        heartbeat_s=0.2,
+        poll_s=0.05,
+        shutdown_grace_s=0.5,
+        model_registry=tmp_path / "registry.yaml",
+    )
     return s
 
 

@@ -57,8 +57,10 @@ def test_a_bundle_in_use_is_kept_and_the_jobs_are_named(client, auth) -> None:  
     files = _project_bundle()
     assert _upload(client, auth, "busy", files).status_code == 201
     first, second = _evaluate_on(client, auth, "busy"), _evaluate_on(client, auth, "busy")
-    for r in (client.delete("/v1/bundles/busy", headers=auth),
-              client.put("/v1/bundles/busy", content=_tar(files), headers={**auth, **GZ})):  # fmt: skip
+    for r in (
+        client.delete("/v1/bundles/busy", headers=auth),
+        client.put("/v1/bundles/busy", content=_tar(files), headers={**auth, **GZ}),
+    ):
         assert r.status_code == 409, r.text
         assert first in r.json()["detail"] and second in r.json()["detail"]
     for job in (first, second):

@@ -50,13 +50,25 @@ def _store(engine) -> None:  # noqa: ANN001
             ("eval-a", _metrics(48, 80, 0.4904, 0.7000), 12),
             ("eval-b", _metrics(56, 70, 0.6922, 0.8769), 8),
         ):
-            conn.execute(insert(Evaluation.__table__).values(
-                id=ident, config={"planner": {"horizon": horizon}}, metrics=metrics, per_scenario=[],
-                created_at=time.time()))  # fmt: skip
-        conn.execute(insert(Campaign.__table__).values(id="camp", config={"grid": "grids/x.yaml"}, best=None,
-                                                       created_at=time.time()))  # fmt: skip
-        conn.execute(insert(CampaignCell.__table__).values(campaign_id="camp", rank=1, params={"variant": "v1"},
-                                                           metrics={"global": suite, "hard": None}))  # fmt: skip
+            conn.execute(
+                insert(Evaluation.__table__).values(
+                    id=ident,
+                    config={"planner": {"horizon": horizon}},
+                    metrics=metrics,
+                    per_scenario=[],
+                    created_at=time.time(),
+                )
+            )
+        conn.execute(
+            insert(Campaign.__table__).values(
+                id="camp", config={"grid": "grids/x.yaml"}, best=None, created_at=time.time()
+            )
+        )
+        conn.execute(
+            insert(CampaignCell.__table__).values(
+                campaign_id="camp", rank=1, params={"variant": "v1"}, metrics={"global": suite, "hard": None}
+            )
+        )
 
 
 def test_two_evaluations_diff_and_deltas_with_intervals(client, engine) -> None:  # noqa: ANN001
@@ -95,14 +107,27 @@ def _store_with_episodes(engine, settings, runs: dict[str, list]) -> None:  # no
             path.parent.mkdir(parents=True, exist_ok=True)
             write_records(path, records)
             now = time.time()
-            conn.execute(insert(Job.__table__).values(id=ident, kind="evaluate", spec={}, status="succeeded",
-                                                      created_at=now))  # fmt: skip
-            conn.execute(insert(Artifact.__table__).values(job_id=ident, name="episodes.jsonl",
-                                                           path=f"jobs/{ident}/episodes.jsonl", size=1, sha256="x",
-                                                           created_at=now))  # fmt: skip
+            conn.execute(
+                insert(Job.__table__).values(
+                    id=ident, kind="evaluate", spec={}, status="succeeded", created_at=now
+                )
+            )
+            conn.execute(
+                insert(Artifact.__table__).values(
+                    job_id=ident,
+                    name="episodes.jsonl",
+                    path=f"jobs/{ident}/episodes.jsonl",
+                    size=1,
+                    sha256="x",
+                    created_at=now,
+                )
+            )
             metrics = _metrics(sum(r.success for r in records), len(records), 0.0, 1.0)
-            conn.execute(insert(Evaluation.__table__).values(id=ident, job_id=ident, config={}, per_scenario=[],
-                                                             metrics=metrics, created_at=now))  # fmt: skip
+            conn.execute(
+                insert(Evaluation.__table__).values(
+                    id=ident, job_id=ident, config={}, per_scenario=[], metrics=metrics, created_at=now
+                )
+            )
 
 
 def test_evaluations_of_the_same_episodes_are_paired(client, engine, settings) -> None:  # noqa: ANN001

@@ -51,14 +51,17 @@ def test_data_roots_endpoint_lists_names_and_folds(roots_env: Path, client) -> N
     assert client.app.openapi()["paths"]["/v1/data-roots"]["get"]["operationId"] == "read_data_roots"
 
 
-@pytest.mark.parametrize(("spec", "message"), [
-    ({"root": "nope", "fold": "zara1"}, "unknown data root 'nope'; known: mine"),
-    ({"root": "../mine", "fold": "zara1"}, "pattern"),
-    ({"root": "/data/ethucy", "fold": "zara1"}, "pattern"),
-    ({"root": "mine", "fold": "../zara1"}, "fold"),
-    ({"root": "mine", "fold": "zara1", "source": "sdd"}, "source"),
-    ({"root": "mine", "fold": "zara1", "path": "x"}, "path"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("spec", "message"),
+    [
+        ({"root": "nope", "fold": "zara1"}, "unknown data root 'nope'; known: mine"),
+        ({"root": "../mine", "fold": "zara1"}, "pattern"),
+        ({"root": "/data/ethucy", "fold": "zara1"}, "pattern"),
+        ({"root": "mine", "fold": "../zara1"}, "fold"),
+        ({"root": "mine", "fold": "zara1", "source": "sdd"}, "source"),
+        ({"root": "mine", "fold": "zara1", "path": "x"}, "path"),
+    ],
+)
 def test_bad_import_specs_are_refused(roots_env: Path, client, auth, spec: dict, message: str) -> None:  # noqa: ANN001
     response = client.post("/v1/jobs", json={"spec": {"kind": "import_dataset", **spec}}, headers=auth)
     assert response.status_code == 422, response.text
@@ -67,8 +70,9 @@ def test_bad_import_specs_are_refused(roots_env: Path, client, auth, spec: dict,
 
 
 def test_known_root_is_queued(roots_env: Path, client, auth) -> None:  # noqa: ANN001
-    response = client.post("/v1/jobs", json={"spec": {"kind": "import_dataset", "root": "mine", "fold": "zara1"}},
-                           headers=auth)  # fmt: skip
+    response = client.post(
+        "/v1/jobs", json={"spec": {"kind": "import_dataset", "root": "mine", "fold": "zara1"}}, headers=auth
+    )
     assert response.status_code == 201, response.text
     assert response.json()["spec"] == {
         "kind": "import_dataset",

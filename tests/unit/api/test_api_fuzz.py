@@ -9,8 +9,26 @@ from typing import Any
 
 import pytest
 
-NASTY_STRINGS = ["", " ", "..", "../../etc/passwd", "/etc/passwd", "C:\\\\x", "%2e%2e%2f", "a" * 5000, "\u00ff\u2603",
-                 "null", "0", "-1", "1e309", "NaN", "x/../../y", "~root", "${HOME}", "'; DROP TABLE jobs; --"]  # fmt: skip
+NASTY_STRINGS = [
+    "",
+    " ",
+    "..",
+    "../../etc/passwd",
+    "/etc/passwd",
+    "C:\\\\x",
+    "%2e%2e%2f",
+    "a" * 5000,
+    "\u00ff\u2603",
+    "null",
+    "0",
+    "-1",
+    "1e309",
+    "NaN",
+    "x/../../y",
+    "~root",
+    "${HOME}",
+    "'; DROP TABLE jobs; --",
+]
 NASTY_NUMBERS = [0, -1, -(2**63), 2**63, 10**30, 1.5, -0.0, 1e308]
 
 

@@ -47,8 +47,11 @@ def test_labels_at_submission_are_filterable(client, auth) -> None:  # noqa: ANN
 def test_patch_edits_labels_of_any_job(client, auth) -> None:  # noqa: ANN001
     job = _submit(client, auth, name="x", tags=["a", "b"])
     path = f"/v1/jobs/{job['id']}"
-    r = client.patch(path, json={"note": "seen: oscillates at the door", "add_tags": ["c"], "remove_tags": ["a"]},
-                     headers=auth)  # fmt: skip
+    r = client.patch(
+        path,
+        json={"note": "seen: oscillates at the door", "add_tags": ["c"], "remove_tags": ["a"]},
+        headers=auth,
+    )
     assert r.status_code == 200, r.text
     assert r.json()["tags"] == ["b", "c"] and r.json()["name"] == "x" and "door" in r.json()["note"]
     assert _ids(client, "tag=a") == set() and _ids(client, "tag=c") == {job["id"]}
@@ -60,8 +63,13 @@ def test_patch_edits_labels_of_any_job(client, auth) -> None:  # noqa: ANN001
 
 
 def test_bad_labels_are_422_naming_the_field(client, auth) -> None:  # noqa: ANN001
-    for body, field in (({"tags": ["has space"]}, "tags"), ({"tags": ["x"] * 21}, "tags"), ({"name": ""}, "name"),
-                        ({"name": "a\nb"}, "name"), ({"note": "x" * 10_001}, "note")):  # fmt: skip
+    for body, field in (
+        ({"tags": ["has space"]}, "tags"),
+        ({"tags": ["x"] * 21}, "tags"),
+        ({"name": ""}, "name"),
+        ({"name": "a\nb"}, "name"),
+        ({"note": "x" * 10_001}, "note"),
+    ):
         r = client.post("/v1/jobs", json={"spec": {"kind": "sleep"}, **body}, headers=auth)
         assert r.status_code == 422 and r.json()["detail"][0]["loc"][:2] == ["body", field], r.text
     job = _submit(client, auth)
@@ -83,9 +91,14 @@ def test_upgrade_keeps_jobs_of_a_database_from_before_labels(tmp_path: Path) -> 
     url = f"sqlite:///{path}"
     upgrade(url, "3ea855f35745")
     with sqlite3.connect(path) as conn:
-        conn.execute("INSERT INTO jobs (id, kind, spec, status, priority, attempts, max_attempts, cancel_requested, "
-                     "progress, message, created_at) VALUES ('" + "a" * 32 + "', 'sleep', '{}', 'succeeded', 0, 1, 3, 0, "
-                     "1.0, '', 1.0)")  # fmt: skip
+        conn.execute(
+            "INSERT INTO jobs (id, kind, spec, status, priority, attempts, max_attempts, cancel_requested, "
+            "progress, message, created_at) VALUES ('"
+            + "a"
+            * 32
+            + "', 'sleep', '{}', 'succeeded', 0, 1, 3, 0, "
+            "1.0, '', 1.0)"
+        )
     upgrade(url)
     engine = make_engine(url)
     job = job_reads.get_job(engine, "a" * 32)

@@ -49,10 +49,23 @@ def _ids(client, path: str, **params) -> set[str]:  # noqa: ANN001, ANN003
 
 
 def test_evaluations_by_planner_matrix_verdict_and_labels(client, auth, engine) -> None:  # noqa: ANN001
-    a = _finished(client, auth, engine, "evaluate", _evaluation({"name": "goal"}, "scenarios/classic_interactions.yaml"),
-                  name="goal baseline", tags=["baseline"])  # fmt: skip
-    b = _finished(client, auth, engine, "evaluate", _evaluation({"name": "orca"}, "scenarios/classic_interactions.yaml", True),
-                  tags=["baseline", "orca"])  # fmt: skip
+    a = _finished(
+        client,
+        auth,
+        engine,
+        "evaluate",
+        _evaluation({"name": "goal"}, "scenarios/classic_interactions.yaml"),
+        name="goal baseline",
+        tags=["baseline"],
+    )
+    b = _finished(
+        client,
+        auth,
+        engine,
+        "evaluate",
+        _evaluation({"name": "orca"}, "scenarios/classic_interactions.yaml", True),
+        tags=["baseline", "orca"],
+    )
     c = _finished(client, auth, engine, "evaluate", _evaluation({"name": "orca"}, "scenarios/other.yaml"))
     assert _ids(client, "/v1/evaluations") == {a, b, c}
     assert _ids(client, "/v1/evaluations", planner="orca") == {b, c}

@@ -60,9 +60,11 @@ def test_requests_are_counted_by_route_template_and_status_class(client, auth) -
     count = ("foresight_http_request_duration_seconds_count", route)
     assert after[count] - before.get(count, 0) == 5
     buckets = sorted(
-        (float(dict(labels)["le"]), v) for (name, labels), v in after.items()
-        if name == "foresight_http_request_duration_seconds_bucket" and {p for p in labels if p[0] != "le"} == route
-    )  # fmt: skip
+        (float(dict(labels)["le"]), v)
+        for (name, labels), v in after.items()
+        if name == "foresight_http_request_duration_seconds_bucket"
+        and {p for p in labels if p[0] != "le"} == route
+    )
     assert [v for _, v in buckets] == sorted(v for _, v in buckets) and buckets[-1] == (
         float("inf"),
         after[count],

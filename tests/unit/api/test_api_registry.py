@@ -50,8 +50,12 @@ def test_builtin_bundle_registered_at_start_up(client) -> None:  # noqa: ANN001
 
 
 def test_upload_valid_bundle(client, auth, settings) -> None:  # noqa: ANN001
-    r = client.post("/v1/bundles", params={"name": "mine"}, content=_tar(_project_bundle()),
-                    headers={**auth, "Content-Type": "application/gzip"})  # fmt: skip
+    r = client.post(
+        "/v1/bundles",
+        params={"name": "mine"},
+        content=_tar(_project_bundle()),
+        headers={**auth, "Content-Type": "application/gzip"},
+    )
     assert r.status_code == 201, r.text
     crowdnav = ["circle_crossing", "crowdnavpp_no_rand", "crowdnavpp_rand", "square_crossing"]
     assert r.json()["scenarios"] == [
@@ -122,9 +126,21 @@ def test_shipped_models_are_read_only(tmp_path: Path, settings, auth) -> None:  
     ckpt.parent.mkdir(parents=True)
     ckpt.write_bytes(b"weights")
     registry = repo / "model" / "registry.yaml"
-    registry.write_text(yaml.safe_dump({"models": [{
-        "id": "shipped-1", "path": "model/checkpoint.bin", "sha256": hashlib.sha256(b"weights").hexdigest(),
-        "provenance": "test", "tags": ["default", "predictor"]}]}))  # fmt: skip
+    registry.write_text(
+        yaml.safe_dump(
+            {
+                "models": [
+                    {
+                        "id": "shipped-1",
+                        "path": "model/checkpoint.bin",
+                        "sha256": hashlib.sha256(b"weights").hexdigest(),
+                        "provenance": "test",
+                        "tags": ["default", "predictor"],
+                    }
+                ]
+            }
+        )
+    )
     with TestClient(create_app(settings.model_copy(update={"model_registry": registry}))) as c:
         model = c.get("/v1/models/shipped-1").json()
         assert model["read_only"] and model["status"] == "default"

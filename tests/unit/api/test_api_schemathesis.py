@@ -203,8 +203,20 @@ def test_stateful_sequences_conform(api: tuple) -> None:
 # ----------------------------------------------------------------------------------------------- hostile values
 #: values the probe broke the service with, mixed into schema-valid requests: lone surrogates, NUL, names over
 #: 255 bytes, integers beyond 64 bits, NaN/Infinity, nesting past the limit (bodies only where text cannot carry them)
-HOSTILE_TEXT = ["\ud800", "a\udfffb", "\x00", "x\x00y", "n" * 300, "é" * 200 + ".yaml", "d/" * 200 + "x.yaml",
-                str(2**64), "-" + str(2**70), "NaN", "Infinity", "CAMPAIGN:99999999999999999999"]  # fmt: skip
+HOSTILE_TEXT = [
+    "\ud800",
+    "a\udfffb",
+    "\x00",
+    "x\x00y",
+    "n" * 300,
+    "é" * 200 + ".yaml",
+    "d/" * 200 + "x.yaml",
+    str(2**64),
+    "-" + str(2**70),
+    "NaN",
+    "Infinity",
+    "CAMPAIGN:99999999999999999999",
+]
 HOSTILE_NUMBERS = [2**64, -(2**64), 10**30, float("nan"), float("inf"), float("-inf")]
 #: per operation; the whole test stays under ~60 s on the 2-core machine (FORESIGHT_HOSTILE_EXAMPLES to change)
 HOSTILE_EXAMPLES = int(os.environ.get("FORESIGHT_HOSTILE_EXAMPLES", "30"))
@@ -224,8 +236,9 @@ def _hostile(data, *, in_url: bool) -> object:  # noqa: ANN001
     text = [t for t in HOSTILE_TEXT if not in_url or not any(0xD800 <= ord(c) < 0xE000 for c in t)]
     if in_url:
         return data.draw(st.sampled_from(text))
-    return data.draw(st.one_of(st.sampled_from(text), st.sampled_from(HOSTILE_NUMBERS),
-                               st.integers(65, 120).map(_deep)))  # fmt: skip
+    return data.draw(
+        st.one_of(st.sampled_from(text), st.sampled_from(HOSTILE_NUMBERS), st.integers(65, 120).map(_deep))
+    )
 
 
 def _mutate(value: object, data, *, in_url: bool) -> object:  # noqa: ANN001
@@ -244,9 +257,24 @@ def _mutate(value: object, data, *, in_url: bool) -> object:  # noqa: ANN001
 def _listing_answers(client: object, known: dict[str, str]) -> list[str]:  # noqa: ANN001
     """Every list endpoint of the schema, then the detail of the first entry of each list: what did not answer 200."""
     broken = []
-    lists = ["/v1/jobs", "/v1/models", "/v1/bundles", "/v1/evaluations", "/v1/campaigns", "/v1/datasets",
-             "/v1/workers", "/v1/planners", "/v1/jobs/kinds", "/v1/models/export", "/ui/jobs", "/ui/models",
-             "/ui/results", "/ui/bundles", f"/v1/jobs/{known['job_id']}", f"/ui/jobs/{known['job_id']}"]  # fmt: skip
+    lists = [
+        "/v1/jobs",
+        "/v1/models",
+        "/v1/bundles",
+        "/v1/evaluations",
+        "/v1/campaigns",
+        "/v1/datasets",
+        "/v1/workers",
+        "/v1/planners",
+        "/v1/jobs/kinds",
+        "/v1/models/export",
+        "/ui/jobs",
+        "/ui/models",
+        "/ui/results",
+        "/ui/bundles",
+        f"/v1/jobs/{known['job_id']}",
+        f"/ui/jobs/{known['job_id']}",
+    ]
     for path in lists:
         r = client.get(path)
         if r.status_code != 200:

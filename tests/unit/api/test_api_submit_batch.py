@@ -16,10 +16,11 @@ def _stored(engine) -> tuple[dict[str, dict], dict[str, int]]:  # noqa: ANN001
         jobs = {r["id"]: dict(r) for r in conn.execute(select(queue.jobs)).mappings()}
         events = dict(
             conn.execute(
-                select(queue.events.c.job_id, func.count()).where(queue.events.c.message == queue.QUEUED)
+                select(queue.events.c.job_id, func.count())
+                .where(queue.events.c.message == queue.QUEUED)
                 .group_by(queue.events.c.job_id)
             ).all()
-        )  # fmt: skip
+        )
     return jobs, events
 
 

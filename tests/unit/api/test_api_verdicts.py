@@ -193,8 +193,12 @@ def test_a_planner_checks_verdict_and_checks_are_on_its_job_page(client, auth, e
         "threshold": 0.0,
         "detail": "v 4 outside [0, 2]",
     }
-    result = {"passed": False, "checks": [{"name": "finite", "passed": True}, bad], "planner": "goal",
-              "failed": ["within_limits"]}  # fmt: skip
+    result = {
+        "passed": False,
+        "checks": [{"name": "finite", "passed": True}, bad],
+        "planner": "goal",
+        "failed": ["within_limits"],
+    }
     queue.finish(engine, job_id, "w", c["attempts"], result)
     assert client.get(f"/v1/jobs/{job_id}").json()["verdict"] == "failed_gate"
     page = client.get(f"/ui/jobs/{job_id}").text

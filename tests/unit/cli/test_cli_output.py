@@ -21,8 +21,12 @@ def test_one_progress_bar_style() -> None:
                 offenders.append(f"{path.name}:{node.lineno} Progress(...)")
             if isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value.startswith("\r"):
                 offenders.append(f"{path.name}:{node.lineno} carriage-return line")
-            if isinstance(node, ast.JoinedStr) and node.values and isinstance(node.values[0], ast.Constant) \
-                    and str(node.values[0].value).startswith("\r"):  # fmt: skip
+            if (
+                isinstance(node, ast.JoinedStr)
+                and node.values
+                and isinstance(node.values[0], ast.Constant)
+                and str(node.values[0].value).startswith("\r")
+            ):
                 offenders.append(f"{path.name}:{node.lineno} carriage-return line")
     assert offenders == []
 
@@ -32,9 +36,22 @@ def test_a_closed_pipe_is_not_an_error() -> None:
     read, write = os.pipe()
     os.close(read)  # the reader is gone before the first write: every write fails with EPIPE
     try:
-        done = subprocess.run([sys.executable, "-m", "foresight.cli.main", "scenarios", "list", "--matrix",
-                               str(REPO / "configs" / "scenarios" / "classic_interactions.yaml")],
-                              stdout=write, stderr=subprocess.PIPE, text=True, cwd=REPO, timeout=120)  # fmt: skip
+        done = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "foresight.cli.main",
+                "scenarios",
+                "list",
+                "--matrix",
+                str(REPO / "configs" / "scenarios" / "classic_interactions.yaml"),
+            ],
+            stdout=write,
+            stderr=subprocess.PIPE,
+            text=True,
+            cwd=REPO,
+            timeout=120,
+        )
     finally:
         os.close(write)
     assert done.returncode == 0 and "Broken pipe" not in done.stderr and "Traceback" not in done.stderr, (

@@ -46,7 +46,8 @@ def test_the_client_uses_the_running_server_of_the_data_folder(tmp_path: Path) -
 
 
 def test_local_runs_without_out_keep_their_folder_in_the_data_folder(
-        monkeypatch: pytest.MonkeyPatch, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:  # fmt: skip
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
     monkeypatch.setenv("FORESIGHT_DATA_DIR", str(tmp_path))
     code = main(
         [

@@ -19,15 +19,33 @@ MAGIC = {"png": b"\x89PNG", "gif": b"GIF89a", "svg": b"<?xml"}
 
 
 def _cli(cwd: Path, *args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "foresight.cli.main", *args], cwd=cwd, capture_output=True, text=True,
-                          timeout=300, env={**__import__("os").environ, "FORESIGHT_DATA_DIR": str(cwd / "data")})  # fmt: skip
+    return subprocess.run(
+        [sys.executable, "-m", "foresight.cli.main", *args],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env={**__import__("os").environ, "FORESIGHT_DATA_DIR": str(cwd / "data")},
+    )
 
 
 @pytest.mark.parametrize("suffix", ["png", "svg", "gif", "mp4"])
 def test_render_writes_what_the_suffix_says(tmp_path: Path, suffix: str) -> None:
     out = tmp_path / f"ep.{suffix}"
-    done = _cli(tmp_path, "sim", "run", "--local", "--matrix", MATRIX, "--scenario", "crossing_low", "--seed", "1",
-                "--render", str(out))  # fmt: skip
+    done = _cli(
+        tmp_path,
+        "sim",
+        "run",
+        "--local",
+        "--matrix",
+        MATRIX,
+        "--scenario",
+        "crossing_low",
+        "--seed",
+        "1",
+        "--render",
+        str(out),
+    )
     assert done.returncode == 0, done.stderr
     head = out.read_bytes()[:16]
     if suffix == "mp4":
@@ -42,8 +60,20 @@ def test_render_writes_what_the_suffix_says(tmp_path: Path, suffix: str) -> None
 
 
 def test_render_refuses_an_unknown_suffix_before_running(tmp_path: Path) -> None:
-    done = _cli(tmp_path, "sim", "run", "--local", "--matrix", MATRIX, "--scenario", "crossing_low", "--seed", "1",
-                "--render", str(tmp_path / "ep.jpg"))  # fmt: skip
+    done = _cli(
+        tmp_path,
+        "sim",
+        "run",
+        "--local",
+        "--matrix",
+        MATRIX,
+        "--scenario",
+        "crossing_low",
+        "--seed",
+        "1",
+        "--render",
+        str(tmp_path / "ep.jpg"),
+    )
     assert (
         done.returncode == 1
         and done.stderr.count("\n") == 1
@@ -55,9 +85,24 @@ def test_render_refuses_an_unknown_suffix_before_running(tmp_path: Path) -> None
 
 def test_episodes_export_every_metric_flat(tmp_path: Path) -> None:
     run = tmp_path / "run"
-    done = _cli(tmp_path, "evaluate", "--local", "--matrix", MATRIX, "--planner", "social_force", "--scenarios",
-                "crossing_low,head_on_corridor_high", "--seeds-per-scenario", "2", "--max-steps", "40", "--out",
-                str(run), "--json")  # fmt: skip
+    done = _cli(
+        tmp_path,
+        "evaluate",
+        "--local",
+        "--matrix",
+        MATRIX,
+        "--planner",
+        "social_force",
+        "--scenarios",
+        "crossing_low,head_on_corridor_high",
+        "--seeds-per-scenario",
+        "2",
+        "--max-steps",
+        "40",
+        "--out",
+        str(run),
+        "--json",
+    )
     assert done.returncode in (0, 2), done.stderr
     records = [json.loads(line) for line in (run / "episodes.jsonl").read_text().splitlines()]
     for fmt in ("csv", "parquet", "jsonl"):
@@ -89,8 +134,23 @@ def test_episodes_export_every_metric_flat(tmp_path: Path) -> None:
 
 def test_a_local_reports_failed_episodes_link_to_their_players(tmp_path: Path) -> None:
     run = tmp_path / "run"
-    done = _cli(tmp_path, "evaluate", "--local", "--matrix", MATRIX, "--planner", "goal", "--scenarios",
-                "head_on_corridor_high", "--seeds-per-scenario", "1", "--max-steps", "120", "--out", str(run))  # fmt: skip
+    done = _cli(
+        tmp_path,
+        "evaluate",
+        "--local",
+        "--matrix",
+        MATRIX,
+        "--planner",
+        "goal",
+        "--scenarios",
+        "head_on_corridor_high",
+        "--seeds-per-scenario",
+        "1",
+        "--max-steps",
+        "120",
+        "--out",
+        str(run),
+    )
     assert done.returncode == 2, done.stderr  # the goal-seeking robot fails here: a failed gate
     record = json.loads((run / "episodes.jsonl").read_text().splitlines()[0])
     link = f"player/{record['scenario']}__{record['seed']}.html"

@@ -58,14 +58,39 @@ def _url(server: _Answers) -> str:
 def _job(**changes: Any) -> dict[str, Any]:
     """A succeeded evaluate job as ``GET /v1/jobs/ID`` answers it."""
     now = datetime(2026, 1, 2, 3, 4, 5, 678000, tzinfo=UTC)
-    job = JobPublic(id="job-0123456789ab", kind="evaluate", status="succeeded", spec={"kind": "evaluate"},
-                    priority=0, attempts=1, max_attempts=3, timeout_s=None, idempotency_key=None, parent_id=None,
-                    name="baseline", tags=["a"], cancel_requested=False, progress=1.0, message="done", error=None,
-                    result={"success_rate": 0.75, "episodes": 4}, verdict="passed", worker="w1", created_at=now,
-                    started_at=now, finished_at=now,
-                    artifacts=[ArtifactPublic(name="report.md", size=3, sha256="ab" * 32,
-                                              url="/v1/jobs/job-0123456789ab/artifacts/report.md")],
-                    children=[])  # fmt: skip
+    job = JobPublic(
+        id="job-0123456789ab",
+        kind="evaluate",
+        status="succeeded",
+        spec={"kind": "evaluate"},
+        priority=0,
+        attempts=1,
+        max_attempts=3,
+        timeout_s=None,
+        idempotency_key=None,
+        parent_id=None,
+        name="baseline",
+        tags=["a"],
+        cancel_requested=False,
+        progress=1.0,
+        message="done",
+        error=None,
+        result={"success_rate": 0.75, "episodes": 4},
+        verdict="passed",
+        worker="w1",
+        created_at=now,
+        started_at=now,
+        finished_at=now,
+        artifacts=[
+            ArtifactPublic(
+                name="report.md",
+                size=3,
+                sha256="ab" * 32,
+                url="/v1/jobs/job-0123456789ab/artifacts/report.md",
+            )
+        ],
+        children=[],
+    )
     return {**job.model_dump(mode="json"), **changes}
 
 
@@ -97,16 +122,29 @@ def test_a_page_with_a_bad_row_names_the_row_and_the_field(server, capsys) -> No
 @pytest.mark.parametrize(
     ("argv", "path", "body", "shape"),
     [
-        (["jobs", "show", "j1"], "/v1/jobs/j1", b"<html>a proxy's login page</html>", "JobPublic"),  # not JSON
+        (
+            ["jobs", "show", "j1"],
+            "/v1/jobs/j1",
+            b"<html>a proxy's login page</html>",
+            "JobPublic",
+        ),  # not JSON
         (["models", "ls"], "/v1/models", b'{"data": [{"id": "m"}], "count": 1}', "ModelsPublic"),
-        (["evaluations", "ls"], "/v1/evaluations", b'{"data": "none", "count": 0, "limit": 20, "offset": 0}',
-         "EvaluationsPublic"),
+        (
+            ["evaluations", "ls"],
+            "/v1/evaluations",
+            b'{"data": "none", "count": 0, "limit": 20, "offset": 0}',
+            "EvaluationsPublic",
+        ),
         (["compare", "e1", "e2"], "/v1/compare", b'{"a": "e1", "b": "e2"}', "ComparisonPublic"),
         (["planners"], "/v1/planners", b'{"data": [], "count": 0}', "PlannersPublic"),
-        (["evaluations", "episodes", "e1"], "/v1/evaluations/e1/episodes", b'[{"scenario": "s", "seed": 1}]',
-         "list[EpisodePublic]"),
+        (
+            ["evaluations", "episodes", "e1"],
+            "/v1/evaluations/e1/episodes",
+            b'[{"scenario": "s", "seed": 1}]',
+            "list[EpisodePublic]",
+        ),
     ],
-)  # fmt: skip
+)
 def test_every_reader_refuses_a_body_that_does_not_fit(server, capsys, argv, path, body, shape) -> None:  # noqa: ANN001
     server.bodies[path] = body
     assert main([*argv, "--url", _url(server)]) == 1

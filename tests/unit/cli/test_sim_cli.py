@@ -65,8 +65,18 @@ def test_sim_run_json_and_render(reference_matrix_path: Path, tmp_path: Path, ca
 
 
 def test_sim_run_chooses_the_planner(tmp_path: Path, capsys) -> None:
-    args = ["sim", "run", "--local", "--json", "--matrix", str(OUR_MATRIX), "--scenario", "crossing_low", "--seed",
-            "1000"]  # fmt: skip
+    args = [
+        "sim",
+        "run",
+        "--local",
+        "--json",
+        "--matrix",
+        str(OUR_MATRIX),
+        "--scenario",
+        "crossing_low",
+        "--seed",
+        "1000",
+    ]
     assert main(args) == 0
     assert _episode(capsys)["planner"] == "goal"  # the default, as before
     assert main([*args, "--planner", "orca"]) == 0

@@ -31,14 +31,34 @@ def _one_line_error(capsys: pytest.CaptureFixture[str]) -> str:
     return err[0]
 
 
-@pytest.mark.parametrize("argv", [
-    ["collect", "--scenarios", "crossing_low", "--seeds-per-scenario", "1"],
-    ["train", "--dataset", "some-dataset-id", "--epochs", "1"],
-    ["evaluate", "--matrix", "scenarios/classic_interactions.yaml", "--planner", "goal", "--scenarios", "crossing_low"],
-    ["dataset", "import-ethucy", "--root", "ethucy", "--fold", "zara1"],
-    ["sim", "run", "--matrix", "scenarios/classic_interactions.yaml", "--scenario", "crossing_low", "--seed", "1"],
-    ["pipeline", "run", "-f", "configs/pipelines/smoke.yaml"],
-])  # fmt: skip
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["collect", "--scenarios", "crossing_low", "--seeds-per-scenario", "1"],
+        ["train", "--dataset", "some-dataset-id", "--epochs", "1"],
+        [
+            "evaluate",
+            "--matrix",
+            "scenarios/classic_interactions.yaml",
+            "--planner",
+            "goal",
+            "--scenarios",
+            "crossing_low",
+        ],
+        ["dataset", "import-ethucy", "--root", "ethucy", "--fold", "zara1"],
+        [
+            "sim",
+            "run",
+            "--matrix",
+            "scenarios/classic_interactions.yaml",
+            "--scenario",
+            "crossing_low",
+            "--seed",
+            "1",
+        ],
+        ["pipeline", "run", "-f", "configs/pipelines/smoke.yaml"],
+    ],
+)
 def test_unreachable_server_is_one_line_naming_up_and_local(argv: list[str], nowhere: str, capsys) -> None:  # noqa: ANN001
     assert main([*argv, "--url", nowhere]) == 1
     line = _one_line_error(capsys)
@@ -54,14 +74,42 @@ def test_local_files_where_ids_are_needed_are_refused(tmp_path: Path, nowhere: s
         (["mix", "--base", "a", "--hardcase", str(npz)], "--hardcase", "dataset id"),
         (["predict-eval", "--model", str(ckpt), "--dataset", "abc"], "--model", "model id"),
         (["predict-eval", "--model", "cv", "--ethucy", str(tmp_path)], "--ethucy", "--ethucy NAME"),
-        (["dataset", "import-ethucy", "--ethucy", str(tmp_path), "--fold", "zara1"], "--ethucy", "--root NAME"),
+        (
+            ["dataset", "import-ethucy", "--ethucy", str(tmp_path), "--fold", "zara1"],
+            "--ethucy",
+            "--root NAME",
+        ),
         (["evaluate", "--matrix", str(matrix), "--planner", "goal"], "--matrix", "bundles upload"),
-        (["campaign", "--matrix", "scenarios/classic_interactions.yaml", "--seeds", "seeds/x.yaml",
-          "--grid", "grids/y.yaml", "--checkpoints", str(ckpt)], "--checkpoints", "model id"),
+        (
+            [
+                "campaign",
+                "--matrix",
+                "scenarios/classic_interactions.yaml",
+                "--seeds",
+                "seeds/x.yaml",
+                "--grid",
+                "grids/y.yaml",
+                "--checkpoints",
+                str(ckpt),
+            ],
+            "--checkpoints",
+            "model id",
+        ),
         (["train", "--dataset", "abc", "--out", str(tmp_path)], "--out", "--local runs only"),
-        (["evaluate", "--matrix", "scenarios/classic_interactions.yaml", "--planner", "goal", "--workers", "2"],
-         "--workers", "--local runs only"),
-    ]  # fmt: skip
+        (
+            [
+                "evaluate",
+                "--matrix",
+                "scenarios/classic_interactions.yaml",
+                "--planner",
+                "goal",
+                "--workers",
+                "2",
+            ],
+            "--workers",
+            "--local runs only",
+        ),
+    ]
     for argv, flag, hint in cases:
         assert main([*argv, "--url", nowhere]) == 1, argv
         line = _one_line_error(capsys)
@@ -110,8 +158,18 @@ def test_the_local_and_server_specs_are_one_model() -> None:
 def test_an_in_process_failure_prints_the_failed_job_with_json(capsys: pytest.CaptureFixture[str]) -> None:
     """With --json a --local run that fails prints the failed job (status, error; the server's job keys), then
     its one error line, as a failed server job does."""
-    argv = ["sim", "run", "--local", "--json", "--matrix", str(BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml"),
-            "--scenario", "crossing_lo", "--seed", "1000"]  # fmt: skip
+    argv = [
+        "sim",
+        "run",
+        "--local",
+        "--json",
+        "--matrix",
+        str(BUILTIN_CONFIG_ROOT / "scenarios" / "classic_interactions.yaml"),
+        "--scenario",
+        "crossing_lo",
+        "--seed",
+        "1000",
+    ]
     assert main(argv) == 1
     out = capsys.readouterr().out
     job = json.loads(out)

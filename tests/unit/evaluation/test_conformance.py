@@ -58,8 +58,15 @@ def test_every_builtin_the_plugin_and_the_reference_client_conform(ctx: StageCon
     result = _check(ctx, planner, steps=20)
     assert result.passed, [(c.name, c.detail) for c in result.checks if not c.passed]
     names = {c.name for c in result.checks}
-    assert {"finite", "within_limits", "deterministic", "decision_budget", "no_pedestrians", "crowd_200",
-            "reset_leaves_no_state"} <= names  # fmt: skip
+    assert {
+        "finite",
+        "within_limits",
+        "deterministic",
+        "decision_budget",
+        "no_pedestrians",
+        "crowd_200",
+        "reset_leaves_no_state",
+    } <= names
     assert ("protocol_error_paths" in names) == (planner["name"] == "external")
 
 
@@ -98,8 +105,9 @@ def test_a_broken_toy_fails_naming_each_failed_check(
             assert check.detail  # says what it saw
 
 
-@pytest.mark.parametrize("command,why", [("lingers", "after its input was closed"),
-                                         ("no_second_episode", "no answer within")])  # fmt: skip
+@pytest.mark.parametrize(
+    "command,why", [("lingers", "after its input was closed"), ("no_second_episode", "no answer within")]
+)
 def test_an_external_planner_that_breaks_the_error_paths_fails(
     ctx: StageContext, command: str, why: str
 ) -> None:
@@ -113,8 +121,23 @@ def test_the_cli_check_exits_2_naming_the_failed_checks() -> None:
     import subprocess
 
     def check(*argv: str) -> subprocess.CompletedProcess:
-        return subprocess.run([sys.executable, "-m", "foresight.cli.main", "planners", "check", *argv, "--local",
-                               "--steps", "10"], cwd=REPO, capture_output=True, text=True, timeout=300)  # fmt: skip
+        return subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "foresight.cli.main",
+                "planners",
+                "check",
+                *argv,
+                "--local",
+                "--steps",
+                "10",
+            ],
+            cwd=REPO,
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
 
     ok = check("toy")
     assert ok.returncode == 0 and "planner toy: CONFORMS" in ok.stdout, ok.stderr

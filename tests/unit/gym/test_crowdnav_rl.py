@@ -28,8 +28,11 @@ def test_rgb_array_frames_recorded_by_record_video(tmp_path: Path) -> None:
         moved.append(env.render())
     assert not np.array_equal(moved[0], moved[-1])  # the robot and the crowd move between frames
 
-    video = RecordVideo(gym.make("foresight/CrowdNav-v0", scenario="crossing_low", max_steps=25,
-                                 render_mode="rgb_array"), str(tmp_path / "videos"), disable_logger=True)  # fmt: skip
+    video = RecordVideo(
+        gym.make("foresight/CrowdNav-v0", scenario="crossing_low", max_steps=25, render_mode="rgb_array"),
+        str(tmp_path / "videos"),
+        disable_logger=True,
+    )
     video.reset(seed=1)
     done = False
     while not done:

@@ -19,15 +19,22 @@ def test_every_job_kind_and_planner_spec_is_bounded() -> None:
 @pytest.mark.parametrize(
     ("data", "says"),
     [
-        ({"planner": {"name": "predictive", "config": {"sampling": {"turn_rates": [0.1] * (MAX_ITEMS + 1)}}}},
-         "sampling.turn_rates: 257 entries"),
+        (
+            {
+                "planner": {
+                    "name": "predictive",
+                    "config": {"sampling": {"turn_rates": [0.1] * (MAX_ITEMS + 1)}},
+                }
+            },
+            "sampling.turn_rates: 257 entries",
+        ),
         ({"planner": {"name": "orca", "config": {"time_horizon": 1e12}}}, r"time_horizon: 1e\+12 is beyond"),
         ({"planner": {"name": "goal", "config": {"speed": float("nan")}}}, "finite number"),
         ({"scenario_overrides": {"metadata": {"a": [[[[[[[[[[[[[[1]]]]]]]]]]]]]]}}}, "nested more than"),
         ({"scenario_overrides": {"metadata": {"k": "x" * 5000}}}, "5000 characters"),
         ({"planner": {"name": "orca", "config": {"max_neighbors": 10_000}}}, "less than or equal to 256"),
     ],
-)  # fmt: skip
+)
 def test_oversized_settings_are_refused_by_name(data: dict, says: str) -> None:
     with pytest.raises(ValidationError, match=says):
         EvaluationConfig.model_validate(data)

@@ -28,14 +28,26 @@ class Rows:
 
 
 def _row(ident: str, status: str, pipeline: str | None = None, at: float = 0.0) -> dict[str, Any]:
-    return {"id": ident, "status": status, "sha256": ident[0] * 64, "created_at": at,
-            "lineage": {"pipeline": pipeline} if pipeline else {}}  # fmt: skip
+    return {
+        "id": ident,
+        "status": status,
+        "sha256": ident[0] * 64,
+        "created_at": at,
+        "lineage": {"pipeline": pipeline} if pipeline else {},
+    }
 
 
 def test_the_incumbent_is_the_newest_promoted_model_of_the_lineage_else_the_default() -> None:
     config = _smoke()
-    rows = Rows([_row("dflt", "default"), _row("old", "promoted", "smoke", 1.0), _row("new", "promoted", "smoke", 2.0),
-                 _row("other", "promoted", "elsewhere", 3.0), _row("relax", "relaxed", "smoke", 4.0)])  # fmt: skip
+    rows = Rows(
+        [
+            _row("dflt", "default"),
+            _row("old", "promoted", "smoke", 1.0),
+            _row("new", "promoted", "smoke", 2.0),
+            _row("other", "promoted", "elsewhere", 3.0),
+            _row("relax", "relaxed", "smoke", 4.0),
+        ]
+    )
     got = resolve_incumbent(config, rows)
     assert got is not None and (got.id, got.sha256) == ("new", "n" * 64) and "smoke" in got.why
     to_default = config.model_copy(update={"promote": PromoteSection(to="default")})

@@ -242,8 +242,14 @@ def test_a_failed_stage_writes_the_summary_and_a_rerun_resumes_from_it(tmp_path:
     fake.fail, fake.calls = None, []  # the retry: finished stages come back as resumed, nothing re-runs
     result = run_pipeline(config, _ctx(tmp_path), fake, run_id="abc", registry=fake)
     assert [c[0] for c in fake.calls] == [
-        "evaluate", "incumbent_evaluate", "cv_baseline", "diagnose", "incumbent_diagnose", "campaign", "promote",
-    ]  # fmt: skip
+        "evaluate",
+        "incumbent_evaluate",
+        "cv_baseline",
+        "diagnose",
+        "incumbent_diagnose",
+        "campaign",
+        "promote",
+    ]
     assert result.passed
     assert {s.name: s.headline.endswith("(resumed)") for s in result.stages}["train"]
 

@@ -174,8 +174,25 @@ def test_cli_import_ls_export_and_reimport(tmp_path, capsys):
     _as_trajnet(ZARA, folder / "zara.ndjson")
     out = tmp_path / "data" / "mine.npz"
     out.parent.mkdir()
-    assert main(["dataset", "import", str(folder), "--format", "trajnet", "--frame-interval", "0.4",
-                 "--test-scene", "hotel", "--output", str(out), "--local"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "dataset",
+                "import",
+                str(folder),
+                "--format",
+                "trajnet",
+                "--frame-interval",
+                "0.4",
+                "--test-scene",
+                "hotel",
+                "--output",
+                str(out),
+                "--local",
+            ]
+        )
+        == 0
+    )
     ds = load_dataset(out)
     assert {e.scenario: e.split for e in ds.meta.episodes} == {"hotel": "test", "zara": "train"}
     capsys.readouterr()

@@ -34,8 +34,13 @@ def test_the_page_embeds_each_trace_safely_and_the_player_script(tmp_path: Path)
 
 
 def test_players_needs_local_work_folders() -> None:
-    done = subprocess.run([sys.executable, "-m", "foresight.cli.main", "compare", "a", "b", "--players", "out"],
-                          cwd=REPO, capture_output=True, text=True, timeout=120)  # fmt: skip
+    done = subprocess.run(
+        [sys.executable, "-m", "foresight.cli.main", "compare", "a", "b", "--players", "out"],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert done.returncode != 0 and "--players writes pages from local work folders" in done.stderr
     assert len(done.stderr.strip().splitlines()) == 1, done.stderr
 

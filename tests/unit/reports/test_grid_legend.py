@@ -10,8 +10,11 @@ from foresight.core.reports.grid_plot import ParameterPlot, Point, Series, chart
 
 def test_legend_labels_fit_inside_the_svg() -> None:
     names = ["cv", "model-trained-on-the-stress-suite-2026-12-06", *[f"ck{i}" for i in range(20)]]
-    series = [Series(name, suite, [Point(x, 0.5, 0.4, 0.6, f"v{x}", 10) for x in (0.5, 1.0)])
-              for name in names for suite in ("global", "hard")]  # fmt: skip
+    series = [
+        Series(name, suite, [Point(x, 0.5, 0.4, 0.6, f"v{x}", 10) for x in (0.5, 1.0)])
+        for name in names
+        for suite in ("global", "hard")
+    ]
     svg = chart_svg(ParameterPlot("speed", [], {"success": series}), "success")
     width, height = (float(v) for v in re.search(r'viewBox="0 0 ([\d.]+) ([\d.]+)"', svg).groups())
     for x, y, text in re.findall(r'<text x="([\d.]+)" y="([\d.]+)" font-size="10">([^<]+)</text>', svg):

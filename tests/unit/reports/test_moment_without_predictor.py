@@ -26,13 +26,30 @@ def _pixels(path: Path, rgb: tuple[int, int, int], tol: int = 30) -> int:
 
 def _run_without_forecasts(tmp_path: Path) -> dict:
     tr = trace()
-    steps = [{"step": t, "robot": tr.robot[t].tolist(), "command": [0.9, 0.2], "min_distance": 2.0 - t / 60,
-              "predicted_vs_actual": []} for t in range(tr.steps)]  # fmt: skip
+    steps = [
+        {
+            "step": t,
+            "robot": tr.robot[t].tolist(),
+            "command": [0.9, 0.2],
+            "min_distance": 2.0 - t / 60,
+            "predicted_vs_actual": [],
+        }
+        for t in range(tr.steps)
+    ]
     record = data.record(tr, "crossing_high", 3, collision_step=40, collision_point=(14.0, 10.0))
     (tmp_path / "diagnostics").mkdir(parents=True)
-    (tmp_path / "diagnostics/trace_crossing_high_3.json").write_text(json.dumps(
-        {"scenario": "crossing_high", "seed": 3, "horizon": tr.steps, "dt": 0.1, "record": record.model_dump(mode="json"),
-         "steps": steps}))  # fmt: skip
+    (tmp_path / "diagnostics/trace_crossing_high_3.json").write_text(
+        json.dumps(
+            {
+                "scenario": "crossing_high",
+                "seed": 3,
+                "horizon": tr.steps,
+                "dt": 0.1,
+                "record": record.model_dump(mode="json"),
+                "steps": steps,
+            }
+        )
+    )
     seed = {
         "scenario": "crossing_high",
         "seed": 3,
@@ -49,11 +66,26 @@ def _run_without_forecasts(tmp_path: Path) -> dict:
         "prediction_ade": None,
         "trace": "diagnostics/trace_crossing_high_3.json",
     }
-    return {"episodes": 1, "solved": 0, "outcomes": {"collision_pedestrian": 1},
-            "taxonomy": data.taxonomy(collision_pedestrian_robot_fault=1), "taxonomy_config": {}, "seeds": [seed],
-            "code_version": "0.1.0+test", "artifacts": {}, "wall_s": 1.0, "config": {},
-            "planner": {"name": "orca", "variant": None, "config": {}, "config_hash": "c0ffee", "model_id": "none",
-                        "checkpoint_sha256": ""}}  # fmt: skip
+    return {
+        "episodes": 1,
+        "solved": 0,
+        "outcomes": {"collision_pedestrian": 1},
+        "taxonomy": data.taxonomy(collision_pedestrian_robot_fault=1),
+        "taxonomy_config": {},
+        "seeds": [seed],
+        "code_version": "0.1.0+test",
+        "artifacts": {},
+        "wall_s": 1.0,
+        "config": {},
+        "planner": {
+            "name": "orca",
+            "variant": None,
+            "config": {},
+            "config_hash": "c0ffee",
+            "model_id": "none",
+            "checkpoint_sha256": "",
+        },
+    }
 
 
 def test_moment_of_a_planner_without_predictor_shows_scene_heading_and_plan(tmp_path: Path) -> None:

@@ -79,8 +79,10 @@ def test_a_crowd_over_the_limit_is_refused_before_anything_spawns():
     assert n < MAX_PEDESTRIANS  # a street is no bomb: its routes made 10^6 m long are
     from foresight.core.maps.model import Route
 
-    routes = tuple(Route(spawn_id=r.spawn_id, goal_id=r.goal_id, waypoints=(*r.waypoints, (3, 1e6)))
-                   for r in m.ped_routes)  # fmt: skip
+    routes = tuple(
+        Route(spawn_id=r.spawn_id, goal_id=r.goal_id, waypoints=(*r.waypoints, (3, 1e6)))
+        for r in m.ped_routes
+    )
     far = m.model_copy(update={"ped_routes": routes})
     with pytest.raises(ConfigError, match=r"pedestrians .* at most 5000: lower ped_density"):
         Simulator().reset(scenario(far, ped_density=2.0), 1, check=lambda: calls.append(1))

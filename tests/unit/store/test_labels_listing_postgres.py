@@ -22,8 +22,12 @@ def pg(pg_url: str) -> Iterator:  # noqa: ANN401
 
 
 def test_labels_and_record_filters_on_postgres(pg) -> None:  # noqa: ANN001
-    job, _ = queue.submit(pg, kind="evaluate", spec={"kind": "evaluate"},
-                          labels={"name": "n1", "tags": ["a", "b"], "note": "Hello there"})  # fmt: skip
+    job, _ = queue.submit(
+        pg,
+        kind="evaluate",
+        spec={"kind": "evaluate"},
+        labels={"name": "n1", "tags": ["a", "b"], "note": "Hello there"},
+    )
     assert job_reads.get_job(pg, job["id"])["tags"] == ["a", "b"]
     claimed = queue.claim(pg, "w", ["evaluate"], 30)
     result = data.evaluation(failures=True)

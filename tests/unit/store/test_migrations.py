@@ -29,9 +29,12 @@ def test_sqlite_head_matches_models(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize(
     ("filters", "index"),
-    [({}, "ix_jobs_created"), ({"statuses": ["queued"]}, "ix_jobs_status_created"),
-     ({"kinds": ["train"]}, "ix_jobs_kind_created")],
-)  # fmt: skip
+    [
+        ({}, "ix_jobs_created"),
+        ({"statuses": ["queued"]}, "ix_jobs_status_created"),
+        ({"kinds": ["train"]}, "ix_jobs_kind_created"),
+    ],
+)
 def test_job_list_pages_are_read_off_an_index(tmp_path: Path, filters: dict, index: str) -> None:
     """The job list's page query walks an index in its order: no temporary B-tree sorts every matching job."""
     from foresight.store import job_reads

@@ -179,8 +179,15 @@ def test_a_relaxed_pipelines_model_is_registered_relaxed_and_never_promoted(sett
     try:
         train = children("train", "sleep", {"artifact": "model.pt"}, _progress([]))
         _make_it_a_checkpoint(settings, engine, train.job_id)
-        spec = {"model_id": "smoke-1", "status": "relaxed", "train_stage": "train", "tags": [], "lineage": {},
-                "metrics": {}, "training": {}}  # fmt: skip
+        spec = {
+            "model_id": "smoke-1",
+            "status": "relaxed",
+            "train_stage": "train",
+            "tags": [],
+            "lineage": {},
+            "metrics": {},
+            "training": {},
+        }
         children("register", "register", spec, _progress([]))
         with session_factory(engine)() as session:
             assert session.get(Model, "smoke-1").status == "relaxed"

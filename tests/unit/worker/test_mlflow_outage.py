@@ -15,8 +15,13 @@ def test_an_mlflow_outage_is_a_warning_in_the_job_log(engine, settings, start_wo
         port = s.getsockname()[1]
     sync_bundles(engine, settings)
     start_worker(mlflow_tracking_uri=f"http://someone:secret@127.0.0.1:{port}")
-    spec = {"kind": "evaluate", "scenarios": ["crossing_low"], "seeds_per_scenario": 1, "max_steps": 20,
-            "planner": {"name": "goal"}}  # fmt: skip
+    spec = {
+        "kind": "evaluate",
+        "scenarios": ["crossing_low"],
+        "seeds_per_scenario": 1,
+        "max_steps": 20,
+        "planner": {"name": "goal"},
+    }
     job_id = queue.submit(engine, kind="evaluate", spec=spec)[0]["id"]
     deadline = time.time() + 90
     while (job := job_reads.get_job(engine, job_id))["status"] not in (

@@ -14,15 +14,37 @@ from foresight.core.errors import ConfigError
 from foresight.worker import mlflow_export
 
 REPO = Path(__file__).resolve().parents[3]
-RUN = ["evaluate", "--local", "--matrix", "configs/scenarios/classic_interactions.yaml", "--planner", "social_force",
-       "--scenarios", "crossing_low", "--seeds-per-scenario", "1", "--max-steps", "20"]  # fmt: skip
+RUN = [
+    "evaluate",
+    "--local",
+    "--matrix",
+    "configs/scenarios/classic_interactions.yaml",
+    "--planner",
+    "social_force",
+    "--scenarios",
+    "crossing_low",
+    "--seeds-per-scenario",
+    "1",
+    "--max-steps",
+    "20",
+]
 
 
 def _cli(cwd: Path, uri: str, *args: str) -> subprocess.CompletedProcess:
-    env = {**os.environ, "FORESIGHT_DATA_DIR": str(cwd / "data"), "FORESIGHT_MLFLOW_TRACKING_URI": uri,
-           "PYTHONPATH": str(REPO)}  # fmt: skip
-    return subprocess.run([sys.executable, "-m", "foresight.cli.main", *args], cwd=cwd, env=env, capture_output=True,
-                          text=True, timeout=300)  # fmt: skip
+    env = {
+        **os.environ,
+        "FORESIGHT_DATA_DIR": str(cwd / "data"),
+        "FORESIGHT_MLFLOW_TRACKING_URI": uri,
+        "PYTHONPATH": str(REPO),
+    }
+    return subprocess.run(
+        [sys.executable, "-m", "foresight.cli.main", *args],
+        cwd=cwd,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
 
 
 @pytest.mark.parametrize("uri", ["file:///tmp/mlruns", "./mlruns", "/tmp/mlruns"])
