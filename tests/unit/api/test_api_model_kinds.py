@@ -124,7 +124,7 @@ def test_an_external_predictor_registers_with_its_declaration_and_gets_its_files
     assert created.status_code == 201, created.text
     m = created.json()
     assert m["kind"] == "external" and m["time_base"]["dt"] == 0.2 and m["lineage"]["modes"] == 1
-    assert " external " in _line(m)  # `models ls` shows the kind
+    assert " external " in _line(ModelPublic.model_validate(m))  # `models ls` shows the kind
     resolver = client.app.state.resolver
     assert resolver.model("ext-1") == settings.store_root / "models" / "ext-1"
 
