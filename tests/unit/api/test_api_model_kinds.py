@@ -115,6 +115,7 @@ def test_an_external_predictor_registers_with_its_declaration_and_gets_its_files
     from foresight.cli.models import _line
     from foresight.core.evaluation.plannerspec import resolve_planner
     from foresight.core.runtime.context import StageContext
+    from foresight.schemas import ModelPublic
 
     reference = [sys.executable, str(REPO_ROOT / "examples" / "external_predictor.py")]
     monkeypatch.setenv(
