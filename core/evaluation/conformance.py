@@ -32,7 +32,7 @@ from foresight.core.evaluation.runner import bundle_file
 from foresight.core.runtime.context import StageContext
 from foresight.core.runtime.refs import BUILTIN_BUNDLE, BundlePath, Ident, Name
 from foresight.core.sim.observation import Observation
-from foresight.core.sim.planner import EpisodeInfo, Planner
+from foresight.core.sim.planner import Planner
 from foresight.core.sim.simulator import Simulator
 
 CHECKS = (
@@ -75,15 +75,7 @@ def _episode(
     sim = Simulator()
     obs = sim.reset(scenario, seed)
     planner = planner or make()
-    planner.reset(
-        EpisodeInfo(
-            scenario=scenario,
-            seed=int(seed),
-            dt=sim.dt,
-            robot_radius=sim.limits.radius,
-            ped_radius=sim.ped_radius,
-        )
-    )
+    planner.reset(sim.episode_info())
     commands, times, seen = [], [], []
     for _ in range(steps):
         seen.append(obs)
@@ -146,15 +138,7 @@ def _crowd_check(name: str, make: Callable[[], Planner], scenario: Any, seed: in
     sim = Simulator()
     obs = sim.reset(scenario, seed)
     planner = make()
-    planner.reset(
-        EpisodeInfo(
-            scenario=scenario,
-            seed=int(seed),
-            dt=sim.dt,
-            robot_radius=sim.limits.radius,
-            ped_radius=sim.ped_radius,
-        )
-    )
+    planner.reset(sim.episode_info())
     try:
         for k in range(3):
             o = _crowd(dataclasses.replace(obs, step=k, time=k * obs.dt), n)

@@ -19,7 +19,6 @@ from foresight.core.planners.external import (
     operator_commands,
     start_message,
 )
-from foresight.core.sim.planner import EpisodeInfo
 from foresight.core.sim.simulator import Simulator
 
 NAME = "protocol_error_paths"
@@ -29,13 +28,7 @@ EXIT_WAIT_S = 3.0  #: how long a process may take to end after its input is clos
 def protocol_error_paths(config: ExternalPlannerConfig, scenario: Any, seed: int) -> GateCheck:
     sim = Simulator()
     obs = sim.reset(scenario, seed)
-    info = EpisodeInfo(
-        scenario=scenario,
-        seed=int(seed),
-        dt=sim.dt,
-        robot_radius=sim.limits.radius,
-        ped_radius=sim.ped_radius,
-    )
+    info = sim.episode_info()
     argv = operator_commands()[config.command]
     proc = None
     try:

@@ -11,7 +11,7 @@ import numpy as np
 
 from foresight.core.scenarios.model import ResolvedScenario
 from foresight.core.sim.observation import Events, Observation
-from foresight.core.sim.planner import EpisodeInfo, Planner
+from foresight.core.sim.planner import Planner
 from foresight.core.sim.simulator import Simulator
 from foresight.core.sim.trace import Trace
 
@@ -56,16 +56,7 @@ def run_episode(
     t0 = time.perf_counter()
     sim = simulator or Simulator()
     obs = sim.reset(scenario, seed, max_steps=max_steps, check=check)
-    planner.reset(
-        EpisodeInfo(
-            scenario=scenario,
-            seed=int(seed),
-            dt=sim.dt,
-            robot_radius=sim.limits.radius,
-            ped_radius=sim.ped_radius,
-            extra=dict(info_extra or {}),
-        )
-    )
+    planner.reset(sim.episode_info(info_extra))
     plan_time = 0.0
     while True:
         tp = time.perf_counter()

@@ -30,6 +30,7 @@ from foresight.core.sim.navigation import RobotRoute, sample_robot_route
 from foresight.core.sim.observation import Events, Observation
 from foresight.core.sim.orca_agents import OrcaCrowdDynamics, obstacle_polygons
 from foresight.core.sim.params import CrowdParams, ForceParams
+from foresight.core.sim.planner import EpisodeInfo
 from foresight.core.sim.population import build_population, check_crowd
 from foresight.core.sim.replay import ReplayCrowd
 from foresight.core.sim.robot import RobotLimits, robot_step
@@ -184,6 +185,17 @@ class Simulator:
         self.min_ped_distance = np.inf
         self._record()
         return self._observation()
+
+    def episode_info(self, extra: dict | None = None) -> EpisodeInfo:
+        """What a planner may know of the episode just reset: its scenario, seed, step and true radii."""
+        return EpisodeInfo(
+            scenario=self.scenario,
+            seed=self.seed,
+            dt=self.dt,
+            robot_radius=self.limits.radius,
+            ped_radius=self.ped_radius,
+            extra=dict(extra or {}),
+        )
 
     def _generated_route(self, scenario: ResolvedScenario, seed: int) -> RobotRoute:
         """CrowdNav's crowd (``core.sim.generated_crowd``), drawn first: its generator places the robot too."""
