@@ -26,8 +26,8 @@ def near_pairs(pos: np.ndarray, fut: np.ndarray, contact: float, cut: np.ndarray
     ``pos`` (B, K, 2) rollout positions and ``fut`` (N, K, 2) forecast rows at the same K times; the clearance of
     a pair is at least the distance from the row's position to the box around every rollout's position at that
     step, less ``contact``."""
-    lo = np.minimum.reduce(pos, axis=0)  # (K, 2)
-    hi = np.maximum.reduce(pos, axis=0)
+    lo = np.min(pos, axis=0)  # (K, 2)
+    hi = np.max(pos, axis=0)
     gap = np.maximum(np.maximum(lo - fut, fut - hi), 0.0)  # (N, K, 2) outside the box, per axis
     bound = np.sqrt(gap[..., 0] * gap[..., 0] + gap[..., 1] * gap[..., 1]) - contact
     return np.flatnonzero(bound < cut + CULL_SLACK)
@@ -73,11 +73,9 @@ def reactive_clearance(
     clear = np.sqrt(dx, out=dx)
     clear -= contact
     K = clear.shape[1]
-    if reach <= 0 or K < 2 or not np.logical_or.reduce(speed > 0, axis=None):
+    if reach <= 0 or K < 2 or not np.any(speed > 0, axis=None):
         return clear
-    pushed = (
-        np.logical_or.reduce(clear[:, :-1] < reach, axis=1) & (speed > 0)[:, None]
-    )  # (N, B) ever within reach
+    pushed = np.any(clear[:, :-1] < reach, axis=1) & (speed > 0)[:, None]  # (N, B) ever within reach
     n, b = np.nonzero(pushed)
     if not len(n):  # every other pair is never pushed: its clearance is the plain one
         return clear

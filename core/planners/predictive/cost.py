@@ -92,14 +92,12 @@ class RoutePotential:
             reached = np.logical_or.accumulate(reached & (d <= self.switch_radius), axis=1)
             d = _distance(pts, self.waypoints[j])
             end = reached[:, -1]
-            if self._ways[j] is None or np.logical_or.reduce(
-                end
-            ):  # a way is measured only where it is needed
+            if self._ways[j] is None or np.any(end):  # a way is measured only where it is needed
                 phi = np.where(end, self._way(j, pts[:, -1], d[:, -1]) + self.after[j], phi)
             idx += end
         goal_d = d if self._goal_is_last else _distance(pts, self.goal)  # d: to the last waypoint looked at
         inside = goal_d <= self.goal_tolerance
-        done = np.logical_or.reduce(inside, axis=1)
+        done = np.any(inside, axis=1)
         first = np.argmax(inside, axis=1)
         at_goal = -credit * (inside.shape[1] - 1 - first) if credit else 0.0
         return np.where(done, at_goal, phi), self.waypoints[idx], np.where(done, first, inside.shape[1])
@@ -148,10 +146,10 @@ class StaticClearance:
             d = grid_interpolate(self.field, self.resolution, x, y) - self.bound
         # rollouts rarely leave the map: four reductions decide that no point is outside (then d is the answer)
         if (
-            np.minimum.reduce(x, axis=None) >= 0
-            and np.maximum.reduce(x, axis=None) <= self.width
-            and np.minimum.reduce(y, axis=None) >= 0
-            and np.maximum.reduce(y, axis=None) <= self.height
+            np.min(x, axis=None) >= 0
+            and np.max(x, axis=None) <= self.width
+            and np.min(y, axis=None) >= 0
+            and np.max(y, axis=None) <= self.height
         ):
             return d
         outside = (x < 0) | (x > self.width) | (y < 0) | (y > self.height)
@@ -265,9 +263,9 @@ def pedestrian_terms(
     chance = s.confidence * sigma  # (N, K)
     # beyond every margin + band and RISK_CUTOFF sigmas a (pedestrian, step, rollout) adds exact zeros to every
     # term below, so only the entries inside are gathered (a few % of them in a crowd) and summed per rollout
-    reach = np.maximum(chance + band + np.maximum.reduce(soft, axis=None), RISK_CUTOFF * sigma)  # (N, K)
+    reach = np.maximum(chance + band + np.max(soft, axis=None), RISK_CUTOFF * sigma)  # (N, K)
     room = scene.ped_room
-    has_room = np.logical_or.reduce(room != 0, axis=None)
+    has_room = np.any(room != 0, axis=None)
     # only the (pedestrian, step) pairs some rollout may bring within range of a term (``clearance``): beyond the
     # cut-off a pair adds exact zeros to the sums and cannot be the nearest that the hard clearance and
     # progress_risk read (both zero beyond their distances). Pedestrians stepping away from the robot or also held
@@ -300,7 +298,7 @@ def pedestrian_terms(
     if gone is not None:
         clear[gone.T.take(pairs % K, axis=0)] = np.inf
     # the nearest over pedestrians and steps: max over steps of (d - min over pedestrians) is d - the min over both
-    nearest = np.minimum.reduce(clear, axis=0) if len(pairs) else np.full(B, np.inf, dtype=np.float32)
+    nearest = np.min(clear, axis=0) if len(pairs) else np.full(B, np.inf, dtype=np.float32)
     hard = np.maximum(relief * s.hard_clearance_distance - nearest, 0.0)
     inside = np.flatnonzero(
         clear < reach.reshape(-1).take(pairs).astype(np.float32)[:, None]
@@ -375,11 +373,7 @@ def evaluate(
     phi_end, target, arrival = scene.route(pos, early)
     K = len(roll.eval_index)
     # the episode ends on arrival: what a rollout would meet after it never happens (None while no rollout arrives)
-    gone = (
-        (np.arange(K) > arrival[:, None])
-        if cfg.search.ends_at_goal and np.minimum.reduce(arrival) < K
-        else None
-    )
+    gone = (np.arange(K) > arrival[:, None]) if cfg.search.ends_at_goal and np.min(arrival) < K else None
     terms = pedestrian_terms(pos, speed, scene, cfg, gone)
     progress = scene.phi0 - phi_end
     min_c = terms.pop("min_clearance")
@@ -391,20 +385,18 @@ def evaluate(
     if gone is not None:
         sc[gone] = np.inf
     # means below: np.add.reduce / K is what ndarray.mean computes, without its wrapper
-    terms["static_collision"] = np.add.reduce(sc < s.static.margin, axis=1, dtype=float)
-    terms["static"] = (
-        np.add.reduce(np.maximum(0.0, s.static.margin + s.static.soft_distance - sc), axis=1) / K
-    )
+    terms["static_collision"] = np.sum(sc < s.static.margin, axis=1, dtype=float)
+    terms["static"] = np.mean(np.maximum(0.0, s.static.margin + s.static.soft_distance - sc), axis=1)
     cmd = roll.commands.take(roll.eval_index, axis=1)  # (B, K, 2)
-    terms["velocity"] = np.add.reduce(np.abs(cmd[..., 0]), axis=1) / K / scene.max_speed
-    terms["turn"] = np.add.reduce(np.abs(cmd[..., 1]), axis=1) / K / scene.max_turn_rate
+    terms["velocity"] = np.mean(np.abs(cmd[..., 0]), axis=1) / scene.max_speed
+    terms["turn"] = np.mean(np.abs(cmd[..., 1]), axis=1) / scene.max_turn_rate
     terms["smoothness"] = (
         np.abs(roll.commands[:, 0, 0] - scene.prev_command[0]) / scene.max_speed
         + np.abs(roll.commands[:, 0, 1] - scene.prev_command[1]) / scene.max_turn_rate
     )
     # mean (not terminal) heading error: a terminal error lets every decision postpone turning in place
     bearing = np.arctan2(target[:, None, 1] - pos[..., 1], target[:, None, 0] - pos[..., 0])  # (B, K)
-    terms["heading"] = np.add.reduce(np.abs(wrap_angle(bearing - ev[..., 2])), axis=1) / K / np.pi
+    terms["heading"] = np.mean(np.abs(wrap_angle(bearing - ev[..., 2])), axis=1) / np.pi
     # waiting in a lane: the walkers lately through the rollout's end point, in full for a robot ending at rest
     terms["lane"] = (
         scene.traffic(pos[:, -1]) * np.maximum(0.0, 1.0 - speed[:, -1] / scene.max_speed)

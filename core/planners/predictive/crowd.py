@@ -153,13 +153,11 @@ class GivesWay:
         if obs.time - t_old < REACTION_WINDOW_S - 1e-9 or len(obs.ped_ids) == 0 or len(ids_old) == 0:
             return
         same = obs.ped_ids[:, None] == ids_old[None, :]  # (now, then)
-        seen = np.logical_or.reduce(same, axis=1)
+        seen = np.any(same, axis=1)
         dv = obs.ped_velocities - vel_old[np.argmax(same, axis=1)]
         away = obs.ped_positions - p0
         gave_way = along(dv, away) >= REACTION_DV
-        near = (
-            np.sqrt(np.add.reduce(away * away, axis=1)) - obs.robot_radius - obs.ped_radius <= REACTION_RANGE
-        )
+        near = np.sqrt(np.sum(away * away, axis=1)) - obs.robot_radius - obs.ped_radius <= REACTION_RANGE
         self.reacted.update(obs.ped_ids[seen & near & gave_way].tolist())
 
 
@@ -259,11 +257,11 @@ class CrowdAssumptions:
 def member(ids: np.ndarray, pool) -> np.ndarray:
     """(N,) mask: which ``ids`` are in ``pool`` (an iterable of ints). np.isin by one comparison table: its sorting
     machinery cost ~50 us per decision at these sizes."""
-    return np.logical_or.reduce(ids[:, None] == np.array(list(pool), dtype=np.int64), axis=1)
+    return np.any(ids[:, None] == np.array(list(pool), dtype=np.int64), axis=1)
 
 
 def along(vectors: np.ndarray, directions: np.ndarray) -> np.ndarray:
     """(N,) component of each vector (N, 2) along its direction (N, 2) [same unit], e.g. a walking speed towards
     the robot."""
-    norm = np.sqrt(np.add.reduce(directions * directions, axis=1))
-    return np.add.reduce(vectors * directions, axis=1) / np.maximum(norm, 1e-6)
+    norm = np.sqrt(np.sum(directions * directions, axis=1))
+    return np.sum(vectors * directions, axis=1) / np.maximum(norm, 1e-6)

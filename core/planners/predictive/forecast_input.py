@@ -89,7 +89,7 @@ def _current(obs: Observation, ids: np.ndarray, pos: np.ndarray, times: np.ndarr
     """(R, 2) each row's pedestrian where it is now: observed, else its forecast taken back to t = 0."""
     obs_ids = np.asarray(obs.ped_ids, dtype=np.int64)
     same = ids[:, None] == obs_ids[None, :]
-    found = np.logical_or.reduce(same, axis=1) if len(obs_ids) else np.zeros(len(ids), dtype=bool)
+    found = np.any(same, axis=1) if len(obs_ids) else np.zeros(len(ids), dtype=bool)
     if len(times) > 1:
         back = pos[:, 0] - (pos[:, 1] - pos[:, 0]) * (times[0] / (times[1] - times[0]))
     else:

@@ -54,11 +54,8 @@ def crowd_scene(
     fut = np.asarray(positions, dtype=float).reshape(-1, len(times), 2)
     sigma = np.asarray(sigma, dtype=float).reshape(-1, len(times))
     # ufunc reductions: ndarray.sum/min without their Python wrappers (the same reductions)
-    dist = np.sqrt(np.add.reduce((fut - p0) ** 2, axis=-1))  # (N, K) to the robot's current position
-    near = (
-        bool(dist.size)
-        and float(np.minimum.reduce(dist, axis=None)) - contact <= cfg.sampling.near_field.distance
-    )
+    dist = np.sqrt(np.sum((fut - p0) ** 2, axis=-1))  # (N, K) to the robot's current position
+    near = bool(dist.size) and float(np.min(dist, axis=None)) - contact <= cfg.sampling.near_field.distance
     dt_f = float(times[1] - times[0]) if len(times) > 1 else float(times[0])
     extra_s = cfg.search.extra_horizon_s + (
         cfg.search.horizon_boost_s if cfg.search.adaptive_horizon and near else 0.0
@@ -85,10 +82,10 @@ def crowd_scene(
     straight = crowd.walks_straight(obs, fc_ids, times, p0, speed)
     if len(fut):  # exact culling: pedestrians no rollout can bring within any term's range
         if extra:
-            dist = np.sqrt(np.add.reduce((fut - p0) ** 2, axis=-1))
+            dist = np.sqrt(np.sum((fut - p0) ** 2, axis=-1))
         if straight is not None:  # either way a pedestrian may walk counts
             mask, lines = straight
-            dist[mask] = np.minimum(dist[mask], np.sqrt(np.add.reduce((lines - p0) ** 2, axis=-1)))
+            dist[mask] = np.minimum(dist[mask], np.sqrt(np.sum((lines - p0) ** 2, axis=-1)))
         gap = dist - contact - reach(speed, limits, times)
         keep = gap.min(axis=1) <= C.influence_range(cfg, float(times[-1]), limits.v_max, float(sigma.max()))
         fut, sigma, room, yielding = fut[keep], sigma[keep], room[keep], yielding[keep]

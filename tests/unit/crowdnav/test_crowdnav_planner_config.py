@@ -32,9 +32,13 @@ def test_the_crowdnav_config_is_a_predictive_planner_file_with_constant_velocity
     cfg = planner_config(spec)
     assert isinstance(cfg, PredictivePlannerConfig)
     default = PredictivePlannerConfig()
-    assert cfg.safety.near_distance < default.safety.near_distance  # bands for a 0.3 m robot
-    assert cfg.safety.collision_margin == default.safety.collision_margin
-    assert cfg.safety.receding_room == 0.0 and cfg.safety.yield_speed == 0.0  # humans never see the robot
+    assert (
+        cfg.safety.pedestrians.near_distance < default.safety.pedestrians.near_distance
+    )  # bands for a 0.3 m robot
+    assert cfg.safety.pedestrians.collision_margin == default.safety.pedestrians.collision_margin
+    assert (
+        cfg.safety.crowd.receding.room == 0.0 and cfg.safety.crowd.yielding.speed == 0.0
+    )  # humans never see the robot
 
 
 def test_the_crowdnav_config_reaches_the_goal_sooner_than_the_defaults() -> None:
