@@ -14,14 +14,11 @@ from __future__ import annotations
 
 import atexit
 import contextlib
-import json
 import os
-import select
 import shlex
 import subprocess
 import tempfile
 import threading
-import time
 from typing import Any, Literal
 
 import numpy as np
@@ -29,6 +26,7 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from foresight.core.errors import ConfigError
 from foresight.core.runtime import commands
+from foresight.core.runtime.json_lines import ExchangeFailed, JsonLines
 from foresight.core.sim.observation import Observation
 from foresight.core.sim.planner import EpisodeInfo
 
@@ -105,7 +103,7 @@ class PlannerProcess:
                 f"external planner {name!r} did not start: {exc.strerror}: {argv[0]!r} (command "
                 f"{shlex.join(argv)!r} resolved against {os.getcwd()}; use absolute paths in {ENV})"
             ) from None
-        self._buf = b""
+        self._lines = JsonLines(self.proc)
         try:
             hello = self.request({"type": "hello", "protocol": PROTOCOL}, timeout_s, "hello", "hello")
         except ExternalPlannerError as exc:
@@ -125,41 +123,15 @@ class PlannerProcess:
 
     def send(self, msg: dict[str, Any], where: str) -> None:
         try:
-            os.write(self.proc.stdin.fileno(), (json.dumps(msg, separators=(",", ":")) + "\n").encode())
-        except OSError:
-            self._exited(f"before {where}")
+            self._lines.send(msg, where)
+        except ExchangeFailed as exc:
+            self._fail(str(exc))
 
     def request(self, msg: dict[str, Any], timeout_s: float, expect: str, where: str) -> dict[str, Any]:
-        self.send(msg, where)
-        line = self._readline(timeout_s, where)
         try:
-            reply = json.loads(line)
-        except (json.JSONDecodeError, UnicodeDecodeError):
-            self._fail(f"sent malformed JSON at {where}: {line[:120]!r}")
-        if not isinstance(reply, dict) or reply.get("type") != expect:
-            self._fail(f"sent {str(reply)[:120]!r} at {where}, expected a {expect!r} message")
-        return reply
-
-    def _readline(self, timeout_s: float, where: str) -> bytes:
-        fd = self.proc.stdout.fileno()
-        deadline = time.monotonic() + timeout_s
-        while b"\n" not in self._buf:
-            left = deadline - time.monotonic()
-            if left <= 0 or not select.select([fd], [], [], left)[0]:
-                self._fail(f"sent no answer within {timeout_s:g} s at {where} (killed)")
-            chunk = os.read(fd, 1 << 16)
-            if not chunk:
-                self._exited(f"at {where}")
-            self._buf += chunk
-        line, _, self._buf = self._buf.partition(b"\n")
-        return line
-
-    def _exited(self, where: str) -> None:
-        try:
-            code = self.proc.wait(timeout=1)
-        except subprocess.TimeoutExpired:
-            code = None
-        self._fail(f"exited (code {code}) {where}")
+            return self._lines.request(msg, timeout_s, expect, where)
+        except ExchangeFailed as exc:
+            self._fail(str(exc))
 
     def _fail(self, reason: str) -> None:
         if self.proc.poll() is None:

@@ -14,18 +14,16 @@ from __future__ import annotations
 
 import atexit
 import contextlib
-import json
 import os
-import select
 import subprocess
 import tempfile
 import threading
-import time
 from typing import Any
 
 from foresight.core.errors import ConfigError
 from foresight.core.predict.forecast import PredictorError
 from foresight.core.runtime import commands
+from foresight.core.runtime.json_lines import ExchangeFailed, JsonLines
 
 PROTOCOL = 1
 ENV = "FORESIGHT_EXTERNAL_PREDICTORS"
@@ -65,8 +63,7 @@ class PredictorProcess:
         except OSError as exc:
             self._err.close()
             raise PredictorError(who, f"did not start: {exc}") from None
-        self._buf = b""
-        self.reply_bytes = 0
+        self._lines = JsonLines(self.proc)
         self.hello = self.request({"type": "hello", "protocol": PROTOCOL}, START_TIMEOUT_S, "hello", "hello")
         if self.hello.get("protocol") != PROTOCOL:
             self.kill()
@@ -80,30 +77,15 @@ class PredictorProcess:
         self, msg: dict[str, Any] | bytes, timeout_s: float, expect: str, where: str
     ) -> dict[str, Any]:
         """Send ``msg`` (a message, or one already written as a JSON line) and read one answer of type ``expect``."""
-        line = msg if isinstance(msg, bytes) else (json.dumps(msg, separators=(",", ":")) + "\n").encode()
         try:
-            os.write(self.proc.stdin.fileno(), line)
-        except OSError:
-            self._fail(f"exited before {where}")
-        fd = self.proc.stdout.fileno()
-        deadline = time.monotonic() + timeout_s
-        while b"\n" not in self._buf:
-            left = deadline - time.monotonic()
-            if left <= 0 or not select.select([fd], [], [], left)[0]:
-                self._fail(f"sent no answer within {timeout_s:g} s at {where} (killed)")
-            chunk = os.read(fd, 1 << 20)
-            if not chunk:
-                self._fail(f"exited (code {self.proc.poll()}) at {where}")
-            self._buf += chunk
-        line, _, self._buf = self._buf.partition(b"\n")
-        self.reply_bytes = len(line) + 1  #: the last answer's size on the wire (benchmarks)
-        try:
-            reply = json.loads(line)
-        except (json.JSONDecodeError, UnicodeDecodeError):
-            self._fail(f"sent malformed JSON at {where}: {line[:120]!r}")
-        if not isinstance(reply, dict) or reply.get("type") != expect:
-            self._fail(f"sent {str(reply)[:120]!r} at {where}, expected a {expect!r} message")
-        return reply
+            return self._lines.request(msg, timeout_s, expect, where)
+        except ExchangeFailed as exc:
+            self._fail(str(exc))
+
+    @property
+    def reply_bytes(self) -> int:
+        """The last answer's size on the wire (benchmarks)."""
+        return self._lines.reply_bytes
 
     def _fail(self, reason: str) -> None:
         self.kill()
