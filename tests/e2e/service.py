@@ -8,6 +8,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import httpx
 
@@ -114,3 +115,23 @@ class Up:
         except subprocess.TimeoutExpired:
             os.killpg(self.proc.pid, signal.SIGKILL)
             self.proc.wait(timeout=10)
+
+
+def wait_player(page: Any) -> None:  # noqa: ANN401 (playwright's Page)
+    """Wait until every pane of the episode player has its trace (``#player[data-ready]``); if one never does,
+    fail with what each pane says (a failed fetch shows its status and body there) and what the browser logged,
+    so a failure on a loaded CI machine names its cause instead of only the wait."""
+    from playwright.sync_api import TimeoutError as PageTimeout
+
+    try:
+        page.wait_for_selector('#player[data-ready="1"]', timeout=WAIT_MS)
+    except PageTimeout:
+        panes = page.eval_on_selector_all(
+            ".pane",
+            "ps => ps.map(p => (p.dataset.trace || p.id) + ': ' + (p.querySelector('.status') || {}).textContent)",
+        )
+        logged = getattr(page, "foresight_log", [])
+        raise AssertionError(
+            f"the player at {page.url} never became ready in {WAIT_MS / 1000:.0f} s; panes: {panes}; "
+            f"browser log: {logged[-20:]}"
+        ) from None

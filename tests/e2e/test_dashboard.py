@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.e2e.service import REPO, TOKEN, WAIT_MS, Up
+from tests.e2e.service import REPO, TOKEN, WAIT_MS, Up, wait_player
 from tests.integration.service import tiny_model_job
 
 CHROMIUM = Path("/usr/bin/chromium")
@@ -67,7 +67,14 @@ def page(chromium: Path) -> Iterator:  # noqa: ANN401 (playwright's Page)
         browser = pw.chromium.launch(executable_path=str(chromium), args=CHROMIUM_ARGS, headless=True)
         try:
             context = browser.new_context(viewport={"width": 1280, "height": 900})
-            yield context.new_page()
+            page = context.new_page()
+            page.foresight_log = []  # what the browser logged, for failure messages (service.wait_player)
+            page.on("console", lambda m: page.foresight_log.append(f"{m.type}: {m.text}"))
+            page.on("pageerror", lambda e: page.foresight_log.append(f"pageerror: {e}"))
+            page.on(
+                "requestfailed", lambda r: page.foresight_log.append(f"requestfailed: {r.url} {r.failure}")
+            )
+            yield page
         finally:
             browser.close()
 
@@ -219,9 +226,7 @@ def test_an_evaluations_failures_get_witnesses_from_its_page(service: Up, page) 
     assert api.get(f"/v1/jobs/{witness}").json()["status"] == "succeeded"
     assert page.locator("#report-link").count() == 1  # and its report
     page.click("#witnesses a.watch >> nth=0")
-    page.wait_for_selector(
-        '#player[data-ready="1"]', timeout=WAIT_MS
-    )  # the planner's run and the witness, one clock
+    wait_player(page)  # the planner's run and the witness, one clock
     assert page.locator(".pane").count() == 2 and "planner" in page.inner_text("#pane-planner h2")
     assert "witness" in page.inner_text("#pane-witness h2")
     page.screenshot(path=str(screenshot_dir() / "dashboard-witness.png"), full_page=True)

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.e2e.service import TOKEN, WAIT_MS, Up, wait_job
+from tests.e2e.service import TOKEN, WAIT_MS, Up, wait_job, wait_player
 from tests.e2e.test_dashboard import chromium, page, screenshot_dir  # noqa: F401 (fixtures)
 
 pytestmark = pytest.mark.slow
@@ -79,7 +79,7 @@ def test_form_compare_report_maps_player_and_children(service: Up, page) -> None
     page.screenshot(path=str(shots / "newcomer-job-report.png"), full_page=True)
     page.goto(f"{service.url}/ui/jobs/{first}/files/report.html")
     page.click("a[href^='player/']")  # a failed episode of the report, in the dashboard's player
-    page.wait_for_selector('#player[data-ready="1"]', timeout=WAIT_MS)
+    wait_player(page)
     assert f"/ui/evaluations/{first}/episodes/crossing_low/" in page.url
     page.goto(f"{service.url}/ui/jobs/{first}/files/report.html")
     page.click(f"nav.foresight-nav a[href='/ui/jobs/{first}']")
@@ -114,7 +114,7 @@ def test_form_compare_report_maps_player_and_children(service: Up, page) -> None
     # the player's downloads: the trace as JSON, the current frame as PNG
     episode = api.get(f"/v1/evaluations/{first}/episodes").json()[0]
     page.goto(f"{service.url}{episode['player']}")
-    page.wait_for_selector('#player[data-ready="1"]', timeout=WAIT_MS)
+    wait_player(page)
     with page.expect_download() as got:
         page.click("#download-trace")
     trace = json.loads(Path(got.value.path()).read_text())

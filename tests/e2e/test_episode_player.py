@@ -10,7 +10,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from tests.e2e.service import WAIT_MS, Up, wait_job
+from tests.e2e.service import WAIT_MS, Up, wait_job, wait_player
 from tests.e2e.test_dashboard import chromium, page, screenshot_dir  # noqa: F401 (fixtures)
 
 #: goal-seeking robot into dense crowds: collisions within a few seconds; a gate it cannot pass
@@ -56,7 +56,7 @@ def test_gate_badge_episode_list_and_player(service: Up, page) -> None:  # noqa:
     first = episodes[0]
     assert first["outcome"] != "success" and first["player"]
     page.locator("table.episodes a.watch").first.click()
-    page.wait_for_selector('#player[data-ready="1"]', timeout=WAIT_MS)
+    wait_player(page)
     assert page.url.endswith(first["player"])
 
     listed = service.cli("evaluations", "episodes", job_id[:12], "--json")  # the same list from the CLI
@@ -117,7 +117,7 @@ def test_gate_badge_episode_list_and_player(service: Up, page) -> None:  # noqa:
     assert changed and all(e["a"] != e["b"] and e["player"] for e in changed), changed
     assert page.locator("table.changed tbody tr").count() == len(changed)
     page.locator("table.changed a.watch-pair").first.click()
-    page.wait_for_selector('#player[data-ready="1"]', timeout=WAIT_MS)
+    wait_player(page)
     first = changed[0]
     assert f"{first['scenario']} seed {first['seed']}" in page.text_content("h1")
     assert page.locator(".pane").count() == 2
@@ -161,7 +161,7 @@ def test_campaign_cells_played_side_by_side(service: Up, page) -> None:  # noqa:
         for r in page.locator("table.changed tbody tr").all()
     ]
     page.locator("table.changed a.watch-pair").first.click()
-    page.wait_for_selector('#player[data-ready="1"]', timeout=WAIT_MS)
+    wait_player(page)
     assert page.locator(".pane").count() == 2
     assert [page.text_content(f"#pane-{s} h2").split("· ")[-1] for s in "ab"] == [
         "variant base",
@@ -181,6 +181,6 @@ def test_campaign_cells_played_side_by_side(service: Up, page) -> None:  # noqa:
     first = page.locator("section#global table.episodes tbody tr").first
     assert first.locator("td").nth(2).text_content() == "timeout"
     first.locator("a.watch").click()
-    page.wait_for_selector('#player[data-ready="1"]', timeout=WAIT_MS)
+    wait_player(page)
     assert "crossing_low" in page.text_content("h1") and "campaign cell" in page.text_content("h1")
     assert "outcome timeout" in page.text_content("#facts")

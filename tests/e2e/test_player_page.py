@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.e2e.service import REPO, WAIT_MS
+from tests.e2e.service import REPO, wait_player
 from tests.e2e.test_dashboard import chromium, page, screenshot_dir  # noqa: F401 (fixtures)
 
 pytestmark = pytest.mark.slow
@@ -70,7 +70,7 @@ def test_changed_episodes_as_player_pages_played_from_the_file(tmp_path: Path, p
     assert Path(players[0]).name == f"{first['scenario']}__{first['seed']}.html"
 
     page.goto(Path(players[0]).as_uri())
-    page.wait_for_selector('#player[data-ready="1"]', timeout=WAIT_MS)
+    wait_player(page)
     assert f"goal: {first['a']}" in page.text_content(
         "#pane-0 h2"
     ) and f"ours: {first['b']}" in page.text_content("#pane-1 h2")
