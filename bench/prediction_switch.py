@@ -7,10 +7,12 @@ rand; the originals' test cases in order) once per forecast:
 - ``static``: everyone stays where they are (CrowdNav++'s prediction ``none``);
 - ``cv``: constant velocity;
 - ``learned``: a trained model (``--checkpoint``; default the one ``configs/pipelines/crowdnav.yaml`` trains);
-- ``oracle``: the recorded future (``core.predict.oracle``): the crowd recorded around a robot standing at its
-  start. These humans never see the robot, but where one is given a new goal or replaced at its goal, the draw is
-  kept clear of the robot's position, so the recording and the episode part after the first such event: the
-  oracle is the truth up to there, an approximation after (``forecast_error`` says how close it stays).
+- ``oracle``: the truth (``core.predict.live_oracle``): at every decision the crowd's next 2.5 s from a copy of
+  the simulator's own crowd, stepped with the robot standing where it is (exact on these suites, checked by
+  ``tests/unit/predict/test_live_oracle.py``);
+- ``recorded`` (not run by default): the recorded oracle (``core.predict.oracle``), the crowd recorded around a
+  robot standing at its start. These humans never see the robot, but a new goal or a replacement human is drawn
+  clear of the robot where it then is, so the recording parts from the episode at the first such draw.
 
 Per suite and forecast: success [Wilson 95 %] / collision / timeout counts and rates, the mean navigation time of
 the successes, and the forecasts' own error against where the humans then were (mean over every forecast step and
@@ -42,6 +44,7 @@ CROWDNAV = ("circle_crossing", "square_crossing", "crowdnavpp_no_rand", "crowdna
 PLANNER = REPO / "configs" / "planners" / "crowdnav" / "predictive.yaml"
 CHECKPOINT = REPO / "runs" / "crowdnav" / "train" / "model.pt"
 FORECASTS = ("static", "cv", "learned", "oracle")
+KNOWN = FORECASTS + ("recorded",)
 REFERENCE = "cv"
 MAX_SPEED = 2.0  #: [m/s] above any human's: a larger jump between two states is a replacement, not a walk
 
@@ -214,12 +217,17 @@ def run_one(job: tuple[str, int, str, str, int | None]) -> dict[str, Any]:
     from foresight.core.planners.predictive.config import PredictivePlannerConfig
     from foresight.core.planners.predictive.planner import PredictivePlanner
     from foresight.core.planners.registry import make_forecaster
+    from foresight.core.predict.live_oracle import LiveOracleForecaster
     from foresight.core.predict.oracle import OracleForecaster
     from foresight.core.sim.episode import run_episode
+    from foresight.core.sim.simulator import Simulator
 
     suite, seed, which, checkpoint, max_steps = job
     sc = _suite(suite)
+    sim = Simulator()
     if which == "oracle":
+        inner = LiveOracleForecaster(sim)
+    elif which == "recorded":
         inner = OracleForecaster.for_episode(sc, seed, max_steps)
     else:
         inner = make_forecaster(_learned(checkpoint) if which == "learned" else which)
@@ -229,7 +237,7 @@ def run_one(job: tuple[str, int, str, str, int | None]) -> dict[str, Any]:
         kept.seen[int(obs.step)] = dict(zip(obs.ped_ids.tolist(), obs.ped_positions.copy(), strict=True))
 
     planner = PredictivePlanner(PredictivePlannerConfig.model_validate(_planner_config()), kept)
-    res = run_episode(sc, seed, planner, max_steps=max_steps, on_step=note)
+    res = run_episode(sc, seed, planner, max_steps=max_steps, on_step=note, simulator=sim)
     dt = float(sc.scenario.simulation_config.dt)
     err = forecast_error(kept.kept, kept.seen, dt)
     return {
@@ -267,7 +275,7 @@ def main() -> None:
     ap.add_argument(
         "--suites", default="crowdnav", help=f"'crowdnav' (all four) or a comma list of {', '.join(CROWDNAV)}"
     )
-    ap.add_argument("--forecasts", default=",".join(FORECASTS), help=f"comma list of {', '.join(FORECASTS)}")
+    ap.add_argument("--forecasts", default=",".join(FORECASTS), help=f"comma list of {', '.join(KNOWN)}")
     ap.add_argument("--checkpoint", default=str(CHECKPOINT), help="the learned model (.pt)")
     ap.add_argument(
         "--episodes", type=int, default=None, help="the first N test cases of each suite (default: all)"
@@ -285,9 +293,9 @@ def main() -> None:
     if bad:
         sys.exit(f"--suites: unknown suite {bad[0]!r}, expected crowdnav or some of {', '.join(CROWDNAV)}")
     forecasts = [f.strip() for f in args.forecasts.split(",")]
-    bad = [f for f in forecasts if f not in FORECASTS]
+    bad = [f for f in forecasts if f not in KNOWN]
     if bad:
-        sys.exit(f"--forecasts: unknown forecast {bad[0]!r}, expected some of {', '.join(FORECASTS)}")
+        sys.exit(f"--forecasts: unknown forecast {bad[0]!r}, expected some of {', '.join(KNOWN)}")
     if "learned" in forecasts:
         if not Path(args.checkpoint).is_file():
             sys.exit(
