@@ -10,6 +10,8 @@ rand; the originals' test cases in order) once per forecast:
 - ``oracle``: the truth (``core.predict.live_oracle``): at every decision the crowd's next 2.5 s from a copy of
   the simulator's own crowd, stepped with the robot standing where it is (exact on these suites, checked by
   ``tests/unit/predict/test_live_oracle.py``);
+- ``oracle_cv_spread`` (not run by default): the truth's positions with constant velocity's spread, so that against
+  ``cv`` only the positions differ and against ``oracle`` only the spread;
 - ``recorded`` (not run by default): the recorded oracle (``core.predict.oracle``), the crowd recorded around a
   robot standing at its start. These humans never see the robot, but a new goal or a replacement human is drawn
   clear of the robot where it then is, so the recording parts from the episode at the first such draw.
@@ -44,7 +46,7 @@ CROWDNAV = ("circle_crossing", "square_crossing", "crowdnavpp_no_rand", "crowdna
 PLANNER = REPO / "configs" / "planners" / "crowdnav" / "predictive.yaml"
 CHECKPOINT = REPO / "runs" / "crowdnav" / "train" / "model.pt"
 FORECASTS = ("static", "cv", "learned", "oracle")
-KNOWN = FORECASTS + ("recorded",)
+KNOWN = FORECASTS + ("oracle_cv_spread", "recorded")
 REFERENCE = "cv"
 MAX_SPEED = 2.0  #: [m/s] above any human's: a larger jump between two states is a replacement, not a walk
 
@@ -227,6 +229,10 @@ def run_one(job: tuple[str, int, str, str, int | None]) -> dict[str, Any]:
     sim = Simulator()
     if which == "oracle":
         inner = LiveOracleForecaster(sim)
+    elif which == "oracle_cv_spread":
+        from foresight.core.predict.uncertainty import CV_SIGMA
+
+        inner = LiveOracleForecaster(sim, sigma=CV_SIGMA)
     elif which == "recorded":
         inner = OracleForecaster.for_episode(sc, seed, max_steps)
     else:

@@ -20,16 +20,26 @@ from foresight.core.errors import ConfigError
 from foresight.core.predict.forecast import Forecast
 from foresight.core.predict.oracle import ORACLE_SIGMA
 from foresight.core.predict.timebase import PLANNER_TIMEBASE, TimeBase
+from foresight.core.predict.uncertainty import GrowingSigma
 from foresight.core.sim.observation import Observation
 
 
 class LiveOracleForecaster:
-    """The Forecaster protocol over ``simulator``'s generated crowd (pass the same simulator to ``run_episode``)."""
+    """The Forecaster protocol over ``simulator``'s generated crowd (pass the same simulator to ``run_episode``).
+
+    ``sigma``: the spread the planner is told, fixed (the oracle's small one) or growing with the forecast's age
+    (e.g. constant velocity's ``CV_SIGMA``: the truth's positions with cv's spread, so only the positions differ)."""
 
     source = "oracle_live"
 
-    def __init__(self, simulator, timebase: TimeBase = PLANNER_TIMEBASE, sigma: float = ORACLE_SIGMA):  # noqa: ANN001
-        self.sim, self.timebase, self.sigma = simulator, timebase, float(sigma)
+    def __init__(
+        self,
+        simulator,  # noqa: ANN001
+        timebase: TimeBase = PLANNER_TIMEBASE,
+        sigma: float | GrowingSigma = ORACLE_SIGMA,
+    ):
+        self.sim, self.timebase = simulator, timebase
+        self.sigma = sigma if isinstance(sigma, GrowingSigma) else float(sigma)
         self._obs: Observation | None = None
 
     def fit(self, sim_dt: float) -> None:
@@ -85,5 +95,8 @@ class LiveOracleForecaster:
                     pid
                 )  # a human replaced inside the horizon: constant velocity from the observation
                 pos[i, k] = at if at is not None else obs.ped_positions[i] + t * obs.ped_velocities[i]
-        sigma = np.full((len(ids), len(times)), self.sigma)
+        if isinstance(self.sigma, GrowingSigma):
+            sigma = np.repeat(self.sigma(times)[None], len(ids), axis=0)
+        else:
+            sigma = np.full((len(ids), len(times)), self.sigma)
         return Forecast.single(ids.copy(), pos, sigma, times, self.source, tb)

@@ -70,3 +70,20 @@ def test_a_crowd_that_is_not_generated_is_refused_by_name() -> None:
     sim = Simulator()
     with pytest.raises(ConfigError, match="generated crowd"):
         run_episode(sc, 3, PredictivePlanner(None, LiveOracleForecaster(sim)), simulator=sim)
+
+
+def test_with_constant_velocitys_spread_only_the_spread_differs() -> None:
+    from foresight.core.predict.uncertainty import CV_SIGMA
+
+    sc = load_matrix(RAND).get("crowdnavpp_rand")
+    kept = {}
+    for name, sigma in (("fixed", None), ("cv", CV_SIGMA)):
+        sim = Simulator()
+        live = _Kept(LiveOracleForecaster(sim) if sigma is None else LiveOracleForecaster(sim, sigma=sigma))
+        run_episode(sc, 1431, PredictivePlanner(None, live), simulator=sim, max_steps=1)
+        kept[name] = live.forecasts[0]
+    fixed, grown = kept["fixed"], kept["cv"]
+    assert np.array_equal(fixed.positions, grown.positions) and np.all(fixed.sigma == 0.05)
+    np.testing.assert_allclose(
+        grown.sigma, np.repeat(CV_SIGMA(grown.times)[None], len(grown.ped_ids), axis=0)
+    )
