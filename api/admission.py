@@ -41,10 +41,14 @@ def named_ids(spec: Any) -> list[tuple[str, str]]:
     model = getattr(planner, "model", None) if planner is not None and not isinstance(planner, dict) else None
     if isinstance(spec, CollectConfig) and spec.policy == "planner":
         model = (spec.planner or {}).get("model")
-    if isinstance(model, str) and model != "cv":
+    if isinstance(model, str) and model not in ("cv", "static"):
         out.append(("predictor" if plugins.kind(model) else "model", model))
     if isinstance(spec, CampaignConfig):
-        out += [("predictor" if plugins.kind(ck) else "model", ck) for ck in spec.checkpoints if ck != "cv"]
+        out += [
+            ("predictor" if plugins.kind(ck) else "model", ck)
+            for ck in spec.checkpoints
+            if ck not in ("cv", "static")
+        ]
     model = getattr(spec, "model", None)  # predict_eval
     if type(spec).__name__ == "PredictEvalConfig" and isinstance(model, str) and plugins.kind(model):
         out.append(("predictor", model))

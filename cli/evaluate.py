@@ -46,7 +46,9 @@ def _common(p: argparse.ArgumentParser, *, planner: bool = True) -> None:
             help="the planner's config as JSON or YAML, e.g. '{\"speed\": 0.8}' or, "
             "for an external planner, '{command: NAME}'",
         )
-        p.add_argument("--model", help="model id or cv (predictive planner; --local: also a checkpoint path)")
+        p.add_argument(
+            "--model", help="model id, cv or static (predictive planner; --local: also a checkpoint path)"
+        )
     p.add_argument(
         "--override",
         action="append",
@@ -98,7 +100,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--planner", default="predictive", help="the planner the grid varies (a name or a planner YAML)"
     )
     cp.add_argument("--planner-config", help="the base config of that planner as JSON or YAML")
-    cp.add_argument("--checkpoints", nargs="+", default=["cv"], help="model ids, checkpoint paths, or cv")
+    cp.add_argument(
+        "--checkpoints", nargs="+", default=["cv"], help="model ids, checkpoint paths, cv or static"
+    )
     cp.add_argument("--baseline", help="baseline variant name for the closed-loop gate")
     cp.add_argument("--seeds-per-scenario", type=int, help="global suite: N seeds per scenario")
     cp.add_argument("--scenarios", help="global suite: comma-separated scenario names (default: all)")

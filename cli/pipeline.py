@@ -103,7 +103,9 @@ def read_pipeline(path: str | Path, workers: int | None = None) -> dict[str, Any
     config = load_pipeline_config(user_file(str(path), "--file"))
     if workers is not None:
         config = config.model_copy(update={"workers": max(1, workers)})
-    return config.model_dump(mode="json", exclude_unset=False)
+    # the keys as written: a section's defaults dumped as if set would read back as a section's own matrix, which
+    # the wiring check refuses wherever the pipeline's matrix is not the default one
+    return config.model_dump(mode="json", exclude_unset=True)
 
 
 def verdict_text(result: PipelineResult) -> str:

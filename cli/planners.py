@@ -32,7 +32,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     c.add_argument("name", help="planner name (built-in, plugin, external; --local also module:attr)")
     c.add_argument("--config", help="the planner's config: JSON text or a YAML/JSON file")
-    c.add_argument("--model", help="predictive planner: model id or cv (default: the default model)")
+    c.add_argument("--model", help="predictive planner: model id, cv or static (default: the default model)")
     c.add_argument("--steps", type=int, help="decisions per episode stretch (default 40)")
     c.add_argument("--budget", type=float, help="decision budget [s] (default 0.5)")
     from foresight.cli.stage import add_mode_args

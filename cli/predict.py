@@ -23,7 +23,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     who = pe.add_mutually_exclusive_group(required=True)
     who.add_argument(
         "--model",
-        help="model id, cv or a predictor plug-in name (--local: also a checkpoint path, module:attr)",
+        help="model id, cv, static or a predictor plug-in name (--local: also a checkpoint path, module:attr)",
     )
     who.add_argument(
         "--train", action="store_true", help="train the default model (or --config) per fold first"

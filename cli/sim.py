@@ -83,7 +83,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     run.add_argument("--planner-config", help="the planner's config as inline JSON/YAML")
     run.add_argument(
         "--model",
-        help="predictive planner: model id or cv (--local: also a checkpoint path; default: "
+        help="predictive planner: model id, cv or static (--local: also a checkpoint path; default: "
         "the default predictor)",
     )
     stage.add_mode_args(run)

@@ -84,8 +84,12 @@ def dataset_id(value: str | None, flag: str) -> str | None:
 
 
 def model_id(value: str | None, flag: str) -> str | None:
-    """A model id (or ``cv``) for a server spec; a local checkpoint file is refused."""
-    if value is not None and value != "cv" and (value.endswith(CHECKPOINT_SUFFIXES) or _local_file(value)):
+    """A model id (or ``cv``, ``static``) for a server spec; a local checkpoint file is refused."""
+    if (
+        value is not None
+        and value not in ("cv", "static")
+        and (value.endswith(CHECKPOINT_SUFFIXES) or _local_file(value))
+    ):
         raise ConfigError(
             f"{value!r} is a local file; the server takes a model id (`foresight models ls`; register "
             "a job's checkpoint with `foresight models register`); run in-process with --local to use "

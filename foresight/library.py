@@ -84,7 +84,7 @@ def evaluate(
 
     ``matrix``: a YAML file, or a name in the built-in configs; ``seeds``: N seeds per scenario (default: the
     matrix's own); ``config``: the planner's config (validated by its model); ``model``: predictive planner only
-    (a model id, a checkpoint path, "cv", a predictor plug-in name or a Python predictor object; default: the
+    (a model id, a checkpoint path, "cv", "static", a predictor plug-in name or a Python predictor object; default: the
     shipped default model); ``out``: the work folder (default: a new temporary folder) where evaluation.json and
     episodes.jsonl are written; the result's ``artifacts`` name them by absolute path.
     """

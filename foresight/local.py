@@ -69,7 +69,9 @@ class ModelArgs:
     def ident(self, value: str | None) -> str | None:
         from foresight.core.predict import plugins
 
-        if value is None or value == "cv" or plugins.kind(value):  # a predictor plug-in is its own name
+        if (
+            value is None or value in ("cv", "static") or plugins.kind(value)
+        ):  # a predictor plug-in is its own name
             return value
         p = Path(value).expanduser()
         if p.is_file():

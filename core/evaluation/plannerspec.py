@@ -30,7 +30,7 @@ from pydantic import (
 from foresight.core.bounds import BoundedConfig
 from foresight.core.errors import ConfigError, NotFoundError
 from foresight.core.runtime.context import StageContext
-from foresight.core.runtime.refs import CV, DEFAULT_MODEL, NO_MODEL
+from foresight.core.runtime.refs import CV, DEFAULT_MODEL, FORECAST_RULES, NO_MODEL
 from foresight.core.scenarios.model import ResolvedScenario
 from foresight.core.sim.planner import EpisodeInfo, Planner, config_hash
 
@@ -48,7 +48,7 @@ class PlannerSpecBase(BoundedConfig):
         None  #: reference planner-grid keys (predictive only), mapped by the planner
     )
     variant: str | None = None  #: a label (campaign grid variant name)
-    #: predictive only: a model id, "cv" or a predictor plug-in name; None = the registry's default model
+    #: predictive only: a model id, "cv", "static" or a predictor plug-in name; None = the registry's default model
     model: str | None = None
 
 
@@ -193,6 +193,8 @@ def build_planner(rp: ResolvedPlanner) -> Planner:
     found = entry(rp.name, load=True)  # a worker process imports a module:attr planner by its name
     if found.load_model is not None:  # a policy file its config names
         model = found.load_model(rp.model_path, rp.checkpoint_sha256, found.validate(rp.config))
+    elif rp.model_id in FORECAST_RULES and not rp.model_path:
+        model = rp.model_id  # constant velocity or static, built by rule
     elif plugins.kind(rp.model_id):
         model = rp.model_id  # a predictor plug-in: the planner loads a fresh one (its own state per episode)
     elif registered.is_registered(rp.model_path):  # a registered plug-in or external model: its predictor
@@ -218,8 +220,8 @@ def _model(spec: PlannerSpecBase, found: Any, cfg: Any, ctx: StageContext) -> tu
         if spec.model not in (None, NO_MODEL):
             raise ConfigError(f"planner {spec.name!r} takes no model", item="model")
         return NO_MODEL, NO_MODEL, None
-    if spec.model == CV:
-        return CV, CV, None
+    if spec.model in FORECAST_RULES:  # built by rule, no file: the id is its own checksum
+        return spec.model, spec.model, None
     from foresight.core.predict import plugins
 
     kind = plugins.kind(spec.model)

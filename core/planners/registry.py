@@ -277,15 +277,21 @@ def make_planner(name: str, config: Any = None, *, model: Any = None) -> Planner
 
 
 def make_forecaster(model: Any) -> Any:
-    """The predictive planner's forecaster for ``model`` ("cv", a predictor plug-in name or object, a Forecaster or a
-    Predictor)."""
-    from foresight.core.predict.forecaster import ConstantVelocityForecaster, Forecaster, LearnedForecaster
+    """The predictive planner's forecaster for ``model`` ("cv", "static", a predictor plug-in name or object, a
+    Forecaster or a Predictor)."""
+    from foresight.core.predict.forecaster import (
+        ConstantVelocityForecaster,
+        Forecaster,
+        LearnedForecaster,
+        StaticForecaster,
+    )
     from foresight.core.predict.predictor import Predictor
     from foresight.core.predict.timebase import PLANNER_TIMEBASE
 
     if model is None:
         raise ConfigError(
-            "the predictive planner needs a model: 'cv', a forecaster or a loaded predictor", item="model"
+            "the predictive planner needs a model: 'cv', 'static', a forecaster or a loaded predictor",
+            item="model",
         )
     from foresight.core.predict import plugins
     from foresight.core.predict.plugin import PluginForecaster
@@ -293,11 +299,13 @@ def make_forecaster(model: Any) -> Any:
     if isinstance(model, str):
         if model == "cv":
             return ConstantVelocityForecaster(PLANNER_TIMEBASE)
+        if model == "static":
+            return StaticForecaster(PLANNER_TIMEBASE)
         if plugins.kind(model):
             return plugins.load(model)
         raise ConfigError(
             f"model {model!r}: resolve ids/paths through the model registry first; "
-            "make_planner takes 'cv', a forecaster or a predictor",
+            "make_planner takes 'cv', 'static', a forecaster or a predictor",
             item="model",
         )
     if isinstance(model, Forecaster):

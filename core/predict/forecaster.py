@@ -16,7 +16,7 @@ from foresight.core.errors import ConfigError
 from foresight.core.predict.features import ego_to_world, extract_features
 from foresight.core.predict.forecast import Forecast
 from foresight.core.predict.history import LiveHistory
-from foresight.core.predict.predictor import ConstantVelocityPredictor, Predictor
+from foresight.core.predict.predictor import ConstantVelocityPredictor, Predictor, StaticPredictor
 from foresight.core.predict.timebase import TimeBase
 from foresight.core.predict.uncertainty import CV_SIGMA, LEARNED_SIGMA, GrowingSigma
 from foresight.core.sim.observation import Observation
@@ -93,6 +93,16 @@ def _pad(features: np.ndarray, mask: np.ndarray, slots: int | None) -> tuple[np.
     return f, m
 
 
+def fitted_timebase(tb: TimeBase, sim_dt: float) -> TimeBase | None:
+    """A rule-built forecast needs no trained grid: where the simulator's step does not divide the time base (0.25 s
+    steps against 0.2 s), the nearest multiple of the step over at least the same horizon (None: it divides)."""
+    ratio = tb.dt / sim_dt
+    if abs(ratio - round(ratio)) <= 1e-6 * max(1.0, ratio) and round(ratio) >= 1:
+        return None
+    dt = sim_dt * max(1, round(ratio))
+    return TimeBase(dt=dt, history=tb.history, horizon=max(1, math.ceil(tb.dt * tb.horizon / dt - 1e-9)))
+
+
 class ConstantVelocityForecaster(_PredictorForecaster):
     """Every present pedestrian continues at its last observed (backward-difference) velocity."""
 
@@ -100,17 +110,24 @@ class ConstantVelocityForecaster(_PredictorForecaster):
         super().__init__(ConstantVelocityPredictor(timebase), None, "constant_velocity", CV_SIGMA)
 
     def fit(self, sim_dt: float) -> None:
-        """Constant velocity needs no trained grid: where the simulator's step does not divide the time base (0.25 s
-        steps against 0.2 s), forecast on the nearest multiple of the step over at least the same horizon."""
-        tb = self.timebase
-        ratio = tb.dt / sim_dt
-        if abs(ratio - round(ratio)) <= 1e-6 * max(1.0, ratio) and round(ratio) >= 1:
-            return
-        dt = sim_dt * max(1, round(ratio))
-        fitted = TimeBase(
-            dt=dt, history=tb.history, horizon=max(1, math.ceil(tb.dt * tb.horizon / dt - 1e-9))
-        )
-        self.__init__(fitted)
+        """Forecast on whole simulator steps (``fitted_timebase``)."""
+        fitted = fitted_timebase(self.timebase, sim_dt)
+        if fitted is not None:
+            self.__init__(fitted)
+
+
+class StaticForecaster(_PredictorForecaster):
+    """Every present pedestrian stays at its observed position (CrowdNav++'s prediction ``none``). Its spread is
+    constant velocity's (``CV_SIGMA``), so against ``cv`` only the forecast positions differ."""
+
+    def __init__(self, timebase: TimeBase):
+        super().__init__(StaticPredictor(timebase), None, "static", CV_SIGMA)
+
+    def fit(self, sim_dt: float) -> None:
+        """Forecast on whole simulator steps (``fitted_timebase``)."""
+        fitted = fitted_timebase(self.timebase, sim_dt)
+        if fitted is not None:
+            self.__init__(fitted)
 
 
 class LearnedForecaster(_PredictorForecaster):

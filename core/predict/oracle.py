@@ -50,6 +50,15 @@ class OracleForecaster:
         sim, positions, ids = crowd_paths(scenario, seed, max_steps)
         return cls(positions, ids, sim.dt, **kwargs)
 
+    def fit(self, sim_dt: float) -> None:
+        """Forecast on whole simulator steps, as constant velocity does (CrowdNav's 0.25 s against 0.2 s): the
+        recording holds the states at those steps only."""
+        from foresight.core.predict.forecaster import fitted_timebase
+
+        fitted = fitted_timebase(self.timebase, sim_dt)
+        if fitted is not None:
+            self.timebase = fitted
+
     def reset(self) -> None:
         self._obs = None
 

@@ -58,3 +58,21 @@ class ConstantVelocityPredictor:
         v0 = features[..., vx : vx + 2].astype(np.float64)
         out = p0[..., None, :] + self.timebase.times[:, None] * v0[..., None, :]
         return (out * mask[..., None, None]).astype(np.float32)
+
+
+class StaticPredictor:
+    """Every pedestrian stays where it is: p_k = p_0 (CrowdNav++'s prediction ``none``, the floor a forecast is
+    measured against: what the planner does knowing only where everyone is now)."""
+
+    name = "static"
+
+    def __init__(self, timebase: TimeBase):
+        self.timebase = timebase
+
+    def predict(self, features: np.ndarray, mask: np.ndarray) -> np.ndarray:
+        features, mask = np.asarray(features), np.asarray(mask)
+        check_batch(features, mask, self.timebase, self.name)
+        px = current_index(self.timebase.history, "px")
+        p0 = features[..., px : px + 2].astype(np.float64)
+        out = np.broadcast_to(p0[..., None, :], p0.shape[:-1] + (self.timebase.horizon, 2))
+        return (out * mask[..., None, None]).astype(np.float32)

@@ -31,12 +31,16 @@ def _relative(value: str) -> str:
 #: A path inside a config bundle (relative, no '..'): e.g. "scenarios/classic_interactions.yaml".
 BundlePath = Annotated[str, Field(min_length=1, max_length=500), AfterValidator(_relative)]
 
-#: Model ids that name a rule, not a registered model: the constant-velocity forecaster, no model, and the
-#: default model (whichever the registry's rule picks). A registered model never takes one of them.
+#: Model ids that name a rule, not a registered model: the constant-velocity forecaster, the static forecaster
+#: (everyone stays where they are: CrowdNav++'s prediction ``none``), no model, and the default model (whichever
+#: the registry's rule picks). A registered model never takes one of them.
 CV = "cv"
+STATIC = "static"
 NO_MODEL = "none"
 DEFAULT_MODEL = "default"
-RESERVED_MODEL_IDS = frozenset({CV, NO_MODEL, DEFAULT_MODEL})
+#: The forecasts built by rule, needing no model file: the predictive planner takes either by name.
+FORECAST_RULES = frozenset({CV, STATIC})
+RESERVED_MODEL_IDS = frozenset({CV, STATIC, NO_MODEL, DEFAULT_MODEL})
 
 #: An id of a stored object (bundle, dataset, model, job): letters, digits, '.', '_', '-', ':'.
 Ident = Annotated[str, Field(min_length=1, max_length=200, pattern=r"^[A-Za-z0-9][A-Za-z0-9._:\-]*$")]

@@ -67,7 +67,9 @@ class CollectConfig(BoundedConfig):
         None  #: evaluation manifest: collecting any of its episodes is an error
     )
     policy: Literal["goal", "goal_noisy", "planner"] = "goal"
-    planner: dict[str, Any] | None = None  #: {name, config, model: "cv" | model id} when policy = planner
+    planner: dict[str, Any] | None = (
+        None  #: {name, config, model: "cv" | "static" | model id} when policy = planner
+    )
     timebase: TimeBaseSpec = TimeBaseSpec()
     max_agents: int = Field(default=12, ge=1, le=256)
     max_steps: int | None = Field(default=300, ge=1, le=MAX_EPISODE_STEPS)  #: cap on episode length
@@ -135,7 +137,9 @@ def _model_path(config: CollectConfig, ctx: StageContext) -> str | None:
     from foresight.core.predict import plugins
 
     model = (config.planner or {}).get("model") if config.policy == "planner" else None
-    if model in (None, "cv") or plugins.kind(model):  # a predictor plug-in is built by name (make_planner)
+    if model in (None, "cv", "static") or plugins.kind(
+        model
+    ):  # a predictor plug-in is built by name (make_planner)
         return None
     return str(ctx.resolve_model(model))
 

@@ -19,7 +19,7 @@ from foresight.core.predict.ethucy import FOLDS, import_fold
 from foresight.core.predict.metrics import evaluate_predictor
 from foresight.core.predict.plugin import PluginForecaster
 from foresight.core.predict.plugin_eval import plugin_forecasts
-from foresight.core.predict.predictor import ConstantVelocityPredictor
+from foresight.core.predict.predictor import ConstantVelocityPredictor, StaticPredictor
 from foresight.core.predict.timebase import ETHUCY_TIMEBASE
 from foresight.core.runtime.context import StageContext
 
@@ -30,7 +30,7 @@ FILE_KEYS = ("reverse_train",)
 
 class PredictEvalConfig(BoundedConfig):
     model_config = ConfigDict(extra="forbid", frozen=True)
-    #: "cv", a model id, a predictor plug-in name (docs/predictor_protocol.md), or (in-process runs) a checkpoint path
+    #: "cv", "static", a model id, a predictor plug-in name (docs/predictor_protocol.md), or (in-process runs) a checkpoint path
     model: str | None = None
     best_of: int = Field(default=20, ge=1, le=1000)  #: K of minADE_K / minFDE_K (the field's convention: 20)
     train: dict[str, Any] | None = None  #: TrainConfig fields (without dataset): train one model per fold
@@ -115,6 +115,8 @@ def _predictor(config: PredictEvalConfig, ds: Dataset, ctx: StageContext, name: 
 
     if config.model == "cv":
         return ConstantVelocityPredictor(ds.meta.timebase)
+    if config.model == "static":
+        return StaticPredictor(ds.meta.timebase)
     if plugins.kind(config.model):
         return plugins.load(config.model)
     if config.model is not None:

@@ -211,6 +211,18 @@ SMOKE: dict[str, Smoke] = {
         frozenset({"benchmark", "episodes", "forecasters", "paired"}),
         check=_episodes(1),
     ),
+    "prediction_switch": Smoke(
+        ("--json", "--suites", "crowdnavpp_rand", "--forecasts", "static,cv,oracle", "--episodes", "1")
+        + ("--max-steps", "8", "--workers", "1"),
+        frozenset({"benchmark", "suites", "planner"}),
+        shared=False,
+        check=lambda out: (
+            None
+            if {f: r["episodes"] for f, r in out["suites"]["crowdnavpp_rand"]["forecasts"].items()}
+            == {"static": 1, "cv": 1, "oracle": 1}
+            else f"expected one episode per forecast, got {out['suites']}"
+        ),
+    ),
     "planner_ab": Smoke(
         ("--json", "--variant", "a={}", "--variant", 'cv={"model": "cv"}', "--suites", "reference_defaults")
         + ("--scenarios", SCENARIO, "--seeds-per-scenario", "1", "--workers", "1"),
