@@ -73,6 +73,10 @@ def choose_models(
 ) -> dict[str, SceneLineage]:
     """The ETH/UCY model of each replay scene: the pinned one (``--model-for``), else the fold model holding it out;
     either way refused when it trained on the scene."""
+    if stray := sorted(set(pinned) - set(scenes)):
+        raise CoreError(
+            f"--model-for {stray[0]}: no chosen replay scenario is of that scene ({', '.join(scenes)})"
+        )
     chosen = {}
     for scene in scenes:
         if scene in pinned:

@@ -95,11 +95,17 @@ def require_held_out(lineage: SceneLineage, scene: str) -> None:
 
 def model_for_scene(scene: str, models: list[SceneLineage]) -> SceneLineage:
     """The model whose held-out (test) scenes include ``scene``, checked by :func:`require_held_out`; ConfigError
-    naming the scene and what each model holds out when none does."""
-    for lineage in models:
-        if scene in lineage.held_out:
-            require_held_out(lineage, scene)
-            return lineage
+    naming the scene and what each model holds out when none does, or the models when several do."""
+    holders = [m for m in models if scene in m.held_out]
+    if len(holders) > 1:
+        raise ConfigError(
+            f"{len(holders)} models hold out replay scene {scene!r} ({', '.join(m.model_id for m in holders)}): "
+            "give one set of fold models, or name the one to use",
+            item="fold models",
+        )
+    if holders:
+        require_held_out(holders[0], scene)
+        return holders[0]
     given = "; ".join(f"{m.model_id}: {', '.join(m.held_out) or 'none'}" for m in models) or "no models given"
     raise ConfigError(
         f"no fold model holds out replay scene {scene!r} (held out by the models given: {given})",

@@ -65,6 +65,11 @@ def test_the_fold_model_holding_the_scene_out_is_picked_and_none_is_an_error():
         ConfigError, match="no fold model holds out replay scene 'crowds_zara01'.*univ-fold: "
     ):
         model_for_scene("crowds_zara01", [eth, univ])
+    twice = _lineage({"train": ["biwi_hotel_train"], "test": ["biwi_eth"]}, "eth-fold-seed1")
+    with pytest.raises(
+        ConfigError, match="2 models hold out replay scene 'biwi_eth' \\(eth-fold, eth-fold-seed1\\)"
+    ):
+        model_for_scene("biwi_eth", [eth, twice])
     leaky = _lineage({"train": ["biwi_eth_train"], "test": ["biwi_eth"]}, "leaky")  # held out and trained on
     with pytest.raises(ConfigError, match="'leaky' trained on scene 'biwi_eth'"):
         model_for_scene("biwi_eth", [leaky])
@@ -138,6 +143,10 @@ def test_a_model_trained_on_the_replays_scene_is_refused_naming_scene_and_model(
     assert f"model '{hotel_fold}' trained on scene 'biwi_eth'" in pinned.stderr and "leakage" in pinned.stderr
     unheld = _bench("--fold-models", str(hotel_fold), "--scenarios", ETH_REPLAY, "--max-steps", "5", "--json")
     assert unheld.returncode != 0 and "no fold model holds out replay scene 'biwi_eth'" in unheld.stderr
+    stray = _bench(
+        "--fold-models", str(hotel_fold), "--model-for", f"biwi_eth={hotel_fold}", "--scenarios", HOTEL_REPLAY, "--json"
+    )  # fmt: skip
+    assert stray.returncode != 0 and "--model-for biwi_eth: no chosen replay scenario" in stray.stderr
 
 
 def test_paired_counts_and_intervals_are_per_episode():
