@@ -299,6 +299,8 @@ def register_checkpoint(
                     "kind": "checkpoint",
                     "modes": int((checkpoint.get("model_config") or {}).get("modes", 1)),
                     "files": {name: art.sha256},
+                    # recordings: the scenes of each split (a replay of a scene it learned from is refused)
+                    **({"scenes": scenes} if (scenes := checkpoint["dataset"].get("scenes")) else {}),
                 },
                 training=meta.get("training", {}),
                 metrics=meta.get("metrics", {}),

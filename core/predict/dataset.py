@@ -28,6 +28,7 @@ from foresight.core.version import code_version
 SCHEMA_VERSION = "foresight.predict.dataset/1"
 ARRAYS = ("state", "target", "mask", "target_mask", "episode")
 SPLITS = ("train", "val", "test")
+REVERSED = "~reversed"  #: suffix of a recorded scene played backwards (``ethucy.import_fold``)
 
 
 @dataclass
@@ -57,6 +58,17 @@ class DatasetMeta:
             self.feature_names = feature_names(self.timebase.history)
         if not self.generator_config_hash:
             self.generator_config_hash = config_hash(self.generator)
+
+    def recorded_scenes(self) -> dict[str, list[str]]:
+        """The recorded scenes (real-data episodes: ``split/scene file``, a backwards copy under its scene) of each
+        split: what a model trained on this dataset has seen, kept in its checkpoint so that a closed-loop run on a
+        replay of a recorded scene can refuse a model that trained on it. Empty for simulator data."""
+        scenes: dict[str, set[str]] = {}
+        for e in self.episodes:
+            if e.role == "real":
+                scene = e.scenario.split("/", 1)[-1].removesuffix(REVERSED)
+                scenes.setdefault(e.split, set()).add(scene)
+        return {split: sorted(names) for split, names in sorted(scenes.items())}
 
     def to_json(self) -> dict[str, Any]:
         d = asdict(self)

@@ -27,7 +27,7 @@ from pydantic import ConfigDict, Field
 
 from foresight.core.bounds import BoundedConfig
 from foresight.core.errors import ConfigError, NotFoundError
-from foresight.core.predict.dataset import Dataset, DatasetMeta, EpisodeRecord, save_dataset
+from foresight.core.predict.dataset import REVERSED, Dataset, DatasetMeta, EpisodeRecord, save_dataset
 from foresight.core.predict.features import Window, extract_features, world_to_ego
 from foresight.core.predict.mixing import dataset_from_episodes
 from foresight.core.predict.samples import SampleArrays
@@ -216,7 +216,7 @@ def import_fold(
             episodes.append((rec, scene_samples(rows, timebase, max_agents, split in neighbour_targets)))
             if split in reversed_splits:
                 rec = EpisodeRecord(
-                    scenario=f"{split}/{path.stem}~reversed", seed=None, split=split, role="real"
+                    scenario=f"{split}/{path.stem}{REVERSED}", seed=None, split=split, role="real"
                 )
                 episodes.append(
                     (rec, scene_samples(reverse_time(rows), timebase, max_agents, split in neighbour_targets))

@@ -246,6 +246,9 @@ def run_train(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | Non
         "frame_convention": ds.meta.frame_convention,
         "lineage": ds.meta.lineage,
         "timebase": ds.meta.timebase.to_dict(),
+        **(
+            {"scenes": scenes} if (scenes := ds.meta.recorded_scenes()) else {}
+        ),  # real data: what it has seen
     }
     history, selection, start = [], Selection(proxy_enabled=proxy is not None and config.proxy_every > 0), 1
     last_path = ctx.artifact("checkpoints/last.pt")

@@ -243,6 +243,13 @@ SMOKE: dict[str, Smoke] = {
         frozenset({"benchmark", "targets", "entries"}),
         shared=False,
     ),
+    "real_data_closed_loop": Smoke(
+        ("--json", "--fold-models", "{work}/ethucy_sweep", "--scenarios", "replay_biwi_hotel_6850")
+        + ("--max-steps", "20", "--workers", "1"),
+        frozenset({"benchmark", "episodes", "predictors", "paired", "ethucy_models", "episode_rows"}),
+        after="ethucy_sweep",  # its tiny hotel-fold model holds biwi_hotel out
+        check=_episodes(1),
+    ),
     "scale_out": Smoke(
         (
             "--json",

@@ -258,3 +258,30 @@ def test_a_relaxed_model_can_never_be_promoted(client, auth, engine, settings) -
         refused = client.post("/v1/models/smoke-1/promote", json={"to": to}, headers=auth)
         assert refused.status_code == 409 and "never be promoted" in refused.text
     assert client.get("/v1/models/smoke-1").json()["status"] == "relaxed"
+
+
+def test_a_checkpoint_trained_on_recordings_registers_the_scenes_it_saw(
+    client, auth, engine, settings
+) -> None:  # noqa: ANN001
+    """A fold checkpoint's recorded scenes (``dataset.scenes``) become its lineage, so whoever runs it on a replay can
+    see which scene it held out; a simulator checkpoint records none."""
+    from foresight.core.predict.nn.checkpoint import read_checkpoint, save_checkpoint
+    from foresight.store import folders, queue
+
+    job = client.post("/v1/jobs", json={"spec": {"kind": "sleep"}}, headers=auth).json()
+    c = queue.claim(engine, "w", ["sleep"], 30)
+    payload = read_checkpoint(REPO_ROOT / "model" / "predictor-sim-default.pt")
+    save_checkpoint(payload, folders.resolve_under(settings.store_root, f"jobs/{job['id']}/sim.pt"))
+    scenes = {"test": ["biwi_hotel"], "train": ["biwi_eth_train"], "val": ["biwi_eth_val"]}
+    payload["feature_schema"]["frame_convention"] = "focal_pedestrian"
+    payload["dataset"] = {**payload["dataset"], "source": "real", "scenes": scenes}
+    save_checkpoint(payload, folders.resolve_under(settings.store_root, f"jobs/{job['id']}/hotel.pt"))
+    queue.finish(
+        engine, job["id"], "w", c["attempts"], {}, folders.scan(settings.store_root, f"jobs/{job['id']}")
+    )
+    for ident, name in (("sim-2", "sim.pt"), ("hotel-fold", "hotel.pt")):
+        body = {"id": ident, "job_id": job["id"], "artifact": name}
+        assert client.post("/v1/models", json=body, headers=auth).status_code == 201
+    lineage = client.get("/v1/models/hotel-fold").json()["lineage"]
+    assert lineage["scenes"] == scenes and lineage["frame_convention"] == "focal_pedestrian"
+    assert "scenes" not in client.get("/v1/models/sim-2").json()["lineage"]
