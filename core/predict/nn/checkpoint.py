@@ -22,7 +22,7 @@ from foresight.core.predict.features import feature_names
 from foresight.core.predict.nn.device import to_cpu
 from foresight.core.predict.nn.inference import ModelForward
 from foresight.core.predict.nn.mirror import mirror_mean, mirror_mixture
-from foresight.core.predict.nn.model import ModelConfig, TrajectoryModel, build_model
+from foresight.core.predict.nn.model import ModelConfig, TrajectoryModel, build_model, weighted_modes
 from foresight.core.predict.predictor import check_batch
 from foresight.core.predict.timebase import TimeBase
 from foresight.core.version import code_version
@@ -143,6 +143,31 @@ class TorchPredictor:
     def mirror_average(self) -> bool:
         """Whether forecasts average the network with its mirror twin (``core.predict.nn.mirror``)."""
         return bool(getattr(self.model.config, "mirror_average", False))
+
+    @property
+    def n_modes(self) -> int:
+        """Modes per pedestrian the model forecasts (``predict_modes``); 1 for a deterministic model."""
+        return int(getattr(self.model.config, "modes", 1))
+
+    def predict_modes(self, features: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(B, N, K, T, 2) modes and (B, N, K) weights summing to 1 (``core.predict.nn.modes``). Mode 0 is
+        :meth:`predict`'s forecast, to the bit: with mirror averaging the mirror mean, while the other modes and the
+        weights are the network's own (a WTA mode has no mirror partner to average with). The other modes run the
+        torch model (the NumPy copy of one decision's forward holds mode 0 only)."""
+        check_batch(np.asarray(features), np.asarray(mask), self.timebase, self.name)
+        if self.n_modes == 1:
+            pos = self.predict(features, mask)
+            return pos[:, :, None], np.ones(pos.shape[:2] + (1,))
+        with torch.inference_mode():
+            modes, weights = weighted_modes(
+                self.model,
+                torch.as_tensor(features, dtype=torch.float32),
+                torch.as_tensor(mask, dtype=torch.float32),
+            )
+        modes, weights = modes.numpy(), weights.numpy().astype(np.float64)
+        weights /= weights.sum(-1, keepdims=True)
+        modes[:, :, 0] = self.predict(features, mask)  # exactly predict()'s (its NumPy path, its mirror mean)
+        return modes, weights
 
     def predict(self, features: np.ndarray, mask: np.ndarray) -> np.ndarray:
         check_batch(np.asarray(features), np.asarray(mask), self.timebase, self.name)
