@@ -78,6 +78,9 @@ class TrainConfig(_Strict):
     #: K modes per pedestrian with weights (core.predict.nn.modes): mode 0 trained as without modes (the same weights
     #: for the same seed), K - 1 winner-takes-all modes and a weight head on its detached embedding; 1 = none
     modes: int = Field(default=1, ge=1, le=64)
+    #: with modes: which mode forecasts rank most likely (best-of-1): first = mode 0, the deterministic trajectory;
+    #: weight = the weight head's top mode (core.predict.nn.modes)
+    mode_top: Literal["first", "weight"] = "first"
     threads: int = Field(
         default=1, ge=1, le=64
     )  #: torch intra-op threads (1: small matmuls gain little from more, and shared cores thrash)

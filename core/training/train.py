@@ -269,6 +269,7 @@ def run_train(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | Non
         sigma_head=config.sigma_head,
         mirror_average=config.mirror_average,
         modes=config.modes,
+        mode_top=config.mode_top,
     )
     with torch.random.fork_rng():
         torch.manual_seed(config.seed)

@@ -23,6 +23,7 @@ from foresight.core.predict.nn.device import to_cpu
 from foresight.core.predict.nn.inference import ModelForward
 from foresight.core.predict.nn.mirror import mirror_mean, mirror_mixture
 from foresight.core.predict.nn.model import ModelConfig, TrajectoryModel, build_model, weighted_modes
+from foresight.core.predict.nn.modes import MODE_TOP, first_on_top
 from foresight.core.predict.predictor import check_batch
 from foresight.core.predict.timebase import TimeBase
 from foresight.core.version import code_version
@@ -150,7 +151,8 @@ class TorchPredictor:
         return int(getattr(self.model.config, "modes", 1))
 
     def predict_modes(self, features: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(B, N, K, T, 2) modes and (B, N, K) weights summing to 1 (``core.predict.nn.modes``). Mode 0 is
+        """(B, N, K, T, 2) modes and (B, N, K) weights summing to 1 (``core.predict.nn.modes``), mode 0 the most
+        likely unless the model's ``mode_top`` is "weight" (then the weight head's as they are). Mode 0 is
         :meth:`predict`'s forecast, to the bit: with mirror averaging the mirror mean, while the other modes and the
         weights are the network's own (a WTA mode has no mirror partner to average with). The other modes run the
         torch model (the NumPy copy of one decision's forward holds mode 0 only)."""
@@ -165,6 +167,8 @@ class TorchPredictor:
                 torch.as_tensor(mask, dtype=torch.float32),
             )
         modes, weights = modes.numpy(), weights.numpy().astype(np.float64)
+        if getattr(self.model.config, "mode_top", "first") == "first":  # mode 0 ranked most likely
+            weights = first_on_top(weights)
         weights /= weights.sum(-1, keepdims=True)
         modes[:, :, 0] = self.predict(features, mask)  # exactly predict()'s (its NumPy path, its mirror mean)
         return modes, weights
@@ -244,6 +248,12 @@ def load_predictor(
         config = ModelConfig(**payload["model_config"])
     except TypeError as exc:
         raise ConfigError(f"bad model_config ({exc})", source=path, item="model_config") from None
+    if config.mode_top not in MODE_TOP:
+        raise ConfigError(
+            f"model_config.mode_top must be one of {', '.join(MODE_TOP)}, got {config.mode_top!r}",
+            source=path,
+            item="model_config",
+        )
     if (config.history, config.horizon) != (timebase.history, timebase.horizon) or abs(
         config.dt - timebase.dt
     ) > 1e-9:

@@ -18,7 +18,9 @@ Shapes: B samples, N slots, F features per slot (``core.predict.features``), h h
   (``core.predict.uncertainty.LEARNED_SIGMA``) and s_k = 3 tanh(MLP(h)/3) (starts AT the envelope, bounded to
   e^±3 of it), made non-decreasing in t by a running maximum (the planner extends the spread at its final rate,
   which must not be negative). It reads the final embedding DETACHED and is trained by the Gaussian NLL of the mean's (detached)
-  error, so the mean is trained exactly as without it; old checkpoints (no head) keep the fixed envelope.
+  error, so the mean is trained exactly as without it; old checkpoints (no head) keep the fixed envelope;
+- modes (``modes`` = K > 1, ``core.predict.nn.modes``): the trajectory above is mode 0; K - 1 winner-takes-all modes
+  and a weight head read the final embedding detached, so the network trains exactly as without them.
 
 ``local_frame`` (the default for new models): each pedestrian is encoded in its OWN frame (origin
 = its current position, x = its current velocity direction; the ego x axis when it stands still):
@@ -65,6 +67,9 @@ class ModelConfig:
     #: K modes per pedestrian with weights (``core.predict.nn.modes``): mode 0 the deterministic trajectory, K - 1
     #: winner-takes-all modes and a weight head; 1 = none (checkpoints before it)
     modes: int = 1
+    #: which mode a forecast with modes ranks most likely (best-of-1): "first" = mode 0, the deterministic trajectory
+    #: (its weight raised to the largest of the others', ``modes.first_on_top``), "weight" = the weight head's own
+    mode_top: str = "first"
 
     @property
     def input_dim(self) -> int:

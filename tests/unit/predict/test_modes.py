@@ -8,12 +8,14 @@ import numpy as np
 import pytest
 import torch
 
+from foresight.core.errors import ConfigError
 from foresight.core.predict import forecast_metrics
 from foresight.core.predict.features import feature_dim
 from foresight.core.predict.forecast import check_forecast
 from foresight.core.predict.forecaster import LearnedForecaster
 from foresight.core.predict.nn.checkpoint import load_predictor, make_checkpoint, save_checkpoint
 from foresight.core.predict.nn.model import ModelConfig, TrajectoryModel, build_model, weighted_modes
+from foresight.core.predict.nn.modes import first_on_top
 from foresight.core.predict.timebase import PLANNER_TIMEBASE as TB
 from foresight.core.runtime.context import StageContext
 from foresight.core.training.config import TrainConfig
@@ -148,6 +150,27 @@ def test_the_checkpoint_forecast_carries_the_modes(tmp_path):
         fc = f.update(make_obs(k, (0.0, 0.0, 0.0), [1, 2], [[0.2 * k, 0.0], [3.0, 3.0 - 0.1 * k]]))
     check_forecast(fc, "modes", ped_ids=np.array([1, 2]), min_modes=K, timebase=TB)
     assert fc.n_modes == K and not np.allclose(fc.modes[:, 1], fc.modes[:, 0])
+    assert np.all(fc.top == 0)  # mode_top "first": the deterministic trajectory is the most likely
+
+
+def test_mode_zero_is_ranked_first_only_by_the_rule_that_says_so(tmp_path):
+    """mode_top "first" raises mode 0's weight to the largest of the others' (their ratios kept); "weight" gives the
+    weight head's probabilities unchanged, whose top mode may be any."""
+    w = np.array([[0.1, 0.6, 0.3], [0.5, 0.2, 0.3]])
+    np.testing.assert_allclose(first_on_top(w), [np.array([0.6, 0.6, 0.3]) / 1.5, [0.5, 0.2, 0.3]])
+    torch.manual_seed(0)
+    model = TrajectoryModel(_config(modes=K, mode_top="weight"))
+    save_checkpoint(make_checkpoint(model, TB, "robot", {"id": "toy"}, {}, 1), tmp_path / "w.pt")
+    data = _bimodal(64, 0)
+    _, raw = load_predictor(tmp_path / "w.pt").predict_modes(data["state"].numpy(), data["mask"].numpy())
+    with torch.inference_mode():
+        head = weighted_modes(model.eval(), data["state"], data["mask"])[1].numpy()
+    np.testing.assert_allclose(raw, head, atol=1e-6)
+    payload = make_checkpoint(model, TB, "robot", {"id": "toy"}, {}, 1)
+    payload["model_config"]["mode_top"] = "likeliest"
+    save_checkpoint(payload, tmp_path / "bad.pt")
+    with pytest.raises(ConfigError, match="mode_top must be one of first, weight"):
+        load_predictor(tmp_path / "bad.pt")
 
 
 @pytest.mark.parametrize("modes", [1, K])
@@ -168,4 +191,5 @@ def test_predict_eval_labels_the_modes_it_had(tmp_path, curving_dataset, modes):
         assert fold.min_ade == pytest.approx(fold.ade) and fold.first_ade is None
     else:
         assert fold.min_ade < fold.first_ade and fold.first_ade is not None
+        assert fold.ade == pytest.approx(fold.first_ade)  # mode 0 ranked most likely (mode_top "first")
     assert result.average.best_of == modes
