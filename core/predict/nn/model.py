@@ -287,7 +287,7 @@ class EnsembleModel(nn.Module):
     ) -> tuple[torch.Tensor, torch.Tensor]:
         """The ensemble's K modes and weights (``modes.pool_members``): mode 0 is ``forward``'s mean."""
         outs = [weighted_modes(m, features, mask) for m in self.members]
-        return pool_members(outs, self.config.modes)
+        return pool_members(outs)
 
 
 def weighted_modes(

@@ -81,23 +81,18 @@ def mode_loss(
     return ((wta * points).sum() + (ce * points[valid]).sum()) / total
 
 
-def pool_members(
-    outs: list[tuple[torch.Tensor, torch.Tensor]], modes: int
-) -> tuple[torch.Tensor, torch.Tensor]:
+def pool_members(outs: list[tuple[torch.Tensor, torch.Tensor]]) -> tuple[torch.Tensor, torch.Tensor]:
     """An ensemble's K modes from its members' (modes (B, N, K, T, 2), weights (B, N, K)): mode 0 the members' mean
-    mode 0 (the ensemble's deterministic forecast) with their mean weight; modes 1..K-1 the most likely K-1 of all the
-    members' extra modes (a member's extra modes are in no order that matches another's, so they are pooled, each
-    weighted 1 / members, never averaged); weights renormalised to sum to 1."""
-    m = len(outs)
+    mode 0 (the ensemble's deterministic forecast) with their mean weight; modes 1..K-1 the first member's, sharing the
+    rest of the weight in that member's proportions. A member's extra modes are in no order that matches another's,
+    so they are never averaged; pooling all members' and keeping the K-1 of largest weight was measured worse (on the
+    ETH/UCY univ fold minADE20 0.301 against the first member's own 0.221): the members' likeliest modes are near
+    copies of each other, and the pool loses the less likely ones that cover the rare futures."""
     first = torch.stack([o[0][:, :, 0] for o in outs]).mean(0)
-    w0 = torch.stack([o[1][:, :, 0] for o in outs]).mean(0)
-    extra = torch.cat([o[0][:, :, 1:] for o in outs], dim=2)  # (B, N, m (K-1), T, 2)
-    w_extra = torch.cat([o[1][:, :, 1:] for o in outs], dim=2) / m
-    w_top, idx = torch.topk(w_extra, modes - 1, dim=-1)
-    picked = torch.gather(extra, 2, idx[..., None, None].expand(*idx.shape, *extra.shape[-2:]))
-    weights = torch.cat([w0.unsqueeze(-1), w_top], dim=-1)
-    weights = weights / weights.sum(-1, keepdim=True).clamp(min=1e-12)
-    return torch.cat([first.unsqueeze(2), picked], dim=2), weights
+    w0 = torch.stack([o[1][:, :, 0] for o in outs]).mean(0, keepdim=True).movedim(0, -1)
+    modes, weights = outs[0]
+    rest = weights[..., 1:] / weights[..., 1:].sum(-1, keepdim=True).clamp(min=1e-12)
+    return torch.cat([first.unsqueeze(2), modes[:, :, 1:]], dim=2), torch.cat([w0, (1.0 - w0) * rest], dim=-1)
 
 
 MODE_TOP = (
