@@ -51,6 +51,17 @@ def run_one(
         "cv_ade": result.cv_ade,
         "cv_fde": result.cv_fde,
         "samples": result.samples,
+        **(
+            {  # a model with modes: minADE_K over its modes (K = best_of) and mode 0's numbers
+                "best_of": result.best_of,
+                "min_ade": result.min_ade,
+                "min_fde": result.min_fde,
+                "first_ade": result.first_ade,
+                "first_fde": result.first_fde,
+            }
+            if result.modes > 1
+            else {}
+        ),
     }
 
 
@@ -81,10 +92,12 @@ def table(rows: list[dict], folds: list[str]) -> dict[str, dict]:
         if set(done) != set(folds):
             out[name] = {"incomplete": sorted(set(folds) - set(done))}
             continue
+        keys = ("ade", "fde", "cv_ade", "cv_fde", "min_ade", "min_fde", "first_ade", "first_fde")
         out[name] = {
             **{
                 k: round(sum(done[f][k] for f in folds) / len(folds), 4)
-                for k in ("ade", "fde", "cv_ade", "cv_fde")
+                for k in keys
+                if all(done[f].get(k) is not None for f in folds)
             },
             "folds": {f: [round(done[f]["ade"], 4), round(done[f]["fde"], 4)] for f in folds},
             "seconds": round(sum(done[f]["seconds"] for f in folds), 1),

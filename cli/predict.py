@@ -213,6 +213,8 @@ def _score_table(result, where: str | None) -> str:  # noqa: ANN001
         ("NLL", "nll", ".2f"),
         ("<1sig", "within_1sigma", ".2f"),
         ("<2sig", "within_2sigma", ".2f"),
+        ("ADE m0", "first_ade", ".3f"),
+        ("FDE m0", "first_fde", ".3f"),
     ]
     extra = [
         e for e in extra if getattr(a, e[1]) is not None and (k > 1 or e[1] not in ("min_ade", "min_fde"))
@@ -234,8 +236,16 @@ def _score_table(result, where: str | None) -> str:  # noqa: ANN001
     for name, f in result.folds.items():
         lines.append(row(name, f, f.samples))
     lines.append(row("average", a, ""))
+    asked = getattr(a, "best_of_asked", None) or k
     if k > 1:
-        lines.append(f"ADE/FDE: most likely mode (best-of-1); minADE{k}/minFDE{k}: best of {k} modes")
+        fewer = (
+            f" (K = {asked} asked; the model gives {k} modes: the minimum over all of them)"
+            if k < asked
+            else ""
+        )
+        lines.append(f"ADE/FDE: most likely mode (best-of-1); minADE{k}/minFDE{k}: best of {k} modes{fewer}")
+    if a.first_ade is not None:
+        lines.append("ADE/FDE m0: the first mode (a network with modes: its deterministic trajectory)")
     return "\n".join(lines + ([where] if where else []))
 
 

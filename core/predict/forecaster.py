@@ -1,5 +1,6 @@
 """Forecasters: what the planner calls. They keep live histories from Observations and return
-world-frame forecasts on their time base (``core.predict.forecast``: the contract, K = 1 here).
+world-frame forecasts on their time base (``core.predict.forecast``: the contract; K = 1 but for a model with
+modes, ``core.predict.nn.modes``).
 
 Usage per episode: ``reset()``, then on every simulator step ``observe(obs)`` followed by
 ``forecast()`` (or ``update(obs)`` for both).
@@ -67,20 +68,42 @@ class _PredictorForecaster:
         times = self.timebase.times
         sigma = np.repeat(self.uncertainty(times)[None], n, axis=0)
         source = self.source
+        n_modes = int(getattr(self.predictor, "n_modes", 1))
+        extra = weights = None
         if n:
             k = n if self.max_agents is None else min(n, self.max_agents)
             near = _pad(feats.features[:k], feats.mask[:k], self.max_agents)
             if getattr(self.predictor, "has_sigma", False):  # the model's own spread
                 pos, spread = self.predictor.predict_dist(near[0][None], near[1][None])
                 ego[:k], sigma[:k] = pos[0, :k], np.maximum(spread[0, :k].astype(np.float64), SIGMA_FLOOR)
-            else:
+            elif n_modes == 1:
                 ego[:k] = self.predictor.predict(near[0][None], near[1][None])[0, :k]
+            if n_modes > 1:  # the model's modes and weights; mode 0 is the trajectory above
+                modes, w = self.predictor.predict_modes(near[0][None], near[1][None])
+                ego[:k] = modes[0, :k, 0]
+                extra, weights = np.repeat(ego[:, None], n_modes, axis=1), np.zeros((n, n_modes))
+                extra[:k], weights[:k] = modes[0, :k], w[0, :k]
+                weights[k:, 0] = 1.0
             if k < n:
                 ego[k:] = self._cv.predict(feats.features[None, k:], feats.mask[None, k:])[0]
                 sigma[k:] = CV_SIGMA(times)
                 source = source.replace("learned:", "learned+cv_far:")
-        world = ego_to_world(ego, feats.origin, feats.heading)
-        return Forecast.single(feats.ped_ids.copy(), world, sigma, times, source, self.timebase)
+                if (
+                    extra is not None
+                ):  # a far pedestrian: constant velocity as every mode, all weight on mode 0
+                    extra[k:] = ego[k:, None]
+        if extra is None:
+            world = ego_to_world(ego, feats.origin, feats.heading)
+            return Forecast.single(feats.ped_ids.copy(), world, sigma, times, source, self.timebase)
+        return Forecast(
+            feats.ped_ids.copy(),
+            ego_to_world(extra, feats.origin, feats.heading),
+            weights,
+            np.repeat(sigma[:, None], n_modes, axis=1),  # every mode with mode 0's spread
+            times,
+            source,
+            self.timebase,
+        )
 
 
 def _pad(features: np.ndarray, mask: np.ndarray, slots: int | None) -> tuple[np.ndarray, np.ndarray]:

@@ -75,6 +75,12 @@ class TrainConfig(_Strict):
     #: augment_mirror: where the data keep a side (the simulator's walkers pass on one), the mirror twin forecasts
     #: a world that does not exist (the default model with it: stress suite 0.953 -> 0.906)
     mirror_average: bool = False
+    #: K modes per pedestrian with weights (core.predict.nn.modes): mode 0 trained as without modes (the same weights
+    #: for the same seed), K - 1 winner-takes-all modes and a weight head on its detached embedding; 1 = none
+    modes: int = Field(default=1, ge=1, le=64)
+    #: with modes: which mode forecasts rank most likely (best-of-1): first = mode 0, the deterministic trajectory;
+    #: weight = the weight head's top mode (core.predict.nn.modes)
+    mode_top: Literal["first", "weight"] = "first"
     threads: int = Field(
         default=1, ge=1, le=64
     )  #: torch intra-op threads (1: small matmuls gain little from more, and shared cores thrash)
@@ -166,6 +172,10 @@ class EpochRecord(EpochScore):
         None  #: fraction of validation truths within 1 sigma of the mean (calibrated: 0.393)
     )
     val_cover2: float | None = None  #: ... within 2 sigma (calibrated: 0.865)
+    val_min_ade: float | None = (
+        None  #: models with modes: minADE over all K modes of the validation pedestrians
+    )
+    val_min_fde: float | None = None  #: ... minFDE
 
 
 class EnsembleScore(EpochScore):

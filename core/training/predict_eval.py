@@ -16,7 +16,7 @@ from foresight.core.errors import ConfigError
 from foresight.core.predict import forecast_metrics
 from foresight.core.predict.dataset import Dataset, load_dataset, resolve_dataset_path, save_dataset
 from foresight.core.predict.ethucy import FOLDS, import_fold
-from foresight.core.predict.metrics import evaluate_predictor
+from foresight.core.predict.metrics import ade_fde, evaluate_predictor
 from foresight.core.predict.plugin import PluginForecaster
 from foresight.core.predict.plugin_eval import plugin_forecasts
 from foresight.core.predict.predictor import ConstantVelocityPredictor, StaticPredictor
@@ -93,6 +93,12 @@ class Score(BaseModel):
         None  #: share of true positions within 1 sigma of the most likely mode (0.393)
     )
     within_2sigma: float | None = None  #: ... within 2 sigma (0.865 when calibrated)
+    #: K asked of minADE_K / minFDE_K; where it exceeds ``best_of``, the minimum is over every mode the predictor has
+    best_of_asked: int | None = None
+    #: [m] predictors with several modes: the first mode's ADE / FDE (a network with modes puts its deterministic
+    #: trajectory there, ``core.predict.nn.modes``); ``ade`` / ``fde`` are the most likely mode's (largest weight)
+    first_ade: float | None = None
+    first_fde: float | None = None
 
 
 class FoldScore(Score):
@@ -161,8 +167,14 @@ def _score(config: PredictEvalConfig, ds: Dataset, split: str, ctx: StageContext
     idx = ds.split_indices(split)
     r = forecast_metrics.score(modes, weights, ds.target[idx], ds.target_mask[idx], spread, config.best_of)
     cv = evaluate_predictor(ConstantVelocityPredictor(ds.meta.timebase), ds, split)
+    first = {}
+    if modes.shape[2] > 1:
+        f = ade_fde(modes[:, :, 0], ds.target[idx], ds.target_mask[idx])
+        first = {"first_ade": f["ade"], "first_fde": f["fde"]}
     return FoldScore(
-        **{k: r[k] for k in Score.model_fields},
+        **{k: r[k] for k in Score.model_fields if k in r},
+        **first,
+        best_of_asked=config.best_of,
         samples=len(idx),
         split=split,
         cv_ade=cv["ade"],
@@ -179,19 +191,24 @@ def _forecasts(predictor, ds: Dataset, split: str, batch: int = 4096):
         return plugin_forecasts(predictor, ds.state[idx], ds.mask[idx], ds.meta.timebase)
     predictor.timebase.require_same(ds.meta.timebase, what="dataset")
     dist = getattr(predictor, "has_sigma", False)
-    pos, sig = [], []
+    k = int(getattr(predictor, "n_modes", 1))
+    pos, wts, sig = [], [], []
     for i in range(0, len(idx), batch):
         part = idx[i : i + batch]
-        if dist:
-            p, s = predictor.predict_dist(ds.state[part], ds.mask[part])
-            sig.append(s)
+        if k > 1:
+            p, w = predictor.predict_modes(ds.state[part], ds.mask[part])
+            wts.append(w)
+        if dist:  # mode 0's spread; a model with modes gives every mode its mode 0's
+            p0, s = predictor.predict_dist(ds.state[part], ds.mask[part])
+            sig.append(np.repeat(s[:, :, None], k, axis=2))
         else:
-            p = predictor.predict(ds.state[part], ds.mask[part])
-        pos.append(p)
+            p0 = predictor.predict(ds.state[part], ds.mask[part]) if k == 1 else None
+        pos.append(p if k > 1 else p0[:, :, None])
     shape = (0, *ds.target.shape[1:])
-    pred = np.concatenate(pos) if pos else np.zeros(shape, np.float32)
-    spread = (np.concatenate(sig) if sig else np.zeros(shape[:-1]))[:, :, None] if dist else None
-    return pred[:, :, None], np.ones(pred.shape[:2] + (1,)), spread
+    modes = np.concatenate(pos) if pos else np.zeros((0, shape[1], k, *shape[2:]), np.float32)
+    weights = np.concatenate(wts) if wts else np.ones(modes.shape[:3])
+    spread = (np.concatenate(sig) if sig else np.zeros(modes.shape[:-1])) if dist else None
+    return modes, weights, spread
 
 
 def _all_as_test(ds: Dataset) -> Dataset:
@@ -240,12 +257,16 @@ def run_predict_eval(config: PredictEvalConfig, ctx: StageContext) -> PredictEva
     mean = lambda key: float(np.mean([getattr(f, key) for f in folds.values()]))  # noqa: E731
     opt = {
         key: (mean(key) if all(getattr(f, key) is not None for f in folds.values()) else None)
-        for key in ("min_ade", "min_fde", "nll", "within_1sigma", "within_2sigma")
+        for key in ("min_ade", "min_fde", "nll", "within_1sigma", "within_2sigma", "first_ade", "first_fde")
     }
     return PredictEvalResult(
         folds=folds,
         average=Score(
-            ade=mean("ade"), fde=mean("fde"), best_of=min(f.best_of for f in folds.values()), **opt
+            ade=mean("ade"),
+            fde=mean("fde"),
+            best_of=min(f.best_of for f in folds.values()),
+            best_of_asked=config.best_of,
+            **opt,
         ),
         cv_average=Score(ade=mean("cv_ade"), fde=mean("cv_fde")),
     )

@@ -33,6 +33,7 @@ from foresight.core.predict.nn.model import (
     masked_gaussian_nll,
     masked_loss,
 )
+from foresight.core.predict.nn.modes import mode_errors, mode_loss
 from foresight.core.predict.nn.selection import Selection
 from foresight.core.predict.predictor import ConstantVelocityPredictor
 from foresight.core.predict.quality import check_quality, summarize
@@ -50,7 +51,16 @@ from foresight.core.training.config import (
 )
 from foresight.core.version import code_version
 
-_CHECKPOINT_METRICS = ("val_loss", "val_ade", "val_fde", "val_nll", "val_cover1", "val_cover2")
+_CHECKPOINT_METRICS = (
+    "val_loss",
+    "val_ade",
+    "val_fde",
+    "val_nll",
+    "val_cover1",
+    "val_cover2",
+    "val_min_ade",
+    "val_min_fde",
+)
 
 #: proxy evaluation: checkpoint path -> {"success": rate in [0, 1], "clearance": mean min distance [m]}
 ProxyCallback = Callable[[Path], dict[str, float]]
@@ -74,7 +84,7 @@ def evaluate(
     model.eval()
     loss_sum = err = pts = ferr = fin = 0.0
     spread = getattr(model.config, "sigma_head", False)
-    nll_sum = in1 = in2 = 0.0
+    nll_sum = in1 = in2 = min_err = min_ferr = 0.0
     with torch.inference_mode():
         for i in range(0, len(data["state"]), batch):
             b = {k: v[i : i + batch] for k, v in data.items()}
@@ -87,6 +97,14 @@ def evaluate(
                 in2 += float(((r <= 2.0) * b["target_mask"]).sum())
             else:
                 pred = model(b["state"], b["mask"])
+            if (
+                getattr(model, "mode_head", None) is not None
+            ):  # best of the K modes, each pedestrian on its own
+                modes = model.forward_modes(b["state"], b["mask"])[0]
+                tm = b["target_mask"]
+                min_err += float((mode_errors(modes, b["target"], tm).min(-1).values * tm.sum(-1)).sum())
+                fin_err = torch.linalg.vector_norm(modes[..., -1, :] - b["target"][..., None, -1, :], dim=-1)
+                min_ferr += float((fin_err.min(-1).values * tm[..., -1]).sum())
             loss_sum += float(masked_loss(loss, pred, b["target"], b["target_mask"], beta)) * float(
                 b["target_mask"].sum()
             )
@@ -95,6 +113,10 @@ def evaluate(
     out = {"loss": loss_sum / max(pts, 1.0), "ade": err / max(pts, 1.0), "fde": ferr / max(fin, 1.0)}
     if spread:  # a calibrated 2D Gaussian holds 39.3 % of truths within 1 sigma, 86.5 % within 2
         out.update(nll=nll_sum / max(pts, 1.0), cover1=in1 / max(pts, 1.0), cover2=in2 / max(pts, 1.0))
+    if (
+        getattr(model, "mode_head", None) is not None
+    ):  # min over modes of each pedestrian's ADE, point-weighted
+        out.update(min_ade=min_err / max(pts, 1.0), min_fde=min_ferr / max(fin, 1.0))
     return out
 
 
@@ -121,17 +143,26 @@ def train_epoch(
             b = _scale(b, lengths, config.augment_scale, gen)
         if config.augment_jitter > 0:
             b = _jitter(b, config.augment_jitter, model.config.history, model.config.dt, gen)
-        if config.sigma_head:
+        modes = head_loss = None
+        if model.mode_head is not None:
+            out = model.forward_modes(b["state"], b["mask"], with_sigma=config.sigma_head)
+            modes, logits, pred = out[0], out[1], out[0][:, :, 0]
+            sigma = out[2] if config.sigma_head else None
+            head_loss = mode_loss(modes, logits, b["target"], b["target_mask"])
+        elif config.sigma_head:
             pred, sigma = model.forward_dist(b["state"], b["mask"])
-            loss = masked_loss(
-                config.loss, pred, b["target"], b["target_mask"], config.loss_beta
-            ) + config.nll_weight * masked_gaussian_nll(pred, sigma, b["target"], b["target_mask"])
         else:
             pred = model(b["state"], b["mask"])
-            loss = masked_loss(config.loss, pred, b["target"], b["target_mask"], config.loss_beta)
+        loss = masked_loss(config.loss, pred, b["target"], b["target_mask"], config.loss_beta)
+        if config.sigma_head:
+            loss = loss + config.nll_weight * masked_gaussian_nll(pred, sigma, b["target"], b["target_mask"])
         opt.zero_grad(set_to_none=True)
-        loss.backward()
-        torch.nn.utils.clip_grad_norm_(model.parameters(), config.grad_clip, error_if_nonfinite=True)
+        (loss if head_loss is None else loss + head_loss).backward()
+        torch.nn.utils.clip_grad_norm_(_network_params(model), config.grad_clip, error_if_nonfinite=True)
+        if head_loss is not None:  # clipped apart: the head's gradients never scale the network's
+            torch.nn.utils.clip_grad_norm_(
+                model.mode_head.parameters(), config.grad_clip, error_if_nonfinite=True
+            )
         opt.step()
         with torch.no_grad():
             e, p, fe, f = masked_ade_fde(pred, b["target"], b["target_mask"])
@@ -144,6 +175,11 @@ def train_epoch(
             fin + float(f),
         )
     return {"loss": loss_sum / max(pts, 1.0), "ade": err / max(pts, 1.0), "fde": ferr / max(fin, 1.0)}
+
+
+def _network_params(model: TrajectoryModel) -> list[torch.nn.Parameter]:
+    """The parameters besides the mode head (``core.predict.nn.modes``), in registration order."""
+    return [p for name, p in model.named_parameters() if not name.startswith("mode_head.")]
 
 
 def _mirror_half(
@@ -232,6 +268,8 @@ def run_train(config: TrainConfig, ctx: StageContext, proxy: ProxyCallback | Non
         config.local_frame,
         sigma_head=config.sigma_head,
         mirror_average=config.mirror_average,
+        modes=config.modes,
+        mode_top=config.mode_top,
     )
     with torch.random.fork_rng():
         torch.manual_seed(config.seed)

@@ -22,7 +22,8 @@ from foresight.core.predict.features import feature_names
 from foresight.core.predict.nn.device import to_cpu
 from foresight.core.predict.nn.inference import ModelForward
 from foresight.core.predict.nn.mirror import mirror_mean, mirror_mixture
-from foresight.core.predict.nn.model import ModelConfig, TrajectoryModel, build_model
+from foresight.core.predict.nn.model import ModelConfig, TrajectoryModel, build_model, weighted_modes
+from foresight.core.predict.nn.modes import MODE_TOP, first_on_top
 from foresight.core.predict.predictor import check_batch
 from foresight.core.predict.timebase import TimeBase
 from foresight.core.version import code_version
@@ -144,6 +145,34 @@ class TorchPredictor:
         """Whether forecasts average the network with its mirror twin (``core.predict.nn.mirror``)."""
         return bool(getattr(self.model.config, "mirror_average", False))
 
+    @property
+    def n_modes(self) -> int:
+        """Modes per pedestrian the model forecasts (``predict_modes``); 1 for a deterministic model."""
+        return int(getattr(self.model.config, "modes", 1))
+
+    def predict_modes(self, features: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(B, N, K, T, 2) modes and (B, N, K) weights summing to 1 (``core.predict.nn.modes``), mode 0 the most
+        likely unless the model's ``mode_top`` is "weight" (then the weight head's as they are). Mode 0 is
+        :meth:`predict`'s forecast, to the bit: with mirror averaging the mirror mean, while the other modes and the
+        weights are the network's own (a WTA mode has no mirror partner to average with). The other modes run the
+        torch model (the NumPy copy of one decision's forward holds mode 0 only)."""
+        check_batch(np.asarray(features), np.asarray(mask), self.timebase, self.name)
+        if self.n_modes == 1:
+            pos = self.predict(features, mask)
+            return pos[:, :, None], np.ones(pos.shape[:2] + (1,))
+        with torch.inference_mode():
+            modes, weights = weighted_modes(
+                self.model,
+                torch.as_tensor(features, dtype=torch.float32),
+                torch.as_tensor(mask, dtype=torch.float32),
+            )
+        modes, weights = modes.numpy(), weights.numpy().astype(np.float64)
+        if getattr(self.model.config, "mode_top", "first") == "first":  # mode 0 ranked most likely
+            weights = first_on_top(weights)
+        weights /= weights.sum(-1, keepdims=True)
+        modes[:, :, 0] = self.predict(features, mask)  # exactly predict()'s (its NumPy path, its mirror mean)
+        return modes, weights
+
     def predict(self, features: np.ndarray, mask: np.ndarray) -> np.ndarray:
         check_batch(np.asarray(features), np.asarray(mask), self.timebase, self.name)
         if self.mirror_average:
@@ -219,6 +248,12 @@ def load_predictor(
         config = ModelConfig(**payload["model_config"])
     except TypeError as exc:
         raise ConfigError(f"bad model_config ({exc})", source=path, item="model_config") from None
+    if config.mode_top not in MODE_TOP:
+        raise ConfigError(
+            f"model_config.mode_top must be one of {', '.join(MODE_TOP)}, got {config.mode_top!r}",
+            source=path,
+            item="model_config",
+        )
     if (config.history, config.horizon) != (timebase.history, timebase.horizon) or abs(
         config.dt - timebase.dt
     ) > 1e-9:

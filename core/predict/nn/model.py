@@ -18,7 +18,9 @@ Shapes: B samples, N slots, F features per slot (``core.predict.features``), h h
   (``core.predict.uncertainty.LEARNED_SIGMA``) and s_k = 3 tanh(MLP(h)/3) (starts AT the envelope, bounded to
   e^±3 of it), made non-decreasing in t by a running maximum (the planner extends the spread at its final rate,
   which must not be negative). It reads the final embedding DETACHED and is trained by the Gaussian NLL of the mean's (detached)
-  error, so the mean is trained exactly as without it; old checkpoints (no head) keep the fixed envelope.
+  error, so the mean is trained exactly as without it; old checkpoints (no head) keep the fixed envelope;
+- modes (``modes`` = K > 1, ``core.predict.nn.modes``): the trajectory above is mode 0; K - 1 winner-takes-all modes
+  and a weight head read the final embedding detached, so the network trains exactly as without them.
 
 ``local_frame`` (the default for new models): each pedestrian is encoded in its OWN frame (origin
 = its current position, x = its current velocity direction; the ego x axis when it stands still):
@@ -40,6 +42,7 @@ from torch import nn
 from torch.nn import functional as F
 
 from foresight.core.predict.features import current_index, feature_dim
+from foresight.core.predict.nn.modes import ModeHead, pool_members
 from foresight.core.predict.uncertainty import LEARNED_SIGMA
 
 
@@ -61,6 +64,12 @@ class ModelConfig:
     #: forecast = the mean of the network's forecast and the mirror image of its forecast of the mirrored scene
     #: (``core.predict.nn.mirror``): left/right symmetric by construction; applied where a checkpoint predicts
     mirror_average: bool = False
+    #: K modes per pedestrian with weights (``core.predict.nn.modes``): mode 0 the deterministic trajectory, K - 1
+    #: winner-takes-all modes and a weight head; 1 = none (checkpoints before it)
+    modes: int = 1
+    #: which mode a forecast with modes ranks most likely (best-of-1): "first" = mode 0, the deterministic trajectory
+    #: (its weight raised to the largest of the others', ``modes.first_on_top``), "weight" = the weight head's own
+    mode_top: str = "first"
 
     @property
     def input_dim(self) -> int:
@@ -181,6 +190,8 @@ class TrajectoryModel(nn.Module):
             self.register_buffer(
                 "envelope", torch.from_numpy(LEARNED_SIGMA(times.numpy())).float(), persistent=False
             )
+        # built last: the modules above draw the same initial weights with or without modes
+        self.mode_head = ModeHead(c.hidden, c.horizon, c.modes) if c.modes > 1 else None
         self._px = current_index(c.history, "px")
         self._vx = current_index(c.history, "vx")
 
@@ -196,7 +207,18 @@ class TrajectoryModel(nn.Module):
             raise ValueError("this model has no sigma head (config.sigma_head is False)")
         return self._forward(features, mask, with_sigma=True)
 
-    def _forward(self, features: torch.Tensor, mask: torch.Tensor, with_sigma: bool = False):
+    def forward_modes(
+        self, features: torch.Tensor, mask: torch.Tensor, with_sigma: bool = False
+    ) -> tuple[torch.Tensor, ...]:
+        """(modes (B, N, K, T, 2), mode logits (B, N, K)), with ``with_sigma`` then mode 0's sigma (B, N, T); mode 0 is
+        ``forward``'s trajectory. Only for a model with ``modes`` > 1."""
+        if self.mode_head is None:
+            raise ValueError("this model has no modes (config.modes is 1)")
+        return self._forward(features, mask, with_sigma=with_sigma, with_modes=True)
+
+    def _forward(
+        self, features: torch.Tensor, mask: torch.Tensor, with_sigma: bool = False, with_modes: bool = False
+    ):
         B, N, _ = features.shape
         m = mask.unsqueeze(-1)
         p0 = features[..., self._px : self._px + 2]
@@ -222,10 +244,19 @@ class TrajectoryModel(nn.Module):
             delta = delta @ rot
         steps = delta + (v0 * self.config.dt).unsqueeze(2)
         positions = (p0.unsqueeze(2) + torch.cumsum(steps, dim=2)) * m.unsqueeze(-1)
-        if not with_sigma:
+        if not (with_sigma or with_modes):
             return positions
-        s = 3.0 * torch.tanh(self.sigma_decoder(h.detach()) / 3.0)  # (B, N, T), |s| < 3
-        return positions, torch.cummax(self.envelope * torch.exp(s), dim=-1).values  # never shrinks with t
+        out = (positions,)
+        if with_modes:  # offsets from mode 0, both read detached (core.predict.nn.modes)
+            offsets, logits = self.mode_head(h.detach())
+            if local:
+                offsets = offsets @ rot.unsqueeze(2)
+            extra = positions.detach().unsqueeze(2) + torch.cumsum(offsets, dim=3) * m[..., None, None]
+            out = (torch.cat([positions.unsqueeze(2), extra], dim=2), logits)
+        if with_sigma:
+            s = 3.0 * torch.tanh(self.sigma_decoder(h.detach()) / 3.0)  # (B, N, T), |s| < 3
+            out = (*out, torch.cummax(self.envelope * torch.exp(s), dim=-1).values)  # never shrinks with t
+        return out
 
 
 class EnsembleModel(nn.Module):
@@ -250,6 +281,23 @@ class EnsembleModel(nn.Module):
             dim=-1
         )
         return pos.mean(dim=0), var.sqrt()
+
+    def forward_weighted(
+        self, features: torch.Tensor, mask: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """The ensemble's K modes and weights (``modes.pool_members``): mode 0 is ``forward``'s mean."""
+        outs = [weighted_modes(m, features, mask) for m in self.members]
+        return pool_members(outs)
+
+
+def weighted_modes(
+    model: nn.Module, features: torch.Tensor, mask: torch.Tensor
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """(modes (B, N, K, T, 2), weights (B, N, K) summing to 1) of a network or an ensemble with modes."""
+    if isinstance(model, EnsembleModel):
+        return model.forward_weighted(features, mask)
+    modes, logits = model.forward_modes(features, mask)
+    return modes, torch.softmax(logits, dim=-1)
 
 
 def build_model(config: ModelConfig) -> nn.Module:
