@@ -88,9 +88,8 @@ class _PredictorForecaster:
                 ego[k:] = self._cv.predict(feats.features[None, k:], feats.mask[None, k:])[0]
                 sigma[k:] = CV_SIGMA(times)
                 source = source.replace("learned:", "learned+cv_far:")
-                if (
-                    extra is not None
-                ):  # a far pedestrian: constant velocity as every mode, all weight on mode 0
+                # a far pedestrian: constant velocity as every mode, all weight on mode 0
+                if extra is not None:
                     extra[k:] = ego[k:, None]
         if extra is None:
             world = ego_to_world(ego, feats.origin, feats.heading)
@@ -126,31 +125,29 @@ def fitted_timebase(tb: TimeBase, sim_dt: float) -> TimeBase | None:
     return TimeBase(dt=dt, history=tb.history, horizon=max(1, math.ceil(tb.dt * tb.horizon / dt - 1e-9)))
 
 
-class ConstantVelocityForecaster(_PredictorForecaster):
+class _RuleForecaster(_PredictorForecaster):
+    """A forecast by rule, built from its time base alone (``__init__(timebase)``), so it can move to any grid."""
+
+    def fit(self, sim_dt: float) -> None:
+        """Forecast on whole simulator steps (``fitted_timebase``)."""
+        fitted = fitted_timebase(self.timebase, sim_dt)
+        if fitted is not None:
+            self.__init__(fitted)
+
+
+class ConstantVelocityForecaster(_RuleForecaster):
     """Every present pedestrian continues at its last observed (backward-difference) velocity."""
 
     def __init__(self, timebase: TimeBase):
         super().__init__(ConstantVelocityPredictor(timebase), None, "constant_velocity", CV_SIGMA)
 
-    def fit(self, sim_dt: float) -> None:
-        """Forecast on whole simulator steps (``fitted_timebase``)."""
-        fitted = fitted_timebase(self.timebase, sim_dt)
-        if fitted is not None:
-            self.__init__(fitted)
 
-
-class StaticForecaster(_PredictorForecaster):
+class StaticForecaster(_RuleForecaster):
     """Every present pedestrian stays at its observed position (CrowdNav++'s prediction ``none``). Its spread is
     constant velocity's (``CV_SIGMA``), so against ``cv`` only the forecast positions differ."""
 
     def __init__(self, timebase: TimeBase):
         super().__init__(StaticPredictor(timebase), None, "static", CV_SIGMA)
-
-    def fit(self, sim_dt: float) -> None:
-        """Forecast on whole simulator steps (``fitted_timebase``)."""
-        fitted = fitted_timebase(self.timebase, sim_dt)
-        if fitted is not None:
-            self.__init__(fitted)
 
 
 class LearnedForecaster(_PredictorForecaster):
